@@ -1,0 +1,75 @@
+use std::fmt;
+
+/// Why an interlock call was refused. A refused call changes no state.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InterlockError {
+    InvalidConfig { reason: String },
+    EmptyResourceSet,
+    UnknownResource { name: String },
+    UnknownOperation { name: String },
+    /// The paper's C1: one instance of an operation at a time.
+    AlreadyHolding { operation: String },
+    AlreadyQueued { operation: String },
+    NotHolding { operation: String },
+    NotQueued { operation: String },
+    NotFaulted { resource: String },
+    QueueFull { bound: usize },
+    InvalidSnapshot { reason: String },
+}
+
+impl InterlockError {
+    /// A stable machine-readable code, for Catch nodes and tests.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::InvalidConfig { .. } => "INVALID_CONFIG",
+            Self::EmptyResourceSet => "EMPTY_RESOURCE_SET",
+            Self::UnknownResource { .. } => "UNKNOWN_RESOURCE",
+            Self::UnknownOperation { .. } => "UNKNOWN_OPERATION",
+            Self::AlreadyHolding { .. } => "ALREADY_HOLDING",
+            Self::AlreadyQueued { .. } => "ALREADY_QUEUED",
+            Self::NotHolding { .. } => "NOT_HOLDING",
+            Self::NotQueued { .. } => "NOT_QUEUED",
+            Self::NotFaulted { .. } => "NOT_FAULTED",
+            Self::QueueFull { .. } => "QUEUE_FULL",
+            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+        }
+    }
+}
+
+impl fmt::Display for InterlockError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InvalidConfig { reason } => write!(f, "invalid interlock configuration: {reason}"),
+            Self::EmptyResourceSet => write!(f, "the request names no resource; give at least one"),
+            Self::UnknownResource { name } => {
+                write!(f, "unknown resource '{name}': it is not configured in the interlock")
+            }
+            Self::UnknownOperation { name } => {
+                write!(f, "unknown operation '{name}': it has never acquired through this interlock")
+            }
+            Self::AlreadyHolding { operation } => write!(
+                f,
+                "operation '{operation}' already holds its resources; one instance at a time (C1): release it first"
+            ),
+            Self::AlreadyQueued { operation } => write!(
+                f,
+                "operation '{operation}' is already waiting in the queue; one instance at a time (C1)"
+            ),
+            Self::NotHolding { operation } => {
+                write!(f, "operation '{operation}' holds nothing to release")
+            }
+            Self::NotQueued { operation } => {
+                write!(f, "operation '{operation}' is not waiting in the queue; nothing to cancel")
+            }
+            Self::NotFaulted { resource } => {
+                write!(f, "resource '{resource}' is not faulted; nothing to clear")
+            }
+            Self::QueueFull { bound } => {
+                write!(f, "the interlock queue is full ({bound} requests waiting); request refused")
+            }
+            Self::InvalidSnapshot { reason } => write!(f, "cannot restore interlock state: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for InterlockError {}

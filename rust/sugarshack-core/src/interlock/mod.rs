@@ -1,0 +1,804 @@
+//! The resource interlock of the Sugar Shack 4.0 paper (§III-C, Algorithms 1
+//! and 2): atomic acquisition of resource sets, a priority queue re-evaluated
+//! on every release, clear or cancel, and a fault lockout that latches
+//! resources until a person clears them.
+//!
+//! ```
+//! use sugarshack_core::interlock::{Acquisition, Interlock, InterlockConfig};
+//!
+//! let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL", "RED"])).unwrap();
+//! let load = lock.operation("load truck");
+//! let flit = lock.operation("flit downstock");
+//! let yel = lock.resource_set(&["YEL"]).unwrap();
+//! let yel_red = lock.resource_set(&["YEL", "RED"]).unwrap();
+//!
+//! assert_eq!(lock.acquire(load, 20, &yel, 0).unwrap(), Acquisition::Granted);
+//! assert_eq!(lock.acquire(flit, 92, &yel_red, 10).unwrap(), Acquisition::Queued);
+//! let grants = lock.release(load, 500).unwrap();
+//! assert_eq!(grants[0].operation, flit);
+//! assert_eq!(grants[0].waited_ms, 490);
+//! ```
+
+mod config;
+mod error;
+mod event;
+mod snapshot;
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
+pub use error::InterlockError;
+pub use event::{Event, EventKind, EventRecord};
+pub use snapshot::{
+    FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, Snapshot,
+    SNAPSHOT_VERSION,
+};
+
+/// A configured resource, by its index in the configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ResourceId(u32);
+
+impl ResourceId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// An operation known to the interlock (interned by name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct OpId(u32);
+
+impl OpId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+    pub fn from_index(index: u32) -> Self {
+        OpId(index)
+    }
+}
+
+/// A non-empty set of resources, sorted and without duplicates.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Default)]
+pub struct ResourceSet(Vec<ResourceId>);
+
+impl ResourceSet {
+    pub fn ids(&self) -> &[ResourceId] {
+        &self.0
+    }
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+    fn from_unsorted(mut ids: Vec<ResourceId>) -> Self {
+        ids.sort_unstable();
+        ids.dedup();
+        ResourceSet(ids)
+    }
+}
+
+/// What happened to an acquire request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Acquisition {
+    Granted,
+    Queued,
+}
+
+/// A queued request granted by a release, clear or cancel: its caller can now be answered.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Grant {
+    pub operation: OpId,
+    pub priority: i32,
+    pub resources: ResourceSet,
+    pub waited_ms: u64,
+}
+
+/// A lockout group command to send because a resource is faulted.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lockout {
+    pub resource: ResourceId,
+    pub command: serde_json::Value,
+}
+
+/// The effects of a fault call.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct FaultOutcome {
+    /// One per resource now latched in fault, in resource order.
+    pub lockouts: Vec<Lockout>,
+    /// True when the operation was waiting and its request was dropped.
+    pub dropped: bool,
+    /// Dropping a waiter can let others through under [`Policy::NoOvertaking`].
+    pub grants: Vec<Grant>,
+}
+
+/// How many operations hold, wait, and how many resources are faulted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Counts {
+    pub holding: usize,
+    pub queued: usize,
+    pub faulted: usize,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Owner {
+    Free,
+    Held(OpId),
+    Faulted(Fault),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Fault {
+    cause: FaultCause,
+    operation: Option<OpId>,
+    note: Option<String>,
+    since_ms: u64,
+}
+
+/// Queue order: higher priority first, then first come first served.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct QueueKey {
+    priority: i32,
+    seq: u64,
+}
+
+impl Ord for QueueKey {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.priority.cmp(&self.priority).then(self.seq.cmp(&other.seq))
+    }
+}
+
+impl PartialOrd for QueueKey {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Request {
+    operation: OpId,
+    resources: ResourceSet,
+    since_ms: u64,
+    warned: bool,
+}
+
+#[derive(Clone, Debug)]
+struct Hold {
+    priority: i32,
+    resources: ResourceSet,
+    since_ms: u64,
+    waited_ms: u64,
+    warned: bool,
+}
+
+#[derive(Clone, Debug)]
+enum OpState {
+    Idle,
+    Queued(QueueKey),
+    Holding(Hold),
+}
+
+#[derive(Clone, Debug)]
+struct Operation {
+    name: String,
+    state: OpState,
+}
+
+/// The interlock state machine. Every method takes the current time; none reads a clock.
+#[derive(Clone, Debug)]
+pub struct Interlock {
+    config: InterlockConfig,
+    resource_index: HashMap<String, ResourceId>,
+    owners: Vec<Owner>,
+    /// Per resource, the queue keys of requests that need it, in grant order.
+    waiters: Vec<BTreeSet<QueueKey>>,
+    queue: BTreeMap<QueueKey, Request>,
+    operations: Vec<Operation>,
+    operation_index: HashMap<String, OpId>,
+    next_seq: u64,
+    holding: usize,
+    faulted: usize,
+    events: Vec<Event>,
+}
+
+impl Interlock {
+    pub fn new(config: InterlockConfig) -> Result<Self, InterlockError> {
+        config.validate()?;
+        let count = config.resources.len();
+        let resource_index = config
+            .resources
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.name.clone(), ResourceId(i as u32)))
+            .collect();
+        Ok(Interlock {
+            config,
+            resource_index,
+            owners: vec![Owner::Free; count],
+            waiters: vec![BTreeSet::new(); count],
+            queue: BTreeMap::new(),
+            operations: Vec::new(),
+            operation_index: HashMap::new(),
+            next_seq: 0,
+            holding: 0,
+            faulted: 0,
+            events: Vec::new(),
+        })
+    }
+
+    pub fn config(&self) -> &InterlockConfig {
+        &self.config
+    }
+
+    // ---- names and handles -------------------------------------------------
+
+    /// The handle of an operation, registering the name on first use.
+    pub fn operation(&mut self, name: &str) -> OpId {
+        if let Some(&id) = self.operation_index.get(name) {
+            return id;
+        }
+        let id = OpId(self.operations.len() as u32);
+        self.operations.push(Operation { name: name.to_owned(), state: OpState::Idle });
+        self.operation_index.insert(name.to_owned(), id);
+        id
+    }
+
+    /// The handle of an operation that has used this interlock before.
+    pub fn find_operation(&self, name: &str) -> Result<OpId, InterlockError> {
+        self.operation_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| InterlockError::UnknownOperation { name: name.to_owned() })
+    }
+
+    pub fn operation_name(&self, id: OpId) -> Option<&str> {
+        self.operations.get(id.index()).map(|op| op.name.as_str())
+    }
+
+    pub fn resource(&self, name: &str) -> Result<ResourceId, InterlockError> {
+        self.resource_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| InterlockError::UnknownResource { name: name.to_owned() })
+    }
+
+    pub fn resource_name(&self, id: ResourceId) -> Option<&str> {
+        self.config.resources.get(id.index()).map(|r| r.name.as_str())
+    }
+
+    /// Resolves names into a set; refuses unknown names and an empty set.
+    pub fn resource_set<S: AsRef<str>>(&self, names: &[S]) -> Result<ResourceSet, InterlockError> {
+        let ids = names.iter().map(|n| self.resource(n.as_ref())).collect::<Result<Vec<_>, _>>()?;
+        let set = ResourceSet::from_unsorted(ids);
+        if set.is_empty() {
+            return Err(InterlockError::EmptyResourceSet);
+        }
+        Ok(set)
+    }
+
+    /// A set from raw indices (for callers that keep their own handles).
+    pub fn resource_set_from_indices(&self, indices: &[u32]) -> Result<ResourceSet, InterlockError> {
+        let ids: Vec<ResourceId> = indices.iter().map(|&i| ResourceId(i)).collect();
+        self.check_set(&ResourceSet::from_unsorted(ids.clone()))?;
+        Ok(ResourceSet::from_unsorted(ids))
+    }
+
+    // ---- queries -----------------------------------------------------------
+
+    pub fn counts(&self) -> Counts {
+        Counts { holding: self.holding, queued: self.queue.len(), faulted: self.faulted }
+    }
+
+    pub fn is_faulted(&self, resource: ResourceId) -> bool {
+        matches!(self.owners.get(resource.index()), Some(Owner::Faulted(_)))
+    }
+
+    pub fn owner_of(&self, resource: ResourceId) -> Option<OpId> {
+        match self.owners.get(resource.index()) {
+            Some(Owner::Held(op)) => Some(*op),
+            _ => None,
+        }
+    }
+
+    pub fn is_holding(&self, op: OpId) -> bool {
+        matches!(self.operations.get(op.index()).map(|o| &o.state), Some(OpState::Holding(_)))
+    }
+
+    pub fn is_queued(&self, op: OpId) -> bool {
+        matches!(self.operations.get(op.index()).map(|o| &o.state), Some(OpState::Queued(_)))
+    }
+
+    /// Waiting operations in the order they would be considered for a grant.
+    pub fn queued_operations(&self) -> Vec<OpId> {
+        self.queue.values().map(|r| r.operation).collect()
+    }
+
+    // ---- Algorithm 1 -------------------------------------------------------
+
+    /// Grants the whole set at once if it may be taken now, else queues the request.
+    pub fn acquire(
+        &mut self,
+        op: OpId,
+        priority: i32,
+        resources: &ResourceSet,
+        now_ms: u64,
+    ) -> Result<Acquisition, InterlockError> {
+        self.check_set(resources)?;
+        match &self.op(op)?.state {
+            OpState::Idle => {}
+            OpState::Holding(_) => return Err(InterlockError::AlreadyHolding { operation: self.name(op) }),
+            OpState::Queued(_) => return Err(InterlockError::AlreadyQueued { operation: self.name(op) }),
+        }
+        let key = QueueKey { priority, seq: self.next_seq };
+        if self.may_take(key, resources) {
+            self.next_seq += 1;
+            self.grant(op, priority, resources.clone(), now_ms, 0);
+            return Ok(Acquisition::Granted);
+        }
+        if self.queue.len() >= self.config.queue_bound {
+            return Err(InterlockError::QueueFull { bound: self.config.queue_bound });
+        }
+        self.next_seq += 1;
+        for r in resources.ids() {
+            self.waiters[r.index()].insert(key);
+        }
+        self.queue.insert(
+            key,
+            Request { operation: op, resources: resources.clone(), since_ms: now_ms, warned: false },
+        );
+        self.operations[op.index()].state = OpState::Queued(key);
+        self.record(now_ms, EventKind::Queued, Some(op), Some(priority), &resources, None, None, None);
+        Ok(Acquisition::Queued)
+    }
+
+    // ---- Algorithm 2 -------------------------------------------------------
+
+    /// Frees what the operation holds and grants every waiter that may now go, in queue order.
+    pub fn release(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+        let hold = match &self.op(op)?.state {
+            OpState::Holding(hold) => hold.clone(),
+            _ => return Err(InterlockError::NotHolding { operation: self.name(op) }),
+        };
+        self.operations[op.index()].state = OpState::Idle;
+        self.holding -= 1;
+        for &r in hold.resources.ids() {
+            debug_assert_eq!(self.owners[r.index()], Owner::Held(op), "a fault takes the whole hold");
+            self.owners[r.index()] = Owner::Free;
+        }
+        let held_ms = now_ms.saturating_sub(hold.since_ms);
+        self.record(now_ms, EventKind::Released, Some(op), Some(hold.priority), &hold.resources, None, Some(held_ms), None);
+        Ok(self.reevaluate(hold.resources.ids(), now_ms))
+    }
+
+    // ---- cancel, fault, clear ----------------------------------------------
+
+    /// Withdraws a waiting request (its operation timed out while queued).
+    pub fn cancel(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+        let key = match self.op(op)?.state {
+            OpState::Queued(key) => key,
+            _ => return Err(InterlockError::NotQueued { operation: self.name(op) }),
+        };
+        let request = self.dequeue(key);
+        let waited = now_ms.saturating_sub(request.since_ms);
+        self.record(now_ms, EventKind::Cancelled, Some(op), Some(key.priority), &request.resources, Some(waited), None, None);
+        Ok(self.reevaluate(request.resources.ids(), now_ms))
+    }
+
+    /// The operation faulted: what it holds latches as faulted; a waiting
+    /// request is dropped instead. Returns the lockout of every resource
+    /// latched under this operation, so a repeated fault (an error handler
+    /// called twice) re-sends the same lockouts instead of failing.
+    pub fn fault(&mut self, op: OpId, note: Option<&str>, now_ms: u64) -> Result<FaultOutcome, InterlockError> {
+        let mut outcome = FaultOutcome::default();
+        match self.op(op)?.state.clone() {
+            OpState::Idle => {}
+            OpState::Queued(key) => {
+                let request = self.dequeue(key);
+                let waited = now_ms.saturating_sub(request.since_ms);
+                self.record(now_ms, EventKind::Dropped, Some(op), Some(key.priority), &request.resources, Some(waited), None, note.map(str::to_owned));
+                outcome.dropped = true;
+                outcome.grants = self.reevaluate(request.resources.ids(), now_ms);
+            }
+            OpState::Holding(_) => self.fault_holder(op, FaultCause::Operation, note, now_ms),
+        }
+        outcome.lockouts = self.lockouts(&self.latched_under(op));
+        Ok(outcome)
+    }
+
+    /// A person faults resources directly (emergency stop), owned or not.
+    /// An operation holding one of them is faulted whole: it lost part of its
+    /// line mid-run, so none of what it holds is in a known state. Returns the
+    /// lockout of every resource named or latched that way, even one already faulted.
+    pub fn fault_resources(&mut self, resources: &ResourceSet, note: Option<&str>, now_ms: u64) -> Result<FaultOutcome, InterlockError> {
+        self.check_set(resources)?;
+        let mut latched = resources.ids().to_vec();
+        for &r in resources.ids() {
+            match self.owners[r.index()] {
+                Owner::Faulted(_) => {}
+                Owner::Held(holder) => {
+                    latched.extend(self.latched_under_hold(holder));
+                    self.fault_holder(holder, FaultCause::Manual, note, now_ms);
+                }
+                Owner::Free => self.latch(r, FaultCause::Manual, None, note, now_ms),
+            }
+        }
+        self.record(now_ms, EventKind::ResourceFaulted, None, None, resources, None, None, note.map(str::to_owned));
+        let latched = ResourceSet::from_unsorted(latched);
+        Ok(FaultOutcome { lockouts: self.lockouts(&latched), dropped: false, grants: Vec::new() })
+    }
+
+    /// A person clears faulted resources; the queue is re-evaluated.
+    /// Refused whole if any of them is not faulted.
+    pub fn clear(&mut self, resources: &ResourceSet, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+        self.check_set(resources)?;
+        if let Some(&r) = resources.ids().iter().find(|r| !self.is_faulted(**r)) {
+            return Err(InterlockError::NotFaulted { resource: self.config.resources[r.index()].name.clone() });
+        }
+        for &r in resources.ids() {
+            self.owners[r.index()] = Owner::Free;
+            self.faulted -= 1;
+        }
+        self.record(now_ms, EventKind::Cleared, None, None, &resources, None, None, None);
+        Ok(self.reevaluate(resources.ids(), now_ms))
+    }
+
+    /// Every faulted resource, for an operator's "clear all".
+    pub fn faulted_resources(&self) -> ResourceSet {
+        ResourceSet(
+            (0..self.owners.len() as u32)
+                .map(ResourceId)
+                .filter(|r| self.is_faulted(*r))
+                .collect(),
+        )
+    }
+
+    // ---- elapsed-time warnings ---------------------------------------------
+
+    /// Warnings for requests queued, and operations holding, at or past their
+    /// threshold; each wait or hold warns once.
+    pub fn tick(&mut self, now_ms: u64) -> Vec<Event> {
+        let mut warnings = Vec::new();
+        if let Some(limit) = self.config.warn_queued_ms {
+            for (key, request) in self.queue.iter_mut() {
+                let waited = now_ms.saturating_sub(request.since_ms);
+                if !request.warned && waited >= limit {
+                    request.warned = true;
+                    warnings.push(Event {
+                        at_ms: now_ms,
+                        kind: EventKind::WarnQueued,
+                        operation: Some(request.operation),
+                        priority: Some(key.priority),
+                        resources: request.resources.clone(),
+                        waited_ms: Some(waited),
+                        held_ms: None,
+                        note: None,
+                    });
+                }
+            }
+        }
+        if let Some(limit) = self.config.warn_held_ms {
+            for (index, op) in self.operations.iter_mut().enumerate() {
+                if let OpState::Holding(hold) = &mut op.state {
+                    let held = now_ms.saturating_sub(hold.since_ms);
+                    if !hold.warned && held >= limit {
+                        hold.warned = true;
+                        warnings.push(Event {
+                            at_ms: now_ms,
+                            kind: EventKind::WarnHeld,
+                            operation: Some(OpId(index as u32)),
+                            priority: Some(hold.priority),
+                            resources: hold.resources.clone(),
+                            waited_ms: None,
+                            held_ms: Some(held),
+                            note: None,
+                        });
+                    }
+                }
+            }
+        }
+        if self.config.record_events {
+            self.events.extend(warnings.iter().cloned());
+        }
+        warnings
+    }
+
+    // ---- events ------------------------------------------------------------
+
+    /// Takes the events recorded since the last call (empty when recording is off).
+    pub fn drain_events(&mut self) -> Vec<Event> {
+        std::mem::take(&mut self.events)
+    }
+
+    pub fn has_events(&self) -> bool {
+        !self.events.is_empty()
+    }
+
+    /// An event with names in place of handles.
+    pub fn describe(&self, event: &Event) -> EventRecord {
+        EventRecord {
+            at_ms: event.at_ms,
+            kind: event.kind,
+            operation: event.operation.map(|op| self.name(op)),
+            priority: event.priority,
+            resources: self.names(&event.resources),
+            waited_ms: event.waited_ms,
+            held_ms: event.held_ms,
+            note: event.note.clone(),
+        }
+    }
+
+    // ---- snapshot and restore ----------------------------------------------
+
+    pub fn snapshot(&self, now_ms: u64) -> Snapshot {
+        let resources = self
+            .owners
+            .iter()
+            .enumerate()
+            .map(|(i, owner)| ResourceSnapshot {
+                name: self.config.resources[i].name.clone(),
+                state: match owner {
+                    Owner::Free => ResourceState::Free,
+                    Owner::Held(op) => ResourceState::Held { operation: self.name(*op) },
+                    Owner::Faulted(fault) => ResourceState::Faulted(FaultSnapshot {
+                        cause: fault.cause,
+                        operation: fault.operation.map(|op| self.name(op)),
+                        note: fault.note.clone(),
+                        since_ms: fault.since_ms,
+                    }),
+                },
+            })
+            .collect();
+        let queue = self
+            .queue
+            .iter()
+            .map(|(key, request)| RequestSnapshot {
+                operation: self.name(request.operation),
+                priority: key.priority,
+                resources: self.names(&request.resources),
+                since_ms: request.since_ms,
+                waited_ms: 0,
+            })
+            .collect();
+        let holds = self
+            .operations
+            .iter()
+            .filter_map(|op| match &op.state {
+                OpState::Holding(hold) => Some(RequestSnapshot {
+                    operation: op.name.clone(),
+                    priority: hold.priority,
+                    resources: self.names(&hold.resources),
+                    since_ms: hold.since_ms,
+                    waited_ms: hold.waited_ms,
+                }),
+                _ => None,
+            })
+            .collect();
+        Snapshot { version: SNAPSHOT_VERSION, taken_at_ms: now_ms, resources, queue, holds }
+    }
+
+    /// Rebuilds the state saved in `snapshot` under `config`. Nobody knows the
+    /// physical state of an operation interrupted mid-way, so every resource
+    /// held at the snapshot restores as faulted ("interrupted") and its
+    /// operation as idle. Faults stay faulted; waiting requests keep their
+    /// order. Resources no longer configured are left out, and so are
+    /// waiting requests that name them; each omission is reported as an event.
+    ///
+    /// With `keep_queue` false the waiting requests are dropped instead (with
+    /// an event each): use that when their callers did not survive the restart.
+    pub fn restore(
+        config: InterlockConfig,
+        snapshot: &Snapshot,
+        keep_queue: bool,
+        now_ms: u64,
+    ) -> Result<(Self, Vec<Grant>), InterlockError> {
+        if snapshot.version != SNAPSHOT_VERSION {
+            return Err(InterlockError::InvalidSnapshot {
+                reason: format!("snapshot version {} is not {SNAPSHOT_VERSION}", snapshot.version),
+            });
+        }
+        let mut lock = Interlock::new(config)?;
+        let mut seen = std::collections::HashSet::new();
+        for saved in &snapshot.resources {
+            if !seen.insert(saved.name.as_str()) {
+                return Err(InterlockError::InvalidSnapshot { reason: format!("resource '{}' appears twice", saved.name) });
+            }
+            let Ok(r) = lock.resource(&saved.name) else {
+                let note = format!("resource '{}' in the saved state is no longer configured; its state is dropped", saved.name);
+                lock.record(now_ms, EventKind::Interrupted, None, None, &ResourceSet::default(), None, None, Some(note));
+                continue;
+            };
+            match &saved.state {
+                ResourceState::Free => {}
+                ResourceState::Held { operation } => {
+                    let op = lock.operation(operation);
+                    lock.latch(r, FaultCause::Interrupted, Some(op), Some("held when the interlock state was saved"), now_ms);
+                    lock.record(now_ms, EventKind::Interrupted, Some(op), None, &ResourceSet(vec![r]), None, None, None);
+                }
+                ResourceState::Faulted(fault) => {
+                    let op = fault.operation.as_deref().map(|name| lock.operation(name));
+                    lock.latch(r, fault.cause, op, fault.note.as_deref(), fault.since_ms);
+                }
+            }
+        }
+        for waiting in &snapshot.queue {
+            let op = lock.operation(&waiting.operation);
+            if !keep_queue {
+                let note = "waiting request dropped on restore: its caller did not survive the restart".to_owned();
+                lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
+                continue;
+            }
+            let resources = match lock.resource_set(&waiting.resources) {
+                Ok(set) => set,
+                Err(err) => {
+                    let note = format!("waiting request dropped on restore: {err}");
+                    lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
+                    continue;
+                }
+            };
+            if !matches!(lock.operations[op.index()].state, OpState::Idle) {
+                return Err(InterlockError::InvalidSnapshot { reason: format!("operation '{}' waits twice", waiting.operation) });
+            }
+            let key = QueueKey { priority: waiting.priority, seq: lock.next_seq };
+            lock.next_seq += 1;
+            for r in resources.ids() {
+                lock.waiters[r.index()].insert(key);
+            }
+            lock.queue.insert(key, Request { operation: op, resources, since_ms: waiting.since_ms, warned: false });
+            lock.operations[op.index()].state = OpState::Queued(key);
+        }
+        // A changed configuration may let restored waiters through at once.
+        let all: Vec<ResourceId> = (0..lock.owners.len() as u32).map(ResourceId).collect();
+        let grants = lock.reevaluate(&all, now_ms);
+        Ok((lock, grants))
+    }
+
+    // ---- internals ---------------------------------------------------------
+
+    fn op(&self, op: OpId) -> Result<&Operation, InterlockError> {
+        self.operations
+            .get(op.index())
+            .ok_or_else(|| InterlockError::UnknownOperation { name: format!("#{}", op.0) })
+    }
+
+    fn name(&self, op: OpId) -> String {
+        self.operation_name(op).map_or_else(|| format!("#{}", op.0), str::to_owned)
+    }
+
+    fn names(&self, set: &ResourceSet) -> Vec<String> {
+        set.ids().iter().map(|r| self.config.resources[r.index()].name.clone()).collect()
+    }
+
+    fn check_set(&self, set: &ResourceSet) -> Result<(), InterlockError> {
+        if set.is_empty() {
+            return Err(InterlockError::EmptyResourceSet);
+        }
+        if let Some(r) = set.ids().iter().find(|r| r.index() >= self.owners.len()) {
+            return Err(InterlockError::UnknownResource { name: format!("#{}", r.0) });
+        }
+        Ok(())
+    }
+
+    fn lockouts(&self, set: &ResourceSet) -> Vec<Lockout> {
+        set.ids()
+            .iter()
+            .map(|&r| Lockout { resource: r, command: self.config.resources[r.index()].lockout.clone() })
+            .collect()
+    }
+
+    /// May a request with this queue key take these resources now? All must
+    /// be free, and under no-overtaking no waiter ahead of it may need one.
+    fn may_take(&self, key: QueueKey, resources: &ResourceSet) -> bool {
+        resources.ids().iter().all(|r| {
+            self.owners[r.index()] == Owner::Free
+                && (self.config.policy == Policy::Greedy
+                    || self.waiters[r.index()].first().is_none_or(|head| *head >= key))
+        })
+    }
+
+    fn grant(&mut self, op: OpId, priority: i32, resources: ResourceSet, now_ms: u64, waited_ms: u64) {
+        for r in resources.ids() {
+            self.owners[r.index()] = Owner::Held(op);
+        }
+        self.holding += 1;
+        self.record(now_ms, EventKind::Granted, Some(op), Some(priority), &resources, Some(waited_ms), None, None);
+        self.operations[op.index()].state =
+            OpState::Holding(Hold { priority, resources, since_ms: now_ms, waited_ms, warned: false });
+    }
+
+    fn dequeue(&mut self, key: QueueKey) -> Request {
+        let request = self.queue.remove(&key).expect("queued operation has a queue entry");
+        for r in request.resources.ids() {
+            self.waiters[r.index()].remove(&key);
+        }
+        self.operations[request.operation.index()].state = OpState::Idle;
+        request
+    }
+
+    /// Latches everything a holding operation holds and makes it idle.
+    fn fault_holder(&mut self, op: OpId, cause: FaultCause, note: Option<&str>, now_ms: u64) {
+        let OpState::Holding(hold) = std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle) else {
+            return;
+        };
+        self.holding -= 1;
+        for &r in hold.resources.ids() {
+            self.latch(r, cause, Some(op), note, now_ms);
+        }
+        let held_ms = now_ms.saturating_sub(hold.since_ms);
+        self.record(now_ms, EventKind::Faulted, Some(op), Some(hold.priority), &hold.resources, None, Some(held_ms), note.map(str::to_owned));
+    }
+
+    fn latched_under_hold(&self, op: OpId) -> Vec<ResourceId> {
+        match &self.operations[op.index()].state {
+            OpState::Holding(hold) => hold.resources.ids().to_vec(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Resources faulted while this operation held them and not cleared since.
+    fn latched_under(&self, op: OpId) -> ResourceSet {
+        ResourceSet(
+            (0..self.owners.len() as u32)
+                .map(ResourceId)
+                .filter(|r| matches!(&self.owners[r.index()], Owner::Faulted(f) if f.operation == Some(op)))
+                .collect(),
+        )
+    }
+
+    fn latch(&mut self, r: ResourceId, cause: FaultCause, operation: Option<OpId>, note: Option<&str>, now_ms: u64) {
+        if !matches!(self.owners[r.index()], Owner::Faulted(_)) {
+            self.faulted += 1;
+        }
+        self.owners[r.index()] =
+            Owner::Faulted(Fault { cause, operation, note: note.map(str::to_owned), since_ms: now_ms });
+    }
+
+    /// Algorithm 2's pass over the queue, limited to the requests that need a
+    /// resource that just became free (or unreserved): every other waiter was
+    /// blocked before and is still blocked, since a grant only takes resources.
+    /// Candidates go in queue order, so the grants equal a full pass.
+    fn reevaluate(&mut self, touched: &[ResourceId], now_ms: u64) -> Vec<Grant> {
+        let mut candidates: Vec<QueueKey> = touched
+            .iter()
+            .filter(|r| self.owners[r.index()] == Owner::Free)
+            .flat_map(|r| self.waiters[r.index()].iter().copied())
+            .collect();
+        if candidates.is_empty() {
+            return Vec::new();
+        }
+        candidates.sort_unstable();
+        candidates.dedup();
+        let mut grants = Vec::new();
+        for key in candidates {
+            let Some(request) = self.queue.get(&key) else { continue };
+            if !self.may_take(key, &request.resources) {
+                continue;
+            }
+            let request = self.dequeue(key);
+            let waited_ms = now_ms.saturating_sub(request.since_ms);
+            self.grant(request.operation, key.priority, request.resources.clone(), now_ms, waited_ms);
+            grants.push(Grant { operation: request.operation, priority: key.priority, resources: request.resources, waited_ms });
+        }
+        grants
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &mut self,
+        at_ms: u64,
+        kind: EventKind,
+        operation: Option<OpId>,
+        priority: Option<i32>,
+        resources: &ResourceSet,
+        waited_ms: Option<u64>,
+        held_ms: Option<u64>,
+        note: Option<String>,
+    ) {
+        if self.config.record_events {
+            let resources = resources.clone();
+            self.events.push(Event { at_ms, kind, operation, priority, resources, waited_ms, held_ms, note });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,516 @@
+//! Random sequences of interlock calls against a naive reference model: the
+//! paper's Algorithms 1 and 2 taken literally (the whole queue sorted and
+//! walked after every change), plus fault, clear, cancel, tick and restore.
+
+use std::collections::BTreeSet;
+
+use proptest::prelude::*;
+use sugarshack_core::interlock::{
+    Acquisition, FaultCause, Interlock, InterlockConfig, InterlockError, Policy, ResourceState,
+    Snapshot,
+};
+
+const RESOURCES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
+const OPS: usize = 6;
+const QUEUE_BOUND: usize = 4;
+const WARN_QUEUED_MS: u64 = 700;
+const WARN_HELD_MS: u64 = 1500;
+
+#[derive(Clone, Debug)]
+enum Call {
+    Acquire { op: usize, mask: u8 },
+    Release { op: usize },
+    Fault { op: usize },
+    FaultResources { mask: u8 },
+    Clear { mask: u8 },
+    Cancel { op: usize },
+    Tick,
+    SnapshotRestore,
+}
+
+fn call() -> impl Strategy<Value = Call> {
+    let op = 0..OPS;
+    let mask = 1u8..32;
+    prop_oneof![
+        6 => (op.clone(), mask.clone()).prop_map(|(op, mask)| Call::Acquire { op, mask }),
+        4 => op.clone().prop_map(|op| Call::Release { op }),
+        1 => op.clone().prop_map(|op| Call::Fault { op }),
+        1 => mask.clone().prop_map(|mask| Call::FaultResources { mask }),
+        2 => mask.prop_map(|mask| Call::Clear { mask }),
+        1 => op.prop_map(|op| Call::Cancel { op }),
+        1 => Just(Call::Tick),
+        1 => Just(Call::SnapshotRestore),
+    ]
+}
+
+fn members(mask: u8) -> Vec<usize> {
+    (0..RESOURCES.len()).filter(|r| mask & (1 << r) != 0).collect()
+}
+
+fn names(set: &[usize]) -> Vec<&'static str> {
+    set.iter().map(|&r| RESOURCES[r]).collect()
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Owner {
+    Free,
+    Held(usize),
+    /// Faulted, remembering the operation it was faulted under, if any.
+    Faulted(Option<usize>),
+}
+
+#[derive(Clone, Debug)]
+struct Waiter {
+    op: usize,
+    priority: i32,
+    set: Vec<usize>,
+    seq: u64,
+    since: u64,
+    warned: bool,
+}
+
+#[derive(Clone, Debug)]
+struct Held {
+    set: Vec<usize>,
+    since: u64,
+    warned: bool,
+}
+
+/// What a call returned, in names, comparable between model and system.
+#[derive(Clone, Debug, PartialEq)]
+enum Outcome {
+    Refused(&'static str),
+    Acquired(bool),
+    Grants(Vec<String>),
+    Faulted { lockouts: Vec<&'static str>, dropped: bool, grants: Vec<String> },
+    Warnings(Vec<(String, &'static str)>),
+    Restored,
+}
+
+#[derive(Clone, Debug)]
+struct Model {
+    policy: Policy,
+    priorities: Vec<i32>,
+    owners: Vec<Owner>,
+    queue: Vec<Waiter>,
+    holds: Vec<Option<Held>>,
+    seq: u64,
+    // Fates of requests that had to wait, so none is lost.
+    queued_total: usize,
+    granted_from_queue: usize,
+    cancelled: usize,
+    dropped: usize,
+}
+
+impl Model {
+    fn new(policy: Policy, priorities: Vec<i32>) -> Self {
+        Model {
+            policy,
+            priorities,
+            owners: vec![Owner::Free; RESOURCES.len()],
+            queue: Vec::new(),
+            holds: vec![None; OPS],
+            seq: 0,
+            queued_total: 0,
+            granted_from_queue: 0,
+            cancelled: 0,
+            dropped: 0,
+        }
+    }
+
+    fn sorted_queue(&self) -> Vec<Waiter> {
+        let mut queue = self.queue.clone();
+        queue.sort_by(|a, b| b.priority.cmp(&a.priority).then(a.seq.cmp(&b.seq)));
+        queue
+    }
+
+    fn all_free(&self, set: &[usize]) -> bool {
+        set.iter().all(|&r| self.owners[r] == Owner::Free)
+    }
+
+    /// Algorithm 2's walk; under no-overtaking a waiter that is not granted
+    /// reserves its resources against every waiter behind it.
+    fn pass(&mut self, now: u64) -> Vec<String> {
+        let mut reserved = BTreeSet::new();
+        let mut granted = Vec::new();
+        for waiter in self.sorted_queue() {
+            let clear = self.all_free(&waiter.set)
+                && (self.policy == Policy::Greedy || waiter.set.iter().all(|r| !reserved.contains(r)));
+            if clear {
+                self.queue.retain(|w| w.op != waiter.op);
+                for &r in &waiter.set {
+                    self.owners[r] = Owner::Held(waiter.op);
+                }
+                self.holds[waiter.op] = Some(Held { set: waiter.set.clone(), since: now, warned: false });
+                self.granted_from_queue += 1;
+                granted.push(format!("op{}", waiter.op));
+            } else {
+                reserved.extend(waiter.set.iter().copied());
+            }
+        }
+        granted
+    }
+
+    fn apply(&mut self, call: &Call, now: u64) -> Outcome {
+        match *call {
+            Call::Acquire { op, mask } => {
+                let set = members(mask);
+                if self.holds[op].is_some() {
+                    return Outcome::Refused("ALREADY_HOLDING");
+                }
+                if self.queue.iter().any(|w| w.op == op) {
+                    return Outcome::Refused("ALREADY_QUEUED");
+                }
+                let priority = self.priorities[op];
+                let overtakes = self.policy == Policy::NoOvertaking
+                    && self.queue.iter().any(|w| w.priority >= priority && w.set.iter().any(|r| set.contains(r)));
+                if self.all_free(&set) && !overtakes {
+                    for &r in &set {
+                        self.owners[r] = Owner::Held(op);
+                    }
+                    self.holds[op] = Some(Held { set, since: now, warned: false });
+                    self.seq += 1;
+                    return Outcome::Acquired(true);
+                }
+                if self.queue.len() >= QUEUE_BOUND {
+                    return Outcome::Refused("QUEUE_FULL");
+                }
+                self.queue.push(Waiter { op, priority, set, seq: self.seq, since: now, warned: false });
+                self.seq += 1;
+                self.queued_total += 1;
+                Outcome::Acquired(false)
+            }
+            Call::Release { op } => {
+                let Some(held) = self.holds[op].take() else { return Outcome::Refused("NOT_HOLDING") };
+                for &r in &held.set {
+                    if self.owners[r] == Owner::Held(op) {
+                        self.owners[r] = Owner::Free;
+                    }
+                }
+                Outcome::Grants(self.pass(now))
+            }
+            Call::Cancel { op } => {
+                if !self.queue.iter().any(|w| w.op == op) {
+                    return Outcome::Refused("NOT_QUEUED");
+                }
+                self.queue.retain(|w| w.op != op);
+                self.cancelled += 1;
+                Outcome::Grants(self.pass(now))
+            }
+            Call::Fault { op } => {
+                let mut dropped = false;
+                let mut grants = vec![];
+                if let Some(held) = self.holds[op].take() {
+                    for &r in &held.set {
+                        self.owners[r] = Owner::Faulted(Some(op));
+                    }
+                } else if self.queue.iter().any(|w| w.op == op) {
+                    self.queue.retain(|w| w.op != op);
+                    self.dropped += 1;
+                    dropped = true;
+                    grants = self.pass(now);
+                }
+                let lockouts: Vec<usize> = (0..RESOURCES.len()).filter(|&r| self.owners[r] == Owner::Faulted(Some(op))).collect();
+                Outcome::Faulted { lockouts: names(&lockouts), dropped, grants }
+            }
+            Call::FaultResources { mask } => {
+                let mut latched: BTreeSet<usize> = members(mask).into_iter().collect();
+                for r in members(mask) {
+                    match self.owners[r] {
+                        Owner::Free => self.owners[r] = Owner::Faulted(None),
+                        Owner::Held(op) => {
+                            let held = self.holds[op].take().unwrap();
+                            for &h in &held.set {
+                                self.owners[h] = Owner::Faulted(Some(op));
+                                latched.insert(h);
+                            }
+                        }
+                        Owner::Faulted(_) => {}
+                    }
+                }
+                Outcome::Faulted { lockouts: names(&latched.into_iter().collect::<Vec<_>>()), dropped: false, grants: vec![] }
+            }
+            Call::Clear { mask } => {
+                let set = members(mask);
+                if set.iter().any(|&r| !matches!(self.owners[r], Owner::Faulted(_))) {
+                    return Outcome::Refused("NOT_FAULTED");
+                }
+                for &r in &set {
+                    self.owners[r] = Owner::Free;
+                }
+                Outcome::Grants(self.pass(now))
+            }
+            Call::Tick => {
+                let mut warnings = Vec::new();
+                for waiter in self.sorted_queue() {
+                    if now - waiter.since >= WARN_QUEUED_MS && !waiter.warned {
+                        self.queue.iter_mut().find(|w| w.op == waiter.op).unwrap().warned = true;
+                        warnings.push((format!("op{}", waiter.op), "warn-queued"));
+                    }
+                }
+                for (op, held) in self.holds.iter_mut().enumerate() {
+                    if let Some(held) = held {
+                        if now - held.since >= WARN_HELD_MS && !held.warned {
+                            held.warned = true;
+                            warnings.push((format!("op{op}"), "warn-held"));
+                        }
+                    }
+                }
+                warnings.sort();
+                Outcome::Warnings(warnings)
+            }
+            Call::SnapshotRestore => {
+                // Held resources come back faulted, their operations idle.
+                for r in 0..RESOURCES.len() {
+                    if let Owner::Held(op) = self.owners[r] {
+                        self.owners[r] = Owner::Faulted(Some(op));
+                    }
+                }
+                self.holds = vec![None; OPS];
+                for waiter in &mut self.queue {
+                    waiter.warned = false;
+                }
+                Outcome::Restored
+            }
+        }
+    }
+}
+
+fn config(policy: Policy) -> InterlockConfig {
+    let mut config = InterlockConfig::with_resources(RESOURCES);
+    config.policy = policy;
+    config.queue_bound = QUEUE_BOUND;
+    config.warn_queued_ms = Some(WARN_QUEUED_MS);
+    config.warn_held_ms = Some(WARN_HELD_MS);
+    config
+}
+
+fn op_name(lock: &Interlock, op: sugarshack_core::interlock::OpId) -> String {
+    lock.operation_name(op).unwrap().to_owned()
+}
+
+fn refused(err: InterlockError) -> Outcome {
+    Outcome::Refused(err.code())
+}
+
+fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Outcome {
+    let op = |lock: &mut Interlock, i: usize| lock.operation(&format!("op{i}"));
+    let set = |lock: &Interlock, mask: u8| lock.resource_set(&names(&members(mask))).unwrap();
+    let grant_names = |lock: &Interlock, grants: &[sugarshack_core::interlock::Grant]| {
+        grants.iter().map(|g| op_name(lock, g.operation)).collect::<Vec<_>>()
+    };
+    match *call {
+        Call::Acquire { op: i, mask } => {
+            let id = op(lock, i);
+            let set = set(lock, mask);
+            match lock.acquire(id, priorities[i], &set, now) {
+                Ok(a) => Outcome::Acquired(a == Acquisition::Granted),
+                Err(e) => refused(e),
+            }
+        }
+        Call::Release { op: i } => {
+            let id = op(lock, i);
+            match lock.release(id, now) {
+                Ok(g) => Outcome::Grants(grant_names(lock, &g)),
+                Err(e) => refused(e),
+            }
+        }
+        Call::Cancel { op: i } => {
+            let id = op(lock, i);
+            match lock.cancel(id, now) {
+                Ok(g) => Outcome::Grants(grant_names(lock, &g)),
+                Err(e) => refused(e),
+            }
+        }
+        Call::Fault { op: i } => {
+            let id = op(lock, i);
+            match lock.fault(id, Some("test"), now) {
+                Ok(f) => Outcome::Faulted {
+                    lockouts: f.lockouts.iter().map(|l| RESOURCES[l.resource.index()]).collect(),
+                    dropped: f.dropped,
+                    grants: grant_names(lock, &f.grants),
+                },
+                Err(e) => refused(e),
+            }
+        }
+        Call::FaultResources { mask } => {
+            let set = set(lock, mask);
+            let f = lock.fault_resources(&set, None, now).unwrap();
+            Outcome::Faulted {
+                lockouts: f.lockouts.iter().map(|l| RESOURCES[l.resource.index()]).collect(),
+                dropped: f.dropped,
+                grants: grant_names(lock, &f.grants),
+            }
+        }
+        Call::Clear { mask } => {
+            let set = set(lock, mask);
+            match lock.clear(&set, now) {
+                Ok(g) => Outcome::Grants(grant_names(lock, &g)),
+                Err(e) => refused(e),
+            }
+        }
+        Call::Tick => Outcome::Warnings({
+            let mut warnings: Vec<_> = lock.tick(now)
+                .iter()
+                .map(|w| {
+                    let kind = match w.kind {
+                        sugarshack_core::interlock::EventKind::WarnQueued => "warn-queued",
+                        _ => "warn-held",
+                    };
+                    (op_name(lock, w.operation.unwrap()), kind)
+                })
+                .collect();
+            warnings.sort();
+            warnings
+        }),
+        Call::SnapshotRestore => {
+            let before = lock.snapshot(now);
+            let json = serde_json::to_value(&before).unwrap();
+            let parsed: Snapshot = serde_json::from_value(json).unwrap();
+            let (restored, grants) = Interlock::restore(lock.config().clone(), &parsed, true, now).unwrap();
+            assert!(grants.is_empty(), "same configuration: nothing becomes grantable on restore");
+            assert_round_trip(&before, &restored.snapshot(now));
+            *lock = restored;
+            Outcome::Restored
+        }
+    }
+}
+
+/// Restore keeps everything but turns each held resource into an interrupted fault.
+fn assert_round_trip(before: &Snapshot, after: &Snapshot) {
+    assert_eq!(after.queue, before.queue, "waiting requests keep their order");
+    assert!(after.holds.is_empty());
+    for (b, a) in before.resources.iter().zip(&after.resources) {
+        assert_eq!(a.name, b.name);
+        match (&b.state, &a.state) {
+            (ResourceState::Held { operation }, ResourceState::Faulted(f)) => {
+                assert_eq!(f.cause, FaultCause::Interrupted);
+                assert_eq!(f.operation.as_ref(), Some(operation));
+            }
+            (b, a) => assert_eq!(a, b),
+        }
+    }
+}
+
+/// The system's state in model terms.
+fn observed_owners(lock: &Interlock) -> Vec<Owner> {
+    lock.snapshot(0)
+        .resources
+        .iter()
+        .map(|r| match &r.state {
+            ResourceState::Free => Owner::Free,
+            ResourceState::Held { operation } => Owner::Held(operation[2..].parse().unwrap()),
+            ResourceState::Faulted(f) => Owner::Faulted(f.operation.as_ref().map(|o| o[2..].parse().unwrap())),
+        })
+        .collect()
+}
+
+fn check_invariants(lock: &Interlock, model: &Model, pre_faulted: &[bool], call: &Call, outcome: &Outcome) {
+    let snapshot = lock.snapshot(0);
+    // No resource has two owners: holds are disjoint and match ownership.
+    let mut taken = BTreeSet::new();
+    for hold in &snapshot.holds {
+        for r in &hold.resources {
+            assert!(taken.insert(r.clone()), "{r} held twice");
+            let index = RESOURCES.iter().position(|n| n == r).unwrap();
+            assert_eq!(
+                snapshot.resources[index].state,
+                ResourceState::Held { operation: hold.operation.clone() },
+                "{r} listed in {}'s hold",
+                hold.operation
+            );
+        }
+    }
+    // A faulted resource is never granted before it is cleared.
+    let granted: Vec<String> = match outcome {
+        Outcome::Grants(g) => g.clone(),
+        Outcome::Faulted { grants, .. } => grants.clone(),
+        Outcome::Acquired(true) => match call {
+            Call::Acquire { op, .. } => vec![format!("op{op}")],
+            _ => unreachable!(),
+        },
+        _ => vec![],
+    };
+    let cleared = match call {
+        Call::Clear { mask } if !matches!(outcome, Outcome::Refused(_)) => members(*mask),
+        _ => vec![],
+    };
+    for name in &granted {
+        let hold = snapshot.holds.iter().find(|h| &h.operation == name).expect("granted op holds");
+        for r in &hold.resources {
+            let index = RESOURCES.iter().position(|n| n == r).unwrap();
+            assert!(!pre_faulted[index] || cleared.contains(&index), "{name} was granted faulted {r}");
+        }
+    }
+    // Grants of one call come in queue order: priority never increases.
+    let priorities: Vec<i32> = granted.iter().map(|n| model.priorities[n[2..].parse::<usize>().unwrap()]).collect();
+    assert!(priorities.windows(2).all(|w| w[0] >= w[1]), "grants out of priority order: {granted:?} {priorities:?}");
+    // Nothing is left waiting that could go now.
+    let owners = observed_owners(lock);
+    let queued = lock.queued_operations();
+    for (position, &op) in queued.iter().enumerate() {
+        let name = op_name(lock, op);
+        let request = snapshot.queue.iter().find(|q| q.operation == name).unwrap();
+        let set: Vec<usize> = request.resources.iter().map(|r| RESOURCES.iter().position(|n| n == r).unwrap()).collect();
+        let free = set.iter().all(|&r| owners[r] == Owner::Free);
+        let reserved_ahead = snapshot.queue[..position]
+            .iter()
+            .any(|ahead| ahead.resources.iter().any(|r| request.resources.contains(r)));
+        match model.policy {
+            Policy::Greedy => assert!(!free, "{name} waits with all its resources free"),
+            Policy::NoOvertaking => assert!(!free || reserved_ahead, "{name} waits though free and nobody ahead needs them"),
+        }
+    }
+    // No request is lost: each waiting request was granted, cancelled, dropped, or still waits.
+    assert_eq!(
+        model.queued_total,
+        model.granted_from_queue + model.cancelled + model.dropped + model.queue.len(),
+    );
+}
+
+fn run(policy: Policy, priorities: Vec<i32>, calls: Vec<(Call, u64)>) {
+    let mut model = Model::new(policy, priorities.clone());
+    let mut lock = Interlock::new(config(policy)).unwrap();
+    let mut now = 0;
+    for (call, dt) in &calls {
+        now += dt;
+        let pre_faulted: Vec<bool> = observed_owners(&lock).iter().map(|o| matches!(o, Owner::Faulted(_))).collect();
+        let expected = model.apply(call, now);
+        let actual = apply(&mut lock, &priorities, call, now);
+        assert_eq!(actual, expected, "call {call:?} at {now}");
+        assert_eq!(observed_owners(&lock), model.owners, "owners after {call:?}");
+        let queued: Vec<String> = lock.queued_operations().iter().map(|&op| op_name(&lock, op)).collect();
+        let expected_queue: Vec<String> = model.sorted_queue().iter().map(|w| format!("op{}", w.op)).collect();
+        assert_eq!(queued, expected_queue, "queue after {call:?}");
+        for i in 0..OPS {
+            if let Ok(op) = lock.find_operation(&format!("op{i}")) {
+                assert_eq!(lock.is_holding(op), model.holds[i].is_some(), "op{i} holding after {call:?}");
+            }
+        }
+        let counts = lock.counts();
+        assert_eq!(counts.queued, model.queue.len());
+        assert_eq!(counts.holding, model.holds.iter().flatten().count());
+        assert_eq!(counts.faulted, model.owners.iter().filter(|o| matches!(o, Owner::Faulted(_))).count());
+        check_invariants(&lock, &model, &pre_faulted, call, &actual);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn greedy_matches_the_reference_model(
+        priorities in proptest::collection::vec(0i32..3, OPS),
+        calls in proptest::collection::vec((call(), 0u64..400), 1..80),
+    ) {
+        run(Policy::Greedy, priorities, calls);
+    }
+
+    #[test]
+    fn no_overtaking_matches_the_reference_model(
+        priorities in proptest::collection::vec(0i32..3, OPS),
+        calls in proptest::collection::vec((call(), 0u64..400), 1..80),
+    ) {
+        run(Policy::NoOvertaking, priorities, calls);
+    }
+}
