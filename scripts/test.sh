@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Full test run: setup, Rust tests (native and wasm under Node), wasm build,
+# Node-RED flow tests, then the palette install test on Node-RED 4.1 and 5.0.
+# Stops at the first failing stage and prints a summary either way.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT="$PWD"
+PALETTE="${PALETTE_DIR:-$ROOT/node-red-contrib-sugarshack}"
+
+STAGES=() CURRENT="" STARTED=0 TMP=""
+stage() {
+  [ -n "$CURRENT" ] && STAGES+=("ok|$(( SECONDS - STARTED ))s|$CURRENT")
+  CURRENT="$1" STARTED=$SECONDS
+  printf '\n==== %s ====\n' "$1"
+}
+finish() {
+  local rc=$?
+  if [ -n "$CURRENT" ]; then
+    if [ $rc -eq 0 ]; then STAGES+=("ok|$(( SECONDS - STARTED ))s|$CURRENT")
+    else STAGES+=("FAILED|$(( SECONDS - STARTED ))s|$CURRENT"); fi
+  fi
+  [ -n "$TMP" ] && rm -rf "$TMP"
+  printf '\n==== summary ====\n'
+  local line
+  for line in "${STAGES[@]}"; do
+    IFS='|' read -r status secs name <<<"$line"
+    printf '  %-8s %5s  %s\n' "$status" "$secs" "$name"
+  done
+  [ $rc -eq 0 ] && echo "all stages passed (${SECONDS}s)" || echo "test run FAILED (exit $rc)"
+}
+trap finish EXIT
+
+# Packs the palette once, then installs the tarball into a fresh user dir per Node-RED version.
+palette_test() { # <label> <node binary> <node-red dir>
+  local label="$1" node="$2" nrdir="$3" userdir
+  if [ -z "${TARBALL:-}" ]; then
+    [ -f "$PALETTE/package.json" ] || { echo "no $PALETTE/package.json" >&2; return 1; }
+    TMP="$(mktemp -d)"
+    TARBALL="$TMP/$(cd "$TMP" && npm pack --loglevel=error "$PALETTE" | tail -n1)"
+    echo "packed $(basename "$TARBALL") ($(tar tzf "$TARBALL" | wc -l) files)"
+  fi
+  userdir="$TMP/userdir-$label"
+  mkdir -p "$userdir"
+  echo '{"name":"node-red-project","private":true}' >"$userdir/package.json"
+  (cd "$userdir" && npm install --no-audit --no-fund --loglevel=error "$TARBALL")
+  node tests/palette/install-test.js --label "$label" --node "$node" \
+    --red "$nrdir/red.js" --userdir "$userdir" --pkg "$PALETTE/package.json" --examples "$PALETTE/examples"
+}
+
+stage "setup"
+# shellcheck source=scripts/setup.sh
+. scripts/setup.sh
+
+stage "cargo test (sugarshack-core)"
+cargo test -p sugarshack-core
+
+stage "wasm-bindgen tests under Node"
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER=wasm-bindgen-test-runner \
+  cargo test -p sugarshack-wasm --target wasm32-unknown-unknown
+
+stage "build wasm package"
+bash scripts/build-wasm.sh
+
+stage "Node-RED flow tests (mocha)"
+[ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }
+npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
+
+stage "palette install: Node-RED 4.1 on Node $(node --version)"
+palette_test nr4 "$(command -v node)" "$ROOT/node_modules/node-red"
+
+stage "palette install: Node-RED 5.0 on Node $("$NODE22" --version)"
+palette_test nr5 "$NODE22" "$NR5_DIR/node_modules/node-red"

@@ -1,0 +1,150 @@
+#!/usr/bin/env node
+// Palette install test: starts Node-RED on a user dir in which the packed
+// palette is already installed, checks that every node set loaded, deploys each
+// example flow and checks the runtime log. Prints PASS/FAIL lines; exits 1 on failure.
+//
+// usage: node install-test.js --red <node-red/red.js> --userdir <dir>
+//          [--node <node binary>] [--pkg <palette package.json>]
+//          [--examples <dir>] [--label <text>] [--types a,b,c]
+// Expected type names may also come from SUGARSHACK_EXPECTED_TYPES (comma-separated).
+'use strict';
+const fs = require('fs');
+const path = require('path');
+const net = require('net');
+const { spawn } = require('child_process');
+
+const args = {};
+for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
+const root = path.resolve(__dirname, '../..');
+const pkgFile = path.resolve(args.pkg || path.join(root, 'node-red-contrib-sugarshack/package.json'));
+const examplesDir = path.resolve(args.examples || path.join(path.dirname(pkgFile), 'examples'));
+const label = args.label || 'node-red';
+const nodeBin = args.node || process.execPath;
+const expectedTypes = (args.types || process.env.SUGARSHACK_EXPECTED_TYPES || '')
+  .split(',').map((s) => s.trim()).filter(Boolean);
+if (!args.red || !args.userdir) {
+  console.error('usage: install-test.js --red <red.js> --userdir <dir> [--node <bin>] [--types a,b]');
+  process.exit(2);
+}
+
+let failures = 0;
+const pass = (msg) => console.log(`  PASS [${label}] ${msg}`);
+const fail = (msg) => { failures++; console.log(`  FAIL [${label}] ${msg}`); };
+const check = (ok, msg, detail) => (ok ? pass(msg) : fail(detail ? `${msg}: ${detail}` : msg));
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+// Node-RED 5 reports a load error as an object (possibly `{}`); the log has the text.
+const errText = (e) => (typeof e === 'object' ? e.message || e.code || `${JSON.stringify(e)} (see log)` : e);
+const indent = (lines) => `\n      ${lines.join('\n      ')}`;
+
+function freePort() {
+  return new Promise((resolve, reject) => {
+    const srv = net.createServer().once('error', reject);
+    srv.listen(0, '127.0.0.1', () => { const { port } = srv.address(); srv.close(() => resolve(port)); });
+  });
+}
+
+// Exported example flows often omit their tab; add one for every undefined `z`.
+function withTabs(flow) {
+  const defined = new Set(flow.filter((n) => n.type === 'tab' || n.type === 'subflow').map((n) => n.id));
+  const missing = [...new Set(flow.map((n) => n.z).filter((z) => z && !defined.has(z)))];
+  return [...missing.map((id) => ({ id, type: 'tab', label: `tab ${id}` })), ...flow];
+}
+
+async function main() {
+  const pkg = JSON.parse(fs.readFileSync(pkgFile, 'utf8'));
+  const moduleName = pkg.name;
+  const setNames = Object.keys((pkg['node-red'] && pkg['node-red'].nodes) || {});
+  const settingsFile = path.join(args.userdir, 'settings.js');
+  fs.writeFileSync(settingsFile, `module.exports = {
+  uiHost: '127.0.0.1',
+  flowFile: 'flows.json',
+  credentialSecret: false,
+  logging: { console: { level: 'info', metrics: false, audit: false } },
+};\n`);
+
+  const port = await freePort();
+  const base = `http://127.0.0.1:${port}`;
+  let log = '';
+  const child = spawn(nodeBin, [args.red, '-u', args.userdir, '-p', String(port), '-s', settingsFile],
+    { stdio: ['ignore', 'pipe', 'pipe'] });
+  child.stdout.on('data', (d) => { log += d; });
+  child.stderr.on('data', (d) => { log += d; });
+  let exited = null;
+  child.on('exit', (code, sig) => { exited = sig || code; });
+  const kill = () => { if (exited === null) child.kill('SIGTERM'); };
+  process.on('exit', kill);
+  for (const s of ['SIGINT', 'SIGTERM']) process.on(s, () => { kill(); process.exit(130); });
+
+  try {
+    let nodes = null;
+    for (let t = Date.now(); Date.now() - t < 60000 && exited === null;) {
+      try {
+        const res = await fetch(`${base}/nodes`, { headers: { Accept: 'application/json' } });
+        if (res.ok) { nodes = await res.json(); break; }
+      } catch { /* not listening yet */ }
+      await sleep(250);
+    }
+    if (!nodes) {
+      fail(`Node-RED admin API did not come up (exit: ${exited})`);
+      return;
+    }
+    const nrVersion = (log.match(/Node-RED version: (v\S+)/) || [])[1] || '?';
+    const nodeVersion = (log.match(/Node\.js\s+version: (v\S+)/) || [])[1] || '?';
+    pass(`Node-RED ${nrVersion} on Node.js ${nodeVersion} up on ${base}`);
+
+    const sets = nodes.filter((s) => s.module === moduleName);
+    check(sets.length > 0, `module ${moduleName} is loaded`, 'not in GET /nodes');
+    for (const s of sets) {
+      check(!s.err && s.enabled !== false, `node set ${s.id} enabled without error`,
+        `enabled=${s.enabled} err=${errText(s.err)}`);
+    }
+    const loadedSets = new Set(sets.map((s) => s.name));
+    for (const name of setNames) check(loadedSets.has(name), `node set ${moduleName}/${name} registered`, 'missing');
+    const types = sets.flatMap((s) => s.types || []);
+    check(types.length > 0, `registers node types: ${types.join(', ') || '(none)'}`);
+    for (const t of expectedTypes) check(types.includes(t), `type ${t} registered`, 'missing');
+
+    const examples = fs.existsSync(examplesDir)
+      ? fs.readdirSync(examplesDir).filter((f) => f.endsWith('.json')).sort() : [];
+    if (examples.length === 0) console.log(`  note [${label}] no example flows in ${examplesDir}`);
+    for (const file of examples) {
+      let flow;
+      try {
+        flow = withTabs(JSON.parse(fs.readFileSync(path.join(examplesDir, file), 'utf8')));
+      } catch (e) { fail(`example ${file} parses: ${e.message}`); continue; }
+      const mark = log.length;
+      const res = await fetch(`${base}/flows`, {
+        method: 'POST',
+        headers: { 'Content-Type': 'application/json', 'Node-RED-Deployment-Type': 'full' },
+        body: JSON.stringify(flow),
+      });
+      check(res.status === 200 || res.status === 204, `example ${file} deploys`, `HTTP ${res.status} ${await res.text()}`);
+      // Wait for the runtime to restart the flows, then give the nodes a second to run.
+      for (let t = Date.now(); Date.now() - t < 10000 && !/Updated flows[\s\S]*Started flows|missing types/.test(log.slice(mark));) await sleep(100);
+      await sleep(1000);
+      const bad = log.slice(mark).split('\n').filter((l) => /\[error\]|\bError\b|missing types/.test(l));
+      check(bad.length === 0, `example ${file} runs without errors in the log`, indent(bad));
+      const deployed = await (await fetch(`${base}/flows`, { headers: { Accept: 'application/json' } })).json();
+      const ids = new Set((Array.isArray(deployed) ? deployed : deployed.flows || []).map((n) => n.id));
+      const lost = flow.filter((n) => !ids.has(n.id)).map((n) => n.id);
+      check(lost.length === 0, `example ${file}: GET /flows returns all ${flow.length} nodes`, `missing ${lost.join(', ')}`);
+    }
+
+    // Load-time problems (e.g. a node file throwing on require) show up as warnings naming the module.
+    const bad = log.split('\n').filter((l) => /\[error\]/.test(l) || (l.includes(moduleName) && /Error/.test(l)));
+    check(bad.length === 0, 'Node-RED log has no [error] lines or module load errors', indent(bad));
+  } finally {
+    kill();
+    if (exited === null) await Promise.race([new Promise((r) => child.once('exit', r)), sleep(5000)]);
+    if (exited === null) child.kill('SIGKILL');
+    if (failures > 0) console.log(`---- Node-RED log (${label}) ----\n${log}---- end of log ----`);
+  }
+}
+
+main().then(
+  () => {
+    console.log(failures ? `FAIL [${label}] ${failures} check(s) failed` : `PASS [${label}] palette install test`);
+    process.exit(failures ? 1 : 0);
+  },
+  (e) => { console.log(`FAIL [${label}] ${e.stack || e}`); process.exit(1); },
+);
