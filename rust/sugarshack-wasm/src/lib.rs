@@ -84,11 +84,14 @@ pub struct Interlock {
     core: sugarshack_core::interlock::Interlock,
     sets: Vec<ResourceSet>,
     set_index: HashMap<Vec<u32>, u32>,
+    /// Operations granted by the last release, cancel or clear, read with
+    /// `granted(i)`: returning a count spares a typed array per call.
+    granted: Vec<u32>,
 }
 
 impl Interlock {
     fn wrap(core: sugarshack_core::interlock::Interlock) -> Self {
-        Interlock { core, sets: Vec::new(), set_index: HashMap::new() }
+        Interlock { core, sets: Vec::new(), set_index: HashMap::new(), granted: Vec::new() }
     }
 
     fn op(&self, handle: u32) -> Result<OpId, JsValue> {
@@ -103,6 +106,12 @@ impl Interlock {
         self.sets.get(handle as usize).ok_or_else(|| {
             js_error("UNKNOWN_RESOURCE_SET", &format!("resource set handle {handle} was not made by this interlock"))
         })
+    }
+
+    fn keep_granted(&mut self, grants: &[Grant]) -> u32 {
+        self.granted.clear();
+        self.granted.extend(grants.iter().map(|g| g.operation.index() as u32));
+        self.granted.len() as u32
     }
 
     fn fault_view(&self, outcome: FaultOutcome) -> Result<JsValue, JsValue> {
@@ -186,17 +195,23 @@ impl Interlock {
         Ok(acquisition == sugarshack_core::interlock::Acquisition::Granted)
     }
 
-    /// Releases and returns the handles of the operations granted, in grant order.
-    pub fn release(&mut self, op: u32, now_ms: f64) -> Result<Vec<u32>, JsValue> {
+    /// Releases and returns how many waiting operations it granted; read them with `granted(i)`.
+    pub fn release(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
         let op = self.op(op)?;
         let grants = self.core.release(op, time(now_ms)?).map_err(core_error)?;
-        Ok(handles(&grants))
+        Ok(self.keep_granted(&grants))
     }
 
-    pub fn cancel(&mut self, op: u32, now_ms: f64) -> Result<Vec<u32>, JsValue> {
+    /// Withdraws a waiting request; returns how many others it let through (see `granted`).
+    pub fn cancel(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
         let op = self.op(op)?;
         let grants = self.core.cancel(op, time(now_ms)?).map_err(core_error)?;
-        Ok(handles(&grants))
+        Ok(self.keep_granted(&grants))
+    }
+
+    /// The handle of the i-th operation granted by the last release, cancel or clear, in grant order.
+    pub fn granted(&self, index: u32) -> Option<u32> {
+        self.granted.get(index as usize).copied()
     }
 
     /// `{ lockouts: [{ resource, command }], dropped, grants }`.
@@ -214,11 +229,12 @@ impl Interlock {
         self.fault_view(outcome)
     }
 
-    pub fn clear(&mut self, set: u32, now_ms: f64) -> Result<Vec<u32>, JsValue> {
+    /// Clears faulted resources; returns how many waiting operations it granted (see `granted`).
+    pub fn clear(&mut self, set: u32, now_ms: f64) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
         let set = self.set(set)?.clone();
         let grants = self.core.clear(&set, now).map_err(core_error)?;
-        Ok(handles(&grants))
+        Ok(self.keep_granted(&grants))
     }
 
     #[wasm_bindgen(js_name = faultedResources)]

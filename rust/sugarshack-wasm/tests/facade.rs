@@ -26,6 +26,12 @@ fn plant() -> Interlock {
     .expect("valid config")
 }
 
+/// The operations granted by the last release, cancel or clear.
+fn granted(lock: &Interlock, count: u32) -> Vec<u32> {
+    assert_eq!(lock.granted(count), None, "no more than `count` grants are kept");
+    (0..count).map(|i| lock.granted(i).unwrap()).collect()
+}
+
 fn get(value: &JsValue, key: &str) -> JsValue {
     Reflect::get(value, &key.into()).unwrap()
 }
@@ -55,7 +61,8 @@ fn handles_are_stable_and_drive_acquire_and_release() {
     assert!(lock.acquire(load, 20, yel, 1000.0).unwrap(), "granted at once");
     assert!(!lock.acquire(flit, 92, both, 1001.0).unwrap(), "queued behind load");
     assert_eq!(lock.queued_operations(), vec![flit]);
-    assert_eq!(lock.release(load, 1500.0).unwrap(), vec![flit]);
+    let count = lock.release(load, 1500.0).unwrap();
+    assert_eq!(granted(&lock, count), vec![flit]);
     assert!(lock.is_holding(flit));
 
     let events: Array = lock.drain_events().unwrap().unchecked_into();
@@ -116,7 +123,10 @@ fn fault_returns_lockout_commands_as_plain_objects() {
     assert_eq!(get(&outcome, "dropped").as_bool(), Some(false));
     assert_eq!(lock.faulted_resources(), vec!["YEL".to_string()]);
     assert!(lock.release(op, 11.0).is_err(), "a faulted operation holds nothing");
-    assert_eq!(lock.clear(yel, 20.0).unwrap(), vec![waiter], "the waiter goes once the line is cleared");
+    let count = lock.clear(yel, 20.0).unwrap();
+    assert_eq!(granted(&lock, count), vec![waiter], "the waiter goes once the line is cleared");
+    assert_eq!(lock.release(waiter, 30.0).unwrap(), 0);
+    assert_eq!(granted(&lock, 0), Vec::<u32>::new(), "a release that grants nothing clears the last grants");
 }
 
 #[wasm_bindgen_test]

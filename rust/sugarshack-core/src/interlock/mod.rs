@@ -24,7 +24,8 @@ mod error;
 mod event;
 mod snapshot;
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap};
+use std::sync::Arc;
 
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
@@ -57,9 +58,10 @@ impl OpId {
     }
 }
 
-/// A non-empty set of resources, sorted and without duplicates.
+/// A set of resources, sorted and without duplicates. Cloning shares it, so
+/// holding and queueing a set made once at deploy allocates nothing.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Default)]
-pub struct ResourceSet(Vec<ResourceId>);
+pub struct ResourceSet(Arc<[ResourceId]>);
 
 impl ResourceSet {
     pub fn ids(&self) -> &[ResourceId] {
@@ -74,7 +76,7 @@ impl ResourceSet {
     fn from_unsorted(mut ids: Vec<ResourceId>) -> Self {
         ids.sort_unstable();
         ids.dedup();
-        ResourceSet(ids)
+        ResourceSet(ids.into())
     }
 }
 
@@ -135,11 +137,13 @@ struct Fault {
     since_ms: u64,
 }
 
-/// Queue order: higher priority first, then first come first served.
+/// A waiting request's place in the queue: higher priority first, then first
+/// come first served. `seq` is unique, so `op` never decides the order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct QueueKey {
     priority: i32,
     seq: u64,
+    op: OpId,
 }
 
 impl Ord for QueueKey {
@@ -155,8 +159,8 @@ impl PartialOrd for QueueKey {
 }
 
 #[derive(Clone, Debug)]
-struct Request {
-    operation: OpId,
+struct Waiting {
+    key: QueueKey,
     resources: ResourceSet,
     since_ms: u64,
     warned: bool,
@@ -174,7 +178,7 @@ struct Hold {
 #[derive(Clone, Debug)]
 enum OpState {
     Idle,
-    Queued(QueueKey),
+    Queued(Waiting),
     Holding(Hold),
 }
 
@@ -190,10 +194,17 @@ pub struct Interlock {
     config: InterlockConfig,
     resource_index: HashMap<String, ResourceId>,
     owners: Vec<Owner>,
-    /// Per resource, the queue keys of requests that need it, in grant order.
+    /// Per resource, the requests that need it, in grant order.
     waiters: Vec<BTreeSet<QueueKey>>,
-    queue: BTreeMap<QueueKey, Request>,
+    /// All waiting requests in grant order.
+    queue: BTreeSet<QueueKey>,
     operations: Vec<Operation>,
+    /// Per operation, how many resources of its waiting request are taken
+    /// (held or faulted). Kept up to date on every change of owner, so a
+    /// release finds the requests it unblocks without re-reading their sets.
+    busy: Vec<u32>,
+    /// Reused buffer of candidates for a grant, to spare an allocation per call.
+    candidates: Vec<QueueKey>,
     operation_index: HashMap<String, OpId>,
     next_seq: u64,
     holding: usize,
@@ -216,8 +227,10 @@ impl Interlock {
             resource_index,
             owners: vec![Owner::Free; count],
             waiters: vec![BTreeSet::new(); count],
-            queue: BTreeMap::new(),
+            queue: BTreeSet::new(),
             operations: Vec::new(),
+            busy: Vec::new(),
+            candidates: Vec::new(),
             operation_index: HashMap::new(),
             next_seq: 0,
             holding: 0,
@@ -239,6 +252,7 @@ impl Interlock {
         }
         let id = OpId(self.operations.len() as u32);
         self.operations.push(Operation { name: name.to_owned(), state: OpState::Idle });
+        self.busy.push(0);
         self.operation_index.insert(name.to_owned(), id);
         id
     }
@@ -310,7 +324,7 @@ impl Interlock {
 
     /// Waiting operations in the order they would be considered for a grant.
     pub fn queued_operations(&self) -> Vec<OpId> {
-        self.queue.values().map(|r| r.operation).collect()
+        self.queue.iter().map(|key| key.op).collect()
     }
 
     // ---- Algorithm 1 -------------------------------------------------------
@@ -329,25 +343,17 @@ impl Interlock {
             OpState::Holding(_) => return Err(InterlockError::AlreadyHolding { operation: self.name(op) }),
             OpState::Queued(_) => return Err(InterlockError::AlreadyQueued { operation: self.name(op) }),
         }
-        let key = QueueKey { priority, seq: self.next_seq };
+        let key = QueueKey { priority, seq: self.next_seq, op };
+        self.next_seq += 1;
         if self.may_take(key, resources) {
-            self.next_seq += 1;
             self.grant(op, priority, resources.clone(), now_ms, 0);
             return Ok(Acquisition::Granted);
         }
         if self.queue.len() >= self.config.queue_bound {
             return Err(InterlockError::QueueFull { bound: self.config.queue_bound });
         }
-        self.next_seq += 1;
-        for r in resources.ids() {
-            self.waiters[r.index()].insert(key);
-        }
-        self.queue.insert(
-            key,
-            Request { operation: op, resources: resources.clone(), since_ms: now_ms, warned: false },
-        );
-        self.operations[op.index()].state = OpState::Queued(key);
-        self.record(now_ms, EventKind::Queued, Some(op), Some(priority), &resources, None, None, None);
+        self.enqueue(key, resources.clone(), now_ms);
+        self.record(now_ms, EventKind::Queued, Some(op), Some(priority), resources, None, None, None);
         Ok(Acquisition::Queued)
     }
 
@@ -355,33 +361,36 @@ impl Interlock {
 
     /// Frees what the operation holds and grants every waiter that may now go, in queue order.
     pub fn release(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
-        let hold = match &self.op(op)?.state {
-            OpState::Holding(hold) => hold.clone(),
-            _ => return Err(InterlockError::NotHolding { operation: self.name(op) }),
+        if !self.is_holding(op) {
+            self.op(op)?;
+            return Err(InterlockError::NotHolding { operation: self.name(op) });
+        }
+        let OpState::Holding(hold) = std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle) else {
+            unreachable!("checked above")
         };
-        self.operations[op.index()].state = OpState::Idle;
         self.holding -= 1;
+        let mut candidates = std::mem::take(&mut self.candidates);
         for &r in hold.resources.ids() {
             debug_assert_eq!(self.owners[r.index()], Owner::Held(op), "a fault takes the whole hold");
-            self.owners[r.index()] = Owner::Free;
+            self.vacate(r, &mut candidates);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
         self.record(now_ms, EventKind::Released, Some(op), Some(hold.priority), &hold.resources, None, Some(held_ms), None);
-        Ok(self.reevaluate(hold.resources.ids(), now_ms))
+        Ok(self.grant_candidates(candidates, now_ms))
     }
 
     // ---- cancel, fault, clear ----------------------------------------------
 
     /// Withdraws a waiting request (its operation timed out while queued).
     pub fn cancel(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
-        let key = match self.op(op)?.state {
-            OpState::Queued(key) => key,
+        let key = match &self.op(op)?.state {
+            OpState::Queued(waiting) => waiting.key,
             _ => return Err(InterlockError::NotQueued { operation: self.name(op) }),
         };
-        let request = self.dequeue(key);
-        let waited = now_ms.saturating_sub(request.since_ms);
-        self.record(now_ms, EventKind::Cancelled, Some(op), Some(key.priority), &request.resources, Some(waited), None, None);
-        Ok(self.reevaluate(request.resources.ids(), now_ms))
+        let waiting = self.dequeue(key);
+        let waited = now_ms.saturating_sub(waiting.since_ms);
+        self.record(now_ms, EventKind::Cancelled, Some(op), Some(key.priority), &waiting.resources, Some(waited), None, None);
+        Ok(self.after_withdrawal(&waiting.resources, now_ms))
     }
 
     /// The operation faulted: what it holds latches as faulted; a waiting
@@ -392,12 +401,12 @@ impl Interlock {
         let mut outcome = FaultOutcome::default();
         match self.op(op)?.state.clone() {
             OpState::Idle => {}
-            OpState::Queued(key) => {
-                let request = self.dequeue(key);
-                let waited = now_ms.saturating_sub(request.since_ms);
-                self.record(now_ms, EventKind::Dropped, Some(op), Some(key.priority), &request.resources, Some(waited), None, note.map(str::to_owned));
+            OpState::Queued(waiting) => {
+                let waiting = self.dequeue(waiting.key);
+                let waited = now_ms.saturating_sub(waiting.since_ms);
+                self.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.key.priority), &waiting.resources, Some(waited), None, note.map(str::to_owned));
                 outcome.dropped = true;
-                outcome.grants = self.reevaluate(request.resources.ids(), now_ms);
+                outcome.grants = self.after_withdrawal(&waiting.resources, now_ms);
             }
             OpState::Holding(_) => self.fault_holder(op, FaultCause::Operation, note, now_ms),
         }
@@ -434,22 +443,19 @@ impl Interlock {
         if let Some(&r) = resources.ids().iter().find(|r| !self.is_faulted(**r)) {
             return Err(InterlockError::NotFaulted { resource: self.config.resources[r.index()].name.clone() });
         }
+        let mut candidates = std::mem::take(&mut self.candidates);
         for &r in resources.ids() {
-            self.owners[r.index()] = Owner::Free;
             self.faulted -= 1;
+            self.vacate(r, &mut candidates);
         }
-        self.record(now_ms, EventKind::Cleared, None, None, &resources, None, None, None);
-        Ok(self.reevaluate(resources.ids(), now_ms))
+        self.record(now_ms, EventKind::Cleared, None, None, resources, None, None, None);
+        Ok(self.grant_candidates(candidates, now_ms))
     }
 
     /// Every faulted resource, for an operator's "clear all".
     pub fn faulted_resources(&self) -> ResourceSet {
-        ResourceSet(
-            (0..self.owners.len() as u32)
-                .map(ResourceId)
-                .filter(|r| self.is_faulted(*r))
-                .collect(),
-        )
+        let faulted = (0..self.owners.len() as u32).map(ResourceId).filter(|r| self.is_faulted(*r));
+        ResourceSet(faulted.collect())
     }
 
     // ---- elapsed-time warnings ---------------------------------------------
@@ -459,16 +465,19 @@ impl Interlock {
     pub fn tick(&mut self, now_ms: u64) -> Vec<Event> {
         let mut warnings = Vec::new();
         if let Some(limit) = self.config.warn_queued_ms {
-            for (key, request) in self.queue.iter_mut() {
-                let waited = now_ms.saturating_sub(request.since_ms);
-                if !request.warned && waited >= limit {
-                    request.warned = true;
+            for key in &self.queue {
+                let OpState::Queued(waiting) = &mut self.operations[key.op.index()].state else {
+                    unreachable!("a queue key belongs to a waiting operation")
+                };
+                let waited = now_ms.saturating_sub(waiting.since_ms);
+                if !waiting.warned && waited >= limit {
+                    waiting.warned = true;
                     warnings.push(Event {
                         at_ms: now_ms,
                         kind: EventKind::WarnQueued,
-                        operation: Some(request.operation),
+                        operation: Some(key.op),
                         priority: Some(key.priority),
-                        resources: request.resources.clone(),
+                        resources: waiting.resources.clone(),
                         waited_ms: Some(waited),
                         held_ms: None,
                         note: None,
@@ -527,131 +536,6 @@ impl Interlock {
         }
     }
 
-    // ---- snapshot and restore ----------------------------------------------
-
-    pub fn snapshot(&self, now_ms: u64) -> Snapshot {
-        let resources = self
-            .owners
-            .iter()
-            .enumerate()
-            .map(|(i, owner)| ResourceSnapshot {
-                name: self.config.resources[i].name.clone(),
-                state: match owner {
-                    Owner::Free => ResourceState::Free,
-                    Owner::Held(op) => ResourceState::Held { operation: self.name(*op) },
-                    Owner::Faulted(fault) => ResourceState::Faulted(FaultSnapshot {
-                        cause: fault.cause,
-                        operation: fault.operation.map(|op| self.name(op)),
-                        note: fault.note.clone(),
-                        since_ms: fault.since_ms,
-                    }),
-                },
-            })
-            .collect();
-        let queue = self
-            .queue
-            .iter()
-            .map(|(key, request)| RequestSnapshot {
-                operation: self.name(request.operation),
-                priority: key.priority,
-                resources: self.names(&request.resources),
-                since_ms: request.since_ms,
-                waited_ms: 0,
-            })
-            .collect();
-        let holds = self
-            .operations
-            .iter()
-            .filter_map(|op| match &op.state {
-                OpState::Holding(hold) => Some(RequestSnapshot {
-                    operation: op.name.clone(),
-                    priority: hold.priority,
-                    resources: self.names(&hold.resources),
-                    since_ms: hold.since_ms,
-                    waited_ms: hold.waited_ms,
-                }),
-                _ => None,
-            })
-            .collect();
-        Snapshot { version: SNAPSHOT_VERSION, taken_at_ms: now_ms, resources, queue, holds }
-    }
-
-    /// Rebuilds the state saved in `snapshot` under `config`. Nobody knows the
-    /// physical state of an operation interrupted mid-way, so every resource
-    /// held at the snapshot restores as faulted ("interrupted") and its
-    /// operation as idle. Faults stay faulted; waiting requests keep their
-    /// order. Resources no longer configured are left out, and so are
-    /// waiting requests that name them; each omission is reported as an event.
-    ///
-    /// With `keep_queue` false the waiting requests are dropped instead (with
-    /// an event each): use that when their callers did not survive the restart.
-    pub fn restore(
-        config: InterlockConfig,
-        snapshot: &Snapshot,
-        keep_queue: bool,
-        now_ms: u64,
-    ) -> Result<(Self, Vec<Grant>), InterlockError> {
-        if snapshot.version != SNAPSHOT_VERSION {
-            return Err(InterlockError::InvalidSnapshot {
-                reason: format!("snapshot version {} is not {SNAPSHOT_VERSION}", snapshot.version),
-            });
-        }
-        let mut lock = Interlock::new(config)?;
-        let mut seen = std::collections::HashSet::new();
-        for saved in &snapshot.resources {
-            if !seen.insert(saved.name.as_str()) {
-                return Err(InterlockError::InvalidSnapshot { reason: format!("resource '{}' appears twice", saved.name) });
-            }
-            let Ok(r) = lock.resource(&saved.name) else {
-                let note = format!("resource '{}' in the saved state is no longer configured; its state is dropped", saved.name);
-                lock.record(now_ms, EventKind::Interrupted, None, None, &ResourceSet::default(), None, None, Some(note));
-                continue;
-            };
-            match &saved.state {
-                ResourceState::Free => {}
-                ResourceState::Held { operation } => {
-                    let op = lock.operation(operation);
-                    lock.latch(r, FaultCause::Interrupted, Some(op), Some("held when the interlock state was saved"), now_ms);
-                    lock.record(now_ms, EventKind::Interrupted, Some(op), None, &ResourceSet(vec![r]), None, None, None);
-                }
-                ResourceState::Faulted(fault) => {
-                    let op = fault.operation.as_deref().map(|name| lock.operation(name));
-                    lock.latch(r, fault.cause, op, fault.note.as_deref(), fault.since_ms);
-                }
-            }
-        }
-        for waiting in &snapshot.queue {
-            let op = lock.operation(&waiting.operation);
-            if !keep_queue {
-                let note = "waiting request dropped on restore: its caller did not survive the restart".to_owned();
-                lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
-                continue;
-            }
-            let resources = match lock.resource_set(&waiting.resources) {
-                Ok(set) => set,
-                Err(err) => {
-                    let note = format!("waiting request dropped on restore: {err}");
-                    lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
-                    continue;
-                }
-            };
-            if !matches!(lock.operations[op.index()].state, OpState::Idle) {
-                return Err(InterlockError::InvalidSnapshot { reason: format!("operation '{}' waits twice", waiting.operation) });
-            }
-            let key = QueueKey { priority: waiting.priority, seq: lock.next_seq };
-            lock.next_seq += 1;
-            for r in resources.ids() {
-                lock.waiters[r.index()].insert(key);
-            }
-            lock.queue.insert(key, Request { operation: op, resources, since_ms: waiting.since_ms, warned: false });
-            lock.operations[op.index()].state = OpState::Queued(key);
-        }
-        // A changed configuration may let restored waiters through at once.
-        let all: Vec<ResourceId> = (0..lock.owners.len() as u32).map(ResourceId).collect();
-        let grants = lock.reevaluate(&all, now_ms);
-        Ok((lock, grants))
-    }
-
     // ---- internals ---------------------------------------------------------
 
     fn op(&self, op: OpId) -> Result<&Operation, InterlockError> {
@@ -685,8 +569,8 @@ impl Interlock {
             .collect()
     }
 
-    /// May a request with this queue key take these resources now? All must
-    /// be free, and under no-overtaking no waiter ahead of it may need one.
+    /// May a new request take these resources now? All must be free, and
+    /// under no-overtaking no waiter ahead of it may need one.
     fn may_take(&self, key: QueueKey, resources: &ResourceSet) -> bool {
         resources.ids().iter().all(|r| {
             self.owners[r.index()] == Owner::Free
@@ -696,8 +580,8 @@ impl Interlock {
     }
 
     fn grant(&mut self, op: OpId, priority: i32, resources: ResourceSet, now_ms: u64, waited_ms: u64) {
-        for r in resources.ids() {
-            self.owners[r.index()] = Owner::Held(op);
+        for &r in resources.ids() {
+            self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
         self.record(now_ms, EventKind::Granted, Some(op), Some(priority), &resources, Some(waited_ms), None, None);
@@ -705,13 +589,98 @@ impl Interlock {
             OpState::Holding(Hold { priority, resources, since_ms: now_ms, waited_ms, warned: false });
     }
 
-    fn dequeue(&mut self, key: QueueKey) -> Request {
-        let request = self.queue.remove(&key).expect("queued operation has a queue entry");
-        for r in request.resources.ids() {
+    fn enqueue(&mut self, key: QueueKey, resources: ResourceSet, since_ms: u64) {
+        let mut taken = 0;
+        for r in resources.ids() {
+            self.waiters[r.index()].insert(key);
+            taken += u32::from(self.owners[r.index()] != Owner::Free);
+        }
+        self.busy[key.op.index()] = taken;
+        self.queue.insert(key);
+        self.operations[key.op.index()].state = OpState::Queued(Waiting { key, resources, since_ms, warned: false });
+    }
+
+    fn dequeue(&mut self, key: QueueKey) -> Waiting {
+        let OpState::Queued(waiting) = std::mem::replace(&mut self.operations[key.op.index()].state, OpState::Idle) else {
+            unreachable!("a queue key belongs to a waiting operation")
+        };
+        self.queue.remove(&key);
+        for r in waiting.resources.ids() {
             self.waiters[r.index()].remove(&key);
         }
-        self.operations[request.operation.index()].state = OpState::Idle;
-        request
+        waiting
+    }
+
+    /// A free resource is taken: every request waiting on it has one more taken.
+    fn occupy(&mut self, r: ResourceId, owner: Owner) {
+        debug_assert_eq!(self.owners[r.index()], Owner::Free);
+        for key in &self.waiters[r.index()] {
+            self.busy[key.op.index()] += 1;
+        }
+        self.owners[r.index()] = owner;
+    }
+
+    /// A taken resource is freed; requests left with nothing taken become candidates.
+    fn vacate(&mut self, r: ResourceId, candidates: &mut Vec<QueueKey>) {
+        debug_assert_ne!(self.owners[r.index()], Owner::Free);
+        self.owners[r.index()] = Owner::Free;
+        for key in &self.waiters[r.index()] {
+            let taken = &mut self.busy[key.op.index()];
+            *taken -= 1;
+            if *taken == 0 {
+                candidates.push(*key);
+            }
+        }
+    }
+
+    /// A waiting request left the queue. Under no-overtaking it may have been
+    /// the one ahead that kept others with free resources waiting; under
+    /// greedy its leaving unblocks nobody.
+    fn after_withdrawal(&mut self, resources: &ResourceSet, now_ms: u64) -> Vec<Grant> {
+        if self.config.policy == Policy::Greedy {
+            return Vec::new();
+        }
+        let mut candidates = std::mem::take(&mut self.candidates);
+        for r in resources.ids() {
+            let behind = self.waiters[r.index()].iter().filter(|key| self.busy[key.op.index()] == 0);
+            candidates.extend(behind);
+        }
+        self.grant_candidates(candidates, now_ms)
+    }
+
+    /// Algorithm 2's pass over the queue, limited to requests whose resources
+    /// just became all free (or whose way was just cleared): every other
+    /// waiter was blocked before and still is, since a grant only takes
+    /// resources. Candidates go in queue order, so the grants equal a full pass.
+    fn grant_candidates(&mut self, mut candidates: Vec<QueueKey>, now_ms: u64) -> Vec<Grant> {
+        candidates.sort_unstable();
+        candidates.dedup();
+        let mut grants = Vec::new();
+        for &key in &candidates {
+            // An earlier grant of this pass may have taken one of its resources.
+            if self.busy[key.op.index()] != 0 || !self.first_in_line(key) {
+                continue;
+            }
+            let waiting = self.dequeue(key);
+            let waited_ms = now_ms.saturating_sub(waiting.since_ms);
+            grants.push(Grant { operation: key.op, priority: key.priority, resources: waiting.resources.clone(), waited_ms });
+            self.grant(key.op, key.priority, waiting.resources, now_ms, waited_ms);
+        }
+        candidates.clear();
+        self.candidates = candidates;
+        grants
+    }
+
+    /// Under no-overtaking, is this waiting request ahead of every other
+    /// request on each of its resources?
+    fn first_in_line(&self, key: QueueKey) -> bool {
+        if self.config.policy == Policy::Greedy {
+            return true;
+        }
+        let OpState::Queued(waiting) = &self.operations[key.op.index()].state else {
+            return false;
+        };
+        waiting.resources.ids().iter().all(|r| self.waiters[r.index()].first() == Some(&key))
     }
 
     /// Latches everything a holding operation holds and makes it idle.
@@ -745,40 +714,18 @@ impl Interlock {
     }
 
     fn latch(&mut self, r: ResourceId, cause: FaultCause, operation: Option<OpId>, note: Option<&str>, now_ms: u64) {
-        if !matches!(self.owners[r.index()], Owner::Faulted(_)) {
-            self.faulted += 1;
-        }
-        self.owners[r.index()] =
-            Owner::Faulted(Fault { cause, operation, note: note.map(str::to_owned), since_ms: now_ms });
-    }
-
-    /// Algorithm 2's pass over the queue, limited to the requests that need a
-    /// resource that just became free (or unreserved): every other waiter was
-    /// blocked before and is still blocked, since a grant only takes resources.
-    /// Candidates go in queue order, so the grants equal a full pass.
-    fn reevaluate(&mut self, touched: &[ResourceId], now_ms: u64) -> Vec<Grant> {
-        let mut candidates: Vec<QueueKey> = touched
-            .iter()
-            .filter(|r| self.owners[r.index()] == Owner::Free)
-            .flat_map(|r| self.waiters[r.index()].iter().copied())
-            .collect();
-        if candidates.is_empty() {
-            return Vec::new();
-        }
-        candidates.sort_unstable();
-        candidates.dedup();
-        let mut grants = Vec::new();
-        for key in candidates {
-            let Some(request) = self.queue.get(&key) else { continue };
-            if !self.may_take(key, &request.resources) {
-                continue;
+        let fault = Owner::Faulted(Fault { cause, operation, note: note.map(str::to_owned), since_ms: now_ms });
+        match self.owners[r.index()] {
+            Owner::Free => {
+                self.faulted += 1;
+                self.occupy(r, fault);
             }
-            let request = self.dequeue(key);
-            let waited_ms = now_ms.saturating_sub(request.since_ms);
-            self.grant(request.operation, key.priority, request.resources.clone(), now_ms, waited_ms);
-            grants.push(Grant { operation: request.operation, priority: key.priority, resources: request.resources, waited_ms });
+            Owner::Held(_) => {
+                self.faulted += 1;
+                self.owners[r.index()] = fault;
+            }
+            Owner::Faulted(_) => self.owners[r.index()] = fault,
         }
-        grants
     }
 
     #[allow(clippy::too_many_arguments)]

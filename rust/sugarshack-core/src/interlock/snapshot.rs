@@ -1,5 +1,7 @@
 use serde::{Deserialize, Serialize};
 
+use super::{EventKind, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner, QueueKey, ResourceSet};
+
 /// The whole interlock state by name, for persistence across restarts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -60,4 +62,129 @@ pub struct RequestSnapshot {
     pub since_ms: u64,
     #[serde(default)]
     pub waited_ms: u64,
+}
+
+impl Interlock {
+    pub fn snapshot(&self, now_ms: u64) -> Snapshot {
+        let resources = self
+            .owners
+            .iter()
+            .enumerate()
+            .map(|(i, owner)| ResourceSnapshot {
+                name: self.config.resources[i].name.clone(),
+                state: match owner {
+                    Owner::Free => ResourceState::Free,
+                    Owner::Held(op) => ResourceState::Held { operation: self.name(*op) },
+                    Owner::Faulted(fault) => ResourceState::Faulted(FaultSnapshot {
+                        cause: fault.cause,
+                        operation: fault.operation.map(|op| self.name(op)),
+                        note: fault.note.clone(),
+                        since_ms: fault.since_ms,
+                    }),
+                },
+            })
+            .collect();
+        let queue = self
+            .queue
+            .iter()
+            .filter_map(|key| match &self.operations[key.op.index()].state {
+                OpState::Queued(waiting) => Some(RequestSnapshot {
+                    operation: self.name(key.op),
+                    priority: key.priority,
+                    resources: self.names(&waiting.resources),
+                    since_ms: waiting.since_ms,
+                    waited_ms: 0,
+                }),
+                _ => None,
+            })
+            .collect();
+        let holds = self
+            .operations
+            .iter()
+            .filter_map(|op| match &op.state {
+                OpState::Holding(hold) => Some(RequestSnapshot {
+                    operation: op.name.clone(),
+                    priority: hold.priority,
+                    resources: self.names(&hold.resources),
+                    since_ms: hold.since_ms,
+                    waited_ms: hold.waited_ms,
+                }),
+                _ => None,
+            })
+            .collect();
+        Snapshot { version: SNAPSHOT_VERSION, taken_at_ms: now_ms, resources, queue, holds }
+    }
+
+    /// Rebuilds the state saved in `snapshot` under `config`. Nobody knows the
+    /// physical state of an operation interrupted mid-way, so every resource
+    /// held at the snapshot restores as faulted ("interrupted") and its
+    /// operation as idle. Faults stay faulted; waiting requests keep their
+    /// order. Resources no longer configured are left out, and so are
+    /// waiting requests that name them; each omission is reported as an event.
+    ///
+    /// With `keep_queue` false the waiting requests are dropped instead (with
+    /// an event each): use that when their callers did not survive the restart.
+    pub fn restore(
+        config: InterlockConfig,
+        snapshot: &Snapshot,
+        keep_queue: bool,
+        now_ms: u64,
+    ) -> Result<(Self, Vec<Grant>), InterlockError> {
+        if snapshot.version != SNAPSHOT_VERSION {
+            return Err(InterlockError::InvalidSnapshot {
+                reason: format!("snapshot version {} is not {SNAPSHOT_VERSION}", snapshot.version),
+            });
+        }
+        let mut lock = Interlock::new(config)?;
+        let mut seen = std::collections::HashSet::new();
+        for saved in &snapshot.resources {
+            if !seen.insert(saved.name.as_str()) {
+                return Err(InterlockError::InvalidSnapshot { reason: format!("resource '{}' appears twice", saved.name) });
+            }
+            let Ok(r) = lock.resource(&saved.name) else {
+                let note = format!("resource '{}' in the saved state is no longer configured; its state is dropped", saved.name);
+                lock.record(now_ms, EventKind::Interrupted, None, None, &ResourceSet::default(), None, None, Some(note));
+                continue;
+            };
+            match &saved.state {
+                ResourceState::Free => {}
+                ResourceState::Held { operation } => {
+                    let op = lock.operation(operation);
+                    lock.latch(r, FaultCause::Interrupted, Some(op), Some("held when the interlock state was saved"), now_ms);
+                    lock.record(now_ms, EventKind::Interrupted, Some(op), None, &ResourceSet(vec![r].into()), None, None, None);
+                }
+                ResourceState::Faulted(fault) => {
+                    let op = fault.operation.as_deref().map(|name| lock.operation(name));
+                    lock.latch(r, fault.cause, op, fault.note.as_deref(), fault.since_ms);
+                }
+            }
+        }
+        for waiting in &snapshot.queue {
+            let op = lock.operation(&waiting.operation);
+            if !keep_queue {
+                let note = "waiting request dropped on restore: its caller did not survive the restart".to_owned();
+                lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
+                continue;
+            }
+            let resources = match lock.resource_set(&waiting.resources) {
+                Ok(set) => set,
+                Err(err) => {
+                    let note = format!("waiting request dropped on restore: {err}");
+                    lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
+                    continue;
+                }
+            };
+            if !matches!(lock.operations[op.index()].state, OpState::Idle) {
+                return Err(InterlockError::InvalidSnapshot { reason: format!("operation '{}' waits twice", waiting.operation) });
+            }
+            let key = QueueKey { priority: waiting.priority, seq: lock.next_seq, op };
+            lock.next_seq += 1;
+            lock.enqueue(key, resources, waiting.since_ms);
+        }
+        // A changed configuration may let restored waiters through at once.
+        let unblocked: Vec<QueueKey> = lock.queue.iter().copied().filter(|key| lock.busy[key.op.index()] == 0).collect();
+        let grants = lock.grant_candidates(unblocked, now_ms);
+        Ok((lock, grants))
+    }
+
 }
