@@ -1,0 +1,47 @@
+'use strict';
+const assert = require('node:assert/strict');
+const path = require('path');
+const { PALETTE } = require('./support');
+const { statusText, compact, shortReason, countsStatus, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'status.js'));
+
+describe('status text', function () {
+  it('reads naturally for everyday counts', function () {
+    assert.equal(statusText({ holding: 0, queued: 0, faulted: 0 }), 'idle');
+    assert.equal(statusText({ holding: 2, queued: 3, faulted: 0 }), 'held 2 · queued 3');
+    assert.equal(statusText({ holding: 2, queued: 0, faulted: 1 }), 'faulted 1 · held 2');
+    assert.equal(statusText({ holding: 1, queued: 1, faulted: 1 }), 'flt 1 · hld 1 · q 1');
+    assert.equal(statusText({ holding: 1, queued: 119, faulted: 1 }), 'flt 1·hld 1·q 119');
+    assert.equal(statusText({ holding: 0, queued: 12345, faulted: 0 }), 'queued 12345');
+    assert.equal(statusText({ holding: 3, queued: 12345, faulted: 5 }), 'flt 5·hld 3·q 12k');
+    assert.equal(statusText({ holding: 1234, queued: 12345, faulted: 5 }), 'F5 H1.2k Q12k');
+  });
+
+  it('compacts counts to at most 4 characters', function () {
+    const cases = [[0, '0'], [999, '999'], [1000, '1k'], [1250, '1.2k'], [9999, '9.9k'], [10000, '10k'],
+      [999999, '999k'], [1e6, '1M'], [9.99e6, '9.9M'], [5e8, '500M'], [1e9, '>1G'], [1e15, '>1G']];
+    for (const [n, text] of cases) assert.equal(compact(n), text, String(n));
+  });
+
+  it('is always under 20 characters', function () {
+    const values = [0, 1, 9, 10, 99, 100, 999, 1000, 1001, 9999, 10000, 99999, 123456, 999999, 1e6, 12345678, 999999999, 1e9, 2 ** 32, Number.MAX_SAFE_INTEGER];
+    let checked = 0;
+    for (const faulted of values) {
+      for (const holding of values) {
+        for (const queued of values) {
+          const text = statusText({ holding, queued, faulted });
+          assert.ok(text.length <= MAX_STATUS_LENGTH && text.length < 20, `${faulted}/${holding}/${queued}: "${text}"`);
+          checked++;
+        }
+      }
+    }
+    assert.equal(checked, values.length ** 3);
+  });
+
+  it('shows faults in red and short refusal reasons', function () {
+    assert.equal(countsStatus({ holding: 1, queued: 0, faulted: 1 }).fill, 'red');
+    assert.equal(countsStatus({ holding: 1, queued: 4, faulted: 0 }).fill, 'green');
+    assert.equal(shortReason('UNKNOWN_RESOURCE'), 'unknown resource');
+    const long = shortReason('SOME_VERY_LONG_FUTURE_ERROR_CODE');
+    assert.ok(long.length < 20 && long.endsWith('…'), long);
+  });
+});

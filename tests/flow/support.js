@@ -1,0 +1,83 @@
+'use strict';
+// Shared fixtures for the flow tests: the plant's lines, flow builders, waits.
+const path = require('path');
+
+const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
+const NODE_FILES = ['interlock', 'acquire', 'release', 'fault', 'clear', 'cancel', 'interlock-events'];
+const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
+
+const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
+const catchNode = require(path.join(coreNodesDir, 'core/common/25-catch.js'));
+const linkNodes = require(path.join(coreNodesDir, 'core/common/60-link.js'));
+const { hooks } = require('@node-red/util');
+
+const LINES = ['YEL', 'GRN', 'BLU', 'PUR', 'RED'];
+const lockoutOf = (line) => ({ valves: { [`${line}-V1`]: 0, [`${line}-V2`]: 0 }, pumps: { [`${line}-P`]: false } });
+
+const TAB = { id: 'f1', type: 'tab', label: 'test' };
+
+function interlockConfig(extra = {}) {
+  return {
+    id: 'il',
+    type: 'sugarshack-interlock',
+    name: 'plant',
+    resources: LINES.map((name) => ({ name, lockout: lockoutOf(name) })),
+    policy: 'greedy',
+    queueBound: '',
+    warnQueued: '',
+    warnHeld: '',
+    persist: false,
+    store: 'default',
+    ...extra,
+  };
+}
+
+function acquire(id, operation, priority, resources, wire, extra = {}) {
+  return {
+    id, z: 'f1', type: 'sugarshack-acquire', interlock: 'il', operation, priority, resources, timeout: 0,
+    wires: [wire ? [wire] : []], ...extra,
+  };
+}
+
+function release(id, wire, extra = {}) {
+  return { id, z: 'f1', type: 'sugarshack-release', interlock: 'il', operation: '', wires: [wire ? [wire] : []], ...extra };
+}
+
+function sinkNode(id) {
+  return { id, z: 'f1', type: 'helper' };
+}
+
+/** Starts collecting what reaches a helper node. */
+function collect(helper, id) {
+  const got = [];
+  helper.getNode(id).on('input', (msg) => got.push(msg));
+  return got;
+}
+
+const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+
+async function until(predicate, what, ms = 3000) {
+  const start = Date.now();
+  while (!predicate()) {
+    if (Date.now() - start > ms) throw new Error(`timed out waiting for ${what}`);
+    await sleep(5);
+  }
+}
+
+/** Records every done() (msg completion) in the runtime, with its error if any. */
+function trackCompletions() {
+  const completions = [];
+  hooks.add('onComplete.sugarshack-test', (event) => {
+    completions.push({ nodeId: event.node.id, msgid: event.msg && event.msg._msgid, error: event.error });
+  });
+  return completions;
+}
+
+function untrackCompletions() {
+  hooks.remove('*.sugarshack-test');
+}
+
+module.exports = {
+  PALETTE, paletteNodes, catchNode, linkNodes, LINES, lockoutOf, TAB,
+  interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+};
