@@ -8,6 +8,9 @@ ROOT="$PWD"
 PALETTE="${PALETTE_DIR:-$ROOT/node-red-contrib-sugarshack}"
 
 STAGES=() CURRENT="" STARTED=0 TMP=""
+# Every runner's output is kept here so the summary can add up their counts.
+RESULTS="$(mktemp)"
+counted() { "$@" 2>&1 | tee -a "$RESULTS"; }
 stage() {
   [ -n "$CURRENT" ] && STAGES+=("ok|$(( SECONDS - STARTED ))s|$CURRENT")
   CURRENT="$1" STARTED=$SECONDS
@@ -20,6 +23,10 @@ finish() {
     else STAGES+=("FAILED|$(( SECONDS - STARTED ))s|$CURRENT"); fi
   fi
   [ -n "$TMP" ] && rm -rf "$TMP"
+  local passed failed
+  passed=$(sed -nE 's/^test result: .* ([0-9]+) passed.*/\1/p; s/^ *([0-9]+) passing.*/\1/p; s/^ +PASS \[.*/1/p' "$RESULTS" | awk '{ n += $1 } END { print n + 0 }')
+  failed=$(sed -nE 's/^test result: .* ([0-9]+) failed.*/\1/p; s/^ *([0-9]+) failing.*/\1/p; s/^ *FAIL \[.*/1/p' "$RESULTS" | awk '{ n += $1 } END { print n + 0 }')
+  rm -f "$RESULTS"
   printf '\n==== summary ====\n'
   local line
   for line in "${STAGES[@]}"; do
@@ -27,6 +34,7 @@ finish() {
     printf '  %-8s %5s  %s\n' "$status" "$secs" "$name"
   done
   [ $rc -eq 0 ] && echo "all stages passed (${SECONDS}s)" || echo "test run FAILED (exit $rc)"
+  echo "tests: ${passed:-0} passed, ${failed:-0} failed"
 }
 trap finish EXIT
 
@@ -43,7 +51,7 @@ palette_test() { # <label> <node binary> <node-red dir>
   mkdir -p "$userdir"
   echo '{"name":"node-red-project","private":true}' >"$userdir/package.json"
   (cd "$userdir" && npm install --no-audit --no-fund --loglevel=error "$TARBALL")
-  node tests/palette/install-test.js --label "$label" --node "$node" \
+  counted node tests/palette/install-test.js --label "$label" --node "$node" \
     --red "$nrdir/red.js" --userdir "$userdir" --pkg "$PALETTE/package.json" --examples "$PALETTE/examples"
 }
 
@@ -52,18 +60,18 @@ stage "setup"
 . scripts/setup.sh
 
 stage "cargo test (sugarshack-core)"
-cargo test -p sugarshack-core
+counted cargo test -p sugarshack-core
 
 stage "wasm-bindgen tests under Node"
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER=wasm-bindgen-test-runner \
-  cargo test -p sugarshack-wasm --target wasm32-unknown-unknown
+  counted cargo test -p sugarshack-wasm --target wasm32-unknown-unknown
 
 stage "build wasm package"
 bash scripts/build-wasm.sh
 
 stage "Node-RED flow tests (mocha)"
 [ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }
-npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
+counted npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
 
 stage "palette install: Node-RED 4.1 on Node $(node --version)"
 palette_test nr4 "$(command -v node)" "$ROOT/node_modules/node-red"

@@ -11,7 +11,9 @@ use std::hint::black_box;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use serde_json::{json, Value};
-use sugarshack_core::interlock::{Acquisition, Grant, Interlock, InterlockConfig, OpId, ResourceSet};
+use sugarshack_core::interlock::{
+    Acquisition, Grant, Interlock, InterlockConfig, OpId, ResourceSet,
+};
 
 const LINES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
 
@@ -66,7 +68,10 @@ struct GrantLog {
 
 impl GrantLog {
     fn new() -> Self {
-        GrantLog { count: 0, hash: 2_166_136_261 }
+        GrantLog {
+            count: 0,
+            hash: 2_166_136_261,
+        }
     }
     fn add(&mut self, v: u32) {
         self.count += 1;
@@ -93,7 +98,9 @@ fn summary(mut samples: Vec<f64>) -> Value {
 }
 
 fn now_ms() -> u64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
 }
 
 struct CaseParams {
@@ -117,7 +124,10 @@ struct LargeParams {
 }
 
 fn param(v: &Value, scale: &str, key: &str, default: u64) -> u64 {
-    v.get(scale).and_then(|s| s.get(key)).and_then(Value::as_u64).unwrap_or(default)
+    v.get(scale)
+        .and_then(|s| s.get(key))
+        .and_then(Value::as_u64)
+        .unwrap_or(default)
 }
 
 type FigOps = Vec<(OpId, i32, ResourceSet)>;
@@ -125,7 +135,11 @@ type FigOps = Vec<(OpId, i32, ResourceSet)>;
 fn fig8_ops(lock: &mut Interlock) -> FigOps {
     FIG8.iter()
         .map(|(id, priority, lines)| {
-            (lock.operation(&format!("op{id}")), *priority, lock.resource_set(lines).expect("Fig. 8 lines"))
+            (
+                lock.operation(&format!("op{id}")),
+                *priority,
+                lock.resource_set(lines).expect("Fig. 8 lines"),
+            )
         })
         .collect()
 }
@@ -160,7 +174,10 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         }
         idle.drain_events();
     }
-    assert!(refused == 0 && stray == 0, "case pair: {refused} queued, {stray} stray grants on an idle interlock");
+    assert!(
+        refused == 0 && stray == 0,
+        "case pair: {refused} queued, {stray} stray grants on an idle interlock"
+    );
 
     let n = p.instances;
     let mut locks = Vec::with_capacity(n);
@@ -172,7 +189,8 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         let o = fig8_ops(&mut lock);
         let mut h = Vec::new();
         for (k, (op, priority, set)) in o.iter().enumerate() {
-            let granted = lock.acquire(*op, *priority, set, now).expect("acquire") == Acquisition::Granted;
+            let granted =
+                lock.acquire(*op, *priority, set, now).expect("acquire") == Acquisition::Granted;
             log.acquired(k, granted);
             if granted {
                 h.push(k);
@@ -206,7 +224,8 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
             log.released(victim[i], &grants);
             holders[i].extend(grants.iter().map(|g| g.operation.index()));
             let (op, priority, set) = &ops[i][victim[i]];
-            let granted = locks[i].acquire(*op, *priority, set, now).expect("acquire") == Acquisition::Granted;
+            let granted = locks[i].acquire(*op, *priority, set, now).expect("acquire")
+                == Acquisition::Granted;
             log.acquired(victim[i], granted);
             if granted {
                 holders[i].push(victim[i]);
@@ -245,7 +264,9 @@ impl Large<'_> {
 
     fn acquire(&mut self, op: usize, now: u64) {
         let set = &self.pool[self.op_set[op]].1;
-        let outcome = self.lock.acquire(OpId::from_index(op as u32), self.priority[op], set, now);
+        let outcome = self
+            .lock
+            .acquire(OpId::from_index(op as u32), self.priority[op], set, now);
         let granted = outcome.expect("acquire") == Acquisition::Granted;
         self.log.acquired(op, granted);
         if granted {
@@ -258,7 +279,11 @@ impl Large<'_> {
     fn register(&mut self, priority: i32) -> usize {
         let op = self.priority.len();
         let id = self.lock.operation(&format!("op{op}"));
-        assert_eq!(id.index(), op, "operations are numbered in registration order");
+        assert_eq!(
+            id.index(),
+            op,
+            "operations are numbered in registration order"
+        );
         self.priority.push(priority);
         self.op_set.push(usize::MAX);
         op
@@ -290,10 +315,15 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
                 ids.push(r);
             }
         }
-        let set = lock.resource_set(&ids.iter().map(|&r| names[r].as_str()).collect::<Vec<_>>()).expect("set");
+        let set = lock
+            .resource_set(&ids.iter().map(|&r| names[r].as_str()).collect::<Vec<_>>())
+            .expect("set");
         pool.push((ids, set));
     }
-    let singles: Vec<ResourceSet> = names.iter().map(|n| lock.resource_set(&[n]).expect("set")).collect();
+    let singles: Vec<ResourceSet> = names
+        .iter()
+        .map(|n| lock.resource_set(&[n]).expect("set"))
+        .collect();
 
     let mut st = Large {
         p,
@@ -321,7 +351,10 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         let victim = st.holders[index];
         let now = now_ms();
         let t0 = Instant::now();
-        let grants = st.lock.release(OpId::from_index(victim as u32), now).expect("release");
+        let grants = st
+            .lock
+            .release(OpId::from_index(victim as u32), now)
+            .expect("release");
         let elapsed = t0.elapsed();
         if s >= p.warmup {
             release.push(elapsed.as_nanos() as f64);

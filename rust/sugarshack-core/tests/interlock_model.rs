@@ -44,7 +44,9 @@ fn call() -> impl Strategy<Value = Call> {
 }
 
 fn members(mask: u8) -> Vec<usize> {
-    (0..RESOURCES.len()).filter(|r| mask & (1 << r) != 0).collect()
+    (0..RESOURCES.len())
+        .filter(|r| mask & (1 << r) != 0)
+        .collect()
 }
 
 fn names(set: &[usize]) -> Vec<&'static str> {
@@ -82,7 +84,11 @@ enum Outcome {
     Refused(&'static str),
     Acquired(bool),
     Grants(Vec<String>),
-    Faulted { lockouts: Vec<&'static str>, dropped: bool, grants: Vec<String> },
+    Faulted {
+        lockouts: Vec<&'static str>,
+        dropped: bool,
+        grants: Vec<String>,
+    },
     Warnings(Vec<(String, &'static str)>),
     Restored,
 }
@@ -135,13 +141,18 @@ impl Model {
         let mut granted = Vec::new();
         for waiter in self.sorted_queue() {
             let clear = self.all_free(&waiter.set)
-                && (self.policy == Policy::Greedy || waiter.set.iter().all(|r| !reserved.contains(r)));
+                && (self.policy == Policy::Greedy
+                    || waiter.set.iter().all(|r| !reserved.contains(r)));
             if clear {
                 self.queue.retain(|w| w.op != waiter.op);
                 for &r in &waiter.set {
                     self.owners[r] = Owner::Held(waiter.op);
                 }
-                self.holds[waiter.op] = Some(Held { set: waiter.set.clone(), since: now, warned: false });
+                self.holds[waiter.op] = Some(Held {
+                    set: waiter.set.clone(),
+                    since: now,
+                    warned: false,
+                });
                 self.granted_from_queue += 1;
                 granted.push(format!("op{}", waiter.op));
             } else {
@@ -163,25 +174,41 @@ impl Model {
                 }
                 let priority = self.priorities[op];
                 let overtakes = self.policy == Policy::NoOvertaking
-                    && self.queue.iter().any(|w| w.priority >= priority && w.set.iter().any(|r| set.contains(r)));
+                    && self
+                        .queue
+                        .iter()
+                        .any(|w| w.priority >= priority && w.set.iter().any(|r| set.contains(r)));
                 if self.all_free(&set) && !overtakes {
                     for &r in &set {
                         self.owners[r] = Owner::Held(op);
                     }
-                    self.holds[op] = Some(Held { set, since: now, warned: false });
+                    self.holds[op] = Some(Held {
+                        set,
+                        since: now,
+                        warned: false,
+                    });
                     self.seq += 1;
                     return Outcome::Acquired(true);
                 }
                 if self.queue.len() >= QUEUE_BOUND {
                     return Outcome::Refused("QUEUE_FULL");
                 }
-                self.queue.push(Waiter { op, priority, set, seq: self.seq, since: now, warned: false });
+                self.queue.push(Waiter {
+                    op,
+                    priority,
+                    set,
+                    seq: self.seq,
+                    since: now,
+                    warned: false,
+                });
                 self.seq += 1;
                 self.queued_total += 1;
                 Outcome::Acquired(false)
             }
             Call::Release { op } => {
-                let Some(held) = self.holds[op].take() else { return Outcome::Refused("NOT_HOLDING") };
+                let Some(held) = self.holds[op].take() else {
+                    return Outcome::Refused("NOT_HOLDING");
+                };
                 for &r in &held.set {
                     if self.owners[r] == Owner::Held(op) {
                         self.owners[r] = Owner::Free;
@@ -210,8 +237,14 @@ impl Model {
                     dropped = true;
                     grants = self.pass(now);
                 }
-                let lockouts: Vec<usize> = (0..RESOURCES.len()).filter(|&r| self.owners[r] == Owner::Faulted(Some(op))).collect();
-                Outcome::Faulted { lockouts: names(&lockouts), dropped, grants }
+                let lockouts: Vec<usize> = (0..RESOURCES.len())
+                    .filter(|&r| self.owners[r] == Owner::Faulted(Some(op)))
+                    .collect();
+                Outcome::Faulted {
+                    lockouts: names(&lockouts),
+                    dropped,
+                    grants,
+                }
             }
             Call::FaultResources { mask } => {
                 let mut latched: BTreeSet<usize> = members(mask).into_iter().collect();
@@ -228,11 +261,18 @@ impl Model {
                         Owner::Faulted(_) => {}
                     }
                 }
-                Outcome::Faulted { lockouts: names(&latched.into_iter().collect::<Vec<_>>()), dropped: false, grants: vec![] }
+                Outcome::Faulted {
+                    lockouts: names(&latched.into_iter().collect::<Vec<_>>()),
+                    dropped: false,
+                    grants: vec![],
+                }
             }
             Call::Clear { mask } => {
                 let set = members(mask);
-                if set.iter().any(|&r| !matches!(self.owners[r], Owner::Faulted(_))) {
+                if set
+                    .iter()
+                    .any(|&r| !matches!(self.owners[r], Owner::Faulted(_)))
+                {
                     return Outcome::Refused("NOT_FAULTED");
                 }
                 for &r in &set {
@@ -244,7 +284,11 @@ impl Model {
                 let mut warnings = Vec::new();
                 for waiter in self.sorted_queue() {
                     if now - waiter.since >= WARN_QUEUED_MS && !waiter.warned {
-                        self.queue.iter_mut().find(|w| w.op == waiter.op).unwrap().warned = true;
+                        self.queue
+                            .iter_mut()
+                            .find(|w| w.op == waiter.op)
+                            .unwrap()
+                            .warned = true;
                         warnings.push((format!("op{}", waiter.op), "warn-queued"));
                     }
                 }
@@ -297,7 +341,10 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
     let op = |lock: &mut Interlock, i: usize| lock.operation(&format!("op{i}"));
     let set = |lock: &Interlock, mask: u8| lock.resource_set(&names(&members(mask))).unwrap();
     let grant_names = |lock: &Interlock, grants: &[sugarshack_core::interlock::Grant]| {
-        grants.iter().map(|g| op_name(lock, g.operation)).collect::<Vec<_>>()
+        grants
+            .iter()
+            .map(|g| op_name(lock, g.operation))
+            .collect::<Vec<_>>()
     };
     match *call {
         Call::Acquire { op: i, mask } => {
@@ -326,7 +373,11 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             let id = op(lock, i);
             match lock.fault(id, Some("test"), now) {
                 Ok(f) => Outcome::Faulted {
-                    lockouts: f.lockouts.iter().map(|l| RESOURCES[l.resource.index()]).collect(),
+                    lockouts: f
+                        .lockouts
+                        .iter()
+                        .map(|l| RESOURCES[l.resource.index()])
+                        .collect(),
                     dropped: f.dropped,
                     grants: grant_names(lock, &f.grants),
                 },
@@ -337,7 +388,11 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             let set = set(lock, mask);
             let f = lock.fault_resources(&set, None, now).unwrap();
             Outcome::Faulted {
-                lockouts: f.lockouts.iter().map(|l| RESOURCES[l.resource.index()]).collect(),
+                lockouts: f
+                    .lockouts
+                    .iter()
+                    .map(|l| RESOURCES[l.resource.index()])
+                    .collect(),
                 dropped: f.dropped,
                 grants: grant_names(lock, &f.grants),
             }
@@ -350,7 +405,8 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             }
         }
         Call::Tick => Outcome::Warnings({
-            let mut warnings: Vec<_> = lock.tick(now)
+            let mut warnings: Vec<_> = lock
+                .tick(now)
                 .iter()
                 .map(|w| {
                     let kind = match w.kind {
@@ -367,8 +423,12 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             let before = lock.snapshot(now);
             let json = serde_json::to_value(&before).unwrap();
             let parsed: Snapshot = serde_json::from_value(json).unwrap();
-            let (restored, grants) = Interlock::restore(lock.config().clone(), &parsed, true, now).unwrap();
-            assert!(grants.is_empty(), "same configuration: nothing becomes grantable on restore");
+            let (restored, grants) =
+                Interlock::restore(lock.config().clone(), &parsed, true, now).unwrap();
+            assert!(
+                grants.is_empty(),
+                "same configuration: nothing becomes grantable on restore"
+            );
             assert_round_trip(&before, &restored.snapshot(now));
             *lock = restored;
             Outcome::Restored
@@ -378,7 +438,10 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
 
 /// Restore keeps everything but turns each held resource into an interrupted fault.
 fn assert_round_trip(before: &Snapshot, after: &Snapshot) {
-    assert_eq!(after.queue, before.queue, "waiting requests keep their order");
+    assert_eq!(
+        after.queue, before.queue,
+        "waiting requests keep their order"
+    );
     assert!(after.holds.is_empty());
     for (b, a) in before.resources.iter().zip(&after.resources) {
         assert_eq!(a.name, b.name);
@@ -400,12 +463,20 @@ fn observed_owners(lock: &Interlock) -> Vec<Owner> {
         .map(|r| match &r.state {
             ResourceState::Free => Owner::Free,
             ResourceState::Held { operation } => Owner::Held(operation[2..].parse().unwrap()),
-            ResourceState::Faulted(f) => Owner::Faulted(f.operation.as_ref().map(|o| o[2..].parse().unwrap())),
+            ResourceState::Faulted(f) => {
+                Owner::Faulted(f.operation.as_ref().map(|o| o[2..].parse().unwrap()))
+            }
         })
         .collect()
 }
 
-fn check_invariants(lock: &Interlock, model: &Model, pre_faulted: &[bool], call: &Call, outcome: &Outcome) {
+fn check_invariants(
+    lock: &Interlock,
+    model: &Model,
+    pre_faulted: &[bool],
+    call: &Call,
+    outcome: &Outcome,
+) {
     let snapshot = lock.snapshot(0);
     // No resource has two owners: holds are disjoint and match ownership.
     let mut taken = BTreeSet::new();
@@ -415,7 +486,9 @@ fn check_invariants(lock: &Interlock, model: &Model, pre_faulted: &[bool], call:
             let index = RESOURCES.iter().position(|n| n == r).unwrap();
             assert_eq!(
                 snapshot.resources[index].state,
-                ResourceState::Held { operation: hold.operation.clone() },
+                ResourceState::Held {
+                    operation: hold.operation.clone()
+                },
                 "{r} listed in {}'s hold",
                 hold.operation
             );
@@ -436,29 +509,52 @@ fn check_invariants(lock: &Interlock, model: &Model, pre_faulted: &[bool], call:
         _ => vec![],
     };
     for name in &granted {
-        let hold = snapshot.holds.iter().find(|h| &h.operation == name).expect("granted op holds");
+        let hold = snapshot
+            .holds
+            .iter()
+            .find(|h| &h.operation == name)
+            .expect("granted op holds");
         for r in &hold.resources {
             let index = RESOURCES.iter().position(|n| n == r).unwrap();
-            assert!(!pre_faulted[index] || cleared.contains(&index), "{name} was granted faulted {r}");
+            assert!(
+                !pre_faulted[index] || cleared.contains(&index),
+                "{name} was granted faulted {r}"
+            );
         }
     }
     // Grants of one call come in queue order: priority never increases.
-    let priorities: Vec<i32> = granted.iter().map(|n| model.priorities[n[2..].parse::<usize>().unwrap()]).collect();
-    assert!(priorities.windows(2).all(|w| w[0] >= w[1]), "grants out of priority order: {granted:?} {priorities:?}");
+    let priorities: Vec<i32> = granted
+        .iter()
+        .map(|n| model.priorities[n[2..].parse::<usize>().unwrap()])
+        .collect();
+    assert!(
+        priorities.windows(2).all(|w| w[0] >= w[1]),
+        "grants out of priority order: {granted:?} {priorities:?}"
+    );
     // Nothing is left waiting that could go now.
     let owners = observed_owners(lock);
     let queued = lock.queued_operations();
     for (position, &op) in queued.iter().enumerate() {
         let name = op_name(lock, op);
         let request = snapshot.queue.iter().find(|q| q.operation == name).unwrap();
-        let set: Vec<usize> = request.resources.iter().map(|r| RESOURCES.iter().position(|n| n == r).unwrap()).collect();
-        let free = set.iter().all(|&r| owners[r] == Owner::Free);
-        let reserved_ahead = snapshot.queue[..position]
+        let set: Vec<usize> = request
+            .resources
             .iter()
-            .any(|ahead| ahead.resources.iter().any(|r| request.resources.contains(r)));
+            .map(|r| RESOURCES.iter().position(|n| n == r).unwrap())
+            .collect();
+        let free = set.iter().all(|&r| owners[r] == Owner::Free);
+        let reserved_ahead = snapshot.queue[..position].iter().any(|ahead| {
+            ahead
+                .resources
+                .iter()
+                .any(|r| request.resources.contains(r))
+        });
         match model.policy {
             Policy::Greedy => assert!(!free, "{name} waits with all its resources free"),
-            Policy::NoOvertaking => assert!(!free || reserved_ahead, "{name} waits though free and nobody ahead needs them"),
+            Policy::NoOvertaking => assert!(
+                !free || reserved_ahead,
+                "{name} waits though free and nobody ahead needs them"
+            ),
         }
     }
     // No request is lost: each waiting request was granted, cancelled, dropped, or still waits.
@@ -474,23 +570,49 @@ fn run(policy: Policy, priorities: Vec<i32>, calls: Vec<(Call, u64)>) {
     let mut now = 0;
     for (call, dt) in &calls {
         now += dt;
-        let pre_faulted: Vec<bool> = observed_owners(&lock).iter().map(|o| matches!(o, Owner::Faulted(_))).collect();
+        let pre_faulted: Vec<bool> = observed_owners(&lock)
+            .iter()
+            .map(|o| matches!(o, Owner::Faulted(_)))
+            .collect();
         let expected = model.apply(call, now);
         let actual = apply(&mut lock, &priorities, call, now);
         assert_eq!(actual, expected, "call {call:?} at {now}");
-        assert_eq!(observed_owners(&lock), model.owners, "owners after {call:?}");
-        let queued: Vec<String> = lock.queued_operations().iter().map(|&op| op_name(&lock, op)).collect();
-        let expected_queue: Vec<String> = model.sorted_queue().iter().map(|w| format!("op{}", w.op)).collect();
+        assert_eq!(
+            observed_owners(&lock),
+            model.owners,
+            "owners after {call:?}"
+        );
+        let queued: Vec<String> = lock
+            .queued_operations()
+            .iter()
+            .map(|&op| op_name(&lock, op))
+            .collect();
+        let expected_queue: Vec<String> = model
+            .sorted_queue()
+            .iter()
+            .map(|w| format!("op{}", w.op))
+            .collect();
         assert_eq!(queued, expected_queue, "queue after {call:?}");
         for i in 0..OPS {
             if let Ok(op) = lock.find_operation(&format!("op{i}")) {
-                assert_eq!(lock.is_holding(op), model.holds[i].is_some(), "op{i} holding after {call:?}");
+                assert_eq!(
+                    lock.is_holding(op),
+                    model.holds[i].is_some(),
+                    "op{i} holding after {call:?}"
+                );
             }
         }
         let counts = lock.counts();
         assert_eq!(counts.queued, model.queue.len());
         assert_eq!(counts.holding, model.holds.iter().flatten().count());
-        assert_eq!(counts.faulted, model.owners.iter().filter(|o| matches!(o, Owner::Faulted(_))).count());
+        assert_eq!(
+            counts.faulted,
+            model
+                .owners
+                .iter()
+                .filter(|o| matches!(o, Owner::Faulted(_)))
+                .count()
+        );
         check_invariants(&lock, &model, &pre_faulted, call, &actual);
     }
 }

@@ -16,7 +16,9 @@ fn serializer() -> serde_wasm_bindgen::Serializer {
 }
 
 fn to_js<T: Serialize + ?Sized>(value: &T) -> Result<JsValue, JsValue> {
-    value.serialize(&serializer()).map_err(|e| js_error("SERIALIZE", &e.to_string()))
+    value
+        .serialize(&serializer())
+        .map_err(|e| js_error("SERIALIZE", &e.to_string()))
 }
 
 fn js_error(code: &str, message: &str) -> JsValue {
@@ -35,13 +37,20 @@ fn time(now_ms: f64) -> Result<u64, JsValue> {
     if now_ms.is_finite() && now_ms >= 0.0 {
         Ok(now_ms as u64)
     } else {
-        Err(js_error("INVALID_TIME", &format!("time must be a non-negative number of milliseconds, got {now_ms}")))
+        Err(js_error(
+            "INVALID_TIME",
+            &format!("time must be a non-negative number of milliseconds, got {now_ms}"),
+        ))
     }
 }
 
 /// Reads a JS value as `T`, seeing every key: serde-wasm-bindgen reads a
 /// struct by its known fields only, so a misspelt option would pass unseen.
-fn from_js<T: serde::de::DeserializeOwned>(value: JsValue, code: &str, what: &str) -> Result<T, JsValue> {
+fn from_js<T: serde::de::DeserializeOwned>(
+    value: JsValue,
+    code: &str,
+    what: &str,
+) -> Result<T, JsValue> {
     let failed = |e: &dyn std::fmt::Display| js_error(code, &format!("{what}: {e}"));
     let tree: serde_json::Value = serde_wasm_bindgen::from_value(value).map_err(|e| failed(&e))?;
     serde_json::from_value(tree).map_err(|e| failed(&e))
@@ -91,26 +100,36 @@ pub struct Interlock {
 
 impl Interlock {
     fn wrap(core: sugarshack_core::interlock::Interlock) -> Self {
-        Interlock { core, sets: Vec::new(), set_index: HashMap::new(), granted: Vec::new() }
+        Interlock {
+            core,
+            sets: Vec::new(),
+            set_index: HashMap::new(),
+            granted: Vec::new(),
+        }
     }
 
     fn op(&self, handle: u32) -> Result<OpId, JsValue> {
         let op = OpId::from_index(handle);
-        self.core
-            .operation_name(op)
-            .map(|_| op)
-            .ok_or_else(|| core_error(InterlockError::UnknownOperation { name: format!("#{handle}") }))
+        self.core.operation_name(op).map(|_| op).ok_or_else(|| {
+            core_error(InterlockError::UnknownOperation {
+                name: format!("#{handle}"),
+            })
+        })
     }
 
     fn set(&self, handle: u32) -> Result<&ResourceSet, JsValue> {
         self.sets.get(handle as usize).ok_or_else(|| {
-            js_error("UNKNOWN_RESOURCE_SET", &format!("resource set handle {handle} was not made by this interlock"))
+            js_error(
+                "UNKNOWN_RESOURCE_SET",
+                &format!("resource set handle {handle} was not made by this interlock"),
+            )
         })
     }
 
     fn keep_granted(&mut self, grants: &[Grant]) -> u32 {
         self.granted.clear();
-        self.granted.extend(grants.iter().map(|g| g.operation.index() as u32));
+        self.granted
+            .extend(grants.iter().map(|g| g.operation.index() as u32));
         self.granted.len() as u32
     }
 
@@ -118,9 +137,16 @@ impl Interlock {
         let lockouts = outcome
             .lockouts
             .iter()
-            .map(|l| LockoutView { resource: self.core.resource_name(l.resource).unwrap_or_default(), command: &l.command })
+            .map(|l| LockoutView {
+                resource: self.core.resource_name(l.resource).unwrap_or_default(),
+                command: &l.command,
+            })
             .collect();
-        to_js(&FaultView { lockouts, dropped: outcome.dropped, grants: handles(&outcome.grants) })
+        to_js(&FaultView {
+            lockouts,
+            dropped: outcome.dropped,
+            grants: handles(&outcome.grants),
+        })
     }
 }
 
@@ -131,17 +157,32 @@ impl Interlock {
     #[wasm_bindgen(constructor)]
     pub fn new(config: JsValue) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
-        sugarshack_core::interlock::Interlock::new(config).map(Interlock::wrap).map_err(core_error)
+        sugarshack_core::interlock::Interlock::new(config)
+            .map(Interlock::wrap)
+            .map_err(core_error)
     }
 
     /// Rebuilds a saved state: resources held when it was saved restore as
     /// faulted. `keepQueue` false drops waiting requests (their callers are gone).
-    pub fn restore(config: JsValue, snapshot: JsValue, keep_queue: bool, now_ms: f64) -> Result<Interlock, JsValue> {
+    pub fn restore(
+        config: JsValue,
+        snapshot: JsValue,
+        keep_queue: bool,
+        now_ms: f64,
+    ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
-        let snapshot: Snapshot = from_js(snapshot, "INVALID_SNAPSHOT", "cannot restore interlock state")?;
-        let (core, _grants) =
-            sugarshack_core::interlock::Interlock::restore(config, &snapshot, keep_queue, time(now_ms)?)
-                .map_err(core_error)?;
+        let snapshot: Snapshot = from_js(
+            snapshot,
+            "INVALID_SNAPSHOT",
+            "cannot restore interlock state",
+        )?;
+        let (core, _grants) = sugarshack_core::interlock::Interlock::restore(
+            config,
+            &snapshot,
+            keep_queue,
+            time(now_ms)?,
+        )
+        .map_err(core_error)?;
         // Grants on restore only happen with keepQueue and a changed config; they show in the events.
         Ok(Interlock::wrap(core))
     }
@@ -157,12 +198,17 @@ impl Interlock {
     /// The handle of an operation that has used this interlock before.
     #[wasm_bindgen(js_name = findOperation)]
     pub fn find_operation(&self, name: &str) -> Result<u32, JsValue> {
-        self.core.find_operation(name).map(|op| op.index() as u32).map_err(core_error)
+        self.core
+            .find_operation(name)
+            .map(|op| op.index() as u32)
+            .map_err(core_error)
     }
 
     #[wasm_bindgen(js_name = operationName)]
     pub fn operation_name(&self, handle: u32) -> Option<String> {
-        self.core.operation_name(OpId::from_index(handle)).map(str::to_owned)
+        self.core
+            .operation_name(OpId::from_index(handle))
+            .map(str::to_owned)
     }
 
     /// A handle for a set of resource names; the same names give the same handle.
@@ -181,17 +227,34 @@ impl Interlock {
 
     #[wasm_bindgen(js_name = resourceNames)]
     pub fn resource_names(&self) -> Vec<String> {
-        self.core.config().resources.iter().map(|r| r.name.clone()).collect()
+        self.core
+            .config()
+            .resources
+            .iter()
+            .map(|r| r.name.clone())
+            .collect()
     }
 
     /// True when granted at once, false when queued.
-    pub fn acquire(&mut self, op: u32, priority: i32, set: u32, now_ms: f64) -> Result<bool, JsValue> {
+    pub fn acquire(
+        &mut self,
+        op: u32,
+        priority: i32,
+        set: u32,
+        now_ms: f64,
+    ) -> Result<bool, JsValue> {
         let op = self.op(op)?;
         let now = time(now_ms)?;
         let set = self.sets.get(set as usize).ok_or_else(|| {
-            js_error("UNKNOWN_RESOURCE_SET", &format!("resource set handle {set} was not made by this interlock"))
+            js_error(
+                "UNKNOWN_RESOURCE_SET",
+                &format!("resource set handle {set} was not made by this interlock"),
+            )
         })?;
-        let acquisition = self.core.acquire(op, priority, set, now).map_err(core_error)?;
+        let acquisition = self
+            .core
+            .acquire(op, priority, set, now)
+            .map_err(core_error)?;
         Ok(acquisition == sugarshack_core::interlock::Acquisition::Granted)
     }
 
@@ -215,17 +278,33 @@ impl Interlock {
     }
 
     /// `{ lockouts: [{ resource, command }], dropped, grants }`.
-    pub fn fault(&mut self, op: u32, note: Option<String>, now_ms: f64) -> Result<JsValue, JsValue> {
+    pub fn fault(
+        &mut self,
+        op: u32,
+        note: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
         let op = self.op(op)?;
-        let outcome = self.core.fault(op, note.as_deref(), time(now_ms)?).map_err(core_error)?;
+        let outcome = self
+            .core
+            .fault(op, note.as_deref(), time(now_ms)?)
+            .map_err(core_error)?;
         self.fault_view(outcome)
     }
 
     #[wasm_bindgen(js_name = faultResources)]
-    pub fn fault_resources(&mut self, set: u32, note: Option<String>, now_ms: f64) -> Result<JsValue, JsValue> {
+    pub fn fault_resources(
+        &mut self,
+        set: u32,
+        note: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
         let set = self.set(set)?.clone();
-        let outcome = self.core.fault_resources(&set, note.as_deref(), now).map_err(core_error)?;
+        let outcome = self
+            .core
+            .fault_resources(&set, note.as_deref(), now)
+            .map_err(core_error)?;
         self.fault_view(outcome)
     }
 
@@ -240,7 +319,12 @@ impl Interlock {
     #[wasm_bindgen(js_name = faultedResources)]
     pub fn faulted_resources(&self) -> Vec<String> {
         let faulted = self.core.faulted_resources();
-        faulted.ids().iter().filter_map(|r| self.core.resource_name(*r)).map(str::to_owned).collect()
+        faulted
+            .ids()
+            .iter()
+            .filter_map(|r| self.core.resource_name(*r))
+            .map(str::to_owned)
+            .collect()
     }
 
     /// Elapsed-time warnings as event records; each crossing warns once.
@@ -270,7 +354,11 @@ impl Interlock {
     /// `{ holding, queued, faulted }`.
     pub fn counts(&self) -> Result<JsValue, JsValue> {
         let c = self.core.counts();
-        to_js(&CountsView { holding: c.holding, queued: c.queued, faulted: c.faulted })
+        to_js(&CountsView {
+            holding: c.holding,
+            queued: c.queued,
+            faulted: c.faulted,
+        })
     }
 
     #[wasm_bindgen(js_name = isHolding)]
@@ -286,6 +374,10 @@ impl Interlock {
     /// Handles of the waiting operations, in the order they would be granted.
     #[wasm_bindgen(js_name = queuedOperations)]
     pub fn queued_operations(&self) -> Vec<u32> {
-        self.core.queued_operations().iter().map(|op| op.index() as u32).collect()
+        self.core
+            .queued_operations()
+            .iter()
+            .map(|op| op.index() as u32)
+            .collect()
     }
 }

@@ -63,7 +63,10 @@ impl InterlockConfig {
         InterlockConfig {
             resources: names
                 .into_iter()
-                .map(|name| ResourceConfig { name: name.into(), lockout: serde_json::Value::Null })
+                .map(|name| ResourceConfig {
+                    name: name.into(),
+                    lockout: serde_json::Value::Null,
+                })
                 .collect(),
             policy: Policy::Greedy,
             queue_bound: DEFAULT_QUEUE_BOUND,

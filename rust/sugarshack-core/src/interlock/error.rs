@@ -3,18 +3,38 @@ use std::fmt;
 /// Why an interlock call was refused. A refused call changes no state.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum InterlockError {
-    InvalidConfig { reason: String },
+    InvalidConfig {
+        reason: String,
+    },
     EmptyResourceSet,
-    UnknownResource { name: String },
-    UnknownOperation { name: String },
+    UnknownResource {
+        name: String,
+    },
+    UnknownOperation {
+        name: String,
+    },
     /// The paper's C1: one instance of an operation at a time.
-    AlreadyHolding { operation: String },
-    AlreadyQueued { operation: String },
-    NotHolding { operation: String },
-    NotQueued { operation: String },
-    NotFaulted { resource: String },
-    QueueFull { bound: usize },
-    InvalidSnapshot { reason: String },
+    AlreadyHolding {
+        operation: String,
+    },
+    AlreadyQueued {
+        operation: String,
+    },
+    NotHolding {
+        operation: String,
+    },
+    NotQueued {
+        operation: String,
+    },
+    NotFaulted {
+        resource: String,
+    },
+    QueueFull {
+        bound: usize,
+    },
+    InvalidSnapshot {
+        reason: String,
+    },
 }
 
 impl InterlockError {

@@ -148,7 +148,10 @@ struct QueueKey {
 
 impl Ord for QueueKey {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.priority.cmp(&self.priority).then(self.seq.cmp(&other.seq))
+        other
+            .priority
+            .cmp(&self.priority)
+            .then(self.seq.cmp(&other.seq))
     }
 }
 
@@ -251,7 +254,10 @@ impl Interlock {
             return id;
         }
         let id = OpId(self.operations.len() as u32);
-        self.operations.push(Operation { name: name.to_owned(), state: OpState::Idle });
+        self.operations.push(Operation {
+            name: name.to_owned(),
+            state: OpState::Idle,
+        });
         self.busy.push(0);
         self.operation_index.insert(name.to_owned(), id);
         id
@@ -262,7 +268,9 @@ impl Interlock {
         self.operation_index
             .get(name)
             .copied()
-            .ok_or_else(|| InterlockError::UnknownOperation { name: name.to_owned() })
+            .ok_or_else(|| InterlockError::UnknownOperation {
+                name: name.to_owned(),
+            })
     }
 
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
@@ -273,16 +281,24 @@ impl Interlock {
         self.resource_index
             .get(name)
             .copied()
-            .ok_or_else(|| InterlockError::UnknownResource { name: name.to_owned() })
+            .ok_or_else(|| InterlockError::UnknownResource {
+                name: name.to_owned(),
+            })
     }
 
     pub fn resource_name(&self, id: ResourceId) -> Option<&str> {
-        self.config.resources.get(id.index()).map(|r| r.name.as_str())
+        self.config
+            .resources
+            .get(id.index())
+            .map(|r| r.name.as_str())
     }
 
     /// Resolves names into a set; refuses unknown names and an empty set.
     pub fn resource_set<S: AsRef<str>>(&self, names: &[S]) -> Result<ResourceSet, InterlockError> {
-        let ids = names.iter().map(|n| self.resource(n.as_ref())).collect::<Result<Vec<_>, _>>()?;
+        let ids = names
+            .iter()
+            .map(|n| self.resource(n.as_ref()))
+            .collect::<Result<Vec<_>, _>>()?;
         let set = ResourceSet::from_unsorted(ids);
         if set.is_empty() {
             return Err(InterlockError::EmptyResourceSet);
@@ -291,7 +307,10 @@ impl Interlock {
     }
 
     /// A set from raw indices (for callers that keep their own handles).
-    pub fn resource_set_from_indices(&self, indices: &[u32]) -> Result<ResourceSet, InterlockError> {
+    pub fn resource_set_from_indices(
+        &self,
+        indices: &[u32],
+    ) -> Result<ResourceSet, InterlockError> {
         let ids: Vec<ResourceId> = indices.iter().map(|&i| ResourceId(i)).collect();
         self.check_set(&ResourceSet::from_unsorted(ids.clone()))?;
         Ok(ResourceSet::from_unsorted(ids))
@@ -300,7 +319,11 @@ impl Interlock {
     // ---- queries -----------------------------------------------------------
 
     pub fn counts(&self) -> Counts {
-        Counts { holding: self.holding, queued: self.queue.len(), faulted: self.faulted }
+        Counts {
+            holding: self.holding,
+            queued: self.queue.len(),
+            faulted: self.faulted,
+        }
     }
 
     pub fn is_faulted(&self, resource: ResourceId) -> bool {
@@ -315,11 +338,17 @@ impl Interlock {
     }
 
     pub fn is_holding(&self, op: OpId) -> bool {
-        matches!(self.operations.get(op.index()).map(|o| &o.state), Some(OpState::Holding(_)))
+        matches!(
+            self.operations.get(op.index()).map(|o| &o.state),
+            Some(OpState::Holding(_))
+        )
     }
 
     pub fn is_queued(&self, op: OpId) -> bool {
-        matches!(self.operations.get(op.index()).map(|o| &o.state), Some(OpState::Queued(_)))
+        matches!(
+            self.operations.get(op.index()).map(|o| &o.state),
+            Some(OpState::Queued(_))
+        )
     }
 
     /// Waiting operations in the order they would be considered for a grant.
@@ -340,20 +369,43 @@ impl Interlock {
         self.check_set(resources)?;
         match &self.op(op)?.state {
             OpState::Idle => {}
-            OpState::Holding(_) => return Err(InterlockError::AlreadyHolding { operation: self.name(op) }),
-            OpState::Queued(_) => return Err(InterlockError::AlreadyQueued { operation: self.name(op) }),
+            OpState::Holding(_) => {
+                return Err(InterlockError::AlreadyHolding {
+                    operation: self.name(op),
+                })
+            }
+            OpState::Queued(_) => {
+                return Err(InterlockError::AlreadyQueued {
+                    operation: self.name(op),
+                })
+            }
         }
-        let key = QueueKey { priority, seq: self.next_seq, op };
+        let key = QueueKey {
+            priority,
+            seq: self.next_seq,
+            op,
+        };
         self.next_seq += 1;
         if self.may_take(key, resources) {
             self.grant(op, priority, resources.clone(), now_ms, 0);
             return Ok(Acquisition::Granted);
         }
         if self.queue.len() >= self.config.queue_bound {
-            return Err(InterlockError::QueueFull { bound: self.config.queue_bound });
+            return Err(InterlockError::QueueFull {
+                bound: self.config.queue_bound,
+            });
         }
         self.enqueue(key, resources.clone(), now_ms);
-        self.record(now_ms, EventKind::Queued, Some(op), Some(priority), resources, None, None, None);
+        self.record(
+            now_ms,
+            EventKind::Queued,
+            Some(op),
+            Some(priority),
+            resources,
+            None,
+            None,
+            None,
+        );
         Ok(Acquisition::Queued)
     }
 
@@ -363,19 +415,36 @@ impl Interlock {
     pub fn release(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
         if !self.is_holding(op) {
             self.op(op)?;
-            return Err(InterlockError::NotHolding { operation: self.name(op) });
+            return Err(InterlockError::NotHolding {
+                operation: self.name(op),
+            });
         }
-        let OpState::Holding(hold) = std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle) else {
+        let OpState::Holding(hold) =
+            std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
+        else {
             unreachable!("checked above")
         };
         self.holding -= 1;
         let mut candidates = std::mem::take(&mut self.candidates);
         for &r in hold.resources.ids() {
-            debug_assert_eq!(self.owners[r.index()], Owner::Held(op), "a fault takes the whole hold");
+            debug_assert_eq!(
+                self.owners[r.index()],
+                Owner::Held(op),
+                "a fault takes the whole hold"
+            );
             self.vacate(r, &mut candidates);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(now_ms, EventKind::Released, Some(op), Some(hold.priority), &hold.resources, None, Some(held_ms), None);
+        self.record(
+            now_ms,
+            EventKind::Released,
+            Some(op),
+            Some(hold.priority),
+            &hold.resources,
+            None,
+            Some(held_ms),
+            None,
+        );
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -385,11 +454,24 @@ impl Interlock {
     pub fn cancel(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
         let key = match &self.op(op)?.state {
             OpState::Queued(waiting) => waiting.key,
-            _ => return Err(InterlockError::NotQueued { operation: self.name(op) }),
+            _ => {
+                return Err(InterlockError::NotQueued {
+                    operation: self.name(op),
+                })
+            }
         };
         let waiting = self.dequeue(key);
         let waited = now_ms.saturating_sub(waiting.since_ms);
-        self.record(now_ms, EventKind::Cancelled, Some(op), Some(key.priority), &waiting.resources, Some(waited), None, None);
+        self.record(
+            now_ms,
+            EventKind::Cancelled,
+            Some(op),
+            Some(key.priority),
+            &waiting.resources,
+            Some(waited),
+            None,
+            None,
+        );
         Ok(self.after_withdrawal(&waiting.resources, now_ms))
     }
 
@@ -397,14 +479,28 @@ impl Interlock {
     /// request is dropped instead. Returns the lockout of every resource
     /// latched under this operation, so a repeated fault (an error handler
     /// called twice) re-sends the same lockouts instead of failing.
-    pub fn fault(&mut self, op: OpId, note: Option<&str>, now_ms: u64) -> Result<FaultOutcome, InterlockError> {
+    pub fn fault(
+        &mut self,
+        op: OpId,
+        note: Option<&str>,
+        now_ms: u64,
+    ) -> Result<FaultOutcome, InterlockError> {
         let mut outcome = FaultOutcome::default();
         match self.op(op)?.state.clone() {
             OpState::Idle => {}
             OpState::Queued(waiting) => {
                 let waiting = self.dequeue(waiting.key);
                 let waited = now_ms.saturating_sub(waiting.since_ms);
-                self.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.key.priority), &waiting.resources, Some(waited), None, note.map(str::to_owned));
+                self.record(
+                    now_ms,
+                    EventKind::Dropped,
+                    Some(op),
+                    Some(waiting.key.priority),
+                    &waiting.resources,
+                    Some(waited),
+                    None,
+                    note.map(str::to_owned),
+                );
                 outcome.dropped = true;
                 outcome.grants = self.after_withdrawal(&waiting.resources, now_ms);
             }
@@ -418,7 +514,12 @@ impl Interlock {
     /// An operation holding one of them is faulted whole: it lost part of its
     /// line mid-run, so none of what it holds is in a known state. Returns the
     /// lockout of every resource named or latched that way, even one already faulted.
-    pub fn fault_resources(&mut self, resources: &ResourceSet, note: Option<&str>, now_ms: u64) -> Result<FaultOutcome, InterlockError> {
+    pub fn fault_resources(
+        &mut self,
+        resources: &ResourceSet,
+        note: Option<&str>,
+        now_ms: u64,
+    ) -> Result<FaultOutcome, InterlockError> {
         self.check_set(resources)?;
         let mut latched = resources.ids().to_vec();
         for &r in resources.ids() {
@@ -431,30 +532,60 @@ impl Interlock {
                 Owner::Free => self.latch(r, FaultCause::Manual, None, note, now_ms),
             }
         }
-        self.record(now_ms, EventKind::ResourceFaulted, None, None, resources, None, None, note.map(str::to_owned));
+        self.record(
+            now_ms,
+            EventKind::ResourceFaulted,
+            None,
+            None,
+            resources,
+            None,
+            None,
+            note.map(str::to_owned),
+        );
         let latched = ResourceSet::from_unsorted(latched);
-        Ok(FaultOutcome { lockouts: self.lockouts(&latched), dropped: false, grants: Vec::new() })
+        Ok(FaultOutcome {
+            lockouts: self.lockouts(&latched),
+            dropped: false,
+            grants: Vec::new(),
+        })
     }
 
     /// A person clears faulted resources; the queue is re-evaluated.
     /// Refused whole if any of them is not faulted.
-    pub fn clear(&mut self, resources: &ResourceSet, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+    pub fn clear(
+        &mut self,
+        resources: &ResourceSet,
+        now_ms: u64,
+    ) -> Result<Vec<Grant>, InterlockError> {
         self.check_set(resources)?;
         if let Some(&r) = resources.ids().iter().find(|r| !self.is_faulted(**r)) {
-            return Err(InterlockError::NotFaulted { resource: self.config.resources[r.index()].name.clone() });
+            return Err(InterlockError::NotFaulted {
+                resource: self.config.resources[r.index()].name.clone(),
+            });
         }
         let mut candidates = std::mem::take(&mut self.candidates);
         for &r in resources.ids() {
             self.faulted -= 1;
             self.vacate(r, &mut candidates);
         }
-        self.record(now_ms, EventKind::Cleared, None, None, resources, None, None, None);
+        self.record(
+            now_ms,
+            EventKind::Cleared,
+            None,
+            None,
+            resources,
+            None,
+            None,
+            None,
+        );
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
     /// Every faulted resource, for an operator's "clear all".
     pub fn faulted_resources(&self) -> ResourceSet {
-        let faulted = (0..self.owners.len() as u32).map(ResourceId).filter(|r| self.is_faulted(*r));
+        let faulted = (0..self.owners.len() as u32)
+            .map(ResourceId)
+            .filter(|r| self.is_faulted(*r));
         ResourceSet(faulted.collect())
     }
 
@@ -541,15 +672,21 @@ impl Interlock {
     fn op(&self, op: OpId) -> Result<&Operation, InterlockError> {
         self.operations
             .get(op.index())
-            .ok_or_else(|| InterlockError::UnknownOperation { name: format!("#{}", op.0) })
+            .ok_or_else(|| InterlockError::UnknownOperation {
+                name: format!("#{}", op.0),
+            })
     }
 
     fn name(&self, op: OpId) -> String {
-        self.operation_name(op).map_or_else(|| format!("#{}", op.0), str::to_owned)
+        self.operation_name(op)
+            .map_or_else(|| format!("#{}", op.0), str::to_owned)
     }
 
     fn names(&self, set: &ResourceSet) -> Vec<String> {
-        set.ids().iter().map(|r| self.config.resources[r.index()].name.clone()).collect()
+        set.ids()
+            .iter()
+            .map(|r| self.config.resources[r.index()].name.clone())
+            .collect()
     }
 
     fn check_set(&self, set: &ResourceSet) -> Result<(), InterlockError> {
@@ -557,7 +694,9 @@ impl Interlock {
             return Err(InterlockError::EmptyResourceSet);
         }
         if let Some(r) = set.ids().iter().find(|r| r.index() >= self.owners.len()) {
-            return Err(InterlockError::UnknownResource { name: format!("#{}", r.0) });
+            return Err(InterlockError::UnknownResource {
+                name: format!("#{}", r.0),
+            });
         }
         Ok(())
     }
@@ -565,7 +704,10 @@ impl Interlock {
     fn lockouts(&self, set: &ResourceSet) -> Vec<Lockout> {
         set.ids()
             .iter()
-            .map(|&r| Lockout { resource: r, command: self.config.resources[r.index()].lockout.clone() })
+            .map(|&r| Lockout {
+                resource: r,
+                command: self.config.resources[r.index()].lockout.clone(),
+            })
             .collect()
     }
 
@@ -575,18 +717,41 @@ impl Interlock {
         resources.ids().iter().all(|r| {
             self.owners[r.index()] == Owner::Free
                 && (self.config.policy == Policy::Greedy
-                    || self.waiters[r.index()].first().is_none_or(|head| *head >= key))
+                    || self.waiters[r.index()]
+                        .first()
+                        .is_none_or(|head| *head >= key))
         })
     }
 
-    fn grant(&mut self, op: OpId, priority: i32, resources: ResourceSet, now_ms: u64, waited_ms: u64) {
+    fn grant(
+        &mut self,
+        op: OpId,
+        priority: i32,
+        resources: ResourceSet,
+        now_ms: u64,
+        waited_ms: u64,
+    ) {
         for &r in resources.ids() {
             self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
-        self.record(now_ms, EventKind::Granted, Some(op), Some(priority), &resources, Some(waited_ms), None, None);
-        self.operations[op.index()].state =
-            OpState::Holding(Hold { priority, resources, since_ms: now_ms, waited_ms, warned: false });
+        self.record(
+            now_ms,
+            EventKind::Granted,
+            Some(op),
+            Some(priority),
+            &resources,
+            Some(waited_ms),
+            None,
+            None,
+        );
+        self.operations[op.index()].state = OpState::Holding(Hold {
+            priority,
+            resources,
+            since_ms: now_ms,
+            waited_ms,
+            warned: false,
+        });
     }
 
     fn enqueue(&mut self, key: QueueKey, resources: ResourceSet, since_ms: u64) {
@@ -597,11 +762,18 @@ impl Interlock {
         }
         self.busy[key.op.index()] = taken;
         self.queue.insert(key);
-        self.operations[key.op.index()].state = OpState::Queued(Waiting { key, resources, since_ms, warned: false });
+        self.operations[key.op.index()].state = OpState::Queued(Waiting {
+            key,
+            resources,
+            since_ms,
+            warned: false,
+        });
     }
 
     fn dequeue(&mut self, key: QueueKey) -> Waiting {
-        let OpState::Queued(waiting) = std::mem::replace(&mut self.operations[key.op.index()].state, OpState::Idle) else {
+        let OpState::Queued(waiting) =
+            std::mem::replace(&mut self.operations[key.op.index()].state, OpState::Idle)
+        else {
             unreachable!("a queue key belongs to a waiting operation")
         };
         self.queue.remove(&key);
@@ -642,7 +814,9 @@ impl Interlock {
         }
         let mut candidates = std::mem::take(&mut self.candidates);
         for r in resources.ids() {
-            let behind = self.waiters[r.index()].iter().filter(|key| self.busy[key.op.index()] == 0);
+            let behind = self.waiters[r.index()]
+                .iter()
+                .filter(|key| self.busy[key.op.index()] == 0);
             candidates.extend(behind);
         }
         self.grant_candidates(candidates, now_ms)
@@ -663,7 +837,12 @@ impl Interlock {
             }
             let waiting = self.dequeue(key);
             let waited_ms = now_ms.saturating_sub(waiting.since_ms);
-            grants.push(Grant { operation: key.op, priority: key.priority, resources: waiting.resources.clone(), waited_ms });
+            grants.push(Grant {
+                operation: key.op,
+                priority: key.priority,
+                resources: waiting.resources.clone(),
+                waited_ms,
+            });
             self.grant(key.op, key.priority, waiting.resources, now_ms, waited_ms);
         }
         candidates.clear();
@@ -680,12 +859,18 @@ impl Interlock {
         let OpState::Queued(waiting) = &self.operations[key.op.index()].state else {
             return false;
         };
-        waiting.resources.ids().iter().all(|r| self.waiters[r.index()].first() == Some(&key))
+        waiting
+            .resources
+            .ids()
+            .iter()
+            .all(|r| self.waiters[r.index()].first() == Some(&key))
     }
 
     /// Latches everything a holding operation holds and makes it idle.
     fn fault_holder(&mut self, op: OpId, cause: FaultCause, note: Option<&str>, now_ms: u64) {
-        let OpState::Holding(hold) = std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle) else {
+        let OpState::Holding(hold) =
+            std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
+        else {
             return;
         };
         self.holding -= 1;
@@ -693,7 +878,16 @@ impl Interlock {
             self.latch(r, cause, Some(op), note, now_ms);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(now_ms, EventKind::Faulted, Some(op), Some(hold.priority), &hold.resources, None, Some(held_ms), note.map(str::to_owned));
+        self.record(
+            now_ms,
+            EventKind::Faulted,
+            Some(op),
+            Some(hold.priority),
+            &hold.resources,
+            None,
+            Some(held_ms),
+            note.map(str::to_owned),
+        );
     }
 
     fn latched_under_hold(&self, op: OpId) -> Vec<ResourceId> {
@@ -713,8 +907,20 @@ impl Interlock {
         )
     }
 
-    fn latch(&mut self, r: ResourceId, cause: FaultCause, operation: Option<OpId>, note: Option<&str>, now_ms: u64) {
-        let fault = Owner::Faulted(Fault { cause, operation, note: note.map(str::to_owned), since_ms: now_ms });
+    fn latch(
+        &mut self,
+        r: ResourceId,
+        cause: FaultCause,
+        operation: Option<OpId>,
+        note: Option<&str>,
+        now_ms: u64,
+    ) {
+        let fault = Owner::Faulted(Fault {
+            cause,
+            operation,
+            note: note.map(str::to_owned),
+            since_ms: now_ms,
+        });
         match self.owners[r.index()] {
             Owner::Free => {
                 self.faulted += 1;
@@ -742,7 +948,16 @@ impl Interlock {
     ) {
         if self.config.record_events {
             let resources = resources.clone();
-            self.events.push(Event { at_ms, kind, operation, priority, resources, waited_ms, held_ms, note });
+            self.events.push(Event {
+                at_ms,
+                kind,
+                operation,
+                priority,
+                resources,
+                waited_ms,
+                held_ms,
+                note,
+            });
         }
     }
 }

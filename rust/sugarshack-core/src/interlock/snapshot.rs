@@ -1,6 +1,9 @@
 use serde::{Deserialize, Serialize};
 
-use super::{EventKind, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner, QueueKey, ResourceSet};
+use super::{
+    EventKind, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner, QueueKey,
+    ResourceSet,
+};
 
 /// The whole interlock state by name, for persistence across restarts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -74,7 +77,9 @@ impl Interlock {
                 name: self.config.resources[i].name.clone(),
                 state: match owner {
                     Owner::Free => ResourceState::Free,
-                    Owner::Held(op) => ResourceState::Held { operation: self.name(*op) },
+                    Owner::Held(op) => ResourceState::Held {
+                        operation: self.name(*op),
+                    },
                     Owner::Faulted(fault) => ResourceState::Faulted(FaultSnapshot {
                         cause: fault.cause,
                         operation: fault.operation.map(|op| self.name(op)),
@@ -112,7 +117,13 @@ impl Interlock {
                 _ => None,
             })
             .collect();
-        Snapshot { version: SNAPSHOT_VERSION, taken_at_ms: now_ms, resources, queue, holds }
+        Snapshot {
+            version: SNAPSHOT_VERSION,
+            taken_at_ms: now_ms,
+            resources,
+            queue,
+            holds,
+        }
     }
 
     /// Rebuilds the state saved in `snapshot` under `config`. Nobody knows the
@@ -132,26 +143,55 @@ impl Interlock {
     ) -> Result<(Self, Vec<Grant>), InterlockError> {
         if snapshot.version != SNAPSHOT_VERSION {
             return Err(InterlockError::InvalidSnapshot {
-                reason: format!("snapshot version {} is not {SNAPSHOT_VERSION}", snapshot.version),
+                reason: format!(
+                    "snapshot version {} is not {SNAPSHOT_VERSION}",
+                    snapshot.version
+                ),
             });
         }
         let mut lock = Interlock::new(config)?;
         let mut seen = std::collections::HashSet::new();
         for saved in &snapshot.resources {
             if !seen.insert(saved.name.as_str()) {
-                return Err(InterlockError::InvalidSnapshot { reason: format!("resource '{}' appears twice", saved.name) });
+                return Err(InterlockError::InvalidSnapshot {
+                    reason: format!("resource '{}' appears twice", saved.name),
+                });
             }
             let Ok(r) = lock.resource(&saved.name) else {
                 let note = format!("resource '{}' in the saved state is no longer configured; its state is dropped", saved.name);
-                lock.record(now_ms, EventKind::Interrupted, None, None, &ResourceSet::default(), None, None, Some(note));
+                lock.record(
+                    now_ms,
+                    EventKind::Interrupted,
+                    None,
+                    None,
+                    &ResourceSet::default(),
+                    None,
+                    None,
+                    Some(note),
+                );
                 continue;
             };
             match &saved.state {
                 ResourceState::Free => {}
                 ResourceState::Held { operation } => {
                     let op = lock.operation(operation);
-                    lock.latch(r, FaultCause::Interrupted, Some(op), Some("held when the interlock state was saved"), now_ms);
-                    lock.record(now_ms, EventKind::Interrupted, Some(op), None, &ResourceSet(vec![r].into()), None, None, None);
+                    lock.latch(
+                        r,
+                        FaultCause::Interrupted,
+                        Some(op),
+                        Some("held when the interlock state was saved"),
+                        now_ms,
+                    );
+                    lock.record(
+                        now_ms,
+                        EventKind::Interrupted,
+                        Some(op),
+                        None,
+                        &ResourceSet(vec![r].into()),
+                        None,
+                        None,
+                        None,
+                    );
                 }
                 ResourceState::Faulted(fault) => {
                     let op = fault.operation.as_deref().map(|name| lock.operation(name));
@@ -161,30 +201,49 @@ impl Interlock {
         }
         for waiting in &snapshot.queue {
             let op = lock.operation(&waiting.operation);
-            if !keep_queue {
-                let note = "waiting request dropped on restore: its caller did not survive the restart".to_owned();
-                lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
-                continue;
-            }
-            let resources = match lock.resource_set(&waiting.resources) {
+            let resources = if keep_queue {
+                lock.resource_set(&waiting.resources)
+                    .map_err(|err| err.to_string())
+            } else {
+                Err("its caller did not survive the restart".to_owned())
+            };
+            let resources = match resources {
                 Ok(set) => set,
-                Err(err) => {
-                    let note = format!("waiting request dropped on restore: {err}");
-                    lock.record(now_ms, EventKind::Dropped, Some(op), Some(waiting.priority), &ResourceSet::default(), None, None, Some(note));
+                Err(why) => {
+                    lock.record(
+                        now_ms,
+                        EventKind::Dropped,
+                        Some(op),
+                        Some(waiting.priority),
+                        &ResourceSet::default(),
+                        None,
+                        None,
+                        Some(format!("waiting request dropped on restore: {why}")),
+                    );
                     continue;
                 }
             };
             if !matches!(lock.operations[op.index()].state, OpState::Idle) {
-                return Err(InterlockError::InvalidSnapshot { reason: format!("operation '{}' waits twice", waiting.operation) });
+                return Err(InterlockError::InvalidSnapshot {
+                    reason: format!("operation '{}' waits twice", waiting.operation),
+                });
             }
-            let key = QueueKey { priority: waiting.priority, seq: lock.next_seq, op };
+            let key = QueueKey {
+                priority: waiting.priority,
+                seq: lock.next_seq,
+                op,
+            };
             lock.next_seq += 1;
             lock.enqueue(key, resources, waiting.since_ms);
         }
         // A changed configuration may let restored waiters through at once.
-        let unblocked: Vec<QueueKey> = lock.queue.iter().copied().filter(|key| lock.busy[key.op.index()] == 0).collect();
+        let unblocked: Vec<QueueKey> = lock
+            .queue
+            .iter()
+            .copied()
+            .filter(|key| lock.busy[key.op.index()] == 0)
+            .collect();
         let grants = lock.grant_candidates(unblocked, now_ms);
         Ok((lock, grants))
     }
-
 }

@@ -26,13 +26,23 @@ fn grants_free_set_at_once_and_queues_conflicts() {
     assert_eq!(lock.acquire(load, 20, &yel, 0), Ok(Acquisition::Granted));
     assert_eq!(lock.acquire(unload, 22, &yel, 5), Ok(Acquisition::Queued));
     assert_eq!(lock.owner_of(yel.ids()[0]), Some(load));
-    assert_eq!(lock.counts(), Counts { holding: 1, queued: 1, faulted: 0 });
+    assert_eq!(
+        lock.counts(),
+        Counts {
+            holding: 1,
+            queued: 1,
+            faulted: 0
+        }
+    );
 }
 
 #[test]
 fn release_grants_in_priority_then_arrival_order() {
     let mut lock = plant(Policy::Greedy);
-    let ops: Vec<OpId> = ["holder", "low", "high", "high-later"].iter().map(|n| lock.operation(n)).collect();
+    let ops: Vec<OpId> = ["holder", "low", "high", "high-later"]
+        .iter()
+        .map(|n| lock.operation(n))
+        .collect();
     let yel = set(&lock, &["YEL"]);
     lock.acquire(ops[0], 1, &yel, 0).unwrap();
     lock.acquire(ops[1], 5, &yel, 1).unwrap();
@@ -52,10 +62,16 @@ fn one_release_can_grant_several_requests() {
     let wide = lock.operation("wide");
     let a = lock.operation("a");
     let b = lock.operation("b");
-    lock.acquire(wide, 1, &set(&lock, &["YEL", "RED"]), 0).unwrap();
+    lock.acquire(wide, 1, &set(&lock, &["YEL", "RED"]), 0)
+        .unwrap();
     lock.acquire(a, 5, &set(&lock, &["YEL"]), 1).unwrap();
     lock.acquire(b, 4, &set(&lock, &["RED"]), 2).unwrap();
-    let granted: Vec<OpId> = lock.release(wide, 3).unwrap().iter().map(|g| g.operation).collect();
+    let granted: Vec<OpId> = lock
+        .release(wide, 3)
+        .unwrap()
+        .iter()
+        .map(|g| g.operation)
+        .collect();
     assert_eq!(granted, vec![a, b]);
 }
 
@@ -63,11 +79,23 @@ fn one_release_can_grant_several_requests() {
 fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() {
     for (policy, narrow_granted) in [(Policy::Greedy, true), (Policy::NoOvertaking, false)] {
         let mut lock = plant(policy);
-        let [holder, flit, load] = ["holder", "18 flit downstock", "10 load truck"].map(|n| lock.operation(n));
+        let [holder, flit, load] =
+            ["holder", "18 flit downstock", "10 load truck"].map(|n| lock.operation(n));
         lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-        assert_eq!(lock.acquire(flit, 92, &set(&lock, &["YEL", "RED"]), 1), Ok(Acquisition::Queued));
-        let expected = if narrow_granted { Acquisition::Granted } else { Acquisition::Queued };
-        assert_eq!(lock.acquire(load, 20, &set(&lock, &["YEL"]), 2), Ok(expected), "{policy:?}");
+        assert_eq!(
+            lock.acquire(flit, 92, &set(&lock, &["YEL", "RED"]), 1),
+            Ok(Acquisition::Queued)
+        );
+        let expected = if narrow_granted {
+            Acquisition::Granted
+        } else {
+            Acquisition::Queued
+        };
+        assert_eq!(
+            lock.acquire(load, 20, &set(&lock, &["YEL"]), 2),
+            Ok(expected),
+            "{policy:?}"
+        );
         let grants = lock.release(holder, 3).unwrap();
         let granted: Vec<OpId> = grants.iter().map(|g| g.operation).collect();
         if narrow_granted {
@@ -83,8 +111,12 @@ fn no_overtaking_still_lets_a_higher_priority_newcomer_in() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, low, urgent] = ["holder", "low", "urgent"].map(|n| lock.operation(n));
     lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(low, 5, &set(&lock, &["YEL", "RED"]), 1).unwrap();
-    assert_eq!(lock.acquire(urgent, 50, &set(&lock, &["YEL"]), 2), Ok(Acquisition::Granted));
+    lock.acquire(low, 5, &set(&lock, &["YEL", "RED"]), 1)
+        .unwrap();
+    assert_eq!(
+        lock.acquire(urgent, 50, &set(&lock, &["YEL"]), 2),
+        Ok(Acquisition::Granted)
+    );
 }
 
 #[test]
@@ -95,15 +127,40 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
     lock.acquire(op12, 22, &yel_red, 0).unwrap();
     lock.acquire(op10, 20, &set(&lock, &["YEL"]), 1).unwrap();
     let outcome = lock.fault(op12, Some("timeout"), 100).unwrap();
-    let locked: Vec<&str> = outcome.lockouts.iter().map(|l| lock.resource_name(l.resource).unwrap()).collect();
+    let locked: Vec<&str> = outcome
+        .lockouts
+        .iter()
+        .map(|l| lock.resource_name(l.resource).unwrap())
+        .collect();
     assert_eq!(locked, vec!["YEL", "RED"]);
-    assert_eq!(outcome.lockouts[0].command, json!({ "line": "YEL", "valves": "close" }));
-    assert!(outcome.grants.is_empty(), "a faulted resource is not granted");
+    assert_eq!(
+        outcome.lockouts[0].command,
+        json!({ "line": "YEL", "valves": "close" })
+    );
+    assert!(
+        outcome.grants.is_empty(),
+        "a faulted resource is not granted"
+    );
     assert!(!lock.is_holding(op12));
     assert_eq!(lock.counts().faulted, 2);
-    assert_eq!(lock.acquire(op12, 22, &yel_red, 150), Ok(Acquisition::Queued), "faults block everyone");
-    assert_eq!(lock.clear(&set(&lock, &["YEL"]), 200).unwrap().iter().map(|g| g.operation).collect::<Vec<_>>(), vec![op10]);
-    assert_eq!(lock.clear(&set(&lock, &["RED"]), 300).unwrap(), vec![], "YEL is held by op 10 now");
+    assert_eq!(
+        lock.acquire(op12, 22, &yel_red, 150),
+        Ok(Acquisition::Queued),
+        "faults block everyone"
+    );
+    assert_eq!(
+        lock.clear(&set(&lock, &["YEL"]), 200)
+            .unwrap()
+            .iter()
+            .map(|g| g.operation)
+            .collect::<Vec<_>>(),
+        vec![op10]
+    );
+    assert_eq!(
+        lock.clear(&set(&lock, &["RED"]), 300).unwrap(),
+        vec![],
+        "YEL is held by op 10 now"
+    );
     assert_eq!(lock.release(op10, 400).unwrap()[0].operation, op12);
 }
 
@@ -115,16 +172,27 @@ fn fault_while_waiting_drops_the_request() {
     lock.acquire(waiter, 2, &set(&lock, &["BLU"]), 0).unwrap();
     let outcome = lock.fault(waiter, None, 5).unwrap();
     assert!(outcome.dropped && outcome.lockouts.is_empty());
-    assert_eq!(lock.counts(), Counts { holding: 1, queued: 0, faulted: 0 });
+    assert_eq!(
+        lock.counts(),
+        Counts {
+            holding: 1,
+            queued: 0,
+            faulted: 0
+        }
+    );
     let again = lock.fault(waiter, None, 6).unwrap();
-    assert!(!again.dropped && again.lockouts.is_empty(), "an idle operation has nothing to fault");
+    assert!(
+        !again.dropped && again.lockouts.is_empty(),
+        "an idle operation has nothing to fault"
+    );
 }
 
 #[test]
 fn repeated_fault_resends_the_same_lockouts() {
     let mut lock = plant(Policy::Greedy);
     let op = lock.operation("op");
-    lock.acquire(op, 1, &set(&lock, &["GRN", "RED"]), 0).unwrap();
+    lock.acquire(op, 1, &set(&lock, &["GRN", "RED"]), 0)
+        .unwrap();
     let first = lock.fault(op, Some("timeout"), 1).unwrap();
     let second = lock.fault(op, Some("timeout"), 2).unwrap();
     assert_eq!(first.lockouts.len(), 2);
@@ -136,27 +204,50 @@ fn repeated_fault_resends_the_same_lockouts() {
 fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0).unwrap();
-    let outcome = lock.fault_resources(&set(&lock, &["BLU", "RED"]), Some("e-stop"), 1).unwrap();
-    let locked: Vec<&str> = outcome.lockouts.iter().map(|l| lock.resource_name(l.resource).unwrap()).collect();
+    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0)
+        .unwrap();
+    let outcome = lock
+        .fault_resources(&set(&lock, &["BLU", "RED"]), Some("e-stop"), 1)
+        .unwrap();
+    let locked: Vec<&str> = outcome
+        .lockouts
+        .iter()
+        .map(|l| lock.resource_name(l.resource).unwrap())
+        .collect();
     assert_eq!(locked, vec!["BLU", "PUR", "RED"]);
     assert!(!lock.is_holding(op));
     assert_eq!(lock.release(op, 2).unwrap_err().code(), "NOT_HOLDING");
-    assert_eq!(lock.acquire(other, 9, &set(&lock, &["PUR"]), 3), Ok(Acquisition::Queued), "PUR is latched too");
+    assert_eq!(
+        lock.acquire(other, 9, &set(&lock, &["PUR"]), 3),
+        Ok(Acquisition::Queued),
+        "PUR is latched too"
+    );
     // A second press re-sends the lockout of what it names.
-    assert_eq!(lock.fault_resources(&set(&lock, &["RED"]), None, 4).unwrap().lockouts.len(), 1);
+    assert_eq!(
+        lock.fault_resources(&set(&lock, &["RED"]), None, 4)
+            .unwrap()
+            .lockouts
+            .len(),
+        1
+    );
 }
 
 #[test]
 fn fault_does_not_lock_out_a_resource_cleared_and_reused_meanwhile() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0).unwrap();
-    lock.fault_resources(&set(&lock, &["RED"]), None, 1).unwrap();
+    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0)
+        .unwrap();
+    lock.fault_resources(&set(&lock, &["RED"]), None, 1)
+        .unwrap();
     lock.clear(&set(&lock, &["RED"]), 2).unwrap();
     lock.acquire(other, 1, &set(&lock, &["RED"]), 3).unwrap();
     let outcome = lock.fault(op, None, 4).unwrap();
-    let locked: Vec<&str> = outcome.lockouts.iter().map(|l| lock.resource_name(l.resource).unwrap()).collect();
+    let locked: Vec<&str> = outcome
+        .lockouts
+        .iter()
+        .map(|l| lock.resource_name(l.resource).unwrap())
+        .collect();
     assert_eq!(locked, vec!["PUR"]);
     assert_eq!(lock.owner_of(lock.resource("RED").unwrap()), Some(other));
 }
@@ -166,11 +257,21 @@ fn cancel_withdraws_a_waiting_request() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
     lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), 0).unwrap();
+    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), 0)
+        .unwrap();
     lock.acquire(narrow, 1, &set(&lock, &["GRN"]), 0).unwrap();
     let grants = lock.cancel(wide, 10).unwrap();
-    assert_eq!(grants.iter().map(|g| g.operation).collect::<Vec<_>>(), vec![narrow], "the reservation on GRN is lifted");
-    assert_eq!(lock.cancel(wide, 11), Err(InterlockError::NotQueued { operation: "wide".into() }));
+    assert_eq!(
+        grants.iter().map(|g| g.operation).collect::<Vec<_>>(),
+        vec![narrow],
+        "the reservation on GRN is lifted"
+    );
+    assert_eq!(
+        lock.cancel(wide, 11),
+        Err(InterlockError::NotQueued {
+            operation: "wide".into()
+        })
+    );
 }
 
 #[test]
@@ -178,36 +279,74 @@ fn bad_calls_are_refused_without_changing_state() {
     let mut lock = plant(Policy::Greedy);
     let op = lock.operation("op");
     let yel = set(&lock, &["YEL"]);
-    assert_eq!(lock.resource_set(&["YEL", "NOPE"]).unwrap_err().code(), "UNKNOWN_RESOURCE");
-    assert_eq!(lock.resource_set::<&str>(&[]).unwrap_err(), InterlockError::EmptyResourceSet);
-    assert_eq!(lock.find_operation("ghost").unwrap_err().code(), "UNKNOWN_OPERATION");
+    assert_eq!(
+        lock.resource_set(&["YEL", "NOPE"]).unwrap_err().code(),
+        "UNKNOWN_RESOURCE"
+    );
+    assert_eq!(
+        lock.resource_set::<&str>(&[]).unwrap_err(),
+        InterlockError::EmptyResourceSet
+    );
+    assert_eq!(
+        lock.find_operation("ghost").unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
     assert_eq!(lock.release(op, 0).unwrap_err().code(), "NOT_HOLDING");
     assert_eq!(lock.clear(&yel, 0).unwrap_err().code(), "NOT_FAULTED");
-    assert_eq!(lock.acquire(OpId(99), 1, &yel, 0).unwrap_err().code(), "UNKNOWN_OPERATION");
-    assert_eq!(lock.acquire(op, 1, &ResourceSet::default(), 0).unwrap_err().code(), "EMPTY_RESOURCE_SET");
+    assert_eq!(
+        lock.acquire(OpId(99), 1, &yel, 0).unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
+    assert_eq!(
+        lock.acquire(op, 1, &ResourceSet::default(), 0)
+            .unwrap_err()
+            .code(),
+        "EMPTY_RESOURCE_SET"
+    );
     lock.acquire(op, 1, &yel, 0).unwrap();
-    assert_eq!(lock.acquire(op, 1, &yel, 0).unwrap_err().code(), "ALREADY_HOLDING");
+    assert_eq!(
+        lock.acquire(op, 1, &yel, 0).unwrap_err().code(),
+        "ALREADY_HOLDING"
+    );
     let before = lock.snapshot(0);
     for i in 0..4 {
         let waiter = lock.operation(&format!("w{i}"));
         lock.acquire(waiter, 1, &yel, 0).unwrap();
     }
     let w0 = lock.find_operation("w0").unwrap();
-    assert_eq!(lock.acquire(w0, 1, &yel, 0).unwrap_err().code(), "ALREADY_QUEUED");
+    assert_eq!(
+        lock.acquire(w0, 1, &yel, 0).unwrap_err().code(),
+        "ALREADY_QUEUED"
+    );
     let extra = lock.operation("extra");
-    assert_eq!(lock.acquire(extra, 1, &yel, 0), Err(InterlockError::QueueFull { bound: 4 }));
+    assert_eq!(
+        lock.acquire(extra, 1, &yel, 0),
+        Err(InterlockError::QueueFull { bound: 4 })
+    );
     assert!(!lock.is_queued(extra));
     assert_eq!(lock.snapshot(0).resources, before.resources);
     // Clearing two resources when one is not faulted clears neither.
-    lock.fault_resources(&set(&lock, &["GRN"]), None, 0).unwrap();
-    assert_eq!(lock.clear(&set(&lock, &["GRN", "BLU"]), 0).unwrap_err(), InterlockError::NotFaulted { resource: "BLU".into() });
+    lock.fault_resources(&set(&lock, &["GRN"]), None, 0)
+        .unwrap();
+    assert_eq!(
+        lock.clear(&set(&lock, &["GRN", "BLU"]), 0).unwrap_err(),
+        InterlockError::NotFaulted {
+            resource: "BLU".into()
+        }
+    );
     assert!(lock.is_faulted(lock.resource("GRN").unwrap()));
 }
 
 #[test]
 fn errors_read_as_instructions() {
-    let message = InterlockError::AlreadyHolding { operation: "12".into() }.to_string();
-    assert!(message.contains("'12'") && message.contains("C1"), "{message}");
+    let message = InterlockError::AlreadyHolding {
+        operation: "12".into(),
+    }
+    .to_string();
+    assert!(
+        message.contains("'12'") && message.contains("C1"),
+        "{message}"
+    );
     let message = InterlockError::UnknownResource { name: "YLW".into() }.to_string();
     assert!(message.contains("'YLW'"), "{message}");
 }
@@ -215,11 +354,26 @@ fn errors_read_as_instructions() {
 #[test]
 fn invalid_configs_are_refused() {
     let cases = [
-        (InterlockConfig::with_resources(Vec::<String>::new()), "no resources"),
+        (
+            InterlockConfig::with_resources(Vec::<String>::new()),
+            "no resources",
+        ),
         (InterlockConfig::with_resources(["YEL", "YEL"]), "twice"),
         (InterlockConfig::with_resources([" "]), "empty name"),
-        (InterlockConfig { queue_bound: 0, ..InterlockConfig::with_resources(["A"]) }, "queue bound"),
-        (InterlockConfig { warn_held_ms: Some(0), ..InterlockConfig::with_resources(["A"]) }, "positive"),
+        (
+            InterlockConfig {
+                queue_bound: 0,
+                ..InterlockConfig::with_resources(["A"])
+            },
+            "queue bound",
+        ),
+        (
+            InterlockConfig {
+                warn_held_ms: Some(0),
+                ..InterlockConfig::with_resources(["A"])
+            },
+            "positive",
+        ),
     ];
     for (config, needle) in cases {
         let err = Interlock::new(config).unwrap_err();
@@ -240,7 +394,8 @@ fn config_reads_from_json_with_defaults() {
     assert_eq!(config.queue_bound, DEFAULT_QUEUE_BOUND);
     assert_eq!(config.warn_queued_ms, Some(30000));
     assert!(config.record_events);
-    let typo = serde_json::from_value::<InterlockConfig>(json!({ "resources": [], "polcy": "greedy" }));
+    let typo =
+        serde_json::from_value::<InterlockConfig>(json!({ "resources": [], "polcy": "greedy" }));
     assert!(typo.unwrap_err().to_string().contains("polcy"));
 }
 
@@ -253,13 +408,24 @@ fn tick_warns_once_per_crossing_at_the_threshold() {
     assert!(lock.tick(999).is_empty());
     let warnings = lock.tick(1000);
     assert_eq!(warnings.len(), 1);
-    assert_eq!((warnings[0].kind, warnings[0].operation, warnings[0].waited_ms), (EventKind::WarnQueued, Some(waiter), Some(1000)));
+    assert_eq!(
+        (
+            warnings[0].kind,
+            warnings[0].operation,
+            warnings[0].waited_ms
+        ),
+        (EventKind::WarnQueued, Some(waiter), Some(1000))
+    );
     assert!(lock.tick(1500).is_empty(), "once per crossing");
     let held = lock.tick(5000);
-    assert_eq!(held.iter().map(|w| w.kind).collect::<Vec<_>>(), vec![EventKind::WarnHeld]);
+    assert_eq!(
+        held.iter().map(|w| w.kind).collect::<Vec<_>>(),
+        vec![EventKind::WarnHeld]
+    );
     lock.release(holder, 5001).unwrap();
     lock.release(waiter, 5002).unwrap();
-    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), 6000).unwrap();
+    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), 6000)
+        .unwrap();
     assert_eq!(lock.tick(11000).len(), 1, "a new hold warns again");
 }
 
@@ -273,10 +439,17 @@ fn every_state_change_yields_an_event() {
     lock.release(a, 50).unwrap();
     lock.fault(b, Some("no flow"), 80).unwrap();
     lock.clear(&yel, 90).unwrap();
-    let records: Vec<EventRecord> = lock.drain_events().iter().map(|e| lock.describe(e)).collect();
+    let records: Vec<EventRecord> = lock
+        .drain_events()
+        .iter()
+        .map(|e| lock.describe(e))
+        .collect();
     let kinds: Vec<EventKind> = records.iter().map(|r| r.kind).collect();
     use EventKind::*;
-    assert_eq!(kinds, vec![Granted, Queued, Released, Granted, Faulted, Cleared]);
+    assert_eq!(
+        kinds,
+        vec![Granted, Queued, Released, Granted, Faulted, Cleared]
+    );
     assert_eq!(records[3].operation.as_deref(), Some("b"));
     assert_eq!(records[3].waited_ms, Some(40));
     assert_eq!(records[2].held_ms, Some(50));
@@ -292,7 +465,8 @@ fn events_can_be_switched_off() {
     config.record_events = false;
     let mut lock = Interlock::new(config).unwrap();
     let op = lock.operation("op");
-    lock.acquire(op, 1, &lock.resource_set(&["A"]).unwrap(), 0).unwrap();
+    lock.acquire(op, 1, &lock.resource_set(&["A"]).unwrap(), 0)
+        .unwrap();
     assert!(!lock.has_events());
 }
 
@@ -307,11 +481,15 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let snapshot = lock.snapshot(10);
     let json = serde_json::to_string(&snapshot).unwrap();
     let parsed: Snapshot = serde_json::from_str(&json).unwrap();
-    let (mut restored, grants) = Interlock::restore(lock.config().clone(), &parsed, true, 20).unwrap();
+    let (mut restored, grants) =
+        Interlock::restore(lock.config().clone(), &parsed, true, 20).unwrap();
     assert!(grants.is_empty());
     let yel = restored.resource("YEL").unwrap();
     assert!(restored.is_faulted(yel), "held when saved: interrupted");
-    assert!(restored.is_faulted(restored.resource("BLU").unwrap()), "faults stay faulted");
+    assert!(
+        restored.is_faulted(restored.resource("BLU").unwrap()),
+        "faults stay faulted"
+    );
     let b2 = restored.find_operation("b").unwrap();
     assert!(restored.is_queued(b2));
     assert!(!restored.is_holding(restored.find_operation("a").unwrap()));
@@ -328,7 +506,9 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted]);
     // The interrupted line clears like any fault and the waiter goes through.
-    let grants = restored.clear(&restored.resource_set(&["YEL"]).unwrap(), 30).unwrap();
+    let grants = restored
+        .clear(&restored.resource_set(&["YEL"]).unwrap(), 30)
+        .unwrap();
     assert_eq!(grants[0].operation, b2);
 }
 
@@ -339,12 +519,30 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
     lock.acquire(a, 1, &set(&lock, &["RED"]), 0).unwrap();
     lock.acquire(b, 1, &set(&lock, &["RED", "YEL"]), 0).unwrap();
     let snapshot = lock.snapshot(1);
-    let (mut restored, _) = Interlock::restore(InterlockConfig::with_resources(["YEL", "GRN"]), &snapshot, true, 2).unwrap();
+    let (mut restored, _) = Interlock::restore(
+        InterlockConfig::with_resources(["YEL", "GRN"]),
+        &snapshot,
+        true,
+        2,
+    )
+    .unwrap();
     assert_eq!(restored.counts(), Counts::default());
-    let notes: Vec<String> = restored.drain_events().into_iter().filter_map(|e| e.note).collect();
+    let notes: Vec<String> = restored
+        .drain_events()
+        .into_iter()
+        .filter_map(|e| e.note)
+        .collect();
     assert!(notes.iter().any(|n| n.contains("'RED'")), "{notes:?}");
-    let bad = Snapshot { version: 99, ..snapshot };
-    assert_eq!(Interlock::restore(lock.config().clone(), &bad, true, 0).unwrap_err().code(), "INVALID_SNAPSHOT");
+    let bad = Snapshot {
+        version: 99,
+        ..snapshot
+    };
+    assert_eq!(
+        Interlock::restore(lock.config().clone(), &bad, true, 0)
+            .unwrap_err()
+            .code(),
+        "INVALID_SNAPSHOT"
+    );
 }
 
 #[test]
@@ -353,9 +551,17 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
     lock.acquire(a, 1, &set(&lock, &["GRN"]), 0).unwrap();
     lock.acquire(b, 1, &set(&lock, &["GRN"]), 0).unwrap();
-    let (mut restored, grants) = Interlock::restore(lock.config().clone(), &lock.snapshot(1), false, 2).unwrap();
+    let (mut restored, grants) =
+        Interlock::restore(lock.config().clone(), &lock.snapshot(1), false, 2).unwrap();
     assert!(grants.is_empty());
-    assert_eq!(restored.counts(), Counts { holding: 0, queued: 0, faulted: 1 });
+    assert_eq!(
+        restored.counts(),
+        Counts {
+            holding: 0,
+            queued: 0,
+            faulted: 1
+        }
+    );
     let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted, EventKind::Dropped]);
 }
