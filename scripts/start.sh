@@ -57,6 +57,8 @@ module.exports = {
     memory: { module: 'memory' },
   },
   logging: { console: { level: 'info', metrics: false, audit: false } },
+  // A plant's edge server: no prompt about update checks, no calls home.
+  telemetry: { enabled: false },
 };
 EOF
 }
