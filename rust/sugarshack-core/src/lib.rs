@@ -2,4 +2,6 @@
 //! argument in milliseconds; effects (grants, lockout commands, events) go out
 //! as returned values, so every rule here is deterministic and testable natively.
 
+pub mod actuator;
 pub mod interlock;
+pub mod plant;

@@ -1,0 +1,55 @@
+use std::fmt;
+
+/// Why a tracker call was refused. A refused command sends nothing.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrackError {
+    UnknownActuator { name: String },
+    UnknownDevice { name: String },
+    EmptyCommand,
+    DuplicateActuator { actuator: String },
+    InvalidTarget { actuator: String, reason: String },
+    StillMoving { actuator: String },
+    DeviceOffline { actuator: String, device: String },
+    CallerBusy { caller: u64 },
+    InvalidFeedback { actuator: String, value: f64 },
+}
+
+impl TrackError {
+    /// A stable machine-readable code, for Catch nodes and tests.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::UnknownActuator { .. } => "UNKNOWN_ACTUATOR",
+            Self::UnknownDevice { .. } => "UNKNOWN_DEVICE",
+            Self::EmptyCommand => "EMPTY_COMMAND",
+            Self::DuplicateActuator { .. } => "DUPLICATE_ACTUATOR",
+            Self::InvalidTarget { .. } => "INVALID_TARGET",
+            Self::StillMoving { .. } => "STILL_MOVING",
+            Self::DeviceOffline { .. } => "DEVICE_OFFLINE",
+            Self::CallerBusy { .. } => "CALLER_BUSY",
+            Self::InvalidFeedback { .. } => "INVALID_FEEDBACK",
+        }
+    }
+}
+
+impl fmt::Display for TrackError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::UnknownActuator { name } => write!(f, "unknown actuator '{name}': it is not in the plant document"),
+            Self::UnknownDevice { name } => write!(f, "unknown device '{name}': it is not in the plant document"),
+            Self::EmptyCommand => write!(f, "the group command names no actuator"),
+            Self::DuplicateActuator { actuator } => write!(f, "actuator '{actuator}' appears twice in one group command"),
+            Self::InvalidTarget { actuator, reason } => write!(f, "target for '{actuator}' {reason}"),
+            Self::StillMoving { actuator } => write!(
+                f,
+                "actuator '{actuator}' is still carrying out a command; wait for it to complete (nothing was sent)"
+            ),
+            Self::DeviceOffline { actuator, device } => {
+                write!(f, "actuator '{actuator}' cannot be commanded: its device '{device}' is offline (nothing was sent)")
+            }
+            Self::CallerBusy { caller } => write!(f, "group command #{caller} is already in progress"),
+            Self::InvalidFeedback { actuator, value } => write!(f, "feedback {value} for '{actuator}' is not a valid state"),
+        }
+    }
+}
+
+impl std::error::Error for TrackError {}

@@ -1,0 +1,900 @@
+//! Actuator tracking (the paper's §III-A and §III-B): every command is
+//! followed from issuance to motion to completion against the feedback the
+//! devices publish; failures are retried, then escalated. A group command
+//! completes once every one of its commands has.
+//!
+//! ```
+//! use sugarshack_core::actuator::{Effect, Tracker};
+//! use sugarshack_core::plant::PlantModel;
+//!
+//! let plant: PlantModel = serde_json::from_str(r#"{
+//!   "actuatorTypes": { "valve": { "signal": "analog", "tolerance": 2,
+//!     "noMotionMs": 3000, "completionMs": 10000, "staleMs": 5000 } },
+//!   "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+//!   "actuators": [{ "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 }]
+//! }"#).unwrap();
+//! let mut tracker = Tracker::new(plant, 0).unwrap();
+//! let v12 = tracker.actuator("V12").unwrap();
+//! tracker.feedback(v12, 0.0, None, 0).unwrap();
+//! let sent = tracker.command(&[(v12, 100.0)], 7, false, 10).unwrap();
+//! assert!(matches!(&sent[0], Effect::Publish { topic, payload, retain: false }
+//!     if topic == "ctrl-1/valve/12/command" && payload == "100"));
+//! tracker.feedback(v12, 40.0, None, 2010).unwrap();
+//! let done = tracker.feedback(v12, 99.0, None, 4010).unwrap();
+//! assert!(done.iter().any(|e| matches!(e, Effect::GroupCompleted { caller: 7, completion_ms: 4000, .. })));
+//! ```
+
+mod error;
+
+use std::collections::HashMap;
+
+use serde::Serialize;
+
+pub use error::TrackError;
+
+use crate::plant::{state_value, Escalation, PlantErrors, PlantModel, Range, Signal};
+
+/// An actuator of the plant, by its index in the plant document.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(transparent)]
+pub struct ActuatorId(u32);
+
+impl ActuatorId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+    pub fn from_index(index: u32) -> Self {
+        ActuatorId(index)
+    }
+}
+
+/// A device of the plant, by its index in the plant document.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(transparent)]
+pub struct DeviceId(u32);
+
+impl DeviceId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+    pub fn from_index(index: u32) -> Self {
+        DeviceId(index)
+    }
+}
+
+/// The caller's handle for a group command (one msg waiting for it).
+pub type Caller = u64;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    /// Never commanded, or its command was withdrawn.
+    Idle,
+    /// Commanded; no motion seen yet.
+    Pending,
+    Moving,
+    /// At its last commanded position.
+    Stopped,
+    Faulted,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultKind {
+    /// No motion within `noMotionMs` of the command.
+    NoMotion,
+    /// Target not reached within `completionMs` of the command.
+    NotReached,
+    /// Moved while no command was active.
+    Uncommanded,
+    /// No feedback within `staleMs`.
+    Stale,
+    /// Its device reported offline (status or last will).
+    DeviceOffline,
+    /// A lockout command took it over.
+    LockedOut,
+}
+
+/// What a tracker call asks the caller to do or tell.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase", tag = "kind")]
+pub enum Effect {
+    /// Send this MQTT message.
+    Publish {
+        topic: String,
+        payload: String,
+        retain: bool,
+    },
+    /// First sample that departed from the start position.
+    #[serde(rename_all = "camelCase")]
+    Moving {
+        actuator: ActuatorId,
+        caller: Caller,
+        issue_to_motion_ms: u64,
+    },
+    /// One actuator of a group reached its target.
+    #[serde(rename_all = "camelCase")]
+    Completed {
+        actuator: ActuatorId,
+        caller: Caller,
+        target: f64,
+        issue_to_motion_ms: u64,
+        completion_ms: u64,
+        retries: u32,
+    },
+    /// Every actuator of the group reached its target: answer the caller.
+    #[serde(rename_all = "camelCase")]
+    GroupCompleted { caller: Caller, completion_ms: u64 },
+    /// The group failed (fail-fast): answer the caller with an error.
+    #[serde(rename_all = "camelCase")]
+    GroupFailed {
+        caller: Caller,
+        actuator: ActuatorId,
+        fault: FaultKind,
+    },
+    /// A command failed its check and was sent again.
+    #[serde(rename_all = "camelCase")]
+    Retry {
+        actuator: ActuatorId,
+        caller: Caller,
+        attempt: u32,
+        fault: FaultKind,
+    },
+    /// A failure that escalated, or a fault seen without a command.
+    #[serde(rename_all = "camelCase")]
+    Fault {
+        actuator: ActuatorId,
+        fault: FaultKind,
+    },
+    /// The condition of an earlier fault is gone (fresh feedback, back in place, device online).
+    #[serde(rename_all = "camelCase")]
+    Recovered {
+        actuator: ActuatorId,
+        fault: FaultKind,
+    },
+    /// A feedback value that changed beyond tolerance (report by exception).
+    #[serde(rename_all = "camelCase")]
+    Changed {
+        actuator: ActuatorId,
+        value: f64,
+        time_of_flight_ms: Option<i64>,
+    },
+    /// A device went offline or came back.
+    #[serde(rename_all = "camelCase")]
+    DeviceStatus { device: DeviceId, online: bool },
+}
+
+#[derive(Clone, Debug)]
+struct Command {
+    caller: Caller,
+    target: f64,
+    /// Position when commanded (or first seen after), to tell motion from noise.
+    start: Option<f64>,
+    issued_ms: u64,
+    attempt_ms: u64,
+    moving_ms: Option<u64>,
+    retries: u32,
+    /// Hang mode: failed every retry, left for the caller's own timeout.
+    escalated: bool,
+}
+
+#[derive(Clone, Debug)]
+struct ActuatorState {
+    name: String,
+    device: DeviceId,
+    signal: Signal,
+    range: Range,
+    type_index: usize,
+    topic: String,
+    idle: f64,
+    lockout: f64,
+    position: Option<f64>,
+    last_sample_ms: u64,
+    reported: Option<f64>,
+    commanded: Option<f64>,
+    /// Where it should stay while no command runs: the last target, or where it was first seen.
+    resting: Option<f64>,
+    /// The last command was a retained lockout: the next normal one clears it on the broker.
+    retained: bool,
+    command: Option<Command>,
+    phase: Phase,
+    stale: bool,
+    uncommanded: bool,
+}
+
+#[derive(Clone, Debug)]
+struct Timing {
+    no_motion_ms: u64,
+    completion_ms: u64,
+    stale_ms: u64,
+    retries: u32,
+    escalation: Escalation,
+}
+
+#[derive(Clone, Debug)]
+struct DeviceState {
+    name: String,
+    online: bool,
+    actuators: Vec<ActuatorId>,
+}
+
+#[derive(Clone, Debug)]
+struct Group {
+    issued_ms: u64,
+    remaining: usize,
+}
+
+/// Counts for a status line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Counts {
+    pub moving: usize,
+    pub stopped: usize,
+    pub faulted: usize,
+}
+
+/// Tracks every actuator of a plant. Every method takes the current time; none reads a clock.
+#[derive(Clone, Debug)]
+pub struct Tracker {
+    plant: PlantModel,
+    timings: Vec<Timing>,
+    actuators: Vec<ActuatorState>,
+    devices: Vec<DeviceState>,
+    by_name: HashMap<String, ActuatorId>,
+    device_by_name: HashMap<String, DeviceId>,
+    /// (device, type name, io) -> actuator, for device feedback.
+    slots: HashMap<(DeviceId, String, u32), ActuatorId>,
+    groups: HashMap<Caller, Group>,
+}
+
+impl Tracker {
+    /// Validates the plant and starts tracking at `now_ms` (feedback is stale `staleMs` after it).
+    pub fn new(plant: PlantModel, now_ms: u64) -> Result<Self, PlantErrors> {
+        plant.validate()?;
+        let type_names: Vec<&String> = plant.actuator_types.keys().collect();
+        let timings = plant
+            .actuator_types
+            .values()
+            .map(|t| Timing {
+                no_motion_ms: t.no_motion_ms,
+                completion_ms: t.completion_ms,
+                stale_ms: t.stale_ms,
+                retries: t.retries,
+                escalation: t.escalation,
+            })
+            .collect();
+        let mut devices: Vec<DeviceState> = plant
+            .devices
+            .iter()
+            .map(|d| DeviceState {
+                name: d.id.clone(),
+                online: true,
+                actuators: Vec::new(),
+            })
+            .collect();
+        let device_by_name: HashMap<String, DeviceId> = plant
+            .devices
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (d.id.clone(), DeviceId(i as u32)))
+            .collect();
+        let mut actuators = Vec::with_capacity(plant.actuators.len());
+        let mut by_name = HashMap::new();
+        let mut slots = HashMap::new();
+        for (i, a) in plant.actuators.iter().enumerate() {
+            let id = ActuatorId(i as u32);
+            let t = &plant.actuator_types[&a.kind];
+            let range = t.range(a.tolerance);
+            let device = device_by_name[&a.device];
+            devices[device.index()].actuators.push(id);
+            by_name.insert(a.id.clone(), id);
+            slots.insert((device, a.kind.clone(), a.io), id);
+            actuators.push(ActuatorState {
+                name: a.id.clone(),
+                device,
+                signal: t.signal,
+                range,
+                type_index: type_names
+                    .iter()
+                    .position(|n| **n == a.kind)
+                    .expect("validated type"),
+                topic: format!("{}/{}/{}/command", a.device, a.kind, a.io),
+                idle: state_value(t.signal, range, &a.idle).expect("validated idle"),
+                lockout: state_value(t.signal, range, &a.lockout).expect("validated lockout"),
+                position: None,
+                last_sample_ms: now_ms,
+                reported: None,
+                commanded: None,
+                resting: None,
+                retained: false,
+                command: None,
+                phase: Phase::Idle,
+                stale: false,
+                uncommanded: false,
+            });
+        }
+        Ok(Tracker {
+            plant,
+            timings,
+            actuators,
+            devices,
+            by_name,
+            device_by_name,
+            slots,
+            groups: HashMap::new(),
+        })
+    }
+
+    pub fn plant(&self) -> &PlantModel {
+        &self.plant
+    }
+
+    // ---- names ---------------------------------------------------------------
+
+    pub fn actuator(&self, name: &str) -> Result<ActuatorId, TrackError> {
+        self.by_name
+            .get(name)
+            .copied()
+            .ok_or_else(|| TrackError::UnknownActuator {
+                name: name.to_owned(),
+            })
+    }
+
+    pub fn actuator_name(&self, id: ActuatorId) -> Option<&str> {
+        self.actuators.get(id.index()).map(|a| a.name.as_str())
+    }
+
+    pub fn device(&self, name: &str) -> Result<DeviceId, TrackError> {
+        self.device_by_name
+            .get(name)
+            .copied()
+            .ok_or_else(|| TrackError::UnknownDevice {
+                name: name.to_owned(),
+            })
+    }
+
+    pub fn device_name(&self, id: DeviceId) -> Option<&str> {
+        self.devices.get(id.index()).map(|d| d.name.as_str())
+    }
+
+    /// The actuator a device reports as `<type>` number `io`, if the plant names one.
+    pub fn slot(&self, device: DeviceId, kind: &str, io: u32) -> Option<ActuatorId> {
+        self.slots.get(&(device, kind.to_owned(), io)).copied()
+    }
+
+    pub fn signal(&self, id: ActuatorId) -> Option<Signal> {
+        self.actuators.get(id.index()).map(|a| a.signal)
+    }
+
+    pub fn phase(&self, id: ActuatorId) -> Option<Phase> {
+        self.actuators.get(id.index()).map(|a| a.phase)
+    }
+
+    pub fn position(&self, id: ActuatorId) -> Option<f64> {
+        self.actuators.get(id.index()).and_then(|a| a.position)
+    }
+
+    pub fn idle_state(&self, id: ActuatorId) -> Option<f64> {
+        self.actuators.get(id.index()).map(|a| a.idle)
+    }
+
+    pub fn lockout_state(&self, id: ActuatorId) -> Option<f64> {
+        self.actuators.get(id.index()).map(|a| a.lockout)
+    }
+
+    pub fn is_online(&self, device: DeviceId) -> bool {
+        self.devices.get(device.index()).is_some_and(|d| d.online)
+    }
+
+    pub fn counts(&self) -> Counts {
+        let mut counts = Counts::default();
+        for a in &self.actuators {
+            match a.phase {
+                Phase::Pending | Phase::Moving => counts.moving += 1,
+                Phase::Stopped => counts.stopped += 1,
+                Phase::Faulted => counts.faulted += 1,
+                Phase::Idle => {}
+            }
+        }
+        counts
+    }
+
+    /// Reads a target for this actuator from JSON (a number for analog, true/false for binary).
+    pub fn target_from_json(
+        &self,
+        id: ActuatorId,
+        value: &serde_json::Value,
+    ) -> Result<f64, TrackError> {
+        let a = self.state(id)?;
+        state_value(a.signal, a.range, value).map_err(|why| TrackError::InvalidTarget {
+            actuator: a.name.clone(),
+            reason: why,
+        })
+    }
+
+    // ---- commands --------------------------------------------------------------
+
+    /// Issues a group command: all of it or, on any refusal, none of it.
+    /// A `lockout` is published retained, so a device that reconnects applies
+    /// it, and takes over actuators that are still moving; a normal command
+    /// to an actuator still moving is refused.
+    pub fn command(
+        &mut self,
+        targets: &[(ActuatorId, f64)],
+        caller: Caller,
+        lockout: bool,
+        now_ms: u64,
+    ) -> Result<Vec<Effect>, TrackError> {
+        self.check_group(targets, caller, lockout)?;
+        let mut effects = Vec::with_capacity(targets.len() + 1);
+        let mut remaining = 0;
+        for &(id, target) in targets {
+            if let Some(old) = self.actuators[id.index()].command.take() {
+                // Only a lockout gets here with a command active: it takes over.
+                self.fail_group(old.caller, id, FaultKind::LockedOut, &mut effects);
+            }
+            let a = &mut self.actuators[id.index()];
+            if a.retained && !lockout {
+                effects.push(Effect::Publish {
+                    topic: a.topic.clone(),
+                    payload: String::new(),
+                    retain: true,
+                });
+            }
+            effects.push(Effect::Publish {
+                topic: a.topic.clone(),
+                payload: payload(a.signal, target),
+                retain: lockout,
+            });
+            a.commanded = Some(target);
+            a.resting = Some(target);
+            a.retained = lockout;
+            a.uncommanded = false;
+            let at_target = a
+                .position
+                .is_some_and(|p| (p - target).abs() <= a.range.tolerance);
+            if at_target && !a.stale && self.devices[a.device.index()].online {
+                a.phase = Phase::Stopped;
+                effects.push(Effect::Completed {
+                    actuator: id,
+                    caller,
+                    target,
+                    issue_to_motion_ms: 0,
+                    completion_ms: 0,
+                    retries: 0,
+                });
+                continue;
+            }
+            a.command = Some(Command {
+                caller,
+                target,
+                start: a.position,
+                issued_ms: now_ms,
+                attempt_ms: now_ms,
+                moving_ms: None,
+                retries: 0,
+                escalated: false,
+            });
+            a.phase = Phase::Pending;
+            remaining += 1;
+        }
+        if remaining == 0 {
+            effects.push(Effect::GroupCompleted {
+                caller,
+                completion_ms: 0,
+            });
+        } else {
+            self.groups.insert(
+                caller,
+                Group {
+                    issued_ms: now_ms,
+                    remaining,
+                },
+            );
+        }
+        Ok(effects)
+    }
+
+    /// Stops tracking a caller's group (its msg timed out or its node closed).
+    /// The actuators keep their commanded state and become idle.
+    pub fn withdraw(&mut self, caller: Caller) -> bool {
+        let known = self.groups.remove(&caller).is_some();
+        for a in &mut self.actuators {
+            if a.command.as_ref().is_some_and(|c| c.caller == caller) {
+                a.command = None;
+                a.phase = Phase::Idle;
+            }
+        }
+        known
+    }
+
+    fn check_group(
+        &self,
+        targets: &[(ActuatorId, f64)],
+        caller: Caller,
+        lockout: bool,
+    ) -> Result<(), TrackError> {
+        if targets.is_empty() {
+            return Err(TrackError::EmptyCommand);
+        }
+        if self.groups.contains_key(&caller) {
+            return Err(TrackError::CallerBusy { caller });
+        }
+        for (i, &(id, target)) in targets.iter().enumerate() {
+            let a = self.state(id)?;
+            if targets[..i].iter().any(|(other, _)| *other == id) {
+                return Err(TrackError::DuplicateActuator {
+                    actuator: a.name.clone(),
+                });
+            }
+            let valid = match a.signal {
+                Signal::Binary => target == 0.0 || target == 1.0,
+                Signal::Analog => {
+                    target.is_finite() && target >= a.range.min && target <= a.range.max
+                }
+            };
+            if !valid {
+                let reason = match a.signal {
+                    Signal::Binary => "must be true or false".to_owned(),
+                    Signal::Analog => format!(
+                        "must be within {}..{}, got {target}",
+                        a.range.min, a.range.max
+                    ),
+                };
+                return Err(TrackError::InvalidTarget {
+                    actuator: a.name.clone(),
+                    reason,
+                });
+            }
+            if lockout {
+                continue;
+            }
+            if matches!(a.phase, Phase::Pending | Phase::Moving) {
+                return Err(TrackError::StillMoving {
+                    actuator: a.name.clone(),
+                });
+            }
+            if !self.devices[a.device.index()].online {
+                return Err(TrackError::DeviceOffline {
+                    actuator: a.name.clone(),
+                    device: self.devices[a.device.index()].name.clone(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    // ---- feedback --------------------------------------------------------------
+
+    /// One feedback sample. `device_ts_ms` (the device's clock) gives the time of flight.
+    pub fn feedback(
+        &mut self,
+        id: ActuatorId,
+        value: f64,
+        device_ts_ms: Option<u64>,
+        now_ms: u64,
+    ) -> Result<Vec<Effect>, TrackError> {
+        let mut effects = Vec::new();
+        self.sample(id, value, device_ts_ms, now_ms, &mut effects)?;
+        Ok(effects)
+    }
+
+    /// A device's batch (an actuator panel reports all its actuators together).
+    /// A sample that fails is skipped and reported; the others still count.
+    pub fn feedback_batch(
+        &mut self,
+        samples: &[(ActuatorId, f64)],
+        device_ts_ms: Option<u64>,
+        now_ms: u64,
+        effects: &mut Vec<Effect>,
+    ) -> Vec<TrackError> {
+        let mut rejected = Vec::new();
+        for &(id, value) in samples {
+            if let Err(err) = self.sample(id, value, device_ts_ms, now_ms, effects) {
+                rejected.push(err);
+            }
+        }
+        rejected
+    }
+
+    fn sample(
+        &mut self,
+        id: ActuatorId,
+        value: f64,
+        device_ts_ms: Option<u64>,
+        now_ms: u64,
+        effects: &mut Vec<Effect>,
+    ) -> Result<(), TrackError> {
+        let a = self.state(id)?;
+        let valid = match a.signal {
+            Signal::Binary => value == 0.0 || value == 1.0,
+            Signal::Analog => value.is_finite(),
+        };
+        if !valid {
+            return Err(TrackError::InvalidFeedback {
+                actuator: a.name.clone(),
+                value,
+            });
+        }
+        let a = &mut self.actuators[id.index()];
+        let tolerance = a.range.tolerance;
+        a.last_sample_ms = now_ms;
+        if a.stale {
+            a.stale = false;
+            effects.push(Effect::Recovered {
+                actuator: id,
+                fault: FaultKind::Stale,
+            });
+            if a.phase == Phase::Faulted && a.command.is_none() {
+                a.phase = if a.commanded.is_some() {
+                    Phase::Stopped
+                } else {
+                    Phase::Idle
+                };
+            }
+        }
+        if a.reported.is_none_or(|r| (value - r).abs() > tolerance) {
+            a.reported = Some(value);
+            let time_of_flight_ms = device_ts_ms.map(|ts| now_ms as i64 - ts as i64);
+            effects.push(Effect::Changed {
+                actuator: id,
+                value,
+                time_of_flight_ms,
+            });
+        }
+        a.position = Some(value);
+        let Some(command) = a.command.as_mut() else {
+            // No command: it must stay where it was last put (or first seen).
+            let reference = *a.resting.get_or_insert(value);
+            let away = (value - reference).abs() > tolerance;
+            if away && !a.uncommanded {
+                a.uncommanded = true;
+                a.phase = Phase::Faulted;
+                effects.push(Effect::Fault {
+                    actuator: id,
+                    fault: FaultKind::Uncommanded,
+                });
+            } else if !away && a.uncommanded {
+                a.uncommanded = false;
+                a.phase = Phase::Stopped;
+                effects.push(Effect::Recovered {
+                    actuator: id,
+                    fault: FaultKind::Uncommanded,
+                });
+            }
+            return Ok(());
+        };
+        let start = *command.start.get_or_insert(value);
+        let arrived = (value - command.target).abs() <= tolerance;
+        if command.moving_ms.is_none() && ((value - start).abs() > tolerance || arrived) {
+            command.moving_ms = Some(now_ms);
+            a.phase = Phase::Moving;
+            effects.push(Effect::Moving {
+                actuator: id,
+                caller: command.caller,
+                issue_to_motion_ms: now_ms - command.issued_ms,
+            });
+        }
+        if arrived {
+            let command = a.command.take().expect("checked above");
+            a.phase = Phase::Stopped;
+            let issue_to_motion_ms = command.moving_ms.unwrap_or(now_ms) - command.issued_ms;
+            effects.push(Effect::Completed {
+                actuator: id,
+                caller: command.caller,
+                target: command.target,
+                issue_to_motion_ms,
+                completion_ms: now_ms - command.issued_ms,
+                retries: command.retries,
+            });
+            self.complete_one(command.caller, now_ms, effects);
+        }
+        Ok(())
+    }
+
+    // ---- devices -----------------------------------------------------------------
+
+    /// A device's availability (its retained status or last will). Offline fails
+    /// its actuators' commands (fail-fast); back online, its actuators get their
+    /// commanded state again and running commands a fresh time window.
+    pub fn device_status(
+        &mut self,
+        device: DeviceId,
+        online: bool,
+        now_ms: u64,
+    ) -> Result<Vec<Effect>, TrackError> {
+        let d = self
+            .devices
+            .get(device.index())
+            .ok_or_else(|| TrackError::UnknownDevice {
+                name: format!("#{}", device.0),
+            })?;
+        let mut effects = Vec::new();
+        if d.online == online {
+            return Ok(effects);
+        }
+        let members = d.actuators.clone();
+        self.devices[device.index()].online = online;
+        effects.push(Effect::DeviceStatus { device, online });
+        for id in members {
+            let a = &mut self.actuators[id.index()];
+            if online {
+                a.last_sample_ms = now_ms;
+                if let Some(target) = a.commanded {
+                    effects.push(Effect::Publish {
+                        topic: a.topic.clone(),
+                        payload: payload(a.signal, target),
+                        retain: a.retained,
+                    });
+                }
+                if let Some(command) = a.command.as_mut() {
+                    command.attempt_ms = now_ms;
+                    a.phase = if command.moving_ms.is_some() {
+                        Phase::Moving
+                    } else {
+                        Phase::Pending
+                    };
+                } else if a.phase == Phase::Faulted {
+                    a.phase = if a.commanded.is_some() {
+                        Phase::Stopped
+                    } else {
+                        Phase::Idle
+                    };
+                }
+                effects.push(Effect::Recovered {
+                    actuator: id,
+                    fault: FaultKind::DeviceOffline,
+                });
+            } else {
+                a.phase = Phase::Faulted;
+                effects.push(Effect::Fault {
+                    actuator: id,
+                    fault: FaultKind::DeviceOffline,
+                });
+                self.escalate(id, FaultKind::DeviceOffline, &mut effects);
+            }
+        }
+        Ok(effects)
+    }
+
+    // ---- time ----------------------------------------------------------------------
+
+    /// Checks every threshold: no motion, target not reached (each retried,
+    /// then escalated) and stale feedback. A threshold counts as crossed once
+    /// `now - start >= T`.
+    pub fn tick(&mut self, now_ms: u64) -> Vec<Effect> {
+        let mut effects = Vec::new();
+        for index in 0..self.actuators.len() {
+            let id = ActuatorId(index as u32);
+            let a = &self.actuators[index];
+            if !self.devices[a.device.index()].online {
+                continue;
+            }
+            let timing = &self.timings[a.type_index];
+            if !a.stale && now_ms.saturating_sub(a.last_sample_ms) >= timing.stale_ms {
+                let a = &mut self.actuators[index];
+                a.stale = true;
+                a.phase = Phase::Faulted;
+                effects.push(Effect::Fault {
+                    actuator: id,
+                    fault: FaultKind::Stale,
+                });
+                self.escalate(id, FaultKind::Stale, &mut effects);
+                continue;
+            }
+            let Some(command) = &a.command else { continue };
+            if command.escalated {
+                continue;
+            }
+            let elapsed = now_ms.saturating_sub(command.attempt_ms);
+            let fault = if command.moving_ms.is_none() && elapsed >= timing.no_motion_ms {
+                FaultKind::NoMotion
+            } else if elapsed >= timing.completion_ms {
+                FaultKind::NotReached
+            } else {
+                continue;
+            };
+            let retries = timing.retries;
+            let a = &mut self.actuators[index];
+            let command = a.command.as_mut().expect("checked above");
+            if command.retries < retries {
+                command.retries += 1;
+                command.attempt_ms = now_ms;
+                effects.push(Effect::Retry {
+                    actuator: id,
+                    caller: command.caller,
+                    attempt: command.retries,
+                    fault,
+                });
+                effects.push(Effect::Publish {
+                    topic: a.topic.clone(),
+                    payload: payload(a.signal, command.target),
+                    retain: a.retained,
+                });
+            } else {
+                a.phase = Phase::Faulted;
+                effects.push(Effect::Fault {
+                    actuator: id,
+                    fault,
+                });
+                self.escalate(id, fault, &mut effects);
+            }
+        }
+        effects
+    }
+
+    // ---- internals -------------------------------------------------------------------
+
+    fn state(&self, id: ActuatorId) -> Result<&ActuatorState, TrackError> {
+        self.actuators
+            .get(id.index())
+            .ok_or_else(|| TrackError::UnknownActuator {
+                name: format!("#{}", id.0),
+            })
+    }
+
+    /// A failure past its retries: fail-fast ends the command and its group;
+    /// hang leaves it for the caller's own timeout.
+    fn escalate(&mut self, id: ActuatorId, fault: FaultKind, effects: &mut Vec<Effect>) {
+        let escalation = self.timings[self.actuators[id.index()].type_index].escalation;
+        let a = &mut self.actuators[id.index()];
+        match (escalation, a.command.as_mut()) {
+            (_, None) => {}
+            (Escalation::Hang, Some(command)) => command.escalated = true,
+            (Escalation::FailFast, Some(_)) => {
+                let command = a.command.take().expect("matched");
+                self.fail_group(command.caller, id, fault, effects);
+            }
+        }
+    }
+
+    fn complete_one(&mut self, caller: Caller, now_ms: u64, effects: &mut Vec<Effect>) {
+        let Some(group) = self.groups.get_mut(&caller) else {
+            return;
+        };
+        group.remaining -= 1;
+        if group.remaining == 0 {
+            let group = self.groups.remove(&caller).expect("present");
+            effects.push(Effect::GroupCompleted {
+                caller,
+                completion_ms: now_ms - group.issued_ms,
+            });
+        }
+    }
+
+    /// The group fails once; its other actuators stop being waited for.
+    fn fail_group(
+        &mut self,
+        caller: Caller,
+        actuator: ActuatorId,
+        fault: FaultKind,
+        effects: &mut Vec<Effect>,
+    ) {
+        if self.groups.remove(&caller).is_none() {
+            return;
+        }
+        for a in &mut self.actuators {
+            if a.command.as_ref().is_some_and(|c| c.caller == caller) {
+                a.command = None;
+                if a.phase != Phase::Faulted {
+                    a.phase = Phase::Idle;
+                }
+            }
+        }
+        effects.push(Effect::GroupFailed {
+            caller,
+            actuator,
+            fault,
+        });
+    }
+}
+
+fn payload(signal: Signal, target: f64) -> String {
+    match signal {
+        Signal::Binary if target >= 0.5 => "ON".to_owned(),
+        Signal::Binary => "OFF".to_owned(),
+        Signal::Analog => format!("{target}"),
+    }
+}
+
+#[cfg(test)]
+mod tests;
