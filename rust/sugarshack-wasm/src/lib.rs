@@ -1,39 +1,36 @@
 //! WebAssembly facade of the sugarshack core. It only translates: serde for
-//! configuration, snapshots, events and fault outcomes; integer handles and
-//! scalars on the acquire/release path. Core errors become JS `Error`s whose
-//! `code` property names the error kind.
+//! configuration, snapshots, events and outcomes; integer handles, scalars and
+//! typed arrays on hot paths. Core errors become JS `Error`s whose `code`
+//! property names the error kind.
 
-use std::collections::HashMap;
+mod interlock;
+mod tracker;
+
+pub use interlock::Interlock;
+pub use tracker::Tracker;
 
 use serde::Serialize;
-use sugarshack_core::interlock::{
-    FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, Snapshot,
-};
 use wasm_bindgen::prelude::*;
 
-fn serializer() -> serde_wasm_bindgen::Serializer {
+pub(crate) fn serializer() -> serde_wasm_bindgen::Serializer {
     serde_wasm_bindgen::Serializer::json_compatible()
 }
 
-fn to_js<T: Serialize + ?Sized>(value: &T) -> Result<JsValue, JsValue> {
+pub(crate) fn to_js<T: Serialize + ?Sized>(value: &T) -> Result<JsValue, JsValue> {
     value
         .serialize(&serializer())
         .map_err(|e| js_error("SERIALIZE", &e.to_string()))
 }
 
-fn js_error(code: &str, message: &str) -> JsValue {
+pub(crate) fn js_error(code: &str, message: &str) -> JsValue {
     let error = js_sys::Error::new(message);
-    error.set_name("InterlockError");
+    error.set_name("SugarshackError");
     // Reflect::set on a fresh Error object cannot fail.
     let _ = js_sys::Reflect::set(&error, &"code".into(), &code.into());
     error.into()
 }
 
-fn core_error(err: InterlockError) -> JsValue {
-    js_error(err.code(), &err.to_string())
-}
-
-fn time(now_ms: f64) -> Result<u64, JsValue> {
+pub(crate) fn time(now_ms: f64) -> Result<u64, JsValue> {
     if now_ms.is_finite() && now_ms >= 0.0 {
         Ok(now_ms as u64)
     } else {
@@ -46,7 +43,7 @@ fn time(now_ms: f64) -> Result<u64, JsValue> {
 
 /// Reads a JS value as `T`, seeing every key: serde-wasm-bindgen reads a
 /// struct by its known fields only, so a misspelt option would pass unseen.
-fn from_js<T: serde::de::DeserializeOwned>(
+pub(crate) fn from_js<T: serde::de::DeserializeOwned>(
     value: JsValue,
     code: &str,
     what: &str,
@@ -54,330 +51,4 @@ fn from_js<T: serde::de::DeserializeOwned>(
     let failed = |e: &dyn std::fmt::Display| js_error(code, &format!("{what}: {e}"));
     let tree: serde_json::Value = serde_wasm_bindgen::from_value(value).map_err(|e| failed(&e))?;
     serde_json::from_value(tree).map_err(|e| failed(&e))
-}
-
-fn parse_config(config: JsValue) -> Result<InterlockConfig, JsValue> {
-    from_js(config, "INVALID_CONFIG", "invalid interlock configuration")
-}
-
-fn handles(grants: &[Grant]) -> Vec<u32> {
-    grants.iter().map(|g| g.operation.index() as u32).collect()
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct LockoutView<'a> {
-    resource: &'a str,
-    command: &'a serde_json::Value,
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct FaultView<'a> {
-    lockouts: Vec<LockoutView<'a>>,
-    dropped: bool,
-    grants: Vec<u32>,
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct CountsView {
-    holding: usize,
-    queued: usize,
-    faulted: usize,
-}
-
-/// The resource interlock, as JS sees it.
-#[wasm_bindgen]
-pub struct Interlock {
-    core: sugarshack_core::interlock::Interlock,
-    sets: Vec<ResourceSet>,
-    set_index: HashMap<Vec<u32>, u32>,
-    /// Operations granted by the last release, cancel or clear, read with
-    /// `granted(i)`: returning a count spares a typed array per call.
-    granted: Vec<u32>,
-}
-
-impl Interlock {
-    fn wrap(core: sugarshack_core::interlock::Interlock) -> Self {
-        Interlock {
-            core,
-            sets: Vec::new(),
-            set_index: HashMap::new(),
-            granted: Vec::new(),
-        }
-    }
-
-    fn op(&self, handle: u32) -> Result<OpId, JsValue> {
-        let op = OpId::from_index(handle);
-        self.core.operation_name(op).map(|_| op).ok_or_else(|| {
-            core_error(InterlockError::UnknownOperation {
-                name: format!("#{handle}"),
-            })
-        })
-    }
-
-    fn set(&self, handle: u32) -> Result<&ResourceSet, JsValue> {
-        self.sets.get(handle as usize).ok_or_else(|| {
-            js_error(
-                "UNKNOWN_RESOURCE_SET",
-                &format!("resource set handle {handle} was not made by this interlock"),
-            )
-        })
-    }
-
-    fn keep_granted(&mut self, grants: &[Grant]) -> u32 {
-        self.granted.clear();
-        self.granted
-            .extend(grants.iter().map(|g| g.operation.index() as u32));
-        self.granted.len() as u32
-    }
-
-    fn fault_view(&self, outcome: FaultOutcome) -> Result<JsValue, JsValue> {
-        let lockouts = outcome
-            .lockouts
-            .iter()
-            .map(|l| LockoutView {
-                resource: self.core.resource_name(l.resource).unwrap_or_default(),
-                command: &l.command,
-            })
-            .collect();
-        to_js(&FaultView {
-            lockouts,
-            dropped: outcome.dropped,
-            grants: handles(&outcome.grants),
-        })
-    }
-}
-
-#[wasm_bindgen]
-impl Interlock {
-    /// `config`: `{ resources: [{ name, lockout }], policy: "greedy" | "no-overtaking",
-    /// queueBound, warnQueuedMs, warnHeldMs, recordEvents }`.
-    #[wasm_bindgen(constructor)]
-    pub fn new(config: JsValue) -> Result<Interlock, JsValue> {
-        let config = parse_config(config)?;
-        sugarshack_core::interlock::Interlock::new(config)
-            .map(Interlock::wrap)
-            .map_err(core_error)
-    }
-
-    /// Rebuilds a saved state: resources held when it was saved restore as
-    /// faulted. `keepQueue` false drops waiting requests (their callers are gone).
-    pub fn restore(
-        config: JsValue,
-        snapshot: JsValue,
-        keep_queue: bool,
-        now_ms: f64,
-    ) -> Result<Interlock, JsValue> {
-        let config = parse_config(config)?;
-        let snapshot: Snapshot = from_js(
-            snapshot,
-            "INVALID_SNAPSHOT",
-            "cannot restore interlock state",
-        )?;
-        let (core, _grants) = sugarshack_core::interlock::Interlock::restore(
-            config,
-            &snapshot,
-            keep_queue,
-            time(now_ms)?,
-        )
-        .map_err(core_error)?;
-        // Grants on restore only happen with keepQueue and a changed config; they show in the events.
-        Ok(Interlock::wrap(core))
-    }
-
-    /// The handle of an operation, registering the name on first use.
-    pub fn operation(&mut self, name: &str) -> Result<u32, JsValue> {
-        if name.is_empty() {
-            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
-        }
-        Ok(self.core.operation(name).index() as u32)
-    }
-
-    /// The handle of an operation that has used this interlock before.
-    #[wasm_bindgen(js_name = findOperation)]
-    pub fn find_operation(&self, name: &str) -> Result<u32, JsValue> {
-        self.core
-            .find_operation(name)
-            .map(|op| op.index() as u32)
-            .map_err(core_error)
-    }
-
-    #[wasm_bindgen(js_name = operationName)]
-    pub fn operation_name(&self, handle: u32) -> Option<String> {
-        self.core
-            .operation_name(OpId::from_index(handle))
-            .map(str::to_owned)
-    }
-
-    /// A handle for a set of resource names; the same names give the same handle.
-    #[wasm_bindgen(js_name = resourceSet)]
-    pub fn resource_set(&mut self, names: Vec<String>) -> Result<u32, JsValue> {
-        let set = self.core.resource_set(&names).map_err(core_error)?;
-        let key: Vec<u32> = set.ids().iter().map(|r| r.index() as u32).collect();
-        if let Some(&handle) = self.set_index.get(&key) {
-            return Ok(handle);
-        }
-        let handle = self.sets.len() as u32;
-        self.sets.push(set);
-        self.set_index.insert(key, handle);
-        Ok(handle)
-    }
-
-    #[wasm_bindgen(js_name = resourceNames)]
-    pub fn resource_names(&self) -> Vec<String> {
-        self.core
-            .config()
-            .resources
-            .iter()
-            .map(|r| r.name.clone())
-            .collect()
-    }
-
-    /// True when granted at once, false when queued.
-    pub fn acquire(
-        &mut self,
-        op: u32,
-        priority: i32,
-        set: u32,
-        now_ms: f64,
-    ) -> Result<bool, JsValue> {
-        let op = self.op(op)?;
-        let now = time(now_ms)?;
-        let set = self.sets.get(set as usize).ok_or_else(|| {
-            js_error(
-                "UNKNOWN_RESOURCE_SET",
-                &format!("resource set handle {set} was not made by this interlock"),
-            )
-        })?;
-        let acquisition = self
-            .core
-            .acquire(op, priority, set, now)
-            .map_err(core_error)?;
-        Ok(acquisition == sugarshack_core::interlock::Acquisition::Granted)
-    }
-
-    /// Releases and returns how many waiting operations it granted; read them with `granted(i)`.
-    pub fn release(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
-        let op = self.op(op)?;
-        let grants = self.core.release(op, time(now_ms)?).map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
-    }
-
-    /// Withdraws a waiting request; returns how many others it let through (see `granted`).
-    pub fn cancel(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
-        let op = self.op(op)?;
-        let grants = self.core.cancel(op, time(now_ms)?).map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
-    }
-
-    /// The handle of the i-th operation granted by the last release, cancel or clear, in grant order.
-    pub fn granted(&self, index: u32) -> Option<u32> {
-        self.granted.get(index as usize).copied()
-    }
-
-    /// `{ lockouts: [{ resource, command }], dropped, grants }`.
-    pub fn fault(
-        &mut self,
-        op: u32,
-        note: Option<String>,
-        now_ms: f64,
-    ) -> Result<JsValue, JsValue> {
-        let op = self.op(op)?;
-        let outcome = self
-            .core
-            .fault(op, note.as_deref(), time(now_ms)?)
-            .map_err(core_error)?;
-        self.fault_view(outcome)
-    }
-
-    #[wasm_bindgen(js_name = faultResources)]
-    pub fn fault_resources(
-        &mut self,
-        set: u32,
-        note: Option<String>,
-        now_ms: f64,
-    ) -> Result<JsValue, JsValue> {
-        let now = time(now_ms)?;
-        let set = self.set(set)?.clone();
-        let outcome = self
-            .core
-            .fault_resources(&set, note.as_deref(), now)
-            .map_err(core_error)?;
-        self.fault_view(outcome)
-    }
-
-    /// Clears faulted resources; returns how many waiting operations it granted (see `granted`).
-    pub fn clear(&mut self, set: u32, now_ms: f64) -> Result<u32, JsValue> {
-        let now = time(now_ms)?;
-        let set = self.set(set)?.clone();
-        let grants = self.core.clear(&set, now).map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
-    }
-
-    #[wasm_bindgen(js_name = faultedResources)]
-    pub fn faulted_resources(&self) -> Vec<String> {
-        let faulted = self.core.faulted_resources();
-        faulted
-            .ids()
-            .iter()
-            .filter_map(|r| self.core.resource_name(*r))
-            .map(str::to_owned)
-            .collect()
-    }
-
-    /// Elapsed-time warnings as event records; each crossing warns once.
-    pub fn tick(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
-        let warnings = self.core.tick(time(now_ms)?);
-        let records: Vec<_> = warnings.iter().map(|e| self.core.describe(e)).collect();
-        to_js(&records)
-    }
-
-    /// Event records since the last call.
-    #[wasm_bindgen(js_name = drainEvents)]
-    pub fn drain_events(&mut self) -> Result<JsValue, JsValue> {
-        let events = self.core.drain_events();
-        let records: Vec<_> = events.iter().map(|e| self.core.describe(e)).collect();
-        to_js(&records)
-    }
-
-    #[wasm_bindgen(js_name = hasEvents)]
-    pub fn has_events(&self) -> bool {
-        self.core.has_events()
-    }
-
-    pub fn snapshot(&self, now_ms: f64) -> Result<JsValue, JsValue> {
-        to_js(&self.core.snapshot(time(now_ms)?))
-    }
-
-    /// `{ holding, queued, faulted }`.
-    pub fn counts(&self) -> Result<JsValue, JsValue> {
-        let c = self.core.counts();
-        to_js(&CountsView {
-            holding: c.holding,
-            queued: c.queued,
-            faulted: c.faulted,
-        })
-    }
-
-    #[wasm_bindgen(js_name = isHolding)]
-    pub fn is_holding(&self, op: u32) -> bool {
-        self.core.is_holding(OpId::from_index(op))
-    }
-
-    #[wasm_bindgen(js_name = isQueued)]
-    pub fn is_queued(&self, op: u32) -> bool {
-        self.core.is_queued(OpId::from_index(op))
-    }
-
-    /// Handles of the waiting operations, in the order they would be granted.
-    #[wasm_bindgen(js_name = queuedOperations)]
-    pub fn queued_operations(&self) -> Vec<u32> {
-        self.core
-            .queued_operations()
-            .iter()
-            .map(|op| op.index() as u32)
-            .collect()
-    }
 }

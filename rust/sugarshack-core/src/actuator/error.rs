@@ -6,6 +6,7 @@ pub enum TrackError {
     UnknownActuator { name: String },
     UnknownDevice { name: String },
     EmptyCommand,
+    InvalidGroup { reason: String },
     DuplicateActuator { actuator: String },
     InvalidTarget { actuator: String, reason: String },
     StillMoving { actuator: String },
@@ -21,6 +22,7 @@ impl TrackError {
             Self::UnknownActuator { .. } => "UNKNOWN_ACTUATOR",
             Self::UnknownDevice { .. } => "UNKNOWN_DEVICE",
             Self::EmptyCommand => "EMPTY_COMMAND",
+            Self::InvalidGroup { .. } => "INVALID_GROUP",
             Self::DuplicateActuator { .. } => "DUPLICATE_ACTUATOR",
             Self::InvalidTarget { .. } => "INVALID_TARGET",
             Self::StillMoving { .. } => "STILL_MOVING",
@@ -37,6 +39,7 @@ impl fmt::Display for TrackError {
             Self::UnknownActuator { name } => write!(f, "unknown actuator '{name}': it is not in the plant document"),
             Self::UnknownDevice { name } => write!(f, "unknown device '{name}': it is not in the plant document"),
             Self::EmptyCommand => write!(f, "the group command names no actuator"),
+            Self::InvalidGroup { reason } => write!(f, "invalid group command: {reason}"),
             Self::DuplicateActuator { actuator } => write!(f, "actuator '{actuator}' appears twice in one group command"),
             Self::InvalidTarget { actuator, reason } => write!(f, "target for '{actuator}' {reason}"),
             Self::StillMoving { actuator } => write!(

@@ -413,6 +413,58 @@ impl Tracker {
 
     // ---- commands --------------------------------------------------------------
 
+    /// Reads a group command such as `{"valves": {"V12": 100, "V13": 0}, "pumps": {"P1": true}}`:
+    /// each key is an actuator type (or its plural), each id must be of that type.
+    pub fn parse_group(
+        &self,
+        payload: &serde_json::Value,
+    ) -> Result<Vec<(ActuatorId, f64)>, TrackError> {
+        let invalid = |reason: String| TrackError::InvalidGroup { reason };
+        let groups = payload.as_object().ok_or_else(|| {
+            invalid(format!(
+                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {payload}"
+            ))
+        })?;
+        let mut targets = Vec::new();
+        for (key, members) in groups {
+            let kind = key
+                .strip_suffix('s')
+                .filter(|k| self.plant.actuator_types.contains_key(*k))
+                .unwrap_or(key);
+            if !self.plant.actuator_types.contains_key(kind) {
+                let known: Vec<&str> = self
+                    .plant
+                    .actuator_types
+                    .keys()
+                    .map(String::as_str)
+                    .collect();
+                return Err(invalid(format!(
+                    "unknown actuator type '{key}' (known: {})",
+                    known.join(", ")
+                )));
+            }
+            let members = members.as_object().ok_or_else(|| {
+                invalid(format!(
+                    "'{key}' must map actuator ids to targets, got {members}"
+                ))
+            })?;
+            for (name, value) in members {
+                let id = self.actuator(name)?;
+                if self.plant.actuators[id.index()].kind != kind {
+                    return Err(invalid(format!(
+                        "'{name}' is a {}, not a {kind}",
+                        self.plant.actuators[id.index()].kind
+                    )));
+                }
+                targets.push((id, self.target_from_json(id, value)?));
+            }
+        }
+        if targets.is_empty() {
+            return Err(TrackError::EmptyCommand);
+        }
+        Ok(targets)
+    }
+
     /// Issues a group command: all of it or, on any refusal, none of it.
     /// A `lockout` is published retained, so a device that reconnects applies
     /// it, and takes over actuators that are still moving; a normal command
@@ -579,18 +631,18 @@ impl Tracker {
     }
 
     /// A device's batch (an actuator panel reports all its actuators together).
-    /// A sample that fails is skipped and reported; the others still count.
+    /// A sample that fails is skipped and returned with its actuator; the others still count.
     pub fn feedback_batch(
         &mut self,
         samples: &[(ActuatorId, f64)],
         device_ts_ms: Option<u64>,
         now_ms: u64,
         effects: &mut Vec<Effect>,
-    ) -> Vec<TrackError> {
+    ) -> Vec<(ActuatorId, TrackError)> {
         let mut rejected = Vec::new();
         for &(id, value) in samples {
             if let Err(err) = self.sample(id, value, device_ts_ms, now_ms, effects) {
-                rejected.push(err);
+                rejected.push((id, err));
             }
         }
         rejected

@@ -482,9 +482,11 @@ fn a_bad_sample_in_a_batch_is_reported_and_the_rest_still_counts() {
         20,
         &mut effects,
     );
+    let codes: Vec<(ActuatorId, &str)> =
+        rejected.iter().map(|(id, err)| (*id, err.code())).collect();
     assert_eq!(
-        rejected.iter().map(TrackError::code).collect::<Vec<_>>(),
-        vec!["INVALID_FEEDBACK", "INVALID_FEEDBACK"]
+        codes,
+        vec![(p1, "INVALID_FEEDBACK"), (v2, "INVALID_FEEDBACK")]
     );
     assert_eq!(t.position(v1), Some(50.0));
     assert_eq!(t.position(v2), Some(0.0));
@@ -511,4 +513,32 @@ fn withdrawing_a_group_leaves_its_actuators_idle() {
         }
     );
     assert!(t.tick(1500).is_empty(), "nothing left to time out");
+}
+
+#[test]
+fn group_commands_read_by_type_and_refuse_mismatches() {
+    let (t, v1, v2, p1) = tracker();
+    let targets = t
+        .parse_group(&json!({ "valves": { "V1": 100, "V2": 0 }, "pump": { "P1": true } }))
+        .unwrap();
+    assert_eq!(targets, vec![(v1, 100.0), (v2, 0.0), (p1, 1.0)]);
+    let code = |payload| t.parse_group(&payload).unwrap_err();
+    assert_eq!(
+        code(json!({ "valves": { "P1": 0 } })).to_string(),
+        "invalid group command: 'P1' is a pump, not a valve"
+    );
+    assert_eq!(
+        code(json!({ "motors": { "M1": 1 } })).to_string(),
+        "invalid group command: unknown actuator type 'motors' (known: pump, valve)"
+    );
+    assert_eq!(
+        code(json!({ "valves": { "V77": 1 } })).code(),
+        "UNKNOWN_ACTUATOR"
+    );
+    assert_eq!(
+        code(json!({ "valves": { "V1": "open" } })).code(),
+        "INVALID_TARGET"
+    );
+    assert_eq!(code(json!({ "valves": {} })).code(), "EMPTY_COMMAND");
+    assert_eq!(code(json!([1, 2])).code(), "INVALID_GROUP");
 }

@@ -1,0 +1,183 @@
+#![cfg(target_arch = "wasm32")]
+
+//! The tracker's JS boundary, run under Node: plant errors, group commands as
+//! plain objects, typed-array batches, effects and rejections.
+
+use js_sys::{Array, Reflect, JSON};
+use sugarshack_wasm::Tracker;
+use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen_test::wasm_bindgen_test;
+
+fn json(text: &str) -> JsValue {
+    JSON::parse(text).expect("test JSON parses")
+}
+
+fn get(value: &JsValue, key: &str) -> JsValue {
+    Reflect::get(value, &key.into()).unwrap()
+}
+
+fn code_of(error: JsValue) -> String {
+    assert!(error.is_instance_of::<js_sys::Error>());
+    get(&error, "code").as_string().unwrap()
+}
+
+const PLANT: &str = r#"{
+    "actuatorTypes": {
+        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000, "retries": 0 },
+        "pump": { "signal": "binary", "noMotionMs": 1000, "completionMs": 3000, "staleMs": 5000 }
+    },
+    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+    "actuators": [
+        { "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 },
+        { "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false }
+    ]
+}"#;
+
+fn kinds(effects: &JsValue) -> Vec<String> {
+    Array::from(effects)
+        .iter()
+        .map(|e| get(&e, "kind").as_string().unwrap())
+        .collect()
+}
+
+#[wasm_bindgen_test]
+fn a_broken_plant_lists_every_problem() {
+    let err = Tracker::new(json(r#"{ "actuatorTypes": {}, "devices": [],
+        "actuators": [{ "id": "V1", "type": "valve", "device": "ctrl-9", "io": 1, "idle": 0, "lockout": 0 }] }"#), 0.0)
+    .err()
+    .unwrap();
+    let message: String = err.dyn_ref::<js_sys::Error>().unwrap().message().into();
+    assert!(
+        message.contains("actuators[0] (V1): unknown device 'ctrl-9'"),
+        "{message}"
+    );
+    assert!(
+        message.contains("actuators[0] (V1): unknown type 'valve'"),
+        "{message}"
+    );
+    assert_eq!(code_of(err), "INVALID_PLANT");
+}
+
+#[wasm_bindgen_test]
+fn a_group_command_runs_from_plain_objects_to_completion() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let actuators = Array::from(&t.actuators().unwrap());
+    assert_eq!(actuators.length(), 2);
+    assert_eq!(get(&actuators.get(1), "binary").as_bool(), Some(true));
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let v12 = t.slot(ctrl1, "valve", 12).unwrap();
+    let p1 = t.slot(ctrl1, "pump", 1).unwrap();
+    assert_eq!(t.slot(ctrl1, "valve", 3), None);
+    t.feedback_batch(&[v12, p1], &[0.0, 0.0], Some(0.0), 10.0)
+        .unwrap();
+    t.take_effects().unwrap();
+
+    let queued = t
+        .command(
+            json(r#"{ "valves": { "V12": 100 }, "pumps": { "P1": true } }"#),
+            7,
+            false,
+            100.0,
+        )
+        .unwrap();
+    assert_eq!(queued, 2);
+    let sent = t.take_effects().unwrap();
+    let first = Array::from(&sent).get(0);
+    assert_eq!(
+        get(&first, "topic").as_string().as_deref(),
+        Some("ctrl-1/valve/12/command")
+    );
+    assert_eq!(get(&first, "payload").as_string().as_deref(), Some("100"));
+    assert_eq!(get(&first, "retain").as_bool(), Some(false));
+    assert_eq!(
+        get(&Array::from(&sent).get(1), "payload")
+            .as_string()
+            .as_deref(),
+        Some("ON")
+    );
+
+    t.feedback_batch(&[v12, p1], &[50.0, 1.0], Some(1900.0), 2000.0)
+        .unwrap();
+    t.feedback_batch(&[v12, p1], &[99.0, 1.0], Some(2900.0), 3000.0)
+        .unwrap();
+    let effects = t.take_effects().unwrap();
+    let seen = kinds(&effects);
+    assert!(
+        seen.contains(&"moving".to_string()) && seen.contains(&"completed".to_string()),
+        "{seen:?}"
+    );
+    let done = Array::from(&effects)
+        .iter()
+        .find(|e| get(e, "kind").as_string().as_deref() == Some("groupCompleted"))
+        .unwrap();
+    assert_eq!(get(&done, "caller").as_f64(), Some(7.0));
+    assert_eq!(get(&done, "completionMs").as_f64(), Some(2900.0));
+    let changed = Array::from(&effects)
+        .iter()
+        .find(|e| get(e, "kind").as_string().as_deref() == Some("changed"))
+        .unwrap();
+    assert_eq!(get(&changed, "timeOfFlightMs").as_f64(), Some(100.0));
+    assert_eq!(t.phase(v12).unwrap(), "stopped");
+}
+
+#[wasm_bindgen_test]
+fn refusals_throw_coded_errors_and_send_nothing() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    t.command(json(r#"{ "valves": { "V12": 100 } }"#), 1, false, 0.0)
+        .unwrap();
+    t.take_effects().unwrap();
+    let code = |t: &mut Tracker, payload: &str| {
+        code_of(t.command(json(payload), 2, false, 10.0).unwrap_err())
+    };
+    assert_eq!(
+        code(&mut t, r#"{ "valves": { "V12": 0 } }"#),
+        "STILL_MOVING"
+    );
+    assert_eq!(
+        code(&mut t, r#"{ "valves": { "V99": 0 } }"#),
+        "UNKNOWN_ACTUATOR"
+    );
+    assert_eq!(
+        code(&mut t, r#"{ "pumps": { "P1": 5 } }"#),
+        "INVALID_TARGET"
+    );
+    assert_eq!(
+        code(&mut t, r#"{ "valves": { "P1": 0 } }"#),
+        "INVALID_GROUP"
+    );
+    assert_eq!(code(&mut t, r#""open everything""#), "INVALID_GROUP");
+    assert_eq!(
+        Array::from(&t.take_effects().unwrap()).length(),
+        0,
+        "nothing queued by refusals"
+    );
+}
+
+#[wasm_bindgen_test]
+fn bad_samples_in_a_batch_come_back_as_rejections() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    let p1 = t.actuator("P1").unwrap();
+    t.feedback_batch(&[v12, p1], &[f64::NAN, 0.5], None, 10.0)
+        .unwrap();
+    let effects = Array::from(&t.take_effects().unwrap());
+    let rejected: Vec<JsValue> = effects
+        .iter()
+        .filter(|e| get(e, "kind").as_string().as_deref() == Some("rejected"))
+        .collect();
+    assert_eq!(rejected.len(), 2);
+    assert_eq!(get(&rejected[1], "actuator").as_f64(), Some(f64::from(p1)));
+    assert_eq!(
+        get(&rejected[1], "code").as_string().as_deref(),
+        Some("INVALID_FEEDBACK")
+    );
+    assert_eq!(
+        code_of(
+            t.feedback_batch(&[v12], &[1.0, 2.0], None, 20.0)
+                .unwrap_err()
+        ),
+        "INVALID_FEEDBACK"
+    );
+    let counts = t.counts().unwrap();
+    assert_eq!(get(&counts, "faulted").as_f64(), Some(0.0));
+}
