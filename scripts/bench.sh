@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# Interlock benchmark: builds the wasm package (release), then runs the JS
-# benchmark, which also builds and runs the native example. Prints figures;
-# extra arguments go to tests/bench/interlock-bench.js (--quick, --no-native,
-# --no-events).
+# Benchmarks: builds the wasm package (release), then runs the interlock and
+# the feedback ingest benchmarks, each beside its native example. Prints
+# figures; extra arguments go to tests/bench/interlock-bench.js (--quick,
+# --no-native, --no-events).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
 
 bash scripts/build-wasm.sh
-echo "bench: building the native example (release)"
-cargo build -q --release -p sugarshack-core --example interlock_bench
+echo "bench: building the native examples (release)"
+cargo build -q --release -p sugarshack-core --example interlock_bench --example tracker_bench
 node tests/bench/interlock-bench.js "$@"
+echo
+node tests/bench/tracker-bench.js

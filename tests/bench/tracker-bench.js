@@ -1,0 +1,163 @@
+#!/usr/bin/env node
+'use strict';
+// Feedback ingest benchmark: prints figures, asserts nothing about speed.
+//
+// Actuator panels (16 valves + 1 pump, the paper's ctrl-N) each publish one
+// batch per plant second, as JSON on `<panel>/state`. Three ways in:
+//   native          the core, via `cargo run --release --example tracker_bench`
+//   wasm, arrays    the facade given ready typed arrays (the boundary alone)
+//   wasm, as nodes  from the JSON string: parse, map (type, io) to handles,
+//                   fill typed arrays, call the facade, take effects if any
+// Target: >= 100,000 datapoints/s through wasm (95,000 I/O at 1 Hz).
+// usage: node tests/bench/tracker-bench.js [PANELS] [SECONDS]
+
+const path = require('path');
+const { spawnSync } = require('child_process');
+const ROOT = path.join(__dirname, '..', '..');
+const { Tracker } = require(path.join(ROOT, 'node-red-contrib-sugarshack', 'wasm', 'sugarshack_wasm.js'));
+
+const PANELS = Number(process.argv[2]) || 1000;
+const SECONDS = Number(process.argv[3]) || 20;
+const VALVES = 16;
+const TARGET = 100000;
+
+function plant(panels) {
+  const devices = [];
+  const actuators = [];
+  for (let p = 1; p <= panels; p++) {
+    devices.push({ id: `ctrl-${p}`, kind: 'actuator-panel' });
+    for (let io = 1; io <= VALVES; io++) {
+      actuators.push({ id: `V${p}-${io}`, type: 'valve', device: `ctrl-${p}`, io, idle: 0, lockout: 0 });
+    }
+    actuators.push({ id: `P${p}`, type: 'pump', device: `ctrl-${p}`, io: 1, idle: false, lockout: false });
+  }
+  return {
+    actuatorTypes: {
+      valve: { signal: 'analog', tolerance: 3, noMotionMs: 4000, completionMs: 15000, staleMs: 5000 },
+      pump: { signal: 'binary', noMotionMs: 4000, completionMs: 6000, staleMs: 5000 },
+    },
+    devices,
+    actuators,
+  };
+}
+
+/** Same values as the native example's `sample`. */
+function sample(panel, slot, second) {
+  if (slot === VALVES) return (panel + Math.floor(second / 30)) % 2;
+  const noise = ((panel * 31 + slot * 17 + second * 13) % 5) * 0.5 - 1.0;
+  if ((panel + slot) % 7 === 0) return ((second * 25) % 100) + Math.abs(noise);
+  return 50 + noise;
+}
+
+function payloads() {
+  const out = [];
+  for (let s = 0; s < SECONDS; s++) {
+    const now = 1000 * (s + 1);
+    for (let p = 1; p <= PANELS; p++) {
+      const valve = {};
+      for (let io = 1; io <= VALVES; io++) valve[io] = sample(p, io - 1, s);
+      out.push({ now, device: `ctrl-${p}`, text: JSON.stringify({ ts: now - 80, valve, pump: { 1: sample(p, VALVES, s) === 1 } }) });
+    }
+  }
+  return out;
+}
+
+/** What the actuators node does with one `<panel>/state` msg. */
+class BatchReader {
+  constructor(tracker) {
+    this.tracker = tracker;
+    this.handles = new Uint32Array(64);
+    this.values = new Float64Array(64);
+    this.slots = new Map();
+  }
+  slot(device, type, io) {
+    const key = `${device}/${type}/${io}`;
+    let handle = this.slots.get(key);
+    if (handle === undefined) {
+      handle = this.tracker.slot(this.tracker.device(device), type, Number(io));
+      this.slots.set(key, handle === undefined ? -1 : handle);
+    }
+    return handle === undefined ? -1 : handle;
+  }
+  ingest(device, text, now) {
+    const batch = JSON.parse(text);
+    let n = 0;
+    for (const type of Object.keys(batch)) {
+      if (type === 'ts') continue;
+      const group = batch[type];
+      for (const io of Object.keys(group)) {
+        const handle = this.slot(device, type, io);
+        if (handle < 0) continue;
+        const v = group[io];
+        this.handles[n] = handle;
+        this.values[n++] = v === true ? 1 : v === false ? 0 : v;
+      }
+    }
+    const queued = this.tracker.feedbackBatch(this.handles.subarray(0, n), this.values.subarray(0, n), batch.ts, now);
+    return queued > 0 ? this.tracker.takeEffects().length : 0;
+  }
+}
+
+function timeIt(fn) {
+  const started = process.hrtime.bigint();
+  const passedOn = fn();
+  return { elapsedS: Number(process.hrtime.bigint() - started) / 1e9, passedOn };
+}
+
+function main() {
+  const datapoints = PANELS * SECONDS * (VALVES + 1);
+  const msgs = payloads();
+
+  const asNodes = new Tracker(plant(PANELS), 0);
+  const reader = new BatchReader(asNodes);
+  const nodes = timeIt(() => {
+    let passed = 0;
+    let second = msgs[0].now;
+    for (const m of msgs) {
+      if (m.now !== second) { asNodes.tick(second); asNodes.takeEffects(); second = m.now; }
+      passed += reader.ingest(m.device, m.text, m.now);
+    }
+    return passed;
+  });
+
+  // The boundary alone: the same batches as ready typed arrays.
+  const boundary = new Tracker(plant(PANELS), 0);
+  const arrays = msgs.map((m) => {
+    const b = JSON.parse(m.text);
+    const device = boundary.device(m.device);
+    const handles = Uint32Array.from([...Array(VALVES).keys()].map((i) => boundary.slot(device, 'valve', i + 1)).concat([boundary.slot(device, 'pump', 1)]));
+    const values = Float64Array.from(Object.values(b.valve).concat([b.pump[1] ? 1 : 0]));
+    return { handles, values, ts: b.ts, now: m.now };
+  });
+  const raw = timeIt(() => {
+    let passed = 0;
+    for (const a of arrays) {
+      if (boundary.feedbackBatch(a.handles, a.values, a.ts, a.now) > 0) passed += boundary.takeEffects().length;
+    }
+    return passed;
+  });
+
+  const native = spawnSync('cargo', ['run', '-q', '--release', '-p', 'sugarshack-core', '--example', 'tracker_bench', '--', String(PANELS), String(SECONDS)],
+    { cwd: ROOT, encoding: 'utf8', stdio: ['ignore', 'pipe', 'inherit'] });
+  if (native.status !== 0) throw new Error('native tracker bench failed');
+  const n = JSON.parse(native.stdout.trim().split('\n').pop());
+
+  const rows = [
+    ['native', n.datapoints / n.elapsedS, n.passedOn],
+    ['wasm, typed arrays', datapoints / raw.elapsedS, raw.passedOn],
+    ['wasm, as the nodes call it', datapoints / nodes.elapsedS, nodes.passedOn],
+  ];
+  console.log(`feedback ingest: ${PANELS} panels x ${VALVES + 1} datapoints x ${SECONDS} plant seconds = ${datapoints} datapoints (node ${process.version})`);
+  console.log('impl                        | datapoints/s | passed on (changed, moving, ...)');
+  console.log('----------------------------|--------------|---------------------------------');
+  for (const [name, rate, passed] of rows) {
+    console.log(`${name.padEnd(27)} | ${Math.round(rate).toLocaleString('en').padStart(12)} | ${passed}`);
+  }
+  const wasmRate = datapoints / nodes.elapsedS;
+  console.log(`${wasmRate >= TARGET ? 'PASS' : 'MISS'}  wasm as the nodes call it >= ${TARGET.toLocaleString('en')} datapoints/s: ${Math.round(wasmRate).toLocaleString('en')} (${(wasmRate / TARGET).toFixed(1)}x)`);
+  if (raw.passedOn !== n.passedOn || nodes.passedOn !== n.passedOn) {
+    throw new Error(`implementations disagree on what changed: native ${n.passedOn}, arrays ${raw.passedOn}, nodes ${nodes.passedOn}`);
+  }
+}
+
+main();
