@@ -81,6 +81,18 @@ _sugarshack_setup() (
     # npm runs under whichever `node` is first on PATH: use Node 22 for Node-RED 5.
     (cd "$NR5_DIR" && PATH="$(dirname "$NODE22"):$PATH" npm install --no-audit --no-fund)
   fi
+  # Integration tests run their own Mosquitto (tests/integration/support/mosquitto.js);
+  # only the binary is needed, not the system service.
+  if command -v mosquitto >/dev/null || [ -x /usr/sbin/mosquitto ]; then
+    say "mosquitto: present"
+  else
+    say "mosquitto: apt-get install -y mosquitto"
+    local sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get update
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y mosquitto
+    [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || { say "mosquitto install failed"; exit 1; }
+  fi
   say "done"
 )
 

@@ -80,9 +80,48 @@ seed_flows() {
   node scripts/merge-flows.js "$target" "${sources[@]}"
 }
 
-# Extra services (each started in the background with its pid appended to PIDS).
+# Extra services (each started in the background with its pid appended to PIDS):
+# the MQTT broker (aedes, scripts/broker.js) and the plant simulator on it.
+# Their output goes to .run/logs/. Set MQTT_URL to use a broker of your own
+# instead (then only the simulator starts), SIM=0 to run without the simulator,
+# SIM_ARGS for extra simulator flags (e.g. "--sweep-s 1 --fault stuck:ctrl-1:3").
+port_open() { (exec 3<>"/dev/tcp/$1/$2") 2>/dev/null; }
+
 start_services() {
-  :
+  local logs="$ROOT/.run/logs" plant
+  mkdir -p "$logs"
+  if [ -n "${MQTT_URL:-}" ]; then
+    say "MQTT broker: $MQTT_URL (MQTT_URL set; not starting one)"
+  else
+    MQTT_PORT="${MQTT_PORT:-1883}"
+    if port_open 127.0.0.1 "$MQTT_PORT"; then
+      say "MQTT broker: 127.0.0.1:$MQTT_PORT is already taken; set MQTT_PORT, or MQTT_URL=mqtt://127.0.0.1:$MQTT_PORT to use that broker" >&2
+      exit 1
+    fi
+    MQTT_PORT="$MQTT_PORT" node scripts/broker.js >"$logs/broker.log" 2>&1 &
+    PIDS+=($!)
+    local i
+    for i in $(seq 50); do
+      port_open 127.0.0.1 "$MQTT_PORT" && break
+      kill -0 "${PIDS[-1]}" 2>/dev/null || break
+      sleep 0.1
+    done
+    port_open 127.0.0.1 "$MQTT_PORT" || { cat "$logs/broker.log" >&2; say "MQTT broker did not start" >&2; exit 1; }
+    MQTT_URL="mqtt://127.0.0.1:$MQTT_PORT"
+    say "MQTT broker: listening on $MQTT_URL (aedes; log .run/logs/broker.log)"
+  fi
+  # Node-RED's flows can read these (${MQTT_URL} in a config node's fields).
+  export MQTT_URL MQTT_PORT
+  if [ "${SIM:-1}" = 0 ]; then
+    say "plant simulator: off (SIM=0)"
+    return
+  fi
+  plant="$ROOT/flows/plant.json"
+  [ -f "$plant" ] || plant="$ROOT/tests/integration/fixtures/plant-small.json"
+  # shellcheck disable=SC2086  # SIM_ARGS is a list of flags
+  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$plant" ${SIM_ARGS:-} >"$logs/simulator.log" 2>&1 &
+  PIDS+=($!)
+  say "plant simulator: ${plant#"$ROOT"/} on $MQTT_URL (log .run/logs/simulator.log; faults via sim/control)"
 }
 
 run_node_red() {

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Full test run: setup, Rust tests (native and wasm under Node), wasm build,
-# Node-RED flow tests, then the palette install test on Node-RED 4.1 and 5.0.
+# Node-RED flow tests, MQTT integration tests against a real Mosquitto, then
+# the palette install test on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -72,6 +73,9 @@ bash scripts/build-wasm.sh
 stage "Node-RED flow tests (mocha)"
 [ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }
 counted npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
+
+stage "MQTT integration tests (Mosquitto, simulator)"
+counted npx mocha --timeout 30000 --exit 'tests/integration/**/*.spec.js'
 
 stage "palette install: Node-RED 4.1 on Node $(node --version)"
 palette_test nr4 "$(command -v node)" "$ROOT/node_modules/node-red"

@@ -1,0 +1,386 @@
+'use strict';
+// One simulated ESP32 device = one MQTT client (client id = device id) with
+// an "offline" retained last will, an "online" retained birth message,
+// datapoints sampled at 1 Hz (scaled by the simulator speed) and telemetry
+// once a minute. ActuatorPanel and SensorStation add their own datapoints.
+const mqtt = require('mqtt');
+const { stream } = require('./random');
+const { datapointDefaults, PANEL_VALVES } = require('./plant');
+
+const round = (value, decimals) => {
+  const f = 10 ** decimals;
+  return Math.round(value * f) / f;
+};
+const clamp = (value, lo, hi) => Math.min(hi, Math.max(lo, value));
+
+class Device {
+  constructor(sim, id, kind) {
+    this.sim = sim;
+    this.id = id;
+    this.kind = kind;
+    // Separate streams: enabling drops or delays does not change the noise sequence.
+    this.rng = stream(sim.seed, id);
+    this.netRng = stream(sim.seed, `${id}/net`);
+    this.client = null;
+    this.connected = false;
+    this.dead = false;
+    this.stopped = false;
+    this.faults = { noisy: null, drop: 0 };
+    this.pending = new Set(); // delayed publishes
+    this.sendAfter = 0; // keeps delayed publishes in order, as one TCP connection would
+    this.timers = [];
+    this.lastError = '';
+    this.boot();
+  }
+
+  // Power-on: counters and uptime start over (also on revive).
+  boot() {
+    this.counters = { published: 0, dropped: 0 };
+    this.bootSimMs = this.sim.simNow();
+    this.rssi = Math.round(this.rng.between(-72, -55));
+  }
+
+  log(msg) {
+    this.sim.log(`${this.id}: ${msg}`);
+  }
+
+  start() {
+    const period = this.sim.samplePeriodMs / this.sim.speed;
+    // Devices boot at different moments; spread their sampling phases.
+    const phase = this.rng.next() * period;
+    const t = setTimeout(() => {
+      this.sample();
+      this.timers.push(setInterval(() => this.sample(), period));
+    }, phase);
+    this.timers.push(t);
+    this.timers.push(setInterval(() => this.telemetry(), this.sim.telemetryPeriodMs / this.sim.speed));
+    if (!this.dead) this.connect();
+  }
+
+  connect() {
+    this.ready = new Promise((resolve) => { this.markReady = resolve; });
+    const client = mqtt.connect(this.sim.broker, {
+      clientId: this.id,
+      clean: true,
+      keepalive: this.sim.keepaliveS,
+      reconnectPeriod: this.sim.reconnectMs,
+      connectTimeout: 10000,
+      // Subscriptions are made again on every connect (see onConnect).
+      resubscribe: false,
+      // Like the firmware: a datapoint sampled while offline is not sent later.
+      queueQoSZero: false,
+      will: { topic: `${this.id}/status`, payload: 'offline', qos: 1, retain: true },
+    });
+    client.on('connect', () => this.onConnect(client));
+    client.on('close', () => this.onDisconnect(client));
+    client.on('message', (topic, payload, packet) => this.onMessage(topic, payload, packet));
+    client.on('error', (err) => {
+      if (err.message !== this.lastError) this.log(`mqtt error: ${err.message}`);
+      this.lastError = err.message;
+    });
+    this.client = client;
+  }
+
+  onConnect(client) {
+    if (client !== this.client) return;
+    const first = !this.everConnected;
+    this.connected = true;
+    this.everConnected = true;
+    this.lastError = '';
+    this.log(first ? 'connected' : 'reconnected');
+    client.publish(`${this.id}/status`, 'online', { qos: 1, retain: true });
+    const topics = this.commandTopics();
+    // Resume only once subscribed, so that retained commands get their say.
+    const subscribed = (err) => {
+      if (err) this.log(`subscribe failed: ${err.message}`);
+      if (client !== this.client) return;
+      this.resumed();
+      this.markReady();
+    };
+    if (topics.length) client.subscribe(topics, { qos: 1 }, subscribed);
+    else subscribed();
+    this.telemetry();
+  }
+
+  onDisconnect(client) {
+    if (client !== this.client || !this.connected) return;
+    this.connected = false;
+    if (!this.stopped) this.log(this.dead ? 'dead (connection dropped)' : 'lost the broker');
+    this.paused();
+  }
+
+  // Hooks for subclasses.
+  commandTopics() { return []; }
+  onCommand() {}
+  resumed() {}
+  paused() {}
+  datapoints() { return []; }
+  step() {}
+
+  onMessage(topic, payload, packet) {
+    if (this.dead) return;
+    const rest = topic.startsWith(`${this.id}/`) ? topic.slice(this.id.length + 1) : null;
+    const m = rest && /^(valve|pump)\/([^/]+)\/command$/.exec(rest);
+    if (!m) return;
+    this.onCommand(m[1], m[2], payload.toString(), packet.retain);
+  }
+
+  malformed(what) {
+    this.counters.dropped++;
+    this.log(`ignored malformed command: ${what}`);
+  }
+
+  sample() {
+    if (this.dead || this.stopped) return;
+    const ts = Date.now(); // the device's clock, read when the sample is taken
+    // One sample goes out as one burst: its messages share one network delay.
+    const delay = this.drawDelay();
+    for (const [topic, body] of this.datapoints()) this.publishData(topic, { ts, ...body }, delay);
+  }
+
+  telemetry() {
+    if (this.dead || this.stopped || !this.connected) return;
+    this.publishData(`${this.id}/telemetry`, {
+      ts: Date.now(),
+      uptimeS: Math.floor((this.sim.simNow() - this.bootSimMs) / 1000),
+      rssi: Math.round(clamp(this.rssi + this.rng.symmetric(3), -95, -30)),
+      freeHeap: 180000 + Math.round(this.rng.symmetric(4000)),
+      published: this.counters.published,
+      dropped: this.counters.dropped,
+    });
+  }
+
+  drawDelay() {
+    const { delayMs, delayJitterMs } = this.sim;
+    if (delayMs <= 0 && delayJitterMs <= 0) return 0;
+    return Math.max(0, delayMs + this.netRng.symmetric(delayJitterMs));
+  }
+
+  // Outgoing data goes through the simulated network: drop ratio, then delay.
+  publishData(topic, obj, delay = this.drawDelay()) {
+    if (!this.connected) {
+      this.counters.dropped++;
+      return;
+    }
+    this.counters.published++;
+    const ratio = Math.max(this.sim.dropRatio, this.faults.drop);
+    if (this.netRng.chance(ratio)) return; // lost on the way; the device does not know
+    const payload = JSON.stringify(obj);
+    const client = this.client;
+    const send = () => {
+      if (client.connected && client === this.client) client.publish(topic, payload, { qos: 0 });
+    };
+    const now = Date.now();
+    if (delay <= 0 && this.sendAfter <= now) {
+      send();
+      return;
+    }
+    const at = Math.max(now + delay, this.sendAfter);
+    this.sendAfter = at;
+    const t = setTimeout(() => {
+      this.pending.delete(t);
+      send();
+    }, at - now);
+    this.pending.add(t);
+  }
+
+  // Abrupt loss (power cut, crash): no DISCONNECT packet, so the broker sends the last will.
+  kill() {
+    if (this.dead) return Promise.resolve();
+    this.dead = true;
+    clearTimeout(this.netTimer);
+    this.away = false;
+    const client = this.client;
+    if (!client) return Promise.resolve();
+    this.onDisconnect(client);
+    return new Promise((resolve) => client.end(true, {}, () => resolve()));
+  }
+
+  // Network loss without a reboot (Wi-Fi gone, then back): the broker sees
+  // the connection drop and sends the last will; the device keeps its state
+  // and reconnects after `ms`.
+  async disconnectFor(ms) {
+    if (this.dead || !this.client) return;
+    const client = this.client;
+    this.onDisconnect(client);
+    await new Promise((resolve) => client.end(true, {}, () => resolve()));
+    clearTimeout(this.netTimer);
+    this.away = true;
+    this.netTimer = setTimeout(() => this.comeBack(), ms);
+  }
+
+  comeBack() {
+    clearTimeout(this.netTimer);
+    if (!this.away) return;
+    this.away = false;
+    if (!this.dead && !this.stopped) this.connect();
+  }
+
+  revive() {
+    if (!this.dead) return Promise.resolve();
+    this.dead = false;
+    this.everConnected = false;
+    this.rebooted();
+    this.boot();
+    this.log('revived (rebooting)');
+    this.connect();
+    return this.ready;
+  }
+
+  rebooted() {}
+
+  // Orderly shutdown: says "offline" itself, then disconnects (no will).
+  async stop() {
+    this.stopped = true;
+    clearTimeout(this.netTimer);
+    for (const t of this.timers) clearTimeout(t), clearInterval(t);
+    for (const t of this.pending) clearTimeout(t);
+    this.pending.clear();
+    const client = this.client;
+    if (!client || this.dead || this.away) return; // its client is already closed
+    if (client.connected) {
+      await new Promise((resolve) => {
+        client.publish(`${this.id}/status`, 'offline', { qos: 1, retain: true }, () => resolve());
+        setTimeout(resolve, 1000);
+      });
+    }
+    await new Promise((resolve) => {
+      client.end(!client.connected, {}, () => resolve());
+      setTimeout(resolve, 2000);
+    });
+  }
+}
+
+class ActuatorPanel extends Device {
+  constructor(sim, id, idle) {
+    super(sim, id, 'actuator-panel');
+    this.valves = [];
+    for (let io = 1; io <= PANEL_VALVES; io++) {
+      const start = idle.valve.get(io) ?? 0;
+      this.valves[io] = { io, position: start, target: start, commanded: start, moveAt: 0, stuck: false, slowFactor: 1 };
+    }
+    this.pump = { io: 1, running: false, commanded: false, pendingValue: null, pendingAt: 0, paused: true, stuck: false };
+  }
+
+  commandTopics() {
+    return [`${this.id}/valve/+/command`, `${this.id}/pump/+/command`];
+  }
+
+  onCommand(type, ioText, text, retained) {
+    const io = Number(ioText);
+    const tag = retained ? ' (retained)' : '';
+    if (type === 'valve') {
+      const trimmed = text.trim();
+      const value = Number(trimmed);
+      if (!Number.isInteger(io) || io < 1 || io > PANEL_VALVES) return this.malformed(`valve/${ioText}: no such valve`);
+      if (trimmed === '' || !Number.isFinite(value) || value < 0 || value > 100) {
+        return this.malformed(`valve/${io}: ${JSON.stringify(text.slice(0, 40))} is not 0..100`);
+      }
+      const v = this.valves[io];
+      v.commanded = value;
+      v.target = value;
+      v.moveAt = this.sim.simNow() + this.sim.deadTimeMs;
+      this.log(`valve ${io} -> ${value}${tag}${v.stuck ? ' (stuck: will not move)' : ''}`);
+      return undefined;
+    }
+    if (io !== 1) return this.malformed(`pump/${ioText}: no such pump`);
+    const word = text.trim().toUpperCase();
+    if (word !== 'ON' && word !== 'OFF') return this.malformed(`pump/${io}: ${JSON.stringify(text.slice(0, 40))} is not ON/OFF`);
+    this.pump.commanded = word === 'ON';
+    this.schedulePump(this.pump.commanded);
+    this.log(`pump ${io} -> ${word}${tag}${this.pump.stuck ? ' (stuck: will not change)' : ''}`);
+    return undefined;
+  }
+
+  schedulePump(value) {
+    this.pump.pendingValue = value;
+    this.pump.pendingAt = this.sim.simNow() + this.sim.pumpDelayMs;
+  }
+
+  // Connected again: the pump resumes what it was told, after its spin-up;
+  // a retained (lockout) command arriving on subscribe replaces that first.
+  // At least 100 ms (wall clock) even without spin-up: retained messages may
+  // follow the SUBACK.
+  resumed() {
+    const p = this.pump;
+    p.paused = false;
+    if (p.commanded && !p.running && p.pendingValue === null) {
+      p.pendingValue = true;
+      p.pendingAt = this.sim.simNow() + Math.max(this.sim.pumpDelayMs, 100 * this.sim.speed);
+    }
+  }
+
+  // Broker lost: the pump pauses until the connection is back.
+  paused() {
+    const p = this.pump;
+    if (!p.stuck && p.running && !this.stopped) this.log('pump 1 paused (no broker)');
+    p.paused = true;
+    p.pendingValue = null;
+    if (!p.stuck) p.running = false;
+  }
+
+  // A revived panel has rebooted: the relay starts off, nothing commanded.
+  rebooted() {
+    this.pump.commanded = false;
+    this.pump.pendingValue = null;
+  }
+
+  step(simNowMs, dtS) {
+    const fullRate = 100 / this.sim.sweepS; // % per simulated second
+    for (let io = 1; io <= PANEL_VALVES; io++) {
+      const v = this.valves[io];
+      if (v.stuck || simNowMs < v.moveAt || v.position === v.target) continue;
+      const stepPct = (fullRate / v.slowFactor) * dtS;
+      const delta = v.target - v.position;
+      v.position = Math.abs(delta) <= stepPct ? v.target : v.position + Math.sign(delta) * stepPct;
+    }
+    const p = this.pump;
+    if (!p.paused && !p.stuck && p.pendingValue !== null && simNowMs >= p.pendingAt) {
+      p.running = p.pendingValue;
+      p.pendingValue = null;
+    }
+  }
+
+  feedback(io) {
+    const amplitude = this.faults.noisy ?? this.sim.noise;
+    const v = this.valves[io];
+    return round(clamp(v.position + this.rng.symmetric(amplitude), 0, 100), 1);
+  }
+
+  datapoints() {
+    const valve = {};
+    for (let io = 1; io <= PANEL_VALVES; io++) valve[io] = this.feedback(io);
+    const running = this.pump.running;
+    if (!this.sim.single) return [[`${this.id}/state`, { valve, pump: { 1: running } }]];
+    const out = [];
+    for (let io = 1; io <= PANEL_VALVES; io++) out.push([`${this.id}/valve/${io}/state`, { value: valve[io] }]);
+    out.push([`${this.id}/pump/1/state`, { value: running }]);
+    return out;
+  }
+}
+
+class SensorStation extends Device {
+  constructor(sim, id, datapoints, signals) {
+    super(sim, id, 'sensor-station');
+    this.points = datapoints.map((dp) => {
+      const d = datapointDefaults(dp.name);
+      const s = signals.find((x) => x.datapoint === dp.name) || {};
+      return { name: dp.name, unit: dp.unit, d, base: s.base ?? d.base, span: s.span ?? d.span };
+    });
+  }
+
+  datapoints() {
+    const driven = this.sim.readings.get(this.id);
+    const noisePct = this.faults.noisy ?? this.sim.sensorNoise;
+    return this.points.map((p) => {
+      const fromPlant = driven && driven.has(p.name);
+      let value = fromPlant ? driven.get(p.name) : p.base;
+      // A stopped flowmeter or an empty tank reads a clean zero.
+      if (!(fromPlant && value === 0)) value += this.rng.symmetric((noisePct * p.span) / 100);
+      value = clamp(value, p.d.min ?? -Infinity, p.d.max ?? Infinity);
+      return [`${this.id}/sensor/${p.name}/state`, { value: round(value, p.d.decimals) }];
+    });
+  }
+}
+
+module.exports = { Device, ActuatorPanel, SensorStation };
