@@ -70,7 +70,11 @@ seed_flows() {
     return
   fi
   shopt -s nullglob
-  sources=("$ROOT"/flows/*.json)
+  local file
+  for file in "$ROOT"/flows/*.json; do
+    # flows/plant.json is the plant document (for the simulator and plant node), not a flow.
+    [ "$(basename "$file")" = plant.json ] || sources+=("$file")
+  done
   [ ${#sources[@]} -gt 0 ] || sources=("$PALETTE"/examples/*.json)
   shopt -u nullglob
   if [ ${#sources[@]} -eq 0 ]; then
