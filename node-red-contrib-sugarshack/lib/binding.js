@@ -1,17 +1,23 @@
 'use strict';
-// Connects a node to the interlock runtime of its config node.
-const { InterlockError } = require('./errors');
+// Connects a node to the runtime of its config node (an interlock or a plant).
+const { SugarshackError } = require('./errors');
 const { errorStatus } = require('./status');
 
+// What a node says when its config node is unset: [code, message].
+const MISSING = {
+  interlock: ['NO_INTERLOCK', 'no interlock is configured for this node'],
+  plant: ['NO_PLANT', 'no plant is configured for this node'],
+};
+
 /**
- * Returns the runtime for `configId`, registering `node` for status updates and
- * withdrawing its waiting requests on close; null (with a red status) when unset.
+ * Returns the runtime of config node `configId`, registering `node` for status
+ * updates and withdrawing its waiting msgs on close; null (with a red status) when unset.
  */
-function bindInterlock(RED, node, configId) {
+function bindRuntime(RED, node, configId, kind) {
   const configNode = configId ? RED.nodes.getNode(configId) : null;
   const runtime = configNode && configNode.runtime;
   if (!runtime) {
-    node.status(errorStatus('NO_INTERLOCK'));
+    node.status(errorStatus(MISSING[kind][0]));
     return null;
   }
   runtime.addUser(node);
@@ -23,15 +29,24 @@ function bindInterlock(RED, node, configId) {
   return runtime;
 }
 
-/** The input handler every interlock node shares: `work(runtime)` does the node's part. */
-function onInput(node, runtime, work) {
+function bindInterlock(RED, node, configId) {
+  return bindRuntime(RED, node, configId, 'interlock');
+}
+
+function bindPlant(RED, node, configId) {
+  return bindRuntime(RED, node, configId, 'plant');
+}
+
+/** The input handler every node of a runtime shares: `work(runtime, msg, send, done)` does the node's part. */
+function onInput(node, runtime, work, kind = 'interlock') {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
-      done(new InterlockError('NO_INTERLOCK', 'no interlock is configured for this node'));
+      const [code, message] = MISSING[kind];
+      done(new SugarshackError(code, message));
       return;
     }
     runtime.submit(node, done, (rt) => work(rt, msg, send, done));
   });
 }
 
-module.exports = { bindInterlock, onInput };
+module.exports = { bindInterlock, bindPlant, onInput };

@@ -1,6 +1,6 @@
 'use strict';
 // Translates the interlock config node's properties into the core's configuration.
-const { InterlockError } = require('./errors');
+const { SugarshackError } = require('./errors');
 
 function parseLockout(resource, index) {
   const { lockout } = resource;
@@ -10,7 +10,7 @@ function parseLockout(resource, index) {
     return JSON.parse(lockout);
   } catch (err) {
     const name = resource.name || `#${index + 1}`;
-    throw new InterlockError('INVALID_CONFIG', `invalid interlock configuration: the lockout command of resource '${name}' is not valid JSON (${err.message})`);
+    throw new SugarshackError('INVALID_CONFIG', `invalid interlock configuration: the lockout command of resource '${name}' is not valid JSON (${err.message})`);
   }
 }
 

@@ -1,21 +1,21 @@
 'use strict';
-// Errors reported to flows. They look like the core's (name "InterlockError" and
-// a `code`) so a Catch node sees one shape, whichever layer refused the msg.
+// Errors reported to flows. They look like the core's (name "SugarshackError"
+// and a `code`) so a Catch node sees one shape, whichever layer refused the msg.
 
-class InterlockError extends Error {
+class SugarshackError extends Error {
   constructor(code, message) {
     super(message);
-    this.name = 'InterlockError';
+    this.name = 'SugarshackError';
     this.code = code;
   }
 }
 
 /** The error as thrown by the core, or wrapped so that it always carries a code. */
-function asInterlockError(err) {
+function asSugarshackError(err) {
   if (err && typeof err === 'object' && typeof err.code === 'string' && err.message) return err;
-  const wrapped = new InterlockError('INTERNAL', err && err.message ? err.message : String(err));
+  const wrapped = new SugarshackError('INTERNAL', err && err.message ? err.message : String(err));
   if (err && err.stack) wrapped.stack = err.stack;
   return wrapped;
 }
 
-module.exports = { InterlockError, asInterlockError };
+module.exports = { SugarshackError, asSugarshackError };

@@ -1,30 +1,35 @@
 'use strict';
-// Msgs held by acquire nodes while their operation waits in the queue, keyed by
-// operation handle (an operation waits at most once).
+// Msgs held while they wait: by acquire nodes until their operation is granted,
+// keyed by operation handle (an operation waits at most once); by group command
+// and actuators nodes until their group command completes, keyed by caller id.
 
 class PendingRegistry {
   constructor() {
-    this.byOperation = new Map();
+    this.byHandle = new Map();
   }
 
   get size() {
-    return this.byOperation.size;
+    return this.byHandle.size;
   }
 
-  /** entry: { node, msg, send, done, operation, priority, resources, sinceMs, timer } */
+  /** entry: { node, msg, send, done, timer, ... } (acquire: operation, priority, resources, sinceMs) */
   add(handle, entry) {
-    this.byOperation.set(handle, entry);
+    this.byHandle.set(handle, entry);
+  }
+
+  get(handle) {
+    return this.byHandle.get(handle);
   }
 
   has(handle) {
-    return this.byOperation.has(handle);
+    return this.byHandle.has(handle);
   }
 
   /** Removes and returns the entry (its timer cleared), or undefined. */
   take(handle) {
-    const entry = this.byOperation.get(handle);
+    const entry = this.byHandle.get(handle);
     if (!entry) return undefined;
-    this.byOperation.delete(handle);
+    this.byHandle.delete(handle);
     if (entry.timer) clearTimeout(entry.timer);
     entry.timer = null;
     return entry;
@@ -33,7 +38,7 @@ class PendingRegistry {
   /** Handles of the entries held by `node`, or of all entries. */
   handles(node) {
     const out = [];
-    for (const [handle, entry] of this.byOperation) if (!node || entry.node === node) out.push(handle);
+    for (const [handle, entry] of this.byHandle) if (!node || entry.node === node) out.push(handle);
     return out;
   }
 }

@@ -2,7 +2,7 @@
 // Reads what a msg asks for (operation, priority, resources), falling back to
 // the node's configuration. Only shapes are checked here; whether a request is
 // allowed is for the core to say.
-const { InterlockError } = require('./errors');
+const { SugarshackError } = require('./errors');
 
 const I32_MIN = -2147483648;
 const I32_MAX = 2147483647;
@@ -14,7 +14,7 @@ function present(value) {
 function asOperationName(value, from) {
   if (typeof value === 'number' && Number.isFinite(value)) return String(value);
   if (typeof value === 'string') return value.trim();
-  throw new InterlockError('INVALID_OPERATION', `${from} must be a string or a number, got ${typeof value}`);
+  throw new SugarshackError('INVALID_OPERATION', `${from} must be a string or a number, got ${typeof value}`);
 }
 
 /**
@@ -27,7 +27,7 @@ function operationOf(msg, configured, { followAcquire = false } = {}) {
   if (followAcquire && msg.interlock && present(msg.interlock.operation)) {
     return asOperationName(msg.interlock.operation, 'msg.interlock.operation');
   }
-  throw new InterlockError('MISSING_OPERATION', 'an operation id is required: set msg.operation or configure one in the node');
+  throw new SugarshackError('MISSING_OPERATION', 'an operation id is required: set msg.operation or configure one in the node');
 }
 
 function priorityOf(msg, configured) {
@@ -37,7 +37,7 @@ function priorityOf(msg, configured) {
   if (typeof value === 'number') number = value;
   else if (typeof value === 'string' && /^\s*[-+]?\d+\s*$/.test(value)) number = Number(value);
   if (!Number.isInteger(number) || number < I32_MIN || number > I32_MAX) {
-    throw new InterlockError('INVALID_PRIORITY', `${from} must be an integer (higher = more urgent), got ${JSON.stringify(value)}`);
+    throw new SugarshackError('INVALID_PRIORITY', `${from} must be an integer (higher = more urgent), got ${JSON.stringify(value)}`);
   }
   return number;
 }
@@ -47,7 +47,7 @@ function splitNames(value, from) {
   if (Array.isArray(value) && value.every((v) => typeof v === 'string')) {
     return value.map((s) => s.trim()).filter(Boolean);
   }
-  throw new InterlockError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string`);
+  throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string`);
 }
 
 /** Resource names from msg.resources, else the configured list (possibly empty). */

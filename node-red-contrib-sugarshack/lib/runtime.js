@@ -2,11 +2,11 @@
 // The running interlock behind one config node: one core Interlock plus what
 // Node-RED owns around it (waiting msgs, status, persistence, event fan-out).
 // Every rule is the core's; this only calls it and acts on what it returns.
-const { InterlockError, asInterlockError } = require('./errors');
+const { SugarshackError, asSugarshackError } = require('./errors');
 const { PendingRegistry } = require('./pending');
 const { deliver, grantedBy, routeGrants } = require('./grants');
 const { EventFanout, describeWarning } = require('./events');
-const { countsStatus, errorStatus } = require('./status');
+const { countsStatus, errorStatus, StatusBoard } = require('./status');
 
 const TICK_MS = 1000;
 
@@ -27,7 +27,7 @@ class InterlockRuntime {
     this.pending = new PendingRegistry();
     this.events = new EventFanout();
     this.users = new Set();
-    this.shown = new WeakMap();
+    this.statusBoard = new StatusBoard();
     this.tickTimer = null;
     this.flushScheduled = null;
   }
@@ -46,7 +46,7 @@ class InterlockRuntime {
     }
     return this.persistence.load().then(
       (snapshot) => this.open(snapshot),
-      (err) => this.fail(new InterlockError('INVALID_SNAPSHOT', `cannot read the saved interlock state: ${err.message || err}`)),
+      (err) => this.fail(new SugarshackError('INVALID_SNAPSHOT', `cannot read the saved interlock state: ${err.message || err}`)),
     );
   }
 
@@ -59,7 +59,7 @@ class InterlockRuntime {
         ? this.Interlock.restore(this.config, snapshot, false, now)
         : new this.Interlock(this.config);
     } catch (err) {
-      const e = asInterlockError(err);
+      const e = asSugarshackError(err);
       if (e.code === 'INVALID_SNAPSHOT' && this.persistence) {
         e.message += ` (to start afresh, delete global context key '${this.persistence.key}')`;
       }
@@ -80,7 +80,7 @@ class InterlockRuntime {
 
   fail(err) {
     if (this.state !== 'starting') return;
-    const e = asInterlockError(err);
+    const e = asSugarshackError(err);
     this.failure = e;
     this.state = 'failed';
     this.owner.error(e.message);
@@ -152,7 +152,7 @@ class InterlockRuntime {
         try {
           work(this);
         } catch (err) {
-          const e = asInterlockError(err);
+          const e = asSugarshackError(err);
           this.showError(node, e.code);
           done(e);
         }
@@ -245,7 +245,7 @@ class InterlockRuntime {
   // ---- internals -----------------------------------------------------------
 
   findOperation(name) {
-    if (!name) throw new InterlockError('MISSING_OPERATION', 'an operation id is required');
+    if (!name) throw new SugarshackError('MISSING_OPERATION', 'an operation id is required');
     return this.il.findOperation(name);
   }
 
@@ -255,7 +255,7 @@ class InterlockRuntime {
   }
 
   expire(handle, entry, timeoutMs) {
-    if (this.state !== 'ready' || this.pending.byOperation.get(handle) !== entry) return;
+    if (this.state !== 'ready' || this.pending.get(handle) !== entry) return;
     const now = Date.now();
     this.pending.take(handle);
     let grants = [];
@@ -266,7 +266,7 @@ class InterlockRuntime {
     }
     this.settle(grants, now);
     this.showError(entry.node, 'ACQUIRE_TIMEOUT');
-    entry.done(new InterlockError(
+    entry.done(new SugarshackError(
       'ACQUIRE_TIMEOUT',
       `operation '${entry.operation}' was not granted ${entry.resources.join(', ')} within ${timeoutMs / 1000} s; its request was withdrawn`,
     ));
@@ -324,10 +324,7 @@ class InterlockRuntime {
   }
 
   setStatus(node, status) {
-    const key = `${status.fill}|${status.shape}|${status.text}`;
-    if (this.shown.get(node) === key) return;
-    this.shown.set(node, key);
-    node.status(status);
+    this.statusBoard.set(node, status);
   }
 }
 

@@ -1,6 +1,6 @@
 'use strict';
-// Node status: what the interlock is doing, in fewer than 20 characters so the
-// editor never truncates it.
+// Node status: what the interlock or the actuators are doing, in fewer than
+// 20 characters so the editor never truncates it.
 
 const MAX_STATUS_LENGTH = 19;
 
@@ -20,26 +20,59 @@ function fits(text) {
   return text.length <= MAX_STATUS_LENGTH;
 }
 
+/**
+ * Counts as text that fits: `items` are [long, short, letter, n], most important
+ * first; zero counts are left out. "held 2 · queued 3", then shorter forms, and
+ * as a last resort the least important items are dropped.
+ */
+function countsText(items, empty = 'idle') {
+  const shown = items.filter((item) => item[3] > 0);
+  if (shown.length === 0) return empty;
+  const candidates = [
+    shown.map(([long, , , n]) => `${long} ${n}`).join(' · '),
+    shown.map(([, short, , n]) => `${short} ${n}`).join(' · '),
+    shown.map(([, short, , n]) => `${short} ${compact(n)}`).join('·'),
+  ];
+  const text = candidates.find(fits);
+  if (text) return text;
+  // Each letter form is at most 1 + 4 characters: three items and two spaces always fit.
+  for (let count = shown.length; count > 0; count--) {
+    const letters = shown.slice(0, count).map(([, , letter, n]) => `${letter}${compact(n)}`).join(' ');
+    if (fits(letters)) return letters;
+  }
+  return '?';
+}
+
 /** "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed. */
 function statusText({ holding = 0, queued = 0, faulted = 0 }) {
-  const items = [
+  return countsText([
     ['faulted', 'flt', 'F', faulted],
     ['held', 'hld', 'H', holding],
     ['queued', 'q', 'Q', queued],
-  ].filter((item) => item[3] > 0);
-  if (items.length === 0) return 'idle';
-  const candidates = [
-    items.map(([long, , , n]) => `${long} ${n}`).join(' · '),
-    items.map(([, short, , n]) => `${short} ${n}`).join(' · '),
-    items.map(([, short, , n]) => `${short} ${compact(n)}`).join('·'),
-  ];
-  const text = candidates.find(fits);
-  // Always fits: three items of at most 1 + 4 characters and two spaces.
-  return text || items.map(([, , letter, n]) => `${letter}${compact(n)}`).join(' ');
+  ]);
 }
 
 function countsStatus(counts) {
   return { fill: counts.faulted > 0 ? 'red' : 'green', shape: 'dot', text: statusText(counts) };
+}
+
+/** Actuators: "moving 2", "mov 2 · stop 14", "flt 1·mov 2·stop 14"; `bad` counts bad feedback. */
+function actuatorText({ moving = 0, stopped = 0, faulted = 0, bad = 0 }) {
+  return countsText([
+    ['faulted', 'flt', 'F', faulted],
+    ['moving', 'mov', 'M', moving],
+    ['stopped', 'stop', 'S', stopped],
+    ['bad', 'bad', 'B', bad],
+  ]);
+}
+
+/** Red when any actuator is faulted; a ring when a device is offline. */
+function actuatorStatus(counts, { offline = 0 } = {}) {
+  return {
+    fill: counts.faulted > 0 ? 'red' : 'green',
+    shape: offline > 0 ? 'ring' : 'dot',
+    text: actuatorText(counts),
+  };
 }
 
 const REASONS = {
@@ -62,6 +95,21 @@ const REASONS = {
   ACQUIRE_TIMEOUT: 'timed out',
   NO_INTERLOCK: 'no interlock',
   INTERLOCK_STOPPED: 'stopped',
+  NO_PLANT: 'no plant',
+  INVALID_PLANT: 'plant invalid',
+  UNKNOWN_ACTUATOR: 'unknown actuator',
+  UNKNOWN_DEVICE: 'unknown device',
+  EMPTY_COMMAND: 'empty command',
+  INVALID_GROUP: 'bad command',
+  DUPLICATE_ACTUATOR: 'duplicate actuator',
+  INVALID_TARGET: 'bad target',
+  STILL_MOVING: 'still moving',
+  DEVICE_OFFLINE: 'device offline',
+  CALLER_BUSY: 'busy',
+  INVALID_FEEDBACK: 'bad feedback',
+  COMMAND_FAILED: 'command failed',
+  COMMAND_TIMEOUT: 'timed out',
+  LOCKED_OUT: 'locked out',
 };
 
 function shortReason(code) {
@@ -73,4 +121,21 @@ function errorStatus(code) {
   return { fill: 'red', shape: 'ring', text: shortReason(code) };
 }
 
-module.exports = { MAX_STATUS_LENGTH, compact, statusText, countsStatus, shortReason, errorStatus };
+/** Sets a node's status only when it changes: every call goes out to the editor. */
+class StatusBoard {
+  constructor() {
+    this.shown = new WeakMap();
+  }
+
+  set(node, status) {
+    const key = `${status.fill}|${status.shape}|${status.text}`;
+    if (this.shown.get(node) === key) return;
+    this.shown.set(node, key);
+    node.status(status);
+  }
+}
+
+module.exports = {
+  StatusBoard,
+  MAX_STATUS_LENGTH, compact, countsText, statusText, countsStatus, actuatorText, actuatorStatus, shortReason, errorStatus,
+};

@@ -9,20 +9,35 @@
     return String(text || '').split(',').map(function (s) { return s.trim(); }).filter(Boolean);
   }
 
+  function configNode(configId) {
+    return configId && configId !== '_ADD_' ? RED.nodes.node(configId) : null;
+  }
+
   function resourceNames(configId) {
-    var config = configId && configId !== '_ADD_' ? RED.nodes.node(configId) : null;
+    var config = configNode(configId);
     if (!config || !Array.isArray(config.resources)) return [];
     return config.resources.map(function (r) { return r.name; }).filter(Boolean);
   }
 
-  /** Toggle buttons for the chosen interlock's resources, kept in step with a comma-separated input. */
-  function resourcePicker(inputSelector, configSelector, boxSelector) {
+  /** The device ids of a plant config node (its document is an object, or text while it does not parse). */
+  function deviceNames(configId) {
+    var config = configNode(configId);
+    var plant = config && config.plant;
+    if (typeof plant === 'string') {
+      try { plant = JSON.parse(plant); } catch (e) { return []; }
+    }
+    if (!plant || !Array.isArray(plant.devices)) return [];
+    return plant.devices.map(function (d) { return d && d.id; }).filter(Boolean);
+  }
+
+  /** Toggle buttons for the names `namesOf(configId)` gives, kept in step with a comma-separated input. */
+  function namePicker(inputSelector, configSelector, boxSelector, namesOf) {
     var input = $(inputSelector);
     var box = $(boxSelector);
     function render() {
       box.empty();
       var chosen = parseNames(input.val());
-      resourceNames($(configSelector).val()).forEach(function (name) {
+      namesOf($(configSelector).val()).forEach(function (name) {
         $('<button type="button" class="red-ui-button red-ui-button-small"></button>')
           .text(name)
           .css({ margin: '0 4px 4px 0' })
@@ -41,5 +56,17 @@
     render();
   }
 
-  window.sugarshackEditor = { resourcePicker: resourcePicker, parseNames: parseNames, color: '#D9A55B' };
+  /** Toggle buttons for the chosen interlock's resources. */
+  function resourcePicker(inputSelector, configSelector, boxSelector) {
+    namePicker(inputSelector, configSelector, boxSelector, resourceNames);
+  }
+
+  /** Toggle buttons for the chosen plant's devices. */
+  function devicePicker(inputSelector, configSelector, boxSelector) {
+    namePicker(inputSelector, configSelector, boxSelector, deviceNames);
+  }
+
+  window.sugarshackEditor = {
+    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, color: '#D9A55B',
+  };
 })();

@@ -13,6 +13,7 @@ const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'
 const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-delay.js']
   .map((f) => require(path.join(coreNodesDir, 'core', f)));
 const EXAMPLES = path.join(PALETTE, 'examples');
+const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
 
 /** The example with debug nodes as helper nodes and each second of work as 20 ms. */
 function exampleFlow(policy) {
@@ -44,11 +45,16 @@ describe('example: interlock-yel-contention', function () {
     const used = new Set();
     for (const file of files) {
       const flow = JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
-      const configs = new Set(flow.filter((n) => n.type === 'sugarshack-interlock').map((n) => n.id));
+      // Each node of the palette names its config node (interlock or plant) through the property of that name.
+      const configs = new Map(flow.filter((n) => CONFIG_TYPES[n.type]).map((n) => [n.id, n.type]));
       for (const n of flow) {
         used.add(n.type);
-        if (n.type.startsWith('sugarshack-') && n.type !== 'sugarshack-interlock') {
-          assert.ok(configs.has(n.interlock), `${file}: ${n.type} ${n.id} has its interlock in the file`);
+        if (n.type.startsWith('sugarshack-') && !CONFIG_TYPES[n.type]) {
+          const property = n.interlock !== undefined ? 'interlock' : 'plant';
+          assert.equal(configs.get(n[property]), `sugarshack-${property}`, `${file}: ${n.type} ${n.id} has its ${property} in the file`);
+        }
+        for (const [key, value] of Object.entries(n)) {
+          if (key === 'broker' && n.type !== 'mqtt-broker') assert.ok(flow.some((c) => c.id === value && c.type === 'mqtt-broker'), `${file}: ${n.id} has its broker in the file`);
         }
       }
     }

@@ -3,7 +3,9 @@
 const path = require('path');
 
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
-const NODE_FILES = ['interlock', 'acquire', 'release', 'fault', 'clear', 'cancel', 'interlock-events'];
+const NODE_FILES = [
+  'interlock', 'acquire', 'release', 'fault', 'clear', 'cancel', 'interlock-events', 'plant', 'actuators', 'group-command',
+];
 const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
@@ -59,7 +61,7 @@ const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 async function until(predicate, what, ms = 3000) {
   const start = Date.now();
   while (!predicate()) {
-    if (Date.now() - start > ms) throw new Error(`timed out waiting for ${what}`);
+    if (Date.now() - start > ms) throw new Error(`timed out waiting for ${typeof what === 'function' ? what() : what}`);
     await sleep(5);
   }
 }

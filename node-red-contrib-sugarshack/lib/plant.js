@@ -1,0 +1,73 @@
+'use strict';
+// The plant config node's document, and plain words for what the tracker
+// reports about an actuator (for error messages a person reads).
+const { SugarshackError } = require('./errors');
+
+const invalid = (why) => new SugarshackError('INVALID_PLANT', `invalid plant document: ${why}`);
+
+/** The plant document from the node's property: an object, or JSON text as typed in the editor. */
+function plantDocument(value) {
+  if (typeof value === 'string') {
+    if (value.trim() === '') throw invalid('it is empty; paste the plant document (JSON) into the plant node');
+    try {
+      return JSON.parse(value);
+    } catch (err) {
+      throw invalid(`it is not valid JSON (${err.message})`);
+    }
+  }
+  if (value && typeof value === 'object' && !Array.isArray(value)) return value;
+  throw invalid('expected a JSON object with actuatorTypes, devices and actuators');
+}
+
+/** 4000 -> "4 s", 300 -> "0.3 s". */
+function seconds(ms) {
+  return `${Number((ms / 1000).toFixed(3))} s`;
+}
+
+function targetWords(actuator, target) {
+  if (target === undefined || target === null) return 'its target';
+  if (actuator.binary) return target === true || target === 1 ? 'on' : 'off';
+  const unit = actuator.unit ? ` ${actuator.unit}` : '';
+  return `${target}${unit}`;
+}
+
+/**
+ * What went wrong, in plain words: "valve V12 did not move within 4 s of its
+ * command (after 1 retry)". actuator: { id, type, device, binary, unit, timing }
+ * where timing holds the type's noMotionMs, completionMs and staleMs.
+ */
+function describeFault(actuator, fault, { retries = 0, target } = {}) {
+  const who = `${actuator.type} ${actuator.id}`;
+  const t = actuator.timing || {};
+  let text;
+  switch (fault) {
+    case 'no-motion':
+      text = actuator.binary
+        ? `${who} did not respond within ${seconds(t.noMotionMs)} of its command`
+        : `${who} did not move within ${seconds(t.noMotionMs)} of its command`;
+      break;
+    case 'not-reached':
+      text = actuator.binary
+        ? `${who} did not turn ${targetWords(actuator, target)} within ${seconds(t.completionMs)} of its command`
+        : `${who} did not reach ${targetWords(actuator, target)} within ${seconds(t.completionMs)} of its command`;
+      break;
+    case 'stale':
+      text = `${who} sent no feedback for ${seconds(t.staleMs)} (device ${actuator.device})`;
+      break;
+    case 'device-offline':
+      text = `${who} cannot complete its command: its device ${actuator.device} went offline`;
+      break;
+    case 'locked-out':
+      text = `${who} was taken over by a lockout command before it completed`;
+      break;
+    case 'uncommanded':
+      text = `${who} moved without a command`;
+      break;
+    default:
+      text = `${who} failed (${fault})`;
+  }
+  if (retries > 0) text += ` (after ${retries} ${retries === 1 ? 'retry' : 'retries'})`;
+  return text;
+}
+
+module.exports = { plantDocument, describeFault, seconds };

@@ -1,0 +1,18 @@
+'use strict';
+const { bindPlant, onInput } = require('../lib/binding');
+
+module.exports = function (RED) {
+  function GroupCommandNode(props) {
+    RED.nodes.createNode(this, props);
+    const node = this;
+    const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
+    const runtime = bindPlant(RED, node, props.plant);
+
+    // Holds the msg until every actuator of the group has completed; the same msg then goes on.
+    onInput(node, runtime, (rt, msg, send, done) => {
+      rt.command({ node, msg, send, done, timeoutMs });
+    }, 'plant');
+  }
+
+  RED.nodes.registerType('sugarshack-group-command', GroupCommandNode);
+};

@@ -1,0 +1,502 @@
+'use strict';
+// Actuator nodes with MQTT-shaped msgs fed straight in (no broker): plant
+// config, actuators bus and group command, against the wasm tracker.
+const assert = require('node:assert/strict');
+const path = require('path');
+const helper = require('node-red-node-test-helper');
+const {
+  PALETTE, paletteNodes, catchNode, linkNodes, TAB, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+} = require('./support');
+
+const { actuatorText, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'status.js'));
+
+helper.init(require.resolve('node-red'));
+
+// Short thresholds so retries and escalation happen within a test.
+const PLANT = {
+  name: 'test plant',
+  actuatorTypes: {
+    valve: {
+      signal: 'analog', unit: '%', min: 0, max: 100, tolerance: 3, noMotionMs: 300, completionMs: 3000, staleMs: 60000, retries: 1,
+    },
+    pump: { signal: 'binary', noMotionMs: 300, completionMs: 3000, staleMs: 60000, retries: 1 },
+  },
+  devices: [
+    { id: 'ctrl-1', kind: 'actuator-panel' },
+    { id: 'ctrl-2', kind: 'actuator-panel' },
+    { id: 'station-2', kind: 'sensor-station' },
+  ],
+  actuators: [
+    { id: 'V12', type: 'valve', device: 'ctrl-1', io: 12, idle: 0, lockout: 0 },
+    { id: 'V13', type: 'valve', device: 'ctrl-1', io: 13, idle: 0, lockout: 0 },
+    { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false },
+    { id: 'V21', type: 'valve', device: 'ctrl-2', io: 1, idle: 0, lockout: 0 },
+  ],
+  sensors: [{ id: 'LT-2', device: 'station-2', name: 'volume', unit: 'L' }],
+};
+
+const SINKS = ['mqtt', 'ret', 'ev', 'out', 'caught'];
+
+function plantConfig(plant = PLANT) {
+  return { id: 'pl', type: 'sugarshack-plant', name: 'test plant', plant };
+}
+
+function bus(extra = {}) {
+  return { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], ['ret'], ['ev']], ...extra };
+}
+
+function groupCommand(extra = {}) {
+  return { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']], ...extra };
+}
+
+const catchAll = { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] };
+
+async function start({ plant = PLANT, busProps = {}, gcProps = {}, extra = [] } = {}) {
+  await helper.load([...paletteNodes, catchNode, linkNodes], [
+    TAB, plantConfig(plant), bus(busProps), groupCommand(gcProps), catchAll, ...SINKS.map(sinkNode), ...extra,
+  ]);
+  const seen = {};
+  for (const id of SINKS) seen[id] = collect(helper, id);
+  return seen;
+}
+
+/** A panel batch as ctrl-1 publishes it: {"ts", "valve": {"12": 0}, "pump": {"1": false}}. */
+function panel(values, { device = 'ctrl-1', ts = Date.now(), target = 'bus' } = {}) {
+  helper.getNode(target).receive({ topic: `${device}/state`, payload: JSON.stringify({ ts, ...values }), qos: 0, retain: false });
+}
+
+const atRest = () => panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } });
+
+const command = (payload, extra = {}) => helper.getNode('gc').receive({ payload, ...extra });
+
+const statusCalls = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]);
+const lastStatus = (id) => statusCalls(id).at(-1);
+const warnings = (id) => helper.getNode(id).warn.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
+const errors = (id) => helper.getNode(id).error.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
+const events = (seen, kind) => seen.ev.filter((m) => m.topic.startsWith(`actuator/${kind}/`)).map((m) => m.payload);
+
+describe('sugarshack actuator nodes', function () {
+  beforeEach(function (done) {
+    helper.startServer(done);
+  });
+
+  afterEach(async function () {
+    untrackCompletions();
+    await helper.unload();
+    await new Promise((resolve) => helper.stopServer(resolve));
+  });
+
+  it('runs a group command end to end: publish, motion, completion, then the same msg returns with its stats', async function () {
+    const completions = trackCompletions();
+    const seen = await start();
+    atRest();
+    const msg = { payload: { valves: { V12: 100 } }, _linkSource: [{ id: 'x', node: 'caller' }] };
+    helper.getNode('gc').receive(msg);
+    await until(() => seen.mqtt.length === 1, 'the command publish');
+    assert.deepEqual(seen.mqtt[0], { topic: 'ctrl-1/valve/12/command', payload: '100', retain: false, qos: 1, _msgid: seen.mqtt[0]._msgid });
+    assert.equal(lastStatus('bus').text, 'moving 1');
+
+    panel({ valve: { 12: 40, 13: 0 }, pump: { 1: false } });
+    await until(() => events(seen, 'moving').length === 1, 'the moving event');
+    assert.equal(seen.out.length, 0, 'the msg waits while V12 moves');
+    assert.equal(completions.some((c) => c.msgid === msg._msgid), false, 'a held msg is not done yet');
+
+    panel({ valve: { 12: 99, 13: 0 }, pump: { 1: false } });
+    await until(() => seen.out.length === 1, 'the return');
+    assert.equal(seen.out[0], msg, 'the very msg object that came in goes on');
+    assert.deepEqual(seen.out[0]._linkSource, [{ id: 'x', node: 'caller' }]);
+    const { command: stats } = seen.out[0];
+    assert.ok(stats.completionMs >= 0);
+    assert.equal(stats.actuators.length, 1);
+    assert.equal(stats.actuators[0].actuator, 'V12');
+    assert.equal(stats.actuators[0].target, 100);
+    assert.equal(stats.actuators[0].retries, 0);
+    assert.ok(stats.actuators[0].issueToMotionMs <= stats.actuators[0].completionMs);
+    await until(() => completions.some((c) => c.nodeId === 'gc' && c.msgid === msg._msgid), 'done of the command');
+    assert.equal(completions.find((c) => c.nodeId === 'gc' && c.msgid === msg._msgid).error, undefined);
+    assert.equal(seen.caught.length, 0);
+    assert.equal(seen.mqtt.length, 1, 'no retry was needed');
+    assert.equal(lastStatus('bus').text, 'stopped 1');
+    assert.equal(lastStatus('bus').fill, 'green');
+  });
+
+  it('returns only once both actuators of the group have completed', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 }, pumps: { P1: true } });
+    await until(() => seen.mqtt.length === 2, 'two publishes');
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/valve/12/command', '100', false],
+      ['ctrl-1/pump/1/command', 'ON', false],
+    ]);
+    panel({ valve: { 12: 100, 13: 0 }, pump: { 1: false } });
+    await until(() => events(seen, 'completed').length === 1, 'V12 completed');
+    await sleep(30);
+    assert.equal(seen.out.length, 0, 'P1 has not started yet');
+    panel({ valve: { 12: 100, 13: 0 }, pump: { 1: true } });
+    await until(() => seen.out.length === 1, 'the return');
+    assert.deepEqual(seen.out[0].command.actuators.map((a) => [a.actuator, a.target]), [['V12', 100], ['P1', 1]]);
+  });
+
+  it('a command given to the actuators node returns on its second output', async function () {
+    const seen = await start();
+    atRest();
+    const msg = { topic: 'open', payload: '{"valves":{"V13":50}}' };
+    helper.getNode('bus').receive(msg);
+    await until(() => seen.mqtt.length === 1, 'the publish');
+    assert.equal(seen.mqtt[0].payload, '50');
+    panel({ valve: { 12: 0, 13: 51 } });
+    await until(() => seen.ret.length === 1, 'the return on output 2');
+    assert.equal(seen.ret[0], msg);
+    assert.equal(seen.out.length, 0);
+  });
+
+  it('refuses a second command to an actuator still moving, sending nothing', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 1, 'the first publish');
+    command({ valves: { V12: 50, V13: 20 } });
+    await until(() => seen.caught.length === 1, 'the refusal at the Catch node');
+    assert.equal(seen.caught[0].error.code, 'STILL_MOVING');
+    assert.match(seen.caught[0].error.message, /V12.*still carrying out a command/);
+    await sleep(50);
+    assert.equal(seen.mqtt.length, 1, 'nothing more was sent, not even for V13');
+    assert.deepEqual(lastStatus('gc'), { fill: 'red', shape: 'ring', text: 'still moving' });
+  });
+
+  it('refuses unknown actuators and out-of-range targets; the errors reach a Catch node', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V99: 10 } });
+    command({ valves: { V12: 150 } });
+    command({ pumps: { P1: 'yes' } });
+    command({ pumps: { V12: true } });
+    command({});
+    command('not json');
+    await until(() => seen.caught.length === 6, 'six refusals');
+    assert.deepEqual(seen.caught.map((m) => m.error.code), [
+      'UNKNOWN_ACTUATOR', 'INVALID_TARGET', 'INVALID_TARGET', 'INVALID_GROUP', 'EMPTY_COMMAND', 'INVALID_GROUP',
+    ]);
+    assert.match(seen.caught[0].error.message, /unknown actuator 'V99'/);
+    assert.match(seen.caught[1].error.message, /V12.*0\.\.100, got 150/);
+    await sleep(50);
+    assert.equal(seen.mqtt.length, 0, 'nothing was sent');
+    assert.equal(seen.out.length, 0);
+    assert.equal(lastStatus('gc').shape, 'ring');
+    assert.equal(lastStatus('gc').fill, 'red');
+  });
+
+  it('issues a lockout from a fault node retained, taking over an actuator still moving', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 1, 'the first publish');
+    panel({ valve: { 12: 30, 13: 0 }, pump: { 1: false } });
+    // The shape the interlock's fault node emits on its second output.
+    const lockout = { topic: 'lockout/YEL', payload: { valves: { V12: 0, V13: 0 }, pumps: { P1: false } }, resource: 'YEL', operation: '12', note: null };
+    command(lockout.payload, { topic: lockout.topic, resource: 'YEL' });
+    await until(() => seen.caught.length === 1, 'the taken-over command fails');
+    assert.equal(seen.caught[0].error.code, 'LOCKED_OUT');
+    assert.match(seen.caught[0].error.message, /valve V12 was taken over by a lockout command/);
+    assert.equal(seen.caught[0].command.failed.actuator, 'V12');
+    const retained = seen.mqtt.slice(1);
+    assert.deepEqual(retained.map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/valve/12/command', '0', true],
+      ['ctrl-1/valve/13/command', '0', true],
+      ['ctrl-1/pump/1/command', 'OFF', true],
+    ]);
+    // V13 and P1 are already there; V12 comes back to 0 and the lockout returns.
+    panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } });
+    await until(() => seen.out.length === 1, 'the lockout returns');
+    assert.equal(seen.out[0].topic, 'lockout/YEL');
+
+    // A later normal command first clears the retained lockout on the broker.
+    command({ valves: { V13: 10 } });
+    await until(() => seen.mqtt.length === 6, 'clear and command');
+    assert.deepEqual(seen.mqtt.slice(4).map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/valve/13/command', '', true],
+      ['ctrl-1/valve/13/command', '10', false],
+    ]);
+  });
+
+  it('msg.lockout = true, or a lockout topic on the actuators node, also issues a retained lockout', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 0 } }, { lockout: true });
+    await until(() => seen.mqtt.length === 1 && seen.out.length === 1, 'publish and return');
+    assert.equal(seen.mqtt[0].retain, true);
+    // On the actuators node too, whatever the resource is called.
+    helper.getNode('bus').receive({ topic: 'lockout/state', payload: { pumps: { P1: false } } });
+    await until(() => seen.ret.length === 1, 'the lockout returns on output 2');
+    assert.deepEqual([seen.mqtt[1].topic, seen.mqtt[1].payload, seen.mqtt[1].retain], ['ctrl-1/pump/1/command', 'OFF', true]);
+  });
+
+  it('retries a command without motion, then escalates: the error reaches a Catch node', async function () {
+    const seen = await start();
+    atRest();
+    const started = Date.now();
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 2, 'the retry publish', 2000);
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload]), [['ctrl-1/valve/12/command', '100'], ['ctrl-1/valve/12/command', '100']]);
+    assert.deepEqual(events(seen, 'retry')[0], {
+      kind: 'retry', actuator: 'V12', caller: events(seen, 'retry')[0].caller, attempt: 1, fault: 'no-motion', msgid: events(seen, 'retry')[0].msgid,
+    });
+    await until(() => seen.caught.length === 1, 'the escalated error', 2000);
+    assert.ok(Date.now() - started >= 600, 'two no-motion windows of 300 ms');
+    const { error } = seen.caught[0];
+    assert.equal(error.code, 'COMMAND_FAILED');
+    assert.match(error.message, /valve V12 did not move within 0\.3 s of its command \(after 1 retry\)/);
+    assert.deepEqual(seen.caught[0].command.failed, { actuator: 'V12', device: 'ctrl-1', fault: 'no-motion', retries: 1 });
+    assert.deepEqual(events(seen, 'fault').map((f) => [f.actuator, f.fault]), [['V12', 'no-motion']]);
+    assert.equal(seen.out.length, 0, 'a failed command does not return');
+    assert.equal(lastStatus('bus').fill, 'red');
+    assert.equal(lastStatus('gc').text, 'command failed');
+  });
+
+  it('fails a command whose device goes offline, and shows the offline device as a ring', async function () {
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 1, 'the publish');
+    helper.getNode('bus').receive({ topic: 'ctrl-1/status', payload: 'offline', retain: true });
+    await until(() => seen.caught.length === 1, 'the error');
+    assert.equal(seen.caught[0].error.code, 'COMMAND_FAILED');
+    assert.match(seen.caught[0].error.message, /valve V12 cannot complete its command: its device ctrl-1 went offline/);
+    assert.deepEqual(events(seen, 'deviceStatus'), [{ kind: 'deviceStatus', device: 'ctrl-1', online: false }]);
+    assert.equal(lastStatus('bus').shape, 'ring');
+    assert.equal(lastStatus('bus').fill, 'red');
+
+    command({ valves: { V13: 100 } });
+    await until(() => seen.caught.length === 2, 'refused while offline');
+    assert.equal(seen.caught[1].error.code, 'DEVICE_OFFLINE');
+
+    // Back online: the core resends the last commanded state.
+    helper.getNode('bus').receive({ topic: 'ctrl-1/status', payload: Buffer.from('online') });
+    await until(() => events(seen, 'deviceStatus').length === 2, 'back online');
+    assert.equal(events(seen, 'deviceStatus')[1].online, true);
+    assert.equal(seen.mqtt.at(-1).topic, 'ctrl-1/valve/12/command');
+    assert.equal(lastStatus('bus').shape, 'dot');
+  });
+
+  it('ignores malformed feedback with a warning per topic and reason, counts it, and leaves the rest unaffected', async function () {
+    const completions = trackCompletions();
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 1, 'the publish');
+    const b = helper.getNode('bus');
+    const bad = [
+      { topic: 'ctrl-1/state', payload: '{"ts": 1, "valve": {"12": ' }, // cut off
+      { topic: 'ctrl-1/state', payload: '{"ts": 1, "valve": {"12": ' }, // same again: counted, not warned again
+      { topic: 'ctrl-1/state', payload: { ts: 1, valve: { 12: 50, 13: 'abc' } } }, // V13 bad, V12 fine (parsed by auto-detect)
+      { topic: 'ctrl-1/valve/13/state', payload: '{"ts": 1, "value": "x"}' },
+      { topic: 'ctrl-1/pump/1/state', payload: { ts: 1, value: 0.5 } }, // the core refuses: not a pump state
+      { topic: 'ctrl-9/state', payload: '{"valve": {"1": 3}}' }, // not in the plant
+      { topic: 'ctrl-1/status', payload: 'maybe' },
+      { topic: 'ctrl-1/state', payload: [1, 2] },
+    ];
+    for (const m of bad) b.receive(m);
+    await until(() => events(seen, 'malformed').length === 7, () => `malformed events ${JSON.stringify(events(seen, 'malformed'))}`);
+    assert.deepEqual(events(seen, 'malformed').map((m) => [m.reason, m.count]), [
+      ['bad JSON', 1], ['bad JSON', 2], ['non-numeric value', 3], ['non-numeric value', 4],
+      ['unknown device', 6], ['bad status', 7], ['not an object', 8],
+    ]);
+    // A value the core refuses for this actuator is a rejected sample, counted the same way.
+    assert.deepEqual(events(seen, 'rejected'), [{
+      kind: 'rejected', actuator: 'P1', code: 'INVALID_FEEDBACK', message: "feedback 0.5 for 'P1' is not a valid state", topic: 'ctrl-1/pump/1/state', count: 5,
+    }]);
+    const warned = warnings('bus');
+    assert.equal(warned.length, 7, warned.join('\n'));
+    assert.match(warned[0], /ignored ctrl-1\/state: payload is not JSON/);
+    assert.ok(warned.some((w) => /V13|valve 13/.test(w) && /abc/.test(w)), warned.join('\n'));
+    assert.ok(warned.some((w) => /ctrl-9/.test(w)));
+    // Telemetry, sensor datapoints and our own commands echoed back are not feedback problems.
+    b.receive({ topic: 'ctrl-1/telemetry', payload: { ts: 1, uptimeS: 5 } });
+    b.receive({ topic: 'station-2/sensor/volume/state', payload: { ts: 1, value: 123 } });
+    b.receive({ topic: 'ctrl-1/valve/12/command', payload: 100 });
+    b.receive({ topic: 'ctrl-1/valve/7/state', payload: { ts: 1, value: 12 } }); // a slot the plant does not name
+    b.receive({ topic: 'ctrl-1/state', payload: { ts: 1, valve: { 7: 12, 12: 50 }, relay: 3 } });
+    await sleep(50);
+    assert.equal(events(seen, 'malformed').length + events(seen, 'rejected').length, 8);
+    assert.equal(seen.caught.length, 0, 'feedback is telemetry: no errors');
+    assert.equal(completions.filter((c) => c.nodeId === 'bus' && c.error).length, 0);
+    for (const m of bad) assert.ok(completions.some((c) => c.nodeId === 'bus' && c.msgid === m._msgid), `${m.topic} completed`);
+    assert.match(lastStatus('bus').text, /bad 8/);
+
+    // V12 went on moving on the good sample; it completes normally.
+    b.receive({ topic: 'ctrl-1/valve/12/state', payload: '{"ts": 2, "value": 100}' });
+    await until(() => seen.out.length === 1, 'the return');
+  });
+
+  it('reports by exception with metrics: time of flight, issuance to motion, completion', async function () {
+    const seen = await start();
+    const ts = Date.now() - 40;
+    panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } }, { ts });
+    panel({ valve: { 12: 1, 13: 0 }, pump: { 1: false } }, { ts }); // within tolerance: no change reported
+    await until(() => events(seen, 'changed').length === 3, 'three changes');
+    await sleep(30);
+    assert.equal(events(seen, 'changed').length, 3, 'a value within tolerance is not reported again');
+    const changed = events(seen, 'changed');
+    assert.deepEqual(changed.map((c) => [c.actuator, c.value]), [['V12', 0], ['V13', 0], ['P1', 0]]);
+    assert.ok(changed[0].timeOfFlightMs >= 40, `time of flight ${changed[0].timeOfFlightMs}`);
+    assert.equal(seen.ev.find((m) => m.payload.kind === 'changed').topic, 'actuator/changed/V12');
+
+    command({ valves: { V12: 100 } });
+    await sleep(60);
+    helper.getNode('bus').receive({ topic: 'ctrl-1/valve/12/state', payload: { value: 50 } });
+    await sleep(30);
+    helper.getNode('bus').receive({ topic: 'ctrl-1/valve/12/state', payload: { value: 100 } });
+    await until(() => seen.out.length === 1, 'the return');
+    const [moving] = events(seen, 'moving');
+    const [completed] = events(seen, 'completed');
+    assert.equal(moving.actuator, 'V12');
+    assert.ok(moving.issueToMotionMs >= 50, `issue to motion ${moving.issueToMotionMs}`);
+    assert.ok(completed.completionMs >= moving.issueToMotionMs + 20, `completion ${completed.completionMs}`);
+    assert.equal(completed.issueToMotionMs, moving.issueToMotionMs);
+    assert.equal(events(seen, 'changed').at(-1).timeOfFlightMs, null, 'no device ts, no time of flight');
+    assert.equal(moving.msgid, seen.out[0]._msgid, 'events name the msg they belong to');
+  });
+
+  it('times out a command that does not complete, withdrawing it', async function () {
+    const seen = await start({ plant: { ...PLANT, actuatorTypes: { ...PLANT.actuatorTypes, valve: { ...PLANT.actuatorTypes.valve, escalation: 'hang' } } }, gcProps: { timeout: 1.5 } });
+    atRest();
+    command({ valves: { V12: 100, V13: 10 } });
+    panel({ valve: { 12: 0, 13: 10 } });
+    await until(() => seen.caught.length === 1, 'the timeout', 3000);
+    assert.equal(seen.caught[0].error.code, 'COMMAND_TIMEOUT');
+    assert.match(seen.caught[0].error.message, /within 1\.5 s: V12 had not completed/);
+    assert.deepEqual(seen.caught[0].command.waiting, ['V12']);
+    assert.ok(events(seen, 'fault').some((f) => f.actuator === 'V12' && f.fault === 'no-motion'), 'hang: faulted, but left for the timeout');
+    // Withdrawn: V12 takes a new command.
+    command({ valves: { V12: 0 } });
+    await until(() => seen.out.length === 1, 'the new command completes at once (V12 is at 0)');
+  });
+
+  it('an invalid plant fails every msg and shows "plant invalid"; the log lists every problem', async function () {
+    const completions = trackCompletions();
+    const broken = {
+      ...PLANT,
+      actuators: [
+        { id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 },
+        { id: 'V13', type: 'valve', device: 'ctrl-1', io: 0, idle: 0, lockout: 200 },
+      ],
+    };
+    const seen = await start({ plant: broken });
+    const logged = errors('pl');
+    assert.equal(logged.length, 1);
+    assert.match(logged[0], /invalid plant document \(3 problems\)/);
+    assert.match(logged[0], /actuators\[0\] \(V12\): unknown device 'ctrl-9'/);
+    assert.match(logged[0], /actuators\[1\] \(V13\): io numbers start at 1/);
+    assert.deepEqual(lastStatus('bus'), { fill: 'red', shape: 'ring', text: 'plant invalid' });
+    assert.deepEqual(lastStatus('gc'), { fill: 'red', shape: 'ring', text: 'plant invalid' });
+    command({ valves: { V12: 100 } });
+    panel({ valve: { 12: 0 } });
+    await until(() => seen.caught.length === 2, 'both msgs fail');
+    assert.deepEqual(seen.caught.map((m) => m.error.code), ['INVALID_PLANT', 'INVALID_PLANT']);
+    assert.equal(completions.filter((c) => c.error).length, 2);
+    assert.equal(seen.mqtt.length, 0);
+  });
+
+  it('a plant that is not JSON is refused with the parse error', async function () {
+    const seen = await start({ plant: '{"devices": [' });
+    assert.match(errors('pl')[0], /invalid plant document: it is not valid JSON/);
+    command({ valves: { V12: 100 } });
+    await until(() => seen.caught.length === 1, 'the msg fails');
+    assert.equal(seen.caught[0].error.code, 'INVALID_PLANT');
+  });
+
+  it('nodes without a plant say so', async function () {
+    await helper.load([...paletteNodes, catchNode], [
+      TAB, { ...groupCommand(), plant: '' }, catchAll, sinkNode('out'), sinkNode('caught'),
+    ]);
+    const caught = collect(helper, 'caught');
+    command({ valves: { V12: 100 } });
+    await until(() => caught.length === 1, 'the error');
+    assert.equal(caught[0].error.code, 'NO_PLANT');
+    assert.deepEqual(lastStatus('gc'), { fill: 'red', shape: 'ring', text: 'no plant' });
+  });
+
+  it('completes held msgs without sending them when the flows stop', async function () {
+    const completions = trackCompletions();
+    const seen = await start();
+    atRest();
+    const held = { payload: { valves: { V12: 100 } } };
+    helper.getNode('gc').receive(held);
+    const heldOnBus = { payload: { valves: { V13: 100 } } };
+    helper.getNode('bus').receive(heldOnBus);
+    await until(() => seen.mqtt.length === 2, 'both publishes');
+    await helper.unload();
+    const mine = completions.filter((c) => c.msgid === held._msgid || c.msgid === heldOnBus._msgid);
+    assert.equal(mine.length, 2);
+    assert.ok(mine.every((c) => c.error === undefined));
+    assert.equal(seen.out.length + seen.ret.length, 0);
+  });
+
+  it('reports a device no actuators node serves, once, naming it', async function () {
+    const seen = await start({ busProps: { devices: 'ctrl-1' } });
+    atRest();
+    command({ valves: { V21: 100 } });
+    command({ valves: { V12: 100 } });
+    await until(() => seen.mqtt.length === 1, 'the ctrl-1 publish');
+    assert.equal(seen.mqtt[0].topic, 'ctrl-1/valve/12/command');
+    const logged = errors('pl');
+    assert.equal(logged.length, 1);
+    assert.match(logged[0], /no actuators node serves device 'ctrl-2'/);
+    // Feedback from a device this node does not serve is refused, not fed.
+    panel({ valve: { 1: 20 } }, { device: 'ctrl-2' });
+    await until(() => warnings('bus').length === 1, 'the warning');
+    assert.match(warnings('bus')[0], /ctrl-2' is not in this node's device list/);
+    assert.equal(lastStatus('bus').text, 'moving 1 · bad 1', 'counts only the served devices');
+  });
+
+  it('routes each device to the actuators node that serves it', async function () {
+    const seen = await start({
+      busProps: { devices: 'ctrl-1' },
+      extra: [
+        { id: 'bus2', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: 'ctrl-2, station-2', wires: [['mqtt2'], [], ['ev2']] },
+        sinkNode('mqtt2'), sinkNode('ev2'),
+      ],
+    });
+    const mqtt2 = collect(helper, 'mqtt2');
+    const ev2 = collect(helper, 'ev2');
+    atRest();
+    panel({ valve: { 1: 0 } }, { device: 'ctrl-2', target: 'bus2' });
+    command({ valves: { V12: 100, V21: 100 } });
+    await until(() => seen.mqtt.length === 1 && mqtt2.length === 1, 'one publish each');
+    assert.equal(mqtt2[0].topic, 'ctrl-2/valve/1/command');
+    panel({ valve: { 1: 100 } }, { device: 'ctrl-2', target: 'bus2' });
+    panel({ valve: { 12: 100 } });
+    await until(() => seen.out.length === 1, 'the return');
+    assert.ok(ev2.some((m) => m.topic === 'actuator/completed/V21'));
+    assert.ok(!seen.ev.some((m) => m.topic === 'actuator/completed/V21'));
+  });
+
+  it('keeps every status under 20 characters', async function () {
+    const values = [0, 1, 9, 14, 99, 100, 999, 1000, 12345, 999999, 1e6, 12345678, 1e9, 2 ** 32];
+    for (const faulted of values) {
+      for (const moving of values) {
+        for (const stopped of values) {
+          for (const bad of [0, 1, 123456, 2 ** 32]) {
+            const text = actuatorText({ moving, stopped, faulted, bad });
+            assert.ok(text.length <= MAX_STATUS_LENGTH, `${faulted}/${moving}/${stopped}/${bad}: "${text}"`);
+          }
+        }
+      }
+    }
+    assert.equal(actuatorText({ moving: 2, stopped: 14, faulted: 1 }), 'flt 1·mov 2·stop 14');
+    assert.equal(actuatorText({ stopped: 14 }), 'stopped 14');
+    assert.equal(actuatorText({ moving: 2, stopped: 14 }), 'mov 2 · stop 14');
+    assert.equal(actuatorText({}), 'idle');
+
+    const seen = await start();
+    atRest();
+    command({ valves: { V12: 100 } });
+    command({ valves: { V99: 100 } });
+    helper.getNode('bus').receive({ topic: 'ctrl-1/state', payload: 'junk' });
+    await until(() => seen.caught.length === 1, 'the refusal');
+    for (const id of ['bus', 'gc']) {
+      for (const s of statusCalls(id)) assert.ok(s.text.length < 20, `${id}: "${s.text}"`);
+    }
+  });
+});
