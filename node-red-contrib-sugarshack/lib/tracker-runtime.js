@@ -392,6 +392,8 @@ class TrackerRuntime {
     if (!entry) return;
     const { msg } = entry;
     msg.command = { completionMs: e.completionMs, actuators: entry.completed };
+    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
+    if (typeof msg.faultAtMs === 'number') msg.command.faultLockoutMs = Math.max(0, Date.now() - msg.faultAtMs);
     if (entry.outputs === 1) {
       entry.send(msg);
     } else {

@@ -19,12 +19,15 @@ module.exports = function (RED) {
         operation = operationOf(msg, props.operation, { followAcquire: true });
         lockouts = rt.fault(operation, note);
       }
+      // faultAtMs lets the group command that applies the lockout report the fault lockout time.
+      const faultAtMs = Date.now();
       const commands = lockouts.map(({ resource, command }) => ({
         topic: `lockout/${resource}`,
         payload: command,
         resource,
         operation,
         note: note === undefined ? null : note,
+        faultAtMs,
       }));
       send([msg, commands]);
       done();

@@ -195,7 +195,8 @@ describe('sugarshack actuator nodes', function () {
     panel({ valve: { 12: 30, 13: 0 }, pump: { 1: false } });
     // The shape the interlock's fault node emits on its second output.
     const lockout = { topic: 'lockout/YEL', payload: { valves: { V12: 0, V13: 0 }, pumps: { P1: false } }, resource: 'YEL', operation: '12', note: null };
-    command(lockout.payload, { topic: lockout.topic, resource: 'YEL' });
+    const faultAtMs = Date.now() - 250;
+    command(lockout.payload, { topic: lockout.topic, resource: 'YEL', faultAtMs });
     await until(() => seen.caught.length === 1, 'the taken-over command fails');
     assert.equal(seen.caught[0].error.code, 'LOCKED_OUT');
     assert.match(seen.caught[0].error.message, /valve V12 was taken over by a lockout command/);
@@ -210,6 +211,8 @@ describe('sugarshack actuator nodes', function () {
     panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } });
     await until(() => seen.out.length === 1, 'the lockout returns');
     assert.equal(seen.out[0].topic, 'lockout/YEL');
+    const { faultLockoutMs, completionMs } = seen.out[0].command;
+    assert.ok(faultLockoutMs >= 250 && faultLockoutMs >= completionMs, `fault lockout time ${faultLockoutMs} ms`);
 
     // A later normal command first clears the retained lockout on the broker.
     command({ valves: { V13: 10 } });

@@ -147,6 +147,7 @@ describe('sugarshack interlock nodes', function () {
     assert.equal(lockout[0].resource, 'YEL');
     assert.equal(lockout[0].operation, '12');
     assert.equal(lockout[0].note, 'pump P1 ran dry');
+    assert.ok(Math.abs(Date.now() - lockout[0].faultAtMs) < 5000, 'lockouts carry the fault time');
     assert.deepEqual(counts(), { holding: 0, queued: 0, faulted: 1 });
 
     helper.getNode('a10').receive({ payload: 'load truck' });
