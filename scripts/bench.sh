@@ -13,3 +13,10 @@ cargo build -q --release -p sugarshack-core --example interlock_bench --example 
 node tests/bench/interlock-bench.js "$@"
 echo
 node tests/bench/tracker-bench.js
+echo
+# Node-RED cost per feedback msg through the actuators node (test helper, no broker).
+node tests/bench/actuator-node-bench.js
+echo
+# CPU and memory of Node-RED on the full simulated plant, 30 s per run; the
+# 3-minute run is opt-in: node tests/bench/plant-load.js (or --minutes N).
+node tests/bench/plant-load.js --quick
