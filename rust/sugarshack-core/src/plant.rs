@@ -19,6 +19,13 @@ pub struct PlantModel {
     pub actuators: Vec<Actuator>,
     #[serde(default)]
     pub sensors: Vec<Sensor>,
+    /// The shared resources (lines of piping) operations acquire at the interlock.
+    #[serde(default)]
+    pub resources: Vec<Resource>,
+    #[serde(default)]
+    pub operations: Vec<Operation>,
+    #[serde(default)]
+    pub routines: Vec<Routine>,
     /// Read by the plant simulator only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<serde_json::Value>,
@@ -96,8 +103,12 @@ pub struct Actuator {
     /// Overrides the type's tolerance.
     #[serde(default)]
     pub tolerance: Option<f64>,
-    /// The state every operation returns it to (the paper's C3).
-    pub idle: serde_json::Value,
+    /// The resource (line) it belongs to; only operations holding it may command it (C2).
+    #[serde(default)]
+    pub resource: Option<String>,
+    /// The state every operation returns it to (the paper's C3); required to command it in an operation.
+    #[serde(default)]
+    pub idle: Option<serde_json::Value>,
     /// The state a fault lockout commands.
     pub lockout: serde_json::Value,
 }
@@ -113,6 +124,96 @@ pub struct Sensor {
     pub unit: Option<String>,
     #[serde(default)]
     pub stale_ms: Option<u64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Resource {
+    pub id: String,
+    /// The group command that isolates the line on a fault. By default every
+    /// member actuator goes to its own lockout state.
+    #[serde(default)]
+    pub lockout: Option<serde_json::Value>,
+}
+
+/// A singular operation (the paper's §III-D): acquire, steps, return to idle, release.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Operation {
+    pub id: String,
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Higher is more urgent.
+    pub priority: i32,
+    pub resources: Vec<String>,
+    pub steps: Vec<Step>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Step {
+    /// A group command, e.g. `{"valves": {"V101": 100}, "pumps": {"P1": true}}`.
+    #[serde(rename_all = "camelCase")]
+    Command {
+        command: serde_json::Value,
+        timeout_ms: u64,
+    },
+    /// Wait until a JSONata condition over the listed sensors holds.
+    #[serde(rename_all = "camelCase")]
+    Wait {
+        wait: String,
+        sensors: Vec<String>,
+        timeout_ms: u64,
+    },
+}
+
+/// A routine (the paper's §III-E): a state machine that dispatches one operation at a time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Routine {
+    pub id: String,
+    pub states: Vec<String>,
+    pub initial: String,
+    /// Where the routine goes when its operation faults.
+    #[serde(default)]
+    pub error_state: Option<String>,
+    pub transitions: Vec<Transition>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Transition {
+    pub from: String,
+    pub to: String,
+    pub operation: String,
+    pub trigger: Trigger,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Trigger {
+    /// A msg with this topic.
+    Msg { msg: String },
+    /// A JSONata condition over the listed sensors, evaluated every `everyMs`.
+    #[serde(rename_all = "camelCase")]
+    When {
+        when: String,
+        sensors: Vec<String>,
+        every_ms: u64,
+    },
+}
+
+/// Something legal but probably unintended, reported at deploy.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlantWarning {
+    pub path: String,
+    pub message: String,
+}
+
+impl fmt::Display for PlantWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path, self.message)
+    }
 }
 
 /// One problem in a plant document.
@@ -199,14 +300,130 @@ pub fn state_value(signal: Signal, range: Range, value: &serde_json::Value) -> R
     }
 }
 
+/// Why a group command payload cannot be read.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GroupError {
+    Invalid(String),
+    UnknownActuator(String),
+    InvalidTarget { actuator: String, reason: String },
+    Empty,
+}
+
+impl fmt::Display for GroupError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Invalid(reason) => write!(f, "invalid group command: {reason}"),
+            Self::UnknownActuator(name) => write!(f, "unknown actuator '{name}'"),
+            Self::InvalidTarget { actuator, reason } => {
+                write!(f, "target for '{actuator}' {reason}")
+            }
+            Self::Empty => write!(f, "the group command names no actuator"),
+        }
+    }
+}
+
+impl PlantModel {
+    /// Reads a group command such as `{"valves": {"V12": 100, "V13": 0}, "pumps": {"P1": true}}`
+    /// into (actuator index, target): each key is an actuator type (or its plural),
+    /// each id must be of that type. `index` finds an actuator by id.
+    pub fn group_targets(
+        &self,
+        payload: &serde_json::Value,
+        index: &dyn Fn(&str) -> Option<usize>,
+    ) -> Result<Vec<(usize, f64)>, GroupError> {
+        let groups = payload.as_object().ok_or_else(|| {
+            GroupError::Invalid(format!(
+                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {payload}"
+            ))
+        })?;
+        let mut targets = Vec::new();
+        for (key, members) in groups {
+            let kind = key
+                .strip_suffix('s')
+                .filter(|k| self.actuator_types.contains_key(*k))
+                .unwrap_or(key);
+            let Some(t) = self.actuator_types.get(kind) else {
+                let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
+                return Err(GroupError::Invalid(format!(
+                    "unknown actuator type '{key}' (known: {})",
+                    known.join(", ")
+                )));
+            };
+            let members = members.as_object().ok_or_else(|| {
+                GroupError::Invalid(format!(
+                    "'{key}' must map actuator ids to targets, got {members}"
+                ))
+            })?;
+            for (name, value) in members {
+                let i = index(name).ok_or_else(|| GroupError::UnknownActuator(name.clone()))?;
+                let a = &self.actuators[i];
+                if a.kind != kind {
+                    return Err(GroupError::Invalid(format!(
+                        "'{name}' is a {}, not a {kind}",
+                        a.kind
+                    )));
+                }
+                let target =
+                    state_value(t.signal, t.range(a.tolerance), value).map_err(|reason| {
+                        GroupError::InvalidTarget {
+                            actuator: name.clone(),
+                            reason,
+                        }
+                    })?;
+                targets.push((i, target));
+            }
+        }
+        if targets.is_empty() {
+            return Err(GroupError::Empty);
+        }
+        Ok(targets)
+    }
+
+    /// The group command that isolates a resource: its configured lockout, or
+    /// every member actuator at its lockout state. None when it has neither.
+    pub fn lockout_of(&self, resource: &str) -> Option<serde_json::Value> {
+        let r = self.resources.iter().find(|r| r.id == resource)?;
+        if let Some(lockout) = &r.lockout {
+            return Some(lockout.clone());
+        }
+        let mut groups = serde_json::Map::new();
+        for a in self
+            .actuators
+            .iter()
+            .filter(|a| a.resource.as_deref() == Some(resource))
+        {
+            let group = groups
+                .entry(format!("{}s", a.kind))
+                .or_insert_with(|| serde_json::Value::Object(Default::default()));
+            group
+                .as_object_mut()
+                .expect("made as an object")
+                .insert(a.id.clone(), a.lockout.clone());
+        }
+        (!groups.is_empty()).then_some(serde_json::Value::Object(groups))
+    }
+
+    /// The interlock's configuration for this plant: its resources with their lockouts.
+    pub fn interlock_config(&self) -> crate::interlock::InterlockConfig {
+        let mut config = crate::interlock::InterlockConfig::with_resources(
+            self.resources.iter().map(|r| r.id.clone()),
+        );
+        for r in &mut config.resources {
+            r.lockout = self.lockout_of(&r.name).unwrap_or_default();
+        }
+        config
+    }
+}
+
 fn topic_safe(name: &str) -> bool {
     !name.is_empty() && !name.contains(['/', '+', '#']) && !name.chars().any(char::is_whitespace)
 }
 
 impl PlantModel {
-    /// Every problem in the document, or none.
-    pub fn validate(&self) -> Result<(), PlantErrors> {
+    /// Every problem in the document, or the warnings of a sound one.
+    pub fn validate(&self) -> Result<Vec<PlantWarning>, PlantErrors> {
         let mut errors = Vec::new();
+        let mut warnings = Vec::new();
         let mut push = |path: String, message: String| errors.push(PlantError { path, message });
 
         for (name, t) in &self.actuator_types {
@@ -326,8 +543,8 @@ impl PlantModel {
                     );
                 }
             }
-            for (field, value) in [("idle", &a.idle), ("lockout", &a.lockout)] {
-                if let Err(why) = state_value(t.signal, range, value) {
+            for (field, value) in [("idle", a.idle.as_ref()), ("lockout", Some(&a.lockout))] {
+                if let Some(Err(why)) = value.map(|v| state_value(t.signal, range, v)) {
                     push(path.clone(), format!("{field} {why}"));
                 }
             }
@@ -352,8 +569,201 @@ impl PlantModel {
             }
         }
 
+        let resources: HashSet<&str> = self.resources.iter().map(|r| r.id.as_str()).collect();
+        for (i, a) in self.actuators.iter().enumerate() {
+            if let Some(r) = a.resource.as_deref().filter(|r| !resources.contains(r)) {
+                push(
+                    format!("actuators[{i}] ({})", a.id),
+                    format!("unknown resource '{r}'"),
+                );
+            }
+        }
+        let mut seen = HashSet::new();
+        for (i, r) in self.resources.iter().enumerate() {
+            let path = format!("resources[{i}] ({})", r.id);
+            if !seen.insert(r.id.as_str()) {
+                push(
+                    path.clone(),
+                    format!("resource '{}' is defined twice", r.id),
+                );
+            }
+            if self.lockout_of(&r.id).is_none() {
+                push(
+                    path,
+                    "no lockout command: give it one, or actuators that belong to it".into(),
+                );
+            }
+        }
+
+        let actuator_index: HashMap<&str, usize> = self
+            .actuators
+            .iter()
+            .enumerate()
+            .map(|(i, a)| (a.id.as_str(), i))
+            .collect();
+        let index = |name: &str| actuator_index.get(name).copied();
+        let sensors: HashSet<&str> = self.sensors.iter().map(|s| s.id.as_str()).collect();
+        let unknown_sensors = |names: &[String]| -> Vec<String> {
+            names
+                .iter()
+                .filter(|n| !sensors.contains(n.as_str()))
+                .cloned()
+                .collect()
+        };
+        let mut operations = HashMap::new();
+        let mut priorities: HashMap<i32, &str> = HashMap::new();
+        for (i, op) in self.operations.iter().enumerate() {
+            let path = format!("operations[{i}] ({})", op.id);
+            if operations.insert(op.id.as_str(), i).is_some() {
+                push(
+                    path.clone(),
+                    format!("operation '{}' is defined twice", op.id),
+                );
+            }
+            if let Some(other) = priorities.insert(op.priority, &op.id) {
+                warnings.push(PlantWarning {
+                    path: path.clone(),
+                    message: format!("priority {} is also operation '{other}''s: equal priorities are granted first come, first served", op.priority),
+                });
+            }
+            if op.resources.is_empty() {
+                push(
+                    path.clone(),
+                    "an operation acquires at least one resource".into(),
+                );
+            }
+            for r in op
+                .resources
+                .iter()
+                .filter(|r| !resources.contains(r.as_str()))
+            {
+                push(path.clone(), format!("unknown resource '{r}'"));
+            }
+            if op.steps.is_empty() {
+                push(path.clone(), "an operation has at least one step".into());
+            }
+            for (j, step) in op.steps.iter().enumerate() {
+                let path = format!("{path}.steps[{j}]");
+                match step {
+                    Step::Command {
+                        command,
+                        timeout_ms,
+                    } => {
+                        if *timeout_ms == 0 {
+                            push(path.clone(), "timeoutMs must be positive".into());
+                        }
+                        let targets = match self.group_targets(command, &index) {
+                            Ok(targets) => targets,
+                            Err(err) => {
+                                push(path, err.to_string());
+                                continue;
+                            }
+                        };
+                        for (a, _) in targets {
+                            let a = &self.actuators[a];
+                            match a.resource.as_deref() {
+                                Some(r) if op.resources.iter().any(|o| o == r) => {}
+                                Some(r) => push(
+                                    path.clone(),
+                                    format!("C2: commands '{}' on resource '{r}', outside the operation's resources ({})", a.id, op.resources.join(", ")),
+                                ),
+                                None => push(path.clone(), format!("C2: commands '{}', which belongs to no resource", a.id)),
+                            }
+                            if a.idle.is_none() {
+                                push(
+                                    path.clone(),
+                                    format!(
+                                        "C3: commands '{}', which has no idle state to return to",
+                                        a.id
+                                    ),
+                                );
+                            }
+                        }
+                    }
+                    Step::Wait {
+                        wait,
+                        sensors,
+                        timeout_ms,
+                    } => {
+                        if wait.trim().is_empty() {
+                            push(path.clone(), "the condition is empty".into());
+                        }
+                        if *timeout_ms == 0 {
+                            push(path.clone(), "timeoutMs must be positive".into());
+                        }
+                        for s in unknown_sensors(sensors) {
+                            push(path.clone(), format!("unknown sensor '{s}'"));
+                        }
+                    }
+                }
+            }
+        }
+
+        let mut owner: HashMap<&str, &str> = HashMap::new();
+        let mut routine_ids = HashSet::new();
+        for (i, routine) in self.routines.iter().enumerate() {
+            let path = format!("routines[{i}] ({})", routine.id);
+            if !routine_ids.insert(routine.id.as_str()) {
+                push(
+                    path.clone(),
+                    format!("routine '{}' is defined twice", routine.id),
+                );
+            }
+            let states: HashSet<&str> = routine.states.iter().map(String::as_str).collect();
+            if states.len() != routine.states.len() {
+                push(path.clone(), "a state is listed twice".into());
+            }
+            for (field, state) in [
+                ("initial", Some(&routine.initial)),
+                ("errorState", routine.error_state.as_ref()),
+            ] {
+                if let Some(state) = state.filter(|s| !states.contains(s.as_str())) {
+                    push(
+                        path.clone(),
+                        format!("{field} '{state}' is not one of its states"),
+                    );
+                }
+            }
+            let mut mine = HashSet::new();
+            for (j, t) in routine.transitions.iter().enumerate() {
+                let path = format!("{path}.transitions[{j}]");
+                for state in [&t.from, &t.to]
+                    .into_iter()
+                    .filter(|s| !states.contains(s.as_str()))
+                {
+                    push(path.clone(), format!("unknown state '{state}'"));
+                }
+                if !operations.contains_key(t.operation.as_str()) {
+                    push(path.clone(), format!("unknown operation '{}'", t.operation));
+                } else if mine.insert(t.operation.as_str()) {
+                    if let Some(other) = owner.insert(t.operation.as_str(), routine.id.as_str()) {
+                        push(
+                            path.clone(),
+                            format!("C1: operation '{}' already belongs to routine '{other}'; an operation belongs to one routine", t.operation),
+                        );
+                    }
+                }
+                if let Trigger::When {
+                    when,
+                    sensors,
+                    every_ms,
+                } = &t.trigger
+                {
+                    if when.trim().is_empty() {
+                        push(path.clone(), "the condition is empty".into());
+                    }
+                    if *every_ms == 0 {
+                        push(path.clone(), "everyMs must be positive".into());
+                    }
+                    for s in unknown_sensors(sensors) {
+                        push(path.clone(), format!("unknown sensor '{s}'"));
+                    }
+                }
+            }
+        }
+
         if errors.is_empty() {
-            Ok(())
+            Ok(warnings)
         } else {
             Err(PlantErrors(errors))
         }

@@ -27,7 +27,7 @@ type Breakage = fn(&mut Value);
 fn problems(doc: Value) -> Vec<String> {
     let plant: PlantModel = serde_json::from_value(doc).expect("well-formed document");
     match plant.validate() {
-        Ok(()) => vec![],
+        Ok(_) => vec![],
         Err(errors) => errors.0.iter().map(ToString::to_string).collect(),
     }
 }
@@ -150,4 +150,135 @@ fn unknown_fields_are_refused_by_name() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("tolerence"), "{err}");
+}
+
+/// The sound plant with lines, operations and a routine.
+fn with_operations() -> Value {
+    let mut doc = good();
+    doc["resources"] =
+        json!([{ "id": "YEL" }, { "id": "RED", "lockout": { "pumps": { "P1": false } } }]);
+    doc["actuators"][0]["resource"] = json!("YEL");
+    doc["actuators"][1]["resource"] = json!("YEL");
+    doc["actuators"].as_array_mut().unwrap().push(json!({ "id": "V40", "type": "valve", "device": "ctrl-1", "io": 40, "idle": 0, "lockout": 0, "resource": "RED" }));
+    doc["operations"] = json!([
+        { "id": "10", "description": "load truck", "priority": 20, "resources": ["YEL"], "steps": [
+            { "command": { "valves": { "V12": 100 }, "pumps": { "P1": true } }, "timeoutMs": 20000 },
+            { "wait": "`LT-2` < 100", "sensors": ["LT-2"], "timeoutMs": 600000 }
+        ] },
+        { "id": "18", "priority": 92, "resources": ["YEL", "RED"], "steps": [
+            { "command": { "valves": { "V12": 100, "V40": 100 } }, "timeoutMs": 20000 }
+        ] }
+    ]);
+    doc["routines"] = json!([
+        { "id": "truck", "states": ["empty", "full", "error"], "initial": "empty", "errorState": "error", "transitions": [
+            { "from": "empty", "to": "full", "operation": "10", "trigger": { "msg": "load" } },
+            { "from": "full", "to": "empty", "operation": "18", "trigger": { "when": "`LT-2` > 10", "sensors": ["LT-2"], "everyMs": 5000 } }
+        ] }
+    ]);
+    doc
+}
+
+#[test]
+fn operations_and_routines_validate_and_lockouts_derive_from_members() {
+    let plant: PlantModel = serde_json::from_value(with_operations()).unwrap();
+    assert_eq!(plant.validate().unwrap(), vec![]);
+    assert_eq!(
+        plant.lockout_of("YEL"),
+        Some(json!({ "valves": { "V12": 0 }, "pumps": { "P1": false } }))
+    );
+    assert_eq!(
+        plant.lockout_of("RED"),
+        Some(json!({ "pumps": { "P1": false } })),
+        "a configured lockout wins"
+    );
+    let config = plant.interlock_config();
+    assert_eq!(
+        config
+            .resources
+            .iter()
+            .map(|r| r.name.as_str())
+            .collect::<Vec<_>>(),
+        vec!["YEL", "RED"]
+    );
+    assert_eq!(
+        config.resources[0].lockout,
+        json!({ "valves": { "V12": 0 }, "pumps": { "P1": false } })
+    );
+    assert!(sugarshack_core::interlock::Interlock::new(config).is_ok());
+}
+
+#[test]
+fn the_papers_conditions_are_checked_at_deploy() {
+    let cases: Vec<(Breakage, &str)> = vec![
+        (
+            |d| d["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V40": 100 } }),
+            "operations[0] (10).steps[0]: C2: commands 'V40' on resource 'RED', outside the operation's resources (YEL)",
+        ),
+        (|d| d["actuators"][0]["resource"] = json!(null), "operations[0] (10).steps[0]: C2: commands 'V12', which belongs to no resource"),
+        (|d| d["actuators"][0]["idle"] = json!(null), "operations[0] (10).steps[0]: C3: commands 'V12', which has no idle state to return to"),
+        (
+            |d| {
+                let second = json!({ "id": "shuttle", "states": ["a"], "initial": "a",
+                    "transitions": [{ "from": "a", "to": "a", "operation": "10", "trigger": { "msg": "go" } }] });
+                d["routines"].as_array_mut().unwrap().push(second);
+            },
+            "routines[1] (shuttle).transitions[0]: C1: operation '10' already belongs to routine 'truck'",
+        ),
+        (|d| d["operations"][0]["resources"] = json!(["GRN"]), "operations[0] (10): unknown resource 'GRN'"),
+        (|d| d["operations"][0]["steps"][1]["sensors"] = json!(["LT-9"]), "operations[0] (10).steps[1]: unknown sensor 'LT-9'"),
+        (|d| d["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V99": 1 } }), "operations[0] (10).steps[0]: unknown actuator 'V99'"),
+        (|d| d["operations"][0]["steps"][0]["timeoutMs"] = json!(0), "operations[0] (10).steps[0]: timeoutMs must be positive"),
+        (|d| d["routines"][0]["transitions"][0]["operation"] = json!("77"), "routines[0] (truck).transitions[0]: unknown operation '77'"),
+        (|d| d["routines"][0]["transitions"][1]["to"] = json!("gone"), "routines[0] (truck).transitions[1]: unknown state 'gone'"),
+        (|d| d["routines"][0]["initial"] = json!("start"), "routines[0] (truck): initial 'start' is not one of its states"),
+        (|d| d["actuators"][2]["resource"] = json!("BLU"), "actuators[2] (V40): unknown resource 'BLU'"),
+        (
+            |d| {
+                d["resources"].as_array_mut().unwrap().push(json!({ "id": "PUR" }));
+            },
+            "resources[2] (PUR): no lockout command: give it one, or actuators that belong to it",
+        ),
+    ];
+    for (breaks, expected) in cases {
+        let mut doc = with_operations();
+        breaks(&mut doc);
+        let found = problems(doc);
+        assert!(
+            found.iter().any(|p| p.starts_with(expected)),
+            "expected {expected:?}, got {found:?}"
+        );
+    }
+}
+
+#[test]
+fn equal_priorities_are_a_warning_not_an_error() {
+    let mut doc = with_operations();
+    doc["operations"][1]["priority"] = json!(20);
+    let plant: PlantModel = serde_json::from_value(doc).unwrap();
+    let warnings = plant.validate().unwrap();
+    assert_eq!(warnings.len(), 1);
+    assert_eq!(
+        warnings[0].to_string(),
+        "operations[1] (18): priority 20 is also operation '10''s: equal priorities are granted first come, first served"
+    );
+}
+
+#[test]
+fn the_case_study_plant_validates() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../flows/plant.json"
+    ))
+    .unwrap();
+    let plant: PlantModel = serde_json::from_str(&text).unwrap();
+    let warnings = plant.validate().unwrap_or_else(|e| panic!("{e}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(
+        plant.actuators.iter().filter(|a| a.kind == "valve").count(),
+        50
+    );
+    assert_eq!(
+        plant.actuators.iter().filter(|a| a.kind == "pump").count(),
+        3
+    );
 }

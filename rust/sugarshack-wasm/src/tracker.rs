@@ -33,7 +33,7 @@ struct ActuatorView<'a> {
     device: &'a str,
     io: u32,
     binary: bool,
-    idle: f64,
+    idle: Option<f64>,
     lockout: f64,
 }
 
@@ -130,7 +130,7 @@ impl Tracker {
                     device: &a.device,
                     io: a.io,
                     binary: self.core.signal(id) == Some(Signal::Binary),
-                    idle: self.core.idle_state(id).unwrap_or_default(),
+                    idle: self.core.idle_state(id),
                     lockout: self.core.lockout_state(id).unwrap_or_default(),
                 }
             })

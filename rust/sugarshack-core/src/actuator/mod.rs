@@ -32,7 +32,7 @@ use serde::Serialize;
 
 pub use error::TrackError;
 
-use crate::plant::{state_value, Escalation, PlantErrors, PlantModel, Range, Signal};
+use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
 
 /// An actuator of the plant, by its index in the plant document.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -186,7 +186,7 @@ struct ActuatorState {
     range: Range,
     type_index: usize,
     topic: String,
-    idle: f64,
+    idle: Option<f64>,
     lockout: f64,
     position: Option<f64>,
     last_sample_ms: u64,
@@ -298,7 +298,10 @@ impl Tracker {
                     .position(|n| **n == a.kind)
                     .expect("validated type"),
                 topic: format!("{}/{}/{}/command", a.device, a.kind, a.io),
-                idle: state_value(t.signal, range, &a.idle).expect("validated idle"),
+                idle: a
+                    .idle
+                    .as_ref()
+                    .map(|v| state_value(t.signal, range, v).expect("validated idle")),
                 lockout: state_value(t.signal, range, &a.lockout).expect("validated lockout"),
                 position: None,
                 last_sample_ms: now_ms,
@@ -374,7 +377,7 @@ impl Tracker {
     }
 
     pub fn idle_state(&self, id: ActuatorId) -> Option<f64> {
-        self.actuators.get(id.index()).map(|a| a.idle)
+        self.actuators.get(id.index()).and_then(|a| a.idle)
     }
 
     pub fn lockout_state(&self, id: ActuatorId) -> Option<f64> {
@@ -419,50 +422,22 @@ impl Tracker {
         &self,
         payload: &serde_json::Value,
     ) -> Result<Vec<(ActuatorId, f64)>, TrackError> {
-        let invalid = |reason: String| TrackError::InvalidGroup { reason };
-        let groups = payload.as_object().ok_or_else(|| {
-            invalid(format!(
-                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {payload}"
-            ))
-        })?;
-        let mut targets = Vec::new();
-        for (key, members) in groups {
-            let kind = key
-                .strip_suffix('s')
-                .filter(|k| self.plant.actuator_types.contains_key(*k))
-                .unwrap_or(key);
-            if !self.plant.actuator_types.contains_key(kind) {
-                let known: Vec<&str> = self
-                    .plant
-                    .actuator_types
-                    .keys()
-                    .map(String::as_str)
-                    .collect();
-                return Err(invalid(format!(
-                    "unknown actuator type '{key}' (known: {})",
-                    known.join(", ")
-                )));
-            }
-            let members = members.as_object().ok_or_else(|| {
-                invalid(format!(
-                    "'{key}' must map actuator ids to targets, got {members}"
-                ))
-            })?;
-            for (name, value) in members {
-                let id = self.actuator(name)?;
-                if self.plant.actuators[id.index()].kind != kind {
-                    return Err(invalid(format!(
-                        "'{name}' is a {}, not a {kind}",
-                        self.plant.actuators[id.index()].kind
-                    )));
+        let index = |name: &str| self.by_name.get(name).map(|id| id.index());
+        let targets = self
+            .plant
+            .group_targets(payload, &index)
+            .map_err(|err| match err {
+                GroupError::Invalid(reason) => TrackError::InvalidGroup { reason },
+                GroupError::UnknownActuator(name) => TrackError::UnknownActuator { name },
+                GroupError::InvalidTarget { actuator, reason } => {
+                    TrackError::InvalidTarget { actuator, reason }
                 }
-                targets.push((id, self.target_from_json(id, value)?));
-            }
-        }
-        if targets.is_empty() {
-            return Err(TrackError::EmptyCommand);
-        }
-        Ok(targets)
+                GroupError::Empty => TrackError::EmptyCommand,
+            })?;
+        Ok(targets
+            .into_iter()
+            .map(|(i, target)| (ActuatorId(i as u32), target))
+            .collect())
     }
 
     /// Issues a group command: all of it or, on any refusal, none of it.
