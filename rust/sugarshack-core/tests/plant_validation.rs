@@ -24,6 +24,19 @@ fn good() -> Value {
 /// A change that breaks a sound document.
 type Breakage = fn(&mut Value);
 
+/// Each breakage of the base document is reported with a problem starting as expected.
+fn assert_each_names_its_problem(base: fn() -> Value, cases: Vec<(Breakage, &str)>) {
+    for (breaks, expected) in cases {
+        let mut doc = base();
+        breaks(&mut doc);
+        let found = problems(doc);
+        assert!(
+            found.iter().any(|p| p.starts_with(expected)),
+            "expected {expected:?}, got {found:?}"
+        );
+    }
+}
+
 fn problems(doc: Value) -> Vec<String> {
     let plant: PlantModel = serde_json::from_value(doc).expect("well-formed document");
     match plant.validate() {
@@ -103,15 +116,7 @@ fn each_problem_names_its_entry() {
             "sensors[0] (P1): id 'P1' is used twice",
         ),
     ];
-    for (breaks, expected) in cases {
-        let mut doc = good();
-        breaks(&mut doc);
-        let found = problems(doc);
-        assert!(
-            found.iter().any(|p| p.starts_with(expected)),
-            "expected {expected:?}, got {found:?}"
-        );
-    }
+    assert_each_names_its_problem(good, cases);
 }
 
 #[test]
@@ -239,15 +244,7 @@ fn the_papers_conditions_are_checked_at_deploy() {
             "resources[2] (PUR): no lockout command: give it one, or actuators that belong to it",
         ),
     ];
-    for (breaks, expected) in cases {
-        let mut doc = with_operations();
-        breaks(&mut doc);
-        let found = problems(doc);
-        assert!(
-            found.iter().any(|p| p.starts_with(expected)),
-            "expected {expected:?}, got {found:?}"
-        );
-    }
+    assert_each_names_its_problem(with_operations, cases);
 }
 
 #[test]

@@ -181,16 +181,6 @@ impl Interlock {
         Ok(handle)
     }
 
-    #[wasm_bindgen(js_name = resourceNames)]
-    pub fn resource_names(&self) -> Vec<String> {
-        self.core
-            .config()
-            .resources
-            .iter()
-            .map(|r| r.name.clone())
-            .collect()
-    }
-
     /// True when granted at once, false when queued.
     pub fn acquire(
         &mut self,
@@ -296,11 +286,6 @@ impl Interlock {
         let events = self.core.drain_events();
         let records: Vec<_> = events.iter().map(|e| self.core.describe(e)).collect();
         to_js(&records)
-    }
-
-    #[wasm_bindgen(js_name = hasEvents)]
-    pub fn has_events(&self) -> bool {
-        self.core.has_events()
     }
 
     pub fn snapshot(&self, now_ms: f64) -> Result<JsValue, JsValue> {

@@ -384,10 +384,6 @@ impl Tracker {
         self.actuators.get(id.index()).map(|a| a.lockout)
     }
 
-    pub fn is_online(&self, device: DeviceId) -> bool {
-        self.devices.get(device.index()).is_some_and(|d| d.online)
-    }
-
     pub fn counts(&self) -> Counts {
         let mut counts = Counts::default();
         for a in &self.actuators {

@@ -306,16 +306,6 @@ impl Interlock {
         Ok(set)
     }
 
-    /// A set from raw indices (for callers that keep their own handles).
-    pub fn resource_set_from_indices(
-        &self,
-        indices: &[u32],
-    ) -> Result<ResourceSet, InterlockError> {
-        let ids: Vec<ResourceId> = indices.iter().map(|&i| ResourceId(i)).collect();
-        self.check_set(&ResourceSet::from_unsorted(ids.clone()))?;
-        Ok(ResourceSet::from_unsorted(ids))
-    }
-
     // ---- queries -----------------------------------------------------------
 
     pub fn counts(&self) -> Counts {
