@@ -4,4 +4,7 @@
 
 pub mod actuator;
 pub mod interlock;
+pub mod operation;
 pub mod plant;
+pub mod routine;
+pub mod sensor;

@@ -4,9 +4,11 @@
 //! property names the error kind.
 
 mod interlock;
+mod routine;
 mod tracker;
 
 pub use interlock::Interlock;
+pub use routine::Routine;
 pub use tracker::Tracker;
 
 use serde::Serialize;

@@ -1,9 +1,15 @@
 use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, TrackError};
 use sugarshack_core::plant::{PlantModel, Signal};
+use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use wasm_bindgen::prelude::*;
 
+use crate::routine::Routine;
 use crate::{from_js, js_error, time, to_js};
+
+fn sensor_error(err: SensorError) -> JsValue {
+    js_error(err.code(), &err.to_string())
+}
 
 fn track_error(err: TrackError) -> JsValue {
     js_error(err.code(), &err.to_string())
@@ -37,11 +43,14 @@ struct ActuatorView<'a> {
     lockout: f64,
 }
 
-/// Actuator tracking, as JS sees it. Calls queue their effects; `takeEffects`
-/// returns them, so a feedback batch that changes nothing costs no allocation.
+/// The plant as JS sees it: actuator tracking, live sensor values, and the
+/// operations and routines of its document. Calls queue their effects;
+/// `takeEffects` returns them, so a feedback batch that changes nothing costs
+/// no allocation.
 #[wasm_bindgen]
 pub struct Tracker {
     core: sugarshack_core::actuator::Tracker,
+    sensors: SensorStore,
     effects: Vec<Output>,
     scratch: Vec<Effect>,
     batch: Vec<(ActuatorId, f64)>,
@@ -85,6 +94,7 @@ impl Tracker {
         let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
             .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
         Ok(Tracker {
+            sensors: SensorStore::new(core.plant()),
             core,
             effects: Vec::new(),
             scratch: Vec::new(),
@@ -150,17 +160,24 @@ impl Tracker {
 
     /// Issues a group command (`{"valves": {"V12": 100}, "pumps": {"P1": true}}`), all or
     /// nothing; returns how many effects are queued. A refusal throws and sends nothing.
+    /// `within`: the resources the commanding operation holds (C2), if it is one.
     pub fn command(
         &mut self,
         payload: JsValue,
         caller: u32,
         lockout: bool,
         now_ms: f64,
+        within: Option<Vec<String>>,
     ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
         let payload: serde_json::Value =
             from_js(payload, "INVALID_GROUP", "invalid group command")?;
         let targets = self.core.parse_group(&payload).map_err(track_error)?;
+        if let Some(held) = within {
+            self.core
+                .check_within(&targets, &held)
+                .map_err(track_error)?;
+        }
         let effects = self
             .core
             .command(&targets, u64::from(caller), lockout, now)
@@ -276,5 +293,78 @@ impl Tracker {
 
     pub fn position(&self, actuator: u32) -> Option<f64> {
         self.core.position(ActuatorId::from_index(actuator))
+    }
+
+    // ---- operations and routines -------------------------------------------
+
+    /// The plan of an operation: `{ id, priority, resources, steps: [{ kind, ... }] }`,
+    /// its last step returning every commanded actuator to idle.
+    #[wasm_bindgen(js_name = operationPlan)]
+    pub fn operation_plan(&self, id: &str) -> Result<JsValue, JsValue> {
+        let plan = self.core.plant().operation_plan(id).ok_or_else(|| {
+            js_error(
+                "UNKNOWN_OPERATION",
+                &format!("unknown operation '{id}': it is not in the plant document"),
+            )
+        })?;
+        to_js(&plan)
+    }
+
+    /// Routine `id` of this plant, in its initial state.
+    pub fn routine(&self, id: &str) -> Result<Routine, JsValue> {
+        Routine::of(self.core.plant(), id)
+    }
+
+    // ---- sensors ---------------------------------------------------------------
+
+    pub fn sensor(&self, name: &str) -> Result<u32, JsValue> {
+        self.sensors
+            .sensor(name)
+            .map(|id| id.index() as u32)
+            .map_err(sensor_error)
+    }
+
+    /// The sensor a device publishes as datapoint `name`, if the plant names one.
+    #[wasm_bindgen(js_name = sensorSlot)]
+    pub fn sensor_slot(&self, device: &str, name: &str) -> Option<u32> {
+        self.sensors.slot(device, name).map(|id| id.index() as u32)
+    }
+
+    fn sensor_id(&self, handle: u32) -> Result<SensorId, JsValue> {
+        if (handle as usize) < self.sensors.len() {
+            Ok(SensorId::from_index(handle))
+        } else {
+            Err(sensor_error(SensorError::UnknownSensor {
+                name: format!("#{handle}"),
+            }))
+        }
+    }
+
+    /// Keeps a sample (`ts`: the device's timestamp, else the reception time);
+    /// false when it is older than the one kept.
+    #[wasm_bindgen(js_name = recordSensor)]
+    pub fn record_sensor(
+        &mut self,
+        sensor: u32,
+        value: f64,
+        ts: Option<f64>,
+        now_ms: f64,
+    ) -> Result<bool, JsValue> {
+        let now = time(now_ms)?;
+        let id = self.sensor_id(sensor)?;
+        self.sensors
+            .record(id, value, device_ts(ts).unwrap_or(now), now)
+            .map_err(sensor_error)
+    }
+
+    /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.
+    #[wasm_bindgen(js_name = readSensors)]
+    pub fn read_sensors(&self, sensors: &[u32], now_ms: f64) -> Result<Vec<f64>, JsValue> {
+        let now = time(now_ms)?;
+        let ids = sensors
+            .iter()
+            .map(|&h| self.sensor_id(h))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.sensors.read(&ids, now).map_err(sensor_error)
     }
 }

@@ -78,6 +78,7 @@ fn a_group_command_runs_from_plain_objects_to_completion() {
             7,
             false,
             100.0,
+            None,
         )
         .unwrap();
     assert_eq!(queued, 2);
@@ -123,11 +124,11 @@ fn a_group_command_runs_from_plain_objects_to_completion() {
 #[wasm_bindgen_test]
 fn refusals_throw_coded_errors_and_send_nothing() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    t.command(json(r#"{ "valves": { "V12": 100 } }"#), 1, false, 0.0)
+    t.command(json(r#"{ "valves": { "V12": 100 } }"#), 1, false, 0.0, None)
         .unwrap();
     t.take_effects().unwrap();
     let code = |t: &mut Tracker, payload: &str| {
-        code_of(t.command(json(payload), 2, false, 10.0).unwrap_err())
+        code_of(t.command(json(payload), 2, false, 10.0, None).unwrap_err())
     };
     assert_eq!(
         code(&mut t, r#"{ "valves": { "V12": 0 } }"#),

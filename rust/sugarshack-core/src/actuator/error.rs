@@ -3,16 +3,43 @@ use std::fmt;
 /// Why a tracker call was refused. A refused command sends nothing.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TrackError {
-    UnknownActuator { name: String },
-    UnknownDevice { name: String },
+    UnknownActuator {
+        name: String,
+    },
+    UnknownDevice {
+        name: String,
+    },
     EmptyCommand,
-    InvalidGroup { reason: String },
-    DuplicateActuator { actuator: String },
-    InvalidTarget { actuator: String, reason: String },
-    StillMoving { actuator: String },
-    DeviceOffline { actuator: String, device: String },
-    CallerBusy { caller: u64 },
-    InvalidFeedback { actuator: String, value: f64 },
+    InvalidGroup {
+        reason: String,
+    },
+    DuplicateActuator {
+        actuator: String,
+    },
+    InvalidTarget {
+        actuator: String,
+        reason: String,
+    },
+    StillMoving {
+        actuator: String,
+    },
+    DeviceOffline {
+        actuator: String,
+        device: String,
+    },
+    CallerBusy {
+        caller: u64,
+    },
+    InvalidFeedback {
+        actuator: String,
+        value: f64,
+    },
+    /// C2: an operation commanded an actuator outside the resources it holds.
+    OutsideResources {
+        actuator: String,
+        resource: Option<String>,
+        held: Vec<String>,
+    },
 }
 
 impl TrackError {
@@ -29,6 +56,7 @@ impl TrackError {
             Self::DeviceOffline { .. } => "DEVICE_OFFLINE",
             Self::CallerBusy { .. } => "CALLER_BUSY",
             Self::InvalidFeedback { .. } => "INVALID_FEEDBACK",
+            Self::OutsideResources { .. } => "OUTSIDE_RESOURCES",
         }
     }
 }
@@ -51,6 +79,10 @@ impl fmt::Display for TrackError {
             }
             Self::CallerBusy { caller } => write!(f, "group command #{caller} is already in progress"),
             Self::InvalidFeedback { actuator, value } => write!(f, "feedback {value} for '{actuator}' is not a valid state"),
+            Self::OutsideResources { actuator, resource, held } => {
+                let on = resource.as_deref().map_or("belongs to no resource".to_string(), |r| format!("is on resource '{r}'"));
+                write!(f, "C2: actuator '{actuator}' {on}, outside the resources held ({}); nothing was sent", held.join(", "))
+            }
         }
     }
 }

@@ -436,6 +436,25 @@ impl Tracker {
             .collect())
     }
 
+    /// C2 at run time: refuses targets outside the resources `held` by the commanding operation.
+    pub fn check_within(
+        &self,
+        targets: &[(ActuatorId, f64)],
+        held: &[String],
+    ) -> Result<(), TrackError> {
+        for &(id, _) in targets {
+            let a = &self.plant.actuators[id.index()];
+            if !a.resource.as_ref().is_some_and(|r| held.contains(r)) {
+                return Err(TrackError::OutsideResources {
+                    actuator: a.id.clone(),
+                    resource: a.resource.clone(),
+                    held: held.to_vec(),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Issues a group command: all of it or, on any refusal, none of it.
     /// A `lockout` is published retained, so a device that reconnects applies
     /// it, and takes over actuators that are still moving; a normal command

@@ -542,3 +542,31 @@ fn group_commands_read_by_type_and_refuse_mismatches() {
     assert_eq!(code(json!({ "valves": {} })).code(), "EMPTY_COMMAND");
     assert_eq!(code(json!([1, 2])).code(), "INVALID_GROUP");
 }
+
+#[test]
+fn c2_refuses_a_command_outside_the_held_resources() {
+    let mut doc = serde_json::to_value(plant("fail-fast")).unwrap();
+    doc["resources"] = json!([{ "id": "YEL" }, { "id": "RED" }]);
+    for (i, line) in ["YEL", "YEL", "YEL", "RED"].iter().enumerate() {
+        doc["actuators"][i]["resource"] = json!(line);
+    }
+    doc["actuators"][1]["resource"] = serde_json::Value::Null;
+    let t = Tracker::new(serde_json::from_value(doc).unwrap(), 0).unwrap();
+    let yel = ["YEL".to_string()];
+    let targets = t
+        .parse_group(&json!({ "valves": { "V1": 100 }, "pumps": { "P1": true } }))
+        .unwrap();
+    assert_eq!(t.check_within(&targets, &yel), Ok(()));
+    let red = t
+        .parse_group(&json!({ "valves": { "V1": 100, "V9": 100 } }))
+        .unwrap();
+    let err = t.check_within(&red, &yel).unwrap_err();
+    assert_eq!(err.code(), "OUTSIDE_RESOURCES");
+    assert_eq!(err.to_string(), "C2: actuator 'V9' is on resource 'RED', outside the resources held (YEL); nothing was sent");
+    let loose = t.parse_group(&json!({ "valves": { "V2": 100 } })).unwrap();
+    assert!(t
+        .check_within(&loose, &yel)
+        .unwrap_err()
+        .to_string()
+        .contains("'V2' belongs to no resource"));
+}

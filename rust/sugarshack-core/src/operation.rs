@@ -1,0 +1,159 @@
+//! What a singular operation runs (the paper's §III-D): its steps as written,
+//! then one group command returning every actuator it commanded to its idle
+//! state (C3) before the release.
+
+use serde::Serialize;
+
+use crate::plant::{PlantModel, Step};
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct OperationPlan {
+    pub id: String,
+    pub priority: i32,
+    pub resources: Vec<String>,
+    pub steps: Vec<PlanStep>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "camelCase")]
+pub enum PlanStep {
+    #[serde(rename_all = "camelCase")]
+    Command {
+        command: serde_json::Value,
+        timeout_ms: u64,
+    },
+    #[serde(rename_all = "camelCase")]
+    Wait {
+        condition: String,
+        sensors: Vec<String>,
+        timeout_ms: u64,
+    },
+    /// The C3 step the plan appends: every commanded actuator back to idle.
+    #[serde(rename_all = "camelCase")]
+    ReturnToIdle {
+        command: serde_json::Value,
+        timeout_ms: u64,
+    },
+}
+
+impl PlantModel {
+    /// The plan of operation `id` of a validated plant; None when there is no such operation.
+    pub fn operation_plan(&self, id: &str) -> Option<OperationPlan> {
+        let op = self.operations.iter().find(|o| o.id == id)?;
+        let mut steps = Vec::with_capacity(op.steps.len() + 1);
+        // Actuator ids in order of first command, grouped by type as a group command reads them.
+        let mut idle = serde_json::Map::new();
+        let mut idle_timeout_ms = 0;
+        for step in &op.steps {
+            match step {
+                Step::Command {
+                    command,
+                    timeout_ms,
+                } => {
+                    idle_timeout_ms = idle_timeout_ms.max(*timeout_ms);
+                    for members in command.as_object().into_iter().flatten().map(|(_, m)| m) {
+                        for name in members.as_object().into_iter().flatten().map(|(n, _)| n) {
+                            let Some(a) = self.actuators.iter().find(|a| &a.id == name) else {
+                                continue;
+                            };
+                            let Some(state) = a.idle.clone() else {
+                                continue;
+                            };
+                            // Keyed by type name: "pump" and "pumps" may both appear in the steps.
+                            idle.entry(a.kind.clone())
+                                .or_insert_with(|| serde_json::Value::Object(Default::default()))
+                                .as_object_mut()
+                                .expect("made as an object")
+                                .insert(name.clone(), state);
+                        }
+                    }
+                    steps.push(PlanStep::Command {
+                        command: command.clone(),
+                        timeout_ms: *timeout_ms,
+                    });
+                }
+                Step::Wait {
+                    wait,
+                    sensors,
+                    timeout_ms,
+                } => steps.push(PlanStep::Wait {
+                    condition: wait.clone(),
+                    sensors: sensors.clone(),
+                    timeout_ms: *timeout_ms,
+                }),
+            }
+        }
+        if !idle.is_empty() {
+            steps.push(PlanStep::ReturnToIdle {
+                command: serde_json::Value::Object(idle),
+                timeout_ms: idle_timeout_ms,
+            });
+        }
+        Some(OperationPlan {
+            id: op.id.clone(),
+            priority: op.priority,
+            resources: op.resources.clone(),
+            steps,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn plant() -> PlantModel {
+        serde_json::from_value(json!({
+            "actuatorTypes": {
+                "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
+                "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
+            },
+            "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+            "actuators": [
+                { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
+                { "id": "V2", "type": "valve", "device": "ctrl-1", "io": 2, "idle": 0, "lockout": 0, "resource": "YEL" },
+                { "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false, "resource": "YEL" }
+            ],
+            "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume" }],
+            "resources": [{ "id": "YEL" }],
+            "operations": [{
+                "id": "10", "priority": 20, "resources": ["YEL"],
+                "steps": [
+                    { "command": { "valves": { "V2": 100, "V1": 100 } }, "timeoutMs": 20000 },
+                    { "command": { "pumps": { "P1": true } }, "timeoutMs": 5000 },
+                    { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 },
+                    { "command": { "pump": { "P1": false } }, "timeoutMs": 5000 }
+                ]
+            }]
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn the_plan_ends_with_every_commanded_actuator_back_to_idle() {
+        let plant = plant();
+        plant.validate().unwrap();
+        let plan = plant.operation_plan("10").unwrap();
+        assert_eq!(plan.steps.len(), 5);
+        assert_eq!(
+            plan.steps[4],
+            PlanStep::ReturnToIdle {
+                command: json!({ "valve": { "V2": 0, "V1": 0 }, "pump": { "P1": false } }),
+                timeout_ms: 20000,
+            }
+        );
+        assert_eq!(plan.resources, vec!["YEL".to_string()]);
+        assert!(plant.operation_plan("11").is_none());
+    }
+
+    #[test]
+    fn a_plan_serializes_with_step_kinds() {
+        let plan = plant().operation_plan("10").unwrap();
+        let v = serde_json::to_value(&plan).unwrap();
+        assert_eq!(v["steps"][2]["kind"], "wait");
+        assert_eq!(v["steps"][2]["timeoutMs"], 60000);
+        assert_eq!(v["steps"][4]["kind"], "returnToIdle");
+    }
+}

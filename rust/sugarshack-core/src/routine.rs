@@ -1,0 +1,394 @@
+//! A routine (the paper's §III-E, Alg. 3): a state machine R = (S, s0, O, T)
+//! that dispatches at most one operation at a time and moves on its return.
+//! A trigger is a msg topic, or a sensor condition checked every `everyMs`
+//! (the condition itself is evaluated by the caller, which reports the result).
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::plant::{PlantModel, Routine, Trigger};
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RoutineError {
+    UnknownRoutine {
+        name: String,
+    },
+    /// One pending operation per routine: a trigger while it runs is refused.
+    Busy {
+        routine: String,
+        operation: String,
+    },
+    NoTransition {
+        routine: String,
+        state: String,
+        trigger: String,
+    },
+    /// Its last operation faulted and it has no error state: it waits for a reset.
+    Halted {
+        routine: String,
+        state: String,
+    },
+    NotPending {
+        routine: String,
+    },
+    InvalidSnapshot {
+        reason: String,
+    },
+}
+
+impl RoutineError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::UnknownRoutine { .. } => "UNKNOWN_ROUTINE",
+            Self::Busy { .. } => "ROUTINE_BUSY",
+            Self::NoTransition { .. } => "NO_TRANSITION",
+            Self::Halted { .. } => "ROUTINE_HALTED",
+            Self::NotPending { .. } => "NOT_PENDING",
+            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+        }
+    }
+}
+
+impl fmt::Display for RoutineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::UnknownRoutine { name } => {
+                write!(f, "unknown routine '{name}': it is not in the plant document")
+            }
+            Self::Busy { routine, operation } => write!(
+                f,
+                "routine '{routine}' is waiting for operation '{operation}'; one operation at a time (the trigger was refused)"
+            ),
+            Self::NoTransition {
+                routine,
+                state,
+                trigger,
+            } => write!(
+                f,
+                "routine '{routine}' has no transition on '{trigger}' from state '{state}'"
+            ),
+            Self::Halted { routine, state } => write!(
+                f,
+                "routine '{routine}' halted in state '{state}' after a fault; send it 'reset' once the fault is cleared"
+            ),
+            Self::NotPending { routine } => {
+                write!(f, "routine '{routine}' has no operation pending")
+            }
+            Self::InvalidSnapshot { reason } => write!(f, "invalid routine snapshot: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for RoutineError {}
+
+/// A transition that fired: run `operation`, then report its return.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Dispatch {
+    pub transition: usize,
+    pub operation: String,
+    pub from: String,
+    pub to: String,
+}
+
+/// A change of state on an operation's return (or a reset).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Moved {
+    pub from: String,
+    pub to: String,
+    pub operation: Option<String>,
+    pub halted: bool,
+}
+
+/// What survives a restart: the state, and the operation that was pending (if any).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct RoutineSnapshot {
+    pub routine: String,
+    pub state: String,
+    #[serde(default)]
+    pub pending: Option<String>,
+    #[serde(default)]
+    pub halted: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct RoutineMachine {
+    routine: Routine,
+    state: usize,
+    pending: Option<usize>,
+    halted: bool,
+    /// Per transition: when its condition was last handed out for evaluation.
+    checked_ms: Vec<Option<u64>>,
+}
+
+impl RoutineMachine {
+    /// Routine `id` of a validated plant, in its initial state.
+    pub fn new(plant: &PlantModel, id: &str) -> Result<Self, RoutineError> {
+        let routine = plant
+            .routines
+            .iter()
+            .find(|r| r.id == id)
+            .cloned()
+            .ok_or_else(|| RoutineError::UnknownRoutine { name: id.into() })?;
+        let state = position(&routine, &routine.initial).expect("validated initial state");
+        Ok(RoutineMachine {
+            checked_ms: vec![None; routine.transitions.len()],
+            routine,
+            state,
+            pending: None,
+            halted: false,
+        })
+    }
+
+    /// Back to a saved state (on a machine just made). An operation that was pending
+    /// at the save did not return (the restart interrupted it, and the interlock
+    /// faulted it), so it counts as faulted: the move that caused is returned.
+    /// A refused snapshot changes nothing.
+    pub fn restore(&mut self, snapshot: &RoutineSnapshot) -> Result<Option<Moved>, RoutineError> {
+        let id = &self.routine.id;
+        if &snapshot.routine != id {
+            return Err(RoutineError::InvalidSnapshot {
+                reason: format!("it is routine '{}''s, not '{id}''s", snapshot.routine),
+            });
+        }
+        let state = position(&self.routine, &snapshot.state).ok_or_else(|| {
+            RoutineError::InvalidSnapshot {
+                reason: format!("routine '{id}' has no state '{}' any more", snapshot.state),
+            }
+        })?;
+        let pending = match &snapshot.pending {
+            None => None,
+            Some(operation) => Some(
+                self.routine
+                    .transitions
+                    .iter()
+                    .position(|t| &t.operation == operation && t.from == snapshot.state)
+                    .ok_or_else(|| RoutineError::InvalidSnapshot {
+                        reason: format!(
+                            "routine '{id}' has no transition from '{}' running '{operation}' any more",
+                            snapshot.state
+                        ),
+                    })?,
+            ),
+        };
+        self.enter_index(state);
+        self.halted = snapshot.halted;
+        self.pending = pending;
+        if pending.is_none() {
+            return Ok(None);
+        }
+        self.faulted().map(Some)
+    }
+
+    pub fn snapshot(&self) -> RoutineSnapshot {
+        RoutineSnapshot {
+            routine: self.routine.id.clone(),
+            state: self.state().into(),
+            pending: self.pending().map(Into::into),
+            halted: self.halted,
+        }
+    }
+
+    pub fn id(&self) -> &str {
+        &self.routine.id
+    }
+
+    pub fn state(&self) -> &str {
+        &self.routine.states[self.state]
+    }
+
+    /// The operation dispatched and not yet returned.
+    pub fn pending(&self) -> Option<&str> {
+        self.pending
+            .map(|t| self.routine.transitions[t].operation.as_str())
+    }
+
+    pub fn halted(&self) -> bool {
+        self.halted
+    }
+
+    /// The operations this routine owns (its O), in transition order without repeats.
+    pub fn operations(&self) -> Vec<&str> {
+        let mut ops: Vec<&str> = Vec::new();
+        for t in &self.routine.transitions {
+            if !ops.contains(&t.operation.as_str()) {
+                ops.push(&t.operation);
+            }
+        }
+        ops
+    }
+
+    fn ready(&self) -> Result<(), RoutineError> {
+        if let Some(operation) = self.pending() {
+            return Err(RoutineError::Busy {
+                routine: self.routine.id.clone(),
+                operation: operation.into(),
+            });
+        }
+        if self.halted {
+            return Err(RoutineError::Halted {
+                routine: self.routine.id.clone(),
+                state: self.state().into(),
+            });
+        }
+        Ok(())
+    }
+
+    fn dispatch(&mut self, transition: usize) -> Dispatch {
+        self.pending = Some(transition);
+        let t = &self.routine.transitions[transition];
+        Dispatch {
+            transition,
+            operation: t.operation.clone(),
+            from: t.from.clone(),
+            to: t.to.clone(),
+        }
+    }
+
+    /// A msg with `topic` arrived: the first transition from the current state it triggers fires.
+    pub fn on_msg(&mut self, topic: &str) -> Result<Dispatch, RoutineError> {
+        self.ready()?;
+        let state = self.state();
+        let transition = self
+            .routine
+            .transitions
+            .iter()
+            .position(|t| {
+                t.from == state && matches!(&t.trigger, Trigger::Msg { msg } if msg == topic)
+            })
+            .ok_or_else(|| RoutineError::NoTransition {
+                routine: self.routine.id.clone(),
+                state: state.into(),
+                trigger: topic.into(),
+            })?;
+        Ok(self.dispatch(transition))
+    }
+
+    /// The condition transitions of the current state due for evaluation at `now_ms`
+    /// (never checked in this state, or checked `everyMs` ago). They count as checked now.
+    pub fn due(&mut self, now_ms: u64) -> Vec<usize> {
+        if self.ready().is_err() {
+            return Vec::new();
+        }
+        let mut due = Vec::new();
+        for (i, t) in self.routine.transitions.iter().enumerate() {
+            let Trigger::When { every_ms, .. } = t.trigger else {
+                continue;
+            };
+            if t.from != self.routine.states[self.state] {
+                continue;
+            }
+            if self.checked_ms[i].is_none_or(|at| now_ms.saturating_sub(at) >= every_ms) {
+                self.checked_ms[i] = Some(now_ms);
+                due.push(i);
+            }
+        }
+        due
+    }
+
+    /// The condition of `transition` held: it fires if the routine is still in its
+    /// `from` state with nothing pending (an earlier one may have fired meanwhile).
+    pub fn condition_met(&mut self, transition: usize) -> Option<Dispatch> {
+        let t = self.routine.transitions.get(transition)?;
+        if t.from != self.state() || self.ready().is_err() {
+            return None;
+        }
+        Some(self.dispatch(transition))
+    }
+
+    /// The condition and sensors of a condition transition.
+    pub fn condition(&self, transition: usize) -> Option<(&str, &[String])> {
+        match &self.routine.transitions.get(transition)?.trigger {
+            Trigger::When { when, sensors, .. } => Some((when, sensors)),
+            Trigger::Msg { .. } => None,
+        }
+    }
+
+    fn enter(&mut self, state: &str) {
+        self.enter_index(position(&self.routine, state).expect("validated state"));
+    }
+
+    fn enter_index(&mut self, state: usize) {
+        self.state = state;
+        self.checked_ms.iter_mut().for_each(|c| *c = None);
+    }
+
+    /// The pending operation returned: move to the transition's target state.
+    pub fn completed(&mut self) -> Result<Moved, RoutineError> {
+        let t = self.take_pending()?;
+        let (from, to, operation) = (t.from.clone(), t.to.clone(), t.operation.clone());
+        self.enter(&to);
+        Ok(Moved {
+            from,
+            to,
+            operation: Some(operation),
+            halted: false,
+        })
+    }
+
+    /// The pending operation faulted: go to the error state, or halt where it is.
+    pub fn faulted(&mut self) -> Result<Moved, RoutineError> {
+        let t = self.take_pending()?;
+        let (from, operation) = (t.from.clone(), t.operation.clone());
+        match self.routine.error_state.clone() {
+            Some(error_state) => {
+                self.enter(&error_state);
+                Ok(Moved {
+                    from,
+                    to: error_state,
+                    operation: Some(operation),
+                    halted: false,
+                })
+            }
+            None => {
+                self.halted = true;
+                Ok(Moved {
+                    to: from.clone(),
+                    from,
+                    operation: Some(operation),
+                    halted: true,
+                })
+            }
+        }
+    }
+
+    fn take_pending(&mut self) -> Result<&crate::plant::Transition, RoutineError> {
+        let t = self
+            .pending
+            .take()
+            .ok_or_else(|| RoutineError::NotPending {
+                routine: self.routine.id.clone(),
+            })?;
+        Ok(&self.routine.transitions[t])
+    }
+
+    /// Back to the initial state (an operator's reset); refused while an operation runs.
+    pub fn reset(&mut self) -> Result<Moved, RoutineError> {
+        if let Some(operation) = self.pending() {
+            return Err(RoutineError::Busy {
+                routine: self.routine.id.clone(),
+                operation: operation.into(),
+            });
+        }
+        let from = self.state().to_owned();
+        let initial = self.routine.initial.clone();
+        self.halted = false;
+        self.enter(&initial);
+        Ok(Moved {
+            from,
+            to: initial,
+            operation: None,
+            halted: false,
+        })
+    }
+}
+
+fn position(routine: &Routine, state: &str) -> Option<usize> {
+    routine.states.iter().position(|s| s == state)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,216 @@
+use serde_json::json;
+
+use super::*;
+
+fn plant(error_state: bool) -> PlantModel {
+    let mut routine = json!({
+        "id": "truck",
+        "states": ["empty", "full", "primed", "fault"],
+        "initial": "empty",
+        "transitions": [
+            { "from": "empty", "to": "full", "operation": "10", "trigger": { "msg": "load" } },
+            { "from": "full", "to": "primed", "operation": "11",
+              "trigger": { "when": "`LT-3` > 100", "sensors": ["LT-3"], "everyMs": 1000 } },
+            { "from": "full", "to": "empty", "operation": "12",
+              "trigger": { "when": "`LT-3` > 500", "sensors": ["LT-3"], "everyMs": 3000 } },
+            { "from": "primed", "to": "empty", "operation": "12", "trigger": { "msg": "unload" } },
+            { "from": "fault", "to": "empty", "operation": "15", "trigger": { "msg": "wash" } }
+        ]
+    });
+    if error_state {
+        routine["errorState"] = json!("fault");
+    }
+    let op = |id: &str, priority: i32| {
+        json!({ "id": id, "priority": priority, "resources": ["YEL"], "steps": [
+            { "wait": "`LT-3` >= 0", "sensors": ["LT-3"], "timeoutMs": 1000 }
+        ] })
+    };
+    let plant: PlantModel = serde_json::from_value(json!({
+        "actuatorTypes": {},
+        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+        "actuators": [],
+        "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume" }],
+        "resources": [{ "id": "YEL", "lockout": { "valves": {} } }],
+        "operations": [op("10", 20), op("11", 23), op("12", 22), op("15", 77)],
+        "routines": [routine]
+    }))
+    .unwrap();
+    plant.validate().unwrap();
+    plant
+}
+
+#[test]
+fn a_msg_dispatches_one_operation_and_its_return_moves_the_state() {
+    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    assert_eq!(r.state(), "empty");
+    let d = r.on_msg("load").unwrap();
+    assert_eq!(
+        (d.operation.as_str(), d.from.as_str(), d.to.as_str()),
+        ("10", "empty", "full")
+    );
+    assert_eq!(r.pending(), Some("10"));
+    let busy = r.on_msg("load").unwrap_err();
+    assert_eq!(busy.code(), "ROUTINE_BUSY");
+    assert_eq!(busy.to_string(), "routine 'truck' is waiting for operation '10'; one operation at a time (the trigger was refused)");
+    let moved = r.completed().unwrap();
+    assert_eq!((moved.from.as_str(), moved.to.as_str()), ("empty", "full"));
+    assert_eq!(r.state(), "full");
+    assert_eq!(r.pending(), None);
+    assert_eq!(r.completed().unwrap_err().code(), "NOT_PENDING");
+}
+
+#[test]
+fn a_msg_without_a_transition_from_the_state_is_refused() {
+    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    let err = r.on_msg("unload").unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "routine 'truck' has no transition on 'unload' from state 'empty'"
+    );
+    assert_eq!(r.state(), "empty");
+}
+
+#[test]
+fn conditions_fall_due_every_period_and_the_first_met_fires() {
+    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    assert!(
+        r.due(0).is_empty(),
+        "no condition transition leaves 'empty'"
+    );
+    r.on_msg("load").unwrap();
+    assert!(
+        r.due(0).is_empty(),
+        "nothing is due while an operation runs"
+    );
+    r.completed().unwrap();
+    assert_eq!(r.due(10_000), vec![1, 2]);
+    assert!(r.due(10_999).is_empty());
+    assert_eq!(r.due(11_000), vec![1]);
+    assert_eq!(r.due(13_000), vec![1, 2]);
+    assert_eq!(
+        r.condition(2),
+        Some(("`LT-3` > 500", &["LT-3".to_string()][..]))
+    );
+    let d = r.condition_met(2).unwrap();
+    assert_eq!(d.operation, "12");
+    assert_eq!(
+        r.condition_met(1),
+        None,
+        "one pending operation: a second met condition does not fire"
+    );
+    r.completed().unwrap();
+    assert_eq!(r.state(), "empty");
+    assert_eq!(
+        r.condition_met(1),
+        None,
+        "a condition of a state left meanwhile does not fire"
+    );
+}
+
+#[test]
+fn a_fault_moves_to_the_error_state() {
+    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    r.on_msg("load").unwrap();
+    let moved = r.faulted().unwrap();
+    assert_eq!((moved.to.as_str(), moved.halted), ("fault", false));
+    assert_eq!(r.on_msg("wash").unwrap().operation, "15");
+}
+
+#[test]
+fn without_an_error_state_a_fault_halts_until_reset() {
+    let mut r = RoutineMachine::new(&plant(false), "truck").unwrap();
+    r.on_msg("load").unwrap();
+    let moved = r.faulted().unwrap();
+    assert_eq!((moved.to.as_str(), moved.halted), ("empty", true));
+    assert_eq!(r.on_msg("load").unwrap_err().code(), "ROUTINE_HALTED");
+    let moved = r.reset().unwrap();
+    assert_eq!(moved.to, "empty");
+    assert!(r.on_msg("load").is_ok());
+    assert_eq!(r.reset().unwrap_err().code(), "ROUTINE_BUSY");
+}
+
+#[test]
+fn a_restore_with_an_operation_pending_counts_it_as_faulted() {
+    let p = plant(true);
+    let mut r = RoutineMachine::new(&p, "truck").unwrap();
+    r.on_msg("load").unwrap();
+    let snapshot = r.snapshot();
+    assert_eq!(
+        snapshot,
+        RoutineSnapshot {
+            routine: "truck".into(),
+            state: "empty".into(),
+            pending: Some("10".into()),
+            halted: false
+        }
+    );
+    let mut restored = RoutineMachine::new(&p, "truck").unwrap();
+    let moved = restored.restore(&snapshot).unwrap();
+    assert_eq!(moved.unwrap().operation.as_deref(), Some("10"));
+    assert_eq!((restored.state(), restored.pending()), ("fault", None));
+
+    let quiet = RoutineSnapshot {
+        routine: "truck".into(),
+        state: "primed".into(),
+        pending: None,
+        halted: false,
+    };
+    let mut restored = RoutineMachine::new(&p, "truck").unwrap();
+    let moved = restored.restore(&quiet).unwrap();
+    assert_eq!((restored.state(), moved), ("primed", None));
+}
+
+#[test]
+fn a_snapshot_that_no_longer_fits_the_routine_is_refused() {
+    let p = plant(true);
+    for (snapshot, why) in [
+        (
+            RoutineSnapshot {
+                routine: "silo".into(),
+                state: "empty".into(),
+                pending: None,
+                halted: false,
+            },
+            "routine 'silo''s",
+        ),
+        (
+            RoutineSnapshot {
+                routine: "truck".into(),
+                state: "gone".into(),
+                pending: None,
+                halted: false,
+            },
+            "no state 'gone'",
+        ),
+        (
+            RoutineSnapshot {
+                routine: "truck".into(),
+                state: "empty".into(),
+                pending: Some("12".into()),
+                halted: false,
+            },
+            "no transition from 'empty' running '12'",
+        ),
+    ] {
+        let mut r = RoutineMachine::new(&p, "truck").unwrap();
+        r.on_msg("load").unwrap();
+        let err = r.restore(&snapshot).unwrap_err();
+        assert_eq!(
+            (r.state(), r.pending()),
+            ("empty", Some("10")),
+            "a refused snapshot changes nothing"
+        );
+        assert_eq!(err.code(), "INVALID_SNAPSHOT");
+        assert!(err.to_string().contains(why), "{err}");
+    }
+    assert_eq!(
+        RoutineMachine::new(&p, "nope").unwrap_err().code(),
+        "UNKNOWN_ROUTINE"
+    );
+}
+
+#[test]
+fn the_operations_of_a_routine_are_listed_once() {
+    let r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    assert_eq!(r.operations(), vec!["10", "11", "12", "15"]);
+}

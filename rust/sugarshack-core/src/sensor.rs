@@ -1,0 +1,286 @@
+//! Live sensor values with the time they were received. A value older than its
+//! sensor's `staleMs` is stale, and a read over a stale (or never seen) value
+//! fails: a condition must never pass on data the plant may no longer show.
+
+use std::collections::HashMap;
+use std::fmt;
+
+use crate::plant::PlantModel;
+
+/// For sensors whose document entry sets no `staleMs`: five missed 1 Hz samples.
+pub const DEFAULT_STALE_MS: u64 = 5000;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SensorId(u32);
+
+impl SensorId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+
+    pub fn from_index(index: u32) -> Self {
+        Self(index)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub value: f64,
+    /// The device's own timestamp of the sample.
+    pub sampled_ms: u64,
+    pub received_ms: u64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SensorError {
+    UnknownSensor {
+        name: String,
+    },
+    InvalidValue {
+        sensor: String,
+        value: f64,
+    },
+    NoValue {
+        sensor: String,
+    },
+    Stale {
+        sensor: String,
+        age_ms: u64,
+        stale_ms: u64,
+    },
+}
+
+impl SensorError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::UnknownSensor { .. } => "UNKNOWN_SENSOR",
+            Self::InvalidValue { .. } => "INVALID_SENSOR_VALUE",
+            Self::NoValue { .. } => "SENSOR_NO_VALUE",
+            Self::Stale { .. } => "SENSOR_STALE",
+        }
+    }
+}
+
+impl fmt::Display for SensorError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::UnknownSensor { name } => {
+                write!(f, "unknown sensor '{name}': it is not in the plant document")
+            }
+            Self::InvalidValue { sensor, value } => {
+                write!(f, "sample {value} of sensor '{sensor}' is not a finite number")
+            }
+            Self::NoValue { sensor } => write!(f, "sensor '{sensor}' has sent no value yet"),
+            Self::Stale {
+                sensor,
+                age_ms,
+                stale_ms,
+            } => write!(
+                f,
+                "sensor '{sensor}' is stale: its last value is {age_ms} ms old (limit {stale_ms} ms)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SensorError {}
+
+#[derive(Clone, Debug)]
+pub struct SensorStore {
+    names: Vec<String>,
+    stale_ms: Vec<u64>,
+    samples: Vec<Option<Sample>>,
+    by_name: HashMap<String, SensorId>,
+    /// (device, datapoint name) -> sensor, for `<device>/sensor/<name>/state` topics.
+    by_topic: HashMap<(String, String), SensorId>,
+}
+
+impl SensorStore {
+    /// The sensors of a validated plant, all without a value.
+    pub fn new(plant: &PlantModel) -> Self {
+        let mut store = SensorStore {
+            names: Vec::with_capacity(plant.sensors.len()),
+            stale_ms: Vec::with_capacity(plant.sensors.len()),
+            samples: vec![None; plant.sensors.len()],
+            by_name: HashMap::new(),
+            by_topic: HashMap::new(),
+        };
+        for (i, s) in plant.sensors.iter().enumerate() {
+            let id = SensorId(i as u32);
+            store.names.push(s.id.clone());
+            store.stale_ms.push(s.stale_ms.unwrap_or(DEFAULT_STALE_MS));
+            store.by_name.insert(s.id.clone(), id);
+            store
+                .by_topic
+                .insert((s.device.clone(), s.name.clone()), id);
+        }
+        store
+    }
+
+    pub fn sensor(&self, name: &str) -> Result<SensorId, SensorError> {
+        self.by_name
+            .get(name)
+            .copied()
+            .ok_or_else(|| SensorError::UnknownSensor { name: name.into() })
+    }
+
+    pub fn name(&self, id: SensorId) -> &str {
+        &self.names[id.index()]
+    }
+
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// The sensor a device publishes as datapoint `name`, if the plant names one.
+    pub fn slot(&self, device: &str, name: &str) -> Option<SensorId> {
+        self.by_topic
+            .get(&(device.to_owned(), name.to_owned()))
+            .copied()
+    }
+
+    /// Keeps a sample. One older (by the device's timestamp) than the kept one
+    /// arrived out of order and is ignored: returns false.
+    pub fn record(
+        &mut self,
+        id: SensorId,
+        value: f64,
+        sampled_ms: u64,
+        now_ms: u64,
+    ) -> Result<bool, SensorError> {
+        let slot = self
+            .samples
+            .get_mut(id.index())
+            .ok_or_else(|| SensorError::UnknownSensor {
+                name: format!("#{}", id.0),
+            })?;
+        if !value.is_finite() {
+            return Err(SensorError::InvalidValue {
+                sensor: self.names[id.index()].clone(),
+                value,
+            });
+        }
+        if slot.is_some_and(|s| s.sampled_ms > sampled_ms) {
+            return Ok(false);
+        }
+        *slot = Some(Sample {
+            value,
+            sampled_ms,
+            received_ms: now_ms,
+        });
+        Ok(true)
+    }
+
+    /// The last sample, fresh or not.
+    pub fn sample(&self, id: SensorId) -> Option<Sample> {
+        self.samples.get(id.index()).copied().flatten()
+    }
+
+    /// The value if it is fresh at `now_ms` (received less than `staleMs` ago).
+    pub fn fresh(&self, id: SensorId, now_ms: u64) -> Result<f64, SensorError> {
+        let sensor = || self.names[id.index()].clone();
+        let sample = self
+            .sample(id)
+            .ok_or_else(|| SensorError::NoValue { sensor: sensor() })?;
+        let age_ms = now_ms.saturating_sub(sample.received_ms);
+        let stale_ms = self.stale_ms[id.index()];
+        if age_ms >= stale_ms {
+            return Err(SensorError::Stale {
+                sensor: sensor(),
+                age_ms,
+                stale_ms,
+            });
+        }
+        Ok(sample.value)
+    }
+
+    /// Every value of `ids` if all are fresh, else the first that is not.
+    pub fn read(&self, ids: &[SensorId], now_ms: u64) -> Result<Vec<f64>, SensorError> {
+        ids.iter().map(|&id| self.fresh(id, now_ms)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn plant() -> PlantModel {
+        serde_json::from_value(json!({
+            "actuatorTypes": {},
+            "devices": [{ "id": "station-2", "kind": "sensor-station" }],
+            "sensors": [
+                { "id": "LT-2", "device": "station-2", "name": "volume", "staleMs": 3000 },
+                { "id": "FT-2", "device": "station-2", "name": "flow" }
+            ]
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn a_value_is_fresh_until_its_limit_and_stale_from_it() {
+        let mut s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        assert_eq!(
+            s.fresh(lt, 0),
+            Err(SensorError::NoValue {
+                sensor: "LT-2".into()
+            })
+        );
+        assert!(s.record(lt, 120.0, 900, 1000).unwrap());
+        assert_eq!(s.fresh(lt, 3999), Ok(120.0));
+        let err = s.fresh(lt, 4000).unwrap_err();
+        assert_eq!(err.code(), "SENSOR_STALE");
+        assert_eq!(
+            err.to_string(),
+            "sensor 'LT-2' is stale: its last value is 3000 ms old (limit 3000 ms)"
+        );
+    }
+
+    #[test]
+    fn a_sensor_without_a_limit_uses_the_default() {
+        let mut s = SensorStore::new(&plant());
+        let ft = s.sensor("FT-2").unwrap();
+        s.record(ft, 0.0, 0, 0).unwrap();
+        assert!(s.fresh(ft, DEFAULT_STALE_MS - 1).is_ok());
+        assert!(s.fresh(ft, DEFAULT_STALE_MS).is_err());
+    }
+
+    #[test]
+    fn a_read_fails_on_the_first_stale_sensor() {
+        let mut s = SensorStore::new(&plant());
+        let (lt, ft) = (s.sensor("LT-2").unwrap(), s.sensor("FT-2").unwrap());
+        s.record(lt, 1.0, 0, 0).unwrap();
+        s.record(ft, 2.0, 0, 2500).unwrap();
+        assert_eq!(s.read(&[lt, ft], 2999), Ok(vec![1.0, 2.0]));
+        assert!(
+            matches!(s.read(&[ft, lt], 3000), Err(SensorError::Stale { sensor, .. }) if sensor == "LT-2")
+        );
+    }
+
+    #[test]
+    fn out_of_order_and_non_finite_samples_are_not_kept() {
+        let mut s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        s.record(lt, 5.0, 2000, 2000).unwrap();
+        assert!(!s.record(lt, 4.0, 1000, 2100).unwrap());
+        assert_eq!(s.sample(lt).unwrap().value, 5.0);
+        assert_eq!(
+            s.record(lt, f64::NAN, 3000, 3000).unwrap_err().code(),
+            "INVALID_SENSOR_VALUE"
+        );
+        assert_eq!(s.sample(lt).unwrap().received_ms, 2000);
+    }
+
+    #[test]
+    fn topics_and_names_find_sensors() {
+        let s = SensorStore::new(&plant());
+        assert_eq!(s.slot("station-2", "flow"), Some(s.sensor("FT-2").unwrap()));
+        assert_eq!(s.slot("station-2", "brix"), None);
+        assert_eq!(s.sensor("XX").unwrap_err().code(), "UNKNOWN_SENSOR");
+    }
+}

@@ -1,0 +1,242 @@
+//! The routine machine and the sensor store against simple reference models:
+//! random trigger / return / fault / reset / restart sequences, and random
+//! samples and reads around the staleness limit.
+
+use proptest::prelude::*;
+use serde_json::json;
+use sugarshack_core::plant::PlantModel;
+use sugarshack_core::routine::{RoutineMachine, RoutineSnapshot};
+use sugarshack_core::sensor::SensorStore;
+
+const STATES: [&str; 4] = ["a", "b", "c", "err"];
+const TOPICS: [&str; 3] = ["go", "back", "other"];
+
+/// Transitions as (from, to, operation, trigger): a msg topic, or a condition period in ms.
+#[derive(Clone, Debug)]
+enum Trig {
+    Msg(&'static str),
+    Every(u64),
+}
+
+fn transitions() -> impl Strategy<Value = Vec<(usize, usize, usize, Trig)>> {
+    let trig = prop_oneof![
+        prop::sample::select(TOPICS.to_vec()).prop_map(Trig::Msg),
+        prop::sample::select(vec![1000u64, 2500]).prop_map(Trig::Every),
+    ];
+    prop::collection::vec((0..3usize, 0..4usize, 0..4usize, trig), 1..8)
+}
+
+fn plant(transitions: &[(usize, usize, usize, Trig)], error_state: bool) -> PlantModel {
+    let ts: Vec<_> = transitions
+        .iter()
+        .map(|(from, to, op, trig)| {
+            let trigger = match trig {
+                Trig::Msg(topic) => json!({ "msg": topic }),
+                Trig::Every(ms) => json!({ "when": "`S` > 0", "sensors": ["S"], "everyMs": ms }),
+            };
+            json!({ "from": STATES[*from], "to": STATES[*to], "operation": format!("op{op}"), "trigger": trigger })
+        })
+        .collect();
+    let mut routine = json!({ "id": "r", "states": STATES, "initial": "a", "transitions": ts });
+    if error_state {
+        routine["errorState"] = json!("err");
+    }
+    let ops: Vec<_> = (0..4)
+        .map(|i| {
+            json!({ "id": format!("op{i}"), "priority": i, "resources": ["L"],
+            "steps": [{ "wait": "true", "sensors": [], "timeoutMs": 1 }] })
+        })
+        .collect();
+    let plant: PlantModel = serde_json::from_value(json!({
+        "actuatorTypes": {}, "devices": [{ "id": "st", "kind": "sensor-station" }],
+        "sensors": [{ "id": "S", "device": "st", "name": "s" }],
+        "resources": [{ "id": "L", "lockout": { "valves": {} } }],
+        "operations": ops, "routines": [routine]
+    }))
+    .unwrap();
+    plant.validate().unwrap();
+    plant
+}
+
+#[derive(Clone, Debug)]
+enum Event {
+    Msg(&'static str),
+    /// Evaluate what is due after `gap` ms; the conditions listed by position hold.
+    Check {
+        gap: u64,
+        met: Vec<bool>,
+    },
+    Complete,
+    Fault,
+    Reset,
+    Restart,
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        3 => prop::sample::select(TOPICS.to_vec()).prop_map(Event::Msg),
+        3 => (prop::sample::select(vec![0u64, 999, 1000, 1500, 2500]), prop::collection::vec(any::<bool>(), 4))
+            .prop_map(|(gap, met)| Event::Check { gap, met }),
+        3 => Just(Event::Complete),
+        1 => Just(Event::Fault),
+        1 => Just(Event::Reset),
+        1 => Just(Event::Restart),
+    ]
+}
+
+/// The reference: Alg. 3 read literally, with one pending operation.
+struct Model {
+    ts: Vec<(usize, usize, usize, Trig)>,
+    error_state: bool,
+    state: usize,
+    pending: Option<usize>,
+    halted: bool,
+    checked: Vec<Option<u64>>,
+}
+
+impl Model {
+    fn enter(&mut self, state: usize) {
+        self.state = state;
+        self.checked = vec![None; self.ts.len()];
+    }
+    fn fault(&mut self) -> bool {
+        let Some(t) = self.pending.take() else {
+            return false;
+        };
+        if self.error_state {
+            self.enter(3);
+        } else {
+            self.halted = true;
+            self.state = self.ts[t].0;
+        }
+        true
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn routine_matches_the_reference(ts in transitions(), error_state in any::<bool>(), events in prop::collection::vec(event(), 1..60)) {
+        let plant = plant(&ts, error_state);
+        let mut r = RoutineMachine::new(&plant, "r").unwrap();
+        let mut m = Model { checked: vec![None; ts.len()], ts: ts.clone(), error_state, state: 0, pending: None, halted: false };
+        let mut now = 0u64;
+        let mut dispatched = 0usize;
+        let mut returned = 0usize;
+        for e in events {
+            match e {
+                Event::Msg(topic) => {
+                    let expected = if m.pending.is_some() || m.halted { None } else {
+                        m.ts.iter().position(|(from, _, _, trig)| *from == m.state && matches!(trig, Trig::Msg(t) if *t == topic))
+                    };
+                    match (r.on_msg(topic), expected) {
+                        (Ok(d), Some(t)) => {
+                            prop_assert_eq!(d.transition, t);
+                            m.pending = Some(t);
+                            dispatched += 1;
+                        }
+                        (Err(err), None) => {
+                            let code = if m.pending.is_some() { "ROUTINE_BUSY" } else if m.halted { "ROUTINE_HALTED" } else { "NO_TRANSITION" };
+                            prop_assert_eq!(err.code(), code);
+                        }
+                        (got, want) => prop_assert!(false, "msg {}: got {:?}, expected transition {:?}", topic, got, want),
+                    }
+                }
+                Event::Check { gap, met } => {
+                    now += gap;
+                    let mut expected = Vec::new();
+                    if m.pending.is_none() && !m.halted {
+                        for (i, (from, _, _, trig)) in m.ts.iter().enumerate() {
+                            if let Trig::Every(every) = trig {
+                                if *from == m.state && m.checked[i].is_none_or(|at| now - at >= *every) {
+                                    m.checked[i] = Some(now);
+                                    expected.push(i);
+                                }
+                            }
+                        }
+                    }
+                    let due = r.due(now);
+                    prop_assert_eq!(&due, &expected);
+                    for (k, t) in due.into_iter().enumerate() {
+                        if !met[k % met.len()] { continue; }
+                        let fires = m.pending.is_none() && !m.halted && m.ts[t].0 == m.state;
+                        let got = r.condition_met(t);
+                        prop_assert_eq!(got.is_some(), fires);
+                        if fires {
+                            m.pending = Some(t);
+                            dispatched += 1;
+                        }
+                    }
+                }
+                Event::Complete => match (r.completed(), m.pending.take()) {
+                    (Ok(moved), Some(t)) => {
+                        prop_assert_eq!(moved.to.as_str(), STATES[m.ts[t].1]);
+                        let to = m.ts[t].1;
+                        m.enter(to);
+                        returned += 1;
+                    }
+                    (Err(err), None) => prop_assert_eq!(err.code(), "NOT_PENDING"),
+                    (got, want) => prop_assert!(false, "complete: got {:?}, model pending {:?}", got, want),
+                },
+                Event::Fault => {
+                    let had = m.pending.is_some();
+                    prop_assert_eq!(r.faulted().is_ok(), had);
+                    if m.fault() { returned += 1; }
+                }
+                Event::Reset => {
+                    let ok = m.pending.is_none();
+                    prop_assert_eq!(r.reset().is_ok(), ok);
+                    if ok {
+                        m.halted = false;
+                        m.enter(0);
+                    }
+                }
+                Event::Restart => {
+                    let snapshot: RoutineSnapshot = serde_json::from_value(serde_json::to_value(r.snapshot().clone()).unwrap()).unwrap();
+                    r = RoutineMachine::new(&plant, "r").unwrap();
+                    let moved = r.restore(&snapshot).unwrap();
+                    prop_assert_eq!(moved.is_some(), m.pending.is_some());
+                    if m.fault() { returned += 1; }
+                    m.checked = vec![None; m.ts.len()];
+                }
+            }
+            prop_assert_eq!(r.state(), STATES[m.state]);
+            let pending = m.pending.map(|t| format!("op{}", m.ts[t].2));
+            prop_assert_eq!(r.pending(), pending.as_deref());
+            prop_assert_eq!(r.halted(), m.halted);
+            // At most one operation pending at any time.
+            prop_assert!(dispatched - returned <= 1);
+        }
+    }
+
+    #[test]
+    fn sensor_store_matches_the_reference(samples in prop::collection::vec((0..2usize, -5.0f64..5.0, 0u64..3000, 0u64..2500, any::<bool>()), 1..80)) {
+        let plant: PlantModel = serde_json::from_value(json!({
+            "actuatorTypes": {}, "devices": [{ "id": "st", "kind": "sensor-station" }],
+            "sensors": [{ "id": "A", "device": "st", "name": "a", "staleMs": 2000 }, { "id": "B", "device": "st", "name": "b", "staleMs": 1000 }]
+        })).unwrap();
+        let mut store = SensorStore::new(&plant);
+        let ids = [store.sensor("A").unwrap(), store.sensor("B").unwrap()];
+        let limits = [2000u64, 1000];
+        // Reference: (value, device ts, received) of the newest sample by device ts.
+        let mut model: [Option<(f64, u64, u64)>; 2] = [None, None];
+        let mut now = 0u64;
+        for (sensor, value, ts_offset, gap, read_both) in samples {
+            now += gap;
+            let sampled = now.saturating_sub(ts_offset);
+            let kept = store.record(ids[sensor], value, sampled, now).unwrap();
+            let newer = model[sensor].is_none_or(|(_, ts, _)| sampled >= ts);
+            prop_assert_eq!(kept, newer);
+            if newer { model[sensor] = Some((value, sampled, now)); }
+            let later = now + gap;
+            let fresh = |k: usize| model[k].filter(|(_, _, at)| later - at < limits[k]).map(|(v, _, _)| v);
+            for (k, &id) in ids.iter().enumerate() {
+                prop_assert_eq!(store.fresh(id, later).ok(), fresh(k));
+            }
+            let read = store.read(if read_both { &ids[..] } else { &ids[sensor..=sensor] }, later);
+            let expected: Option<Vec<f64>> = if read_both { fresh(0).zip(fresh(1)).map(|(a, b)| vec![a, b]) } else { fresh(sensor).map(|v| vec![v]) };
+            prop_assert_eq!(read.ok(), expected);
+        }
+    }
+}

@@ -1,0 +1,153 @@
+#![cfg(target_arch = "wasm32")]
+
+//! Operations, sensors and routines across the JS boundary, run under Node:
+//! plans, C2 refusals, stale sensors and a routine's round trip through a snapshot.
+
+use js_sys::{Array, Reflect, JSON};
+use sugarshack_wasm::Tracker;
+use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen_test::wasm_bindgen_test;
+
+fn json(text: &str) -> JsValue {
+    JSON::parse(text).expect("test JSON parses")
+}
+
+fn get(value: &JsValue, key: &str) -> JsValue {
+    Reflect::get(value, &key.into()).unwrap()
+}
+
+fn text(value: &JsValue, key: &str) -> String {
+    get(value, key).as_string().unwrap_or_default()
+}
+
+fn code_of(error: JsValue) -> String {
+    assert!(error.is_instance_of::<js_sys::Error>());
+    get(&error, "code").as_string().unwrap()
+}
+
+const PLANT: &str = r#"{
+    "actuatorTypes": {
+        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 }
+    },
+    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+    "actuators": [
+        { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
+        { "id": "V9", "type": "valve", "device": "ctrl-1", "io": 9, "idle": 0, "lockout": 0, "resource": "RED" }
+    ],
+    "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume", "staleMs": 2000 }],
+    "resources": [{ "id": "YEL" }, { "id": "RED" }],
+    "operations": [
+        { "id": "10", "priority": 20, "resources": ["YEL"], "steps": [
+            { "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000 },
+            { "wait": "`LT-3` > 10", "sensors": ["LT-3"], "timeoutMs": 60000 }
+        ] },
+        { "id": "51", "priority": 1, "resources": ["RED"], "steps": [
+            { "command": { "valves": { "V9": 100 } }, "timeoutMs": 9000 }
+        ] }
+    ],
+    "routines": [{ "id": "truck", "states": ["empty", "full", "fault"], "initial": "empty", "errorState": "fault",
+        "transitions": [
+            { "from": "empty", "to": "full", "operation": "10", "trigger": { "msg": "load" } },
+            { "from": "full", "to": "empty", "operation": "51",
+              "trigger": { "when": "`LT-3` > 10", "sensors": ["LT-3"], "everyMs": 1000 } }
+        ] }]
+}"#;
+
+fn tracker() -> Tracker {
+    Tracker::new(json(PLANT), 0.0).expect("plant is valid")
+}
+
+#[wasm_bindgen_test]
+fn an_operation_plan_ends_with_the_return_to_idle() {
+    let t = tracker();
+    let plan = t.operation_plan("10").unwrap();
+    let steps = Array::from(&get(&plan, "steps"));
+    let kinds: Vec<String> = steps.iter().map(|s| text(&s, "kind")).collect();
+    assert_eq!(kinds, ["command", "wait", "returnToIdle"]);
+    assert_eq!(get(&steps.get(1), "timeoutMs").as_f64(), Some(60000.0));
+    assert_eq!(
+        JSON::stringify(&get(&steps.get(2), "command")).unwrap(),
+        r#"{"valve":{"V1":0}}"#
+    );
+    assert_eq!(
+        code_of(t.operation_plan("99").unwrap_err()),
+        "UNKNOWN_OPERATION"
+    );
+}
+
+#[wasm_bindgen_test]
+fn a_command_within_held_resources_goes_and_one_outside_them_is_refused() {
+    let mut t = tracker();
+    let yel = Some(vec!["YEL".to_string()]);
+    assert!(
+        t.command(json(r#"{"valves":{"V1":100}}"#), 1, false, 0.0, yel.clone())
+            .unwrap()
+            > 0
+    );
+    let err = t
+        .command(json(r#"{"valves":{"V9":100}}"#), 2, false, 0.0, yel)
+        .unwrap_err();
+    assert_eq!(code_of(err), "OUTSIDE_RESOURCES");
+    // Without `within` (a plain group command node) C2 is not the tracker's to check.
+    assert!(t
+        .command(json(r#"{"valves":{"V9":100}}"#), 3, false, 0.0, None)
+        .is_ok());
+}
+
+#[wasm_bindgen_test]
+fn sensors_are_read_only_while_fresh() {
+    let mut t = tracker();
+    let lt = t.sensor("LT-3").unwrap();
+    assert_eq!(t.sensor_slot("station-3", "volume"), Some(lt));
+    assert_eq!(
+        code_of(t.read_sensors(&[lt], 0.0).unwrap_err()),
+        "SENSOR_NO_VALUE"
+    );
+    assert!(t.record_sensor(lt, 12.5, Some(900.0), 1000.0).unwrap());
+    assert_eq!(t.read_sensors(&[lt], 2999.0).unwrap(), vec![12.5]);
+    assert_eq!(
+        code_of(t.read_sensors(&[lt], 3000.0).unwrap_err()),
+        "SENSOR_STALE"
+    );
+    assert_eq!(
+        code_of(t.record_sensor(lt, f64::NAN, None, 3000.0).unwrap_err()),
+        "INVALID_SENSOR_VALUE"
+    );
+    assert_eq!(
+        code_of(t.read_sensors(&[7], 0.0).unwrap_err()),
+        "UNKNOWN_SENSOR"
+    );
+}
+
+#[wasm_bindgen_test]
+fn a_routine_dispatches_moves_and_survives_a_snapshot() {
+    let t = tracker();
+    let mut r = t.routine("truck").unwrap();
+    assert_eq!(r.operations(), vec!["10".to_string(), "51".to_string()]);
+    let d = r.on_msg("load").unwrap();
+    assert_eq!(
+        (text(&d, "operation"), text(&d, "to")),
+        ("10".into(), "full".into())
+    );
+    assert_eq!(code_of(r.on_msg("load").unwrap_err()), "ROUTINE_BUSY");
+    r.completed().unwrap();
+    assert_eq!(r.due(5000.0).unwrap(), vec![1]);
+    assert_eq!(text(&r.condition(1).unwrap(), "when"), "`LT-3` > 10");
+    assert_eq!(text(&r.condition_met(1).unwrap(), "operation"), "51");
+    let snapshot = r.snapshot().unwrap();
+    let mut again = t.routine("truck").unwrap();
+    let moved = again.restore(snapshot).unwrap();
+    assert_eq!(
+        (text(&moved, "to"), again.state(), again.pending()),
+        ("fault".into(), "fault".to_string(), None)
+    );
+    assert_eq!(
+        code_of(
+            again
+                .restore(json(r#"{"routine":"truck","state":"nope"}"#))
+                .unwrap_err()
+        ),
+        "INVALID_SNAPSHOT"
+    );
+    assert_eq!(code_of(t.routine("silo").err().unwrap()), "UNKNOWN_ROUTINE");
+}
