@@ -13,14 +13,15 @@ const MISSING = {
  * Returns the runtime of config node `configId`, registering `node` for status
  * updates and withdrawing its waiting msgs on close; null (with a red status) when unset.
  */
-function bindRuntime(RED, node, configId, kind) {
+function bindRuntime(RED, node, configId, kind, { showCounts = true } = {}) {
   const configNode = configId ? RED.nodes.getNode(configId) : null;
   const runtime = configNode && configNode.runtime;
   if (!runtime) {
     node.status(errorStatus(MISSING[kind][0]));
     return null;
   }
-  runtime.addUser(node);
+  // Nodes with a status of their own (operation, routine, wait) do not show the runtime's counts.
+  if (showCounts) runtime.addUser(node);
   node.on('close', (removed, done) => {
     runtime.dropNode(node);
     runtime.removeUser(node);
@@ -29,12 +30,12 @@ function bindRuntime(RED, node, configId, kind) {
   return runtime;
 }
 
-function bindInterlock(RED, node, configId) {
-  return bindRuntime(RED, node, configId, 'interlock');
+function bindInterlock(RED, node, configId, options) {
+  return bindRuntime(RED, node, configId, 'interlock', options);
 }
 
-function bindPlant(RED, node, configId) {
-  return bindRuntime(RED, node, configId, 'plant');
+function bindPlant(RED, node, configId, options) {
+  return bindRuntime(RED, node, configId, 'plant', options);
 }
 
 /** The input handler every node of a runtime shares: `work(runtime, msg, send, done)` does the node's part. */

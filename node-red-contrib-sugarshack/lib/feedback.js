@@ -5,12 +5,13 @@
 //   <dev>/status                  "online" | "offline"
 //   <dev>/state                   {"ts", "<type>": {"<io>": value, ...}, ...}
 //   <dev>/<type>/<io>/state       {"ts", "value"}
+//   <dev>/sensor/<name>/state     {"ts", "value"}
 
 /**
- * What a topic is: { kind: 'status' | 'batch' | 'single' | 'other', device, type, io },
+ * What a topic is: { kind: 'status' | 'batch' | 'single' | 'sensor' | 'other', device, type, io, name },
  * or null when it is not a device topic (the msg is then a command).
  * `isDevice(id)` says whether the plant names the device: any topic under a known
- * device (telemetry, sensor datapoints, our own commands) is device traffic.
+ * device (telemetry, our own commands) is device traffic.
  */
 function classify(topic, isDevice) {
   if (typeof topic !== 'string') return null;
@@ -22,7 +23,8 @@ function classify(topic, isDevice) {
   if (rest === 'state') return { kind: 'batch', device };
   const parts = rest.split('/');
   const leaf = parts.length === 3 ? parts[2] : null;
-  if (leaf === 'state' && parts[0] !== 'sensor') return { kind: 'single', device, type: parts[0], io: parts[1] };
+  if (leaf === 'state' && parts[0] === 'sensor') return { kind: 'sensor', device, name: parts[1] };
+  if (leaf === 'state') return { kind: 'single', device, type: parts[0], io: parts[1] };
   if (isDevice(device) || leaf === 'state' || leaf === 'command' || rest === 'telemetry') return { kind: 'other', device };
   return null;
 }

@@ -37,4 +37,13 @@ function targetOf(payload, id) {
   return undefined;
 }
 
-module.exports = { groupPayload, isLockout, actuatorIds, targetOf };
+/**
+ * The resources an acquire node granted this msg (msg.interlock.resources): a group
+ * command carried by it may only command actuators on them (C2). Undefined when absent.
+ */
+function heldResources(msg) {
+  const held = msg.interlock && msg.interlock.resources;
+  return Array.isArray(held) && held.every((r) => typeof r === 'string') ? held : undefined;
+}
+
+module.exports = { groupPayload, isLockout, actuatorIds, targetOf, heldResources };

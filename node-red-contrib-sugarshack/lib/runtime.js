@@ -13,10 +13,12 @@ const TICK_MS = 1000;
 class InterlockRuntime {
   /**
    * owner: the config node (logs through it); Interlock: the wasm class;
-   * config: the core configuration; persistence: a Persistence or null.
+   * config: the core configuration; persistence: a Persistence or null;
+   * plant: the TrackerRuntime of the plant it is bound to, or null.
    */
-  constructor({ owner, Interlock, config, persistence }) {
+  constructor({ owner, Interlock, config, persistence, plant = null }) {
     this.owner = owner;
+    this.plant = plant;
     this.Interlock = Interlock;
     this.config = config;
     this.persistence = persistence || null;

@@ -110,6 +110,17 @@ const REASONS = {
   COMMAND_FAILED: 'command failed',
   COMMAND_TIMEOUT: 'timed out',
   LOCKED_OUT: 'locked out',
+  OPERATION_RUNNING: 'already running',
+  OUTSIDE_RESOURCES: 'C2: outside lines',
+  CONDITION_TIMEOUT: 'condition timeout',
+  INVALID_CONDITION: 'bad condition',
+  UNKNOWN_SENSOR: 'unknown sensor',
+  SENSOR_STALE: 'sensor stale',
+  UNKNOWN_ROUTINE: 'unknown routine',
+  ROUTINE_BUSY: 'busy',
+  NO_TRANSITION: 'no transition',
+  ROUTINE_HALTED: 'halted',
+  ABORTED: 'stopped',
 };
 
 function shortReason(code) {

@@ -9,6 +9,7 @@ const { actuatorStatus, errorStatus, StatusBoard } = require('./status');
 const { describeFault, seconds } = require('./plant');
 const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
 const feedback = require('./feedback');
+const { stats } = require('./stats');
 
 const TICK_MS = 250;
 const MAX_CALLER = 0xffffffff;
@@ -35,6 +36,8 @@ class TrackerRuntime {
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.nextCaller = 0;
     this.tickTimer = null;
+    this.watchers = new Map(); // sensor handle -> Set of functions called on each new sample
+    this.plans = new Map(); // operation id -> plan, from the core
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -158,12 +161,13 @@ class TrackerRuntime {
   /**
    * Issues msg.payload as a group command and holds the msg until it completes;
    * it then leaves `node` on output `output` (of `outputs`). Throws the core's refusal.
+   * `within`: the resources the commanding operation holds; a command outside them is refused (C2).
    */
-  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0 }) {
+  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
     const payload = groupPayload(msg);
     const caller = this.newCaller();
     const now = Date.now();
-    this.t.command(payload, caller, isLockout(msg), now);
+    stats.time('actuator', () => this.t.command(payload, caller, isLockout(msg), now, within));
     this.sticky.delete(node);
     const entry = { node, msg, send, done, output, outputs, payload, completed: [], retries: new Map(), sinceMs: now, timer: null };
     this.pending.add(caller, entry);
@@ -212,6 +216,10 @@ class TrackerRuntime {
    * topic (the msg is a command). Bad input is warned about, counted and skipped.
    */
   feedback(node, msg) {
+    return stats.time('actuator', () => this.ingest(node, msg));
+  }
+
+  ingest(node, msg) {
     const { topic } = msg;
     if (isLockout(msg)) return false; // "lockout/<resource>" from a fault node, whatever the resource's name
     const route = feedback.classify(topic, (id) => this.deviceIndex.has(id));
@@ -233,12 +241,16 @@ class TrackerRuntime {
     try {
       if (route.kind === 'status') {
         this.t.deviceStatus(device, feedback.statusOf(msg.payload), now);
+      } else if (route.kind === 'sensor') {
+        this.sensorSample(route, msg.payload, now);
+        return true;
       } else if (route.kind === 'batch') {
         this.batch(bus, topic, device, feedback.batchOf(msg.payload), now);
       } else {
         const handle = this.slotOf(device, route.type, route.io);
         if (handle === undefined) return true; // a slot the plant does not name
         const sample = feedback.singleOf(msg.payload);
+        if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
         try {
           this.t.feedback(handle, sample.value, sample.ts, now);
         } catch (err) {
@@ -255,7 +267,19 @@ class TrackerRuntime {
     return true;
   }
 
+  /** A sensor datapoint: kept by the core with its time; conditions watching it are re-checked. */
+  sensorSample(route, payload, now) {
+    const handle = this.t.sensorSlot(route.device, route.name);
+    if (handle === undefined) return; // a datapoint the plant does not name
+    const sample = feedback.singleOf(payload);
+    if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
+    if (!this.t.recordSensor(handle, sample.value, sample.ts, now)) return;
+    const watching = this.watchers.get(handle);
+    if (watching) for (const fn of [...watching]) fn();
+  }
+
   batch(bus, topic, device, { ts, groups }, now) {
+    if (ts !== undefined) stats.add(`tof/${this.devices[device]}`, now - ts);
     const { handles, values } = this.scratch[device];
     let n = 0;
     for (const [type, members] of groups) {
@@ -372,6 +396,11 @@ class TrackerRuntime {
   recordCompleted(e) {
     const entry = this.pending.get(e.caller);
     if (!entry) return;
+    // Commands that found their actuator already in place say nothing about timing.
+    if (e.completionMs > 0) {
+      stats.add('command/issueToMotion', e.issueToMotionMs);
+      stats.add('command/completion', e.completionMs);
+    }
     entry.completed.push({
       actuator: this.actuators[e.actuator].id,
       target: e.target,
@@ -393,7 +422,10 @@ class TrackerRuntime {
     const { msg } = entry;
     msg.command = { completionMs: e.completionMs, actuators: entry.completed };
     // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-    if (typeof msg.faultAtMs === 'number') msg.command.faultLockoutMs = Math.max(0, Date.now() - msg.faultAtMs);
+    if (typeof msg.faultAtMs === 'number') {
+      msg.command.faultLockoutMs = Math.max(0, Date.now() - msg.faultAtMs);
+      stats.add('fault/lockout', msg.command.faultLockoutMs);
+    }
     if (entry.outputs === 1) {
       entry.send(msg);
     } else {
@@ -441,6 +473,48 @@ class TrackerRuntime {
 
   emit(bus, topic, payload) {
     if (bus) bus.node.send([null, null, { topic, payload }]);
+  }
+
+  // ---- sensors, operations, routines ---------------------------------------
+
+  /** The core's handle of sensor `id`; throws UNKNOWN_SENSOR. */
+  sensorHandle(id) {
+    return this.t.sensor(id);
+  }
+
+  /** Fresh values of `handles` at `now`; throws SENSOR_STALE / SENSOR_NO_VALUE. */
+  readSensors(handles, now) {
+    return this.t.readSensors(Uint32Array.from(handles), now);
+  }
+
+  /** Calls `fn` on each new sample of any of `handles`; returns the function that stops it. */
+  watchSensors(handles, fn) {
+    for (const h of handles) {
+      if (!this.watchers.has(h)) this.watchers.set(h, new Set());
+      this.watchers.get(h).add(fn);
+    }
+    return () => {
+      for (const h of handles) this.watchers.get(h)?.delete(fn);
+    };
+  }
+
+  /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */
+  plan(id) {
+    let plan = this.plans.get(id);
+    if (!plan) {
+      plan = this.t.operationPlan(id);
+      this.plans.set(id, plan);
+    }
+    return plan;
+  }
+
+  /** Resources and lockout commands for an interlock bound to this plant. */
+  interlockResources() {
+    return this.t.interlockResources();
+  }
+
+  routine(id) {
+    return this.t.routine(id);
   }
 
   // ---- status --------------------------------------------------------------

@@ -1,5 +1,6 @@
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
+const { heldResources, isLockout } = require('../lib/group');
 const { splitNames } = require('../lib/request');
 
 module.exports = function (RED) {
@@ -17,7 +18,7 @@ module.exports = function (RED) {
         done();
         return;
       }
-      rt.command({ node, msg, send, done, output: 1, outputs: 3 });
+      rt.command({ node, msg, send, done, output: 1, outputs: 3, within: isLockout(msg) ? undefined : heldResources(msg) });
     }, 'plant');
   }
 

@@ -1,5 +1,6 @@
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
+const { heldResources, isLockout } = require('../lib/group');
 
 module.exports = function (RED) {
   function GroupCommandNode(props) {
@@ -10,7 +11,7 @@ module.exports = function (RED) {
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.command({ node, msg, send, done, timeoutMs });
+      rt.command({ node, msg, send, done, timeoutMs, within: isLockout(msg) ? undefined : heldResources(msg) });
     }, 'plant');
   }
 

@@ -2,9 +2,11 @@
 const { load } = require('../lib/wasm');
 const { plantDocument } = require('../lib/plant');
 const { TrackerRuntime } = require('../lib/tracker-runtime');
+const { serveStats } = require('../lib/stats');
 
 module.exports = function (RED) {
   const { Tracker } = load();
+  serveStats(RED);
 
   function PlantNode(props) {
     RED.nodes.createNode(this, props);

@@ -299,6 +299,13 @@ impl RoutineMachine {
         Some(self.dispatch(transition))
     }
 
+    /// Every condition transition: (index, condition, sensors).
+    pub fn conditions(&self) -> Vec<(usize, &str, &[String])> {
+        (0..self.routine.transitions.len())
+            .filter_map(|t| self.condition(t).map(|(when, sensors)| (t, when, sensors)))
+            .collect()
+    }
+
     /// The condition and sensors of a condition transition.
     pub fn condition(&self, transition: usize) -> Option<(&str, &[String])> {
         match &self.routine.transitions.get(transition)?.trigger {

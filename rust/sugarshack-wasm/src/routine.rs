@@ -68,6 +68,17 @@ impl Routine {
         to_js(&serde_json::json!({ "when": when, "sensors": sensors }))
     }
 
+    /// `[{ transition, when, sensors }]`: every condition transition, to compile once.
+    pub fn conditions(&self) -> Result<JsValue, JsValue> {
+        let all: Vec<serde_json::Value> = self
+            .core
+            .conditions()
+            .into_iter()
+            .map(|(t, when, sensors)| serde_json::json!({ "transition": t, "when": when, "sensors": sensors }))
+            .collect();
+        to_js(&all)
+    }
+
     /// A due condition held: the dispatch, or undefined if the routine moved on meanwhile.
     #[wasm_bindgen(js_name = conditionMet)]
     pub fn condition_met(&mut self, transition: u32) -> Result<JsValue, JsValue> {

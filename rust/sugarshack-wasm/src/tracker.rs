@@ -310,6 +310,12 @@ impl Tracker {
         to_js(&plan)
     }
 
+    /// `[{ name, lockout }]`: the plant's resources as an interlock configures them.
+    #[wasm_bindgen(js_name = interlockResources)]
+    pub fn interlock_resources(&self) -> Result<JsValue, JsValue> {
+        to_js(&self.core.plant().interlock_config().resources)
+    }
+
     /// Routine `id` of this plant, in its initial state.
     pub fn routine(&self, id: &str) -> Result<Routine, JsValue> {
         Routine::of(self.core.plant(), id)

@@ -131,6 +131,10 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
     );
     assert_eq!(code_of(r.on_msg("load").unwrap_err()), "ROUTINE_BUSY");
     r.completed().unwrap();
+    assert_eq!(
+        JSON::stringify(&r.conditions().unwrap()).unwrap(),
+        r#"[{"transition":1,"when":"`LT-3` > 10","sensors":["LT-3"]}]"#
+    );
     assert_eq!(r.due(5000.0).unwrap(), vec![1]);
     assert_eq!(text(&r.condition(1).unwrap(), "when"), "`LT-3` > 10");
     assert_eq!(text(&r.condition_met(1).unwrap(), "operation"), "51");
@@ -150,4 +154,13 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
         "INVALID_SNAPSHOT"
     );
     assert_eq!(code_of(t.routine("silo").err().unwrap()), "UNKNOWN_ROUTINE");
+}
+
+#[wasm_bindgen_test]
+fn the_plant_configures_an_interlock_with_derived_lockouts() {
+    let resources = tracker().interlock_resources().unwrap();
+    assert_eq!(
+        JSON::stringify(&resources).unwrap(),
+        r#"[{"name":"YEL","lockout":{"valves":{"V1":0}}},{"name":"RED","lockout":{"valves":{"V9":0}}}]"#
+    );
 }

@@ -213,4 +213,6 @@ fn a_snapshot_that_no_longer_fits_the_routine_is_refused() {
 fn the_operations_of_a_routine_are_listed_once() {
     let r = RoutineMachine::new(&plant(true), "truck").unwrap();
     assert_eq!(r.operations(), vec!["10", "11", "12", "15"]);
+    let conditions: Vec<usize> = r.conditions().iter().map(|c| c.0).collect();
+    assert_eq!(conditions, vec![1, 2]);
 }

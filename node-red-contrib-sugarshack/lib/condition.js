@@ -1,0 +1,99 @@
+'use strict';
+// A condition over live sensor values, written in JSONata against an object of
+// the listed sensors by id: `LT-3` >= 12000. It passes only on fresh values: the
+// core refuses a read with a stale or missing sensor, and the condition then
+// does not hold (it never passes on old data).
+const { SugarshackError } = require('./errors');
+
+class Condition {
+  /** Compiles `expression` now, so a typo is refused at deploy; `sensors` are ids of the plant. */
+  constructor(RED, node, expression, sensors, plant) {
+    this.text = expression;
+    this.sensors = sensors;
+    this.handles = sensors.map((id) => plant.sensorHandle(id));
+    try {
+      this.expression = RED.util.prepareJSONataExpression(expression, node);
+    } catch (err) {
+      throw new SugarshackError('INVALID_CONDITION', `condition ${expression} is not valid JSONata: ${err.message}`);
+    }
+    this.RED = RED;
+    this.plant = plant;
+  }
+
+  /**
+   * Evaluates at `now`: resolves { met, values, reason } where reason says why
+   * it did not hold (a stale sensor, or the values). Rejects on a result that
+   * is not true or false.
+   */
+  check(now) {
+    let values;
+    try {
+      values = this.plant.readSensors(this.handles, now);
+    } catch (err) {
+      return Promise.resolve({ met: false, values: null, reason: err.message });
+    }
+    const input = {};
+    this.sensors.forEach((id, i) => { input[id] = values[i]; });
+    return new Promise((resolve, reject) => {
+      this.RED.util.evaluateJSONataExpression(this.expression, input, (err, result) => {
+        if (err) {
+          reject(new SugarshackError('INVALID_CONDITION', `condition ${this.text} failed: ${err.message}`));
+        } else if (typeof result !== 'boolean') {
+          reject(new SugarshackError('INVALID_CONDITION', `condition ${this.text} must give true or false, got ${JSON.stringify(result)}`));
+        } else {
+          resolve({ met: result, values: input, reason: result ? null : `values ${JSON.stringify(input)}` });
+        }
+      });
+    });
+  }
+
+  /**
+   * Resolves with the values once the condition holds; rejects with
+   * CONDITION_TIMEOUT after `timeoutMs` (saying why it last failed). Checked
+   * at once, then on every sample of its sensors. `signal.cancelled` stops it quietly.
+   */
+  waitUntil(timeoutMs, signal = {}) {
+    return new Promise((resolve, reject) => {
+      let busy = false;
+      let again = false;
+      let lastReason = 'it was never checked';
+      let finished = false;
+      const finish = (fn, value) => {
+        if (finished) return;
+        finished = true;
+        clearTimeout(timer);
+        unwatch();
+        signal.cancel = null;
+        fn(value);
+      };
+      const evaluate = () => {
+        if (finished) return;
+        if (busy) {
+          again = true;
+          return;
+        }
+        busy = true;
+        this.check(Date.now()).then((outcome) => {
+          busy = false;
+          if (outcome.met) finish(resolve, outcome.values);
+          else {
+            lastReason = outcome.reason;
+            if (again) {
+              again = false;
+              evaluate();
+            }
+          }
+        }, (err) => finish(reject, err));
+      };
+      const timer = setTimeout(() => finish(reject, new SugarshackError(
+        'CONDITION_TIMEOUT',
+        `condition ${this.text} did not hold within ${timeoutMs / 1000} s (last check: ${lastReason})`,
+      )), timeoutMs);
+      const unwatch = this.plant.watchSensors(this.handles, evaluate);
+      signal.cancel = (reason) => finish(reject, new SugarshackError('ABORTED', reason));
+      evaluate();
+    });
+  }
+}
+
+module.exports = { Condition };

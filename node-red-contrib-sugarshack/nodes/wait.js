@@ -1,0 +1,66 @@
+'use strict';
+const { bindPlant } = require('../lib/binding');
+const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { Condition } = require('../lib/condition');
+const { splitNames } = require('../lib/request');
+const { errorStatus } = require('../lib/status');
+
+module.exports = function (RED) {
+  function WaitNode(props) {
+    RED.nodes.createNode(this, props);
+    const node = this;
+    const plant = bindPlant(RED, node, props.plant, { showCounts: false });
+    const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
+    let condition = null;
+    let refusal = plant ? null : new SugarshackError('NO_PLANT', 'no plant is configured for this node');
+    if (plant) {
+      try {
+        if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+        if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
+        const text = String(props.sensors || '').trim();
+        condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant);
+        node.status({});
+      } catch (err) {
+        refusal = asSugarshackError(err);
+        node.error(refusal.message);
+        node.status(errorStatus(refusal.code));
+      }
+    }
+    const waiting = new Set();
+
+    // Holds the msg until the condition holds on fresh values; then it goes on with msg.condition.
+    node.on('input', (msg, send, done) => {
+      if (refusal) {
+        done(refusal);
+        return;
+      }
+      const signal = {};
+      const since = Date.now();
+      waiting.add(signal);
+      node.status({ fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` });
+      condition.waitUntil(timeoutMs, signal).then((values) => {
+        waiting.delete(signal);
+        msg.condition = { values, waitedMs: Date.now() - since };
+        node.status(waiting.size ? { fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` } : { fill: 'green', shape: 'dot', text: 'held' });
+        send(msg);
+        done();
+      }, (err) => {
+        waiting.delete(signal);
+        const e = asSugarshackError(err);
+        if (e.code === 'ABORTED') {
+          done();
+          return;
+        }
+        node.status(errorStatus(e.code));
+        done(e);
+      });
+    });
+
+    node.on('close', (removed, done) => {
+      for (const signal of waiting) if (signal.cancel) signal.cancel('its node was stopped');
+      done();
+    });
+  }
+
+  RED.nodes.registerType('sugarshack-wait', WaitNode);
+};
