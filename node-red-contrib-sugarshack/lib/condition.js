@@ -4,10 +4,15 @@
 // core refuses a read with a stale or missing sensor, and the condition then
 // does not hold (it never passes on old data).
 const { SugarshackError } = require('./errors');
+const { stats } = require('./stats');
 
 class Condition {
-  /** Compiles `expression` now, so a typo is refused at deploy; `sensors` are ids of the plant. */
-  constructor(RED, node, expression, sensors, plant) {
+  /**
+   * Compiles `expression` now, so a typo is refused at deploy; `sensors` are ids of
+   * the plant; `layer` names whose overhead its evaluations count as (lib/stats.js).
+   */
+  constructor(RED, node, expression, sensors, plant, layer) {
+    this.layer = layer;
     this.text = expression;
     this.sensors = sensors;
     this.handles = sensors.map((id) => plant.sensorHandle(id));
@@ -26,6 +31,15 @@ class Condition {
    * is not true or false.
    */
   check(now) {
+    const started = process.hrtime.bigint();
+    const timed = (outcome) => {
+      stats.add(`overhead/${this.layer}`, Number(process.hrtime.bigint() - started) / 1e6);
+      return outcome;
+    };
+    return this.evaluate(now).then(timed, (err) => Promise.reject(timed(err)));
+  }
+
+  evaluate(now) {
     let values;
     try {
       values = this.plant.readSensors(this.handles, now);

@@ -35,7 +35,7 @@ function prepareOperation(RED, node, interlock, id) {
   if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
   const plan = plant.plan(id);
   const conditions = plan.steps.map((step) => (step.kind === 'wait'
-    ? new Condition(RED, node, step.condition, step.sensors, plant)
+    ? new Condition(RED, node, step.condition, step.sensors, plant, 'operation')
     : null));
   return { plan, conditions, plant };
 }
@@ -93,7 +93,7 @@ class OperationRun {
         this.steps.push({ kind: step.kind, ms: Date.now() - startedAt });
       }
       if (this.phase !== 'running') throw new SugarshackError('ABORTED', this.abortReason);
-      stats.time('operation', () => this.interlock.release(this.id));
+      this.interlock.release(this.id);
     } catch (err) {
       throw this.fail(asSugarshackError(err), index);
     }
@@ -111,7 +111,7 @@ class OperationRun {
         if (err) reject(err);
         else if (!granted) reject(new SugarshackError('ABORTED', `operation '${this.id}' was withdrawn from the queue (its node closed)`));
       };
-      this.interlock.submit(this.node, done, (rt) => stats.time('operation', () => rt.acquire({
+      this.interlock.submit(this.node, done, (rt) => rt.acquire({
         node: this.node,
         msg: this.msg,
         send: () => {
@@ -123,7 +123,7 @@ class OperationRun {
         priority: this.plan.priority,
         resources: this.plan.resources,
         timeoutMs: 0,
-      })));
+      }));
     });
   }
 
@@ -132,14 +132,14 @@ class OperationRun {
     return new Promise((resolve, reject) => {
       const carrier = { payload: step.command };
       const done = (err) => (err ? reject(err) : resolve(carrier.command));
-      this.plant.submit(this.node, done, (rt) => stats.time('operation', () => rt.command({
+      this.plant.submit(this.node, done, (rt) => rt.command({
         node: this.node,
         msg: carrier,
         send: () => {},
         done,
         timeoutMs: step.timeoutMs,
         within: this.plan.resources,
-      })));
+      }));
     });
   }
 
@@ -161,7 +161,7 @@ class OperationRun {
     if (this.interlock.state !== 'ready') return [];
     let lockouts;
     try {
-      lockouts = stats.time('operation', () => this.interlock.fault(this.id, note));
+      lockouts = this.interlock.fault(this.id, note);
     } catch (err) {
       this.node.error(`cannot fault operation '${this.id}' at the interlock: ${err.message}`);
       return [];

@@ -7,6 +7,7 @@ const { PendingRegistry } = require('./pending');
 const { deliver, grantedBy, routeGrants } = require('./grants');
 const { EventFanout, describeWarning } = require('./events');
 const { countsStatus, errorStatus, StatusBoard } = require('./status');
+const { timeLayer } = require('./stats');
 
 const TICK_MS = 1000;
 
@@ -329,5 +330,8 @@ class InterlockRuntime {
     this.statusBoard.set(node, status);
   }
 }
+
+// The interlock layer's own time per call, for the overhead figures.
+timeLayer(InterlockRuntime, 'interlock', ['acquire', 'release', 'cancel', 'fault', 'faultResources', 'clear']);
 
 module.exports = { InterlockRuntime };

@@ -66,6 +66,17 @@ class Stats {
 }
 
 const stats = new Stats();
+
+/** Wraps `methods` of `Class` so each call's duration counts as `layer`'s overhead. */
+function timeLayer(Class, layer, methods) {
+  for (const name of methods) {
+    const plain = Class.prototype[name];
+    Class.prototype[name] = function timed(...args) {
+      return stats.time(layer, () => plain.apply(this, args));
+    };
+  }
+}
+
 const served = new WeakSet();
 
 /** Serves the figures to the editor's admin API, once per Node-RED runtime. */
@@ -81,4 +92,4 @@ function serveStats(RED) {
   });
 }
 
-module.exports = { stats, serveStats, Stats, SAMPLES };
+module.exports = { stats, serveStats, timeLayer, Stats, SAMPLES };

@@ -31,7 +31,7 @@ module.exports = function (RED) {
         if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
         machine = plant.routine(id);
         for (const op of machine.operations()) operations.set(op, prepareOperation(RED, node, interlock, op));
-        for (const c of machine.conditions()) conditions.set(c.transition, new Condition(RED, node, c.when, c.sensors, plant));
+        for (const c of machine.conditions()) conditions.set(c.transition, new Condition(RED, node, c.when, c.sensors, plant, 'routine'));
       } catch (err) {
         refusal = asSugarshackError(err);
         node.error(refusal.message);

@@ -18,7 +18,7 @@ module.exports = function (RED) {
         if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
         if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
         const text = String(props.sensors || '').trim();
-        condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant);
+        condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
         node.status({});
       } catch (err) {
         refusal = asSugarshackError(err);

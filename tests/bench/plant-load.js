@@ -28,16 +28,11 @@
 //   default 3 minutes per run (30 s warm-up); --quick: 30 s per run (10 s warm-up)
 
 const fs = require('fs');
-const net = require('net');
 const os = require('os');
 const path = require('path');
-const { spawn, execSync } = require('child_process');
-const { Aedes } = require('aedes');
+const { execSync } = require('child_process');
 const { startSimulator } = require('../../scripts/simulator');
-
-const ROOT = path.resolve(__dirname, '../..');
-const PALETTE = path.join(ROOT, 'node-red-contrib-sugarshack');
-const RED_JS = path.join(ROOT, 'node_modules', 'node-red', 'red.js');
+const { Session, sleep, ROOT } = require('../../scripts/lib/node-red-process');
 const PLANT_FILE = path.join(ROOT, 'flows', 'plant.json');
 const PLANT = JSON.parse(fs.readFileSync(PLANT_FILE, 'utf8'));
 
@@ -65,87 +60,26 @@ const DEVICE_SET = new Set(DEVICES);
 const OPEN = { valves: { V101: 100, V102: 100, V201: 100, V202: 100 }, pumps: { P1: true } };
 const CLOSE = { valves: { V101: 0, V102: 0, V201: 0, V202: 0 }, pumps: { P1: false } };
 
-// ---- processes and cleanup ---------------------------------------------------
+// ---- processes and traffic counts -------------------------------------------------
 
-const state = { broker: null, server: null, sim: null, red: null, dirs: [] };
-const log = (line) => console.log(line);
-const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.on('error', reject);
-    s.listen(0, '127.0.0.1', () => {
-      const { port } = s.address();
-      s.close(() => resolve(port));
-    });
-  });
-}
-
-async function stopRed() {
-  const red = state.red;
-  if (!red || red.exitCode !== null || red.signalCode !== null) return;
-  const exited = new Promise((resolve) => red.once('exit', resolve));
-  red.kill('SIGTERM');
-  const killer = setTimeout(() => red.kill('SIGKILL'), 10000);
-  await exited;
-  clearTimeout(killer);
-  state.red = null;
-}
-
-let cleaning = null;
-function cleanup() {
-  if (cleaning) return cleaning;
-  cleaning = (async () => {
-    await stopRed().catch(() => {});
-    if (state.sim) await Promise.race([state.sim.stop().catch(() => {}), sleep(5000)]);
-    if (state.server) state.server.close();
-    if (state.broker) await new Promise((resolve) => state.broker.close(resolve));
-    for (const dir of state.dirs) fs.rmSync(dir, { recursive: true, force: true });
-  })();
-  return cleaning;
-}
-
-// A last resort if this process goes away without the async cleanup.
-process.on('exit', () => {
-  if (state.red && state.red.exitCode === null) state.red.kill('SIGKILL');
-});
-for (const signal of ['SIGINT', 'SIGTERM']) {
-  process.on(signal, () => {
-    console.error(`plant-load: ${signal}, stopping`);
-    cleanup().finally(() => process.exit(130));
-  });
-}
-
-// ---- broker and traffic counts --------------------------------------------------
+const session = new Session('load');
 
 const traffic = { plant: 0, commands: 0, completed: 0, failed: 0, failures: [] };
 
-async function startBroker() {
-  const broker = await Aedes.createBroker();
-  const server = net.createServer(broker.handle);
-  await new Promise((resolve, reject) => {
-    server.once('error', reject);
-    server.listen(0, '127.0.0.1', resolve);
-  });
-  state.broker = broker;
-  state.server = server;
-  // What Node-RED's subscriptions receive: every publish under the plant's devices
-  // (its own device commands come back to it too).
-  broker.on('publish', (packet, client) => {
-    if (!client) return;
-    const { topic } = packet;
-    if (DEVICE_SET.has(topic.slice(0, topic.indexOf('/')))) {
-      traffic.plant++;
-      if (topic.endsWith('/command')) traffic.commands++;
-    } else if (topic === 'bench/completed') {
-      traffic.completed++;
-    } else if (topic === 'bench/failed') {
-      traffic.failed++;
-      if (traffic.failures.length < 5) traffic.failures.push(packet.payload.toString());
-    }
-  });
-  return server.address().port;
+// What Node-RED's subscriptions receive: every publish under the plant's devices
+// (its own device commands come back to it too).
+function countTraffic(packet, client) {
+  if (!client) return;
+  const { topic } = packet;
+  if (DEVICE_SET.has(topic.slice(0, topic.indexOf('/')))) {
+    traffic.plant++;
+    if (topic.endsWith('/command')) traffic.commands++;
+  } else if (topic === 'bench/completed') {
+    traffic.completed++;
+  } else if (topic === 'bench/failed') {
+    traffic.failed++;
+    if (traffic.failures.length < 5) traffic.failures.push(packet.payload.toString());
+  }
 }
 
 // ---- Node-RED ----------------------------------------------------------------------
@@ -213,51 +147,6 @@ function sugarshackFlow(port) {
   ];
 }
 
-function settingsFile(dir) {
-  return `module.exports = {
-  uiHost: '127.0.0.1',
-  userDir: ${JSON.stringify(dir)},
-  flowFile: 'flows.json',
-  credentialSecret: false,
-  logging: { console: { level: 'info', metrics: false, audit: false } },
-  telemetry: { enabled: false, updateNotification: false },
-  diagnostics: { enabled: false, ui: false },
-  externalModules: { autoInstall: false, palette: { allowInstall: false } },
-  editorTheme: { projects: { enabled: false }, tours: false },
-};
-`;
-}
-
-/** Starts Node-RED on `flow`; resolves once its flows run and its MQTT client is connected. */
-async function startRed(label, flow, withPalette) {
-  const dir = fs.mkdtempSync(path.join(os.tmpdir(), `sugarshack-load-${label}-`));
-  state.dirs.push(dir);
-  fs.writeFileSync(path.join(dir, 'settings.js'), settingsFile(dir));
-  fs.writeFileSync(path.join(dir, 'flows.json'), JSON.stringify(flow, null, 2));
-  if (withPalette) {
-    fs.mkdirSync(path.join(dir, 'node_modules'));
-    fs.symlinkSync(PALETTE, path.join(dir, 'node_modules', 'node-red-contrib-sugarshack'), 'dir');
-  }
-  const port = await freePort();
-  const logFile = path.join(dir, 'node-red.log');
-  const out = fs.openSync(logFile, 'a');
-  const red = spawn(process.execPath, [RED_JS, '-u', dir, '-p', String(port), '-s', path.join(dir, 'settings.js'), '--no-telemetry'], {
-    cwd: dir, stdio: ['ignore', out, out],
-  });
-  fs.closeSync(out);
-  state.red = red;
-  const text = () => fs.readFileSync(logFile, 'utf8');
-  const deadline = Date.now() + 60000;
-  for (;;) {
-    const t = text();
-    if (t.includes('Started flows') && t.includes('Connected to broker')) break;
-    if (red.exitCode !== null || red.signalCode !== null) throw new Error(`Node-RED (${label}) exited during start-up:\n${t.slice(-3000)}`);
-    if (Date.now() > deadline) throw new Error(`Node-RED (${label}) not started with a connected broker after 60 s:\n${t.slice(-3000)}`);
-    await sleep(200);
-  }
-  return { red, dir, logFile, text };
-}
-
 // ---- sampling ------------------------------------------------------------------------
 
 function cpuTicks(pid) {
@@ -277,7 +166,7 @@ function percentile(xs, p) {
 }
 
 async function measure(label, flow, withPalette) {
-  const { red, text } = await startRed(label, flow, withPalette);
+  const { red, text } = await session.startRed(label, flow, { withPalette });
   await sleep(WARMUP_MS);
   const pid = red.pid;
   const t0 = performance.now();
@@ -316,7 +205,7 @@ async function measure(label, flow, withPalette) {
     selfPct: ((self.user + self.system) / 1e6) / elapsedS * 100,
     problems: text().split('\n').filter((l) => /\[(warn|error)\]/.test(l) && !STARTUP_NOTES.some((n) => l.includes(n))),
   };
-  await stopRed();
+  await session.stopRed();
   return result;
 }
 
@@ -335,9 +224,9 @@ async function main() {
   console.log(`Node-RED ${require('node-red/package.json').version}, node ${process.version}, ${cpus.length} cores (${cpus[0] && cpus[0].model.trim()}), CLK_TCK ${CLK_TCK}`);
   console.log(`${f1(MINUTES)} min measured per run after a ${WARMUP_MS / 1000} s warm-up, sampled every ${SAMPLE_MS / 1000} s; broker (aedes) and simulator in this process, Node-RED in its own`);
 
-  const mqttPort = await startBroker();
+  const mqttPort = await session.startBroker(countTraffic);
   const simLog = [];
-  state.sim = await startSimulator({
+  session.sim = await startSimulator({
     broker: `mqtt://127.0.0.1:${mqttPort}`,
     plant: PLANT_FILE,
     log: (line) => { if (simLog.length < 200) simLog.push(line); },
@@ -378,10 +267,10 @@ async function main() {
 }
 
 main()
-  .then(() => cleanup())
+  .then(() => session.cleanup())
   .then(() => process.exit(0))
   .catch(async (err) => {
     console.error(`plant-load: ${err.stack || err}`);
-    await cleanup();
+    await session.cleanup();
     process.exit(1);
   });

@@ -1,0 +1,140 @@
+#!/usr/bin/env node
+// Writes flows/case-study.json, the Node-RED flows of the case-study plant,
+// from its plant document flows/plant.json: the field bus over MQTT, the
+// interlock bound to the plant, one routine node per routine, a manual start
+// for every operation, fault injection into the simulator and clearing.
+// usage: node scripts/case-study-flow.js [--check]
+//   --check: exit 1 if flows/case-study.json is not what the document gives.
+'use strict';
+const crypto = require('crypto');
+const fs = require('fs');
+const path = require('path');
+
+const ROOT = path.resolve(__dirname, '..');
+const PLANT_FILE = path.join(ROOT, 'flows', 'plant.json');
+const OUT_FILE = path.join(ROOT, 'flows', 'case-study.json');
+
+/** A stable 16-hex node id per name, so regenerating changes only what changed. */
+const nid = (name) => crypto.createHash('sha1').update(`case-study:${name}`).digest('hex').slice(0, 16);
+
+function build(plant) {
+  const nodes = [];
+  const TABS = { plant: nid('tab:plant'), ops: nid('tab:operations'), faults: nid('tab:faults') };
+  const add = (node) => {
+    nodes.push(node);
+    return node;
+  };
+  const comment = (z, name, info, x, y) => add({ id: nid(`comment:${z}:${name}`), type: 'comment', z, name, info, x, y, wires: [] });
+  const debug = (z, key, name, x, y, active = false) => add({
+    id: nid(`debug:${key}`), type: 'debug', z, name, active, tosidebar: true, console: false, tostatus: false,
+    complete: 'true', targetType: 'full', statusVal: '', statusType: 'auto', x, y, wires: [],
+  });
+  const inject = (z, key, name, props, x, y, wire) => add({
+    id: nid(`inject:${key}`), type: 'inject', z, name, props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }],
+    repeat: '', crontab: '', once: false, onceDelay: 0.1, topic: props.topic || '', payload: props.payload ?? '',
+    payloadType: props.payloadType || 'str', x, y, wires: [[wire]],
+  });
+
+  nodes.push(
+    { id: TABS.plant, type: 'tab', label: 'Sugar shack', disabled: false, info: 'The case-study plant: field bus, interlock, routines. Built from flows/plant.json by scripts/case-study-flow.js.' },
+    { id: TABS.ops, type: 'tab', label: 'Operations (manual)', disabled: false, info: 'Start any of the 16 operations by hand. An operation already running (for example under its routine) refuses a second start (C1).' },
+    { id: TABS.faults, type: 'tab', label: 'Faults and clearing', disabled: false, info: 'Inject faults into the simulator, watch the line lock out, clear it.' },
+  );
+
+  const broker = add({
+    id: nid('broker'), type: 'mqtt-broker', name: 'plant broker', broker: '127.0.0.1', port: '1883', clientid: '',
+    autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '15', cleansession: true, autoUnsubscribe: true,
+    birthTopic: '', closeTopic: '', willTopic: '',
+  });
+  const plantNode = add({ id: nid('plant'), type: 'sugarshack-plant', name: plant.name || 'sugar shack', plant });
+  const interlock = add({
+    id: nid('interlock'), type: 'sugarshack-interlock', name: 'lines', plant: plantNode.id, resources: [],
+    policy: 'greedy', queueBound: 1024, warnQueued: 900, warnHeld: 1800, persist: true, store: 'default',
+  });
+
+  // ---- field bus -------------------------------------------------------------
+  const z = TABS.plant;
+  comment(z, 'Field bus: every device topic into the actuators node, its commands out', 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
+  const bus = add({ id: nid('actuators'), type: 'sugarshack-actuators', z, name: 'all devices', plant: plantNode.id, devices: '', x: 520, y: 120, wires: [[nid('mqtt-out')], [], [nid('debug:actuator-events')]] });
+  ['+/state', '+/status', '+/sensor/+/state'].forEach((topic, i) => add({
+    id: nid(`mqtt-in:${topic}`), type: 'mqtt in', z, name: '', topic, qos: '1', datatype: 'auto-detect', broker: broker.id,
+    nl: false, rap: true, rh: 0, inputs: 0, x: 170, y: 80 + 40 * i, wires: [[bus.id]],
+  }));
+  add({ id: nid('mqtt-out'), type: 'mqtt out', z, name: 'device commands', topic: '', qos: '', retain: '', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker: broker.id, x: 800, y: 80, wires: [] });
+  debug(z, 'actuator-events', 'actuator events', 800, 160);
+
+  // ---- interlock events, out to MQTT for dashboards and the measurements -----
+  comment(z, 'Interlock: grants, queueing, faults and clears', 'Every interlock event, also published on sugarshack/events/interlock for outside tools.', 230, 220);
+  add({ id: nid('interlock-events'), type: 'sugarshack-interlock-events', z, name: '', interlock: interlock.id, x: 180, y: 260, wires: [[nid('debug:interlock-events'), nid('events-out')]] });
+  debug(z, 'interlock-events', 'interlock events', 480, 240, true);
+  add({ id: nid('events-out'), type: 'mqtt out', z, name: 'sugarshack/events/interlock', topic: 'sugarshack/events/interlock', qos: '0', retain: 'false', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker: broker.id, x: 530, y: 280, wires: [] });
+
+  // ---- routines ---------------------------------------------------------------
+  let y = 360;
+  comment(z, 'Routines: each runs its own operations, one at a time', 'Status shows `state › operation`. A msg trigger is sent by its inject; `reset` brings a routine back to its initial state after a fault is cleared.', 230, y - 40);
+  for (const r of plant.routines || []) {
+    const routine = add({ id: nid(`routine:${r.id}`), type: 'sugarshack-routine', z, name: '', interlock: interlock.id, routine: r.id, store: 'default', x: 520, y, wires: [[nid(`debug:routine:${r.id}`)]] });
+    debug(z, `routine:${r.id}`, `routine ${r.id}`, 780, y, true);
+    const topics = [...new Set(r.transitions.filter((t) => t.trigger.msg).map((t) => t.trigger.msg)), 'reset'];
+    topics.forEach((topic, i) => inject(z, `routine:${r.id}:${topic}`, `${r.id}: ${topic}`, { topic }, 220, y + i * 40 - ((topics.length - 1) * 20), routine.id));
+    y += Math.max(80, topics.length * 40 + 20);
+  }
+  add({ id: nid('catch'), type: 'catch', z, name: 'faults and refusals', scope: null, uncaught: false, x: 180, y: y + 20, wires: [[nid('debug:faults')]] });
+  debug(z, 'faults', 'faults and refusals', 480, y + 20, true);
+
+  // ---- manual operations ------------------------------------------------------
+  const o = TABS.ops;
+  comment(o, 'Start an operation by hand (priority and lines as in Fig. 8)', '', 250, 40);
+  (plant.operations || []).forEach((op, i) => {
+    const oy = 100 + i * 50;
+    const node = add({ id: nid(`operation:${op.id}`), type: 'sugarshack-operation', z: o, name: '', interlock: interlock.id, operation: op.id, x: 520, y: oy, wires: [[nid('debug:manual-ops')]] });
+    inject(o, `operation:${op.id}`, `${op.id} ${op.description || ''} (${op.resources.join('+')})`.trim(), { topic: `manual ${op.id}` }, 230, oy, node.id);
+  });
+  debug(o, 'manual-ops', 'completed', 780, 100, true);
+  add({ id: nid('catch:ops'), type: 'catch', z: o, name: '', scope: null, uncaught: false, x: 560, y: 160, wires: [[nid('debug:ops-faults')]] });
+  debug(o, 'ops-faults', 'faults and refusals', 790, 160, true);
+
+  // ---- faults and clearing ----------------------------------------------------
+  const f = TABS.faults;
+  comment(f, '1. Inject a fault into the simulator', 'The simulator listens on sim/control (scripts/simulator/README.md). A stuck valve makes the next command to it fail: the operation faults, its lines lock out, the other lines go on.', 230, 40);
+  const sim = add({ id: nid('sim-control'), type: 'mqtt out', z: f, name: 'sim/control', topic: 'sim/control', qos: '1', retain: 'false', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker: broker.id, x: 560, y: 140, wires: [] });
+  const faults = [
+    ['stuck V101 (YEL)', { fault: 'stuck', actuator: 'V101' }],
+    ['stuck V501 (RED)', { fault: 'stuck', actuator: 'V501' }],
+    ['station-3 dead (sensors stale)', { fault: 'dead', device: 'station-3' }],
+    ['clear simulator faults', { fault: 'clear' }],
+  ];
+  faults.forEach(([name, payload], i) => inject(f, `fault:${name}`, name, { payload: JSON.stringify(payload), payloadType: 'json' }, 250, 100 + i * 40, sim.id));
+  add({ id: nid('sim-result'), type: 'mqtt in', z: f, name: '', topic: 'sim/control/result', qos: '1', datatype: 'auto-detect', broker: broker.id, nl: false, rap: true, rh: 0, inputs: 0, x: 210, y: 280, wires: [[nid('debug:sim-result')]] });
+  debug(f, 'sim-result', 'simulator replies', 480, 280, true);
+
+  comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 340);
+  const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 420, wires: [[nid('debug:cleared')]] });
+  (plant.resources || []).forEach((r, i) => inject(f, `clear:${r.id}`, `clear ${r.id}`, { topic: 'clear' }, 220, 400 + i * 40, clear.id));
+  for (const r of plant.resources || []) {
+    const node = nodes.find((n) => n.id === nid(`inject:clear:${r.id}`));
+    node.props.push({ p: 'resources', v: r.id, vt: 'str' });
+  }
+  debug(f, 'cleared', 'cleared', 760, 420, true);
+  return nodes;
+}
+
+function main() {
+  const plant = JSON.parse(fs.readFileSync(PLANT_FILE, 'utf8'));
+  const text = `${JSON.stringify(build(plant), null, 2)}\n`;
+  if (process.argv.includes('--check')) {
+    const current = fs.existsSync(OUT_FILE) ? fs.readFileSync(OUT_FILE, 'utf8') : '';
+    if (current !== text) {
+      console.error('flows/case-study.json is out of date with flows/plant.json: run node scripts/case-study-flow.js');
+      process.exit(1);
+    }
+    console.log('flows/case-study.json matches flows/plant.json');
+    return;
+  }
+  fs.writeFileSync(OUT_FILE, text);
+  console.log(`case-study-flow: ${OUT_FILE} (${text.length} bytes)`);
+}
+
+if (require.main === module) main();
+
+module.exports = { build, nid };
