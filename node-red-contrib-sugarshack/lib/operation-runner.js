@@ -42,6 +42,21 @@ function prepareOperation(RED, node, interlock, id) {
 
 const describeStep = (step, i) => `step ${i + 1} (${step.kind === 'returnToIdle' ? 'return to idle' : step.kind})`;
 
+/**
+ * Sends lockout commands ([{ resource, command }]) through the plant's actuators
+ * nodes; a lockout that cannot complete is reported on `node`.
+ */
+function issueLockouts(node, plant, lockouts, operation = null) {
+  const faultAtMs = Date.now();
+  for (const { resource, command } of lockouts) {
+    const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
+    const done = (err) => {
+      if (err) node.error(`lockout of ${resource} did not complete: ${err.message}`);
+    };
+    if (plant.state === 'ready') plant.submit(node, done, (rt) => rt.command({ node, msg: carrier, send: () => {}, done }));
+  }
+}
+
 class OperationRun {
   /** prepared: from prepareOperation; msg: carries msg.interlock and msg.command as the steps go. */
   constructor({ node, interlock, prepared, msg, onStep = () => {} }) {
@@ -166,14 +181,7 @@ class OperationRun {
       this.node.error(`cannot fault operation '${this.id}' at the interlock: ${err.message}`);
       return [];
     }
-    const faultAtMs = Date.now();
-    for (const { resource, command } of lockouts) {
-      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation: this.id, faultAtMs };
-      const done = (err) => {
-        if (err) this.node.error(`lockout of ${resource} did not complete: ${err.message}`);
-      };
-      if (this.plant.state === 'ready') this.plant.submit(this.node, done, (rt) => rt.command({ node: this.node, msg: carrier, send: () => {}, done }));
-    }
+    issueLockouts(this.node, this.plant, lockouts, this.id);
     return lockouts;
   }
 
@@ -190,4 +198,4 @@ class OperationRun {
   }
 }
 
-module.exports = { OperationRun, prepareOperation, plantOf, describeStep };
+module.exports = { OperationRun, prepareOperation, plantOf, describeStep, issueLockouts };

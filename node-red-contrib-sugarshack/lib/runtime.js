@@ -228,6 +228,10 @@ class InterlockRuntime {
     return targets;
   }
 
+  faultedResources() {
+    return this.il.faultedResources();
+  }
+
   /** An acquire node is closing: withdraw its waiting requests and complete their msgs. */
   dropNode(node) {
     if (this.state !== 'ready') return;

@@ -2,7 +2,8 @@
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { Condition } = require('../lib/condition');
-const { OperationRun, prepareOperation, plantOf } = require('../lib/operation-runner');
+const { OperationRun, prepareOperation, plantOf, issueLockouts } = require('../lib/operation-runner');
+const { trackFlows, whenFlowsStarted } = require('../lib/flows');
 const { errorStatus, MAX_STATUS_LENGTH } = require('../lib/status');
 const { stats } = require('../lib/stats');
 
@@ -15,6 +16,8 @@ function clip(text) {
 }
 
 module.exports = function (RED) {
+  trackFlows(RED);
+
   function RoutineNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
@@ -102,6 +105,23 @@ module.exports = function (RED) {
       });
     }
 
+    /** Its operation did not finish before the restart: its lines lock out until a person clears them. */
+    function lockOutInterrupted(operation) {
+      const { plan, plant } = operations.get(operation);
+      whenFlowsStarted(RED, () => {
+        if (closed || interlock.state !== 'ready') return;
+        // A persisted interlock restored them faulted and sent their lockouts already.
+        const faulted = new Set(interlock.faultedResources());
+        if (plan.resources.every((r) => faulted.has(r))) return;
+        try {
+          const lockouts = interlock.faultResources(plan.resources, `operation '${operation}' of routine '${id}' was interrupted by a restart`);
+          issueLockouts(node, plant, lockouts, operation);
+        } catch (err) {
+          node.error(`cannot lock out the lines of interrupted operation '${operation}': ${err.message}`);
+        }
+      });
+    }
+
     function checkConditions() {
       if (!ready || closed || run) return;
       const now = Date.now();
@@ -150,6 +170,7 @@ module.exports = function (RED) {
               lastFault = true;
               save();
               emit('interrupted', { operation: moved.operation, from: moved.from, to: moved.to });
+              lockOutInterrupted(moved.operation);
             }
           } catch (e) {
             node.warn(`routine '${id}': the saved state does not fit the routine any more (${e.message}); starting in its initial state`);

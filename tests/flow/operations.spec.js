@@ -4,9 +4,12 @@
 // lockout -> blocked -> clear -> resumes, C1 and C2 refusals, stale sensors,
 // a routine stepping through its states with one pending operation.
 const assert = require('node:assert/strict');
+const fs = require('fs');
+const os = require('os');
+const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  paletteNodes, catchNode, linkNodes, TAB, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+  paletteNodes, catchNode, linkNodes, TAB, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -50,8 +53,8 @@ function plantDocument() {
 
 const SINKS = ['mqtt', 'ev', 'out', 'caught', 'events', 'rt', 'w'];
 
-async function start(extra = [], doc = plantDocument()) {
-  await helper.load([...paletteNodes, catchNode, linkNodes], [
+function flowOf(extra, doc) {
+  return [
     TAB,
     { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
     { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
@@ -60,7 +63,15 @@ async function start(extra = [], doc = plantDocument()) {
     { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
     ...SINKS.map(sinkNode),
     ...extra,
-  ]);
+  ];
+}
+
+async function start(extra = [], doc = plantDocument()) {
+  await helper.load([...paletteNodes, catchNode, linkNodes], flowOf(extra, doc));
+  return collectAll();
+}
+
+function collectAll() {
   const seen = {};
   for (const id of SINKS) seen[id] = collect(helper, id);
   return seen;
@@ -236,5 +247,67 @@ describe('sugarshack operations and routines', function () {
     ]);
     const saved = await new Promise((resolve) => helper.getNode('r').context().get('routine', (err, v) => resolve(v)));
     assert.equal(saved.state, trail.at(-1)[2]);
+  });
+
+  it('a restart while a routine waits for its operation: the routine comes back in its error state and the lines lock out', async function () {
+    const contextModule = require(require.resolve('@node-red/runtime/lib/nodes/context', { paths: [path.dirname(require.resolve('node-red'))] }));
+    const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-routine-'));
+    helper.settings({ contextStorage: { default: { module: 'localfilesystem', config: { dir, flushInterval: 0 } } } });
+    const loadStores = () => contextModule.load();
+    const routine = { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', store: 'default', wires: [['rt']] };
+    try {
+      await helper.load([...paletteNodes, catchNode, linkNodes, loadStores], flowOf([routine], plantDocument()));
+      let seen = collectAll();
+      fakePanel(seen);
+      await until(() => statusOf('r') && statusOf('r').text === 'empty', 'the routine ready');
+      helper.getNode('r').receive({ topic: 'load' });
+      await until(() => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command'), 'op 10 running (pump on)');
+      await helper.unload();
+      await contextModule.close();
+
+      const delivered = trackDeliveries();
+      await helper.load([...paletteNodes, catchNode, linkNodes, loadStores], flowOf([routine], plantDocument()));
+      seen = collectAll();
+      const to = (id) => delivered.filter((d) => d.nodeId === id).map((d) => d.msg);
+      await until(() => to('rt').length > 0, 'the restarted routine reporting');
+      const [first] = to('rt');
+      assert.deepEqual([first.payload.event, first.payload.operation, first.payload.state], ['interrupted', '10', 'fault']);
+      // The interlock is not persisted here: the routine faults the lines of its interrupted operation, and their lockouts go out.
+      const lockouts = () => to('mqtt').filter((m) => m.retain);
+      await until(() => lockouts().length === 3, 'the lockout of YEL');
+      assert.deepEqual(lockouts().map((m) => [m.topic, m.payload]).sort(),
+        [['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0']]);
+      assert.deepEqual(helper.getNode('il').runtime.faultedResources(), ['YEL']);
+      const saved = await new Promise((resolve) => helper.getNode('r').context().get('routine', (err, v) => resolve(v)));
+      assert.deepEqual(saved, { routine: 'truck', state: 'fault', pending: null, halted: false });
+    } finally {
+      await helper.unload();
+      await contextModule.close();
+      helper.settings({});
+      fs.rmSync(dir, { recursive: true, force: true });
+    }
+  });
+
+  it('a broken plant document is refused at deploy with every problem named, and its nodes refuse msgs', async function () {
+    const doc = plantDocument();
+    doc.operations[2].steps[0].command.valves.V999 = 100; // unknown actuator
+    doc.operations[1].steps[0].command.valves.V501 = 100; // C2: op 12 holds YEL only
+    doc.routines.push({ id: 'other', states: ['a'], initial: 'a', transitions: [{ from: 'a', to: 'a', operation: '10', trigger: { msg: 'go' } }] }); // C1
+    doc.operations[0].steps[2].sensors = ['LT-9']; // unknown sensor
+    doc.actuators[0].idle = undefined; // C3: V101 is commanded by op 10
+    const seen = await start([operationNode('op10', '10')], doc);
+    const [message] = helper.getNode('pl').error.getCalls().filter((c) => c.thisValue.id === 'pl').map((c) => String(c.args[0]));
+    for (const expected of [
+      "operations[2] (18).steps[0]: unknown actuator 'V999'",
+      "operations[1] (12).steps[0]: C2: commands 'V501' on resource 'RED', outside the operation's resources (YEL)",
+      "routines[1] (other).transitions[0]: C1: operation '10' already belongs to routine 'truck'",
+      "operations[0] (10).steps[2]: unknown sensor 'LT-9'",
+      "operations[0] (10).steps[0]: C3: commands 'V101', which has no idle state to return to",
+    ]) assert.ok(message.includes(expected), `${expected}\nin: ${message}`);
+    assert.equal(statusOf('op10').text, 'plant invalid');
+    helper.getNode('op10').receive({ topic: 'go' });
+    await until(() => seen.caught.length === 1, 'the refusal');
+    assert.equal(seen.caught[0].error.code, 'INVALID_PLANT');
+    assert.equal(seen.mqtt.length, 0);
   });
 });

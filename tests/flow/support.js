@@ -76,11 +76,20 @@ function trackCompletions() {
   return completions;
 }
 
+/** Records every msg a node receives, across redeploys: [{ nodeId, msg }]. */
+function trackDeliveries() {
+  const deliveries = [];
+  hooks.add('onReceive.sugarshack-test', (event) => {
+    deliveries.push({ nodeId: event.destination.id, msg: event.msg });
+  });
+  return deliveries;
+}
+
 function untrackCompletions() {
   hooks.remove('*.sugarshack-test');
 }
 
 module.exports = {
   PALETTE, paletteNodes, catchNode, linkNodes, LINES, lockoutOf, TAB,
-  interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+  interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
 };
