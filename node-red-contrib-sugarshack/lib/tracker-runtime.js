@@ -55,6 +55,7 @@ class TrackerRuntime {
       return;
     }
     this.index();
+    for (const warning of this.t.warnings()) this.owner.warn(`plant document: ${warning}`);
     this.state = 'ready';
     this.tickTimer = setInterval(() => this.tick(), TICK_MS);
     this.refreshStatus();

@@ -63,7 +63,8 @@ module.exports = function (RED) {
           return;
         }
         msg.operation = e.operation || { id: prepared.plan.id };
-        node.status(e.operation ? { fill: 'red', shape: 'dot', text: `fault at ${e.operation.step + 1}/${total}` } : errorStatus(e.code));
+        const where = e.operation && (e.operation.kind === 'release' ? 'release' : `${e.operation.step + 1}/${total}`);
+        node.status(e.operation ? { fill: 'red', shape: 'dot', text: `fault at ${where}` } : errorStatus(e.code));
         done(e);
       });
     });

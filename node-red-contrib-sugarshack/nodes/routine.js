@@ -97,6 +97,14 @@ module.exports = function (RED) {
           if (e.operation) node.warn(e.message);
           return; // the saved state keeps it pending: the next start counts it as faulted
         }
+        if (!e.operation) {
+          // Refused before the grant (already running, queue full...): nothing ran, nothing locked out.
+          machine.refused();
+          save();
+          const out = emit('refused', { operation: d.operation, error: { code: e.code, message: e.message } });
+          node.error(e, out);
+          return;
+        }
         const moved = machine.faulted();
         lastFault = true;
         save();

@@ -1,91 +1,227 @@
 'use strict';
-// Runs the shipped example flow (with its work delays shortened) and checks
-// what its comments tell the user to watch.
+// Runs the shipped example flows (work delays shortened, MQTT replaced by
+// helper nodes fed as mqtt in delivers) and checks what their comments tell
+// the user to watch.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
-const { PALETTE, paletteNodes, catchNode, until } = require('./support');
+const {
+  PALETTE, paletteNodes, catchNode, linkNodes, sleep, until,
+} = require('./support');
 
 helper.init(require.resolve('node-red'));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-delay.js']
+const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-delay.js', 'function/15-change.js']
   .map((f) => require(path.join(coreNodesDir, 'core', f)));
 const EXAMPLES = path.join(PALETTE, 'examples');
 const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
+// The helper loads the core catch node once per catch node in the flow; the
+// examples have several, so while these tests run it is registered once per load.
+const loadedCatch = new WeakSet();
+function catchOnce(RED) {
+  if (loadedCatch.has(RED)) return undefined;
+  loadedCatch.add(RED);
+  return catchNode(RED);
+}
+const NODE_MODULES = [...paletteNodes, catchOnce, linkNodes, ...coreNodes];
+let helperCatch = null;
 
-/** The example with debug nodes as helper nodes and each second of work as 20 ms. */
-function exampleFlow(policy) {
-  const flow = JSON.parse(fs.readFileSync(path.join(EXAMPLES, 'interlock-yel-contention.json'), 'utf8'));
-  return flow.map((n) => {
-    if (n.type === 'debug') return { id: n.id, z: n.z, type: 'helper', name: n.name };
+function startServer(done) {
+  /* eslint-disable no-underscore-dangle */
+  helperCatch = helper._nodeModules.catch;
+  helper._nodeModules.catch = catchOnce;
+  /* eslint-enable no-underscore-dangle */
+  helper.startServer(done);
+}
+
+async function stopServer() {
+  await helper.unload();
+  await new Promise((resolve) => helper.stopServer(resolve));
+  helper._nodeModules.catch = helperCatch; // eslint-disable-line no-underscore-dangle
+}
+
+const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
+const exampleFiles = () => fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.json')).sort();
+
+/**
+ * An example as the test helper runs it: debug and mqtt out nodes become helper
+ * nodes, mqtt in nodes helper nodes keeping their wires, the broker goes.
+ * `tweak(node)` may return a changed node.
+ */
+function helperFlow(file, tweak = (n) => n) {
+  return readExample(file)
+    .filter((n) => n.type !== 'mqtt-broker')
+    .map((n) => {
+      if (n.type === 'debug' || n.type === 'mqtt out') return { id: n.id, z: n.z, type: 'helper', name: n.name };
+      if (n.type === 'mqtt in') return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires };
+      return tweak(n);
+    });
+}
+
+/** The contention example with each second of work as 20 ms. */
+function contentionFlow(policy) {
+  return helperFlow('interlock-yel-contention.json', (n) => {
     if (n.type === 'delay') return { ...n, timeout: String(Number(n.timeout) * 20), timeoutUnits: 'milliseconds' };
     if (n.type === 'sugarshack-interlock') return { ...n, policy };
     return n;
   });
 }
 
-const byName = (flow, type, name) => flow.find((n) => n.type === type && n.name === name).id;
+const byName = (flow, type, name) => {
+  const node = flow.find((n) => n.type === type && n.name === name);
+  assert.ok(node, `a ${type} named '${name}'`);
+  return node.id;
+};
 const acquireOf = (flow, op) => flow.find((n) => n.type === 'sugarshack-acquire' && n.operation === op).id;
+const ofType = (flow, type) => flow.filter((n) => n.type === type);
 
-describe('example: interlock-yel-contention', function () {
-  beforeEach(function (done) {
-    helper.startServer(done);
-  });
+/** Starts collecting what reaches each named helper node. */
+function watch(flow, names) {
+  const seen = {};
+  for (const name of names) {
+    seen[name] = [];
+    helper.getNode(byName(flow, 'helper', name)).on('input', (m) => seen[name].push(m));
+  }
+  return seen;
+}
 
-  afterEach(async function () {
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
+function errorLogs() {
+  const log = helper.log();
+  return log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR).map((e) => `${e.type} ${e.id}: ${e.msg}`);
+}
+
+/**
+ * The field devices of an example's plant, without a broker: each panel obeys
+ * the commands the actuators node publishes (a valve reaches its target after
+ * `delayMs`) and reports its state batch; each sensor reports the value set with
+ * `sensor(id, value)`. Everything is re-sent every 200 ms, so nothing goes stale.
+ */
+function fakeField(flow, { delayMs = 20 } = {}) {
+  const plant = flow.find((n) => n.type === 'sugarshack-plant').plant;
+  const bus = () => helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+  const panels = {};
+  for (const a of plant.actuators) {
+    panels[a.device] = panels[a.device] || {};
+    panels[a.device][a.type] = panels[a.device][a.type] || {};
+    panels[a.device][a.type][a.io] = a.idle;
+  }
+  const sensors = Object.fromEntries((plant.sensors || []).map((s) => [s.id, { ...s, value: undefined }]));
+  const timers = new Set();
+  const report = (device) => bus()?.receive({ topic: `${device}/state`, payload: { ts: Date.now(), ...panels[device] } });
+  const publishSensor = (s) => {
+    if (s.value !== undefined) bus()?.receive({ topic: `${s.device}/sensor/${s.name}/state`, payload: { ts: Date.now(), value: s.value } });
+  };
+  const commands = helper.getNode(byName(flow, 'helper', 'device commands'));
+  commands.on('input', (msg) => {
+    const [device, type, io] = msg.topic.split('/');
+    if (msg.payload === '') return; // a retained lockout being cleared
+    const value = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
+    const t = setTimeout(() => {
+      timers.delete(t);
+      panels[device][type][io] = value;
+      report(device);
+    }, delayMs);
+    timers.add(t);
   });
+  const devices = [...new Set(plant.devices.map((d) => d.id))];
+  for (const d of devices) bus().receive({ topic: `${d}/status`, payload: 'online', retain: true });
+  const tick = () => {
+    for (const d of Object.keys(panels)) report(d);
+    for (const s of Object.values(sensors)) publishSensor(s);
+  };
+  tick();
+  const interval = setInterval(tick, 200);
+  return {
+    sensor(id, value) {
+      sensors[id].value = value;
+      publishSensor(sensors[id]);
+    },
+    stop() {
+      clearInterval(interval);
+      for (const t of timers) clearTimeout(t);
+    },
+  };
+}
+
+/** The last status a node set (the status spy is shared by every node). */
+const statusOf = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]).at(-1);
+
+const commandsOf = (msgs) => msgs.map((m) => [m.topic, m.payload]);
+
+describe('examples', function () {
+  beforeEach(startServer);
+  afterEach(stopServer);
 
   it('every example flow uses only configured nodes, and together they use every node type', function () {
     const pkg = JSON.parse(fs.readFileSync(path.join(PALETTE, 'package.json'), 'utf8'));
-    const files = fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.json'));
     const used = new Set();
-    for (const file of files) {
-      const flow = JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
+    const ids = new Map();
+    for (const file of exampleFiles()) {
+      const flow = readExample(file);
       // Each node of the palette names its config node (interlock or plant) through the property of that name.
       const configs = new Map(flow.filter((n) => CONFIG_TYPES[n.type]).map((n) => [n.id, n.type]));
       for (const n of flow) {
         used.add(n.type);
+        assert.match(n.id, /^[0-9a-f]{16}$/, `${file}: node id ${n.id} is 16 hex digits, as Node-RED exports them`);
+        assert.ok(!ids.has(n.id), `${file}: node id ${n.id} is also used in ${ids.get(n.id)}`);
+        ids.set(n.id, file);
         if (n.type.startsWith('sugarshack-') && !CONFIG_TYPES[n.type]) {
           const property = n.interlock !== undefined ? 'interlock' : 'plant';
           assert.equal(configs.get(n[property]), `sugarshack-${property}`, `${file}: ${n.type} ${n.id} has its ${property} in the file`);
         }
+        if (n.type === 'sugarshack-interlock' && n.plant) {
+          assert.equal(configs.get(n.plant), 'sugarshack-plant', `${file}: interlock ${n.id} has its plant in the file`);
+        }
         for (const [key, value] of Object.entries(n)) {
           if (key === 'broker' && n.type !== 'mqtt-broker') assert.ok(flow.some((c) => c.id === value && c.type === 'mqtt-broker'), `${file}: ${n.id} has its broker in the file`);
         }
+        if (n.type === 'link call') {
+          for (const target of n.links) assert.ok(flow.some((c) => c.id === target && c.type === 'link in'), `${file}: link call ${n.id} calls a link in of the file`);
+        }
+        if (n.type === 'catch' && Array.isArray(n.scope)) {
+          for (const target of n.scope) assert.ok(flow.some((c) => c.id === target), `${file}: catch ${n.id} watches a node of the file`);
+        }
+        if (n.z) assert.ok(flow.some((c) => c.id === n.z && c.type === 'tab'), `${file}: ${n.id} is on a tab of the file`);
       }
     }
     const types = Object.keys(pkg['node-red'].nodes).map((set) => `sugarshack-${set}`);
     for (const type of types) assert.ok(used.has(type), `${type} appears in an example`);
   });
 
+  for (const file of exampleFiles()) {
+    it(`${file} deploys without an error, every plant document valid`, async function () {
+      const flow = helperFlow(file);
+      await helper.load(NODE_MODULES, flow);
+      await sleep(300);
+      assert.deepEqual(errorLogs(), []);
+      for (const p of ofType(flow, 'sugarshack-plant')) assert.equal(helper.getNode(p.id).runtime.state, 'ready', `plant ${p.name}`);
+      for (const il of ofType(flow, 'sugarshack-interlock')) assert.equal(helper.getNode(il.id).runtime.state, 'ready', `interlock ${il.name}`);
+    });
+  }
+});
+
+describe('example: interlock-yel-contention', function () {
+  beforeEach(startServer);
+  afterEach(stopServer);
+
   for (const [policy, order] of [['greedy', ['10', '51', '12', '18']], ['no-overtaking', ['10', '18', '12', '51']]]) {
     it(`"start all" grants in the order the comment describes (${policy})`, async function () {
-      const flow = exampleFlow(policy);
-      await helper.load([...paletteNodes, catchNode, ...coreNodes], flow);
-      const granted = [];
-      const returned = [];
-      const refusals = [];
-      helper.getNode(byName(flow, 'helper', 'granted')).on('input', (m) => granted.push(m.interlock.operation));
-      helper.getNode(byName(flow, 'helper', 'returned')).on('input', (m) => returned.push(m.interlock.operation));
-      helper.getNode(byName(flow, 'helper', 'refusals')).on('input', (m) => refusals.push(m.error));
+      const flow = contentionFlow(policy);
+      await helper.load(NODE_MODULES, flow);
+      const seen = watch(flow, ['granted', 'returned', 'refusals']);
       helper.getNode(byName(flow, 'inject', 'start all')).receive({});
-      await until(() => returned.length === 4, 'all four operations to return');
-      assert.deepEqual(granted, order);
-      assert.deepEqual(refusals, []);
+      await until(() => seen.returned.length === 4, 'all four operations to return');
+      assert.deepEqual(seen.granted.map((m) => m.interlock.operation), order);
+      assert.deepEqual(seen.refusals, []);
     });
   }
 
   it('fault op 12 locks YEL out, refuses its release, and clear resumes the queue', async function () {
-    const flow = exampleFlow('greedy');
-    await helper.load([...paletteNodes, catchNode, ...coreNodes], flow);
-    const seen = { granted: [], returned: [], refusals: [], 'lockout commands': [], cleared: [] };
-    for (const name of Object.keys(seen)) {
-      helper.getNode(byName(flow, 'helper', name)).on('input', (m) => seen[name].push(m));
-    }
+    const flow = contentionFlow('greedy');
+    await helper.load(NODE_MODULES, flow);
+    const seen = watch(flow, ['granted', 'returned', 'refusals', 'lockout commands', 'cleared']);
     helper.getNode(byName(flow, 'inject', 'start op 12 (unload truck)')).receive({});
     await until(() => seen.granted.length === 1, 'op 12 granted');
     helper.getNode(byName(flow, 'inject', 'fault op 12')).receive({});
@@ -105,5 +241,196 @@ describe('example: interlock-yel-contention', function () {
     await until(() => seen.granted.length === 3, 'op 10 granted after the clear');
     assert.deepEqual(seen.cleared[0].cleared, ['YEL']);
     assert.equal(seen.granted[2].interlock.operation, '10');
+  });
+});
+
+describe('example: operation-subflow', function () {
+  const FILE = 'operation-subflow.json';
+  let field = null;
+
+  beforeEach(startServer);
+
+  afterEach(async function () {
+    field?.stop();
+    field = null;
+    await stopServer();
+  });
+
+  /** The example with its interlock not persisted (no state carried between tests) and `waitS` as the condition's timeout. */
+  async function start({ waitS } = {}) {
+    const flow = helperFlow(FILE, (n) => {
+      if (n.type === 'sugarshack-interlock') return { ...n, persist: false };
+      if (n.type === 'sugarshack-wait' && waitS) return { ...n, timeout: waitS };
+      return n;
+    });
+    await helper.load(NODE_MODULES, flow);
+    const seen = watch(flow, ['op 12 returned', 'device commands', 'command errors', 'faulted', 'lockout done',
+      'refused calls', 'cleared', 'interlock events']);
+    field = fakeField(flow);
+    return { flow, seen };
+  }
+
+  it('op 12 runs from its link call: acquire, commands through the shared block, condition, back to idle, release, return', async function () {
+    const { flow, seen } = await start();
+    field.sensor('LT-3', 0);
+    const sent = seen['device commands'].length;
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await until(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
+    const back = seen['op 12 returned'][0];
+    assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
+    assert.deepEqual(back.interlock.resources, ['YEL']);
+    assert.equal(back.interlock.operation, '12');
+    assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
+      ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
+      ['ctrl-1/pump/1/command', 'ON'],
+      ['ctrl-1/pump/1/command', 'OFF'],
+      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
+    ]);
+    const kinds = seen['interlock events'].map((m) => m.payload.kind);
+    assert.deepEqual(kinds.filter((k) => k === 'granted' || k === 'released'), ['granted', 'released']);
+    for (const name of ['command errors', 'faulted', 'refused calls']) assert.deepEqual(seen[name], [], name);
+
+    // C1: while op 12 holds YEL, a second call is refused at the acquire node, not faulted.
+    field.sensor('LT-3', 5000);
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await until(() => seen['interlock events'].filter((m) => m.payload.kind === 'granted').length === 2, 'the second grant');
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await until(() => seen['refused calls'].length === 1, 'the refused second call');
+    assert.equal(seen['refused calls'][0].error.code, 'ALREADY_HOLDING');
+    assert.deepEqual(seen.faulted, []);
+    field.sensor('LT-3', 0);
+    await until(() => seen['op 12 returned'].length === 2, 'the first call to return');
+    await sleep(100);
+    assert.equal(seen['op 12 returned'].length, 2, 'the refused call does not return');
+
+    // e-stop RED: RED's lockout, retained, derived from the plant's RED actuators.
+    helper.getNode(byName(flow, 'inject', 'e-stop RED')).receive({});
+    await until(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    assert.equal(seen['lockout done'][0].topic, 'lockout/RED');
+    const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
+    assert.deepEqual(retained.map((m) => m.topic).sort(), [
+      'ctrl-5/pump/1/command', 'ctrl-5/valve/1/command', 'ctrl-5/valve/2/command', 'ctrl-5/valve/3/command']);
+  });
+
+  it('a condition that does not hold in time faults op 12 through the Catch: YEL locks out, blocks op 12 until cleared', async function () {
+    const { flow, seen } = await start({ waitS: 0.3 });
+    field.sensor('LT-3', 5000);
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await until(() => seen.faulted.length === 1, 'the fault');
+    assert.equal(seen.faulted[0].error.code, 'CONDITION_TIMEOUT');
+    assert.match(seen.faulted[0].error.message, /`LT-3` < 50 did not hold within 0.3 s/);
+    await until(() => seen['lockout done'].length === 1, 'the YEL lockout to complete');
+    const lockout = seen['lockout done'][0];
+    assert.equal(lockout.topic, 'lockout/YEL');
+    assert.ok(lockout.command.faultLockoutMs >= 0);
+    const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
+    assert.deepEqual(retained.map((m) => [m.topic, m.payload]).sort(), [
+      ['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0'],
+      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'],
+    ]);
+
+    // YEL stays faulted: the next call waits at the acquire node until a person clears it.
+    field.sensor('LT-3', 0);
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await sleep(200);
+    assert.equal(seen['op 12 returned'].length, 0, 'op 12 waits on the faulted line');
+    helper.getNode(byName(flow, 'inject', 'clear all faulted')).receive({});
+    await until(() => seen['op 12 returned'].length === 1, 'op 12 after the clear');
+    assert.deepEqual(seen.cleared[0].cleared, ['YEL']);
+    assert.ok(seen['op 12 returned'][0].interlock.waitedMs >= 200);
+    assert.deepEqual(seen['command errors'], []);
+  });
+});
+
+describe('example: operations-and-routines', function () {
+  const FILE = 'operations-and-routines.json';
+  let field = null;
+
+  beforeEach(startServer);
+
+  afterEach(async function () {
+    field?.stop();
+    field = null;
+    await stopServer();
+  });
+
+  async function start() {
+    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-interlock' ? { ...n, persist: false } : n));
+    await helper.load(NODE_MODULES, flow);
+    const seen = watch(flow, ['operation returned', 'routine events', 'errors', 'interlock events', 'device commands']);
+    field = fakeField(flow);
+    return { flow, seen };
+  }
+
+  const inject = (flow, name) => helper.getNode(byName(flow, 'inject', name)).receive({});
+
+  it('the interlock takes YEL and RED with their lockouts from the plant; operations, wait and routine start idle', async function () {
+    const flow = helperFlow(FILE);
+    await helper.load(NODE_MODULES, flow);
+    await sleep(300);
+    assert.deepEqual(errorLogs(), []);
+    const il = helper.getNode(ofType(flow, 'sugarshack-interlock')[0].id).runtime;
+    assert.deepEqual(il.config.resources.map((r) => r.name), ['YEL', 'RED']);
+    assert.deepEqual(il.config.resources[1].lockout.pumps, { P3: false });
+    const plant = ofType(flow, 'sugarshack-plant')[0].plant;
+    for (const op of ofType(flow, 'sugarshack-operation')) assert.ok(plant.operations.some((o) => o.id === op.operation));
+    assert.equal(ofType(flow, 'sugarshack-routine')[0].routine, plant.routines[0].id);
+    const statuses = (type) => ofType(flow, type).map((n) => statusOf(n.id));
+    for (const s of statuses('sugarshack-operation')) assert.deepEqual(s, { fill: 'grey', shape: 'ring', text: 'idle' });
+    assert.deepEqual(statuses('sugarshack-routine'), [{ fill: 'green', shape: 'dot', text: 'empty' }]);
+  });
+
+  it('op 18 from its inject; a second start is refused (C1); drain silo waits for LT-2, then queues behind op 18 on RED', async function () {
+    const { flow, seen } = await start();
+    field.sensor('LT-7', 1000);
+    field.sensor('LT-2', 20000);
+    inject(flow, 'start op 18 (flit downstock)');
+    await until(() => seen['device commands'].some((m) => m.topic === 'ctrl-5/pump/1/command' && m.payload === 'ON'), 'P3 on');
+    inject(flow, 'start op 18 (flit downstock)');
+    await until(() => seen.errors.length === 1, 'the refused second start');
+    assert.equal(seen.errors[0].error.code, 'OPERATION_RUNNING');
+    inject(flow, 'drain silo when LT-2 ≥ 15000 L');
+    await until(() => seen['interlock events'].some((m) => m.payload.kind === 'queued' && m.payload.operation === '51'), 'op 51 queued');
+    field.sensor('LT-7', 200);
+    await until(() => seen['operation returned'].length === 2, 'op 18, then op 51');
+    const [op18, op51] = seen['operation returned'].map((m) => m.operation);
+    assert.equal(op18.id, '18');
+    assert.equal(op51.id, '51');
+    assert.ok(op51.queuedMs > 0, 'op 51 waited for RED');
+    assert.deepEqual(op18.steps.map((s) => s.kind), ['command', 'command', 'wait', 'command', 'returnToIdle']);
+    assert.deepEqual(seen['operation returned'][1].condition.values, { 'LT-2': 20000 });
+    assert.equal(seen.errors.length, 1);
+  });
+
+  it('the truck routine: load runs op 10 to loaded, unload runs op 12 back to empty, one pending operation at a time', async function () {
+    const { flow, seen } = await start();
+    field.sensor('LT-2', 20000);
+    field.sensor('LT-3', 0);
+    inject(flow, 'reset');
+    await until(() => seen['routine events'].length === 1, 'the reset');
+    assert.equal(seen['routine events'][0].payload.to, 'empty');
+    inject(flow, 'load');
+    await until(() => seen['routine events'].length === 2, 'the dispatch of op 10');
+    assert.deepEqual(
+      (({ event, operation, from, to, state, pending }) => ({ event, operation, from, to, state, pending }))(seen['routine events'][1].payload),
+      { event: 'dispatched', operation: '10', from: 'empty', to: 'loaded', state: 'empty', pending: '10' },
+    );
+    inject(flow, 'unload');
+    await until(() => seen.errors.length === 1, 'the trigger refused while op 10 is pending');
+    assert.equal(seen.errors[0].error.code, 'ROUTINE_BUSY');
+    field.sensor('LT-3', 7000);
+    await until(() => seen['routine events'].length === 3, 'op 10 to complete');
+    assert.equal(seen['routine events'][2].payload.event, 'completed');
+    assert.equal(seen['routine events'][2].payload.state, 'loaded');
+    inject(flow, 'unload');
+    await until(() => seen['routine events'].length === 4, 'the dispatch of op 12');
+    field.sensor('LT-3', 0);
+    await until(() => seen['routine events'].length === 5, 'op 12 to complete');
+    assert.deepEqual(seen['routine events'].map((m) => [m.payload.event, m.payload.state]), [
+      ['reset', 'empty'], ['dispatched', 'empty'], ['completed', 'loaded'], ['dispatched', 'loaded'], ['completed', 'empty'],
+    ]);
+    inject(flow, 'unload');
+    await until(() => seen.errors.length === 2, 'no unload from empty');
+    assert.equal(seen.errors[1].error.code, 'NO_TRANSITION');
   });
 });

@@ -249,6 +249,27 @@ describe('sugarshack operations and routines', function () {
     assert.equal(saved.state, trail.at(-1)[2]);
   });
 
+  it('a routine trigger whose operation is already running is refused and the routine stays where it was', async function () {
+    const seen = await start([
+      operationNode('op10', '10'),
+      { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', store: 'default', wires: [['rt']] },
+    ]);
+    fakePanel(seen);
+    await until(() => statusOf('r') && statusOf('r').text === 'empty', 'the routine ready');
+    helper.getNode('op10').receive({ topic: 'manual' });
+    await until(() => seen.mqtt.length > 0, 'op 10 started by hand');
+    helper.getNode('r').receive({ topic: 'load' });
+    await until(() => seen.rt.some((m) => m.payload.event === 'refused'), 'the refusal');
+    const refused = seen.rt.find((m) => m.payload.event === 'refused').payload;
+    assert.deepEqual([refused.operation, refused.state, refused.pending, refused.error.code], ['10', 'empty', null, 'OPERATION_RUNNING']);
+    assert.equal(seen.caught.filter((m) => m.error.code === 'OPERATION_RUNNING').length, 1);
+    sensor(150);
+    await until(() => seen.out.length === 1, 'the manual run completes');
+    helper.getNode('r').receive({ topic: 'load' });
+    await until(() => seen.rt.some((m) => m.payload.event === 'completed'), 'the routine runs it now');
+    assert.equal(seen.events.filter((e) => e.payload.kind === 'faulted').length, 0, 'nothing was faulted');
+  });
+
   it('a restart while a routine waits for its operation: the routine comes back in its error state and the lines lock out', async function () {
     const contextModule = require(require.resolve('@node-red/runtime/lib/nodes/context', { paths: [path.dirname(require.resolve('node-red'))] }));
     const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-routine-'));

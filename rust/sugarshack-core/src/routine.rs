@@ -336,6 +336,13 @@ impl RoutineMachine {
         })
     }
 
+    /// The pending operation was refused before it ran (the interlock refused its
+    /// request, or it was already running elsewhere): nothing moved, the routine
+    /// stays where it was and may dispatch again.
+    pub fn refused(&mut self) -> Result<(), RoutineError> {
+        self.take_pending().map(|_| ())
+    }
+
     /// The pending operation faulted: go to the error state, or halt where it is.
     pub fn faulted(&mut self) -> Result<Moved, RoutineError> {
         let t = self.take_pending()?;

@@ -67,6 +67,8 @@ enum Event {
         met: Vec<bool>,
     },
     Complete,
+    /// The dispatched operation was refused before it ran.
+    Refuse,
     Fault,
     Reset,
     Restart,
@@ -78,6 +80,7 @@ fn event() -> impl Strategy<Value = Event> {
         3 => (prop::sample::select(vec![0u64, 999, 1000, 1500, 2500]), prop::collection::vec(any::<bool>(), 4))
             .prop_map(|(gap, met)| Event::Check { gap, met }),
         3 => Just(Event::Complete),
+        1 => Just(Event::Refuse),
         1 => Just(Event::Fault),
         1 => Just(Event::Reset),
         1 => Just(Event::Restart),
@@ -179,6 +182,11 @@ proptest! {
                     (Err(err), None) => prop_assert_eq!(err.code(), "NOT_PENDING"),
                     (got, want) => prop_assert!(false, "complete: got {:?}, model pending {:?}", got, want),
                 },
+                Event::Refuse => {
+                    let had = m.pending.take().is_some();
+                    prop_assert_eq!(r.refused().is_ok(), had);
+                    if had { returned += 1; }
+                }
                 Event::Fault => {
                     let had = m.pending.is_some();
                     prop_assert_eq!(r.faulted().is_ok(), had);

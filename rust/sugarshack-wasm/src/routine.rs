@@ -93,6 +93,11 @@ impl Routine {
         to_js(&moved)
     }
 
+    /// The dispatched operation was refused before it ran: the routine stays where it was.
+    pub fn refused(&mut self) -> Result<(), JsValue> {
+        self.core.refused().map_err(routine_error)
+    }
+
     pub fn faulted(&mut self) -> Result<JsValue, JsValue> {
         let moved = self.core.faulted().map_err(routine_error)?;
         to_js(&moved)

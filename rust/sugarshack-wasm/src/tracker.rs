@@ -102,6 +102,15 @@ impl Tracker {
         })
     }
 
+    /// What the plant document holds that is legal but probably unintended (duplicate priorities...).
+    pub fn warnings(&self) -> Vec<String> {
+        self.core
+            .plant()
+            .validate()
+            .map(|warnings| warnings.iter().map(ToString::to_string).collect())
+            .unwrap_or_default()
+    }
+
     pub fn actuator(&self, name: &str) -> Result<u32, JsValue> {
         self.core
             .actuator(name)

@@ -164,3 +164,19 @@ fn the_plant_configures_an_interlock_with_derived_lockouts() {
         r#"[{"name":"YEL","lockout":{"valves":{"V1":0}}},{"name":"RED","lockout":{"valves":{"V9":0}}}]"#
     );
 }
+
+#[wasm_bindgen_test]
+fn plant_warnings_are_listed() {
+    assert!(tracker().warnings().is_empty());
+    let doubled = PLANT.replace(
+        r#""id": "51", "priority": 1"#,
+        r#""id": "51", "priority": 20"#,
+    );
+    let t = Tracker::new(json(&doubled), 0.0).unwrap();
+    assert_eq!(t.warnings().len(), 1);
+    assert!(
+        t.warnings()[0].contains("priority 20 is also operation '10''s"),
+        "{:?}",
+        t.warnings()
+    );
+}

@@ -216,3 +216,14 @@ fn the_operations_of_a_routine_are_listed_once() {
     let conditions: Vec<usize> = r.conditions().iter().map(|c| c.0).collect();
     assert_eq!(conditions, vec![1, 2]);
 }
+
+#[test]
+fn a_dispatch_refused_before_it_ran_leaves_the_state_unchanged() {
+    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
+    r.on_msg("load").unwrap();
+    r.refused().unwrap();
+    assert_eq!((r.state(), r.pending(), r.halted()), ("empty", None, false));
+    assert_eq!(r.on_msg("load").unwrap().operation, "10");
+    r.completed().unwrap();
+    assert_eq!(r.refused().is_ok(), false);
+}
