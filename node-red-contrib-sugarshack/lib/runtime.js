@@ -7,7 +7,7 @@ const { PendingRegistry } = require('./pending');
 const { deliver, grantedBy, routeGrants } = require('./grants');
 const { EventFanout, describeWarning } = require('./events');
 const { countsStatus, errorStatus, StatusBoard } = require('./status');
-const { timeLayer } = require('./stats');
+const { stats, timeLayer } = require('./stats');
 
 const TICK_MS = 1000;
 
@@ -33,6 +33,7 @@ class InterlockRuntime {
     this.statusBoard = new StatusBoard();
     this.tickTimer = null;
     this.flushScheduled = null;
+    this.unsaved = false; // a state change not yet saved
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -102,6 +103,7 @@ class InterlockRuntime {
     this.tickTimer = null;
     this.flushScheduled = null;
     for (const task of this.waiting.splice(0)) task.abandon();
+    if (wasReady) this.flushEvents(); // what happened before the close, still unpublished
     if (!wasReady) {
       await this.persistence?.flush().catch(() => {});
       return;
@@ -279,16 +281,19 @@ class InterlockRuntime {
     ));
   }
 
-  /** After every state change: send granted msgs, save, publish events, update status. */
+  /**
+   * After every state change: send granted msgs and update status now; save and
+   * publish events once per turn of the event loop, however many calls it held.
+   */
   settle(grants, now) {
     try {
       routeGrants(this.il, this.pending, grants, { nowMs: now, warn: (text) => this.owner.warn(text) });
     } catch (err) {
       this.owner.error(`cannot route grants: ${err.message || err}`);
     }
-    if (this.persistence) this.persistQuietly(now);
-    this.flushEvents();
     this.refreshStatus();
+    this.unsaved = true;
+    this.scheduleFlush();
   }
 
   persist(now) {
@@ -309,8 +314,14 @@ class InterlockRuntime {
     if (this.flushScheduled || this.state !== 'ready') return;
     this.flushScheduled = setImmediate(() => {
       this.flushScheduled = null;
-      if (this.state === 'ready') this.flushEvents();
+      if (this.state === 'ready') stats.time('interlock', () => this.flush());
     });
+  }
+
+  flush() {
+    if (this.persistence && this.unsaved) this.persistQuietly(Date.now());
+    this.unsaved = false;
+    this.flushEvents();
   }
 
   flushEvents() {

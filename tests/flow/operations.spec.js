@@ -158,7 +158,7 @@ describe('sugarshack operations and routines', function () {
     await until(() => seen.mqtt.filter((m) => m.retain).length === 3, 'the lockout publishes');
     assert.deepEqual(seen.mqtt.filter((m) => m.retain).map((m) => [m.topic, m.payload]).sort(),
       [['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0']]);
-    assert.equal(seen.events.filter((e) => e.payload.kind === 'faulted').length >= 1, true);
+    await until(() => seen.events.some((e) => e.payload.kind === 'faulted'), 'the faulted event');
 
     helper.getNode('op12').receive({ topic: 'unload' });
     await sleep(100);
