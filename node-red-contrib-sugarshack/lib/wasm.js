@@ -17,7 +17,92 @@ function load() {
     }
     throw err;
   }
+  prime(bindings);
   return bindings;
+}
+
+// Every facade call once on a throwaway plant and interlock: V8 compiles wasm
+// functions and their JS glue on first use, which costs milliseconds; a plant's
+// first fault, clear or restore should not pay that.
+const PRIMER_PLANT = {
+  actuatorTypes: {
+    valve: { signal: 'analog', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
+    pump: { signal: 'binary', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
+  },
+  devices: [{ id: 'p', kind: 'actuator-panel' }, { id: 's', kind: 'sensor-station' }],
+  actuators: [
+    { id: 'V', type: 'valve', device: 'p', io: 1, idle: 0, lockout: 0, resource: 'A' },
+    { id: 'P', type: 'pump', device: 'p', io: 1, idle: false, lockout: false, resource: 'A' },
+  ],
+  sensors: [{ id: 'L', device: 's', name: 'level' }],
+  resources: [{ id: 'A' }, { id: 'B', lockout: { valves: {} } }],
+  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'true', sensors: ['L'], timeoutMs: 1000 }] }],
+  routines: [{ id: 'r', states: ['x', 'y'], initial: 'x', errorState: 'y', transitions: [
+    { from: 'x', to: 'y', operation: 'o', trigger: { msg: 'go' } },
+    { from: 'y', to: 'x', operation: 'o', trigger: { when: 'true', sensors: ['L'], everyMs: 1 } },
+  ] }],
+};
+
+function prime({ Interlock, Tracker }) {
+  const t = new Tracker(PRIMER_PLANT, 0);
+  const config = { resources: t.interlockResources(), policy: 'greedy', recordEvents: true, warnQueuedMs: 1, warnHeldMs: 1 };
+  const il = new Interlock(config);
+  const [a, b] = [il.operation('a'), il.operation('b')];
+  const [setA, setAB] = [il.resourceSet(['A']), il.resourceSet(['A', 'B'])];
+  il.acquire(a, 1, setA, 0);
+  il.acquire(b, 2, setAB, 1);
+  il.queuedOperations();
+  il.tick(5);
+  il.cancel(b, 6);
+  il.acquire(b, 2, setAB, 7);
+  for (let i = il.release(a, 8); i > 0; i--) il.granted(i - 1);
+  il.findOperation('b');
+  il.operationName(b);
+  il.fault(b, 'primer', 9);
+  il.faultResources(il.resourceSet(['B']), 'primer', 10);
+  il.faultedResources();
+  il.counts();
+  const restored = Interlock.restore(config, il.snapshot(11), false, 11);
+  restored.clear(restored.resourceSet(restored.faultedResources()), 12);
+  restored.drainEvents();
+  il.drainEvents();
+  restored.free();
+  il.free();
+
+  const v = t.actuator('V');
+  t.deviceStatus(t.device('p'), true, 0);
+  t.command({ valves: { V: 100 } }, 1, false, 0, ['A']);
+  t.feedback(v, 50, 0, 100);
+  t.feedbackBatch(Uint32Array.of(v), Float64Array.of(100), 200, 200);
+  t.command({ valves: { V: 0 } }, 2, true, 300);
+  t.withdraw(2);
+  t.tick(400);
+  t.takeEffects();
+  t.counts();
+  t.phase(v);
+  t.position(v);
+  t.slot(0, 'valve', 1);
+  t.actuators();
+  t.devices();
+  t.warnings();
+  t.operationPlan('o');
+  const sensor = t.sensor('L');
+  t.sensorSlot('s', 'level');
+  t.recordSensor(sensor, 1, 0, 0);
+  t.readSensors(Uint32Array.of(sensor), 1);
+  const r = t.routine('r');
+  r.conditions();
+  r.onMsg('go');
+  r.completed();
+  r.due(0);
+  r.conditionMet(1);
+  r.faulted();
+  r.reset();
+  r.onMsg('go');
+  r.refused();
+  r.restore(r.snapshot());
+  r.free();
+  t.free();
 }
 
 module.exports = { load };
