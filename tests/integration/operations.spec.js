@@ -401,6 +401,7 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     assert.equal(seen.caught[0].msg.error.code, 'COMMAND_FAILED');
     assert.ok(seen.caught[0].msg.error.message.endsWith(faulted.error.message), seen.caught[0].msg.error.message);
     // The interlock latched YEL under op 10.
+    await until(() => records().some((e) => e.kind === 'faulted'), 'the interlock fault event');
     const faultRecord = records().find((e) => e.kind === 'faulted');
     assert.deepEqual([faultRecord.operation, faultRecord.resources], ['10', ['YEL']]);
 
@@ -423,7 +424,7 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     helper.getNode('clr').receive({ topic: 'clear YEL' });
     await until(() => seen.cleared.length === 1, 'the clear');
     assert.deepEqual(seen.cleared[0].msg.cleared, ['YEL']);
-    assert.ok(records().some((e) => e.kind === 'cleared' && e.resources.includes('YEL')));
+    await until(() => records().some((e) => e.kind === 'cleared' && e.resources.includes('YEL')), 'the cleared event');
     helper.getNode(ROUTINES.truck.node).receive({ topic: 'reset' });
     await until(() => trail('truck').at(-1).event === 'reset', 'the reset');
     assert.deepEqual(
