@@ -30,7 +30,7 @@ function build(plant) {
     complete: 'true', targetType: 'full', statusVal: '', statusType: 'auto', x, y, wires: [],
   });
   const inject = (z, key, name, props, x, y, wire) => add({
-    id: nid(`inject:${key}`), type: 'inject', z, name, props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }],
+    id: nid(`inject:${key}`), type: 'inject', z, name, props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }, ...(props.extra || [])],
     repeat: '', crontab: '', once: false, onceDelay: 0.1, topic: props.topic || '', payload: props.payload ?? '',
     payloadType: props.payloadType || 'str', x, y, wires: [[wire]],
   });
@@ -110,11 +110,8 @@ function build(plant) {
 
   comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 340);
   const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 420, wires: [[nid('debug:cleared')]] });
-  (plant.resources || []).forEach((r, i) => inject(f, `clear:${r.id}`, `clear ${r.id}`, { topic: 'clear' }, 220, 400 + i * 40, clear.id));
-  for (const r of plant.resources || []) {
-    const node = nodes.find((n) => n.id === nid(`inject:clear:${r.id}`));
-    node.props.push({ p: 'resources', v: r.id, vt: 'str' });
-  }
+  (plant.resources || []).forEach((r, i) => inject(f, `clear:${r.id}`, `clear ${r.id}`,
+    { topic: 'clear', extra: [{ p: 'resources', v: r.id, vt: 'str' }] }, 220, 400 + i * 40, clear.id));
   debug(f, 'cleared', 'cleared', 760, 420, true);
   return nodes;
 }

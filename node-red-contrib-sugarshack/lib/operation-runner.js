@@ -9,17 +9,9 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { Condition } = require('./condition');
 const { stats } = require('./stats');
 
-// Operations running per interlock: C1, one instance of an operation at a time.
-const running = new WeakMap();
-
-function runningOn(interlock) {
-  let map = running.get(interlock);
-  if (!map) {
-    map = new Map();
-    running.set(interlock, map);
-  }
-  return map;
-}
+// C1 (one instance of an operation at a time) is the interlock's rule: it refuses
+// a request of an operation already holding or queued. Here it is only named.
+const ALREADY_RUNNING = new Set(['ALREADY_HOLDING', 'ALREADY_QUEUED']);
 
 /** The plant an interlock is bound to, or a refusal that says how to bind one. */
 function plantOf(interlock) {
@@ -29,10 +21,15 @@ function plantOf(interlock) {
   return interlock.plant;
 }
 
+/** The plant runtime if it runs; else throws why not (its document's error). */
+function readyPlant(plant) {
+  if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+  return plant;
+}
+
 /** Plans and compiled conditions of an operation, checked at deploy. Throws on any problem. */
 function prepareOperation(RED, node, interlock, id) {
-  const plant = plantOf(interlock);
-  if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+  const plant = readyPlant(plantOf(interlock));
   const plan = plant.plan(id);
   const conditions = plan.steps.map((step) => (step.kind === 'wait'
     ? new Condition(RED, node, step.condition, step.sensors, plant, 'operation')
@@ -77,23 +74,13 @@ class OperationRun {
   }
 
   /** Resolves with { id, queuedMs, runMs, steps }; rejects with the error (after faulting, once granted). */
-  async start() {
-    const runs = runningOn(this.interlock);
-    if (runs.has(this.id)) {
-      throw new SugarshackError('OPERATION_RUNNING', `operation '${this.id}' is already running (C1: one instance at a time); this start was refused and the running one goes on`);
-    }
-    runs.set(this.id, this);
-    try {
-      return await this.execute();
-    } finally {
-      runs.delete(this.id);
-    }
+  start() {
+    return this.execute();
   }
 
   async execute() {
     const requestedAt = Date.now();
     this.phase = 'queued';
-    this.onStep('queued');
     await this.acquire();
     const grantedAt = Date.now();
     this.phase = 'running';
@@ -121,24 +108,31 @@ class OperationRun {
 
   acquire() {
     return new Promise((resolve, reject) => {
-      let granted = false;
+      let settled = false;
       const done = (err) => {
-        if (err) reject(err);
-        else if (!granted) reject(new SugarshackError('ABORTED', `operation '${this.id}' was withdrawn from the queue (its node closed)`));
+        if (settled) return;
+        settled = true;
+        if (err && ALREADY_RUNNING.has(err.code)) {
+          reject(new SugarshackError('OPERATION_RUNNING', `operation '${this.id}' is already running (C1: one instance at a time); this start was refused and the running one goes on`));
+        } else {
+          reject(err || new SugarshackError('ABORTED', `operation '${this.id}' was withdrawn from the queue (its node closed)`));
+        }
+      };
+      const send = () => {
+        settled = true;
+        resolve();
       };
       this.interlock.submit(this.node, done, (rt) => rt.acquire({
         node: this.node,
         msg: this.msg,
-        send: () => {
-          granted = true;
-          resolve();
-        },
+        send,
         done,
         operation: this.id,
         priority: this.plan.priority,
         resources: this.plan.resources,
         timeoutMs: 0,
       }));
+      if (!settled) this.onStep('queued');
     });
   }
 
@@ -198,4 +192,4 @@ class OperationRun {
   }
 }
 
-module.exports = { OperationRun, prepareOperation, plantOf, describeStep, issueLockouts };
+module.exports = { OperationRun, prepareOperation, plantOf, readyPlant, describeStep, issueLockouts };

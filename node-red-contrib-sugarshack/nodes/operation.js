@@ -24,6 +24,7 @@ module.exports = function (RED) {
       }
     }
     const runs = new Set();
+    let progress = null; // the status of the run in progress
 
     // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, steps }.
     node.on('input', (msg, send, done) => {
@@ -38,8 +39,10 @@ module.exports = function (RED) {
         prepared,
         msg,
         onStep: (phase, index, step) => {
-          if (phase === 'queued') node.status({ fill: 'yellow', shape: 'ring', text: 'queued' });
-          else node.status({ fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` });
+          progress = phase === 'queued'
+            ? { fill: 'yellow', shape: 'ring', text: 'queued' }
+            : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` };
+          node.status(progress);
         },
       });
       runs.add(run);
@@ -53,7 +56,9 @@ module.exports = function (RED) {
         runs.delete(run);
         const e = asSugarshackError(err);
         if (e.code === 'OPERATION_RUNNING') {
-          done(e); // the running instance keeps its status
+          // A run of this very node goes on and keeps showing its progress.
+          node.status(runs.size > 0 && progress ? progress : errorStatus(e.code));
+          done(e);
           return;
         }
         if (e.code === 'ABORTED' || (e.operation && e.operation.aborted)) {

@@ -2,7 +2,7 @@
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { Condition } = require('../lib/condition');
-const { OperationRun, prepareOperation, plantOf, issueLockouts } = require('../lib/operation-runner');
+const { OperationRun, prepareOperation, plantOf, readyPlant, issueLockouts } = require('../lib/operation-runner');
 const { trackFlows, whenFlowsStarted } = require('../lib/flows');
 const { errorStatus, MAX_STATUS_LENGTH } = require('../lib/status');
 const { stats } = require('../lib/stats');
@@ -30,8 +30,7 @@ module.exports = function (RED) {
     const conditions = new Map(); // transition index -> Condition
     if (interlock) {
       try {
-        const plant = plantOf(interlock);
-        if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+        const plant = readyPlant(plantOf(interlock));
         machine = plant.routine(id);
         for (const op of machine.operations()) operations.set(op, prepareOperation(RED, node, interlock, op));
         for (const c of machine.conditions()) conditions.set(c.transition, new Condition(RED, node, c.when, c.sensors, plant, 'routine'));

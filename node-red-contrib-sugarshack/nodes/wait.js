@@ -2,6 +2,7 @@
 const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { Condition } = require('../lib/condition');
+const { readyPlant } = require('../lib/operation-runner');
 const { splitNames } = require('../lib/request');
 const { errorStatus } = require('../lib/status');
 
@@ -15,7 +16,7 @@ module.exports = function (RED) {
     let refusal = plant ? null : new SugarshackError('NO_PLANT', 'no plant is configured for this node');
     if (plant) {
       try {
-        if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+        readyPlant(plant);
         if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
         const text = String(props.sensors || '').trim();
         condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
