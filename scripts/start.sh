@@ -2,7 +2,8 @@
 # Runs the palette in a local Node-RED 4.1 with its own user dir (.run/userdir).
 #
 # usage: scripts/start.sh [--reset-flows]
-#   --reset-flows  overwrite the user dir's flows.json from flows/*.json
+#   --reset-flows  overwrite the user dir's flows.json from flows/*.json and the
+#                  control examples (pid-loop, rcc-failover)
 #                  (or from the palette's examples when flows/ has none)
 # env:   PORT (default 1880), HOST (default 127.0.0.1; 0.0.0.0 to listen on all interfaces)
 set -euo pipefail
@@ -75,7 +76,12 @@ seed_flows() {
     # flows/plant.json is the plant document (for the simulator and plant node), not a flow.
     [ "$(basename "$file")" = plant.json ] || sources+=("$file")
   done
-  [ ${#sources[@]} -gt 0 ] || sources=("$PALETTE"/examples/*.json)
+  if [ ${#sources[@]} -gt 0 ]; then
+    # The control examples stand beside the plant: a PID loop, and RCC over the same broker.
+    sources+=("$PALETTE"/examples/pid-loop.json "$PALETTE"/examples/rcc-failover.json)
+  else
+    sources=("$PALETTE"/examples/*.json)
+  fi
   shopt -u nullglob
   if [ ${#sources[@]} -eq 0 ]; then
     say "flows: nothing to seed (no flows/*.json or examples)"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Full test run: setup, Rust tests (native and wasm under Node), wasm build,
+# Full test run: setup, Rust tests (native and wasm under Node), the control
+# report, wasm build,
 # Node-RED flow tests, MQTT integration tests against a real Mosquitto, then
 # the palette install test on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
@@ -60,8 +61,16 @@ stage "setup"
 # shellcheck source=scripts/setup.sh
 . scripts/setup.sh
 
-stage "cargo test (sugarshack-core)"
-counted cargo test -p sugarshack-core
+stage "cargo test (sugarshack-core, control experiments)"
+counted cargo test -p sugarshack-core -p sugarshack-experiments
+
+stage "control report (the paper's Tables 2-3, Figs. 11-12)"
+REPORT_DIR="$(mktemp -d)"
+cargo run --release -q -p sugarshack-experiments --bin control-report -- --out "$REPORT_DIR"
+for figure in fig11a fig11b fig12a fig12b fig12c fig12d; do
+  [ -s "$REPORT_DIR/$figure.svg" ] || { echo "control report wrote no $figure.svg" >&2; exit 1; }
+done
+rm -rf "$REPORT_DIR"
 
 stage "wasm-bindgen tests under Node"
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER=wasm-bindgen-test-runner \

@@ -43,7 +43,12 @@ const PRIMER_PLANT = {
   ] }],
 };
 
-function prime({ Interlock, Tracker }) {
+function prime(facade) {
+  primeInterlock(facade);
+  primeControl(facade);
+}
+
+function primeInterlock({ Interlock, Tracker }) {
   const t = new Tracker(PRIMER_PLANT, 0);
   const config = { resources: t.interlockResources(), policy: 'greedy', recordEvents: true, warnQueuedMs: 1, warnHeldMs: 1 };
   const il = new Interlock(config);
@@ -103,6 +108,38 @@ function prime({ Interlock, Tracker }) {
   r.restore(r.snapshot());
   r.free();
   t.free();
+}
+
+// The control facade (pid, rcc and rcc-io nodes): every call once on throwaway loops.
+function primeControl({ PidLoop, Rcc, IoModule, validateThresholds }) {
+  const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: null };
+  const smith = { model: { gain: 1, tauS: 10 }, tsS: 1, deadTime: { mode: 'adaptive', alpha: 0.2, h: 3 }, maxSamples: 10 };
+  const loop = new PidLoop({ pid, smith });
+  loop.observeRoundTrip(1500);
+  loop.delayEstimate();
+  loop.step(50, 40, 1, undefined);
+  loop.step(50, 41, 1, 20);
+  loop.step(50, undefined, 1, undefined);
+  loop.setTunings(2, 5, 0);
+  loop.setLimits(0, 90);
+  loop.setIntegral(loop.integral());
+  loop.lastOutput();
+  loop.restart();
+  loop.config();
+  validateThresholds([1000, 2000], 500);
+  const rcc = new Rcc({ id: 2, thresholdsMs: [1000, 2000], tsMs: 500, smoothHandover: true });
+  const io = new IoModule(2, 10);
+  io.write(1, 20, 0);
+  io.lastAction;
+  loop.stepDecided(rcc.decide(io.state(100)), 50, 42, 0.5);
+  rcc.pollTimedOut();
+  rcc.firstCycle;
+  const plain = new PidLoop({ pid, smith: null });
+  rcc.scan(plain, io.state(3000), 50, 42, 0.5);
+  plain.free();
+  io.free();
+  rcc.free();
+  loop.free();
 }
 
 module.exports = { load };

@@ -7,40 +7,19 @@ const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, catchNode, linkNodes, sleep, until,
+  PALETTE, paletteNodes, catchOnce, startServer, stopServer, linkNodes, sleep, until,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-delay.js', 'function/15-change.js']
+const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-delay.js', 'function/15-change.js', 'function/10-function.js']
   .map((f) => require(path.join(coreNodesDir, 'core', f)));
 const EXAMPLES = path.join(PALETTE, 'examples');
 const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
-// The helper loads the core catch node once per catch node in the flow; the
-// examples have several, so while these tests run it is registered once per load.
-const loadedCatch = new WeakSet();
-function catchOnce(RED) {
-  if (loadedCatch.has(RED)) return undefined;
-  loadedCatch.add(RED);
-  return catchNode(RED);
-}
+// Nodes of the palette that use no config node.
+const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true };
 const NODE_MODULES = [...paletteNodes, catchOnce, linkNodes, ...coreNodes];
-let helperCatch = null;
-
-function startServer(done) {
-  /* eslint-disable no-underscore-dangle */
-  helperCatch = helper._nodeModules.catch;
-  helper._nodeModules.catch = catchOnce;
-  /* eslint-enable no-underscore-dangle */
-  helper.startServer(done);
-}
-
-async function stopServer() {
-  await helper.unload();
-  await new Promise((resolve) => helper.stopServer(resolve));
-  helper._nodeModules.catch = helperCatch; // eslint-disable-line no-underscore-dangle
-}
 
 const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
 const exampleFiles = () => fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.json')).sort();
@@ -167,7 +146,7 @@ describe('examples', function () {
         assert.match(n.id, /^[0-9a-f]{16}$/, `${file}: node id ${n.id} is 16 hex digits, as Node-RED exports them`);
         assert.ok(!ids.has(n.id), `${file}: node id ${n.id} is also used in ${ids.get(n.id)}`);
         ids.set(n.id, file);
-        if (n.type.startsWith('sugarshack-') && !CONFIG_TYPES[n.type]) {
+        if (n.type.startsWith('sugarshack-') && !CONFIG_TYPES[n.type] && !STANDALONE_TYPES[n.type]) {
           const property = n.interlock !== undefined ? 'interlock' : 'plant';
           assert.equal(configs.get(n[property]), `sugarshack-${property}`, `${file}: ${n.type} ${n.id} has its ${property} in the file`);
         }

@@ -5,7 +5,7 @@ const path = require('path');
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
 const NODE_FILES = [
   'interlock', 'acquire', 'release', 'fault', 'clear', 'cancel', 'interlock-events', 'plant', 'actuators', 'group-command',
-  'operation', 'wait', 'routine',
+  'operation', 'wait', 'routine', 'pid', 'rcc', 'rcc-io',
 ];
 const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
 
@@ -89,7 +89,34 @@ function untrackCompletions() {
   hooks.remove('*.sugarshack-test');
 }
 
+// The helper loads the core catch node once per catch node in a flow; a flow
+// with several would register it twice, so while such a flow runs it is
+// registered once per runtime.
+const loadedCatch = new WeakSet();
+function catchOnce(RED) {
+  if (loadedCatch.has(RED)) return undefined;
+  loadedCatch.add(RED);
+  return catchNode(RED);
+}
+let helperCatch = null;
+
+function startServer(done) {
+  const helper = require('node-red-node-test-helper');
+  /* eslint-disable no-underscore-dangle */
+  helperCatch = helper._nodeModules.catch;
+  helper._nodeModules.catch = catchOnce;
+  /* eslint-enable no-underscore-dangle */
+  helper.startServer(done);
+}
+
+async function stopServer() {
+  const helper = require('node-red-node-test-helper');
+  await helper.unload();
+  await new Promise((resolve) => helper.stopServer(resolve));
+  helper._nodeModules.catch = helperCatch; // eslint-disable-line no-underscore-dangle
+}
+
 module.exports = {
-  PALETTE, paletteNodes, catchNode, linkNodes, LINES, lockoutOf, TAB,
+  PALETTE, paletteNodes, catchNode, catchOnce, startServer, stopServer, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
 };

@@ -3,10 +3,12 @@
 //! typed arrays on hot paths. Core errors become JS `Error`s whose `code`
 //! property names the error kind.
 
+mod control;
 mod interlock;
 mod routine;
 mod tracker;
 
+pub use control::{validate_thresholds, IoModule, PidLoop, Rcc};
 pub use interlock::Interlock;
 pub use routine::Routine;
 pub use tracker::Tracker;

@@ -1,0 +1,82 @@
+'use strict';
+// Shared by the pid, rcc and rcc-io nodes: reading their configuration fields
+// into numbers, checking msg fields, and numbers short enough for a status.
+// The control rules themselves (PID, Smith predictor, RCC) live in the core.
+const { SugarshackError } = require('./errors');
+const { MAX_STATUS_LENGTH } = require('./status');
+
+const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
+const blank = (v) => v === undefined || v === null || String(v).trim() === '';
+
+/**
+ * A configuration field as a number. Blank gives `fallback` (undefined when the
+ * field is required, which refuses it); text that is not a number is refused.
+ */
+function configNumber(value, label, { required = false, fallback } = {}) {
+  if (blank(value)) {
+    if (required && fallback === undefined) throw new SugarshackError('INVALID_CONFIG', `${label} is required`);
+    return fallback;
+  }
+  const n = Number(String(value).trim());
+  if (!Number.isFinite(n)) throw new SugarshackError('INVALID_CONFIG', `${label} must be a number, got '${value}'`);
+  return n;
+}
+
+/** "1000, 2000, 4000" -> [1000, 2000, 4000]; the order rules are the core's. */
+function parseList(text, label) {
+  const items = String(text ?? '').split(',').map((s) => s.trim()).filter((s) => s !== '');
+  if (items.length === 0) throw new SugarshackError('INVALID_CONFIG', `${label}: give one number per controller, comma-separated (e.g. 1000, 2000)`);
+  return items.map((s, i) => configNumber(s, `${label} (item ${i + 1})`, { required: true }));
+}
+
+/** A msg field that must be a finite number when present. */
+function msgNumber(value, what) {
+  if (!isNumber(value)) {
+    throw new SugarshackError('INVALID_INPUT', `${what} must be a number, got ${describe(value)}`);
+  }
+  return value;
+}
+
+function describe(value) {
+  if (value === undefined) return 'nothing';
+  if (typeof value === 'number') return String(value);
+  if (typeof value === 'string') return `the string '${value.length > 20 ? `${value.slice(0, 20)}…` : value}'`;
+  return value === null ? 'null' : typeof value;
+}
+
+/** A number in at most 7 characters: 42.13, -0.5, 1.2e+6. */
+function fmt(x) {
+  if (!Number.isFinite(x)) return '?';
+  const a = Math.abs(x);
+  if (a !== 0 && (a >= 1e5 || a < 1e-3)) return x.toExponential(1);
+  return String(Number(x.toPrecision(4)));
+}
+
+function clip(text) {
+  return text.length <= MAX_STATUS_LENGTH ? text : `${text.slice(0, MAX_STATUS_LENGTH - 1)}…`;
+}
+
+/** Runs `fn` every `ms` after `arm()`; `arm()` again restarts the count. */
+class Watchdog {
+  constructor(ms, fn) {
+    this.ms = ms;
+    this.fn = fn;
+    this.timer = null;
+  }
+
+  arm() {
+    this.stop();
+    if (!(this.ms > 0)) return;
+    this.timer = setTimeout(() => {
+      this.timer = null;
+      this.fn();
+    }, this.ms);
+  }
+
+  stop() {
+    if (this.timer) clearTimeout(this.timer);
+    this.timer = null;
+  }
+}
+
+module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, Watchdog };

@@ -1,0 +1,99 @@
+'use strict';
+const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { errorStatus, StatusBoard } = require('../lib/status');
+const { isNumber, configNumber, describe, fmt, clip } = require('../lib/control');
+const wasm = require('../lib/wasm');
+
+const board = new StatusBoard();
+
+function readConfig(props) {
+  const controllers = configNumber(props.controllers, 'controllers', { required: true });
+  if (!Number.isInteger(controllers) || controllers < 1) {
+    throw new SugarshackError('INVALID_CONFIG', `controllers must be a whole number >= 1, got ${controllers}`);
+  }
+  const periodMs = configNumber(props.period, 'publish period (ms)', { required: true });
+  if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', `publish period must be a number of ms greater than 0, got ${periodMs}`);
+  return { controllers, initialAction: configNumber(props.initialAction, 'initial action', { fallback: 0 }), periodMs };
+}
+
+module.exports = function (RED) {
+  function RccIoNode(props) {
+    RED.nodes.createNode(this, props);
+    const node = this;
+    let io = null;
+    let settings = null;
+    let refusal = null;
+    try {
+      settings = readConfig(props);
+      const { IoModule } = wasm.load();
+      io = new IoModule(settings.controllers, settings.initialAction);
+    } catch (err) {
+      refusal = asSugarshackError(err);
+      node.error(refusal.message);
+      node.status(errorStatus(refusal.code));
+    }
+    let procVar = null; // no measurement yet
+    const show = (status) => board.set(node, { ...status, text: clip(status.text) });
+
+    // Output 1, every period: the state tuple (a, u_1..u_n) and the measurement, for the controllers.
+    function publish() {
+      if (!io) return;
+      const now = Date.now();
+      const { lastAction, agesMs } = io.state(now);
+      node.send([{ payload: { procVar, lastAction, agesMs }, timestamp: now }, null]);
+    }
+    let timer = null;
+    if (io) {
+      show({ fill: 'grey', shape: 'ring', text: `idle ${fmt(settings.initialAction)}` });
+      timer = setInterval(publish, settings.periodMs);
+    }
+
+    node.on('input', (msg, send, done) => {
+      if (refusal) {
+        done(refusal);
+        return;
+      }
+      if (msg.topic === 'measurement') {
+        if (isNumber(msg.payload)) {
+          procVar = msg.payload;
+          done();
+          return;
+        }
+        procVar = null; // the controllers see no measurement and output their fallback
+        const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(msg.payload)}; the controllers get procVar null until the next good one`);
+        show(errorStatus(e.code));
+        done(e);
+        return;
+      }
+      try {
+        const id = msg.controller !== undefined ? msg.controller : msg.rcc && msg.rcc.id;
+        if (!Number.isInteger(id) || id < 1) {
+          throw new SugarshackError(id === undefined ? 'INVALID_INPUT' : 'UNKNOWN_CONTROLLER',
+            `a write needs the controller id in msg.controller or msg.rcc.id (1 to ${settings.controllers}), got ${describe(id)}; a measurement needs topic "measurement"`);
+        }
+        if (!isNumber(msg.payload)) {
+          throw new SugarshackError('INVALID_INPUT', `the action written by controller ${id} (msg.payload) must be a number, got ${describe(msg.payload)}`);
+        }
+        io.write(id, msg.payload, Date.now()); // Conditional Acting: a := action, u_id := 0
+        show({ fill: 'green', shape: 'dot', text: `C${id} ${fmt(msg.payload)}` });
+      } catch (err) {
+        const e = asSugarshackError(err);
+        show(errorStatus(e.code));
+        done(e);
+        return;
+      }
+      // Output 2: the action, to the actuator.
+      send([null, msg]);
+      done();
+    });
+
+    node.on('close', (removed, done) => {
+      if (timer) clearInterval(timer);
+      if (io) io.free();
+      io = null;
+      done();
+    });
+  }
+
+  RED.nodes.registerType('sugarshack-rcc-io', RccIoNode);
+};

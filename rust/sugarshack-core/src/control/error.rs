@@ -1,0 +1,62 @@
+use std::fmt;
+
+/// What a control call refused, with a message a process engineer can act on.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ControlError {
+    /// A configuration that cannot run (limits inverted, Ts <= 0, thresholds out of order).
+    InvalidConfig(String),
+    /// A step input that cannot be used (dt <= 0, a set point that is not a number).
+    InvalidInput(String),
+    /// An id outside the configured controllers.
+    UnknownController { id: usize, controllers: usize },
+}
+
+impl ControlError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::InvalidConfig(_) => "INVALID_CONFIG",
+            Self::InvalidInput(_) => "INVALID_INPUT",
+            Self::UnknownController { .. } => "UNKNOWN_CONTROLLER",
+        }
+    }
+
+    pub(crate) fn config(message: impl Into<String>) -> Self {
+        Self::InvalidConfig(message.into())
+    }
+
+    pub(crate) fn input(message: impl Into<String>) -> Self {
+        Self::InvalidInput(message.into())
+    }
+}
+
+impl fmt::Display for ControlError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InvalidConfig(m) | Self::InvalidInput(m) => f.write_str(m),
+            Self::UnknownController { id, controllers } => write!(
+                f,
+                "controller id {id} is not one of the {controllers} configured (ids run from 1 to {controllers})"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ControlError {}
+
+/// `value` must be a finite number; `what` names it in the error.
+pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ControlError::input(format!("{what} must be a finite number, got {value}")))
+    }
+}
+
+/// `value` must be a finite number > 0; `what` names it in the error.
+pub(crate) fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ControlError::config(format!("{what} must be a number greater than 0, got {value}")))
+    }
+}

@@ -1,0 +1,267 @@
+//! A PID step in standard (ISA) form with the elapsed time passed in.
+//!
+//! - derivative on the measurement, so a set point change gives no kick;
+//! - anti-windup by conditional integration (no integration while the output is
+//!   saturated and the error pushes further) and by clamping the integrator so
+//!   P + I + D stays within the limits;
+//! - tracking (the paper's §5.3 bumpless transfer): while another controller or
+//!   an operator drives the actuator, the integrator is set to `a - P - D`, so
+//!   the first step in control starts from the action `a` already applied;
+//! - new tunings take effect without a bump: the next step re-seeds the
+//!   integrator from the last output;
+//! - a missing or non-numeric measurement holds the integrator and outputs the
+//!   configured fallback (or holds the last output): never a NaN.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::{finite, ControlError};
+
+/// Direction of the controller (ISA terms).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Action {
+    /// Output rises when the measurement falls below the set point (heating, filling).
+    #[default]
+    Reverse,
+    /// Output rises when the measurement rises above the set point (cooling, draining).
+    Direct,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct PidConfig {
+    /// Proportional gain Kc (output units per measurement unit).
+    pub kp: f64,
+    /// Integral time in seconds; 0 turns integral action off.
+    #[serde(default)]
+    pub ti_s: f64,
+    /// Derivative time in seconds; 0 turns derivative action off.
+    #[serde(default)]
+    pub td_s: f64,
+    pub out_min: f64,
+    pub out_max: f64,
+    #[serde(default)]
+    pub action: Action,
+    /// Output while the measurement is missing or not a number; `None` holds the last output.
+    #[serde(default)]
+    pub fallback: Option<f64>,
+}
+
+impl PidConfig {
+    pub fn validate(&self) -> Result<(), ControlError> {
+        check_tunings(self.kp, self.ti_s, self.td_s)?;
+        check_limits(self.out_min, self.out_max)?;
+        if let Some(fallback) = self.fallback {
+            if !fallback.is_finite() || fallback < self.out_min || fallback > self.out_max {
+                return Err(ControlError::config(format!(
+                    "fallback output {fallback} must be a number within the output limits [{}, {}]",
+                    self.out_min, self.out_max
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn integral_gain(&self) -> f64 {
+        if self.ti_s > 0.0 {
+            self.kp / self.ti_s
+        } else {
+            0.0
+        }
+    }
+
+    fn clamp(&self, value: f64) -> f64 {
+        value.clamp(self.out_min, self.out_max)
+    }
+}
+
+fn check_tunings(kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
+    for (value, what) in [(kp, "kp"), (ti_s, "ti (integral time, s)"), (td_s, "td (derivative time, s)")] {
+        if !value.is_finite() || value < 0.0 {
+            return Err(ControlError::config(format!(
+                "{what} must be a number >= 0, got {value} (use the action setting to reverse the loop's direction)"
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn check_limits(out_min: f64, out_max: f64) -> Result<(), ControlError> {
+    if !out_min.is_finite() || !out_max.is_finite() || out_min >= out_max {
+        return Err(ControlError::config(format!(
+            "output limits must be numbers with min < max, got min {out_min} and max {out_max}"
+        )));
+    }
+    Ok(())
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PidInput {
+    pub setpoint: f64,
+    /// `None` or a non-finite value: the step outputs the fallback.
+    pub measurement: Option<f64>,
+    /// Seconds since the previous step; must be > 0.
+    pub dt_s: f64,
+    /// `Some(a)`: the actuator is driven by someone else with action `a`; the
+    /// integrator tracks it so taking control later is bumpless.
+    pub track: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StepMode {
+    Auto,
+    Tracking,
+    Fallback,
+}
+
+/// Every term of one step, for telemetry.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PidStep {
+    pub p: f64,
+    pub i: f64,
+    pub d: f64,
+    pub output: f64,
+    pub mode: StepMode,
+    /// The unclamped P + I + D was outside the limits.
+    pub saturated: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Pid {
+    config: PidConfig,
+    integral: f64,
+    last_measurement: Option<f64>,
+    last_output: Option<f64>,
+    /// Set by a tuning or limit change: the next auto step re-seeds the integrator.
+    reseed: bool,
+}
+
+impl Pid {
+    pub fn new(config: PidConfig) -> Result<Self, ControlError> {
+        config.validate()?;
+        Ok(Self { config, integral: 0.0, last_measurement: None, last_output: None, reseed: false })
+    }
+
+    pub fn config(&self) -> &PidConfig {
+        &self.config
+    }
+
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// Restores a persisted integrator (output units).
+    pub fn set_integral(&mut self, integral: f64) -> Result<(), ControlError> {
+        self.integral = finite(integral, "integral")?;
+        Ok(())
+    }
+
+    pub fn last_output(&self) -> Option<f64> {
+        self.last_output
+    }
+
+    /// Forgets the previous measurement, so the next step has no derivative kick.
+    pub fn restart(&mut self) {
+        self.last_measurement = None;
+    }
+
+    pub fn set_tunings(&mut self, kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
+        check_tunings(kp, ti_s, td_s)?;
+        (self.config.kp, self.config.ti_s, self.config.td_s) = (kp, ti_s, td_s);
+        self.reseed = self.last_output.is_some();
+        Ok(())
+    }
+
+    pub fn set_limits(&mut self, out_min: f64, out_max: f64) -> Result<(), ControlError> {
+        check_limits(out_min, out_max)?;
+        if let Some(fallback) = self.config.fallback {
+            if fallback < out_min || fallback > out_max {
+                return Err(ControlError::config(format!(
+                    "fallback output {fallback} would fall outside the new limits [{out_min}, {out_max}]"
+                )));
+            }
+        }
+        (self.config.out_min, self.config.out_max) = (out_min, out_max);
+        self.last_output = self.last_output.map(|o| self.config.clamp(o));
+        self.reseed = self.last_output.is_some();
+        Ok(())
+    }
+
+    pub fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
+        let setpoint = finite(input.setpoint, "set point")?;
+        if !(input.dt_s.is_finite() && input.dt_s > 0.0) {
+            return Err(ControlError::input(format!(
+                "elapsed time must be a number of seconds greater than 0, got {} (are two samples carrying the same timestamp?)",
+                input.dt_s
+            )));
+        }
+        let track = input.track.map(|a| finite(a, "tracked action")).transpose()?;
+        let Some(measurement) = input.measurement.filter(|m| m.is_finite()) else {
+            return Ok(self.fallback_step());
+        };
+
+        let c = &self.config;
+        let sign = match c.action {
+            Action::Reverse => 1.0,
+            Action::Direct => -1.0,
+        };
+        // `+ 0.0` turns a -0 into 0, so telemetry never shows "-0".
+        let error = sign * (setpoint - measurement) + 0.0;
+        let p = c.kp * error + 0.0;
+        let d = match self.last_measurement {
+            Some(previous) => -sign * c.kp * c.td_s * (measurement - previous) / input.dt_s + 0.0,
+            None => 0.0,
+        };
+        self.last_measurement = Some(measurement);
+
+        if let Some(action) = track {
+            self.integral = action - p - d;
+            self.reseed = false;
+            // The action itself, not P + I + D re-added, which can differ in the last bit.
+            let output = self.config.clamp(action);
+            self.last_output = Some(output);
+            return Ok(PidStep { p, i: self.integral, d, output, mode: StepMode::Tracking, saturated: output != action });
+        }
+        if self.reseed {
+            self.reseed = false;
+            if let Some(last) = self.last_output {
+                self.integral = last - p - d;
+                return Ok(self.finish(p, d, StepMode::Auto));
+            }
+        }
+
+        let unclamped = p + self.integral + d;
+        let winding = (unclamped >= c.out_max && error > 0.0) || (unclamped <= c.out_min && error < 0.0);
+        if !winding {
+            self.integral += c.integral_gain() * error * input.dt_s;
+        }
+        let saturated = winding || !(c.out_min..=c.out_max).contains(&(p + self.integral + d));
+        self.integral = self.integral.clamp(c.out_min - p - d, c.out_max - p - d);
+        let mut step = self.finish(p, d, StepMode::Auto);
+        step.saturated = saturated;
+        Ok(step)
+    }
+
+    fn finish(&mut self, p: f64, d: f64, mode: StepMode) -> PidStep {
+        let unclamped = p + self.integral + d;
+        let output = self.config.clamp(unclamped);
+        self.last_output = Some(output);
+        PidStep { p, i: self.integral, d, output, mode, saturated: output != unclamped }
+    }
+
+    fn fallback_step(&mut self) -> PidStep {
+        let output = self
+            .config
+            .fallback
+            .or(self.last_output)
+            .unwrap_or_else(|| self.config.clamp(self.integral));
+        // The next good sample must not differentiate across the gap.
+        self.last_measurement = None;
+        self.last_output = Some(output);
+        PidStep { p: 0.0, i: self.integral, d: 0.0, output, mode: StepMode::Fallback, saturated: false }
+    }
+}
+
+#[cfg(test)]
+mod tests;

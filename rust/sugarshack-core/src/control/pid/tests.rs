@@ -1,0 +1,138 @@
+use super::*;
+
+fn config() -> PidConfig {
+    PidConfig { kp: 2.0, ti_s: 4.0, td_s: 0.5, out_min: 0.0, out_max: 100.0, action: Action::Reverse, fallback: None }
+}
+
+fn auto(setpoint: f64, measurement: f64) -> PidInput {
+    PidInput { setpoint, measurement: Some(measurement), dt_s: 1.0, track: None }
+}
+
+#[test]
+fn terms_follow_the_standard_form() {
+    let mut pid = Pid::new(config()).unwrap();
+    let first = pid.step(auto(50.0, 40.0)).unwrap();
+    assert_eq!((first.p, first.d), (20.0, 0.0), "P = Kc·e; no derivative on the first sample");
+    assert_eq!(first.i, 5.0, "I = Kc/Ti·e·dt = 2/4·10·1");
+    assert_eq!(first.output, 25.0);
+    let second = pid.step(auto(50.0, 44.0)).unwrap();
+    assert_eq!(second.p, 12.0);
+    assert_eq!(second.d, -4.0, "D = -Kc·Td·dpv/dt = -2·0.5·4/1");
+    assert_eq!(second.i, 8.0);
+    assert_eq!(second.output, 16.0);
+    assert_eq!(second.mode, StepMode::Auto);
+}
+
+#[test]
+fn a_set_point_change_gives_no_derivative_kick() {
+    let mut pid = Pid::new(config()).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let step = pid.step(auto(80.0, 40.0)).unwrap();
+    assert_eq!(step.d, 0.0);
+}
+
+#[test]
+fn direct_action_reverses_every_term() {
+    let mut pid = Pid::new(PidConfig { action: Action::Direct, out_min: -100.0, ..config() }).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let step = pid.step(auto(50.0, 44.0)).unwrap();
+    assert_eq!((step.p, step.d), (-12.0, 4.0));
+    assert!(step.i < 0.0);
+}
+
+#[test]
+fn output_stays_in_limits_and_the_integrator_does_not_wind_up() {
+    let mut pid = Pid::new(PidConfig { out_max: 30.0, ..config() }).unwrap();
+    for _ in 0..100 {
+        let step = pid.step(auto(100.0, 0.0)).unwrap();
+        assert_eq!(step.output, 30.0);
+        assert!(step.saturated);
+    }
+    assert!(pid.integral() <= 30.0 - 200.0 + 1e-9, "clamped so P + I stays at the limit, not grown for 100 s");
+    // once the measurement passes the set point the output leaves the limit at once
+    let step = pid.step(auto(100.0, 101.0)).unwrap();
+    assert!(step.output < 30.0, "{step:?}");
+}
+
+#[test]
+fn tracking_sets_the_integrator_to_the_action_minus_p_and_d() {
+    let mut pid = Pid::new(config()).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let step = pid.step(PidInput { track: Some(33.0), ..auto(50.0, 42.0) }).unwrap();
+    assert_eq!(step.mode, StepMode::Tracking);
+    assert_eq!(step.i, 33.0 - step.p - step.d);
+    assert_eq!(step.output, 33.0);
+    // the first step in control continues from 33 plus only the P, D and one integration change
+    let next = pid.step(auto(50.0, 42.0)).unwrap();
+    let expected = 33.0 + (next.p - step.p) + (next.d - step.d) + 2.0 / 4.0 * 8.0;
+    assert!((next.output - expected).abs() < 1e-12);
+}
+
+#[test]
+fn new_tunings_do_not_bump_the_output() {
+    let mut pid = Pid::new(PidConfig { out_max: 1000.0, ..config() }).unwrap();
+    let before = pid.step(auto(50.0, 40.0)).unwrap();
+    pid.set_tunings(8.0, 1.0, 0.0).unwrap();
+    let after = pid.step(auto(50.0, 40.0)).unwrap();
+    assert_eq!(after.output, before.output);
+    assert_eq!(after.p, 80.0, "the new gain is in force");
+    let later = pid.step(auto(50.0, 40.0)).unwrap();
+    assert_eq!(later.output - after.output, 8.0 * 10.0, "and so is the new integral time");
+}
+
+#[test]
+fn a_missing_or_nan_measurement_holds_the_integrator_and_outputs_the_fallback() {
+    let mut pid = Pid::new(PidConfig { fallback: Some(10.0), ..config() }).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let integral = pid.integral();
+    for measurement in [None, Some(f64::NAN), Some(f64::INFINITY)] {
+        let step = pid.step(PidInput { measurement, ..auto(50.0, 0.0) }).unwrap();
+        assert_eq!((step.output, step.mode), (10.0, StepMode::Fallback));
+        assert_eq!(pid.integral(), integral);
+    }
+    // with no fallback configured the last output is held
+    let mut holding = Pid::new(config()).unwrap();
+    let last = holding.step(auto(50.0, 40.0)).unwrap().output;
+    assert_eq!(holding.step(PidInput { measurement: None, ..auto(50.0, 0.0) }).unwrap().output, last);
+    // after a gap the derivative does not differentiate across it
+    let resumed = holding.step(auto(50.0, 10.0)).unwrap();
+    assert_eq!(resumed.d, 0.0);
+}
+
+#[test]
+fn refuses_inputs_that_cannot_be_stepped() {
+    let mut pid = Pid::new(config()).unwrap();
+    for dt_s in [0.0, -1.0, f64::NAN] {
+        assert_eq!(pid.step(PidInput { dt_s, ..auto(50.0, 40.0) }).unwrap_err().code(), "INVALID_INPUT");
+    }
+    assert_eq!(pid.step(auto(f64::NAN, 40.0)).unwrap_err().code(), "INVALID_INPUT");
+    assert_eq!(pid.step(PidInput { track: Some(f64::NAN), ..auto(50.0, 40.0) }).unwrap_err().code(), "INVALID_INPUT");
+    assert_eq!(pid.last_output(), None, "a refused step changes nothing");
+}
+
+#[test]
+fn refuses_configs_that_break_the_loop() {
+    let broken = [
+        PidConfig { out_min: 10.0, out_max: 0.0, ..config() },
+        PidConfig { out_min: 5.0, out_max: 5.0, ..config() },
+        PidConfig { kp: -1.0, ..config() },
+        PidConfig { ti_s: f64::NAN, ..config() },
+        PidConfig { fallback: Some(200.0), ..config() },
+    ];
+    for c in broken {
+        let err = Pid::new(c.clone()).unwrap_err();
+        assert_eq!(err.code(), "INVALID_CONFIG", "{c:?}");
+    }
+    let mut pid = Pid::new(config()).unwrap();
+    assert!(pid.set_limits(100.0, 0.0).is_err());
+    assert_eq!(pid.config().out_max, 100.0, "a refused change leaves the old limits");
+}
+
+#[test]
+fn a_restored_integral_resumes_the_output() {
+    let mut pid = Pid::new(config()).unwrap();
+    pid.set_integral(42.0).unwrap();
+    let step = pid.step(auto(50.0, 50.0)).unwrap();
+    assert_eq!(step.output, 42.0);
+    assert!(pid.set_integral(f64::NAN).is_err());
+}

@@ -1,0 +1,132 @@
+//! A PID with an optional Smith predictor in front of its measurement: the
+//! loop a remote controller runs (the paper's Fig. 5).
+
+use serde::{Deserialize, Serialize};
+
+use super::error::ControlError;
+use super::pid::{Pid, PidConfig, PidInput, PidStep};
+use super::rcc::Controller;
+use super::smith::{SmithConfig, SmithPredictor};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct PidLoopConfig {
+    pub pid: PidConfig,
+    #[serde(default)]
+    pub smith: Option<SmithConfig>,
+}
+
+#[derive(Clone, Debug)]
+pub struct PidLoop {
+    pid: Pid,
+    smith: Option<SmithPredictor>,
+    /// The measurement the PID last saw: predicted when a Smith predictor is on.
+    seen: Option<f64>,
+}
+
+impl PidLoop {
+    pub fn new(config: PidLoopConfig) -> Result<Self, ControlError> {
+        let smith = config.smith.map(SmithPredictor::new).transpose()?;
+        Ok(Self { pid: Pid::new(config.pid)?, smith, seen: None })
+    }
+
+    pub fn pid(&self) -> &Pid {
+        &self.pid
+    }
+
+    pub fn pid_mut(&mut self) -> &mut Pid {
+        &mut self.pid
+    }
+
+    pub fn smith(&self) -> Option<&SmithPredictor> {
+        self.smith.as_ref()
+    }
+
+    pub fn seen(&self) -> Option<f64> {
+        self.seen
+    }
+
+    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
+        match &mut self.smith {
+            Some(smith) => smith.observe_round_trip(round_trip_ms),
+            None => Ok(()),
+        }
+    }
+
+    pub fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
+        let measurement = input.measurement.filter(|m| m.is_finite());
+        let seen = match (&self.smith, measurement) {
+            (Some(smith), Some(m)) => Some(smith.feedback(m)),
+            (_, m) => m,
+        };
+        let step = self.pid.step(PidInput { measurement: seen, ..input })?;
+        if let Some(smith) = &mut self.smith {
+            // dt was checked by the PID step above, and the output is finite.
+            smith.advance(step.output, input.dt_s)?;
+        }
+        self.seen = seen;
+        Ok(step)
+    }
+}
+
+impl Controller for PidLoop {
+    fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
+        PidLoop::step(self, input)
+    }
+
+    fn restart(&mut self) {
+        self.pid.restart();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::pid::Action;
+    use crate::control::smith::{DeadTime, FopdtModel};
+
+    fn config(smith: Option<SmithConfig>) -> PidLoopConfig {
+        PidLoopConfig {
+            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None },
+            smith,
+        }
+    }
+
+    /// Closed loop on a first-order process with `dead` samples of dead time.
+    fn overshoot(smith: bool, dead: usize) -> f64 {
+        let model = FopdtModel { gain: 1.0, tau_s: 3.0 };
+        let smith = smith.then_some(SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: dead }, max_samples: 100 });
+        let mut pid = PidLoop::new(config(smith)).unwrap();
+        let a = (-0.3f64 / 3.0).exp();
+        let (mut y, mut actions, mut peak) = (0.0f64, vec![0.0; dead + 1], 0.0f64);
+        for _ in 0..400 {
+            let step = pid.step(PidInput { setpoint: 1.0, measurement: Some(y), dt_s: 0.3, track: None }).unwrap();
+            actions.push(step.output);
+            let applied = actions[actions.len() - 1 - dead];
+            y = a * y + (1.0 - a) * applied;
+            peak = peak.max(y);
+        }
+        assert!((y - 1.0).abs() < 0.01, "settles on the set point");
+        peak - 1.0
+    }
+
+    #[test]
+    fn the_predictor_removes_the_overshoot_dead_time_causes() {
+        let without = overshoot(false, 10);
+        let with = overshoot(true, 10);
+        assert!(without > 0.2, "3 s of dead time makes this PI overshoot: {without}");
+        assert!(with < 0.01, "the predictor's loop behaves as with no delay: {with}");
+        assert!((with - overshoot(false, 0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_missing_measurement_leaves_the_model_running_on_the_fallback() {
+        let model = FopdtModel { gain: 1.0, tau_s: 3.0 };
+        let smith = SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: 2 }, max_samples: 10 };
+        let mut pid = PidLoop::new(config(Some(smith))).unwrap();
+        pid.step(PidInput { setpoint: 1.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap();
+        let step = pid.step(PidInput { setpoint: 1.0, measurement: None, dt_s: 0.3, track: None }).unwrap();
+        assert!(step.output.is_finite());
+        assert_eq!(pid.seen(), None);
+    }
+}

@@ -1,0 +1,241 @@
+//! Reliable Cloud Control (the paper's §5, Fig. 7): redundant controllers with
+//! ids 1..n decide on their own, with no shared clock, which one acts. The I/O
+//! side keeps the state tuple (a, u_1..u_n): the last action applied and, per
+//! controller, the time since it last acted, counted by the I/O side's own
+//! clock. Controller i acts when every lower id's age is at least its
+//! engagement threshold D_i, and D_i > D_j >= Ts for i > j keeps one in charge.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::{finite, positive, ControlError};
+use super::pid::{Pid, PidInput, PidStep};
+
+/// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
+pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), ControlError> {
+    positive(ts_ms, "sampling period Ts (ms)")?;
+    if thresholds_ms.is_empty() {
+        return Err(ControlError::config("engagement thresholds: give one per controller, D_1..D_n"));
+    }
+    for (index, &threshold) in thresholds_ms.iter().enumerate() {
+        let id = index + 1;
+        if !threshold.is_finite() || threshold < ts_ms {
+            return Err(ControlError::config(format!(
+                "engagement threshold D_{id} = {threshold} ms must be at least the sampling period Ts = {ts_ms} ms"
+            )));
+        }
+        if index > 0 && threshold <= thresholds_ms[index - 1] {
+            return Err(ControlError::config(format!(
+                "engagement threshold D_{id} = {threshold} ms must be greater than D_{} = {} ms: a backup must wait longer than every controller above it",
+                index,
+                thresholds_ms[index - 1]
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// What a controller reads from the I/O side in its Polling step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct IoState {
+    pub last_action: f64,
+    /// Per controller id 1..n: ms since it last acted; `None` if it never has (∞).
+    pub ages_ms: Vec<Option<f64>>,
+}
+
+/// The I/O side's memory of the state tuple.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct IoModule {
+    last_action: f64,
+    last_write_ms: Vec<Option<f64>>,
+}
+
+impl IoModule {
+    /// `initial_action` is what the actuator holds before any controller acts.
+    pub fn new(controllers: usize, initial_action: f64) -> Result<Self, ControlError> {
+        if controllers == 0 {
+            return Err(ControlError::config("an I/O module serves at least one controller"));
+        }
+        let last_action = finite(initial_action, "initial action").map_err(|e| ControlError::config(e.to_string()))?;
+        Ok(Self { last_action, last_write_ms: vec![None; controllers] })
+    }
+
+    pub fn controllers(&self) -> usize {
+        self.last_write_ms.len()
+    }
+
+    pub fn last_action(&self) -> f64 {
+        self.last_action
+    }
+
+    /// Conditional Acting's write: the action and a zeroed age for `id` (1-based).
+    pub fn write(&mut self, id: usize, action: f64, now_ms: f64) -> Result<(), ControlError> {
+        let controllers = self.controllers();
+        let slot = id
+            .checked_sub(1)
+            .and_then(|index| self.last_write_ms.get_mut(index))
+            .ok_or(ControlError::UnknownController { id, controllers })?;
+        let action = finite(action, "action")?;
+        let now_ms = finite(now_ms, "time (ms)")?;
+        *slot = Some(now_ms);
+        self.last_action = action;
+        Ok(())
+    }
+
+    pub fn state(&self, now_ms: f64) -> IoState {
+        IoState {
+            last_action: self.last_action,
+            ages_ms: self.last_write_ms.iter().map(|w| w.map(|at| (now_ms - at).max(0.0))).collect(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct RccConfig {
+    /// 1 for the primary, 2 for the secondary, ...
+    pub id: usize,
+    /// D_1..D_n in ms, one per controller of the group.
+    pub thresholds_ms: Vec<f64>,
+    pub ts_ms: f64,
+    /// Bumpless handover (§5.3); off only to show what it prevents.
+    #[serde(default = "yes")]
+    pub smooth_handover: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// The Computing step's verdict for one polled state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Decision {
+    pub engaged: bool,
+    pub first_cycle: bool,
+    /// The action the controller's integrator must track this scan (§5.3).
+    pub track: Option<f64>,
+}
+
+/// One scan's outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Scan {
+    pub engaged: bool,
+    pub first_cycle: bool,
+    /// The action to write to the I/O side: present only when engaged.
+    pub write: Option<f64>,
+    pub step: PidStep,
+}
+
+#[derive(Clone, Debug)]
+pub struct RccController {
+    config: RccConfig,
+    first_cycle: bool,
+}
+
+impl RccController {
+    pub fn new(config: RccConfig) -> Result<Self, ControlError> {
+        validate_thresholds(&config.thresholds_ms, config.ts_ms)?;
+        let controllers = config.thresholds_ms.len();
+        if config.id == 0 || config.id > controllers {
+            return Err(ControlError::config(format!(
+                "controller id {} is outside 1..{controllers} (one engagement threshold per controller)",
+                config.id
+            )));
+        }
+        Ok(Self { config, first_cycle: true })
+    }
+
+    pub fn config(&self) -> &RccConfig {
+        &self.config
+    }
+
+    pub fn first_cycle(&self) -> bool {
+        self.first_cycle
+    }
+
+    /// The Polling step timed out (Fig. 7 line 11): the next scan re-seeds.
+    pub fn poll_timed_out(&mut self) {
+        self.first_cycle = true;
+    }
+
+    /// Engaged unless a lower id acted within my threshold.
+    pub fn engaged(&self, state: &IoState) -> Result<bool, ControlError> {
+        let controllers = self.config.thresholds_ms.len();
+        if state.ages_ms.len() != controllers {
+            return Err(ControlError::input(format!(
+                "the I/O state lists {} controller ages, this group has {controllers}",
+                state.ages_ms.len()
+            )));
+        }
+        if let Some(age) = state.ages_ms.iter().flatten().find(|age| !(age.is_finite() && **age >= 0.0)) {
+            return Err(ControlError::input(format!("a controller age must be a number of ms >= 0, got {age}")));
+        }
+        let threshold = self.config.thresholds_ms[self.config.id - 1];
+        Ok(state.ages_ms[..self.config.id - 1].iter().all(|age| age.is_none_or(|age| age >= threshold)))
+    }
+
+    /// Computing step: engagement, and what the integrator tracks. Clears firstCycle.
+    pub fn decide(&mut self, state: &IoState) -> Result<Decision, ControlError> {
+        let engaged = self.engaged(state)?;
+        let last_action = finite(state.last_action, "the I/O side's last action")?;
+        let first_cycle = std::mem::replace(&mut self.first_cycle, false);
+        let track = (self.config.smooth_handover && (!engaged || first_cycle)).then_some(last_action);
+        Ok(Decision { engaged, first_cycle, track })
+    }
+
+    /// Computing and Conditional Acting for one polled state.
+    pub fn scan<C: Controller>(
+        &mut self,
+        controller: &mut C,
+        state: &IoState,
+        setpoint: f64,
+        measurement: Option<f64>,
+        dt_s: f64,
+    ) -> Result<Scan, ControlError> {
+        let decision = self.decide(state)?;
+        act(&decision, controller, setpoint, measurement, dt_s)
+    }
+}
+
+/// A controller RCC can drive: one step, optionally tracking an action.
+pub trait Controller {
+    fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError>;
+    /// Forget the previous measurement (after a gap in polling).
+    fn restart(&mut self);
+}
+
+impl Controller for Pid {
+    fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
+        Pid::step(self, input)
+    }
+
+    fn restart(&mut self) {
+        Pid::restart(self);
+    }
+}
+
+/// Steps `controller` as `decision` says; the action is to be written only when engaged.
+pub fn act<C: Controller>(
+    decision: &Decision,
+    controller: &mut C,
+    setpoint: f64,
+    measurement: Option<f64>,
+    dt_s: f64,
+) -> Result<Scan, ControlError> {
+    if decision.first_cycle {
+        controller.restart();
+    }
+    let step = controller.step(PidInput { setpoint, measurement, dt_s, track: decision.track })?;
+    Ok(Scan {
+        engaged: decision.engaged,
+        first_cycle: decision.first_cycle,
+        write: decision.engaged.then_some(step.output),
+        step,
+    })
+}
+
+#[cfg(test)]
+mod tests;

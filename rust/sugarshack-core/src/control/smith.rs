@@ -1,0 +1,238 @@
+//! The adaptive Smith predictor of the paper's Fig. 5 (Eq. 2): the PID designed
+//! for the process without delay sees `y + ŷ(k) - ŷ(k - D_c)`, where ŷ is a
+//! first-order model driven by the actions sent, and D_c either is fixed or
+//! follows the round-trip estimator. The delay line is sized at run time up to
+//! `max_samples`, so memory stays bounded whatever delays the network shows.
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+use super::delay::DelayEstimator;
+use super::error::{finite, positive, ControlError};
+
+/// Upper bound on `max_samples`: 100 000 samples of f64 is 800 kB per loop.
+pub const MAX_DELAY_LINE: usize = 100_000;
+
+/// First-order process model without its dead time: gain and time constant.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct FopdtModel {
+    pub gain: f64,
+    pub tau_s: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "mode", rename_all = "lowercase", deny_unknown_fields)]
+pub enum DeadTime {
+    /// A dead time set at design time, e.g. floor((μ + 3σ) / Ts) as in the paper's Table 3.
+    Fixed { samples: usize },
+    /// D_c from the estimator fed with measured round trips.
+    Adaptive { alpha: f64, h: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct SmithConfig {
+    pub model: FopdtModel,
+    /// Sampling period in seconds: the unit of the dead time.
+    pub ts_s: f64,
+    pub dead_time: DeadTime,
+    /// Longest dead time the delay line holds, in samples.
+    #[serde(default = "default_max_samples")]
+    pub max_samples: usize,
+}
+
+fn default_max_samples() -> usize {
+    400
+}
+
+impl SmithConfig {
+    pub fn validate(&self) -> Result<(), ControlError> {
+        if !(self.model.gain.is_finite() && self.model.gain != 0.0) {
+            return Err(ControlError::config(format!(
+                "model gain must be a non-zero number, got {}",
+                self.model.gain
+            )));
+        }
+        positive(self.model.tau_s, "model time constant (s)")?;
+        positive(self.ts_s, "sampling period Ts (s)")?;
+        if self.max_samples == 0 || self.max_samples > MAX_DELAY_LINE {
+            return Err(ControlError::config(format!(
+                "maxSamples must be between 1 and {MAX_DELAY_LINE}, got {}",
+                self.max_samples
+            )));
+        }
+        match self.dead_time {
+            DeadTime::Fixed { samples } if samples > self.max_samples => Err(ControlError::config(format!(
+                "fixed dead time of {samples} samples exceeds maxSamples {}",
+                self.max_samples
+            ))),
+            DeadTime::Fixed { .. } => Ok(()),
+            DeadTime::Adaptive { alpha, h } => DelayEstimator::new(alpha, h).map(|_| ()),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct SmithPredictor {
+    config: SmithConfig,
+    estimator: Option<DelayEstimator>,
+    /// ŷ(k), ŷ(k-1), ... newest first; at most max_samples + 1 values.
+    model_outputs: VecDeque<f64>,
+}
+
+impl SmithPredictor {
+    pub fn new(config: SmithConfig) -> Result<Self, ControlError> {
+        config.validate()?;
+        let estimator = match config.dead_time {
+            DeadTime::Fixed { .. } => None,
+            DeadTime::Adaptive { alpha, h } => Some(DelayEstimator::new(alpha, h)?),
+        };
+        Ok(Self { config, estimator, model_outputs: VecDeque::from([0.0]) })
+    }
+
+    pub fn config(&self) -> &SmithConfig {
+        &self.config
+    }
+
+    pub fn estimator(&self) -> Option<&DelayEstimator> {
+        self.estimator.as_ref()
+    }
+
+    /// Feeds a measured round trip to the estimator; a fixed dead time ignores it.
+    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
+        match &mut self.estimator {
+            Some(estimator) => estimator.observe(round_trip_ms),
+            None => Ok(()),
+        }
+    }
+
+    /// D_c in samples, capped at `max_samples`.
+    pub fn dead_time_samples(&self) -> usize {
+        let samples = match (&self.estimator, self.config.dead_time) {
+            (Some(estimator), _) => estimator.dead_time_samples(self.config.ts_s * 1000.0).unwrap_or(0),
+            (None, DeadTime::Fixed { samples }) => samples,
+            (None, DeadTime::Adaptive { .. }) => 0,
+        };
+        samples.min(self.config.max_samples)
+    }
+
+    /// What the PID should see: the measurement plus the model's prediction of
+    /// what the delay still hides.
+    pub fn feedback(&self, measurement: f64) -> f64 {
+        let now = self.model_outputs[0];
+        let delayed = self
+            .model_outputs
+            .get(self.dead_time_samples())
+            .or(self.model_outputs.back())
+            .copied()
+            .unwrap_or(now);
+        measurement + now - delayed
+    }
+
+    /// Moves the model one sample on with the action sent in it.
+    pub fn advance(&mut self, action: f64, dt_s: f64) -> Result<(), ControlError> {
+        let action = finite(action, "action")?;
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(ControlError::input(format!("elapsed time must be > 0 s, got {dt_s}")));
+        }
+        let FopdtModel { gain, tau_s } = self.config.model;
+        let a = (-dt_s / tau_s).exp();
+        let next = a * self.model_outputs[0] + gain * (1.0 - a) * action;
+        self.model_outputs.push_front(next);
+        self.model_outputs.truncate(self.config.max_samples + 1);
+        Ok(())
+    }
+
+    /// ŷ(k): the model's undelayed output.
+    pub fn model_output(&self) -> f64 {
+        self.model_outputs[0]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn predictor(dead_time: DeadTime) -> SmithPredictor {
+        SmithPredictor::new(SmithConfig {
+            model: FopdtModel { gain: 2.0, tau_s: 3.0 },
+            ts_s: 0.3,
+            dead_time,
+            max_samples: 50,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn model_is_the_exact_first_order_step_response() {
+        let mut s = predictor(DeadTime::Fixed { samples: 0 });
+        for _ in 0..10 {
+            s.advance(1.0, 0.3).unwrap();
+        }
+        // after τ = 3 s the model is at K·(1 - e^-1)
+        assert!((s.model_output() - 2.0 * (1.0 - (-1f64).exp())).abs() < 1e-12);
+    }
+
+    #[test]
+    fn with_a_matching_process_the_pid_sees_the_undelayed_model() {
+        let dead = 4;
+        let mut s = predictor(DeadTime::Fixed { samples: dead });
+        let mut outputs = vec![0.0];
+        for k in 0..20 {
+            let action = if k < 10 { 1.0 } else { -0.5 };
+            s.advance(action, 0.3).unwrap();
+            outputs.push(s.model_output());
+            // a real process matching the model shows ŷ delayed by `dead` samples
+            let measured = if outputs.len() > dead { outputs[outputs.len() - 1 - dead] } else { 0.0 };
+            assert!((s.feedback(measured) - s.model_output()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn adaptive_dead_time_follows_the_estimator_and_is_capped() {
+        let mut s = predictor(DeadTime::Adaptive { alpha: 0.2, h: 3.0 });
+        assert_eq!(s.dead_time_samples(), 0, "no round trip seen yet");
+        for _ in 0..200 {
+            s.observe_round_trip(1500.0).unwrap();
+        }
+        assert_eq!(s.dead_time_samples(), 5, "1.5 s / 0.3 s");
+        s.observe_round_trip(1e7).unwrap();
+        assert_eq!(s.dead_time_samples(), 50, "capped at maxSamples");
+    }
+
+    #[test]
+    fn delay_line_memory_is_bounded() {
+        let mut s = predictor(DeadTime::Fixed { samples: 50 });
+        for _ in 0..1000 {
+            s.advance(1.0, 0.3).unwrap();
+        }
+        assert_eq!(s.model_outputs.len(), 51);
+    }
+
+    #[test]
+    fn refuses_configs_that_cannot_run() {
+        let base = SmithConfig {
+            model: FopdtModel { gain: 1.0, tau_s: 3.0 },
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples: 10 },
+            max_samples: 400,
+        };
+        let broken = [
+            SmithConfig { ts_s: 0.0, ..base },
+            SmithConfig { ts_s: -0.3, ..base },
+            SmithConfig { model: FopdtModel { gain: 0.0, tau_s: 3.0 }, ..base },
+            SmithConfig { model: FopdtModel { gain: 1.0, tau_s: f64::NAN }, ..base },
+            SmithConfig { dead_time: DeadTime::Fixed { samples: 401 }, ..base },
+            SmithConfig { dead_time: DeadTime::Adaptive { alpha: 0.0, h: 3.0 }, ..base },
+            SmithConfig { max_samples: 0, ..base },
+        ];
+        for config in broken {
+            assert_eq!(SmithPredictor::new(config).unwrap_err().code(), "INVALID_CONFIG", "{config:?}");
+        }
+        let mut s = SmithPredictor::new(base).unwrap();
+        assert_eq!(s.advance(f64::NAN, 0.3).unwrap_err().code(), "INVALID_INPUT");
+        assert_eq!(s.advance(1.0, 0.0).unwrap_err().code(), "INVALID_INPUT");
+    }
+}
