@@ -119,11 +119,6 @@ module.exports = function (RED) {
       });
     }
 
-    function manualOutput() {
-      const { outMin, outMax } = loop.config();
-      return Math.min(Math.max(manual, outMin), outMax);
-    }
-
     /** One step of the loop; in manual mode its integrator tracks the manual output. */
     function stepLoop(measurement, dtS, track, decision) {
       if (decision) {
@@ -190,7 +185,7 @@ module.exports = function (RED) {
       lastTopic = msg.topic;
       if (valid) watchdog.arm();
       save();
-      const output = mode === 'manual' ? manualOutput() : step.output;
+      const output = step.output; // in manual mode the core tracks the manual value and returns it clamped
       if (!isNumber(output)) { // the core never gives one; never send it on
         const e = new SugarshackError('INTERNAL', `the loop computed an output that is not a number (${output}); nothing sent`);
         show(errorStatus(e.code));
@@ -207,7 +202,8 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const what = engaged ? `sent the fallback output ${fmt(output)}` : 'in standby: nothing sent';
+      const sent = step.mode === 'fallback' ? 'the fallback output' : 'the tracked action';
+      const what = engaged ? `sent ${sent} ${fmt(output)}` : 'in standby: nothing sent';
       const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(given)}; ${what}`);
       show(errorStatus(e.code));
       done(e);
@@ -231,7 +227,7 @@ module.exports = function (RED) {
       }
       overTs = true;
       save();
-      const output = mode === 'manual' ? manualOutput() : step.output;
+      const output = step.output; // in manual mode the core tracks the manual value and returns it clamped
       lastOutput = output;
       node.send({ topic: lastTopic, payload: output, pid: report(step, output, null, dtS) });
       show({ fill: 'yellow', shape: 'ring', text: mode === 'manual' ? 'stale: manual' : 'stale: fallback' });

@@ -198,7 +198,11 @@ impl Pid {
         }
         let track = input.track.map(|a| finite(a, "tracked action")).transpose()?;
         let Some(measurement) = input.measurement.filter(|m| m.is_finite()) else {
-            return Ok(self.fallback_step());
+            return Ok(match track {
+                // P and D are unknown: follow the action, and re-seed from it on the next good sample.
+                Some(action) => self.blind_tracking_step(action),
+                None => self.fallback_step(),
+            });
         };
 
         let c = &self.config;
@@ -248,6 +252,14 @@ impl Pid {
         let output = self.config.clamp(unclamped);
         self.last_output = Some(output);
         PidStep { p, i: self.integral, d, output, mode, saturated: output != unclamped }
+    }
+
+    fn blind_tracking_step(&mut self, action: f64) -> PidStep {
+        let output = self.config.clamp(action);
+        self.last_measurement = None;
+        self.last_output = Some(output);
+        self.reseed = true;
+        PidStep { p: 0.0, i: self.integral, d: 0.0, output, mode: StepMode::Tracking, saturated: output != action }
     }
 
     fn fallback_step(&mut self) -> PidStep {

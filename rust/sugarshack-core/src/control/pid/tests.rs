@@ -136,3 +136,14 @@ fn a_restored_integral_resumes_the_output() {
     assert_eq!(step.output, 42.0);
     assert!(pid.set_integral(f64::NAN).is_err());
 }
+
+#[test]
+fn tracking_without_a_measurement_follows_the_action_and_reseeds_from_it() {
+    let mut pid = Pid::new(PidConfig { fallback: Some(0.0), ..config() }).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let blind = pid.step(PidInput { measurement: None, track: Some(70.0), ..auto(50.0, 0.0) }).unwrap();
+    assert_eq!((blind.mode, blind.output), (StepMode::Tracking, 70.0), "not the fallback: someone else drives the actuator");
+    // the first good sample in control continues from 70, as after any tracking
+    let next = pid.step(auto(50.0, 45.0)).unwrap();
+    assert_eq!(next.output, 70.0);
+}
