@@ -7,10 +7,7 @@ const wasm = require('../lib/wasm');
 const board = new StatusBoard();
 
 function readConfig(props) {
-  const controllers = configNumber(props.controllers, 'controllers', { required: true });
-  if (!Number.isInteger(controllers) || controllers < 1) {
-    throw new SugarshackError('INVALID_CONFIG', `controllers must be a whole number >= 1, got ${controllers}`);
-  }
+  const controllers = configNumber(props.controllers, 'controllers', { required: true }); // a whole number >= 1: the core checks
   const periodMs = configNumber(props.period, 'publish period (ms)', { required: true });
   if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', `publish period must be a number of ms greater than 0, got ${periodMs}`);
   return { controllers, initialAction: configNumber(props.initialAction, 'initial action', { fallback: 0 }), periodMs };

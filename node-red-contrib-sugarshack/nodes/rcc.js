@@ -30,8 +30,8 @@ module.exports = function (RED) {
     let refusal = null;
     try {
       settings = readConfig(props);
-      const { Rcc, validateThresholds } = wasm.load();
-      validateThresholds(settings.thresholdsMs, settings.tsMs); // D_i > D_j >= Ts
+      const { Rcc } = wasm.load();
+      // The core refuses thresholds breaking D_i > D_j >= Ts.
       const { id, thresholdsMs, tsMs, smoothHandover } = settings;
       rcc = new Rcc({ id, thresholdsMs, tsMs, smoothHandover });
     } catch (err) {

@@ -60,7 +60,8 @@ function errorLogs(id) {
   return log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR && (!id || e.id === id)).map((e) => e.msg);
 }
 
-describe('sugarshack control: pid', function () {
+/** A Node-RED test runtime per test, with msg completions tracked. */
+function withServer() {
   beforeEach(function (done) {
     completions = trackCompletions();
     helper.startServer(done);
@@ -71,6 +72,10 @@ describe('sugarshack control: pid', function () {
     await helper.unload();
     await new Promise((resolve) => helper.stopServer(resolve));
   });
+}
+
+describe('sugarshack control: pid', function () {
+  withServer();
 
   it('gives P = kp·e, I += kp/ti·e·dt, D = −kp·td·dpv/dt for known inputs, dt from msg.timestamp', async function () {
     const seen = await start([pidNode('pid')]);
@@ -357,16 +362,7 @@ describe('sugarshack control: pid', function () {
 });
 
 describe('sugarshack control: rcc and rcc-io', function () {
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    helper.startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
-  });
+  withServer();
 
   it('rcc: the primary is engaged; the secondary stands by while the primary is fresh and engages once its age reaches D2', async function () {
     const seen = await start([rccNode('r1', 1, 'o1'), rccNode('r2', 2, 'o2')], ['o1', 'o2']);
@@ -570,16 +566,7 @@ describe('example: pid-loop', function () {
   const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/10-function.js']
     .map((f) => require(path.join(coreNodesDir, 'core', f)));
 
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    helper.startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
-  });
+  withServer();
 
   it('settles the simulated process on the set point without overshoot, follows a new set point, and goes back to auto bumplessly', async function () {
     this.timeout(20000);

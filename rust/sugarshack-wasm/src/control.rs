@@ -35,12 +35,8 @@ impl PidLoop {
 }
 
 /// A controller id or count from JS: a whole number >= 1 (wasm-bindgen would wrap -1 to 4294967295).
-fn whole(value: f64, what: &str) -> Result<usize, JsValue> {
-    if value.is_finite() && value >= 1.0 && value.fract() == 0.0 && value <= u32::MAX as f64 {
-        Ok(value as usize)
-    } else {
-        Err(js_error("INVALID_INPUT", &format!("{what} must be a whole number from 1, got {value}")))
-    }
+fn whole(value: f64) -> Option<usize> {
+    (value.is_finite() && value >= 1.0 && value.fract() == 0.0 && value <= u32::MAX as f64).then_some(value as usize)
 }
 
 #[wasm_bindgen]
@@ -204,14 +200,16 @@ pub struct IoModule {
 impl IoModule {
     #[wasm_bindgen(constructor)]
     pub fn new(controllers: f64, initial_action: f64) -> Result<IoModule, JsValue> {
-        let controllers = whole(controllers, "the number of controllers")?;
+        let controllers = whole(controllers).ok_or_else(|| {
+            js_error("INVALID_CONFIG", &format!("controllers must be a whole number >= 1, got {controllers}"))
+        })?;
         rcc::IoModule::new(controllers, initial_action).map(|core| IoModule { core }).map_err(control_error)
     }
 
     /// Conditional Acting's write from controller `id` (1-based).
     pub fn write(&mut self, id: f64, action: f64, now_ms: f64) -> Result<(), JsValue> {
         let controllers = self.core.controllers();
-        let id = whole(id, "a controller id").map_err(|_| {
+        let id = whole(id).ok_or_else(|| {
             js_error("UNKNOWN_CONTROLLER", &format!("controller id {id} is not one of the {controllers} configured (ids run from 1 to {controllers})"))
         })?;
         self.core.write(id, action, now_ms).map_err(control_error)

@@ -127,7 +127,7 @@ fn an_rcc_pair_hands_over_through_the_io_module() {
     assert_eq!(code_of(io.write(3.0, 1.0, 700.0).unwrap_err()), "UNKNOWN_CONTROLLER");
     assert_eq!(code_of(io.write(1.5, 1.0, 700.0).unwrap_err()), "UNKNOWN_CONTROLLER");
     assert_eq!(code_of(io.write(-1.0, 1.0, 700.0).unwrap_err()), "UNKNOWN_CONTROLLER");
-    assert_eq!(code_of(IoModule::new(0.5, 0.0).err().unwrap()), "INVALID_INPUT");
+    assert_eq!(code_of(IoModule::new(0.5, 0.0).err().unwrap()), "INVALID_CONFIG");
     assert_eq!(code_of(secondary.decide(json(r#"{ "lastAction": 1, "agesMs": [1] }"#)).unwrap_err()), "INVALID_INPUT");
     assert_eq!(code_of(Rcc::new(json(r#"{ "id": 1, "thresholdsMs": [100], "tsMs": 200 }"#)).err().unwrap()), "INVALID_CONFIG");
 }
