@@ -26,9 +26,20 @@ pub struct PlantModel {
     pub operations: Vec<Operation>,
     #[serde(default)]
     pub routines: Vec<Routine>,
+    /// How far ahead of the reception time a device's timestamp may be; a
+    /// sample stamped further in the future is refused (its clock is wrong).
+    #[serde(default = "default_clock_skew_ms")]
+    pub clock_skew_ms: u64,
     /// Read by the plant simulator only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<serde_json::Value>,
+}
+
+/// A device clock may run this far ahead of ours before its samples are refused.
+pub const DEFAULT_CLOCK_SKEW_MS: u64 = 5000;
+
+fn default_clock_skew_ms() -> u64 {
+    DEFAULT_CLOCK_SKEW_MS
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
