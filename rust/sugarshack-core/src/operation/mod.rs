@@ -1,6 +1,10 @@
 //! What a singular operation runs (the paper's §III-D): its steps as written,
 //! then one group command returning every actuator it commanded to its idle
-//! state (C3) before the release.
+//! state (C3) before the release. [`OperationRun`] runs a plan.
+
+mod run;
+
+pub use run::{OperationRun, Phase, RunEffect, RunError, Stage, StepKind, StepRecord};
 
 use serde::Serialize;
 

@@ -1,0 +1,643 @@
+//! An operation's run, input by input: each transition, each message word for
+//! word, late and repeated inputs ignored, and the effects as JS reads them.
+
+use serde_json::json;
+use sugarshack_core::operation::{
+    OperationPlan, OperationRun, Phase, PlanStep, RunEffect, Stage, StepKind, StepRecord,
+};
+use sugarshack_core::plant::PlantModel;
+
+fn lines() -> Vec<String> {
+    vec!["YEL".into(), "RED".into()]
+}
+
+/// Operation 10: two commands, a wait (step 3), then the return to idle.
+fn plan() -> OperationPlan {
+    OperationPlan {
+        id: "10".into(),
+        priority: 20,
+        resources: lines(),
+        steps: vec![
+            PlanStep::Command {
+                command: json!({ "valves": { "V1": 100 } }),
+                timeout_ms: 9000,
+            },
+            PlanStep::Command {
+                command: json!({ "valves": { "V9": 100 } }),
+                timeout_ms: 9000,
+            },
+            PlanStep::Wait {
+                condition: "`LT-3` > 100".into(),
+                sensors: vec!["LT-3".into()],
+                timeout_ms: 60000,
+            },
+            PlanStep::ReturnToIdle {
+                command: json!({ "valve": { "V1": 0, "V9": 0 } }),
+                timeout_ms: 9000,
+            },
+        ],
+    }
+}
+
+fn run() -> OperationRun {
+    OperationRun::new(plan())
+}
+
+/// A run granted at `t = 1000` after a start at 0, running step 0.
+fn granted() -> OperationRun {
+    let mut r = run();
+    r.start(0).unwrap();
+    r.granted(1000);
+    r
+}
+
+/// A run at its step `index` (the earlier ones done one second apart).
+fn at_step(index: usize) -> OperationRun {
+    let mut r = granted();
+    for i in 0..index {
+        assert_eq!(r.step_done(i, 2000 + 1000 * i as u64).len(), 1);
+    }
+    assert_eq!(r.step(), Some(index));
+    r
+}
+
+fn failed(effects: &[RunEffect]) -> (&str, &str, Option<usize>, Stage, &[String], bool) {
+    match effects {
+        [RunEffect::Failed {
+            code,
+            message,
+            step,
+            stage,
+            locked_out,
+            aborted,
+            ..
+        }] => (code, message, *step, *stage, locked_out, *aborted),
+        other => panic!("expected one Failed, got {other:?}"),
+    }
+}
+
+#[test]
+fn start_requests_the_lines_at_the_operations_priority() {
+    let mut r = run();
+    assert_eq!(r.phase(), Phase::New);
+    assert_eq!(r.id(), "10");
+    assert_eq!(
+        r.start(5).unwrap(),
+        vec![RunEffect::Acquire {
+            operation: "10".into(),
+            priority: 20,
+            resources: lines(),
+        }]
+    );
+    assert_eq!(r.phase(), Phase::Queued);
+    assert_eq!(r.step(), None);
+}
+
+#[test]
+fn a_second_start_is_refused_in_every_phase() {
+    let mut r = run();
+    r.start(0).unwrap();
+    let err = r.start(1).unwrap_err();
+    assert_eq!(err.code(), "ALREADY_STARTED");
+    assert_eq!(
+        err.to_string(),
+        "this run of operation '10' was already started (it is queued); make a new run for each start"
+    );
+    r.granted(2);
+    assert_eq!(r.start(3).unwrap_err().code(), "ALREADY_STARTED");
+    assert_eq!(r.phase(), Phase::Running);
+    assert_eq!(r.step(), Some(0));
+}
+
+#[test]
+fn the_grant_starts_step_0_with_the_lines_as_within() {
+    let mut r = run();
+    r.start(0).unwrap();
+    assert_eq!(
+        r.granted(1000),
+        vec![RunEffect::StartStep {
+            index: 0,
+            step: plan().steps[0].clone(),
+            within: Some(lines()),
+        }]
+    );
+    assert_eq!((r.phase(), r.step()), (Phase::Running, Some(0)));
+    assert!(r.granted(1001).is_empty(), "a second grant is ignored");
+    assert_eq!(r.step(), Some(0));
+}
+
+#[test]
+fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
+    let mut r = at_step(1);
+    assert_eq!(
+        r.step_done(1, 5000),
+        vec![RunEffect::StartStep {
+            index: 2,
+            step: plan().steps[2].clone(),
+            within: None,
+        }]
+    );
+    assert_eq!(
+        r.step_done(2, 6000),
+        vec![RunEffect::StartStep {
+            index: 3,
+            step: plan().steps[3].clone(),
+            within: Some(lines()),
+        }]
+    );
+}
+
+#[test]
+fn after_the_last_step_the_lines_are_released_and_the_run_finishes() {
+    let mut r = granted();
+    r.step_done(0, 1500);
+    r.step_done(1, 4000);
+    r.step_done(2, 4000);
+    assert_eq!(
+        r.step_done(3, 7000),
+        vec![RunEffect::Release {
+            operation: "10".into()
+        }]
+    );
+    assert_eq!((r.phase(), r.step()), (Phase::Releasing, None));
+    assert_eq!(
+        r.released(7200),
+        vec![RunEffect::Finished {
+            id: "10".into(),
+            queued_ms: 1000,
+            run_ms: 6200,
+            steps: vec![
+                StepRecord {
+                    kind: StepKind::Command,
+                    ms: 500
+                },
+                StepRecord {
+                    kind: StepKind::Command,
+                    ms: 2500
+                },
+                StepRecord {
+                    kind: StepKind::Wait,
+                    ms: 0
+                },
+                StepRecord {
+                    kind: StepKind::ReturnToIdle,
+                    ms: 3000
+                },
+            ],
+        }]
+    );
+    assert_eq!(r.phase(), Phase::Done);
+    assert!(r.phase().is_ended());
+}
+
+#[test]
+fn a_plan_without_steps_releases_on_the_grant() {
+    let mut r = OperationRun::new(OperationPlan {
+        steps: Vec::new(),
+        ..plan()
+    });
+    r.start(10).unwrap();
+    assert_eq!(
+        r.granted(20),
+        vec![RunEffect::Release {
+            operation: "10".into()
+        }]
+    );
+    assert_eq!(
+        r.released(25),
+        vec![RunEffect::Finished {
+            id: "10".into(),
+            queued_ms: 10,
+            run_ms: 5,
+            steps: Vec::new(),
+        }]
+    );
+}
+
+#[test]
+fn late_duplicated_and_out_of_order_inputs_are_ignored() {
+    let mut r = at_step(2);
+    assert!(r.step_done(1, 9000).is_empty(), "a late done of step 1");
+    assert!(
+        r.step_done(3, 9000).is_empty(),
+        "a done of a step not started"
+    );
+    assert!(r.step_done(usize::MAX, 9000).is_empty());
+    assert!(r.step_failed(0, "TIMEOUT", "late", 9000).is_empty());
+    assert!(r.step_failed(99, "TIMEOUT", "unknown", 9000).is_empty());
+    assert!(r.released(9000).is_empty(), "nothing was released");
+    assert!(r.release_failed("NOT_HOLDING", "x", 9000).is_empty());
+    assert!(r.fault_applied(lines(), 9000).is_empty());
+    assert!(r.refused("QUEUE_FULL", "x").is_empty());
+    assert!(r.withdrawn(9000).is_empty());
+    assert_eq!((r.phase(), r.step()), (Phase::Running, Some(2)));
+    // The run goes on exactly as before.
+    assert_eq!(r.step_done(2, 9000).len(), 1);
+    assert_eq!(r.step(), Some(3));
+}
+
+#[test]
+fn inputs_before_the_start_are_ignored() {
+    let mut r = run();
+    assert!(r.granted(0).is_empty());
+    assert!(r.refused("ALREADY_HOLDING", "x").is_empty());
+    assert!(r.abort("closed", 0).is_empty());
+    assert!(r.step_done(0, 0).is_empty());
+    assert_eq!(r.phase(), Phase::New);
+    assert_eq!(r.start(0).unwrap().len(), 1);
+}
+
+#[test]
+fn a_failed_step_faults_the_operation_then_reports_the_lines_locked_out() {
+    let mut r = at_step(2);
+    let cause = "condition `LT-3` > 100 did not hold within 60 s";
+    assert_eq!(
+        r.step_failed(2, "CONDITION_TIMEOUT", cause, 70000),
+        vec![RunEffect::Fault {
+            operation: "10".into(),
+            note: format!("step 3 (wait): {cause}"),
+        }]
+    );
+    assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
+    assert!(r.step_done(2, 70001).is_empty(), "the step's late done");
+    assert!(r.abort("closed", 70001).is_empty(), "already faulting");
+    let effects = r.fault_applied(lines(), 70002);
+    assert_eq!(
+        failed(&effects),
+        (
+            "CONDITION_TIMEOUT",
+            "operation '10' faulted at step 3 (wait): condition `LT-3` > 100 did not hold within 60 s; YEL, RED locked out until cleared",
+            Some(2),
+            Stage::Wait,
+            &lines()[..],
+            false
+        )
+    );
+    assert_eq!(r.phase(), Phase::Faulted);
+    assert!(r.fault_applied(lines(), 70003).is_empty(), "reported once");
+}
+
+#[test]
+fn each_step_kind_is_named_in_the_note() {
+    let notes: Vec<String> = (0..4)
+        .map(|i| {
+            let mut r = at_step(i);
+            match r.step_failed(i, "E", "m", 0).as_slice() {
+                [RunEffect::Fault { note, .. }] => note.clone(),
+                other => panic!("{other:?}"),
+            }
+        })
+        .collect();
+    assert_eq!(
+        notes,
+        [
+            "step 1 (command): m",
+            "step 2 (command): m",
+            "step 3 (wait): m",
+            "step 4 (return to idle): m"
+        ]
+    );
+}
+
+#[test]
+fn nothing_locked_out_leaves_the_locked_out_part_away() {
+    let mut r = at_step(0);
+    r.step_failed(0, "OUTSIDE_RESOURCES", "V9 is on RED", 10);
+    let effects = r.fault_applied(Vec::new(), 11);
+    let (code, message, step, stage, locked_out, _) = failed(&effects);
+    assert_eq!(code, "OUTSIDE_RESOURCES");
+    assert_eq!(
+        message,
+        "operation '10' faulted at step 1 (command): V9 is on RED"
+    );
+    assert_eq!(
+        (step, stage, locked_out.len()),
+        (Some(0), Stage::Command, 0)
+    );
+}
+
+#[test]
+fn a_failed_release_faults_the_operation_at_its_release() {
+    let mut r = at_step(3);
+    assert_eq!(r.step_done(3, 8000).len(), 1);
+    assert!(
+        r.abort("closed", 8000).is_empty(),
+        "a release under way goes on"
+    );
+    assert_eq!(
+        r.release_failed("NOT_HOLDING", "operation '10' holds nothing", 8001),
+        vec![RunEffect::Fault {
+            operation: "10".into(),
+            note: "its release: operation '10' holds nothing".into(),
+        }]
+    );
+    assert!(r.released(8002).is_empty());
+    let effects = r.fault_applied(vec!["YEL".into()], 8003);
+    assert_eq!(
+        failed(&effects),
+        (
+            "NOT_HOLDING",
+            "operation '10' faulted at its release: operation '10' holds nothing; YEL locked out until cleared",
+            None,
+            Stage::Release,
+            &["YEL".to_string()][..],
+            false
+        )
+    );
+}
+
+#[test]
+fn c1_refusals_become_operation_running() {
+    for code in ["ALREADY_HOLDING", "ALREADY_QUEUED"] {
+        let mut r = run();
+        r.start(0).unwrap();
+        let effects = r.refused(code, "operation '10' already holds YEL");
+        assert_eq!(
+            failed(&effects),
+            (
+                "OPERATION_RUNNING",
+                "operation '10' is already running (C1: one instance at a time); this start was refused and the running one goes on",
+                None,
+                Stage::Acquire,
+                &[][..],
+                false
+            )
+        );
+        assert_eq!(r.phase(), Phase::Refused);
+        assert!(r.granted(1).is_empty(), "nothing after the end");
+    }
+}
+
+#[test]
+fn other_refusals_keep_the_interlocks_words() {
+    let mut r = run();
+    r.start(0).unwrap();
+    let effects = r.refused("QUEUE_FULL", "the queue is full (64 requests)");
+    let (code, message, ..) = failed(&effects);
+    assert_eq!(
+        (code, message),
+        ("QUEUE_FULL", "the queue is full (64 requests)")
+    );
+}
+
+#[test]
+fn an_abort_while_queued_withdraws_the_request() {
+    let mut r = run();
+    r.start(0).unwrap();
+    assert_eq!(
+        r.abort("its node closed", 5),
+        vec![RunEffect::Withdraw {
+            operation: "10".into()
+        }]
+    );
+    assert_eq!(r.phase(), Phase::Withdrawing);
+    assert!(r.abort("again", 6).is_empty());
+    assert!(r.refused("QUEUE_FULL", "x").is_empty());
+    let effects = r.withdrawn(7);
+    assert_eq!(
+        failed(&effects),
+        (
+            "ABORTED",
+            "operation '10' was withdrawn from the queue (its node closed)",
+            None,
+            Stage::Acquire,
+            &[][..],
+            true
+        )
+    );
+    assert_eq!(r.phase(), Phase::Withdrawn);
+    assert!(r.granted(8).is_empty());
+    assert!(r.abort("late", 9).is_empty());
+}
+
+#[test]
+fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
+    let mut r = run();
+    r.start(0).unwrap();
+    r.abort("its node closed", 5);
+    assert_eq!(
+        r.granted(6),
+        vec![RunEffect::Release {
+            operation: "10".into()
+        }]
+    );
+    assert!(r.granted(7).is_empty());
+    assert!(r.withdrawn(7).is_empty(), "the release decides how it ends");
+    let effects = r.released(8);
+    let (code, message, ..) = failed(&effects);
+    assert_eq!(
+        (code, message),
+        (
+            "ABORTED",
+            "operation '10' was withdrawn from the queue (its node closed)"
+        )
+    );
+    assert_eq!(r.phase(), Phase::Withdrawn);
+}
+
+#[test]
+fn a_crossing_grant_that_cannot_be_released_faults_the_operation() {
+    let mut r = run();
+    r.start(0).unwrap();
+    r.abort("its node closed", 5);
+    r.granted(6);
+    assert_eq!(
+        r.release_failed("NOT_HOLDING", "gone", 7),
+        vec![RunEffect::Fault {
+            operation: "10".into(),
+            note: "its release: gone".into(),
+        }]
+    );
+    let effects = r.fault_applied(lines(), 8);
+    assert_eq!(
+        failed(&effects),
+        (
+            "ABORTED",
+            "operation '10' faulted at its release: gone; YEL, RED locked out until cleared",
+            None,
+            Stage::Release,
+            &lines()[..],
+            true
+        )
+    );
+}
+
+#[test]
+fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
+    let mut r = at_step(1);
+    assert_eq!(
+        r.abort(
+            "its operation node was stopped (redeploy or shutdown)",
+            4000
+        ),
+        vec![
+            RunEffect::CancelStep { index: 1 },
+            RunEffect::Fault {
+                operation: "10".into(),
+                note: "interrupted: its operation node was stopped (redeploy or shutdown)".into(),
+            }
+        ]
+    );
+    assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
+    // The cancelled step ends in error, late: ignored.
+    assert!(r.step_failed(1, "ABORTED", "cancelled", 4001).is_empty());
+    let effects = r.fault_applied(vec!["YEL".into()], 4002);
+    assert_eq!(
+        failed(&effects),
+        (
+            "ABORTED",
+            "operation '10' faulted at step 2 (command): interrupted: its operation node was stopped (redeploy or shutdown); YEL locked out until cleared",
+            Some(1),
+            Stage::Command,
+            &["YEL".to_string()][..],
+            true
+        )
+    );
+    assert!(r.abort("again", 4003).is_empty());
+}
+
+#[test]
+fn a_clock_that_goes_back_gives_zero_durations() {
+    let mut r = run();
+    r.start(u64::MAX).unwrap();
+    r.granted(10);
+    r.step_done(0, 5);
+    let mut r2 = OperationRun::new(OperationPlan {
+        steps: Vec::new(),
+        ..plan()
+    });
+    r2.start(100).unwrap();
+    r2.granted(50);
+    assert_eq!(
+        r2.released(0),
+        vec![RunEffect::Finished {
+            id: "10".into(),
+            queued_ms: 0,
+            run_ms: 0,
+            steps: Vec::new(),
+        }]
+    );
+    for i in 1..4 {
+        r.step_done(i, u64::MAX);
+    }
+    match r.released(u64::MAX).as_slice() {
+        [RunEffect::Finished {
+            queued_ms,
+            run_ms,
+            steps,
+            ..
+        }] => {
+            assert_eq!((*queued_ms, *run_ms), (0, u64::MAX - 10));
+            assert_eq!(
+                steps.iter().map(|s| s.ms).collect::<Vec<_>>(),
+                [0, u64::MAX - 5, 0, 0]
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn effects_serialize_as_js_reads_them() {
+    let mut r = run();
+    let acquire = serde_json::to_value(r.start(0).unwrap()).unwrap();
+    assert_eq!(
+        acquire,
+        json!([{ "kind": "acquire", "operation": "10", "priority": 20, "resources": ["YEL", "RED"] }])
+    );
+    let start = serde_json::to_value(r.granted(1)).unwrap();
+    assert_eq!(
+        start,
+        json!([{ "kind": "startStep", "index": 0, "within": ["YEL", "RED"],
+                 "step": { "kind": "command", "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000 } }])
+    );
+    r.step_done(0, 2);
+    let wait = serde_json::to_value(r.step_done(1, 3)).unwrap();
+    assert_eq!(
+        wait,
+        json!([{ "kind": "startStep", "index": 2,
+                 "step": { "kind": "wait", "condition": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 } }])
+    );
+    let abort = serde_json::to_value(r.abort("closed", 4)).unwrap();
+    assert_eq!(
+        abort,
+        json!([{ "kind": "cancelStep", "index": 2 },
+               { "kind": "fault", "operation": "10", "note": "interrupted: closed" }])
+    );
+    let end = serde_json::to_value(r.fault_applied(vec!["YEL".into()], 5)).unwrap();
+    assert_eq!(
+        end,
+        json!([{ "kind": "failed", "id": "10", "code": "ABORTED",
+                 "message": "operation '10' faulted at step 3 (wait): interrupted: closed; YEL locked out until cleared",
+                 "step": 2, "stage": "wait", "lockedOut": ["YEL"], "aborted": true }])
+    );
+
+    let mut r = granted();
+    for i in 0..4 {
+        r.step_done(i, 1000);
+    }
+    assert_eq!(
+        serde_json::to_value(r.released(1000)).unwrap(),
+        json!([{ "kind": "finished", "id": "10", "queuedMs": 1000, "runMs": 0,
+                 "steps": [{ "kind": "command", "ms": 0 }, { "kind": "command", "ms": 0 },
+                           { "kind": "wait", "ms": 0 }, { "kind": "returnToIdle", "ms": 0 }] }])
+    );
+    let mut r = run();
+    r.start(0).unwrap();
+    assert_eq!(
+        serde_json::to_value(r.abort("closed", 0)).unwrap(),
+        json!([{ "kind": "withdraw", "operation": "10" }])
+    );
+    assert_eq!(
+        serde_json::to_value(r.withdrawn(0)).unwrap()[0]["step"],
+        json!(null)
+    );
+    assert_eq!(
+        serde_json::to_value(Phase::Withdrawing).unwrap(),
+        "withdrawing"
+    );
+}
+
+#[test]
+fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
+    let plant: PlantModel = serde_json::from_value(json!({
+        "actuatorTypes": {
+            "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 }
+        },
+        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+        "actuators": [
+            { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" }
+        ],
+        "resources": [{ "id": "YEL" }],
+        "operations": [{ "id": "10", "priority": 20, "resources": ["YEL"],
+            "steps": [{ "command": { "valves": { "V1": 100 } }, "timeoutMs": 20000 }] }]
+    }))
+    .unwrap();
+    plant.validate().unwrap();
+    let mut r = OperationRun::of(&plant, "10").unwrap();
+    assert_eq!(r.plan(), &plant.operation_plan("10").unwrap());
+    r.start(0).unwrap();
+    r.granted(0);
+    match r.step_done(0, 1).as_slice() {
+        [RunEffect::StartStep {
+            index: 1,
+            step: PlanStep::ReturnToIdle { command, .. },
+            within: Some(within),
+        }] => {
+            assert_eq!(command, &json!({ "valve": { "V1": 0 } }));
+            assert_eq!(within, &["YEL".to_string()]);
+        }
+        other => panic!("{other:?}"),
+    }
+
+    let err = OperationRun::of(&plant, "99").unwrap_err();
+    assert_eq!(err.code(), "UNKNOWN_OPERATION");
+    assert_eq!(
+        err.to_string(),
+        "unknown operation '99': it is not in the plant document"
+    );
+    let long = "x".repeat(500);
+    let message = OperationRun::of(&plant, &long).unwrap_err().to_string();
+    assert!(message.contains(&format!("'{}...'", "x".repeat(100))));
+    assert!(message.len() < 200);
+}
