@@ -5,6 +5,7 @@
 
 mod control;
 mod interlock;
+pub mod operation;
 mod routine;
 mod tracker;
 

@@ -4,6 +4,7 @@ use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use wasm_bindgen::prelude::*;
 
+use crate::operation::OperationRun;
 use crate::routine::Routine;
 use crate::{from_js, js_error, time, to_js};
 
@@ -323,6 +324,12 @@ impl Tracker {
     #[wasm_bindgen(js_name = interlockResources)]
     pub fn interlock_resources(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.plant().interlock_config().resources)
+    }
+
+    /// A run of operation `id` of this plant, not started.
+    #[wasm_bindgen(js_name = operationRun)]
+    pub fn operation_run(&self, id: &str) -> Result<OperationRun, JsValue> {
+        OperationRun::of(self.core.plant(), id)
     }
 
     /// Routine `id` of this plant, in its initial state.

@@ -1,0 +1,148 @@
+use sugarshack_core::operation::{OperationRun as CoreRun, RunEffect, RunError};
+use sugarshack_core::plant::PlantModel;
+use wasm_bindgen::prelude::*;
+
+use crate::{js_error, time, to_js};
+
+/// JS's `Number.MAX_SAFE_INTEGER`: durations up to it come back as exact numbers.
+const MAX_SAFE_MS: u64 = (1 << 53) - 1;
+
+fn run_error(err: RunError) -> JsValue {
+    js_error(err.code(), &err.to_string())
+}
+
+/// A step index from JS: wasm-bindgen would read `undefined` or NaN as step 0.
+fn step_index(index: f64) -> Result<usize, JsValue> {
+    if index.is_finite() && index >= 0.0 && index.fract() == 0.0 && index <= u32::MAX as f64 {
+        Ok(index as usize)
+    } else {
+        Err(js_error(
+            "INVALID_STEP",
+            &format!("a step index is a whole number from 0, got {index}"),
+        ))
+    }
+}
+
+/// A time that keeps every duration of the run an exact JS number, checked
+/// before the input changes anything.
+fn run_time(now_ms: f64) -> Result<u64, JsValue> {
+    let now = time(now_ms)?;
+    if now > MAX_SAFE_MS {
+        return Err(js_error(
+            "INVALID_TIME",
+            &format!("time must be at most Number.MAX_SAFE_INTEGER milliseconds, got {now_ms}"),
+        ));
+    }
+    Ok(now)
+}
+
+fn effects(effects: Vec<RunEffect>) -> Result<JsValue, JsValue> {
+    to_js(&effects)
+}
+
+/// One start of an operation of the plant, made by `Tracker.operationRun(id)`.
+/// Every input returns the effects to carry out, as plain objects with a
+/// `kind`: `acquire`, `startStep`, `cancelStep`, `release`, `withdraw`,
+/// `fault`, `finished`, `failed`. Inputs that do not fit the run's phase and
+/// step (a late timer, a repeated report) return `[]` and change nothing.
+#[wasm_bindgen]
+pub struct OperationRun {
+    core: CoreRun,
+}
+
+impl OperationRun {
+    pub(crate) fn of(plant: &PlantModel, id: &str) -> Result<OperationRun, JsValue> {
+        CoreRun::of(plant, id)
+            .map(|core| OperationRun { core })
+            .map_err(run_error)
+    }
+}
+
+#[wasm_bindgen]
+impl OperationRun {
+    pub fn id(&self) -> String {
+        self.core.id().into()
+    }
+
+    /// `{ id, priority, resources, steps: [{ kind, ... }] }`, as `Tracker.operationPlan` gives it.
+    pub fn plan(&self) -> Result<JsValue, JsValue> {
+        to_js(self.core.plan())
+    }
+
+    /// `new`, `queued`, `withdrawing`, `running`, `releasing`, `faulting`, or
+    /// once ended `done`, `faulted`, `refused`, `withdrawn`.
+    pub fn phase(&self) -> String {
+        self.core.phase().as_str().into()
+    }
+
+    /// The index of the step in progress (phase `running`), else undefined.
+    pub fn step(&self) -> Option<u32> {
+        self.core.step().map(|i| i as u32)
+    }
+
+    /// `[acquire]`; throws `ALREADY_STARTED` on a run already started.
+    pub fn start(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.start(now).map_err(run_error)?)
+    }
+
+    pub fn granted(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.granted(now))
+    }
+
+    #[wasm_bindgen(js_name = stepDone)]
+    pub fn step_done(&mut self, index: f64, now_ms: f64) -> Result<JsValue, JsValue> {
+        let (index, now) = (step_index(index)?, run_time(now_ms)?);
+        effects(self.core.step_done(index, now))
+    }
+
+    #[wasm_bindgen(js_name = stepFailed)]
+    pub fn step_failed(
+        &mut self,
+        index: f64,
+        code: &str,
+        message: &str,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let (index, now) = (step_index(index)?, run_time(now_ms)?);
+        effects(self.core.step_failed(index, code, message, now))
+    }
+
+    pub fn released(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.released(now))
+    }
+
+    #[wasm_bindgen(js_name = releaseFailed)]
+    pub fn release_failed(
+        &mut self,
+        code: &str,
+        message: &str,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.release_failed(code, message, now))
+    }
+
+    /// `lines`: the resources whose lockouts went out.
+    #[wasm_bindgen(js_name = faultApplied)]
+    pub fn fault_applied(&mut self, lines: Vec<String>, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.fault_applied(lines, now))
+    }
+
+    pub fn refused(&mut self, code: &str, message: &str) -> Result<JsValue, JsValue> {
+        effects(self.core.refused(code, message))
+    }
+
+    pub fn abort(&mut self, reason: &str, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.abort(reason, now))
+    }
+
+    pub fn withdrawn(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.withdrawn(now))
+    }
+}
