@@ -1,13 +1,14 @@
 //! Random sequences of interlock calls against a naive reference model: the
 //! paper's Algorithms 1 and 2 taken literally (the whole queue sorted and
-//! walked after every change), plus fault, clear, cancel, tick and restore.
+//! walked after every change), plus fault, clear, cancel, tick and restore;
+//! and single mutations of a valid snapshot, which restore must refuse.
 
 use std::collections::BTreeSet;
 
 use proptest::prelude::*;
 use sugarshack_core::interlock::{
-    Acquisition, FaultCause, Interlock, InterlockConfig, InterlockError, Policy, ResourceState,
-    Snapshot,
+    Acquisition, EventKind, FaultCause, Interlock, InterlockConfig, InterlockError, Policy,
+    RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions, Snapshot,
 };
 
 const RESOURCES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
@@ -18,14 +19,31 @@ const WARN_HELD_MS: u64 = 1500;
 
 #[derive(Clone, Debug)]
 enum Call {
-    Acquire { op: usize, mask: u8 },
-    Release { op: usize },
-    Fault { op: usize },
-    FaultResources { mask: u8 },
-    Clear { mask: u8 },
-    Cancel { op: usize },
+    Acquire {
+        op: usize,
+        mask: u8,
+    },
+    Release {
+        op: usize,
+    },
+    Fault {
+        op: usize,
+    },
+    FaultResources {
+        mask: u8,
+    },
+    Clear {
+        mask: u8,
+    },
+    Cancel {
+        op: usize,
+    },
     Tick,
-    SnapshotRestore,
+    /// Snapshot, through JSON, and restore under the same configuration.
+    Restore {
+        keep_queue: bool,
+        keep_holds: bool,
+    },
 }
 
 fn call() -> impl Strategy<Value = Call> {
@@ -39,7 +57,8 @@ fn call() -> impl Strategy<Value = Call> {
         2 => mask.prop_map(|mask| Call::Clear { mask }),
         1 => op.prop_map(|op| Call::Cancel { op }),
         1 => Just(Call::Tick),
-        1 => Just(Call::SnapshotRestore),
+        2 => (any::<bool>(), any::<bool>())
+            .prop_map(|(keep_queue, keep_holds)| Call::Restore { keep_queue, keep_holds }),
     ]
 }
 
@@ -303,16 +322,31 @@ impl Model {
                 warnings.sort();
                 Outcome::Warnings(warnings)
             }
-            Call::SnapshotRestore => {
-                // Held resources come back faulted, their operations idle.
-                for r in 0..RESOURCES.len() {
-                    if let Owner::Held(op) = self.owners[r] {
-                        self.owners[r] = Owner::Faulted(Some(op));
+            Call::Restore {
+                keep_queue,
+                keep_holds,
+            } => {
+                // Warnings already given are not saved: a kept wait or hold warns again.
+                if keep_holds {
+                    for held in self.holds.iter_mut().flatten() {
+                        held.warned = false;
                     }
+                } else {
+                    // Held resources come back faulted, their operations idle.
+                    for r in 0..RESOURCES.len() {
+                        if let Owner::Held(op) = self.owners[r] {
+                            self.owners[r] = Owner::Faulted(Some(op));
+                        }
+                    }
+                    self.holds = vec![None; OPS];
                 }
-                self.holds = vec![None; OPS];
-                for waiter in &mut self.queue {
-                    waiter.warned = false;
+                if keep_queue {
+                    for waiter in &mut self.queue {
+                        waiter.warned = false;
+                    }
+                } else {
+                    self.dropped += self.queue.len();
+                    self.queue.clear();
                 }
                 Outcome::Restored
             }
@@ -419,30 +453,67 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             warnings.sort();
             warnings
         }),
-        Call::SnapshotRestore => {
+        Call::Restore {
+            keep_queue,
+            keep_holds,
+        } => {
+            let options = RestoreOptions {
+                keep_queue,
+                keep_holds,
+            };
             let before = lock.snapshot(now);
             let json = serde_json::to_value(&before).unwrap();
             let parsed: Snapshot = serde_json::from_value(json).unwrap();
-            let (restored, grants) =
-                Interlock::restore(lock.config().clone(), &parsed, true, now).unwrap();
+            let (mut restored, grants) =
+                Interlock::restore(lock.config().clone(), &parsed, options, now).unwrap();
             assert!(
                 grants.is_empty(),
                 "same configuration: nothing becomes grantable on restore"
             );
-            assert_round_trip(&before, &restored.snapshot(now));
+            assert_round_trip(&before, &restored.snapshot(now), options);
+            // Same configuration: no line added or dropped, only the holds and
+            // waiters the options let go are reported.
+            let mut interrupted = 0;
+            let mut dropped = 0;
+            for event in restored.drain_events() {
+                match event.kind {
+                    EventKind::Interrupted if event.operation.is_some() => interrupted += 1,
+                    EventKind::Dropped => dropped += 1,
+                    other => panic!("unexpected {other:?} on restore under the same configuration"),
+                }
+            }
+            assert_eq!(interrupted, if keep_holds { 0 } else { before.holds.len() });
+            assert_eq!(dropped, if keep_queue { 0 } else { before.queue.len() });
             *lock = restored;
             Outcome::Restored
         }
     }
 }
 
-/// Restore keeps everything but turns each held resource into an interrupted fault.
-fn assert_round_trip(before: &Snapshot, after: &Snapshot) {
-    assert_eq!(
-        after.queue, before.queue,
-        "waiting requests keep their order"
-    );
+/// Restore keeps faults, keeps holds or turns each held resource into an
+/// interrupted fault, and keeps or drops the queue; nothing else changes.
+fn assert_round_trip(before: &Snapshot, after: &Snapshot, options: RestoreOptions) {
+    assert_eq!(after.configured, before.configured);
+    if options.keep_queue {
+        assert_eq!(
+            after.queue, before.queue,
+            "waiting requests keep their order"
+        );
+    } else {
+        assert!(after.queue.is_empty());
+    }
+    if options.keep_holds {
+        let by_operation = |holds: &[RequestSnapshot]| {
+            let mut holds = holds.to_vec();
+            holds.sort_by(|a, b| a.operation.cmp(&b.operation));
+            holds
+        };
+        assert_eq!(by_operation(&after.holds), by_operation(&before.holds));
+        assert_eq!(after.resources, before.resources);
+        return;
+    }
     assert!(after.holds.is_empty());
+    assert_eq!(after.resources.len(), before.resources.len());
     for (b, a) in before.resources.iter().zip(&after.resources) {
         assert_eq!(a.name, b.name);
         match (&b.state, &a.state) {
@@ -634,5 +705,143 @@ proptest! {
         calls in proptest::collection::vec((call(), 0u64..400), 1..80),
     ) {
         run(Policy::NoOvertaking, priorities, calls);
+    }
+}
+
+/// One change to a valid snapshot that makes it contradict itself.
+#[derive(Clone, Debug)]
+enum Mutation {
+    DropLine(usize),
+    DuplicateLine(usize),
+    /// Swap one line of a hold for a line the hold does not have.
+    MoveHoldLine {
+        hold: usize,
+        from: usize,
+        to: usize,
+    },
+    AddUnknownLine,
+    /// Give an operation that holds a second hold.
+    SecondHold {
+        hold: usize,
+        line: usize,
+    },
+    /// Forget a hold whose lines still say they are held.
+    DropHold(usize),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let any_index = 0usize..16;
+    prop_oneof![
+        any_index.clone().prop_map(Mutation::DropLine),
+        any_index.clone().prop_map(Mutation::DuplicateLine),
+        (any_index.clone(), any_index.clone(), any_index.clone())
+            .prop_map(|(hold, from, to)| Mutation::MoveHoldLine { hold, from, to }),
+        Just(Mutation::AddUnknownLine),
+        (any_index.clone(), any_index.clone())
+            .prop_map(|(hold, line)| Mutation::SecondHold { hold, line }),
+        any_index.prop_map(Mutation::DropHold),
+    ]
+}
+
+/// Applies the mutation; one that needs a hold, on a snapshot with none,
+/// duplicates a line instead.
+fn mutate(snapshot: &mut Snapshot, mutation: &Mutation) {
+    let lines = snapshot.resources.len();
+    match *mutation {
+        Mutation::DropLine(i) => {
+            snapshot.resources.remove(i % lines);
+        }
+        Mutation::DuplicateLine(i) => {
+            let copy = snapshot.resources[i % lines].clone();
+            snapshot.resources.insert(i % (lines + 1), copy);
+        }
+        Mutation::AddUnknownLine => snapshot.resources.push(ResourceSnapshot {
+            name: "ORANGE".into(),
+            state: ResourceState::Free,
+        }),
+        Mutation::MoveHoldLine { hold, from, to } if !snapshot.holds.is_empty() => {
+            let count = snapshot.holds.len();
+            let hold = &mut snapshot.holds[hold % count];
+            let others: Vec<&str> = RESOURCES
+                .iter()
+                .copied()
+                .filter(|r| !hold.resources.iter().any(|h| h == r))
+                .collect();
+            if others.is_empty() {
+                // The hold has every line: none to move to.
+                hold.resources.remove(from % hold.resources.len());
+            } else {
+                let from = from % hold.resources.len();
+                hold.resources[from] = others[to % others.len()].to_owned();
+            }
+        }
+        Mutation::SecondHold { hold, line } if !snapshot.holds.is_empty() => {
+            let count = snapshot.holds.len();
+            let operation = snapshot.holds[hold % count].operation.clone();
+            snapshot.holds.push(RequestSnapshot {
+                operation,
+                priority: 0,
+                resources: vec![RESOURCES[line % RESOURCES.len()].to_owned()],
+                since_ms: 0,
+                waited_ms: 0,
+            });
+        }
+        Mutation::DropHold(hold) if !snapshot.holds.is_empty() => {
+            let count = snapshot.holds.len();
+            snapshot.holds.remove(hold % count);
+        }
+        Mutation::MoveHoldLine { from: i, .. }
+        | Mutation::SecondHold { line: i, .. }
+        | Mutation::DropHold(i) => mutate(snapshot, &Mutation::DuplicateLine(i)),
+    }
+}
+
+fn play(policy: Policy, priorities: &[i32], calls: &[(Call, u64)]) -> (Interlock, u64) {
+    let mut lock = Interlock::new(config(policy)).unwrap();
+    let mut now = 0;
+    for (call, dt) in calls {
+        now += dt;
+        apply(&mut lock, priorities, call, now);
+    }
+    (lock, now)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn a_mutated_snapshot_is_refused_never_restored_free(
+        no_overtaking in any::<bool>(),
+        priorities in proptest::collection::vec(0i32..3, OPS),
+        calls in proptest::collection::vec((call(), 0u64..400), 0..60),
+        clear_faults in any::<bool>(),
+        tail in proptest::collection::vec((0..OPS, 1u8..32), 1..4),
+        mutation in mutation(),
+    ) {
+        let policy = if no_overtaking { Policy::NoOvertaking } else { Policy::Greedy };
+        let (mut lock, now) = play(policy, &priorities, &calls);
+        // End on acquisitions, so most snapshots have holds to mutate.
+        let faulted = lock.faulted_resources();
+        if clear_faults && !faulted.is_empty() {
+            lock.clear(&faulted, now).unwrap();
+        }
+        for &(op, mask) in &tail {
+            apply(&mut lock, &priorities, &Call::Acquire { op, mask }, now);
+        }
+        let mut snapshot = lock.snapshot(now);
+        mutate(&mut snapshot, &mutation);
+        // What a store would hand back.
+        let json = serde_json::to_value(&snapshot).unwrap();
+        let parsed: Snapshot = serde_json::from_value(json).unwrap();
+        for (keep_queue, keep_holds) in [(false, false), (true, false), (false, true), (true, true)] {
+            let options = RestoreOptions { keep_queue, keep_holds };
+            match Interlock::restore(lock.config().clone(), &parsed, options, now + 1) {
+                Ok((restored, _)) => panic!(
+                    "{mutation:?} restored as {:?}",
+                    restored.snapshot(now + 1).resources
+                ),
+                Err(err) => prop_assert_eq!(err.code(), "INVALID_SNAPSHOT"),
+            }
+        }
     }
 }

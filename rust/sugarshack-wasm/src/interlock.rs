@@ -2,7 +2,8 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 use sugarshack_core::interlock::{
-    FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, Snapshot,
+    FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
+    Snapshot,
 };
 use wasm_bindgen::prelude::*;
 
@@ -118,12 +119,18 @@ impl Interlock {
             .map_err(core_error)
     }
 
-    /// Rebuilds a saved state: resources held when it was saved restore as
-    /// faulted. `keepQueue` false drops waiting requests (their callers are gone).
+    /// Rebuilds a saved state (snapshot version 1 or 2), checked whole first:
+    /// a snapshot that contradicts itself is refused (`INVALID_SNAPSHOT`).
+    /// `keepQueue` false drops waiting requests (their callers are gone).
+    /// `keepHolds` false (a restart) restores held lines as faulted; true (a
+    /// hand-over inside one running process) keeps each hold whose lines are
+    /// all still configured. Operations a changed configuration lets through
+    /// at once are read with `granted(i)`.
     pub fn restore(
         config: JsValue,
         snapshot: JsValue,
         keep_queue: bool,
+        keep_holds: bool,
         now_ms: f64,
     ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
@@ -132,15 +139,39 @@ impl Interlock {
             "INVALID_SNAPSHOT",
             "cannot restore interlock state",
         )?;
-        let (core, _grants) = sugarshack_core::interlock::Interlock::restore(
+        let options = RestoreOptions {
+            keep_queue,
+            keep_holds,
+        };
+        let (core, grants) = sugarshack_core::interlock::Interlock::restore(
             config,
             &snapshot,
-            keep_queue,
+            options,
             time(now_ms)?,
         )
         .map_err(core_error)?;
-        // Grants on restore only happen with keepQueue and a changed config; they show in the events.
-        Ok(Interlock::wrap(core))
+        let mut lock = Interlock::wrap(core);
+        lock.keep_granted(&grants);
+        Ok(lock)
+    }
+
+    /// A start without a usable saved state: every line faulted (cause
+    /// `"unknown"`) with `note`, until a person clears it.
+    #[wasm_bindgen(js_name = unknownState)]
+    pub fn unknown_state(
+        config: JsValue,
+        note: Option<String>,
+        now_ms: f64,
+    ) -> Result<Interlock, JsValue> {
+        let config = parse_config(config)?;
+        let now = time(now_ms)?;
+        sugarshack_core::interlock::Interlock::unknown_state(
+            config,
+            note.as_deref().unwrap_or_default(),
+            now,
+        )
+        .map(Interlock::wrap)
+        .map_err(core_error)
     }
 
     /// The handle of an operation, registering the name on first use.
@@ -218,7 +249,36 @@ impl Interlock {
         Ok(self.keep_granted(&grants))
     }
 
-    /// The handle of the i-th operation granted by the last release, cancel or clear, in grant order.
+    /// `release` by operation name; a name never seen holds nothing (`NOT_HOLDING`)
+    /// and is not registered.
+    #[wasm_bindgen(js_name = releaseNamed)]
+    pub fn release_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
+        if name.is_empty() {
+            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
+        }
+        let grants = self
+            .core
+            .release_named(name, time(now_ms)?)
+            .map_err(core_error)?;
+        Ok(self.keep_granted(&grants))
+    }
+
+    /// `cancel` by operation name; a name never seen waits for nothing (`NOT_QUEUED`)
+    /// and is not registered.
+    #[wasm_bindgen(js_name = cancelNamed)]
+    pub fn cancel_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
+        if name.is_empty() {
+            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
+        }
+        let grants = self
+            .core
+            .cancel_named(name, time(now_ms)?)
+            .map_err(core_error)?;
+        Ok(self.keep_granted(&grants))
+    }
+
+    /// The handle of the i-th operation granted by the last release, cancel,
+    /// clear or restore, in grant order.
     pub fn granted(&self, index: u32) -> Option<u32> {
         self.granted.get(index as usize).copied()
     }

@@ -216,7 +216,7 @@ fn snapshot_survives_json_and_restores_held_lines_as_faulted() {
         .unwrap();
     let config = json(r#"{ "resources": [{ "name": "YEL" }, { "name": "RED" }] }"#);
 
-    let mut kept = Interlock::restore(config.clone(), json(&stored), true, 20.0).unwrap();
+    let kept = Interlock::restore(config.clone(), json(&stored), true, false, 20.0).unwrap();
     assert_eq!(
         kept.faulted_resources(),
         vec!["YEL".to_string()],
@@ -239,13 +239,13 @@ fn snapshot_survives_json_and_restores_held_lines_as_faulted() {
         Some("12")
     );
 
-    let dropped = Interlock::restore(config.clone(), json(&stored), false, 20.0).unwrap();
+    let dropped = Interlock::restore(config.clone(), json(&stored), false, false, 20.0).unwrap();
     assert!(
         dropped.queued_operations().is_empty(),
         "waiters without callers are dropped"
     );
 
-    let err = Interlock::restore(config, json(r#"{ "version": 1 }"#), true, 0.0)
+    let err = Interlock::restore(config, json(r#"{ "version": 1 }"#), true, false, 0.0)
         .err()
         .unwrap();
     assert_eq!(code_of(err), "INVALID_SNAPSHOT");
@@ -278,4 +278,213 @@ fn counts_and_warnings_cross_as_plain_objects() {
         0,
         "once per crossing"
     );
+}
+
+fn stringify(value: &JsValue) -> String {
+    JSON::stringify(value).unwrap().as_string().unwrap()
+}
+
+/// The plant with '12' holding YEL and '18' waiting on YEL and RED, saved as JSON.
+fn saved_plant() -> (Interlock, String) {
+    let mut lock = plant();
+    let op = lock.operation("12").unwrap();
+    let waiter = lock.operation("18").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
+    lock.acquire(op, 22, yel, 100.0).unwrap();
+    lock.acquire(waiter, 92, both, 105.0).unwrap();
+    let stored = stringify(&lock.snapshot(110.0).unwrap());
+    (lock, stored)
+}
+
+fn two_lines() -> JsValue {
+    json(r#"{ "resources": [{ "name": "YEL" }, { "name": "RED" }] }"#)
+}
+
+#[wasm_bindgen_test]
+fn snapshot_v2_lists_configured_lines_and_a_hand_over_keeps_holds() {
+    let (_, stored) = saved_plant();
+    let saved = json(&stored);
+    assert_eq!(get(&saved, "version").as_f64(), Some(2.0));
+    assert_eq!(stringify(&get(&saved, "configured")), r#"["YEL","RED"]"#);
+
+    let mut kept = Interlock::restore(two_lines(), json(&stored), true, true, 120.0).unwrap();
+    let op = kept.find_operation("12").unwrap();
+    assert!(kept.is_holding(op), "a hand-over keeps the hold");
+    assert!(kept.faulted_resources().is_empty());
+    assert!(kept.is_queued(kept.find_operation("18").unwrap()));
+    let hold = Array::from(&get(&kept.snapshot(120.0).unwrap(), "holds")).get(0);
+    assert_eq!(
+        get(&hold, "sinceMs").as_f64(),
+        Some(100.0),
+        "with its start"
+    );
+    assert_eq!(kept.release(op, 130.0).unwrap(), 1);
+    assert_eq!(
+        kept.granted(0),
+        Some(kept.find_operation("18").unwrap()),
+        "the kept waiter goes on release"
+    );
+
+    let restarted = Interlock::restore(two_lines(), json(&stored), false, false, 120.0).unwrap();
+    assert_eq!(restarted.faulted_resources(), vec!["YEL".to_string()]);
+    assert!(!restarted.is_holding(restarted.find_operation("12").unwrap()));
+    assert!(restarted.queued_operations().is_empty());
+}
+
+#[wasm_bindgen_test]
+fn operations_a_restore_lets_through_are_read_with_granted() {
+    let mut lock = Interlock::new(json(
+        r#"{ "resources": [{ "name": "YEL" }, { "name": "RED" }], "policy": "no-overtaking" }"#,
+    ))
+    .unwrap();
+    let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n).unwrap());
+    let red = lock.resource_set(vec!["RED".into()]).unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
+    lock.acquire(holder, 1, red, 0.0).unwrap();
+    lock.acquire(wide, 9, both, 1.0).unwrap();
+    lock.acquire(narrow, 1, yel, 2.0).unwrap();
+    let stored = stringify(&lock.snapshot(3.0).unwrap());
+    // RED is gone: the wide request is dropped and the narrow one may go.
+    let restored = Interlock::restore(
+        json(r#"{ "resources": [{ "name": "YEL" }], "policy": "no-overtaking" }"#),
+        json(&stored),
+        true,
+        true,
+        4.0,
+    )
+    .unwrap();
+    assert_eq!(
+        granted(&restored, 1),
+        vec![restored.find_operation("narrow").unwrap()]
+    );
+}
+
+#[wasm_bindgen_test]
+fn a_refused_snapshot_leaves_the_caller_free_to_start_unknown() {
+    let (_, stored) = saved_plant();
+    let mut tampered: serde_json::Value = serde_json::from_str(&stored).unwrap();
+    tampered["resources"].as_array_mut().unwrap().pop();
+    let err = Interlock::restore(two_lines(), json(&tampered.to_string()), true, true, 120.0)
+        .err()
+        .unwrap();
+    let message = message_of(&err);
+    assert!(message.contains("'RED'"), "{message}");
+    assert_eq!(code_of(err), "INVALID_SNAPSHOT");
+
+    let note = format!("state unknown after restart: {message}");
+    let mut lock = Interlock::unknown_state(two_lines(), Some(note.clone()), 130.0).unwrap();
+    assert_eq!(
+        lock.faulted_resources(),
+        vec!["YEL".to_string(), "RED".to_string()]
+    );
+    let saved = lock.snapshot(131.0).unwrap();
+    let red = get(&Array::from(&get(&saved, "resources")).get(1), "state");
+    assert_eq!(get(&red, "state").as_string().as_deref(), Some("faulted"));
+    assert_eq!(get(&red, "cause").as_string().as_deref(), Some("unknown"));
+    assert_eq!(get(&red, "note").as_string(), Some(note.clone()));
+    let events = Array::from(&lock.drain_events().unwrap());
+    assert_eq!(events.length(), 1);
+    assert_eq!(
+        get(&events.get(0), "kind").as_string().as_deref(),
+        Some("state-unknown")
+    );
+    assert_eq!(
+        stringify(&get(&events.get(0), "resources")),
+        r#"["YEL","RED"]"#
+    );
+
+    // A person clears the lines, and work goes on.
+    let op = lock.operation("12").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    assert!(
+        !lock.acquire(op, 1, yel, 140.0).unwrap(),
+        "an unknown line is not granted"
+    );
+    let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
+    let count = lock.clear(both, 150.0).unwrap();
+    assert_eq!(granted(&lock, count), vec![op]);
+    assert!(lock.faulted_resources().is_empty());
+
+    // The unknown state, saved, survives a restart as it is.
+    let again = Interlock::restore(two_lines(), saved, false, false, 160.0).unwrap();
+    assert_eq!(again.faulted_resources().len(), 2);
+    let quiet = Interlock::unknown_state(two_lines(), None, 0.0).unwrap();
+    assert_eq!(quiet.faulted_resources().len(), 2);
+    assert_eq!(
+        code_of(
+            Interlock::unknown_state(two_lines(), None, -1.0)
+                .err()
+                .unwrap()
+        ),
+        "INVALID_TIME"
+    );
+    assert_eq!(
+        code_of(
+            Interlock::unknown_state(json(r#"{ "resources": [] }"#), None, 0.0)
+                .err()
+                .unwrap()
+        ),
+        "INVALID_CONFIG"
+    );
+}
+
+#[wasm_bindgen_test]
+fn a_long_fault_note_is_cut_to_500_characters() {
+    let mut lock = plant();
+    let op = lock.operation("12").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    lock.acquire(op, 1, yel, 0.0).unwrap();
+    lock.fault(op, Some("x".repeat(10_000)), 1.0).unwrap();
+    let saved = lock.snapshot(2.0).unwrap();
+    let yel_state = get(&Array::from(&get(&saved, "resources")).get(0), "state");
+    let note = get(&yel_state, "note").as_string().unwrap();
+    assert_eq!(note.chars().count(), 500);
+    assert!(note.ends_with('\u{2026}'));
+}
+
+#[wasm_bindgen_test]
+fn release_and_cancel_by_name() {
+    let mut lock = plant();
+    let err = lock.release_named("ghost", 0.0).unwrap_err();
+    assert!(message_of(&err).contains("'ghost'"), "{}", message_of(&err));
+    assert_eq!(code_of(err), "NOT_HOLDING");
+    assert_eq!(
+        code_of(lock.cancel_named("ghost", 0.0).unwrap_err()),
+        "NOT_QUEUED"
+    );
+    assert_eq!(
+        code_of(lock.find_operation("ghost").unwrap_err()),
+        "UNKNOWN_OPERATION",
+        "an unknown name is not registered"
+    );
+    assert_eq!(
+        code_of(lock.release_named("", 0.0).unwrap_err()),
+        "MISSING_OPERATION"
+    );
+    assert_eq!(
+        code_of(lock.cancel_named("", 0.0).unwrap_err()),
+        "MISSING_OPERATION"
+    );
+
+    let op = lock.operation("12").unwrap();
+    let waiter = lock.operation("18").unwrap();
+    let late = lock.operation("20").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    lock.acquire(op, 1, yel, 0.0).unwrap();
+    lock.acquire(waiter, 5, yel, 1.0).unwrap();
+    lock.acquire(late, 1, yel, 2.0).unwrap();
+    assert_eq!(
+        code_of(lock.release_named("12", f64::NAN).unwrap_err()),
+        "INVALID_TIME"
+    );
+    assert_eq!(
+        code_of(lock.release_named("18", 3.0).unwrap_err()),
+        "NOT_HOLDING"
+    );
+    assert_eq!(lock.cancel_named("20", 3.0).unwrap(), 0);
+    assert!(!lock.is_queued(late));
+    let count = lock.release_named("12", 4.0).unwrap();
+    assert_eq!(granted(&lock, count), vec![waiter]);
 }

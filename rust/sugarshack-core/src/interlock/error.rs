@@ -87,7 +87,10 @@ impl fmt::Display for InterlockError {
             Self::QueueFull { bound } => {
                 write!(f, "the interlock queue is full ({bound} requests waiting); request refused")
             }
-            Self::InvalidSnapshot { reason } => write!(f, "cannot restore interlock state: {reason}"),
+            Self::InvalidSnapshot { reason } => write!(
+                f,
+                "cannot restore interlock state: {reason}; nothing was restored, so treat every line's state as unknown until it is checked"
+            ),
         }
     }
 }

@@ -18,6 +18,10 @@ pub enum EventKind {
     Cleared,
     /// A resource held when the state was saved, restored as faulted.
     Interrupted,
+    /// Lines configured now but absent from the saved state: they start free.
+    ResourceAdded,
+    /// No usable saved state: every line starts faulted until a person clears it.
+    StateUnknown,
     WarnQueued,
     WarnHeld,
 }

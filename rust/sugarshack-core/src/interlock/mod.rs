@@ -24,6 +24,7 @@ mod error;
 mod event;
 mod snapshot;
 
+use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
@@ -31,9 +32,34 @@ pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
 pub use event::{Event, EventKind, EventRecord};
 pub use snapshot::{
-    FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, Snapshot,
-    SNAPSHOT_VERSION,
+    FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions,
+    Snapshot, SNAPSHOT_VERSION,
 };
+
+/// The longest fault note kept, in characters: a Catch node's message can be
+/// any length, and every note is saved with the state.
+pub const NOTE_MAX_CHARS: usize = 500;
+
+/// `text` if it has at most `max_chars` characters, else its start cut to
+/// `max_chars` characters, the last an ellipsis.
+fn cut(text: &str, max_chars: usize) -> Cow<'_, str> {
+    // Fewer bytes than the bound means fewer characters too.
+    if text.len() <= max_chars || text.chars().nth(max_chars).is_none() {
+        return Cow::Borrowed(text);
+    }
+    let end = text
+        .char_indices()
+        .nth(max_chars.saturating_sub(1))
+        .map_or(text.len(), |(i, _)| i);
+    Cow::Owned(format!("{}\u{2026}", &text[..end]))
+}
+
+fn bound_note(note: &str) -> Cow<'_, str> {
+    cut(note, NOTE_MAX_CHARS)
+}
+
+/// How much of a name from outside an error message or event quotes.
+const QUOTE_MAX_CHARS: usize = 100;
 
 /// A configured resource, by its index in the configuration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -465,16 +491,42 @@ impl Interlock {
         Ok(self.after_withdrawal(&waiting.resources, now_ms))
     }
 
+    /// [`Self::release`] by name. An operation this interlock has never seen
+    /// holds nothing; the name is not registered, so bad input cannot grow
+    /// the operation table.
+    pub fn release_named(&mut self, name: &str, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+        match self.operation_index.get(name) {
+            Some(&op) => self.release(op, now_ms),
+            None => Err(InterlockError::NotHolding {
+                operation: cut(name, QUOTE_MAX_CHARS).into_owned(),
+            }),
+        }
+    }
+
+    /// [`Self::cancel`] by name. An operation this interlock has never seen
+    /// waits for nothing; the name is not registered.
+    pub fn cancel_named(&mut self, name: &str, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+        match self.operation_index.get(name) {
+            Some(&op) => self.cancel(op, now_ms),
+            None => Err(InterlockError::NotQueued {
+                operation: cut(name, QUOTE_MAX_CHARS).into_owned(),
+            }),
+        }
+    }
+
     /// The operation faulted: what it holds latches as faulted; a waiting
     /// request is dropped instead. Returns the lockout of every resource
     /// latched under this operation, so a repeated fault (an error handler
-    /// called twice) re-sends the same lockouts instead of failing.
+    /// called twice) re-sends the same lockouts instead of failing. The note
+    /// is kept to [`NOTE_MAX_CHARS`].
     pub fn fault(
         &mut self,
         op: OpId,
         note: Option<&str>,
         now_ms: u64,
     ) -> Result<FaultOutcome, InterlockError> {
+        let note = note.map(bound_note);
+        let note = note.as_deref();
         let mut outcome = FaultOutcome::default();
         match self.op(op)?.state.clone() {
             OpState::Idle => {}
@@ -511,6 +563,8 @@ impl Interlock {
         now_ms: u64,
     ) -> Result<FaultOutcome, InterlockError> {
         self.check_set(resources)?;
+        let note = note.map(bound_note);
+        let note = note.as_deref();
         let mut latched = resources.ids().to_vec();
         for &r in resources.ids() {
             match self.owners[r.index()] {

@@ -1,8 +1,10 @@
+use std::collections::{HashMap, HashSet};
+
 use serde::{Deserialize, Serialize};
 
 use super::{
-    EventKind, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner, QueueKey,
-    ResourceSet,
+    bound_note, cut, EventKind, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpId,
+    OpState, Owner, QueueKey, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 /// The whole interlock state by name, for persistence across restarts.
@@ -11,13 +13,18 @@ use super::{
 pub struct Snapshot {
     pub version: u32,
     pub taken_at_ms: u64,
+    /// The lines configured when the state was saved, in configuration order.
+    /// Absent from version 1, where the names in `resources` stand for it.
+    #[serde(default)]
+    pub configured: Vec<String>,
     pub resources: Vec<ResourceSnapshot>,
     /// Waiting requests in grant order (priority, then arrival).
     pub queue: Vec<RequestSnapshot>,
     pub holds: Vec<RequestSnapshot>,
 }
 
-pub const SNAPSHOT_VERSION: u32 = 1;
+/// The version [`Interlock::snapshot`] writes; [`Interlock::restore`] also reads version 1.
+pub const SNAPSHOT_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -54,6 +61,8 @@ pub enum FaultCause {
     Manual,
     /// The resource was held when the state was saved: its physical state is unknown.
     Interrupted,
+    /// No usable saved state (lost, empty or refused): nothing is known of the line.
+    Unknown,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -65,6 +74,207 @@ pub struct RequestSnapshot {
     pub since_ms: u64,
     #[serde(default)]
     pub waited_ms: u64,
+}
+
+/// How [`Interlock::restore`] takes a saved state back. The default is a restart.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RestoreOptions {
+    /// Keep waiting requests. False drops them, with an event each: after a
+    /// restart their callers are gone.
+    pub keep_queue: bool,
+    /// Keep holds whose lines are all still configured, with their start time:
+    /// a hand-over inside one running process. False faults every held line
+    /// ("interrupted"): after a restart nobody knows where the operation stopped.
+    pub keep_holds: bool,
+}
+
+fn quoted(name: &str) -> String {
+    format!("'{}'", cut(name, QUOTE_MAX_CHARS))
+}
+
+fn invalid(reason: String) -> InterlockError {
+    InterlockError::InvalidSnapshot { reason }
+}
+
+fn describe_state(state: Option<&ResourceState>) -> String {
+    match state {
+        Some(ResourceState::Free) => "free".to_owned(),
+        Some(ResourceState::Held { operation }) => {
+            format!("held by operation {}", quoted(operation))
+        }
+        Some(ResourceState::Faulted(_)) => "faulted".to_owned(),
+        None => "not listed".to_owned(),
+    }
+}
+
+/// Checks a waiting request or a hold on its own: an operation, at least one
+/// line, each line once and each among the snapshot's configured lines.
+fn check_request(
+    list: &str,
+    index: usize,
+    request: &RequestSnapshot,
+    configured: &HashSet<&str>,
+) -> Result<(), InterlockError> {
+    let entry = format!("{list}[{index}]");
+    if request.operation.trim().is_empty() {
+        return Err(invalid(format!("{entry} names no operation")));
+    }
+    let operation = quoted(&request.operation);
+    if request.resources.is_empty() {
+        return Err(invalid(format!(
+            "{entry} (operation {operation}) names no line"
+        )));
+    }
+    let mut seen = HashSet::new();
+    for line in &request.resources {
+        if !configured.contains(line.as_str()) {
+            return Err(invalid(format!(
+                "{entry} (operation {operation}) names line {}, which is not among the snapshot's configured lines",
+                quoted(line)
+            )));
+        }
+        if !seen.insert(line.as_str()) {
+            return Err(invalid(format!(
+                "{entry} (operation {operation}) names line {} twice",
+                quoted(line)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks the snapshot whole, so a refused restore builds nothing. Returns
+/// the lines configured when it was saved.
+fn check(snapshot: &Snapshot) -> Result<Vec<&str>, InterlockError> {
+    let configured: Vec<&str> = match snapshot.version {
+        1 => {
+            if !snapshot.configured.is_empty() {
+                return Err(invalid(
+                    "a version 1 snapshot has no 'configured' list, yet this one has one".into(),
+                ));
+            }
+            // Legacy: the lines it lists are the lines it knew. A line listed
+            // twice is reported below, as an entry of `resources`.
+            let mut seen = HashSet::new();
+            snapshot
+                .resources
+                .iter()
+                .map(|r| r.name.as_str())
+                .filter(|name| seen.insert(*name))
+                .collect()
+        }
+        2 => {
+            if snapshot.configured.is_empty() {
+                return Err(invalid(
+                    "the snapshot does not say which lines were configured ('configured' is missing or empty)".into(),
+                ));
+            }
+            snapshot.configured.iter().map(String::as_str).collect()
+        }
+        version => {
+            return Err(invalid(format!(
+                "snapshot version {version} is not supported (versions 1 and 2 are)"
+            )))
+        }
+    };
+    let mut known = HashSet::new();
+    for name in &configured {
+        if name.trim().is_empty() {
+            return Err(invalid(
+                "'configured' lists a line with an empty name".into(),
+            ));
+        }
+        if !known.insert(*name) {
+            return Err(invalid(format!(
+                "line {} is listed twice in 'configured'",
+                quoted(name)
+            )));
+        }
+    }
+
+    let mut states: HashMap<&str, &ResourceState> = HashMap::new();
+    for (index, saved) in snapshot.resources.iter().enumerate() {
+        let line = quoted(&saved.name);
+        if !known.contains(saved.name.as_str()) {
+            return Err(invalid(format!(
+                "resources[{index}] is line {line}, which is not among the snapshot's configured lines"
+            )));
+        }
+        if states.insert(saved.name.as_str(), &saved.state).is_some() {
+            return Err(invalid(format!(
+                "line {line} is listed twice in 'resources'"
+            )));
+        }
+        if let ResourceState::Faulted(fault) = &saved.state {
+            if fault
+                .operation
+                .as_deref()
+                .is_some_and(|op| op.trim().is_empty())
+            {
+                return Err(invalid(format!(
+                    "line {line} is faulted under an operation with an empty name"
+                )));
+            }
+        }
+    }
+    if let Some(missing) = configured.iter().find(|name| !states.contains_key(*name)) {
+        return Err(invalid(format!(
+            "line {} was configured but 'resources' does not say its state",
+            quoted(missing)
+        )));
+    }
+
+    let mut holders = HashSet::new();
+    let mut held_lines = HashSet::new();
+    for (index, hold) in snapshot.holds.iter().enumerate() {
+        check_request("holds", index, hold, &known)?;
+        let operation = quoted(&hold.operation);
+        if !holders.insert(hold.operation.as_str()) {
+            return Err(invalid(format!(
+                "operation {operation} holds twice (holds[{index}]); an operation holds one set of lines at a time"
+            )));
+        }
+        for line in &hold.resources {
+            let state = states.get(line.as_str()).copied();
+            if !matches!(state, Some(ResourceState::Held { operation }) if *operation == hold.operation)
+            {
+                return Err(invalid(format!(
+                    "holds[{index}]: operation {operation} holds line {}, but 'resources' says that line is {}",
+                    quoted(line),
+                    describe_state(state)
+                )));
+            }
+            held_lines.insert(line.as_str());
+        }
+    }
+    for saved in &snapshot.resources {
+        if let ResourceState::Held { operation } = &saved.state {
+            if !held_lines.contains(saved.name.as_str()) {
+                return Err(invalid(format!(
+                    "line {} is held by operation {}, but no hold of that operation lists it",
+                    quoted(&saved.name),
+                    quoted(operation)
+                )));
+            }
+        }
+    }
+
+    let mut waiters = HashSet::new();
+    for (index, waiting) in snapshot.queue.iter().enumerate() {
+        check_request("queue", index, waiting, &known)?;
+        let operation = quoted(&waiting.operation);
+        if holders.contains(waiting.operation.as_str()) {
+            return Err(invalid(format!(
+                "operation {operation} both holds and waits (queue[{index}]); an operation does one or the other"
+            )));
+        }
+        if !waiters.insert(waiting.operation.as_str()) {
+            return Err(invalid(format!(
+                "operation {operation} waits twice (queue[{index}])"
+            )));
+        }
+    }
+    Ok(configured)
 }
 
 impl Interlock {
@@ -120,92 +330,142 @@ impl Interlock {
         Snapshot {
             version: SNAPSHOT_VERSION,
             taken_at_ms: now_ms,
+            configured: self
+                .config
+                .resources
+                .iter()
+                .map(|r| r.name.clone())
+                .collect(),
             resources,
             queue,
             holds,
         }
     }
 
-    /// Rebuilds the state saved in `snapshot` under `config`. Nobody knows the
-    /// physical state of an operation interrupted mid-way, so every resource
-    /// held at the snapshot restores as faulted ("interrupted") and its
-    /// operation as idle. Faults stay faulted; waiting requests keep their
-    /// order. Resources no longer configured are left out, and so are
-    /// waiting requests that name them; each omission is reported as an event.
+    /// Rebuilds the state saved in `snapshot` under `config`.
     ///
-    /// With `keep_queue` false the waiting requests are dropped instead (with
-    /// an event each): use that when their callers did not survive the restart.
+    /// The snapshot is checked whole first and refused (`InvalidSnapshot`) if
+    /// it contradicts itself: a line listed twice, missing, or unknown to its
+    /// own `configured` list; holds that disagree with the lines' owners; an
+    /// operation holding or waiting twice, or doing both. A refused snapshot
+    /// is never read as "all free".
+    ///
+    /// Faults stay faulted. Held lines come back faulted ("interrupted")
+    /// unless `options.keep_holds`; waiting requests are dropped unless
+    /// `options.keep_queue`. Lines configured now but not when the state was
+    /// saved start free; lines saved but no longer configured are left out,
+    /// and so are waiting requests that name them. Each of those gets an event.
     pub fn restore(
         config: InterlockConfig,
         snapshot: &Snapshot,
-        keep_queue: bool,
+        options: RestoreOptions,
         now_ms: u64,
     ) -> Result<(Self, Vec<Grant>), InterlockError> {
-        if snapshot.version != SNAPSHOT_VERSION {
-            return Err(InterlockError::InvalidSnapshot {
-                reason: format!(
-                    "snapshot version {} is not {SNAPSHOT_VERSION}",
-                    snapshot.version
-                ),
-            });
-        }
+        let saved_lines = check(snapshot)?;
         let mut lock = Interlock::new(config)?;
-        let mut seen = std::collections::HashSet::new();
-        for saved in &snapshot.resources {
-            if !seen.insert(saved.name.as_str()) {
-                return Err(InterlockError::InvalidSnapshot {
-                    reason: format!("resource '{}' appears twice", saved.name),
-                });
-            }
-            let Ok(r) = lock.resource(&saved.name) else {
-                let note = format!("resource '{}' in the saved state is no longer configured; its state is dropped", saved.name);
-                lock.record(
+
+        for name in &saved_lines {
+            if lock.resource(name).is_err() {
+                let note = format!(
+                    "resource {} in the saved state is no longer configured; its state is dropped",
+                    quoted(name)
+                );
+                lock.record_note(
                     now_ms,
                     EventKind::Interrupted,
                     None,
-                    None,
                     &ResourceSet::default(),
-                    None,
-                    None,
-                    Some(note),
+                    note,
                 );
-                continue;
-            };
-            match &saved.state {
-                ResourceState::Free => {}
-                ResourceState::Held { operation } => {
-                    let op = lock.operation(operation);
-                    lock.latch(
-                        r,
-                        FaultCause::Interrupted,
-                        Some(op),
-                        Some("held when the interlock state was saved"),
-                        now_ms,
-                    );
-                    lock.record(
-                        now_ms,
-                        EventKind::Interrupted,
-                        Some(op),
-                        None,
-                        &ResourceSet(vec![r].into()),
-                        None,
-                        None,
-                        None,
-                    );
-                }
-                ResourceState::Faulted(fault) => {
-                    let op = fault.operation.as_deref().map(|name| lock.operation(name));
-                    lock.latch(r, fault.cause, op, fault.note.as_deref(), fault.since_ms);
-                }
             }
         }
+        let saved: HashSet<&str> = saved_lines.iter().copied().collect();
+        let added: Vec<ResourceId> = (0..lock.owners.len() as u32)
+            .map(ResourceId)
+            .filter(|&r| !saved.contains(lock.config.resources[r.index()].name.as_str()))
+            .collect();
+        if !added.is_empty() {
+            let added = ResourceSet(added.into());
+            let note = "not in the saved state: new lines start free".to_owned();
+            lock.record_note(now_ms, EventKind::ResourceAdded, None, &added, note);
+        }
+
+        for entry in &snapshot.resources {
+            let (ResourceState::Faulted(fault), Ok(r)) = (&entry.state, lock.resource(&entry.name))
+            else {
+                continue;
+            };
+            let op = fault.operation.as_deref().map(|name| lock.operation(name));
+            let note = fault.note.as_deref().map(bound_note);
+            lock.latch(r, fault.cause, op, note.as_deref(), fault.since_ms);
+        }
+
+        for hold in &snapshot.holds {
+            let op = lock.operation(&hold.operation);
+            let (kept, lost): (Vec<&String>, Vec<&String>) = hold
+                .resources
+                .iter()
+                .partition(|name| lock.resource(name).is_ok());
+            let lines = ResourceSet::from_unsorted(
+                kept.iter()
+                    .filter_map(|name| lock.resource(name).ok())
+                    .collect(),
+            );
+            if options.keep_holds && lost.is_empty() {
+                // Checked: every line of a hold is owned by it, so none is faulted.
+                for &r in lines.ids() {
+                    lock.occupy(r, Owner::Held(op));
+                }
+                lock.holding += 1;
+                lock.operations[op.index()].state = OpState::Holding(Hold {
+                    priority: hold.priority,
+                    resources: lines,
+                    since_ms: hold.since_ms,
+                    waited_ms: hold.waited_ms,
+                    warned: false,
+                });
+                continue;
+            }
+            if lines.is_empty() {
+                continue;
+            }
+            let note = if options.keep_holds {
+                let lost: Vec<String> = lost.iter().map(|name| quoted(name)).collect();
+                format!(
+                    "held at the hand-over, but its hold names lines no longer configured: {}",
+                    lost.join(", ")
+                )
+            } else {
+                "held when the interlock state was saved".to_owned()
+            };
+            let note = bound_note(&note).into_owned();
+            for &r in lines.ids() {
+                lock.latch(r, FaultCause::Interrupted, Some(op), Some(&note), now_ms);
+            }
+            lock.record(
+                now_ms,
+                EventKind::Interrupted,
+                Some(op),
+                Some(hold.priority),
+                &lines,
+                None,
+                None,
+                Some(note),
+            );
+        }
+
         for waiting in &snapshot.queue {
             let op = lock.operation(&waiting.operation);
-            let resources = if keep_queue {
-                lock.resource_set(&waiting.resources)
-                    .map_err(|err| err.to_string())
-            } else {
-                Err("its caller did not survive the restart".to_owned())
+            let gone = waiting
+                .resources
+                .iter()
+                .find(|name| lock.resource(name).is_err());
+            let resources = match (options.keep_queue, gone) {
+                (false, _) => Err("its caller did not survive the restart".to_owned()),
+                (true, Some(name)) => Err(format!("line {} is no longer configured", quoted(name))),
+                (true, None) => lock
+                    .resource_set(&waiting.resources)
+                    .map_err(|err| err.to_string()),
             };
             let resources = match resources {
                 Ok(set) => set,
@@ -218,16 +478,16 @@ impl Interlock {
                         &ResourceSet::default(),
                         None,
                         None,
-                        Some(format!("waiting request dropped on restore: {why}")),
+                        Some(
+                            bound_note(&format!("waiting request dropped on restore: {why}"))
+                                .into_owned(),
+                        ),
                     );
                     continue;
                 }
             };
-            if !matches!(lock.operations[op.index()].state, OpState::Idle) {
-                return Err(InterlockError::InvalidSnapshot {
-                    reason: format!("operation '{}' waits twice", waiting.operation),
-                });
-            }
+            // Checked: no operation waits twice or both holds and waits.
+            debug_assert!(matches!(lock.operations[op.index()].state, OpState::Idle));
             let key = QueueKey {
                 priority: waiting.priority,
                 seq: lock.next_seq,
@@ -236,7 +496,7 @@ impl Interlock {
             lock.next_seq += 1;
             lock.enqueue(key, resources, waiting.since_ms);
         }
-        // A changed configuration may let restored waiters through at once.
+        // Dropping a waiter that named a removed line may let others through.
         let unblocked: Vec<QueueKey> = lock
             .queue
             .iter()
@@ -245,5 +505,53 @@ impl Interlock {
             .collect();
         let grants = lock.grant_candidates(unblocked, now_ms);
         Ok((lock, grants))
+    }
+
+    /// A start with no usable saved state (none after a crash, an empty file,
+    /// or a refused snapshot): nobody knows what any line is doing, so every
+    /// line starts faulted ("unknown") with `note`, until a person clears it.
+    pub fn unknown_state(
+        config: InterlockConfig,
+        note: &str,
+        now_ms: u64,
+    ) -> Result<Self, InterlockError> {
+        let mut lock = Interlock::new(config)?;
+        let note = (!note.trim().is_empty()).then(|| bound_note(note));
+        let all = ResourceSet((0..lock.owners.len() as u32).map(ResourceId).collect());
+        for &r in all.ids() {
+            lock.latch(r, FaultCause::Unknown, None, note.as_deref(), now_ms);
+        }
+        let note = note.map(|n| n.into_owned());
+        lock.record(
+            now_ms,
+            EventKind::StateUnknown,
+            None,
+            None,
+            &all,
+            None,
+            None,
+            note,
+        );
+        Ok(lock)
+    }
+
+    fn record_note(
+        &mut self,
+        at_ms: u64,
+        kind: EventKind,
+        operation: Option<OpId>,
+        resources: &ResourceSet,
+        note: String,
+    ) {
+        self.record(
+            at_ms,
+            kind,
+            operation,
+            None,
+            resources,
+            None,
+            None,
+            Some(note),
+        );
     }
 }

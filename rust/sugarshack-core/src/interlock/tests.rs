@@ -13,6 +13,20 @@ fn plant(policy: Policy) -> Interlock {
     Interlock::new(config).unwrap()
 }
 
+/// A restart whose waiting callers survived (held lines still come back faulted).
+const QUEUE_KEPT: RestoreOptions = RestoreOptions {
+    keep_queue: true,
+    keep_holds: false,
+};
+const RESTART: RestoreOptions = RestoreOptions {
+    keep_queue: false,
+    keep_holds: false,
+};
+const HAND_OVER: RestoreOptions = RestoreOptions {
+    keep_queue: true,
+    keep_holds: true,
+};
+
 fn set(lock: &Interlock, names: &[&str]) -> ResourceSet {
     lock.resource_set(names).unwrap()
 }
@@ -482,7 +496,7 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let json = serde_json::to_string(&snapshot).unwrap();
     let parsed: Snapshot = serde_json::from_str(&json).unwrap();
     let (mut restored, grants) =
-        Interlock::restore(lock.config().clone(), &parsed, true, 20).unwrap();
+        Interlock::restore(lock.config().clone(), &parsed, QUEUE_KEPT, 20).unwrap();
     assert!(grants.is_empty());
     let yel = restored.resource("YEL").unwrap();
     assert!(restored.is_faulted(yel), "held when saved: interrupted");
@@ -522,7 +536,7 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
     let (mut restored, _) = Interlock::restore(
         InterlockConfig::with_resources(["YEL", "GRN"]),
         &snapshot,
-        true,
+        QUEUE_KEPT,
         2,
     )
     .unwrap();
@@ -538,7 +552,7 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
         ..snapshot
     };
     assert_eq!(
-        Interlock::restore(lock.config().clone(), &bad, true, 0)
+        Interlock::restore(lock.config().clone(), &bad, QUEUE_KEPT, 0)
             .unwrap_err()
             .code(),
         "INVALID_SNAPSHOT"
@@ -552,7 +566,7 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
     lock.acquire(a, 1, &set(&lock, &["GRN"]), 0).unwrap();
     lock.acquire(b, 1, &set(&lock, &["GRN"]), 0).unwrap();
     let (mut restored, grants) =
-        Interlock::restore(lock.config().clone(), &lock.snapshot(1), false, 2).unwrap();
+        Interlock::restore(lock.config().clone(), &lock.snapshot(1), RESTART, 2).unwrap();
     assert!(grants.is_empty());
     assert_eq!(
         restored.counts(),
@@ -564,4 +578,585 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
     );
     let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted, EventKind::Dropped]);
+}
+
+/// YEL+GRN held by 'a', 'b' waiting on YEL, BLU faulted under 'c'; PUR and RED free.
+fn saved_plant() -> (Interlock, Snapshot) {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
+    lock.acquire(a, 1, &set(&lock, &["YEL", "GRN"]), 0).unwrap();
+    lock.acquire(b, 5, &set(&lock, &["YEL"]), 1).unwrap();
+    lock.acquire(c, 2, &set(&lock, &["BLU"]), 2).unwrap();
+    lock.fault(c, Some("dry pump"), 3).unwrap();
+    let snapshot = lock.snapshot(10);
+    (lock, snapshot)
+}
+
+fn request(operation: &str, resources: &[&str]) -> RequestSnapshot {
+    RequestSnapshot {
+        operation: operation.into(),
+        priority: 1,
+        resources: resources.iter().map(|r| r.to_string()).collect(),
+        since_ms: 0,
+        waited_ms: 0,
+    }
+}
+
+fn line(snapshot: &mut Snapshot, name: &str) -> usize {
+    snapshot
+        .resources
+        .iter()
+        .position(|r| r.name == name)
+        .unwrap()
+}
+
+#[test]
+fn snapshot_v2_lists_the_configured_lines_in_config_order() {
+    let (_, snapshot) = saved_plant();
+    assert_eq!(snapshot.version, 2);
+    assert_eq!(snapshot.configured, ["YEL", "GRN", "BLU", "PUR", "RED"]);
+    let json = serde_json::to_value(&snapshot).unwrap();
+    assert_eq!(
+        json["configured"],
+        json!(["YEL", "GRN", "BLU", "PUR", "RED"])
+    );
+}
+
+#[test]
+fn restore_refuses_a_snapshot_that_contradicts_itself_and_names_the_entry() {
+    type Mutation = fn(&mut Snapshot);
+    let cases: Vec<(&str, Mutation, &[&str])> = vec![
+        ("unknown version", |s| s.version = 3, &["version 3"]),
+        (
+            "v2 without configured",
+            |s| s.configured.clear(),
+            &["'configured' is missing or empty"],
+        ),
+        (
+            "v1 with configured",
+            |s| s.version = 1,
+            &["version 1", "'configured'"],
+        ),
+        (
+            "configured twice",
+            |s| s.configured.push("YEL".into()),
+            &["'YEL'", "twice in 'configured'"],
+        ),
+        (
+            "configured empty name",
+            |s| s.configured.push(" ".into()),
+            &["empty name"],
+        ),
+        (
+            "line listed twice",
+            |s| {
+                let pur = s.resources[3].clone();
+                s.resources.push(pur);
+            },
+            &["'PUR'", "twice in 'resources'"],
+        ),
+        (
+            "unknown entry",
+            |s| {
+                s.resources.push(ResourceSnapshot {
+                    name: "ORANGE".into(),
+                    state: ResourceState::Free,
+                })
+            },
+            &[
+                "resources[5]",
+                "'ORANGE'",
+                "not among the snapshot's configured lines",
+            ],
+        ),
+        (
+            "omitted line",
+            |s| {
+                let blu = line(s, "BLU");
+                s.resources.remove(blu);
+            },
+            &["'BLU'", "does not say its state"],
+        ),
+        (
+            "hold on a line its operation does not own",
+            |s| s.holds[0].resources.push("PUR".into()),
+            &["holds[0]", "'a'", "'PUR'", "free"],
+        ),
+        (
+            "hold on a faulted line",
+            |s| s.holds[0].resources.push("BLU".into()),
+            &["holds[0]", "'a'", "'BLU'", "faulted"],
+        ),
+        (
+            "hold on a line held by another operation",
+            |s| {
+                let red = line(s, "RED");
+                s.resources[red].state = ResourceState::Held {
+                    operation: "z".into(),
+                };
+                s.holds[0].resources.push("RED".into());
+            },
+            &["holds[0]", "'a'", "'RED'", "held by operation 'z'"],
+        ),
+        (
+            "held line with no hold",
+            |s| {
+                let red = line(s, "RED");
+                s.resources[red].state = ResourceState::Held {
+                    operation: "z".into(),
+                };
+            },
+            &["'RED'", "'z'", "no hold"],
+        ),
+        (
+            "held line missing from its operation's hold",
+            |s| s.holds[0].resources.retain(|r| r != "GRN"),
+            &["'GRN'", "'a'", "no hold"],
+        ),
+        (
+            "operation holding twice",
+            |s| {
+                let again = s.holds[0].clone();
+                s.holds.push(again);
+            },
+            &["'a'", "holds twice", "holds[1]"],
+        ),
+        (
+            "operation waiting twice",
+            |s| {
+                let again = s.queue[0].clone();
+                s.queue.push(again);
+            },
+            &["'b'", "waits twice", "queue[1]"],
+        ),
+        (
+            "operation holding and waiting",
+            |s| s.queue.push(request("a", &["RED"])),
+            &["'a'", "both holds and waits", "queue[1]"],
+        ),
+        (
+            "hold names a line not configured",
+            |s| s.holds[0].resources.push("ORANGE".into()),
+            &[
+                "holds[0]",
+                "'a'",
+                "'ORANGE'",
+                "not among the snapshot's configured lines",
+            ],
+        ),
+        (
+            "waiting request names a line not configured",
+            |s| s.queue[0].resources = vec!["ORANGE".into()],
+            &[
+                "queue[0]",
+                "'b'",
+                "'ORANGE'",
+                "not among the snapshot's configured lines",
+            ],
+        ),
+        (
+            "waiting request names a line twice",
+            |s| s.queue[0].resources = vec!["RED".into(), "RED".into()],
+            &["queue[0]", "'RED'", "twice"],
+        ),
+        (
+            "waiting request names no line",
+            |s| s.queue[0].resources.clear(),
+            &["queue[0]", "'b'", "names no line"],
+        ),
+        (
+            "hold names no operation",
+            |s| s.holds[0].operation = "".into(),
+            &["holds[0]", "names no operation"],
+        ),
+        (
+            "fault under an empty operation name",
+            |s| {
+                let blu = line(s, "BLU");
+                if let ResourceState::Faulted(f) = &mut s.resources[blu].state {
+                    f.operation = Some("".into());
+                }
+            },
+            &["'BLU'", "empty name"],
+        ),
+    ];
+    let (lock, valid) = saved_plant();
+    for (what, mutate, needles) in cases {
+        let mut snapshot = valid.clone();
+        mutate(&mut snapshot);
+        for options in [RESTART, QUEUE_KEPT, HAND_OVER] {
+            let err = Interlock::restore(lock.config().clone(), &snapshot, options, 20)
+                .map(|_| ())
+                .unwrap_err();
+            assert_eq!(err.code(), "INVALID_SNAPSHOT", "{what}");
+            let message = err.to_string();
+            for needle in needles {
+                assert!(message.contains(needle), "{what}: {message}");
+            }
+            assert!(message.contains("nothing was restored"), "{message}");
+        }
+    }
+}
+
+#[test]
+fn a_refusal_quotes_little_of_a_long_name() {
+    let (lock, mut snapshot) = saved_plant();
+    snapshot.resources.push(ResourceSnapshot {
+        name: "X".repeat(5000),
+        state: ResourceState::Free,
+    });
+    let message = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 20)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(message.len() < 400, "{} characters", message.len());
+    assert!(message.contains("XXX\u{2026}'"), "{message}");
+}
+
+#[test]
+fn a_legacy_v1_snapshot_restores_with_its_listed_lines_as_configured() {
+    let (lock, snapshot) = saved_plant();
+    let legacy = Snapshot {
+        version: 1,
+        configured: Vec::new(),
+        ..snapshot.clone()
+    };
+    let json = serde_json::to_value(&legacy).unwrap();
+    let v1: Snapshot = serde_json::from_value(json!({
+        "version": 1,
+        "takenAtMs": json["takenAtMs"],
+        "resources": json["resources"],
+        "queue": json["queue"],
+        "holds": json["holds"],
+    }))
+    .unwrap();
+    assert_eq!(v1, legacy, "a v1 document has no 'configured' key");
+    let (from_v1, _) = Interlock::restore(lock.config().clone(), &v1, QUEUE_KEPT, 20).unwrap();
+    let (from_v2, _) =
+        Interlock::restore(lock.config().clone(), &snapshot, QUEUE_KEPT, 20).unwrap();
+    assert_eq!(from_v1.snapshot(30), from_v2.snapshot(30));
+}
+
+#[test]
+fn lines_new_since_the_save_start_free_with_an_event() {
+    let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL", "GRN"])).unwrap();
+    let a = lock.operation("a");
+    lock.acquire(a, 1, &set(&lock, &["GRN"]), 0).unwrap();
+    let snapshot = lock.snapshot(1);
+    let (mut restored, grants) = Interlock::restore(
+        InterlockConfig::with_resources(["BLU", "YEL", "GRN"]),
+        &snapshot,
+        RESTART,
+        2,
+    )
+    .unwrap();
+    assert!(grants.is_empty());
+    let blu = restored.resource("BLU").unwrap();
+    assert!(!restored.is_faulted(blu) && restored.owner_of(blu).is_none());
+    assert!(restored.is_faulted(restored.resource("GRN").unwrap()));
+    let records: Vec<EventRecord> = restored
+        .drain_events()
+        .iter()
+        .map(|e| restored.describe(e))
+        .collect();
+    let added: Vec<&EventRecord> = records
+        .iter()
+        .filter(|r| r.kind == EventKind::ResourceAdded)
+        .collect();
+    assert_eq!(added.len(), 1, "{records:?}");
+    assert_eq!(added[0].resources, ["BLU"]);
+    assert!(added[0].note.as_deref().unwrap().contains("start free"));
+    assert_eq!(
+        serde_json::to_value(EventKind::ResourceAdded).unwrap(),
+        json!("resource-added")
+    );
+}
+
+#[test]
+fn lines_no_longer_configured_are_dropped_with_an_event_each() {
+    let (_, snapshot) = saved_plant();
+    let (mut restored, _) = Interlock::restore(
+        InterlockConfig::with_resources(["YEL", "GRN", "BLU"]),
+        &snapshot,
+        RESTART,
+        20,
+    )
+    .unwrap();
+    let notes: Vec<String> = restored
+        .drain_events()
+        .into_iter()
+        .filter(|e| e.kind == EventKind::Interrupted && e.operation.is_none())
+        .filter_map(|e| e.note)
+        .collect();
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(
+        notes[0].contains("'PUR'") && notes[1].contains("'RED'"),
+        "{notes:?}"
+    );
+}
+
+#[test]
+fn a_hand_over_keeps_holds_with_their_start() {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
+    lock.acquire(b, 1, &set(&lock, &["YEL"]), 0).unwrap();
+    lock.acquire(a, 3, &set(&lock, &["YEL", "GRN"]), 60)
+        .unwrap();
+    lock.release(b, 100).unwrap();
+    lock.acquire(c, 2, &set(&lock, &["RED"]), 120).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["RED"]), 130).unwrap();
+    let snapshot = lock.snapshot(200);
+
+    let (mut same, grants) =
+        Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, 250).unwrap();
+    assert!(grants.is_empty());
+    assert!(!same.has_events(), "nothing changed");
+    let after = same.snapshot(200);
+    assert_eq!(after.resources, snapshot.resources);
+    assert_eq!(after.queue, snapshot.queue);
+    let mut holds = after.holds.clone();
+    holds.sort_by(|x, y| x.operation.cmp(&y.operation));
+    assert_eq!(holds, snapshot.holds);
+    assert_eq!((holds[0].since_ms, holds[0].waited_ms), (100, 40));
+    let a2 = same.find_operation("a").unwrap();
+    assert!(same.is_holding(a2));
+    same.release(a2, 300).unwrap();
+    let released = same.drain_events().pop().unwrap();
+    assert_eq!(
+        released.held_ms,
+        Some(200),
+        "held since 100, not since the hand-over"
+    );
+
+    // GRN is gone: 'a' lost part of its line, so what remains of it is faulted.
+    let (mut changed, _) = Interlock::restore(
+        InterlockConfig::with_resources(["YEL", "BLU", "PUR", "RED"]),
+        &snapshot,
+        HAND_OVER,
+        250,
+    )
+    .unwrap();
+    let yel = changed.resource("YEL").unwrap();
+    assert!(changed.is_faulted(yel));
+    assert!(!changed.is_holding(changed.find_operation("a").unwrap()));
+    let c2 = changed.find_operation("c").unwrap();
+    assert_eq!(changed.owner_of(changed.resource("RED").unwrap()), Some(c2));
+    assert!(changed.is_queued(changed.find_operation("b").unwrap()));
+    match &changed.snapshot(250).resources[0].state {
+        ResourceState::Faulted(f) => {
+            assert_eq!(f.cause, FaultCause::Interrupted);
+            assert_eq!(f.operation.as_deref(), Some("a"));
+            assert!(f.note.as_deref().unwrap().contains("'GRN'"), "{f:?}");
+            assert_eq!(f.since_ms, 250);
+        }
+        other => panic!("YEL restored as {other:?}"),
+    }
+    let interrupted: Vec<Event> = changed
+        .drain_events()
+        .into_iter()
+        .filter(|e| e.kind == EventKind::Interrupted && e.operation.is_some())
+        .collect();
+    assert_eq!(interrupted.len(), 1);
+    assert_eq!(changed.names(&interrupted[0].resources), ["YEL"]);
+}
+
+#[test]
+fn a_restart_faults_every_held_line_whatever_the_hand_over_would_keep() {
+    let (lock, snapshot) = saved_plant();
+    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 20).unwrap();
+    assert_eq!(
+        restored.counts(),
+        Counts {
+            holding: 0,
+            queued: 0,
+            faulted: 3
+        }
+    );
+    let (kept, _) = Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, 20).unwrap();
+    assert_eq!(
+        kept.counts(),
+        Counts {
+            holding: 1,
+            queued: 1,
+            faulted: 1
+        }
+    );
+}
+
+#[test]
+fn dropping_a_waiter_on_a_removed_line_lets_the_one_behind_it_go() {
+    let mut lock = plant(Policy::NoOvertaking);
+    let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
+    lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
+    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), 1)
+        .unwrap();
+    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), 2).unwrap();
+    let (restored, grants) = Interlock::restore(
+        InterlockConfig {
+            policy: Policy::NoOvertaking,
+            ..InterlockConfig::with_resources(["YEL", "GRN"])
+        },
+        &lock.snapshot(3),
+        HAND_OVER,
+        4,
+    )
+    .unwrap();
+    assert_eq!(grants.len(), 1);
+    assert_eq!(restored.operation_name(grants[0].operation), Some("narrow"));
+    assert_eq!(grants[0].waited_ms, 2);
+}
+
+#[test]
+fn unknown_state_faults_every_line_until_cleared() {
+    let config = plant(Policy::Greedy).config().clone();
+    let note = "state unknown after restart: the saved state file is empty";
+    let mut lock = Interlock::unknown_state(config, note, 5).unwrap();
+    assert_eq!(lock.counts().faulted, 5);
+    let snapshot = lock.snapshot(6);
+    for entry in &snapshot.resources {
+        assert_eq!(
+            entry.state,
+            ResourceState::Faulted(FaultSnapshot {
+                cause: FaultCause::Unknown,
+                operation: None,
+                note: Some(note.into()),
+                since_ms: 5,
+            }),
+            "{}",
+            entry.name
+        );
+    }
+    assert_eq!(
+        serde_json::to_value(&snapshot).unwrap()["resources"][0]["state"]["cause"],
+        json!("unknown")
+    );
+    let records: Vec<EventRecord> = lock
+        .drain_events()
+        .iter()
+        .map(|e| lock.describe(e))
+        .collect();
+    assert_eq!(records.len(), 1);
+    assert_eq!(records[0].kind, EventKind::StateUnknown);
+    assert_eq!(records[0].resources.len(), 5);
+    assert_eq!(records[0].note.as_deref(), Some(note));
+    assert_eq!(
+        serde_json::to_value(EventKind::StateUnknown).unwrap(),
+        json!("state-unknown")
+    );
+
+    // Saved again, the unknown state survives a restart.
+    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 7).unwrap();
+    assert_eq!(restored.snapshot(6).resources, snapshot.resources);
+
+    let op = lock.operation("op");
+    let yel = set(&lock, &["YEL"]);
+    assert_eq!(lock.acquire(op, 1, &yel, 8), Ok(Acquisition::Queued));
+    let grants = lock.clear(&yel, 9).unwrap();
+    assert_eq!(grants[0].operation, op);
+    lock.clear(&lock.faulted_resources(), 10).unwrap();
+    assert_eq!(
+        lock.counts(),
+        Counts {
+            holding: 1,
+            queued: 0,
+            faulted: 0
+        }
+    );
+    let quiet = Interlock::unknown_state(lock.config().clone(), "  ", 0).unwrap();
+    assert!(matches!(
+        &quiet.snapshot(0).resources[0].state,
+        ResourceState::Faulted(f) if f.note.is_none()
+    ));
+}
+
+fn note_of(lock: &Interlock, line: &str) -> String {
+    let snapshot = lock.snapshot(0);
+    let entry = snapshot.resources.iter().find(|r| r.name == line).unwrap();
+    match &entry.state {
+        ResourceState::Faulted(f) => f.note.clone().unwrap(),
+        other => panic!("{line} is {other:?}"),
+    }
+}
+
+#[test]
+fn fault_notes_are_kept_to_a_bounded_length() {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
+    lock.acquire(a, 1, &set(&lock, &["YEL"]), 0).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["GRN"]), 0).unwrap();
+    let stack = "é".repeat(3000);
+    lock.fault(a, Some(&stack), 1).unwrap();
+    let kept = note_of(&lock, "YEL");
+    assert_eq!(kept.chars().count(), NOTE_MAX_CHARS);
+    assert!(kept.ends_with('\u{2026}'));
+    assert!(stack.starts_with(kept.trim_end_matches('\u{2026}')));
+    let faulted = lock
+        .drain_events()
+        .into_iter()
+        .find(|e| e.kind == EventKind::Faulted)
+        .unwrap();
+    assert_eq!(faulted.note.as_deref(), Some(kept.as_str()));
+
+    lock.fault_resources(&set(&lock, &["GRN", "RED"]), Some(&"x".repeat(501)), 2)
+        .unwrap();
+    assert_eq!(note_of(&lock, "RED").chars().count(), NOTE_MAX_CHARS);
+    assert_eq!(note_of(&lock, "GRN").chars().count(), NOTE_MAX_CHARS);
+    let exact = "y".repeat(NOTE_MAX_CHARS);
+    lock.fault_resources(&set(&lock, &["BLU"]), Some(&exact), 3)
+        .unwrap();
+    assert_eq!(
+        note_of(&lock, "BLU"),
+        exact,
+        "a note at the bound is kept whole"
+    );
+
+    let mut snapshot = lock.snapshot(4);
+    assert_eq!(snapshot.resources[3].name, "PUR");
+    assert_eq!(snapshot.resources[3].state, ResourceState::Free);
+    snapshot.resources[3].state = ResourceState::Faulted(FaultSnapshot {
+        cause: FaultCause::Manual,
+        operation: None,
+        note: Some("z".repeat(100_000)),
+        since_ms: 4,
+    });
+    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 5).unwrap();
+    assert_eq!(note_of(&restored, "PUR").chars().count(), NOTE_MAX_CHARS);
+    assert_eq!(note_of(&restored, "YEL"), kept);
+}
+
+#[test]
+fn release_and_cancel_by_name_do_not_register_unknown_names() {
+    let mut lock = plant(Policy::Greedy);
+    assert_eq!(
+        lock.release_named("ghost", 0),
+        Err(InterlockError::NotHolding {
+            operation: "ghost".into()
+        })
+    );
+    assert_eq!(
+        lock.cancel_named("ghost", 0),
+        Err(InterlockError::NotQueued {
+            operation: "ghost".into()
+        })
+    );
+    assert!(lock.find_operation("ghost").is_err(), "not registered");
+    let long = "g".repeat(10_000);
+    let message = lock.release_named(&long, 0).unwrap_err().to_string();
+    assert!(message.len() < 300, "{message}");
+
+    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
+    let yel = set(&lock, &["YEL"]);
+    lock.acquire(a, 1, &yel, 0).unwrap();
+    lock.acquire(b, 1, &yel, 1).unwrap();
+    assert_eq!(
+        lock.release_named("b", 2).unwrap_err().code(),
+        "NOT_HOLDING"
+    );
+    assert_eq!(lock.cancel_named("a", 2).unwrap_err().code(), "NOT_QUEUED");
+    assert_eq!(lock.release_named("a", 3).unwrap()[0].operation, b);
+    assert_eq!(lock.cancel_named("b", 4).unwrap_err().code(), "NOT_QUEUED");
+    let c = lock.operation("c");
+    lock.acquire(c, 1, &yel, 5).unwrap();
+    assert_eq!(lock.cancel_named("c", 6), Ok(vec![]));
+    assert!(!lock.is_queued(c));
 }
