@@ -85,7 +85,11 @@ fn main() {
     for (s, second) in batches.iter().enumerate() {
         let now = 1000 * (s as u64 + 1);
         for batch in second {
-            black_box(tracker.feedback_batch(batch, Some(now - 80), now, &mut effects));
+            black_box(
+                tracker
+                    .feedback_batch(batch, Some(now - 80), now, &mut effects)
+                    .expect("stamped before reception"),
+            );
             passed_on += effects.len();
             effects.clear();
         }

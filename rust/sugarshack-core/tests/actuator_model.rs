@@ -1,6 +1,7 @@
 //! The tracker against a reference model of one valve's life (commands,
-//! samples, ticks, its device going offline and back), with time steps
-//! chosen around every threshold, and batches against single samples.
+//! lockouts standing until confirmed, samples, ticks, its device going
+//! offline and back, the MQTT path restored), with time steps chosen around
+//! every threshold, and batches against single samples.
 
 use proptest::prelude::*;
 use serde_json::json;
@@ -36,19 +37,23 @@ fn plant(valves_per_device: u32, devices: u32) -> PlantModel {
 #[derive(Clone, Debug)]
 enum Step {
     Command(f64),
+    Lockout(f64),
     Sample(f64),
     Tick,
     Offline,
     Online,
+    PathRestored,
 }
 
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
         2 => prop::sample::select(vec![0.0, 50.0, 100.0]).prop_map(Step::Command),
+        1 => prop::sample::select(vec![0.0, 0.0, 50.0]).prop_map(Step::Lockout),
         5 => prop::sample::select(vec![0.0, 1.5, 2.0, 2.5, 30.0, 50.0, 97.0, 98.0, 98.5, 100.0]).prop_map(Step::Sample),
         4 => Just(Step::Tick),
         1 => Just(Step::Offline),
         1 => Just(Step::Online),
+        1 => Just(Step::PathRestored),
     ]
 }
 
@@ -59,10 +64,14 @@ fn gap() -> impl Strategy<Value = u64> {
     ])
 }
 
-/// What the model and the tracker are compared on (publishes aside).
+/// What the model and the tracker are compared on.
 #[derive(Clone, Debug, PartialEq)]
 enum Seen {
     Refused(&'static str),
+    Publish {
+        payload: String,
+        retain: bool,
+    },
     Moving {
         caller: u64,
         after: u64,
@@ -89,6 +98,13 @@ enum Seen {
     Fault(FaultKind),
     Recovered(FaultKind),
     Changed(f64),
+    LockoutConfirmed {
+        after: u64,
+        sends: u32,
+    },
+    LockoutResent {
+        attempt: u32,
+    },
 }
 
 struct Cmd {
@@ -101,6 +117,21 @@ struct Cmd {
     retries: u32,
 }
 
+#[derive(Clone, Copy)]
+struct Order {
+    target: f64,
+    since: u64,
+    sends: u32,
+    last_send: u64,
+}
+
+fn publish(target: f64, retain: bool) -> Seen {
+    Seen::Publish {
+        payload: format!("{target}"),
+        retain,
+    }
+}
+
 /// One valve as the issue describes it.
 struct Model {
     position: Option<f64>,
@@ -110,7 +141,11 @@ struct Model {
     uncommanded: bool,
     online: bool,
     reported: Option<f64>,
+    commanded: Option<f64>,
+    /// The last command was a lockout, left retained on the broker.
+    retained: bool,
     cmd: Option<Cmd>,
+    order: Option<Order>,
 }
 
 impl Model {
@@ -123,7 +158,66 @@ impl Model {
             uncommanded: false,
             online: true,
             reported: None,
+            commanded: None,
+            retained: false,
             cmd: None,
+            order: None,
+        }
+    }
+
+    fn at(&self, target: f64) -> bool {
+        self.position
+            .is_some_and(|p| (p - target).abs() <= TOLERANCE)
+    }
+
+    /// Sets the new command, or completes it at once where the valve already is.
+    fn issue(&mut self, caller: u64, target: f64, now: u64, seen: &mut Vec<Seen>) {
+        self.commanded = Some(target);
+        self.resting = Some(target);
+        self.uncommanded = false;
+        if self.at(target) && !self.stale && self.online {
+            if let Some(order) = self.order.take() {
+                seen.push(Seen::LockoutConfirmed {
+                    after: now - order.since,
+                    sends: order.sends,
+                });
+            }
+            seen.push(Seen::Completed {
+                caller,
+                motion: 0,
+                completion: 0,
+                retries: 0,
+            });
+            seen.push(Seen::GroupCompleted { caller, after: 0 });
+        } else {
+            self.cmd = Some(Cmd {
+                caller,
+                target,
+                start: self.position,
+                issued: now,
+                attempt: now,
+                moving: None,
+                retries: 0,
+            });
+        }
+    }
+
+    fn resend(&mut self, now: u64, seen: &mut Vec<Seen>) {
+        if let Some(order) = self.order.as_mut() {
+            order.sends += 1;
+            order.last_send = now;
+            seen.push(Seen::LockoutResent {
+                attempt: order.sends - 1,
+            });
+            seen.push(publish(order.target, true));
+        }
+    }
+
+    fn republish(&mut self, now: u64, seen: &mut Vec<Seen>) {
+        if self.order.is_some() {
+            self.resend(now, seen);
+        } else if let Some(target) = self.commanded {
+            seen.push(publish(target, self.retained));
         }
     }
 
@@ -131,37 +225,48 @@ impl Model {
         let mut seen = Vec::new();
         match *step {
             Step::Command(target) => {
+                if self.order.is_some() {
+                    return vec![Seen::Refused("LOCKOUT_PENDING")];
+                }
                 if self.cmd.is_some() {
                     return vec![Seen::Refused("STILL_MOVING")];
                 }
                 if !self.online {
                     return vec![Seen::Refused("DEVICE_OFFLINE")];
                 }
-                self.resting = Some(target);
-                self.uncommanded = false;
-                if self
-                    .position
-                    .is_some_and(|p| (p - target).abs() <= TOLERANCE)
-                    && !self.stale
-                {
-                    seen.push(Seen::Completed {
-                        caller,
-                        motion: 0,
-                        completion: 0,
-                        retries: 0,
-                    });
-                    seen.push(Seen::GroupCompleted { caller, after: 0 });
-                } else {
-                    self.cmd = Some(Cmd {
-                        caller,
-                        target,
-                        start: self.position,
-                        issued: now,
-                        attempt: now,
-                        moving: None,
-                        retries: 0,
+                if self.retained {
+                    seen.push(Seen::Publish {
+                        payload: String::new(),
+                        retain: true,
                     });
                 }
+                seen.push(publish(target, false));
+                self.retained = false;
+                self.issue(caller, target, now, &mut seen);
+            }
+            Step::Lockout(target) => {
+                if let Some(old) = self.cmd.take() {
+                    seen.push(Seen::GroupFailed {
+                        caller: old.caller,
+                        fault: FaultKind::LockedOut,
+                    });
+                }
+                seen.push(publish(target, true));
+                self.retained = true;
+                self.order = Some(match self.order {
+                    Some(order) if order.target == target => Order {
+                        sends: order.sends + 1,
+                        last_send: now,
+                        ..order
+                    },
+                    _ => Order {
+                        target,
+                        since: now,
+                        sends: 1,
+                        last_send: now,
+                    },
+                });
+                self.issue(caller, target, now, &mut seen);
             }
             Step::Sample(v) => {
                 self.last_sample = now;
@@ -174,6 +279,15 @@ impl Model {
                     seen.push(Seen::Changed(v));
                 }
                 self.position = Some(v);
+                if let Some(order) = self.order {
+                    if self.online && (v - order.target).abs() <= TOLERANCE {
+                        self.order = None;
+                        seen.push(Seen::LockoutConfirmed {
+                            after: now - order.since,
+                            sends: order.sends,
+                        });
+                    }
+                }
                 match self.cmd.as_mut() {
                     None => {
                         let rest = *self.resting.get_or_insert(v);
@@ -225,34 +339,44 @@ impl Model {
                             fault: FaultKind::Stale,
                         });
                     }
-                    return seen;
+                } else if let Some(cmd) = self.cmd.as_mut() {
+                    let elapsed = now - cmd.attempt;
+                    let fault = if cmd.moving.is_none() && elapsed >= NO_MOTION_MS {
+                        Some(FaultKind::NoMotion)
+                    } else if elapsed >= COMPLETION_MS {
+                        Some(FaultKind::NotReached)
+                    } else {
+                        None
+                    };
+                    if let Some(fault) = fault {
+                        if cmd.retries < RETRIES {
+                            cmd.retries += 1;
+                            cmd.attempt = now;
+                            seen.push(Seen::Retry {
+                                caller: cmd.caller,
+                                attempt: cmd.retries,
+                                fault,
+                            });
+                            seen.push(publish(cmd.target, self.retained));
+                            if let Some(order) = self.order.as_mut() {
+                                order.sends += 1;
+                                order.last_send = now;
+                            }
+                        } else {
+                            let cmd = self.cmd.take().unwrap();
+                            seen.push(Seen::Fault(fault));
+                            seen.push(Seen::GroupFailed {
+                                caller: cmd.caller,
+                                fault,
+                            });
+                        }
+                    }
                 }
-                let Some(cmd) = self.cmd.as_mut() else {
-                    return seen;
-                };
-                let elapsed = now - cmd.attempt;
-                let fault = if cmd.moving.is_none() && elapsed >= NO_MOTION_MS {
-                    FaultKind::NoMotion
-                } else if elapsed >= COMPLETION_MS {
-                    FaultKind::NotReached
-                } else {
-                    return seen;
-                };
-                if cmd.retries < RETRIES {
-                    cmd.retries += 1;
-                    cmd.attempt = now;
-                    seen.push(Seen::Retry {
-                        caller: cmd.caller,
-                        attempt: cmd.retries,
-                        fault,
-                    });
-                } else {
-                    let cmd = self.cmd.take().unwrap();
-                    seen.push(Seen::Fault(fault));
-                    seen.push(Seen::GroupFailed {
-                        caller: cmd.caller,
-                        fault,
-                    });
+                if self
+                    .order
+                    .is_some_and(|o| now - o.last_send >= COMPLETION_MS)
+                {
+                    self.resend(now, &mut seen);
                 }
             }
             Step::Offline => {
@@ -270,8 +394,19 @@ impl Model {
             Step::Online => {
                 if !self.online {
                     self.online = true;
+                    self.republish(now, &mut seen);
                     self.last_sample = now;
+                    if let Some(cmd) = self.cmd.as_mut() {
+                        cmd.attempt = now;
+                    }
                     seen.push(Seen::Recovered(FaultKind::DeviceOffline));
+                }
+            }
+            Step::PathRestored => {
+                self.republish(now, &mut seen);
+                self.last_sample = now;
+                if let Some(cmd) = self.cmd.as_mut() {
+                    cmd.attempt = now;
                 }
             }
         }
@@ -283,6 +418,9 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
     effects
         .into_iter()
         .filter_map(|e| match e {
+            Effect::Publish {
+                payload, retain, ..
+            } => Some(Seen::Publish { payload, retain }),
             Effect::Moving {
                 caller,
                 issue_to_motion_ms,
@@ -324,7 +462,14 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
             Effect::Fault { fault, .. } => Some(Seen::Fault(fault)),
             Effect::Recovered { fault, .. } => Some(Seen::Recovered(fault)),
             Effect::Changed { value, .. } => Some(Seen::Changed(value)),
-            Effect::Publish { .. } | Effect::DeviceStatus { .. } => None,
+            Effect::LockoutConfirmed {
+                after_ms, sends, ..
+            } => Some(Seen::LockoutConfirmed {
+                after: after_ms,
+                sends,
+            }),
+            Effect::LockoutResent { attempt, .. } => Some(Seen::LockoutResent { attempt }),
+            Effect::DeviceStatus { .. } => None,
         })
         .collect()
 }
@@ -333,27 +478,62 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
 
     #[test]
-    fn one_valve_follows_the_reference_model(steps in prop::collection::vec((gap(), step()), 1..60)) {
+    fn one_valve_follows_the_reference_model(steps in prop::collection::vec((gap(), step()), 1..80)) {
         let mut tracker = Tracker::new(plant(1, 1), 0).unwrap();
         let valve = tracker.actuator("V11").unwrap();
         let device = tracker.device("ctrl-1").unwrap();
         let mut model = Model::new();
         let mut now = 0;
+        // When the tracker last published the lockout it stands by.
+        let mut lockout_sent: Option<u64> = None;
         for (caller, (gap, step)) in steps.iter().enumerate() {
             now += gap;
             let caller = caller as u64;
             let expected = model.apply(step, caller, now);
             let actual = match *step {
-                Step::Command(target) => match tracker.command(&[(valve, target)], caller, false, now) {
-                    Ok(effects) => observe(effects),
-                    Err(err) => vec![Seen::Refused(err.code())],
-                },
+                Step::Command(target) | Step::Lockout(target) => {
+                    let lockout = matches!(step, Step::Lockout(_));
+                    match tracker.command(&[(valve, target)], caller, lockout, now) {
+                        Ok(effects) => observe(effects),
+                        Err(err) => vec![Seen::Refused(err.code())],
+                    }
+                }
                 Step::Sample(v) => observe(tracker.feedback(valve, v, None, now).unwrap()),
                 Step::Tick => observe(tracker.tick(now)),
                 Step::Offline => observe(tracker.device_status(device, false, now).unwrap()),
                 Step::Online => observe(tracker.device_status(device, true, now).unwrap()),
+                Step::PathRestored => observe(tracker.path_restored(now)),
             };
             prop_assert_eq!(&actual, &expected, "{:?} at {}", step, now);
+
+            let pending: Vec<(f64, u64, u32)> = tracker
+                .pending_lockouts()
+                .iter()
+                .map(|p| (p.target, p.since_ms, p.sends))
+                .collect();
+            let modelled: Vec<(f64, u64, u32)> = model.order.iter().map(|o| (o.target, o.since, o.sends)).collect();
+            prop_assert_eq!(&pending, &modelled, "pending lockouts after {:?} at {}", step, now);
+            prop_assert_eq!(tracker.counts().lockouts_pending, pending.len());
+
+            let Some(&(target, _, _)) = pending.first() else {
+                lockout_sent = None;
+                continue;
+            };
+            let standing = Seen::Publish { payload: format!("{target}"), retain: true };
+            if actual.contains(&standing) {
+                lockout_sent = Some(now);
+            }
+            if matches!(step, Step::Tick) {
+                if model.online {
+                    let since = lockout_sent.map(|t| now - t);
+                    prop_assert!(
+                        since.is_some_and(|s| s < COMPLETION_MS),
+                        "unconfirmed lockout last sent {:?} ms before the tick at {}", since, now
+                    );
+                } else {
+                    prop_assert!(!actual.iter().any(|s| matches!(s, Seen::Publish { .. })), "sent while offline");
+                }
+            }
         }
     }
 
@@ -383,7 +563,7 @@ proptest! {
             }
             let batch: Vec<(ActuatorId, f64)> = samples.iter().map(|&(io, v)| (id(&batched, *device, io), v)).collect();
             let mut together = Vec::new();
-            prop_assert!(batched.feedback_batch(&batch, Some(now), now, &mut together).is_empty());
+            prop_assert!(batched.feedback_batch(&batch, Some(now), now, &mut together).unwrap().is_empty());
             prop_assert_eq!(&together, &one_by_one);
             prop_assert_eq!(single.tick(now), batched.tick(now));
         }

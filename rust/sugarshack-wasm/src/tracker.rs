@@ -171,6 +171,7 @@ impl Tracker {
     /// Issues a group command (`{"valves": {"V12": 100}, "pumps": {"P1": true}}`), all or
     /// nothing; returns how many effects are queued. A refusal throws and sends nothing.
     /// `within`: the resources the commanding operation holds (C2), if it is one.
+    /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
     pub fn command(
         &mut self,
         payload: JsValue,
@@ -195,12 +196,14 @@ impl Tracker {
         Ok(self.queue(effects))
     }
 
-    /// Stops waiting for a caller's group (its msg timed out, or its node closed).
+    /// Stops waiting for a caller's group (its msg timed out, or its node closed);
+    /// an unconfirmed lockout stays standing.
     pub fn withdraw(&mut self, caller: u32) -> bool {
         self.core.withdraw(u64::from(caller))
     }
 
-    /// One sample; `ts` is the device's timestamp (ms), if it sent one.
+    /// One sample; `ts` is the device's timestamp (ms), if it sent one. A `ts`
+    /// more than the plant's `clockSkewMs` ahead of `nowMs` throws `FUTURE_TIMESTAMP`.
     pub fn feedback(
         &mut self,
         actuator: u32,
@@ -218,6 +221,7 @@ impl Tracker {
 
     /// A device batch as parallel arrays of actuator handles and values. Refused
     /// samples are queued as `{ kind: "rejected", actuator, code, message }`.
+    /// A batch stamped too far in the future throws `FUTURE_TIMESTAMP`, nothing applied.
     #[wasm_bindgen(js_name = feedbackBatch)]
     pub fn feedback_batch(
         &mut self,
@@ -238,12 +242,12 @@ impl Tracker {
             self.batch.push((self.actuator_id(handle)?, value));
         }
         let mut effects = std::mem::take(&mut self.scratch);
-        let rejected = self
+        let outcome = self
             .core
             .feedback_batch(&self.batch, device_ts(ts), now, &mut effects);
         self.effects.extend(effects.drain(..).map(Output::Effect));
         self.scratch = effects;
-        for (id, err) in rejected {
+        for (id, err) in outcome.map_err(track_error)? {
             self.effects.push(Output::Rejected {
                 kind: "rejected",
                 actuator: id.index() as u32,
@@ -270,6 +274,14 @@ impl Tracker {
         Ok(self.queue(effects))
     }
 
+    /// The MQTT connection is back: every commanded state is published again
+    /// and running commands get a fresh window; returns how many effects are queued.
+    #[wasm_bindgen(js_name = pathRestored)]
+    pub fn path_restored(&mut self, now_ms: f64) -> Result<u32, JsValue> {
+        let effects = self.core.path_restored(time(now_ms)?);
+        Ok(self.queue(effects))
+    }
+
     /// Checks every threshold; returns how many effects are queued.
     pub fn tick(&mut self, now_ms: f64) -> Result<u32, JsValue> {
         let effects = self.core.tick(time(now_ms)?);
@@ -284,9 +296,16 @@ impl Tracker {
         out
     }
 
-    /// `{ moving, stopped, faulted }`.
+    /// `{ moving, stopped, faulted, lockoutsPending }`.
     pub fn counts(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.counts())
+    }
+
+    /// Lockouts feedback has not confirmed yet: `[{ actuator, target, sinceMs, sends }]`
+    /// (`actuator` a handle, `target` a number, 0/1 for binary), in handle order.
+    #[wasm_bindgen(js_name = pendingLockouts)]
+    pub fn pending_lockouts(&self) -> Result<JsValue, JsValue> {
+        to_js(&self.core.pending_lockouts())
     }
 
     /// `idle`, `pending`, `moving`, `stopped` or `faulted`.

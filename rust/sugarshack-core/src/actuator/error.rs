@@ -40,6 +40,16 @@ pub enum TrackError {
         resource: Option<String>,
         held: Vec<String>,
     },
+    /// A normal command to an actuator whose lockout feedback has not confirmed.
+    LockoutPending {
+        actuator: String,
+    },
+    /// A sample stamped further ahead of its reception than the plant's `clockSkewMs`.
+    FutureTimestamp {
+        actuator: String,
+        ahead_ms: u64,
+        skew_ms: u64,
+    },
 }
 
 impl TrackError {
@@ -57,6 +67,8 @@ impl TrackError {
             Self::CallerBusy { .. } => "CALLER_BUSY",
             Self::InvalidFeedback { .. } => "INVALID_FEEDBACK",
             Self::OutsideResources { .. } => "OUTSIDE_RESOURCES",
+            Self::LockoutPending { .. } => "LOCKOUT_PENDING",
+            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
         }
     }
 }
@@ -83,6 +95,14 @@ impl fmt::Display for TrackError {
                 let on = resource.as_deref().map_or("belongs to no resource".to_string(), |r| format!("is on resource '{r}'"));
                 write!(f, "C2: actuator '{actuator}' {on}, outside the resources held ({}); nothing was sent", held.join(", "))
             }
+            Self::LockoutPending { actuator } => write!(
+                f,
+                "actuator '{actuator}' has not yet confirmed its lockout state; it is re-sent until feedback shows it there, check the device if that takes long (nothing was sent)"
+            ),
+            Self::FutureTimestamp { actuator, ahead_ms, skew_ms } => write!(
+                f,
+                "feedback for '{actuator}' is stamped {ahead_ms} ms ahead of its reception, more than clockSkewMs ({skew_ms} ms): set the device's clock (nothing of it was applied)"
+            ),
         }
     }
 }

@@ -1,7 +1,8 @@
 //! Actuator tracking (the paper's §III-A and §III-B): every command is
 //! followed from issuance to motion to completion against the feedback the
 //! devices publish; failures are retried, then escalated. A group command
-//! completes once every one of its commands has.
+//! completes once every one of its commands has. A lockout is also a standing
+//! order: re-sent without limit until feedback shows the actuator there.
 //!
 //! ```
 //! use sugarshack_core::actuator::{Effect, Tracker};
@@ -162,6 +163,40 @@ pub enum Effect {
     /// A device went offline or came back.
     #[serde(rename_all = "camelCase")]
     DeviceStatus { device: DeviceId, online: bool },
+    /// Feedback showed the actuator at its lockout state: the standing order ends.
+    #[serde(rename_all = "camelCase")]
+    LockoutConfirmed {
+        actuator: ActuatorId,
+        /// Since the order was first issued.
+        after_ms: u64,
+        /// How many times the lockout was published, the first included.
+        sends: u32,
+    },
+    /// An unconfirmed lockout was published again (a `Publish` follows).
+    #[serde(rename_all = "camelCase")]
+    LockoutResent {
+        actuator: ActuatorId,
+        /// Re-sends of this order so far, this one included.
+        attempt: u32,
+    },
+}
+
+/// A lockout not yet confirmed by feedback.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PendingLockout {
+    pub actuator: ActuatorId,
+    pub target: f64,
+    pub since_ms: u64,
+    pub sends: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct LockoutOrder {
+    target: f64,
+    since_ms: u64,
+    sends: u32,
+    last_send_ms: u64,
 }
 
 #[derive(Clone, Debug)]
@@ -197,6 +232,8 @@ struct ActuatorState {
     /// The last command was a retained lockout: the next normal one clears it on the broker.
     retained: bool,
     command: Option<Command>,
+    /// Outlives its group command until feedback confirms it.
+    lockout_order: Option<LockoutOrder>,
     phase: Phase,
     stale: bool,
     uncommanded: bool,
@@ -226,10 +263,13 @@ struct Group {
 
 /// Counts for a status line.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct Counts {
     pub moving: usize,
     pub stopped: usize,
     pub faulted: usize,
+    /// Lockouts that feedback has not confirmed yet.
+    pub lockouts_pending: usize,
 }
 
 /// Tracks every actuator of a plant. Every method takes the current time; none reads a clock.
@@ -310,6 +350,7 @@ impl Tracker {
                 resting: None,
                 retained: false,
                 command: None,
+                lockout_order: None,
                 phase: Phase::Idle,
                 stale: false,
                 uncommanded: false,
@@ -393,8 +434,27 @@ impl Tracker {
                 Phase::Faulted => counts.faulted += 1,
                 Phase::Idle => {}
             }
+            if a.lockout_order.is_some() {
+                counts.lockouts_pending += 1;
+            }
         }
         counts
+    }
+
+    /// Lockouts not yet confirmed by feedback, in actuator order.
+    pub fn pending_lockouts(&self) -> Vec<PendingLockout> {
+        self.actuators
+            .iter()
+            .enumerate()
+            .filter_map(|(i, a)| {
+                a.lockout_order.map(|order| PendingLockout {
+                    actuator: ActuatorId(i as u32),
+                    target: order.target,
+                    since_ms: order.since_ms,
+                    sends: order.sends,
+                })
+            })
+            .collect()
     }
 
     /// Reads a target for this actuator from JSON (a number for analog, true/false for binary).
@@ -458,7 +518,12 @@ impl Tracker {
     /// Issues a group command: all of it or, on any refusal, none of it.
     /// A `lockout` is published retained, so a device that reconnects applies
     /// it, and takes over actuators that are still moving; a normal command
-    /// to an actuator still moving is refused.
+    /// to an actuator still moving, or whose lockout is unconfirmed, is refused.
+    ///
+    /// A lockout also sets a standing order per actuator, kept whatever becomes
+    /// of its group command until a sample shows the actuator at the target
+    /// while its device is online (at once if the last sample already does).
+    /// Another lockout to the same target renews it; to another target replaces it.
     pub fn command(
         &mut self,
         targets: &[(ActuatorId, f64)],
@@ -491,10 +556,32 @@ impl Tracker {
             a.resting = Some(target);
             a.retained = lockout;
             a.uncommanded = false;
+            if lockout {
+                a.lockout_order = Some(match a.lockout_order {
+                    Some(order) if order.target == target => LockoutOrder {
+                        sends: order.sends.saturating_add(1),
+                        last_send_ms: now_ms,
+                        ..order
+                    },
+                    _ => LockoutOrder {
+                        target,
+                        since_ms: now_ms,
+                        sends: 1,
+                        last_send_ms: now_ms,
+                    },
+                });
+            }
             let at_target = a
                 .position
                 .is_some_and(|p| (p - target).abs() <= a.range.tolerance);
             if at_target && !a.stale && self.devices[a.device.index()].online {
+                if let Some(order) = a.lockout_order.take() {
+                    effects.push(Effect::LockoutConfirmed {
+                        actuator: id,
+                        after_ms: now_ms.saturating_sub(order.since_ms),
+                        sends: order.sends,
+                    });
+                }
                 a.phase = Phase::Stopped;
                 effects.push(Effect::Completed {
                     actuator: id,
@@ -537,7 +624,8 @@ impl Tracker {
     }
 
     /// Stops tracking a caller's group (its msg timed out or its node closed).
-    /// The actuators keep their commanded state and become idle.
+    /// The actuators keep their commanded state and become idle; an
+    /// unconfirmed lockout stays standing.
     pub fn withdraw(&mut self, caller: Caller) -> bool {
         let known = self.groups.remove(&caller).is_some();
         for a in &mut self.actuators {
@@ -590,6 +678,11 @@ impl Tracker {
             if lockout {
                 continue;
             }
+            if a.lockout_order.is_some() {
+                return Err(TrackError::LockoutPending {
+                    actuator: a.name.clone(),
+                });
+            }
             if matches!(a.phase, Phase::Pending | Phase::Moving) {
                 return Err(TrackError::StillMoving {
                     actuator: a.name.clone(),
@@ -608,6 +701,8 @@ impl Tracker {
     // ---- feedback --------------------------------------------------------------
 
     /// One feedback sample. `device_ts_ms` (the device's clock) gives the time of flight.
+    /// A timestamp more than the plant's `clockSkewMs` ahead of `now_ms` is
+    /// refused and nothing of the sample applied; older ones apply in arrival order.
     pub fn feedback(
         &mut self,
         id: ActuatorId,
@@ -615,6 +710,8 @@ impl Tracker {
         device_ts_ms: Option<u64>,
         now_ms: u64,
     ) -> Result<Vec<Effect>, TrackError> {
+        self.state(id)?;
+        self.check_timestamp(id, device_ts_ms, now_ms)?;
         let mut effects = Vec::new();
         self.sample(id, value, device_ts_ms, now_ms, &mut effects)?;
         Ok(effects)
@@ -622,20 +719,48 @@ impl Tracker {
 
     /// A device's batch (an actuator panel reports all its actuators together).
     /// A sample that fails is skipped and returned with its actuator; the others still count.
+    /// A batch stamped too far in the future is refused whole, nothing of it applied.
     pub fn feedback_batch(
         &mut self,
         samples: &[(ActuatorId, f64)],
         device_ts_ms: Option<u64>,
         now_ms: u64,
         effects: &mut Vec<Effect>,
-    ) -> Vec<(ActuatorId, TrackError)> {
+    ) -> Result<Vec<(ActuatorId, TrackError)>, TrackError> {
+        if let Some(&(first, _)) = samples.first() {
+            self.check_timestamp(first, device_ts_ms, now_ms)?;
+        }
         let mut rejected = Vec::new();
         for &(id, value) in samples {
             if let Err(err) = self.sample(id, value, device_ts_ms, now_ms, effects) {
                 rejected.push((id, err));
             }
         }
-        rejected
+        Ok(rejected)
+    }
+
+    /// A device clock ahead of ours would give a negative time of flight and
+    /// could make old positions look current.
+    fn check_timestamp(
+        &self,
+        id: ActuatorId,
+        device_ts_ms: Option<u64>,
+        now_ms: u64,
+    ) -> Result<(), TrackError> {
+        let Some(ts) = device_ts_ms else {
+            return Ok(());
+        };
+        let skew_ms = self.plant.clock_skew_ms;
+        if ts <= now_ms.saturating_add(skew_ms) {
+            return Ok(());
+        }
+        Err(TrackError::FutureTimestamp {
+            actuator: self
+                .actuator_name(id)
+                .map_or_else(|| format!("#{}", id.0), str::to_owned),
+            ahead_ms: ts - now_ms,
+            skew_ms,
+        })
     }
 
     fn sample(
@@ -684,6 +809,17 @@ impl Tracker {
             });
         }
         a.position = Some(value);
+        if let Some(order) = a.lockout_order {
+            let online = self.devices[a.device.index()].online;
+            if online && (value - order.target).abs() <= tolerance {
+                a.lockout_order = None;
+                effects.push(Effect::LockoutConfirmed {
+                    actuator: id,
+                    after_ms: now_ms.saturating_sub(order.since_ms),
+                    sends: order.sends,
+                });
+            }
+        }
         let Some(command) = a.command.as_mut() else {
             // No command: it must stay where it was last put (or first seen).
             let reference = *a.resting.get_or_insert(value);
@@ -737,7 +873,8 @@ impl Tracker {
 
     /// A device's availability (its retained status or last will). Offline fails
     /// its actuators' commands (fail-fast); back online, its actuators get their
-    /// commanded state again and running commands a fresh time window.
+    /// commanded state (or unconfirmed lockout) again and running commands a
+    /// fresh time window.
     pub fn device_status(
         &mut self,
         device: DeviceId,
@@ -758,16 +895,12 @@ impl Tracker {
         self.devices[device.index()].online = online;
         effects.push(Effect::DeviceStatus { device, online });
         for id in members {
+            if online {
+                self.republish(id, now_ms, &mut effects);
+            }
             let a = &mut self.actuators[id.index()];
             if online {
                 a.last_sample_ms = now_ms;
-                if let Some(target) = a.commanded {
-                    effects.push(Effect::Publish {
-                        topic: a.topic.clone(),
-                        payload: payload(a.signal, target),
-                        retain: a.retained,
-                    });
-                }
                 if let Some(command) = a.command.as_mut() {
                     command.attempt_ms = now_ms;
                     a.phase = if command.moving_ms.is_some() {
@@ -798,11 +931,29 @@ impl Tracker {
         Ok(effects)
     }
 
+    /// The MQTT path came back after an outage (publishes in between were
+    /// lost): every commanded state is published again, and running commands
+    /// and feedback staleness get a fresh window, since silence meant nothing.
+    pub fn path_restored(&mut self, now_ms: u64) -> Vec<Effect> {
+        let mut effects = Vec::new();
+        for index in 0..self.actuators.len() {
+            let id = ActuatorId(index as u32);
+            self.republish(id, now_ms, &mut effects);
+            let a = &mut self.actuators[index];
+            a.last_sample_ms = now_ms;
+            if let Some(command) = a.command.as_mut() {
+                command.attempt_ms = now_ms;
+            }
+        }
+        effects
+    }
+
     // ---- time ----------------------------------------------------------------------
 
     /// Checks every threshold: no motion, target not reached (each retried,
-    /// then escalated) and stale feedback. A threshold counts as crossed once
-    /// `now - start >= T`.
+    /// then escalated) and stale feedback; re-sends an unconfirmed lockout
+    /// `completionMs` after its last send. A threshold counts as crossed once
+    /// `now - start >= T`. Nothing is checked for a device known offline.
     pub fn tick(&mut self, now_ms: u64) -> Vec<Effect> {
         let mut effects = Vec::new();
         for index in 0..self.actuators.len() {
@@ -821,50 +972,106 @@ impl Tracker {
                     fault: FaultKind::Stale,
                 });
                 self.escalate(id, FaultKind::Stale, &mut effects);
-                continue;
-            }
-            let Some(command) = &a.command else { continue };
-            if command.escalated {
-                continue;
-            }
-            let elapsed = now_ms.saturating_sub(command.attempt_ms);
-            let fault = if command.moving_ms.is_none() && elapsed >= timing.no_motion_ms {
-                FaultKind::NoMotion
-            } else if elapsed >= timing.completion_ms {
-                FaultKind::NotReached
             } else {
-                continue;
-            };
-            let retries = timing.retries;
-            let a = &mut self.actuators[index];
-            let command = a.command.as_mut().expect("checked above");
-            if command.retries < retries {
-                command.retries += 1;
-                command.attempt_ms = now_ms;
-                effects.push(Effect::Retry {
-                    actuator: id,
-                    caller: command.caller,
-                    attempt: command.retries,
-                    fault,
-                });
-                effects.push(Effect::Publish {
-                    topic: a.topic.clone(),
-                    payload: payload(a.signal, command.target),
-                    retain: a.retained,
-                });
-            } else {
-                a.phase = Phase::Faulted;
-                effects.push(Effect::Fault {
-                    actuator: id,
-                    fault,
-                });
-                self.escalate(id, fault, &mut effects);
+                self.check_command(id, now_ms, &mut effects);
+            }
+            // After the command's own retry, which counts as a send.
+            let completion_ms = self.timings[self.actuators[index].type_index].completion_ms;
+            let due = self.actuators[index]
+                .lockout_order
+                .is_some_and(|o| now_ms.saturating_sub(o.last_send_ms) >= completion_ms);
+            if due {
+                self.resend_lockout(id, now_ms, &mut effects);
             }
         }
         effects
     }
 
+    /// No motion or target not reached: retried, then escalated.
+    fn check_command(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+        let a = &self.actuators[id.index()];
+        let timing = &self.timings[a.type_index];
+        let Some(command) = &a.command else { return };
+        if command.escalated {
+            return;
+        }
+        let elapsed = now_ms.saturating_sub(command.attempt_ms);
+        let fault = if command.moving_ms.is_none() && elapsed >= timing.no_motion_ms {
+            FaultKind::NoMotion
+        } else if elapsed >= timing.completion_ms {
+            FaultKind::NotReached
+        } else {
+            return;
+        };
+        let retries = timing.retries;
+        let a = &mut self.actuators[id.index()];
+        let Some(command) = a.command.as_mut() else {
+            return;
+        };
+        if command.retries < retries {
+            command.retries += 1;
+            command.attempt_ms = now_ms;
+            effects.push(Effect::Retry {
+                actuator: id,
+                caller: command.caller,
+                attempt: command.retries,
+                fault,
+            });
+            effects.push(Effect::Publish {
+                topic: a.topic.clone(),
+                payload: payload(a.signal, command.target),
+                retain: a.retained,
+            });
+            if let Some(order) = a.lockout_order.as_mut() {
+                if order.target == command.target {
+                    order.sends = order.sends.saturating_add(1);
+                    order.last_send_ms = now_ms;
+                }
+            }
+        } else {
+            a.phase = Phase::Faulted;
+            effects.push(Effect::Fault {
+                actuator: id,
+                fault,
+            });
+            self.escalate(id, fault, effects);
+        }
+    }
+
     // ---- internals -------------------------------------------------------------------
+
+    /// Publishes the state the actuator should be in again: its unconfirmed
+    /// lockout if it has one, else its last commanded state.
+    fn republish(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+        let a = &self.actuators[id.index()];
+        if a.lockout_order.is_some() {
+            self.resend_lockout(id, now_ms, effects);
+        } else if let Some(target) = a.commanded {
+            effects.push(Effect::Publish {
+                topic: a.topic.clone(),
+                payload: payload(a.signal, target),
+                retain: a.retained,
+            });
+        }
+    }
+
+    fn resend_lockout(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+        let a = &mut self.actuators[id.index()];
+        let Some(order) = a.lockout_order.as_mut() else {
+            return;
+        };
+        order.sends = order.sends.saturating_add(1);
+        order.last_send_ms = now_ms;
+        effects.push(Effect::LockoutResent {
+            actuator: id,
+            attempt: order.sends - 1,
+        });
+        effects.push(Effect::Publish {
+            topic: a.topic.clone(),
+            payload: payload(a.signal, order.target),
+            retain: true,
+        });
+    }
 
     fn state(&self, id: ActuatorId) -> Result<&ActuatorState, TrackError> {
         self.actuators

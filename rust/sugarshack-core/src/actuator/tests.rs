@@ -430,6 +430,14 @@ fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
         )),
         "both already there"
     );
+    assert!(
+        has(&lockout, |e| matches!(
+            e,
+            Effect::LockoutConfirmed { actuator, after_ms: 0, sends: 1 } if *actuator == p1
+        )),
+        "the last sample already shows it there"
+    );
+    assert!(t.pending_lockouts().is_empty());
     let ctrl1 = t.device("ctrl-1").unwrap();
     t.device_status(ctrl1, false, 200).unwrap();
     let back = t.device_status(ctrl1, true, 300).unwrap();
@@ -476,12 +484,14 @@ fn changes_are_reported_by_exception_with_time_of_flight() {
 fn a_bad_sample_in_a_batch_is_reported_and_the_rest_still_counts() {
     let (mut t, v1, v2, p1) = tracker();
     let mut effects = Vec::new();
-    let rejected = t.feedback_batch(
-        &[(v1, 50.0), (p1, 0.3), (v2, f64::NAN)],
-        Some(10),
-        20,
-        &mut effects,
-    );
+    let rejected = t
+        .feedback_batch(
+            &[(v1, 50.0), (p1, 0.3), (v2, f64::NAN)],
+            Some(10),
+            20,
+            &mut effects,
+        )
+        .unwrap();
     let codes: Vec<(ActuatorId, &str)> =
         rejected.iter().map(|(id, err)| (*id, err.code())).collect();
     assert_eq!(
@@ -509,7 +519,8 @@ fn withdrawing_a_group_leaves_its_actuators_idle() {
         Counts {
             moving: 0,
             stopped: 0,
-            faulted: 0
+            faulted: 0,
+            lockouts_pending: 0
         }
     );
     assert!(t.tick(1500).is_empty(), "nothing left to time out");
@@ -569,4 +580,410 @@ fn c2_refuses_a_command_outside_the_held_resources() {
         .unwrap_err()
         .to_string()
         .contains("'V2' belongs to no resource"));
+}
+
+// ---- standing lockout orders ------------------------------------------------
+
+/// V1 at 99 (a normal command completed), then locked out at `at`: not there yet.
+fn locked_out_at_99(at: u64) -> (Tracker, ActuatorId) {
+    let (mut t, v1, _, _) = tracker();
+    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
+    t.feedback(v1, 99.0, None, 500).unwrap();
+    let sent = t.command(&[(v1, 0.0)], 2, true, at).unwrap();
+    assert_eq!(
+        publishes(&sent),
+        vec![("ctrl-1/valve/1/command".into(), "0".into(), true)]
+    );
+    assert_eq!(
+        t.pending_lockouts(),
+        vec![PendingLockout {
+            actuator: v1,
+            target: 0.0,
+            since_ms: at,
+            sends: 1
+        }]
+    );
+    (t, v1)
+}
+
+fn resent(effects: &[Effect]) -> Vec<u32> {
+    effects
+        .iter()
+        .filter_map(|e| match e {
+            Effect::LockoutResent { attempt, .. } => Some(*attempt),
+            _ => None,
+        })
+        .collect()
+}
+
+const LOCKOUT_V1: (&str, &str, bool) = ("ctrl-1/valve/1/command", "0", true);
+
+fn lockout_v1() -> Vec<(String, String, bool)> {
+    vec![(LOCKOUT_V1.0.into(), LOCKOUT_V1.1.into(), LOCKOUT_V1.2)]
+}
+
+#[test]
+fn an_unconfirmed_lockout_is_resent_every_completion_window_without_limit() {
+    let (mut t, v1) = locked_out_at_99(1000);
+    let retry = t.tick(2000);
+    assert!(has(&retry, |e| matches!(
+        e,
+        Effect::Retry { caller: 2, .. }
+    )));
+    assert_eq!(publishes(&retry), lockout_v1(), "the group's own retry");
+    let failed = t.tick(3000);
+    assert!(
+        has(&failed, |e| matches!(
+            e,
+            Effect::GroupFailed {
+                caller: 2,
+                fault: FaultKind::NoMotion,
+                ..
+            }
+        )),
+        "the group command gives up"
+    );
+    assert!(publishes(&failed).is_empty());
+    assert_eq!(t.counts().lockouts_pending, 1, "the order does not");
+    let mut last = 2000;
+    for window in 1..=50u32 {
+        let due = last + 3000;
+        t.feedback(v1, 99.0, None, due - 1).unwrap();
+        assert!(
+            publishes(&t.tick(due - 1)).is_empty(),
+            "window {window}: not before completionMs"
+        );
+        let sent = t.tick(due);
+        assert_eq!(
+            resent(&sent),
+            vec![window + 1],
+            "window {window}: the retry was re-send 1"
+        );
+        assert_eq!(publishes(&sent), lockout_v1(), "window {window}");
+        last = due;
+    }
+    assert_eq!(t.pending_lockouts()[0].sends, 52);
+}
+
+#[test]
+fn a_lockout_is_not_resent_while_offline_and_at_once_when_back_or_the_path_is_restored() {
+    let (mut t, _) = locked_out_at_99(1000);
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let offline = t.device_status(ctrl1, false, 1500).unwrap();
+    assert!(has(&offline, |e| matches!(
+        e,
+        Effect::GroupFailed {
+            caller: 2,
+            fault: FaultKind::DeviceOffline,
+            ..
+        }
+    )));
+    for now in (2000..40_000).step_by(500) {
+        let ticked = t.tick(now);
+        assert!(
+            publishes(&ticked).is_empty() && resent(&ticked).is_empty(),
+            "offline at {now}"
+        );
+    }
+    let back = t.device_status(ctrl1, true, 40_000).unwrap();
+    assert_eq!(resent(&back), vec![1]);
+    assert_eq!(publishes(&back), lockout_v1(), "at once, retained");
+    assert!(publishes(&t.tick(42_999)).is_empty());
+    assert_eq!(publishes(&t.tick(43_000)), lockout_v1());
+    let restored = t.path_restored(44_000);
+    assert_eq!(resent(&restored), vec![3]);
+    assert_eq!(
+        publishes(&restored),
+        lockout_v1(),
+        "V2 and P1 were never commanded"
+    );
+    assert!(
+        publishes(&t.tick(46_999)).is_empty(),
+        "the window starts again at the restore"
+    );
+    assert_eq!(resent(&t.tick(47_000)), vec![4]);
+}
+
+#[test]
+fn a_sample_at_the_target_from_an_online_device_confirms_the_lockout() {
+    let (mut t, v1) = locked_out_at_99(1000);
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    t.device_status(ctrl1, false, 1200).unwrap();
+    let unheard = t.feedback(v1, 0.0, None, 1300).unwrap();
+    assert!(
+        !has(&unheard, |e| matches!(e, Effect::LockoutConfirmed { .. })),
+        "its device is offline"
+    );
+    t.device_status(ctrl1, true, 1400).unwrap();
+    assert_eq!(
+        t.feedback(v1, 1.0, Some(9000), 1450).unwrap_err().code(),
+        "FUTURE_TIMESTAMP"
+    );
+    assert_eq!(
+        t.counts().lockouts_pending,
+        1,
+        "a refused sample confirms nothing"
+    );
+    let moving = t.feedback(v1, 40.0, None, 1500).unwrap();
+    assert!(!has(&moving, |e| matches!(
+        e,
+        Effect::LockoutConfirmed { .. }
+    )));
+    let there = t.feedback(v1, 2.0, None, 1600).unwrap();
+    assert!(has(&there, |e| matches!(
+        e,
+        Effect::LockoutConfirmed { actuator, after_ms: 600, sends: 2 } if *actuator == v1
+    )));
+    assert!(t.pending_lockouts().is_empty());
+    assert_eq!(t.counts().lockouts_pending, 0);
+    for now in (2000..20_000).step_by(500) {
+        t.feedback(v1, 0.0, None, now).unwrap();
+        assert!(
+            publishes(&t.tick(now)).is_empty(),
+            "confirmed: no re-send at {now}"
+        );
+    }
+}
+
+#[test]
+fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
+    let (mut t, v1) = locked_out_at_99(1000);
+    let v2 = t.actuator("V2").unwrap();
+    let err = t
+        .command(&[(v2, 50.0), (v1, 50.0)], 3, false, 1100)
+        .unwrap_err();
+    assert_eq!(err.code(), "LOCKOUT_PENDING");
+    assert_eq!(
+        err.to_string(),
+        "actuator 'V1' has not yet confirmed its lockout state; it is re-sent until feedback shows it there, check the device if that takes long (nothing was sent)"
+    );
+    assert_eq!(
+        t.phase(v2),
+        Some(Phase::Idle),
+        "V2 untouched by the refused group"
+    );
+    let renewed = t.command(&[(v1, 0.0)], 4, true, 1200).unwrap();
+    assert!(
+        has(&renewed, |e| matches!(
+            e,
+            Effect::GroupFailed {
+                caller: 2,
+                fault: FaultKind::LockedOut,
+                ..
+            }
+        )),
+        "the second lockout takes over the first one's group"
+    );
+    assert_eq!(
+        t.pending_lockouts(),
+        vec![PendingLockout {
+            actuator: v1,
+            target: 0.0,
+            since_ms: 1000,
+            sends: 2
+        }],
+        "renewed: pending since the first"
+    );
+    assert!(
+        publishes(&t.tick(4199)).len() <= 1,
+        "the window restarts at the renewal (only the group's retry at 2200)"
+    );
+    let confirmed = t.feedback(v1, 0.0, None, 4300).unwrap();
+    assert!(has(&confirmed, |e| matches!(
+        e,
+        Effect::LockoutConfirmed {
+            sends: 3,
+            after_ms: 3300,
+            ..
+        }
+    )));
+    let next = t.command(&[(v1, 50.0)], 5, false, 4400).unwrap();
+    assert_eq!(
+        publishes(&next),
+        vec![
+            ("ctrl-1/valve/1/command".into(), String::new(), true),
+            ("ctrl-1/valve/1/command".into(), "50".into(), false)
+        ],
+        "accepted once confirmed, clearing the retained lockout first"
+    );
+}
+
+#[test]
+fn a_lockout_to_another_state_replaces_the_order() {
+    let (mut t, v1) = locked_out_at_99(1000);
+    t.command(&[(v1, 10.0)], 3, true, 1500).unwrap();
+    assert_eq!(
+        t.pending_lockouts(),
+        vec![PendingLockout {
+            actuator: v1,
+            target: 10.0,
+            since_ms: 1500,
+            sends: 1
+        }]
+    );
+    assert!(!has(
+        &t.feedback(v1, 0.0, None, 1600).unwrap(),
+        |e| matches!(e, Effect::LockoutConfirmed { .. })
+    ));
+}
+
+#[test]
+fn withdrawing_the_lockouts_caller_does_not_end_the_order() {
+    let (mut t, v1) = locked_out_at_99(1000);
+    assert!(t.withdraw(2));
+    assert_eq!(t.phase(v1), Some(Phase::Idle));
+    assert_eq!(t.counts().lockouts_pending, 1);
+    assert!(
+        publishes(&t.tick(3999)).is_empty(),
+        "no group retry: it is gone"
+    );
+    let sent = t.tick(4000);
+    assert_eq!(resent(&sent), vec![1]);
+    assert_eq!(publishes(&sent), lockout_v1());
+}
+
+#[test]
+fn a_lockout_is_resent_while_feedback_is_stale() {
+    let (mut t, _) = locked_out_at_99(1000);
+    t.tick(2000);
+    t.tick(3000);
+    let stale = t.tick(5000);
+    assert!(has(&stale, |e| matches!(
+        e,
+        Effect::Fault {
+            fault: FaultKind::Stale,
+            ..
+        }
+    )));
+    assert_eq!(
+        publishes(&stale),
+        lockout_v1(),
+        "silence is no confirmation"
+    );
+}
+
+#[test]
+fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() {
+    let (mut t, v1, v2, p1) = tracker();
+    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
+    t.command(&[(p1, 1.0)], 2, true, 0).unwrap();
+    t.feedback(v1, 30.0, None, 500).unwrap();
+    t.feedback(v2, 0.0, None, 500).unwrap();
+    let restored = t.path_restored(2500);
+    assert_eq!(
+        publishes(&restored),
+        vec![
+            ("ctrl-1/valve/1/command".into(), "100".into(), false),
+            ("ctrl-1/pump/1/command".into(), "ON".into(), true)
+        ]
+    );
+    assert!(
+        !has(&t.tick(5499), |e| matches!(
+            e,
+            Effect::Retry { caller: 1, .. }
+                | Effect::Fault {
+                    fault: FaultKind::Stale,
+                    ..
+                }
+        )),
+        "fresh windows: no retry of V1, and no staleness counted over the outage"
+    );
+    assert!(has(&t.tick(5500), |e| matches!(
+        e,
+        Effect::Retry {
+            caller: 1,
+            fault: FaultKind::NotReached,
+            ..
+        }
+    )));
+}
+
+// ---- device timestamps ---------------------------------------------------------
+
+#[test]
+fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
+    let (mut t, v1, _, _) = tracker();
+    assert_eq!(t.plant().clock_skew_ms, 5000);
+    let err = t.feedback(v1, 50.0, Some(9001), 4000).unwrap_err();
+    assert_eq!(
+        err,
+        TrackError::FutureTimestamp {
+            actuator: "V1".into(),
+            ahead_ms: 5001,
+            skew_ms: 5000
+        }
+    );
+    assert_eq!(err.code(), "FUTURE_TIMESTAMP");
+    assert_eq!(
+        err.to_string(),
+        "feedback for 'V1' is stamped 5001 ms ahead of its reception, more than clockSkewMs (5000 ms): set the device's clock (nothing of it was applied)"
+    );
+    assert_eq!(t.position(v1), Some(0.0), "no position");
+    assert!(
+        has(&t.tick(5000), |e| matches!(
+            e,
+            Effect::Fault { actuator, fault: FaultKind::Stale } if *actuator == v1
+        )),
+        "no freshness"
+    );
+    let at_limit = t.feedback(v1, 50.0, Some(11_000), 6000).unwrap();
+    assert!(has(&at_limit, |e| matches!(
+        e,
+        Effect::Changed {
+            time_of_flight_ms: Some(-5000),
+            ..
+        }
+    )));
+    let later = t.feedback(v1, 60.0, Some(6900), 7000).unwrap();
+    assert!(has(&later, |e| matches!(
+        e,
+        Effect::Changed {
+            time_of_flight_ms: Some(100),
+            ..
+        }
+    )));
+    assert!(
+        t.feedback(v1, 0.0, Some(u64::MAX), 8000).is_err(),
+        "no overflow"
+    );
+}
+
+#[test]
+fn a_device_clock_that_jumps_back_is_still_heard_in_arrival_order() {
+    let (mut t, v1, _, _) = tracker();
+    t.feedback(v1, 10.0, Some(9900), 10_000).unwrap();
+    let jumped = t.feedback(v1, 20.0, Some(2000), 10_100).unwrap();
+    assert!(has(&jumped, |e| matches!(
+        e,
+        Effect::Changed { value, time_of_flight_ms: Some(8100), .. } if *value == 20.0
+    )));
+    assert_eq!(t.position(v1), Some(20.0));
+}
+
+#[test]
+fn a_batch_stamped_beyond_the_clock_skew_is_refused_whole() {
+    let (mut t, v1, v2, p1) = tracker();
+    let mut effects = Vec::new();
+    let err = t
+        .feedback_batch(
+            &[(v1, 50.0), (p1, 0.3), (v2, 40.0)],
+            Some(20_000),
+            10_000,
+            &mut effects,
+        )
+        .unwrap_err();
+    assert_eq!(err.code(), "FUTURE_TIMESTAMP");
+    assert!(err.to_string().contains("10000 ms ahead"), "{err}");
+    assert!(effects.is_empty(), "no per-sample rejection, no effect");
+    assert_eq!((t.position(v1), t.position(v2)), (Some(0.0), Some(0.0)));
+    let rejected = t
+        .feedback_batch(&[(v1, 50.0), (v2, 40.0)], Some(9000), 10_000, &mut effects)
+        .unwrap();
+    assert!(rejected.is_empty());
+    assert_eq!((t.position(v1), t.position(v2)), (Some(50.0), Some(40.0)));
+    assert_eq!(
+        t.feedback_batch(&[], Some(u64::MAX), 10_000, &mut effects),
+        Ok(Vec::new()),
+        "an empty batch has nothing to refuse"
+    );
 }

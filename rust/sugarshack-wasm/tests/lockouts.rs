@@ -1,0 +1,154 @@
+#![cfg(target_arch = "wasm32")]
+
+//! Standing lockouts, a restored MQTT path and future device timestamps at
+//! the JS boundary, run under Node.
+
+use js_sys::{Array, Reflect, JSON};
+use sugarshack_wasm::Tracker;
+use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen_test::wasm_bindgen_test;
+
+fn json(text: &str) -> JsValue {
+    JSON::parse(text).expect("test JSON parses")
+}
+
+fn get(value: &JsValue, key: &str) -> JsValue {
+    Reflect::get(value, &key.into()).unwrap()
+}
+
+fn code_of(error: JsValue) -> String {
+    assert!(error.is_instance_of::<js_sys::Error>());
+    get(&error, "code").as_string().unwrap()
+}
+
+fn message_of(error: &JsValue) -> String {
+    error.dyn_ref::<js_sys::Error>().unwrap().message().into()
+}
+
+const PLANT: &str = r#"{
+    "actuatorTypes": {
+        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 60000, "retries": 0 }
+    },
+    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+    "actuators": [
+        { "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 }
+    ]
+}"#;
+
+fn effects(t: &mut Tracker) -> Vec<JsValue> {
+    Array::from(&t.take_effects().unwrap()).iter().collect()
+}
+
+fn kinds(effects: &[JsValue]) -> Vec<String> {
+    effects
+        .iter()
+        .map(|e| get(e, "kind").as_string().unwrap())
+        .collect()
+}
+
+fn find<'a>(effects: &'a [JsValue], kind: &str) -> &'a JsValue {
+    effects
+        .iter()
+        .find(|e| get(e, "kind").as_string().as_deref() == Some(kind))
+        .unwrap_or_else(|| panic!("no {kind} in {:?}", kinds(effects)))
+}
+
+fn lockouts_pending(t: &Tracker) -> f64 {
+    get(&t.counts().unwrap(), "lockoutsPending")
+        .as_f64()
+        .unwrap()
+}
+
+#[wasm_bindgen_test]
+fn a_lockout_stands_until_feedback_confirms_it() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    t.feedback(v12, 99.0, None, 10.0).unwrap();
+    effects(&mut t);
+    t.command(json(r#"{ "valves": { "V12": 0 } }"#), 1, true, 100.0, None)
+        .unwrap();
+    let sent = effects(&mut t);
+    assert_eq!(get(&sent[0], "retain").as_bool(), Some(true));
+    assert_eq!(lockouts_pending(&t), 1.0);
+    let pending = Array::from(&t.pending_lockouts().unwrap());
+    assert_eq!(pending.length(), 1);
+    let order = pending.get(0);
+    assert_eq!(get(&order, "actuator").as_f64(), Some(f64::from(v12)));
+    assert_eq!(get(&order, "target").as_f64(), Some(0.0));
+    assert_eq!(get(&order, "sinceMs").as_f64(), Some(100.0));
+    assert_eq!(get(&order, "sends").as_f64(), Some(1.0));
+
+    let refused = t
+        .command(
+            json(r#"{ "valves": { "V12": 50 } }"#),
+            2,
+            false,
+            200.0,
+            None,
+        )
+        .unwrap_err();
+    assert!(message_of(&refused).contains("has not yet confirmed its lockout state"));
+    assert_eq!(code_of(refused), "LOCKOUT_PENDING");
+
+    t.tick(1100.0).unwrap();
+    assert!(kinds(&effects(&mut t)).contains(&"groupFailed".to_string()));
+    assert_eq!(t.tick(5099.0).unwrap(), 0);
+    t.tick(5100.0).unwrap();
+    let resent = effects(&mut t);
+    assert_eq!(kinds(&resent), ["lockoutResent", "publish"]);
+    assert_eq!(get(&resent[0], "actuator").as_f64(), Some(f64::from(v12)));
+    assert_eq!(get(&resent[0], "attempt").as_f64(), Some(1.0));
+    assert_eq!(get(&resent[1], "payload").as_string().as_deref(), Some("0"));
+    assert_eq!(get(&resent[1], "retain").as_bool(), Some(true));
+
+    assert_eq!(t.path_restored(6000.0).unwrap(), 2);
+    let restored = effects(&mut t);
+    assert_eq!(kinds(&restored), ["lockoutResent", "publish"]);
+    assert_eq!(get(&restored[0], "attempt").as_f64(), Some(2.0));
+    assert_eq!(
+        code_of(t.path_restored(f64::NAN).unwrap_err()),
+        "INVALID_TIME"
+    );
+
+    t.feedback(v12, 1.0, Some(6050.0), 6100.0).unwrap();
+    let confirmed = effects(&mut t);
+    let done = find(&confirmed, "lockoutConfirmed");
+    assert_eq!(get(done, "actuator").as_f64(), Some(f64::from(v12)));
+    assert_eq!(get(done, "afterMs").as_f64(), Some(6000.0));
+    assert_eq!(get(done, "sends").as_f64(), Some(3.0));
+    assert_eq!(lockouts_pending(&t), 0.0);
+    assert_eq!(Array::from(&t.pending_lockouts().unwrap()).length(), 0);
+    t.command(
+        json(r#"{ "valves": { "V12": 50 } }"#),
+        3,
+        false,
+        6200.0,
+        None,
+    )
+    .unwrap();
+}
+
+#[wasm_bindgen_test]
+fn a_future_timestamp_throws_and_applies_nothing() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    let single = t.feedback(v12, 40.0, Some(20_000.0), 10_000.0).unwrap_err();
+    assert!(
+        message_of(&single).contains("10000 ms ahead"),
+        "{}",
+        message_of(&single)
+    );
+    assert_eq!(code_of(single), "FUTURE_TIMESTAMP");
+    let batch = t
+        .feedback_batch(&[v12], &[f64::NAN], Some(15_001.0), 10_000.0)
+        .unwrap_err();
+    assert_eq!(code_of(batch), "FUTURE_TIMESTAMP");
+    assert!(
+        effects(&mut t).is_empty(),
+        "no rejection queued, nothing applied"
+    );
+    assert_eq!(t.position(v12), None);
+    t.feedback_batch(&[v12], &[40.0], Some(15_000.0), 10_000.0)
+        .unwrap();
+    assert_eq!(t.position(v12), Some(40.0), "at the skew limit it applies");
+}
