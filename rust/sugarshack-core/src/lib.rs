@@ -5,7 +5,9 @@
 pub mod actuator;
 pub mod control;
 pub mod interlock;
+pub mod json;
 pub mod operation;
 pub mod plant;
 pub mod routine;
 pub mod sensor;
+pub mod text;

@@ -5,7 +5,10 @@
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fmt;
 
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::text::quote;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -160,7 +163,9 @@ pub struct Operation {
     pub steps: Vec<Step>,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// Read by its key (`command` or `wait`), so that a broken step says what is
+/// wrong with it rather than that it matches no kind of step.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Step {
     /// A group command, e.g. `{"valves": {"V101": 100}, "pumps": {"P1": true}}`.
@@ -176,6 +181,69 @@ pub enum Step {
         sensors: Vec<String>,
         timeout_ms: u64,
     },
+}
+
+/// Every field a step may have; which are required depends on its kind.
+#[derive(Deserialize)]
+#[serde(
+    rename_all = "camelCase",
+    deny_unknown_fields,
+    expecting = "a step: {\"command\": {...}, \"timeoutMs\": ...} or {\"wait\": \"...\", \"sensors\": [...], \"timeoutMs\": ...}"
+)]
+struct StepFields {
+    #[serde(default, deserialize_with = "present")]
+    command: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    wait: Option<String>,
+    #[serde(default, deserialize_with = "present")]
+    sensors: Option<Vec<String>>,
+    #[serde(default, deserialize_with = "present")]
+    timeout_ms: Option<u64>,
+}
+
+/// A key given as `null` is present: `"command": null` is a bad command, and
+/// `"wait": null` a wrong type, not a missing key.
+fn present<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    deserializer: D,
+) -> Result<Option<T>, D::Error> {
+    T::deserialize(deserializer).map(Some)
+}
+
+impl<'de> Deserialize<'de> for Step {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let fields = StepFields::deserialize(deserializer)?;
+        match (fields.command, fields.wait) {
+            (Some(command), None) => {
+                if fields.sensors.is_some() {
+                    return Err(D::Error::unknown_field(
+                        "sensors",
+                        &["command", "timeoutMs"],
+                    ));
+                }
+                Ok(Step::Command {
+                    command,
+                    timeout_ms: fields
+                        .timeout_ms
+                        .ok_or_else(|| D::Error::missing_field("timeoutMs"))?,
+                })
+            }
+            (None, Some(wait)) => Ok(Step::Wait {
+                wait,
+                sensors: fields
+                    .sensors
+                    .ok_or_else(|| D::Error::missing_field("sensors"))?,
+                timeout_ms: fields
+                    .timeout_ms
+                    .ok_or_else(|| D::Error::missing_field("timeoutMs"))?,
+            }),
+            (Some(_), Some(_)) => Err(D::Error::custom(
+                "a step has either 'command' or 'wait', not both: make them two steps",
+            )),
+            (None, None) => Err(D::Error::custom(
+                "a step needs either 'command' (a group command) or 'wait' (a condition)",
+            )),
+        }
+    }
 }
 
 /// A routine (the paper's §III-E): a state machine that dispatches one operation at a time.
@@ -200,7 +268,8 @@ pub struct Transition {
     pub trigger: Trigger,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// Read by its key (`msg` or `when`), as a step is.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Trigger {
     /// A msg with this topic.
@@ -212,6 +281,58 @@ pub enum Trigger {
         sensors: Vec<String>,
         every_ms: u64,
     },
+}
+
+/// Every field a trigger may have; which are required depends on its kind.
+#[derive(Deserialize)]
+#[serde(
+    rename_all = "camelCase",
+    deny_unknown_fields,
+    expecting = "a trigger: {\"msg\": \"topic\"} or {\"when\": \"...\", \"sensors\": [...], \"everyMs\": ...}"
+)]
+struct TriggerFields {
+    #[serde(default, deserialize_with = "present")]
+    msg: Option<String>,
+    #[serde(default, deserialize_with = "present")]
+    when: Option<String>,
+    #[serde(default, deserialize_with = "present")]
+    sensors: Option<Vec<String>>,
+    #[serde(default, deserialize_with = "present")]
+    every_ms: Option<u64>,
+}
+
+impl<'de> Deserialize<'de> for Trigger {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let fields = TriggerFields::deserialize(deserializer)?;
+        match (fields.msg, fields.when) {
+            (Some(msg), None) => {
+                for (name, given) in [
+                    ("sensors", fields.sensors.is_some()),
+                    ("everyMs", fields.every_ms.is_some()),
+                ] {
+                    if given {
+                        return Err(D::Error::unknown_field(name, &["msg"]));
+                    }
+                }
+                Ok(Trigger::Msg { msg })
+            }
+            (None, Some(when)) => Ok(Trigger::When {
+                when,
+                sensors: fields
+                    .sensors
+                    .ok_or_else(|| D::Error::missing_field("sensors"))?,
+                every_ms: fields
+                    .every_ms
+                    .ok_or_else(|| D::Error::missing_field("everyMs"))?,
+            }),
+            (Some(_), Some(_)) => Err(D::Error::custom(
+                "a trigger has either 'msg' or 'when', not both: make them two transitions",
+            )),
+            (None, None) => Err(D::Error::custom(
+                "a trigger needs either 'msg' (a msg topic) or 'when' (a condition)",
+            )),
+        }
+    }
 }
 
 /// Something legal but probably unintended, reported at deploy.
@@ -292,21 +413,25 @@ impl ActuatorType {
 pub fn state_value(signal: Signal, range: Range, value: &serde_json::Value) -> Result<f64, String> {
     match (signal, value) {
         (Signal::Binary, serde_json::Value::Bool(on)) => Ok(if *on { 1.0 } else { 0.0 }),
-        (Signal::Binary, other) => Err(format!("must be true or false, got {other}")),
+        (Signal::Binary, other) => Err(format!("must be true or false, got {}", quote(other))),
         (Signal::Analog, serde_json::Value::Number(n)) => {
             let v = n.as_f64().unwrap_or(f64::NAN);
             if v.is_finite() && v >= range.min && v <= range.max {
                 Ok(v)
             } else {
                 Err(format!(
-                    "must be within {}..{}, got {v}",
-                    range.min, range.max
+                    "must be within {}..{}, got {}",
+                    quote(range.min),
+                    quote(range.max),
+                    quote(v)
                 ))
             }
         }
         (Signal::Analog, other) => Err(format!(
-            "must be a number within {}..{}, got {other}",
-            range.min, range.max
+            "must be a number within {}..{}, got {}",
+            quote(range.min),
+            quote(range.max),
+            quote(other)
         )),
     }
 }
@@ -324,9 +449,9 @@ impl fmt::Display for GroupError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Invalid(reason) => write!(f, "invalid group command: {reason}"),
-            Self::UnknownActuator(name) => write!(f, "unknown actuator '{name}'"),
+            Self::UnknownActuator(name) => write!(f, "unknown actuator '{}'", quote(name)),
             Self::InvalidTarget { actuator, reason } => {
-                write!(f, "target for '{actuator}' {reason}")
+                write!(f, "target for '{}' {reason}", quote(actuator))
             }
             Self::Empty => write!(f, "the group command names no actuator"),
         }
@@ -344,7 +469,8 @@ impl PlantModel {
     ) -> Result<Vec<(usize, f64)>, GroupError> {
         let groups = payload.as_object().ok_or_else(|| {
             GroupError::Invalid(format!(
-                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {payload}"
+                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {}",
+                quote(payload)
             ))
         })?;
         let mut targets = Vec::new();
@@ -356,21 +482,26 @@ impl PlantModel {
             let Some(t) = self.actuator_types.get(kind) else {
                 let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
                 return Err(GroupError::Invalid(format!(
-                    "unknown actuator type '{key}' (known: {})",
-                    known.join(", ")
+                    "unknown actuator type '{}' (known: {})",
+                    quote(key),
+                    quote(known.join(", "))
                 )));
             };
             let members = members.as_object().ok_or_else(|| {
                 GroupError::Invalid(format!(
-                    "'{key}' must map actuator ids to targets, got {members}"
+                    "'{}' must map actuator ids to targets, got {}",
+                    quote(key),
+                    quote(members)
                 ))
             })?;
             for (name, value) in members {
-                let i = index(name).ok_or_else(|| GroupError::UnknownActuator(name.clone()))?;
+                // Quoted here: the name goes on into messages built elsewhere.
+                let i = index(name).ok_or_else(|| GroupError::UnknownActuator(quote(name)))?;
                 let a = &self.actuators[i];
                 if a.kind != kind {
                     return Err(GroupError::Invalid(format!(
-                        "'{name}' is a {}, not a {kind}",
+                        "'{}' is a {}, not a {kind}",
+                        quote(name),
                         a.kind
                     )));
                 }
@@ -438,7 +569,7 @@ impl PlantModel {
         let mut push = |path: String, message: String| errors.push(PlantError { path, message });
 
         for (name, t) in &self.actuator_types {
-            let path = format!("actuatorTypes.{name}");
+            let path = format!("actuatorTypes.{}", quote(name));
             if !topic_safe(name) {
                 push(
                     path.clone(),
@@ -465,7 +596,11 @@ impl PlantModel {
                 if !(r.min.is_finite() && r.max.is_finite() && r.min < r.max) {
                     push(
                         path.clone(),
-                        format!("min ({}) must be below max ({})", r.min, r.max),
+                        format!(
+                            "min ({}) must be below max ({})",
+                            quote(r.min),
+                            quote(r.max)
+                        ),
                     );
                 }
                 if !(r.tolerance >= 0.0 && r.tolerance < (r.max - r.min) / 2.0) {
@@ -473,7 +608,7 @@ impl PlantModel {
                         path.clone(),
                         format!(
                             "tolerance must be at least 0 and less than half the range, got {}",
-                            r.tolerance
+                            quote(r.tolerance)
                         ),
                     );
                 }
@@ -487,7 +622,7 @@ impl PlantModel {
 
         let mut devices = HashMap::new();
         for (i, d) in self.devices.iter().enumerate() {
-            let path = format!("devices[{i}] ({})", d.id);
+            let path = format!("devices[{i}] ({})", quote(&d.id));
             if !topic_safe(&d.id) {
                 push(
                     path.clone(),
@@ -495,27 +630,30 @@ impl PlantModel {
                 );
             }
             if devices.insert(d.id.as_str(), d.kind).is_some() {
-                push(path, format!("device '{}' is defined twice", d.id));
+                push(path, format!("device '{}' is defined twice", quote(&d.id)));
             }
         }
 
         let mut ids = HashSet::new();
         let mut slots = HashSet::new();
         for (i, a) in self.actuators.iter().enumerate() {
-            let path = format!("actuators[{i}] ({})", a.id);
+            let path = format!("actuators[{i}] ({})", quote(&a.id));
             if a.id.trim().is_empty() {
                 push(path.clone(), "an actuator needs an id".into());
             }
             if !ids.insert(a.id.as_str()) {
-                push(path.clone(), format!("id '{}' is used twice", a.id));
+                push(path.clone(), format!("id '{}' is used twice", quote(&a.id)));
             }
             match devices.get(a.device.as_str()) {
-                None => push(path.clone(), format!("unknown device '{}'", a.device)),
+                None => push(
+                    path.clone(),
+                    format!("unknown device '{}'", quote(&a.device)),
+                ),
                 Some(DeviceKind::SensorStation) => push(
                     path.clone(),
                     format!(
                         "device '{}' is a sensor station, not an actuator panel",
-                        a.device
+                        quote(&a.device)
                     ),
                 ),
                 Some(DeviceKind::ActuatorPanel) => {}
@@ -528,7 +666,9 @@ impl PlantModel {
                     path.clone(),
                     format!(
                         "{} {} io {} is already taken by another actuator",
-                        a.device, a.kind, a.io
+                        quote(&a.device),
+                        quote(&a.kind),
+                        a.io
                     ),
                 );
             }
@@ -536,7 +676,11 @@ impl PlantModel {
                 let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
                 push(
                     path,
-                    format!("unknown type '{}' (known: {})", a.kind, known.join(", ")),
+                    format!(
+                        "unknown type '{}' (known: {})",
+                        quote(&a.kind),
+                        quote(known.join(", "))
+                    ),
                 );
                 continue;
             };
@@ -549,7 +693,8 @@ impl PlantModel {
                     push(
                         path.clone(),
                         format!(
-                            "tolerance must be at least 0 and less than half the range, got {tol}"
+                            "tolerance must be at least 0 and less than half the range, got {}",
+                            quote(tol)
                         ),
                     );
                 }
@@ -562,12 +707,15 @@ impl PlantModel {
         }
 
         for (i, s) in self.sensors.iter().enumerate() {
-            let path = format!("sensors[{i}] ({})", s.id);
+            let path = format!("sensors[{i}] ({})", quote(&s.id));
             if !ids.insert(s.id.as_str()) {
-                push(path.clone(), format!("id '{}' is used twice", s.id));
+                push(path.clone(), format!("id '{}' is used twice", quote(&s.id)));
             }
             if !devices.contains_key(s.device.as_str()) {
-                push(path.clone(), format!("unknown device '{}'", s.device));
+                push(
+                    path.clone(),
+                    format!("unknown device '{}'", quote(&s.device)),
+                );
             }
             if !topic_safe(&s.name) {
                 push(
@@ -584,18 +732,18 @@ impl PlantModel {
         for (i, a) in self.actuators.iter().enumerate() {
             if let Some(r) = a.resource.as_deref().filter(|r| !resources.contains(r)) {
                 push(
-                    format!("actuators[{i}] ({})", a.id),
-                    format!("unknown resource '{r}'"),
+                    format!("actuators[{i}] ({})", quote(&a.id)),
+                    format!("unknown resource '{}'", quote(r)),
                 );
             }
         }
         let mut seen = HashSet::new();
         for (i, r) in self.resources.iter().enumerate() {
-            let path = format!("resources[{i}] ({})", r.id);
+            let path = format!("resources[{i}] ({})", quote(&r.id));
             if !seen.insert(r.id.as_str()) {
                 push(
                     path.clone(),
-                    format!("resource '{}' is defined twice", r.id),
+                    format!("resource '{}' is defined twice", quote(&r.id)),
                 );
             }
             if self.lockout_of(&r.id).is_none() {
@@ -624,17 +772,17 @@ impl PlantModel {
         let mut operations = HashMap::new();
         let mut priorities: HashMap<i32, &str> = HashMap::new();
         for (i, op) in self.operations.iter().enumerate() {
-            let path = format!("operations[{i}] ({})", op.id);
+            let path = format!("operations[{i}] ({})", quote(&op.id));
             if operations.insert(op.id.as_str(), i).is_some() {
                 push(
                     path.clone(),
-                    format!("operation '{}' is defined twice", op.id),
+                    format!("operation '{}' is defined twice", quote(&op.id)),
                 );
             }
             if let Some(other) = priorities.insert(op.priority, &op.id) {
                 warnings.push(PlantWarning {
                     path: path.clone(),
-                    message: format!("priority {} is also operation '{other}''s: equal priorities are granted first come, first served", op.priority),
+                    message: format!("priority {} is also operation '{}''s: equal priorities are granted first come, first served", op.priority, quote(other)),
                 });
             }
             if op.resources.is_empty() {
@@ -648,7 +796,7 @@ impl PlantModel {
                 .iter()
                 .filter(|r| !resources.contains(r.as_str()))
             {
-                push(path.clone(), format!("unknown resource '{r}'"));
+                push(path.clone(), format!("unknown resource '{}'", quote(r)));
             }
             if op.steps.is_empty() {
                 push(path.clone(), "an operation has at least one step".into());
@@ -676,16 +824,16 @@ impl PlantModel {
                                 Some(r) if op.resources.iter().any(|o| o == r) => {}
                                 Some(r) => push(
                                     path.clone(),
-                                    format!("C2: commands '{}' on resource '{r}', outside the operation's resources ({})", a.id, op.resources.join(", ")),
+                                    format!("C2: commands '{}' on resource '{}', outside the operation's resources ({})", quote(&a.id), quote(r), quote(op.resources.join(", "))),
                                 ),
-                                None => push(path.clone(), format!("C2: commands '{}', which belongs to no resource", a.id)),
+                                None => push(path.clone(), format!("C2: commands '{}', which belongs to no resource", quote(&a.id))),
                             }
                             if a.idle.is_none() {
                                 push(
                                     path.clone(),
                                     format!(
                                         "C3: commands '{}', which has no idle state to return to",
-                                        a.id
+                                        quote(&a.id)
                                     ),
                                 );
                             }
@@ -703,7 +851,7 @@ impl PlantModel {
                             push(path.clone(), "timeoutMs must be positive".into());
                         }
                         for s in unknown_sensors(sensors) {
-                            push(path.clone(), format!("unknown sensor '{s}'"));
+                            push(path.clone(), format!("unknown sensor '{}'", quote(s)));
                         }
                     }
                 }
@@ -713,11 +861,11 @@ impl PlantModel {
         let mut owner: HashMap<&str, &str> = HashMap::new();
         let mut routine_ids = HashSet::new();
         for (i, routine) in self.routines.iter().enumerate() {
-            let path = format!("routines[{i}] ({})", routine.id);
+            let path = format!("routines[{i}] ({})", quote(&routine.id));
             if !routine_ids.insert(routine.id.as_str()) {
                 push(
                     path.clone(),
-                    format!("routine '{}' is defined twice", routine.id),
+                    format!("routine '{}' is defined twice", quote(&routine.id)),
                 );
             }
             let states: HashSet<&str> = routine.states.iter().map(String::as_str).collect();
@@ -731,7 +879,7 @@ impl PlantModel {
                 if let Some(state) = state.filter(|s| !states.contains(s.as_str())) {
                     push(
                         path.clone(),
-                        format!("{field} '{state}' is not one of its states"),
+                        format!("{field} '{}' is not one of its states", quote(state)),
                     );
                 }
             }
@@ -742,15 +890,18 @@ impl PlantModel {
                     .into_iter()
                     .filter(|s| !states.contains(s.as_str()))
                 {
-                    push(path.clone(), format!("unknown state '{state}'"));
+                    push(path.clone(), format!("unknown state '{}'", quote(state)));
                 }
                 if !operations.contains_key(t.operation.as_str()) {
-                    push(path.clone(), format!("unknown operation '{}'", t.operation));
+                    push(
+                        path.clone(),
+                        format!("unknown operation '{}'", quote(&t.operation)),
+                    );
                 } else if mine.insert(t.operation.as_str()) {
                     if let Some(other) = owner.insert(t.operation.as_str(), routine.id.as_str()) {
                         push(
                             path.clone(),
-                            format!("C1: operation '{}' already belongs to routine '{other}'; an operation belongs to one routine", t.operation),
+                            format!("C1: operation '{}' already belongs to routine '{}'; an operation belongs to one routine", quote(&t.operation), quote(other)),
                         );
                     }
                 }
@@ -767,7 +918,7 @@ impl PlantModel {
                         push(path.clone(), "everyMs must be positive".into());
                     }
                     for s in unknown_sensors(sensors) {
-                        push(path.clone(), format!("unknown sensor '{s}'"));
+                        push(path.clone(), format!("unknown sensor '{}'", quote(s)));
                     }
                 }
             }

@@ -8,6 +8,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::plant::{PlantModel, Routine, Trigger};
+use crate::text::quote;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RoutineError {
@@ -54,11 +55,13 @@ impl fmt::Display for RoutineError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::UnknownRoutine { name } => {
-                write!(f, "unknown routine '{name}': it is not in the plant document")
+                write!(f, "unknown routine '{}': it is not in the plant document", quote(name))
             }
             Self::Busy { routine, operation } => write!(
                 f,
-                "routine '{routine}' is waiting for operation '{operation}'; one operation at a time (the trigger was refused)"
+                "routine '{}' is waiting for operation '{}'; one operation at a time (the trigger was refused)",
+                quote(routine),
+                quote(operation)
             ),
             Self::NoTransition {
                 routine,
@@ -66,14 +69,19 @@ impl fmt::Display for RoutineError {
                 trigger,
             } => write!(
                 f,
-                "routine '{routine}' has no transition on '{trigger}' from state '{state}'"
+                "routine '{}' has no transition on '{}' from state '{}'",
+                quote(routine),
+                quote(trigger),
+                quote(state)
             ),
             Self::Halted { routine, state } => write!(
                 f,
-                "routine '{routine}' halted in state '{state}' after a fault; send it 'reset' once the fault is cleared"
+                "routine '{}' halted in state '{}' after a fault; send it 'reset' once the fault is cleared",
+                quote(routine),
+                quote(state)
             ),
             Self::NotPending { routine } => {
-                write!(f, "routine '{routine}' has no operation pending")
+                write!(f, "routine '{}' has no operation pending", quote(routine))
             }
             Self::InvalidSnapshot { reason } => write!(f, "invalid routine snapshot: {reason}"),
         }
@@ -151,12 +159,20 @@ impl RoutineMachine {
         let id = &self.routine.id;
         if &snapshot.routine != id {
             return Err(RoutineError::InvalidSnapshot {
-                reason: format!("it is routine '{}''s, not '{id}''s", snapshot.routine),
+                reason: format!(
+                    "it is routine '{}''s, not '{}''s",
+                    quote(&snapshot.routine),
+                    quote(id)
+                ),
             });
         }
         let state = position(&self.routine, &snapshot.state).ok_or_else(|| {
             RoutineError::InvalidSnapshot {
-                reason: format!("routine '{id}' has no state '{}' any more", snapshot.state),
+                reason: format!(
+                    "routine '{}' has no state '{}' any more",
+                    quote(id),
+                    quote(&snapshot.state)
+                ),
             }
         })?;
         let pending = match &snapshot.pending {
@@ -168,8 +184,10 @@ impl RoutineMachine {
                     .position(|t| &t.operation == operation && t.from == snapshot.state)
                     .ok_or_else(|| RoutineError::InvalidSnapshot {
                         reason: format!(
-                            "routine '{id}' has no transition from '{}' running '{operation}' any more",
-                            snapshot.state
+                            "routine '{}' has no transition from '{}' running '{}' any more",
+                            quote(id),
+                            quote(&snapshot.state),
+                            quote(operation)
                         ),
                     })?,
             ),

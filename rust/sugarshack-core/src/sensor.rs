@@ -1,11 +1,17 @@
 //! Live sensor values with the time they were received. A value older than its
 //! sensor's `staleMs` is stale, and a read over a stale (or never seen) value
 //! fails: a condition must never pass on data the plant may no longer show.
+//!
+//! Samples are kept in arrival order (MQTT delivers a topic's messages in
+//! order): ordering them by the device's timestamp would let one bad stamp,
+//! or a device clock set back, hide every later sample. A sample stamped
+//! further ahead of its reception than the plant's `clockSkewMs` is refused.
 
 use std::collections::HashMap;
 use std::fmt;
 
 use crate::plant::PlantModel;
+use crate::text::quote;
 
 /// For sensors whose document entry sets no `staleMs`: five missed 1 Hz samples.
 pub const DEFAULT_STALE_MS: u64 = 5000;
@@ -48,6 +54,12 @@ pub enum SensorError {
         age_ms: u64,
         stale_ms: u64,
     },
+    /// The device's clock is ahead of ours by more than the plant allows.
+    FutureTimestamp {
+        sensor: String,
+        ahead_ms: u64,
+        skew_ms: u64,
+    },
 }
 
 impl SensorError {
@@ -57,6 +69,7 @@ impl SensorError {
             Self::InvalidValue { .. } => "INVALID_SENSOR_VALUE",
             Self::NoValue { .. } => "SENSOR_NO_VALUE",
             Self::Stale { .. } => "SENSOR_STALE",
+            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
         }
     }
 }
@@ -65,10 +78,10 @@ impl fmt::Display for SensorError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::UnknownSensor { name } => {
-                write!(f, "unknown sensor '{name}': it is not in the plant document")
+                write!(f, "unknown sensor '{}': it is not in the plant document", quote(name))
             }
             Self::InvalidValue { sensor, value } => {
-                write!(f, "sample {value} of sensor '{sensor}' is not a finite number")
+                write!(f, "sample {} of sensor '{sensor}' is not a finite number", quote(value))
             }
             Self::NoValue { sensor } => write!(f, "sensor '{sensor}' has sent no value yet"),
             Self::Stale {
@@ -79,6 +92,15 @@ impl fmt::Display for SensorError {
                 f,
                 "sensor '{sensor}' is stale: its last value is {age_ms} ms old (limit {stale_ms} ms)"
             ),
+            Self::FutureTimestamp {
+                sensor,
+                ahead_ms,
+                skew_ms,
+            } => write!(
+                f,
+                "sample of sensor '{sensor}' refused: its device's clock is {ahead_ms} ms ahead of ours \
+                 (the plant allows {skew_ms} ms, clockSkewMs); set the device's clock right"
+            ),
         }
     }
 }
@@ -87,6 +109,7 @@ impl std::error::Error for SensorError {}
 
 #[derive(Clone, Debug)]
 pub struct SensorStore {
+    clock_skew_ms: u64,
     names: Vec<String>,
     stale_ms: Vec<u64>,
     samples: Vec<Option<Sample>>,
@@ -99,6 +122,7 @@ impl SensorStore {
     /// The sensors of a validated plant, all without a value.
     pub fn new(plant: &PlantModel) -> Self {
         let mut store = SensorStore {
+            clock_skew_ms: plant.clock_skew_ms,
             names: Vec::with_capacity(plant.sensors.len()),
             stale_ms: Vec::with_capacity(plant.sensors.len()),
             samples: vec![None; plant.sensors.len()],
@@ -143,15 +167,16 @@ impl SensorStore {
             .copied()
     }
 
-    /// Keeps a sample. One older (by the device's timestamp) than the kept one
-    /// arrived out of order and is ignored: returns false.
+    /// Keeps a sample received at `now_ms` in place of the last one, whatever
+    /// its device timestamp `sampled_ms`, unless that stamp is more than the
+    /// plant's `clockSkewMs` ahead of `now_ms`: then nothing is kept.
     pub fn record(
         &mut self,
         id: SensorId,
         value: f64,
         sampled_ms: u64,
         now_ms: u64,
-    ) -> Result<bool, SensorError> {
+    ) -> Result<(), SensorError> {
         let slot = self
             .samples
             .get_mut(id.index())
@@ -164,15 +189,25 @@ impl SensorStore {
                 value,
             });
         }
-        if slot.is_some_and(|s| s.sampled_ms > sampled_ms) {
-            return Ok(false);
+        let ahead_ms = sampled_ms.saturating_sub(now_ms);
+        if ahead_ms > self.clock_skew_ms {
+            return Err(SensorError::FutureTimestamp {
+                sensor: self.names[id.index()].clone(),
+                ahead_ms,
+                skew_ms: self.clock_skew_ms,
+            });
         }
         *slot = Some(Sample {
             value,
             sampled_ms,
             received_ms: now_ms,
         });
-        Ok(true)
+        Ok(())
+    }
+
+    /// How far ahead of its reception a device timestamp may be.
+    pub fn clock_skew_ms(&self) -> u64 {
+        self.clock_skew_ms
     }
 
     /// The last sample, fresh or not.
@@ -207,6 +242,7 @@ impl SensorStore {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plant::DEFAULT_CLOCK_SKEW_MS;
     use serde_json::json;
 
     fn plant() -> PlantModel {
@@ -231,7 +267,7 @@ mod tests {
                 sensor: "LT-2".into()
             })
         );
-        assert!(s.record(lt, 120.0, 900, 1000).unwrap());
+        s.record(lt, 120.0, 900, 1000).unwrap();
         assert_eq!(s.fresh(lt, 3999), Ok(120.0));
         let err = s.fresh(lt, 4000).unwrap_err();
         assert_eq!(err.code(), "SENSOR_STALE");
@@ -263,17 +299,99 @@ mod tests {
     }
 
     #[test]
-    fn out_of_order_and_non_finite_samples_are_not_kept() {
+    fn non_finite_samples_are_not_kept() {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
         s.record(lt, 5.0, 2000, 2000).unwrap();
-        assert!(!s.record(lt, 4.0, 1000, 2100).unwrap());
-        assert_eq!(s.sample(lt).unwrap().value, 5.0);
         assert_eq!(
             s.record(lt, f64::NAN, 3000, 3000).unwrap_err().code(),
             "INVALID_SENSOR_VALUE"
         );
         assert_eq!(s.sample(lt).unwrap().received_ms, 2000);
+    }
+
+    #[test]
+    fn the_last_sample_received_wins_whatever_its_timestamp() {
+        let mut s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        s.record(lt, 5.0, 2000, 2000).unwrap();
+        s.record(lt, 4.0, 1000, 2100).unwrap();
+        assert_eq!(s.sample(lt).unwrap().value, 4.0);
+        assert_eq!(s.sample(lt).unwrap().sampled_ms, 1000);
+        assert_eq!(
+            s.fresh(lt, 2100 + 2999),
+            Ok(4.0),
+            "fresh from its reception"
+        );
+    }
+
+    #[test]
+    fn a_sample_stamped_in_the_future_is_refused_and_the_next_real_one_kept() {
+        let mut s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        s.record(lt, 5.0, 10_000, 10_000).unwrap();
+        let err = s
+            .record(lt, 99.0, 9_000_000_000_000_000, 11_000)
+            .unwrap_err();
+        assert_eq!(
+            err,
+            SensorError::FutureTimestamp {
+                sensor: "LT-2".into(),
+                ahead_ms: 9_000_000_000_000_000 - 11_000,
+                skew_ms: DEFAULT_CLOCK_SKEW_MS,
+            }
+        );
+        assert_eq!(err.code(), "FUTURE_TIMESTAMP");
+        let message = err.to_string();
+        assert!(
+            message.contains("clock is 8999999999989000 ms ahead"),
+            "{message}"
+        );
+        assert!(message.contains("allows 5000 ms"), "{message}");
+        assert_eq!(s.sample(lt).unwrap().value, 5.0, "nothing of it kept");
+        assert_eq!(s.sample(lt).unwrap().received_ms, 10_000);
+        s.record(lt, 6.0, 12_000, 12_000).unwrap();
+        assert_eq!(s.fresh(lt, 12_500), Ok(6.0));
+    }
+
+    #[test]
+    fn a_sample_exactly_at_the_allowed_skew_is_kept() {
+        let mut s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        s.record(lt, 1.0, 1000 + DEFAULT_CLOCK_SKEW_MS, 1000)
+            .unwrap();
+        assert_eq!(s.fresh(lt, 1000), Ok(1.0));
+        assert_eq!(
+            s.record(lt, 2.0, 2000 + DEFAULT_CLOCK_SKEW_MS + 1, 2000)
+                .unwrap_err()
+                .code(),
+            "FUTURE_TIMESTAMP"
+        );
+        assert_eq!(s.fresh(lt, 2000), Ok(1.0));
+    }
+
+    #[test]
+    fn the_skew_comes_from_the_plant() {
+        let mut doc = serde_json::to_value(plant()).unwrap();
+        doc["clockSkewMs"] = json!(0);
+        let mut s = SensorStore::new(&serde_json::from_value(doc).unwrap());
+        assert_eq!(s.clock_skew_ms(), 0);
+        let ft = s.sensor("FT-2").unwrap();
+        s.record(ft, 1.0, 500, 500).unwrap();
+        assert!(s.record(ft, 1.0, 502, 501).is_err());
+    }
+
+    #[test]
+    fn a_device_clock_set_back_an_hour_is_still_heard() {
+        let mut s = SensorStore::new(&plant());
+        let ft = s.sensor("FT-2").unwrap();
+        let hour = 3_600_000;
+        s.record(ft, 1.0, 2 * hour, 2 * hour).unwrap();
+        for k in 1..=5 {
+            let now = 2 * hour + k * 1000;
+            s.record(ft, k as f64, now - hour, now).unwrap();
+            assert_eq!(s.fresh(ft, now), Ok(k as f64));
+        }
     }
 
     #[test]

@@ -279,3 +279,149 @@ fn the_case_study_plant_validates() {
         3
     );
 }
+
+/// The error text of reading `doc`, as a user would give it.
+fn read_error(doc: Value) -> String {
+    sugarshack_core::json::from_str::<PlantModel>(&doc.to_string())
+        .expect_err("the document is broken")
+        .without_position()
+        .to_string()
+}
+
+#[test]
+fn a_document_that_cannot_be_read_names_the_entry() {
+    let mut doc = with_operations();
+    let actuators = doc["actuators"].as_array_mut().unwrap();
+    actuators.push(json!({ "id": "V41", "type": "valve", "device": "ctrl-1", "lockout": 0 }));
+    assert_eq!(read_error(doc), "actuators[3]: missing field `io`");
+
+    let cases: Vec<(Breakage, &str)> = vec![
+        (
+            |d| d["operations"][0]["steps"][1] = json!({ "wait": "`LT-2` < 100", "sensors": ["LT-2"] }),
+            "operations[0].steps[1]: missing field `timeoutMs`",
+        ),
+        (
+            |d| d["operations"][0]["steps"][0]["timeoutMs"] = json!("20 s"),
+            "operations[0].steps[0].timeoutMs: invalid type: string \"20 s\", expected u64",
+        ),
+        (
+            |d| d["operations"][1]["steps"][0]["timeout"] = json!(20000),
+            "operations[1].steps[0].timeout: unknown field `timeout`",
+        ),
+        (
+            |d| d["operations"][0]["steps"][0]["sensors"] = json!(["LT-2"]),
+            "operations[0].steps[0]: unknown field `sensors`, expected `command` or `timeoutMs`",
+        ),
+        (
+            |d| d["operations"][0]["steps"][1] = json!({ "timeoutMs": 1000 }),
+            "operations[0].steps[1]: a step needs either 'command' (a group command) or 'wait' (a condition)",
+        ),
+        (
+            |d| d["operations"][0]["steps"][1]["command"] = json!({ "pumps": { "P1": false } }),
+            "operations[0].steps[1]: a step has either 'command' or 'wait', not both",
+        ),
+        (
+            |d| d["operations"][0]["steps"][1]["wait"] = json!(null),
+            "operations[0].steps[1].wait: invalid type: null, expected a string",
+        ),
+        (
+            |d| d["operations"][0]["steps"][0] = json!("open V12"),
+            "operations[0].steps[0]: invalid type: string \"open V12\", expected a step:",
+        ),
+        (
+            |d| d["routines"][0]["transitions"][0]["trigger"] = json!({ "mgs": "load" }),
+            "routines[0].transitions[0].trigger.mgs: unknown field `mgs`, expected one of `msg`, `when`, `sensors`, `everyMs`",
+        ),
+        (
+            |d| d["routines"][0]["transitions"][1]["trigger"] = json!({ "when": "`LT-2` > 10", "sensors": ["LT-2"] }),
+            "routines[0].transitions[1].trigger: missing field `everyMs`",
+        ),
+        (
+            |d| d["routines"][0]["transitions"][0]["trigger"]["everyMs"] = json!(5000),
+            "routines[0].transitions[0].trigger: unknown field `everyMs`, expected `msg`",
+        ),
+        (
+            |d| d["routines"][0]["transitions"][0]["trigger"] = json!({}),
+            "routines[0].transitions[0].trigger: a trigger needs either 'msg' (a msg topic) or 'when' (a condition)",
+        ),
+        (
+            |d| d["actuatorTypes"]["valve"]["stale"] = json!(5000),
+            "actuatorTypes.valve.stale: unknown field `stale`",
+        ),
+    ];
+    for (breaks, expected) in cases {
+        let mut doc = with_operations();
+        breaks(&mut doc);
+        let error = read_error(doc);
+        assert!(
+            error.starts_with(expected),
+            "expected {expected:?}, got {error:?}"
+        );
+    }
+}
+
+#[test]
+fn steps_and_triggers_read_back_what_they_wrote() {
+    let plant: PlantModel =
+        sugarshack_core::json::from_str(&with_operations().to_string()).unwrap();
+    let written = serde_json::to_value(&plant).unwrap();
+    let given = with_operations();
+    for op in 0..2 {
+        assert_eq!(
+            written["operations"][op]["steps"],
+            given["operations"][op]["steps"]
+        );
+    }
+    assert_eq!(written["routines"], given["routines"]);
+    assert_eq!(
+        serde_json::from_value::<PlantModel>(written).unwrap(),
+        plant
+    );
+}
+
+#[test]
+fn a_null_command_is_a_bad_command_not_a_missing_one() {
+    let mut doc = with_operations();
+    doc["operations"][1]["steps"][0]["command"] = json!(null);
+    assert_eq!(
+        problems(doc),
+        vec!["operations[1] (18).steps[0]: invalid group command: expected an object such as {\"valves\": {\"V12\": 100}}, got null"]
+    );
+}
+
+#[test]
+fn problems_quote_at_most_a_hundred_characters_of_what_they_were_given() {
+    let long = "x".repeat(1_000_000);
+    let mut doc = with_operations();
+    doc["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V12": long } });
+    doc["actuators"][0]["device"] = json!(long);
+    doc["routines"][0]["initial"] = json!(long);
+    let found = problems(doc);
+    assert_eq!(found.len(), 3, "{found:?}");
+    for problem in &found {
+        assert!(
+            problem.chars().count() < 300,
+            "{} characters: {problem:.300}",
+            problem.len()
+        );
+    }
+    assert!(found
+        .iter()
+        .any(|p| p.starts_with("actuators[0] (V12): unknown device 'xxx")));
+    assert!(found.iter().any(|p| p.starts_with(
+        "operations[0] (10).steps[0]: target for 'V12' must be a number within 0..100, got \"xxx"
+    )));
+
+    let mut doc = with_operations();
+    doc["actuators"][0]["id"] = json!(long);
+    assert!(problems(doc).iter().all(|p| p.chars().count() < 300));
+
+    let mut doc = good();
+    doc["actuatorTypes"]["valve"][long.as_str()] = json!(1);
+    let error = read_error(doc);
+    assert!(
+        error.chars().count() < 320,
+        "{} characters",
+        error.chars().count()
+    );
+}

@@ -219,26 +219,29 @@ proptest! {
     }
 
     #[test]
-    fn sensor_store_matches_the_reference(samples in prop::collection::vec((0..2usize, -5.0f64..5.0, 0u64..3000, 0u64..2500, any::<bool>()), 1..80)) {
+    fn sensor_store_matches_the_reference(samples in prop::collection::vec((0..2usize, -5.0f64..5.0, -3000i64..1500, 0u64..2500, any::<bool>()), 1..80)) {
         let plant: PlantModel = serde_json::from_value(json!({
             "actuatorTypes": {}, "devices": [{ "id": "st", "kind": "sensor-station" }],
-            "sensors": [{ "id": "A", "device": "st", "name": "a", "staleMs": 2000 }, { "id": "B", "device": "st", "name": "b", "staleMs": 1000 }]
+            "sensors": [{ "id": "A", "device": "st", "name": "a", "staleMs": 2000 }, { "id": "B", "device": "st", "name": "b", "staleMs": 1000 }],
+            "clockSkewMs": 1000
         })).unwrap();
         let mut store = SensorStore::new(&plant);
         let ids = [store.sensor("A").unwrap(), store.sensor("B").unwrap()];
         let limits = [2000u64, 1000];
-        // Reference: (value, device ts, received) of the newest sample by device ts.
-        let mut model: [Option<(f64, u64, u64)>; 2] = [None, None];
+        // Reference: (value, received) of the last sample received whose
+        // device timestamp is at most 1000 ms ahead of its reception.
+        let mut model: [Option<(f64, u64)>; 2] = [None, None];
         let mut now = 0u64;
         for (sensor, value, ts_offset, gap, read_both) in samples {
             now += gap;
-            let sampled = now.saturating_sub(ts_offset);
-            let kept = store.record(ids[sensor], value, sampled, now).unwrap();
-            let newer = model[sensor].is_none_or(|(_, ts, _)| sampled >= ts);
-            prop_assert_eq!(kept, newer);
-            if newer { model[sensor] = Some((value, sampled, now)); }
+            let sampled = now.saturating_add_signed(ts_offset);
+            let recorded = store.record(ids[sensor], value, sampled, now);
+            let plausible = sampled <= now + 1000;
+            prop_assert_eq!(recorded.is_ok(), plausible, "{:?}", recorded);
+            if let Err(err) = recorded { prop_assert_eq!(err.code(), "FUTURE_TIMESTAMP"); }
+            if plausible { model[sensor] = Some((value, now)); }
             let later = now + gap;
-            let fresh = |k: usize| model[k].filter(|(_, _, at)| later - at < limits[k]).map(|(v, _, _)| v);
+            let fresh = |k: usize| model[k].filter(|(_, at)| later - at < limits[k]).map(|(v, _)| v);
             for (k, &id) in ids.iter().enumerate() {
                 prop_assert_eq!(store.fresh(id, later).ok(), fresh(k));
             }

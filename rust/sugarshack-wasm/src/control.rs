@@ -5,7 +5,8 @@ use sugarshack_core::control::rcc::{self, Decision, IoState, RccConfig, RccContr
 use sugarshack_core::control::ControlError;
 use wasm_bindgen::prelude::*;
 
-use crate::{from_js, js_error, to_js};
+use crate::{from_js_bounded, js_error, to_js, Bound};
+use sugarshack_core::text::quote;
 
 fn control_error(err: ControlError) -> JsValue {
     js_error(err.code(), &err.to_string())
@@ -30,21 +31,33 @@ pub struct PidLoop {
 
 impl PidLoop {
     fn step_view(&self, step: PidStep) -> StepView {
-        StepView { step, seen: self.core.seen(), dead_time_samples: self.core.smith().map(|s| s.dead_time_samples()) }
+        StepView {
+            step,
+            seen: self.core.seen(),
+            dead_time_samples: self.core.smith().map(|s| s.dead_time_samples()),
+        }
     }
 }
 
 /// A controller id or count from JS: a whole number >= 1 (wasm-bindgen would wrap -1 to 4294967295).
 fn whole(value: f64) -> Option<usize> {
-    (value.is_finite() && value >= 1.0 && value.fract() == 0.0 && value <= u32::MAX as f64).then_some(value as usize)
+    (value.is_finite() && value >= 1.0 && value.fract() == 0.0 && value <= u32::MAX as f64)
+        .then_some(value as usize)
 }
 
 #[wasm_bindgen]
 impl PidLoop {
     #[wasm_bindgen(constructor)]
     pub fn new(config: JsValue) -> Result<PidLoop, JsValue> {
-        let config: PidLoopConfig = from_js(config, "INVALID_CONFIG", "PID configuration")?;
-        CoreLoop::new(config).map(|core| PidLoop { core }).map_err(control_error)
+        let config: PidLoopConfig = from_js_bounded(
+            config,
+            "INVALID_CONFIG",
+            "PID configuration",
+            Bound::Control,
+        )?;
+        CoreLoop::new(config)
+            .map(|core| PidLoop { core })
+            .map_err(control_error)
     }
 
     /// One step; `measurement` undefined or NaN outputs the fallback, `track`
@@ -56,7 +69,12 @@ impl PidLoop {
         dt_s: f64,
         track: Option<f64>,
     ) -> Result<JsValue, JsValue> {
-        let input = sugarshack_core::control::pid::PidInput { setpoint, measurement, dt_s, track };
+        let input = sugarshack_core::control::pid::PidInput {
+            setpoint,
+            measurement,
+            dt_s,
+            track,
+        };
         let step = self.core.step(input).map_err(control_error)?;
         to_js(&self.step_view(step))
     }
@@ -70,8 +88,10 @@ impl PidLoop {
         measurement: Option<f64>,
         dt_s: f64,
     ) -> Result<JsValue, JsValue> {
-        let decision: Decision = from_js(decision, "INVALID_INPUT", "RCC decision")?;
-        let scan = rcc::act(&decision, &mut self.core, setpoint, measurement, dt_s).map_err(control_error)?;
+        let decision: Decision =
+            from_js_bounded(decision, "INVALID_INPUT", "RCC decision", Bound::Control)?;
+        let scan = rcc::act(&decision, &mut self.core, setpoint, measurement, dt_s)
+            .map_err(control_error)?;
         #[derive(Serialize)]
         #[serde(rename_all = "camelCase")]
         struct ScanView {
@@ -80,17 +100,28 @@ impl PidLoop {
             write: Option<f64>,
             step: StepView,
         }
-        to_js(&ScanView { engaged: scan.engaged, first_cycle: scan.first_cycle, write: scan.write, step: self.step_view(scan.step) })
+        to_js(&ScanView {
+            engaged: scan.engaged,
+            first_cycle: scan.first_cycle,
+            write: scan.write,
+            step: self.step_view(scan.step),
+        })
     }
 
     #[wasm_bindgen(js_name = setTunings)]
     pub fn set_tunings(&mut self, kp: f64, ti_s: f64, td_s: f64) -> Result<(), JsValue> {
-        self.core.pid_mut().set_tunings(kp, ti_s, td_s).map_err(control_error)
+        self.core
+            .pid_mut()
+            .set_tunings(kp, ti_s, td_s)
+            .map_err(control_error)
     }
 
     #[wasm_bindgen(js_name = setLimits)]
     pub fn set_limits(&mut self, out_min: f64, out_max: f64) -> Result<(), JsValue> {
-        self.core.pid_mut().set_limits(out_min, out_max).map_err(control_error)
+        self.core
+            .pid_mut()
+            .set_limits(out_min, out_max)
+            .map_err(control_error)
     }
 
     pub fn integral(&self) -> f64 {
@@ -99,7 +130,10 @@ impl PidLoop {
 
     #[wasm_bindgen(js_name = setIntegral)]
     pub fn set_integral(&mut self, integral: f64) -> Result<(), JsValue> {
-        self.core.pid_mut().set_integral(integral).map_err(control_error)
+        self.core
+            .pid_mut()
+            .set_integral(integral)
+            .map_err(control_error)
     }
 
     #[wasm_bindgen(js_name = lastOutput)]
@@ -115,7 +149,9 @@ impl PidLoop {
     /// A measured round trip (ms) for the adaptive Smith predictor.
     #[wasm_bindgen(js_name = observeRoundTrip)]
     pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), JsValue> {
-        self.core.observe_round_trip(round_trip_ms).map_err(control_error)
+        self.core
+            .observe_round_trip(round_trip_ms)
+            .map_err(control_error)
     }
 
     /// `{ deadTimeSamples, meanMs, stdMs }`, or undefined without a Smith predictor.
@@ -128,7 +164,9 @@ impl PidLoop {
             mean_ms: Option<f64>,
             std_ms: Option<f64>,
         }
-        let Some(smith) = self.core.smith() else { return Ok(JsValue::UNDEFINED) };
+        let Some(smith) = self.core.smith() else {
+            return Ok(JsValue::UNDEFINED);
+        };
         let estimator = smith.estimator();
         to_js(&Estimate {
             dead_time_samples: smith.dead_time_samples(),
@@ -153,13 +191,20 @@ pub struct Rcc {
 impl Rcc {
     #[wasm_bindgen(constructor)]
     pub fn new(config: JsValue) -> Result<Rcc, JsValue> {
-        let config: RccConfig = from_js(config, "INVALID_CONFIG", "RCC configuration")?;
-        RccController::new(config).map(|core| Rcc { core }).map_err(control_error)
+        let config: RccConfig = from_js_bounded(
+            config,
+            "INVALID_CONFIG",
+            "RCC configuration",
+            Bound::Control,
+        )?;
+        RccController::new(config)
+            .map(|core| Rcc { core })
+            .map_err(control_error)
     }
 
     /// The Computing step for a polled state `{ lastAction, agesMs }`: `{ engaged, firstCycle, track }`.
     pub fn decide(&mut self, state: JsValue) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js(state, "INVALID_INPUT", "I/O state")?;
+        let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
         let decision = self.core.decide(&state).map_err(control_error)?;
         to_js(&decision)
     }
@@ -173,8 +218,11 @@ impl Rcc {
         measurement: Option<f64>,
         dt_s: f64,
     ) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js(state, "INVALID_INPUT", "I/O state")?;
-        let scan = self.core.scan(&mut pid.core, &state, setpoint, measurement, dt_s).map_err(control_error)?;
+        let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
+        let scan = self
+            .core
+            .scan(&mut pid.core, &state, setpoint, measurement, dt_s)
+            .map_err(control_error)?;
         to_js(&scan)
     }
 
@@ -201,16 +249,24 @@ impl IoModule {
     #[wasm_bindgen(constructor)]
     pub fn new(controllers: f64, initial_action: f64) -> Result<IoModule, JsValue> {
         let controllers = whole(controllers).ok_or_else(|| {
-            js_error("INVALID_CONFIG", &format!("controllers must be a whole number >= 1, got {controllers}"))
+            js_error(
+                "INVALID_CONFIG",
+                &format!(
+                    "controllers must be a whole number >= 1, got {}",
+                    quote(controllers)
+                ),
+            )
         })?;
-        rcc::IoModule::new(controllers, initial_action).map(|core| IoModule { core }).map_err(control_error)
+        rcc::IoModule::new(controllers, initial_action)
+            .map(|core| IoModule { core })
+            .map_err(control_error)
     }
 
     /// Conditional Acting's write from controller `id` (1-based).
     pub fn write(&mut self, id: f64, action: f64, now_ms: f64) -> Result<(), JsValue> {
         let controllers = self.core.controllers();
         let id = whole(id).ok_or_else(|| {
-            js_error("UNKNOWN_CONTROLLER", &format!("controller id {id} is not one of the {controllers} configured (ids run from 1 to {controllers})"))
+            js_error("UNKNOWN_CONTROLLER", &format!("controller id {} is not one of the {controllers} configured (ids run from 1 to {controllers})", quote(id)))
         })?;
         self.core.write(id, action, now_ms).map_err(control_error)
     }

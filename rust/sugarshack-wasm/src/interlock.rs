@@ -7,14 +7,19 @@ use sugarshack_core::interlock::{
 };
 use wasm_bindgen::prelude::*;
 
-use crate::{from_js, js_error, time, to_js};
+use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 fn core_error(err: InterlockError) -> JsValue {
     js_error(err.code(), &err.to_string())
 }
 
 fn parse_config(config: JsValue) -> Result<InterlockConfig, JsValue> {
-    from_js(config, "INVALID_CONFIG", "invalid interlock configuration")
+    from_js_bounded(
+        config,
+        "INVALID_CONFIG",
+        "invalid interlock configuration",
+        Bound::InterlockConfig,
+    )
 }
 
 fn handles(grants: &[Grant]) -> Vec<u32> {
@@ -134,10 +139,11 @@ impl Interlock {
         now_ms: f64,
     ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
-        let snapshot: Snapshot = from_js(
+        let snapshot: Snapshot = from_js_bounded(
             snapshot,
             "INVALID_SNAPSHOT",
             "cannot restore interlock state",
+            Bound::InterlockSnapshot,
         )?;
         let options = RestoreOptions {
             keep_queue,

@@ -1,7 +1,9 @@
 //! WebAssembly facade of the sugarshack core. It only translates: serde for
 //! configuration, snapshots, events and outcomes; integer handles, scalars and
 //! typed arrays on hot paths. Core errors become JS `Error`s whose `code`
-//! property names the error kind.
+//! property names the error kind. Whatever JS hands in is bounded in size and
+//! nesting before anything recursive reads it (see [`Bound`]): the instance
+//! is shared by every node of the process and must outlive any input.
 
 mod control;
 mod interlock;
@@ -14,8 +16,13 @@ pub use interlock::Interlock;
 pub use routine::Routine;
 pub use tracker::Tracker;
 
+use js_sys::{JsString, Reflect, JSON};
+use serde::de::DeserializeOwned;
 use serde::Serialize;
+use sugarshack_core::json::{self, JsonError};
+use sugarshack_core::text::quote;
 use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
 
 pub(crate) fn serializer() -> serde_wasm_bindgen::Serializer {
     serde_wasm_bindgen::Serializer::json_compatible()
@@ -41,19 +48,197 @@ pub(crate) fn time(now_ms: f64) -> Result<u64, JsValue> {
     } else {
         Err(js_error(
             "INVALID_TIME",
-            &format!("time must be a non-negative number of milliseconds, got {now_ms}"),
+            &format!(
+                "time must be a non-negative number of milliseconds, got {}",
+                quote(now_ms)
+            ),
         ))
     }
 }
 
-/// Reads a JS value as `T`, seeing every key: serde-wasm-bindgen reads a
-/// struct by its known fields only, so a misspelt option would pass unseen.
-pub(crate) fn from_js<T: serde::de::DeserializeOwned>(
+const KIB: usize = 1024;
+const MIB: usize = 1024 * KIB;
+
+/// What a value read from JS is, and so how much JSON text it may be: a
+/// bound checked before anything recursive reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Bound {
+    PlantDocument,
+    InterlockConfig,
+    InterlockSnapshot,
+    RoutineSnapshot,
+    GroupCommand,
+    /// PID and RCC configurations, RCC decisions and I/O states.
+    Control,
+    /// Whatever `from_js` reads without naming its kind.
+    Unnamed,
+}
+
+impl Bound {
+    pub(crate) fn max_bytes(self) -> usize {
+        match self {
+            Bound::PlantDocument => 32 * MIB,
+            Bound::InterlockConfig => MIB,
+            Bound::InterlockSnapshot => 16 * MIB,
+            Bound::RoutineSnapshot => 64 * KIB,
+            Bound::GroupCommand => 64 * KIB,
+            Bound::Control => 64 * KIB,
+            Bound::Unnamed => MIB,
+        }
+    }
+
+    fn noun(self) -> &'static str {
+        match self {
+            Bound::PlantDocument => "a plant document",
+            Bound::InterlockConfig => "an interlock configuration",
+            Bound::InterlockSnapshot => "an interlock snapshot",
+            Bound::RoutineSnapshot => "a routine snapshot",
+            Bound::GroupCommand => "a group command",
+            Bound::Control => "a control configuration or state",
+            Bound::Unnamed => "this input",
+        }
+    }
+}
+
+fn size_text(bytes: usize) -> String {
+    match bytes {
+        b if b >= MIB && b % MIB == 0 => format!("{} MiB", b / MIB),
+        b if b >= KIB && b % KIB == 0 => format!("{} KiB", b / KIB),
+        b => format!("{b} bytes"),
+    }
+}
+
+/// Reads a JS value as `T` within [`Bound::Unnamed`]; see [`from_js_bounded`].
+/// Every reader here names its kind; this stays for readers that do not.
+#[allow(dead_code)]
+pub(crate) fn from_js<T: DeserializeOwned>(
     value: JsValue,
     code: &str,
     what: &str,
 ) -> Result<T, JsValue> {
-    let failed = |e: &dyn std::fmt::Display| js_error(code, &format!("{what}: {e}"));
-    let tree: serde_json::Value = serde_wasm_bindgen::from_value(value).map_err(|e| failed(&e))?;
-    serde_json::from_value(tree).map_err(|e| failed(&e))
+    from_js_bounded(value, code, what, Bound::Unnamed)
+}
+
+/// Reads a JS value as `T`: a string as JSON text, anything else through
+/// `JSON.stringify`, which throws rather than overflows on a circular or
+/// absurdly deep value. The text is bounded in size and depth before it is
+/// parsed, so no input can exhaust the stack this wasm instance shares with
+/// every node. A problem in the value is refused with `code`, its message
+/// starting with `what` and naming where the problem is; every key is seen,
+/// so a misspelt option is refused too.
+pub(crate) fn from_js_bounded<T: DeserializeOwned>(
+    value: JsValue,
+    code: &str,
+    what: &str,
+    bound: Bound,
+) -> Result<T, JsValue> {
+    let (text, given_as_text) = json_text(&value, what, bound)?;
+    json::from_str(&text).map_err(|err| match err {
+        JsonError::TooDeep { limit } => too_deep(what, limit),
+        // A position is only of use in text the user wrote.
+        invalid if given_as_text => js_error(code, &format!("{what}: {invalid}")),
+        invalid => js_error(code, &format!("{what}: {}", invalid.without_position())),
+    })
+}
+
+thread_local! {
+    /// JSON.stringify writes NaN and ±Infinity as null, which an optional
+    /// field takes for "absent"; as text they are refused where they stand.
+    static NON_FINITE_AS_TEXT: js_sys::Function = js_sys::Function::new_with_args(
+        "key, value",
+        "return typeof value === 'number' && !Number.isFinite(value) ? String(value) : value;",
+    );
+}
+
+/// The JSON text of `value`, within `bound`; true when it was given as text.
+fn json_text(value: &JsValue, what: &str, bound: Bound) -> Result<(String, bool), JsValue> {
+    let given_as_text = value.is_string();
+    let text: JsString = if given_as_text {
+        value.clone().unchecked_into()
+    } else {
+        NON_FINITE_AS_TEXT
+            .with(|replacer| JSON::stringify_with_replacer(value, replacer))
+            .map_err(|thrown| unconvertible(&thrown, what, bound))?
+    };
+    // JSON.stringify gives undefined for undefined, a function or a symbol.
+    if !text.is_string() {
+        return Err(js_error(
+            "INVALID_INPUT",
+            &format!("{what}: there is nothing to read (undefined, a function or a symbol); pass an object or JSON text"),
+        ));
+    }
+    let limit = bound.max_bytes();
+    // UTF-16 units never outnumber UTF-8 bytes: refuse before copying.
+    let units = text.length() as usize;
+    if units > limit {
+        return Err(too_large(what, bound, units, true));
+    }
+    let text = text.as_string().unwrap_or_default();
+    if text.len() > limit {
+        return Err(too_large(what, bound, text.len(), false));
+    }
+    Ok((text, given_as_text))
+}
+
+fn too_deep(what: &str, limit: usize) -> JsValue {
+    js_error(
+        "INPUT_TOO_DEEP",
+        &format!("{what}: nested deeper than {limit} levels; refused"),
+    )
+}
+
+fn too_large(what: &str, bound: Bound, size: usize, at_least: bool) -> JsValue {
+    js_error(
+        "INPUT_TOO_LARGE",
+        &format!(
+            "{what}: {}{size} bytes of JSON, over the {} limit for {}; refused",
+            if at_least { "at least " } else { "" },
+            size_text(bound.max_bytes()),
+            bound.noun()
+        ),
+    )
+}
+
+/// The coded error for a value `JSON.stringify` threw on. Only `Reflect.get`
+/// (which catches) reads the thrown value: it may be anything.
+fn unconvertible(thrown: &JsValue, what: &str, bound: Bound) -> JsValue {
+    let field = |key: &str| {
+        Reflect::get(thrown, &JsValue::from_str(key))
+            .ok()
+            .and_then(|v| v.as_string())
+            .unwrap_or_default()
+    };
+    let (name, message) = match thrown.as_string() {
+        Some(text) => (String::new(), text),
+        None => (field("name"), field("message")),
+    };
+    match name.as_str() {
+        "TypeError" if message.contains("circular") => js_error(
+            "INPUT_CIRCULAR",
+            &format!("{what}: the value refers to itself (a circular structure) and cannot be read; pass plain data"),
+        ),
+        "RangeError" if message.contains("call stack") => too_deep(what, json::MAX_DEPTH),
+        "RangeError" if message.contains("string length") => js_error(
+            "INPUT_TOO_LARGE",
+            &format!(
+                "{what}: too large to turn into text, over the {} limit for {}; refused",
+                size_text(bound.max_bytes()),
+                bound.noun()
+            ),
+        ),
+        _ => {
+            let why = match (name.is_empty(), message.is_empty()) {
+                (true, true) => "something that is not an Error was thrown".to_string(),
+                (true, false) => message,
+                (false, _) => format!("{name}: {message}"),
+            };
+            js_error(
+                "INVALID_INPUT",
+                &format!(
+                    "{what}: cannot be turned into JSON ({}); pass plain data: objects, arrays, strings, numbers, booleans",
+                    quote(why)
+                ),
+            )
+        }
+    }
 }

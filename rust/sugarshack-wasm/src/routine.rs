@@ -2,7 +2,7 @@ use sugarshack_core::plant::PlantModel;
 use sugarshack_core::routine::{RoutineError, RoutineMachine, RoutineSnapshot};
 use wasm_bindgen::prelude::*;
 
-use crate::{from_js, js_error, time, to_js};
+use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 fn routine_error(err: RoutineError) -> JsValue {
     js_error(err.code(), &err.to_string())
@@ -115,8 +115,12 @@ impl Routine {
 
     /// Back to a saved snapshot; returns the move made if an operation was pending (it counts as faulted).
     pub fn restore(&mut self, snapshot: JsValue) -> Result<JsValue, JsValue> {
-        let snapshot: RoutineSnapshot =
-            from_js(snapshot, "INVALID_SNAPSHOT", "invalid routine snapshot")?;
+        let snapshot: RoutineSnapshot = from_js_bounded(
+            snapshot,
+            "INVALID_SNAPSHOT",
+            "invalid routine snapshot",
+            Bound::RoutineSnapshot,
+        )?;
         match self.core.restore(&snapshot).map_err(routine_error)? {
             Some(moved) => to_js(&moved),
             None => Ok(JsValue::NULL),

@@ -6,7 +6,8 @@ use wasm_bindgen::prelude::*;
 
 use crate::operation::OperationRun;
 use crate::routine::Routine;
-use crate::{from_js, js_error, time, to_js};
+use crate::{from_js_bounded, js_error, time, to_js, Bound};
+use sugarshack_core::text::quote;
 
 fn sensor_error(err: SensorError) -> JsValue {
     js_error(err.code(), &err.to_string())
@@ -91,7 +92,12 @@ impl Tracker {
     /// `plant`: the plant document. Refused with every problem listed (code `INVALID_PLANT`).
     #[wasm_bindgen(constructor)]
     pub fn new(plant: JsValue, now_ms: f64) -> Result<Tracker, JsValue> {
-        let plant: PlantModel = from_js(plant, "INVALID_PLANT", "invalid plant document")?;
+        let plant: PlantModel = from_js_bounded(
+            plant,
+            "INVALID_PLANT",
+            "invalid plant document",
+            Bound::PlantDocument,
+        )?;
         let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
             .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
         Ok(Tracker {
@@ -181,8 +187,12 @@ impl Tracker {
         within: Option<Vec<String>>,
     ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
-        let payload: serde_json::Value =
-            from_js(payload, "INVALID_GROUP", "invalid group command")?;
+        let payload: serde_json::Value = from_js_bounded(
+            payload,
+            "INVALID_GROUP",
+            "invalid group command",
+            Bound::GroupCommand,
+        )?;
         let targets = self.core.parse_group(&payload).map_err(track_error)?;
         if let Some(held) = within {
             self.core
@@ -333,7 +343,10 @@ impl Tracker {
         let plan = self.core.plant().operation_plan(id).ok_or_else(|| {
             js_error(
                 "UNKNOWN_OPERATION",
-                &format!("unknown operation '{id}': it is not in the plant document"),
+                &format!(
+                    "unknown operation '{}': it is not in the plant document",
+                    quote(id)
+                ),
             )
         })?;
         to_js(&plan)
@@ -381,8 +394,10 @@ impl Tracker {
         }
     }
 
-    /// Keeps a sample (`ts`: the device's timestamp, else the reception time);
-    /// false when it is older than the one kept.
+    /// Keeps a sample in place of the last one received (`ts`: the device's
+    /// timestamp, else the reception time): true. Throws `FUTURE_TIMESTAMP`,
+    /// keeping nothing, when `ts` is further ahead of `now` than the plant's
+    /// `clockSkewMs`.
     #[wasm_bindgen(js_name = recordSensor)]
     pub fn record_sensor(
         &mut self,
@@ -395,7 +410,8 @@ impl Tracker {
         let id = self.sensor_id(sensor)?;
         self.sensors
             .record(id, value, device_ts(ts).unwrap_or(now), now)
-            .map_err(sensor_error)
+            .map_err(sensor_error)?;
+        Ok(true)
     }
 
     /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.

@@ -2,6 +2,7 @@
 //! variance, and the compensator's dead time D_c = floor((D + h·sqrt V) / Ts),
 //! which follows a change of delay without overreacting to a single spike.
 
+use crate::text::quote;
 use super::error::{positive, ControlError};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -17,10 +18,10 @@ impl DelayEstimator {
     /// deviations above the mean the dead time covers.
     pub fn new(alpha: f64, h: f64) -> Result<Self, ControlError> {
         if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
-            return Err(ControlError::config(format!("delay estimator alpha must be in (0, 1], got {alpha}")));
+            return Err(ControlError::config(format!("delay estimator alpha must be in (0, 1], got {alpha}", alpha = quote(alpha))));
         }
         if !(h.is_finite() && h >= 0.0) {
-            return Err(ControlError::config(format!("delay estimator h must be a number >= 0, got {h}")));
+            return Err(ControlError::config(format!("delay estimator h must be a number >= 0, got {h}", h = quote(h))));
         }
         Ok(Self { alpha, h, mean_ms: None, variance_ms2: 0.0 })
     }
@@ -28,7 +29,8 @@ impl DelayEstimator {
     pub fn observe(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
         if !(round_trip_ms.is_finite() && round_trip_ms >= 0.0) {
             return Err(ControlError::input(format!(
-                "a round trip must be a number of milliseconds >= 0, got {round_trip_ms}"
+                "a round trip must be a number of milliseconds >= 0, got {round_trip_ms}",
+                round_trip_ms = quote(round_trip_ms)
             )));
         }
         let a = self.alpha;

@@ -1,5 +1,7 @@
 use std::fmt;
 
+use crate::text::quote;
+
 /// What a control call refused, with a message a process engineer can act on.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ControlError {
@@ -48,7 +50,7 @@ pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(ControlError::input(format!("{what} must be a finite number, got {value}")))
+        Err(ControlError::input(format!("{what} must be a finite number, got {value}", value = quote(value))))
     }
 }
 
@@ -57,6 +59,6 @@ pub(crate) fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
-        Err(ControlError::config(format!("{what} must be a number greater than 0, got {value}")))
+        Err(ControlError::config(format!("{what} must be a number greater than 0, got {value}", value = quote(value))))
     }
 }

@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::text::quote;
 use super::error::{finite, ControlError};
 
 /// Direction of the controller (ISA terms).
@@ -55,7 +56,9 @@ impl PidConfig {
             if !fallback.is_finite() || fallback < self.out_min || fallback > self.out_max {
                 return Err(ControlError::config(format!(
                     "fallback output {fallback} must be a number within the output limits [{}, {}]",
-                    self.out_min, self.out_max
+                    quote(self.out_min),
+                    quote(self.out_max),
+                    fallback = quote(fallback)
                 )));
             }
         }
@@ -79,7 +82,8 @@ fn check_tunings(kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
     for (value, what) in [(kp, "kp"), (ti_s, "ti (integral time, s)"), (td_s, "td (derivative time, s)")] {
         if !value.is_finite() || value < 0.0 {
             return Err(ControlError::config(format!(
-                "{what} must be a number >= 0, got {value} (use the action setting to reverse the loop's direction)"
+                "{what} must be a number >= 0, got {value} (use the action setting to reverse the loop's direction)",
+                value = quote(value)
             )));
         }
     }
@@ -89,7 +93,9 @@ fn check_tunings(kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
 fn check_limits(out_min: f64, out_max: f64) -> Result<(), ControlError> {
     if !out_min.is_finite() || !out_max.is_finite() || out_min >= out_max {
         return Err(ControlError::config(format!(
-            "output limits must be numbers with min < max, got min {out_min} and max {out_max}"
+            "output limits must be numbers with min < max, got min {out_min} and max {out_max}",
+            out_min = quote(out_min),
+            out_max = quote(out_max)
         )));
     }
     Ok(())
@@ -178,7 +184,10 @@ impl Pid {
         if let Some(fallback) = self.config.fallback {
             if fallback < out_min || fallback > out_max {
                 return Err(ControlError::config(format!(
-                    "fallback output {fallback} would fall outside the new limits [{out_min}, {out_max}]"
+                    "fallback output {fallback} would fall outside the new limits [{out_min}, {out_max}]",
+                    fallback = quote(fallback),
+                    out_min = quote(out_min),
+                    out_max = quote(out_max)
                 )));
             }
         }
@@ -193,7 +202,7 @@ impl Pid {
         if !(input.dt_s.is_finite() && input.dt_s > 0.0) {
             return Err(ControlError::input(format!(
                 "elapsed time must be a number of seconds greater than 0, got {} (are two samples carrying the same timestamp?)",
-                input.dt_s
+                quote(input.dt_s)
             )));
         }
         let track = input.track.map(|a| finite(a, "tracked action")).transpose()?;

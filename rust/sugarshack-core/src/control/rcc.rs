@@ -7,6 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::text::quote;
 use super::error::{finite, positive, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
 
@@ -20,14 +21,17 @@ pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), Cont
         let id = index + 1;
         if !threshold.is_finite() || threshold < ts_ms {
             return Err(ControlError::config(format!(
-                "engagement threshold D_{id} = {threshold} ms must be at least the sampling period Ts = {ts_ms} ms"
+                "engagement threshold D_{id} = {threshold} ms must be at least the sampling period Ts = {ts_ms} ms",
+                threshold = quote(threshold),
+                ts_ms = quote(ts_ms)
             )));
         }
         if index > 0 && threshold <= thresholds_ms[index - 1] {
             return Err(ControlError::config(format!(
                 "engagement threshold D_{id} = {threshold} ms must be greater than D_{} = {} ms: a backup must wait longer than every controller above it",
                 index,
-                thresholds_ms[index - 1]
+                quote(thresholds_ms[index - 1]),
+                threshold = quote(threshold)
             )));
         }
     }
@@ -171,7 +175,7 @@ impl RccController {
             )));
         }
         if let Some(age) = state.ages_ms.iter().flatten().find(|age| !(age.is_finite() && **age >= 0.0)) {
-            return Err(ControlError::input(format!("a controller age must be a number of ms >= 0, got {age}")));
+            return Err(ControlError::input(format!("a controller age must be a number of ms >= 0, got {age}", age = quote(age))));
         }
         let threshold = self.config.thresholds_ms[self.config.id - 1];
         Ok(state.ages_ms[..self.config.id - 1].iter().all(|age| age.is_none_or(|age| age >= threshold)))

@@ -6,6 +6,7 @@
 
 use std::collections::VecDeque;
 
+use crate::text::quote;
 use super::error::{finite, positive, ControlError};
 
 /// xoshiro256** seeded through splitmix64: fast, small, and reproducible
@@ -78,7 +79,7 @@ pub const DS2_MAX_MS: f64 = 500.0;
 impl DelayDist {
     pub fn constant(ms: f64) -> Result<Self, ControlError> {
         if !(ms.is_finite() && ms >= 0.0) {
-            return Err(ControlError::config(format!("a constant delay must be a number of ms >= 0, got {ms}")));
+            return Err(ControlError::config(format!("a constant delay must be a number of ms >= 0, got {ms}", ms = quote(ms))));
         }
         Ok(Self::Constant { ms })
     }
@@ -147,7 +148,8 @@ impl SkewedDelay {
         if max_ms <= mean_ms + sd_ms {
             return Err(ControlError::config(format!(
                 "delay maximum {max_ms} ms must exceed mean + sd = {} ms for a right-skewed shape",
-                mean_ms + sd_ms
+                quote(mean_ms + sd_ms),
+                max_ms = quote(max_ms)
             )));
         }
         // Fixed point: scale the untruncated mean and sd by how far the
@@ -170,7 +172,10 @@ impl SkewedDelay {
         let fitted = ((tm - mean_ms) / mean_ms).abs() < 1e-6 && ((ts - sd_ms) / sd_ms).abs() < 1e-6;
         if !fitted || accepted < MIN_ACCEPTED_SHARE {
             return Err(ControlError::config(format!(
-                "no skewed delay has mean {mean_ms} ms and sd {sd_ms} ms under a maximum of {max_ms} ms; raise the maximum or lower the sd"
+                "no skewed delay has mean {mean_ms} ms and sd {sd_ms} ms under a maximum of {max_ms} ms; raise the maximum or lower the sd",
+                mean_ms = quote(mean_ms),
+                sd_ms = quote(sd_ms),
+                max_ms = quote(max_ms)
             )));
         }
         Ok(Self { mean_ms, sd_ms, max_ms, log_mean, log_sd })
@@ -251,13 +256,13 @@ impl FirstOrderProcess {
     /// Starts at rest at `initial_output`, as if the matching input had always been applied.
     pub fn new(params: FirstOrderParams, initial_output: f64) -> Result<Self, ControlError> {
         if !(params.gain.is_finite() && params.gain != 0.0) {
-            return Err(ControlError::config(format!("process gain must be a non-zero number, got {}", params.gain)));
+            return Err(ControlError::config(format!("process gain must be a non-zero number, got {}", quote(params.gain))));
         }
         positive(params.tau_s, "process time constant (s)")?;
         if !(params.dead_time_s.is_finite() && params.dead_time_s >= 0.0) {
             return Err(ControlError::config(format!(
                 "process dead time must be a number of seconds >= 0, got {}",
-                params.dead_time_s
+                quote(params.dead_time_s)
             )));
         }
         let output = finite(initial_output, "initial output").map_err(|e| ControlError::config(e.to_string()))?;
@@ -278,7 +283,7 @@ impl FirstOrderProcess {
         let input = finite(input, "process input")?;
         let disturbance = finite(disturbance, "disturbance")?;
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(ControlError::input(format!("a process step must last > 0 s, got {dt_s}")));
+            return Err(ControlError::input(format!("a process step must last > 0 s, got {dt_s}", dt_s = quote(dt_s))));
         }
         let FirstOrderParams { gain, tau_s, dead_time_s } = self.params;
         if self.inputs.back().is_none_or(|&(_, last)| last != input) {
@@ -395,7 +400,7 @@ pub struct FailureSchedule {
 impl FailureSchedule {
     pub fn new(mut events: Vec<(f64, Failure)>) -> Result<Self, ControlError> {
         if let Some((at, _)) = events.iter().find(|(at, _)| !at.is_finite()) {
-            return Err(ControlError::config(format!("a failure time must be a number of ms, got {at}")));
+            return Err(ControlError::config(format!("a failure time must be a number of ms, got {at}", at = quote(at))));
         }
         // Stable: events at the same time keep the order given.
         events.sort_by(|a, b| a.0.total_cmp(&b.0));

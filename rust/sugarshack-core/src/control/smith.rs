@@ -8,6 +8,7 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
+use crate::text::quote;
 use super::delay::DelayEstimator;
 use super::error::{finite, positive, ControlError};
 
@@ -52,7 +53,7 @@ impl SmithConfig {
         if !(self.model.gain.is_finite() && self.model.gain != 0.0) {
             return Err(ControlError::config(format!(
                 "model gain must be a non-zero number, got {}",
-                self.model.gain
+                quote(self.model.gain)
             )));
         }
         positive(self.model.tau_s, "model time constant (s)")?;
@@ -135,7 +136,7 @@ impl SmithPredictor {
     pub fn advance(&mut self, action: f64, dt_s: f64) -> Result<(), ControlError> {
         let action = finite(action, "action")?;
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(ControlError::input(format!("elapsed time must be > 0 s, got {dt_s}")));
+            return Err(ControlError::input(format!("elapsed time must be > 0 s, got {dt_s}", dt_s = quote(dt_s))));
         }
         let FopdtModel { gain, tau_s } = self.config.model;
         let a = (-dt_s / tau_s).exp();

@@ -1,0 +1,121 @@
+//! Text built from input for messages. A message that repeats what it was
+//! given repeats only the start of it: a refused megabyte payload must not
+//! come back as a megabyte of log line.
+
+use std::fmt::{self, Display, Write};
+
+/// How many characters of a value a message quotes.
+pub const QUOTE_CHARS: usize = 100;
+
+const ELLIPSIS: char = '…';
+
+/// `value` as text, cut to [`QUOTE_CHARS`] characters with an ellipsis.
+/// Quoting a quote changes nothing.
+///
+/// ```
+/// use sugarshack_core::text::quote;
+/// assert_eq!(quote("V12"), "V12");
+/// let long = quote("x".repeat(1_000_000));
+/// assert_eq!(long.chars().count(), 100);
+/// assert!(long.ends_with('…'));
+/// ```
+pub fn quote(value: impl Display) -> String {
+    let mut out = Clipped {
+        text: String::new(),
+        chars: 0,
+    };
+    // The writer stops the formatting with an error once it has seen enough.
+    if write!(out, "{value}").is_err() {
+        let keep: String = out.text.chars().take(QUOTE_CHARS - 1).collect();
+        return keep + &ELLIPSIS.to_string();
+    }
+    out.text
+}
+
+struct Clipped {
+    text: String,
+    chars: usize,
+}
+
+impl Write for Clipped {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for c in s.chars() {
+            if self.chars == QUOTE_CHARS {
+                return Err(fmt::Error);
+            }
+            self.text.push(c);
+            self.chars += 1;
+        }
+        Ok(())
+    }
+}
+
+/// `text` cut to at most `max_chars` characters by dropping its middle, for a
+/// message whose end matters as much as its start (what was expected).
+///
+/// ```
+/// use sugarshack_core::text::abridge;
+/// let text = format!("invalid type: string \"{}\", expected u64", "x".repeat(5000));
+/// let short = abridge(&text, 120);
+/// assert!(short.chars().count() <= 120);
+/// assert!(short.starts_with("invalid type: string \"xx"));
+/// assert!(short.ends_with("\", expected u64"));
+/// ```
+pub fn abridge(text: &str, max_chars: usize) -> String {
+    let count = text.chars().count();
+    if count <= max_chars {
+        return text.to_owned();
+    }
+    let kept = max_chars.saturating_sub(1);
+    let tail = kept / 3;
+    let head = kept - tail;
+    let mut out: String = text.chars().take(head).collect();
+    out.push(ELLIPSIS);
+    out.extend(text.chars().skip(count - tail));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_values_are_quoted_whole() {
+        assert_eq!(quote(""), "");
+        assert_eq!(quote(12.5), "12.5");
+        let exactly = "é".repeat(QUOTE_CHARS);
+        assert_eq!(quote(&exactly), exactly);
+    }
+
+    #[test]
+    fn long_values_are_cut_to_the_limit_on_a_character_boundary() {
+        let one_over = "é".repeat(QUOTE_CHARS + 1);
+        let quoted = quote(&one_over);
+        assert_eq!(quoted.chars().count(), QUOTE_CHARS);
+        assert!(quoted.starts_with("éé") && quoted.ends_with(ELLIPSIS));
+        assert_eq!(quote(&quoted), quoted, "quoting twice cuts nothing more");
+    }
+
+    #[test]
+    fn large_numbers_are_cut_too() {
+        // f64 Display writes every digit: 1e300 is 301 characters.
+        assert_eq!(quote(1e300).chars().count(), QUOTE_CHARS);
+    }
+
+    #[test]
+    fn json_values_are_cut_while_written() {
+        let big = serde_json::json!({ "valves": { "V12": "x".repeat(1_000_000) } });
+        let quoted = quote(&big);
+        assert!(quoted.starts_with("{\"valves\":{\"V12\":\"xxx"));
+        assert_eq!(quoted.chars().count(), QUOTE_CHARS);
+    }
+
+    #[test]
+    fn abridge_keeps_both_ends_within_the_limit() {
+        assert_eq!(abridge("short", 10), "short");
+        let text: String = ('a'..='z').collect();
+        let short = abridge(&text, 10);
+        assert_eq!(short.chars().count(), 10);
+        assert_eq!(short, "abcdef…xyz");
+    }
+}
