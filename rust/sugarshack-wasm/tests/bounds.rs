@@ -351,7 +351,7 @@ fn deep_or_circular_interlock_configs_and_snapshots_are_refused() {
         refusals.push((
             kind,
             "snapshot",
-            Interlock::restore(json(CONFIG), deep, true, 0.0)
+            Interlock::restore(json(CONFIG), deep, true, false, 0.0)
                 .err()
                 .unwrap(),
             "INPUT_TOO_DEEP",
@@ -366,7 +366,7 @@ fn deep_or_circular_interlock_configs_and_snapshots_are_refused() {
     refusals.push((
         "circular",
         "snapshot",
-        Interlock::restore(json(CONFIG), circular(), true, 0.0)
+        Interlock::restore(json(CONFIG), circular(), true, false, 0.0)
             .err()
             .unwrap(),
         "INPUT_CIRCULAR",
@@ -374,7 +374,7 @@ fn deep_or_circular_interlock_configs_and_snapshots_are_refused() {
     refusals.push((
         "BigInt",
         "snapshot",
-        Interlock::restore(json(CONFIG), big_int(), true, 0.0)
+        Interlock::restore(json(CONFIG), big_int(), true, false, 0.0)
             .err()
             .unwrap(),
         "INVALID_INPUT",
@@ -389,7 +389,7 @@ fn deep_or_circular_interlock_configs_and_snapshots_are_refused() {
         assert_eq!(code_of(&err), code, "{kind} {what}: {}", message_of(&err));
         still_acquires(&mut lock, &format!("op{i}"));
     }
-    let restored = Interlock::restore(json(CONFIG), saved.into(), true, 0.0)
+    let restored = Interlock::restore(json(CONFIG), saved.into(), true, false, 0.0)
         .expect("saved state read as JSON text");
     assert_eq!(restored.faulted_resources(), Vec::<String>::new());
 }

@@ -1,5 +1,7 @@
 use std::fmt;
 
+use crate::text::quote;
+
 /// Why a tracker call was refused. A refused command sends nothing.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TrackError {
@@ -76,8 +78,8 @@ impl TrackError {
 impl fmt::Display for TrackError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::UnknownActuator { name } => write!(f, "unknown actuator '{name}': it is not in the plant document"),
-            Self::UnknownDevice { name } => write!(f, "unknown device '{name}': it is not in the plant document"),
+            Self::UnknownActuator { name } => write!(f, "unknown actuator '{}': it is not in the plant document", quote(name)),
+            Self::UnknownDevice { name } => write!(f, "unknown device '{}': it is not in the plant document", quote(name)),
             Self::EmptyCommand => write!(f, "the group command names no actuator"),
             Self::InvalidGroup { reason } => write!(f, "invalid group command: {reason}"),
             Self::DuplicateActuator { actuator } => write!(f, "actuator '{actuator}' appears twice in one group command"),
@@ -93,7 +95,7 @@ impl fmt::Display for TrackError {
             Self::InvalidFeedback { actuator, value } => write!(f, "feedback {value} for '{actuator}' is not a valid state"),
             Self::OutsideResources { actuator, resource, held } => {
                 let on = resource.as_deref().map_or("belongs to no resource".to_string(), |r| format!("is on resource '{r}'"));
-                write!(f, "C2: actuator '{actuator}' {on}, outside the resources held ({}); nothing was sent", held.join(", "))
+                write!(f, "C2: actuator '{actuator}' {on}, outside the resources held ({}); nothing was sent", quote(held.join(", ")))
             }
             Self::LockoutPending { actuator } => write!(
                 f,

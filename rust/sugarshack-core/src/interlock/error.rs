@@ -1,5 +1,7 @@
 use std::fmt;
 
+use crate::text::quote;
+
 /// Why an interlock call was refused. A refused call changes no state.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum InterlockError {
@@ -62,10 +64,10 @@ impl fmt::Display for InterlockError {
             Self::InvalidConfig { reason } => write!(f, "invalid interlock configuration: {reason}"),
             Self::EmptyResourceSet => write!(f, "the request names no resource; give at least one"),
             Self::UnknownResource { name } => {
-                write!(f, "unknown resource '{name}': it is not configured in the interlock")
+                write!(f, "unknown resource '{}': it is not configured in the interlock", quote(name))
             }
             Self::UnknownOperation { name } => {
-                write!(f, "unknown operation '{name}': it has never acquired through this interlock")
+                write!(f, "unknown operation '{}': it has never acquired through this interlock", quote(name))
             }
             Self::AlreadyHolding { operation } => write!(
                 f,

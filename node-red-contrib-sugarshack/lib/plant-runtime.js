@@ -1,0 +1,853 @@
+'use strict';
+// The running plant behind one plant config node, for the whole life of the
+// Node-RED process: one core Tracker (actuators, sensors, the document's
+// operations and routines) plus what Node-RED owns around it: held group
+// command msgs, the tick timer, status, which actuators node speaks for which
+// device, and whether each one's MQTT broker connection is up. Every rule is
+// the core's; this calls it and acts on the effects it returns.
+const { SugarshackError, asSugarshackError } = require('./errors');
+const { PendingRegistry } = require('./pending');
+const { actuatorStatus, errorStatus } = require('./status');
+const { describeFault, seconds } = require('./plant');
+const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
+const { Condition } = require('./condition');
+const feedback = require('./feedback');
+const { stats, timeLayer } = require('./stats');
+const { clock } = require('./clock');
+const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
+const wasm = require('./wasm');
+
+const TICK_MS = 250;
+const MAX_CALLER = 0xffffffff;
+// Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
+const MAX_WARNED = 1000;
+// How long a refusal shows on an actuators node before its counts come back.
+const BUS_ERROR_MS = 10000;
+// Publishes kept while a deploy has no actuators node serving their device yet.
+const MAX_UNSENT = 10000;
+
+class PlantRuntime extends RuntimeBase {
+  /** settings: { plant (the document), error }; RED for JSONata conditions. */
+  constructor({ RED, id, settings }) {
+    super('plant');
+    this.RED = RED;
+    this.id = id;
+    this.swapOrder = 0; // before the interlocks bound to it
+    this.plant = settings.plant;
+    this.plantError = settings.error || null;
+    this.t = null;
+    this.pending = new PendingRegistry(); // caller -> held group command
+    this.buses = []; // { nodeId, node, names, devices, bad, warned, broker, connected }
+    this.sticky = new Map(); // node -> { status, until }: a refusal shown instead of the counts
+    this.offline = new Set(); // device handles, as the core last reported them
+    this.unserved = new Set(); // device ids already reported as served by no actuators node
+    this.unsent = []; // publishes waiting for an actuators node during a deploy
+    this.nextCaller = 0;
+    this.tickTimer = null;
+    this.watchers = new Map(); // sensor handle -> Set of functions called on each new sample
+    this.conditions = new Map(); // condition text + sensors -> Condition
+  }
+
+  // ---- lifecycle -----------------------------------------------------------
+
+  /** Builds the core tracker; a document error (or the core's INVALID_PLANT) fails every dependent node. */
+  start() {
+    if (this.plantError) {
+      this.fail(this.plantError);
+      return;
+    }
+    try {
+      this.t = this.guard(() => this.makeTracker(this.plant));
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    this.state = 'ready';
+    this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.refreshStatus();
+    this.replayParked();
+  }
+
+  makeTracker(plant) {
+    const { Tracker } = wasm.load();
+    const t = new Tracker(plant, clock.now());
+    this.index(t, plant);
+    for (const warning of t.warnings()) this.log('warn', `plant document: ${warning}`);
+    return t;
+  }
+
+  /** Ids, types and per-device slots, read once from the core. */
+  index(t, plant) {
+    const types = plant.actuatorTypes;
+    this.devices = t.devices();
+    this.deviceIndex = new Map(this.devices.map((id, handle) => [id, handle]));
+    this.actuators = t.actuators().map((a) => ({
+      ...a,
+      deviceHandle: this.deviceIndex.get(a.device),
+      unit: types[a.type].unit,
+      timing: types[a.type],
+    }));
+    this.typeNames = new Set(Object.keys(types));
+    this.slotCache = this.devices.map(() => new Map());
+    const perDevice = this.devices.map(() => 0);
+    for (const a of this.actuators) perDevice[a.deviceHandle]++;
+    // Reused for every batch of a device: at most one sample per named actuator.
+    this.scratch = perDevice.map((n) => ({ handles: new Uint32Array(n), values: new Float64Array(n) }));
+    for (const bus of this.buses) this.resolveDevices(bus);
+  }
+
+  fail(err) {
+    const e = asSugarshackError(err);
+    this.failure = e;
+    this.state = 'failed';
+    this.log('error', e.message);
+    this.refreshStatus();
+    for (const task of this.parked.splice(0)) task.done(e);
+  }
+
+  /** A shutdown: held msgs are completed unsent; nothing else moves. */
+  async shutdown() {
+    if (this.ended) return;
+    const wasReady = this.state === 'ready';
+    this.endCommon();
+    if (this.tickTimer) clock.clearInterval(this.tickTimer);
+    this.tickTimer = null;
+    for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
+    if (wasReady) this.freeTracker();
+  }
+
+  /** Its config node left the flows: the same as a shutdown (the tracker keeps nothing on disk). */
+  retire() {
+    return this.shutdown();
+  }
+
+  freeTracker() {
+    try {
+      this.t.free();
+    } catch {
+      // a tracker of a dropped wasm instance
+    }
+    this.t = null;
+  }
+
+  // ---- deploys -------------------------------------------------------------
+
+  /** Drained when no group command is in flight (standing lockouts are the core's and are sent again after a swap). */
+  quiescent() {
+    return this.pending.entries().every((entry) => entry.lockout);
+  }
+
+  /** The new document after the drain: a new tracker; the lockouts of faulted lines go out again through the interlocks. */
+  swap(settings) {
+    this.plant = settings.plant;
+    this.plantError = settings.error || null;
+    this.conditions.clear();
+    this.watchers.clear();
+    for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
+    if (this.t) this.freeTracker();
+    if (this.tickTimer) clock.clearInterval(this.tickTimer);
+    this.tickTimer = null;
+    this.state = 'starting';
+    this.failure = null;
+    this.start();
+  }
+
+  /** After a wasm trap: a new tracker (positions come back with the next feedback); held commands fail. */
+  rebuild() {
+    if (this.state !== 'ready') return;
+    const error = new SugarshackError('INTERNAL', 'the plant core failed and was rebuilt; this group command was dropped (its actuators keep their last command)');
+    for (const caller of this.pending.handles()) this.pending.take(caller).refuse(error);
+    forget(this.t);
+    this.t = null;
+    this.conditions.clear();
+    try {
+      this.t = this.makeTracker(this.plant);
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    this.refreshStatus();
+  }
+
+  // ---- nodes using this plant ----------------------------------------------
+
+  removeUser(node) {
+    super.removeUser(node);
+    this.sticky.delete(node);
+  }
+
+  /**
+   * An actuators node: it speaks for `names` (device ids), or for every device
+   * when null; `broker`: its mqtt-broker config node, watched to know when the
+   * MQTT path is down. A new instance of a deployed node takes its place.
+   */
+  addBus(node, names, broker) {
+    this.buses = this.buses.filter((b) => b.nodeId !== node.id);
+    const bus = { nodeId: node.id, node, names, devices: null, bad: 0, warned: new Set(), broker: broker || null, connected: null };
+    if (this.state === 'ready') this.resolveDevices(bus);
+    this.buses.push(bus);
+    this.unserved.clear();
+    this.sendUnsent();
+    this.refreshStatus(node);
+  }
+
+  resolveDevices(bus) {
+    if (!bus.names) return;
+    bus.devices = new Set();
+    for (const name of bus.names) {
+      const handle = this.deviceIndex.get(name);
+      if (handle === undefined) {
+        bus.node.error(`unknown device '${name}' in this node's device list (the plant has ${this.devices.join(', ')}); it is ignored`);
+      } else {
+        bus.devices.add(handle);
+      }
+    }
+  }
+
+  /** A node of a new deploy with the id of one that held group commands here takes them over. */
+  adopt(node) {
+    for (const entry of this.pending.entries()) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+  }
+
+  /** A node closes in a deploy: restarted, its held msgs go on from its next instance; removed, they are withdrawn. */
+  nodeClosed(node, removed) {
+    this.dropParked(node);
+    this.buses = this.buses.filter((b) => b.node !== node);
+    for (const entry of this.pending.entries()) if (entry.node === node) entry.detach();
+    const settle = () => {
+      if (this.state !== 'ready') return;
+      for (const caller of this.pending.handles()) {
+        const entry = this.pending.get(caller);
+        if (entry.nodeId !== node.id || entry.node) continue;
+        this.pending.take(caller);
+        this.guard(() => this.t.withdraw(caller));
+      }
+      this.refreshStatus();
+    };
+    if (removed) settle();
+    else this.palette.whenStarted(settle);
+  }
+
+  // ---- group commands ------------------------------------------------------
+
+  /**
+   * Issues msg.payload as a group command and holds the msg until it completes;
+   * it then leaves `node` on output `output` (of `outputs`). Throws the core's refusal.
+   * `within`: the resources the commanding operation holds; a command outside them is refused (C2).
+   */
+  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
+    const payload = groupPayload(msg);
+    const lockout = isLockout(msg);
+    const caller = this.newCaller();
+    const now = clock.now();
+    this.t.command(payload, caller, lockout, now, within);
+    this.sticky.delete(node);
+    const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
+    this.hold(caller, entry, timeoutMs);
+    this.flush(null);
+  }
+
+  /**
+   * A group command of an operation's run (not gated by a drain: the run must
+   * finish). `onDone(err)` gets the outcome; returns a function that withdraws it.
+   */
+  runCommand({ payload, timeoutMs, within, onDone }) {
+    const caller = this.newCaller();
+    const now = clock.now();
+    this.guard(() => this.t.command(payload, caller, false, now, within));
+    const entry = callbackEntry({ payload, onDone, sinceMs: now });
+    this.hold(caller, entry, timeoutMs);
+    this.flush(null);
+    return () => {
+      if (this.pending.get(caller) !== entry) return;
+      this.pending.take(caller);
+      this.guard(() => this.t.withdraw(caller));
+      this.refreshStatus();
+    };
+  }
+
+  /**
+   * Sends lockout commands ([{ resource, command }]) of faulted lines. The core
+   * keeps each one as a standing order until feedback confirms it, re-sending it
+   * whatever happens to this call; a refusal here is logged.
+   */
+  issueLockouts(lockouts, operation) {
+    if (this.state !== 'ready') {
+      if (lockouts.length) this.log('error', `lockouts of ${lockouts.map((l) => l.resource).join(', ')} not sent: the plant is not running`);
+      return;
+    }
+    const faultAtMs = clock.now();
+    for (const { resource, command } of lockouts) {
+      const onDone = (err) => {
+        if (err) this.log('warn', `lockout of ${resource} is not confirmed yet (${err.message}); it is sent again until it is`);
+      };
+      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
+      try {
+        const caller = this.newCaller();
+        this.guard(() => this.t.command(command, caller, true, faultAtMs, undefined));
+        const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier });
+        entry.lockout = true;
+        this.hold(caller, entry, 0);
+        this.flush(null);
+      } catch (err) {
+        this.log('error', `lockout of ${resource} could not be sent: ${err.message}`);
+      }
+    }
+  }
+
+  hold(caller, entry, timeoutMs) {
+    this.pending.add(caller, entry);
+    if (timeoutMs > 0) entry.timer = clock.setTimeout(() => this.expire(caller, entry, timeoutMs), timeoutMs);
+  }
+
+  newCaller() {
+    do {
+      this.nextCaller = this.nextCaller >= MAX_CALLER ? 1 : this.nextCaller + 1;
+    } while (this.pending.has(this.nextCaller));
+    return this.nextCaller;
+  }
+
+  expire(caller, entry, timeoutMs) {
+    if (this.state !== 'ready' || this.pending.get(caller) !== entry) return;
+    this.pending.take(caller);
+    try {
+      this.guard(() => this.t.withdraw(caller));
+    } catch (err) {
+      this.log('error', err.message);
+    }
+    const completed = new Set(entry.completed.map((c) => c.actuator));
+    const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
+    if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
+    if (entry.node) this.showError(entry.node, 'COMMAND_TIMEOUT');
+    entry.refuse(new SugarshackError(
+      'COMMAND_TIMEOUT',
+      `group command did not complete within ${seconds(timeoutMs)}: ${waiting.join(', ')} had not completed; `
+        + 'the command was withdrawn (its actuators keep their last command)',
+    ));
+    this.refreshStatus();
+  }
+
+  // ---- device feedback -----------------------------------------------------
+
+  /**
+   * Feeds a device msg (its topic and payload) to the tracker. Returns false when
+   * the topic is not a device topic (the msg is a command). Bad input is warned
+   * about, counted and skipped.
+   */
+  feedback(node, topic, payload) {
+    const route = feedback.classify(topic, (id) => this.deviceIndex.has(id));
+    if (!route) return false;
+    if (route.kind === 'other') return true; // telemetry, our own commands
+    const bus = this.busOf(node);
+    const device = this.deviceIndex.get(route.device);
+    if (device === undefined) {
+      this.malformed(bus, topic, route.device, 'unknown device', `device '${feedback.clip(route.device)}' is not in the plant document`);
+      this.refreshStatus(node);
+      return true;
+    }
+    if (bus && bus.devices && !bus.devices.has(device)) {
+      this.malformed(bus, topic, route.device, 'device not served', `device '${route.device}' is not in this node's device list`);
+      this.refreshStatus(node);
+      return true;
+    }
+    const now = clock.now();
+    try {
+      if (route.kind === 'status') {
+        this.t.deviceStatus(device, feedback.statusOf(payload), now);
+      } else if (route.kind === 'sensor') {
+        this.sensorSample(route, payload, now);
+        return true;
+      } else if (route.kind === 'batch') {
+        this.batch(bus, topic, device, feedback.batchOf(payload), now);
+      } else {
+        const handle = this.slotOf(device, route.type, route.io);
+        if (handle === undefined) return true; // a slot the plant does not name
+        const sample = feedback.singleOf(payload);
+        try {
+          this.t.feedback(handle, sample.value, sample.ts, now);
+        } catch (err) {
+          // Refused as a state of this actuator: reported like a refused sample of a batch.
+          if (err.code !== 'INVALID_FEEDBACK') throw err;
+          this.reject({ kind: 'rejected', actuator: handle, code: err.code, message: err.message }, { bus, topic });
+        }
+        if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
+      }
+    } catch (err) {
+      if (wasm.isTrap(err)) throw err;
+      // A coded refusal of the core, or a payload that could not even be read (a getter that throws).
+      const reason = err instanceof feedback.Malformed ? err.reason : (err && typeof err.code === 'string' ? err.code : 'unreadable');
+      this.malformed(bus, topic, route.device, reason, err && err.message ? String(err.message).slice(0, 300) : String(err));
+    }
+    this.flush({ bus, topic });
+    return true;
+  }
+
+  /** A sensor datapoint: kept by the core with its time; conditions watching it are re-checked. */
+  sensorSample(route, payload, now) {
+    const handle = this.t.sensorSlot(route.device, route.name);
+    if (handle === undefined) return; // a datapoint the plant does not name
+    const sample = feedback.singleOf(payload);
+    if (!this.t.recordSensor(handle, sample.value, sample.ts, now)) return;
+    if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
+    const watching = this.watchers.get(handle);
+    if (watching) for (const fn of [...watching]) fn();
+  }
+
+  batch(bus, topic, device, { ts, groups }, now) {
+    const { handles, values } = this.scratch[device];
+    let n = 0;
+    let known = 0;
+    for (const [type, members] of groups) {
+      if (!this.typeNames.has(type)) continue; // other fields a device may add
+      known++;
+      if (!feedback.isObject(members)) {
+        this.malformed(bus, topic, this.devices[device], 'bad group', `'${type}' must map io numbers to values, got ${feedback.clip(members)}`);
+        continue;
+      }
+      for (const key of Object.keys(members)) {
+        const handle = this.slotOf(device, type, key);
+        if (handle === undefined || n === handles.length) continue;
+        const value = feedback.sampleValue(members[key]);
+        if (Number.isNaN(value)) {
+          this.malformed(bus, topic, this.devices[device], 'non-numeric value', `${type} ${key}: value must be a number or a boolean, got ${feedback.clip(members[key])}`);
+          continue;
+        }
+        handles[n] = handle;
+        values[n] = value;
+        n++;
+      }
+    }
+    if (known === 0) {
+      const types = [...this.typeNames].join(', ');
+      this.malformed(bus, topic, this.devices[device], 'no known type', `a state batch needs at least one of ${types}, got keys ${feedback.clip(groups.map(([k]) => k).join(', '))}`);
+      return;
+    }
+    if (n > 0) {
+      this.t.feedbackBatch(handles.subarray(0, n), values.subarray(0, n), ts, now);
+      if (ts !== undefined) stats.add(`tof/${this.devices[device]}`, now - ts);
+    }
+  }
+
+  /** The actuator a device reports as `type` number `key`, cached; undefined when the plant names none. */
+  slotOf(device, type, key) {
+    const cache = this.slotCache[device];
+    const cacheKey = `${type}/${key}`;
+    let handle = cache.get(cacheKey);
+    if (handle === undefined) {
+      const io = feedback.ioNumber(key);
+      if (!this.typeNames.has(type) || io === null) return undefined;
+      const slot = this.t.slot(device, type, io);
+      handle = slot === undefined ? -1 : slot;
+      cache.set(cacheKey, handle);
+    }
+    return handle < 0 ? undefined : handle;
+  }
+
+  malformed(bus, topic, device, reason, message) {
+    if (!bus) return;
+    bus.bad += 1;
+    this.warnOnce(bus, topic, reason, `ignored ${feedback.clip(topic)}: ${message}`);
+    this.emit(bus, `actuator/malformed/${device}`, { kind: 'malformed', device, topic, reason, message, count: bus.bad });
+  }
+
+  warnOnce(bus, topic, reason, text) {
+    const key = `${topic}\u0000${reason}`;
+    if (bus.warned.has(key) || bus.warned.size >= MAX_WARNED) return;
+    bus.warned.add(key);
+    bus.node.warn(text);
+  }
+
+  // ---- time, the MQTT path and effects -------------------------------------
+
+  tick() {
+    if (this.state !== 'ready') return;
+    try {
+      this.guard(() => {
+        this.watchBrokers();
+        if (this.t.tick(clock.now()) > 0) this.flush(null);
+        else if (this.sticky.size > 0) this.refreshStatus();
+      });
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
+  /**
+   * The palette sees its MQTT path through each actuators node's broker config
+   * node (`mqtt out` drops publishes while disconnected without telling anyone):
+   * when it comes back, every commanded state and standing lockout is sent again.
+   */
+  watchBrokers() {
+    let restored = false;
+    for (const bus of this.buses) {
+      if (!bus.broker) continue;
+      const connected = Boolean(bus.broker.connected);
+      if (bus.connected === false && connected) restored = true;
+      if (bus.connected !== connected) {
+        bus.connected = connected;
+        this.emit(bus, 'actuator/mqtt', { kind: 'mqtt', connected });
+        this.refreshStatus(bus.node);
+      }
+    }
+    if (restored && this.t.pathRestored(clock.now()) > 0) this.flush(null);
+  }
+
+  /** After every core call: act on its effects, then update status. `source`: the feedback msg's bus and topic. */
+  flush(source) {
+    const effects = this.t.takeEffects();
+    try {
+      for (const effect of effects) this.route(effect, source);
+    } catch (err) {
+      this.log('error', `cannot route actuator effects: ${err.message || err}`);
+    }
+    this.refreshStatus();
+  }
+
+  route(e, source) {
+    switch (e.kind) {
+      case 'publish':
+        this.publish(e);
+        break;
+      case 'groupCompleted':
+        this.completeGroup(e);
+        break;
+      case 'groupFailed':
+        this.failGroup(e);
+        break;
+      case 'deviceStatus':
+        if (e.online) this.offline.delete(e.device);
+        else this.offline.add(e.device);
+        this.emit(this.busFor(e.device), `actuator/deviceStatus/${this.devices[e.device]}`, { ...e, device: this.devices[e.device] });
+        break;
+      case 'rejected':
+        this.reject(e, source);
+        break;
+      default:
+        if (e.kind === 'completed') this.recordCompleted(e);
+        else if (e.kind === 'retry') this.recordRetry(e);
+        else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
+        this.emitActuator(e);
+    }
+  }
+
+  publish(e) {
+    const name = e.topic.slice(0, e.topic.indexOf('/'));
+    const device = this.deviceIndex.get(name);
+    const bus = device === undefined ? null : this.busFor(device);
+    if (!bus) {
+      if (this.palette && !this.palette.started) {
+        // A deploy in progress: the actuators node serving it comes back in a moment.
+        if (this.unsent.length < MAX_UNSENT) this.unsent.push(e);
+        return;
+      }
+      if (!this.unserved.has(name)) {
+        this.unserved.add(name);
+        this.log('error', `no actuators node serves device '${name}': ${e.topic} "${e.payload}" was not sent `
+          + `(add an actuators node for all devices, or list ${name} in one)`);
+      }
+      return;
+    }
+    bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
+  }
+
+  sendUnsent() {
+    const unsent = this.unsent;
+    this.unsent = [];
+    for (const e of unsent) this.publish(e);
+  }
+
+  recordCompleted(e) {
+    const entry = this.pending.get(e.caller);
+    if (!entry) return;
+    // Commands that found their actuator already in place say nothing about timing.
+    if (e.completionMs > 0) {
+      stats.add('command/issueToMotion', e.issueToMotionMs);
+      stats.add('command/completion', e.completionMs);
+    }
+    entry.completed.push({
+      actuator: this.actuators[e.actuator].id,
+      target: e.target,
+      issueToMotionMs: e.issueToMotionMs,
+      completionMs: e.completionMs,
+      retries: e.retries,
+    });
+  }
+
+  recordRetry(e) {
+    const entry = this.pending.get(e.caller);
+    if (entry) entry.retries.set(e.actuator, e.attempt);
+  }
+
+  /** The same msg goes on from the node that holds it (a link call return stays intact). */
+  completeGroup(e) {
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const result = { completionMs: e.completionMs, actuators: entry.completed };
+    const { msg } = entry;
+    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
+    if (msg && typeof msg.faultAtMs === 'number') {
+      result.faultLockoutMs = Math.max(0, clock.now() - msg.faultAtMs);
+      stats.add('fault/lockout', result.faultLockoutMs);
+    }
+    entry.complete(result);
+  }
+
+  /** The msg ends with an error a Catch node can turn into a fault of the operation. */
+  failGroup(e) {
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const a = this.actuators[e.actuator];
+    const retries = entry.retries.get(e.actuator) || 0;
+    const code = e.fault === 'locked-out' ? 'LOCKED_OUT' : 'COMMAND_FAILED';
+    if (entry.msg) {
+      entry.msg.command = {
+        failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
+        actuators: entry.completed,
+      };
+    }
+    if (entry.node) this.showError(entry.node, code);
+    entry.refuse(new SugarshackError(code, describeFault(a, e.fault, { retries, target: targetOf(entry.payload, a.id) })));
+  }
+
+  reject(e, source) {
+    const a = this.actuators[e.actuator];
+    const bus = (source && source.bus) || this.busFor(a.deviceHandle);
+    if (!bus) return;
+    bus.bad += 1;
+    this.warnOnce(bus, source ? source.topic : a.device, e.code, `ignored a sample in ${source ? source.topic : a.device}: ${e.message}`);
+    this.emit(bus, `actuator/rejected/${a.id}`, { ...e, actuator: a.id, topic: source ? source.topic : null, count: bus.bad });
+  }
+
+  /** Report by exception, motion, completion, faults...: an event msg from the node serving the actuator. */
+  emitActuator(e) {
+    const a = this.actuators[e.actuator];
+    if (!a) return;
+    const payload = { ...e, actuator: a.id };
+    if (e.caller !== undefined) {
+      const entry = this.pending.get(e.caller);
+      payload.msgid = entry && entry.msg ? entry.msg._msgid : null;
+    }
+    this.emit(this.busFor(a.deviceHandle), `actuator/${e.kind}/${a.id}`, payload);
+  }
+
+  emit(bus, topic, payload) {
+    if (bus && bus.node) bus.node.send([null, null, { topic, payload }]);
+  }
+
+  // ---- sensors, operations, routines ---------------------------------------
+
+  /** The core's handle of sensor `id`; throws UNKNOWN_SENSOR. */
+  sensorHandle(id) {
+    return this.t.sensor(id);
+  }
+
+  /** Fresh values of `handles` at `now`; throws SENSOR_STALE / SENSOR_NO_VALUE. */
+  readSensors(handles, now) {
+    return this.t.readSensors(Uint32Array.from(handles), now);
+  }
+
+  /** Calls `fn` on each new sample of any of `handles`; returns the function that stops it. */
+  watchSensors(handles, fn) {
+    for (const h of handles) {
+      if (!this.watchers.has(h)) this.watchers.set(h, new Set());
+      this.watchers.get(h).add(fn);
+    }
+    return () => {
+      for (const h of handles) this.watchers.get(h)?.delete(fn);
+    };
+  }
+
+  /** A compiled condition over sensors of this plant, shared by everything waiting on the same text. */
+  condition(text, sensors) {
+    const key = `${text}\u0000${sensors.join('\u0000')}`;
+    let condition = this.conditions.get(key);
+    if (!condition) {
+      condition = new Condition(this.RED, this.owner, text, sensors, this, 'operation');
+      this.conditions.set(key, condition);
+    }
+    return condition;
+  }
+
+  /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */
+  plan(id) {
+    return this.t.operationPlan(id);
+  }
+
+  /** A new run of operation `id` (the core's state machine); throws UNKNOWN_OPERATION. */
+  operationRun(id) {
+    return this.t.operationRun(id);
+  }
+
+  /** Resources and lockout commands for an interlock bound to this plant. */
+  interlockResources() {
+    return this.t.interlockResources();
+  }
+
+  routine(id) {
+    return this.t.routine(id);
+  }
+
+  // ---- status --------------------------------------------------------------
+
+  busOf(node) {
+    return this.buses.find((b) => b.node === node);
+  }
+
+  /** The first actuators node serving the device (its MQTT msgs and events leave from it). */
+  busFor(device) {
+    return this.buses.find((b) => !b.devices || b.devices.has(device)) || null;
+  }
+
+  /** Counts of the actuators on `devices` (phases and unconfirmed lockouts from the core). */
+  countsOn(devices) {
+    const counts = { moving: 0, stopped: 0, faulted: 0, lockouts: 0 };
+    for (const order of this.t.pendingLockouts()) if (devices.has(this.actuators[order.actuator].deviceHandle)) counts.lockouts++;
+    for (const a of this.actuators) {
+      if (!devices.has(a.deviceHandle)) continue;
+      const phase = this.t.phase(a.handle);
+      if (phase === 'pending' || phase === 'moving') counts.moving++;
+      else if (phase === 'stopped') counts.stopped++;
+      else if (phase === 'faulted') counts.faulted++;
+    }
+    return counts;
+  }
+
+  refreshStatus(only) {
+    const nodes = only ? [only] : this.users;
+    if (this.state === 'failed') {
+      for (const node of nodes) this.statusBoard.set(node, errorStatus(this.failure.code));
+      return;
+    }
+    if (this.state !== 'ready') return;
+    const now = clock.now();
+    let all = null;
+    for (const node of nodes) {
+      const sticky = this.sticky.get(node);
+      if (sticky && sticky.until > now) {
+        this.statusBoard.set(node, sticky.status);
+        continue;
+      }
+      if (sticky) this.sticky.delete(node);
+      if (!this.gateOpen) {
+        this.statusBoard.set(node, DRAINING_STATUS);
+        continue;
+      }
+      const bus = this.busOf(node);
+      if (bus && bus.connected === false) {
+        this.statusBoard.set(node, { fill: 'red', shape: 'ring', text: 'mqtt down' });
+        continue;
+      }
+      let counts;
+      let offline;
+      if (bus && bus.devices) {
+        counts = this.countsOn(bus.devices);
+        offline = [...bus.devices].filter((d) => this.offline.has(d)).length;
+      } else {
+        if (!all) {
+          const c = this.t.counts();
+          all = { ...c, lockouts: c.lockoutsPending };
+        }
+        counts = all;
+        offline = this.offline.size;
+      }
+      this.statusBoard.set(node, actuatorStatus({ ...counts, bad: bus ? bus.bad : 0 }, { offline }));
+    }
+  }
+
+  /** A short reason in a red ring: on an actuators node for a while, on other nodes until their next accepted command. */
+  showError(node, code) {
+    const status = errorStatus(code);
+    this.sticky.set(node, { status, until: this.busOf(node) ? clock.now() + BUS_ERROR_MS : Infinity });
+    this.statusBoard.set(node, status);
+  }
+}
+
+// The actuator layer's own time per call, for the overhead figures.
+timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'tick']);
+
+function forget(object) {
+  try {
+    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
+  } catch {
+    // nothing to do: the object is gone either way
+  }
+}
+
+/** A group command msg held by a group command or actuators node until its command completes. */
+function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
+  const entry = {
+    node,
+    nodeId: node ? node.id : null,
+    msg,
+    send,
+    done,
+    output,
+    outputs,
+    payload,
+    lockout,
+    completed: [],
+    retries: new Map(),
+    sinceMs,
+    timer: null,
+    complete(result) {
+      msg.command = result;
+      if (entry.send) {
+        if (outputs === 1) {
+          entry.send(msg);
+        } else {
+          const out = new Array(outputs).fill(null);
+          out[output] = msg;
+          entry.send(out);
+        }
+      }
+      if (entry.done) entry.done();
+    },
+    refuse(err) {
+      if (entry.done) entry.done(err);
+      else if (entry.node) entry.node.error(err, msg);
+    },
+    abandon() {
+      if (entry.done) entry.done();
+      entry.done = null;
+    },
+    detach() {
+      if (entry.done) entry.done();
+      entry.node = null;
+      entry.send = null;
+      entry.done = null;
+    },
+    adopt(next) {
+      entry.node = next;
+      entry.send = (m) => next.send(m);
+    },
+  };
+  return entry;
+}
+
+/** A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`. */
+function callbackEntry({ payload, onDone, sinceMs, msg = null }) {
+  let answered = false;
+  const answer = (err) => {
+    if (answered) return;
+    answered = true;
+    onDone(err || null);
+  };
+  return {
+    node: null,
+    nodeId: null,
+    msg,
+    payload,
+    lockout: false,
+    completed: [],
+    retries: new Map(),
+    sinceMs,
+    timer: null,
+    complete: () => answer(null),
+    refuse: (err) => answer(err),
+    abandon: () => {},
+    detach() {},
+    adopt() {},
+  };
+}
+
+module.exports = { PlantRuntime, TICK_MS };
