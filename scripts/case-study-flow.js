@@ -49,13 +49,13 @@ function build(plant) {
   const plantNode = add({ id: nid('plant'), type: 'sugarshack-plant', name: plant.name || 'sugar shack', plant });
   const interlock = add({
     id: nid('interlock'), type: 'sugarshack-interlock', name: 'lines', plant: plantNode.id, resources: [],
-    policy: 'greedy', queueBound: 1024, warnQueued: 900, warnHeld: 1800, persist: true, store: 'default',
+    policy: 'greedy', queueBound: 1024, warnQueued: 900, warnHeld: 1800, persist: true,
   });
 
   // ---- field bus -------------------------------------------------------------
   const z = TABS.plant;
   comment(z, 'Field bus: every device topic into the actuators node, its commands out', 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
-  const bus = add({ id: nid('actuators'), type: 'sugarshack-actuators', z, name: 'all devices', plant: plantNode.id, devices: '', x: 520, y: 120, wires: [[nid('mqtt-out')], [], [nid('debug:actuator-events')]] });
+  const bus = add({ id: nid('actuators'), type: 'sugarshack-actuators', z, name: 'all devices', plant: plantNode.id, devices: '', broker: nid('broker'), x: 520, y: 120, wires: [[nid('mqtt-out')], [], [nid('debug:actuator-events')]] });
   ['+/state', '+/status', '+/sensor/+/state'].forEach((topic, i) => add({
     id: nid(`mqtt-in:${topic}`), type: 'mqtt in', z, name: '', topic, qos: '1', datatype: 'auto-detect', broker: broker.id,
     nl: false, rap: true, rh: 0, inputs: 0, x: 170, y: 80 + 40 * i, wires: [[bus.id]],
@@ -73,7 +73,7 @@ function build(plant) {
   let y = 360;
   comment(z, 'Routines: each runs its own operations, one at a time', 'Status shows `state › operation`. A msg trigger is sent by its inject; `reset` brings a routine back to its initial state after a fault is cleared.', 230, y - 40);
   for (const r of plant.routines || []) {
-    const routine = add({ id: nid(`routine:${r.id}`), type: 'sugarshack-routine', z, name: '', interlock: interlock.id, routine: r.id, store: 'default', x: 520, y, wires: [[nid(`debug:routine:${r.id}`)]] });
+    const routine = add({ id: nid(`routine:${r.id}`), type: 'sugarshack-routine', z, name: '', interlock: interlock.id, routine: r.id, x: 520, y, wires: [[nid(`debug:routine:${r.id}`)]] });
     debug(z, `routine:${r.id}`, `routine ${r.id}`, 780, y, true);
     const topics = [...new Set(r.transitions.filter((t) => t.trigger.msg).map((t) => t.trigger.msg)), 'reset'];
     topics.forEach((topic, i) => inject(z, `routine:${r.id}:${topic}`, `${r.id}: ${topic}`, { topic }, 220, y + i * 40 - ((topics.length - 1) * 20), routine.id));

@@ -1,7 +1,11 @@
 'use strict';
 // Connects a node to the runtime of its config node (an interlock or a plant).
+// Runtimes outlive deploys: a node of a new deploy takes over what its previous
+// instance held there (same node id), and a closing node lets go of it in the
+// way the close asks for (restart, removal, or a shutdown that freezes all).
 const { SugarshackError } = require('./errors');
 const { errorStatus } = require('./status');
+const { paletteOf } = require('./lifecycle');
 
 // What a node says when its config node is unset: [code, message].
 const MISSING = {
@@ -11,7 +15,8 @@ const MISSING = {
 
 /**
  * Returns the runtime of config node `configId`, registering `node` for status
- * updates and withdrawing its waiting msgs on close; null (with a red status) when unset.
+ * updates and handing it what its previous instance held; null (with a red
+ * status) when unset.
  */
 function bindRuntime(RED, node, configId, kind, { showCounts = true } = {}) {
   const configNode = configId ? RED.nodes.getNode(configId) : null;
@@ -20,11 +25,13 @@ function bindRuntime(RED, node, configId, kind, { showCounts = true } = {}) {
     node.status(errorStatus(MISSING[kind][0]));
     return null;
   }
+  const palette = paletteOf(RED);
   // Nodes with a status of their own (operation, routine, wait) do not show the runtime's counts.
   if (showCounts) runtime.addUser(node);
+  runtime.adopt(node);
   node.on('close', (removed, done) => {
-    runtime.dropNode(node);
     runtime.removeUser(node);
+    if (!palette.shuttingDown && !runtime.ended) runtime.nodeClosed(node, removed);
     done();
   });
   return runtime;
@@ -38,7 +45,11 @@ function bindPlant(RED, node, configId, options) {
   return bindRuntime(RED, node, configId, 'plant', options);
 }
 
-/** The input handler every node of a runtime shares: `work(runtime, msg, send, done)` does the node's part. */
+/**
+ * The input handler every node of a runtime shares: `work(runtime, msg, send, done)`
+ * does the node's part. Reading the msg may throw on a hostile value (a getter
+ * that throws, a BigInt): that is the sender's error, reported as INVALID_INPUT.
+ */
 function onInput(node, runtime, work, kind = 'interlock') {
   node.on('input', (msg, send, done) => {
     if (!runtime) {

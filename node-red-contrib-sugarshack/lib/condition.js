@@ -5,6 +5,7 @@
 // does not hold (it never passes on old data).
 const { SugarshackError } = require('./errors');
 const { stats } = require('./stats');
+const { clock } = require('./clock');
 
 class Condition {
   /**
@@ -75,7 +76,7 @@ class Condition {
       const finish = (fn, value) => {
         if (finished) return;
         finished = true;
-        clearTimeout(timer);
+        clock.clearTimeout(timer);
         unwatch();
         signal.cancel = null;
         fn(value);
@@ -87,7 +88,7 @@ class Condition {
           return;
         }
         busy = true;
-        this.check(Date.now()).then((outcome) => {
+        this.check(clock.now()).then((outcome) => {
           busy = false;
           if (outcome.met) finish(resolve, outcome.values);
           else {
@@ -99,7 +100,7 @@ class Condition {
           }
         }, (err) => finish(reject, err));
       };
-      const timer = setTimeout(() => finish(reject, new SugarshackError(
+      const timer = clock.setTimeout(() => finish(reject, new SugarshackError(
         'CONDITION_TIMEOUT',
         `condition ${this.text} did not hold within ${timeoutMs / 1000} s (last check: ${lastReason})`,
       )), timeoutMs);

@@ -4,6 +4,8 @@
 // The control rules themselves (PID, Smith predictor, RCC) live in the core.
 const { SugarshackError } = require('./errors');
 const { MAX_STATUS_LENGTH } = require('./status');
+const { clock } = require('./clock');
+const wasm = require('./wasm');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';
@@ -67,16 +69,69 @@ class Watchdog {
   arm() {
     this.stop();
     if (!(this.ms > 0)) return;
-    this.timer = setTimeout(() => {
+    this.timer = clock.setTimeout(() => {
       this.timer = null;
       this.fn();
     }, this.ms);
   }
 
   stop() {
-    if (this.timer) clearTimeout(this.timer);
+    if (this.timer) clock.clearTimeout(this.timer);
     this.timer = null;
   }
 }
 
-module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, Watchdog };
+/**
+ * A node's own wasm object (a PID loop, an RCC controller, an I/O module) that
+ * survives a trap of the shared instance: `make(bindings)` builds it, again on
+ * the fresh instance after any trap. Returns a stand-in whose method calls go to
+ * the current object; a trap in one ends that call with INTERNAL and starts the
+ * rebuild. `free()` lets it go.
+ */
+function revivable(make, { onRevive = () => {} } = {}) {
+  let object = make(wasm.load());
+  let generation = wasm.currentGeneration();
+  const stopWatch = wasm.onTrap(() => {
+    forget(object);
+    object = make(wasm.load());
+    generation = wasm.currentGeneration();
+    onRevive();
+  });
+  const call = (fn) => {
+    try {
+      return fn(object);
+    } catch (err) {
+      if (!wasm.isTrap(err)) throw err;
+      const broken = generation;
+      setImmediate(() => wasm.recover(err, broken));
+      throw new SugarshackError('INTERNAL', `the core failed (${err.message}); it is being rebuilt, this msg was dropped`);
+    }
+  };
+  return new Proxy({}, {
+    get(_, prop) {
+      if (prop === 'free') {
+        return () => {
+          stopWatch();
+          try {
+            object.free();
+          } catch {
+            // an object of a dropped instance
+          }
+        };
+      }
+      const value = object[prop];
+      if (typeof value !== 'function') return call((o) => o[prop]);
+      return (...args) => call((o) => o[prop](...args));
+    },
+  });
+}
+
+function forget(object) {
+  try {
+    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
+  } catch {
+    // gone either way
+  }
+}
+
+module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, Watchdog, revivable };

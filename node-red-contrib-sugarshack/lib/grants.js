@@ -1,6 +1,7 @@
 'use strict';
-// Sends granted msgs on, each from the acquire node that holds it, with that
-// node's own send/done so a link call returns to the right caller.
+// Grants of the interlock, answered by whoever waits for them: a msg held by an
+// acquire node (sent on with that node's own send/done, so a link call returns
+// to the right caller), or an operation's run.
 
 /**
  * The operations granted by the last release, cancel or clear. The core
@@ -12,6 +13,7 @@ function grantedBy(interlock, count) {
   return handles;
 }
 
+/** Sends an acquire node's held msg on with msg.interlock. */
 function deliver(entry, nowMs) {
   const { msg } = entry;
   msg.interlock = {
@@ -21,27 +23,30 @@ function deliver(entry, nowMs) {
     waitedMs: Math.max(0, nowMs - entry.sinceMs),
   };
   entry.send(msg);
-  entry.done();
+  if (entry.done) entry.done();
 }
 
 /**
- * Delivers the msg of every granted operation, in grant order. A grant without
- * a waiting msg has nobody to do the work, so it is released at once (which may
- * grant more).
+ * Takes the waiting entry of every granted operation, in grant order, and
+ * returns what answers them (to run once the grants are saved). A grant nobody
+ * waits for has nobody to do the work, so it is released at once, which may
+ * grant more.
  */
-function routeGrants(interlock, pending, grants, { nowMs, warn }) {
+function takeGrants(interlock, pending, grants, { nowMs, warn }) {
+  const answers = [];
   const todo = Array.from(grants);
   while (todo.length > 0) {
     const handle = todo.shift();
     const entry = pending.take(handle);
     if (entry) {
-      deliver(entry, nowMs);
+      answers.push(() => entry.grant(nowMs));
       continue;
     }
     const name = interlock.operationName(handle);
-    warn(`operation '${name}' was granted but no msg waits for it; releasing it`);
+    warn(`operation '${name}' was granted but nothing waits for it; releasing it`);
     todo.push(...grantedBy(interlock, interlock.release(handle, nowMs)));
   }
+  return answers;
 }
 
-module.exports = { deliver, grantedBy, routeGrants };
+module.exports = { deliver, grantedBy, takeGrants };

@@ -1,11 +1,21 @@
 'use strict';
 // Reads a group command msg. Whether the command is allowed is the core's call.
 const { SugarshackError } = require('./errors');
+const { quote } = require('./request');
+
+// More lines than any plant has: a longer list is not one an acquire node made.
+const MAX_HELD = 4096;
+
+// Longer JSON text than any group command: refused before it is parsed.
+const MAX_GROUP_TEXT = 64 * 1024;
 
 /** msg.payload as an object; JSON text is parsed (an inject or MQTT may send text). */
 function groupPayload(msg) {
   const { payload } = msg;
   if (typeof payload !== 'string' && !Buffer.isBuffer(payload)) return payload;
+  if (payload.length > MAX_GROUP_TEXT) {
+    throw new SugarshackError('INPUT_TOO_LARGE', `group command is ${payload.length} bytes of text, more than ${MAX_GROUP_TEXT}; refused`);
+  }
   try {
     return JSON.parse(payload.toString());
   } catch (err) {
@@ -39,11 +49,16 @@ function targetOf(payload, id) {
 
 /**
  * The resources an acquire node granted this msg (msg.interlock.resources): a group
- * command carried by it may only command actuators on them (C2). Undefined when absent.
+ * command carried by it may only command actuators on them (C2). Undefined when the
+ * msg carries no msg.interlock; anything else than a list of names there is refused,
+ * never taken as "no restriction".
  */
 function heldResources(msg) {
-  const held = msg.interlock && msg.interlock.resources;
-  return Array.isArray(held) && held.every((r) => typeof r === 'string') ? held : undefined;
+  const { interlock } = msg;
+  if (interlock === undefined) return undefined;
+  const held = interlock !== null && typeof interlock === 'object' ? interlock.resources : undefined;
+  if (Array.isArray(held) && held.length <= MAX_HELD && held.every((r) => typeof r === 'string')) return held;
+  throw new SugarshackError('INVALID_RESOURCES', `C2: msg.interlock.resources must list the lines this msg holds (as an acquire node sets it), got ${quote(held === undefined ? interlock : held)}; the command was refused`);
 }
 
 module.exports = { groupPayload, isLockout, actuatorIds, targetOf, heldResources };

@@ -3,6 +3,8 @@
 // keyed by operation handle (an operation waits at most once); by group command
 // and actuators nodes until their group command completes, keyed by caller id.
 
+const { clock } = require('./clock');
+
 class PendingRegistry {
   constructor() {
     this.byHandle = new Map();
@@ -30,9 +32,13 @@ class PendingRegistry {
     const entry = this.byHandle.get(handle);
     if (!entry) return undefined;
     this.byHandle.delete(handle);
-    if (entry.timer) clearTimeout(entry.timer);
+    if (entry.timer) clock.clearTimeout(entry.timer);
     entry.timer = null;
     return entry;
+  }
+
+  entries() {
+    return [...this.byHandle.values()];
   }
 
   /** Handles of the entries held by `node`, or of all entries. */

@@ -3,18 +3,54 @@
 // the node's configuration. Only shapes are checked here; whether a request is
 // allowed is for the core to say.
 const { SugarshackError } = require('./errors');
+const { isTrap } = require('./wasm');
 
 const I32_MIN = -2147483648;
 const I32_MAX = 2147483647;
+// A refusal quotes at most this much of the value it refuses.
+const QUOTE_MAX = 100;
+
+/** A value as a short quote for a message, whatever it is (BigInt, circular, huge). */
+function quote(value) {
+  let text;
+  try {
+    text = typeof value === 'string' ? JSON.stringify(value) : typeof value === 'bigint' ? `${value}n` : JSON.stringify(value);
+  } catch {
+    text = undefined;
+  }
+  if (text === undefined) text = Array.isArray(value) ? 'an array' : typeof value;
+  return text.length > QUOTE_MAX ? `${text.slice(0, QUOTE_MAX - 1)}…` : text;
+}
+
+/**
+ * Reads what a msg asks for. A refusal of ours passes unchanged; anything else a
+ * msg makes the reading throw (a getter that throws, a proxy) is the sender's
+ * error: INVALID_INPUT.
+ */
+function readMsg(read) {
+  try {
+    return read();
+  } catch (err) {
+    if (err instanceof SugarshackError || isTrap(err)) throw err;
+    const why = err && typeof err.message === 'string' ? err.message : String(err);
+    throw new SugarshackError('INVALID_INPUT', `could not read the msg: ${why.slice(0, QUOTE_MAX)}`);
+  }
+}
 
 function present(value) {
   return value !== undefined && value !== null && value !== '';
 }
 
+// An operation id is a name a person gave; past this it is not one.
+const MAX_OPERATION_NAME = 200;
+
 function asOperationName(value, from) {
   if (typeof value === 'number' && Number.isFinite(value)) return String(value);
+  if (typeof value === 'string' && value.length > MAX_OPERATION_NAME) {
+    throw new SugarshackError('INVALID_OPERATION', `${from} is ${value.length} characters long; an operation id has at most ${MAX_OPERATION_NAME}`);
+  }
   if (typeof value === 'string') return value.trim();
-  throw new SugarshackError('INVALID_OPERATION', `${from} must be a string or a number, got ${typeof value}`);
+  throw new SugarshackError('INVALID_OPERATION', `${from} must be a string or a number, got ${quote(value)}`);
 }
 
 /**
@@ -37,7 +73,7 @@ function priorityOf(msg, configured) {
   if (typeof value === 'number') number = value;
   else if (typeof value === 'string' && /^\s*[-+]?\d+\s*$/.test(value)) number = Number(value);
   if (!Number.isInteger(number) || number < I32_MIN || number > I32_MAX) {
-    throw new SugarshackError('INVALID_PRIORITY', `${from} must be an integer (higher = more urgent), got ${JSON.stringify(value)}`);
+    throw new SugarshackError('INVALID_PRIORITY', `${from} must be an integer (higher = more urgent), got ${quote(value)}`);
   }
   return number;
 }
@@ -47,7 +83,7 @@ function splitNames(value, from) {
   if (Array.isArray(value) && value.every((v) => typeof v === 'string')) {
     return value.map((s) => s.trim()).filter(Boolean);
   }
-  throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string`);
+  throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string, got ${quote(value)}`);
 }
 
 /** Resource names from msg.resources, else the configured list (possibly empty). */
@@ -64,4 +100,4 @@ function noteOf(msg) {
   return undefined;
 }
 
-module.exports = { operationOf, priorityOf, resourcesOf, noteOf, splitNames };
+module.exports = { operationOf, priorityOf, resourcesOf, noteOf, splitNames, readMsg, quote };

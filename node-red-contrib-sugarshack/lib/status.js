@@ -56,9 +56,13 @@ function countsStatus(counts) {
   return { fill: counts.faulted > 0 ? 'red' : 'green', shape: 'dot', text: statusText(counts) };
 }
 
-/** Actuators: "moving 2", "mov 2 · stop 14", "flt 1·mov 2·stop 14"; `bad` counts bad feedback. */
-function actuatorText({ moving = 0, stopped = 0, faulted = 0, bad = 0 }) {
+/**
+ * Actuators: "moving 2", "mov 2 · stop 14", "flt 1·mov 2·stop 14"; `lockouts`
+ * counts lockouts not yet confirmed by feedback, `bad` bad feedback.
+ */
+function actuatorText({ moving = 0, stopped = 0, faulted = 0, lockouts = 0, bad = 0 }) {
   return countsText([
+    ['lockout', 'lock', 'L', lockouts],
     ['faulted', 'flt', 'F', faulted],
     ['moving', 'mov', 'M', moving],
     ['stopped', 'stop', 'S', stopped],
@@ -69,7 +73,7 @@ function actuatorText({ moving = 0, stopped = 0, faulted = 0, bad = 0 }) {
 /** Red when any actuator is faulted; a ring when a device is offline. */
 function actuatorStatus(counts, { offline = 0 } = {}) {
   return {
-    fill: counts.faulted > 0 ? 'red' : 'green',
+    fill: counts.faulted > 0 || counts.lockouts > 0 ? 'red' : 'green',
     shape: offline > 0 ? 'ring' : 'dot',
     text: actuatorText(counts),
   };
@@ -121,6 +125,19 @@ const REASONS = {
   NO_TRANSITION: 'no transition',
   ROUTINE_HALTED: 'halted',
   ABORTED: 'stopped',
+  INPUT_TOO_DEEP: 'input too deep',
+  INPUT_TOO_LARGE: 'input too large',
+  INPUT_CIRCULAR: 'circular input',
+  INTERNAL: 'internal error',
+  LOCKOUT_PENDING: 'lockout pending',
+  FUTURE_TIMESTAMP: 'clock ahead',
+  ROUTINE_TAKEN: 'routine taken',
+  SENSOR_NO_VALUE: 'no sensor value',
+  INVALID_SENSOR_VALUE: 'bad sensor value',
+  BAD_MEASUREMENT: 'bad measurement',
+  UNKNOWN_CONTROLLER: 'unknown controller',
+  INVALID_TIME: 'bad time',
+  NOT_PENDING: 'nothing pending',
 };
 
 function shortReason(code) {

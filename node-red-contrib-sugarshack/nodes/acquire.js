@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
-const { operationOf, priorityOf, resourcesOf } = require('../lib/request');
+const { operationOf, priorityOf, resourcesOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function AcquireNode(props) {
@@ -11,16 +11,12 @@ module.exports = function (RED) {
 
     // Holds the msg until granted; the same msg object then goes on (link call returns stay intact).
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.acquire({
-        node,
-        msg,
-        send,
-        done,
+      const request = readMsg(() => ({
         operation: operationOf(msg, props.operation),
         priority: priorityOf(msg, props.priority),
         resources: resourcesOf(msg, props.resources),
-        timeoutMs,
-      });
+      }));
+      rt.acquire({ node, msg, send, done, ...request, timeoutMs });
     });
   }
 

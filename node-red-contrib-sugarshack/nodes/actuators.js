@@ -1,7 +1,7 @@
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
-const { splitNames } = require('../lib/request');
+const { splitNames, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function ActuatorsNode(props) {
@@ -9,16 +9,21 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindPlant(RED, node, props.plant);
     const devices = props.devices && String(props.devices).trim() ? splitNames(String(props.devices), 'the device list') : null;
-    if (runtime) runtime.addBus(node, devices);
+    // Its broker's connection tells the plant when commands cannot reach the devices.
+    const broker = props.broker ? RED.nodes.getNode(props.broker) : null;
+    if (runtime) runtime.addBus(node, devices, broker);
 
     // Device feedback is telemetry: consumed here, completed with done(). Anything
     // else is a group command, held until it completes and returned on output 2.
     onInput(node, runtime, (rt, msg, send, done) => {
-      if (rt.feedback(node, msg)) {
+      const seen = readMsg(() => ({ topic: msg.topic, payload: msg.payload, lockout: isLockout(msg) }));
+      // "lockout/<resource>" from a fault node is a command, whatever the resource's name.
+      if (!seen.lockout && rt.feedback(node, seen.topic, seen.payload)) {
         done();
         return;
       }
-      rt.command({ node, msg, send, done, output: 1, outputs: 3, within: isLockout(msg) ? undefined : heldResources(msg) });
+      const within = readMsg(() => (seen.lockout ? undefined : heldResources(msg)));
+      rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
     }, 'plant');
   }
 

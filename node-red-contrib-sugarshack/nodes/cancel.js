@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
-const { operationOf } = require('../lib/request');
+const { operationOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function CancelNode(props) {
@@ -9,9 +9,11 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
 
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.cancel(operationOf(msg, props.operation, { followAcquire: true }));
-      send(msg);
-      done();
+      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      rt.cancel(operation, () => {
+        send(msg);
+        done();
+      });
     });
   }
 

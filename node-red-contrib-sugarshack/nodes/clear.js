@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
-const { resourcesOf } = require('../lib/request');
+const { resourcesOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function ClearNode(props) {
@@ -10,10 +10,12 @@ module.exports = function (RED) {
     const allFaulted = props.mode === 'all';
 
     onInput(node, runtime, (rt, msg, send, done) => {
-      const names = allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources);
-      msg.cleared = rt.clear(names);
-      send(msg);
-      done();
+      const names = readMsg(() => (allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources)));
+      rt.clear(names, (cleared) => {
+        msg.cleared = cleared;
+        send(msg);
+        done();
+      });
     });
   }
 

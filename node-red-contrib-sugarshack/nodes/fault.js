@@ -1,6 +1,7 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
-const { operationOf, resourcesOf, noteOf } = require('../lib/request');
+const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
+const { clock } = require('../lib/clock');
 
 module.exports = function (RED) {
   function FaultNode(props) {
@@ -9,28 +10,30 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
     const byResources = props.mode === 'resources';
 
+    // Output 2 gets one lockout group command per latched line, once the fault is saved.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const note = noteOf(msg);
-      let operation = null;
-      let lockouts;
-      if (byResources) {
-        lockouts = rt.faultResources(resourcesOf(msg, props.resources), note);
-      } else {
-        operation = operationOf(msg, props.operation, { followAcquire: true });
-        lockouts = rt.fault(operation, note);
-      }
-      // faultAtMs lets the group command that applies the lockout report the fault lockout time.
-      const faultAtMs = Date.now();
-      const commands = lockouts.map(({ resource, command }) => ({
-        topic: `lockout/${resource}`,
-        payload: command,
-        resource,
-        operation,
-        note: note === undefined ? null : note,
-        faultAtMs,
+      const request = readMsg(() => ({
+        note: noteOf(msg),
+        operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
+        resources: byResources ? resourcesOf(msg, props.resources) : null,
       }));
-      send([msg, commands]);
-      done();
+      const { note, operation } = request;
+      const out = (lockouts) => {
+        // faultAtMs lets the group command that applies the lockout report the fault lockout time.
+        const faultAtMs = clock.now();
+        const commands = lockouts.map(({ resource, command }) => ({
+          topic: `lockout/${resource}`,
+          payload: command,
+          resource,
+          operation,
+          note: note === undefined ? null : note,
+          faultAtMs,
+        }));
+        send([msg, commands]);
+        done();
+      };
+      if (byResources) rt.faultResources(request.resources, note, out);
+      else rt.fault(operation, note, out);
     });
   }
 

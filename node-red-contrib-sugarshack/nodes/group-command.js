@@ -1,6 +1,7 @@
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
+const { readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function GroupCommandNode(props) {
@@ -11,7 +12,8 @@ module.exports = function (RED) {
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.command({ node, msg, send, done, timeoutMs, within: isLockout(msg) ? undefined : heldResources(msg) });
+      const within = readMsg(() => (isLockout(msg) ? undefined : heldResources(msg)));
+      rt.command({ node, msg, send, done, timeoutMs, within });
     }, 'plant');
   }
 

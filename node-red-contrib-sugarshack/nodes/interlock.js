@@ -1,53 +1,48 @@
 'use strict';
-const { load } = require('../lib/wasm');
 const { coreConfig } = require('../lib/config');
-const { Persistence } = require('../lib/persistence');
-const { InterlockRuntime } = require('../lib/runtime');
+const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { SugarshackError } = require('../lib/errors');
-const { trackFlows, whenFlowsStarted } = require('../lib/flows');
-const { issueLockouts } = require('../lib/operation-runner');
-
-function resourcesOf(plant) {
-  if (!plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
-  if (plant.state === 'failed') throw plant.failure;
-  return plant.interlockResources();
-}
+const { paletteOf, settingsKey } = require('../lib/lifecycle');
 
 module.exports = function (RED) {
-  const { Interlock } = load();
-  trackFlows(RED);
+  paletteOf(RED);
 
   function InterlockNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
     node.name = props.name;
+    const palette = paletteOf(RED);
     // Bound to a plant, the interlock takes its resources and lockouts from the
     // plant document, and operation and routine nodes can run on it.
-    const plant = props.plant ? RED.nodes.getNode(props.plant)?.runtime || null : null;
-    let config = null;
-    let configError = null;
+    const plantNode = props.plant ? RED.nodes.getNode(props.plant) : null;
+    const plant = plantNode ? plantNode.runtime || null : null;
+    const persist = props.persist === true || props.persist === 'true';
+    const settings = { config: null, persist, plantBound: Boolean(props.plant), legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null };
     try {
-      config = coreConfig(props);
-      if (props.plant) config.resources = resourcesOf(plant);
+      settings.config = coreConfig(props);
+      if (props.plant && !plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
     } catch (err) {
-      configError = err;
+      settings.error = err;
     }
-    const persistence = props.persist ? new Persistence(node.context().global, node.id, props.store) : null;
-    node.runtime = new InterlockRuntime({ owner: node, Interlock, config, persistence, plant });
-    node.runtime.start(configError).then(() => {
-      // Lines restored faulted (an operation the restart interrupted, or a fault not yet
-      // cleared) get their lockout commands again once the actuators nodes are up.
-      if (!plant || node.runtime.state !== 'ready') return;
-      const faulted = node.runtime.faultedResources();
-      if (faulted.length === 0) return;
-      whenFlowsStarted(RED, () => {
-        if (node.runtime.state !== 'ready') return;
-        issueLockouts(node, plant, node.runtime.faultResources(faulted, 'restored faulted: lockout sent again at start'));
-      });
+    // A deploy that keeps these hands the running interlock over; one that changes them drains first.
+    const key = settingsKey({
+      config: settings.plantBound ? { ...settings.config, resources: null } : settings.config,
+      persist,
+      plant: plant ? plant.targetKey : null,
+      error: settings.error ? settings.error.message : null,
     });
+    const runtime = palette.runtimeFor(node.id, key, settings, () => new InterlockRuntime({ RED, id: node.id, settings, plant }));
+    runtime.attach(node);
+    node.runtime = runtime;
+    if (!runtime.started) {
+      runtime.started = true;
+      runtime.start();
+    } else {
+      runtime.refreshStatus();
+    }
 
     node.on('close', (removed, done) => {
-      node.runtime.close().then(() => done(), (err) => {
+      palette.detach(runtime, node, removed).then(() => done(), (err) => {
         node.error(err);
         done();
       });

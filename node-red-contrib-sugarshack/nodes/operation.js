@@ -1,82 +1,99 @@
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { OperationRun, prepareOperation } = require('../lib/operation-runner');
 const { errorStatus } = require('../lib/status');
 const { seconds } = require('../lib/plant');
+
+/**
+ * Where a run started by an operation node reports: the node's status, and its
+ * msg sent on (or failed) by the instance of the node that is current then.
+ */
+function nodePort(node, msg, send, done, total, id) {
+  const port = {
+    nodeId: node.id,
+    node,
+    send,
+    done,
+    progress(phase, index, step) {
+      if (!port.node) return;
+      port.node.status(phase === 'queued'
+        ? { fill: 'yellow', shape: 'ring', text: 'queued' }
+        : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` });
+    },
+    finish(result) {
+      msg.operation = result;
+      if (!port.node) return;
+      port.node.status({ fill: 'green', shape: 'dot', text: `done ${seconds(result.runMs)}` });
+      port.send(msg);
+      if (port.done) port.done();
+    },
+    fail(err) {
+      const e = asSugarshackError(err);
+      if (!port.node) return;
+      if (e.code === 'OPERATION_RUNNING') {
+        port.node.status(errorStatus(e.code));
+      } else {
+        msg.operation = e.operation || { id };
+        const kind = e.operation ? e.operation.kind : 'acquire';
+        const where = kind === 'acquire' ? null : kind === 'release' ? 'release' : `${e.operation.step + 1}/${total}`;
+        port.node.status(where ? { fill: 'red', shape: 'dot', text: `fault at ${where}` } : errorStatus(e.code));
+      }
+      if (port.done) port.done(e);
+      else port.node.error(e, msg);
+    },
+    abandon() {
+      if (port.done) port.done();
+      port.done = null;
+    },
+    // A deploy restarts the node: the msg is completed by this instance and goes on from the next.
+    detachNode(closing) {
+      if (port.node !== closing) return;
+      if (port.done) port.done();
+      port.node = null;
+      port.send = null;
+      port.done = null;
+    },
+    adopt(next) {
+      if (next.id !== port.nodeId || port.node) return;
+      port.node = next;
+      port.send = (m) => next.send(m);
+    },
+  };
+  return port;
+}
 
 module.exports = function (RED) {
   function OperationNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const id = String(props.operation || '').trim();
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
-    let prepared = null;
-    let refusal = interlock ? null : new SugarshackError('NO_INTERLOCK', 'no interlock is configured for this node');
+    let total = 0;
     if (interlock) {
-      try {
-        // Plans and conditions are checked now, so a broken operation shows at deploy.
-        prepared = prepareOperation(RED, node, interlock, String(props.operation || '').trim());
-        node.status({ fill: 'grey', shape: 'ring', text: 'idle' });
-      } catch (err) {
-        refusal = asSugarshackError(err);
-        node.error(refusal.message);
-        node.status(errorStatus(refusal.code));
-      }
+      // Checked against the document in force, so a broken operation shows at deploy.
+      interlock.whenOpen(() => {
+        try {
+          if (!interlock.plant) throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run operations from its document');
+          if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+          const plan = interlock.plant.plan(id);
+          total = plan.steps.length;
+          for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.condition(step.condition, step.sensors);
+          if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status({ fill: 'grey', shape: 'ring', text: 'idle' });
+        } catch (err) {
+          const refusal = asSugarshackError(err);
+          node.error(refusal.message);
+          node.status(errorStatus(refusal.code));
+        }
+      });
     }
-    const runs = new Set();
-    let progress = null; // the status of the run in progress
 
     // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, steps }.
     node.on('input', (msg, send, done) => {
-      if (refusal) {
-        done(refusal);
+      if (!interlock) {
+        done(new SugarshackError('NO_INTERLOCK', 'no interlock is configured for this node'));
         return;
       }
-      const total = prepared.plan.steps.length;
-      const run = new OperationRun({
-        node,
-        interlock,
-        prepared,
-        msg,
-        onStep: (phase, index, step) => {
-          progress = phase === 'queued'
-            ? { fill: 'yellow', shape: 'ring', text: 'queued' }
-            : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` };
-          node.status(progress);
-        },
-      });
-      runs.add(run);
-      run.start().then((result) => {
-        runs.delete(run);
-        msg.operation = result;
-        node.status({ fill: 'green', shape: 'dot', text: `done ${seconds(result.runMs)}` });
-        send(msg);
-        done();
-      }, (err) => {
-        runs.delete(run);
-        const e = asSugarshackError(err);
-        if (e.code === 'OPERATION_RUNNING') {
-          // A run of this very node goes on and keeps showing its progress.
-          node.status(runs.size > 0 && progress ? progress : errorStatus(e.code));
-          done(e);
-          return;
-        }
-        if (e.code === 'ABORTED' || (e.operation && e.operation.aborted)) {
-          // Stopped with its node: the msg is completed unsent; a fault it caused is logged.
-          if (e.operation) node.warn(e.message);
-          done();
-          return;
-        }
-        msg.operation = e.operation || { id: prepared.plan.id };
-        const where = e.operation && (e.operation.kind === 'release' ? 'release' : `${e.operation.step + 1}/${total}`);
-        node.status(e.operation ? { fill: 'red', shape: 'dot', text: `fault at ${where}` } : errorStatus(e.code));
-        done(e);
-      });
-    });
-
-    node.on('close', (removed, done) => {
-      for (const run of runs) run.abort('its operation node was stopped (redeploy or shutdown)');
-      done();
+      interlock.submit(node, done, (rt) => rt.startRun(id, msg, nodePort(node, msg, send, done, total, id)));
     });
   }
 

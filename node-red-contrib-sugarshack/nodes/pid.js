@@ -1,8 +1,8 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, msgNumber, describe, fmt, clip, Watchdog } = require('../lib/control');
-const wasm = require('../lib/wasm');
+const { isNumber, configNumber, msgNumber, describe, fmt, clip, Watchdog, revivable } = require('../lib/control');
+const { clock } = require('../lib/clock');
 
 const CONTEXT_KEY = 'pid';
 // A msg with one of these (or topic "setpoint") changes the loop and is not a measurement.
@@ -79,10 +79,15 @@ module.exports = function (RED) {
     let settings = null;
     let loop = null;
     let refusal = null;
+    let lastIntegral = null; // kept outside the core, to rebuild the loop after a trap
     try {
       settings = readConfig(props);
-      const { PidLoop } = wasm.load();
-      loop = new PidLoop(settings.config);
+      // Rebuilt on a fresh wasm instance after a trap, with the integral it had.
+      loop = revivable(({ PidLoop }) => {
+        const fresh = new PidLoop(settings.config);
+        if (lastIntegral !== null) fresh.setIntegral(lastIntegral);
+        return fresh;
+      }, { onRevive: () => { overTs = true; } });
     } catch (err) {
       refusal = asSugarshackError(err);
       node.error(refusal.message);
@@ -112,8 +117,10 @@ module.exports = function (RED) {
     }
 
     function save() {
-      if (!persist || closed) return;
-      const state = { integral: loop.integral(), setpoint, mode, manual: manual ?? null };
+      if (closed) return;
+      lastIntegral = loop.integral();
+      if (!persist) return;
+      const state = { integral: lastIntegral, setpoint, mode, manual: manual ?? null };
       node.context().set(CONTEXT_KEY, state, store, (err) => {
         if (err) node.warn(`cannot save the PID state: ${err.message || err}`);
       });
@@ -164,7 +171,7 @@ module.exports = function (RED) {
         done(err);
         return;
       }
-      const ts = isNumber(msg.timestamp) ? msg.timestamp : Date.now();
+      const ts = isNumber(msg.timestamp) ? msg.timestamp : clock.now();
       const given = msg.payload;
       const valid = isNumber(given);
       const measurement = valid ? given : null;
@@ -321,7 +328,10 @@ module.exports = function (RED) {
           if (err) node.warn(`cannot read the saved PID state (${err.message || err}); starting from the configuration`);
           if (saved && typeof saved === 'object') {
             try {
-              if (isNumber(saved.integral)) loop.setIntegral(saved.integral);
+              if (isNumber(saved.integral)) {
+                loop.setIntegral(saved.integral);
+                lastIntegral = saved.integral;
+              }
               if (isNumber(saved.setpoint)) setpoint = saved.setpoint;
               if (saved.mode === 'auto' || saved.mode === 'manual') mode = saved.mode;
               if (isNumber(saved.manual)) manual = saved.manual;

@@ -1,30 +1,40 @@
 'use strict';
-const { load } = require('../lib/wasm');
 const { plantDocument } = require('../lib/plant');
-const { TrackerRuntime } = require('../lib/tracker-runtime');
+const { PlantRuntime } = require('../lib/plant-runtime');
 const { serveStats } = require('../lib/stats');
+const { paletteOf, settingsKey } = require('../lib/lifecycle');
 
 module.exports = function (RED) {
-  const { Tracker } = load();
+  paletteOf(RED);
   serveStats(RED);
 
   function PlantNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
     node.name = props.name;
-    let plant = null;
-    let plantError = null;
+    const palette = paletteOf(RED);
+    const settings = { plant: null, error: null };
     try {
-      plant = plantDocument(props.plant);
+      settings.plant = plantDocument(props.plant);
     } catch (err) {
-      plantError = err;
+      settings.error = err;
     }
-    node.runtime = new TrackerRuntime({ owner: node, Tracker, plant });
-    node.runtime.start(plantError);
+    const key = settingsKey({ plant: settings.plant, error: settings.error ? settings.error.message : null });
+    const runtime = palette.runtimeFor(node.id, key, settings, () => new PlantRuntime({ RED, id: node.id, settings }));
+    runtime.attach(node);
+    node.runtime = runtime;
+    if (!runtime.started) {
+      runtime.started = true;
+      runtime.start();
+    } else {
+      runtime.refreshStatus();
+    }
 
     node.on('close', (removed, done) => {
-      node.runtime.close();
-      done();
+      palette.detach(runtime, node, removed).then(() => done(), (err) => {
+        node.error(err);
+        done();
+      });
     });
   }
 

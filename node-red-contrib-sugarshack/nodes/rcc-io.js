@@ -1,8 +1,8 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, describe, fmt, clip } = require('../lib/control');
-const wasm = require('../lib/wasm');
+const { isNumber, configNumber, describe, fmt, clip, revivable } = require('../lib/control');
+const { clock } = require('../lib/clock');
 
 const board = new StatusBoard();
 
@@ -19,11 +19,12 @@ module.exports = function (RED) {
     const node = this;
     let io = null;
     let settings = null;
+    let lastWritten = null;
     let refusal = null;
     try {
       settings = readConfig(props);
-      const { IoModule } = wasm.load();
-      io = new IoModule(settings.controllers, settings.initialAction);
+      // After a trap the module starts again from the last action written, not the initial one.
+      io = revivable(({ IoModule }) => new IoModule(settings.controllers, lastWritten ?? settings.initialAction));
     } catch (err) {
       refusal = asSugarshackError(err);
       node.error(refusal.message);
@@ -35,14 +36,14 @@ module.exports = function (RED) {
     // Output 1, every period: the state tuple (a, u_1..u_n) and the measurement, for the controllers.
     function publish() {
       if (!io) return;
-      const now = Date.now();
+      const now = clock.now();
       const { lastAction, agesMs } = io.state(now);
       node.send([{ payload: { procVar, lastAction, agesMs }, timestamp: now }, null]);
     }
     let timer = null;
     if (io) {
       show({ fill: 'grey', shape: 'ring', text: `idle ${fmt(settings.initialAction)}` });
-      timer = setInterval(publish, settings.periodMs);
+      timer = clock.setInterval(publish, settings.periodMs);
     }
 
     node.on('input', (msg, send, done) => {
@@ -71,7 +72,8 @@ module.exports = function (RED) {
         if (!isNumber(msg.payload)) {
           throw new SugarshackError('INVALID_INPUT', `the action written by controller ${id} (msg.payload) must be a number, got ${describe(msg.payload)}`);
         }
-        io.write(id, msg.payload, Date.now()); // Conditional Acting: a := action, u_id := 0
+        io.write(id, msg.payload, clock.now()); // Conditional Acting: a := action, u_id := 0
+        lastWritten = msg.payload;
         show({ fill: 'green', shape: 'dot', text: `C${id} ${fmt(msg.payload)}` });
       } catch (err) {
         const e = asSugarshackError(err);
@@ -85,7 +87,7 @@ module.exports = function (RED) {
     });
 
     node.on('close', (removed, done) => {
-      if (timer) clearInterval(timer);
+      if (timer) clock.clearInterval(timer);
       if (io) io.free();
       io = null;
       done();

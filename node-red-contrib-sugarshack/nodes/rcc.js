@@ -1,8 +1,7 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
-const { configNumber, parseList, describe, Watchdog } = require('../lib/control');
-const wasm = require('../lib/wasm');
+const { configNumber, parseList, describe, Watchdog, revivable } = require('../lib/control');
 
 const board = new StatusBoard();
 
@@ -30,10 +29,9 @@ module.exports = function (RED) {
     let refusal = null;
     try {
       settings = readConfig(props);
-      const { Rcc } = wasm.load();
       // The core refuses thresholds breaking D_i > D_j >= Ts.
       const { id, thresholdsMs, tsMs, smoothHandover } = settings;
-      rcc = new Rcc({ id, thresholdsMs, tsMs, smoothHandover });
+      rcc = revivable(({ Rcc }) => new Rcc({ id, thresholdsMs, tsMs, smoothHandover }));
     } catch (err) {
       refusal = asSugarshackError(err);
       node.error(refusal.message);

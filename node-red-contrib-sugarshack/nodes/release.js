@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
-const { operationOf } = require('../lib/request');
+const { operationOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function ReleaseNode(props) {
@@ -8,10 +8,13 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
 
+    // The msg goes on once the release is saved.
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.release(operationOf(msg, props.operation, { followAcquire: true }));
-      send(msg);
-      done();
+      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      rt.release(operation, () => {
+        send(msg);
+        done();
+      });
     });
   }
 

@@ -2,9 +2,9 @@
 const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { Condition } = require('../lib/condition');
-const { readyPlant } = require('../lib/operation-runner');
 const { splitNames } = require('../lib/request');
 const { errorStatus } = require('../lib/status');
+const { clock } = require('../lib/clock');
 
 module.exports = function (RED) {
   function WaitNode(props) {
@@ -14,46 +14,53 @@ module.exports = function (RED) {
     const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
     let condition = null;
     let refusal = plant ? null : new SugarshackError('NO_PLANT', 'no plant is configured for this node');
+    // Compiled against the document in force (after a deploy's drain, the new one).
     if (plant) {
-      try {
-        readyPlant(plant);
-        if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
-        const text = String(props.sensors || '').trim();
-        condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
-        node.status({});
-      } catch (err) {
-        refusal = asSugarshackError(err);
-        node.error(refusal.message);
-        node.status(errorStatus(refusal.code));
-      }
+      plant.whenOpen(() => {
+        try {
+          if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+          if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
+          const text = String(props.sensors || '').trim();
+          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
+          refusal = null;
+          node.status({});
+        } catch (err) {
+          refusal = asSugarshackError(err);
+          node.error(refusal.message);
+          node.status(errorStatus(refusal.code));
+        }
+      });
     }
     const waiting = new Set();
 
     // Holds the msg until the condition holds on fresh values; then it goes on with msg.condition.
     node.on('input', (msg, send, done) => {
-      if (refusal) {
+      if (!plant) {
         done(refusal);
         return;
       }
-      const signal = {};
-      const since = Date.now();
-      waiting.add(signal);
-      node.status({ fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` });
-      condition.waitUntil(timeoutMs, signal).then((values) => {
-        waiting.delete(signal);
-        msg.condition = { values, waitedMs: Date.now() - since };
-        node.status(waiting.size ? { fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` } : { fill: 'green', shape: 'dot', text: 'held' });
-        send(msg);
-        done();
-      }, (err) => {
-        waiting.delete(signal);
-        const e = asSugarshackError(err);
-        if (e.code === 'ABORTED') {
+      plant.submit(node, done, () => {
+        if (refusal) throw refusal;
+        const signal = {};
+        const since = clock.now();
+        waiting.add(signal);
+        node.status({ fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` });
+        condition.waitUntil(timeoutMs, signal).then((values) => {
+          waiting.delete(signal);
+          msg.condition = { values, waitedMs: clock.now() - since };
+          node.status(waiting.size ? { fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` } : { fill: 'green', shape: 'dot', text: 'held' });
+          send(msg);
           done();
-          return;
-        }
-        node.status(errorStatus(e.code));
-        done(e);
+        }, (err) => {
+          waiting.delete(signal);
+          const e = asSugarshackError(err);
+          if (e.code === 'ABORTED') {
+            done();
+            return;
+          }
+          node.status(errorStatus(e.code));
+          done(e);
+        });
       });
     });
 

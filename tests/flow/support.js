@@ -1,5 +1,9 @@
 'use strict';
-// Shared fixtures for the flow tests: the plant's lines, flow builders, waits.
+// Shared fixtures for the flow tests: the plant's lines, flow builders, waits,
+// a user directory per test (where interlocks keep their durable state) and a
+// manual clock that the palette's runtimes read instead of the wall clock.
+const fs = require('fs');
+const os = require('os');
 const path = require('path');
 
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
@@ -8,6 +12,7 @@ const NODE_FILES = [
   'operation', 'wait', 'routine', 'pid', 'rcc', 'rcc-io',
 ];
 const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
+const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
 const catchNode = require(path.join(coreNodesDir, 'core/common/25-catch.js'));
@@ -100,12 +105,28 @@ function catchOnce(RED) {
 }
 let helperCatch = null;
 
+// The current test's user directory and clock (see startServer).
+const current = { userDir: null, clock: null };
+
+/** Runtime settings for the helper, always with the test's own user directory. */
+function settings(extra = {}) {
+  const helper = require('node-red-node-test-helper');
+  return helper.settings({ userDir: current.userDir, ...extra });
+}
+
+/**
+ * Starts the helper's server with a fresh user directory and a manual clock
+ * (time moves only with `clock().advance(ms)`).
+ */
 function startServer(done) {
   const helper = require('node-red-node-test-helper');
   /* eslint-disable no-underscore-dangle */
   helperCatch = helper._nodeModules.catch;
   helper._nodeModules.catch = catchOnce;
   /* eslint-enable no-underscore-dangle */
+  current.userDir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-flow-'));
+  current.clock = useClock(new ManualClock());
+  settings();
   helper.startServer(done);
 }
 
@@ -114,9 +135,31 @@ async function stopServer() {
   await helper.unload();
   await new Promise((resolve) => helper.stopServer(resolve));
   helper._nodeModules.catch = helperCatch; // eslint-disable-line no-underscore-dangle
+  helper.settings({});
+  useClock();
+  if (current.userDir) fs.rmSync(current.userDir, { recursive: true, force: true });
+  current.userDir = null;
+  current.clock = null;
+}
+
+const clock = () => current.clock;
+const userDir = () => current.userDir;
+
+/**
+ * Lets the runtimes of these config nodes save what changed and run its effects,
+ * twice over (an effect may change state again), then a few turns of the loop.
+ */
+async function settled(helper, ...ids) {
+  for (let round = 0; round < 2; round++) {
+    for (const id of ids) {
+      const runtime = helper.getNode(id) && helper.getNode(id).runtime;
+      if (runtime && runtime.settled) await runtime.settled();
+    }
+    await settle();
+  }
 }
 
 module.exports = {
-  PALETTE, paletteNodes, catchNode, catchOnce, startServer, stopServer, linkNodes, LINES, lockoutOf, TAB,
+  PALETTE, paletteNodes, catchNode, catchOnce, startServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
 };

@@ -1,0 +1,314 @@
+'use strict';
+// Safety state that must survive a crash (a power cut, kill -9), whatever
+// context store the user chose: each interlock's state is a file under
+// <userDir>/sugarshack/, replaced atomically (temp file, fsync, rename, fsync
+// of the directory). A marker file says "this interlock has run before", so a
+// state that is missing, empty or unreadable after a previous run is reported
+// as lost instead of being taken for a first start with every line free.
+//
+// Effects wait for their state: a runtime calls `committer.change(effect)`
+// after changing state, and the effect (a grant sent, a lockout published, an
+// event) runs once a write holding that change is on disk. What one turn of the
+// event loop changes goes out in one write.
+const fs = require('fs');
+const path = require('path');
+
+const FORMAT = 'sugarshack-interlock-state';
+// A saved state is read whole at start; past this it is refused as corrupt.
+const MAX_STATE_BYTES = 16 * 1024 * 1024;
+const RETRY_MS = 1000;
+
+function safeName(id) {
+  return String(id).replace(/[^A-Za-z0-9_.-]/g, '_');
+}
+
+/** The directory for sugarshack state in a Node-RED user directory. */
+function stateDir(RED) {
+  const settings = RED.settings || {};
+  let userDir;
+  try {
+    userDir = settings.userDir || (typeof settings.get === 'function' ? settings.get('userDir') : undefined);
+  } catch {
+    userDir = undefined;
+  }
+  const home = process.env.NODE_RED_HOME || require('os').homedir();
+  return path.join(userDir || path.join(home, '.node-red'), 'sugarshack');
+}
+
+class FileStore {
+  /** dir: the state directory; name: the interlock config node's id. */
+  constructor(dir, name) {
+    this.dir = dir;
+    this.file = path.join(dir, `interlock-${safeName(name)}.json`);
+    this.marker = path.join(dir, `interlock-${safeName(name)}.ran`);
+    this.tmp = `${this.file}.tmp`;
+  }
+
+  get where() {
+    return this.file;
+  }
+
+  /**
+   * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', doc }
+   * or { kind: 'lost', why } (ran before, state missing or unreadable).
+   */
+  read() {
+    let text = null;
+    let why = null;
+    try {
+      const size = fs.statSync(this.file).size;
+      if (size === 0) why = `${this.file} is empty`;
+      else if (size > MAX_STATE_BYTES) why = `${this.file} is ${size} bytes, more than a state can be (${MAX_STATE_BYTES})`;
+      else text = fs.readFileSync(this.file, 'utf8');
+    } catch (err) {
+      why = err.code === 'ENOENT' ? `${this.file} is missing` : `cannot read ${this.file}: ${err.message}`;
+    }
+    if (text !== null) {
+      try {
+        const doc = JSON.parse(text);
+        if (doc && doc.format === FORMAT) return { kind: 'saved', doc };
+        why = `${this.file} is not a sugarshack interlock state`;
+      } catch (err) {
+        why = `${this.file} is not valid JSON (${err.message.slice(0, 100)})`;
+      }
+    }
+    if (!fs.existsSync(this.marker)) return text === null ? { kind: 'first' } : { kind: 'lost', why };
+    return { kind: 'lost', why };
+  }
+
+  /** Marks that this interlock ran here; from now on a missing state is a lost one. */
+  markRan() {
+    fs.mkdirSync(this.dir, { recursive: true });
+    if (fs.existsSync(this.marker)) return;
+    const fd = fs.openSync(this.marker, 'w');
+    try {
+      fs.writeSync(fd, 'This interlock has run here: if its state file is missing, it starts with every line faulted.\n');
+      fs.fsyncSync(fd);
+    } finally {
+      fs.closeSync(fd);
+    }
+    syncDir(this.dir);
+  }
+
+  /** Replaces the state atomically; resolves once it is on disk. */
+  async write(text) {
+    await fs.promises.mkdir(this.dir, { recursive: true });
+    const handle = await fs.promises.open(this.tmp, 'w');
+    try {
+      await handle.writeFile(text, 'utf8');
+      await handle.sync();
+    } finally {
+      await handle.close();
+    }
+    await fs.promises.rename(this.tmp, this.file);
+    const dir = await fs.promises.open(this.dir, 'r');
+    try {
+      await dir.sync();
+    } finally {
+      await dir.close();
+    }
+  }
+}
+
+function syncDir(dir) {
+  const fd = fs.openSync(dir, 'r');
+  try {
+    fs.fsyncSync(fd);
+  } finally {
+    fs.closeSync(fd);
+  }
+}
+
+/** Persistence off: the last committed state lives in memory only (a restart starts afresh). */
+class MemoryStore {
+  constructor() {
+    this.text = null;
+  }
+
+  get where() {
+    return 'memory';
+  }
+
+  read() {
+    return this.text === null ? { kind: 'first' } : { kind: 'saved', doc: JSON.parse(this.text) };
+  }
+
+  markRan() {}
+
+  write(text) {
+    this.text = text;
+    return Promise.resolve();
+  }
+}
+
+/**
+ * Group commit: state changes of one event-loop turn are written once, and the
+ * effects waiting for them run after the write. `snapshot()` returns the text to
+ * write. An effect marked `evenUnsaved` (a lockout: isolating the line matters
+ * more than the record of it) also runs when the write fails; the others wait
+ * for the next successful write, retried every second.
+ */
+class Committer {
+  /**
+   * `collect()`, called just before each write, may return one more effect for
+   * that write (an interlock's event records, drained once per write).
+   */
+  constructor({ store, snapshot, clock, onError, onSaved, collect }) {
+    this.store = store;
+    this.snapshot = snapshot;
+    this.collect = collect || (() => null);
+    this.clock = clock;
+    this.onError = onError || (() => {});
+    this.onSaved = onSaved || (() => {});
+    this.effects = [];
+    this.dirty = false;
+    this.writing = null;
+    this.scheduled = null;
+    this.retry = null;
+    this.frozen = false;
+    this.failing = false;
+    this.idleWaiters = [];
+    this.writes = 0;
+  }
+
+  /** A state change happened; `effect` runs once it is durable. */
+  change(effect, { evenUnsaved = false } = {}) {
+    if (this.frozen) return;
+    this.dirty = true;
+    if (effect) this.effects.push({ run: effect, evenUnsaved });
+    this.schedule();
+  }
+
+  /** An effect with no state change of its own, kept in order behind the changes before it. */
+  after(effect) {
+    if (this.frozen) return;
+    if (!this.dirty && !this.writing && this.effects.length === 0) {
+      effect();
+      return;
+    }
+    this.effects.push({ run: effect, evenUnsaved: false });
+    this.schedule();
+  }
+
+  schedule() {
+    if (this.scheduled || this.writing || this.retry || this.frozen) return;
+    this.scheduled = setImmediate(() => {
+      this.scheduled = null;
+      this.flush();
+    });
+  }
+
+  async flush() {
+    if (this.writing || this.frozen) return;
+    let ok = true;
+    if (this.dirty) {
+      try {
+        const extra = this.collect();
+        if (extra) this.effects.push({ run: extra, evenUnsaved: false });
+      } catch (err) {
+        this.onError(err);
+      }
+    }
+    const effects = this.effects;
+    this.effects = [];
+    if (this.dirty) {
+      this.dirty = false;
+      let text;
+      try {
+        text = this.snapshot();
+      } catch (err) {
+        this.onError(err);
+        ok = false;
+      }
+      if (ok) {
+        this.writing = this.store.write(text);
+        try {
+          await this.writing;
+          this.writes++;
+          if (this.failing) this.failing = false;
+          this.onSaved();
+        } catch (err) {
+          ok = false;
+          this.failing = true;
+          this.dirty = true;
+          this.onError(err);
+        } finally {
+          this.writing = null;
+        }
+      }
+    }
+    if (this.frozen) {
+      this.wake();
+      return;
+    }
+    const waiting = [];
+    for (const effect of effects) {
+      if (ok || effect.evenUnsaved) this.run(effect.run);
+      else waiting.push(effect);
+    }
+    if (!ok) {
+      this.effects = waiting.concat(this.effects);
+      this.retry = this.clock.setTimeout(() => {
+        this.retry = null;
+        this.schedule();
+      }, RETRY_MS);
+      return;
+    }
+    if (this.dirty || this.effects.length > 0) this.schedule();
+    else this.wake();
+  }
+
+  run(effect) {
+    try {
+      effect();
+    } catch (err) {
+      this.onError(err);
+    }
+  }
+
+  wake() {
+    for (const resolve of this.idleWaiters.splice(0)) resolve();
+  }
+
+  /** Resolves once every change so far is written and its effects have run. */
+  settled() {
+    if (!this.dirty && !this.writing && !this.scheduled && this.effects.length === 0) return Promise.resolve();
+    return new Promise((resolve) => this.idleWaiters.push(resolve));
+  }
+
+  /**
+   * Stops writing (shutdown): a write in flight completes, nothing after it is
+   * written and no waiting effect runs. The saved state stays the last one whose
+   * effects went out.
+   */
+  async freeze() {
+    this.frozen = true;
+    if (this.scheduled) clearImmediate(this.scheduled);
+    this.scheduled = null;
+    if (this.retry) this.clock.clearTimeout(this.retry);
+    this.retry = null;
+    this.effects = [];
+    if (this.writing) await this.writing.catch(() => {});
+    this.wake();
+  }
+
+  /** Forgets changes not yet written and their effects (the core that made them is gone). */
+  discard() {
+    if (this.scheduled) clearImmediate(this.scheduled);
+    this.scheduled = null;
+    this.effects = [];
+    this.dirty = false;
+  }
+
+  /** Writes what is pending now, effects included, regardless of the turn (a retiring runtime). */
+  async drain() {
+    if (this.scheduled) {
+      clearImmediate(this.scheduled);
+      this.scheduled = null;
+    }
+    while (this.writing) await this.writing.catch(() => {});
+    await this.flush();
+  }
+}
+
+module.exports = { FileStore, MemoryStore, Committer, stateDir, FORMAT };

@@ -1,0 +1,686 @@
+'use strict';
+// The running interlock behind one interlock config node, for the whole life
+// of the Node-RED process: one core Interlock, the operations running on it and
+// the routines dispatching them, plus what Node-RED owns around it (held msgs,
+// status, event fan-out, the durable state). Every rule is the core's; this
+// calls it and acts on what it returns, and every effect of a state change
+// (a grant sent, a lockout, an event) leaves only once that state is on disk.
+const { SugarshackError, asSugarshackError } = require('./errors');
+const { PendingRegistry } = require('./pending');
+const { deliver, grantedBy, takeGrants } = require('./grants');
+const { EventFanout, describeWarning } = require('./events');
+const { countsStatus, errorStatus } = require('./status');
+const { stats, timeLayer } = require('./stats');
+const { clock } = require('./clock');
+const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
+const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
+const { RunHost } = require('./operation-run');
+const { RoutineHost } = require('./routine-host');
+const wasm = require('./wasm');
+
+const TICK_MS = 1000;
+const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
+
+class InterlockRuntime extends RuntimeBase {
+  /**
+   * settings: { config (the core's), persist, legacyStore, error }; plant: the
+   * PlantRuntime it is bound to, or null.
+   */
+  constructor({ RED, id, settings, plant = null }) {
+    super('interlock');
+    this.RED = RED;
+    this.id = id;
+    this.swapOrder = 1; // after the plants it may be bound to
+    this.plant = plant;
+    this.applySettings(settings);
+    this.core = null;
+    this.pending = new PendingRegistry(); // operation handle -> waiting entry
+    this.events = new EventFanout();
+    this.runs = new Set();
+    this.routines = new Map(); // routine id -> RoutineHost
+    this.savedRoutines = {}; // routine snapshots not yet taken up by a host
+    this.heldBack = []; // waiting requests taken out of the queue while a deploy drains
+    this.lostState = null; // why the state was unknown at start, until those lines are cleared
+    this.tickTimer = null;
+    this.store = settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore();
+    this.committer = this.makeCommitter();
+  }
+
+  applySettings(settings) {
+    this.settings = settings;
+    this.config = settings.config;
+    this.persist = settings.persist;
+    this.legacyStore = settings.legacyStore;
+    this.configError = settings.error || null;
+  }
+
+  /** The core configuration in force: bound to a plant, its lines and lockouts come from the plant's document. */
+  resolveConfig() {
+    if (this.configError) throw this.configError;
+    if (!this.settings.plantBound) return this.config;
+    if (!this.plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
+    if (this.plant.state !== 'ready') throw this.plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+    return { ...this.settings.config, resources: this.plant.interlockResources() };
+  }
+
+  makeCommitter() {
+    return new Committer({
+      store: this.store,
+      clock,
+      snapshot: () => this.document(),
+      collect: () => {
+        const records = this.core ? this.core.drainEvents() : [];
+        return records.length ? () => this.events.publish(records) : null;
+      },
+      onError: (err) => {
+        this.log('error', `cannot save the interlock state to ${this.store.where}: ${err.message || err}`);
+        this.refreshStatus();
+      },
+      onSaved: () => this.refreshStatus(),
+    });
+  }
+
+  /** The durable document: the interlock's snapshot and its routines' states, written as one. */
+  document() {
+    const now = clock.now();
+    const routines = { ...this.savedRoutines };
+    for (const [id, host] of this.routines) {
+      const snapshot = host.snapshot();
+      if (snapshot) routines[id] = snapshot;
+    }
+    return JSON.stringify({ format: FORMAT, version: 1, savedAtMs: now, interlock: this.core.snapshot(now), routines });
+  }
+
+  // ---- lifecycle -----------------------------------------------------------
+
+  async start() {
+    try {
+      this.config = this.resolveConfig();
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    let saved;
+    try {
+      saved = this.store.read();
+    } catch (err) {
+      saved = { kind: 'lost', why: err.message };
+    }
+    if (saved.kind === 'first' && this.persist) {
+      const legacy = await this.legacySnapshot();
+      if (legacy) saved = { kind: 'saved', doc: { interlock: legacy, routines: {} } };
+    }
+    if (this.ended) return;
+    try {
+      this.core = this.guard(() => this.build(saved, clock.now()));
+      this.store.markRan();
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    this.state = 'ready';
+    this.committer.change(); // the state as started is the first one on disk
+    if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.refreshStatus();
+    this.resendLockouts('restored faulted: lockout sent again at start');
+    this.replayParked();
+  }
+
+  /** The core interlock from what was saved: restored, all faulted when it was lost, or new. */
+  build(saved, now) {
+    const { Interlock } = wasm.load();
+    if (saved.kind === 'saved') {
+      try {
+        const core = Interlock.restore(this.config, saved.doc.interlock, false, false, now);
+        this.savedRoutines = isPlainObject(saved.doc.routines) ? saved.doc.routines : {};
+        return core;
+      } catch (err) {
+        if (wasm.isTrap(err)) throw err;
+        saved = { kind: 'lost', why: asSugarshackError(err).message };
+      }
+    }
+    if (saved.kind === 'lost') {
+      this.lostState = saved.why;
+      this.log('error', `state unknown after restart (${saved.why}): every line starts faulted and its lockout is sent; `
+        + 'check the plant, then clear the lines with a clear node');
+      return Interlock.unknownState(this.config, `state unknown after restart: ${saved.why}`, now);
+    }
+    return new Interlock(this.config);
+  }
+
+  /** An interlock saved by an earlier version, in the global context store: read once, then the file takes over. */
+  legacySnapshot() {
+    const owner = this.owner;
+    if (!owner) return Promise.resolve(null);
+    return new Promise((resolve) => {
+      try {
+        owner.context().global.get(LEGACY_KEY(this.id), this.legacyStore, (err, value) => resolve(err ? null : value || null));
+      } catch {
+        resolve(null);
+      }
+    });
+  }
+
+  fail(err) {
+    const e = asSugarshackError(err);
+    this.failure = e;
+    this.state = 'failed';
+    this.log('error', e.message);
+    this.refreshStatus();
+    for (const task of this.parked.splice(0)) task.done(e);
+  }
+
+  /** Lockouts of every faulted line go out again once the flows run (a device may have lost its retained one). */
+  resendLockouts(note) {
+    if (!this.plant) return;
+    this.palette.whenStarted(() => {
+      if (this.state !== 'ready') return;
+      const faulted = this.core.faultedResources();
+      if (faulted.length === 0) return;
+      try {
+        this.guard(() => this.faultResources(faulted, note, (lockouts) => this.plant.issueLockouts(lockouts, null)));
+      } catch (err) {
+        this.log('error', `cannot send the lockouts of ${faulted.join(', ')} again: ${err.message}`);
+      }
+    });
+  }
+
+  /**
+   * A shutdown: nothing changes the saved state any more. A write in flight
+   * completes; held msgs are completed unsent; the restart sees the last state
+   * whose effects went out.
+   */
+  async shutdown() {
+    if (this.ended) return;
+    const wasReady = this.state === 'ready';
+    this.endCommon();
+    this.stopTimers();
+    await this.committer.freeze();
+    for (const handle of this.pending.handles()) this.pending.take(handle).abandon();
+    for (const run of this.runs) run.shutdown();
+    for (const host of this.routines.values()) host.shutdown();
+    if (wasReady) this.freeCore();
+  }
+
+  /** Its config node left the flows: running operations are stopped as faults, the state written, the core freed. */
+  async retire() {
+    if (this.ended) return;
+    if (this.state === 'ready') {
+      for (const run of [...this.runs]) run.abort('its interlock was removed from the flows');
+      for (const handle of this.pending.handles()) {
+        const entry = this.pending.take(handle);
+        this.guard(() => this.core.cancel(handle, clock.now()));
+        entry.abandon();
+      }
+      this.committer.change();
+      await this.committer.drain();
+    }
+    const wasReady = this.state === 'ready';
+    this.endCommon();
+    this.stopTimers();
+    for (const run of this.runs) run.shutdown();
+    for (const host of this.routines.values()) host.shutdown();
+    if (wasReady) this.freeCore();
+  }
+
+  stopTimers() {
+    if (this.tickTimer) clock.clearInterval(this.tickTimer);
+    this.tickTimer = null;
+  }
+
+  freeCore() {
+    try {
+      this.core.free();
+    } catch {
+      // a core from a dropped wasm instance: nothing to free
+    }
+    this.core = null;
+  }
+
+  // ---- deploys -------------------------------------------------------------
+
+  /** New work waits; waiting requests leave the core's queue so releases grant nobody until the swap. */
+  onGateClosed() {
+    if (this.state !== 'ready') return;
+    const now = clock.now();
+    this.heldBack = [];
+    for (const handle of Array.from(this.core.queuedOperations()).reverse()) {
+      const entry = this.pending.take(handle);
+      this.guard(() => this.core.cancel(handle, now));
+      if (entry) this.heldBack.unshift(entry);
+    }
+    this.committer.change();
+  }
+
+  /** After the swap: the held-back requests queue again, in their old order, each with what is left of its timeout. */
+  onGateOpened() {
+    const heldBack = this.heldBack || [];
+    this.heldBack = [];
+    for (const entry of heldBack) {
+      try {
+        this.guard(() => this.requeue(entry));
+      } catch (err) {
+        entry.refuse(asSugarshackError(err));
+      }
+    }
+  }
+
+  /** Drained when no operation holds a grant through a run of ours (waiting ones are held back). */
+  quiescent() {
+    for (const run of this.runs) if (run.granted) return false;
+    return true;
+  }
+
+  /** New settings after the drain: the core is rebuilt from its own state, holds kept (the process did not stop). */
+  swap(settings) {
+    this.applySettings(settings);
+    try {
+      this.config = this.resolveConfig();
+    } catch (err) {
+      if (this.core) this.freeCore();
+      this.state = 'starting';
+      this.fail(err);
+      return;
+    }
+    const now = clock.now();
+    const { Interlock } = wasm.load();
+    try {
+      const next = this.guard(() => {
+        const snapshot = this.core ? this.core.snapshot(now) : null;
+        return snapshot ? Interlock.restore(this.config, snapshot, false, true, now) : new Interlock(this.config);
+      });
+      if (this.core) this.freeCore();
+      this.core = next;
+      this.state = 'ready';
+      this.failure = null;
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    this.stopTimers();
+    if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    for (const host of this.routines.values()) host.rebuild(host.snapshot());
+    this.committer.change();
+    this.refreshStatus();
+    // A new plant tracker knows no standing lockout yet.
+    this.resendLockouts('plant document changed: lockout sent again');
+  }
+
+  /** After a wasm trap: back to the last saved state, as after a restart (held lines faulted, waiting dropped). */
+  rebuild() {
+    if (this.state !== 'ready') return;
+    this.committer.discard();
+    for (const host of this.routines.values()) host.suspend();
+    const error = new SugarshackError('INTERNAL', 'the interlock core failed and was rebuilt from its last saved state; this msg was dropped');
+    for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
+    for (const run of [...this.runs]) run.abandon(error);
+    for (const entry of this.heldBack || []) entry.refuse(error);
+    this.heldBack = [];
+    forget(this.core);
+    this.core = null;
+    let saved;
+    try {
+      saved = this.store.read();
+    } catch (err) {
+      saved = { kind: 'lost', why: err.message };
+    }
+    try {
+      this.core = this.build(saved, clock.now());
+    } catch (err) {
+      this.state = 'starting';
+      this.fail(err);
+      return;
+    }
+    for (const [id, host] of this.routines) {
+      host.rebuild(this.savedRoutines[id]);
+      delete this.savedRoutines[id];
+    }
+    this.committer.change();
+    this.refreshStatus();
+    this.resendLockouts('rebuilt after a core failure: lockout sent again');
+  }
+
+  // ---- nodes using this interlock ------------------------------------------
+
+  addEventsNode(node) {
+    this.events.add(node);
+  }
+
+  removeUser(node) {
+    super.removeUser(node);
+    this.events.remove(node);
+  }
+
+  /** A node of a new deploy with the id of one that held msgs here takes them over. */
+  adopt(node) {
+    for (const entry of this.pending.entries()) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+    for (const entry of this.heldBack || []) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+    for (const run of this.runs) run.adopt(node);
+  }
+
+  /**
+   * A node closes in a deploy (not a shutdown). Restarted, its held msgs are
+   * completed now and go on from its next instance; removed, its waiting
+   * requests are withdrawn. A restarted node that does not come back by the end
+   * of the deploy counts as removed.
+   */
+  nodeClosed(node, removed) {
+    this.dropParked(node);
+    const mine = (entry) => entry.node === node;
+    for (const entry of [...this.pending.entries(), ...(this.heldBack || [])]) if (mine(entry)) entry.detach();
+    for (const run of this.runs) run.detachNode(node);
+    const settle = () => {
+      if (this.state !== 'ready') return;
+      this.withdrawOrphans(node.id);
+    };
+    if (removed) settle();
+    else this.palette.whenStarted(settle);
+  }
+
+  withdrawOrphans(nodeId) {
+    const now = clock.now();
+    const answers = [];
+    for (const handle of Array.from(this.core.queuedOperations()).reverse()) {
+      const entry = this.pending.get(handle);
+      if (!entry || entry.nodeId !== nodeId || entry.node) continue;
+      this.pending.take(handle);
+      const count = this.guard(() => this.core.cancel(handle, now));
+      answers.push(...this.grantsOf(count, now));
+    }
+    this.heldBack = (this.heldBack || []).filter((entry) => entry.nodeId !== nodeId || entry.node);
+    if (answers.length) this.changed(() => answers.forEach((answer) => answer()));
+    else this.refreshStatus();
+  }
+
+  // ---- interlock calls from nodes (each throws the core's refusal unchanged) --
+
+  /** Grants and sends the msg on (once saved), or holds it until a grant. */
+  acquire({ node, msg, send, done, operation, priority, resources, timeoutMs }) {
+    const entry = msgEntry({ node, msg, send, done, operation, priority, resources, sinceMs: clock.now() });
+    entry.timeoutMs = timeoutMs;
+    this.request(entry);
+  }
+
+  /** Acquire for any waiting entry: granted now (answered once saved) or queued. */
+  request(entry) {
+    const now = clock.now();
+    const handle = this.core.operation(entry.operation);
+    const set = this.core.resourceSet(entry.resources);
+    if (this.core.acquire(handle, entry.priority, set, now)) {
+      this.changed(() => entry.grant(now));
+      return;
+    }
+    this.pending.add(handle, entry);
+    if (entry.timeoutMs > 0 && !entry.timer) {
+      const left = Math.max(0, entry.sinceMs + entry.timeoutMs - now);
+      entry.timer = clock.setTimeout(() => this.expire(handle, entry), left);
+    }
+    this.changed();
+  }
+
+  requeue(entry) {
+    if (entry.timer) clock.clearTimeout(entry.timer);
+    entry.timer = null;
+    this.request(entry);
+  }
+
+  /** Releases by name; `then` runs once saved. An operation that holds nothing is refused (NOT_HOLDING). */
+  release(operation, then) {
+    const now = clock.now();
+    const answers = this.grantsOf(this.core.releaseNamed(requireName(operation), now), now);
+    this.changed(() => {
+      if (then) then();
+      answers.forEach((answer) => answer());
+    });
+  }
+
+  /** Withdraws a waiting request; its held msg is completed without being sent. */
+  cancel(operation, then) {
+    const now = clock.now();
+    const name = requireName(operation);
+    const count = this.core.cancelNamed(name, now);
+    const handle = this.core.findOperation(name);
+    const entry = this.pending.take(handle);
+    const answers = this.grantsOf(count, now);
+    this.changed(() => {
+      if (entry) entry.abandon();
+      if (then) then();
+      answers.forEach((answer) => answer());
+    });
+  }
+
+  /** Faults an operation; `then(lockouts)` runs once saved (or, if saving fails, at once: isolation first). */
+  fault(operation, note, then) {
+    const now = clock.now();
+    const handle = this.core.findOperation(requireName(operation));
+    const outcome = this.core.fault(handle, note, now);
+    const dropped = outcome.dropped ? this.pending.take(handle) : null;
+    const answers = this.answer(outcome.grants, now);
+    this.committer.change(() => then(outcome.lockouts), { evenUnsaved: true });
+    this.changed(() => {
+      if (dropped) dropped.abandon();
+      answers.forEach((answer) => answer());
+    });
+  }
+
+  /** An emergency stop of lines, owned or not; `then(lockouts)` as for `fault`. */
+  faultResources(names, note, then) {
+    const now = clock.now();
+    const outcome = this.core.faultResources(this.core.resourceSet(names), note, now);
+    const answers = this.answer(outcome.grants, now);
+    this.committer.change(() => then(outcome.lockouts), { evenUnsaved: true });
+    this.changed(() => answers.forEach((answer) => answer()));
+  }
+
+  /** Clears the named lines, or every faulted one when `names` is null; `then(cleared)` once saved. */
+  clear(names, then) {
+    const now = clock.now();
+    const targets = names === null ? this.core.faultedResources() : names;
+    if (names === null && targets.length === 0) {
+      this.committer.after(() => then([]));
+      return;
+    }
+    const answers = this.grantsOf(this.core.clear(this.core.resourceSet(targets), now), now);
+    if (this.lostState && !this.hasUnknownLines(now)) this.lostState = null;
+    this.changed(() => {
+      then(targets);
+      answers.forEach((answer) => answer());
+    });
+  }
+
+  faultedResources() {
+    return this.core.faultedResources();
+  }
+
+  // ---- operations run from the plant document ------------------------------
+
+  /** Starts an operation's run; `port` gets its progress, result or error. */
+  startRun(operation, msg, port) {
+    if (!this.plant) {
+      throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run operations from its document');
+    }
+    const run = new RunHost({ interlock: this, plant: this.plant, operation, msg, port });
+    this.runs.add(run);
+    run.start();
+    return run;
+  }
+
+  runEnded(run) {
+    this.runs.delete(run);
+    if (this.palette && this.palette.draining) this.palette.pokeDrain();
+  }
+
+  /** The host of routine `id`, made (and restored from the saved state) on first use. */
+  routineHost(id) {
+    let host = this.routines.get(id);
+    if (!host) {
+      if (!this.plant) {
+        throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run routines from its document');
+      }
+      host = new RoutineHost({ interlock: this, plant: this.plant, id });
+      const saved = this.savedRoutines[id];
+      delete this.savedRoutines[id];
+      host.start(saved); // throws UNKNOWN_ROUTINE before it is kept
+      this.routines.set(id, host);
+    }
+    return host;
+  }
+
+  // ---- internals -----------------------------------------------------------
+
+  /** A state change: status now; `effect` once the change is on disk. */
+  changed(effect) {
+    this.committer.change(effect);
+    this.refreshStatus();
+  }
+
+  grantsOf(count, now) {
+    return takeGrants(this.core, this.pending, grantedBy(this.core, count), { nowMs: now, warn: (text) => this.log('warn', text) });
+  }
+
+  answer(grantHandles, now) {
+    return takeGrants(this.core, this.pending, grantHandles, { nowMs: now, warn: (text) => this.log('warn', text) });
+  }
+
+  expire(handle, entry) {
+    if (this.state !== 'ready' || this.pending.get(handle) !== entry) return;
+    const now = clock.now();
+    this.pending.take(handle);
+    let answers = [];
+    try {
+      answers = this.grantsOf(this.guard(() => this.core.cancel(handle, now)), now);
+    } catch (err) {
+      this.log('warn', `timed-out request of '${entry.operation}' was no longer queued: ${err.message}`);
+    }
+    this.changed(() => {
+      answers.forEach((answer) => answer());
+      entry.refuse(new SugarshackError(
+        'ACQUIRE_TIMEOUT',
+        `operation '${entry.operation}' was not granted ${entry.resources.join(', ')} within ${entry.timeoutMs / 1000} s; its request was withdrawn`,
+      ));
+    });
+  }
+
+  hasUnknownLines(now) {
+    return this.core.snapshot(now).resources.some((r) => r.state.state === 'faulted' && r.state.cause === 'unknown');
+  }
+
+  tick() {
+    if (this.state !== 'ready') return;
+    try {
+      const warnings = this.guard(() => this.core.tick(clock.now()));
+      for (const warning of warnings) this.log('warn', describeWarning(warning));
+      if (warnings.length) this.committer.change();
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
+  /** The state as a person (or a dashboard) reads it: lines, holds, queue, and whether it was lost at start. */
+  describe() {
+    if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
+    const snapshot = this.core.snapshot(clock.now());
+    return {
+      lines: snapshot.resources,
+      holds: snapshot.holds,
+      queue: snapshot.queue.concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs }))),
+      lostState: this.lostState,
+      saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
+      runs: [...this.runs].map((run) => ({ operation: run.operation, granted: run.granted })),
+    };
+  }
+
+  /** Resolves once every change so far is saved and its effects have run (tests, benchmarks). */
+  settled() {
+    return this.committer.settled();
+  }
+
+  refreshStatus(only) {
+    let status;
+    if (this.state === 'ready') {
+      if (!this.gateOpen) status = DRAINING_STATUS;
+      else if (this.committer.failing) status = { fill: 'red', shape: 'ring', text: 'state not saved' };
+      else {
+        status = countsStatus(this.core.counts());
+        if (this.lostState) status = { ...status, text: `lost · ${status.text}`.slice(0, 19) };
+      }
+    } else if (this.state === 'failed') status = errorStatus(this.failure.code);
+    else if (this.state === 'starting') status = { fill: 'grey', shape: 'ring', text: 'starting' };
+    else return;
+    for (const node of only ? [only] : this.users) this.setStatus(node, status);
+  }
+}
+
+// The interlock layer's own time per call, for the overhead figures.
+timeLayer(InterlockRuntime, 'interlock', ['acquire', 'release', 'cancel', 'fault', 'faultResources', 'clear']);
+
+function requireName(name) {
+  if (!name) throw new SugarshackError('MISSING_OPERATION', 'an operation id is required');
+  return name;
+}
+
+function isPlainObject(value) {
+  return value !== null && typeof value === 'object' && !Array.isArray(value);
+}
+
+/** A wasm object of a dropped instance: unhooked from its finalizer, never called again. */
+function forget(object) {
+  try {
+    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
+  } catch {
+    // nothing to do: the object is gone either way
+  }
+}
+
+/**
+ * A msg held by an acquire node. `node` is null between a deploy's restart of
+ * that node and its next instance taking the msg over (`adopt`).
+ */
+function msgEntry({ node, msg, send, done, operation, priority, resources, sinceMs }) {
+  const entry = {
+    node,
+    nodeId: node.id,
+    msg,
+    send,
+    done,
+    operation,
+    priority,
+    resources,
+    sinceMs,
+    timer: null,
+    timeoutMs: 0,
+    grant(nowMs) {
+      if (!entry.node && !entry.send) return;
+      deliver(entry, nowMs);
+    },
+    refuse(err) {
+      if (entry.timer) clock.clearTimeout(entry.timer);
+      entry.timer = null;
+      if (entry.done) {
+        if (entry.node) entry.node.status(errorStatus(err.code));
+        entry.done(err);
+      } else if (entry.node) {
+        entry.node.error(err, entry.msg);
+      }
+    },
+    abandon() {
+      if (entry.timer) clock.clearTimeout(entry.timer);
+      entry.timer = null;
+      if (entry.done) entry.done();
+      entry.done = null;
+    },
+    detach() {
+      if (entry.done) entry.done();
+      entry.node = null;
+      entry.send = null;
+      entry.done = null;
+    },
+    adopt(next) {
+      entry.node = next;
+      entry.send = (m) => next.send(m);
+    },
+  };
+  return entry;
+}
+
+module.exports = { InterlockRuntime, msgEntry };

@@ -1,0 +1,182 @@
+'use strict';
+// The palette's runtimes (one per interlock and per plant config node) live in
+// the Node-RED process, not in node instances, so a deploy is not a crash:
+//
+// - a deploy that leaves a config node's settings as they were hands the
+//   running runtime to the new node instances (operations go on, nothing faults);
+// - a deploy that changes them drains: new work waits, running operations
+//   finish, then every changed runtime takes its new settings at once;
+// - a shutdown freezes every runtime where it is: nothing changes the saved
+//   state any more, so a restart sees what the plant last saw.
+//
+// A shutdown and a deploy both stop the flows; Node-RED replaces its active
+// configuration object before a deploy's stop, not before a shutdown's.
+const { clock } = require('./clock');
+
+const DRAIN_CHECK_MS = 250;
+
+const palettes = new WeakMap(); // RED.events -> Palette
+
+class Palette {
+  constructor(RED) {
+    this.RED = RED;
+    this.started = false;
+    this.startedConfig = null;
+    this.phase = 'starting'; // running | deploying | shutdown
+    this.runtimes = new Map(); // config node id -> runtime
+    this.swaps = new Map(); // runtime -> settings waiting for the drain
+    this.drainTimer = null;
+    this.afterStart = [];
+    RED.events.on('flows:started', (event) => this.flowsStarted(event));
+    RED.events.on('flows:stopping', (event) => this.flowsStopping(event));
+  }
+
+  flowsStarted(event) {
+    this.started = true;
+    this.startedConfig = event && event.config;
+    this.phase = 'running';
+    // Runtimes whose config node did not come back in this deploy were removed.
+    for (const runtime of [...this.runtimes.values()]) {
+      if (!runtime.owner) this.retire(runtime);
+    }
+    for (const fn of this.afterStart.splice(0)) setImmediate(fn);
+    if (this.swaps.size > 0) this.pokeDrain();
+  }
+
+  flowsStopping(event) {
+    this.started = false;
+    const deploying = Boolean(event && this.startedConfig && event.config !== this.startedConfig);
+    this.phase = deploying ? 'deploying' : 'shutdown';
+  }
+
+  get shuttingDown() {
+    return this.phase === 'shutdown';
+  }
+
+  /** Runs `fn` once every node of the current deploy has started. */
+  whenStarted(fn) {
+    if (this.started) setImmediate(fn);
+    else this.afterStart.push(fn);
+  }
+
+  /**
+   * The runtime of config node `id`: the running one when its settings key is
+   * unchanged, the running one draining towards new settings when it changed,
+   * or a new one from `create()`.
+   */
+  runtimeFor(id, key, settings, create) {
+    const existing = this.runtimes.get(id);
+    if (existing && !existing.ended) {
+      existing.targetKey = key;
+      if (existing.key !== key) this.requestSwap(existing, key, settings);
+      return existing;
+    }
+    const runtime = create();
+    runtime.key = key;
+    runtime.targetKey = key;
+    runtime.palette = this;
+    this.runtimes.set(id, runtime);
+    return runtime;
+  }
+
+  /** Its config node closed: shutdown freezes, a removal retires, a restart waits for the new instance. */
+  detach(runtime, node, removed) {
+    if (runtime.owner !== node) return Promise.resolve();
+    runtime.owner = null;
+    if (this.shuttingDown) {
+      this.forget(runtime);
+      return runtime.shutdown();
+    }
+    if (removed) this.retire(runtime);
+    return Promise.resolve();
+  }
+
+  retire(runtime) {
+    this.swaps.delete(runtime);
+    this.forget(runtime);
+    runtime.retire();
+    this.pokeDrain();
+  }
+
+  forget(runtime) {
+    for (const [id, r] of this.runtimes) if (r === runtime) this.runtimes.delete(id);
+  }
+
+  // ---- draining towards new settings ----------------------------------------
+
+  requestSwap(runtime, key, settings) {
+    this.swaps.set(runtime, { key, settings });
+    for (const r of this.runtimes.values()) r.closeGate();
+    this.pokeDrain();
+  }
+
+  get draining() {
+    return this.swaps.size > 0;
+  }
+
+  pokeDrain() {
+    if (this.swaps.size === 0 || !this.started) return;
+    if (!this.drainTimer) this.drainTimer = clock.setInterval(() => this.checkDrained(), DRAIN_CHECK_MS);
+    setImmediate(() => this.checkDrained());
+  }
+
+  /** Every runtime quiet (no granted operation, no group command in flight): the changed ones swap, plants first. */
+  checkDrained() {
+    if (this.swaps.size === 0 || !this.started) return;
+    const all = [...this.runtimes.values()];
+    if (!all.every((r) => r.quiescent())) return;
+    clock.clearInterval(this.drainTimer);
+    this.drainTimer = null;
+    const swaps = [...this.swaps].sort(([a], [b]) => a.swapOrder - b.swapOrder);
+    this.swaps.clear();
+    const swapped = new Set();
+    for (const [runtime, { key, settings }] of swaps) {
+      runtime.key = key;
+      runtime.swap(settings);
+      swapped.add(runtime);
+    }
+    // An interlock bound to a swapped plant takes its lines from the new document, even if its own node kept its settings.
+    for (const r of all) {
+      if (r.plant && swapped.has(r.plant) && !swapped.has(r)) r.swap(r.settings);
+    }
+    for (const r of all) r.openGate();
+  }
+}
+
+/** The palette's state in this Node-RED runtime; call at node registration. */
+function paletteOf(RED) {
+  let palette = palettes.get(RED.events);
+  if (!palette) {
+    palette = new Palette(RED);
+    palettes.set(RED.events, palette);
+    serveState(RED, palette);
+  }
+  return palette;
+}
+
+const served = new WeakSet();
+
+/** GET /sugarshack/state: every interlock's lines, holds and queue, and every plant's state, as now. */
+function serveState(RED, palette) {
+  if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
+  served.add(RED.httpAdmin);
+  RED.httpAdmin.get('/sugarshack/state', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
+    const interlocks = [];
+    const plants = [];
+    for (const [id, runtime] of palette.runtimes) {
+      const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
+      if (runtime.kind === 'plant') plants.push(base);
+      else interlocks.push({ ...base, ...runtime.describe() });
+    }
+    res.json({ interlocks, plants });
+  });
+}
+
+/** A stable text of the settings that decide a runtime's behaviour (object keys sorted). */
+function settingsKey(value) {
+  return JSON.stringify(value, (k, v) => (v && typeof v === 'object' && !Array.isArray(v)
+    ? Object.fromEntries(Object.keys(v).sort().map((key) => [key, v[key]]))
+    : v));
+}
+
+module.exports = { paletteOf, settingsKey };

@@ -1,0 +1,237 @@
+'use strict';
+// Hosts one run of a singular operation (the paper's §III-D). The sequence
+// (acquire, steps, return to idle, release; fault and lockout on any failure
+// after the grant) is the core's OperationRun; this turns its effects into
+// interlock calls, group commands, condition waits and timers, and reports
+// what happened back to it. A run belongs to its interlock's runtime, not to
+// a node: a deploy hands its msg over to the node's next instance.
+const { SugarshackError, asSugarshackError } = require('./errors');
+const { clock } = require('./clock');
+const { stats } = require('./stats');
+
+class RunHost {
+  /** port: where progress, the result and the error go ({ progress, finish, fail, abandon, adopt, detachNode }). */
+  constructor({ interlock, plant, operation, msg, port }) {
+    this.interlock = interlock;
+    this.plant = plant;
+    this.operation = operation;
+    this.msg = msg;
+    this.port = port;
+    this.run = null;
+    this.granted = false;
+    this.ended = false;
+    this.current = null; // the step in progress: { index, cancel() }
+  }
+
+  start() {
+    try {
+      this.run = this.plant.guard(() => this.plant.operationRun(this.operation));
+    } catch (err) {
+      this.finishWith(() => this.port.fail(asSugarshackError(err)));
+      return;
+    }
+    this.feed((r) => r.start(clock.now()));
+  }
+
+  /** Gives the core machine an input and acts on the effects it returns. */
+  feed(input) {
+    if (this.ended) return;
+    let effects;
+    try {
+      effects = this.interlock.guard(() => input(this.run));
+    } catch (err) {
+      this.abandon(asSugarshackError(err));
+      return;
+    }
+    for (const effect of effects) this.effect(effect);
+  }
+
+  effect(e) {
+    switch (e.kind) {
+      case 'acquire':
+        this.acquire(e);
+        break;
+      case 'startStep':
+        this.startStep(e);
+        break;
+      case 'release':
+        this.attempt(
+          () => this.interlock.release(e.operation, () => this.feed((r) => r.released(clock.now()))),
+          (err) => this.feed((r) => r.releaseFailed(err.code, err.message, clock.now())),
+        );
+        break;
+      case 'fault':
+        this.attempt(
+          () => this.interlock.fault(e.operation, e.note, (lockouts) => {
+            this.plant.issueLockouts(lockouts, e.operation);
+            this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
+          }),
+          (err) => {
+            this.interlock.log('error', `cannot fault operation '${e.operation}' at the interlock: ${err.message}`);
+            this.feed((r) => r.faultApplied([], clock.now()));
+          },
+        );
+        break;
+      case 'cancelStep':
+        this.cancelStep();
+        break;
+      case 'withdraw':
+        this.attempt(
+          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now()))),
+          () => this.feed((r) => r.withdrawn(clock.now())),
+        );
+        break;
+      case 'finished':
+        stats.add(`operation/run/${e.id}`, e.runMs);
+        stats.add(`operation/queued/${e.id}`, e.queuedMs);
+        this.finishWith(() => this.port.finish({ id: e.id, queuedMs: e.queuedMs, runMs: e.runMs, steps: e.steps }));
+        break;
+      case 'failed':
+        this.finishWith(() => this.port.fail(failure(e, this.operation)));
+        break;
+      default:
+        this.interlock.log('warn', `operation '${this.operation}': unknown run effect '${e.kind}' ignored`);
+    }
+  }
+
+  attempt(call, onRefusal) {
+    try {
+      this.interlock.guard(call);
+    } catch (err) {
+      onRefusal(asSugarshackError(err));
+    }
+  }
+
+  acquire(e) {
+    this.port.progress('queued');
+    const entry = {
+      nodeId: null,
+      node: null,
+      operation: e.operation,
+      priority: e.priority,
+      resources: e.resources,
+      sinceMs: clock.now(),
+      timer: null,
+      timeoutMs: 0,
+      grant: () => {
+        this.granted = true;
+        this.feed((r) => r.granted(clock.now()));
+      },
+      refuse: (err) => this.feed((r) => r.refused(err.code, err.message)),
+      abandon: () => this.feed((r) => r.withdrawn(clock.now())),
+      detach() {},
+      adopt() {},
+    };
+    this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
+  }
+
+  startStep({ index, step, within }) {
+    this.port.progress('step', index, step);
+    const done = (err) => {
+      if (this.current !== token) return; // a late answer for a step already left
+      this.current = null;
+      if (err) {
+        const e = asSugarshackError(err);
+        this.feed((r) => r.stepFailed(index, e.code, e.message, clock.now()));
+      } else {
+        this.feed((r) => r.stepDone(index, clock.now()));
+      }
+    };
+    const token = { index, cancel: () => {} };
+    this.current = token;
+    try {
+      if (step.kind === 'wait') {
+        const signal = {};
+        token.cancel = (reason) => signal.cancel && signal.cancel(reason);
+        this.plant.condition(step.condition, step.sensors)
+          .waitUntil(step.timeoutMs, signal)
+          .then(() => done(null), (err) => done(err));
+      } else {
+        token.cancel = this.plant.runCommand({
+          payload: step.command,
+          timeoutMs: step.timeoutMs,
+          within,
+          onDone: done,
+        });
+      }
+    } catch (err) {
+      done(err);
+    }
+  }
+
+  cancelStep() {
+    const token = this.current;
+    this.current = null;
+    if (token) token.cancel('the operation was stopped');
+  }
+
+  finishWith(report) {
+    if (this.ended) return;
+    this.ended = true;
+    this.free();
+    this.interlock.runEnded(this);
+    report();
+  }
+
+  free() {
+    try {
+      if (this.run) this.run.free();
+    } catch {
+      // a run of a dropped wasm instance
+    }
+    this.run = null;
+  }
+
+  // ---- the run's owner comes and goes --------------------------------------
+
+  /** A node of a new deploy with the id of this run's node takes its msg over. */
+  adopt(node) {
+    if (this.port.adopt) this.port.adopt(node);
+  }
+
+  detachNode(node) {
+    if (this.port.detachNode) this.port.detachNode(node);
+  }
+
+  /** Stopped by its interlock (removed from the flows): a granted run faults, a waiting one withdraws. */
+  abort(reason) {
+    this.feed((r) => r.abort(reason, clock.now()));
+  }
+
+  /** Shutdown: everything stays as it is (the saved state decides the restart); the msg is completed unsent. */
+  shutdown() {
+    if (this.ended) return;
+    this.ended = true;
+    const token = this.current;
+    this.current = null;
+    if (token) token.cancel('Node-RED is stopping');
+    this.free();
+    if (this.port.abandon) this.port.abandon();
+  }
+
+  /** Its core is gone (a wasm trap): the run ends with the error, touching nothing. */
+  abandon(err) {
+    if (this.ended) return;
+    const token = this.current;
+    this.current = null;
+    if (token) token.cancel('the core failed');
+    this.finishWith(() => this.port.fail(err));
+  }
+}
+
+/**
+ * The core's `failed` effect as the error a Catch node gets. A run that failed
+ * after its grant (a step, its release, or stopped while running) carries
+ * msg.operation-style details: { id, step, kind, lockedOut, aborted }.
+ */
+function failure(e, operation) {
+  const error = new SugarshackError(e.code, e.message);
+  if (e.stage !== 'acquire') {
+    error.operation = { id: e.id || operation, step: e.step, kind: e.stage, lockedOut: e.lockedOut || [], aborted: Boolean(e.aborted) };
+  } else if (e.aborted) {
+    error.operation = { id: e.id || operation, step: null, kind: 'acquire', lockedOut: [], aborted: true };
+  }
+  return error;
+}
+
+module.exports = { RunHost };

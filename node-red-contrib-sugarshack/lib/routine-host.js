@@ -1,0 +1,252 @@
+'use strict';
+// Hosts one routine of the plant document (the paper's §III-E) in its
+// interlock's runtime: the core's state machine, its condition checks, and the
+// run of the operation it dispatched. Its state is saved in the interlock's
+// durable state, in the same write as the interlock's, so a restart never sees
+// a routine and its lines disagree. A routine node is only its port: msgs in,
+// events out; a deploy hands the routine to the node's next instance.
+const { SugarshackError, asSugarshackError } = require('./errors');
+const { errorStatus, MAX_STATUS_LENGTH } = require('./status');
+const { clock } = require('./clock');
+const { stats } = require('./stats');
+
+// How often due conditions are looked for; each transition's own everyMs decides when it is checked.
+const TICK_MS = 250;
+
+function clip(text) {
+  return text.length <= MAX_STATUS_LENGTH ? text : `${text.slice(0, MAX_STATUS_LENGTH - 1)}…`;
+}
+
+class RoutineHost {
+  constructor({ interlock, plant, id }) {
+    this.interlock = interlock;
+    this.plant = plant;
+    this.id = id;
+    this.machine = null;
+    this.conditions = new Map(); // transition index -> Condition
+    this.node = null; // the routine node of the current deploy
+    this.run = null;
+    this.lastFault = false;
+    this.warned = new Set();
+    this.timer = null;
+    this.ended = false;
+  }
+
+  /** Builds the machine (throws UNKNOWN_ROUTINE) and restores `saved`, if any. */
+  start(saved) {
+    this.build(saved);
+    this.timer = clock.setInterval(() => this.checkConditions(), TICK_MS);
+  }
+
+  build(saved) {
+    const machine = this.plant.guard(() => this.plant.routine(this.id));
+    const conditions = new Map();
+    try {
+      for (const c of machine.conditions()) conditions.set(c.transition, this.plant.condition(c.when, c.sensors));
+    } catch (err) {
+      machine.free();
+      throw err;
+    }
+    this.machine = machine;
+    this.conditions = conditions;
+    if (!saved) return;
+    try {
+      const moved = machine.restore(saved);
+      if (moved) {
+        // Its operation was pending at the save and never returned: it counts as faulted.
+        this.lastFault = true;
+        this.interlock.changed(() => this.emit('interrupted', { operation: moved.operation, from: moved.from, to: moved.to }));
+      }
+    } catch (e) {
+      this.interlock.log('warn', `routine '${this.id}': the saved state does not fit the routine any more (${e.message}); starting in its initial state`);
+    }
+  }
+
+  /** Its core died (a wasm trap): the machine is dropped, never called again, until `rebuild`. */
+  suspend() {
+    const machine = this.machine;
+    this.machine = null;
+    try {
+      if (machine && typeof machine.__destroy_into_raw === 'function') machine.__destroy_into_raw();
+    } catch {
+      // gone either way
+    }
+  }
+
+  /** Back on a new core (a swap or a trap): from `snapshot`, its own state or the saved one. */
+  rebuild(snapshot) {
+    if (this.ended) return;
+    const previous = this.machine;
+    this.machine = null;
+    try {
+      if (previous) previous.free();
+    } catch {
+      // a machine of a dropped wasm instance
+    }
+    try {
+      this.build(snapshot);
+    } catch (err) {
+      this.interlock.log('error', `routine '${this.id}' cannot run on the new plant document: ${err.message}`);
+    }
+    this.refresh();
+  }
+
+  snapshot() {
+    if (!this.machine) return null;
+    try {
+      return this.machine.snapshot();
+    } catch {
+      return null;
+    }
+  }
+
+  // ---- the routine node ------------------------------------------------------
+
+  /** Its routine node; false when another node runs this routine already. */
+  attach(node) {
+    if (this.node && this.node !== node && this.node.id !== node.id) return false;
+    this.node = node;
+    this.refresh();
+    return true;
+  }
+
+  detach(node) {
+    if (this.node === node) this.node = null;
+  }
+
+  /** A msg's topic is its trigger ("reset" goes back to the initial state). Throws the core's refusal. */
+  onMsg(topic) {
+    if (!this.machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
+    if (topic === 'reset') {
+      const moved = this.machine.reset();
+      this.lastFault = false;
+      this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to }));
+      this.refresh();
+      return;
+    }
+    const d = stats.time('routine', () => this.machine.onMsg(topic));
+    this.dispatch(d);
+  }
+
+  dispatch(d) {
+    // Saved with the operation pending: a restart meanwhile counts it as faulted.
+    this.interlock.changed(() => this.emit('dispatched', { operation: d.operation, from: d.from, to: d.to }));
+    const carrier = { _msgid: this.interlock.RED.util.generateId(), topic: `routine/${this.id}`, routine: this.id };
+    this.run = this.interlock.startRun(d.operation, carrier, this.runPort(d.operation));
+    this.refresh();
+  }
+
+  runPort(operation) {
+    return {
+      progress: () => {},
+      finish: (result) => {
+        this.run = null;
+        if (this.ended || !this.machine) return;
+        const moved = stats.time('routine', () => this.machine.completed());
+        this.lastFault = false;
+        this.interlock.changed(() => this.emit('completed', {
+          operation, from: moved.from, to: moved.to, queuedMs: result.queuedMs, runMs: result.runMs,
+        }));
+        this.refresh();
+      },
+      fail: (err) => {
+        this.run = null;
+        if (this.ended || !this.machine) return;
+        const e = asSugarshackError(err);
+        if (!e.operation || e.operation.kind === 'acquire') {
+          // Refused before the grant (already running, queue full...): nothing ran, nothing locked out.
+          this.machine.refused();
+          this.interlock.changed(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
+        } else {
+          const moved = this.machine.faulted();
+          this.lastFault = true;
+          this.interlock.changed(() => this.report(e, 'faulted', {
+            operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message },
+          }));
+        }
+        this.refresh();
+      },
+      abandon: () => {},
+    };
+  }
+
+  checkConditions() {
+    if (this.ended || !this.machine || this.run || !this.interlock.gateOpen || this.interlock.state !== 'ready') return;
+    const now = clock.now();
+    let due;
+    try {
+      due = this.interlock.guard(() => stats.time('routine', () => this.machine.due(now)));
+    } catch (err) {
+      this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+      return;
+    }
+    for (const t of due) {
+      const condition = this.conditions.get(t);
+      if (!condition) continue;
+      condition.check(now).then((outcome) => {
+        if (!outcome.met || this.ended || !this.machine || this.run || !this.interlock.gateOpen) return;
+        const d = stats.time('routine', () => this.machine.conditionMet(t));
+        if (d) this.dispatch(d);
+      }, (err) => {
+        if (this.warned.has(t)) return;
+        this.warned.add(t);
+        this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+      });
+    }
+  }
+
+  // ---- events and status -----------------------------------------------------
+
+  /** An event msg from the routine node: { routine, event, state, pending, halted, ... }. */
+  emit(event, details) {
+    if (!this.machine) return null;
+    const msg = {
+      topic: `routine/${this.id}`,
+      payload: {
+        routine: this.id,
+        event,
+        state: this.machine.state(),
+        pending: this.machine.pending() || null,
+        halted: this.machine.halted(),
+        ...details,
+      },
+    };
+    if (this.node) this.node.send(msg);
+    this.refresh();
+    return msg;
+  }
+
+  /** An event that is also an error for Catch nodes. */
+  report(error, event, details) {
+    const msg = this.emit(event, details);
+    if (this.node && msg) this.node.error(error, msg);
+    else this.interlock.log('error', `routine '${this.id}': ${error.message}`);
+  }
+
+  refresh() {
+    if (!this.node || !this.machine || this.ended) return;
+    const state = this.machine.state();
+    const pending = this.machine.pending();
+    if (this.machine.halted()) this.node.status({ fill: 'red', shape: 'ring', text: clip(`halted ${state}`) });
+    else if (pending) this.node.status({ fill: 'blue', shape: 'dot', text: clip(`${state} › ${pending}`) });
+    else this.node.status({ fill: this.lastFault ? 'red' : 'green', shape: 'dot', text: clip(state) });
+  }
+
+  showError(code) {
+    if (this.node) this.node.status(errorStatus(code));
+  }
+
+  shutdown() {
+    this.ended = true;
+    if (this.timer) clock.clearInterval(this.timer);
+    this.timer = null;
+    try {
+      if (this.machine) this.machine.free();
+    } catch {
+      // a machine of a dropped wasm instance
+    }
+    this.machine = null;
+  }
+}
+
+module.exports = { RoutineHost };

@@ -1,0 +1,166 @@
+'use strict';
+// What the interlock and plant runtimes share: the config node that owns them
+// (replaced on each deploy), the nodes showing their status, the gate that
+// holds new work while a deploy drains, and the guard that turns a wasm trap
+// into a rebuild instead of a dead process.
+const { SugarshackError, asSugarshackError } = require('./errors');
+const { errorStatus, StatusBoard } = require('./status');
+const wasm = require('./wasm');
+
+class RuntimeBase {
+  /** kind: 'interlock' | 'plant', for messages. */
+  constructor(kind) {
+    this.kind = kind;
+    this.owner = null; // the config node instance of the current deploy
+    this.key = null; // settings key, set by the palette
+    this.palette = null;
+    this.state = 'starting'; // -> ready | failed; stopped once shut down or retired
+    this.failure = null;
+    this.ended = false;
+    this.users = new Set();
+    this.statusBoard = new StatusBoard();
+    this.gateOpen = true;
+    this.parked = []; // { node, done, work } held while starting or draining
+    this.openWaiters = []; // functions to run once ready with the gate open
+    this.generation = wasm.currentGeneration();
+    this.stopTrapWatch = wasm.onTrap((err, generation) => this.afterTrap(err, generation));
+  }
+
+  // ---- owner and users -----------------------------------------------------
+
+  attach(owner) {
+    this.owner = owner;
+  }
+
+  log(level, text) {
+    const target = this.owner;
+    if (target) target[level](text);
+    else if (this.palette && this.palette.RED.log) this.palette.RED.log[level](`[sugarshack ${this.kind}] ${text}`);
+  }
+
+  addUser(node) {
+    this.users.add(node);
+    this.refreshStatus(node);
+  }
+
+  removeUser(node) {
+    this.users.delete(node);
+  }
+
+  // ---- work from nodes -----------------------------------------------------
+
+  /**
+   * Runs `work(this)` when the runtime can take it: at once when ready, held
+   * (in arrival order) while it starts or a deploy drains. A refusal thrown by
+   * `work` completes the msg with the error, so a Catch node gets it.
+   */
+  submit(node, done, work) {
+    if (this.ended) done();
+    else if (this.state === 'failed') done(this.failure);
+    else if (this.state === 'starting' || !this.gateOpen) this.parked.push({ node, done, work });
+    else this.perform(node, done, work);
+  }
+
+  perform(node, done, work) {
+    try {
+      this.guard(() => work(this));
+    } catch (err) {
+      const e = asSugarshackError(err);
+      if (node) this.showError(node, e.code);
+      done(e);
+    }
+  }
+
+  /** Runs `fn`; a wasm trap in it starts the rebuild and surfaces as INTERNAL. */
+  guard(fn) {
+    try {
+      return fn();
+    } catch (err) {
+      if (!wasm.isTrap(err)) throw err;
+      const generation = this.generation;
+      setImmediate(() => wasm.recover(err, generation));
+      throw new SugarshackError('INTERNAL', `the ${this.kind}'s core failed (${err.message}); it is being rebuilt from its last saved state`);
+    }
+  }
+
+  afterTrap(err, generation) {
+    if (this.ended) return;
+    this.generation = generation;
+    this.log('error', `the wasm core trapped (${err && err.message}); rebuilding from the last saved state`);
+    this.rebuild();
+  }
+
+  /** Runs `fn` once the runtime is ready and no deploy is draining (checks against the settings in force). */
+  whenOpen(fn) {
+    if (this.state !== 'starting' && this.gateOpen) fn();
+    else this.openWaiters.push(fn);
+  }
+
+  /** Releases held work in order (ready, or a drain finished). */
+  replayParked() {
+    for (const fn of this.openWaiters.splice(0)) {
+      try {
+        fn();
+      } catch (err) {
+        this.log('error', err.message);
+      }
+    }
+    const parked = this.parked;
+    this.parked = [];
+    for (const task of parked) this.submit(task.node, task.done, task.work);
+  }
+
+  /** A closing node's held work is completed unsent. */
+  dropParked(node) {
+    const mine = this.parked.filter((t) => t.node === node);
+    this.parked = this.parked.filter((t) => t.node !== node);
+    for (const task of mine) task.done();
+  }
+
+  closeGate() {
+    if (!this.gateOpen) return;
+    this.gateOpen = false;
+    this.onGateClosed();
+    this.refreshStatus();
+  }
+
+  openGate() {
+    if (this.gateOpen) return;
+    this.gateOpen = true;
+    this.refreshStatus();
+    this.onGateOpened();
+    this.replayParked();
+  }
+
+  onGateClosed() {}
+
+  onGateOpened() {}
+
+  get draining() {
+    return !this.gateOpen;
+  }
+
+  // ---- endings ----------------------------------------------------------------
+
+  /** Completes held work unsent and stops watching for traps. */
+  endCommon() {
+    this.ended = true;
+    this.state = 'stopped';
+    this.stopTrapWatch();
+    for (const task of this.parked.splice(0)) task.done();
+  }
+
+  // ---- status -----------------------------------------------------------------
+
+  showError(node, code) {
+    this.statusBoard.set(node, errorStatus(code));
+  }
+
+  setStatus(node, status) {
+    this.statusBoard.set(node, status);
+  }
+}
+
+const DRAINING_STATUS = { fill: 'yellow', shape: 'ring', text: 'draining' };
+
+module.exports = { RuntimeBase, DRAINING_STATUS };
