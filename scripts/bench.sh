@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks: builds the wasm package (release), then runs the interlock and
-# the feedback ingest benchmarks, each beside its native example. Prints
+# the feedback ingest benchmarks, each beside its native example, and the cost
+# of the interlock's durable state beside keeping it in memory. Prints
 # figures; extra arguments go to tests/bench/interlock-bench.js (--quick,
 # --no-native, --no-events).
 set -euo pipefail
@@ -13,6 +14,9 @@ cargo build -q --release -p sugarshack-core --example interlock_bench --example 
 node tests/bench/interlock-bench.js "$@"
 echo
 node tests/bench/tracker-bench.js
+echo
+# What writing the interlock's state before every grant costs (fsync), against memory.
+node tests/bench/durable-bench.js --quick
 echo
 # Node-RED cost per feedback msg through the actuators node (test helper, no broker).
 node tests/bench/actuator-node-bench.js

@@ -47,18 +47,26 @@ function bindPlant(RED, node, configId, options) {
 
 /**
  * The input handler every node of a runtime shares: `work(runtime, msg, send, done)`
- * does the node's part. Reading the msg may throw on a hostile value (a getter
- * that throws, a BigInt): that is the sender's error, reported as INVALID_INPUT.
+ * does the node's part. `urgent(msg)` says whether the msg may go in while a
+ * deploy drains (see RuntimeBase.submit); reading it must not throw.
  */
-function onInput(node, runtime, work, kind = 'interlock') {
+function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
       const [code, message] = MISSING[kind];
       done(new SugarshackError(code, message));
       return;
     }
-    runtime.submit(node, done, (rt) => work(rt, msg, send, done));
+    let now = false;
+    try {
+      now = urgent(msg);
+    } catch {
+      now = false; // an unreadable msg waits like any other and is refused when read
+    }
+    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now });
   });
 }
 
-module.exports = { bindInterlock, bindPlant, onInput };
+const always = () => true;
+
+module.exports = { bindInterlock, bindPlant, onInput, always };

@@ -51,9 +51,16 @@ function json(payload) {
   }
 }
 
+/** A value as a short quote, whatever it is: JSON.stringify throws on a circular, deep or BigInt one. */
 function clip(value) {
-  const s = typeof value === 'string' ? value : JSON.stringify(value);
-  return s === undefined ? String(value) : s.length > 60 ? `${s.slice(0, 57)}...` : s;
+  let s;
+  try {
+    s = typeof value === 'string' ? value : JSON.stringify(value);
+    if (s === undefined) s = String(value);
+  } catch {
+    s = typeof value; // even Array.isArray throws on a revoked proxy
+  }
+  return s.length > 60 ? `${s.slice(0, 57)}...` : s;
 }
 
 /** "online" -> true, "offline" -> false. */

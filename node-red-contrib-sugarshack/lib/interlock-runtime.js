@@ -252,13 +252,18 @@ class InterlockRuntime extends RuntimeBase {
     this.committer.change();
   }
 
-  /** After the swap: the held-back requests queue again, in their old order, each with what is left of its timeout. */
+  /**
+   * After the swap: the held-back requests queue again, in their old order, each
+   * with what is left of its timeout. An operation run that was only waiting
+   * starts again on the document now in force.
+   */
   onGateOpened() {
     const heldBack = this.heldBack || [];
     this.heldBack = [];
     for (const entry of heldBack) {
       try {
-        this.guard(() => this.requeue(entry));
+        if (entry.run) entry.run.restart();
+        else this.guard(() => this.requeue(entry));
       } catch (err) {
         entry.refuse(asSugarshackError(err));
       }
@@ -438,6 +443,17 @@ class InterlockRuntime extends RuntimeBase {
   cancel(operation, then) {
     const now = clock.now();
     const name = requireName(operation);
+    const heldBack = this.heldBack.find((entry) => entry.operation === name);
+    if (heldBack) {
+      // Taken out of the queue while a deploy drains: it is withdrawn here.
+      this.heldBack = this.heldBack.filter((entry) => entry !== heldBack);
+      this.committer.after(() => {
+        heldBack.abandon();
+        if (then) then();
+      });
+      this.refreshStatus();
+      return;
+    }
     const count = this.core.cancelNamed(name, now);
     const handle = this.core.findOperation(name);
     const entry = this.pending.take(handle);

@@ -33,6 +33,16 @@ class RunHost {
     this.feed((r) => r.start(clock.now()));
   }
 
+  /**
+   * A run that was only waiting for its grant when a deploy drained: it starts
+   * again with the plan of the document now in force (nothing of it ran).
+   */
+  restart() {
+    if (this.ended || this.granted) return;
+    this.free();
+    this.start();
+  }
+
   /** Gives the core machine an input and acts on the effects it returns. */
   feed(input) {
     if (this.ended) return;
@@ -105,6 +115,7 @@ class RunHost {
   acquire(e) {
     this.port.progress('queued');
     const entry = {
+      run: this,
       nodeId: null,
       node: null,
       operation: e.operation,
@@ -118,7 +129,15 @@ class RunHost {
         this.feed((r) => r.granted(clock.now()));
       },
       refuse: (err) => this.feed((r) => r.refused(err.code, err.message)),
-      abandon: () => this.feed((r) => r.withdrawn(clock.now())),
+      // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
+      // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
+      abandon: () => {
+        if (this.interlock.ended) return;
+        this.feed((r) => [
+          ...r.refused('ABORTED', `operation '${e.operation}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted`),
+          ...r.withdrawn(clock.now()),
+        ]);
+      },
       detach() {},
       adopt() {},
     };

@@ -10,6 +10,7 @@ const { PendingRegistry } = require('./pending');
 const { actuatorStatus, errorStatus } = require('./status');
 const { describeFault, seconds } = require('./plant');
 const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
+const { readMsg } = require('./request');
 const { Condition } = require('./condition');
 const feedback = require('./feedback');
 const { stats, timeLayer } = require('./stats');
@@ -132,9 +133,15 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- deploys -------------------------------------------------------------
 
-  /** Drained when no group command is in flight (standing lockouts are the core's and are sent again after a swap). */
+  /**
+   * Drained when no group command is in flight (standing lockouts are the
+   * core's and are sent again after a swap) and no condition waits on sensors
+   * (its sensor handles are this document's).
+   */
   quiescent() {
-    return this.pending.entries().every((entry) => entry.lockout);
+    if (!this.pending.entries().every((entry) => entry.lockout)) return false;
+    for (const watching of this.watchers.values()) if (watching.size > 0) return false;
+    return true;
   }
 
   /** The new document after the drain: a new tracker; the lockouts of faulted lines go out again through the interlocks. */
@@ -236,8 +243,8 @@ class PlantRuntime extends RuntimeBase {
    * `within`: the resources the commanding operation holds; a command outside them is refused (C2).
    */
   command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
-    const payload = groupPayload(msg);
-    const lockout = isLockout(msg);
+    // The msg is read again here: a getter or proxy that throws is the sender's error (INVALID_INPUT).
+    const { payload, lockout } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg) }));
     const caller = this.newCaller();
     const now = clock.now();
     this.t.command(payload, caller, lockout, now, within);
@@ -451,7 +458,8 @@ class PlantRuntime extends RuntimeBase {
   }
 
   warnOnce(bus, topic, reason, text) {
-    const key = `${topic}\u0000${reason}`;
+    // Keyed by the start of the topic: a stream of long distinct topics must not grow the set by their size.
+    const key = `${String(topic).slice(0, 200)}\u0000${reason}`;
     if (bus.warned.has(key) || bus.warned.size >= MAX_WARNED) return;
     bus.warned.add(key);
     bus.node.warn(text);
@@ -482,7 +490,8 @@ class PlantRuntime extends RuntimeBase {
     for (const bus of this.buses) {
       if (!bus.broker) continue;
       const connected = Boolean(bus.broker.connected);
-      if (bus.connected === false && connected) restored = true;
+      // First seen up, or back up: what went out before may have been dropped.
+      if (bus.connected !== true && connected) restored = true;
       if (bus.connected !== connected) {
         bus.connected = connected;
         this.emit(bus, 'actuator/mqtt', { kind: 'mqtt', connected });

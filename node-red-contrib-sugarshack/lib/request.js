@@ -93,9 +93,15 @@ function resourcesOf(msg, configured) {
   return [];
 }
 
-/** A fault note: a Catch node's msg.error.message, else a string payload. */
+/**
+ * A fault note: a Catch node's msg.error.message, else a string payload. A
+ * msg.error.message that is not text is refused like any malformed field.
+ */
 function noteOf(msg) {
-  if (msg.error && typeof msg.error.message === 'string' && msg.error.message) return msg.error.message;
+  const message = msg.error ? msg.error.message : undefined;
+  // A note that is not text never stops a fault: isolating the line comes first.
+  if (message !== undefined && message !== null && typeof message !== 'string') return `(a note that is not text: ${quote(message)})`;
+  if (message) return message;
   if (typeof msg.payload === 'string' && msg.payload) return msg.payload;
   return undefined;
 }

@@ -26,6 +26,7 @@ class RoutineHost {
     this.conditions = new Map(); // transition index -> Condition
     this.node = null; // the routine node of the current deploy
     this.run = null;
+    this.rebuildAfterRun = false; // a deploy's swap came while its operation was still queued
     this.lastFault = false;
     this.warned = new Set();
     this.timer = null;
@@ -76,6 +77,13 @@ class RoutineHost {
   /** Back on a new core (a swap or a trap): from `snapshot`, its own state or the saved one. */
   rebuild(snapshot) {
     if (this.ended) return;
+    if (this.run && this.machine) {
+      // A swap while its operation waits in the queue (the drain waited for every granted one): that
+      // operation was not interrupted, it goes on; the machine is rebuilt once it returns.
+      this.rebuildAfterRun = true;
+      return;
+    }
+    this.rebuildAfterRun = false;
     const previous = this.machine;
     this.machine = null;
     try {
@@ -148,6 +156,7 @@ class RoutineHost {
           operation, from: moved.from, to: moved.to, queuedMs: result.queuedMs, runMs: result.runMs,
         }));
         this.refresh();
+        if (this.rebuildAfterRun) this.rebuild(this.snapshot());
       },
       fail: (err) => {
         this.run = null;
@@ -165,6 +174,7 @@ class RoutineHost {
           }));
         }
         this.refresh();
+        if (this.rebuildAfterRun) this.rebuild(this.snapshot());
       },
       abandon: () => {},
     };

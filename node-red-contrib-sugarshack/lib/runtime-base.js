@@ -51,13 +51,15 @@ class RuntimeBase {
 
   /**
    * Runs `work(this)` when the runtime can take it: at once when ready, held
-   * (in arrival order) while it starts or a deploy drains. A refusal thrown by
-   * `work` completes the msg with the error, so a Catch node gets it.
+   * (in arrival order) while it starts or a deploy drains. `urgent` work (a
+   * fault, a lockout, a clear, a release, device feedback) does not wait for a
+   * drain: the drain itself may wait for it. A refusal thrown by `work`
+   * completes the msg with the error, so a Catch node gets it.
    */
-  submit(node, done, work) {
+  submit(node, done, work, { urgent = false } = {}) {
     if (this.ended) done();
     else if (this.state === 'failed') done(this.failure);
-    else if (this.state === 'starting' || !this.gateOpen) this.parked.push({ node, done, work });
+    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.push({ node, done, work });
     else this.perform(node, done, work);
   }
 

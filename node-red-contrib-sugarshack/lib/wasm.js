@@ -36,11 +36,15 @@ function currentGeneration() {
 // wasm-bindgen reports a borrow left open by an earlier trap with these words.
 const POISONED = /recursive use of an object detected|attempted to take ownership of Rust value while it was borrowed/;
 
-/** Whether an error thrown by a facade call means the instance itself broke. */
+/**
+ * Whether an error thrown by a facade call means the instance itself broke. A
+ * stack overflow counts only inside wasm code: the same RangeError from plain
+ * JS (a msg nested too deep to read) is the sender's problem, not a trap.
+ */
 function isTrap(err) {
   if (!err || typeof err !== 'object') return false;
   if (typeof WebAssembly !== 'undefined' && err instanceof WebAssembly.RuntimeError) return true;
-  if (err instanceof RangeError && /call stack/i.test(err.message)) return true;
+  if (err instanceof RangeError && /call stack/i.test(err.message)) return /wasm:\/\/|wasm-function/.test(String(err.stack));
   return POISONED.test(String(err.message));
 }
 

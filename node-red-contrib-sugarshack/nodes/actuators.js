@@ -1,5 +1,5 @@
 'use strict';
-const { bindPlant, onInput } = require('../lib/binding');
+const { bindPlant, onInput, always } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
 
@@ -15,6 +15,8 @@ module.exports = function (RED) {
 
     // Device feedback is telemetry: consumed here, completed with done(). Anything
     // else is a group command, held until it completes and returned on output 2.
+    // While a deploy drains, feedback and lockouts still go in (the operations
+    // being drained wait for feedback; a lockout never waits); commands wait.
     onInput(node, runtime, (rt, msg, send, done) => {
       const seen = readMsg(() => ({ topic: msg.topic, payload: msg.payload, lockout: isLockout(msg) }));
       // "lockout/<resource>" from a fault node is a command, whatever the resource's name.
@@ -23,8 +25,10 @@ module.exports = function (RED) {
         return;
       }
       const within = readMsg(() => (seen.lockout ? undefined : heldResources(msg)));
-      rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
-    }, 'plant');
+      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
+      if (rt.draining && !seen.lockout) rt.submit(node, done, issue);
+      else issue();
+    }, 'plant', { urgent: always });
   }
 
   RED.nodes.registerType('sugarshack-actuators', ActuatorsNode);

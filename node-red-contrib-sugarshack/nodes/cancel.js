@@ -1,5 +1,5 @@
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
@@ -14,7 +14,7 @@ module.exports = function (RED) {
         send(msg);
         done();
       });
-    });
+    }, 'interlock', { urgent: always }); // a withdrawal never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-cancel', CancelNode);

@@ -1,5 +1,5 @@
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
 const { resourcesOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
@@ -16,7 +16,7 @@ module.exports = function (RED) {
         send(msg);
         done();
       });
-    });
+    }, 'interlock', { urgent: always }); // an operator's clear never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-clear', ClearNode);

@@ -1,5 +1,5 @@
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 
@@ -34,7 +34,7 @@ module.exports = function (RED) {
       };
       if (byResources) rt.faultResources(request.resources, note, out);
       else rt.fault(operation, note, out);
-    });
+    }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-fault', FaultNode);

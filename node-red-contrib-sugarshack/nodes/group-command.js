@@ -14,7 +14,7 @@ module.exports = function (RED) {
     onInput(node, runtime, (rt, msg, send, done) => {
       const within = readMsg(() => (isLockout(msg) ? undefined : heldResources(msg)));
       rt.command({ node, msg, send, done, timeoutMs, within });
-    }, 'plant');
+    }, 'plant', { urgent: isLockout }); // a lockout never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-group-command', GroupCommandNode);

@@ -14,11 +14,12 @@ function nodePort(node, msg, send, done, total, id) {
     node,
     send,
     done,
+    shown: null, // the run's progress, shown again by the node's next instance
     progress(phase, index, step) {
-      if (!port.node) return;
-      port.node.status(phase === 'queued'
+      port.shown = phase === 'queued'
         ? { fill: 'yellow', shape: 'ring', text: 'queued' }
-        : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` });
+        : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` };
+      if (port.node) port.node.status(port.shown);
     },
     finish(result) {
       msg.operation = result;
@@ -57,6 +58,7 @@ function nodePort(node, msg, send, done, total, id) {
       if (next.id !== port.nodeId || port.node) return;
       port.node = next;
       port.send = (m) => next.send(m);
+      if (port.shown) next.status(port.shown);
     },
   };
   return port;

@@ -11,6 +11,10 @@ const board = new StatusBoard();
 
 const invalidConfig = (message) => new SugarshackError('INVALID_CONFIG', message);
 const invalidInput = (message) => new SugarshackError('INVALID_INPUT', message);
+/** What reading a msg threw: ours and the core's pass; anything else (a getter, a proxy) is the sender's INVALID_INPUT. */
+const inputError = (err) => (err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)
+  ? err
+  : invalidInput(`could not read the msg: ${String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100)}`));
 
 /** The node's fields as the core's PidLoop configuration, plus what the node itself uses. */
 function readConfig(props) {
@@ -167,8 +171,9 @@ module.exports = function (RED) {
         if (msg.rcc !== undefined) decision = readDecision(msg.rcc);
         if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, 'msg.track (the action applied by someone else)');
       } catch (err) {
-        show(errorStatus(err.code));
-        done(err);
+        const e = inputError(err);
+        show(errorStatus(e.code));
+        done(e);
         return;
       }
       const ts = isNumber(msg.timestamp) ? msg.timestamp : clock.now();
@@ -257,13 +262,18 @@ module.exports = function (RED) {
         return v;
       };
       let tunings = null;
+      // An object naming none of its fields (a misspelt key) is refused, not taken as "no change".
+      const naming = (obj, keys, what) => {
+        if (!keys.some((k) => obj[k] !== undefined)) throw invalidInput(`${what} names none of ${keys.join(', ')}`);
+        return obj;
+      };
       if (msg.tunings !== undefined) {
-        const t = object(msg.tunings, 'msg.tunings ({ kp, ti, td })');
+        const t = naming(object(msg.tunings, 'msg.tunings ({ kp, ti, td })'), ['kp', 'ti', 'td'], 'msg.tunings');
         tunings = [field(t, 'kp', 'msg.tunings.kp', current.kp), field(t, 'ti', 'msg.tunings.ti (s)', current.tiS), field(t, 'td', 'msg.tunings.td (s)', current.tdS)];
       }
       let limits = null;
       if (msg.limits !== undefined) {
-        const l = object(msg.limits, 'msg.limits ({ min, max })');
+        const l = naming(object(msg.limits, 'msg.limits ({ min, max })'), ['min', 'max'], 'msg.limits');
         limits = [field(l, 'min', 'msg.limits.min', current.outMin), field(l, 'max', 'msg.limits.max', current.outMax)];
       }
       const nextMode = msg.mode ?? mode;
@@ -305,7 +315,7 @@ module.exports = function (RED) {
           }
         }
       } catch (err) {
-        const e = asSugarshackError(err);
+        const e = inputError(err);
         show(errorStatus(e.code));
         done(e);
         return;
@@ -313,10 +323,27 @@ module.exports = function (RED) {
       measure(msg, send, done);
     }
 
+    /** `handle`, with whatever still throws out of it (a getter or proxy read further on) refused, and done called once. */
+    function safeHandle(msg, send, done) {
+      let finished = false;
+      const once = (err) => {
+        if (finished) return;
+        finished = true;
+        done(err);
+      };
+      try {
+        handle(msg, send, once);
+      } catch (err) {
+        const e = inputError(err);
+        show(errorStatus(e.code));
+        once(e);
+      }
+    }
+
     function start() {
       ready = true;
       show(idleStatus());
-      for (const [msg, send, done] of early.splice(0)) handle(msg, send, done);
+      for (const [msg, send, done] of early.splice(0)) safeHandle(msg, send, done);
     }
 
     if (loop) {
@@ -348,7 +375,7 @@ module.exports = function (RED) {
     node.on('input', (msg, send, done) => {
       if (refusal) done(refusal);
       else if (!ready) early.push([msg, send, done]);
-      else handle(msg, send, done);
+      else safeHandle(msg, send, done);
     });
 
     node.on('close', (removed, done) => {

@@ -3,6 +3,7 @@ const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
 const { isNumber, configNumber, describe, fmt, clip, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
+const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
 
@@ -51,30 +52,40 @@ module.exports = function (RED) {
         done(refusal);
         return;
       }
-      if (msg.topic === 'measurement') {
-        if (isNumber(msg.payload)) {
-          procVar = msg.payload;
+      // Read once, as plain values: a getter or proxy that throws is INVALID_INPUT.
+      let topic;
+      let payload;
+      try {
+        ({ topic, payload } = readMsg(() => ({ topic: msg.topic, payload: msg.payload })));
+      } catch (err) {
+        show(errorStatus(err.code));
+        done(err);
+        return;
+      }
+      if (topic === 'measurement') {
+        if (isNumber(payload)) {
+          procVar = payload;
           done();
           return;
         }
         procVar = null; // the controllers see no measurement and output their fallback
-        const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(msg.payload)}; the controllers get procVar null until the next good one`);
+        const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(payload)}; the controllers get procVar null until the next good one`);
         show(errorStatus(e.code));
         done(e);
         return;
       }
       try {
-        const id = msg.controller !== undefined ? msg.controller : msg.rcc && msg.rcc.id;
+        const id = readMsg(() => (msg.controller !== undefined ? msg.controller : msg.rcc && msg.rcc.id));
         if (!Number.isInteger(id) || id < 1) {
           throw new SugarshackError(id === undefined ? 'INVALID_INPUT' : 'UNKNOWN_CONTROLLER',
             `a write needs the controller id in msg.controller or msg.rcc.id (1 to ${settings.controllers}), got ${describe(id)}; a measurement needs topic "measurement"`);
         }
-        if (!isNumber(msg.payload)) {
-          throw new SugarshackError('INVALID_INPUT', `the action written by controller ${id} (msg.payload) must be a number, got ${describe(msg.payload)}`);
+        if (!isNumber(payload)) {
+          throw new SugarshackError('INVALID_INPUT', `the action written by controller ${id} (msg.payload) must be a number, got ${describe(payload)}`);
         }
-        io.write(id, msg.payload, clock.now()); // Conditional Acting: a := action, u_id := 0
-        lastWritten = msg.payload;
-        show({ fill: 'green', shape: 'dot', text: `C${id} ${fmt(msg.payload)}` });
+        io.write(id, payload, clock.now()); // Conditional Acting: a := action, u_id := 0
+        lastWritten = payload;
+        show({ fill: 'green', shape: 'dot', text: `C${id} ${fmt(payload)}` });
       } catch (err) {
         const e = asSugarshackError(err);
         show(errorStatus(e.code));

@@ -2,6 +2,7 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
 const { configNumber, parseList, describe, Watchdog, revivable } = require('../lib/control');
+const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
 
@@ -56,12 +57,17 @@ module.exports = function (RED) {
         done(refusal);
         return;
       }
-      const state = msg.payload;
+      let state;
       let decision;
       try {
-        if (!state || typeof state !== 'object' || Array.isArray(state)) {
-          throw new SugarshackError('INVALID_INPUT', `msg.payload must be the I/O module's state { procVar, lastAction, agesMs }, got ${describe(state)}`);
-        }
+        // Read once, as plain values: a getter or proxy that throws is INVALID_INPUT.
+        state = readMsg(() => {
+          const given = msg.payload;
+          if (!given || typeof given !== 'object' || Array.isArray(given)) {
+            throw new SugarshackError('INVALID_INPUT', `msg.payload must be the I/O module's state { procVar, lastAction, agesMs }, got ${describe(given)}`);
+          }
+          return { procVar: given.procVar, lastAction: given.lastAction, agesMs: given.agesMs };
+        });
         decision = rcc.decide({ lastAction: state.lastAction, agesMs: state.agesMs });
       } catch (err) {
         const e = asSugarshackError(err);

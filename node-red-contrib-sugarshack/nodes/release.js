@@ -1,5 +1,5 @@
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
@@ -15,7 +15,7 @@ module.exports = function (RED) {
         send(msg);
         done();
       });
-    });
+    }, 'interlock', { urgent: always }); // a release lets a drain end; it never waits for one
   }
 
   RED.nodes.registerType('sugarshack-release', ReleaseNode);

@@ -1,11 +1,12 @@
 'use strict';
 // Actuator nodes with MQTT-shaped msgs fed straight in (no broker): plant
-// config, actuators bus and group command, against the wasm tracker.
+// config, actuators bus and group command, against the wasm tracker, on the
+// manual clock (the tracker checks its thresholds every 250 ms of it).
 const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, catchNode, linkNodes, TAB, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+  PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settled, clock,
 } = require('./support');
 
 const { actuatorText, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'status.js'));
@@ -52,7 +53,7 @@ function groupCommand(extra = {}) {
 const catchAll = { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] };
 
 async function start({ plant = PLANT, busProps = {}, gcProps = {}, extra = [] } = {}) {
-  await helper.load([...paletteNodes, catchNode, linkNodes], [
+  await helper.load([...paletteNodes, linkNodes], [
     TAB, plantConfig(plant), bus(busProps), groupCommand(gcProps), catchAll, ...SINKS.map(sinkNode), ...extra,
   ]);
   const seen = {};
@@ -61,7 +62,7 @@ async function start({ plant = PLANT, busProps = {}, gcProps = {}, extra = [] } 
 }
 
 /** A panel batch as ctrl-1 publishes it: {"ts", "valve": {"12": 0}, "pump": {"1": false}}. */
-function panel(values, { device = 'ctrl-1', ts = Date.now(), target = 'bus' } = {}) {
+function panel(values, { device = 'ctrl-1', ts = clock().now(), target = 'bus' } = {}) {
   helper.getNode(target).receive({ topic: `${device}/state`, payload: JSON.stringify({ ts, ...values }), qos: 0, retain: false });
 }
 
@@ -74,16 +75,15 @@ const lastStatus = (id) => statusCalls(id).at(-1);
 const warnings = (id) => helper.getNode(id).warn.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
 const errors = (id) => helper.getNode(id).error.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
 const events = (seen, kind) => seen.ev.filter((m) => m.topic.startsWith(`actuator/${kind}/`)).map((m) => m.payload);
+/** Lets what the msgs given so far set off run to its end, without time passing. */
+const quiet = () => settled(helper, 'pl');
 
 describe('sugarshack actuator nodes', function () {
-  beforeEach(function (done) {
-    helper.startServer(done);
-  });
+  beforeEach(startServer);
 
   afterEach(async function () {
     untrackCompletions();
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
+    await stopServer();
   });
 
   it('runs a group command end to end: publish, motion, completion, then the same msg returns with its stats', async function () {
@@ -96,22 +96,20 @@ describe('sugarshack actuator nodes', function () {
     assert.deepEqual(seen.mqtt[0], { topic: 'ctrl-1/valve/12/command', payload: '100', retain: false, qos: 1, _msgid: seen.mqtt[0]._msgid });
     assert.equal(lastStatus('bus').text, 'moving 1');
 
+    await clock().advance(120);
     panel({ valve: { 12: 40, 13: 0 }, pump: { 1: false } });
     await until(() => events(seen, 'moving').length === 1, 'the moving event');
     assert.equal(seen.out.length, 0, 'the msg waits while V12 moves');
     assert.equal(completions.some((c) => c.msgid === msg._msgid), false, 'a held msg is not done yet');
 
+    await clock().advance(1000);
     panel({ valve: { 12: 99, 13: 0 }, pump: { 1: false } });
     await until(() => seen.out.length === 1, 'the return');
     assert.equal(seen.out[0], msg, 'the very msg object that came in goes on');
     assert.deepEqual(seen.out[0]._linkSource, [{ id: 'x', node: 'caller' }]);
     const { command: stats } = seen.out[0];
-    assert.ok(stats.completionMs >= 0);
-    assert.equal(stats.actuators.length, 1);
-    assert.equal(stats.actuators[0].actuator, 'V12');
-    assert.equal(stats.actuators[0].target, 100);
-    assert.equal(stats.actuators[0].retries, 0);
-    assert.ok(stats.actuators[0].issueToMotionMs <= stats.actuators[0].completionMs);
+    assert.equal(stats.completionMs, 1120);
+    assert.deepEqual(stats.actuators, [{ actuator: 'V12', target: 100, issueToMotionMs: 120, completionMs: 1120, retries: 0 }]);
     await until(() => completions.some((c) => c.nodeId === 'gc' && c.msgid === msg._msgid), 'done of the command');
     assert.equal(completions.find((c) => c.nodeId === 'gc' && c.msgid === msg._msgid).error, undefined);
     assert.equal(seen.caught.length, 0);
@@ -131,7 +129,7 @@ describe('sugarshack actuator nodes', function () {
     ]);
     panel({ valve: { 12: 100, 13: 0 }, pump: { 1: false } });
     await until(() => events(seen, 'completed').length === 1, 'V12 completed');
-    await sleep(30);
+    await quiet();
     assert.equal(seen.out.length, 0, 'P1 has not started yet');
     panel({ valve: { 12: 100, 13: 0 }, pump: { 1: true } });
     await until(() => seen.out.length === 1, 'the return');
@@ -160,7 +158,7 @@ describe('sugarshack actuator nodes', function () {
     await until(() => seen.caught.length === 1, 'the refusal at the Catch node');
     assert.equal(seen.caught[0].error.code, 'STILL_MOVING');
     assert.match(seen.caught[0].error.message, /V12.*still carrying out a command/);
-    await sleep(50);
+    await quiet();
     assert.equal(seen.mqtt.length, 1, 'nothing more was sent, not even for V13');
     assert.deepEqual(lastStatus('gc'), { fill: 'red', shape: 'ring', text: 'still moving' });
   });
@@ -180,7 +178,7 @@ describe('sugarshack actuator nodes', function () {
     ]);
     assert.match(seen.caught[0].error.message, /unknown actuator 'V99'/);
     assert.match(seen.caught[1].error.message, /V12.*0\.\.100, got 150/);
-    await sleep(50);
+    await quiet();
     assert.equal(seen.mqtt.length, 0, 'nothing was sent');
     assert.equal(seen.out.length, 0);
     assert.equal(lastStatus('gc').shape, 'ring');
@@ -195,7 +193,7 @@ describe('sugarshack actuator nodes', function () {
     panel({ valve: { 12: 30, 13: 0 }, pump: { 1: false } });
     // The shape the interlock's fault node emits on its second output.
     const lockout = { topic: 'lockout/YEL', payload: { valves: { V12: 0, V13: 0 }, pumps: { P1: false } }, resource: 'YEL', operation: '12', note: null };
-    const faultAtMs = Date.now() - 250;
+    const faultAtMs = clock().now() - 250;
     command(lockout.payload, { topic: lockout.topic, resource: 'YEL', faultAtMs });
     await until(() => seen.caught.length === 1, 'the taken-over command fails');
     assert.equal(seen.caught[0].error.code, 'LOCKED_OUT');
@@ -208,11 +206,13 @@ describe('sugarshack actuator nodes', function () {
       ['ctrl-1/pump/1/command', 'OFF', true],
     ]);
     // V13 and P1 are already there; V12 comes back to 0 and the lockout returns.
+    await clock().advance(40);
     panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } });
     await until(() => seen.out.length === 1, 'the lockout returns');
     assert.equal(seen.out[0].topic, 'lockout/YEL');
     const { faultLockoutMs, completionMs } = seen.out[0].command;
-    assert.ok(faultLockoutMs >= 250 && faultLockoutMs >= completionMs, `fault lockout time ${faultLockoutMs} ms`);
+    assert.equal(completionMs, 40);
+    assert.equal(faultLockoutMs, 290, 'from the fault to the lockout completed');
 
     // A later normal command first clears the retained lockout on the broker.
     command({ valves: { V13: 10 } });
@@ -238,15 +238,22 @@ describe('sugarshack actuator nodes', function () {
   it('retries a command without motion, then escalates: the error reaches a Catch node', async function () {
     const seen = await start();
     atRest();
-    const started = Date.now();
     command({ valves: { V12: 100 } });
-    await until(() => seen.mqtt.length === 2, 'the retry publish', 2000);
+    await quiet();
+    // No motion within 300 ms: seen at the tracker's check at 500 ms, which sends the command again.
+    await clock().advance(499);
+    assert.equal(seen.mqtt.length, 1, 'no retry before the check after the no-motion window');
+    await clock().advance(1);
+    await until(() => seen.mqtt.length === 2, 'the retry publish');
     assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload]), [['ctrl-1/valve/12/command', '100'], ['ctrl-1/valve/12/command', '100']]);
     assert.deepEqual(events(seen, 'retry')[0], {
       kind: 'retry', actuator: 'V12', caller: events(seen, 'retry')[0].caller, attempt: 1, fault: 'no-motion', msgid: events(seen, 'retry')[0].msgid,
     });
-    await until(() => seen.caught.length === 1, 'the escalated error', 2000);
-    assert.ok(Date.now() - started >= 600, 'two no-motion windows of 300 ms');
+    // The retry's window ends at 800 ms: seen at the check at 1000 ms, which escalates.
+    await clock().advance(499);
+    assert.equal(seen.caught.length, 0, 'the retry has its own window');
+    await clock().advance(1);
+    await until(() => seen.caught.length === 1, 'the escalated error');
     const { error } = seen.caught[0];
     assert.equal(error.code, 'COMMAND_FAILED');
     assert.match(error.message, /valve V12 did not move within 0\.3 s of its command \(after 1 retry\)/);
@@ -320,7 +327,7 @@ describe('sugarshack actuator nodes', function () {
     b.receive({ topic: 'ctrl-1/valve/12/command', payload: 100 });
     b.receive({ topic: 'ctrl-1/valve/7/state', payload: { ts: 1, value: 12 } }); // a slot the plant does not name
     b.receive({ topic: 'ctrl-1/state', payload: { ts: 1, valve: { 7: 12, 12: 50 }, relay: 3 } });
-    await sleep(50);
+    await quiet();
     assert.equal(events(seen, 'malformed').length + events(seen, 'rejected').length, 8);
     assert.equal(seen.caught.length, 0, 'feedback is telemetry: no errors');
     assert.equal(completions.filter((c) => c.nodeId === 'bus' && c.error).length, 0);
@@ -334,29 +341,30 @@ describe('sugarshack actuator nodes', function () {
 
   it('reports by exception with metrics: time of flight, issuance to motion, completion', async function () {
     const seen = await start();
-    const ts = Date.now() - 40;
+    const ts = clock().now() - 40;
     panel({ valve: { 12: 0, 13: 0 }, pump: { 1: false } }, { ts });
     panel({ valve: { 12: 1, 13: 0 }, pump: { 1: false } }, { ts }); // within tolerance: no change reported
     await until(() => events(seen, 'changed').length === 3, 'three changes');
-    await sleep(30);
+    await quiet();
     assert.equal(events(seen, 'changed').length, 3, 'a value within tolerance is not reported again');
     const changed = events(seen, 'changed');
     assert.deepEqual(changed.map((c) => [c.actuator, c.value]), [['V12', 0], ['V13', 0], ['P1', 0]]);
-    assert.ok(changed[0].timeOfFlightMs >= 40, `time of flight ${changed[0].timeOfFlightMs}`);
+    assert.deepEqual(changed.map((c) => c.timeOfFlightMs), [40, 40, 40], 'reception minus the device ts');
     assert.equal(seen.ev.find((m) => m.payload.kind === 'changed').topic, 'actuator/changed/V12');
 
     command({ valves: { V12: 100 } });
-    await sleep(60);
+    await quiet();
+    await clock().advance(60);
     helper.getNode('bus').receive({ topic: 'ctrl-1/valve/12/state', payload: { value: 50 } });
-    await sleep(30);
+    await clock().advance(30);
     helper.getNode('bus').receive({ topic: 'ctrl-1/valve/12/state', payload: { value: 100 } });
     await until(() => seen.out.length === 1, 'the return');
     const [moving] = events(seen, 'moving');
     const [completed] = events(seen, 'completed');
     assert.equal(moving.actuator, 'V12');
-    assert.ok(moving.issueToMotionMs >= 50, `issue to motion ${moving.issueToMotionMs}`);
-    assert.ok(completed.completionMs >= moving.issueToMotionMs + 20, `completion ${completed.completionMs}`);
-    assert.equal(completed.issueToMotionMs, moving.issueToMotionMs);
+    assert.equal(moving.issueToMotionMs, 60);
+    assert.equal(completed.completionMs, 90);
+    assert.equal(completed.issueToMotionMs, 60);
     assert.equal(events(seen, 'changed').at(-1).timeOfFlightMs, null, 'no device ts, no time of flight');
     assert.equal(moving.msgid, seen.out[0]._msgid, 'events name the msg they belong to');
   });
@@ -366,7 +374,11 @@ describe('sugarshack actuator nodes', function () {
     atRest();
     command({ valves: { V12: 100, V13: 10 } });
     panel({ valve: { 12: 0, 13: 10 } });
-    await until(() => seen.caught.length === 1, 'the timeout', 3000);
+    await quiet();
+    await clock().advance(1499);
+    assert.equal(seen.caught.length, 0, 'still waiting 1 ms before the timeout');
+    await clock().advance(1);
+    await until(() => seen.caught.length === 1, 'the timeout');
     assert.equal(seen.caught[0].error.code, 'COMMAND_TIMEOUT');
     assert.match(seen.caught[0].error.message, /within 1\.5 s: V12 had not completed/);
     assert.deepEqual(seen.caught[0].command.waiting, ['V12']);
@@ -410,7 +422,7 @@ describe('sugarshack actuator nodes', function () {
   });
 
   it('nodes without a plant say so', async function () {
-    await helper.load([...paletteNodes, catchNode], [
+    await helper.load(paletteNodes, [
       TAB, { ...groupCommand(), plant: '' }, catchAll, sinkNode('out'), sinkNode('caught'),
     ]);
     const caught = collect(helper, 'caught');

@@ -7,7 +7,9 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const { execFileSync } = require('child_process');
 const helper = require('node-red-node-test-helper');
-const { paletteNodes, sleep } = require('./support');
+const {
+  paletteNodes, startServer, stopServer, settled, until,
+} = require('./support');
 
 helper.init(require.resolve('node-red'));
 
@@ -21,28 +23,19 @@ const PLANT = require(path.join(ROOT, 'flows', 'plant.json'));
 const errorsOf = (node) => node.error.getCalls().filter((c) => c.thisValue.id === node.id).map((c) => String(c.args[0]));
 
 describe('case-study flows', function () {
-  before(function (done) {
-    helper.startServer(done);
-  });
-
-  after(async function () {
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
-  });
+  before(startServer);
+  after(stopServer);
 
   it('are generated from the current plant document', function () {
     execFileSync(process.execPath, [path.join(ROOT, 'scripts', 'case-study-flow.js'), '--check'], { stdio: 'pipe' });
   });
 
   it('deploy: every operation and routine of the document gets a node that starts without an error', async function () {
-    // The helper loads some core node modules (catch) itself, once per node of their
-    // type: with a Catch node on each tab that registers 'catch' twice. Once is enough.
-    const loaded = new Set();
-    for (const [type, load] of Object.entries(helper._nodeModules)) {
-      helper._nodeModules[type] = (red) => (loaded.has(load) ? undefined : (loaded.add(load), load(red)));
-    }
+    // The helper loads the core catch node itself (once, though each tab has a Catch node).
     await helper.load([...paletteNodes, ...coreNodes], FLOW);
-    await sleep(200);
+    const interlockId = FLOW.find((n) => n.type === 'sugarshack-interlock').id;
+    await until(() => helper.getNode(interlockId).runtime.state !== 'starting', 'the interlock to start');
+    await settled(helper, interlockId);
     const ofType = (type) => FLOW.filter((n) => n.type === type).map((n) => helper.getNode(n.id));
     const operations = ofType('sugarshack-operation');
     const routines = ofType('sugarshack-routine');
@@ -51,7 +44,7 @@ describe('case-study flows', function () {
     for (const node of [...operations, ...routines, ...ofType('sugarshack-actuators'), ...ofType('sugarshack-clear')]) {
       assert.deepEqual(errorsOf(node), [], `${node.type} ${node.id}`);
     }
-    const interlock = helper.getNode(FLOW.find((n) => n.type === 'sugarshack-interlock').id);
+    const interlock = helper.getNode(interlockId);
     assert.equal(interlock.runtime.state, 'ready');
     assert.deepEqual(interlock.runtime.config.resources.map((r) => r.name), PLANT.resources.map((r) => r.id));
     for (const r of PLANT.routines) {

@@ -4,12 +4,14 @@
 // across a restart, fallback on a bad or stale measurement (never a NaN),
 // refused configurations, RCC decisions and the I/O module's ages, and two
 // redundant controllers handing over without a bump (the paper's G1-G2-G3).
+// Watchdogs, polls and publish periods run on the manual clock.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, catchNode, TAB, sinkNode, collect, sleep, until, trackCompletions, untrackCompletions,
+  PALETTE, paletteNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions,
+  startServer, stopServer, settings, settled, clock, runFor, runUntil,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -39,7 +41,7 @@ const CATCH = { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, 
 
 /** Loads the nodes with a Catch node and helper sinks; `sinks` collect what reaches them. */
 async function start(nodes, sinks = ['out'], modules = []) {
-  await helper.load([...paletteNodes, catchNode, ...modules], [TAB, CATCH, sinkNode('caught'), ...sinks.map(sinkNode), ...nodes]);
+  await helper.load([...paletteNodes, ...modules], [TAB, CATCH, sinkNode('caught'), ...sinks.map(sinkNode), ...nodes]);
   const seen = { caught: collect(helper, 'caught') };
   for (const s of sinks) seen[s] = collect(helper, s);
   return seen;
@@ -51,7 +53,7 @@ async function deliver(id, msg) {
   const before = completions.filter((c) => c.nodeId === id).length;
   helper.getNode(id).receive(msg);
   await until(() => completions.filter((c) => c.nodeId === id).length > before, `node ${id} to complete the msg`);
-  await sleep(5);
+  await settled(helper);
 }
 
 const statusOf = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]).at(-1);
@@ -60,17 +62,16 @@ function errorLogs(id) {
   return log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR && (!id || e.id === id)).map((e) => e.msg);
 }
 
-/** A Node-RED test runtime per test, with msg completions tracked. */
+/** A Node-RED test runtime per test (manual clock), with msg completions tracked. */
 function withServer() {
   beforeEach(function (done) {
     completions = trackCompletions();
-    helper.startServer(done);
+    startServer(done);
   });
 
   afterEach(async function () {
     untrackCompletions();
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
+    await stopServer();
   });
 }
 
@@ -156,7 +157,7 @@ describe('sugarshack control: pid', function () {
     assert.equal(seen.out.length, 1, 'the set point msg sent nothing');
     assert.equal(seen.out[0].pid.setpoint, 60);
     close(seen.out[0].pid.p, 40);
-    await deliver('pid', { setpoint: 55, payload: Date.now() }); // an inject's default timestamp payload is not a measurement
+    await deliver('pid', { setpoint: 55, payload: clock().now() }); // an inject's default timestamp payload is not a measurement
     await deliver('pid', { setpoint: 'fifty' });
     await deliver('pid', { topic: 'setpoint', payload: null });
     assert.equal(seen.out.length, 1);
@@ -254,10 +255,15 @@ describe('sugarshack control: pid', function () {
 
   it('stale: without a valid measurement for staleMs it sends the fallback every staleMs', async function () {
     const seen = await start([pidNode('pid', { staleMs: '80', fallback: '7' })]);
-    await sleep(150);
+    await clock().advance(150);
     assert.equal(seen.out.length, 0, 'the watchdog starts with the first measurement');
     await deliver('pid', { payload: 40 });
-    await until(() => seen.out.length >= 3, 'two watchdog sends');
+    await clock().advance(79);
+    assert.equal(seen.out.length, 1, 'fresh for 79 ms');
+    await clock().advance(1);
+    await until(() => seen.out.length === 2, 'the first watchdog send');
+    await clock().advance(80);
+    await until(() => seen.out.length === 3, 'the second, staleMs later');
     assert.deepEqual(seen.out.slice(1, 3).map((m) => [m.payload, m.pid.mode, m.pid.dtS]), [[7, 'fallback', 0.08], [7, 'fallback', 0.08]]);
     assert.deepEqual(statusOf('pid'), { fill: 'yellow', shape: 'ring', text: 'stale: fallback' });
     await deliver('pid', { payload: 41 });
@@ -266,7 +272,7 @@ describe('sugarshack control: pid', function () {
     assert.equal(statusOf('pid').fill, 'green');
     const count = seen.out.length;
     await helper.unload();
-    await sleep(200);
+    await clock().advance(200);
     assert.equal(seen.out.length, count, 'the watchdog stops with the node');
   });
 
@@ -275,17 +281,20 @@ describe('sugarshack control: pid', function () {
     const memoryStore = () => ({
       open: () => Promise.resolve(),
       close: () => Promise.resolve(),
-      get: (scope, key, cb) => setTimeout(() => cb(null, (data[scope] || {})[key]), 20),
+      get: (scope, key, cb) => clock().setTimeout(() => cb(null, (data[scope] || {})[key]), 20), // a store that takes 20 ms
       set: (scope, key, value, cb) => { (data[scope] = data[scope] || {})[key] = JSON.parse(JSON.stringify(value)); if (cb) cb(); },
       keys: (scope, cb) => cb(null, Object.keys(data[scope] || {})),
       delete: (scope) => { delete data[scope]; return Promise.resolve(); },
       clean: () => Promise.resolve(),
     });
-    helper.settings({ contextStorage: { kept: { module: memoryStore } } });
+    settings({ contextStorage: { kept: { module: memoryStore } } });
     try {
       const node = pidNode('pid', { persist: true, store: 'kept' });
       let seen = await start([node], ['out'], [() => contextModule.load()]);
       helper.getNode('pid').receive({ payload: 40, timestamp: 1000 }); // arrives while the saved state is read
+      await settled(helper);
+      assert.equal(seen.out.length, 0, 'held until the saved state is read');
+      await clock().advance(20);
       await until(() => seen.out.length === 1, 'the first output');
       await deliver('pid', { payload: 42, timestamp: 2000 });
       await deliver('pid', { topic: 'setpoint', payload: 55 });
@@ -296,6 +305,7 @@ describe('sugarshack control: pid', function () {
       await contextModule.close();
 
       seen = await start([node], ['out'], [() => contextModule.load()]);
+      await clock().advance(20);
       await until(() => statusOf('pid') && statusOf('pid').text === 'sp 55', 'the restored set point');
       await deliver('pid', { payload: 47, timestamp: 60000 });
       const first = seen.out[0].pid;
@@ -307,13 +317,12 @@ describe('sugarshack control: pid', function () {
       await helper.unload();
       await contextModule.close();
       seen = await start([node], ['out'], [() => contextModule.load()]);
+      await clock().advance(20);
       await until(() => statusOf('pid') && statusOf('pid').text === 'manual 33', 'restored in manual');
       await deliver('pid', { payload: 47, timestamp: 70000 });
       assert.deepEqual([seen.out[0].payload, seen.out[0].pid.mode], [33, 'manual']);
     } finally {
-      await helper.unload();
       await contextModule.close();
-      helper.settings({});
     }
   });
 
@@ -392,7 +401,10 @@ describe('sugarshack control: rcc and rcc-io', function () {
     await deliver('r1', { payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } });
     await deliver('r1', { payload: { procVar: 40, lastAction: 15, agesMs: [30, null] } });
     assert.equal(seen.o1.at(-1).rcc.firstCycle, false);
-    await until(() => statusOf('r1').text === 'no I/O', 'the poll timeout', 1000);
+    await clock().advance(149);
+    assert.deepEqual(statusOf('r1'), { fill: 'green', shape: 'dot', text: 'engaged' });
+    await clock().advance(1);
+    await until(() => statusOf('r1').text === 'no I/O', 'the poll timeout, 150 ms after the last state');
     assert.deepEqual(statusOf('r1'), { fill: 'yellow', shape: 'ring', text: 'no I/O' });
     await deliver('r1', { payload: { procVar: 40, lastAction: 18, agesMs: [400, 20] } });
     assert.deepEqual(seen.o1.at(-1).rcc, { id: 1, engaged: true, firstCycle: true, track: 18 });
@@ -433,28 +445,32 @@ describe('sugarshack control: rcc and rcc-io', function () {
     const seen = await start([
       { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '10', period: '40', wires: [['state'], ['act']] },
     ], ['state', 'act']);
-    await until(() => seen.state.length >= 1, 'the first state');
+    await clock().advance(39);
+    assert.equal(seen.state.length, 0, 'the first state after one period');
+    await clock().advance(1);
+    await until(() => seen.state.length === 1, 'the first state');
     assert.deepEqual(seen.state[0].payload, { procVar: null, lastAction: 10, agesMs: [null, null] });
-    assert.ok(Math.abs(seen.state[0].timestamp - Date.now()) < 1000);
+    assert.equal(seen.state[0].timestamp, clock().now(), 'stamped with the I/O side\'s clock');
     await deliver('io', { topic: 'measurement', payload: 42.5 });
     await deliver('io', { payload: 20, controller: 1 });
     assert.deepEqual(seen.act.map((m) => m.payload), [20]);
     let n = seen.state.length;
-    await until(() => seen.state.length >= n + 3, 'three more states');
+    await clock().advance(120);
+    await until(() => seen.state.length === n + 3, 'three more states');
     const ages = seen.state.slice(n).map((m) => m.payload.agesMs[0]);
     assert.deepEqual(seen.state.at(-1).payload.procVar, 42.5);
     assert.equal(seen.state.at(-1).payload.lastAction, 20);
-    assert.ok(ages.every((age, k) => k === 0 || age > ages[k - 1]), `ages grow: ${ages}`);
+    assert.deepEqual(ages, [40, 80, 120], 'ages grow by the period from the write');
     assert.equal(seen.state.at(-1).payload.agesMs[1], null, 'controller 2 never acted');
-    const before = seen.state.at(-1).payload.agesMs[0];
     await deliver('io', { payload: 25, rcc: { id: 2, engaged: true, firstCycle: false, track: null, write: 25 } });
+    await clock().advance(10);
     await deliver('io', { payload: 21, controller: 1 });
     n = seen.state.length;
+    await clock().advance(30);
     await until(() => seen.state.length > n, 'the next state');
     const { payload } = seen.state.at(-1);
     assert.equal(payload.lastAction, 21);
-    assert.ok(payload.agesMs[0] < before && payload.agesMs[0] < 40, `age 1 reset: ${payload.agesMs}`);
-    assert.ok(payload.agesMs[1] >= payload.agesMs[0], 'controller 2 acted just before');
+    assert.deepEqual(payload.agesMs, [30, 40], 'age 1 reset by its write 30 ms ago; controller 2 wrote 10 ms before');
     assert.deepEqual(seen.act.map((m) => m.payload), [20, 25, 21]);
     assert.equal(seen.act[1].rcc.id, 2, 'the write goes on with its msg');
     assert.deepEqual(statusOf('io'), { fill: 'green', shape: 'dot', text: 'C1 21' });
@@ -468,13 +484,14 @@ describe('sugarshack control: rcc and rcc-io', function () {
     assert.match(seen.caught[2].error.message, /a write needs the controller id in msg.controller or msg.rcc.id/);
     assert.equal(seen.act.length, 3, 'refused writes reach no actuator');
     n = seen.state.length;
+    await clock().advance(40);
     await until(() => seen.state.length > n, 'the next state');
     assert.equal(seen.state.at(-1).payload.procVar, null, 'a bad measurement is not passed on as a good one');
     assert.equal(seen.state.at(-1).payload.lastAction, 21);
+    assert.deepEqual(seen.state.at(-1).payload.agesMs, [70, 80]);
   });
 
   it('two redundant controllers: the secondary takes over without a bump (G1, G3) and the primary takes back (G2)', async function () {
-    this.timeout(15000);
     const pidOf = (id, wire) => pidNode(id, { kp: '1', ti: '0.3', td: '0', ts: '0.05', staleMs: '', setpoint: '50' }, wire);
     const seen = await start([
       { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '0', period: '50', wires: [['link1', 'link2'], ['act']] },
@@ -489,76 +506,74 @@ describe('sugarshack control: rcc and rcc-io', function () {
     helper.getNode('w1').on('input', (m) => { if (up[1] && m.rcc) io.receive(m); });
     helper.getNode('w2').on('input', (m) => { if (up[2] && m.rcc) io.receive(m); });
 
-    // The process: first order (K = 1, τ = 0.3 s), driven by the actions the I/O applies.
+    // The process: first order (K = 1, τ = 0.3 s), driven by the actions the I/O applies, on the clock.
     const writes = []; // [ms, controller, action, msg.rcc]
     let u = 0;
     let y = 0;
-    let t = Date.now();
+    let t = clock().now();
     helper.getNode('act').on('input', (m) => {
       u = m.payload;
-      writes.push([Date.now(), m.rcc.id, m.payload, m.rcc]);
+      writes.push([clock().now(), m.rcc.id, m.payload, m.rcc]);
     });
-    const process = setInterval(() => {
-      const now = Date.now();
+    const ys = [];
+    clock().setInterval(() => {
+      const now = clock().now();
       y += (u - y) * (1 - Math.exp(-(now - t) / 300));
       t = now;
+      ys.push(y);
       io.receive({ topic: 'measurement', payload: y });
     }, 20);
-    const ys = [];
-    const sample = setInterval(() => ys.push(y), 20);
-    try {
-      // The secondary was run on its own before joining: its integrator is wound up to the top.
-      for (let k = 0; k < 5; k++) await deliver('pid2', { payload: 0, timestamp: Date.now() - 5000 + k * 1000 });
-      assert.equal(seen.w2.at(-1).payload, 100);
-      up[1] = true;
-      up[2] = true;
-      await until(() => Math.abs(y - 50) < 0.5 && writes.length > 20, 'the primary settling the process', 8000);
-      await sleep(300);
-      const settled = writes.length;
-      assert.ok(writes.slice(3).every((w) => w[1] === 1), `only the primary acts: ${writes.slice(3).map((w) => w[1])}`);
-      const pid2Sent = seen.w2.length;
-      await sleep(200);
-      assert.equal(seen.w2.length, pid2Sent, 'the secondary in standby sends nothing');
-      assert.deepEqual(statusOf('pid2'), { fill: 'grey', shape: 'ring', text: 'standby' });
+    // Every timer (20 ms process steps, 50 ms periods) is due on a multiple of 10 ms: each round trip completes within its step.
+    const run = (ms) => runFor(helper, ms, { ids: [], step: 10 });
+    const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids: [], step: 10, maxMs: 20000 });
+    // The secondary was run on its own before joining: its integrator is wound up to the top.
+    for (let k = 0; k < 5; k++) await deliver('pid2', { payload: 0, timestamp: clock().now() - 5000 + k * 1000 });
+    assert.equal(seen.w2.at(-1).payload, 100);
+    up[1] = true;
+    up[2] = true;
+    await runTill(() => Math.abs(y - 50) < 0.5 && writes.length > 20, 'the primary settling the process');
+    await run(300);
+    const settledWrites = writes.length;
+    assert.ok(writes.slice(3).every((w) => w[1] === 1), `only the primary acts: ${writes.slice(3).map((w) => w[1])}`);
+    const pid2Sent = seen.w2.length;
+    await run(200);
+    assert.equal(seen.w2.length, pid2Sent, 'the secondary in standby sends nothing');
+    assert.deepEqual(statusOf('pid2'), { fill: 'grey', shape: 'ring', text: 'standby' });
 
-      // G1: the primary's link fails; the secondary engages once the primary's age reaches D2.
-      up[1] = false;
-      const cut = Date.now();
-      await until(() => writes.some((w) => w[1] === 2 && w[0] > cut), 'the secondary taking over', 2000);
-      const firstSecondary = writes.find((w) => w[1] === 2 && w[0] > cut);
-      const lastPrimary = writes.filter((w) => w[1] === 1 && w[0] < firstSecondary[0]).at(-1);
-      assert.ok(firstSecondary[0] - lastPrimary[0] >= 190, `not before D2 = 200 ms: ${firstSecondary[0] - lastPrimary[0]} ms`);
-      // G3: its first action continues the primary's (its wound-up integrator was replaced by tracking).
-      assert.ok(Math.abs(firstSecondary[2] - lastPrimary[2]) < 0.5, `bumpless: ${lastPrimary[2]} -> ${firstSecondary[2]}`);
-      await until(() => statusOf('rcc1').text === 'no I/O', 'the primary missing its polls');
-      const w1Sent = seen.w1.length;
-      await sleep(300);
-      assert.equal(seen.w1.length, w1Sent, 'the cut-off primary writes nothing blind');
-      assert.deepEqual(statusOf('pid1'), { fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
+    // G1: the primary's link fails; the secondary engages once the primary's age reaches D2.
+    up[1] = false;
+    const cut = clock().now();
+    await runTill(() => writes.some((w) => w[1] === 2 && w[0] > cut), 'the secondary taking over');
+    const firstSecondary = writes.find((w) => w[1] === 2 && w[0] > cut);
+    const lastPrimary = writes.filter((w) => w[1] === 1 && w[0] < firstSecondary[0]).at(-1);
+    assert.equal(firstSecondary[0] - lastPrimary[0], 200, 'at the first poll that finds the primary silent for D2 = 200 ms');
+    // G3: its first action continues the primary's (its wound-up integrator was replaced by tracking).
+    assert.ok(Math.abs(firstSecondary[2] - lastPrimary[2]) < 0.5, `bumpless: ${lastPrimary[2]} -> ${firstSecondary[2]}`);
+    await runTill(() => statusOf('rcc1').text === 'no I/O', 'the primary missing its polls');
+    const w1Sent = seen.w1.length;
+    await run(300);
+    assert.equal(seen.w1.length, w1Sent, 'the cut-off primary writes nothing blind');
+    assert.deepEqual(statusOf('pid1'), { fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
 
-      // G2: the link recovers; the primary's first cycle tracks the last action and takes back control.
-      const lastSecondary = writes.at(-1);
-      up[1] = true;
-      const back = Date.now();
-      await until(() => writes.some((w) => w[1] === 1 && w[0] > back), 'the primary taking back', 2000);
-      const retaken = writes.find((w) => w[1] === 1 && w[0] > back);
-      assert.equal(retaken[3].firstCycle, true);
-      close(retaken[2], retaken[3].track, 1e-9); // its first action is the last action it polled
-      assert.ok(Math.abs(retaken[2] - lastSecondary[2]) < 0.5, `bumpless: ${lastSecondary[2]} -> ${retaken[2]}`);
-      await sleep(300);
-      const after = writes.filter((w) => w[0] > retaken[0] + 120);
-      assert.ok(after.length > 0 && after.every((w) => w[1] === 1), `the secondary stood down: ${after.map((w) => w[1])}`);
-      assert.deepEqual(statusOf('pid2'), { fill: 'grey', shape: 'ring', text: 'standby' });
-      // The process never felt the handovers.
-      const sinceSettled = ys.slice(-Math.floor((Date.now() - cut) / 20) + 5);
-      assert.ok(sinceSettled.every((v) => Math.abs(v - 50) < 1), `y stays at 50: ${Math.min(...sinceSettled)}..${Math.max(...sinceSettled)}`);
-      assert.ok(writes.length > settled);
-      for (const w of writes) assert.ok(Number.isFinite(w[2]));
-      assert.equal(seen.caught.length, 0, seen.caught.map((m) => m.error.message).join('; '));
-    } finally {
-      clearInterval(process);
-      clearInterval(sample);
-    }
+    // G2: the link recovers; the primary's first cycle tracks the last action and takes back control.
+    const lastSecondary = writes.at(-1);
+    up[1] = true;
+    const back = clock().now();
+    await runTill(() => writes.some((w) => w[1] === 1 && w[0] > back), 'the primary taking back');
+    const retaken = writes.find((w) => w[1] === 1 && w[0] > back);
+    assert.equal(retaken[3].firstCycle, true);
+    close(retaken[2], retaken[3].track, 1e-9); // its first action is the last action it polled
+    assert.ok(Math.abs(retaken[2] - lastSecondary[2]) < 0.5, `bumpless: ${lastSecondary[2]} -> ${retaken[2]}`);
+    await run(300);
+    const after = writes.filter((w) => w[0] > retaken[0] + 120);
+    assert.ok(after.length > 0 && after.every((w) => w[1] === 1), `the secondary stood down: ${after.map((w) => w[1])}`);
+    assert.deepEqual(statusOf('pid2'), { fill: 'grey', shape: 'ring', text: 'standby' });
+    // The process never felt the handovers.
+    const sinceSettled = ys.slice(-Math.floor((clock().now() - cut) / 20) + 5);
+    assert.ok(sinceSettled.every((v) => Math.abs(v - 50) < 1), `y stays at 50: ${Math.min(...sinceSettled)}..${Math.max(...sinceSettled)}`);
+    assert.ok(writes.length > settledWrites);
+    for (const w of writes) assert.ok(Number.isFinite(w[2]));
+    assert.equal(seen.caught.length, 0, seen.caught.map((m) => m.error.message).join('; '));
   });
 });
 
@@ -569,34 +584,53 @@ describe('example: pid-loop', function () {
   withServer();
 
   it('settles the simulated process on the set point without overshoot, follows a new set point, and goes back to auto bumplessly', async function () {
-    this.timeout(20000);
     const flow = JSON.parse(fs.readFileSync(path.join(PALETTE, 'examples', 'pid-loop.json'), 'utf8'))
       .map((n) => {
         if (n.type === 'debug') return { id: n.id, z: n.z, type: 'helper', name: n.name };
-        if (n.type === 'inject' && n.repeat) return { ...n, repeat: '0.01' }; // 100 ticks of process time per second
+        if (n.type === 'inject' && n.repeat) return { ...n, repeat: '', once: false }; // the test ticks it: one Ts of process time each
         return n;
       });
     const byName = (type, name) => flow.find((n) => n.type === type && n.name === name).id;
     await helper.load([...paletteNodes, ...coreNodes], flow);
     const out = [];
-    helper.getNode(byName('helper', 'pid terms')).on('input', (m) => out.push(m.pid));
-    await until(() => out.length >= 200, '200 s of process time', 10000);
+    let next = null;
+    helper.getNode(byName('helper', 'pid terms')).on('input', (m) => {
+      out.push(m.pid);
+      if (next) next();
+    });
+    const tick = helper.getNode(byName('inject', 'tick every Ts (1 s)'));
+    /** `k` ticks of the process, each once the pid has answered the one before. */
+    async function ticks(k) {
+      for (let i = 0; i < k; i++) {
+        const answered = new Promise((resolve) => { next = resolve; });
+        tick.receive({});
+        await answered;
+        await settled(helper);
+      }
+    }
+    await ticks(200);
     const ys = out.map((m) => m.measurement);
     assert.ok(Math.abs(ys.at(-1) - 60) < 0.5, `settled at ${ys.at(-1)}`);
     assert.ok(Math.max(...ys) < 60 * 1.02, `no overshoot: peak ${Math.max(...ys)}`);
     assert.equal(out.at(-1).deadTimeSamples, 5);
     assert.ok(out.every((p) => Number.isFinite(p.output) && p.dtS === 1));
     helper.getNode(byName('inject', 'set point 90')).receive({});
+    await settled(helper);
     let n = out.length;
-    await until(() => out.length >= n + 200, '200 s more', 10000);
+    await ticks(200);
     assert.ok(Math.abs(out.at(-1).measurement - 90) < 0.5, `follows to ${out.at(-1).measurement}`);
     helper.getNode(byName('inject', 'manual 40')).receive({});
-    await until(() => out.length >= n + 260 && out.at(-1).mode === 'manual', 'manual');
+    await settled(helper);
+    await ticks(60);
+    assert.equal(out.at(-1).mode, 'manual');
     assert.equal(out.at(-1).output, 40);
     helper.getNode(byName('inject', 'auto')).receive({});
+    await settled(helper);
     n = out.length;
-    await until(() => out.length >= n + 5 && out.at(-1).mode === 'auto', 'auto');
+    await ticks(5);
+    assert.equal(out.at(-1).mode, 'auto');
     const k = out.findIndex((p, j) => j >= n - 1 && p.mode === 'auto');
+    assert.equal(k, n, 'the first tick after the auto inject');
     const [last, first] = [out[k - 1], out[k]];
     assert.equal(last.output, 40);
     close(first.output, 40 + (first.p - last.p) + (first.d - last.d) + (1 / 20) * (first.setpoint - first.seen) * 1, 1e-9);

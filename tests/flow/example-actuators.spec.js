@@ -5,7 +5,9 @@ const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
-const { PALETTE, paletteNodes, catchNode, until } = require('./support');
+const {
+  PALETTE, paletteNodes, until, startServer, stopServer, clock,
+} = require('./support');
 
 helper.init(require.resolve('node-red'));
 
@@ -27,22 +29,16 @@ function exampleFlow() {
 const byName = (flow, type, name) => flow.find((n) => n.type === type && n.name === name).id;
 
 describe('example: actuators-group-command', function () {
-  beforeEach(function (done) {
-    helper.startServer(done);
-  });
-
-  afterEach(async function () {
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
-  });
+  beforeEach(startServer);
+  afterEach(stopServer);
 
   it('opens line 1 from its inject, returns on "completed", refuses the bad command at the Catch', async function () {
     const flow = exampleFlow();
-    await helper.load([...paletteNodes, catchNode, ...coreNodes], flow);
+    await helper.load([...paletteNodes, ...coreNodes], flow);
     const seen = { 'device commands': [], completed: [], errors: [], 'actuator events': [] };
     for (const name of Object.keys(seen)) helper.getNode(byName(flow, 'helper', name)).on('input', (m) => seen[name].push(m));
     const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
-    const state = (valve, pump) => bus.receive({ topic: 'ctrl-1/state', payload: { ts: Date.now(), valve, pump: { 1: pump } } });
+    const state = (valve, pump) => bus.receive({ topic: 'ctrl-1/state', payload: { ts: clock().now(), valve, pump: { 1: pump } } });
 
     bus.receive({ topic: 'ctrl-1/status', payload: 'online', retain: true });
     state({ 1: 0, 2: 0, 3: 0, 4: 0, 5: 0 }, false);
@@ -53,11 +49,15 @@ describe('example: actuators-group-command', function () {
       ['ctrl-1/valve/2/command', '100', false, 1],
       ['ctrl-1/pump/1/command', 'ON', false, 1],
     ]);
+    await clock().advance(1000);
     state({ 1: 50, 2: 50, 3: 0, 4: 0 }, true);
+    await clock().advance(1000);
     state({ 1: 100, 2: 99, 3: 0, 4: 0 }, true);
     await until(() => seen.completed.length === 1, 'the open command completes');
-    assert.deepEqual(seen.completed[0].command.actuators.map((a) => a.actuator).sort(), ['P1', 'V101', 'V102']);
-    assert.ok(seen['actuator events'].some((m) => m.topic === 'actuator/changed/V101' && m.payload.timeOfFlightMs >= 0));
+    assert.deepEqual(seen.completed[0].command.actuators.map((a) => [a.actuator, a.issueToMotionMs, a.completionMs]).sort(),
+      [['P1', 1000, 1000], ['V101', 1000, 2000], ['V102', 1000, 2000]]);
+    assert.equal(seen.completed[0].command.completionMs, 2000);
+    assert.ok(seen['actuator events'].some((m) => m.topic === 'actuator/changed/V101' && m.payload.timeOfFlightMs === 0));
 
     helper.getNode(byName(flow, 'inject', 'bad command')).receive({});
     await until(() => seen.errors.length === 1, 'the refusal');

@@ -1,13 +1,13 @@
 'use strict';
-// Runs the shipped example flows (work delays shortened, MQTT replaced by
-// helper nodes fed as mqtt in delivers) and checks what their comments tell
-// the user to watch.
+// Runs the shipped example flows (MQTT replaced by helper nodes fed as mqtt in
+// delivers, the work of the contention example done on the manual clock) and
+// checks what their comments tell the user to watch.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, catchOnce, startServer, stopServer, linkNodes, sleep, until,
+  PALETTE, paletteNodes, catchOnce, startServer, stopServer, linkNodes, until, settled, clock, runFor, runUntil,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -39,13 +39,31 @@ function helperFlow(file, tweak = (n) => n) {
     });
 }
 
-/** The contention example with each second of work as 20 ms. */
+/** The contention example; its delay nodes (the work) become helper nodes that `doWork` drives on the manual clock. */
 function contentionFlow(policy) {
   return helperFlow('interlock-yel-contention.json', (n) => {
-    if (n.type === 'delay') return { ...n, timeout: String(Number(n.timeout) * 20), timeoutUnits: 'milliseconds' };
+    if (n.type === 'delay') return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires, workMs: Number(n.timeout) * 1000 };
     if (n.type === 'sugarshack-interlock') return { ...n, policy };
     return n;
   });
+}
+
+/** Each work node sends its msg on (to its release node) once its delay has passed on the clock. */
+function doWork(flow) {
+  for (const w of flow.filter((n) => n.workMs)) {
+    const node = helper.getNode(w.id);
+    node.on('input', (msg) => clock().setTimeout(() => node.send(msg), w.workMs));
+  }
+}
+
+/** The ids of an example's interlocks, whose saves `runFor`/`runUntil` wait for. */
+const interlocksOf = (flow) => flow.filter((n) => n.type === 'sugarshack-interlock').map((n) => n.id);
+
+/** Every plant and interlock of the flow has started (or failed), and what it did is saved. */
+async function started(flow) {
+  const configs = flow.filter((n) => n.type === 'sugarshack-plant' || n.type === 'sugarshack-interlock');
+  await until(() => configs.every((n) => helper.getNode(n.id).runtime.state !== 'starting'), 'the plants and interlocks to start');
+  await settled(helper, ...interlocksOf(flow));
 }
 
 const byName = (flow, type, name) => {
@@ -72,10 +90,11 @@ function errorLogs() {
 }
 
 /**
- * The field devices of an example's plant, without a broker: each panel obeys
- * the commands the actuators node publishes (a valve reaches its target after
- * `delayMs`) and reports its state batch; each sensor reports the value set with
- * `sensor(id, value)`. Everything is re-sent every 200 ms, so nothing goes stale.
+ * The field devices of an example's plant, without a broker, on the manual
+ * clock: each panel obeys the commands the actuators node publishes (a valve
+ * reaches its target `delayMs` later) and reports its state batch; each sensor
+ * reports the value set with `sensor(id, value)`. Everything is re-sent every
+ * 200 ms, so nothing goes stale.
  */
 function fakeField(flow, { delayMs = 20 } = {}) {
   const plant = flow.find((n) => n.type === 'sugarshack-plant').plant;
@@ -88,16 +107,16 @@ function fakeField(flow, { delayMs = 20 } = {}) {
   }
   const sensors = Object.fromEntries((plant.sensors || []).map((s) => [s.id, { ...s, value: undefined }]));
   const timers = new Set();
-  const report = (device) => bus()?.receive({ topic: `${device}/state`, payload: { ts: Date.now(), ...panels[device] } });
+  const report = (device) => bus()?.receive({ topic: `${device}/state`, payload: { ts: clock().now(), ...panels[device] } });
   const publishSensor = (s) => {
-    if (s.value !== undefined) bus()?.receive({ topic: `${s.device}/sensor/${s.name}/state`, payload: { ts: Date.now(), value: s.value } });
+    if (s.value !== undefined) bus()?.receive({ topic: `${s.device}/sensor/${s.name}/state`, payload: { ts: clock().now(), value: s.value } });
   };
   const commands = helper.getNode(byName(flow, 'helper', 'device commands'));
   commands.on('input', (msg) => {
     const [device, type, io] = msg.topic.split('/');
     if (msg.payload === '') return; // a retained lockout being cleared
     const value = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
-    const t = setTimeout(() => {
+    const t = clock().setTimeout(() => {
       timers.delete(t);
       panels[device][type][io] = value;
       report(device);
@@ -111,15 +130,15 @@ function fakeField(flow, { delayMs = 20 } = {}) {
     for (const s of Object.values(sensors)) publishSensor(s);
   };
   tick();
-  const interval = setInterval(tick, 200);
+  const interval = clock().setInterval(tick, 200);
   return {
     sensor(id, value) {
       sensors[id].value = value;
       publishSensor(sensors[id]);
     },
     stop() {
-      clearInterval(interval);
-      for (const t of timers) clearTimeout(t);
+      clock().clearInterval(interval);
+      for (const t of timers) clock().clearTimeout(t);
     },
   };
 }
@@ -173,7 +192,7 @@ describe('examples', function () {
     it(`${file} deploys without an error, every plant document valid`, async function () {
       const flow = helperFlow(file);
       await helper.load(NODE_MODULES, flow);
-      await sleep(300);
+      await started(flow);
       assert.deepEqual(errorLogs(), []);
       for (const p of ofType(flow, 'sugarshack-plant')) assert.equal(helper.getNode(p.id).runtime.state, 'ready', `plant ${p.name}`);
       for (const il of ofType(flow, 'sugarshack-interlock')) assert.equal(helper.getNode(il.id).runtime.state, 'ready', `interlock ${il.name}`);
@@ -189,10 +208,15 @@ describe('example: interlock-yel-contention', function () {
     it(`"start all" grants in the order the comment describes (${policy})`, async function () {
       const flow = contentionFlow(policy);
       await helper.load(NODE_MODULES, flow);
+      doWork(flow);
       const seen = watch(flow, ['granted', 'returned', 'refusals']);
       helper.getNode(byName(flow, 'inject', 'start all')).receive({});
-      await until(() => seen.returned.length === 4, 'all four operations to return');
+      const took = await runUntil(helper, () => seen.returned.length === 4, 'all four operations to return', { ids: interlocksOf(flow), step: 100 });
       assert.deepEqual(seen.granted.map((m) => m.interlock.operation), order);
+      // Greedy: 10 and 51 at once, 12 once 10 is done (5 s), 18 once 12 is (10 s), done at 14 s.
+      // No overtaking: 51 may not take RED ahead of 18; 18 once 10 is done (5 s), then 12 and 51 (9 s), done at 17 s.
+      assert.deepEqual(seen.granted.map((m) => m.interlock.waitedMs), policy === 'greedy' ? [0, 0, 5000, 10000] : [0, 5000, 9000, 9000]);
+      assert.equal(took, policy === 'greedy' ? 14000 : 17000);
       assert.deepEqual(seen.refusals, []);
     });
   }
@@ -200,6 +224,8 @@ describe('example: interlock-yel-contention', function () {
   it('fault op 12 locks YEL out, refuses its release, and clear resumes the queue', async function () {
     const flow = contentionFlow('greedy');
     await helper.load(NODE_MODULES, flow);
+    doWork(flow);
+    const run = (ms) => runFor(helper, ms, { ids: interlocksOf(flow), step: 100 });
     const seen = watch(flow, ['granted', 'returned', 'refusals', 'lockout commands', 'cleared']);
     helper.getNode(byName(flow, 'inject', 'start op 12 (unload truck)')).receive({});
     await until(() => seen.granted.length === 1, 'op 12 granted');
@@ -209,6 +235,9 @@ describe('example: interlock-yel-contention', function () {
     assert.equal(lockout.topic, 'lockout/YEL');
     assert.deepEqual(lockout.payload, { valves: { V10: 0, V11: 0, V12: 0, V13: 0 }, pumps: { P1: false } });
     assert.equal(lockout.note, 'pump P1 ran dry');
+    await run(4900);
+    assert.deepEqual(seen.refusals, [], 'op 12 works on for its 5 s');
+    await run(100);
     await until(() => seen.refusals.length === 1, 'the refused release of 12');
     assert.equal(seen.refusals[0].error.code, 'NOT_HOLDING');
 
@@ -216,10 +245,12 @@ describe('example: interlock-yel-contention', function () {
     helper.getNode(byName(flow, 'inject', 'start op 51 (drain silo)')).receive({});
     await until(() => seen.granted.length === 2, 'op 51 granted on RED');
     assert.equal(seen.granted[1].interlock.operation, '51');
+    await run(1000);
     helper.getNode(byName(flow, 'inject', 'clear all faulted')).receive({});
     await until(() => seen.granted.length === 3, 'op 10 granted after the clear');
     assert.deepEqual(seen.cleared[0].cleared, ['YEL']);
     assert.equal(seen.granted[2].interlock.operation, '10');
+    assert.equal(seen.granted[2].interlock.waitedMs, 1000, 'op 10 waited on the faulted line until the clear');
   });
 });
 
@@ -235,14 +266,16 @@ describe('example: operation-subflow', function () {
     await stopServer();
   });
 
-  /** The example with its interlock not persisted (no state carried between tests) and `waitS` as the condition's timeout. */
+  let ids = [];
+  const run = (ms) => runFor(helper, ms, { ids });
+  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
+
+  /** The example (each test has its own user directory for the interlock's state) with `waitS` as the condition's timeout. */
   async function start({ waitS } = {}) {
-    const flow = helperFlow(FILE, (n) => {
-      if (n.type === 'sugarshack-interlock') return { ...n, persist: false };
-      if (n.type === 'sugarshack-wait' && waitS) return { ...n, timeout: waitS };
-      return n;
-    });
+    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-wait' && waitS ? { ...n, timeout: waitS } : n));
     await helper.load(NODE_MODULES, flow);
+    ids = interlocksOf(flow);
+    await started(flow);
     const seen = watch(flow, ['op 12 returned', 'device commands', 'command errors', 'faulted', 'lockout done',
       'refused calls', 'cleared', 'interlock events']);
     field = fakeField(flow);
@@ -254,7 +287,7 @@ describe('example: operation-subflow', function () {
     field.sensor('LT-3', 0);
     const sent = seen['device commands'].length;
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await until(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
+    await runTill(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
     const back = seen['op 12 returned'][0];
     assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
     assert.deepEqual(back.interlock.resources, ['YEL']);
@@ -267,26 +300,26 @@ describe('example: operation-subflow', function () {
     ]);
     // Interlock events are published once per turn of the event loop: the release may follow the msg.
     const kinds = () => seen['interlock events'].map((m) => m.payload.kind).filter((k) => k === 'granted' || k === 'released');
-    await until(() => kinds().length === 2, 'the granted and released events');
+    await runTill(() => kinds().length === 2, 'the granted and released events');
     assert.deepEqual(kinds(), ['granted', 'released']);
     for (const name of ['command errors', 'faulted', 'refused calls']) assert.deepEqual(seen[name], [], name);
 
     // C1: while op 12 holds YEL, a second call is refused at the acquire node, not faulted.
     field.sensor('LT-3', 5000);
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await until(() => seen['interlock events'].filter((m) => m.payload.kind === 'granted').length === 2, 'the second grant');
+    await runTill(() => seen['interlock events'].filter((m) => m.payload.kind === 'granted').length === 2, 'the second grant');
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await until(() => seen['refused calls'].length === 1, 'the refused second call');
+    await runTill(() => seen['refused calls'].length === 1, 'the refused second call');
     assert.equal(seen['refused calls'][0].error.code, 'ALREADY_HOLDING');
     assert.deepEqual(seen.faulted, []);
     field.sensor('LT-3', 0);
-    await until(() => seen['op 12 returned'].length === 2, 'the first call to return');
-    await sleep(100);
+    await runTill(() => seen['op 12 returned'].length === 2, 'the first call to return');
+    await run(100);
     assert.equal(seen['op 12 returned'].length, 2, 'the refused call does not return');
 
     // e-stop RED: RED's lockout, retained, derived from the plant's RED actuators.
     helper.getNode(byName(flow, 'inject', 'e-stop RED')).receive({});
-    await until(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
     assert.equal(seen['lockout done'][0].topic, 'lockout/RED');
     const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
     assert.deepEqual(retained.map((m) => m.topic).sort(), [
@@ -297,13 +330,13 @@ describe('example: operation-subflow', function () {
     const { flow, seen } = await start({ waitS: 0.3 });
     field.sensor('LT-3', 5000);
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await until(() => seen.faulted.length === 1, 'the fault');
+    await runTill(() => seen.faulted.length === 1, 'the fault');
     assert.equal(seen.faulted[0].error.code, 'CONDITION_TIMEOUT');
     assert.match(seen.faulted[0].error.message, /`LT-3` < 50 did not hold within 0.3 s/);
-    await until(() => seen['lockout done'].length === 1, 'the YEL lockout to complete');
+    await runTill(() => seen['lockout done'].length === 1, 'the YEL lockout to complete');
     const lockout = seen['lockout done'][0];
     assert.equal(lockout.topic, 'lockout/YEL');
-    assert.ok(lockout.command.faultLockoutMs >= 0);
+    assert.equal(lockout.command.faultLockoutMs, 20, 'from the fault to every YEL actuator at its lockout state');
     const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
     assert.deepEqual(retained.map((m) => [m.topic, m.payload]).sort(), [
       ['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0'],
@@ -313,12 +346,12 @@ describe('example: operation-subflow', function () {
     // YEL stays faulted: the next call waits at the acquire node until a person clears it.
     field.sensor('LT-3', 0);
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await sleep(200);
+    await run(200);
     assert.equal(seen['op 12 returned'].length, 0, 'op 12 waits on the faulted line');
     helper.getNode(byName(flow, 'inject', 'clear all faulted')).receive({});
-    await until(() => seen['op 12 returned'].length === 1, 'op 12 after the clear');
+    await runTill(() => seen['op 12 returned'].length === 1, 'op 12 after the clear');
     assert.deepEqual(seen.cleared[0].cleared, ['YEL']);
-    assert.ok(seen['op 12 returned'][0].interlock.waitedMs >= 200);
+    assert.equal(seen['op 12 returned'][0].interlock.waitedMs, 200, 'from the call to the clear');
     assert.deepEqual(seen['command errors'], []);
   });
 });
@@ -335,9 +368,14 @@ describe('example: operations-and-routines', function () {
     await stopServer();
   });
 
+  let ids = [];
+  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
+
   async function start() {
-    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-interlock' ? { ...n, persist: false } : n));
+    const flow = helperFlow(FILE);
     await helper.load(NODE_MODULES, flow);
+    ids = interlocksOf(flow);
+    await started(flow);
     const seen = watch(flow, ['operation returned', 'routine events', 'errors', 'interlock events', 'device commands']);
     field = fakeField(flow);
     return { flow, seen };
@@ -348,7 +386,7 @@ describe('example: operations-and-routines', function () {
   it('the interlock takes YEL and RED with their lockouts from the plant; operations, wait and routine start idle', async function () {
     const flow = helperFlow(FILE);
     await helper.load(NODE_MODULES, flow);
-    await sleep(300);
+    await started(flow);
     assert.deepEqual(errorLogs(), []);
     const il = helper.getNode(ofType(flow, 'sugarshack-interlock')[0].id).runtime;
     assert.deepEqual(il.config.resources.map((r) => r.name), ['YEL', 'RED']);
@@ -366,18 +404,20 @@ describe('example: operations-and-routines', function () {
     field.sensor('LT-7', 1000);
     field.sensor('LT-2', 20000);
     inject(flow, 'start op 18 (flit downstock)');
-    await until(() => seen['device commands'].some((m) => m.topic === 'ctrl-5/pump/1/command' && m.payload === 'ON'), 'P3 on');
+    await runTill(() => seen['device commands'].some((m) => m.topic === 'ctrl-5/pump/1/command' && m.payload === 'ON'), 'P3 on');
     inject(flow, 'start op 18 (flit downstock)');
-    await until(() => seen.errors.length === 1, 'the refused second start');
+    await runTill(() => seen.errors.length === 1, 'the refused second start');
     assert.equal(seen.errors[0].error.code, 'OPERATION_RUNNING');
     inject(flow, 'drain silo when LT-2 ≥ 15000 L');
-    await until(() => seen['interlock events'].some((m) => m.payload.kind === 'queued' && m.payload.operation === '51'), 'op 51 queued');
+    await runTill(() => seen['interlock events'].some((m) => m.payload.kind === 'queued' && m.payload.operation === '51'), 'op 51 queued');
     field.sensor('LT-7', 200);
-    await until(() => seen['operation returned'].length === 2, 'op 18, then op 51');
+    await runTill(() => seen['operation returned'].length === 2, 'op 18, then op 51');
     const [op18, op51] = seen['operation returned'].map((m) => m.operation);
     assert.equal(op18.id, '18');
     assert.equal(op51.id, '51');
-    assert.ok(op51.queuedMs > 0, 'op 51 waited for RED');
+    // Op 18 ran 80 ms (two commands, its wait already met, a command, back to idle): op 51 queued for RED from 20 ms on.
+    assert.equal(op18.runMs, 80);
+    assert.equal(op51.queuedMs, 60, 'op 51 waited for RED');
     assert.deepEqual(op18.steps.map((s) => s.kind), ['command', 'command', 'wait', 'command', 'returnToIdle']);
     assert.deepEqual(seen['operation returned'][1].condition.values, { 'LT-2': 20000 });
     assert.equal(seen.errors.length, 1);
@@ -388,30 +428,30 @@ describe('example: operations-and-routines', function () {
     field.sensor('LT-2', 20000);
     field.sensor('LT-3', 0);
     inject(flow, 'reset');
-    await until(() => seen['routine events'].length === 1, 'the reset');
+    await runTill(() => seen['routine events'].length === 1, 'the reset');
     assert.equal(seen['routine events'][0].payload.to, 'empty');
     inject(flow, 'load');
-    await until(() => seen['routine events'].length === 2, 'the dispatch of op 10');
+    await runTill(() => seen['routine events'].length === 2, 'the dispatch of op 10');
     assert.deepEqual(
       (({ event, operation, from, to, state, pending }) => ({ event, operation, from, to, state, pending }))(seen['routine events'][1].payload),
       { event: 'dispatched', operation: '10', from: 'empty', to: 'loaded', state: 'empty', pending: '10' },
     );
     inject(flow, 'unload');
-    await until(() => seen.errors.length === 1, 'the trigger refused while op 10 is pending');
+    await runTill(() => seen.errors.length === 1, 'the trigger refused while op 10 is pending');
     assert.equal(seen.errors[0].error.code, 'ROUTINE_BUSY');
     field.sensor('LT-3', 7000);
-    await until(() => seen['routine events'].length === 3, 'op 10 to complete');
+    await runTill(() => seen['routine events'].length === 3, 'op 10 to complete');
     assert.equal(seen['routine events'][2].payload.event, 'completed');
     assert.equal(seen['routine events'][2].payload.state, 'loaded');
     inject(flow, 'unload');
-    await until(() => seen['routine events'].length === 4, 'the dispatch of op 12');
+    await runTill(() => seen['routine events'].length === 4, 'the dispatch of op 12');
     field.sensor('LT-3', 0);
-    await until(() => seen['routine events'].length === 5, 'op 12 to complete');
+    await runTill(() => seen['routine events'].length === 5, 'op 12 to complete');
     assert.deepEqual(seen['routine events'].map((m) => [m.payload.event, m.payload.state]), [
       ['reset', 'empty'], ['dispatched', 'empty'], ['completed', 'loaded'], ['dispatched', 'loaded'], ['completed', 'empty'],
     ]);
     inject(flow, 'unload');
-    await until(() => seen.errors.length === 2, 'no unload from empty');
+    await runTill(() => seen.errors.length === 2, 'no unload from empty');
     assert.equal(seen.errors[1].error.code, 'NO_TRANSITION');
   });
 });

@@ -2,15 +2,17 @@
 // Operations, condition waits and routines from a plant document, against a
 // fake panel that obeys commands (no broker): success, timeout -> fault ->
 // lockout -> blocked -> clear -> resumes, C1 and C2 refusals, stale sensors,
-// a routine stepping through its states with one pending operation.
+// a routine stepping through its states with one pending operation, its
+// state kept in the interlock's durable file. Time is the manual clock's.
 const assert = require('node:assert/strict');
 const fs = require('fs');
-const os = require('os');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  paletteNodes, catchNode, linkNodes, TAB, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
+  paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, trackDeliveries, untrackCompletions,
+  startServer, stopServer, settled, clock, userDir, runFor, runUntil,
 } = require('./support');
+const { fakePanel: panelOf, sensor: sensorOf, stopPanels } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -53,11 +55,11 @@ function plantDocument() {
 
 const SINKS = ['mqtt', 'ev', 'out', 'caught', 'events', 'rt', 'w'];
 
-function flowOf(extra, doc) {
+function flowOf(extra, doc, { persist = false } = {}) {
   return [
     TAB,
     { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist },
     { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], ['ev']] },
     { id: 'ilev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
     { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
@@ -66,8 +68,8 @@ function flowOf(extra, doc) {
   ];
 }
 
-async function start(extra = [], doc = plantDocument()) {
-  await helper.load([...paletteNodes, catchNode, linkNodes], flowOf(extra, doc));
+async function start(extra = [], doc = plantDocument(), options = {}) {
+  await helper.load([...paletteNodes, linkNodes], flowOf(extra, doc, options));
   return collectAll();
 }
 
@@ -77,58 +79,59 @@ function collectAll() {
   return seen;
 }
 
-/** A panel that moves to every command within `delayMs` and reports at once (no broker). */
-function fakePanel(seen, { delayMs = 20, stuck = new Set() } = {}) {
-  const positions = { valve: { 1: 0, 2: 0, 5: 0 }, pump: { 1: false } };
-  const report = () => helper.getNode('bus')?.receive({ topic: 'ctrl-1/state', payload: { ts: Date.now(), ...positions } });
-  const mqtt = helper.getNode('mqtt');
-  mqtt.on('input', (msg) => {
-    const [, type, io] = msg.topic.split('/');
-    if (stuck.has(`${type}/${io}`)) return;
-    const value = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
-    setTimeout(() => {
-      positions[type][io] = value;
-      report();
-    }, delayMs);
-  });
-  report();
-  return { report, positions };
+/** The panel of the fake field (lib: ./fake-panel.js): ctrl-1 reaches each command 20 ms of clock time after it. */
+const fakePanel = (options) => panelOf(helper, plantDocument(), options);
+const sensor = (value) => sensorOf(helper, value);
+
+/** Sends `value()` as LT-3 every `everyMs` of clock time (a station's 1 Hz datapoint, faster). */
+function sensorEvery(everyMs, value) {
+  sensor(value());
+  const timer = clock().setInterval(() => sensor(value()), everyMs);
+  return () => clock().clearInterval(timer);
 }
 
-function sensor(value, name = 'volume') {
-  helper.getNode('bus').receive({ topic: `station-3/sensor/${name}/state`, payload: { ts: Date.now(), value } });
-}
+const quiet = () => settled(helper, 'il');
+const run = (ms) => runFor(helper, ms);
+const runTill = (predicate, what) => runUntil(helper, predicate, what);
+const stateFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.json');
+const savedRoutine = (id) => JSON.parse(fs.readFileSync(stateFile(), 'utf8')).routines[id];
 
 const operationNode = (id, operation, wire = 'out') => ({ id, z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation, wires: [[wire]] });
+const routineNode = { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', wires: [['rt']] };
 const statusOf = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]).at(-1);
 
 describe('sugarshack operations and routines', function () {
-  beforeEach(function (done) {
-    helper.startServer(done);
-  });
+  beforeEach(startServer);
 
   afterEach(async function () {
     untrackCompletions();
-    await helper.unload();
-    await new Promise((resolve) => helper.stopServer(resolve));
+    stopPanels();
+    await stopServer();
   });
 
   it('runs an operation: acquire, steps, return to idle, release; the msg returns with its statistics', async function () {
     const seen = await start([operationNode('op10', '10')]);
-    fakePanel(seen);
+    fakePanel();
     const msg = { topic: 'go' };
     helper.getNode('op10').receive(msg);
-    await until(() => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command'), 'the pump start');
-    await sleep(60);
+    await quiet();
+    assert.deepEqual(seen.mqtt.map((m) => m.topic), ['ctrl-1/valve/1/command', 'ctrl-1/valve/2/command'], 'granted at once: step 1');
+    await run(40); // the valves reach 100 after 20 ms, the pump runs 20 ms later
+    assert.ok(seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command' && m.payload === 'ON'), 'the pump start');
+    await run(60);
     assert.equal(seen.out.length, 0, 'waits for LT-3');
+    assert.equal(statusOf('op10').text, '3/5 wait');
     sensor(150);
+    await run(40); // the pump stops after 20 ms, the valves are back at idle 20 ms later
     await until(() => seen.out.length === 1, 'the return');
     assert.equal(seen.out[0], msg);
     const { operation } = seen.out[0];
     assert.equal(operation.id, '10');
-    assert.ok(operation.runMs >= operation.steps.reduce((a, s) => a + s.ms, 0) - 5);
-    assert.ok(operation.queuedMs >= 0);
-    assert.deepEqual(operation.steps.map((s) => s.kind), ['command', 'command', 'wait', 'command', 'returnToIdle']);
+    assert.deepEqual(operation.steps, [
+      { kind: 'command', ms: 20 }, { kind: 'command', ms: 20 }, { kind: 'wait', ms: 60 }, { kind: 'command', ms: 20 }, { kind: 'returnToIdle', ms: 20 },
+    ]);
+    assert.equal(operation.runMs, 140, 'grant to release, on the clock');
+    assert.equal(operation.queuedMs, 0);
     // C3: the last commands put every commanded actuator back to idle.
     const last = seen.mqtt.slice(-3).map((m) => [m.topic, m.payload]);
     assert.deepEqual(last.sort(), [['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0']]);
@@ -137,7 +140,7 @@ describe('sugarshack operations and routines', function () {
     await until(() => kinds().length === 2, 'the granted and released events');
     assert.deepEqual(kinds(), ['granted', 'released']);
     assert.equal(seen.caught.length, 0);
-    assert.equal(statusOf('op10').fill, 'green');
+    assert.deepEqual(statusOf('op10'), { fill: 'green', shape: 'dot', text: 'done 0.14 s' });
   });
 
   it('a wait that times out faults the operation: lockout goes out, the line is blocked until cleared, then resumes', async function () {
@@ -146,10 +149,13 @@ describe('sugarshack operations and routines', function () {
       operationNode('op10', '10'), operationNode('op12', '12'),
       { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', resources: 'YEL', wires: [[]] },
     ]);
-    fakePanel(seen);
+    fakePanel();
     const msg = { topic: 'go' };
     helper.getNode('op10').receive(msg);
-    await until(() => seen.caught.length === 1, 'the fault reaching the Catch node', 4000);
+    await run(639); // the wait starts 40 ms after the grant and may last 600 ms
+    assert.equal(seen.caught.length, 0, 'still waiting 1 ms before the timeout');
+    await run(1);
+    await until(() => seen.caught.length === 1, 'the fault reaching the Catch node');
     const err = seen.caught[0].error;
     assert.ok(err.message.includes("operation '10' faulted at step 3 (wait): condition `LT-3` >= 100 did not hold within 0.6 s"), err.message);
     assert.match(err.message, /sensor 'LT-3' has sent no value yet/);
@@ -163,18 +169,19 @@ describe('sugarshack operations and routines', function () {
     await until(() => seen.events.some((e) => e.payload.kind === 'faulted'), 'the faulted event');
 
     helper.getNode('op12').receive({ topic: 'unload' });
-    await sleep(100);
+    await run(100);
     assert.equal(seen.out.length, 0, 'the faulted line is not granted');
     assert.equal(statusOf('op12').text, 'queued');
     helper.getNode('clr').receive({});
-    await until(() => seen.out.length === 1, 'op 12 after the clear');
+    await runTill(() => seen.out.length === 1, 'op 12 after the clear');
     assert.equal(seen.out[0].operation.id, '12');
-    assert.ok(seen.out[0].operation.queuedMs >= 100);
+    assert.equal(seen.out[0].operation.queuedMs, 100);
+    assert.equal(seen.out[0].operation.runMs, 40);
   });
 
   it('C1: a second start of a running operation is refused and the first goes on', async function () {
     const seen = await start([operationNode('op10', '10'), operationNode('op10b', '10')]);
-    fakePanel(seen);
+    fakePanel();
     helper.getNode('op10').receive({ topic: 'first' });
     await until(() => seen.mqtt.length > 0, 'the first command');
     helper.getNode('op10b').receive({ topic: 'second' });
@@ -182,7 +189,7 @@ describe('sugarshack operations and routines', function () {
     assert.equal(seen.caught[0].error.code, 'OPERATION_RUNNING');
     assert.match(seen.caught[0].error.message, /C1/);
     sensor(200);
-    await until(() => seen.out.length === 1, 'the first completes');
+    await runTill(() => seen.out.length === 1, 'the first completes');
     assert.equal(seen.out[0].topic, 'first');
   });
 
@@ -191,7 +198,7 @@ describe('sugarshack operations and routines', function () {
       { id: 'acq', z: 'f1', type: 'sugarshack-acquire', interlock: 'il', operation: '77', priority: 5, resources: 'YEL', timeout: 0, wires: [['gc']] },
       { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']] },
     ]);
-    fakePanel(seen);
+    fakePanel();
     const before = seen.mqtt.length;
     helper.getNode('acq').receive({ payload: { valves: { V501: 100 } } });
     await until(() => seen.caught.length === 1, 'the refusal');
@@ -208,55 +215,57 @@ describe('sugarshack operations and routines', function () {
       { id: 'wt', z: 'f1', type: 'sugarshack-wait', plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 0.8, wires: [['w']] },
     ]);
     sensor(500);
-    await sleep(450); // past LT-3's staleMs of 400
+    await run(399);
+    helper.getNode('wt').receive({ topic: 'fresh' });
+    await until(() => seen.w.length === 1, 'a value 399 ms old passing');
+    await run(1); // LT-3's staleMs of 400
     helper.getNode('wt').receive({ topic: 'a' });
-    await until(() => seen.caught.length === 1, 'the timeout', 3000);
-    assert.equal(seen.w.length, 0);
+    await run(799);
+    assert.equal(seen.caught.length, 0, 'still waiting 1 ms before the timeout');
+    await run(1);
+    await until(() => seen.caught.length === 1, 'the timeout');
+    assert.equal(seen.w.length, 1);
     assert.equal(seen.caught[0].error.code, 'CONDITION_TIMEOUT');
     assert.match(seen.caught[0].error.message, /sensor 'LT-3' is stale/);
     helper.getNode('wt').receive({ topic: 'b' });
+    await run(100);
     sensor(500);
-    await until(() => seen.w.length === 1, 'a fresh value passing');
-    assert.deepEqual(seen.w[0].condition.values, { 'LT-3': 500 });
+    await until(() => seen.w.length === 2, 'a fresh value passing');
+    assert.deepEqual(seen.w[1].condition, { values: { 'LT-3': 500 }, waitedMs: 100 });
   });
 
-  it('a routine steps through its states, one pending operation at a time, and persists its state', async function () {
-    const seen = await start([
-      { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', store: 'default', wires: [['rt']] },
-    ]);
-    fakePanel(seen);
-    const kick = setInterval(() => sensor(50), 100);
-    try {
-      await sleep(50);
-      helper.getNode('r').receive({ topic: 'load' });
-      await until(() => seen.rt.some((m) => m.payload.event === 'dispatched'), 'the dispatch');
-      helper.getNode('r').receive({ topic: 'load' });
-      await until(() => seen.caught.length === 1, 'the busy refusal');
-      assert.equal(seen.caught[0].error.code, 'ROUTINE_BUSY');
-      clearInterval(kick);
-      const kick2 = setInterval(() => sensor(150), 100);
-      try {
-        await until(() => seen.rt.filter((m) => m.payload.event === 'completed').length === 2, 'op 10 then op 12', 6000);
-      } finally {
-        clearInterval(kick2);
-      }
-    } finally {
-      clearInterval(kick);
-    }
+  it('a routine steps through its states, one pending operation at a time, and keeps its state in the interlock\'s file', async function () {
+    const seen = await start([routineNode], plantDocument(), { persist: true });
+    fakePanel();
+    let level = 50;
+    sensorEvery(100, () => level);
+    await run(50);
+    helper.getNode('r').receive({ topic: 'load' });
+    await until(() => seen.rt.some((m) => m.payload.event === 'dispatched'), 'the dispatch');
+    await quiet();
+    assert.deepEqual(savedRoutine('truck'), { routine: 'truck', state: 'empty', pending: '10', halted: false },
+      'saved with its operation pending before the operation starts');
+    assert.equal(statusOf('r').text, 'empty › 10');
+    helper.getNode('r').receive({ topic: 'load' });
+    await until(() => seen.caught.length === 1, 'the busy refusal');
+    assert.equal(seen.caught[0].error.code, 'ROUTINE_BUSY');
+    await run(300);
+    assert.equal(seen.rt.filter((m) => m.payload.event === 'completed').length, 0, 'op 10 waits for LT-3 >= 100');
+    level = 150;
+    await runTill(() => seen.rt.filter((m) => m.payload.event === 'completed').length === 2, 'op 10 then op 12');
     const trail = seen.rt.map((m) => [m.payload.event, m.payload.operation, m.payload.state]);
     assert.deepEqual(trail.slice(0, 4), [
       ['dispatched', '10', 'empty'], ['completed', '10', 'full'], ['dispatched', '12', 'full'], ['completed', '12', 'empty'],
     ]);
-    const saved = await new Promise((resolve) => helper.getNode('r').context().get('routine', (err, v) => resolve(v)));
-    assert.equal(saved.state, trail.at(-1)[2]);
+    await quiet();
+    const last = seen.rt.at(-1).payload;
+    assert.deepEqual(savedRoutine('truck'), { routine: 'truck', state: last.state, pending: last.pending, halted: false });
+    assert.equal(seen.caught.length, 1);
   });
 
   it('a routine trigger whose operation is already running is refused and the routine stays where it was', async function () {
-    const seen = await start([
-      operationNode('op10', '10'),
-      { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', store: 'default', wires: [['rt']] },
-    ]);
-    fakePanel(seen);
+    const seen = await start([operationNode('op10', '10'), routineNode]);
+    fakePanel();
     await until(() => statusOf('r') && statusOf('r').text === 'empty', 'the routine ready');
     helper.getNode('op10').receive({ topic: 'manual' });
     await until(() => seen.mqtt.length > 0, 'op 10 started by hand');
@@ -266,49 +275,45 @@ describe('sugarshack operations and routines', function () {
     assert.deepEqual([refused.operation, refused.state, refused.pending, refused.error.code], ['10', 'empty', null, 'OPERATION_RUNNING']);
     assert.equal(seen.caught.filter((m) => m.error.code === 'OPERATION_RUNNING').length, 1);
     sensor(150);
-    await until(() => seen.out.length === 1, 'the manual run completes');
+    await runTill(() => seen.out.length === 1, 'the manual run completes');
+    const stop = sensorEvery(100, () => 150);
     helper.getNode('r').receive({ topic: 'load' });
-    await until(() => seen.rt.some((m) => m.payload.event === 'completed'), 'the routine runs it now');
+    await runTill(() => seen.rt.some((m) => m.payload.event === 'completed'), 'the routine runs it now');
+    stop();
     assert.equal(seen.events.filter((e) => e.payload.kind === 'faulted').length, 0, 'nothing was faulted');
   });
 
   it('a restart while a routine waits for its operation: the routine comes back in its error state and the lines lock out', async function () {
-    const contextModule = require(require.resolve('@node-red/runtime/lib/nodes/context', { paths: [path.dirname(require.resolve('node-red'))] }));
-    const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-routine-'));
-    helper.settings({ contextStorage: { default: { module: 'localfilesystem', config: { dir, flushInterval: 0 } } } });
-    const loadStores = () => contextModule.load();
-    const routine = { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', store: 'default', wires: [['rt']] };
-    try {
-      await helper.load([...paletteNodes, catchNode, linkNodes, loadStores], flowOf([routine], plantDocument()));
-      let seen = collectAll();
-      fakePanel(seen);
-      await until(() => statusOf('r') && statusOf('r').text === 'empty', 'the routine ready');
-      helper.getNode('r').receive({ topic: 'load' });
-      await until(() => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command'), 'op 10 running (pump on)');
-      await helper.unload();
-      await contextModule.close();
+    const flow = () => flowOf([routineNode], plantDocument(), { persist: true });
+    await helper.load([...paletteNodes, linkNodes], flow());
+    let seen = collectAll();
+    fakePanel();
+    await until(() => statusOf('r') && statusOf('r').text === 'empty', 'the routine ready');
+    helper.getNode('r').receive({ topic: 'load' });
+    await run(40);
+    assert.ok(seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command'), 'op 10 running (pump on)');
+    await quiet();
+    assert.deepEqual(savedRoutine('truck'), { routine: 'truck', state: 'empty', pending: '10', halted: false });
+    await helper.unload();
 
-      const delivered = trackDeliveries();
-      await helper.load([...paletteNodes, catchNode, linkNodes, loadStores], flowOf([routine], plantDocument()));
-      seen = collectAll();
-      const to = (id) => delivered.filter((d) => d.nodeId === id).map((d) => d.msg);
-      await until(() => to('rt').length > 0, 'the restarted routine reporting');
-      const [first] = to('rt');
-      assert.deepEqual([first.payload.event, first.payload.operation, first.payload.state], ['interrupted', '10', 'fault']);
-      // The interlock is not persisted here: the routine faults the lines of its interrupted operation, and their lockouts go out.
-      const lockouts = () => to('mqtt').filter((m) => m.retain);
-      await until(() => lockouts().length === 3, 'the lockout of YEL');
-      assert.deepEqual(lockouts().map((m) => [m.topic, m.payload]).sort(),
-        [['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0']]);
-      assert.deepEqual(helper.getNode('il').runtime.faultedResources(), ['YEL']);
-      const saved = await new Promise((resolve) => helper.getNode('r').context().get('routine', (err, v) => resolve(v)));
-      assert.deepEqual(saved, { routine: 'truck', state: 'fault', pending: null, halted: false });
-    } finally {
-      await helper.unload();
-      await contextModule.close();
-      helper.settings({});
-      fs.rmSync(dir, { recursive: true, force: true });
-    }
+    const delivered = trackDeliveries();
+    await helper.load([...paletteNodes, linkNodes], flow());
+    seen = collectAll();
+    const to = (id) => delivered.filter((d) => d.nodeId === id).map((d) => d.msg);
+    await until(() => to('rt').length > 0, 'the restarted routine reporting');
+    const [first] = to('rt');
+    assert.deepEqual([first.payload.event, first.payload.operation, first.payload.state], ['interrupted', '10', 'fault']);
+    // YEL was held by op 10 at the shutdown: the interlock restores it faulted ("interrupted") and sends its lockout again.
+    const lockouts = () => to('mqtt').filter((m) => m.retain);
+    await until(() => lockouts().length === 3, 'the lockout of YEL');
+    assert.deepEqual(lockouts().map((m) => [m.topic, m.payload]).sort(),
+      [['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0']]);
+    assert.deepEqual(helper.getNode('il').runtime.faultedResources(), ['YEL']);
+    const yel = helper.getNode('il').runtime.core.snapshot(0).resources.find((r) => r.name === 'YEL');
+    assert.equal(yel.state.cause, 'interrupted');
+    await quiet();
+    assert.deepEqual(savedRoutine('truck'), { routine: 'truck', state: 'fault', pending: null, halted: false });
+    assert.deepEqual(statusOf('r'), { fill: 'red', shape: 'dot', text: 'fault' });
   });
 
   it('a broken plant document is refused at deploy with every problem named, and its nodes refuse msgs', async function () {

@@ -116,16 +116,25 @@ function settings(extra = {}) {
 
 /**
  * Starts the helper's server with a fresh user directory and a manual clock
- * (time moves only with `clock().advance(ms)`).
+ * (time moves only with `clock().advance(ms)`). Integration tests against real
+ * devices, where time must pass, use `startRealTimeServer`.
  */
 function startServer(done) {
+  startWith(new ManualClock(), done);
+}
+
+function startRealTimeServer(done) {
+  startWith(null, done);
+}
+
+function startWith(manual, done) {
   const helper = require('node-red-node-test-helper');
   /* eslint-disable no-underscore-dangle */
   helperCatch = helper._nodeModules.catch;
   helper._nodeModules.catch = catchOnce;
   /* eslint-enable no-underscore-dangle */
   current.userDir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-flow-'));
-  current.clock = useClock(new ManualClock());
+  current.clock = useClock(manual);
   settings();
   helper.startServer(done);
 }
@@ -159,7 +168,36 @@ async function settled(helper, ...ids) {
   }
 }
 
+/**
+ * Lets `ms` of manual-clock time pass in steps of `step` ms; before and after
+ * each step the runtimes of `ids` save and act on what it changed, so what a
+ * timer sets off happens at that timer's time.
+ */
+async function runFor(helper, ms, { ids = ['il'], step = 5 } = {}) {
+  await settled(helper, ...ids);
+  for (let passed = 0; passed < ms; passed += step) {
+    await current.clock.advance(Math.min(step, ms - passed));
+    await settled(helper, ...ids);
+  }
+}
+
+/**
+ * Lets manual-clock time pass, `step` ms at a time, until `predicate` holds;
+ * returns how much passed. Fails after `maxMs` of clock time.
+ */
+async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs = 60000 } = {}) {
+  await settled(helper, ...ids);
+  let passed = 0;
+  while (!predicate()) {
+    if (passed >= maxMs) throw new Error(`${typeof what === 'function' ? what() : what} did not happen within ${maxMs} ms of clock time`);
+    await current.clock.advance(step);
+    passed += step;
+    await settled(helper, ...ids);
+  }
+  return passed;
+}
+
 module.exports = {
-  PALETTE, paletteNodes, catchNode, catchOnce, startServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
-  interlockConfig, acquire, release, sinkNode, collect, sleep, until, trackCompletions, trackDeliveries, untrackCompletions,
+  PALETTE, paletteNodes, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

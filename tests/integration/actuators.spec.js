@@ -10,7 +10,7 @@ const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator, SMALL_PLANT } = require('./support/simulator');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
-  paletteNodes, catchNode, TAB, sinkNode, collect, sleep, until,
+  paletteNodes, TAB, sinkNode, startRealTimeServer, stopServer, settings, collect, sleep, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
@@ -64,17 +64,16 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     broker = await startMosquitto();
     sim = await startTestSimulator(broker.url, simOptions);
     probe = await connectProbe(broker.url, ['ctrl-1/+/+/command']);
-    helper.settings({ mqttReconnectTime: 300 });
-    await new Promise((resolve) => helper.startServer(resolve));
-    await helper.load([...paletteNodes, catchNode, mqttNodes], flow(broker.port));
+    await new Promise((resolve) => startRealTimeServer(resolve));
+    settings({ mqttReconnectTime: 300 });
+    await helper.load([...paletteNodes, mqttNodes], flow(broker.port));
     seen = {};
     for (const id of SINKS) seen[id] = collect(helper, id);
     await until(() => events(seen, 'changed', 'V101').length > 0 && events(seen, 'changed', 'P1').length > 0, 'the first panel batch', 5000);
   }
 
   afterEach(async function () {
-    await helper.unload().catch(() => {});
-    await new Promise((resolve) => helper.stopServer(resolve)).catch(() => {});
+    await stopServer().catch(() => {});
     if (probe) await probe.end().catch(() => {});
     if (sim) await sim.stop().catch(() => {});
     if (broker) await broker.stop();

@@ -13,7 +13,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
-const { PALETTE, paletteNodes, catchOnce, startServer, stopServer, sleep, until } = require('../flow/support');
+const { PALETTE, paletteNodes, catchOnce, startRealTimeServer, stopServer, settings, sleep, until } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
 
@@ -43,8 +43,8 @@ describe('RCC over MQTT (examples/rcc-failover.json, Mosquitto)', function () {
   before(async function () {
     broker = await startMosquitto();
     probe = await connectProbe(broker.url, [`${BASE}/#`]);
-    helper.settings({ mqttReconnectTime: 300 });
-    await new Promise((resolve) => startServer(resolve));
+    await new Promise((resolve) => startRealTimeServer(resolve));
+    settings({ mqttReconnectTime: 300 });
     await helper.load([...paletteNodes, catchOnce, ...coreNodes], flow(broker.port));
   });
 

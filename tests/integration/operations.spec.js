@@ -20,7 +20,7 @@ const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
-  paletteNodes, catchNode, TAB, sinkNode, sleep, until,
+  paletteNodes, TAB, sinkNode, startRealTimeServer, stopServer, settings, sleep, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
@@ -220,9 +220,9 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     broker = await startMosquitto();
     sim = await startTestSimulator(broker.url, SIM_OPTIONS);
     probes = [];
-    helper.settings({ mqttReconnectTime: 300 });
-    await new Promise((resolve) => helper.startServer(resolve));
-    await helper.load([...paletteNodes, catchNode, mqttNodes], flow(broker.port));
+    await new Promise((resolve) => startRealTimeServer(resolve));
+    settings({ mqttReconnectTime: 300 });
+    await helper.load([...paletteNodes, mqttNodes], flow(broker.port));
     seen = {};
     for (const id of ['ev', 'events', 'rt', 'cleared', 'caught']) {
       const got = [];
@@ -283,8 +283,7 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
 
   afterEach(async function () {
     if (this.currentTest.state === 'failed' && seen && sim) console.log(dump());
-    await helper.unload().catch(() => {});
-    await new Promise((resolve) => helper.stopServer(resolve)).catch(() => {});
+    await stopServer().catch(() => {});
     for (const p of probes || []) await p.end().catch(() => {});
     if (sim) await sim.stop().catch(() => {});
     if (broker) await broker.stop();

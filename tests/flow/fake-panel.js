@@ -1,0 +1,67 @@
+'use strict';
+// A field device without a broker, on the manual clock: an actuator panel that
+// reaches each command its actuators node publishes `delayMs` of clock time
+// later and then reports its state batch, and sensor datapoints stamped with
+// the clock. It follows the helper nodes by id, so it goes on across deploys.
+const { hooks } = require('@node-red/util');
+const { clock } = require('./support');
+
+let panels = 0;
+const active = new Set(); // hook labels of the panels not stopped yet
+
+/**
+ * Panel `device` of plant document `doc`: every actuator starts at its idle
+ * state; commands are read from what reaches helper node `mqtt`, feedback goes
+ * to actuators node `bus`. Actuators listed in `stuck` ("valve/3") never move.
+ * It stops with `stop()` or `stopPanels()`, or by itself once its test's clock is gone.
+ */
+function fakePanel(helper, doc, { device = 'ctrl-1', bus = 'bus', mqtt = 'mqtt', delayMs = 20, stuck = new Set() } = {}) {
+  const positions = {};
+  for (const a of doc.actuators.filter((x) => x.device === device)) {
+    positions[a.type] = positions[a.type] || {};
+    positions[a.type][a.io] = a.idle;
+  }
+  const report = () => helper.getNode(bus)?.receive({ topic: `${device}/state`, payload: { ts: clock().now(), ...positions } });
+  const commands = [];
+  const label = `onReceive.sugarshack-panel-${++panels}`;
+  const ownClock = clock();
+  const stop = () => {
+    active.delete(label);
+    hooks.remove(label);
+  };
+  active.add(label);
+  hooks.add(label, (event) => {
+    if (clock() !== ownClock) { // its test is over
+      stop();
+      return;
+    }
+    if (event.destination.id !== mqtt) return;
+    const msg = event.msg;
+    const [name, type, io] = String(msg.topic).split('/');
+    if (name !== device || msg.payload === '') return; // another device, or a retained lockout being cleared
+    commands.push({ atMs: clock().now(), topic: msg.topic, payload: msg.payload, retain: msg.retain });
+    if (stuck.has(`${type}/${io}`)) return;
+    const value = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
+    clock().setTimeout(() => {
+      positions[type][io] = value;
+      report();
+    }, delayMs);
+  });
+  report();
+  return { report, positions, commands, stop };
+}
+
+/** Stops every panel (an afterEach hook): no hook of a test is left to the next one. */
+function stopPanels() {
+  for (const label of [...active]) {
+    active.delete(label);
+    hooks.remove(label);
+  }
+}
+
+/** One datapoint of sensor `name` of `station`, stamped with the clock, given to actuators node `bus`. */
+function sensor(helper, value, { station = 'station-3', name = 'volume', bus = 'bus' } = {}) {
+  helper.getNode(bus).receive({ topic: `${station}/sensor/${name}/state`, payload: { ts: clock().now(), value } });
+}
+
+module.exports = { fakePanel, sensor, stopPanels };

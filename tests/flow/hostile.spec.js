@@ -1,0 +1,720 @@
+'use strict';
+// Hostile input, in process: values no flow should send (10,000 levels deep,
+// circular, a megabyte, BigInt, getters that throw, proxies) at every msg field
+// the nodes read. Each msg is refused with a coded error, never INTERNAL and
+// never an exception out of the handler, its node shows a red status, and the
+// interlock and the plant go on as if nothing happened. Then: errors quote
+// little of what they refuse, C2 cannot be bypassed with a malformed
+// msg.interlock, device clocks ahead or behind ours, and a wasm instance that
+// really traps is replaced without taking the process or the saved state along.
+const assert = require('node:assert/strict');
+const path = require('path');
+const helper = require('node-red-node-test-helper');
+const {
+  PALETTE, paletteNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions,
+  startServer, stopServer, settled, clock,
+} = require('./support');
+
+const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
+
+helper.init(require.resolve('node-red'));
+
+// ---- the plant ------------------------------------------------------------------
+
+const valve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
+
+function plantDocument() {
+  return {
+    actuatorTypes: {
+      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 2000, completionMs: 5000, staleMs: 3600000, retries: 0 },
+      pump: { signal: 'binary', noMotionMs: 2000, completionMs: 5000, staleMs: 3600000, retries: 0 },
+    },
+    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
+    actuators: [
+      valve('V101', 1, 'YEL'), valve('V102', 2, 'YEL'), valve('V201', 3, 'GRN'), valve('V501', 5, 'RED'),
+      { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' },
+    ],
+    sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 60000 }],
+    resources: [{ id: 'YEL' }, { id: 'GRN' }, { id: 'RED' }],
+    operations: [
+      { id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 10000 }] },
+    ],
+    routines: [{
+      id: 'truck', states: ['empty', 'full', 'fault'], initial: 'empty', errorState: 'fault',
+      transitions: [
+        { from: 'empty', to: 'full', operation: '10', trigger: { msg: 'load' } },
+        { from: 'full', to: 'empty', operation: '10', trigger: { msg: 'unload' } },
+      ],
+    }],
+  };
+}
+
+const SINKS = ['mqtt', 'busret', 'ev', 'gcout', 'granted', 'released', 'faulted', 'lockouts', 'cleared', 'cancelled',
+  'events', 'rtev', 'waited', 'pidout', 'rccout', 'iostate', 'ioact', 'opout'];
+
+function flow() {
+  const n = (id, type, props, wires) => ({ id, z: 'f1', type, ...props, wires });
+  return [
+    TAB,
+    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
+    {
+      id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy',
+      queueBound: '', warnQueued: '', warnHeld: '', persist: true, store: 'default',
+    },
+    n('bus', 'sugarshack-actuators', { plant: 'pl', devices: '' }, [['mqtt'], ['busret'], ['ev']]),
+    n('gc', 'sugarshack-group-command', { plant: 'pl', timeout: 0 }, [['gcout']]),
+    n('acq', 'sugarshack-acquire', { interlock: 'il', operation: '', priority: '', resources: '', timeout: 0 }, [['granted']]),
+    n('rel', 'sugarshack-release', { interlock: 'il', operation: '' }, [['released']]),
+    n('flt', 'sugarshack-fault', { interlock: 'il', mode: 'operation', operation: '', resources: '' }, [['faulted'], ['lockouts']]),
+    n('stop', 'sugarshack-fault', { interlock: 'il', mode: 'resources', operation: '', resources: '' }, [['faulted'], ['lockouts']]),
+    n('clr', 'sugarshack-clear', { interlock: 'il', mode: 'all', resources: '' }, [['cleared']]),
+    n('cnl', 'sugarshack-cancel', { interlock: 'il', operation: '' }, [['cancelled']]),
+    n('ilev', 'sugarshack-interlock-events', { interlock: 'il' }, [['events']]),
+    n('op', 'sugarshack-operation', { interlock: 'il', operation: '10' }, [['opout']]),
+    n('rt', 'sugarshack-routine', { interlock: 'il', routine: 'truck', store: 'default' }, [['rtev']]),
+    n('wt', 'sugarshack-wait', { plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 60 }, [['waited']]),
+    n('pid', 'sugarshack-pid', {
+      kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '',
+      setpoint: '50', mode: 'auto', manual: '', ts: '1', staleMs: '0',
+      smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', h: '3', maxSamples: '400',
+      persist: false, store: 'default',
+    }, [['pidout']]),
+    n('rcc', 'sugarshack-rcc', { controller: '1', thresholds: '100, 200', ts: '50', smooth: true, pollTimeout: '' }, [['rccout']]),
+    n('io', 'sugarshack-rcc-io', { controllers: '2', initialAction: '0', period: '1000' }, [['iostate'], ['ioact']]),
+    ...SINKS.map(sinkNode),
+  ];
+}
+
+// ---- hostile values -------------------------------------------------------------
+
+function deep(levels = 10000) {
+  let value = [];
+  for (let i = 0; i < levels; i++) value = [value];
+  return value;
+}
+
+function circular() {
+  const value = { name: 'loop' };
+  value.self = value;
+  value.list = [value];
+  return value;
+}
+
+/** Tunings that refer to themselves at the fields a pid node reads. */
+function circularTunings() {
+  const tunings = {};
+  tunings.kp = tunings;
+  tunings.ti = [tunings];
+  return tunings;
+}
+
+const MEGABYTE = 1024 * 1024;
+const bigObject = () => ({ blob: 'x'.repeat(MEGABYTE) });
+const bigArray = () => new Array(200000).fill(123456); // about 1.4 MB of JSON
+
+/** A msg whose `field` is a getter that throws. */
+function throwingGetter(fields, field) {
+  const msg = { ...fields };
+  Object.defineProperty(msg, field, { enumerable: true, get() { throw new Error(`no ${field} for you`); } });
+  return msg;
+}
+
+/** A msg that is a Proxy: `_msgid` and `fields` read through, every other read throws. */
+function proxyMsg(fields = {}) {
+  const target = { ...fields };
+  return new Proxy(target, {
+    get(t, key) {
+      // Node-RED itself reads _msgid and calls Object.prototype methods on every msg.
+      if (key === '_msgid' || typeof key === 'symbol' || key in Object.prototype || Object.prototype.hasOwnProperty.call(fields, key)) return t[key];
+      throw new Error(`proxy refuses to give ${String(key)}`);
+    },
+    set(t, key, value) {
+      t[key] = value;
+      return true;
+    },
+  });
+}
+
+/** A Proxy value: every operation on it throws (revoked). */
+function revoked() {
+  const { proxy, revoke } = Proxy.revocable({}, {});
+  revoke();
+  return proxy;
+}
+
+// ---- helpers --------------------------------------------------------------------
+
+let completions = [];
+const runtimeOf = (id) => helper.getNode(id).runtime;
+const quiet = () => settled(helper, 'il');
+const statusCalls = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]);
+const errorCalls = (id) => helper.getNode(id).error.getCalls().filter((c) => c.thisValue.id === id);
+const allTexts = () => {
+  const any = helper.getNode('il');
+  const texts = [...any.warn.getCalls(), ...any.error.getCalls()].map((c) => String(c.args[0] && c.args[0].message !== undefined ? c.args[0].message : c.args[0]));
+  const log = helper.log();
+  for (const call of log.getCalls()) {
+    const entry = call.args[0];
+    if (entry && (entry.level === log.ERROR || entry.level === log.WARN)) texts.push(String(entry.msg && entry.msg.message !== undefined ? entry.msg.message : entry.msg));
+  }
+  return texts;
+};
+const liveLines = () => Object.fromEntries(runtimeOf('il').core.snapshot(0).resources
+  .map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
+const malformed = (seen) => seen.ev.filter((m) => m.topic.startsWith('actuator/malformed/')).map((m) => m.payload);
+const badCount = () => runtimeOf('pl').buses.find((b) => b.nodeId === 'bus').bad;
+
+/** A panel that obeys every command at once and reports the whole device, stamped `offsetMs` from our clock. */
+function fakePanel(seen) {
+  const positions = { valve: { 1: 0, 2: 0, 3: 0, 5: 0 }, pump: { 1: false } };
+  const panel = {
+    positions,
+    offsetMs: 0,
+    mute: false,
+    report() {
+      helper.getNode('bus').receive({ topic: 'ctrl-1/state', payload: { ts: clock().now() + panel.offsetMs, ...positions } });
+    },
+  };
+  helper.getNode('mqtt').on('input', (msg) => {
+    const [, type, io] = msg.topic.split('/');
+    if (panel.mute || !(type in positions)) return;
+    positions[type][io] = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
+    setImmediate(() => panel.report());
+  });
+  return panel;
+}
+
+async function start() {
+  await helper.load(paletteNodes, flow());
+  const seen = {};
+  for (const id of SINKS) seen[id] = collect(helper, id);
+  await until(() => runtimeOf('il').state === 'ready' && runtimeOf('pl').state === 'ready', 'the runtimes ready');
+  await quiet();
+  const panel = fakePanel(seen);
+  panel.report();
+  sensorSample({ ts: clock().now(), value: 0 });
+  // Op h holds YEL for the whole test: "one on a held line queues".
+  helper.getNode('acq').receive({ operation: 'h', resources: 'YEL' });
+  await until(() => seen.granted.length === 1, 'op h holding YEL');
+  await quiet();
+  return { seen, panel };
+}
+
+function sensorSample(payload) {
+  helper.getNode('bus').receive({ topic: 'station-3/sensor/volume/state', payload });
+}
+
+const completionsOf = (id, msg) => completions.filter((c) => c.nodeId === id && c.msgid === msg._msgid);
+
+/**
+ * Gives `msg` to node `id` and checks it is refused as it should be: exactly one
+ * completion, with a coded error (`code`: a string or a RegExp, never INTERNAL),
+ * no exception out of the handler, a red status, a short message.
+ */
+async function refused(id, msg, code) {
+  const statusBefore = statusCalls(id).length;
+  helper.getNode(id).receive(msg);
+  await until(() => completionsOf(id, msg).length > 0, `node ${id} to complete the msg`);
+  await settle();
+  const mine = completionsOf(id, msg);
+  assert.equal(mine.length, 1, `node ${id}: one completion`);
+  const err = mine[0].error;
+  assert.ok(err, `node ${id}: completed with an error`);
+  assert.equal(typeof err.code, 'string', `node ${id}: a coded error, got ${err && err.stack}`);
+  assert.notEqual(err.code, 'INTERNAL', `node ${id}: ${err.message}`);
+  if (code instanceof RegExp) assert.match(err.code, code, `node ${id}: ${err.code} ${err.message}`);
+  else assert.equal(err.code, code, `node ${id}: ${err.message}`);
+  assert.ok(err.message.length < 400, `node ${id}: a message of ${err.message.length} characters`);
+  // done(err) reports the error once; an exception escaping the handler would be a second report.
+  assert.equal(errorCalls(id).filter((c) => c.args[1] === msg).length, 1, `node ${id}: no exception out of the handler`);
+  // A status is only set when it changes: the same refusal twice shows once.
+  const shown = statusCalls(id);
+  assert.ok(shown.length > 0 && shown.at(-1).fill === 'red', `node ${id}: a red status, got ${JSON.stringify(shown.slice(statusBefore))}`);
+  return err;
+}
+
+/**
+ * An e-stop of GRN whose note is not text: the line is faulted all the same (isolating it comes
+ * first), with a short note saying so; then cleared again.
+ */
+async function noteNotText(note) {
+  const msg = { resources: 'GRN', error: { message: note } };
+  helper.getNode('stop').receive(msg);
+  await until(() => liveLines().GRN === 'faulted:manual', 'GRN faulted');
+  await until(() => completionsOf('stop', msg).length === 1, 'the e-stop completed');
+  assert.equal(completionsOf('stop', msg)[0].error, undefined);
+  const saved = runtimeOf('il').core.snapshot(0).resources.find((r) => r.name === 'GRN').state.note;
+  assert.match(saved, /^\(a note that is not text: /);
+  assert.ok(saved.length < 200, `a note of ${saved.length} characters`);
+  helper.getNode('clr').receive({ resources: 'GRN' });
+  await until(() => liveLines().GRN === 'free', 'GRN cleared');
+}
+
+/** Device feedback is telemetry: a bad one completes without an error, warned about and counted. */
+async function ignored(seen, msg, reason) {
+  const bad = badCount();
+  const events = malformed(seen).length;
+  helper.getNode('bus').receive(msg);
+  await until(() => completionsOf('bus', msg).length > 0, 'the feedback msg to complete');
+  await settle();
+  const mine = completionsOf('bus', msg);
+  assert.equal(mine.length, 1);
+  assert.equal(mine[0].error, undefined, `feedback completes without an error: ${mine[0].error && mine[0].error.message}`);
+  assert.equal(errorCalls('bus').filter((c) => c.args[1] === msg).length, 0, 'no exception out of the handler');
+  assert.equal(badCount(), bad + 1, 'counted once');
+  await until(() => malformed(seen).length === events + 1, 'the malformed event');
+  const event = malformed(seen).at(-1);
+  if (reason instanceof RegExp) assert.match(event.reason, reason, JSON.stringify(event).slice(0, 300));
+  else if (reason) assert.equal(event.reason, reason, JSON.stringify(event).slice(0, 300));
+  assert.ok(event.message.length < 400);
+  return event;
+}
+
+/** The interlock still grants a free line at once and queues on a held one; the plant still completes a command. */
+async function stillWorks(seen, tag) {
+  const granted = seen.granted.length;
+  helper.getNode('acq').receive({ operation: `free-${tag}`, resources: 'RED' });
+  await until(() => seen.granted.length === granted + 1, 'the grant on the free line RED');
+  assert.equal(seen.granted.at(-1).interlock.operation, `free-${tag}`);
+  const waiter = { operation: `wait-${tag}`, resources: 'YEL' };
+  helper.getNode('acq').receive(waiter);
+  await quiet();
+  assert.ok(runtimeOf('il').core.snapshot(0).queue.some((q) => q.operation === `wait-${tag}`), 'the request on the held line YEL queues');
+  assert.equal(seen.granted.length, granted + 1, 'nothing else granted');
+  // Tidy up: the free line released, the waiter withdrawn.
+  helper.getNode('rel').receive({ operation: `free-${tag}` });
+  helper.getNode('cnl').receive({ operation: `wait-${tag}` });
+  await quiet();
+  const out = seen.gcout.length;
+  const target = seen.gcout.length % 2 === 0 ? 100 : 0;
+  helper.getNode('gc').receive({ payload: { valves: { V201: target } } });
+  await until(() => seen.gcout.length === out + 1, 'the group command to complete');
+  assert.equal(seen.gcout.at(-1).command.actuators[0].actuator, 'V201');
+}
+
+// ---- the tests ------------------------------------------------------------------
+
+describe('sugarshack hostile input', function () {
+  this.timeout(30000);
+
+  beforeEach(function (done) {
+    completions = trackCompletions();
+    startServer(done);
+  });
+
+  afterEach(async function () {
+    untrackCompletions();
+    await stopServer();
+  });
+
+  for (const [name, make, codes] of [
+    ['a 10,000-level nested array', () => deep(), { wasm: 'INPUT_TOO_DEEP', ages: 'INPUT_TOO_DEEP', tunings: deep, topic: 'INVALID_INPUT' }],
+    ['a circular object', () => circular(), { wasm: 'INPUT_CIRCULAR', ages: 'INPUT_CIRCULAR', tunings: circularTunings, topic: 'NO_TRANSITION' }],
+    ['a 1 MB object', () => bigObject(), { wasm: 'INPUT_TOO_LARGE', ages: 'INPUT_TOO_LARGE', agesValue: bigArray, tunings: () => ({ kp: bigObject() }), topic: 'NO_TRANSITION' }],
+  ]) {
+    it(`${name} at every field read is refused with a code; the interlock and the plant go on`, async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      const v = make;
+
+      // Group commands: the group command node, and an actuators node on a topic that is not a device's.
+      await refused('gc', { payload: v() }, codes.wasm);
+      await refused('bus', { topic: 'plant/command', payload: v() }, codes.wasm);
+      await refused('bus', { payload: v() }, codes.wasm);
+      // An acquire's fields.
+      await refused('acq', { operation: v(), resources: 'RED' }, 'INVALID_OPERATION');
+      await refused('acq', { operation: 'x', priority: v(), resources: 'RED' }, 'INVALID_PRIORITY');
+      await refused('acq', { operation: 'x', resources: v() }, 'INVALID_RESOURCES');
+      // A fault's note, as a Catch node would give it: one that is not text never stops the fault.
+      await noteNotText(v());
+      // A routine's trigger: a topic that cannot even be turned into text, or one no transition has.
+      await refused('rt', { topic: v() }, codes.topic);
+      // Control: an rcc node's ages, a pid node's tunings.
+      await refused('rcc', { payload: { procVar: 40, lastAction: 10, agesMs: (codes.agesValue || v)() } }, codes.ages);
+      await refused('pid', { tunings: codes.tunings() }, 'INVALID_INPUT');
+      await refused('pid', { tunings: { kp: v() } }, 'INVALID_INPUT');
+      await refused('pid', { limits: { min: 0, max: v() } }, 'INVALID_INPUT');
+
+      // Device feedback: ignored with a warning and counted, nothing else touched.
+      await ignored(seen, { topic: 'ctrl-1/state', payload: v() });
+      await ignored(seen, { topic: 'ctrl-1/valve/1/state', payload: v() });
+      await ignored(seen, { topic: 'ctrl-1/valve/1/state', payload: { ts: clock().now(), value: v() } }, 'non-numeric value');
+      await ignored(seen, { topic: 'station-3/sensor/volume/state', payload: v() });
+      await ignored(seen, { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: v() } }, 'non-numeric value');
+
+      assert.equal(wasm.currentGeneration(), generation, 'no input was taken for a broken wasm instance');
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' });
+      for (const text of allTexts()) assert.ok(text.length < 400, `a log text of ${text.length} characters: ${text.slice(0, 200)}`);
+      await stillWorks(seen, 'after');
+    });
+  }
+
+  it('a 1 MB group command as text, and as a Buffer, is refused before it is parsed', async function () {
+    const { seen } = await start();
+    const text = JSON.stringify({ valves: { V201: 100 }, pad: 'x'.repeat(MEGABYTE) });
+    await refused('gc', { payload: text }, 'INPUT_TOO_LARGE');
+    await refused('gc', { payload: Buffer.from(text) }, 'INPUT_TOO_LARGE');
+    await refused('bus', { topic: 'plant/command', payload: text }, 'INPUT_TOO_LARGE');
+    assert.equal(seen.mqtt.length, 0, 'nothing published');
+    await stillWorks(seen, 'after');
+  });
+
+  it('hostile JS values: BigInt, getters that throw, proxies are INVALID_*, never INTERNAL', async function () {
+    const { seen } = await start();
+    const generation = wasm.currentGeneration();
+
+    await refused('acq', { operation: 'x', priority: 10n, resources: 'RED' }, 'INVALID_PRIORITY');
+    await refused('acq', { operation: 'x', priority: 2n ** 70n, resources: 'RED' }, 'INVALID_PRIORITY');
+    await refused('acq', throwingGetter({ operation: 'x', resources: 'RED' }, 'priority'), 'INVALID_INPUT');
+    await refused('acq', throwingGetter({ resources: 'RED' }, 'operation'), 'INVALID_INPUT');
+    // A getter that recurses overflows the stack: a RangeError, which is no wasm trap.
+    const recursing = { operation: 'x', resources: 'RED' };
+    Object.defineProperty(recursing, 'priority', { enumerable: true, get() { return this.priority; } });
+    await refused('acq', recursing, 'INVALID_INPUT');
+    const recursingTopic = {};
+    Object.defineProperty(recursingTopic, 'topic', { enumerable: true, get() { return this.topic; } });
+    await refused('rt', recursingTopic, 'INVALID_INPUT');
+    await refused('gc', recursingTopic, 'INVALID_INPUT');
+    await refused('acq', { operation: 'x', resources: revoked() }, /^INVALID_/);
+    await refused('acq', proxyMsg({ operation: 'x' }), 'INVALID_INPUT');
+    await refused('rel', throwingGetter({}, 'operation'), 'INVALID_INPUT');
+    await refused('cnl', proxyMsg({}), 'INVALID_INPUT');
+    await refused('flt', throwingGetter({ operation: 'h' }, 'payload'), 'INVALID_INPUT');
+    await refused('flt', { operation: 'h', error: { get message() { throw new Error('nope'); } } }, 'INVALID_INPUT');
+    await noteNotText(10n);
+    await refused('clr', throwingGetter({}, 'resources'), 'INVALID_INPUT');
+    assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' }, 'no refused fault or clear changed anything');
+
+    await refused('gc', throwingGetter({}, 'payload'), 'INVALID_INPUT');
+    await refused('gc', throwingGetter({ payload: { valves: { V201: 100 } } }, 'topic'), 'INVALID_INPUT');
+    await refused('gc', { payload: revoked() }, 'INVALID_INPUT');
+    await refused('gc', { payload: new Proxy({}, { get() { throw new Error('proxy payload'); }, ownKeys() { throw new Error('no keys'); } }) }, 'INVALID_INPUT');
+    await refused('gc', { payload: { valves: { V201: 10n } } }, 'INVALID_INPUT');
+    await refused('gc', proxyMsg({}), 'INVALID_INPUT');
+    await refused('bus', throwingGetter({ payload: { valves: { V201: 100 } } }, 'topic'), 'INVALID_INPUT');
+    await refused('bus', throwingGetter({ topic: 'ctrl-1/state' }, 'payload'), 'INVALID_INPUT');
+    await refused('bus', throwingGetter({ topic: 'plant/command' }, 'payload'), 'INVALID_INPUT');
+    await refused('bus', proxyMsg({ topic: 'plant/command' }), 'INVALID_INPUT');
+
+    await refused('rt', throwingGetter({}, 'topic'), 'INVALID_INPUT');
+    await refused('rt', { topic: 10n }, 'NO_TRANSITION');
+    await refused('rt', { topic: revoked() }, 'INVALID_INPUT');
+    await refused('rt', { topic: { toString() { throw new Error('no text'); } } }, 'INVALID_INPUT');
+    await refused('pid', throwingGetter({}, 'payload'), 'INVALID_INPUT');
+    await refused('pid', throwingGetter({ payload: 40 }, 'topic'), 'INVALID_INPUT');
+    await refused('pid', { tunings: { get kp() { throw new Error('no kp'); } } }, 'INVALID_INPUT');
+    await refused('pid', proxyMsg({}), 'INVALID_INPUT');
+    await refused('rcc', throwingGetter({}, 'payload'), 'INVALID_INPUT');
+    await refused('rcc', { payload: { procVar: 40, lastAction: 10n, agesMs: [null, null] } }, 'INVALID_INPUT');
+    await refused('rcc', { payload: { procVar: 40, lastAction: 10, get agesMs() { throw new Error('no ages'); } } }, 'INVALID_INPUT');
+    await refused('rcc', { payload: revoked() }, 'INVALID_INPUT');
+    await refused('io', throwingGetter({ payload: 5, controller: 1 }, 'topic'), 'INVALID_INPUT');
+    await refused('io', throwingGetter({ topic: 'measurement' }, 'payload'), 'INVALID_INPUT');
+    await refused('io', { payload: 5, controller: 1n }, /^(INVALID_INPUT|UNKNOWN_CONTROLLER)$/);
+    await refused('io', proxyMsg({}), 'INVALID_INPUT');
+
+    // Feedback whose payload cannot be read at all is still only telemetry.
+    await ignored(seen, { topic: 'ctrl-1/state', payload: { ts: clock().now(), get valve() { throw new Error('no valves'); } } });
+    await ignored(seen, { topic: 'ctrl-1/valve/1/state', payload: revoked() });
+    // A timestamp that is no number is taken as none: the sample counts from its reception.
+    const odd = { topic: 'station-3/sensor/volume/state', payload: { ts: 10n, value: 5 } };
+    helper.getNode('bus').receive(odd);
+    await until(() => completionsOf('bus', odd).length === 1, 'the sample with a BigInt timestamp');
+    assert.equal(completionsOf('bus', odd)[0].error, undefined);
+
+    assert.equal(wasm.currentGeneration(), generation);
+    await stillWorks(seen, 'after');
+    // The pid and rcc nodes still step.
+    const pidOut = seen.pidout.length;
+    helper.getNode('pid').receive({ payload: 40 });
+    await until(() => seen.pidout.length === pidOut + 1, 'a pid step');
+    const rccOut = seen.rccout.length;
+    helper.getNode('rcc').receive({ payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } });
+    await until(() => seen.rccout.length === rccOut + 1, 'an rcc decision');
+  });
+
+  it('errors quote at most ~100 characters: a 1,000,000-character id, name, payload or topic', async function () {
+    const { seen } = await start();
+    const huge = (c) => c.repeat(1000000);
+    const messages = [];
+    const check = async (id, msg, code) => messages.push((await refused(id, msg, code)).message);
+    await check('acq', { operation: huge('o'), resources: 'RED' }, 'INVALID_OPERATION');
+    await check('rel', { operation: huge('o') }, 'INVALID_OPERATION');
+    await check('cnl', { operation: huge('o') }, 'INVALID_OPERATION');
+    await check('flt', { operation: huge('o') }, 'INVALID_OPERATION');
+    await check('acq', { operation: 'x', resources: huge('R') }, 'UNKNOWN_RESOURCE');
+    await check('acq', { operation: 'x', resources: ['RED', huge('R')] }, 'UNKNOWN_RESOURCE');
+    await check('acq', { operation: 'x', priority: huge('7'), resources: 'RED' }, 'INVALID_PRIORITY');
+    await check('stop', { resources: huge('R') }, 'UNKNOWN_RESOURCE');
+    await check('clr', { resources: huge('R') }, 'UNKNOWN_RESOURCE');
+    await check('gc', { payload: huge('{') }, 'INPUT_TOO_LARGE');
+    await check('gc', { payload: { valves: { [huge('V')]: 100 } } }, 'INPUT_TOO_LARGE');
+    await check('gc', { payload: { valves: { [`V${'9'.repeat(60000)}`]: 100 } } }, 'UNKNOWN_ACTUATOR');
+    await check('gc', { payload: { [`valve${'s'.repeat(60000)}`]: { V201: 100 } } }, /^(INVALID_GROUP|UNKNOWN_ACTUATOR)$/);
+    await check('gc', { payload: { valves: { V201: huge('1') } } }, /^(INVALID_TARGET|INVALID_GROUP|INPUT_TOO_LARGE)$/);
+    await check('gc', { payload: { valves: { V501: 100 } }, interlock: { resources: [huge('R')] } }, 'OUTSIDE_RESOURCES');
+    await check('gc', { payload: { valves: { V501: 100 } }, interlock: { resources: huge('R') } }, 'INVALID_RESOURCES');
+    await check('bus', { topic: 'plant/command', payload: huge('[') }, 'INPUT_TOO_LARGE');
+    await check('rt', { topic: huge('t') }, 'NO_TRANSITION');
+    await check('pid', { payload: 40, tunings: { kp: huge('2') } }, 'INVALID_INPUT');
+    await check('io', { payload: huge('5'), controller: 1 }, 'INVALID_INPUT');
+    await ignored(seen, { topic: 'ctrl-1/valve/1/state', payload: huge('x') }, 'bad JSON');
+    await ignored(seen, { topic: 'ctrl-1/status', payload: huge('x') }, 'bad status');
+    await ignored(seen, { topic: `${huge('d')}/state`, payload: { ts: clock().now(), valve: { 1: 3 } } }, 'unknown device');
+    await ignored(seen, { topic: 'ctrl-1/state', payload: { ts: clock().now(), [huge('k')]: 1 } }, 'no known type');
+    assert.equal(seen.mqtt.length, 0, 'nothing published');
+    const texts = allTexts();
+    assert.ok(texts.length >= messages.length, 'the refusals were logged');
+    for (const text of [...messages, ...texts]) assert.ok(text.length < 400, `${text.length} characters: ${text.slice(0, 300)}`);
+    for (const event of malformed(seen)) assert.ok(event.message.length < 400, event.message.slice(0, 300));
+    await stillWorks(seen, 'after');
+  });
+
+  it('C2 cannot be bypassed: a malformed msg.interlock is refused (INVALID_RESOURCES), ["RED"] is published', async function () {
+    const { seen } = await start();
+    const command = { valves: { V501: 100 } };
+    for (const interlock of [{ resources: 'YEL' }, { resources: 'RED' }, { resources: {} }, { resources: [1, 2] }, { resources: null },
+      { resources: [['RED']] }, 'x', null, 5, [], { operation: 'op' }]) {
+      const err = await refused('gc', { payload: command, interlock }, 'INVALID_RESOURCES');
+      assert.match(err.message, /C2/);
+      await refused('bus', { topic: 'plant/command', payload: command, interlock }, 'INVALID_RESOURCES');
+    }
+    await quiet();
+    assert.equal(seen.mqtt.length, 0, 'nothing published');
+    const err = await refused('gc', { payload: command, interlock: { resources: ['YEL'] } }, 'OUTSIDE_RESOURCES');
+    assert.match(err.message, /V501/);
+    assert.equal(seen.mqtt.length, 0, 'nothing published');
+    helper.getNode('gc').receive({ payload: command, interlock: { resources: ['RED'] } });
+    await until(() => seen.gcout.length === 1, 'the command on RED to complete');
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload]), [['ctrl-1/valve/5/command', '100']]);
+  });
+
+  it('device time: a sample from the future is refused and counted, the next real one kept; a clock an hour behind is still heard', async function () {
+    const { seen, panel } = await start();
+    const now = () => clock().now();
+
+    // A sensor stamped in the future: refused, counted, and a condition waiting for it does not pass on it.
+    helper.getNode('wt').receive({ topic: 'waiting' });
+    await settle();
+    let bad = badCount();
+    let events = malformed(seen).length;
+    sensorSample({ ts: 9e15, value: 500 });
+    await until(() => badCount() === bad + 1 && malformed(seen).length === events + 1, 'the future sample counted');
+    let event = malformed(seen).at(-1);
+    assert.equal(event.reason, 'FUTURE_TIMESTAMP');
+    assert.equal(event.device, 'station-3');
+    assert.ok(event.message.length < 400);
+    await settle();
+    assert.equal(seen.waited.length, 0, 'the condition did not pass on the refused sample');
+    sensorSample({ ts: now(), value: 150 });
+    await until(() => seen.waited.length === 1, 'the condition over the next real sample');
+    assert.deepEqual(seen.waited[0].condition.values, { 'LT-3': 150 });
+
+    // A device whose clock is an hour behind ours is still heard: sensor...
+    sensorSample({ ts: now() - 3600000, value: 220 });
+    await settle();
+    helper.getNode('wt').receive({ topic: 'again' });
+    await until(() => seen.waited.length === 2, 'the condition over the late-stamped sample');
+    assert.deepEqual(seen.waited[1].condition.values, { 'LT-3': 220 });
+    // ...and actuator feedback, as batches and as single states.
+    panel.offsetMs = -3600000;
+    helper.getNode('gc').receive({ payload: { valves: { V201: 100 } } });
+    await until(() => seen.gcout.length === 1, 'a command completed on feedback stamped an hour ago');
+    panel.mute = true;
+    helper.getNode('gc').receive({ payload: { valves: { V201: 0 } } });
+    await until(() => seen.mqtt.length === 2, 'the second command');
+    panel.positions.valve[3] = 0;
+    helper.getNode('bus').receive({ topic: 'ctrl-1/valve/3/state', payload: { ts: now() - 3600000, value: 0 } });
+    await until(() => seen.gcout.length === 2, 'a command completed on a single state stamped an hour ago');
+
+    // An actuator batch stamped in the future is refused whole, counted once.
+    bad = badCount();
+    events = malformed(seen).length;
+    helper.getNode('gc').receive({ payload: { valves: { V201: 100, V501: 100 } } });
+    await until(() => seen.mqtt.length === 4, 'two commands');
+    const futureBatch = { topic: 'ctrl-1/state', payload: { ts: now() + 3600000, valve: { 1: 0, 2: 0, 3: 100, 5: 100 }, pump: { 1: false } } };
+    helper.getNode('bus').receive(futureBatch);
+    await until(() => completionsOf('bus', futureBatch).length === 1 && malformed(seen).length > events, 'the batch handled');
+    await settle();
+    assert.equal(badCount(), bad + 1, 'counted once');
+    assert.equal(malformed(seen).length, events + 1);
+    event = malformed(seen).at(-1);
+    assert.equal(event.reason, 'FUTURE_TIMESTAMP');
+    assert.equal(completionsOf('bus', futureBatch)[0].error, undefined);
+    assert.equal(seen.gcout.length, 2, 'nothing of the future batch applied: the command waits');
+    const pl = runtimeOf('pl');
+    for (const id of ['V201', 'V501']) {
+      const a = pl.actuators.find((x) => x.id === id);
+      assert.notEqual(pl.t.position(a.handle), 100, `${id} not moved by the refused batch`);
+    }
+    panel.offsetMs = 0;
+    panel.positions.valve[3] = 100;
+    panel.positions.valve[5] = 100;
+    panel.report();
+    await until(() => seen.gcout.length === 3, 'the command completes on the next real batch');
+
+    // A panel batch with no type the plant knows is counted.
+    bad = badCount();
+    events = malformed(seen).length;
+    helper.getNode('bus').receive({ topic: 'ctrl-1/state', payload: { ts: now(), relay: { 1: 1 }, valves: { 1: 3 } } });
+    await until(() => badCount() === bad + 1 && malformed(seen).length === events + 1, 'the batch counted');
+    assert.equal(malformed(seen).at(-1).reason, 'no known type');
+  });
+
+  it('an operation run taken out of the queue by a cancel or a fault ends (ABORTED); its routine is not left busy', async function () {
+    const { seen } = await start(); // h holds YEL: op 10 queues
+    const run = { topic: 'start op 10' };
+    helper.getNode('op').receive(run);
+    await quiet();
+    assert.deepEqual(runtimeOf('il').core.snapshot(0).queue.map((q) => q.operation), ['10']);
+    const cancel = { operation: '10' };
+    helper.getNode('cnl').receive(cancel);
+    await until(() => completionsOf('op', run).length === 1, 'the run to end');
+    assert.equal(completionsOf('op', run)[0].error.code, 'ABORTED');
+    assert.equal(seen.opout.length, 0, 'nothing ran');
+    assert.equal(runtimeOf('il').runs.size, 0);
+    await until(() => seen.cancelled.length === 1, 'the cancel msg going on');
+
+    // A routine's operation faulted while it waits: the routine is told (refused) and takes triggers again.
+    helper.getNode('rt').receive({ topic: 'load' });
+    await quiet();
+    assert.deepEqual(runtimeOf('il').core.snapshot(0).queue.map((q) => q.operation), ['10']);
+    helper.getNode('flt').receive({ operation: '10', error: { message: 'stop it' } });
+    await until(() => seen.rtev.some((m) => m.payload.event === 'refused'), 'the routine told');
+    assert.equal(runtimeOf('il').routines.get('truck').machine.pending(), undefined);
+    assert.equal(runtimeOf('il').runs.size, 0);
+    const again = { topic: 'load' };
+    helper.getNode('rt').receive(again);
+    await until(() => completionsOf('rt', again).length === 1, 'the second trigger');
+    assert.equal(completionsOf('rt', again)[0].error, undefined, 'not ROUTINE_BUSY');
+    assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' }, 'h still holds YEL; nothing faulted');
+  });
+
+  describe('a wasm instance that really traps', function () {
+    let uncaught;
+    const onUncaught = (err) => uncaught.push(err);
+
+    beforeEach(function () {
+      uncaught = [];
+      process.on('uncaughtException', onUncaught);
+    });
+
+    afterEach(function () {
+      process.removeListener('uncaughtException', onUncaught);
+    });
+
+    /** Sets the state every runtime must come back to: h holds YEL, GRN faulted by hand, a routine, loops that ran. */
+    async function before() {
+      const { seen, panel } = await start();
+      helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+      await until(() => seen.lockouts.length === 1, 'the GRN lockout');
+      await until(() => runtimeOf('il').routines.get('truck'), 'the routine host');
+      helper.getNode('pid').receive({ payload: 40 });
+      helper.getNode('rcc').receive({ payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } });
+      await until(() => seen.pidout.length === 1 && seen.rccout.length === 1, 'the loops stepping');
+      await quiet();
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'faulted:manual', RED: 'free' });
+      return { seen, panel };
+    }
+
+    async function after(seen, generation, { core, tracker }) {
+      await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation + 1, 'one rebuild');
+      const il = runtimeOf('il');
+      const pl = runtimeOf('pl');
+      assert.equal(il.state, 'ready');
+      assert.equal(pl.state, 'ready');
+      assert.notEqual(il.core, core, 'the interlock rebuilt');
+      assert.notEqual(pl.t, tracker, 'the plant tracker rebuilt');
+      assert.equal(il.generation, generation + 1);
+      assert.equal(pl.generation, generation + 1);
+      assert.deepEqual(liveLines(), { YEL: 'faulted:interrupted', GRN: 'faulted:manual', RED: 'free' }, 'from the last saved state');
+      // Everything on the new instance: nothing left on the one that trapped.
+      const fresh = require(path.join(PALETTE, 'wasm', 'sugarshack_wasm.js'));
+      assert.ok(il.core instanceof fresh.Interlock);
+      assert.ok(pl.t instanceof fresh.Tracker);
+      assert.ok(il.routines.get('truck').machine instanceof fresh.Routine, 'the routine rebuilt');
+      assert.equal(il.routines.get('truck').machine.state(), 'empty');
+      // The loops keep working on the new instance.
+      const pidOut = seen.pidout.length;
+      helper.getNode('pid').receive({ payload: 41 });
+      await until(() => seen.pidout.length === pidOut + 1, 'a pid step after the rebuild');
+      assert.ok(Number.isFinite(seen.pidout.at(-1).payload));
+      const rccOut = seen.rccout.length;
+      helper.getNode('rcc').receive({ payload: { procVar: 41, lastAction: 12, agesMs: [20, null] } });
+      await until(() => seen.rccout.length === rccOut + 1, 'an rcc decision after the rebuild');
+      assert.equal(seen.rccout.at(-1).rcc.engaged, true);
+      // A free line is granted; one faulted by the rebuild queues.
+      const granted = seen.granted.length;
+      helper.getNode('acq').receive({ operation: 'red', resources: 'RED' });
+      await until(() => seen.granted.length === granted + 1, 'the grant on RED');
+      helper.getNode('acq').receive({ operation: 'yel', resources: 'YEL' });
+      await quiet();
+      assert.deepEqual(runtimeOf('il').core.snapshot(0).queue.map((q) => q.operation), ['yel']);
+      assert.equal(seen.granted.length, granted + 1);
+      // The plant completes a command on its new tracker (the panel reports every position again).
+      const out = seen.gcout.length;
+      helper.getNode('gc').receive({ payload: { valves: { V501: 100 } } });
+      await until(() => seen.gcout.length === out + 1, 'a group command after the rebuild');
+      // Clearing the interrupted line lets the waiter through.
+      helper.getNode('clr').receive({ resources: 'YEL' });
+      await until(() => seen.granted.length === granted + 2, 'the waiter granted once YEL is cleared');
+      assert.equal(seen.granted.at(-1).interlock.operation, 'yel');
+      assert.deepEqual(uncaught, [], 'no uncaught exception');
+    }
+
+    it('a trap in a msg: the msg ends INTERNAL, every runtime rebuilds from its last saved state', async function () {
+      const { seen } = await before();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+      const msg = { operation: 'x', resources: 'RED' };
+      helper.getNode('acq').receive(msg);
+      await until(() => completionsOf('acq', msg).length === 1, 'the msg to complete');
+      const err = completionsOf('acq', msg)[0].error;
+      assert.equal(err.code, 'INTERNAL');
+      assert.match(err.message, /rebuilt/);
+      assert.ok(err.message.length < 400);
+      await after(seen, generation, { core, tracker });
+    });
+
+    it('a trap in the plant tick (a timer): no uncaught exception, every runtime rebuilds', async function () {
+      const { seen } = await before();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      tracker.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+      await clock().advance(300);
+      await settle();
+      assert.deepEqual(uncaught, []);
+      assert.ok(allTexts().some((t) => /trapped|core failed/.test(t)), 'the trap was logged');
+      await after(seen, generation, { core, tracker });
+    });
+
+    it('a trap in a pid node\'s loop: that msg ends INTERNAL, every runtime rebuilds', async function () {
+      const { seen } = await before();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      // The pid node's loop is private to it: reach it through the rebuild hook the node registered.
+      const mem = require(path.join(PALETTE, 'wasm', 'sugarshack_wasm.js'));
+      const original = mem.PidLoop.prototype.step;
+      mem.PidLoop.prototype.step = function trapping(...args) {
+        this.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+        return original.apply(this, args);
+      };
+      try {
+        const msg = { payload: 42 };
+        helper.getNode('pid').receive(msg);
+        await until(() => completionsOf('pid', msg).length === 1, 'the pid msg to complete');
+        assert.equal(completionsOf('pid', msg)[0].error.code, 'INTERNAL');
+      } finally {
+        mem.PidLoop.prototype.step = original;
+      }
+      await after(seen, generation, { core, tracker });
+    });
+  });
+});

@@ -1,0 +1,298 @@
+'use strict';
+// Power cuts. A real Node-RED process runs the routines plant against a real
+// Mosquitto and the simulator, with the interlock persisted and the context
+// store as users have it (localfilesystem, default cache). It is killed with
+// SIGKILL at random moments while operations run, lines are e-stopped and
+// cleared, and restarted on the same user directory, 24 times. After each
+// restart, from outside (the admin API and MQTT):
+//
+// - no line that was held or faulted before the kill comes back free: an
+//   operation granted a moment before is faulted "interrupted", an e-stop whose
+//   lockout went out stays faulted; a clear that went out stays cleared;
+// - the lockouts of every faulted line are sent again;
+// - nothing is granted twice: replaying every interlock event of every run, a
+//   line is never granted while another operation holds it or while it is
+//   faulted.
+//
+// Run: npx mocha --timeout 30000 --exit tests/integration/crash.spec.js
+// (CRASH_LOG=1 prints each kill and what was checked.)
+const assert = require('node:assert/strict');
+const path = require('path');
+const { startMosquitto } = require('./support/mosquitto');
+const { connectProbe } = require('./support/mqtt-probe');
+const { startTestSimulator } = require('./support/simulator');
+const { NodeRedProcess, sleep } = require('./support/node-red');
+const { loadPlant } = require('../../scripts/simulator/plant');
+
+const PLANT_FILE = path.join(__dirname, 'fixtures', 'plant-routines.json');
+const PLANT = loadPlant(PLANT_FILE);
+const LINES = PLANT.resources.map((r) => r.id);
+const OPERATIONS = PLANT.operations.map((o) => ({ id: o.id, lines: o.resources }));
+const ROUTINES = PLANT.routines.map((r) => ({ id: r.id, start: r.transitions.find((t) => t.from === r.initial && t.trigger.msg).trigger.msg }));
+const KILLS = 24;
+const SEED = 20261123;
+// Within this of seeing a grant, its operation cannot have finished: its first
+// valve takes longer than that to travel, even at the simulator's 10x speed.
+const JUST_GRANTED_MS = 40;
+
+const log = (...args) => { if (process.env.CRASH_LOG) console.log('      ', ...args); };
+
+function random(seed) {
+  let a = seed >>> 0;
+  return () => {
+    a = (a + 0x6d2b79f5) >>> 0;
+    let t = a;
+    t = Math.imul(t ^ (t >>> 15), t | 1);
+    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+  };
+}
+
+function flow(port) {
+  const nodes = [
+    { id: 'tab', type: 'tab', label: 'crash' },
+    {
+      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
+      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
+    },
+    { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', queueBound: '', warnQueued: '', warnHeld: '', persist: true },
+    { id: 'bus', z: 'tab', type: 'sugarshack-actuators', plant: 'pl', devices: '', broker: 'br', wires: [['mout'], [], []] },
+    { id: 'mout', z: 'tab', type: 'mqtt out', topic: '', qos: '1', retain: '', broker: 'br', wires: [] },
+    { id: 'ilev', z: 'tab', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['evout']] },
+    { id: 'evout', z: 'tab', type: 'mqtt out', topic: 'test/events', qos: '1', retain: 'false', broker: 'br', wires: [] },
+  ];
+  const mqttIn = (id, topic, wire) => ({
+    id, z: 'tab', type: 'mqtt in', topic, qos: '1', datatype: 'utf8', broker: 'br', nl: false, rap: true, rh: 0, inputs: 0, wires: [[wire]],
+  });
+  for (const dev of PLANT.devices.map((d) => d.id)) {
+    nodes.push({ ...mqttIn(`in-${dev}`, `${dev}/#`, 'bus'), datatype: 'auto-detect' });
+  }
+  for (const op of OPERATIONS) {
+    nodes.push(mqttIn(`in-op-${op.id}`, `test/op/${op.id}`, `op-${op.id}`));
+    nodes.push({ id: `op-${op.id}`, z: 'tab', type: 'sugarshack-operation', interlock: 'il', operation: op.id, wires: [[]] });
+  }
+  for (const line of LINES) {
+    nodes.push(mqttIn(`in-estop-${line}`, `test/estop/${line}`, `estop-${line}`));
+    nodes.push({ id: `estop-${line}`, z: 'tab', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: line, wires: [[], ['bus']] });
+    nodes.push(mqttIn(`in-clear-${line}`, `test/clear/${line}`, `clear-${line}`));
+    nodes.push({ id: `clear-${line}`, z: 'tab', type: 'sugarshack-clear', interlock: 'il', mode: 'list', resources: line, wires: [[]] });
+  }
+  for (const r of ROUTINES) {
+    nodes.push(mqttIn(`in-rt-${r.id}`, `test/routine/${r.id}`, `topic-${r.id}`));
+    nodes.push({
+      id: `topic-${r.id}`, z: 'tab', type: 'change', rules: [{ t: 'set', p: 'topic', pt: 'msg', to: 'payload', tot: 'msg' }], wires: [[`rt-${r.id}`]],
+    });
+    nodes.push({ id: `rt-${r.id}`, z: 'tab', type: 'sugarshack-routine', interlock: 'il', routine: r.id, wires: [[]] });
+  }
+  return nodes;
+}
+
+/**
+ * The lines as the interlock's events tell them, across runs: replaying them
+ * finds every grant of a line held by another operation or faulted.
+ */
+class LineModel {
+  constructor() {
+    this.lines = Object.fromEntries(LINES.map((l) => [l, { holder: null, faulted: false, faultSeenAt: 0, grantSeenAt: 0 }]));
+    this.violations = [];
+  }
+
+  /** After a restart: the state the interlock reports. */
+  reset(lines) {
+    for (const [name, state] of Object.entries(lines)) {
+      const line = this.lines[name];
+      line.holder = state.startsWith('held:') ? state.slice(5) : null;
+      line.faulted = state.startsWith('faulted');
+    }
+  }
+
+  apply(e, at) {
+    const names = (e.resources || []).filter((r) => this.lines[r]);
+    switch (e.kind) {
+      case 'granted':
+        for (const r of names) {
+          const line = this.lines[r];
+          if (line.faulted || (line.holder && line.holder !== e.operation)) {
+            this.violations.push(`${e.operation} granted ${r} while ${line.faulted ? 'faulted' : `held by ${line.holder}`}`);
+          }
+          line.holder = e.operation;
+          line.grantSeenAt = at;
+        }
+        break;
+      case 'released':
+        for (const r of names) this.lines[r].holder = null;
+        break;
+      case 'faulted':
+      case 'resource-faulted':
+      case 'interrupted':
+        for (const r of names) {
+          Object.assign(this.lines[r], { holder: null, faulted: true, faultSeenAt: at });
+        }
+        break;
+      case 'state-unknown':
+        for (const line of Object.values(this.lines)) Object.assign(line, { holder: null, faulted: true, faultSeenAt: at });
+        break;
+      case 'cleared':
+        for (const r of names) this.lines[r].faulted = false;
+        break;
+      default:
+    }
+  }
+}
+
+describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same user directory', function () {
+  this.timeout(15 * 60 * 1000);
+  let broker;
+  let sim;
+  let probe;
+  let red;
+
+  before(async function () {
+    broker = await startMosquitto();
+    sim = await startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 1, pumpDelayMs: 200 });
+    probe = await connectProbe(broker.url, ['test/#', '+/+/+/command']);
+    red = new NodeRedProcess({ flows: flow(broker.port), tag: 'crash' });
+  });
+
+  after(async function () {
+    if (red) {
+      await red.stop();
+      if (this.currentTest && this.currentTest.state === 'failed') console.log(red.log().slice(-4000));
+      red.remove();
+    }
+    if (probe) await probe.end();
+    if (sim) await sim.stop();
+    if (broker) await broker.stop();
+  });
+
+  const events = (since) => probe.on('test/events').filter((m) => m.at >= since).map((m) => ({ ...m.json, seenAt: m.at }));
+  const lockoutSeen = (line, since) => {
+    const members = PLANT.actuators.filter((a) => a.resource === line);
+    const sent = probe.on('+/+/+/command').filter((m) => m.at >= since);
+    return members.every((a) => {
+      const want = a.type === 'pump' ? (a.lockout ? 'ON' : 'OFF') : String(a.lockout);
+      return sent.some((m) => m.topic === `${a.device}/${a.type}/${a.io}/command` && m.text === want);
+    });
+  };
+  async function waitFor(predicate, what, ms = 8000) {
+    const deadline = Date.now() + ms;
+    while (!predicate()) {
+      if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}`);
+      await sleep(10);
+    }
+  }
+
+  it(`keeps every held and faulted line locked out across ${KILLS} kills, re-sends lockouts, grants nothing twice`, async function () {
+    const rnd = random(SEED);
+    const pick = (list) => list[Math.floor(rnd() * list.length)];
+    const model = new LineModel();
+    const checks = [];
+    let expectations = []; // what must hold after the next restart: [line, test(state), why]
+    let consumed = 0; // events replayed so far
+    const replay = () => {
+      const all = probe.on('test/events');
+      for (; consumed < all.length; consumed++) model.apply(all[consumed].json, all[consumed].at);
+    };
+
+    for (let kill = 0; kill <= KILLS; kill++) {
+      await red.start();
+      const restartedAt = Date.now();
+      const lines = await red.lines('il');
+      replay();
+      log(`run ${kill}: restarted with ${JSON.stringify(lines)}`);
+      for (const [line, test, why] of expectations) {
+        checks.push(why);
+        assert.ok(test(lines[line]), `after kill ${kill}: ${why}, but ${line} is ${lines[line]}`);
+      }
+      assert.equal(Object.values(lines).some((s) => s.startsWith('faulted:unknown')), false, 'the saved state was never lost');
+      model.reset(lines);
+      const faulted = LINES.filter((l) => lines[l].startsWith('faulted'));
+      for (const line of faulted) await waitFor(() => lockoutSeen(line, restartedAt), `the lockout of ${line} sent again`);
+      if (faulted.length) checks.push(`lockouts of ${faulted.join(', ')} sent again`);
+      if (kill === KILLS) break;
+
+      // Clear what the last run left faulted and put the routines back, so operations can run.
+      for (const line of faulted) await probe.publish(`test/clear/${line}`, 'operator');
+      await waitFor(() => { replay(); return LINES.every((l) => !model.lines[l].faulted); }, 'the lines cleared');
+      for (const r of ROUTINES) await probe.publish(`test/routine/${r.id}`, 'reset');
+      await sleep(300); // the standing lockouts confirm from the devices' feedback
+      await sim.inject({ fault: 'clear' });
+
+      const scenario = ['grant', 'estop', 'clear', 'mixed'][kill % 4];
+      const since = Date.now();
+      expectations = [];
+      if (scenario === 'grant') {
+        // Killed within moments of a grant: the operation is mid-run, its lines must come back faulted.
+        const op = pick(OPERATIONS);
+        await probe.publish(`test/op/${op.id}`, 'go');
+        await waitFor(() => events(since).some((e) => e.kind === 'granted' && e.operation === op.id), `op ${op.id} granted`);
+        await sleep(Math.floor(rnd() * JUST_GRANTED_MS));
+        for (const line of op.lines) expectations.push([line, (s) => s.startsWith('faulted'), `op ${op.id} was granted ${line} just before the kill`]);
+      } else if (scenario === 'estop') {
+        const line = pick(LINES);
+        await probe.publish(`test/estop/${line}`, 'e-stop');
+        await waitFor(() => lockoutSeen(line, since), `the lockout of ${line}`);
+        await sleep(Math.floor(rnd() * JUST_GRANTED_MS));
+        expectations.push([line, (s) => s === 'faulted:manual', `${line}'s e-stop lockout went out before the kill`]);
+      } else if (scenario === 'clear') {
+        const line = pick(LINES);
+        await probe.publish(`test/estop/${line}`, 'e-stop');
+        await waitFor(() => events(since).some((e) => e.kind === 'resource-faulted' && e.resources.includes(line)), `${line} faulted`);
+        const clearAt = Date.now();
+        await probe.publish(`test/clear/${line}`, 'operator');
+        await waitFor(() => events(clearAt).some((e) => e.kind === 'cleared' && e.resources.includes(line)), `${line} cleared`);
+        await sleep(Math.floor(rnd() * JUST_GRANTED_MS));
+        expectations.push([line, (s) => !s.startsWith('faulted'), `${line}'s clear went out before the kill`]);
+      } else {
+        // Anything at all, killed at a random moment.
+        const endAt = Date.now() + 300 + Math.floor(rnd() * 2700);
+        const clearsSent = {};
+        while (Date.now() < endAt) {
+          const r = rnd();
+          if (r < 0.45) await probe.publish(`test/op/${pick(OPERATIONS).id}`, 'go');
+          else if (r < 0.6) await probe.publish(`test/estop/${pick(LINES)}`, 'e-stop');
+          else if (r < 0.75) {
+            const line = pick(LINES);
+            clearsSent[line] = Date.now();
+            await probe.publish(`test/clear/${line}`, 'operator');
+          } else if (r < 0.9) {
+            const routine = pick(ROUTINES);
+            await probe.publish(`test/routine/${routine.id}`, routine.start);
+          } else {
+            await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 1 + Math.floor(rnd() * 5) });
+          }
+          await sleep(Math.floor(rnd() * 250));
+        }
+        replay();
+        const killAt = Date.now();
+        for (const line of LINES) {
+          const seen = model.lines[line];
+          // A fault stands unless a clear was sent around or after the moment it was seen.
+          if (seen.faulted && !(clearsSent[line] > seen.faultSeenAt - 1000)) {
+            expectations.push([line, (s) => s.startsWith('faulted'), `${line} was seen faulted before the kill`]);
+          } else if (seen.holder && killAt - seen.grantSeenAt < JUST_GRANTED_MS) {
+            expectations.push([line, (s) => s.startsWith('faulted'), `${line} was granted to ${seen.holder} just before the kill`]);
+          }
+        }
+      }
+      await red.kill();
+      replay();
+      log(`kill ${kill + 1} (${scenario}) after ${Date.now() - since} ms; expecting ${expectations.map((e) => e[2]).join('; ') || 'nothing'}`);
+    }
+
+    assert.deepEqual(model.violations, [], 'no line granted while held by another or faulted');
+    assert.equal(red.starts, KILLS + 1);
+    assert.ok(checks.length >= KILLS, `${checks.length} checks after ${KILLS} kills`);
+    log(`${checks.length} checks passed; ${probe.on('test/events').length} interlock events replayed`);
+
+    // And the plant still works: every line cleared, an operation runs to its release.
+    const lines = await red.lines('il');
+    for (const line of LINES.filter((l) => lines[l].startsWith('faulted'))) await probe.publish(`test/clear/${line}`, 'operator');
+    await sim.inject({ fault: 'clear' });
+    await sleep(500);
+    const since = Date.now();
+    await probe.publish('test/op/51', 'go');
+    await waitFor(() => events(since).some((e) => e.kind === 'released' && e.operation === '51'), 'op 51 run to its release', 20000);
+  });
+});

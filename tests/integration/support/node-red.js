@@ -1,0 +1,153 @@
+'use strict';
+// A real Node-RED process for tests that must treat it as a plant would: kill
+// it with SIGKILL mid-run (a power cut), restart it on the same user directory,
+// feed it hostile MQTT msgs and check it is still alive. The palette is linked
+// into the user directory; the context store is `localfilesystem` with Node-RED's
+// default cache, as users have it.
+//
+//   const red = new NodeRedProcess({ flows });
+//   await red.start();          // resolves once the flows run and MQTT is connected
+//   await red.kill();           // SIGKILL
+//   await red.start();          // same user directory
+//   const state = await red.get('/sugarshack/state');
+//   await red.stop(); red.remove();
+const fs = require('fs');
+const http = require('http');
+const os = require('os');
+const path = require('path');
+const { spawn } = require('child_process');
+const { freePort } = require('./mosquitto');
+
+const ROOT = path.resolve(__dirname, '..', '..', '..');
+const PALETTE = path.join(ROOT, 'node-red-contrib-sugarshack');
+const RED_JS = path.join(ROOT, 'node_modules', 'node-red', 'red.js');
+
+const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+
+const running = new Set();
+process.on('exit', () => {
+  for (const child of running) child.kill('SIGKILL');
+});
+
+function settingsFile(dir) {
+  return `module.exports = {
+  uiHost: '127.0.0.1',
+  userDir: ${JSON.stringify(dir)},
+  flowFile: 'flows.json',
+  credentialSecret: false,
+  // What npm start and most users have: on disk, with the store's default cache.
+  contextStorage: { default: { module: 'localfilesystem' } },
+  mqttReconnectTime: 300,
+  logging: { console: { level: 'info', metrics: false, audit: false } },
+  telemetry: { enabled: false, updateNotification: false },
+  diagnostics: { enabled: false, ui: false },
+  externalModules: { autoInstall: false, palette: { allowInstall: false } },
+  editorTheme: { projects: { enabled: false }, tours: false },
+};
+`;
+}
+
+class NodeRedProcess {
+  constructor({ flows, tag = 'red' }) {
+    this.dir = fs.mkdtempSync(path.join(os.tmpdir(), `sugarshack-${tag}-`));
+    this.logFile = path.join(this.dir, 'node-red.log');
+    fs.writeFileSync(path.join(this.dir, 'settings.js'), settingsFile(this.dir));
+    fs.writeFileSync(path.join(this.dir, 'flows.json'), JSON.stringify(flows, null, 2));
+    fs.mkdirSync(path.join(this.dir, 'node_modules'));
+    fs.symlinkSync(PALETTE, path.join(this.dir, 'node_modules', 'node-red-contrib-sugarshack'), 'dir');
+    this.child = null;
+    this.port = null;
+    this.starts = 0;
+  }
+
+  log() {
+    return fs.existsSync(this.logFile) ? fs.readFileSync(this.logFile, 'utf8') : '';
+  }
+
+  /** The log written since the last start. */
+  logOfThisRun() {
+    return this.log().slice(this.logStart || 0);
+  }
+
+  get alive() {
+    return Boolean(this.child && this.child.exitCode === null && this.child.signalCode === null);
+  }
+
+  /** Starts Node-RED; resolves once its flows run and its MQTT client is connected. */
+  async start({ timeoutMs = 60000, waitForBroker = true } = {}) {
+    this.port = this.port || await freePort();
+    this.logStart = this.log().length;
+    const out = fs.openSync(this.logFile, 'a');
+    const child = spawn(process.execPath, [RED_JS, '-u', this.dir, '-p', String(this.port), '-s', path.join(this.dir, 'settings.js')], {
+      cwd: this.dir, stdio: ['ignore', out, out],
+    });
+    fs.closeSync(out);
+    this.child = child;
+    running.add(child);
+    child.once('exit', () => running.delete(child));
+    this.starts += 1;
+    const deadline = Date.now() + timeoutMs;
+    for (;;) {
+      const text = this.logOfThisRun();
+      if (text.includes('Started flows') && (!waitForBroker || text.includes('Connected to broker'))) return;
+      if (!this.alive) throw new Error(`Node-RED exited during start-up:\n${text.slice(-3000)}`);
+      if (Date.now() > deadline) throw new Error(`Node-RED not started after ${timeoutMs} ms:\n${text.slice(-3000)}`);
+      await sleep(50);
+    }
+  }
+
+  /** A power cut: SIGKILL, no chance to save anything. */
+  async kill() {
+    const { child } = this;
+    if (!this.alive) return;
+    const exited = new Promise((resolve) => child.once('exit', resolve));
+    child.kill('SIGKILL');
+    await exited;
+  }
+
+  async stop() {
+    const { child } = this;
+    if (!this.alive) return;
+    const exited = new Promise((resolve) => child.once('exit', resolve));
+    child.kill('SIGTERM');
+    const force = setTimeout(() => child.kill('SIGKILL'), 10000);
+    await exited;
+    clearTimeout(force);
+  }
+
+  remove() {
+    fs.rmSync(this.dir, { recursive: true, force: true });
+  }
+
+  /** GET on the admin API; resolves with the parsed JSON body. */
+  get(urlPath) {
+    return new Promise((resolve, reject) => {
+      const req = http.get({ host: '127.0.0.1', port: this.port, path: urlPath, timeout: 5000 }, (res) => {
+        let body = '';
+        res.on('data', (d) => { body += d; });
+        res.on('end', () => {
+          if (res.statusCode !== 200) reject(new Error(`GET ${urlPath}: ${res.statusCode} ${body.slice(0, 200)}`));
+          else resolve(JSON.parse(body));
+        });
+      });
+      req.on('error', reject);
+      req.on('timeout', () => req.destroy(new Error(`GET ${urlPath}: no answer in 5 s`)));
+    });
+  }
+
+  /** The interlock's lines as `GET /sugarshack/state` gives them: { name: 'free' | 'held:<op>' | 'faulted:<cause>' }. */
+  async lines(interlockId) {
+    const state = await this.get('/sugarshack/state');
+    const il = state.interlocks.find((i) => i.id === interlockId);
+    if (!il || !il.lines) throw new Error(`interlock ${interlockId} is not running: ${JSON.stringify(il)}`);
+    return Object.fromEntries(il.lines.map((l) => [l.name, lineState(l.state)]));
+  }
+}
+
+function lineState(s) {
+  if (s.state === 'held') return `held:${s.operation}`;
+  if (s.state === 'faulted') return `faulted:${s.cause}`;
+  return s.state;
+}
+
+module.exports = { NodeRedProcess, lineState, sleep };
