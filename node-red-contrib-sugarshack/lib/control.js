@@ -92,7 +92,7 @@ function revivable(make, { onRevive = () => {} } = {}) {
   let object = make(wasm.load());
   let generation = wasm.currentGeneration();
   const stopWatch = wasm.onTrap(() => {
-    forget(object);
+    wasm.forget(object);
     object = make(wasm.load());
     generation = wasm.currentGeneration();
     onRevive();
@@ -112,11 +112,7 @@ function revivable(make, { onRevive = () => {} } = {}) {
       if (prop === 'free') {
         return () => {
           stopWatch();
-          try {
-            object.free();
-          } catch {
-            // an object of a dropped instance
-          }
+          wasm.release(object);
         };
       }
       const value = object[prop];
@@ -126,12 +122,5 @@ function revivable(make, { onRevive = () => {} } = {}) {
   });
 }
 
-function forget(object) {
-  try {
-    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
-  } catch {
-    // gone either way
-  }
-}
 
 module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, Watchdog, revivable };

@@ -6,7 +6,7 @@
 // calls it and acts on what it returns, and every effect of a state change
 // (a grant sent, a lockout, an event) leaves only once that state is on disk.
 const { SugarshackError, asSugarshackError } = require('./errors');
-const { PendingRegistry } = require('./pending');
+const { PendingRegistry, heldMsg } = require('./pending');
 const { deliver, grantedBy, takeGrants } = require('./grants');
 const { EventFanout, describeWarning } = require('./events');
 const { countsStatus, errorStatus } = require('./status');
@@ -161,15 +161,6 @@ class InterlockRuntime extends RuntimeBase {
     });
   }
 
-  fail(err) {
-    const e = asSugarshackError(err);
-    this.failure = e;
-    this.state = 'failed';
-    this.log('error', e.message);
-    this.refreshStatus();
-    for (const task of this.parked.splice(0)) task.done(e);
-  }
-
   /** Lockouts of every faulted line go out again once the flows run (a device may have lost its retained one). */
   resendLockouts(note) {
     if (!this.plant) return;
@@ -229,11 +220,7 @@ class InterlockRuntime extends RuntimeBase {
   }
 
   freeCore() {
-    try {
-      this.core.free();
-    } catch {
-      // a core from a dropped wasm instance: nothing to free
-    }
+    wasm.release(this.core);
     this.core = null;
   }
 
@@ -321,7 +308,7 @@ class InterlockRuntime extends RuntimeBase {
     for (const run of [...this.runs]) run.abandon(error);
     for (const entry of this.heldBack || []) entry.refuse(error);
     this.heldBack = [];
-    forget(this.core);
+    wasm.forget(this.core);
     this.core = null;
     let saved;
     try {
@@ -639,62 +626,16 @@ function isPlainObject(value) {
   return value !== null && typeof value === 'object' && !Array.isArray(value);
 }
 
-/** A wasm object of a dropped instance: unhooked from its finalizer, never called again. */
-function forget(object) {
-  try {
-    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
-  } catch {
-    // nothing to do: the object is gone either way
-  }
-}
 
-/**
- * A msg held by an acquire node. `node` is null between a deploy's restart of
- * that node and its next instance taking the msg over (`adopt`).
- */
+/** A msg held by an acquire node until its operation is granted. */
 function msgEntry({ node, msg, send, done, operation, priority, resources, sinceMs }) {
-  const entry = {
-    node,
-    nodeId: node.id,
-    msg,
-    send,
-    done,
-    operation,
-    priority,
-    resources,
-    sinceMs,
-    timer: null,
-    timeoutMs: 0,
-    grant(nowMs) {
-      if (!entry.node && !entry.send) return;
-      deliver(entry, nowMs);
-    },
-    refuse(err) {
-      if (entry.timer) clock.clearTimeout(entry.timer);
-      entry.timer = null;
-      if (entry.done) {
-        if (entry.node) entry.node.status(errorStatus(err.code));
-        entry.done(err);
-      } else if (entry.node) {
-        entry.node.error(err, entry.msg);
-      }
-    },
-    abandon() {
-      if (entry.timer) clock.clearTimeout(entry.timer);
-      entry.timer = null;
-      if (entry.done) entry.done();
-      entry.done = null;
-    },
-    detach() {
-      if (entry.done) entry.done();
-      entry.node = null;
-      entry.send = null;
-      entry.done = null;
-    },
-    adopt(next) {
-      entry.node = next;
-      entry.send = (m) => next.send(m);
-    },
+  const entry = heldMsg({ node, msg, send, done, sinceMs, operation, priority, resources, timeoutMs: 0 });
+  entry.grant = (nowMs) => {
+    if (entry.send) deliver(entry, nowMs);
+  };
+  entry.refuse = (err) => {
+    if (entry.node && entry.done) entry.node.status(errorStatus(err.code));
+    entry.reject(err);
   };
   return entry;
 }

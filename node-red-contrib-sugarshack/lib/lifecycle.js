@@ -172,6 +172,30 @@ function serveState(RED, palette) {
   });
 }
 
+/**
+ * The runtime behind config node `node` (see `Palette.runtimeFor`), attached to
+ * it and started on first use; the node's close lets it go the way the close
+ * asks (a shutdown freezes it, a removal retires it, a restart hands it over).
+ */
+function runtimeOfConfigNode(RED, node, key, settings, create) {
+  const palette = paletteOf(RED);
+  const runtime = palette.runtimeFor(node.id, key, settings, create);
+  runtime.attach(node);
+  if (!runtime.started) {
+    runtime.started = true;
+    runtime.start();
+  } else {
+    runtime.refreshStatus();
+  }
+  node.on('close', (removed, done) => {
+    palette.detach(runtime, node, removed).then(() => done(), (err) => {
+      node.error(err);
+      done();
+    });
+  });
+  return runtime;
+}
+
 /** A stable text of the settings that decide a runtime's behaviour (object keys sorted). */
 function settingsKey(value) {
   return JSON.stringify(value, (k, v) => (v && typeof v === 'object' && !Array.isArray(v)
@@ -179,4 +203,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode };

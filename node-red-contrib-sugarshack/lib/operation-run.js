@@ -8,6 +8,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
+const wasm = require('./wasm');
 
 class RunHost {
   /** port: where progress, the result and the error go ({ progress, finish, fail, abandon, adopt, detachNode }). */
@@ -193,11 +194,7 @@ class RunHost {
   }
 
   free() {
-    try {
-      if (this.run) this.run.free();
-    } catch {
-      // a run of a dropped wasm instance
-    }
+    wasm.release(this.run);
     this.run = null;
   }
 

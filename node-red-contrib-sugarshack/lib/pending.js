@@ -49,4 +49,51 @@ class PendingRegistry {
   }
 }
 
-module.exports = { PendingRegistry };
+/**
+ * A msg held by a node until its work is answered. Between a deploy's restart
+ * of that node and its next instance taking the msg over (`adopt`), `node`,
+ * `send` and `done` are null: the first instance completed the msg when it
+ * closed (`detach`), and the next one sends it on.
+ */
+function heldMsg({ node, msg, send, done, sinceMs, ...rest }) {
+  const held = {
+    node,
+    nodeId: node ? node.id : null,
+    msg,
+    send,
+    done,
+    sinceMs,
+    timer: null,
+    ...rest,
+    /** The work failed: the msg ends with the error (a Catch node gets it). */
+    reject(err) {
+      held.stopTimer();
+      if (held.done) held.done(err);
+      else if (held.node) held.node.error(err, held.msg);
+      held.done = null;
+    },
+    /** Completed without being sent on (withdrawn, or the flows stop). */
+    abandon() {
+      held.stopTimer();
+      if (held.done) held.done();
+      held.done = null;
+    },
+    detach() {
+      if (held.done) held.done();
+      held.node = null;
+      held.send = null;
+      held.done = null;
+    },
+    adopt(next) {
+      held.node = next;
+      held.send = (m) => next.send(m);
+    },
+    stopTimer() {
+      if (held.timer) clock.clearTimeout(held.timer);
+      held.timer = null;
+    },
+  };
+  return held;
+}
+
+module.exports = { PendingRegistry, heldMsg };

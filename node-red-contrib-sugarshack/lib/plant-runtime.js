@@ -5,8 +5,8 @@
 // command msgs, the tick timer, status, which actuators node speaks for which
 // device, and whether each one's MQTT broker connection is up. Every rule is
 // the core's; this calls it and acts on the effects it returns.
-const { SugarshackError, asSugarshackError } = require('./errors');
-const { PendingRegistry } = require('./pending');
+const { SugarshackError } = require('./errors');
+const { PendingRegistry, heldMsg } = require('./pending');
 const { actuatorStatus, errorStatus } = require('./status');
 const { describeFault, seconds } = require('./plant');
 const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
@@ -97,15 +97,6 @@ class PlantRuntime extends RuntimeBase {
     for (const bus of this.buses) this.resolveDevices(bus);
   }
 
-  fail(err) {
-    const e = asSugarshackError(err);
-    this.failure = e;
-    this.state = 'failed';
-    this.log('error', e.message);
-    this.refreshStatus();
-    for (const task of this.parked.splice(0)) task.done(e);
-  }
-
   /** A shutdown: held msgs are completed unsent; nothing else moves. */
   async shutdown() {
     if (this.ended) return;
@@ -123,11 +114,7 @@ class PlantRuntime extends RuntimeBase {
   }
 
   freeTracker() {
-    try {
-      this.t.free();
-    } catch {
-      // a tracker of a dropped wasm instance
-    }
+    wasm.release(this.t);
     this.t = null;
   }
 
@@ -164,7 +151,7 @@ class PlantRuntime extends RuntimeBase {
     if (this.state !== 'ready') return;
     const error = new SugarshackError('INTERNAL', 'the plant core failed and was rebuilt; this group command was dropped (its actuators keep their last command)');
     for (const caller of this.pending.handles()) this.pending.take(caller).refuse(error);
-    forget(this.t);
+    wasm.forget(this.t);
     this.t = null;
     this.conditions.clear();
     try {
@@ -774,62 +761,24 @@ class PlantRuntime extends RuntimeBase {
 // The actuator layer's own time per call, for the overhead figures.
 timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'tick']);
 
-function forget(object) {
-  try {
-    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
-  } catch {
-    // nothing to do: the object is gone either way
-  }
-}
 
 /** A group command msg held by a group command or actuators node until its command completes. */
 function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
-  const entry = {
-    node,
-    nodeId: node ? node.id : null,
-    msg,
-    send,
-    done,
-    output,
-    outputs,
-    payload,
-    lockout,
-    completed: [],
-    retries: new Map(),
-    sinceMs,
-    timer: null,
-    complete(result) {
-      msg.command = result;
-      if (entry.send) {
-        if (outputs === 1) {
-          entry.send(msg);
-        } else {
-          const out = new Array(outputs).fill(null);
-          out[output] = msg;
-          entry.send(out);
-        }
+  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [], retries: new Map() });
+  entry.complete = (result) => {
+    msg.command = result;
+    if (entry.send) {
+      if (outputs === 1) {
+        entry.send(msg);
+      } else {
+        const out = new Array(outputs).fill(null);
+        out[output] = msg;
+        entry.send(out);
       }
-      if (entry.done) entry.done();
-    },
-    refuse(err) {
-      if (entry.done) entry.done(err);
-      else if (entry.node) entry.node.error(err, msg);
-    },
-    abandon() {
-      if (entry.done) entry.done();
-      entry.done = null;
-    },
-    detach() {
-      if (entry.done) entry.done();
-      entry.node = null;
-      entry.send = null;
-      entry.done = null;
-    },
-    adopt(next) {
-      entry.node = next;
-      entry.send = (m) => next.send(m);
-    },
+    }
+    if (entry.done) entry.done();
   };
+  entry.refuse = entry.reject;
   return entry;
 }
 

@@ -9,6 +9,7 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, MAX_STATUS_LENGTH } = require('./status');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
+const wasm = require('./wasm');
 
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
 const TICK_MS = 250;
@@ -65,13 +66,8 @@ class RoutineHost {
 
   /** Its core died (a wasm trap): the machine is dropped, never called again, until `rebuild`. */
   suspend() {
-    const machine = this.machine;
+    wasm.forget(this.machine);
     this.machine = null;
-    try {
-      if (machine && typeof machine.__destroy_into_raw === 'function') machine.__destroy_into_raw();
-    } catch {
-      // gone either way
-    }
   }
 
   /** Back on a new core (a swap or a trap): from `snapshot`, its own state or the saved one. */
@@ -84,13 +80,8 @@ class RoutineHost {
       return;
     }
     this.rebuildAfterRun = false;
-    const previous = this.machine;
+    wasm.release(this.machine);
     this.machine = null;
-    try {
-      if (previous) previous.free();
-    } catch {
-      // a machine of a dropped wasm instance
-    }
     try {
       this.build(snapshot);
     } catch (err) {
@@ -250,11 +241,7 @@ class RoutineHost {
     this.ended = true;
     if (this.timer) clock.clearInterval(this.timer);
     this.timer = null;
-    try {
-      if (this.machine) this.machine.free();
-    } catch {
-      // a machine of a dropped wasm instance
-    }
+    wasm.release(this.machine);
     this.machine = null;
   }
 }

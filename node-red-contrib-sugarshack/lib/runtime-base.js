@@ -32,6 +32,16 @@ class RuntimeBase {
     this.owner = owner;
   }
 
+  /** It cannot run (its settings, its document or its saved state refused): every msg gets the reason. */
+  fail(err) {
+    const e = asSugarshackError(err);
+    this.failure = e;
+    this.state = 'failed';
+    this.log('error', e.message);
+    this.refreshStatus();
+    for (const task of this.parked.splice(0)) task.done(e);
+  }
+
   log(level, text) {
     const target = this.owner;
     if (target) target[level](text);

@@ -67,6 +67,24 @@ function recover(err, brokenGeneration = generation) {
   }
 }
 
+/** A wasm object of a dropped instance: unhooked from its finalizer, never called again. */
+function forget(object) {
+  try {
+    if (object && typeof object.__destroy_into_raw === 'function') object.__destroy_into_raw();
+  } catch {
+    // gone either way
+  }
+}
+
+/** Frees a wasm object; one of a dropped instance is only forgotten. */
+function release(object) {
+  try {
+    if (object) object.free();
+  } catch {
+    forget(object);
+  }
+}
+
 /** Calls `listener(err, generation)` after a trap; returns the unsubscribe function. */
 function onTrap(listener) {
   trapListeners.add(listener);
@@ -209,4 +227,4 @@ function primeControl({ PidLoop, Rcc, IoModule, validateThresholds }) {
   loop.free();
 }
 
-module.exports = { load, isTrap, recover, onTrap, currentGeneration };
+module.exports = { load, isTrap, recover, onTrap, currentGeneration, forget, release };

@@ -2,7 +2,7 @@
 const { coreConfig } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { SugarshackError } = require('../lib/errors');
-const { paletteOf, settingsKey } = require('../lib/lifecycle');
+const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 
 module.exports = function (RED) {
   paletteOf(RED);
@@ -11,7 +11,6 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     node.name = props.name;
-    const palette = paletteOf(RED);
     // Bound to a plant, the interlock takes its resources and lockouts from the
     // plant document, and operation and routine nodes can run on it.
     const plantNode = props.plant ? RED.nodes.getNode(props.plant) : null;
@@ -31,22 +30,7 @@ module.exports = function (RED) {
       plant: plant ? plant.targetKey : null,
       error: settings.error ? settings.error.message : null,
     });
-    const runtime = palette.runtimeFor(node.id, key, settings, () => new InterlockRuntime({ RED, id: node.id, settings, plant }));
-    runtime.attach(node);
-    node.runtime = runtime;
-    if (!runtime.started) {
-      runtime.started = true;
-      runtime.start();
-    } else {
-      runtime.refreshStatus();
-    }
-
-    node.on('close', (removed, done) => {
-      palette.detach(runtime, node, removed).then(() => done(), (err) => {
-        node.error(err);
-        done();
-      });
-    });
+    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new InterlockRuntime({ RED, id: node.id, settings, plant }));
   }
 
   RED.nodes.registerType('sugarshack-interlock', InterlockNode);

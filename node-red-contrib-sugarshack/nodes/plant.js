@@ -2,7 +2,7 @@
 const { plantDocument } = require('../lib/plant');
 const { PlantRuntime } = require('../lib/plant-runtime');
 const { serveStats } = require('../lib/stats');
-const { paletteOf, settingsKey } = require('../lib/lifecycle');
+const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 
 module.exports = function (RED) {
   paletteOf(RED);
@@ -12,7 +12,6 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     node.name = props.name;
-    const palette = paletteOf(RED);
     const settings = { plant: null, error: null };
     try {
       settings.plant = plantDocument(props.plant);
@@ -20,22 +19,7 @@ module.exports = function (RED) {
       settings.error = err;
     }
     const key = settingsKey({ plant: settings.plant, error: settings.error ? settings.error.message : null });
-    const runtime = palette.runtimeFor(node.id, key, settings, () => new PlantRuntime({ RED, id: node.id, settings }));
-    runtime.attach(node);
-    node.runtime = runtime;
-    if (!runtime.started) {
-      runtime.started = true;
-      runtime.start();
-    } else {
-      runtime.refreshStatus();
-    }
-
-    node.on('close', (removed, done) => {
-      palette.detach(runtime, node, removed).then(() => done(), (err) => {
-        node.error(err);
-        done();
-      });
-    });
+    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new PlantRuntime({ RED, id: node.id, settings }));
   }
 
   RED.nodes.registerType('sugarshack-plant', PlantNode);

@@ -27,13 +27,14 @@ function freePort() {
   });
 }
 
-function settingsFile(dir) {
+/** settings.js for a throwaway user dir; `context`: the default context store's module. */
+function settingsFile(dir, { context = 'memory', extra = '' } = {}) {
   return `module.exports = {
   uiHost: '127.0.0.1',
   userDir: ${JSON.stringify(dir)},
   flowFile: 'flows.json',
   credentialSecret: false,
-  contextStorage: { default: { module: 'memory' } },
+  contextStorage: { default: { module: '${context}' } },${extra}
   logging: { console: { level: 'info', metrics: false, audit: false } },
   telemetry: { enabled: false, updateNotification: false },
   diagnostics: { enabled: false, ui: false },
@@ -131,4 +132,4 @@ class Session {
   }
 }
 
-module.exports = { Session, freePort, sleep, ROOT, PALETTE };
+module.exports = { Session, settingsFile, freePort, sleep, ROOT, PALETTE };

@@ -35,4 +35,4 @@ function stream(seed, name) {
   };
 }
 
-module.exports = { stream, hash32 };
+module.exports = { mulberry32, stream, hash32 };

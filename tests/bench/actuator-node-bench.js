@@ -32,6 +32,7 @@
 
 const os = require('os');
 const path = require('path');
+const { mulberry32: rng } = require('../../scripts/simulator/random');
 
 const ROOT = path.resolve(__dirname, '../..');
 process.chdir(ROOT); // the helper finds Node-RED from the working directory
@@ -61,16 +62,6 @@ const SECONDS = MSGS / PANELS.length;
 
 // ---- msgs ------------------------------------------------------------------
 
-function rng(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
 const random = rng(42);
 const round1 = (v) => Math.round(v * 10) / 10;
 const noisy = (position) => round1(Math.min(100, Math.max(0, position + (random() * 2 - 1)))); // ± 1 %, as the simulator

@@ -11,6 +11,7 @@
 // faulted line granted; and afterwards the interlock follows its rules.
 const assert = require('node:assert/strict');
 const path = require('path');
+const { mulberry32 } = require('../../scripts/simulator/random');
 const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, settled, clock,
@@ -104,16 +105,6 @@ function flow() {
 
 // ---- seeded random msgs -----------------------------------------------------------
 
-function mulberry32(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
 
 // Shared big values: strings are immutable and no node changes a nested value.
 const HUGE = 'x'.repeat(1000000);

@@ -18,10 +18,11 @@
 // (CRASH_LOG=1 prints each kill and what was checked.)
 const assert = require('node:assert/strict');
 const path = require('path');
+const { mulberry32: random } = require('../../scripts/simulator/random');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
-const { NodeRedProcess, sleep } = require('./support/node-red');
+const { NodeRedProcess, mqttBroker, sleep } = require('./support/node-red');
 const { loadPlant } = require('../../scripts/simulator/plant');
 
 const PLANT_FILE = path.join(__dirname, 'fixtures', 'plant-routines.json');
@@ -37,24 +38,11 @@ const JUST_GRANTED_MS = 40;
 
 const log = (...args) => { if (process.env.CRASH_LOG) console.log('      ', ...args); };
 
-function random(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
 
 function flow(port) {
   const nodes = [
     { id: 'tab', type: 'tab', label: 'crash' },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-    },
+    mqttBroker('br', port),
     { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
     { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', queueBound: '', warnQueued: '', warnHeld: '', persist: true },
     { id: 'bus', z: 'tab', type: 'sugarshack-actuators', plant: 'pl', devices: '', broker: 'br', wires: [['mout'], [], []] },

@@ -12,7 +12,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
-const { NodeRedProcess, sleep } = require('./support/node-red');
+const { NodeRedProcess, mqttBroker, sleep } = require('./support/node-red');
 const { loadPlant } = require('../../scripts/simulator/plant');
 
 const PLANT = loadPlant(path.join(__dirname, 'fixtures', 'plant-routines.json'));
@@ -46,10 +46,7 @@ const TARGETS = {
 function flow(port) {
   const nodes = [
     { id: 'tab', type: 'tab', label: 'hostile' },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-    },
+    mqttBroker('br', port),
     { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
     { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true },
     // The interlock still working: test/acquire/<op> acquires YEL, test/release/<op> releases it.

@@ -13,6 +13,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const { startMosquitto } = require('./support/mosquitto');
 const { startTestSimulator } = require('./support/simulator');
+const { mqttBroker } = require('./support/node-red');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
   paletteNodes, TAB, sinkNode, collect, until, startRealTimeServer, stopServer, settings,
@@ -34,10 +35,7 @@ function flow(port) {
     TAB,
     { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
     { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-    },
+    mqttBroker('br', port),
     ...PLANT.devices.map((d) => ({
       id: `in-${d.id}`, z: 'f1', type: 'mqtt in', topic: `${d.id}/#`, qos: '1', datatype: 'auto-detect', broker: 'br', nl: false, rap: true, rh: 0, inputs: 0, wires: [['bus']],
     })),

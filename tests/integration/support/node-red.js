@@ -17,6 +17,7 @@ const os = require('os');
 const path = require('path');
 const { spawn } = require('child_process');
 const { freePort } = require('./mosquitto');
+const { settingsFile } = require('../../../scripts/lib/node-red-process');
 
 const ROOT = path.resolve(__dirname, '..', '..', '..');
 const PALETTE = path.join(ROOT, 'node-red-contrib-sugarshack');
@@ -29,29 +30,22 @@ process.on('exit', () => {
   for (const child of running) child.kill('SIGKILL');
 });
 
-function settingsFile(dir) {
-  return `module.exports = {
-  uiHost: '127.0.0.1',
-  userDir: ${JSON.stringify(dir)},
-  flowFile: 'flows.json',
-  credentialSecret: false,
-  // What npm start and most users have: on disk, with the store's default cache.
-  contextStorage: { default: { module: 'localfilesystem' } },
-  mqttReconnectTime: 300,
-  logging: { console: { level: 'info', metrics: false, audit: false } },
-  telemetry: { enabled: false, updateNotification: false },
-  diagnostics: { enabled: false, ui: false },
-  externalModules: { autoInstall: false, palette: { allowInstall: false } },
-  editorTheme: { projects: { enabled: false }, tours: false },
-};
-`;
+// What npm start and most users have: on disk, with the store's default cache.
+const settingsOf = (dir) => settingsFile(dir, { context: 'localfilesystem', extra: '\n  mqttReconnectTime: 300,' });
+
+/** An mqtt-broker config node for a flow, on a local broker's port. */
+function mqttBroker(id, port) {
+  return {
+    id, type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
+    autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
+  };
 }
 
 class NodeRedProcess {
   constructor({ flows, tag = 'red' }) {
     this.dir = fs.mkdtempSync(path.join(os.tmpdir(), `sugarshack-${tag}-`));
     this.logFile = path.join(this.dir, 'node-red.log');
-    fs.writeFileSync(path.join(this.dir, 'settings.js'), settingsFile(this.dir));
+    fs.writeFileSync(path.join(this.dir, 'settings.js'), settingsOf(this.dir));
     fs.writeFileSync(path.join(this.dir, 'flows.json'), JSON.stringify(flows, null, 2));
     fs.mkdirSync(path.join(this.dir, 'node_modules'));
     fs.symlinkSync(PALETTE, path.join(this.dir, 'node_modules', 'node-red-contrib-sugarshack'), 'dir');
@@ -150,4 +144,4 @@ function lineState(s) {
   return s.state;
 }
 
-module.exports = { NodeRedProcess, lineState, sleep };
+module.exports = { NodeRedProcess, mqttBroker, lineState, sleep };
