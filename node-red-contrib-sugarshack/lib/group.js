@@ -3,8 +3,9 @@
 const { SugarshackError } = require('./errors');
 const { quote } = require('./request');
 
-// More lines than any plant has: a longer list is not one an acquire node made.
+// More lines than any plant has, longer names than a person gives: not a list an acquire node made.
 const MAX_HELD = 4096;
+const MAX_NAME = 200;
 
 // Longer JSON text than any group command: refused before it is parsed.
 const MAX_GROUP_TEXT = 64 * 1024;
@@ -57,7 +58,7 @@ function heldResources(msg) {
   const { interlock } = msg;
   if (interlock === undefined) return undefined;
   const held = interlock !== null && typeof interlock === 'object' ? interlock.resources : undefined;
-  if (Array.isArray(held) && held.length <= MAX_HELD && held.every((r) => typeof r === 'string')) return held;
+  if (Array.isArray(held) && held.length <= MAX_HELD && held.every((r) => typeof r === 'string' && r.length <= MAX_NAME)) return held;
   throw new SugarshackError('INVALID_RESOURCES', `C2: msg.interlock.resources must list the lines this msg holds (as an acquire node sets it), got ${quote(held === undefined ? interlock : held)}; the command was refused`);
 }
 

@@ -113,10 +113,15 @@ class InterlockRuntime extends RuntimeBase {
     if (this.ended) return;
     try {
       this.core = this.guard(() => this.build(saved, clock.now()));
-      this.store.markRan();
     } catch (err) {
       this.fail(err);
       return;
+    }
+    try {
+      this.store.markRan();
+    } catch (err) {
+      // Its state cannot be written either: grants will wait for it (status "state not saved").
+      this.log('error', `cannot mark this interlock as run in ${this.store.where}: ${err.message}`);
     }
     this.state = 'ready';
     this.committer.change(); // the state as started is the first one on disk

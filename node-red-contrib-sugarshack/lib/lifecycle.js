@@ -47,6 +47,12 @@ class Palette {
     this.started = false;
     const deploying = Boolean(event && this.startedConfig && event.config !== this.startedConfig);
     this.phase = deploying ? 'deploying' : 'shutdown';
+    if (!deploying) {
+      // Frozen where they are: a drain in progress ends with the process.
+      this.swaps.clear();
+      if (this.drainTimer) clock.clearInterval(this.drainTimer);
+      this.drainTimer = null;
+    }
   }
 
   get shuttingDown() {
@@ -156,7 +162,10 @@ function paletteOf(RED) {
 
 const served = new WeakSet();
 
-/** GET /sugarshack/state: every interlock's lines, holds and queue, and every plant's state, as now. */
+/**
+ * GET /sugarshack/state: every interlock's lines, holds and queue, and every
+ * plant's unconfirmed lockouts and broker connections, as now.
+ */
 function serveState(RED, palette) {
   if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
   served.add(RED.httpAdmin);
@@ -165,8 +174,7 @@ function serveState(RED, palette) {
     const plants = [];
     for (const [id, runtime] of palette.runtimes) {
       const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
-      if (runtime.kind === 'plant') plants.push(base);
-      else interlocks.push({ ...base, ...runtime.describe() });
+      (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
     }
     res.json({ interlocks, plants });
   });

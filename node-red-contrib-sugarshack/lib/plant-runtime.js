@@ -683,6 +683,16 @@ class PlantRuntime extends RuntimeBase {
     return this.t.routine(id);
   }
 
+  /** The plant as a person (or a dashboard) reads it: unconfirmed lockouts and each actuators node's broker connection. */
+  describe() {
+    if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
+    return {
+      lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
+      buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
+      devicesOffline: [...this.offline].map((d) => this.devices[d]),
+    };
+  }
+
   // ---- status --------------------------------------------------------------
 
   busOf(node) {

@@ -78,12 +78,19 @@ function priorityOf(msg, configured) {
   return number;
 }
 
+// More names than any plant has lines, longer than any name a person gives: not a list of lines.
+const MAX_NAMES = 4096;
+const MAX_NAME = 200;
+
 function splitNames(value, from) {
-  if (typeof value === 'string') return value.split(',').map((s) => s.trim()).filter(Boolean);
-  if (Array.isArray(value) && value.every((v) => typeof v === 'string')) {
-    return value.map((s) => s.trim()).filter(Boolean);
+  let names = null;
+  if (typeof value === 'string' && value.length <= MAX_NAMES * (MAX_NAME + 1)) names = value.split(',');
+  else if (Array.isArray(value) && value.length <= MAX_NAMES && value.every((v) => typeof v === 'string')) names = value;
+  if (!names || names.length > MAX_NAMES || names.some((n) => n.length > MAX_NAME)) {
+    throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string `
+      + `(at most ${MAX_NAMES} names of at most ${MAX_NAME} characters), got ${quote(value)}`);
   }
-  throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string, got ${quote(value)}`);
+  return names.map((s) => s.trim()).filter(Boolean);
 }
 
 /** Resource names from msg.resources, else the configured list (possibly empty). */
@@ -97,13 +104,15 @@ function resourcesOf(msg, configured) {
  * A fault note: a Catch node's msg.error.message, else a string payload. A
  * msg.error.message that is not text is refused like any malformed field.
  */
+// The interlock keeps 500 characters of a note; no more than a little above that crosses into it.
+const MAX_NOTE = 1000;
+
 function noteOf(msg) {
   const message = msg.error ? msg.error.message : undefined;
   // A note that is not text never stops a fault: isolating the line comes first.
   if (message !== undefined && message !== null && typeof message !== 'string') return `(a note that is not text: ${quote(message)})`;
-  if (message) return message;
-  if (typeof msg.payload === 'string' && msg.payload) return msg.payload;
-  return undefined;
+  const text = message || (typeof msg.payload === 'string' && msg.payload) || undefined;
+  return text === undefined ? undefined : text.slice(0, MAX_NOTE);
 }
 
 module.exports = { operationOf, priorityOf, resourcesOf, noteOf, splitNames, readMsg, quote };

@@ -5,6 +5,9 @@ const { errorStatus } = require('../lib/status');
 const { readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 
+// Longer than any transition's trigger a plant document names.
+const MAX_TOPIC = 1024;
+
 module.exports = function (RED) {
   function RoutineNode(props) {
     RED.nodes.createNode(this, props);
@@ -42,7 +45,11 @@ module.exports = function (RED) {
         if (refusal) throw refusal;
         if (!host) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${id}' is not running yet`);
         try {
-          host.onMsg(readMsg(() => String(msg.topic ?? '')));
+          const topic = readMsg(() => String(msg.topic ?? ''));
+          if (topic.length > MAX_TOPIC) {
+            throw new SugarshackError('INVALID_INPUT', `a routine's trigger (msg.topic) is at most ${MAX_TOPIC} characters; this one has ${topic.length}`);
+          }
+          host.onMsg(topic);
         } catch (err) {
           const e = asSugarshackError(err);
           node.status(errorStatus(e.code));
