@@ -638,6 +638,6 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
     );
     let long = "x".repeat(500);
     let message = OperationRun::of(&plant, &long).unwrap_err().to_string();
-    assert!(message.contains(&format!("'{}...'", "x".repeat(100))));
+    assert!(message.contains(&format!("'{}…'", "x".repeat(99))));
     assert!(message.len() < 200);
 }

@@ -25,12 +25,11 @@ use serde::Serialize;
 
 use super::{OperationPlan, PlanStep};
 use crate::plant::PlantModel;
+use crate::text::quote;
 
 /// Interlock refusals that mean the operation already runs (C1).
 const ALREADY_RUNNING: [&str; 2] = ["ALREADY_HOLDING", "ALREADY_QUEUED"];
 const ABORTED: &str = "ABORTED";
-/// How much of an unknown id an error message quotes.
-const QUOTE_CHARS: usize = 100;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RunError {
@@ -70,13 +69,6 @@ impl fmt::Display for RunError {
 }
 
 impl std::error::Error for RunError {}
-
-fn quote(text: &str) -> String {
-    match text.char_indices().nth(QUOTE_CHARS) {
-        Some((cut, _)) => format!("{}...", &text[..cut]),
-        None => text.to_owned(),
-    }
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]

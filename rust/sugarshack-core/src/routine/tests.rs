@@ -225,5 +225,5 @@ fn a_dispatch_refused_before_it_ran_leaves_the_state_unchanged() {
     assert_eq!((r.state(), r.pending(), r.halted()), ("empty", None, false));
     assert_eq!(r.on_msg("load").unwrap().operation, "10");
     r.completed().unwrap();
-    assert_eq!(r.refused().is_ok(), false);
+    assert!(r.refused().is_err());
 }
