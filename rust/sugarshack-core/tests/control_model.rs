@@ -106,7 +106,9 @@ proptest! {
     }
 
     /// From any earlier estimate, a constant round trip pulls the mean in
-    /// geometrically and the dead time settles on floor(d / Ts).
+    /// geometrically and the dead time settles on floor(d / Ts). The variance
+    /// decays as (1 - alpha)^n too: 2,000 samples bring even alpha = 0.05 from a
+    /// 5 s gap to well under a microsecond.
     #[test]
     fn the_estimator_converges_on_a_constant_delay(
         alpha in 0.05..1.0f64,
@@ -120,7 +122,7 @@ proptest! {
             e.observe(*d).unwrap();
         }
         let gap = (e.mean_ms().unwrap() - delay).abs();
-        for n in 1..=400 {
+        for n in 1..=2000 {
             e.observe(delay).unwrap();
             let bound = (1.0 - alpha).powi(n) * gap + 1e-6;
             prop_assert!((e.mean_ms().unwrap() - delay).abs() <= bound);
