@@ -96,7 +96,9 @@ function batches() {
         valve[io] = noisy(position);
       }
       const running = c >= 11 && c < 31; // 1 s spin-up
-      out.push({ second: s, topic: `${device}/state`, payload: JSON.stringify({ ts: ts0 + s * 1000, valve, pump: { 1: running } }) });
+      // Device time moves 1 ms per plant second: the replay runs far faster than the plant, and a
+      // stamp more than clockSkewMs ahead of its reception would be refused as a clock gone wrong.
+      out.push({ second: s, topic: `${device}/state`, payload: JSON.stringify({ ts: ts0 + s, valve, pump: { 1: running } }) });
     });
   }
   return out;
