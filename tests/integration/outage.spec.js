@@ -8,6 +8,7 @@
 // survives its restart: the palette must send the lockout again itself.
 //
 // Run: npx mocha --timeout 30000 --exit tests/integration/outage.spec.js
+// (OUTAGE_LOG=1 prints how long after the broker's return the line was at its lockout state.)
 const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
@@ -95,7 +96,9 @@ describe('a lockout issued while the MQTT broker is away reaches the devices (Mo
     assert.deepEqual(helper.getNode('il').runtime.faultedResources(), ['YEL']);
     assert.equal(atLockout(), false, 'nothing reached the devices meanwhile');
     await until(atLockout, 'every YEL actuator at its lockout state', BOUND_MS);
-    return { caught, events, restoredInMs: Date.now() - backAt };
+    const restoredInMs = Date.now() - backAt;
+    if (process.env.OUTAGE_LOG) console.log(`      broker away ${downMs} ms: every YEL actuator at its lockout state ${restoredInMs} ms after it was back`);
+    return { caught, events, restoredInMs };
   }
 
   it('a 1 s outage with an e-stop in it: the lockout arrives once the broker is back', async function () {
