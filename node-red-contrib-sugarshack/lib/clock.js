@@ -109,4 +109,4 @@ function useClock(replacement) {
   return current;
 }
 
-module.exports = { clock, useClock, ManualClock, SystemClock, settle };
+module.exports = { clock, useClock, ManualClock, settle };

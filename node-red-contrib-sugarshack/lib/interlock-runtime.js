@@ -125,7 +125,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     this.state = 'ready';
     this.committer.change(); // the state as started is the first one on disk
-    if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.startTicking();
     this.refreshStatus();
     this.resendLockouts('restored faulted: lockout sent again at start');
     this.replayParked();
@@ -219,6 +219,12 @@ class InterlockRuntime extends RuntimeBase {
     if (wasReady) this.freeCore();
   }
 
+  /** Elapsed-time warnings are checked once a second when the configuration sets any. */
+  startTicking() {
+    this.stopTimers();
+    if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+  }
+
   stopTimers() {
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
@@ -250,7 +256,7 @@ class InterlockRuntime extends RuntimeBase {
    * starts again on the document now in force.
    */
   onGateOpened() {
-    const heldBack = this.heldBack || [];
+    const heldBack = this.heldBack;
     this.heldBack = [];
     for (const entry of heldBack) {
       try {
@@ -294,8 +300,7 @@ class InterlockRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
-    this.stopTimers();
-    if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.startTicking();
     for (const host of this.routines.values()) host.rebuild(host.snapshot());
     this.committer.change();
     this.refreshStatus();
@@ -311,7 +316,7 @@ class InterlockRuntime extends RuntimeBase {
     const error = new SugarshackError('INTERNAL', 'the interlock core failed and was rebuilt from its last saved state; this msg was dropped');
     for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
     for (const run of [...this.runs]) run.abandon(error);
-    for (const entry of this.heldBack || []) entry.refuse(error);
+    for (const entry of this.heldBack) entry.refuse(error);
     this.heldBack = [];
     wasm.forget(this.core);
     this.core = null;
@@ -348,30 +353,16 @@ class InterlockRuntime extends RuntimeBase {
     this.events.remove(node);
   }
 
-  /** A node of a new deploy with the id of one that held msgs here takes them over. */
-  adopt(node) {
-    for (const entry of this.pending.entries()) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
-    for (const entry of this.heldBack || []) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+  heldEntries() {
+    return [...this.pending.entries(), ...this.heldBack];
+  }
+
+  adopted(node) {
     for (const run of this.runs) run.adopt(node);
   }
 
-  /**
-   * A node closes in a deploy (not a shutdown). Restarted, its held msgs are
-   * completed now and go on from its next instance; removed, its waiting
-   * requests are withdrawn. A restarted node that does not come back by the end
-   * of the deploy counts as removed.
-   */
-  nodeClosed(node, removed) {
-    this.dropParked(node);
-    const mine = (entry) => entry.node === node;
-    for (const entry of [...this.pending.entries(), ...(this.heldBack || [])]) if (mine(entry)) entry.detach();
+  closing(node) {
     for (const run of this.runs) run.detachNode(node);
-    const settle = () => {
-      if (this.state !== 'ready') return;
-      this.withdrawOrphans(node.id);
-    };
-    if (removed) settle();
-    else this.palette.whenStarted(settle);
   }
 
   withdrawOrphans(nodeId) {
@@ -384,7 +375,7 @@ class InterlockRuntime extends RuntimeBase {
       const count = this.guard(() => this.core.cancel(handle, now));
       answers.push(...this.grantsOf(count, now));
     }
-    this.heldBack = (this.heldBack || []).filter((entry) => entry.nodeId !== nodeId || entry.node);
+    this.heldBack = this.heldBack.filter((entry) => entry.nodeId !== nodeId || entry.node);
     if (answers.length) this.changed(() => answers.forEach((answer) => answer()));
     else this.refreshStatus();
   }

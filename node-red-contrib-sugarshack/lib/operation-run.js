@@ -8,6 +8,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
+const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
 class RunHost {
@@ -115,32 +116,24 @@ class RunHost {
 
   acquire(e) {
     this.port.progress('queued');
-    const entry = {
-      run: this,
-      nodeId: null,
-      node: null,
-      operation: e.operation,
-      priority: e.priority,
-      resources: e.resources,
-      sinceMs: clock.now(),
-      timer: null,
-      timeoutMs: 0,
-      grant: () => {
-        this.granted = true;
-        this.feed((r) => r.granted(clock.now()));
-      },
-      refuse: (err) => this.feed((r) => r.refused(err.code, err.message)),
-      // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
-      // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
-      abandon: () => {
-        if (this.interlock.ended) return;
-        this.feed((r) => [
-          ...r.refused('ABORTED', `operation '${e.operation}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted`),
-          ...r.withdrawn(clock.now()),
-        ]);
-      },
-      detach() {},
-      adopt() {},
+    // Held for the run, not for a node: no node takes it over in a deploy.
+    const entry = heldMsg({
+      node: null, msg: null, send: null, done: null, sinceMs: clock.now(), run: this,
+      operation: e.operation, priority: e.priority, resources: e.resources, timeoutMs: 0,
+    });
+    entry.grant = () => {
+      this.granted = true;
+      this.feed((r) => r.granted(clock.now()));
+    };
+    entry.refuse = (err) => this.feed((r) => r.refused(err.code, err.message));
+    // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
+    // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
+    entry.abandon = () => {
+      if (this.interlock.ended) return;
+      this.feed((r) => [
+        ...r.refused('ABORTED', `operation '${e.operation}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted`),
+        ...r.withdrawn(clock.now()),
+      ]);
     };
     this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }

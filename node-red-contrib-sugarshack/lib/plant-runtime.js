@@ -198,28 +198,22 @@ class PlantRuntime extends RuntimeBase {
     }
   }
 
-  /** A node of a new deploy with the id of one that held group commands here takes them over. */
-  adopt(node) {
-    for (const entry of this.pending.entries()) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+  heldEntries() {
+    return this.pending.entries();
   }
 
-  /** A node closes in a deploy: restarted, its held msgs go on from its next instance; removed, they are withdrawn. */
-  nodeClosed(node, removed) {
-    this.dropParked(node);
+  closing(node) {
     this.buses = this.buses.filter((b) => b.node !== node);
-    for (const entry of this.pending.entries()) if (entry.node === node) entry.detach();
-    const settle = () => {
-      if (this.state !== 'ready') return;
-      for (const caller of this.pending.handles()) {
-        const entry = this.pending.get(caller);
-        if (entry.nodeId !== node.id || entry.node) continue;
-        this.pending.take(caller);
-        this.guard(() => this.t.withdraw(caller));
-      }
-      this.refreshStatus();
-    };
-    if (removed) settle();
-    else this.palette.whenStarted(settle);
+  }
+
+  withdrawOrphans(nodeId) {
+    for (const caller of this.pending.handles()) {
+      const entry = this.pending.get(caller);
+      if (entry.nodeId !== nodeId || entry.node) continue;
+      this.pending.take(caller);
+      this.guard(() => this.t.withdraw(caller));
+    }
+    this.refreshStatus();
   }
 
   // ---- group commands ------------------------------------------------------
@@ -279,8 +273,7 @@ class PlantRuntime extends RuntimeBase {
       try {
         const caller = this.newCaller();
         this.guard(() => this.t.command(command, caller, true, faultAtMs, undefined));
-        const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier });
-        entry.lockout = true;
+        const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
         this.hold(caller, entry, 0);
         this.flush(null);
       } catch (err) {
@@ -792,30 +785,18 @@ function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, si
   return entry;
 }
 
-/** A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`. */
-function callbackEntry({ payload, onDone, sinceMs, msg = null }) {
+/** A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once. */
+function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
+  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [], retries: new Map() });
   let answered = false;
   const answer = (err) => {
     if (answered) return;
     answered = true;
     onDone(err || null);
   };
-  return {
-    node: null,
-    nodeId: null,
-    msg,
-    payload,
-    lockout: false,
-    completed: [],
-    retries: new Map(),
-    sinceMs,
-    timer: null,
-    complete: () => answer(null),
-    refuse: (err) => answer(err),
-    abandon: () => {},
-    detach() {},
-    adopt() {},
-  };
+  entry.complete = () => answer(null);
+  entry.refuse = (err) => answer(err);
+  return entry;
 }
 
-module.exports = { PlantRuntime, TICK_MS };
+module.exports = { PlantRuntime };

@@ -57,6 +57,43 @@ class RuntimeBase {
     this.users.delete(node);
   }
 
+  // ---- held msgs across deploys ----------------------------------------------
+
+  /** The msgs this runtime holds for nodes (each a `heldMsg`); a runtime lists its own. */
+  heldEntries() {
+    return [];
+  }
+
+  /** A node of a new deploy with the id of one that held msgs here takes them over. */
+  adopt(node) {
+    for (const entry of this.heldEntries()) if (entry.nodeId === node.id && !entry.node) entry.adopt(node);
+    this.adopted(node);
+  }
+
+  adopted() {}
+
+  /**
+   * A node closes in a deploy (not a shutdown). Restarted, its held msgs are
+   * completed now and go on from its next instance; removed, what it waits for
+   * is withdrawn. A restarted node that has not come back by the end of the
+   * deploy counts as removed.
+   */
+  nodeClosed(node, removed) {
+    this.dropParked(node);
+    for (const entry of this.heldEntries()) if (entry.node === node) entry.detach();
+    this.closing(node);
+    const settle = () => {
+      if (this.state === 'ready') this.withdrawOrphans(node.id);
+    };
+    if (removed) settle();
+    else this.palette.whenStarted(settle);
+  }
+
+  closing() {}
+
+  /** Withdraws what the held msgs of node `nodeId`, not taken over, wait for. */
+  withdrawOrphans() {}
+
   // ---- work from nodes -----------------------------------------------------
 
   /**
