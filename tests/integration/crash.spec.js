@@ -17,19 +17,15 @@
 // Run: npx mocha --timeout 30000 --exit tests/integration/crash.spec.js
 // (CRASH_LOG=1 prints each kill and what was checked.)
 const assert = require('node:assert/strict');
-const path = require('path');
 const { mulberry32: random } = require('../../scripts/simulator/random');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
-const { NodeRedProcess, mqttBroker, sleep } = require('./support/node-red');
-const { loadPlant } = require('../../scripts/simulator/plant');
+const { NodeRedProcess, sleep } = require('./support/node-red');
+const {
+  PLANT_FILE, PLANT, LINES, OPERATIONS, ROUTINES, flow,
+} = require('./support/routines-flow');
 
-const PLANT_FILE = path.join(__dirname, 'fixtures', 'plant-routines.json');
-const PLANT = loadPlant(PLANT_FILE);
-const LINES = PLANT.resources.map((r) => r.id);
-const OPERATIONS = PLANT.operations.map((o) => ({ id: o.id, lines: o.resources }));
-const ROUTINES = PLANT.routines.map((r) => ({ id: r.id, start: r.transitions.find((t) => t.from === r.initial && t.trigger.msg).trigger.msg }));
 const KILLS = 24;
 const SEED = 20261123;
 // Within this of seeing a grant, its operation cannot have finished: its first
@@ -37,44 +33,6 @@ const SEED = 20261123;
 const JUST_GRANTED_MS = 40;
 
 const log = (...args) => { if (process.env.CRASH_LOG) console.log('      ', ...args); };
-
-
-function flow(port) {
-  const nodes = [
-    { id: 'tab', type: 'tab', label: 'crash' },
-    mqttBroker('br', port),
-    { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', queueBound: '', warnQueued: '', warnHeld: '', persist: true },
-    { id: 'bus', z: 'tab', type: 'sugarshack-actuators', plant: 'pl', devices: '', broker: 'br', wires: [['mout'], [], []] },
-    { id: 'mout', z: 'tab', type: 'mqtt out', topic: '', qos: '1', retain: '', broker: 'br', wires: [] },
-    { id: 'ilev', z: 'tab', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['evout']] },
-    { id: 'evout', z: 'tab', type: 'mqtt out', topic: 'test/events', qos: '1', retain: 'false', broker: 'br', wires: [] },
-  ];
-  const mqttIn = (id, topic, wire) => ({
-    id, z: 'tab', type: 'mqtt in', topic, qos: '1', datatype: 'utf8', broker: 'br', nl: false, rap: true, rh: 0, inputs: 0, wires: [[wire]],
-  });
-  for (const dev of PLANT.devices.map((d) => d.id)) {
-    nodes.push({ ...mqttIn(`in-${dev}`, `${dev}/#`, 'bus'), datatype: 'auto-detect' });
-  }
-  for (const op of OPERATIONS) {
-    nodes.push(mqttIn(`in-op-${op.id}`, `test/op/${op.id}`, `op-${op.id}`));
-    nodes.push({ id: `op-${op.id}`, z: 'tab', type: 'sugarshack-operation', interlock: 'il', operation: op.id, wires: [[]] });
-  }
-  for (const line of LINES) {
-    nodes.push(mqttIn(`in-estop-${line}`, `test/estop/${line}`, `estop-${line}`));
-    nodes.push({ id: `estop-${line}`, z: 'tab', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: line, wires: [[], ['bus']] });
-    nodes.push(mqttIn(`in-clear-${line}`, `test/clear/${line}`, `clear-${line}`));
-    nodes.push({ id: `clear-${line}`, z: 'tab', type: 'sugarshack-clear', interlock: 'il', mode: 'list', resources: line, wires: [[]] });
-  }
-  for (const r of ROUTINES) {
-    nodes.push(mqttIn(`in-rt-${r.id}`, `test/routine/${r.id}`, `topic-${r.id}`));
-    nodes.push({
-      id: `topic-${r.id}`, z: 'tab', type: 'change', rules: [{ t: 'set', p: 'topic', pt: 'msg', to: 'payload', tot: 'msg' }], wires: [[`rt-${r.id}`]],
-    });
-    nodes.push({ id: `rt-${r.id}`, z: 'tab', type: 'sugarshack-routine', interlock: 'il', routine: r.id, wires: [[]] });
-  }
-  return nodes;
-}
 
 /**
  * The lines as the interlock's events tell them, across runs: replaying them
@@ -140,7 +98,7 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
     broker = await startMosquitto();
     sim = await startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 1, pumpDelayMs: 200 });
     probe = await connectProbe(broker.url, ['test/#', '+/+/+/command']);
-    red = new NodeRedProcess({ flows: flow(broker.port), tag: 'crash' });
+    red = new NodeRedProcess({ flows: flow(broker.port, 'crash'), tag: 'crash' });
   });
 
   after(async function () {

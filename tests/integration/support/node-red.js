@@ -115,17 +115,36 @@ class NodeRedProcess {
 
   /** GET on the admin API; resolves with the parsed JSON body. */
   get(urlPath) {
+    return this.request('GET', urlPath);
+  }
+
+  /** A deploy as the editor's Deploy button makes it: POST /flows, type full, flows or nodes. */
+  deploy(flows, type = 'full') {
+    return this.request('POST', '/flows', flows, { 'Node-RED-Deployment-Type': type });
+  }
+
+  request(method, urlPath, body, headers = {}) {
+    const text = body === undefined ? null : JSON.stringify(body);
     return new Promise((resolve, reject) => {
-      const req = http.get({ host: '127.0.0.1', port: this.port, path: urlPath, timeout: 5000 }, (res) => {
-        let body = '';
-        res.on('data', (d) => { body += d; });
+      const req = http.request({
+        host: '127.0.0.1',
+        port: this.port,
+        path: urlPath,
+        method,
+        timeout: 10000,
+        headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
+      }, (res) => {
+        let answer = '';
+        res.on('data', (d) => { answer += d; });
         res.on('end', () => {
-          if (res.statusCode !== 200) reject(new Error(`GET ${urlPath}: ${res.statusCode} ${body.slice(0, 200)}`));
-          else resolve(JSON.parse(body));
+          if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 200)}`));
+          else resolve(answer ? JSON.parse(answer) : null);
         });
       });
       req.on('error', reject);
-      req.on('timeout', () => req.destroy(new Error(`GET ${urlPath}: no answer in 5 s`)));
+      req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 10 s`)));
+      if (text !== null) req.write(text);
+      req.end();
     });
   }
 
