@@ -82,6 +82,8 @@ class Palette {
     runtime.targetKey = key;
     runtime.palette = this;
     this.runtimes.set(id, runtime);
+    // Made while a drain goes on (a config node new in this deploy): it waits for the drain like the rest.
+    if (this.draining) runtime.closeGate();
     return runtime;
   }
 
