@@ -151,6 +151,26 @@ describe('subflow modules', function () {
     assert.deepEqual(counts(), { holding: 0, queued: 0, faulted: 1 });
   });
 
+  it("a refused acquire reaches the caller's Catch with the acquire's code, holding nothing and faulting nothing", async function () {
+    await helper.load(NODE_MODULES, [
+      TAB, interlockConfig(),
+      operation('opA', { operation: 'A', priority: 10, resources: 'YEL' }, [['doneA'], ['lockA']]),
+      operation('bad', { operation: 'Z', priority: 10, resources: 'NOWHERE' }, [['doneA'], ['lockA']]),
+      ...steps('steps', 'work'), sinkNode('doneA'), sinkNode('lockA'),
+      { id: 'catchA', z: 'f1', type: 'catch', scope: ['opA', 'bad'], uncaught: false, x: 100, y: 400, wires: [['caught']] }, sinkNode('caught'),
+    ]);
+    const [work, caught, lockA] = ['work', 'caught', 'lockA'].map((id) => collect(helper, id));
+    helper.getNode('opA').receive({ payload: 1 });
+    await until(() => work.length === 1, 'A running');
+    helper.getNode('opA').receive({ payload: 2 });
+    helper.getNode('bad').receive({ payload: 3 });
+    await until(() => caught.length === 2, 'the two refusals');
+    assert.deepEqual(caught.map((m) => [m.payload, m.error.code]).sort(), [[2, 'ALREADY_HOLDING'], [3, 'UNKNOWN_RESOURCE']]);
+    await quiet();
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 }, 'only the running A holds; nothing faulted');
+    assert.deepEqual(lockA, []);
+  });
+
   it("an instance's properties changed in the form take effect on deploy", async function () {
     const before = operation('opA', { operation: 'A', priority: 10, resources: 'YEL', steps: 'steps' }, [['doneA'], []]);
     const flow = (op) => [TAB, interlockConfig(), op, ...steps('steps', 'work'), ...steps('other steps', 'work2'), sinkNode('doneA')];
