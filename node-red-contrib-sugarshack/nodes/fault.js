@@ -2,6 +2,20 @@
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
+const { SugarshackError } = require('../lib/errors');
+
+/**
+ * The error a faulted msg ends with when the node is set to fail it: it names
+ * what was faulted and what locked out, and keeps the Catch's error as `cause`.
+ */
+function faultedError(msg, operation, lockouts, note) {
+  const lines = lockouts.map((l) => l.resource);
+  const what = operation === null ? `${lines.join(', ') || 'nothing'} faulted (emergency stop)` : `operation '${operation}' faulted`;
+  const locked = lines.length ? `; ${lines.join(', ')} locked out until cleared` : '; it held nothing';
+  const error = new SugarshackError('FAULTED', `${what}${operation === null ? '' : locked}${note ? `: ${note}` : ''}`);
+  if (msg.error && typeof msg.error === 'object') error.cause = msg.error;
+  return error;
+}
 
 module.exports = function (RED) {
   function FaultNode(props) {
@@ -9,6 +23,8 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
     const byResources = props.mode === 'resources';
+    // Failing the msg lets the Catch of whoever called the operation see the fault (a subflow's caller).
+    const failMsg = props.after === 'fail';
 
     // Output 2 gets one lockout group command per latched line, once the fault is saved.
     onInput(node, runtime, (rt, msg, send, done) => {
@@ -29,6 +45,11 @@ module.exports = function (RED) {
           note: note === undefined ? null : note,
           faultAtMs,
         }));
+        if (failMsg) {
+          send([null, commands]);
+          done(faultedError(msg, operation, lockouts, note));
+          return;
+        }
         send([msg, commands]);
         done();
       };

@@ -7,7 +7,7 @@ const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, catchOnce, startServer, stopServer, linkNodes, until, settled, clock, runFor, runUntil,
+  PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, catchOnce, startServer, stopServer, linkNodes, until, settled, clock, runFor, runUntil,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -19,7 +19,7 @@ const EXAMPLES = path.join(PALETTE, 'examples');
 const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
 // Nodes of the palette that use no config node.
 const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true };
-const NODE_MODULES = [...paletteNodes, catchOnce, linkNodes, ...coreNodes];
+const NODE_MODULES = [...paletteNodes, ...subflowNodes, ...new Set([...subflowCoreNodes, ...coreNodes]), catchOnce, linkNodes];
 
 const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
 const exampleFiles = () => fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.json')).sort();
@@ -453,5 +453,80 @@ describe('example: operations-and-routines', function () {
     inject(flow, 'unload');
     await runTill(() => seen.errors.length === 2, 'no unload from empty');
     assert.equal(seen.errors[1].error.code, 'NO_TRANSITION');
+  });
+});
+
+describe('example: subflows-op12', function () {
+  const FILE = 'subflows-op12.json';
+  let field = null;
+
+  beforeEach(startServer);
+
+  afterEach(async function () {
+    field?.stop();
+    field = null;
+    await stopServer();
+  });
+
+  let ids = [];
+  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
+
+  async function start({ waitS } = {}) {
+    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-condition-step' && waitS ? { ...n, timeout: waitS } : n));
+    await helper.load(NODE_MODULES, flow);
+    ids = interlocksOf(flow);
+    await started(flow);
+    const seen = watch(flow, ['op 12 returned', 'device commands', 'faulted', 'step errors', 'lockout done', 'panel', 'not understood']);
+    field = fakeField(flow);
+    return { flow, seen };
+  }
+
+  it('op 12 from the singular operation node: its steps through the group command entry and a condition step, then return', async function () {
+    const { flow, seen } = await start();
+    field.sensor('LT-3', 0);
+    const sent = seen['device commands'].length;
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await runTill(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
+    const back = seen['op 12 returned'][0];
+    assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
+    assert.deepEqual(back.interlock.resources, ['YEL']);
+    assert.equal(back.interlock.operation, '12');
+    assert.equal(back.interlock.priority, 22);
+    assert.equal(typeof back.condition.waitedMs, 'number', 'the condition step held');
+    assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
+      ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
+      ['ctrl-1/pump/1/command', 'ON'],
+      ['ctrl-1/pump/1/command', 'OFF'],
+      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
+    ]);
+    for (const name of ['faulted', 'step errors', 'lockout done']) assert.deepEqual(seen[name], [], name);
+  });
+
+  it('a condition step that does not hold in time reports which condition failed, to the Catch of the steps', async function () {
+    const { flow, seen } = await start({ waitS: 0.3 });
+    field.sensor('LT-3', 5000);
+    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+    await runTill(() => seen['step errors'].length === 1, 'the condition failure');
+    assert.equal(seen['step errors'][0].error.code, 'CONDITION_TIMEOUT');
+    assert.match(seen['step errors'][0].error.message, /`LT-3` < 50 did not hold within 0.3 s/);
+    assert.equal(seen['step errors'][0].error.source.type, 'sugarshack-wait');
+  });
+
+  it('the operator panel: e-stop locks RED out through the group command entry, clear clears it, anything else comes out of output 3', async function () {
+    const { flow, seen } = await start();
+    const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
+    helper.getNode(byName(flow, 'inject', 'e-stop RED')).receive({});
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    assert.equal(seen['lockout done'][0].topic, 'lockout/RED');
+    assert.equal(seen.panel.length, 1);
+    assert.deepEqual(helper.getNode(ids[0]).runtime.core.counts(), { holding: 0, queued: 0, faulted: 1 });
+    helper.getNode(byName(flow, 'inject', 'clear RED')).receive({});
+    await runTill(() => seen.panel.length === 2, 'the clear');
+    assert.deepEqual(seen.panel[1].cleared, ['RED']);
+    assert.deepEqual(helper.getNode(ids[0]).runtime.core.counts(), { holding: 0, queued: 0, faulted: 0 });
+    panel.receive({ payload: 'reset' });
+    await runTill(() => seen['not understood'].length === 1, 'the msg not understood');
+    assert.equal(seen['not understood'][0].payload, 'reset');
+    assert.equal(seen.panel.length, 2);
   });
 });

@@ -12,11 +12,16 @@ const NODE_FILES = [
   'operation', 'wait', 'routine', 'pid', 'rcc', 'rcc-io',
 ];
 const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
+// The palette's subflow modules, and the core nodes their subflows are built from besides link and catch.
+const SUBFLOW_FILES = ['singular-operation', 'group-entry', 'condition-step', 'operator-panel'];
+const subflowNodes = SUBFLOW_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
 const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
 const catchNode = require(path.join(coreNodesDir, 'core/common/25-catch.js'));
 const linkNodes = require(path.join(coreNodesDir, 'core/common/60-link.js'));
+const subflowCoreNodes = ['function/15-change.js', 'function/10-switch.js', 'common/25-status.js']
+  .map((f) => require(path.join(coreNodesDir, 'core', f)));
 const { hooks } = require('@node-red/util');
 
 const LINES = ['YEL', 'GRN', 'BLU', 'PUR', 'RED'];
@@ -198,6 +203,6 @@ async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs
 }
 
 module.exports = {
-  PALETTE, paletteNodes, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

@@ -7,11 +7,16 @@
 //          [--node <node binary>] [--pkg <palette package.json>]
 //          [--examples <dir>] [--label <text>] [--types a,b,c]
 // Expected type names may also come from SUGARSHACK_EXPECTED_TYPES (comma-separated).
+// Subflow modules (a set whose file has its subflow in subflows/<set>.json) are
+// checked to be registered as their meta.type. It also runs the checks of
+// `node-red-dev validate` that need no network (its name, catalogue and npm
+// checks do), against the Node-RED and Node.js it runs on.
 'use strict';
 const fs = require('fs');
 const path = require('path');
 const net = require('net');
 const { spawn } = require('child_process');
+const semver = require('semver');
 
 const args = {};
 for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
@@ -48,6 +53,56 @@ function withTabs(flow) {
   const defined = new Set(flow.filter((n) => n.type === 'tab' || n.type === 'subflow').map((n) => n.id));
   const missing = [...new Set(flow.map((n) => n.z).filter((z) => z && !defined.has(z)))];
   return [...missing.map((id) => ({ id, type: 'tab', label: `tab ${id}` })), ...flow];
+}
+
+/** The package's subflow modules: sets whose file has its subflow beside it in subflows/<set>.json. */
+function subflowModules(pkg) {
+  const dir = path.dirname(pkgFile);
+  return Object.entries((pkg['node-red'] && pkg['node-red'].nodes) || {}).flatMap(([set, file]) => {
+    const json = path.join(dir, path.dirname(file), 'subflows', `${set}.json`);
+    if (!fs.existsSync(json)) return [];
+    try {
+      return [{ set, def: JSON.parse(fs.readFileSync(json, 'utf8')) }];
+    } catch (e) {
+      return [{ set, error: e.message }];
+    }
+  });
+}
+
+/**
+ * The checks of `node-red-dev validate` that run offline (P01, P03-P07, N02, D01-D02),
+ * with P06 and P07 against the Node-RED and Node.js under test instead of npm's dist-tags.
+ */
+async function validateOffline(pkg, sets, types, base, nrVersion, nodeVersion) {
+  const v = (msg) => `node-red-dev ${msg}`;
+  check(Boolean(pkg.license), v(`P01 license declared (${pkg.license})`));
+  check(Boolean(pkg.repository || pkg.bugs), v('P03 repository or bugs link'));
+  check(/^(@[a-z\d][\w-.]+\/)?[a-z\d][\w-.]*$/.test(pkg.name) && !/^(node-red|nodered)(?!-contrib-)/i.test(pkg.name), v(`P04 valid name ${pkg.name}`));
+  check((pkg.keywords || []).includes('node-red'), v('P05 keyword node-red'));
+  const nrRange = pkg['node-red'] && pkg['node-red'].version;
+  check(Boolean(nrRange) && semver.satisfies(semver.coerce(nrVersion), nrRange), v(`P06 node-red.version ${nrRange} admits Node-RED ${nrVersion}`));
+  const nodeRange = pkg.engines && pkg.engines.node;
+  check(Boolean(nodeRange) && semver.satisfies(semver.coerce(nodeVersion), nodeRange), v(`P07 engines.node ${nodeRange} admits Node.js ${nodeVersion}`));
+  const deps = Object.keys(pkg.dependencies || {});
+  check(deps.length <= 6, v(`D01 at most 6 dependencies (${deps.length})`));
+  // N02: every node type that is not a config node appears in an example; config types are read from each set's editor HTML.
+  const configTypes = new Set();
+  for (const s of sets) {
+    const res = await fetch(`${base}/nodes/${s.id}`, { headers: { Accept: 'text/html' } });
+    const html = res.ok ? await res.text() : '';
+    for (const m of html.matchAll(/registerType\(\s*['"]([^'"]+)['"]\s*,\s*\{([\s\S]*?)\}\s*\)\s*;/g)) {
+      if (/category\s*:\s*['"]config['"]/.test(m[2])) configTypes.add(m[1]);
+    }
+  }
+  const used = new Set();
+  for (const file of fs.existsSync(examplesDir) ? fs.readdirSync(examplesDir).filter((f) => f.endsWith('.json')) : []) {
+    try {
+      for (const n of JSON.parse(fs.readFileSync(path.join(examplesDir, file), 'utf8'))) used.add(n.type);
+    } catch { /* reported when the example is deployed */ }
+  }
+  const missing = types.filter((t) => !configTypes.has(t) && !used.has(t));
+  check(configTypes.size > 0 && missing.length === 0, v(`N02 an example for every node (config nodes ${[...configTypes].join(', ')} aside)`), `none for ${missing.join(', ')}`);
+  check(new Set(types).size === types.length, v('N01 (offline part) no node type registered twice'));
 }
 
 async function main() {
@@ -103,6 +158,26 @@ async function main() {
     const types = sets.flatMap((s) => s.types || []);
     check(types.length > 0, `registers node types: ${types.join(', ') || '(none)'}`);
     for (const t of expectedTypes) check(types.includes(t), `type ${t} registered`, 'missing');
+    const subflows = subflowModules(pkg);
+    check(subflows.length > 0, `package has subflow modules: ${subflows.map((s) => s.set).join(', ') || '(none)'}`);
+    for (const { set, def, error } of subflows) {
+      if (error) { fail(`subflow module ${set} parses: ${error}`); continue; }
+      const type = def.meta && def.meta.type;
+      check(types.includes(type), `subflow module ${set} registered as node type ${type}`, 'missing');
+      const loaded = sets.find((s) => s.name === set);
+      check(Boolean(loaded && (loaded.types || []).includes(type)), `subflow module ${set}: type ${type} belongs to its node set`);
+      for (const key of ['module', 'version', 'license']) {
+        check(def.meta[key] === pkg[key === 'module' ? 'name' : key], `subflow module ${set}: meta.${key} is the package's`, `${def.meta[key]}`);
+      }
+      const functions = (def.flow || []).filter((n) => n.type === 'function');
+      check(functions.length === 0, `subflow module ${set} has no function node inside`, functions.map((n) => n.id).join(', '));
+      const bare = (def.env || []).filter((e) => !e.ui || !e.ui.label);
+      check(bare.length === 0, `subflow module ${set}: every property has a labelled form field`, bare.map((e) => e.name).join(', '));
+      const inner = new Set((def.flow || []).map((n) => n.type));
+      const unknown = [...inner].filter((t) => !nodes.some((s) => (s.types || []).includes(t)));
+      check(unknown.length === 0, `subflow module ${set}: every node type inside is installed`, unknown.join(', '));
+    }
+    await validateOffline(pkg, sets, types, base, nrVersion, nodeVersion);
 
     const examples = fs.existsSync(examplesDir)
       ? fs.readdirSync(examplesDir).filter((f) => f.endsWith('.json')).sort() : [];

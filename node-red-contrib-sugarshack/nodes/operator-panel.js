@@ -1,0 +1,5 @@
+'use strict';
+// A subflow module: the palette node is the subflow in subflows/operator-panel.json, built from the palette's nodes.
+module.exports = function (RED) {
+  RED.nodes.registerSubflow(require('./subflows/operator-panel.json'));
+};
