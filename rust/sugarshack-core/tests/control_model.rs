@@ -10,7 +10,7 @@ use sugarshack_core::control::rcc::{IoModule, RccConfig, RccController};
 
 fn pid_config(kp: f64, ti_s: f64, td_s: f64, out_min: f64, out_max: f64, direct: bool) -> PidConfig {
     let action = if direct { Action::Direct } else { Action::Reverse };
-    PidConfig { kp, ti_s, td_s, out_min, out_max, action, fallback: None }
+    PidConfig { kp, ti_s, td_s, out_min, out_max, action, fallback: None, proportional_on: Default::default() }
 }
 
 #[derive(Clone, Debug)]

@@ -203,6 +203,7 @@ impl Remote {
             out_max,
             action: Action::Reverse,
             fallback: None,
+            proportional_on: Default::default(),
         })?;
         let smooth_handover = match scenario.redundancy {
             Redundancy::Rcc { smooth_handover } => smooth_handover,

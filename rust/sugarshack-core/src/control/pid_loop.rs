@@ -87,7 +87,7 @@ mod tests {
 
     fn config(smith: Option<SmithConfig>) -> PidLoopConfig {
         PidLoopConfig {
-            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None },
+            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() },
             smith,
         }
     }

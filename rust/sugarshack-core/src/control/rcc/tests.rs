@@ -7,7 +7,7 @@ fn controller(id: usize) -> RccController {
 }
 
 fn pid() -> Pid {
-    Pid::new(PidConfig { kp: 1.0, ti_s: 2.0, td_s: 0.0, out_min: 0.0, out_max: 10.0, action: Action::Reverse, fallback: None })
+    Pid::new(PidConfig { kp: 1.0, ti_s: 2.0, td_s: 0.0, out_min: 0.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() })
         .unwrap()
 }
 
