@@ -184,7 +184,7 @@ proptest! {
         let mut jitter = move || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng % JITTER_MS };
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut controllers: Vec<_> = (1..=3)
-            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true }).unwrap())
+            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true, poll_timeout_ms: None }).unwrap())
             .collect();
         let mut pids: Vec<_> = (0..3).map(|_| Pid::new(pid_config(KP, TI_S, 0.0, 0.0, 2.0, false)).unwrap()).collect();
         let mut next_poll: Vec<u64> = phases.to_vec();

@@ -214,6 +214,7 @@ impl Remote {
             thresholds_ms: ENGAGEMENT_THRESHOLDS_MS[..controllers].to_vec(),
             ts_ms: TS_MS as f64,
             smooth_handover,
+            poll_timeout_ms: None,
         })?;
         Ok((rcc, pid))
     }
