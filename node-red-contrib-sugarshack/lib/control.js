@@ -4,7 +4,6 @@
 // The control rules themselves (PID, Smith predictor, RCC) live in the core.
 const { SugarshackError } = require('./errors');
 const { MAX_STATUS_LENGTH } = require('./status');
-const { clock } = require('./clock');
 const wasm = require('./wasm');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
@@ -58,29 +57,6 @@ function clip(text) {
   return text.length <= MAX_STATUS_LENGTH ? text : `${text.slice(0, MAX_STATUS_LENGTH - 1)}…`;
 }
 
-/** Runs `fn` every `ms` after `arm()`; `arm()` again restarts the count. */
-class Watchdog {
-  constructor(ms, fn) {
-    this.ms = ms;
-    this.fn = fn;
-    this.timer = null;
-  }
-
-  arm() {
-    this.stop();
-    if (!(this.ms > 0)) return;
-    this.timer = clock.setTimeout(() => {
-      this.timer = null;
-      this.fn();
-    }, this.ms);
-  }
-
-  stop() {
-    if (this.timer) clock.clearTimeout(this.timer);
-    this.timer = null;
-  }
-}
-
 /**
  * A node's own wasm object (a PID loop, an RCC controller, an I/O module) that
  * survives a trap of the shared instance: `make(bindings)` builds it, again on
@@ -123,4 +99,4 @@ function revivable(make, { onRevive = () => {} } = {}) {
 }
 
 
-module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, Watchdog, revivable };
+module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, revivable };

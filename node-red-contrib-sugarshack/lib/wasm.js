@@ -196,8 +196,8 @@ function primeInterlock({ Interlock, Tracker }) {
 }
 
 // The control facade (pid, rcc and rcc-io nodes): every call once on throwaway loops.
-function primeControl({ PidLoop, Rcc, IoModule, validateThresholds }) {
-  const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: null };
+function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }) {
+  const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: null, proportionalOn: 'error' };
   const smith = { model: { gain: 1, tauS: 10 }, tsS: 1, deadTime: { mode: 'adaptive', alpha: 0.2, h: 3 }, maxSamples: 10 };
   const loop = new PidLoop({ pid, smith });
   loop.observeRoundTrip(1500);
@@ -216,9 +216,24 @@ function primeControl({ PidLoop, Rcc, IoModule, validateThresholds }) {
   const io = new IoModule(2, 10);
   io.write(1, 20, 0);
   io.lastAction;
-  loop.stepDecided(rcc.decide(io.state(100)), 50, 42, 0.5);
+  loop.stepDecided(rcc.decide(io.state(100), 100), 50, 42, 0.5);
+  rcc.watchFrom(0);
+  rcc.nextTickMs();
+  rcc.tick(5000);
   rcc.pollTimedOut();
   rcc.firstCycle;
+  const station = new PidStation({ loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null });
+  station.measure(40, 0, 0, undefined, undefined);
+  station.measure(41, 1000, 1000, undefined, rcc.decide(io.state(1000), 1000));
+  station.change({ setpoint: 55, tunings: { kp: 2 }, limits: { max: 90 } });
+  station.restore({ integral: 1 });
+  station.observeRoundTrip(1000);
+  station.delayEstimate();
+  station.config();
+  station.state();
+  station.nextTickMs();
+  station.tick(5000);
+  station.free();
   const plain = new PidLoop({ pid, smith: null });
   rcc.scan(plain, io.state(3000), 50, 42, 0.5);
   plain.free();

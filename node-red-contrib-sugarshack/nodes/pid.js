@@ -1,7 +1,7 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, msgNumber, describe, fmt, clip, Watchdog, revivable } = require('../lib/control');
+const { isNumber, configNumber, msgNumber, describe, fmt, clip, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 
 const CONTEXT_KEY = 'pid';
@@ -16,10 +16,9 @@ const inputError = (err) => (err instanceof SugarshackError || (err && typeof er
   ? err
   : invalidInput(`could not read the msg: ${String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100)}`));
 
-/** The node's fields as the core's PidLoop configuration, plus what the node itself uses. */
+/** The node's fields as the core's PidStation configuration; the rules on them are the core's. */
 function readConfig(props) {
   const tsS = configNumber(props.ts, 'sample period Ts (s)', { required: true });
-  if (!(tsS > 0)) throw invalidConfig(`sample period Ts must be a number of seconds greater than 0, got ${tsS}`);
   const pid = {
     kp: configNumber(props.kp, 'kp (proportional gain)', { required: true }),
     tiS: configNumber(props.ti, 'ti (integral time, s)', { fallback: 0 }),
@@ -28,6 +27,8 @@ function readConfig(props) {
     outMax: configNumber(props.outMax, 'output max', { required: true }),
     action: props.action === 'direct' ? 'direct' : 'reverse',
     fallback: configNumber(props.fallback, 'fallback output', { fallback: null }),
+    // Saved flows from before this setting act on the error, as they did.
+    proportionalOn: props.pOn === 'measurement' ? 'measurement' : 'error',
   };
   let smith = null;
   const predictor = props.smith || 'off';
@@ -50,19 +51,54 @@ function readConfig(props) {
   } else if (predictor !== 'off') {
     throw invalidConfig(`Smith predictor must be off, fixed or adaptive, got '${predictor}'`);
   }
-  const staleMs = configNumber(props.staleMs, 'stale after (ms)', { fallback: 3 * tsS * 1000 });
-  if (!(staleMs >= 0)) throw invalidConfig(`stale after must be a number of ms >= 0 (0 turns the watchdog off), got ${staleMs}`);
-  const mode = props.mode === 'manual' ? 'manual' : 'auto';
-  const manual = configNumber(props.manual, 'manual output', { fallback: null });
-  if (mode === 'manual' && manual === null) throw invalidConfig('starting in manual mode needs a manual output');
   return {
-    config: { pid, smith },
+    loop: { pid, smith },
     tsS,
-    staleMs,
+    staleMs: configNumber(props.staleMs, 'stale after (ms)', { fallback: 3 * tsS * 1000 }),
     setpoint: configNumber(props.setpoint, 'set point', { required: true }),
-    mode,
-    manual,
+    mode: props.mode === 'manual' ? 'manual' : 'auto',
+    manual: configNumber(props.manual, 'manual output', { fallback: null }),
   };
+}
+
+/** msg fields of a change as the core's Change: each checked a number here, the rules applied there. */
+function readChange(msg) {
+  const change = {};
+  if (msg.topic === 'setpoint') change.setpoint = msgNumber(msg.payload, 'the set point (msg.payload with topic "setpoint")');
+  else if (msg.setpoint !== undefined) change.setpoint = msgNumber(msg.setpoint, 'msg.setpoint');
+  if (msg.mode !== undefined) {
+    if (msg.mode !== 'auto' && msg.mode !== 'manual') throw invalidInput(`msg.mode must be 'auto' or 'manual', got ${describe(msg.mode)}`);
+    change.mode = msg.mode;
+  }
+  if (msg.manual !== undefined) change.manual = msgNumber(msg.manual, 'msg.manual (the manual output)');
+  const object = (v, what) => {
+    if (!v || typeof v !== 'object' || Array.isArray(v)) throw invalidInput(`${what} must be an object, got ${describe(v)}`);
+    return v;
+  };
+  const fields = (obj, names, what) => {
+    const out = {};
+    for (const [key, as, label] of names) if (obj[key] !== undefined) out[as] = msgNumber(obj[key], `${what}.${label}`);
+    return out;
+  };
+  if (msg.tunings !== undefined) {
+    const t = object(msg.tunings, 'msg.tunings ({ kp, ti, td })');
+    change.tunings = fields(t, [['kp', 'kp', 'kp'], ['ti', 'tiS', 'ti (s)'], ['td', 'tdS', 'td (s)']], 'msg.tunings');
+  }
+  if (msg.limits !== undefined) {
+    const l = object(msg.limits, 'msg.limits ({ min, max })');
+    change.limits = fields(l, [['min', 'min', 'min'], ['max', 'max', 'max']], 'msg.limits');
+  }
+  return change;
+}
+
+/** A saved state, field by field: what is unusable is left out, the rest restored. */
+function readSaved(saved) {
+  const out = {};
+  if (isNumber(saved.integral)) out.integral = saved.integral;
+  if (isNumber(saved.setpoint)) out.setpoint = saved.setpoint;
+  if (saved.mode === 'auto' || saved.mode === 'manual') out.mode = saved.mode;
+  if (isNumber(saved.manual)) out.manual = saved.manual;
+  return out;
 }
 
 /** msg.rcc as the rcc node sends it: { id, engaged, firstCycle, track }. */
@@ -80,40 +116,33 @@ module.exports = function (RED) {
     const node = this;
     const persist = props.persist === true || props.persist === 'true';
     const store = props.store && props.store !== 'default' ? props.store : undefined;
-    let settings = null;
-    let loop = null;
+    let station = null;
     let refusal = null;
-    let lastIntegral = null; // kept outside the core, to rebuild the loop after a trap
+    let kept = null; // the loop's own state, kept outside the core to rebuild it after a trap
     try {
-      settings = readConfig(props);
-      // Rebuilt on a fresh wasm instance after a trap, with the integral it had.
-      loop = revivable(({ PidLoop }) => {
-        const fresh = new PidLoop(settings.config);
-        if (lastIntegral !== null) fresh.setIntegral(lastIntegral);
+      const config = readConfig(props);
+      // Rebuilt on a fresh wasm instance after a trap, with the state it had.
+      station = revivable(({ PidStation }) => {
+        const fresh = new PidStation(config);
+        if (kept) fresh.restore(kept);
         return fresh;
-      }, { onRevive: () => { overTs = true; } });
+      });
     } catch (err) {
       refusal = asSugarshackError(err);
       node.error(refusal.message);
       node.status(errorStatus(refusal.code));
     }
 
-    let setpoint = settings && settings.setpoint;
-    let mode = settings && settings.mode;
-    let manual = settings && settings.manual;
-    let prevTs = null; // the previous measurement's time (ms): msg.timestamp, else its receipt
-    let overTs = true; // the next step integrates over Ts: the first sample, or the first after the watchdog
-    let viaRcc = false; // the last measurement came from an rcc node
     let lastTopic;
-    let lastOutput = null;
+    let timer = null;
     let ready = false;
     let closed = false;
     const early = []; // msgs that arrived while the saved state was read
-    const watchdog = new Watchdog(settings ? settings.staleMs : 0, stale);
 
     const show = (status) => board.set(node, { ...status, text: clip(status.text) });
 
     function idleStatus() {
+      const { mode, manual, setpoint, lastOutput } = station.state();
       if (mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(manual)}` };
       return lastOutput === null
         ? { fill: 'grey', shape: 'ring', text: `sp ${fmt(setpoint)}` }
@@ -122,50 +151,54 @@ module.exports = function (RED) {
 
     function save() {
       if (closed) return;
-      lastIntegral = loop.integral();
+      const { integral, setpoint, mode, manual } = station.state();
+      kept = { integral, setpoint, mode, manual };
       if (!persist) return;
-      const state = { integral: lastIntegral, setpoint, mode, manual: manual ?? null };
-      node.context().set(CONTEXT_KEY, state, store, (err) => {
+      node.context().set(CONTEXT_KEY, kept, store, (err) => {
         if (err) node.warn(`cannot save the PID state: ${err.message || err}`);
       });
     }
 
-    /** One step of the loop; in manual mode its integrator tracks the manual output. */
-    function stepLoop(measurement, dtS, track, decision) {
-      if (decision) {
-        const follow = mode === 'manual' ? manual : decision.track ?? track ?? null;
-        const scan = loop.stepDecided({ ...decision, track: follow }, setpoint, measurement, dtS);
-        return { step: scan.step, engaged: scan.engaged };
+    /** One timer, for when the core says its stale rule is next due. */
+    function schedule() {
+      if (timer) clock.clearTimeout(timer);
+      timer = null;
+      if (closed || !station) return;
+      const due = station.nextTickMs();
+      if (due === undefined || due === null) return;
+      timer = clock.setTimeout(tick, Math.max(0, due - clock.now()));
+    }
+
+    function tick() {
+      timer = null;
+      if (closed || !ready) return;
+      let stale;
+      try {
+        stale = station.tick(clock.now());
+      } catch (err) {
+        node.error(`PID stale watch: ${err.message}`);
+        schedule();
+        return;
       }
-      return { step: loop.step(setpoint, measurement, dtS, mode === 'manual' ? manual : track), engaged: true };
+      if (stale && stale.kind === 'noIo') {
+        show({ fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
+      } else if (stale) {
+        save();
+        node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
+        show({ fill: 'yellow', shape: 'ring', text: stale.pid.mode === 'manual' ? 'stale: manual' : 'stale: fallback' });
+      }
+      schedule();
     }
 
-    /** msg.pid: every term of the step, for telemetry. */
-    function report(step, output, measurement, dtS) {
-      return {
-        p: step.p,
-        i: step.i,
-        d: step.d,
-        output,
-        mode: mode === 'manual' ? 'manual' : step.mode,
-        saturated: step.saturated,
-        setpoint,
-        measurement,
-        seen: step.seen,
-        deadTimeSamples: step.deadTimeSamples,
-        dtS,
-      };
-    }
-
-    function stepStatus(step, output, engaged) {
+    function stepStatus(pid, engaged) {
       if (!engaged) return { fill: 'grey', shape: 'ring', text: 'standby' };
-      if (mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(output)}` };
-      if (step.mode === 'tracking') return { fill: 'blue', shape: 'dot', text: `tracking ${fmt(output)}` };
-      return { fill: 'green', shape: step.saturated ? 'ring' : 'dot', text: `auto ${fmt(output)}` };
+      if (pid.mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(pid.output)}` };
+      if (pid.mode === 'tracking') return { fill: 'blue', shape: 'dot', text: `tracking ${fmt(pid.output)}` };
+      return { fill: 'green', shape: pid.saturated ? 'ring' : 'dot', text: `auto ${fmt(pid.output)}` };
     }
 
     function measure(msg, send, done) {
-      let decision = null;
+      let decision;
       let track;
       try {
         if (msg.rcc !== undefined) decision = readDecision(msg.rcc);
@@ -176,139 +209,51 @@ module.exports = function (RED) {
         done(e);
         return;
       }
-      const ts = isNumber(msg.timestamp) ? msg.timestamp : clock.now();
+      const now = clock.now();
+      const sampleMs = isNumber(msg.timestamp) ? msg.timestamp : now;
       const given = msg.payload;
       const valid = isNumber(given);
-      const measurement = valid ? given : null;
-      const dtS = overTs || prevTs === null ? settings.tsS : (ts - prevTs) / 1000;
-      let result;
+      let outcome;
       try {
-        result = stepLoop(valid ? measurement : undefined, dtS, track, decision);
+        outcome = station.measure(valid ? given : undefined, sampleMs, now, track, decision);
       } catch (err) {
         const e = asSugarshackError(err);
         show(errorStatus(e.code));
         done(e);
         return;
       }
-      const { step, engaged } = result;
-      prevTs = ts;
-      overTs = false;
-      viaRcc = decision !== null;
+      const { engaged, pid } = outcome;
       lastTopic = msg.topic;
-      if (valid) watchdog.arm();
       save();
-      const output = step.output; // in manual mode the core tracks the manual value and returns it clamped
-      if (!isNumber(output)) { // the core never gives one; never send it on
-        const e = new SugarshackError('INTERNAL', `the loop computed an output that is not a number (${output}); nothing sent`);
-        show(errorStatus(e.code));
-        done(e);
-        return;
-      }
-      lastOutput = output;
-      msg.payload = output;
-      msg.pid = report(step, output, measurement, dtS);
-      if (decision) msg.rcc = { ...msg.rcc, write: engaged ? output : null };
+      schedule();
+      msg.payload = pid.output;
+      msg.pid = pid;
+      if (decision) msg.rcc = { ...msg.rcc, write: engaged ? pid.output : null };
       if (engaged) send(msg);
       if (valid) {
-        show(stepStatus(step, output, engaged));
+        show(stepStatus(pid, engaged));
         done();
         return;
       }
-      const sent = step.mode === 'fallback' ? 'the fallback output' : 'the tracked action';
-      const what = engaged ? `sent ${sent} ${fmt(output)}` : 'in standby: nothing sent';
+      const sent = pid.mode === 'tracking' ? 'the tracked action' : pid.mode === 'manual' ? 'the manual output' : 'the fallback output';
+      const what = engaged ? `sent ${sent} ${fmt(pid.output)}` : 'in standby: nothing sent';
       const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(given)}; ${what}`);
       show(errorStatus(e.code));
       done(e);
     }
 
-    /** No valid measurement for staleMs: one fallback step and send, then again every staleMs. */
-    function stale() {
-      if (closed || !ready) return;
-      if (viaRcc) {
-        // The rcc node skips scans without I/O state (Fig. 7, line 11); writing blind would keep the backup out.
-        show({ fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
-        return;
-      }
-      const dtS = settings.staleMs / 1000;
-      let step;
-      try {
-        ({ step } = stepLoop(undefined, dtS, undefined, null));
-      } catch (err) {
-        node.error(`PID watchdog: ${err.message}`);
-        return;
-      }
-      overTs = true;
-      save();
-      const output = step.output; // in manual mode the core tracks the manual value and returns it clamped
-      lastOutput = output;
-      node.send({ topic: lastTopic, payload: output, pid: report(step, output, null, dtS) });
-      show({ fill: 'yellow', shape: 'ring', text: mode === 'manual' ? 'stale: manual' : 'stale: fallback' });
-      watchdog.arm();
-    }
-
-    /** Set point, mode, manual output, tunings, limits: all checked before any is applied. */
-    function control(msg) {
-      let sp;
-      if (msg.topic === 'setpoint') sp = msgNumber(msg.payload, 'the set point (msg.payload with topic "setpoint")');
-      else if (msg.setpoint !== undefined) sp = msgNumber(msg.setpoint, 'msg.setpoint');
-      if (msg.mode !== undefined && msg.mode !== 'auto' && msg.mode !== 'manual') {
-        throw invalidInput(`msg.mode must be 'auto' or 'manual', got ${describe(msg.mode)}`);
-      }
-      if (msg.manual !== undefined) msgNumber(msg.manual, 'msg.manual (the manual output)');
-      const current = loop.config();
-      const field = (obj, key, what, value) => (obj[key] === undefined ? value : msgNumber(obj[key], what));
-      const object = (v, what) => {
-        if (!v || typeof v !== 'object' || Array.isArray(v)) throw invalidInput(`${what} must be an object, got ${describe(v)}`);
-        return v;
-      };
-      let tunings = null;
-      // An object naming none of its fields (a misspelt key) is refused, not taken as "no change".
-      const naming = (obj, keys, what) => {
-        if (!keys.some((k) => obj[k] !== undefined)) throw invalidInput(`${what} names none of ${keys.join(', ')}`);
-        return obj;
-      };
-      if (msg.tunings !== undefined) {
-        const t = naming(object(msg.tunings, 'msg.tunings ({ kp, ti, td })'), ['kp', 'ti', 'td'], 'msg.tunings');
-        tunings = [field(t, 'kp', 'msg.tunings.kp', current.kp), field(t, 'ti', 'msg.tunings.ti (s)', current.tiS), field(t, 'td', 'msg.tunings.td (s)', current.tdS)];
-      }
-      let limits = null;
-      if (msg.limits !== undefined) {
-        const l = naming(object(msg.limits, 'msg.limits ({ min, max })'), ['min', 'max'], 'msg.limits');
-        limits = [field(l, 'min', 'msg.limits.min', current.outMin), field(l, 'max', 'msg.limits.max', current.outMax)];
-      }
-      const nextMode = msg.mode ?? mode;
-      // Into manual without msg.manual: hold the output the loop gave last (bumpless), else the configured one.
-      let nextManual = msg.manual ?? (nextMode === 'manual' && mode !== 'manual' ? loop.lastOutput() ?? manual : manual);
-      if (nextManual === undefined) nextManual = null;
-      if (nextMode === 'manual' && nextManual === null) {
-        throw invalidInput('manual mode needs msg.manual (the manual output): the loop has no output yet to hold');
-      }
-      if (tunings) loop.setTunings(...tunings);
-      if (limits) {
-        try {
-          loop.setLimits(...limits);
-        } catch (err) {
-          if (tunings) loop.setTunings(current.kp, current.tiS, current.tdS);
-          throw err;
-        }
-      }
-      if (sp !== undefined) setpoint = sp;
-      mode = nextMode;
-      manual = nextManual;
-      save();
-      show(idleStatus());
-    }
-
     function handle(msg, send, done) {
       try {
         if (msg.topic === 'setpoint' || CONTROL_KEYS.some((k) => msg[k] !== undefined)) {
-          control(msg);
-          if (msg.roundTripMs !== undefined) loop.observeRoundTrip(msgNumber(msg.roundTripMs, 'msg.roundTripMs'));
+          station.change(readChange(msg));
+          save();
+          show(idleStatus());
+          if (msg.roundTripMs !== undefined) station.observeRoundTrip(msgNumber(msg.roundTripMs, 'msg.roundTripMs'));
           done();
           return;
         }
         if (msg.roundTripMs !== undefined) {
-          loop.observeRoundTrip(msgNumber(msg.roundTripMs, 'msg.roundTripMs'));
+          station.observeRoundTrip(msgNumber(msg.roundTripMs, 'msg.roundTripMs'));
           if (msg.payload === undefined && msg.rcc === undefined) {
             done();
             return;
@@ -346,7 +291,7 @@ module.exports = function (RED) {
       for (const [msg, send, done] of early.splice(0)) safeHandle(msg, send, done);
     }
 
-    if (loop) {
+    if (station) {
       if (!persist) {
         start();
       } else {
@@ -355,14 +300,8 @@ module.exports = function (RED) {
           if (err) node.warn(`cannot read the saved PID state (${err.message || err}); starting from the configuration`);
           if (saved && typeof saved === 'object') {
             try {
-              if (isNumber(saved.integral)) {
-                loop.setIntegral(saved.integral);
-                lastIntegral = saved.integral;
-              }
-              if (isNumber(saved.setpoint)) setpoint = saved.setpoint;
-              if (saved.mode === 'auto' || saved.mode === 'manual') mode = saved.mode;
-              if (isNumber(saved.manual)) manual = saved.manual;
-              if (mode === 'manual' && !isNumber(manual)) mode = 'auto';
+              station.restore(readSaved(saved));
+              save();
             } catch (e) {
               node.warn(`the saved PID state cannot be used (${e.message}); starting from the configuration`);
             }
@@ -380,10 +319,11 @@ module.exports = function (RED) {
 
     node.on('close', (removed, done) => {
       closed = true;
-      watchdog.stop();
+      if (timer) clock.clearTimeout(timer);
+      timer = null;
       for (const [, , held] of early.splice(0)) held();
-      if (loop) loop.free();
-      loop = null;
+      if (station) station.free();
+      station = null;
       done();
     });
   }

@@ -1,7 +1,8 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, StatusBoard } = require('../lib/status');
-const { configNumber, parseList, describe, Watchdog, revivable } = require('../lib/control');
+const { configNumber, parseList, describe, revivable } = require('../lib/control');
+const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
@@ -13,10 +14,8 @@ function readConfig(props) {
   if (!Number.isInteger(id) || id < 1) {
     throw new SugarshackError('INVALID_CONFIG', `controller id must be a whole number from 1 (primary) to ${thresholdsMs.length}, got ${id}`);
   }
-  const pollTimeoutMs = configNumber(props.pollTimeout, 'poll timeout (ms)', { fallback: 3 * tsMs });
-  if (!(pollTimeoutMs > 0)) {
-    throw new SugarshackError('INVALID_CONFIG', `poll timeout must be a number of ms greater than 0, got ${pollTimeoutMs}`);
-  }
+  // Blank: the core's default, 3·Ts.
+  const pollTimeoutMs = configNumber(props.pollTimeout, 'poll timeout (ms)', { fallback: null });
   const smoothHandover = !(props.smooth === false || props.smooth === 'false');
   return { id, thresholdsMs, tsMs, smoothHandover, pollTimeoutMs };
 }
@@ -30,9 +29,12 @@ module.exports = function (RED) {
     let refusal = null;
     try {
       settings = readConfig(props);
-      // The core refuses thresholds breaking D_i > D_j >= Ts.
-      const { id, thresholdsMs, tsMs, smoothHandover } = settings;
-      rcc = revivable(({ Rcc }) => new Rcc({ id, thresholdsMs, tsMs, smoothHandover }));
+      // The core refuses thresholds breaking D_i > D_j >= Ts, and a poll timeout <= 0.
+      rcc = revivable(({ Rcc }) => {
+        const fresh = new Rcc(settings);
+        fresh.watchFrom(clock.now());
+        return fresh;
+      }, { onRevive: () => schedule() });
     } catch (err) {
       refusal = asSugarshackError(err);
       node.error(refusal.message);
@@ -40,15 +42,29 @@ module.exports = function (RED) {
     }
     const show = (status) => board.set(node, status);
 
-    // Polling timed out (Fig. 7, line 11): the next scan re-seeds the controller's integrator.
-    const watchdog = new Watchdog(settings ? settings.pollTimeoutMs : 0, () => {
+    // One timer, for when the core says the polling timeout falls due (Fig. 7, line 11).
+    let timer = null;
+    function schedule() {
+      if (timer) clock.clearTimeout(timer);
+      timer = null;
+      const due = rcc && rcc.nextTickMs();
+      if (due === undefined || due === null) return;
+      timer = clock.setTimeout(tick, Math.max(0, due - clock.now()));
+    }
+    function tick() {
+      timer = null;
       if (!rcc) return;
-      rcc.pollTimedOut();
-      show({ fill: 'yellow', shape: 'ring', text: 'no I/O' });
-    });
+      try {
+        // the next scan re-seeds the controller's integrator
+        if (rcc.tick(clock.now())) show({ fill: 'yellow', shape: 'ring', text: 'no I/O' });
+      } catch (err) {
+        node.error(`rcc polling timeout: ${err.message}`);
+      }
+      schedule();
+    }
     if (rcc) {
       show({ fill: 'grey', shape: 'ring', text: `C${settings.id} waiting` });
-      watchdog.arm();
+      schedule();
     }
 
     // The I/O module's state { procVar, lastAction, agesMs } -> the measurement with msg.rcc, for a pid node.
@@ -68,14 +84,14 @@ module.exports = function (RED) {
           }
           return { procVar: given.procVar, lastAction: given.lastAction, agesMs: given.agesMs };
         });
-        decision = rcc.decide({ lastAction: state.lastAction, agesMs: state.agesMs });
+        decision = rcc.decide({ lastAction: state.lastAction, agesMs: state.agesMs }, clock.now());
       } catch (err) {
         const e = asSugarshackError(err);
         show(errorStatus(e.code));
         done(e);
         return;
       }
-      watchdog.arm();
+      schedule();
       msg.payload = state.procVar;
       msg.rcc = { id: settings.id, engaged: decision.engaged, firstCycle: decision.firstCycle, track: decision.track ?? null };
       show(decision.engaged ? { fill: 'green', shape: 'dot', text: 'engaged' } : { fill: 'grey', shape: 'dot', text: 'standby' });
@@ -84,7 +100,8 @@ module.exports = function (RED) {
     });
 
     node.on('close', (removed, done) => {
-      watchdog.stop();
+      if (timer) clock.clearTimeout(timer);
+      timer = null;
       if (rcc) rcc.free();
       rcc = null;
       done();

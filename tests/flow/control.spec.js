@@ -343,6 +343,33 @@ describe('sugarshack control: pid', function () {
     assert.equal(seen.caught.at(-1).error.code, 'INVALID_INPUT');
   });
 
+  it('a change is applied whole or not at all: new tunings with limits the fallback falls outside change nothing', async function () {
+    const seen = await start([pidNode('pid', { fallback: '5' })]);
+    await deliver('pid', { payload: 40, timestamp: 1000 });
+    await deliver('pid', { setpoint: 60, tunings: { kp: 5 }, limits: { min: 10, max: 60 } });
+    assert.equal(seen.caught.at(-1).error.code, 'INVALID_CONFIG');
+    assert.match(seen.caught.at(-1).error.message, /fallback output 5 must be a number within the output limits \[10, 60\]/);
+    await deliver('pid', { payload: 40, timestamp: 2000 });
+    const m = seen.out.at(-1).pid;
+    assert.equal(m.setpoint, 50, 'the set point did not change');
+    close(m.p, 2 * 10, 1e-9); // kp is still 2
+    await deliver('pid', { tunings: { kp: null } });
+    assert.match(seen.caught.at(-1).error.message, /msg.tunings.kp must be a number, got null/);
+    await deliver('pid', { tunings: { kd: 1 } });
+    assert.match(seen.caught.at(-1).error.message, /a tunings change names none of kp, ti, td/);
+  });
+
+  it('proportional on measurement: a set point change moves the output only through the integral', async function () {
+    const seen = await start([pidNode('pid', { pOn: 'measurement', td: '0' })]);
+    await deliver('pid', { payload: 40, timestamp: 1000 });
+    await deliver('pid', { setpoint: 80 });
+    await deliver('pid', { payload: 40, timestamp: 2000 });
+    const [a, b] = seen.out.map((m) => m.pid);
+    assert.equal(a.p, 0);
+    close(a.output, 0.2 * 10 * 1);
+    close(b.output, a.output + 0.2 * 40 * 1, 1e-9);
+  });
+
   it('refuses configurations that cannot run at deploy, with the reason, and fails every msg', async function () {
     const seen = await start([
       pidNode('inverted', { outMin: '100', outMax: '0' }),

@@ -701,8 +701,8 @@ describe('sugarshack hostile input', function () {
       const tracker = runtimeOf('pl').t;
       // The pid node's loop is private to it: reach it through the rebuild hook the node registered.
       const mem = require(path.join(PALETTE, 'wasm', 'sugarshack_wasm.js'));
-      const original = mem.PidLoop.prototype.step;
-      mem.PidLoop.prototype.step = function trapping(...args) {
+      const original = mem.PidStation.prototype.measure;
+      mem.PidStation.prototype.measure = function trapping(...args) {
         this.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
         return original.apply(this, args);
       };
@@ -712,7 +712,7 @@ describe('sugarshack hostile input', function () {
         await until(() => completionsOf('pid', msg).length === 1, 'the pid msg to complete');
         assert.equal(completionsOf('pid', msg)[0].error.code, 'INTERNAL');
       } finally {
-        mem.PidLoop.prototype.step = original;
+        mem.PidStation.prototype.measure = original;
       }
       await after(seen, generation, { core, tracker });
     });

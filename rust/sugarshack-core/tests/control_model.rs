@@ -5,12 +5,16 @@
 
 use proptest::prelude::*;
 use sugarshack_core::control::delay::DelayEstimator;
-use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, StepMode};
+use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn, StepMode};
+use sugarshack_core::control::pid_loop::PidLoopConfig;
+use sugarshack_core::control::rcc::{Decision, IoState};
+use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig, SmithPredictor};
+use sugarshack_core::control::station::{Change, Limits, Mode, Sample, Saved, Stale, Station, StationConfig, Tunings};
 use sugarshack_core::control::rcc::{IoModule, RccConfig, RccController};
 
 fn pid_config(kp: f64, ti_s: f64, td_s: f64, out_min: f64, out_max: f64, direct: bool) -> PidConfig {
     let action = if direct { Action::Direct } else { Action::Reverse };
-    PidConfig { kp, ti_s, td_s, out_min, out_max, action, fallback: None }
+    PidConfig { kp, ti_s, td_s, out_min, out_max, action, fallback: None, proportional_on: Default::default() }
 }
 
 #[derive(Clone, Debug)]
@@ -184,7 +188,7 @@ proptest! {
         let mut jitter = move || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng % JITTER_MS };
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut controllers: Vec<_> = (1..=3)
-            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true }).unwrap())
+            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true, poll_timeout_ms: None }).unwrap())
             .collect();
         let mut pids: Vec<_> = (0..3).map(|_| Pid::new(pid_config(KP, TI_S, 0.0, 0.0, 2.0, false)).unwrap()).collect();
         let mut next_poll: Vec<u64> = phases.to_vec();
@@ -230,6 +234,199 @@ proptest! {
             let anyone_alive_long = (0..3).any(|i| alive(&schedule[i], t) && stable_for(&schedule[i], t) >= quiet);
             if anyone_alive_long && t > quiet {
                 prop_assert!(t - last_write_at <= quiet, "t={t}: nobody wrote for {} ms", t - last_write_at);
+            }
+        }
+    }
+}
+
+/// Any f64 at all, the edges often: subnormals, ±MAX, NaN, ±∞, ±0.
+fn any_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        4 => any::<f64>(),
+        4 => prop::sample::select(vec![
+            0.0, -0.0, 5e-324, -5e-324, 1e-320, f64::MIN_POSITIVE, f64::MAX, f64::MIN, 1e308, -1e308, 1e307,
+            f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1.0, -1.0, 100.0,
+        ]),
+        2 => -1e3..1e3f64,
+    ]
+}
+
+fn maybe_f64() -> impl Strategy<Value = Option<f64>> {
+    prop::option::weighted(0.8, any_f64())
+}
+
+#[derive(Clone, Debug)]
+enum AnyOp {
+    Measure { measurement: Option<f64>, sample_ms: f64, now_ms: f64, track: Option<f64>, rcc: Option<(bool, bool, Option<f64>)> },
+    Tick(f64),
+    Change { setpoint: Option<f64>, manual: Option<Option<f64>>, kp: Option<f64>, ti_s: Option<f64>, td_s: Option<f64>, min: Option<f64>, max: Option<f64> },
+    Restore { integral: Option<f64>, setpoint: Option<f64>, manual: Option<f64> },
+    RoundTrip(f64),
+}
+
+fn any_op() -> impl Strategy<Value = AnyOp> {
+    prop_oneof![
+        6 => (maybe_f64(), any_f64(), any_f64(), maybe_f64(), prop::option::weighted(0.3, (any::<bool>(), any::<bool>(), maybe_f64())))
+            .prop_map(|(measurement, sample_ms, now_ms, track, rcc)| AnyOp::Measure { measurement, sample_ms, now_ms, track, rcc }),
+        2 => any_f64().prop_map(AnyOp::Tick),
+        2 => (maybe_f64(), prop::option::weighted(0.3, maybe_f64()), maybe_f64(), maybe_f64(), maybe_f64(), maybe_f64(), maybe_f64())
+            .prop_map(|(setpoint, manual, kp, ti_s, td_s, min, max)| AnyOp::Change { setpoint, manual, kp, ti_s, td_s, min, max }),
+        1 => (maybe_f64(), maybe_f64(), maybe_f64()).prop_map(|(integral, setpoint, manual)| AnyOp::Restore { integral, setpoint, manual }),
+        1 => any_f64().prop_map(AnyOp::RoundTrip),
+    ]
+}
+
+fn station_config(values: [f64; 10], smith: Option<u8>, on_measurement: bool) -> StationConfig {
+    let [kp, ti_s, td_s, out_min, out_max, fallback, ts_s, gain, tau_s, setpoint] = values;
+    let dead_time = match smith {
+        Some(0) => Some(DeadTime::Fixed { samples: 3 }),
+        Some(_) => Some(DeadTime::Adaptive { alpha: 0.5, h: 3.0 }),
+        None => None,
+    };
+    StationConfig {
+        pid_loop: PidLoopConfig {
+            pid: PidConfig {
+                kp,
+                ti_s,
+                td_s,
+                out_min,
+                out_max,
+                action: Action::Reverse,
+                fallback: fallback.is_finite().then_some(fallback),
+                proportional_on: if on_measurement { ProportionalOn::Measurement } else { ProportionalOn::Error },
+            },
+            smith: dead_time.map(|dead_time| SmithConfig { model: FopdtModel { gain, tau_s }, ts_s, dead_time, max_samples: 20 }),
+        },
+        ts_s,
+        stale_ms: 50.0,
+        setpoint,
+        mode: Mode::Auto,
+        manual: None,
+    }
+}
+
+/// The loop's state is only ever numbers the loop can use.
+fn assert_sound(station: &Station) -> Result<(), TestCaseError> {
+    let state = station.state();
+    let config = station.pid_loop().pid().config();
+    prop_assert!(state.integral.is_finite() && state.setpoint.is_finite());
+    prop_assert!(state.manual.is_none_or(f64::is_finite));
+    if let Some(output) = state.last_output {
+        prop_assert!(output.is_finite() && output >= config.out_min && output <= config.out_max, "{output} {config:?}");
+    }
+    if let Some(smith) = station.pid_loop().smith() {
+        prop_assert!(smith.model_output().is_finite());
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1024))]
+
+    /// Over the whole f64 range, every public call of the loop either works or
+    /// returns a coded error: none panics (in wasm, a trap), and no state becomes
+    /// a number the loop cannot use. Every output is within the limits.
+    #[test]
+    fn no_input_panics_the_loop_or_corrupts_its_state(
+        values in prop::array::uniform10(prop_oneof![3 => any_f64(), 7 => 0.01..50.0f64]),
+        smith in prop::option::of(0u8..2),
+        on_measurement in any::<bool>(),
+        ops in prop::collection::vec(any_op(), 1..40),
+    ) {
+        let Ok(mut station) = Station::new(station_config(values, smith, on_measurement)) else { return Ok(()) };
+        for op in ops {
+            match op {
+                AnyOp::Measure { measurement, sample_ms, now_ms, track, rcc } => {
+                    let decision = rcc.map(|(engaged, first_cycle, track)| Decision { engaged, first_cycle, track });
+                    if let Ok(outcome) = station.measure(Sample { measurement, sample_ms, now_ms, track, decision }) {
+                        let c = station.pid_loop().pid().config();
+                        prop_assert!(outcome.pid.output >= c.out_min && outcome.pid.output <= c.out_max);
+                        prop_assert!([outcome.pid.p, outcome.pid.i, outcome.pid.d, outcome.pid.dt_s].iter().all(|v| v.is_finite()));
+                    }
+                }
+                AnyOp::Tick(now) => {
+                    if let Ok(Some(Stale::Fallback { pid })) = station.tick(now) {
+                        prop_assert!(pid.output.is_finite());
+                    }
+                    // a tick at the due time never leaves one due at once again
+                    if let Some(due) = station.next_tick_ms() {
+                        if now.is_finite() && due.is_finite() {
+                            prop_assert!(due > now || station.tick(now).is_ok());
+                        }
+                    }
+                }
+                AnyOp::Change { setpoint, manual, kp, ti_s, td_s, min, max } => {
+                    let tunings = (kp.is_some() || ti_s.is_some() || td_s.is_some()).then_some(Tunings { kp, ti_s, td_s });
+                    let limits = (min.is_some() || max.is_some()).then_some(Limits { min, max });
+                    let mode = manual.map(|_| Mode::Manual);
+                    let _ = station.change(Change { setpoint, mode, manual: manual.flatten(), tunings, limits });
+                }
+                AnyOp::Restore { integral, setpoint, manual } => {
+                    let _ = station.restore(Saved { integral, setpoint, mode: None, manual });
+                }
+                AnyOp::RoundTrip(ms) => { let _ = station.observe_round_trip(ms); }
+            }
+            assert_sound(&station)?;
+        }
+    }
+
+    /// The PID, the Smith predictor and the estimator on their own, every call with any f64.
+    #[test]
+    fn no_input_panics_the_pid_predictor_or_estimator(
+        values in prop::array::uniform8(any_f64()),
+        calls in prop::collection::vec((0u8..8, prop::array::uniform4(any_f64())), 1..40),
+    ) {
+        let [kp, ti_s, td_s, out_min, out_max, gain, tau_s, ts_s] = values;
+        let mut pid = Pid::new(pid_config(kp, ti_s, td_s, out_min, out_max, false))
+            .unwrap_or_else(|_| Pid::new(pid_config(1.0, 1.0, 1.0, -10.0, 10.0, false)).unwrap());
+        let smith = SmithPredictor::new(SmithConfig { model: FopdtModel { gain, tau_s }, ts_s, dead_time: DeadTime::Adaptive { alpha: 0.5, h: 3.0 }, max_samples: 8 });
+        let mut smith = smith.unwrap_or_else(|_| SmithPredictor::new(SmithConfig {
+            model: FopdtModel { gain: 1.0, tau_s: 1.0 }, ts_s: 0.1, dead_time: DeadTime::Adaptive { alpha: 0.5, h: 3.0 }, max_samples: 8,
+        }).unwrap());
+        let mut estimator = DelayEstimator::new(0.3, 3.0).unwrap();
+        for (call, [a, b, c, d]) in calls {
+            match call {
+                0 => { let _ = pid.step(PidInput { setpoint: a, measurement: Some(b), dt_s: c, track: d.is_sign_negative().then_some(d) }); }
+                1 => { let _ = pid.set_tunings(a, b, c); }
+                2 => { let _ = pid.set_limits(a, b); }
+                3 => { let _ = pid.set_integral(a); }
+                4 => { let _ = smith.advance(a, b); let _ = smith.feedback(c); }
+                5 => { let _ = smith.observe_round_trip(a); let _ = smith.dead_time_samples(); }
+                6 => { let _ = estimator.observe(a); let _ = estimator.dead_time_samples(b); }
+                _ => { let _ = DelayEstimator::new(a, b); pid.restart(); }
+            }
+            let c = pid.config();
+            prop_assert!(pid.integral().is_finite());
+            prop_assert!(pid.last_output().is_none_or(|o| o.is_finite() && o >= c.out_min && o <= c.out_max));
+            prop_assert!(smith.model_output().is_finite());
+            prop_assert!(estimator.mean_ms().is_none_or(f64::is_finite) && estimator.std_ms().is_none_or(f64::is_finite));
+        }
+    }
+
+    /// RCC and the I/O module with any f64 for every number they take.
+    #[test]
+    fn no_input_panics_rcc_or_the_io_module(
+        thresholds in prop::collection::vec(any_f64(), 0..4),
+        (ts_ms, timeout) in (any_f64(), maybe_f64()),
+        id in 0usize..5,
+        calls in prop::collection::vec((0u8..4, any_f64(), prop::collection::vec(prop::option::of(any_f64()), 0..4)), 1..30),
+    ) {
+        let config = RccConfig { id, thresholds_ms: thresholds, ts_ms, smooth_handover: true, poll_timeout_ms: timeout };
+        let rcc = RccController::new(config);
+        let mut io = IoModule::new(3, 0.0).unwrap();
+        let mut pid = Pid::new(pid_config(1.0, 2.0, 0.5, 0.0, 10.0, false)).unwrap();
+        if let Ok(mut rcc) = rcc {
+            for (call, x, ages) in calls {
+                let state = IoState { last_action: x, ages_ms: ages };
+                match call {
+                    0 => { let _ = rcc.decide_at(&state, x); }
+                    1 => { let _ = rcc.tick(x); let _ = rcc.watch_from(x); }
+                    2 => { let _ = rcc.scan(&mut pid, &state, x, Some(x), x); }
+                    _ => { let _ = io.write(id, x, x); let _ = io.state(x); }
+                }
+                prop_assert!(io.last_action().is_finite());
+                prop_assert!(pid.integral().is_finite());
+                prop_assert!(rcc.next_tick_ms().is_none_or(f64::is_finite));
             }
         }
     }

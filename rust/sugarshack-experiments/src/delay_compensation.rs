@@ -190,6 +190,7 @@ pub fn simulate(case: &DelayCase) -> Result<DelayRun, ControlError> {
             out_max,
             action: Action::Reverse,
             fallback: None,
+            proportional_on: Default::default(),
         },
         smith,
     })?;

@@ -203,6 +203,7 @@ impl Remote {
             out_max,
             action: Action::Reverse,
             fallback: None,
+            proportional_on: Default::default(),
         })?;
         let smooth_handover = match scenario.redundancy {
             Redundancy::Rcc { smooth_handover } => smooth_handover,
@@ -213,6 +214,7 @@ impl Remote {
             thresholds_ms: ENGAGEMENT_THRESHOLDS_MS[..controllers].to_vec(),
             ts_ms: TS_MS as f64,
             smooth_handover,
+            poll_timeout_ms: None,
         })?;
         Ok((rcc, pid))
     }

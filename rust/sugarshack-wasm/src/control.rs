@@ -1,7 +1,9 @@
 use serde::Serialize;
-use sugarshack_core::control::pid::PidStep;
+use sugarshack_core::control::pid::{PidInput, PidStep};
 use sugarshack_core::control::pid_loop::{PidLoop as CoreLoop, PidLoopConfig};
 use sugarshack_core::control::rcc::{self, Decision, IoState, RccConfig, RccController};
+use sugarshack_core::control::smith::SmithPredictor;
+use sugarshack_core::control::station::{Change, Sample, Saved, Station, StationConfig};
 use sugarshack_core::control::ControlError;
 use wasm_bindgen::prelude::*;
 
@@ -10,6 +12,74 @@ use sugarshack_core::text::quote;
 
 fn control_error(err: ControlError) -> JsValue {
     js_error(err.code(), &err.to_string())
+}
+
+/// What a JS value is, for an error message.
+fn kind(value: &JsValue) -> String {
+    if value.is_null() {
+        "null".into()
+    } else if value.is_undefined() {
+        "nothing (undefined)".into()
+    } else if let Some(text) = value.as_string() {
+        format!("the string {}", quote(format!("'{text}'")))
+    } else {
+        value.js_typeof().as_string().unwrap_or_default()
+    }
+}
+
+/// A number argument: a JS number, never null, a string or a boolean coerced into one.
+/// Whether it may be NaN or infinite is the core's to say.
+fn number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
+    value
+        .as_f64()
+        .ok_or_else(|| js_error("INVALID_INPUT", &format!("{what} must be a number, got {}", kind(value))))
+}
+
+/// A number that must also be finite (where the core takes any f64 without a check).
+fn finite_number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
+    let n = number(value, what)?;
+    if n.is_finite() {
+        Ok(n)
+    } else {
+        Err(js_error("INVALID_INPUT", &format!("{what} must be a finite number, got {}", quote(n))))
+    }
+}
+
+/// An optional number: undefined or null is absent; anything else must be a number.
+fn optional_number(value: &JsValue, what: &str) -> Result<Option<f64>, JsValue> {
+    if value.is_undefined() || value.is_null() {
+        Ok(None)
+    } else {
+        number(value, what).map(Some)
+    }
+}
+
+fn optional_decision(value: JsValue) -> Result<Option<Decision>, JsValue> {
+    if value.is_undefined() || value.is_null() {
+        return Ok(None);
+    }
+    from_js_bounded(value, "INVALID_INPUT", "RCC decision", Bound::Control).map(Some)
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Estimate {
+    dead_time_samples: usize,
+    mean_ms: Option<f64>,
+    std_ms: Option<f64>,
+}
+
+/// `{ deadTimeSamples, meanMs, stdMs }`, or undefined without a Smith predictor.
+fn estimate(smith: Option<&SmithPredictor>) -> Result<JsValue, JsValue> {
+    let Some(smith) = smith else {
+        return Ok(JsValue::UNDEFINED);
+    };
+    let estimator = smith.estimator();
+    to_js(&Estimate {
+        dead_time_samples: smith.dead_time_samples(),
+        mean_ms: estimator.and_then(|e| e.mean_ms()),
+        std_ms: estimator.and_then(|e| e.std_ms()),
+    })
 }
 
 #[derive(Serialize)]
@@ -60,20 +130,20 @@ impl PidLoop {
             .map_err(control_error)
     }
 
-    /// One step; `measurement` undefined or NaN outputs the fallback, `track`
+    /// One step; `measurement` undefined, null or NaN outputs the fallback, `track`
     /// set makes the integrator follow an action someone else applied.
     pub fn step(
         &mut self,
-        setpoint: f64,
-        measurement: Option<f64>,
-        dt_s: f64,
-        track: Option<f64>,
+        setpoint: JsValue,
+        measurement: JsValue,
+        dt_s: JsValue,
+        track: JsValue,
     ) -> Result<JsValue, JsValue> {
-        let input = sugarshack_core::control::pid::PidInput {
-            setpoint,
-            measurement,
-            dt_s,
-            track,
+        let input = PidInput {
+            setpoint: number(&setpoint, "set point")?,
+            measurement: optional_number(&measurement, "measurement")?,
+            dt_s: number(&dt_s, "elapsed time (s)")?,
+            track: optional_number(&track, "tracked action")?,
         };
         let step = self.core.step(input).map_err(control_error)?;
         to_js(&self.step_view(step))
@@ -84,12 +154,15 @@ impl PidLoop {
     pub fn step_decided(
         &mut self,
         decision: JsValue,
-        setpoint: f64,
-        measurement: Option<f64>,
-        dt_s: f64,
+        setpoint: JsValue,
+        measurement: JsValue,
+        dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
         let decision: Decision =
             from_js_bounded(decision, "INVALID_INPUT", "RCC decision", Bound::Control)?;
+        let setpoint = number(&setpoint, "set point")?;
+        let measurement = optional_number(&measurement, "measurement")?;
+        let dt_s = number(&dt_s, "elapsed time (s)")?;
         let scan = rcc::act(&decision, &mut self.core, setpoint, measurement, dt_s)
             .map_err(control_error)?;
         #[derive(Serialize)]
@@ -109,7 +182,8 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setTunings)]
-    pub fn set_tunings(&mut self, kp: f64, ti_s: f64, td_s: f64) -> Result<(), JsValue> {
+    pub fn set_tunings(&mut self, kp: JsValue, ti_s: JsValue, td_s: JsValue) -> Result<(), JsValue> {
+        let (kp, ti_s, td_s) = (number(&kp, "kp")?, number(&ti_s, "ti (s)")?, number(&td_s, "td (s)")?);
         self.core
             .pid_mut()
             .set_tunings(kp, ti_s, td_s)
@@ -117,7 +191,8 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setLimits)]
-    pub fn set_limits(&mut self, out_min: f64, out_max: f64) -> Result<(), JsValue> {
+    pub fn set_limits(&mut self, out_min: JsValue, out_max: JsValue) -> Result<(), JsValue> {
+        let (out_min, out_max) = (number(&out_min, "output min")?, number(&out_max, "output max")?);
         self.core
             .pid_mut()
             .set_limits(out_min, out_max)
@@ -129,7 +204,8 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setIntegral)]
-    pub fn set_integral(&mut self, integral: f64) -> Result<(), JsValue> {
+    pub fn set_integral(&mut self, integral: JsValue) -> Result<(), JsValue> {
+        let integral = number(&integral, "integral")?;
         self.core
             .pid_mut()
             .set_integral(integral)
@@ -148,7 +224,8 @@ impl PidLoop {
 
     /// A measured round trip (ms) for the adaptive Smith predictor.
     #[wasm_bindgen(js_name = observeRoundTrip)]
-    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), JsValue> {
+    pub fn observe_round_trip(&mut self, round_trip_ms: JsValue) -> Result<(), JsValue> {
+        let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
         self.core
             .observe_round_trip(round_trip_ms)
             .map_err(control_error)
@@ -157,22 +234,7 @@ impl PidLoop {
     /// `{ deadTimeSamples, meanMs, stdMs }`, or undefined without a Smith predictor.
     #[wasm_bindgen(js_name = delayEstimate)]
     pub fn delay_estimate(&self) -> Result<JsValue, JsValue> {
-        #[derive(Serialize)]
-        #[serde(rename_all = "camelCase")]
-        struct Estimate {
-            dead_time_samples: usize,
-            mean_ms: Option<f64>,
-            std_ms: Option<f64>,
-        }
-        let Some(smith) = self.core.smith() else {
-            return Ok(JsValue::UNDEFINED);
-        };
-        let estimator = smith.estimator();
-        to_js(&Estimate {
-            dead_time_samples: smith.dead_time_samples(),
-            mean_ms: estimator.and_then(|e| e.mean_ms()),
-            std_ms: estimator.and_then(|e| e.std_ms()),
-        })
+        estimate(self.core.smith())
     }
 
     /// The configuration in force (tunings and limits as last set).
@@ -203,10 +265,33 @@ impl Rcc {
     }
 
     /// The Computing step for a polled state `{ lastAction, agesMs }`: `{ engaged, firstCycle, track }`.
-    pub fn decide(&mut self, state: JsValue) -> Result<JsValue, JsValue> {
+    /// With `nowMs` the polling timeout counts from it.
+    pub fn decide(&mut self, state: JsValue, now_ms: JsValue) -> Result<JsValue, JsValue> {
         let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
-        let decision = self.core.decide(&state).map_err(control_error)?;
-        to_js(&decision)
+        let decision = match optional_number(&now_ms, "time (ms)")? {
+            Some(now_ms) => self.core.decide_at(&state, now_ms),
+            None => self.core.decide(&state),
+        };
+        to_js(&decision.map_err(control_error)?)
+    }
+
+    /// Counts the polling timeout from `nowMs` (at deploy, before any state).
+    #[wasm_bindgen(js_name = watchFrom)]
+    pub fn watch_from(&mut self, now_ms: JsValue) -> Result<(), JsValue> {
+        let now_ms = number(&now_ms, "time (ms)")?;
+        self.core.watch_from(now_ms).map_err(control_error)
+    }
+
+    /// True once when no state came within the polling timeout.
+    pub fn tick(&mut self, now_ms: JsValue) -> Result<bool, JsValue> {
+        let now_ms = number(&now_ms, "time (ms)")?;
+        self.core.tick(now_ms).map_err(control_error)
+    }
+
+    /// When `tick` next has something to do (ms), or undefined.
+    #[wasm_bindgen(js_name = nextTickMs)]
+    pub fn next_tick_ms(&self) -> Option<f64> {
+        self.core.next_tick_ms()
     }
 
     /// Decide and step `pid` in one call: `{ engaged, firstCycle, write, step }`.
@@ -214,11 +299,14 @@ impl Rcc {
         &mut self,
         pid: &mut PidLoop,
         state: JsValue,
-        setpoint: f64,
-        measurement: Option<f64>,
-        dt_s: f64,
+        setpoint: JsValue,
+        measurement: JsValue,
+        dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
         let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
+        let setpoint = number(&setpoint, "set point")?;
+        let measurement = optional_number(&measurement, "measurement")?;
+        let dt_s = number(&dt_s, "elapsed time (s)")?;
         let scan = self
             .core
             .scan(&mut pid.core, &state, setpoint, measurement, dt_s)
@@ -247,7 +335,9 @@ pub struct IoModule {
 #[wasm_bindgen]
 impl IoModule {
     #[wasm_bindgen(constructor)]
-    pub fn new(controllers: f64, initial_action: f64) -> Result<IoModule, JsValue> {
+    pub fn new(controllers: JsValue, initial_action: JsValue) -> Result<IoModule, JsValue> {
+        let controllers = number(&controllers, "controllers")?;
+        let initial_action = number(&initial_action, "initial action")?;
         let controllers = whole(controllers).ok_or_else(|| {
             js_error(
                 "INVALID_CONFIG",
@@ -263,8 +353,10 @@ impl IoModule {
     }
 
     /// Conditional Acting's write from controller `id` (1-based).
-    pub fn write(&mut self, id: f64, action: f64, now_ms: f64) -> Result<(), JsValue> {
+    pub fn write(&mut self, id: JsValue, action: JsValue, now_ms: JsValue) -> Result<(), JsValue> {
         let controllers = self.core.controllers();
+        let id = number(&id, "controller id")?;
+        let (action, now_ms) = (number(&action, "action")?, number(&now_ms, "time (ms)")?);
         let id = whole(id).ok_or_else(|| {
             js_error("UNKNOWN_CONTROLLER", &format!("controller id {} is not one of the {controllers} configured (ids run from 1 to {controllers})", quote(id)))
         })?;
@@ -272,8 +364,8 @@ impl IoModule {
     }
 
     /// `{ lastAction, agesMs }`; an age is null for a controller that never acted.
-    pub fn state(&self, now_ms: f64) -> Result<JsValue, JsValue> {
-        to_js(&self.core.state(now_ms))
+    pub fn state(&self, now_ms: JsValue) -> Result<JsValue, JsValue> {
+        to_js(&self.core.state(finite_number(&now_ms, "time (ms)")?))
     }
 
     #[wasm_bindgen(getter, js_name = lastAction)]
@@ -284,6 +376,95 @@ impl IoModule {
 
 /// Refuses engagement thresholds that break D_i > D_j >= Ts for i > j.
 #[wasm_bindgen(js_name = validateThresholds)]
-pub fn validate_thresholds(thresholds_ms: Vec<f64>, ts_ms: f64) -> Result<(), JsValue> {
+pub fn validate_thresholds(thresholds_ms: Vec<f64>, ts_ms: JsValue) -> Result<(), JsValue> {
+    let ts_ms = number(&ts_ms, "sampling period Ts (ms)")?;
     rcc::validate_thresholds(&thresholds_ms, ts_ms).map_err(control_error)
+}
+
+/// A PID loop with its set point, auto/manual mode, manual output and stale
+/// watch: `new PidStation({ loop: { pid, smith }, tsS, staleMs, setpoint, mode, manual })`.
+/// Steps come back as `{ engaged, pid: { p, i, d, output, mode, saturated, setpoint,
+/// measurement, seen, deadTimeSamples, dtS } }`.
+#[wasm_bindgen]
+pub struct PidStation {
+    core: Station,
+}
+
+#[wasm_bindgen]
+impl PidStation {
+    #[wasm_bindgen(constructor)]
+    pub fn new(config: JsValue) -> Result<PidStation, JsValue> {
+        let config: StationConfig = from_js_bounded(config, "INVALID_CONFIG", "PID configuration", Bound::Control)?;
+        Station::new(config).map(|core| PidStation { core }).map_err(control_error)
+    }
+
+    /// A sample: `measurement` undefined, null or NaN is a bad one (the fallback
+    /// is stepped); `sampleMs` when it was measured, `nowMs` when it arrived;
+    /// `track` an action someone else applied; `decision` an rcc node's.
+    pub fn measure(
+        &mut self,
+        measurement: JsValue,
+        sample_ms: JsValue,
+        now_ms: JsValue,
+        track: JsValue,
+        decision: JsValue,
+    ) -> Result<JsValue, JsValue> {
+        let sample = Sample {
+            measurement: optional_number(&measurement, "measurement")?,
+            sample_ms: number(&sample_ms, "sample time (ms)")?,
+            now_ms: number(&now_ms, "time (ms)")?,
+            track: optional_number(&track, "tracked action")?,
+            decision: optional_decision(decision)?,
+        };
+        to_js(&self.core.measure(sample).map_err(control_error)?)
+    }
+
+    /// `{ kind: "fallback", pid }` to send, `{ kind: "noIo" }`, or undefined when nothing is due.
+    pub fn tick(&mut self, now_ms: JsValue) -> Result<JsValue, JsValue> {
+        let now_ms = number(&now_ms, "time (ms)")?;
+        match self.core.tick(now_ms).map_err(control_error)? {
+            Some(stale) => to_js(&stale),
+            None => Ok(JsValue::UNDEFINED),
+        }
+    }
+
+    /// When `tick` next has something to do (ms), or undefined.
+    #[wasm_bindgen(js_name = nextTickMs)]
+    pub fn next_tick_ms(&self) -> Option<f64> {
+        self.core.next_tick_ms()
+    }
+
+    /// `{ setpoint, mode, manual, tunings: { kp, tiS, tdS }, limits: { min, max } }`, any part
+    /// absent; applied whole or refused whole.
+    pub fn change(&mut self, change: JsValue) -> Result<(), JsValue> {
+        let change: Change = from_js_bounded(change, "INVALID_INPUT", "loop change", Bound::Control)?;
+        self.core.change(change).map_err(control_error)
+    }
+
+    /// `{ integral, setpoint, mode, manual }` as saved; refused whole if any is unusable.
+    pub fn restore(&mut self, saved: JsValue) -> Result<(), JsValue> {
+        let saved: Saved = from_js_bounded(saved, "INVALID_INPUT", "saved PID state", Bound::Control)?;
+        self.core.restore(saved).map_err(control_error)
+    }
+
+    /// `{ setpoint, mode, manual, lastOutput, integral }`.
+    pub fn state(&self) -> Result<JsValue, JsValue> {
+        to_js(&self.core.state())
+    }
+
+    #[wasm_bindgen(js_name = observeRoundTrip)]
+    pub fn observe_round_trip(&mut self, round_trip_ms: JsValue) -> Result<(), JsValue> {
+        let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
+        self.core.observe_round_trip(round_trip_ms).map_err(control_error)
+    }
+
+    #[wasm_bindgen(js_name = delayEstimate)]
+    pub fn delay_estimate(&self) -> Result<JsValue, JsValue> {
+        estimate(self.core.pid_loop().smith())
+    }
+
+    /// The PID configuration in force (tunings and limits as last set).
+    pub fn config(&self) -> Result<JsValue, JsValue> {
+        to_js(self.core.pid_loop().pid().config())
+    }
 }

@@ -11,7 +11,7 @@ pub mod operation;
 mod routine;
 mod tracker;
 
-pub use control::{validate_thresholds, IoModule, PidLoop, Rcc};
+pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use interlock::Interlock;
 pub use routine::Routine;
 pub use tracker::Tracker;

@@ -410,7 +410,7 @@ fn a_non_finite_number_is_refused_where_it_stands_not_taken_for_absent() {
     ))
     .unwrap();
     let err = rcc
-        .decide(js("return { lastAction: 1, agesMs: [Infinity, 3] };"))
+        .decide(js("return { lastAction: 1, agesMs: [Infinity, 3] };"), JsValue::UNDEFINED)
         .unwrap_err();
     assert_eq!(code_of(&err), "INVALID_INPUT");
     assert!(
@@ -449,7 +449,7 @@ fn deep_rcc_states_and_configs_are_refused_and_the_controller_carries_on() {
     .unwrap();
     let state = r#"{ "lastAction": 10, "agesMs": [100, null] }"#;
     for (kind, deep) in deep_values() {
-        let err = rcc.decide(deep.clone()).unwrap_err();
+        let err = rcc.decide(deep.clone(), JsValue::UNDEFINED).unwrap_err();
         assert_eq!(
             code_of(&err),
             "INPUT_TOO_DEEP",
@@ -457,7 +457,7 @@ fn deep_rcc_states_and_configs_are_refused_and_the_controller_carries_on() {
             message_of(&err)
         );
         assert!(
-            rcc.decide(json(state)).is_ok(),
+            rcc.decide(json(state), JsValue::UNDEFINED).is_ok(),
             "a valid state after a refusal"
         );
         assert_eq!(
@@ -470,13 +470,13 @@ fn deep_rcc_states_and_configs_are_refused_and_the_controller_carries_on() {
         );
     }
     assert_eq!(
-        code_of(&rcc.decide(circular()).unwrap_err()),
+        code_of(&rcc.decide(circular(), JsValue::UNDEFINED).unwrap_err()),
         "INPUT_CIRCULAR"
     );
-    let decision = rcc.decide(json(state)).unwrap();
+    let decision = rcc.decide(json(state), JsValue::UNDEFINED).unwrap();
     assert_eq!(get(&decision, "engaged").as_bool(), Some(false));
     let big = js("return { lastAction: 1, agesMs: new Array(40000).fill(1) };");
-    assert_eq!(code_of(&rcc.decide(big).unwrap_err()), "INPUT_TOO_LARGE");
+    assert_eq!(code_of(&rcc.decide(big, JsValue::UNDEFINED).unwrap_err()), "INPUT_TOO_LARGE");
 }
 
 #[wasm_bindgen_test]

@@ -5,6 +5,10 @@
 use crate::text::quote;
 use super::error::{positive, ControlError};
 
+/// Longest round trip taken (a day): beyond it a sample is an error, and one
+/// absurd value could otherwise hold the variance at infinity for ever.
+pub const MAX_ROUND_TRIP_MS: f64 = 86_400_000.0;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct DelayEstimator {
     alpha: f64,
@@ -27,9 +31,9 @@ impl DelayEstimator {
     }
 
     pub fn observe(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
-        if !(round_trip_ms.is_finite() && round_trip_ms >= 0.0) {
+        if !(round_trip_ms.is_finite() && (0.0..=MAX_ROUND_TRIP_MS).contains(&round_trip_ms)) {
             return Err(ControlError::input(format!(
-                "a round trip must be a number of milliseconds >= 0, got {round_trip_ms}",
+                "a round trip must be a number of milliseconds from 0 to {MAX_ROUND_TRIP_MS} (a day), got {round_trip_ms}",
                 round_trip_ms = quote(round_trip_ms)
             )));
         }
@@ -95,5 +99,19 @@ mod tests {
         assert_eq!(e.observe(-5.0).unwrap_err().code(), "INVALID_INPUT");
         assert_eq!(e.mean_ms(), None, "a refused sample leaves the estimate alone");
         assert_eq!(e.dead_time_samples(0.0).unwrap_err().code(), "INVALID_CONFIG");
+    }
+
+    #[test]
+    fn a_round_trip_beyond_a_day_is_refused_so_one_cannot_pin_the_dead_time() {
+        let mut e = DelayEstimator::new(0.5, 3.0).unwrap();
+        e.observe(100.0).unwrap();
+        assert_eq!(e.observe(1e308).unwrap_err().code(), "INVALID_INPUT");
+        assert_eq!(e.mean_ms(), Some(100.0));
+        // the longest accepted one decays away like any other spike
+        e.observe(MAX_ROUND_TRIP_MS).unwrap();
+        for _ in 0..200 {
+            e.observe(100.0).unwrap();
+        }
+        assert_eq!(e.dead_time_samples(100.0).unwrap(), 1);
     }
 }

@@ -62,3 +62,16 @@ pub(crate) fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
         Err(ControlError::config(format!("{what} must be a number greater than 0, got {value}", value = quote(value))))
     }
 }
+
+/// A result computed from accepted inputs that left the range of numbers: the
+/// step is refused before anything becomes state.
+pub(crate) fn computed(value: f64, what: &str) -> Result<f64, ControlError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ControlError::input(format!(
+            "the {what} came out as {value}: the inputs are beyond what this loop can compute with; nothing was changed",
+            value = quote(value)
+        )))
+    }
+}

@@ -10,5 +10,6 @@ pub mod pid_loop;
 pub mod rcc;
 pub mod sim;
 pub mod smith;
+pub mod station;
 
 pub use error::ControlError;

@@ -1,21 +1,32 @@
 //! A PID step in standard (ISA) form with the elapsed time passed in.
 //!
 //! - derivative on the measurement, so a set point change gives no kick;
-//! - anti-windup by conditional integration (no integration while the output is
-//!   saturated and the error pushes further) and by clamping the integrator so
-//!   P + I + D stays within the limits;
+//! - anti-windup by clamped integration: each step integrates only as far as
+//!   keeps P + I + D within the limits, and never moves the integrator against
+//!   the error (so a one-sample spike in P or D cannot drag it, and with
+//!   integral action off nothing moves it at all);
+//! - proportional on error (default) or on measurement (Arduino PID's P_ON_M):
+//!   on measurement the proportional action moves with the measurement and is
+//!   kept in the integrator, so a set point change gives no proportional kick;
 //! - tracking (the paper's §5.3 bumpless transfer): while another controller or
 //!   an operator drives the actuator, the integrator is set to `a - P - D`, so
 //!   the first step in control starts from the action `a` already applied;
 //! - new tunings take effect without a bump: the next step re-seeds the
 //!   integrator from the last output;
 //! - a missing or non-numeric measurement holds the integrator and outputs the
-//!   configured fallback (or holds the last output): never a NaN.
+//!   configured fallback (or holds the last output): never a NaN;
+//! - every term is checked finite before it becomes state: inputs too large to
+//!   compute with are refused with INVALID_INPUT and leave the PID as it was.
+//!
+//! Parallel gains (simple-pid's and Arduino PID's Kp, Ki, Kd, all >= 0) map
+//! onto this form as kp = Kp, ti = Kp / Ki (0 when Ki = 0), td = Kd / Kp.
+//! Ki or Kd with Kp = 0 has no standard form. Arduino's DIRECT is `Reverse`
+//! here (output rises as the measurement falls below the set point).
 
 use serde::{Deserialize, Serialize};
 
 use crate::text::quote;
-use super::error::{finite, ControlError};
+use super::error::{computed, finite, ControlError};
 
 /// Direction of the controller (ISA terms).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -46,6 +57,20 @@ pub struct PidConfig {
     /// Output while the measurement is missing or not a number; `None` holds the last output.
     #[serde(default)]
     pub fallback: Option<f64>,
+    #[serde(default)]
+    pub proportional_on: ProportionalOn,
+}
+
+/// What the proportional term acts on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProportionalOn {
+    /// P = Kc·e: the textbook form.
+    #[default]
+    Error,
+    /// P moves by -Kc·Δpv each step, kept in the integrator (Arduino PID's P_ON_M):
+    /// no kick on a set point change, and a gentler approach without overshoot.
+    Measurement,
 }
 
 impl PidConfig {
@@ -73,8 +98,21 @@ impl PidConfig {
         }
     }
 
+    /// Limits are validated finite with min < max, so this never panics.
     fn clamp(&self, value: f64) -> f64 {
         value.clamp(self.out_min, self.out_max)
+    }
+}
+
+/// The integration increment trimmed so `before + increment` stays within the
+/// limits, but never reversed: clamping must not move the integrator against the error.
+fn trim(increment: f64, before: f64, out_min: f64, out_max: f64) -> f64 {
+    if increment > 0.0 {
+        increment.min((out_max - before).max(0.0))
+    } else if increment < 0.0 {
+        increment.max((out_min - before).min(0.0))
+    } else {
+        0.0
     }
 }
 
@@ -86,6 +124,21 @@ fn check_tunings(kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
                 value = quote(value)
             )));
         }
+    }
+    // The gains the step multiplies by must be numbers too: kp/ti and kp·td.
+    if ti_s > 0.0 && !(kp / ti_s).is_finite() {
+        return Err(ControlError::config(format!(
+            "ti {ti} s is too small for kp {kp}: the integral gain kp/ti is not a number",
+            ti = quote(ti_s),
+            kp = quote(kp)
+        )));
+    }
+    if !(kp * td_s).is_finite() {
+        return Err(ControlError::config(format!(
+            "kp {kp} times td {td} s is not a number: the derivative gain overflows",
+            td = quote(td_s),
+            kp = quote(kp)
+        )));
     }
     Ok(())
 }
@@ -160,6 +213,8 @@ impl Pid {
     /// Restores a persisted integrator (output units).
     pub fn set_integral(&mut self, integral: f64) -> Result<(), ControlError> {
         self.integral = finite(integral, "integral")?;
+        // An integrator set on purpose wins over a re-seed still pending from new tunings.
+        self.reseed = false;
         Ok(())
     }
 
@@ -220,47 +275,60 @@ impl Pid {
             Action::Direct => -1.0,
         };
         // `+ 0.0` turns a -0 into 0, so telemetry never shows "-0".
-        let error = sign * (setpoint - measurement) + 0.0;
-        let p = c.kp * error + 0.0;
-        let d = match self.last_measurement {
-            Some(previous) => -sign * c.kp * c.td_s * (measurement - previous) / input.dt_s + 0.0,
-            None => 0.0,
+        let error = computed(sign * (setpoint - measurement) + 0.0, "control error (set point - measurement)")?;
+        let change = match self.last_measurement {
+            Some(previous) => Some(computed(measurement - previous, "change of the measurement")?),
+            None => None,
         };
-        self.last_measurement = Some(measurement);
+        let on_error = c.proportional_on == ProportionalOn::Error;
+        let p = if on_error && c.kp != 0.0 { computed(c.kp * error + 0.0, "proportional term")? } else { 0.0 };
+        let kd = c.kp * c.td_s;
+        let d = match change {
+            Some(dm) if kd != 0.0 => computed(-sign * kd * (dm / input.dt_s) + 0.0, "derivative term")?,
+            _ => 0.0,
+        };
+        // Proportional on measurement: its change this step, carried by the integrator.
+        let p_moved = match change {
+            Some(dm) if !on_error && c.kp != 0.0 => computed(-sign * c.kp * dm, "proportional change")?,
+            _ => 0.0,
+        };
 
         if let Some(action) = track {
-            self.integral = action - p - d;
+            // The clamped action: the integrator must not hold more than the limits allow.
+            let output = c.clamp(action);
+            self.integral = computed(output - p - d, "tracking integrator")?;
+            self.last_measurement = Some(measurement);
             self.reseed = false;
-            // The action itself, not P + I + D re-added, which can differ in the last bit.
-            let output = self.config.clamp(action);
             self.last_output = Some(output);
             return Ok(PidStep { p, i: self.integral, d, output, mode: StepMode::Tracking, saturated: output != action });
         }
         if self.reseed {
-            self.reseed = false;
             if let Some(last) = self.last_output {
-                self.integral = last - p - d;
-                return Ok(self.finish(p, d, StepMode::Auto));
+                let integral = computed(last - p - d, "re-seeded integrator")?;
+                let step = self.finish(p, integral, d, StepMode::Auto)?;
+                self.last_measurement = Some(measurement);
+                self.reseed = false;
+                return Ok(step);
             }
         }
 
-        let unclamped = p + self.integral + d;
-        let winding = (unclamped >= c.out_max && error > 0.0) || (unclamped <= c.out_min && error < 0.0);
-        if !winding {
-            self.integral += c.integral_gain() * error * input.dt_s;
-        }
-        let saturated = winding || !(c.out_min..=c.out_max).contains(&(p + self.integral + d));
-        self.integral = self.integral.clamp(c.out_min - p - d, c.out_max - p - d);
-        let mut step = self.finish(p, d, StepMode::Auto);
-        step.saturated = saturated;
+        let increment = computed(c.integral_gain() * error * input.dt_s + p_moved, "integration")?;
+        let before = computed(p + self.integral + d, "output")?;
+        let trimmed = trim(increment, before, c.out_min, c.out_max);
+        let integral = computed(self.integral + trimmed, "integrator")?;
+        let mut step = self.finish(p, integral, d, StepMode::Auto)?;
+        self.last_measurement = Some(measurement);
+        step.saturated |= trimmed != increment;
         Ok(step)
     }
 
-    fn finish(&mut self, p: f64, d: f64, mode: StepMode) -> PidStep {
-        let unclamped = p + self.integral + d;
+    /// Commits `integral` and the output, once P + I + D is known to be a number.
+    fn finish(&mut self, p: f64, integral: f64, d: f64, mode: StepMode) -> Result<PidStep, ControlError> {
+        let unclamped = computed(p + integral + d, "output")?;
         let output = self.config.clamp(unclamped);
+        self.integral = integral;
         self.last_output = Some(output);
-        PidStep { p, i: self.integral, d, output, mode, saturated: output != unclamped }
+        Ok(PidStep { p, i: integral, d, output, mode, saturated: output != unclamped })
     }
 
     fn blind_tracking_step(&mut self, action: f64) -> PidStep {

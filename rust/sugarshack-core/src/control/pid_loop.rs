@@ -53,16 +53,20 @@ impl PidLoop {
         }
     }
 
+    /// One step of the PID and the model together: if either refuses, neither changes.
     pub fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
         let measurement = input.measurement.filter(|m| m.is_finite());
         let seen = match (&self.smith, measurement) {
-            (Some(smith), Some(m)) => Some(smith.feedback(m)),
+            (Some(smith), Some(m)) => Some(smith.feedback(m)?),
             (_, m) => m,
         };
+        let before = self.smith.is_some().then(|| self.pid.clone());
         let step = self.pid.step(PidInput { measurement: seen, ..input })?;
-        if let Some(smith) = &mut self.smith {
-            // dt was checked by the PID step above, and the output is finite.
-            smith.advance(step.output, input.dt_s)?;
+        if let (Some(smith), Some(before)) = (&mut self.smith, before) {
+            if let Err(err) = smith.advance(step.output, input.dt_s) {
+                self.pid = before;
+                return Err(err);
+            }
         }
         self.seen = seen;
         Ok(step)
@@ -87,7 +91,7 @@ mod tests {
 
     fn config(smith: Option<SmithConfig>) -> PidLoopConfig {
         PidLoopConfig {
-            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None },
+            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() },
             smith,
         }
     }
@@ -128,5 +132,18 @@ mod tests {
         let step = pid.step(PidInput { setpoint: 1.0, measurement: None, dt_s: 0.3, track: None }).unwrap();
         assert!(step.output.is_finite());
         assert_eq!(pid.seen(), None);
+    }
+
+    #[test]
+    fn a_refused_model_step_leaves_the_pid_as_it_was() {
+        // gain·(1 - e^(-dt/τ))·action overflows once the action is 10
+        let model = FopdtModel { gain: 1e308, tau_s: 0.01 };
+        let smith = SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: 2 }, max_samples: 10 };
+        let mut pid = PidLoop::new(config(Some(smith))).unwrap();
+        pid.step(PidInput { setpoint: 0.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap();
+        let (integral, last) = (pid.pid().integral(), pid.pid().last_output());
+        let err = pid.step(PidInput { setpoint: 50.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap_err();
+        assert_eq!(err.code(), "INVALID_INPUT");
+        assert_eq!((pid.pid().integral(), pid.pid().last_output()), (integral, last));
     }
 }

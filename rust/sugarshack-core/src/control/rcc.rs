@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::text::quote;
-use super::error::{finite, positive, ControlError};
+use super::error::{computed, finite, positive, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
 
 /// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
@@ -106,6 +106,9 @@ pub struct RccConfig {
     /// Bumpless handover (§5.3); off only to show what it prevents.
     #[serde(default = "yes")]
     pub smooth_handover: bool,
+    /// No state polled for this long (ms) is a polling timeout (Fig. 7 line 11); 3·Ts when absent.
+    #[serde(default)]
+    pub poll_timeout_ms: Option<f64>,
 }
 
 fn yes() -> bool {
@@ -136,7 +139,10 @@ pub struct Scan {
 #[derive(Clone, Debug)]
 pub struct RccController {
     config: RccConfig,
+    poll_timeout_ms: f64,
     first_cycle: bool,
+    /// When the polling timeout falls due (ms), while one is being watched for.
+    poll_due_ms: Option<f64>,
 }
 
 impl RccController {
@@ -149,7 +155,47 @@ impl RccController {
                 config.id
             )));
         }
-        Ok(Self { config, first_cycle: true })
+        let poll_timeout_ms = config.poll_timeout_ms.unwrap_or(3.0 * config.ts_ms);
+        if !(poll_timeout_ms.is_finite() && poll_timeout_ms > 0.0) {
+            return Err(ControlError::config(format!(
+                "poll timeout must be a number of ms greater than 0, got {}",
+                quote(poll_timeout_ms)
+            )));
+        }
+        Ok(Self { config, poll_timeout_ms, first_cycle: true, poll_due_ms: None })
+    }
+
+    /// Starts counting the polling timeout from `now_ms` (at deploy: no state yet).
+    pub fn watch_from(&mut self, now_ms: f64) -> Result<(), ControlError> {
+        let now_ms = finite(now_ms, "time (ms)")?;
+        self.poll_due_ms = Some(computed(now_ms + self.poll_timeout_ms, "polling deadline")?);
+        Ok(())
+    }
+
+    /// The Computing step for a state polled at `now_ms`; the polling timeout counts from it.
+    pub fn decide_at(&mut self, state: &IoState, now_ms: f64) -> Result<Decision, ControlError> {
+        let due = computed(finite(now_ms, "time (ms)")? + self.poll_timeout_ms, "polling deadline")?;
+        let decision = self.decide(state)?;
+        self.poll_due_ms = Some(due);
+        Ok(decision)
+    }
+
+    /// When `tick` next has something to do (ms), if ever.
+    pub fn next_tick_ms(&self) -> Option<f64> {
+        self.poll_due_ms
+    }
+
+    /// True once when no state came within the polling timeout: the next scan re-seeds.
+    pub fn tick(&mut self, now_ms: f64) -> Result<bool, ControlError> {
+        let now_ms = finite(now_ms, "time (ms)")?;
+        match self.poll_due_ms {
+            Some(due) if now_ms >= due => {
+                self.poll_due_ms = None;
+                self.poll_timed_out();
+                Ok(true)
+            }
+            _ => Ok(false),
+        }
     }
 
     pub fn config(&self) -> &RccConfig {

@@ -3,6 +3,12 @@
 //! first-order model driven by the actions sent, and D_c either is fixed or
 //! follows the round-trip estimator. The delay line is sized at run time up to
 //! `max_samples`, so memory stays bounded whatever delays the network shows.
+//!
+//! The line is indexed by time, not by sample count: ŷ(k - D_c) is the model's
+//! output D_c·Ts seconds ago, interpolated between the samples around it. With
+//! regular sampling at Ts that is exactly the paper's sample; with irregular
+//! sampling (steps at each measurement's own timestamp) the delay the PID sees
+//! stays the one the model advanced through.
 
 use std::collections::VecDeque;
 
@@ -10,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::text::quote;
 use super::delay::DelayEstimator;
-use super::error::{finite, positive, ControlError};
+use super::error::{computed, finite, positive, ControlError};
 
 /// Upper bound on `max_samples`: 100 000 samples of f64 is 800 kB per loop.
 pub const MAX_DELAY_LINE: usize = 100_000;
@@ -80,7 +86,14 @@ pub struct SmithPredictor {
     config: SmithConfig,
     estimator: Option<DelayEstimator>,
     /// ŷ(k), ŷ(k-1), ... newest first; at most max_samples + 1 values.
-    model_outputs: VecDeque<f64>,
+    model_outputs: VecDeque<ModelSample>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct ModelSample {
+    y: f64,
+    /// Seconds from the sample before this one.
+    dt_s: f64,
 }
 
 impl SmithPredictor {
@@ -90,7 +103,7 @@ impl SmithPredictor {
             DeadTime::Fixed { .. } => None,
             DeadTime::Adaptive { alpha, h } => Some(DelayEstimator::new(alpha, h)?),
         };
-        Ok(Self { config, estimator, model_outputs: VecDeque::from([0.0]) })
+        Ok(Self { config, estimator, model_outputs: VecDeque::from([ModelSample { y: 0.0, dt_s: 0.0 }]) })
     }
 
     pub fn config(&self) -> &SmithConfig {
@@ -121,15 +134,30 @@ impl SmithPredictor {
 
     /// What the PID should see: the measurement plus the model's prediction of
     /// what the delay still hides.
-    pub fn feedback(&self, measurement: f64) -> f64 {
-        let now = self.model_outputs[0];
-        let delayed = self
-            .model_outputs
-            .get(self.dead_time_samples())
-            .or(self.model_outputs.back())
-            .copied()
-            .unwrap_or(now);
-        measurement + now - delayed
+    pub fn feedback(&self, measurement: f64) -> Result<f64, ControlError> {
+        let now = self.model_output();
+        computed(measurement + (now - self.delayed_output()), "Smith predictor's corrected measurement")
+    }
+
+    /// ŷ D_c·Ts seconds ago, or the oldest the line holds.
+    fn delayed_output(&self) -> f64 {
+        let line = &self.model_outputs;
+        let mut remaining = self.dead_time_samples() as f64 * self.config.ts_s;
+        for k in 0..line.len() - 1 {
+            if remaining <= 0.0 {
+                return line[k].y;
+            }
+            let span = line[k].dt_s;
+            // Sums of Ts carry rounding: within a billionth of a sample it is that sample.
+            if (remaining - span).abs() <= 1e-9 * span {
+                return line[k + 1].y;
+            }
+            if remaining < span {
+                return line[k].y + (line[k + 1].y - line[k].y) * (remaining / span);
+            }
+            remaining -= span;
+        }
+        line[line.len() - 1].y
     }
 
     /// Moves the model one sample on with the action sent in it.
@@ -140,15 +168,15 @@ impl SmithPredictor {
         }
         let FopdtModel { gain, tau_s } = self.config.model;
         let a = (-dt_s / tau_s).exp();
-        let next = a * self.model_outputs[0] + gain * (1.0 - a) * action;
-        self.model_outputs.push_front(next);
+        let next = computed(a * self.model_output() + gain * (1.0 - a) * action, "Smith predictor's model output")?;
+        self.model_outputs.push_front(ModelSample { y: next, dt_s });
         self.model_outputs.truncate(self.config.max_samples + 1);
         Ok(())
     }
 
     /// ŷ(k): the model's undelayed output.
     pub fn model_output(&self) -> f64 {
-        self.model_outputs[0]
+        self.model_outputs[0].y
     }
 }
 
@@ -187,7 +215,7 @@ mod tests {
             outputs.push(s.model_output());
             // a real process matching the model shows ŷ delayed by `dead` samples
             let measured = if outputs.len() > dead { outputs[outputs.len() - 1 - dead] } else { 0.0 };
-            assert!((s.feedback(measured) - s.model_output()).abs() < 1e-12);
+            assert!((s.feedback(measured).unwrap() - s.model_output()).abs() < 1e-12);
         }
     }
 
@@ -235,5 +263,44 @@ mod tests {
         let mut s = SmithPredictor::new(base).unwrap();
         assert_eq!(s.advance(f64::NAN, 0.3).unwrap_err().code(), "INVALID_INPUT");
         assert_eq!(s.advance(1.0, 0.0).unwrap_err().code(), "INVALID_INPUT");
+    }
+
+    #[test]
+    fn irregular_sampling_keeps_the_delay_line_in_step_with_the_model() {
+        // A process that matches the model shows ŷ delayed by D_c·Ts seconds, whatever
+        // the spacing of the samples; counting samples instead of seconds misses that.
+        let dead = 4;
+        let mut s = predictor(DeadTime::Fixed { samples: dead });
+        let dead_s = dead as f64 * 0.3;
+        let mut t = 0.0;
+        for k in 0..40 {
+            let dt = if k % 2 == 0 { 0.1 } else { 0.5 };
+            s.advance(1.0, dt).unwrap();
+            t += dt;
+            // ŷ at t - dead_s, by the exact first-order step response (unit action from 0)
+            let at = t - dead_s;
+            let measured = if at <= 0.0 { 0.0 } else { 2.0 * (1.0 - (-at / 3.0).exp()) };
+            if at > 0.6 {
+                let error = (s.feedback(measured).unwrap() - s.model_output()).abs();
+                // linear interpolation between samples at most 0.5 s apart
+                assert!(error < 0.02, "k={k} t={t}: {error}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_model_output_too_large_to_compute_is_refused_and_changes_nothing() {
+        let mut s = SmithPredictor::new(SmithConfig {
+            model: FopdtModel { gain: 1e308, tau_s: 3.0 },
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples: 2 },
+            max_samples: 10,
+        })
+        .unwrap();
+        s.advance(1.0, 0.3).unwrap();
+        let before = s.model_output();
+        assert_eq!(s.advance(100.0, 0.3).unwrap_err().code(), "INVALID_INPUT");
+        assert_eq!(s.model_output(), before);
+        assert_eq!(s.feedback(f64::MAX).unwrap_err().code(), "INVALID_INPUT");
     }
 }

@@ -1,7 +1,7 @@
 use super::*;
 
 fn config() -> PidConfig {
-    PidConfig { kp: 2.0, ti_s: 4.0, td_s: 0.5, out_min: 0.0, out_max: 100.0, action: Action::Reverse, fallback: None }
+    PidConfig { kp: 2.0, ti_s: 4.0, td_s: 0.5, out_min: 0.0, out_max: 100.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() }
 }
 
 fn auto(setpoint: f64, measurement: f64) -> PidInput {
@@ -48,7 +48,7 @@ fn output_stays_in_limits_and_the_integrator_does_not_wind_up() {
         assert_eq!(step.output, 30.0);
         assert!(step.saturated);
     }
-    assert!(pid.integral() <= 30.0 - 200.0 + 1e-9, "clamped so P + I stays at the limit, not grown for 100 s");
+    assert_eq!(pid.integral(), 0.0, "P alone holds the limit: nothing was integrated for 100 s");
     // once the measurement passes the set point the output leaves the limit at once
     let step = pid.step(auto(100.0, 101.0)).unwrap();
     assert!(step.output < 30.0, "{step:?}");
@@ -146,4 +146,113 @@ fn tracking_without_a_measurement_follows_the_action_and_reseeds_from_it() {
     // the first good sample in control continues from 70, as after any tracking
     let next = pid.step(auto(50.0, 45.0)).unwrap();
     assert_eq!(next.output, 70.0);
+}
+
+// Bug reproductions from the hardening review: each failed before its fix.
+
+fn p_only() -> PidConfig {
+    PidConfig { kp: 1.0, ti_s: 0.0, td_s: 0.0, out_min: 0.0, out_max: 100.0, ..config() }
+}
+
+#[test]
+fn without_integral_action_a_saturation_leaves_no_offset() {
+    let mut pid = Pid::new(p_only()).unwrap();
+    assert_eq!(pid.step(auto(10.0, 5.0)).unwrap().output, 5.0);
+    assert_eq!(pid.step(auto(10.0, -200.0)).unwrap().output, 100.0);
+    assert_eq!(pid.step(auto(10.0, 5.0)).unwrap().output, 5.0, "P only: back to kp·e");
+    assert_eq!(pid.integral(), 0.0, "nothing integrates, so nothing may move the integrator");
+}
+
+#[test]
+fn a_p_only_loop_settles_where_the_loop_gain_puts_it_after_saturating() {
+    // y' = (2u - y) / 1 s, kp 1, set point 1: y settles at 2/(1 + 2) whatever saturated on the way.
+    let mut pid = Pid::new(PidConfig { out_max: 1.0, ..p_only() }).unwrap();
+    let mut y = -5.0f64;
+    for _ in 0..2000 {
+        let u = pid.step(PidInput { dt_s: 0.01, ..auto(1.0, y) }).unwrap().output;
+        y += (2.0 * u - y) * 0.01;
+    }
+    assert!((y - 2.0 / 3.0).abs() < 1e-6, "{y}");
+}
+
+#[test]
+fn a_measurement_too_large_to_compute_with_is_refused_and_changes_nothing() {
+    let mut pid = Pid::new(PidConfig { kp: 2.0, td_s: 0.0, ..config() }).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let (integral, last) = (pid.integral(), pid.last_output());
+    let err = pid.step(auto(50.0, 1e308)).unwrap_err();
+    assert_eq!(err.code(), "INVALID_INPUT");
+    assert!(err.to_string().contains("nothing was changed"), "{err}");
+    assert_eq!((pid.integral(), pid.last_output()), (integral, last));
+    // the fallback and a re-seed after new tunings still work from the finite state
+    assert_eq!(pid.step(PidInput { measurement: None, ..auto(50.0, 0.0) }).unwrap().output, last.unwrap());
+    pid.set_tunings(1.0, 4.0, 0.0).unwrap();
+    assert!(pid.step(auto(50.0, 45.0)).unwrap().output.is_finite());
+}
+
+#[test]
+fn no_panic_where_derivative_and_error_overflow_together() {
+    // kp 100, td 1: 1e308 then 1e307 made the clamp bounds NaN, and f64::clamp panics on those.
+    let mut pid = Pid::new(PidConfig { kp: 100.0, ti_s: 4.0, td_s: 1.0, ..config() }).unwrap();
+    let _ = pid.step(auto(0.0, 1e308));
+    assert_eq!(pid.step(auto(0.0, 1e307)).unwrap_err().code(), "INVALID_INPUT");
+    assert!(pid.step(auto(0.0, 1.0)).unwrap().output.is_finite(), "the loop keeps working");
+}
+
+#[test]
+fn tunings_whose_gains_overflow_are_refused() {
+    for (kp, ti_s, td_s) in [(1e300, 0.0, 1e300), (5.0, 5e-324, 0.0)] {
+        assert_eq!(Pid::new(PidConfig { kp, ti_s, td_s, ..config() }).unwrap_err().code(), "INVALID_CONFIG", "{kp} {ti_s} {td_s}");
+        let mut pid = Pid::new(config()).unwrap();
+        assert_eq!(pid.set_tunings(kp, ti_s, td_s).unwrap_err().code(), "INVALID_CONFIG");
+        assert_eq!(pid.config().kp, 2.0);
+    }
+}
+
+#[test]
+fn a_tiny_dt_that_makes_the_derivative_infinite_is_refused() {
+    let mut pid = Pid::new(config()).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    let before = pid.integral();
+    assert_eq!(pid.step(PidInput { dt_s: 1e-320, ..auto(50.0, 41.0) }).unwrap_err().code(), "INVALID_INPUT");
+    assert_eq!(pid.integral(), before);
+    assert!(pid.step(auto(50.0, 41.0)).unwrap().output.is_finite());
+}
+
+#[test]
+fn an_integral_set_after_new_tunings_is_the_one_used() {
+    let mut pid = Pid::new(config()).unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    pid.set_tunings(1.0, 0.0, 0.0).unwrap();
+    pid.set_integral(7.0).unwrap();
+    let step = pid.step(auto(50.0, 50.0)).unwrap();
+    assert_eq!((step.i, step.output), (7.0, 7.0), "not re-seeded from the last output over it");
+}
+
+#[test]
+fn a_one_sample_spike_does_not_drag_the_integrator() {
+    // Steady at 50 with I = 50; one sample reading 0 kicks P and D to the top limit.
+    // The old clamp pulled I to 100 - P - D = 0 against the (positive) error: the
+    // output then sat at 0 instead of 50 once the spike had passed.
+    let mut pid = Pid::new(PidConfig { kp: 1.0, ti_s: 10.0, td_s: 1.0, ..config() }).unwrap();
+    pid.set_integral(50.0).unwrap();
+    assert_eq!(pid.step(auto(50.0, 50.0)).unwrap().output, 50.0);
+    let spike = pid.step(auto(50.0, 0.0)).unwrap();
+    assert!(spike.saturated);
+    assert_eq!(pid.integral(), 50.0, "integration stopped at the limit, the integrator not moved");
+    pid.step(auto(50.0, 50.0)).unwrap(); // D kicks back down this once
+    assert_eq!(pid.step(auto(50.0, 50.0)).unwrap().output, 50.0);
+}
+
+#[test]
+fn proportional_on_measurement_gives_no_kick_on_a_set_point_change() {
+    let on_m = PidConfig { proportional_on: ProportionalOn::Measurement, td_s: 0.0, ..config() };
+    let mut pid = Pid::new(on_m).unwrap();
+    let first = pid.step(auto(50.0, 40.0)).unwrap();
+    assert_eq!((first.p, first.output), (0.0, 5.0), "only the integration: 2/4·10·1");
+    let raised = pid.step(auto(80.0, 40.0)).unwrap();
+    assert_eq!(raised.output, 5.0 + 2.0 / 4.0 * 40.0, "the set point acts through I alone");
+    // the measurement rising by 4 takes kp·4 off at once
+    let next = pid.step(auto(80.0, 44.0)).unwrap();
+    assert_eq!(next.output, raised.output - 2.0 * 4.0 + 2.0 / 4.0 * 36.0);
 }

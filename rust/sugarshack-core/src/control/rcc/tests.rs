@@ -2,12 +2,12 @@ use super::*;
 use crate::control::pid::{Action, PidConfig, StepMode};
 
 fn controller(id: usize) -> RccController {
-    RccController::new(RccConfig { id, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true })
+    RccController::new(RccConfig { id, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true, poll_timeout_ms: None })
         .unwrap()
 }
 
 fn pid() -> Pid {
-    Pid::new(PidConfig { kp: 1.0, ti_s: 2.0, td_s: 0.0, out_min: 0.0, out_max: 10.0, action: Action::Reverse, fallback: None })
+    Pid::new(PidConfig { kp: 1.0, ti_s: 2.0, td_s: 0.0, out_min: 0.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() })
         .unwrap()
 }
 
@@ -28,7 +28,7 @@ fn thresholds_must_rise_with_the_id_from_ts() {
     ] {
         assert_eq!(validate_thresholds(&thresholds, ts).unwrap_err().code(), "INVALID_CONFIG", "{thresholds:?} {ts}");
     }
-    let outside = RccConfig { id: 4, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true };
+    let outside = RccConfig { id: 4, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true, poll_timeout_ms: None };
     assert_eq!(RccController::new(outside).unwrap_err().code(), "INVALID_CONFIG");
 }
 
@@ -110,4 +110,26 @@ fn a_malformed_state_is_refused() {
     assert_eq!(secondary.engaged(&state(0.0, [Some(-1.0), None, None])).unwrap_err().code(), "INVALID_INPUT");
     let mut secondary = controller(2);
     assert!(secondary.decide(&state(f64::NAN, [None, None, None])).is_err());
+}
+
+#[test]
+fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
+    let mut rcc = controller(1);
+    assert_eq!(rcc.next_tick_ms(), None);
+    rcc.watch_from(0.0).unwrap();
+    assert_eq!(rcc.next_tick_ms(), Some(600.0), "3·Ts by default");
+    rcc.decide_at(&state(1.0, [None, None, None]), 100.0).unwrap();
+    assert!(!rcc.first_cycle());
+    assert!(!rcc.tick(699.0).unwrap());
+    assert!(rcc.tick(700.0).unwrap(), "600 ms after the last state");
+    assert!(rcc.first_cycle(), "the next scan re-seeds");
+    assert!(!rcc.tick(2000.0).unwrap(), "once per silence");
+    assert_eq!(rcc.next_tick_ms(), None);
+    assert!(rcc.decide_at(&state(1.0, [None, None, None]), 2000.0).unwrap().first_cycle);
+    assert_eq!(rcc.tick(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
+    let custom = RccConfig { poll_timeout_ms: Some(150.0), ..rcc.config().clone() };
+    let mut rcc = RccController::new(custom.clone()).unwrap();
+    rcc.watch_from(0.0).unwrap();
+    assert_eq!(rcc.next_tick_ms(), Some(150.0));
+    assert_eq!(RccController::new(RccConfig { poll_timeout_ms: Some(0.0), ..custom }).unwrap_err().code(), "INVALID_CONFIG");
 }

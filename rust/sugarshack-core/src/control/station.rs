@@ -1,0 +1,397 @@
+//! A PID station: the loop as an operator and a flow see it. It owns the set
+//! point, auto/manual mode and the manual output, decides each step's elapsed
+//! time, and sends the fallback when the measurement goes stale, a rule run by
+//! `tick(now)` so the caller only keeps a timer. Time is always an argument.
+//!
+//! - dt is the time between two samples' own timestamps, except the first
+//!   sample, and the first after a stale period, which integrate over Ts;
+//! - in manual the integrator tracks the manual output, so going back to auto
+//!   is bumpless; into manual without a value holds the last output;
+//! - a change (set point, mode, manual output, tunings, limits) is checked as a
+//!   whole before any of it applies: a refused one changes nothing;
+//! - stale: no valid measurement for `stale_ms` sends one fallback step, then
+//!   one every `stale_ms`; behind an RCC decision it steps nothing (the rcc
+//!   node skips scans without I/O state, Fig. 7 line 11: writing blind would
+//!   keep the backup out) and reports "no I/O" once.
+
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::text::quote;
+use super::error::{computed, finite, ControlError};
+use super::pid::{PidInput, PidStep, StepMode};
+use super::pid_loop::{PidLoop, PidLoopConfig};
+use super::rcc::{self, Decision};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    #[default]
+    Auto,
+    Manual,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct StationConfig {
+    #[serde(rename = "loop")]
+    pub pid_loop: PidLoopConfig,
+    /// Sample period in seconds: the dt of a first sample.
+    pub ts_s: f64,
+    /// No valid measurement for this long (ms) sends the fallback; 0 turns it off.
+    #[serde(default)]
+    pub stale_ms: f64,
+    pub setpoint: f64,
+    #[serde(default)]
+    pub mode: Mode,
+    #[serde(default)]
+    pub manual: Option<f64>,
+}
+
+/// One sample as it arrived.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// `None` or not finite: a bad measurement, stepped as the fallback.
+    pub measurement: Option<f64>,
+    /// When it was measured (ms): the elapsed time runs between these.
+    pub sample_ms: f64,
+    /// When it arrived (ms), by the clock `tick` is given: staleness counts from here.
+    pub now_ms: f64,
+    /// An action someone else applied, for the integrator to track.
+    pub track: Option<f64>,
+    /// An RCC controller's decision for this scan.
+    pub decision: Option<Decision>,
+}
+
+/// A change to the loop; each field absent means "as it is".
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Change {
+    #[serde(default, deserialize_with = "number")]
+    pub setpoint: Option<f64>,
+    #[serde(default)]
+    pub mode: Option<Mode>,
+    #[serde(default, deserialize_with = "number")]
+    pub manual: Option<f64>,
+    #[serde(default)]
+    pub tunings: Option<Tunings>,
+    #[serde(default)]
+    pub limits: Option<Limits>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Tunings {
+    #[serde(default, deserialize_with = "number")]
+    pub kp: Option<f64>,
+    #[serde(default, deserialize_with = "number")]
+    pub ti_s: Option<f64>,
+    #[serde(default, deserialize_with = "number")]
+    pub td_s: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Limits {
+    #[serde(default, deserialize_with = "number")]
+    pub min: Option<f64>,
+    #[serde(default, deserialize_with = "number")]
+    pub max: Option<f64>,
+}
+
+/// A field that is there must be a number: null is refused, not taken for "absent".
+fn number<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Option<f64>, D::Error> {
+    f64::deserialize(deserializer).map(Some)
+}
+
+/// What a restart brings back.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Saved {
+    #[serde(default)]
+    pub integral: Option<f64>,
+    #[serde(default)]
+    pub setpoint: Option<f64>,
+    #[serde(default)]
+    pub mode: Option<Mode>,
+    #[serde(default)]
+    pub manual: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReportMode {
+    Auto,
+    Tracking,
+    Fallback,
+    Manual,
+}
+
+/// Every term of a step and what it was computed from, for telemetry (msg.pid).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Report {
+    pub p: f64,
+    pub i: f64,
+    pub d: f64,
+    pub output: f64,
+    pub mode: ReportMode,
+    pub saturated: bool,
+    pub setpoint: f64,
+    pub measurement: Option<f64>,
+    /// What the PID saw: the measurement, or the Smith predictor's estimate.
+    pub seen: Option<f64>,
+    pub dead_time_samples: Option<usize>,
+    pub dt_s: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Outcome {
+    /// False behind an RCC decision in standby: the output is not to be sent.
+    pub engaged: bool,
+    pub pid: Report,
+}
+
+/// What a due `tick` did.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "camelCase")]
+pub enum Stale {
+    /// A fallback step, to be sent.
+    Fallback { pid: Report },
+    /// Behind RCC: nothing stepped; the watch ends until the next measurement.
+    NoIo,
+}
+
+/// The loop's own state, for a status and for persisting.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct StationState {
+    pub setpoint: f64,
+    pub mode: Mode,
+    pub manual: Option<f64>,
+    pub last_output: Option<f64>,
+    pub integral: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Station {
+    pid_loop: PidLoop,
+    ts_s: f64,
+    stale_ms: f64,
+    setpoint: f64,
+    mode: Mode,
+    manual: Option<f64>,
+    previous_sample_ms: Option<f64>,
+    /// The next step integrates over Ts: the first sample, or the first after going stale.
+    over_ts: bool,
+    via_rcc: bool,
+    stale_at_ms: Option<f64>,
+}
+
+fn manual_needed() -> ControlError {
+    ControlError::input("manual mode needs a manual output: the loop has no output yet to hold")
+}
+
+impl Station {
+    pub fn new(config: StationConfig) -> Result<Self, ControlError> {
+        let config_number = |value: f64, what: &str| finite(value, what).map_err(|e| ControlError::config(e.to_string()));
+        if !(config.ts_s.is_finite() && config.ts_s > 0.0) {
+            return Err(ControlError::config(format!(
+                "sample period Ts must be a number of seconds greater than 0, got {}",
+                quote(config.ts_s)
+            )));
+        }
+        if !(config.stale_ms.is_finite() && config.stale_ms >= 0.0) {
+            return Err(ControlError::config(format!(
+                "stale after must be a number of ms >= 0 (0 turns the watchdog off), got {}",
+                quote(config.stale_ms)
+            )));
+        }
+        let setpoint = config_number(config.setpoint, "set point")?;
+        let manual = config.manual.map(|m| config_number(m, "manual output")).transpose()?;
+        if config.mode == Mode::Manual && manual.is_none() {
+            return Err(ControlError::config("starting in manual mode needs a manual output"));
+        }
+        Ok(Self {
+            pid_loop: PidLoop::new(config.pid_loop)?,
+            ts_s: config.ts_s,
+            stale_ms: config.stale_ms,
+            setpoint,
+            mode: config.mode,
+            manual,
+            previous_sample_ms: None,
+            over_ts: true,
+            via_rcc: false,
+            stale_at_ms: None,
+        })
+    }
+
+    pub fn pid_loop(&self) -> &PidLoop {
+        &self.pid_loop
+    }
+
+    pub fn state(&self) -> StationState {
+        StationState {
+            setpoint: self.setpoint,
+            mode: self.mode,
+            manual: self.manual,
+            last_output: self.pid_loop.pid().last_output(),
+            integral: self.pid_loop.pid().integral(),
+        }
+    }
+
+    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
+        self.pid_loop.observe_round_trip(round_trip_ms)
+    }
+
+    /// What a restart brings back, checked as a whole: a refused one changes nothing.
+    pub fn restore(&mut self, saved: Saved) -> Result<(), ControlError> {
+        let integral = saved.integral.map(|i| finite(i, "saved integral")).transpose()?;
+        let setpoint = saved.setpoint.map(|s| finite(s, "saved set point")).transpose()?;
+        let manual = saved.manual.map(|m| finite(m, "saved manual output")).transpose()?.or(self.manual);
+        let mode = match saved.mode.unwrap_or(self.mode) {
+            // a manual mode saved without its output resumes in auto
+            Mode::Manual if manual.is_none() => Mode::Auto,
+            mode => mode,
+        };
+        if let Some(integral) = integral {
+            self.pid_loop.pid_mut().set_integral(integral)?;
+        }
+        self.setpoint = setpoint.unwrap_or(self.setpoint);
+        (self.mode, self.manual) = (mode, manual);
+        Ok(())
+    }
+
+    /// Applies `change` whole, or refuses it and changes nothing.
+    pub fn change(&mut self, change: Change) -> Result<(), ControlError> {
+        let setpoint = change.setpoint.map(|s| finite(s, "set point")).transpose()?;
+        let given_manual = change.manual.map(|m| finite(m, "manual output")).transpose()?;
+        let mut next = self.pid_loop.pid().config().clone();
+        if let Some(t) = change.tunings {
+            if t.kp.is_none() && t.ti_s.is_none() && t.td_s.is_none() {
+                return Err(ControlError::input("a tunings change names none of kp, ti, td"));
+            }
+            next.kp = t.kp.unwrap_or(next.kp);
+            next.ti_s = t.ti_s.unwrap_or(next.ti_s);
+            next.td_s = t.td_s.unwrap_or(next.td_s);
+        }
+        if let Some(l) = change.limits {
+            if l.min.is_none() && l.max.is_none() {
+                return Err(ControlError::input("a limits change names none of min, max"));
+            }
+            next.out_min = l.min.unwrap_or(next.out_min);
+            next.out_max = l.max.unwrap_or(next.out_max);
+        }
+        next.validate()?;
+        let mode = change.mode.unwrap_or(self.mode);
+        // Into manual without a value: hold the loop's last output (bumpless), else the configured one.
+        let entering = mode == Mode::Manual && self.mode != Mode::Manual;
+        let manual = given_manual.or(if entering { self.pid_loop.pid().last_output().or(self.manual) } else { self.manual });
+        if mode == Mode::Manual && manual.is_none() {
+            return Err(manual_needed());
+        }
+        // Checked above: neither can refuse now.
+        let pid = self.pid_loop.pid_mut();
+        if change.tunings.is_some() {
+            pid.set_tunings(next.kp, next.ti_s, next.td_s)?;
+        }
+        if change.limits.is_some() {
+            pid.set_limits(next.out_min, next.out_max)?;
+        }
+        self.setpoint = setpoint.unwrap_or(self.setpoint);
+        (self.mode, self.manual) = (mode, manual);
+        Ok(())
+    }
+
+    /// One step for a sample that arrived.
+    pub fn measure(&mut self, sample: Sample) -> Result<Outcome, ControlError> {
+        let now_ms = finite(sample.now_ms, "time (ms)")?;
+        let sample_ms = finite(sample.sample_ms, "sample time (ms)")?;
+        let measurement = sample.measurement.filter(|m| m.is_finite());
+        let dt_s = match self.previous_sample_ms {
+            Some(previous) if !self.over_ts => computed((sample_ms - previous) / 1000.0, "elapsed time")?,
+            _ => self.ts_s,
+        };
+        let (step, engaged) = self.step(measurement, dt_s, sample.track, sample.decision)?;
+        self.previous_sample_ms = Some(sample_ms);
+        self.over_ts = false;
+        self.via_rcc = sample.decision.is_some();
+        if measurement.is_some() && self.stale_ms > 0.0 {
+            self.stale_at_ms = Some(now_ms + self.stale_ms);
+        }
+        Ok(Outcome { engaged, pid: self.report(step, measurement, dt_s) })
+    }
+
+    /// When `tick` next has something to do (ms), if ever.
+    pub fn next_tick_ms(&self) -> Option<f64> {
+        self.stale_at_ms
+    }
+
+    /// The stale-measurement rule, due at `next_tick_ms`: `None` when nothing is due.
+    pub fn tick(&mut self, now_ms: f64) -> Result<Option<Stale>, ControlError> {
+        let now_ms = finite(now_ms, "time (ms)")?;
+        match self.stale_at_ms {
+            Some(due) if now_ms >= due => {}
+            _ => return Ok(None),
+        }
+        if self.via_rcc {
+            self.stale_at_ms = None;
+            return Ok(Some(Stale::NoIo));
+        }
+        // Re-armed first: a refused step must not leave a tick due at once, again and again.
+        self.stale_at_ms = Some(now_ms + self.stale_ms);
+        let dt_s = self.stale_ms / 1000.0;
+        let (step, _) = self.step(None, dt_s, None, None)?;
+        self.over_ts = true;
+        Ok(Some(Stale::Fallback { pid: self.report(step, None, dt_s) }))
+    }
+
+    fn step(
+        &mut self,
+        measurement: Option<f64>,
+        dt_s: f64,
+        track: Option<f64>,
+        decision: Option<Decision>,
+    ) -> Result<(PidStep, bool), ControlError> {
+        let manual = match self.mode {
+            Mode::Manual => Some(self.manual.ok_or_else(manual_needed)?),
+            Mode::Auto => None,
+        };
+        match decision {
+            Some(decision) => {
+                let follow = Decision { track: manual.or(decision.track).or(track), ..decision };
+                let scan = rcc::act(&follow, &mut self.pid_loop, self.setpoint, measurement, dt_s)?;
+                Ok((scan.step, scan.engaged))
+            }
+            None => {
+                let input = PidInput { setpoint: self.setpoint, measurement, dt_s, track: manual.or(track) };
+                Ok((self.pid_loop.step(input)?, true))
+            }
+        }
+    }
+
+    fn report(&self, step: PidStep, measurement: Option<f64>, dt_s: f64) -> Report {
+        let mode = match (self.mode, step.mode) {
+            (Mode::Manual, _) => ReportMode::Manual,
+            (Mode::Auto, StepMode::Auto) => ReportMode::Auto,
+            (Mode::Auto, StepMode::Tracking) => ReportMode::Tracking,
+            (Mode::Auto, StepMode::Fallback) => ReportMode::Fallback,
+        };
+        Report {
+            p: step.p,
+            i: step.i,
+            d: step.d,
+            output: step.output,
+            mode,
+            saturated: step.saturated,
+            setpoint: self.setpoint,
+            measurement,
+            seen: self.pid_loop.seen(),
+            dead_time_samples: self.pid_loop.smith().map(|s| s.dead_time_samples()),
+            dt_s,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
