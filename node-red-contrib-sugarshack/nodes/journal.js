@@ -26,7 +26,7 @@ function statusOf(m) {
 
 /** The writer for a node's settings: local files, or a database with a spool in the user dir. */
 function writerFor({ props, credentials, userDir, id, onChange }) {
-  const plant = String(props.plant || '').trim();
+  const plant = String(props.plantId || '').trim();
   const flushMs = bounded(props.flushMs, 1000, 50, 60000, 'the flush interval (ms)');
   const base = path.join(userDir, 'sugarshack-journal');
   if ((props.target || 'files') === 'files') {
@@ -49,7 +49,7 @@ module.exports = function (RED) {
   // `npm start` sets sugarshackJournal.dir: with no database, the plant still keeps its journal in files.
   const embedded = RED.settings && RED.settings.sugarshackJournal;
   if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
-    const writer = writerFor({ props: { target: 'files', dir: embedded.dir, plant: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
+    const writer = writerFor({ props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
     writer.detach = journal.attach(writer);
     writers.set('default', writer);
     RED.log.info(`sugarshack journal: local files in ${writer.target.where}`);

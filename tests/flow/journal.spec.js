@@ -230,7 +230,7 @@ describe('journal node', function () {
   it('journals a plant run into local files: the operator action, the interlock events, and the timing series', async function () {
     const flow = [
       { id: 'f1', type: 'tab', label: 'test' },
-      { id: 'j', z: 'f1', type: 'sugarshack-journal', name: '', target: 'files', plant: 'p1', flushMs: 100, wires: [['out']] },
+      { id: 'j', z: 'f1', type: 'sugarshack-journal', name: '', target: 'files', plantId: 'p1', flushMs: 100, wires: [['out']] },
       { id: 'out', z: 'f1', type: 'helper' },
     ];
     await helper.load(paletteNodes, flow);
