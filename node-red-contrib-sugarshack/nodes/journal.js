@@ -39,7 +39,8 @@ function writerFor({ props, credentials, userDir, id, onChange }) {
   if (!host) throw new Error('the journal needs the database host (or choose local files)');
   const port = bounded(props.port, 9000, 1, 65535, 'the port');
   const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(props.bufferMB, 64, 0.001, 1e6, 'the buffer bound (MB)') * MB) });
-  const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', // 'true' from a ${ENV} property username: credentials.username, password: credentials.password, token: credentials.token });
+  // HTTPS is the text 'true' when the flow file sets it from the environment (${NAME}).
+  const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token });
   return new JournalWriter({ plant, flushMs, onChange, spool, target });
 }
 

@@ -252,6 +252,21 @@ describe('journal node', function () {
     assert.match(node.status.lastCall ? node.status.lastCall.args[0].text : 'rows 3', /^rows \d+$/);
   });
 
+  it('takes its database from ${NAME} properties filled from the environment (the container flows), HTTPS as the text true', async function () {
+    const names = { SS_TEST_DB_HOST: '127.0.0.1', SS_TEST_DB_PORT: '1', SS_TEST_DB_TLS: 'true', SS_TEST_PLANT: 'shack-7' };
+    Object.assign(process.env, names);
+    try {
+      const flow = [{ id: 'j', type: 'sugarshack-journal', target: 'http', host: '${SS_TEST_DB_HOST}', port: '${SS_TEST_DB_PORT}', tls: '${SS_TEST_DB_TLS}', plantId: '${SS_TEST_PLANT}' }];
+      await helper.load(paletteNodes, flow);
+      const { writers } = require(path.join(PALETTE, 'nodes', 'journal.js'));
+      const writer = writers.get('j');
+      assert.equal(writer.target.where, 'https://127.0.0.1:1');
+      assert.equal(writer.encoder.plant, 'shack-7');
+    } finally {
+      for (const k of Object.keys(names)) delete process.env[k];
+    }
+  });
+
   it('refuses a database target without a host: an error and a red status, nothing journalled', async function () {
     const flow = [{ id: 'j', type: 'sugarshack-journal', target: 'http', host: '', port: 9000 }];
     await helper.load(paletteNodes, flow);
