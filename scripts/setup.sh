@@ -93,6 +93,18 @@ _sugarshack_setup() (
     "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y mosquitto
     [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || { say "mosquitto install failed"; exit 1; }
   fi
+  # The journal's integration tests write line protocol to a real VictoriaMetrics
+  # (tests/integration/support/victoria-metrics.js runs its own); only the binary is needed.
+  if command -v victoria-metrics >/dev/null || [ -x /usr/bin/victoria-metrics ]; then
+    say "victoria-metrics: present"
+  else
+    say "victoria-metrics: apt-get install -y victoria-metrics"
+    local sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get update
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y victoria-metrics
+    [ -x /usr/bin/victoria-metrics ] || { say "victoria-metrics install failed"; exit 1; }
+  fi
   say "done"
 )
 

@@ -60,6 +60,8 @@ module.exports = {
   logging: { console: { level: 'info', metrics: false, audit: false } },
   // A plant's edge server: no prompt about update checks, no calls home.
   telemetry: { enabled: false },
+  // With no database configured, the journal goes to rotated local files (npm run season-report reads them).
+  sugarshackJournal: { dir: process.env.SUGARSHACK_JOURNAL_DIR, plant: process.env.SUGARSHACK_PLANT_ID || 'local' },
 };
 EOF
 }
@@ -140,6 +142,9 @@ run_node_red() {
   local cmd=(node "$ROOT/node_modules/node-red/red.js" -u "$USERDIR" -s "$USERDIR/settings.js" -p "$PORT")
   say "Node-RED editor: http://$url_host:$PORT/"
   export SUGARSHACK_UI_HOST="$HOST"
+  # The embedded journal (settings.js: sugarshackJournal); JOURNAL=0 turns it off.
+  [ "${JOURNAL:-1}" = 0 ] || export SUGARSHACK_JOURNAL_DIR="${SUGARSHACK_JOURNAL_DIR:-$ROOT/.run/journal}"
+  say "journal: ${SUGARSHACK_JOURNAL_DIR:-off} (npm run season-report -- --from ... --to ...)"
   if [ ${#PIDS[@]} -eq 0 ]; then
     exec "${cmd[@]}"
   fi

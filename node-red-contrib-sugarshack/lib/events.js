@@ -1,5 +1,6 @@
 'use strict';
 // Fans interlock event records out to every `interlock events` node.
+const { journal } = require('./journal/bus');
 
 class EventFanout {
   constructor() {
@@ -16,6 +17,7 @@ class EventFanout {
 
   publish(records) {
     if (!records || records.length === 0) return;
+    journal.interlockEvents(records);
     for (const node of this.nodes) {
       for (const record of records) node.send({ topic: `interlock/${record.kind}`, payload: record });
     }

@@ -8,6 +8,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
+const { journal } = require('./journal/bus');
 const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
@@ -59,6 +60,7 @@ class RunHost {
   }
 
   effect(e) {
+    journal.event('operation', e.kind, this.operation, e);
     switch (e.kind) {
       case 'acquire':
         this.acquire(e);

@@ -14,6 +14,7 @@ const { readMsg } = require('./request');
 const { Condition } = require('./condition');
 const feedback = require('./feedback');
 const { stats, timeLayer } = require('./stats');
+const { journal } = require('./journal/bus');
 const { clock } = require('./clock');
 const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const wasm = require('./wasm');
@@ -350,6 +351,7 @@ class PlantRuntime extends RuntimeBase {
         const handle = this.slotOf(device, route.type, route.io);
         if (handle === undefined) return true; // a slot the plant does not name
         const sample = feedback.singleOf(payload);
+        journal.datapoint(route.device, `${route.type}/${route.io}`, sample.value, sample.ts, now);
         try {
           this.t.feedback(handle, sample.value, sample.ts, now);
         } catch (err) {
@@ -374,6 +376,7 @@ class PlantRuntime extends RuntimeBase {
     const handle = this.t.sensorSlot(route.device, route.name);
     if (handle === undefined) return; // a datapoint the plant does not name
     const sample = feedback.singleOf(payload);
+    journal.datapoint(route.device, route.name, sample.value, sample.ts, now);
     if (!this.t.recordSensor(handle, sample.value, sample.ts, now)) return;
     if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
     const watching = this.watchers.get(handle);
@@ -399,6 +402,7 @@ class PlantRuntime extends RuntimeBase {
           this.malformed(bus, topic, this.devices[device], 'non-numeric value', `${type} ${key}: value must be a number or a boolean, got ${feedback.clip(members[key])}`);
           continue;
         }
+        journal.datapoint(this.devices[device], `${type}/${key}`, value, ts, now);
         handles[n] = handle;
         values[n] = value;
         n++;
@@ -612,6 +616,7 @@ class PlantRuntime extends RuntimeBase {
     const a = this.actuators[e.actuator];
     if (!a) return;
     const payload = { ...e, actuator: a.id };
+    journal.event('actuator', e.kind, a.id, e);
     if (e.caller !== undefined) {
       const entry = this.pending.get(e.caller);
       payload.msgid = entry && entry.msg ? entry.msg._msgid : null;

@@ -9,6 +9,7 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, MAX_STATUS_LENGTH } = require('./status');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
+const { journal } = require('./journal/bus');
 const wasm = require('./wasm');
 
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
@@ -213,6 +214,7 @@ class RoutineHost {
       },
     };
     if (this.node) this.node.send(msg);
+    journal.event('routine', event, this.id, { note: details && details.from !== undefined ? `${details.from}>${details.to}` : details && details.operation });
     this.refresh();
     return msg;
   }

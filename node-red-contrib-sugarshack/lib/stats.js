@@ -5,6 +5,8 @@
 // takes per layer. Each series keeps its last SAMPLES values; one registry per
 // process, read through the editor's admin API (GET /sugarshack/stats).
 
+const { journal } = require('./journal/bus');
+
 const SAMPLES = 20000;
 
 class Series {
@@ -35,6 +37,7 @@ class Stats {
 
   add(name, value) {
     if (!Number.isFinite(value)) return;
+    if (this === stats) journal.timing(name, value);
     let s = this.series.get(name);
     if (!s) {
       s = new Series();

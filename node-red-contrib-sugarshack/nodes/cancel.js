@@ -1,6 +1,7 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
+const { journal } = require('../lib/journal/bus');
 
 module.exports = function (RED) {
   function CancelNode(props) {
@@ -10,6 +11,7 @@ module.exports = function (RED) {
 
     onInput(node, runtime, (rt, msg, send, done) => {
       const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      journal.action('cancel', msg, operation);
       rt.cancel(operation, () => {
         send(msg);
         done();

@@ -1,6 +1,7 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { resourcesOf, readMsg } = require('../lib/request');
+const { journal } = require('../lib/journal/bus');
 
 module.exports = function (RED) {
   function ClearNode(props) {
@@ -11,6 +12,7 @@ module.exports = function (RED) {
 
     onInput(node, runtime, (rt, msg, send, done) => {
       const names = readMsg(() => (allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources)));
+      journal.action('clear', msg, names === null ? 'all' : names);
       rt.clear(names, (cleared) => {
         msg.cleared = cleared;
         send(msg);

@@ -2,6 +2,7 @@
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
+const { journal } = require('../lib/journal/bus');
 const { SugarshackError } = require('../lib/errors');
 
 /**
@@ -53,6 +54,7 @@ module.exports = function (RED) {
         send([msg, commands]);
         done();
       };
+      journal.action('fault', msg, byResources ? request.resources : operation);
       if (byResources) rt.faultResources(request.resources, note, out);
       else rt.fault(operation, note, out);
     }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain

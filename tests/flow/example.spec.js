@@ -18,7 +18,7 @@ const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-d
 const EXAMPLES = path.join(PALETTE, 'examples');
 const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
 // Nodes of the palette that use no config node.
-const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true };
+const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true, 'sugarshack-journal': true };
 const NODE_MODULES = [...paletteNodes, ...subflowNodes, ...new Set([...subflowCoreNodes, ...coreNodes]), catchOnce, linkNodes];
 
 const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));

@@ -49,13 +49,14 @@ process.on('exit', () => {
   for (const child of running) child.kill('SIGKILL');
 });
 
-async function startMosquitto({ port, timeoutMs = 5000 } = {}) {
+// `config(port, dir)` gives a config of one's own (its listener on `port`, files under `dir`).
+async function startMosquitto({ port, timeoutMs = 5000, config } = {}) {
   const bin = findMosquitto();
   if (!bin) throw new Error('mosquitto not found (bash scripts/setup.sh installs it; or set MOSQUITTO_BIN)');
   port = port || (await freePort());
   const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-mosquitto-'));
   const conf = path.join(dir, 'mosquitto.conf');
-  fs.writeFileSync(conf, [
+  fs.writeFileSync(conf, config ? config(port, dir) : [
     `listener ${port} 127.0.0.1`,
     'allow_anonymous true',
     'persistence false',

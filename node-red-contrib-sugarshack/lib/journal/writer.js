@@ -1,0 +1,186 @@
+'use strict';
+// A journal writer: takes rows from the bus, encodes them as line protocol
+// with QuestDB's client, and either appends them to local files (no database)
+// or stores them in the on-disk spool and forwards the spool, oldest first, to
+// the database over HTTP, acknowledging each chunk only when the server said
+// 204. While the server is unreachable rows wait in the spool; retries follow
+// the palette clock, so tests drive them instead of waiting.
+
+const questdb = require('@questdb/nodejs-client');
+const { clock } = require('../clock');
+const { INT_FIELDS } = require('./schema');
+
+const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';
+const RETRY_MS = [500, 1000, 2000, 5000];
+
+/** Line-protocol rows (Buffers, one row each, newline-terminated) from journal rows. */
+class Encoder {
+  constructor(plant) {
+    this.plant = plant;
+    this.buffer = questdb.createBuffer(new questdb.SenderOptions(ENCODER_OPTIONS));
+  }
+
+  encode(row, seq) {
+    const b = this.buffer;
+    try {
+      b.table(row.table);
+      if (this.plant) b.symbol('plant', this.plant);
+      // Line protocol has no empty tag value: an empty tag is left out.
+      for (const [k, v] of Object.entries(row.tags)) if (v !== '') b.symbol(k, v);
+      for (const [k, v] of Object.entries(row.fields)) {
+        if (v === undefined) continue;
+        if (INT_FIELDS.has(k)) b.intColumn(k, v);
+        else b.floatColumn(k, v);
+      }
+      b.intColumn('seq', seq);
+      b.at(Math.round(row.at), 'ms');
+      return b.toBufferNew();
+    } catch (err) {
+      b.reset();
+      throw err;
+    }
+  }
+}
+
+/** The database over HTTP line protocol (QuestDB's /write; VictoriaMetrics and InfluxDB take the same). */
+function httpTarget({ host, port, username, password, token, tls, timeoutMs = 10000 }) {
+  const parts = [`addr=${host}:${port}`, 'protocol_version=1', 'retry_timeout=0', 'stdlib_http=on', `request_timeout=${timeoutMs}`];
+  if (token) parts.push(`token=${token}`);
+  else if (username) parts.push(`username=${username}`, `password=${password || ''}`);
+  if (/[;\n]/.test(parts.join(''))) throw new Error('the journal database settings may not contain ";" or line breaks');
+  const options = new questdb.SenderOptions(`${tls ? 'https' : 'http'}::${parts.join(';')}`);
+  const transport = questdb.createTransport(options);
+  return {
+    where: `${tls ? 'https' : 'http'}://${host}:${port}`,
+    send: (body) => transport.send(body),
+    close: () => transport.close(),
+  };
+}
+
+class JournalWriter {
+  /**
+   * @param {object} o
+   * @param {string} o.plant      plant id tag on every row
+   * @param {object} [o.spool]    lib/journal/spool.js Spool; with it rows are stored and forwarded
+   * @param {object} o.target     { send(Buffer): Promise, close(), where }
+   * @param {number} [o.flushMs]  rows wait in memory at most this long
+   * @param {number} [o.chunkBytes] largest request body
+   * @param {function} [o.onChange] called when the state or the backlog changed
+   */
+  constructor({ plant, spool, target, flushMs = 1000, chunkBytes = 512 * 1024, maxPending = 10000, onChange }) {
+    this.encoder = new Encoder(plant);
+    this.spool = spool || null;
+    this.target = target;
+    this.flushMs = flushMs;
+    this.chunkBytes = chunkBytes;
+    this.maxPending = maxPending;
+    this.onChange = onChange || (() => {});
+    this.pending = [];
+    this.seq = 0;
+    this.sent = 0;
+    this.refused = 0;
+    this.state = 'idle'; // idle | sending | down
+    this.lastError = null;
+    this.attempt = 0;
+    this.retryTimer = null;
+    this.closed = false;
+    this.timer = clock.setInterval(() => this.flush(), flushMs);
+    if (this.spool && this.spool.backlog().rows > 0) this.drain();
+  }
+
+  /** From the bus. */
+  row(row) {
+    if (this.closed) return;
+    this.seq += 1;
+    this.pending.push(this.encoder.encode(row, this.seq));
+    if (this.pending.length >= this.maxPending) this.flush();
+  }
+
+  failed(err) {
+    this.lastError = `cannot encode a row: ${err.message}`;
+    this.refused += 1;
+    this.onChange();
+  }
+
+  /** Moves the rows held in memory to the spool (or the local files) and sends what waits. */
+  flush() {
+    if (this.pending.length === 0) return;
+    const rows = this.pending;
+    this.pending = [];
+    if (!this.spool) {
+      this.target.append(rows);
+      this.sent += rows.length;
+      this.onChange();
+      return;
+    }
+    this.spool.append(rows, clock.now());
+    this.onChange();
+    this.drain();
+  }
+
+  drain() {
+    if (this.closed || !this.spool || this.state === 'sending' || this.retryTimer) return;
+    const chunk = this.spool.peek(this.chunkBytes);
+    if (!chunk) {
+      if (this.state !== 'idle') {
+        this.state = 'idle';
+        this.onChange();
+      }
+      return;
+    }
+    this.state = 'sending';
+    this.target.send(chunk.body).then(
+      () => {
+        this.spool.ack(chunk);
+        this.sent += chunk.rows;
+        this.attempt = 0;
+        this.lastError = null;
+        this.state = 'idle';
+        this.onChange();
+        this.drain();
+      },
+      (err) => {
+        if (this.closed) return;
+        this.state = 'down';
+        this.lastError = String((err && err.message) || err).slice(0, 300);
+        const delay = RETRY_MS[Math.min(this.attempt, RETRY_MS.length - 1)];
+        this.attempt += 1;
+        this.retryTimer = clock.setTimeout(() => {
+          this.retryTimer = null;
+          this.drain();
+        }, delay);
+        this.onChange();
+      },
+    );
+  }
+
+  metrics() {
+    const backlog = this.spool ? this.spool.backlog() : { rows: 0, bytes: 0, dropped: 0, droppedSince: null, maxBytes: null };
+    return {
+      where: this.target.where,
+      state: this.state,
+      rows: this.seq,
+      sent: this.sent,
+      pending: this.pending.length,
+      backlog: backlog.rows,
+      backlogBytes: backlog.bytes,
+      maxBytes: backlog.maxBytes,
+      dropped: backlog.dropped,
+      droppedSince: backlog.droppedSince,
+      refused: this.refused,
+      lastError: this.lastError,
+    };
+  }
+
+  /** Everything in memory goes to disk; the spool keeps what was not sent for the next start. */
+  close() {
+    this.flush();
+    this.closed = true;
+    clock.clearInterval(this.timer);
+    if (this.retryTimer) clock.clearTimeout(this.retryTimer);
+    this.retryTimer = null;
+    return Promise.resolve(this.target.close && this.target.close()).catch(() => {});
+  }
+}
+
+module.exports = { JournalWriter, Encoder, httpTarget };

@@ -1,0 +1,111 @@
+'use strict';
+const path = require('path');
+const { journal } = require('../lib/journal/bus');
+const { JournalWriter, httpTarget } = require('../lib/journal/writer');
+const { Spool } = require('../lib/journal/spool');
+const { filesTarget } = require('../lib/journal/files');
+const { compact } = require('../lib/status');
+
+const MB = 1024 * 1024;
+const writers = new Map(); // node id (or 'default') -> JournalWriter
+
+/** A whole number in [min, max] from an editor field, or `fallback` when empty. */
+function bounded(value, fallback, min, max, what) {
+  if (value === undefined || value === null || value === '') return fallback;
+  const n = Number(value);
+  if (!Number.isFinite(n) || n < min || n > max) throw new Error(`${what} must be a number from ${min} to ${max}, got '${value}'`);
+  return n;
+}
+
+function statusOf(m) {
+  if (m.state === 'down') return { fill: 'red', shape: 'ring', text: `down · ${compact(m.backlog)} queued` };
+  if (m.dropped > 0) return { fill: 'yellow', shape: 'dot', text: `dropped ${compact(m.dropped)}` };
+  if (m.backlog > 0) return { fill: 'blue', shape: 'dot', text: `backlog ${compact(m.backlog)}` };
+  return { fill: 'green', shape: 'dot', text: `rows ${compact(m.rows)}` };
+}
+
+/** The writer for a node's settings: local files, or a database with a spool in the user dir. */
+function writerFor({ props, credentials, userDir, id, onChange }) {
+  const plant = String(props.plantId || '').trim();
+  const flushMs = bounded(props.flushMs, 1000, 50, 60000, 'the flush interval (ms)');
+  const base = path.join(userDir, 'sugarshack-journal');
+  if ((props.target || 'files') === 'files') {
+    const dir = props.dir ? path.resolve(userDir, props.dir) : path.join(base, 'files');
+    const maxMB = bounded(props.filesMB, 512, 1, 1e6, 'the size of the local journal (MB)');
+    const fileBytes = Math.max(MB, Math.floor((maxMB * MB) / 32));
+    return new JournalWriter({ plant, flushMs, onChange, target: filesTarget({ dir, fileBytes, maxFiles: 32 }) });
+  }
+  const host = String(props.host || '').trim();
+  if (!host) throw new Error('the journal needs the database host (or choose local files)');
+  const port = bounded(props.port, 9000, 1, 65535, 'the port');
+  const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(props.bufferMB, 64, 0.001, 1e6, 'the buffer bound (MB)') * MB) });
+  // HTTPS is the text 'true' when the flow file sets it from the environment (${NAME}).
+  const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token });
+  return new JournalWriter({ plant, flushMs, onChange, spool, target });
+}
+
+module.exports = function (RED) {
+  const userDir = (RED.settings && RED.settings.userDir) || process.cwd();
+
+  // `npm start` sets sugarshackJournal.dir: with no database, the plant still keeps its journal in files.
+  const embedded = RED.settings && RED.settings.sugarshackJournal;
+  if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
+    const writer = writerFor({ props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
+    writer.detach = journal.attach(writer);
+    writers.set('default', writer);
+    RED.log.info(`sugarshack journal: local files in ${writer.target.where}`);
+  }
+
+  if (RED.httpAdmin) {
+    RED.httpAdmin.get('/sugarshack/journal', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
+      const out = {};
+      for (const [id, w] of writers) out[id] = w.metrics();
+      res.json(out);
+    });
+  }
+
+  function JournalNode(props) {
+    RED.nodes.createNode(this, props);
+    const node = this;
+    let writer;
+    let shown = '';
+    const refresh = () => {
+      const s = statusOf(writer.metrics());
+      if (s.text + s.fill === shown) return;
+      shown = s.text + s.fill;
+      node.status(s);
+    };
+    try {
+      writer = writerFor({ props, credentials: node.credentials || {}, userDir, id: node.id, onChange: () => writer && refresh() });
+    } catch (err) {
+      node.error(`journal not started: ${err.message}`);
+      node.status({ fill: 'red', shape: 'ring', text: 'bad settings' });
+      return;
+    }
+    writer.detach = journal.attach(writer);
+    writers.set(node.id, writer);
+    refresh();
+
+    // An operator's note from a dashboard: { who, why, topic } goes in as an action.
+    node.on('input', (msg, send, done) => {
+      journal.action(typeof msg.action === 'string' ? msg.action : 'note', msg, msg.topic);
+      if (msg.flush === true) writer.flush();
+      msg.journal = writer.metrics();
+      send(msg);
+      done();
+    });
+
+    node.on('close', (removed, done) => {
+      writer.detach();
+      writers.delete(node.id);
+      writer.close().then(() => done());
+    });
+  }
+
+  RED.nodes.registerType('sugarshack-journal', JournalNode, {
+    credentials: { username: { type: 'text' }, password: { type: 'password' }, token: { type: 'password' } },
+  });
+};
+
+module.exports.writers = writers;
+module.exports.statusOf = statusOf;
