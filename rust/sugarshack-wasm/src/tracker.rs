@@ -39,7 +39,7 @@ struct ActuatorView<'a> {
     #[serde(rename = "type")]
     kind: &'a str,
     device: &'a str,
-    io: u32,
+    io: Option<u32>,
     binary: bool,
     idle: Option<f64>,
     lockout: f64,

@@ -37,6 +37,7 @@ fn publishes(effects: &[Effect]) -> Vec<(String, String, bool)> {
                 topic,
                 payload,
                 retain,
+                ..
             } => Some((topic.clone(), payload.clone(), *retain)),
             _ => None,
         })
