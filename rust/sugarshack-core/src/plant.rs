@@ -642,6 +642,14 @@ impl PlantModel {
         Ok(targets)
     }
 
+    /// Whether `key` names an actuator type (or its plural), as group commands' keys do.
+    pub fn is_group_key(&self, key: &str) -> bool {
+        self.actuator_types.contains_key(key)
+            || key
+                .strip_suffix('s')
+                .is_some_and(|k| self.actuator_types.contains_key(k))
+    }
+
     /// The group command that isolates a resource: its configured lockout, or
     /// every member actuator at its lockout state. None when it has neither.
     pub fn lockout_of(&self, resource: &str) -> Option<serde_json::Value> {

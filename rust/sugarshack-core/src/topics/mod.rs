@@ -87,6 +87,9 @@ pub enum Incoming {
     Samples { device: DeviceId, ts: Option<u64> },
     /// Nothing in it could be used.
     Refused { device: DeviceId, refusal: Refusal },
+    /// Shaped like a sugarshack device's state topic, from a device the
+    /// plant does not have (a typo in a device id, a device not added yet).
+    UnknownDevice { name: String },
 }
 
 /// A value read from a device.
@@ -213,6 +216,8 @@ pub struct Contract {
     /// Sugarshack batches: per device, per type name, io -> actuator.
     slots: Vec<Vec<(String, HashMap<u32, ActuatorId>)>>,
     type_names: Vec<String>,
+    /// Whether any device speaks the sugarshack profile.
+    sugarshack: bool,
     signals: Vec<Signal>,
     /// Per sensor: the device-side route, to format a value.
     sensor_routes: Vec<SensorFormat>,
@@ -595,6 +600,10 @@ impl Contract {
             command_topics,
             slots,
             type_names: plant.actuator_types.keys().cloned().collect(),
+            sugarshack: plant
+                .devices
+                .iter()
+                .any(|d| d.profile == Profile::Sugarshack),
             signals,
             sensor_routes,
             actuator_feedback,
@@ -620,7 +629,12 @@ impl Contract {
         let Some(route) = self.routes.get(topic) else {
             return match self.device_of(topic) {
                 Some(device) => Incoming::Other { device },
-                None => Incoming::Foreign,
+                None => match sugarshack::unknown_device(self, topic).filter(|_| self.sugarshack) {
+                    Some(name) => Incoming::UnknownDevice {
+                        name: name.to_owned(),
+                    },
+                    None => Incoming::Foreign,
+                },
             };
         };
         let device = route.device();

@@ -14,6 +14,8 @@ use crate::text::quote;
 const MIN_EPOCH_MS: f64 = 1e11;
 /// Only a clock past this is an epoch clock (tests run clocks from zero).
 const EPOCH_CLOCK_MS: u64 = 1_000_000_000_000;
+/// How far from now a stamp read as seconds may be and still be taken for seconds: a year.
+const SECONDS_SLACK_MS: f64 = 365.0 * 24.0 * 3600.0 * 1000.0;
 
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Raw<'a> {
@@ -234,11 +236,16 @@ pub(crate) fn epoch_ms(
         Stamp::EpochMs => ts,
         Stamp::EpochSeconds => ts * 1000.0,
     };
-    if now_ms >= EPOCH_CLOCK_MS && ms < MIN_EPOCH_MS {
+    // A stamp that is now when read as seconds was written in seconds.
+    let as_seconds_ms = ms * 1000.0;
+    if now_ms >= EPOCH_CLOCK_MS
+        && ms < MIN_EPOCH_MS
+        && (as_seconds_ms - now_ms as f64).abs() < SECONDS_SLACK_MS
+    {
         return Err(Refusal::new(
             "bad timestamp",
             format!(
-                "ts must be epoch milliseconds; {} is before 1973 (seconds?)",
+                "ts must be epoch milliseconds; {} reads as seconds (multiply by 1000 on the device)",
                 quote(ts)
             ),
         ));

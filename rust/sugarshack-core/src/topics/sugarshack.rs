@@ -91,6 +91,22 @@ pub(crate) fn sensor(
     SensorKind::Topic(topic)
 }
 
+/// The device id of a topic shaped like a sugarshack state topic
+/// (`<d>/state`, `<d>/<type>/<io>/state`, `<d>/sensor/<name>/state`); the
+/// caller knows no device has it.
+pub(crate) fn unknown_device<'t>(contract: &Contract, topic: &'t str) -> Option<&'t str> {
+    let mut levels = topic.split('/');
+    let device = levels.next().filter(|d| !d.is_empty())?;
+    let rest: Vec<&str> = levels.collect();
+    let shaped = match rest[..] {
+        ["state"] => true,
+        ["sensor", name, "state"] => !name.is_empty(),
+        [kind, io, "state"] => contract.is_type(kind) && io_number(io).is_some(),
+        _ => false,
+    };
+    shaped.then_some(device)
+}
+
 /// A sample as the tracker takes it: numbers as they are, booleans as 1/0.
 fn sample(value: &Value) -> Option<f64> {
     match value {
