@@ -14,7 +14,7 @@ mod tracker;
 pub use control::{validate_thresholds, IoModule, PidLoop, Rcc};
 pub use interlock::Interlock;
 pub use routine::Routine;
-pub use tracker::Tracker;
+pub use tracker::{Ingest, Tracker};
 
 use js_sys::{JsString, Reflect, JSON};
 use serde::de::DeserializeOwned;

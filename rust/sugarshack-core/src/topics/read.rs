@@ -149,6 +149,8 @@ impl Read {
                     Raw::Text(t) if t.trim() == "true" || t.trim() == "false" => {
                         Decoded::Value(if t.trim() == "true" { 1.0 } else { 0.0 })
                     }
+                    Raw::Text(t) if is_nan_word(t.trim()) => Decoded::Unavailable,
+                    Raw::Json(Value::Null) => Decoded::Unavailable,
                     _ => match number_of(raw) {
                         Some(v) => Decoded::Value(v),
                         None => {
