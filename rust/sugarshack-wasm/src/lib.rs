@@ -6,12 +6,14 @@
 //! is shared by every node of the process and must outlive any input.
 
 mod control;
+mod device;
 mod interlock;
 pub mod operation;
 mod routine;
 mod tracker;
 
 pub use control::{validate_thresholds, IoModule, PidLoop, Rcc};
+pub use device::DeviceSide;
 pub use interlock::Interlock;
 pub use routine::Routine;
 pub use tracker::{Ingest, Tracker};
