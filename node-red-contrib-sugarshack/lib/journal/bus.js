@@ -37,7 +37,7 @@ class JournalBus {
     }
   }
 
-  /** A datapoint as received: `entity` is the actuator slot (`valve/3`) or the sensor's name. */
+  /** A datapoint as received: `entity` is the plant's id of the actuator or sensor. */
   datapoint(device, entity, value, deviceTs, receivedMs) {
     if (!this.active) return;
     const v = typeof value === 'boolean' ? Number(value) : finite(value);

@@ -12,7 +12,7 @@ const TABLES = {
   datapoint: {
     name: 'sugarshack_datapoint',
     doc: 'every datapoint a device published, as received',
-    tags: { plant: 'plant id', device: 'device name', entity: 'actuator slot (`valve/3`) or sensor name' },
+    tags: { plant: 'plant id', device: 'device name', entity: 'actuator or sensor id in the plant document' },
     fields: { value: 'float: the value', device_ts: 'float: the device timestamp (ms), when it sent one', seq: 'int' },
     time: 'reception time',
   },
