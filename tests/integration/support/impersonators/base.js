@@ -24,6 +24,7 @@ class Impersonator {
     this.published = []; // { topic, text, retain, qos } in publish order
     this.flushes = 0;
     this.pending = new Set();
+    this.subscriptions = [];
     this.client = null;
   }
 
@@ -53,6 +54,7 @@ class Impersonator {
   async step() {}
 
   async subscribe(topics, qos = 0) {
+    this.subscriptions.push(...topics);
     await this.client.subscribeAsync(topics, { qos });
   }
 
@@ -92,6 +94,11 @@ class Impersonator {
     await this.settled();
     await this.client.publishAsync(`test/flush/${this.clientId}`, String(this.flushes), { qos: 1 });
     return this.flushes;
+  }
+
+  /** Whether this device subscribes to `topic`. */
+  listensTo(topic) {
+    return this.subscriptions.some((filter) => topicMatches(filter, topic));
   }
 
   commandsOn(topic) {
