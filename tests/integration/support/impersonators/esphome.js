@@ -24,7 +24,7 @@
 // - sensor: state snprintf("%.*f", accuracy_decimals) -> "12.3", NaN -> "nan"
 //   (helpers.cpp value_accuracy_to_string; mqtt_sensor.cpp), every update_interval
 //   (60 s default for polling platforms), no dedup.
-// Nothing is published periodically except sensors. See /work/notes/firmware-facts.md §1.
+// Nothing is published periodically except sensors. See FIRMWARE.md §1.
 const { Impersonator } = require('./base');
 
 const objectId = (name) => name.toLowerCase().replace(/ /g, '_').replace(/[^a-z0-9_-]/g, '_');

@@ -15,7 +15,7 @@
 //   as {"id","src":<device id>,"dst":<src>,"result"} or {"error":{"code","message"}}.
 // - cover status: state open|closed|opening|closing|stopped, current_pos 0..100, target_pos
 //   while moving, last_direction, pos_control (docs Cover status).
-// See /work/notes/firmware-facts.md §3 (what is documented vs observed).
+// See FIRMWARE.md §3 (what is documented vs observed).
 const { Impersonator } = require('./base');
 
 const seconds = (ms) => Number((ms / 1000).toFixed(2));

@@ -22,7 +22,7 @@
 // - telemetry every TelePeriod (300 s default, my_user_config.h): `tele/<t>/STATE` and
 //   `tele/<t>/SENSOR` JSON, not retained, with `"Time":"2023-11-14T22:13:20"` (local time,
 //   seconds; tasmota_support/support.ino ResponseGetTime), never epoch ms.
-// See /work/notes/firmware-facts.md §2.
+// See FIRMWARE.md §2.
 const { Impersonator } = require('./base');
 
 // GetDateAndTime(DT_LOCAL): local ISO time without zone, to the second (the device's zone is UTC here).
