@@ -54,9 +54,13 @@ function build(plant) {
 
   // ---- field bus -------------------------------------------------------------
   const z = TABS.plant;
-  comment(z, 'Field bus: every device topic into the actuators node, its commands out', 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
+  const esphome = plant.devices.some((d) => d.profile === 'esphome');
+  comment(z, 'Field bus: every device topic into the actuators node, its commands out', esphome
+    ? 'ESPHome devices (stock MQTT): valves publish `<dev>/valve/<id>/position/state`, pumps `<dev>/switch/<id>/state`, stations `<dev>/sensor/<name>/state`, on change, without a timestamp; availability on `<dev>/status`. The actuators node reads them by the plant document\'s device profiles, tracks every actuator and keeps the live sensor values for conditions.'
+    : 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
   const bus = add({ id: nid('actuators'), type: 'sugarshack-actuators', z, name: 'all devices', plant: plantNode.id, devices: '', broker: nid('broker'), x: 520, y: 120, wires: [[nid('mqtt-out')], [], [nid('debug:actuator-events')]] });
-  ['+/state', '+/status', '+/sensor/+/state'].forEach((topic, i) => add({
+  const topics = esphome ? ['+/status', '+/valve/+/position/state', '+/switch/+/state', '+/sensor/+/state'] : ['+/state', '+/status', '+/sensor/+/state'];
+  topics.forEach((topic, i) => add({
     id: nid(`mqtt-in:${topic}`), type: 'mqtt in', z, name: '', topic, qos: '1', datatype: 'auto-detect', broker: broker.id,
     nl: false, rap: true, rh: 0, inputs: 0, x: 170, y: 80 + 40 * i, wires: [[bus.id]],
   }));

@@ -12,7 +12,6 @@ const { describeFault, seconds } = require('./plant');
 const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
 const { readMsg } = require('./request');
 const { Condition } = require('./condition');
-const feedback = require('./feedback');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
@@ -26,6 +25,8 @@ const MAX_WARNED = 1000;
 const BUS_ERROR_MS = 10000;
 // Publishes kept while a deploy has no actuators node serving their device yet.
 const MAX_UNSENT = 10000;
+// JSON text on a foreign topic longer than this is taken as a (too large) group command unread.
+const COMMAND_TEXT_MAX = 64 * 1024;
 
 class PlantRuntime extends RuntimeBase {
   /** settings: { plant (the document), error }; RED for JSONata conditions. */
@@ -88,12 +89,6 @@ class PlantRuntime extends RuntimeBase {
       unit: types[a.type].unit,
       timing: types[a.type],
     }));
-    this.typeNames = new Set(Object.keys(types));
-    this.slotCache = this.devices.map(() => new Map());
-    const perDevice = this.devices.map(() => 0);
-    for (const a of this.actuators) perDevice[a.deviceHandle]++;
-    // Reused for every batch of a device: at most one sample per named actuator.
-    this.scratch = perDevice.map((n) => ({ handles: new Uint32Array(n), values: new Float64Array(n) }));
     for (const bus of this.buses) this.resolveDevices(bus);
   }
 
@@ -177,7 +172,7 @@ class PlantRuntime extends RuntimeBase {
    */
   addBus(node, names, broker) {
     this.buses = this.buses.filter((b) => b.nodeId !== node.id);
-    const bus = { nodeId: node.id, node, names, devices: null, bad: 0, warned: new Set(), broker: broker || null, connected: null };
+    const bus = { nodeId: node.id, node, names, devices: null, bad: 0, ignored: 0, warned: new Set(), broker: broker || null, connected: null };
     if (this.state === 'ready') this.resolveDevices(bus);
     this.buses.push(bus);
     this.unserved.clear();
@@ -317,123 +312,85 @@ class PlantRuntime extends RuntimeBase {
   // ---- device feedback -----------------------------------------------------
 
   /**
-   * Feeds a device msg (its topic and payload) to the tracker. Returns false when
-   * the topic is not a device topic (the msg is a command). Bad input is warned
-   * about, counted and skipped.
+   * Hands a device msg (its topic and payload) to the core, which reads it by
+   * the plant's device profiles and applies it. Returns false when the msg is
+   * a group command: its topic is no device's, and it comes from the flow or
+   * carries a group command. Other MQTT traffic on topics of no device
+   * (discovery, other devices: `fromMqtt`) is ignored and counted; bad input
+   * is warned about, counted and skipped.
    */
-  feedback(node, topic, payload) {
-    const route = feedback.classify(topic, (id) => this.deviceIndex.has(id));
-    if (!route) return false;
-    if (route.kind === 'other') return true; // telemetry, our own commands
+  feedback(node, topic, payload, fromMqtt = false) {
+    if (typeof topic !== 'string' || topic === '') return false;
     const bus = this.busOf(node);
-    const device = this.deviceIndex.get(route.device);
-    if (device === undefined) {
-      this.malformed(bus, topic, route.device, 'unknown device', `device '${feedback.clip(route.device)}' is not in the plant document`);
-      this.refreshStatus(node);
-      return true;
-    }
-    if (bus && bus.devices && !bus.devices.has(device)) {
-      this.malformed(bus, topic, route.device, 'device not served', `device '${route.device}' is not in this node's device list`);
-      this.refreshStatus(node);
-      return true;
+    if (bus && bus.devices) {
+      const device = this.t.topicDevice(topic);
+      if (device !== undefined && !bus.devices.has(device)) {
+        this.malformed(bus, topic, this.devices[device], 'device not served', `device '${this.devices[device]}' is not in this node's device list`);
+        this.refreshStatus(node);
+        return true;
+      }
     }
     const now = clock.now();
-    try {
-      if (route.kind === 'status') {
-        this.t.deviceStatus(device, feedback.statusOf(payload), now);
-      } else if (route.kind === 'sensor') {
-        this.sensorSample(route, payload, now);
-        return true;
-      } else if (route.kind === 'batch') {
-        this.batch(bus, topic, device, feedback.batchOf(payload), now);
-      } else {
-        const handle = this.slotOf(device, route.type, route.io);
-        if (handle === undefined) return true; // a slot the plant does not name
-        const sample = feedback.singleOf(payload);
-        try {
-          this.t.feedback(handle, sample.value, sample.ts, now);
-        } catch (err) {
-          // Refused as a state of this actuator: reported like a refused sample of a batch.
-          if (err.code !== 'INVALID_FEEDBACK') throw err;
-          this.reject({ kind: 'rejected', actuator: handle, code: err.code, message: err.message }, { bus, topic });
-        }
-        if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
-      }
-    } catch (err) {
-      if (wasm.isTrap(err)) throw err;
-      // A coded refusal of the core, or a payload that could not even be read (a getter that throws).
-      const reason = err instanceof feedback.Malformed ? err.reason : (err && typeof err.code === 'string' ? err.code : 'unreadable');
-      this.malformed(bus, topic, route.device, reason, err && err.message ? String(err.message).slice(0, 300) : String(err));
-    }
+    const text = payloadText(payload);
+    const kind = text === null ? this.t.ingestBytes(topic, payload, now) : this.t.ingest(topic, text, now);
+    const { Ingest } = wasm.load();
+    if (kind === Ingest.Foreign) return fromMqtt && this.foreign(bus, payload);
+    if (kind === Ingest.Other) return true;
+    if (kind === Ingest.Samples) this.sampled(now);
     this.flush({ bus, topic });
     return true;
   }
 
-  /** A sensor datapoint: kept by the core with its time; conditions watching it are re-checked. */
-  sensorSample(route, payload, now) {
-    const handle = this.t.sensorSlot(route.device, route.name);
-    if (handle === undefined) return; // a datapoint the plant does not name
-    const sample = feedback.singleOf(payload);
-    if (!this.t.recordSensor(handle, sample.value, sample.ts, now)) return;
-    if (sample.ts !== undefined) stats.add(`tof/${route.device}`, now - sample.ts);
-    const watching = this.watchers.get(handle);
-    if (watching) for (const fn of [...watching]) fn();
+  /**
+   * Whether a payload on a foreign topic is meant as a group command: an
+   * object with a group command key, or JSON text that is not an object
+   * without one (so that a broken command is refused, not ignored).
+   */
+  commandLike(payload) {
+    let value = payload;
+    if (typeof payload === 'string') {
+      const start = payload.trimStart()[0];
+      if (start === '[') return true;
+      if (start !== '{') return false;
+      if (payload.length > COMMAND_TEXT_MAX) return true;
+      try {
+        value = JSON.parse(payload);
+      } catch {
+        return true;
+      }
+    }
+    if (value === null || typeof value !== 'object' || Buffer.isBuffer(value)) return false;
+    if (Array.isArray(value)) return true;
+    const keys = Object.keys(value);
+    for (let i = 0; i < keys.length && i < 100; i++) if (this.t.isGroupKey(keys[i])) return true;
+    return false;
   }
 
-  batch(bus, topic, device, { ts, groups }, now) {
-    const { handles, values } = this.scratch[device];
-    let n = 0;
-    let known = 0;
-    for (const [type, members] of groups) {
-      if (!this.typeNames.has(type)) continue; // other fields a device may add
-      known++;
-      if (!feedback.isObject(members)) {
-        this.malformed(bus, topic, this.devices[device], 'bad group', `'${type}' must map io numbers to values, got ${feedback.clip(members)}`);
-        continue;
-      }
-      for (const key of Object.keys(members)) {
-        const handle = this.slotOf(device, type, key);
-        if (handle === undefined || n === handles.length) continue;
-        const value = feedback.sampleValue(members[key]);
-        if (Number.isNaN(value)) {
-          this.malformed(bus, topic, this.devices[device], 'non-numeric value', `${type} ${key}: value must be a number or a boolean, got ${feedback.clip(members[key])}`);
-          continue;
-        }
-        handles[n] = handle;
-        values[n] = value;
-        n++;
-      }
-    }
-    if (known === 0) {
-      const types = [...this.typeNames].join(', ');
-      this.malformed(bus, topic, this.devices[device], 'no known type', `a state batch needs at least one of ${types}, got keys ${feedback.clip(groups.map(([k]) => k).join(', '))}`);
-      return;
-    }
-    if (n > 0) {
-      this.t.feedbackBatch(handles.subarray(0, n), values.subarray(0, n), ts, now);
-      if (ts !== undefined) stats.add(`tof/${this.devices[device]}`, now - ts);
+  /** After samples: the device time of flight, and the conditions watching updated sensors. */
+  sampled(now) {
+    const ts = this.t.lastTs();
+    if (ts !== undefined) stats.add(`tof/${this.devices[this.t.lastDevice()]}`, now - ts);
+    if (this.watchers.size === 0) return;
+    for (const handle of this.t.lastSensors()) {
+      const watching = this.watchers.get(handle);
+      if (watching) for (const fn of [...watching]) fn();
     }
   }
 
-  /** The actuator a device reports as `type` number `key`, cached; undefined when the plant names none. */
-  slotOf(device, type, key) {
-    const cache = this.slotCache[device];
-    const cacheKey = `${type}/${key}`;
-    let handle = cache.get(cacheKey);
-    if (handle === undefined) {
-      const io = feedback.ioNumber(key);
-      if (!this.typeNames.has(type) || io === null) return undefined;
-      const slot = this.t.slot(device, type, io);
-      handle = slot === undefined ? -1 : slot;
-      cache.set(cacheKey, handle);
+  /** An MQTT msg on a topic of no device: a group command if it carries one, else someone else's traffic (ignored, counted). */
+  foreign(bus, payload) {
+    if (this.commandLike(payload)) return false;
+    if (bus) {
+      bus.ignored += 1;
+      this.refreshStatus(bus.node);
     }
-    return handle < 0 ? undefined : handle;
+    return true;
   }
 
   malformed(bus, topic, device, reason, message) {
     if (!bus) return;
     bus.bad += 1;
-    this.warnOnce(bus, topic, reason, `ignored ${feedback.clip(topic)}: ${message}`);
+    this.warnOnce(bus, topic, reason, `ignored ${clip(topic)}: ${message}`);
     this.emit(bus, `actuator/malformed/${device}`, { kind: 'malformed', device, topic, reason, message, count: bus.bad });
   }
 
@@ -511,6 +468,9 @@ class PlantRuntime extends RuntimeBase {
       case 'rejected':
         this.reject(e, source);
         break;
+      case 'malformed':
+        this.malformed(source ? source.bus : null, source ? source.topic : '', e.device, e.reason, e.message);
+        break;
       default:
         if (e.kind === 'completed') this.recordCompleted(e);
         else if (e.kind === 'retry') this.recordRetry(e);
@@ -520,9 +480,8 @@ class PlantRuntime extends RuntimeBase {
   }
 
   publish(e) {
-    const name = e.topic.slice(0, e.topic.indexOf('/'));
-    const device = this.deviceIndex.get(name);
-    const bus = device === undefined ? null : this.busFor(device);
+    const name = this.devices[e.device];
+    const bus = this.busFor(e.device);
     if (!bus) {
       if (this.palette && !this.palette.started) {
         // A deploy in progress: the actuators node serving it comes back in a moment.
@@ -749,7 +708,7 @@ class PlantRuntime extends RuntimeBase {
         counts = all;
         offline = this.offline.size;
       }
-      this.statusBoard.set(node, actuatorStatus({ ...counts, bad: bus ? bus.bad : 0 }, { offline }));
+      this.statusBoard.set(node, actuatorStatus({ ...counts, bad: bus ? bus.bad : 0, ignored: bus ? bus.ignored : 0 }, { offline }));
     }
   }
 
@@ -797,6 +756,49 @@ function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }
   entry.complete = () => answer(null);
   entry.refuse = (err) => answer(err);
   return entry;
+}
+
+/**
+ * A payload as the text its device sent: `mqtt in` hands over text, a Buffer
+ * (null here: passed as bytes), or what auto-detect parsed from JSON text.
+ */
+function payloadText(payload) {
+  if (typeof payload === 'string') return payload;
+  try {
+    if (payload instanceof Uint8Array) return null; // a Buffer too
+  } catch (err) {
+    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`); // a revoked proxy
+  }
+  if (payload === undefined) return '';
+  return jsonText(payload, true);
+}
+
+/**
+ * JSON text of a value; one that cannot be written (circular, too deep, a
+ * getter that throws) becomes a string saying so, which the core refuses as
+ * it would any wrong value: at the top, or in its own field (`value`).
+ */
+function jsonText(value, top) {
+  try {
+    const text = JSON.stringify(value);
+    return text === undefined ? JSON.stringify(String(value)) : text;
+  } catch (err) {
+    if (top && value !== null && typeof value === 'object' && !Array.isArray(value)) {
+      try {
+        const fields = Object.keys(value).slice(0, 1000).map((k) => `${JSON.stringify(k)}:${jsonText(value[k], false)}`);
+        return `{${fields.join(',')}}`;
+      } catch {
+        // a proxy or getter that throws on its keys: unreadable as a whole
+      }
+    }
+    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`);
+  }
+}
+
+/** A value as a short quote for a log line. */
+function clip(value) {
+  const s = String(value);
+  return s.length > 60 ? `${s.slice(0, 57)}...` : s;
 }
 
 module.exports = { PlantRuntime };

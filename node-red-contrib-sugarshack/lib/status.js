@@ -58,15 +58,17 @@ function countsStatus(counts) {
 
 /**
  * Actuators: "moving 2", "mov 2 · stop 14", "flt 1·mov 2·stop 14"; `lockouts`
- * counts lockouts not yet confirmed by feedback, `bad` bad feedback.
+ * counts lockouts not yet confirmed by feedback, `bad` bad feedback, `ignored`
+ * msgs on topics of no device of the plant.
  */
-function actuatorText({ moving = 0, stopped = 0, faulted = 0, lockouts = 0, bad = 0 }) {
+function actuatorText({ moving = 0, stopped = 0, faulted = 0, lockouts = 0, bad = 0, ignored = 0 }) {
   return countsText([
     ['lockout', 'lock', 'L', lockouts],
     ['faulted', 'flt', 'F', faulted],
     ['moving', 'mov', 'M', moving],
     ['stopped', 'stop', 'S', stopped],
     ['bad', 'bad', 'B', bad],
+    ['ignored', 'ign', 'I', ignored],
   ]);
 }
 

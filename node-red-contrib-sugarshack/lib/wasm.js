@@ -158,6 +158,14 @@ function primeInterlock({ Interlock, Tracker }) {
   t.withdraw(2);
   t.tick(400);
   t.pathRestored(450);
+  t.ingest('p/status', 'online', 460);
+  t.ingestBytes('p/valve/1/state', Uint8Array.of(49), 460);
+  t.lastTs();
+  t.lastDevice();
+  t.lastSensors();
+  t.queued();
+  t.topicDevice('p/x');
+  t.isGroupKey('valves');
   t.pendingLockouts();
   t.takeEffects();
   t.counts();

@@ -18,9 +18,15 @@ module.exports = function (RED) {
     // While a deploy drains, feedback and lockouts still go in (the operations
     // being drained wait for feedback; a lockout never waits); commands wait.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const seen = readMsg(() => ({ topic: msg.topic, payload: msg.payload, lockout: isLockout(msg) }));
+      const seen = readMsg(() => ({
+        topic: msg.topic,
+        payload: msg.payload,
+        lockout: isLockout(msg),
+        // As an `mqtt in` node gives it: only such msgs on foreign topics may be someone else's traffic.
+        fromMqtt: typeof msg.qos === 'number' && typeof msg.retain === 'boolean',
+      }));
       // "lockout/<resource>" from a fault node is a command, whatever the resource's name.
-      if (!seen.lockout && rt.feedback(node, seen.topic, seen.payload)) {
+      if (!seen.lockout && rt.feedback(node, seen.topic, seen.payload, seen.fromMqtt)) {
         done();
         return;
       }

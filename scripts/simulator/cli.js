@@ -14,6 +14,9 @@ const USAGE = `usage: node scripts/simulator/cli.js --plant <plant.json> [option
   --drop R               share 0..1 of outgoing data messages lost (default 0)
   --speed N              simulated time runs N times faster (default 1)
   --single               per-actuator state topics instead of the <dev>/state batch
+  --profile P            every device speaks P: esphome, tasmota, shelly-gen2 or sugarshack
+                         (default: each device's profile in the document; the palette
+                         must be given the same document, see withProfile in plant.js)
   --seed S               random seed (default ${DEFAULTS.seed})
   --pump-delay-ms N      pump spin-up/run-down (default ${DEFAULTS.pumpDelayMs})
   --dead-time-ms N       valve command-to-motion delay (default 0)
@@ -38,6 +41,7 @@ const VALUE_FLAGS = {
   '--seed': 'seed',
   '--pump-delay-ms': 'pumpDelayMs',
   '--dead-time-ms': 'deadTimeMs',
+  '--profile': 'profile',
 };
 const NUMERIC = new Set(['sweepS', 'noise', 'sensorNoise', 'delayMs', 'delayJitterMs', 'drop', 'speed', 'pumpDelayMs', 'deadTimeMs']);
 

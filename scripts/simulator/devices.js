@@ -30,7 +30,16 @@ class Device {
     this.sendAfter = 0; // keeps delayed publishes in order, as one TCP connection would
     this.timers = [];
     this.lastError = '';
+    // Its MQTT dialect, from the palette's contract: sugarshack devices keep
+    // the simulator's own batch format; the others publish on change.
+    this.handle = sim.side.device(id);
+    this.profile = sim.side.profile(this.handle);
+    this.native = this.profile === 'sugarshack';
     this.boot();
+  }
+
+  statusMessage(online) {
+    return this.sim.side.status(this.handle, online);
   }
 
   // Power-on: counters and uptime start over (also on revive).
@@ -69,7 +78,7 @@ class Device {
       resubscribe: false,
       // Like the firmware: a datapoint sampled while offline is not sent later.
       queueQoSZero: false,
-      will: { topic: `${this.id}/status`, payload: 'offline', qos: 1, retain: true },
+      will: (({ topic, payload }) => ({ topic, payload, qos: 1, retain: true }))(this.statusMessage(false)),
     });
     client.on('connect', () => this.onConnect(client));
     client.on('close', () => this.onDisconnect(client));
@@ -88,7 +97,9 @@ class Device {
     this.everConnected = true;
     this.lastError = '';
     this.log(first ? 'connected' : 'reconnected');
-    client.publish(`${this.id}/status`, 'online', { qos: 1, retain: true });
+    const birth = this.statusMessage(true);
+    client.publish(birth.topic, birth.payload, { qos: 1, retain: true });
+    this.sent = new Map(); // on-change devices publish every state again on connect
     const topics = this.commandTopics();
     // Resume only once subscribed, so that retained commands get their say.
     const subscribed = (err) => {
@@ -119,6 +130,14 @@ class Device {
 
   onMessage(topic, payload, packet) {
     if (this.dead) return;
+    if (!this.native) {
+      const read = this.sim.side.parseCommand(topic, payload);
+      if (!read || read.kind === 'cleared') return;
+      if (read.kind === 'refused') return this.malformed(`${topic}: ${read.message}`);
+      const a = this.sim.actuatorList[read.actuator];
+      const text = a.type === 'pump' ? (read.value >= 0.5 ? 'ON' : 'OFF') : String(read.value);
+      return this.onCommand(a.type, String(a.io), text, packet.retain);
+    }
     const rest = topic.startsWith(`${this.id}/`) ? topic.slice(this.id.length + 1) : null;
     const m = rest && /^(valve|pump)\/([^/]+)\/command$/.exec(rest);
     if (!m) return;
@@ -135,7 +154,25 @@ class Device {
     const ts = Date.now(); // the device's clock, read when the sample is taken
     // One sample goes out as one burst: its messages share one network delay.
     const delay = this.drawDelay();
+    if (!this.native) {
+      for (const m of this.messages()) this.publishText(m.topic, m.payload, m.retain, delay);
+      return;
+    }
     for (const [topic, body] of this.datapoints()) this.publishData(topic, { ts, ...body }, delay);
+  }
+
+  /** The firmware's own messages (profiles other than sugarshack). */
+  messages() { return []; }
+
+  /** Of `values` (handle -> value), those that changed since last sent (all after a connect). */
+  changed(values) {
+    const out = [];
+    for (const [handle, value] of values) {
+      if (this.sent && this.sent.get(handle) === value) continue;
+      if (this.sent) this.sent.set(handle, value);
+      out.push([handle, value]);
+    }
+    return out;
   }
 
   telemetry() {
@@ -158,6 +195,10 @@ class Device {
 
   // Outgoing data goes through the simulated network: drop ratio, then delay.
   publishData(topic, obj, delay = this.drawDelay()) {
+    this.publishText(topic, JSON.stringify(obj), false, delay);
+  }
+
+  publishText(topic, payload, retain, delay = this.drawDelay()) {
     if (!this.connected) {
       this.counters.dropped++;
       return;
@@ -165,10 +206,9 @@ class Device {
     this.counters.published++;
     const ratio = Math.max(this.sim.dropRatio, this.faults.drop);
     if (this.netRng.chance(ratio)) return; // lost on the way; the device does not know
-    const payload = JSON.stringify(obj);
     const client = this.client;
     const send = () => {
-      if (client.connected && client === this.client) client.publish(topic, payload, { qos: 0 });
+      if (client.connected && client === this.client) client.publish(topic, payload, { qos: 0, retain });
     };
     const now = Date.now();
     if (delay <= 0 && this.sendAfter <= now) {
@@ -240,7 +280,8 @@ class Device {
     if (!client || this.dead || this.away) return; // its client is already closed
     if (client.connected) {
       await new Promise((resolve) => {
-        client.publish(`${this.id}/status`, 'offline', { qos: 1, retain: true }, () => resolve());
+        const last = this.statusMessage(false);
+        client.publish(last.topic, last.payload, { qos: 1, retain: true }, () => resolve());
         setTimeout(resolve, 1000);
       });
     }
@@ -263,7 +304,19 @@ class ActuatorPanel extends Device {
   }
 
   commandTopics() {
+    if (!this.native) return this.sim.side.commandTopics(this.handle);
     return [`${this.id}/valve/+/command`, `${this.id}/pump/+/command`];
+  }
+
+  /** On change, as stock firmware: whole percent positions without noise, the pump's relay. */
+  messages() {
+    const named = this.sim.actuatorList.filter((a) => a.device === this.id);
+    const values = named.map((a) => [a.handle, a.type === 'pump'
+      ? (this.pump.running ? 1 : 0)
+      : Math.round(clamp(this.valves[a.io].position, 0, 100))]);
+    const changed = this.changed(values);
+    if (changed.length === 0) return [];
+    return this.sim.side.actuatorMessages(this.handle, Uint32Array.from(changed.map(([h]) => h)), Float64Array.from(changed.map(([, v]) => v)), undefined);
   }
 
   onCommand(type, ioText, text, retained) {
@@ -367,6 +420,20 @@ class SensorStation extends Device {
       const s = signals.find((x) => x.datapoint === dp.name) || {};
       return { name: dp.name, unit: dp.unit, d, base: s.base ?? d.base, span: s.span ?? d.span };
     });
+  }
+
+  /** Every sample (sensors publish each update, as ESPHome's do); only the plant's named sensors. */
+  messages() {
+    const handles = [];
+    const values = [];
+    for (const [name, value] of this.datapoints()) {
+      const handle = this.sim.sensorHandles.get(`${this.id}/${name.split('/')[2]}`);
+      if (handle === undefined) continue;
+      handles.push(handle);
+      values.push(value.value);
+    }
+    if (handles.length === 0) return [];
+    return this.sim.side.sensorMessages(this.handle, Uint32Array.from(handles), Float64Array.from(values), undefined);
   }
 
   datapoints() {

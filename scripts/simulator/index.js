@@ -7,7 +7,8 @@
 //   await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 3 });
 //   await sim.stop();
 const mqtt = require('mqtt');
-const { loadPlant, buildModel } = require('./plant');
+const path = require('path');
+const { loadPlant, buildModel, withProfile } = require('./plant');
 const { ActuatorPanel, SensorStation } = require('./devices');
 const { Hydraulics } = require('./hydraulics');
 const { normalizeFault, parseFaultArg } = require('./faults');
@@ -26,6 +27,7 @@ const DEFAULTS = {
   drop: 0, // share of outgoing data messages lost, all devices
   speed: 1, // simulated time runs this many times faster than the wall clock
   single: false, // per-actuator state topics instead of the panel batch
+  profile: null, // every device speaks this profile (esphome, tasmota, ...); else each its document's
   seed: 1,
   pumpDelayMs: 1000, // pump spin-up / run-down before the feedback changes
   deadTimeMs: 0, // valve command-to-motion delay
@@ -73,8 +75,14 @@ class Simulator {
     this.log = typeof o.log === 'function' ? o.log : () => {};
 
     this.realStart = performance.now();
-    const doc = loadPlant(o.plant);
+    const loaded = loadPlant(o.plant);
+    const doc = o.profile ? withProfile(loaded, o.profile) : loaded;
     this.model = buildModel(doc, (w) => this.log(`warning: ${w}`));
+    // The device side of the palette's own MQTT contract (its wasm core).
+    const { DeviceSide } = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'wasm', 'sugarshack_wasm.js'));
+    this.side = new DeviceSide(doc);
+    this.actuatorList = (doc.actuators || []).map((a, handle) => ({ handle, id: a.id, type: a.type, device: a.device, io: a.io }));
+    this.sensorHandles = new Map((doc.sensors || []).map((x, handle) => [`${x.device}/${x.name}`, handle]));
     this.hydraulics = new Hydraulics(this.model.simulation);
     this.readings = this.hydraulics.readings();
 
@@ -112,7 +120,8 @@ class Simulator {
     for (const f of initial.filter((x) => x.fault !== 'dead')) await this.inject(f);
     const panels = this.model.panels.length;
     this.log(`${panels} actuator panel(s), ${this.model.stations.length} sensor station(s) on ${this.broker}` +
-      ` (sweep ${this.sweepS} s, noise ±${this.noise} %, speed ×${this.speed}${this.single ? ', single topics' : ''})`);
+      ` (sweep ${this.sweepS} s, noise ±${this.noise} %, speed ×${this.speed}${this.single ? ', single topics' : ''}`
+      + `${this.options.profile ? `, profile ${this.options.profile}` : ''})`);
   }
 
   async waitReady(timeoutMs) {

@@ -173,4 +173,34 @@ function normalizeSimulation(sim, ctx) {
   return { tanks: Object.values(tanks), transfers, signals };
 }
 
-module.exports = { loadPlant, buildModel, datapointDefaults, PANEL_VALVES, PANEL_PUMPS };
+const PROFILES = ['sugarshack', 'esphome', 'tasmota', 'shelly-gen2'];
+
+/**
+ * The document with every device speaking `profile`, entities named from each
+ * actuator's io (Tasmota `Shutter3` / `POWER1`, Shelly `cover:2` / `switch:0`;
+ * ESPHome's object ids come from the actuator ids) and sensors' from their
+ * names. The palette must be given the same document.
+ */
+function withProfile(doc, profile) {
+  if (!PROFILES.includes(profile)) fail(`profile ${JSON.stringify(profile)} is not one of ${PROFILES.join(', ')}`);
+  const out = JSON.parse(JSON.stringify(doc));
+  for (const d of out.devices || []) {
+    delete d.prefix;
+    delete d.custom;
+    if (profile === 'sugarshack') delete d.profile;
+    else d.profile = profile;
+  }
+  for (const a of out.actuators || []) {
+    delete a.entity;
+    delete a.component;
+    if (profile === 'tasmota') a.entity = a.type === 'pump' ? `POWER${a.io}` : `Shutter${a.io}`;
+    if (profile === 'shelly-gen2') a.entity = a.type === 'pump' ? `switch:${a.io - 1}` : `cover:${a.io - 1}`;
+  }
+  for (const s of out.sensors || []) {
+    delete s.entity;
+    if (profile === 'shelly-gen2') s.entity = `${s.name}:0.value`;
+  }
+  return out;
+}
+
+module.exports = { loadPlant, buildModel, withProfile, datapointDefaults, PANEL_VALVES, PANEL_PUMPS, PROFILES };

@@ -56,7 +56,8 @@ const CYCLE_S = 40; // open at 10, closed again from 34
 const MSGS = Math.max(1, Math.round(option('--msgs', QUICK ? 5000 : 20000) / 200)) * 200;
 const ROUNDS = Math.max(1, option('--rounds', QUICK ? 3 : 7));
 
-const PLANT = require(path.join(ROOT, 'flows', 'plant.json'));
+// Measured on this palette's own batch format (one msg per panel second).
+const PLANT = require(path.join(ROOT, 'scripts', 'simulator', 'plant.js')).withProfile(require(path.join(ROOT, 'flows', 'plant.json')), 'sugarshack');
 const PANELS = PLANT.devices.filter((d) => d.kind === 'actuator-panel').map((d) => d.id);
 const SECONDS = MSGS / PANELS.length;
 

@@ -6,8 +6,8 @@
 // batch per plant second, as JSON on `<panel>/state`. Three ways in:
 //   native          the core, via `cargo run --release --example tracker_bench`
 //   wasm, arrays    the facade given ready typed arrays (the boundary alone)
-//   wasm, as nodes  from the JSON string: parse, map (type, io) to handles,
-//                   fill typed arrays, call the facade, take effects if any
+//   wasm, as nodes  from the topic and JSON text: the core's topics module
+//                   reads it (Tracker.ingest), take effects if any
 // Target: >= 100,000 datapoints/s through wasm (95,000 I/O at 1 Hz).
 // usage: node tests/bench/tracker-bench.js [PANELS] [SECONDS]
 
@@ -62,39 +62,14 @@ function payloads() {
   return out;
 }
 
-/** What the actuators node does with one `<panel>/state` msg. */
+/** What the actuators node does with one `<panel>/state` msg: the core reads and applies it. */
 class BatchReader {
   constructor(tracker) {
     this.tracker = tracker;
-    this.handles = new Uint32Array(64);
-    this.values = new Float64Array(64);
-    this.slots = new Map();
-  }
-  slot(device, type, io) {
-    const key = `${device}/${type}/${io}`;
-    let handle = this.slots.get(key);
-    if (handle === undefined) {
-      handle = this.tracker.slot(this.tracker.device(device), type, Number(io));
-      this.slots.set(key, handle === undefined ? -1 : handle);
-    }
-    return handle === undefined ? -1 : handle;
   }
   ingest(device, text, now) {
-    const batch = JSON.parse(text);
-    let n = 0;
-    for (const type of Object.keys(batch)) {
-      if (type === 'ts') continue;
-      const group = batch[type];
-      for (const io of Object.keys(group)) {
-        const handle = this.slot(device, type, io);
-        if (handle < 0) continue;
-        const v = group[io];
-        this.handles[n] = handle;
-        this.values[n++] = v === true ? 1 : v === false ? 0 : v;
-      }
-    }
-    const queued = this.tracker.feedbackBatch(this.handles.subarray(0, n), this.values.subarray(0, n), batch.ts, now);
-    return queued > 0 ? this.tracker.takeEffects().length : 0;
+    this.tracker.ingest(`${device}/state`, text, now);
+    return this.tracker.queued() > 0 ? this.tracker.takeEffects().length : 0;
   }
 }
 

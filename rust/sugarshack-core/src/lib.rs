@@ -11,3 +11,4 @@ pub mod plant;
 pub mod routine;
 pub mod sensor;
 pub mod text;
+pub mod topics;

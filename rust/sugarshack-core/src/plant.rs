@@ -89,6 +89,9 @@ pub struct ActuatorType {
     pub retries: u32,
     #[serde(default)]
     pub escalation: Escalation,
+    /// How its devices publish feedback; a device's own setting wins.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reports: Option<Reports>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -98,12 +101,107 @@ pub enum DeviceKind {
     SensorStation,
 }
 
+/// The MQTT dialect a device speaks (see the topics module for each one's topics).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Profile {
+    /// This palette's own format (`<prefix>/<type>/<io>/state`, `<prefix>/state` batches).
+    #[default]
+    Sugarshack,
+    Esphome,
+    Tasmota,
+    #[serde(rename = "shelly-gen2")]
+    ShellyGen2,
+    /// Topic templates, a payload path and value maps given in the device's `custom`.
+    Custom,
+}
+
+impl Profile {
+    pub fn name(self) -> &'static str {
+        match self {
+            Profile::Sugarshack => "sugarshack",
+            Profile::Esphome => "esphome",
+            Profile::Tasmota => "tasmota",
+            Profile::ShellyGen2 => "shelly-gen2",
+            Profile::Custom => "custom",
+        }
+    }
+
+    /// Stock firmware publishes on change; this palette's devices about once a second.
+    pub fn default_reports(self) -> Reports {
+        match self {
+            Profile::Sugarshack => Reports::Periodic,
+            _ => Reports::OnChange,
+        }
+    }
+
+    /// How often its sensors publish unless a sensor says otherwise: ESPHome's
+    /// default `update_interval` (60 s), Tasmota's `TelePeriod` (300 s).
+    pub fn default_sensor_update_ms(self) -> u64 {
+        match self {
+            Profile::Sugarshack | Profile::Custom => 1000,
+            Profile::Esphome | Profile::ShellyGen2 => 60_000,
+            Profile::Tasmota => 300_000,
+        }
+    }
+}
+
+/// Whether a device re-publishes its states (so silence means trouble) or only on change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reports {
+    Periodic,
+    OnChange,
+}
+
+/// The ESPHome component that drives an actuator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Component {
+    Valve,
+    Cover,
+    Number,
+    Switch,
+}
+
+impl Component {
+    pub fn name(self) -> &'static str {
+        match self {
+            Component::Valve => "valve",
+            Component::Cover => "cover",
+            Component::Number => "number",
+            Component::Switch => "switch",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Device {
-    /// Also the device's MQTT topic prefix.
     pub id: String,
     pub kind: DeviceKind,
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub profile: Profile,
+    /// Its MQTT topic prefix (ESPHome `topic_prefix`, Tasmota `%topic%`,
+    /// Shelly `topic_prefix`); the device id when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prefix: Option<String>,
+    /// Overrides its actuator types' `reports` and the profile's default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reports: Option<Reports>,
+    /// The topics and payloads of a `custom` device.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub custom: Option<crate::topics::custom::CustomProfile>,
+}
+
+impl Device {
+    pub fn prefix(&self) -> &str {
+        self.prefix.as_deref().unwrap_or(&self.id)
+    }
+}
+
+fn is_default<T: Default + PartialEq>(value: &T) -> bool {
+    *value == T::default()
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -113,7 +211,16 @@ pub struct Actuator {
     #[serde(rename = "type")]
     pub kind: String,
     pub device: String,
-    pub io: u32,
+    /// Its output number on a `sugarshack` device (`<device>/<type>/<io>/command`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub io: Option<u32>,
+    /// Its entity on the device: ESPHome object id (`v101`, default: the id in
+    /// ESPHome's form), Tasmota `POWER1` / `Shutter1`, Shelly `switch:0` / `cover:0`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub entity: Option<String>,
+    /// ESPHome only: `valve` (analog default), `cover`, `number`, `switch` (binary default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub component: Option<Component>,
     /// Overrides the type's tolerance.
     #[serde(default)]
     pub tolerance: Option<f64>,
@@ -134,10 +241,24 @@ pub struct Sensor {
     pub device: String,
     /// The datapoint name in `<device>/sensor/<name>/state`.
     pub name: String,
+    /// Where the device publishes it, when not `name`: ESPHome object id,
+    /// Tasmota path in `tele/<topic>/SENSOR` (`DS18B20.Temperature`), Shelly
+    /// component and field (`temperature:0.tC`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub entity: Option<String>,
     #[serde(default)]
     pub unit: Option<String>,
+    /// How often its device publishes it; `staleMs` defaults to five of these.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub update_ms: Option<u64>,
     #[serde(default)]
     pub stale_ms: Option<u64>,
+}
+
+impl Sensor {
+    pub fn entity(&self) -> &str {
+        self.entity.as_deref().unwrap_or(&self.name)
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -521,6 +642,14 @@ impl PlantModel {
         Ok(targets)
     }
 
+    /// Whether `key` names an actuator type (or its plural), as group commands' keys do.
+    pub fn is_group_key(&self, key: &str) -> bool {
+        self.actuator_types.contains_key(key)
+            || key
+                .strip_suffix('s')
+                .is_some_and(|k| self.actuator_types.contains_key(k))
+    }
+
     /// The group command that isolates a resource: its configured lockout, or
     /// every member actuator at its lockout state. None when it has neither.
     pub fn lockout_of(&self, resource: &str) -> Option<serde_json::Value> {
@@ -554,6 +683,40 @@ impl PlantModel {
             r.lockout = self.lockout_of(&r.name).unwrap_or_default();
         }
         config
+    }
+}
+
+impl PlantModel {
+    /// How often a sensor's device publishes it: its `updateMs`, else its profile's default.
+    pub fn sensor_update_ms(&self, sensor: &Sensor) -> u64 {
+        sensor.update_ms.unwrap_or_else(|| {
+            self.devices
+                .iter()
+                .find(|d| d.id == sensor.device)
+                .map_or(1000, |d| d.profile.default_sensor_update_ms())
+        })
+    }
+
+    /// A sensor's value is stale after its `staleMs`, else five missed updates.
+    pub fn sensor_stale_ms(&self, sensor: &Sensor) -> u64 {
+        sensor
+            .stale_ms
+            .unwrap_or_else(|| self.sensor_update_ms(sensor).saturating_mul(5))
+    }
+
+    /// Whether an actuator's device publishes only on change: the device's
+    /// `reports`, else its type's, else its profile's default.
+    pub fn reports_on_change(&self, actuator: &Actuator) -> bool {
+        let device = self.devices.iter().find(|d| d.id == actuator.device);
+        let reports = device
+            .and_then(|d| d.reports)
+            .or_else(|| {
+                self.actuator_types
+                    .get(&actuator.kind)
+                    .and_then(|t| t.reports)
+            })
+            .unwrap_or_else(|| device.map_or(Reports::Periodic, |d| d.profile.default_reports()));
+        reports == Reports::OnChange
     }
 }
 
@@ -621,14 +784,16 @@ impl PlantModel {
         }
 
         let mut devices = HashMap::new();
+        let mut profiles = HashMap::new();
         for (i, d) in self.devices.iter().enumerate() {
             let path = format!("devices[{i}] ({})", quote(&d.id));
-            if !topic_safe(&d.id) {
+            if d.prefix.is_none() && !topic_safe(&d.id) {
                 push(
                     path.clone(),
-                    "a device id is its topic prefix: no spaces, '/', '+' or '#'".into(),
+                    "a device id is its topic prefix: no spaces, '/', '+' or '#' (or give it a 'prefix')".into(),
                 );
             }
+            profiles.insert(d.id.as_str(), d.profile);
             if devices.insert(d.id.as_str(), d.kind).is_some() {
                 push(path, format!("device '{}' is defined twice", quote(&d.id)));
             }
@@ -658,19 +823,22 @@ impl PlantModel {
                 ),
                 Some(DeviceKind::ActuatorPanel) => {}
             }
-            if a.io == 0 {
+            if a.io == Some(0) {
                 push(path.clone(), "io numbers start at 1".into());
             }
-            if !slots.insert((a.device.as_str(), a.kind.as_str(), a.io)) {
-                push(
-                    path.clone(),
-                    format!(
-                        "{} {} io {} is already taken by another actuator",
-                        quote(&a.device),
-                        quote(&a.kind),
-                        a.io
-                    ),
-                );
+            let sugarshack = profiles.get(a.device.as_str()) == Some(&Profile::Sugarshack);
+            if let Some(io) = a.io.filter(|_| sugarshack) {
+                if !slots.insert((a.device.as_str(), a.kind.as_str(), io)) {
+                    push(
+                        path.clone(),
+                        format!(
+                            "{} {} io {} is already taken by another actuator",
+                            quote(&a.device),
+                            quote(&a.kind),
+                            io
+                        ),
+                    );
+                }
             }
             let Some(t) = self.actuator_types.get(&a.kind) else {
                 let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
@@ -724,9 +892,17 @@ impl PlantModel {
                 );
             }
             if s.stale_ms == Some(0) {
-                push(path, "staleMs must be positive".into());
+                push(path.clone(), "staleMs must be positive".into());
+            }
+            if s.update_ms == Some(0) {
+                push(path, "updateMs must be positive".into());
             }
         }
+
+        if let Err(problems) = crate::topics::Contract::new(self) {
+            errors.extend(problems);
+        }
+        let mut push = |path: String, message: String| errors.push(PlantError { path, message });
 
         let resources: HashSet<&str> = self.resources.iter().map(|r| r.id.as_str()).collect();
         for (i, a) in self.actuators.iter().enumerate() {

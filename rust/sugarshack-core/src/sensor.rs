@@ -13,7 +13,8 @@ use std::fmt;
 use crate::plant::PlantModel;
 use crate::text::quote;
 
-/// For sensors whose document entry sets no `staleMs`: five missed 1 Hz samples.
+/// For sensors whose document entry sets neither `staleMs` nor `updateMs`
+/// on a sugarshack device: five missed 1 Hz samples (see [`PlantModel::sensor_stale_ms`]).
 pub const DEFAULT_STALE_MS: u64 = 5000;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -49,6 +50,10 @@ pub enum SensorError {
     NoValue {
         sensor: String,
     },
+    /// Its device said it has no reading (ESPHome `nan`: a failed probe).
+    Unavailable {
+        sensor: String,
+    },
     Stale {
         sensor: String,
         age_ms: u64,
@@ -68,6 +73,7 @@ impl SensorError {
             Self::UnknownSensor { .. } => "UNKNOWN_SENSOR",
             Self::InvalidValue { .. } => "INVALID_SENSOR_VALUE",
             Self::NoValue { .. } => "SENSOR_NO_VALUE",
+            Self::Unavailable { .. } => "SENSOR_UNAVAILABLE",
             Self::Stale { .. } => "SENSOR_STALE",
             Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
         }
@@ -84,6 +90,10 @@ impl fmt::Display for SensorError {
                 write!(f, "sample {} of sensor '{sensor}' is not a finite number", quote(value))
             }
             Self::NoValue { sensor } => write!(f, "sensor '{sensor}' has sent no value yet"),
+            Self::Unavailable { sensor } => write!(
+                f,
+                "sensor '{sensor}' has no reading: its device reports none (nan); check the probe"
+            ),
             Self::Stale {
                 sensor,
                 age_ms,
@@ -132,7 +142,7 @@ impl SensorStore {
         for (i, s) in plant.sensors.iter().enumerate() {
             let id = SensorId(i as u32);
             store.names.push(s.id.clone());
-            store.stale_ms.push(s.stale_ms.unwrap_or(DEFAULT_STALE_MS));
+            store.stale_ms.push(plant.sensor_stale_ms(s));
             store.by_name.insert(s.id.clone(), id);
             store
                 .by_topic
@@ -205,6 +215,23 @@ impl SensorStore {
         Ok(())
     }
 
+    /// The device reports no reading for the sensor (`nan`): reads fail
+    /// until its next value.
+    pub fn record_unavailable(&mut self, id: SensorId, now_ms: u64) -> Result<(), SensorError> {
+        let slot = self
+            .samples
+            .get_mut(id.index())
+            .ok_or_else(|| SensorError::UnknownSensor {
+                name: format!("#{}", id.0),
+            })?;
+        *slot = Some(Sample {
+            value: f64::NAN,
+            sampled_ms: now_ms,
+            received_ms: now_ms,
+        });
+        Ok(())
+    }
+
     /// How far ahead of its reception a device timestamp may be.
     pub fn clock_skew_ms(&self) -> u64 {
         self.clock_skew_ms
@@ -221,6 +248,9 @@ impl SensorStore {
         let sample = self
             .sample(id)
             .ok_or_else(|| SensorError::NoValue { sensor: sensor() })?;
+        if sample.value.is_nan() {
+            return Err(SensorError::Unavailable { sensor: sensor() });
+        }
         let age_ms = now_ms.saturating_sub(sample.received_ms);
         let stale_ms = self.stale_ms[id.index()];
         if age_ms >= stale_ms {
@@ -400,5 +430,48 @@ mod tests {
         assert_eq!(s.slot("station-2", "flow"), Some(s.sensor("FT-2").unwrap()));
         assert_eq!(s.slot("station-2", "brix"), None);
         assert_eq!(s.sensor("XX").unwrap_err().code(), "UNKNOWN_SENSOR");
+    }
+
+    #[test]
+    fn a_sensor_its_device_reports_without_a_reading_fails_until_its_next_value() {
+        let mut store = SensorStore::new(&plant());
+        let lt = store.sensor("LT-2").unwrap();
+        store.record(lt, 10.0, 0, 0).unwrap();
+        store.record_unavailable(lt, 100).unwrap();
+        let err = store.fresh(lt, 200).unwrap_err();
+        assert_eq!(err.code(), "SENSOR_UNAVAILABLE");
+        assert!(err.to_string().contains("nan"), "{err}");
+        store.record(lt, 12.0, 300, 300).unwrap();
+        assert_eq!(store.fresh(lt, 400), Ok(12.0));
+    }
+
+    #[test]
+    fn stale_limits_follow_the_update_interval_and_the_profile() {
+        let plant: PlantModel = serde_json::from_value(json!({
+            "actuatorTypes": {},
+            "devices": [
+                { "id": "station-2", "kind": "sensor-station", "profile": "esphome" },
+                { "id": "station-3", "kind": "sensor-station" }
+            ],
+            "sensors": [
+                { "id": "A", "device": "station-2", "name": "a", "updateMs": 10000 },
+                { "id": "B", "device": "station-2", "name": "b" },
+                { "id": "C", "device": "station-3", "name": "c" },
+                { "id": "D", "device": "station-3", "name": "d", "updateMs": 2000, "staleMs": 3000 }
+            ]
+        }))
+        .unwrap();
+        let limits: Vec<u64> = plant
+            .sensors
+            .iter()
+            .map(|s| plant.sensor_stale_ms(s))
+            .collect();
+        // Five missed updates; ESPHome's default update_interval is 60 s; staleMs wins.
+        assert_eq!(limits, vec![50_000, 300_000, DEFAULT_STALE_MS, 3000]);
+        let mut store = SensorStore::new(&plant);
+        let a = store.sensor("A").unwrap();
+        store.record(a, 1.0, 0, 0).unwrap();
+        assert_eq!(store.fresh(a, 49_999), Ok(1.0));
+        assert_eq!(store.fresh(a, 50_000).unwrap_err().code(), "SENSOR_STALE");
     }
 }

@@ -15,6 +15,11 @@ const STALE_MS: u64 = 2500;
 const RETRIES: u32 = 1;
 
 fn plant(valves_per_device: u32, devices: u32) -> PlantModel {
+    plant_reporting(valves_per_device, devices, "periodic")
+}
+
+/// `reports`: "periodic" (silence is staleness) or "on-change" (its devices publish only on change).
+fn plant_reporting(valves_per_device: u32, devices: u32, reports: &str) -> PlantModel {
     let actuators: Vec<_> = (1..=devices)
         .flat_map(|d| {
             (1..=valves_per_device).map(move |io| {
@@ -23,7 +28,7 @@ fn plant(valves_per_device: u32, devices: u32) -> PlantModel {
         })
         .collect();
     let devices: Vec<_> = (1..=devices)
-        .map(|d| json!({ "id": format!("ctrl-{d}"), "kind": "actuator-panel" }))
+        .map(|d| json!({ "id": format!("ctrl-{d}"), "kind": "actuator-panel", "reports": reports }))
         .collect();
     serde_json::from_value(json!({
         "actuatorTypes": { "valve": { "signal": "analog", "tolerance": TOLERANCE, "noMotionMs": NO_MOTION_MS,
@@ -134,6 +139,8 @@ fn publish(target: f64, retain: bool) -> Seen {
 
 /// One valve as the issue describes it.
 struct Model {
+    /// Its device publishes on change only: never stale, liveness from its status.
+    on_change: bool,
     position: Option<f64>,
     last_sample: u64,
     stale: bool,
@@ -149,8 +156,9 @@ struct Model {
 }
 
 impl Model {
-    fn new() -> Self {
+    fn new(on_change: bool) -> Self {
         Model {
+            on_change,
             position: None,
             last_sample: 0,
             stale: false,
@@ -330,7 +338,7 @@ impl Model {
                 if !self.online {
                     return seen;
                 }
-                if !self.stale && now - self.last_sample >= STALE_MS {
+                if !self.on_change && !self.stale && now - self.last_sample >= STALE_MS {
                     self.stale = true;
                     seen.push(Seen::Fault(FaultKind::Stale));
                     if let Some(cmd) = self.cmd.take() {
@@ -478,11 +486,12 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
 
     #[test]
-    fn one_valve_follows_the_reference_model(steps in prop::collection::vec((gap(), step()), 1..80)) {
-        let mut tracker = Tracker::new(plant(1, 1), 0).unwrap();
+    fn one_valve_follows_the_reference_model(steps in prop::collection::vec((gap(), step()), 1..80), on_change in any::<bool>()) {
+        let reports = if on_change { "on-change" } else { "periodic" };
+        let mut tracker = Tracker::new(plant_reporting(1, 1, reports), 0).unwrap();
         let valve = tracker.actuator("V11").unwrap();
         let device = tracker.device("ctrl-1").unwrap();
-        let mut model = Model::new();
+        let mut model = Model::new(on_change);
         let mut now = 0;
         // When the tracker last published the lockout it stands by.
         let mut lockout_sent: Option<u64> = None;

@@ -292,8 +292,8 @@ fn read_error(doc: Value) -> String {
 fn a_document_that_cannot_be_read_names_the_entry() {
     let mut doc = with_operations();
     let actuators = doc["actuators"].as_array_mut().unwrap();
-    actuators.push(json!({ "id": "V41", "type": "valve", "device": "ctrl-1", "lockout": 0 }));
-    assert_eq!(read_error(doc), "actuators[3]: missing field `io`");
+    actuators.push(json!({ "id": "V41", "device": "ctrl-1", "io": 41, "lockout": 0 }));
+    assert_eq!(read_error(doc), "actuators[3]: missing field `type`");
 
     let cases: Vec<(Breakage, &str)> = vec![
         (
@@ -423,5 +423,111 @@ fn problems_quote_at_most_a_hundred_characters_of_what_they_were_given() {
         error.chars().count() < 320,
         "{} characters",
         error.chars().count()
+    );
+}
+
+/// The sound plant on ESPHome devices (entities by object id, components by default).
+fn esphome() -> Value {
+    let mut doc = good();
+    doc["devices"] = json!([
+        { "id": "ctrl-1", "kind": "actuator-panel", "profile": "esphome" },
+        { "id": "station-2", "kind": "sensor-station", "profile": "esphome", "prefix": "shack/station-2" }
+    ]);
+    doc
+}
+
+#[test]
+fn device_profiles_validate() {
+    assert_eq!(problems(esphome()), Vec::<String>::new());
+    let mut doc = good();
+    doc["devices"] = json!([
+        { "id": "ctrl-1", "kind": "actuator-panel", "profile": "tasmota" },
+        { "id": "station-2", "kind": "sensor-station", "profile": "shelly-gen2" }
+    ]);
+    doc["actuators"][0]["entity"] = json!("Shutter1");
+    doc["actuators"][1]["entity"] = json!("POWER1");
+    doc["sensors"][0]["entity"] = json!("temperature:0.tC");
+    assert_eq!(problems(doc), Vec::<String>::new());
+}
+
+#[test]
+fn profile_problems_name_their_entry() {
+    let cases: Vec<(Breakage, &str)> = vec![
+        (
+            |d| d["actuators"][0]["entity"] = json!("V 12"),
+            "actuators[0] (V12): entity 'V 12' is not an ESPHome object id (lowercase letters, digits, '_' and '-'); the entity named 'V 12' has object id 'v_12'",
+        ),
+        (
+            |d| d["actuators"][1]["component"] = json!("number"),
+            "actuators[1] (P1): an ESPHome number cannot drive a binary actuator (analog: valve, cover or number; binary: switch, valve or cover)",
+        ),
+        (
+            |d| {
+                d["actuators"][1]["entity"] = json!("v12");
+                d["actuators"][1]["component"] = json!("valve");
+            },
+            "actuators[1] (P1): its topic 'ctrl-1/valve/v12/state' is also actuators[0] (V12)'s",
+        ),
+        (
+            |d| d["devices"][0]["profile"] = json!("tasmota"),
+            "actuators[0] (V12): a tasmota shutter needs 'entity': \"Shutter1\" .. \"Shutter32\", got ''",
+        ),
+        (
+            |d| d["devices"][1]["prefix"] = json!("a/+/b"),
+            "devices[1] (station-2): prefix 'a/+/b' must be MQTT topic levels without '+', '#', spaces or empty levels",
+        ),
+        (
+            |d| d["devices"][1]["prefix"] = json!("ctrl-1"),
+            "devices[1] (station-2): topic prefix 'ctrl-1' is also device 'ctrl-1''s",
+        ),
+        (
+            |d| d["sensors"][0]["updateMs"] = json!(0),
+            "sensors[0] (LT-2): updateMs must be positive",
+        ),
+        (
+            |d| d["devices"][1]["profile"] = json!("custom"),
+            "devices[1] (station-2): a custom device needs 'custom': its topic templates",
+        ),
+        (
+            |d| {
+                d["devices"][1]["profile"] = json!("custom");
+                d["devices"][1]["custom"] = json!({ "sensors": { "state": "{prefix}/{sensor}" } });
+            },
+            "sensors[0] (LT-2): custom.sensors: '{prefix}/{sensor}' has an unknown placeholder {sensor} (known: {prefix}, {entity})",
+        ),
+        (
+            |d| d["devices"][0]["custom"] = json!({}),
+            "devices[0] (ctrl-1): 'custom' is for devices with profile \"custom\"",
+        ),
+    ];
+    assert_each_names_its_problem(esphome, cases);
+}
+
+#[test]
+fn an_unknown_profile_is_refused_by_path() {
+    let mut doc = good();
+    doc["devices"][0]["profile"] = json!("zigbee");
+    let error = read_error(doc);
+    assert!(
+        error.starts_with("devices[0].profile: unknown variant `zigbee`"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_custom_device_reads_its_templates() {
+    let mut doc = good();
+    doc["devices"][0] = json!({ "id": "ctrl-1", "kind": "actuator-panel", "profile": "custom", "custom": {
+        "status": { "topic": "{prefix}/availability", "online": "up", "offline": "down" },
+        "actuators": {
+            "valve": { "state": "{prefix}/{entity}", "value": "position", "command": "{prefix}/{entity}/set", "payload": "{\"position\":{value}}" },
+            "pump": { "state": "{prefix}/{entity}", "value": "state", "map": { "ON": 1, "OFF": 0 }, "command": "{prefix}/{entity}/set" }
+        }
+    }});
+    assert_eq!(problems(doc.clone()), Vec::<String>::new());
+    doc["devices"][0]["custom"]["actuators"]["valve"]["payload"] = json!("{\"position\":1}");
+    assert_eq!(
+        problems(doc),
+        vec!["actuators[0] (V12): custom.actuators.valve.payload '{\"position\":1}' must hold {value} once".to_string()]
     );
 }

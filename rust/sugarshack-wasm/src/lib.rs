@@ -6,15 +6,17 @@
 //! is shared by every node of the process and must outlive any input.
 
 mod control;
+mod device;
 mod interlock;
 pub mod operation;
 mod routine;
 mod tracker;
 
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
+pub use device::DeviceSide;
 pub use interlock::Interlock;
 pub use routine::Routine;
-pub use tracker::Tracker;
+pub use tracker::{Ingest, Tracker};
 
 use js_sys::{JsString, Reflect, JSON};
 use serde::de::DeserializeOwned;

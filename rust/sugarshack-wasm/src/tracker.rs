@@ -2,6 +2,7 @@ use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, TrackError};
 use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
+use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
 use wasm_bindgen::prelude::*;
 
 use crate::operation::OperationRun;
@@ -29,7 +30,35 @@ enum Output {
         code: &'static str,
         message: String,
     },
+    /// A device message (or part of one) that could not be used.
+    #[serde(rename_all = "camelCase")]
+    Malformed {
+        kind: &'static str,
+        /// Its id.
+        device: String,
+        reason: String,
+        message: String,
+    },
 }
+
+/// What [`Tracker::ingest`] made of a message.
+#[wasm_bindgen]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ingest {
+    /// Not a topic of any device of the plant: a command, or someone else's traffic.
+    Foreign = 0,
+    /// A device topic the palette does not read (logs, telemetry, its commands echoed back).
+    Other = 1,
+    /// A device's availability, applied.
+    Status = 2,
+    /// Values applied (refused parts queued as `malformed` / `rejected` effects).
+    Samples = 3,
+    /// Nothing usable: a `malformed` effect is queued.
+    Refused = 4,
+}
+
+/// Device payloads larger than this are refused unread.
+const MAX_PAYLOAD_BYTES: usize = 16 * 1024 * 1024;
 
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -39,7 +68,7 @@ struct ActuatorView<'a> {
     #[serde(rename = "type")]
     kind: &'a str,
     device: &'a str,
-    io: u32,
+    io: Option<u32>,
     binary: bool,
     idle: Option<f64>,
     lockout: f64,
@@ -56,6 +85,11 @@ pub struct Tracker {
     effects: Vec<Output>,
     scratch: Vec<Effect>,
     batch: Vec<(ActuatorId, f64)>,
+    readings: Readings,
+    /// Of the last `ingest`: its device, device time and the sensors it updated.
+    last_device: Option<u32>,
+    last_ts: Option<f64>,
+    last_sensors: Vec<u32>,
 }
 
 impl Tracker {
@@ -75,6 +109,71 @@ impl Tracker {
                 name: format!("#{handle}"),
             })
         })
+    }
+
+    fn malformed(&mut self, device: DeviceId, reason: impl Into<String>, message: String) {
+        let name = self.core.device_name(device).unwrap_or_default().to_owned();
+        self.malformed_named(name, reason, message);
+    }
+
+    fn malformed_named(&mut self, device: String, reason: impl Into<String>, message: String) {
+        self.effects.push(Output::Malformed {
+            kind: "malformed",
+            device,
+            reason: reason.into(),
+            message,
+        });
+    }
+
+    fn refused(&mut self, device: DeviceId, refusal: Refusal) {
+        self.malformed(device, refusal.reason, refusal.message);
+    }
+
+    /// Applies what a device message carried; refusals become `malformed` effects.
+    fn apply(&mut self, device: DeviceId, ts: Option<u64>, now: u64) {
+        let mut readings = std::mem::take(&mut self.readings);
+        for refusal in readings.refusals.drain(..) {
+            self.refused(device, refusal);
+        }
+        self.batch.clear();
+        for reading in &readings.samples {
+            match *reading {
+                Reading::Actuator(id, value) => self.batch.push((id, value)),
+                Reading::Sensor(id, value) => {
+                    let sampled = ts.unwrap_or(now);
+                    match self.sensors.record(id, value, sampled, now) {
+                        Ok(()) => self.last_sensors.push(id.index() as u32),
+                        Err(err) => self.malformed(device, err.code(), err.to_string()),
+                    }
+                }
+                Reading::SensorUnavailable(id) => {
+                    if self.sensors.record_unavailable(id, now).is_ok() {
+                        self.last_sensors.push(id.index() as u32);
+                    }
+                }
+            }
+        }
+        self.readings = readings;
+        if self.batch.is_empty() {
+            return;
+        }
+        let mut effects = std::mem::take(&mut self.scratch);
+        let outcome = self.core.feedback_batch(&self.batch, ts, now, &mut effects);
+        self.effects.extend(effects.drain(..).map(Output::Effect));
+        self.scratch = effects;
+        match outcome {
+            Ok(rejected) => {
+                for (id, err) in rejected {
+                    self.effects.push(Output::Rejected {
+                        kind: "rejected",
+                        actuator: id.index() as u32,
+                        code: err.code(),
+                        message: err.to_string(),
+                    });
+                }
+            }
+            Err(err) => self.malformed(device, err.code(), err.to_string()),
+        }
     }
 
     fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
@@ -106,6 +205,10 @@ impl Tracker {
             effects: Vec::new(),
             scratch: Vec::new(),
             batch: Vec::new(),
+            readings: Readings::default(),
+            last_device: None,
+            last_ts: None,
+            last_sensors: Vec::new(),
         })
     }
 
@@ -266,6 +369,122 @@ impl Tracker {
             });
         }
         Ok(self.effects.len() as u32)
+    }
+
+    /// Reads and applies one MQTT message by the plant's device profiles:
+    /// availability, actuator states and sensor values of any device. What
+    /// it could not use is queued as `{ kind: "malformed", device, reason,
+    /// message }` (or `rejected` for a value the actuator cannot have); it
+    /// throws only on a bad `nowMs`. Feedback's hot path: no serde.
+    pub fn ingest(&mut self, topic: &str, payload: &str, now_ms: f64) -> Result<Ingest, JsValue> {
+        self.ingest_bytes(topic, payload.as_bytes(), now_ms)
+    }
+
+    /// [`Tracker::ingest`] for a payload as bytes (an MQTT Buffer).
+    #[wasm_bindgen(js_name = ingestBytes)]
+    pub fn ingest_bytes(
+        &mut self,
+        topic: &str,
+        payload: &[u8],
+        now_ms: f64,
+    ) -> Result<Ingest, JsValue> {
+        let now = time(now_ms)?;
+        self.last_device = None;
+        self.last_ts = None;
+        self.last_sensors.clear();
+        let contract = self.core.contract();
+        if payload.len() > MAX_PAYLOAD_BYTES {
+            return Ok(match contract.device_of(topic) {
+                Some(device) => {
+                    self.last_device = Some(device.index() as u32);
+                    self.malformed(
+                        device,
+                        "too large",
+                        format!(
+                            "payload of {} bytes is over the {} MiB a device message may have",
+                            payload.len(),
+                            MAX_PAYLOAD_BYTES >> 20
+                        ),
+                    );
+                    Ingest::Refused
+                }
+                None => Ingest::Foreign,
+            });
+        }
+        let mut readings = std::mem::take(&mut self.readings);
+        let incoming = contract.parse(topic, payload, now, &mut readings);
+        self.readings = readings;
+        Ok(match incoming {
+            Incoming::Foreign => Ingest::Foreign,
+            Incoming::Other { device } => {
+                self.last_device = Some(device.index() as u32);
+                Ingest::Other
+            }
+            Incoming::Status { device, online } => {
+                self.last_device = Some(device.index() as u32);
+                let effects = self
+                    .core
+                    .device_status(device, online, now)
+                    .map_err(track_error)?;
+                self.queue(effects);
+                Ingest::Status
+            }
+            Incoming::Samples { device, ts } => {
+                self.last_device = Some(device.index() as u32);
+                self.last_ts = ts.map(|t| t as f64);
+                self.apply(device, ts, now);
+                Ingest::Samples
+            }
+            Incoming::Refused { device, refusal } => {
+                self.last_device = Some(device.index() as u32);
+                self.refused(device, refusal);
+                Ingest::Refused
+            }
+            Incoming::UnknownDevice { name } => {
+                let message = format!("device '{}' is not in the plant document", quote(&name));
+                self.malformed_named(quote(&name), "unknown device", message);
+                Ingest::Refused
+            }
+        })
+    }
+
+    /// The device of the last `ingest`, if its topic was a device's.
+    #[wasm_bindgen(js_name = lastDevice)]
+    pub fn last_device(&self) -> Option<u32> {
+        self.last_device
+    }
+
+    /// The device time (epoch ms) the last `ingest` carried, if any.
+    #[wasm_bindgen(js_name = lastTs)]
+    pub fn last_ts(&self) -> Option<f64> {
+        self.last_ts
+    }
+
+    /// The sensors the last `ingest` gave a value (or a "no reading").
+    #[wasm_bindgen(js_name = lastSensors)]
+    pub fn last_sensors(&self) -> Vec<u32> {
+        self.last_sensors.clone()
+    }
+
+    /// How many effects are queued (`takeEffects` returns them).
+    pub fn queued(&self) -> u32 {
+        self.effects.len() as u32
+    }
+
+    /// The device a topic belongs to under the plant's profiles, if any.
+    #[wasm_bindgen(js_name = topicDevice)]
+    pub fn topic_device(&self, topic: &str) -> Option<u32> {
+        self.core
+            .contract()
+            .device_of(topic)
+            .map(|d| d.index() as u32)
+    }
+
+    /// Whether `key` can start a group command (`valves`, `pump`...): a msg
+    /// on a foreign topic with such a key is a command, else someone else's traffic.
+    #[wasm_bindgen(js_name = isGroupKey)]
+    pub fn is_group_key(&self, key: &str) -> bool {
+        self.core.plant().is_group_key(key)
     }
 
     /// A device's availability (its retained status or last will).

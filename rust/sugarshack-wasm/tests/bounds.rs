@@ -295,18 +295,19 @@ fn a_million_character_plant_value_is_quoted_short() {
 fn plant_document_errors_name_their_entry() {
     let doc = json(PLANT);
     let second: js_sys::Object = get(&get(&doc, "actuators"), "1").unchecked_into();
-    Reflect::delete_property(&second, &"io".into()).unwrap();
+    Reflect::delete_property(&second, &"lockout".into()).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
     assert_eq!(code_of(&err), "INVALID_PLANT");
     assert_eq!(
         message_of(&err),
-        "invalid plant document: actuators[1]: missing field `io`"
+        "invalid plant document: actuators[1]: missing field `lockout`"
     );
-    let text = PLANT.replace(r#""io": 13, "#, "");
+    let text = PLANT.replace(r#", "lockout": 0 }
+    ]"#, " }\n    ]");
     let err = Tracker::new(JsValue::from_str(&text), 0.0).err().unwrap();
     assert!(
         message_of(&err).starts_with(
-            "invalid plant document: actuators[1]: missing field `io` (line 8, column"
+            "invalid plant document: actuators[1]: missing field `lockout` (line 8, column"
         ),
         "{}",
         message_of(&err)

@@ -18,7 +18,7 @@
 //! let v12 = tracker.actuator("V12").unwrap();
 //! tracker.feedback(v12, 0.0, None, 0).unwrap();
 //! let sent = tracker.command(&[(v12, 100.0)], 7, false, 10).unwrap();
-//! assert!(matches!(&sent[0], Effect::Publish { topic, payload, retain: false }
+//! assert!(matches!(&sent[0], Effect::Publish { topic, payload, retain: false, .. }
 //!     if topic == "ctrl-1/valve/12/command" && payload == "100"));
 //! tracker.feedback(v12, 40.0, None, 2010).unwrap();
 //! let done = tracker.feedback(v12, 99.0, None, 4010).unwrap();
@@ -34,6 +34,7 @@ use serde::Serialize;
 pub use error::TrackError;
 
 use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
+use crate::topics::Contract;
 
 /// An actuator of the plant, by its index in the plant document.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -44,7 +45,7 @@ impl ActuatorId {
     pub fn index(self) -> usize {
         self.0 as usize
     }
-    pub fn from_index(index: u32) -> Self {
+    pub const fn from_index(index: u32) -> Self {
         ActuatorId(index)
     }
 }
@@ -58,7 +59,7 @@ impl DeviceId {
     pub fn index(self) -> usize {
         self.0 as usize
     }
-    pub fn from_index(index: u32) -> Self {
+    pub const fn from_index(index: u32) -> Self {
         DeviceId(index)
     }
 }
@@ -100,8 +101,9 @@ pub enum FaultKind {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase", tag = "kind")]
 pub enum Effect {
-    /// Send this MQTT message.
+    /// Send this MQTT message (to `device`, through the node that serves it).
     Publish {
+        device: DeviceId,
         topic: String,
         payload: String,
         retain: bool,
@@ -220,7 +222,8 @@ struct ActuatorState {
     signal: Signal,
     range: Range,
     type_index: usize,
-    topic: String,
+    /// Its device publishes on change only: silence is not staleness.
+    on_change: bool,
     idle: Option<f64>,
     lockout: f64,
     position: Option<f64>,
@@ -284,12 +287,15 @@ pub struct Tracker {
     /// (device, type name, io) -> actuator, for device feedback.
     slots: HashMap<(DeviceId, String, u32), ActuatorId>,
     groups: HashMap<Caller, Group>,
+    /// The MQTT topics and payloads of every device.
+    contract: Contract,
 }
 
 impl Tracker {
     /// Validates the plant and starts tracking at `now_ms` (feedback is stale `staleMs` after it).
     pub fn new(plant: PlantModel, now_ms: u64) -> Result<Self, PlantErrors> {
         plant.validate()?;
+        let contract = Contract::new(&plant).map_err(PlantErrors)?;
         let type_names: Vec<&String> = plant.actuator_types.keys().collect();
         let timings = plant
             .actuator_types
@@ -327,7 +333,9 @@ impl Tracker {
             let device = device_by_name[&a.device];
             devices[device.index()].actuators.push(id);
             by_name.insert(a.id.clone(), id);
-            slots.insert((device, a.kind.clone(), a.io), id);
+            if let Some(io) = a.io {
+                slots.insert((device, a.kind.clone(), io), id);
+            }
             actuators.push(ActuatorState {
                 name: a.id.clone(),
                 device,
@@ -337,7 +345,7 @@ impl Tracker {
                     .iter()
                     .position(|n| **n == a.kind)
                     .expect("validated type"),
-                topic: format!("{}/{}/{}/command", a.device, a.kind, a.io),
+                on_change: plant.reports_on_change(a),
                 idle: a
                     .idle
                     .as_ref()
@@ -365,11 +373,17 @@ impl Tracker {
             device_by_name,
             slots,
             groups: HashMap::new(),
+            contract,
         })
     }
 
     pub fn plant(&self) -> &PlantModel {
         &self.plant
+    }
+
+    /// The plant's MQTT contract (topics and payloads of every device).
+    pub fn contract(&self) -> &Contract {
+        &self.contract
     }
 
     // ---- names ---------------------------------------------------------------
@@ -402,6 +416,7 @@ impl Tracker {
 
     /// The actuator a device reports as `<type>` number `io`, if the plant names one.
     pub fn slot(&self, device: DeviceId, kind: &str, io: u32) -> Option<ActuatorId> {
+        // Off the hot path (feedback goes through the contract): one allocation is fine.
         self.slots.get(&(device, kind.to_owned(), io)).copied()
     }
 
@@ -542,16 +557,13 @@ impl Tracker {
             let a = &mut self.actuators[id.index()];
             if a.retained && !lockout {
                 effects.push(Effect::Publish {
-                    topic: a.topic.clone(),
+                    device: a.device,
+                    topic: self.contract.command_topic(id).to_owned(),
                     payload: String::new(),
                     retain: true,
                 });
             }
-            effects.push(Effect::Publish {
-                topic: a.topic.clone(),
-                payload: payload(a.signal, target),
-                retain: lockout,
-            });
+            effects.push(publish(&self.contract, id, a.device, target, lockout));
             a.commanded = Some(target);
             a.resting = Some(target);
             a.retained = lockout;
@@ -951,7 +963,8 @@ impl Tracker {
     // ---- time ----------------------------------------------------------------------
 
     /// Checks every threshold: no motion, target not reached (each retried,
-    /// then escalated) and stale feedback; re-sends an unconfirmed lockout
+    /// then escalated) and stale feedback (not for devices that publish on
+    /// change, see [`PlantModel::reports_on_change`]); re-sends an unconfirmed lockout
     /// `completionMs` after its last send. A threshold counts as crossed once
     /// `now - start >= T`. Nothing is checked for a device known offline.
     pub fn tick(&mut self, now_ms: u64) -> Vec<Effect> {
@@ -963,7 +976,11 @@ impl Tracker {
                 continue;
             }
             let timing = &self.timings[a.type_index];
-            if !a.stale && now_ms.saturating_sub(a.last_sample_ms) >= timing.stale_ms {
+            // A device that publishes on change is silent while nothing moves:
+            // its liveness is its status topic (last will) and the broker path.
+            let silent_too_long =
+                !a.on_change && now_ms.saturating_sub(a.last_sample_ms) >= timing.stale_ms;
+            if !a.stale && silent_too_long {
                 let a = &mut self.actuators[index];
                 a.stale = true;
                 a.phase = Phase::Faulted;
@@ -1017,11 +1034,13 @@ impl Tracker {
                 attempt: command.retries,
                 fault,
             });
-            effects.push(Effect::Publish {
-                topic: a.topic.clone(),
-                payload: payload(a.signal, command.target),
-                retain: a.retained,
-            });
+            effects.push(publish(
+                &self.contract,
+                id,
+                a.device,
+                command.target,
+                a.retained,
+            ));
             if let Some(order) = a.lockout_order.as_mut() {
                 if order.target == command.target {
                     order.sends = order.sends.saturating_add(1);
@@ -1047,11 +1066,7 @@ impl Tracker {
         if a.lockout_order.is_some() {
             self.resend_lockout(id, now_ms, effects);
         } else if let Some(target) = a.commanded {
-            effects.push(Effect::Publish {
-                topic: a.topic.clone(),
-                payload: payload(a.signal, target),
-                retain: a.retained,
-            });
+            effects.push(publish(&self.contract, id, a.device, target, a.retained));
         }
     }
 
@@ -1066,11 +1081,7 @@ impl Tracker {
             actuator: id,
             attempt: order.sends - 1,
         });
-        effects.push(Effect::Publish {
-            topic: a.topic.clone(),
-            payload: payload(a.signal, order.target),
-            retain: true,
-        });
+        effects.push(publish(&self.contract, id, a.device, order.target, true));
     }
 
     fn state(&self, id: ActuatorId) -> Result<&ActuatorState, TrackError> {
@@ -1137,11 +1148,20 @@ impl Tracker {
     }
 }
 
-fn payload(signal: Signal, target: f64) -> String {
-    match signal {
-        Signal::Binary if target >= 0.5 => "ON".to_owned(),
-        Signal::Binary => "OFF".to_owned(),
-        Signal::Analog => format!("{target}"),
+/// The command of `id` to `target`, in its device's dialect.
+fn publish(
+    contract: &Contract,
+    id: ActuatorId,
+    device: DeviceId,
+    target: f64,
+    retain: bool,
+) -> Effect {
+    let message = contract.command(id, target);
+    Effect::Publish {
+        device,
+        topic: message.topic,
+        payload: message.payload,
+        retain,
     }
 }
 

@@ -37,6 +37,7 @@ fn publishes(effects: &[Effect]) -> Vec<(String, String, bool)> {
                 topic,
                 payload,
                 retain,
+                ..
             } => Some((topic.clone(), payload.clone(), *retain)),
             _ => None,
         })
@@ -986,4 +987,93 @@ fn a_batch_stamped_beyond_the_clock_skew_is_refused_whole() {
         Ok(Vec::new()),
         "an empty batch has nothing to refuse"
     );
+}
+
+/// P1 (an ESPHome switch) and V1 (an ESPHome valve), both on change only.
+fn esphome_tracker() -> (Tracker, ActuatorId, ActuatorId) {
+    let plant: PlantModel = serde_json::from_value(json!({
+        "actuatorTypes": {
+            "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 3000, "staleMs": 5000 },
+            "pump": { "signal": "binary", "noMotionMs": 1000, "completionMs": 2000, "staleMs": 5000 }
+        },
+        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel", "profile": "esphome" }],
+        "actuators": [
+            { "id": "V1", "type": "valve", "device": "ctrl-1", "idle": 0, "lockout": 0 },
+            { "id": "P1", "type": "pump", "device": "ctrl-1", "idle": false, "lockout": false }
+        ]
+    }))
+    .unwrap();
+    let mut t = Tracker::new(plant, 0).unwrap();
+    let [v1, p1] = ["V1", "P1"].map(|n| t.actuator(n).unwrap());
+    t.feedback(v1, 0.0, None, 0).unwrap();
+    t.feedback(p1, 1.0, None, 0).unwrap();
+    (t, v1, p1)
+}
+
+#[test]
+fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_completes_at_once() {
+    let (mut t, v1, p1) = esphome_tracker();
+    // An hour of silence: nothing moved, nothing to say.
+    assert!(t.tick(3_600_000).is_empty());
+    assert_eq!(t.phase(p1), Some(Phase::Idle));
+    // The switch deduplicates: ON again publishes nothing back; the command is done at once.
+    let effects = t.command(&[(p1, 1.0)], 7, false, 3_600_000).unwrap();
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::GroupCompleted {
+            caller: 7,
+            completion_ms: 0
+        }
+    )));
+    assert_eq!(
+        publishes(&effects),
+        vec![(
+            "ctrl-1/switch/p1/command".to_owned(),
+            "ON".to_owned(),
+            false
+        )]
+    );
+    // A real move still has its no-motion threshold.
+    let effects = t.command(&[(v1, 100.0)], 8, false, 3_600_000).unwrap();
+    assert_eq!(
+        publishes(&effects),
+        vec![(
+            "ctrl-1/valve/v1/position/command".to_owned(),
+            "100".to_owned(),
+            false
+        )]
+    );
+    let faults = t.tick(3_601_000);
+    assert!(
+        faults.iter().any(|e| matches!(
+            e,
+            Effect::Retry {
+                fault: FaultKind::NoMotion,
+                ..
+            }
+        ) || matches!(
+            e,
+            Effect::GroupFailed {
+                fault: FaultKind::NoMotion,
+                ..
+            }
+        )),
+        "{faults:?}"
+    );
+}
+
+#[test]
+fn an_on_change_device_going_offline_fails_its_commands_at_once() {
+    let (mut t, v1, _) = esphome_tracker();
+    t.command(&[(v1, 100.0)], 9, false, 10).unwrap();
+    let device = t.device("ctrl-1").unwrap();
+    let effects = t.device_status(device, false, 20).unwrap();
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::GroupFailed {
+            caller: 9,
+            fault: FaultKind::DeviceOffline,
+            ..
+        }
+    )));
 }

@@ -1,0 +1,173 @@
+//! The device's side of the MQTT contract, for simulators and test devices:
+//! the messages a device of the plant publishes, and the commands it reads,
+//! exactly as the palette's topics module expects them.
+
+use serde::Serialize;
+use sugarshack_core::actuator::{ActuatorId, DeviceId};
+use sugarshack_core::plant::PlantModel;
+use sugarshack_core::sensor::SensorId;
+use sugarshack_core::topics::{Command, Contract, Message};
+use wasm_bindgen::prelude::*;
+
+use crate::{from_js_bounded, js_error, to_js, Bound};
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase", tag = "kind")]
+enum Read {
+    /// Go to `value` (0/1 for binary).
+    Set { actuator: u32, value: f64 },
+    /// An empty payload: a retained command cleared on the broker.
+    Cleared { actuator: u32 },
+    Refused {
+        actuator: Option<u32>,
+        reason: &'static str,
+        message: String,
+    },
+}
+
+/// The devices of one plant document as its devices speak.
+#[wasm_bindgen]
+pub struct DeviceSide {
+    plant: PlantModel,
+    contract: Contract,
+}
+
+fn ts_of(ts: Option<f64>) -> Option<u64> {
+    ts.filter(|t| t.is_finite() && *t >= 0.0).map(|t| t as u64)
+}
+
+impl DeviceSide {
+    fn device_id(&self, handle: u32) -> Result<DeviceId, JsValue> {
+        if (handle as usize) < self.plant.devices.len() {
+            Ok(DeviceId::from_index(handle))
+        } else {
+            Err(js_error("UNKNOWN_DEVICE", &format!("no device #{handle}")))
+        }
+    }
+}
+
+#[wasm_bindgen]
+impl DeviceSide {
+    /// `plant`: the plant document (refused like the tracker refuses it: `INVALID_PLANT`).
+    #[wasm_bindgen(constructor)]
+    pub fn new(plant: JsValue) -> Result<DeviceSide, JsValue> {
+        let plant: PlantModel = from_js_bounded(
+            plant,
+            "INVALID_PLANT",
+            "invalid plant document",
+            Bound::PlantDocument,
+        )?;
+        plant
+            .validate()
+            .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
+        let contract = Contract::new(&plant).map_err(|errors| {
+            js_error(
+                "INVALID_PLANT",
+                &sugarshack_core::plant::PlantErrors(errors).to_string(),
+            )
+        })?;
+        Ok(DeviceSide { plant, contract })
+    }
+
+    /// Handles are indices in the document: devices, actuators and sensors in their lists.
+    pub fn device(&self, id: &str) -> Option<u32> {
+        self.plant
+            .devices
+            .iter()
+            .position(|d| d.id == id)
+            .map(|i| i as u32)
+    }
+
+    /// The device's profile name (`esphome`...).
+    pub fn profile(&self, device: u32) -> Result<String, JsValue> {
+        let d = self.device_id(device)?;
+        Ok(self
+            .contract
+            .profile(d)
+            .map(|p| p.name().to_owned())
+            .unwrap_or_default())
+    }
+
+    /// Whether its actuators publish on change only.
+    #[wasm_bindgen(js_name = reportsOnChange)]
+    pub fn reports_on_change(&self, actuator: u32) -> bool {
+        self.plant
+            .actuators
+            .get(actuator as usize)
+            .is_some_and(|a| self.plant.reports_on_change(a))
+    }
+
+    /// `{ topic, payload, retain }`: its birth message, or its last will when `online` is false.
+    pub fn status(&self, device: u32, online: bool) -> Result<JsValue, JsValue> {
+        to_js(&self.contract.format_status(self.device_id(device)?, online))
+    }
+
+    /// The topics it subscribes to for commands.
+    #[wasm_bindgen(js_name = commandTopics)]
+    pub fn command_topics(&self, device: u32) -> Result<Vec<String>, JsValue> {
+        Ok(self.contract.command_topics(self.device_id(device)?))
+    }
+
+    /// A command it received: `{ kind: "set", actuator, value }`, `{ kind: "cleared", actuator }`,
+    /// `{ kind: "refused", actuator, reason, message }`, or undefined when the topic commands nothing.
+    #[wasm_bindgen(js_name = parseCommand)]
+    pub fn parse_command(&self, topic: &str, payload: &[u8]) -> Result<JsValue, JsValue> {
+        let read = match self.contract.parse_command(topic, payload) {
+            None => return Ok(JsValue::UNDEFINED),
+            Some(Ok(Command::Set(a, value))) => Read::Set {
+                actuator: a.index() as u32,
+                value,
+            },
+            Some(Ok(Command::Cleared(a))) => Read::Cleared {
+                actuator: a.index() as u32,
+            },
+            Some(Err(refusal)) => Read::Refused {
+                actuator: None,
+                reason: refusal.reason,
+                message: refusal.message,
+            },
+        };
+        to_js(&read)
+    }
+
+    /// What it publishes for its actuators at `values` (`ts`: its clock, epoch ms, where the profile carries one).
+    #[wasm_bindgen(js_name = actuatorMessages)]
+    pub fn actuator_messages(
+        &self,
+        device: u32,
+        actuators: &[u32],
+        values: &[f64],
+        ts: Option<f64>,
+    ) -> Result<JsValue, JsValue> {
+        let values: Vec<(ActuatorId, f64)> = actuators
+            .iter()
+            .zip(values)
+            .map(|(&a, &v)| (ActuatorId::from_index(a), v))
+            .collect();
+        let messages: Vec<Message> =
+            self.contract
+                .format_actuators(self.device_id(device)?, &values, ts_of(ts));
+        to_js(&messages)
+    }
+
+    /// What it publishes for its sensors at `values` (NaN: no reading).
+    #[wasm_bindgen(js_name = sensorMessages)]
+    pub fn sensor_messages(
+        &self,
+        device: u32,
+        sensors: &[u32],
+        values: &[f64],
+        ts: Option<f64>,
+    ) -> Result<JsValue, JsValue> {
+        let values: Vec<(SensorId, f64)> = sensors
+            .iter()
+            .zip(values)
+            .map(|(&s, &v)| (SensorId::from_index(s), v))
+            .collect();
+        to_js(
+            &self
+                .contract
+                .format_sensors(self.device_id(device)?, &values, ts_of(ts)),
+        )
+    }
+}

@@ -1,0 +1,180 @@
+#![cfg(target_arch = "wasm32")]
+
+//! Device messages through the boundary, under Node: `ingest` reads them by
+//! the plant's profiles and applies them; what it cannot use comes back as
+//! `malformed` effects, and foreign topics are told apart.
+
+use js_sys::{Array, Reflect, JSON};
+use sugarshack_wasm::{Ingest, Tracker};
+use wasm_bindgen::JsValue;
+use wasm_bindgen_test::wasm_bindgen_test;
+
+fn json(text: &str) -> JsValue {
+    JSON::parse(text).expect("test JSON parses")
+}
+
+fn get(value: &JsValue, key: &str) -> JsValue {
+    Reflect::get(value, &key.into()).unwrap()
+}
+
+const PLANT: &str = r#"{
+    "actuatorTypes": {
+        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 },
+        "pump": { "signal": "binary", "noMotionMs": 1000, "completionMs": 3000, "staleMs": 5000 }
+    },
+    "devices": [
+        { "id": "ctrl-1", "kind": "actuator-panel", "profile": "esphome" },
+        { "id": "station-2", "kind": "sensor-station", "profile": "esphome" },
+        { "id": "ctrl-3", "kind": "actuator-panel" }
+    ],
+    "actuators": [
+        { "id": "V101", "type": "valve", "device": "ctrl-1", "idle": 0, "lockout": 0 },
+        { "id": "P1", "type": "pump", "device": "ctrl-1", "idle": false, "lockout": false },
+        { "id": "V301", "type": "valve", "device": "ctrl-3", "io": 1, "idle": 0, "lockout": 0 }
+    ],
+    "sensors": [{ "id": "LT-2", "device": "station-2", "name": "volume", "updateMs": 60000 }]
+}"#;
+
+fn effects(t: &mut Tracker) -> Vec<JsValue> {
+    Array::from(&t.take_effects().unwrap()).iter().collect()
+}
+
+#[wasm_bindgen_test]
+fn esphome_states_complete_a_group_command() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    assert_eq!(
+        t.ingest("ctrl-1/status", "online", 0.0).unwrap(),
+        Ingest::Status
+    );
+    assert_eq!(
+        t.ingest("ctrl-1/valve/v101/position/state", "0", 0.0)
+            .unwrap(),
+        Ingest::Samples
+    );
+    assert_eq!(
+        t.ingest("ctrl-1/switch/p1/state", "OFF", 0.0).unwrap(),
+        Ingest::Samples
+    );
+    effects(&mut t);
+    t.command(
+        json(r#"{"valves": {"V101": 100}, "pumps": {"P1": true}}"#),
+        7,
+        false,
+        10.0,
+        None,
+    )
+    .unwrap();
+    let published: Vec<(String, String)> = effects(&mut t)
+        .iter()
+        .filter(|e| get(e, "kind").as_string().as_deref() == Some("publish"))
+        .map(|e| {
+            (
+                get(e, "topic").as_string().unwrap(),
+                get(e, "payload").as_string().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        published,
+        vec![
+            ("ctrl-1/valve/v101/position/command".into(), "100".into()),
+            ("ctrl-1/switch/p1/command".into(), "ON".into())
+        ]
+    );
+    t.ingest("ctrl-1/valve/v101/position/state", "100", 500.0)
+        .unwrap();
+    t.ingest_bytes("ctrl-1/switch/p1/state", b"ON", 600.0)
+        .unwrap();
+    let done = effects(&mut t);
+    assert!(done
+        .iter()
+        .any(|e| get(e, "kind").as_string().as_deref() == Some("groupCompleted")));
+    assert_eq!(t.last_device(), Some(0));
+    assert_eq!(t.last_ts(), None);
+}
+
+#[wasm_bindgen_test]
+fn foreign_topics_are_told_from_device_topics() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    assert_eq!(
+        t.ingest("homeassistant/valve/ctrl-1/v101/config", "{}", 0.0)
+            .unwrap(),
+        Ingest::Foreign
+    );
+    assert_eq!(
+        t.ingest("ctrl-1/debug", "[D][valve:1]", 0.0).unwrap(),
+        Ingest::Other
+    );
+    assert_eq!(t.topic_device("ctrl-1/debug"), Some(0));
+    assert_eq!(t.topic_device("plant/command"), None);
+    assert!(t.is_group_key("valves") && t.is_group_key("pump") && !t.is_group_key("blob"));
+    assert_eq!(t.queued(), 0);
+}
+
+#[wasm_bindgen_test]
+fn bad_payloads_come_back_as_malformed_effects() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    assert_eq!(
+        t.ingest("ctrl-1/switch/p1/state", "1", 0.0).unwrap(),
+        Ingest::Samples
+    );
+    assert_eq!(
+        t.ingest("ctrl-1/status", "maybe", 0.0).unwrap(),
+        Ingest::Refused
+    );
+    assert_eq!(
+        t.ingest("ctrl-9/state", "{}", 0.0).unwrap(),
+        Ingest::Refused
+    );
+    let reasons: Vec<(String, String)> = effects(&mut t)
+        .iter()
+        .map(|e| {
+            (
+                get(e, "device").as_string().unwrap(),
+                get(e, "reason").as_string().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        reasons,
+        vec![
+            ("ctrl-1".into(), "non-numeric value".into()),
+            ("ctrl-1".into(), "bad status".into()),
+            ("ctrl-9".into(), "unknown device".into())
+        ]
+    );
+    assert!(
+        t.ingest("ctrl-1/status", "online", f64::NAN).is_err(),
+        "a bad clock throws"
+    );
+}
+
+#[wasm_bindgen_test]
+fn sensors_take_values_and_nan_and_report_which() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let lt = t.sensor("LT-2").unwrap();
+    assert_eq!(
+        t.ingest("station-2/sensor/volume/state", "1234.5", 100.0)
+            .unwrap(),
+        Ingest::Samples
+    );
+    assert_eq!(t.last_sensors(), vec![lt]);
+    assert_eq!(t.read_sensors(&[lt], 200.0).unwrap(), vec![1234.5]);
+    // Fresh for five of its 60 s updates.
+    assert!(t.read_sensors(&[lt], 299_000.0).is_ok());
+    t.ingest("station-2/sensor/volume/state", "nan", 300.0)
+        .unwrap();
+    let err = t.read_sensors(&[lt], 400.0).err().unwrap();
+    assert_eq!(get(&err, "code").as_string().unwrap(), "SENSOR_UNAVAILABLE");
+}
+
+#[wasm_bindgen_test]
+fn the_sugarshack_batch_still_reads_with_its_device_time() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let kind = t
+        .ingest("ctrl-3/state", r#"{"ts": 90, "valve": {"1": 40}}"#, 100.0)
+        .unwrap();
+    assert_eq!(kind, Ingest::Samples);
+    assert_eq!(t.last_ts(), Some(90.0));
+    assert_eq!(t.position(2), Some(40.0));
+}
