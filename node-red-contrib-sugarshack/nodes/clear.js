@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
-const { resourcesOf, readMsg } = require('../lib/request');
+const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
 
 module.exports = function (RED) {
   function ClearNode(props) {
@@ -8,14 +8,28 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
     const allFaulted = props.mode === 'all';
+    // A refusal is an answer a dashboard shows: out of output 2 when it is wired, else to the Catch nodes.
+    const refusalsWired = Array.isArray(props.wires) && Array.isArray(props.wires[1]) && props.wires[1].length > 0;
 
     onInput(node, runtime, (rt, msg, send, done) => {
-      const names = readMsg(() => (allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources)));
-      rt.clear(names, (cleared) => {
-        msg.cleared = cleared;
-        send(msg);
+      const request = readMsg(() => ({
+        names: allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources),
+        who: attributionOf(msg),
+      }));
+      try {
+        rt.clear(request.names, (cleared) => {
+          msg.cleared = cleared;
+          msg.clearedBy = { by: request.who.by || 'unknown', reason: request.who.reason, forced: request.who.force };
+          send([msg, null]);
+          done();
+        }, request.who);
+      } catch (err) {
+        if (err.code !== 'CLEAR_REFUSED' || !refusalsWired) throw err;
+        msg.refused = { code: err.code, message: err.message, lines: err.lines || [] };
+        rt.showError(node, err.code);
+        send([null, msg]);
         done();
-      });
+      }
     }, 'interlock', { urgent: always }); // an operator's clear never waits for a deploy's drain
   }
 

@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
-const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
+const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 const { SugarshackError } = require('../lib/errors');
 
@@ -32,6 +32,7 @@ module.exports = function (RED) {
         note: noteOf(msg),
         operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
         resources: byResources ? resourcesOf(msg, props.resources) : null,
+        who: byResources ? attributionOf(msg) : null,
       }));
       const { note, operation } = request;
       const out = (lockouts) => {
@@ -53,7 +54,7 @@ module.exports = function (RED) {
         send([msg, commands]);
         done();
       };
-      if (byResources) rt.faultResources(request.resources, note, out);
+      if (byResources) rt.faultResources(request.resources, note, out, request.who);
       else rt.fault(operation, note, out);
     }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
   }

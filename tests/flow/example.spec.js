@@ -512,7 +512,7 @@ describe('example: subflows-op12', function () {
     assert.equal(seen['step errors'][0].error.source.type, 'sugarshack-wait');
   });
 
-  it('the operator panel: e-stop locks RED out through the group command entry, clear clears it, anything else comes out of output 3', async function () {
+  it('the operator panel: e-stop locks RED out through the group command entry, clear clears it, anything else comes out of output 4', async function () {
     const { flow, seen } = await start();
     const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
     helper.getNode(byName(flow, 'inject', 'e-stop RED')).receive({});
