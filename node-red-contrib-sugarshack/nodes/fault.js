@@ -28,12 +28,16 @@ module.exports = function (RED) {
 
     // Output 2 gets one lockout group command per latched line, once the fault is saved.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const request = readMsg(() => ({
-        note: noteOf(msg),
-        operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
-        resources: byResources ? resourcesOf(msg, props.resources) : null,
-        who: byResources ? attributionOf(msg) : null,
-      }));
+      const request = readMsg(() => {
+        const who = byResources ? attributionOf(msg) : null;
+        return {
+          // An operator's stated reason is the line's fault note.
+          note: (who && who.reason) || noteOf(msg),
+          operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
+          resources: byResources ? resourcesOf(msg, props.resources) : null,
+          who,
+        };
+      });
       const { note, operation } = request;
       const out = (lockouts) => {
         // faultAtMs lets the group command that applies the lockout report the fault lockout time.
