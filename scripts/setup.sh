@@ -93,6 +93,17 @@ _sugarshack_setup() (
     "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y mosquitto
     [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || { say "mosquitto install failed"; exit 1; }
   fi
+  # The browser tests (tests/browser) drive Debian's chromium through puppeteer-core.
+  if [ -x /usr/bin/chromium ] || [ -n "${CHROMIUM_BIN:-}" ]; then
+    say "chromium: present"
+  else
+    say "chromium: apt-get install -y chromium"
+    local sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get update
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y chromium
+    [ -x /usr/bin/chromium ] || { say "chromium install failed"; exit 1; }
+  fi
   say "done"
 )
 
