@@ -105,6 +105,17 @@ _sugarshack_setup() (
     "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y victoria-metrics
     [ -x /usr/bin/victoria-metrics ] || { say "victoria-metrics install failed"; exit 1; }
   fi
+  # The browser tests (tests/browser) drive Debian's chromium through puppeteer-core.
+  if [ -x /usr/bin/chromium ] || [ -n "${CHROMIUM_BIN:-}" ]; then
+    say "chromium: present"
+  else
+    say "chromium: apt-get install -y chromium"
+    local sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get update
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y chromium
+    [ -x /usr/bin/chromium ] || { say "chromium install failed"; exit 1; }
+  fi
   say "done"
 )
 

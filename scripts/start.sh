@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Runs the palette in a local Node-RED 4.1 with its own user dir (.run/userdir).
 #
-# usage: scripts/start.sh [--reset-flows]
+# usage: scripts/start.sh [--reset-flows] [--fresh]
 #   --reset-flows  overwrite the user dir's flows.json from flows/*.json and the
 #                  control examples (pid-loop, rcc-failover)
 #                  (or from the palette's examples when flows/ has none)
+#   --fresh        start from a clean state: flows reset, and the saved
+#                  interlock state (faulted lines, routines) and context removed
+# The HMI (FlowFuse Dashboard 2) is at http://HOST:PORT/dashboard.
 # env:   PORT (default 1880), HOST (default 127.0.0.1; 0.0.0.0 to listen on all interfaces)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,10 +17,12 @@ USERDIR="$ROOT/.run/userdir"
 PORT="${PORT:-1880}"
 HOST="${HOST:-127.0.0.1}"
 RESET_FLOWS=0
+FRESH=0
 for arg in "$@"; do
   case "$arg" in
     --reset-flows) RESET_FLOWS=1 ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    --fresh) FRESH=1 RESET_FLOWS=1 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "start: unknown option $arg" >&2; exit 2 ;;
   esac
 done
@@ -32,13 +37,13 @@ install_palette() {
   mkdir -p "$USERDIR"
   [ -f "$USERDIR/package.json" ] || echo '{"name":"node-red-project","private":true}' >"$USERDIR/package.json"
   local stamp="$USERDIR/.palette-install.sha" want
-  want="$( (echo "$PALETTE"; cat "$PALETTE/package.json") | sha256sum | cut -d' ' -f1)"
+  want="$( (echo "$PALETTE"; cat "$PALETTE/package.json" "$ROOT/node_modules/@flowfuse/node-red-dashboard/package.json") | sha256sum | cut -d' ' -f1)"
   if [ -e "$USERDIR/node_modules/node-red-contrib-sugarshack/package.json" ] &&
      [ "$want" = "$(cat "$stamp" 2>/dev/null)" ]; then
     say "palette: installed"
   else
-    say "palette: npm install $PALETTE"
-    (cd "$USERDIR" && npm install --no-audit --no-fund "$PALETTE")
+    say "palette: npm install $PALETTE and the dashboard"
+    (cd "$USERDIR" && npm install --no-audit --no-fund "$PALETTE" "$ROOT/node_modules/@flowfuse/node-red-dashboard")
     echo "$want" >"$stamp"
   fi
 }
@@ -62,8 +67,17 @@ module.exports = {
   telemetry: { enabled: false },
   // With no database configured, the journal goes to rotated local files (npm run season-report reads them).
   sugarshackJournal: { dir: process.env.SUGARSHACK_JOURNAL_DIR, plant: process.env.SUGARSHACK_PLANT_ID || 'local' },
+  // No welcome tour over the canvas of the demo.
+  editorTheme: { tours: false },
 };
 EOF
+}
+
+# --fresh: what a previous run left (saved interlock state, context) goes.
+clean_state() {
+  [ "$FRESH" = 1 ] || return 0
+  say "fresh: removing saved state and context from $USERDIR"
+  rm -rf "$USERDIR/sugarshack" "$USERDIR/context"
 }
 
 seed_flows() {
@@ -158,6 +172,7 @@ run_node_red() {
 bash scripts/build-wasm.sh
 install_palette
 write_settings
+clean_state
 seed_flows
 start_services
 run_node_red

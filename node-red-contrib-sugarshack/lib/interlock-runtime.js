@@ -462,29 +462,51 @@ class InterlockRuntime extends RuntimeBase {
     });
   }
 
-  /** An emergency stop of lines, owned or not; `then(lockouts)` as for `fault`. */
-  faultResources(names, note, then) {
+  /** An emergency stop of lines, owned or not, by `who` ({ by, reason }); `then(lockouts)` as for `fault`. */
+  faultResources(names, note, then, who = {}) {
     const now = clock.now();
-    const outcome = this.core.faultResources(this.core.resourceSet(names), note, now);
+    const outcome = this.core.faultResources(this.core.resourceSet(names), note, who.by || null, who.reason || null, now);
     const answers = this.answer(outcome.grants, now);
     this.committer.change(() => then(outcome.lockouts), { evenUnsaved: true });
     this.changed(() => answers.forEach((answer) => answer()));
   }
 
-  /** Clears the named lines, or every faulted one when `names` is null; `then(cleared)` once saved. */
-  clear(names, then) {
+  /**
+   * Clears the named lines, or every faulted one when `names` is null, by
+   * `who` ({ by, reason, force }); `then(cleared)` once saved. Bound to a
+   * plant, the core refuses (CLEAR_REFUSED, every reason in `err.lines`)
+   * until the plant shows each line isolated, unless forced.
+   */
+  clear(names, then, who = {}) {
     const now = clock.now();
     const targets = names === null ? this.core.faultedResources() : names;
     if (names === null && targets.length === 0) {
       this.committer.after(() => then([]));
       return;
     }
-    const answers = this.grantsOf(this.core.clear(this.core.resourceSet(targets), now), now);
+    const set = this.core.resourceSet(targets);
+    const by = who.by || null;
+    const reason = who.reason || null;
+    const force = who.force === true;
+    const tracker = this.plant && this.plant.state === 'ready' ? this.plant.t : null;
+    const count = tracker
+      ? this.core.clearAgainst(set, tracker, by, reason, force, now)
+      : this.core.clear(set, by, reason, force, now);
+    const answers = this.grantsOf(count, now);
     if (this.lostState && !this.hasUnknownLines(now)) this.lostState = null;
     this.changed(() => {
       then(targets);
       answers.forEach((answer) => answer());
     });
+  }
+
+  /** Why each faulted line may not be cleared now, per line (empty: it may). */
+  clearBlockers() {
+    if (this.state !== 'ready') return [];
+    const faulted = this.core.faultedResources();
+    const tracker = this.plant && this.plant.state === 'ready' ? this.plant.t : null;
+    if (faulted.length === 0 || !tracker) return faulted.map((line) => ({ line, reasons: [] }));
+    return this.core.clearBlockers(this.core.resourceSet(faulted), tracker);
   }
 
   faultedResources() {
@@ -575,14 +597,39 @@ class InterlockRuntime extends RuntimeBase {
     }
   }
 
-  /** The state as a person (or a dashboard) reads it: lines, holds, queue, and whether it was lost at start. */
+  /**
+   * The state as a person (or a dashboard) reads it: every line (free, held by
+   * an operation since when, or faulted with its cause and since when, and why
+   * it may not be cleared yet), the queue with priorities and waited times,
+   * the routines and their pending operations, whether it was lost at start.
+   */
   describe() {
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
-    const snapshot = this.core.snapshot(clock.now());
+    const now = clock.now();
+    const snapshot = this.core.snapshot(now);
+    const queue = snapshot.queue
+      .concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs })))
+      .map((q) => ({ ...q, waitedMs: Math.max(0, now - q.sinceMs) }));
+    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons]));
+    const lines = snapshot.resources.map(({ name, state }) => {
+      const hold = state.state === 'held' ? snapshot.holds.find((h) => h.operation === state.operation) : null;
+      return {
+        name,
+        state,
+        holder: hold ? { operation: hold.operation, priority: hold.priority, sinceMs: hold.sinceMs, heldMs: Math.max(0, now - hold.sinceMs) } : null,
+        fault: state.state === 'faulted'
+          ? { cause: state.cause, operation: state.operation || null, note: state.note || null, sinceMs: state.sinceMs }
+          : null,
+        waiting: queue.filter((q) => q.resources.includes(name)).map((q) => q.operation),
+        clearBlockers: blockers.get(name) || [],
+      };
+    });
     return {
-      lines: snapshot.resources,
+      atMs: now,
+      lines,
       holds: snapshot.holds,
-      queue: snapshot.queue.concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs }))),
+      queue,
+      routines: [...this.routines.values()].map((host) => host.describe()),
       lostState: this.lostState,
       saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
       runs: [...this.runs].map((run) => ({ operation: run.operation, granted: run.granted })),
@@ -595,6 +642,7 @@ class InterlockRuntime extends RuntimeBase {
   }
 
   refreshStatus(only) {
+    if (this.palette) this.palette.changes.touch();
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = DRAINING_STATUS;

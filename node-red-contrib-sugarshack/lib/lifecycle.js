@@ -12,6 +12,8 @@
 // A shutdown and a deploy both stop the flows; Node-RED replaces its active
 // configuration object before a deploy's stop, not before a shutdown's.
 const { clock } = require('./clock');
+const { stateOf, ChangeNotices } = require('./state');
+const { SugarshackError } = require('./errors');
 
 const DRAIN_CHECK_MS = 250;
 
@@ -27,6 +29,7 @@ class Palette {
     this.swaps = new Map(); // runtime -> settings waiting for the drain
     this.drainTimer = null;
     this.afterStart = [];
+    this.changes = new ChangeNotices();
     RED.events.on('flows:started', (event) => this.flowsStarted(event));
     RED.events.on('flows:stopping', (event) => this.flowsStopping(event));
   }
@@ -165,21 +168,47 @@ function paletteOf(RED) {
 const served = new WeakSet();
 
 /**
- * GET /sugarshack/state: every interlock's lines, holds and queue, and every
- * plant's unconfirmed lockouts and broker connections, as now.
+ * GET /sugarshack/state: every interlock's lines, holders, queue and routines,
+ * every plant's devices, sensors and unconfirmed lockouts, as now (see state.js).
+ * POST /sugarshack/clear and /sugarshack/estop: an operator's clear and
+ * emergency stop from the editor, attributed to the signed-in editor user.
  */
 function serveState(RED, palette) {
   if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
   served.add(RED.httpAdmin);
   RED.httpAdmin.get('/sugarshack/state', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
-    const interlocks = [];
-    const plants = [];
-    for (const [id, runtime] of palette.runtimes) {
-      const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
-      (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
-    }
-    res.json({ interlocks, plants });
+    res.json(stateOf(palette));
   });
+  const operatorAction = (act) => (req, res) => {
+    const body = req.body && typeof req.body === 'object' ? req.body : {};
+    const runtime = palette.runtimes.get(String(body.interlock || ''));
+    if (!runtime || runtime.kind === 'plant' || runtime.state !== 'ready') {
+      res.status(404).json({ code: 'NO_INTERLOCK', message: `no running interlock '${String(body.interlock).slice(0, 100)}'` });
+      return;
+    }
+    const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
+      ? body.lines : null;
+    const who = {
+      by: req.user && typeof req.user.username === 'string' ? req.user.username : null,
+      reason: typeof body.reason === 'string' ? body.reason.slice(0, 1000) : null,
+      force: body.force === true,
+    };
+    try {
+      runtime.guard(() => act(runtime, lines, who, (answer) => res.json(answer)));
+    } catch (err) {
+      res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
+    }
+  };
+  RED.httpAdmin.post('/sugarshack/clear', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
+    rt.clear(lines, (cleared) => answer({ cleared, by: who.by || 'unknown' }), who);
+  }));
+  RED.httpAdmin.post('/sugarshack/estop', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
+    if (!lines || lines.length === 0) throw new SugarshackError('INVALID_RESOURCES', 'name the lines to stop');
+    rt.faultResources(lines, who.reason || 'emergency stop from the editor', (lockouts) => {
+      if (rt.plant) rt.plant.issueLockouts(lockouts, null);
+      answer({ stopped: lockouts.map((l) => l.resource), by: who.by || 'unknown' });
+    }, who);
+  }));
 }
 
 /**

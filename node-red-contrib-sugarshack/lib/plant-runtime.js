@@ -650,13 +650,21 @@ class PlantRuntime extends RuntimeBase {
     return this.t.routine(id);
   }
 
-  /** The plant as a person (or a dashboard) reads it: unconfirmed lockouts and each actuators node's broker connection. */
+  /**
+   * The plant as a person (or a dashboard) reads it: unconfirmed lockouts,
+   * each device online or offline and its actuators with stale feedback, the
+   * last value of every sensor and whether it is fresh, each actuators node's
+   * broker connection.
+   */
   describe() {
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
+    const health = this.t.health(clock.now());
     return {
       lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
       buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
       devicesOffline: [...this.offline].map((d) => this.devices[d]),
+      devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
+      sensors: health.sensors,
     };
   }
 
@@ -686,6 +694,7 @@ class PlantRuntime extends RuntimeBase {
   }
 
   refreshStatus(only) {
+    if (this.palette) this.palette.changes.touch();
     const nodes = only ? [only] : this.users;
     if (this.state === 'failed') {
       for (const node of nodes) this.statusBoard.set(node, errorStatus(this.failure.code));

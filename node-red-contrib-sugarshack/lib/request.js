@@ -115,4 +115,31 @@ function noteOf(msg) {
   return text === undefined ? undefined : text.slice(0, MAX_NOTE);
 }
 
-module.exports = { operationOf, priorityOf, resourcesOf, noteOf, splitNames, readMsg, quote };
+// The core keeps 100 characters of a name and 500 of a reason; a little above that crosses into it.
+const MAX_BY = 200;
+const MAX_REASON = 1000;
+
+/**
+ * Who asks for a clear or an emergency stop, and why: msg.by, else the
+ * dashboard's signed-in user (msg._client.user), else "unknown"; msg.reason;
+ * msg.force === true overrides a clear's refusal (recorded as forced).
+ */
+function attributionOf(msg) {
+  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
+  const user = client && client.user && typeof client.user === 'object' ? client.user : null;
+  const candidates = [msg.by, user && (user.username || user.name || user.email || user.userId)];
+  const by = candidates.find((v) => typeof v === 'string' && v.trim() !== '');
+  if (present(msg.by) && typeof msg.by !== 'string') {
+    throw new SugarshackError('INVALID_INPUT', `msg.by must be the name of the person asking, got ${quote(msg.by)}`);
+  }
+  if (present(msg.reason) && typeof msg.reason !== 'string') {
+    throw new SugarshackError('INVALID_INPUT', `msg.reason must be text, got ${quote(msg.reason)}`);
+  }
+  return {
+    by: by === undefined ? null : by.slice(0, MAX_BY),
+    reason: present(msg.reason) ? msg.reason.slice(0, MAX_REASON) : null,
+    force: msg.force === true,
+  };
+}
+
+module.exports = { operationOf, priorityOf, resourcesOf, noteOf, attributionOf, splitNames, readMsg, quote };

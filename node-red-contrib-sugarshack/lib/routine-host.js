@@ -138,7 +138,7 @@ class RoutineHost {
 
   runPort(operation) {
     return {
-      progress: () => {},
+      progress: () => this.refresh(), // queued, then its first step: the status tells which
       finish: (result) => {
         this.run = null;
         if (this.ended || !this.machine) return;
@@ -231,8 +231,23 @@ class RoutineHost {
     const state = this.machine.state();
     const pending = this.machine.pending();
     if (this.machine.halted()) this.node.status({ fill: 'red', shape: 'ring', text: clip(`halted ${state}`) });
-    else if (pending) this.node.status({ fill: 'blue', shape: 'dot', text: clip(`${state} › ${pending}`) });
+    else if (pending) {
+      const running = Boolean(this.run && this.run.granted);
+      this.node.status({ fill: 'blue', shape: running ? 'dot' : 'ring', text: clip(`${state} › ${running ? 'run' : 'wait'} ${pending}`) });
+    }
     else this.node.status({ fill: this.lastFault ? 'red' : 'green', shape: 'dot', text: clip(state) });
+  }
+
+  /** The routine as an operator reads it: its state and the operation it waits for or runs. */
+  describe() {
+    if (!this.machine) return { id: this.id, state: null, halted: false, pending: null };
+    const pending = this.machine.pending();
+    return {
+      id: this.id,
+      state: this.machine.state(),
+      halted: this.machine.halted(),
+      pending: pending ? { operation: pending, phase: this.run && this.run.granted ? 'running' : 'queued' } : null,
+    };
   }
 
   showError(code) {

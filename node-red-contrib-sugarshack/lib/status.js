@@ -94,6 +94,7 @@ const REASONS = {
   NOT_HOLDING: 'holds nothing',
   NOT_QUEUED: 'not queued',
   NOT_FAULTED: 'not faulted',
+  CLEAR_REFUSED: 'clear refused',
   QUEUE_FULL: 'queue full',
   INVALID_PRIORITY: 'bad priority',
   INVALID_RESOURCES: 'bad resources',

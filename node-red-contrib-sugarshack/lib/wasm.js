@@ -136,11 +136,11 @@ function primeInterlock({ Interlock, Tracker }) {
   il.findOperation('b');
   il.operationName(b);
   il.fault(b, 'primer', 9);
-  il.faultResources(il.resourceSet(['B']), 'primer', 10);
+  il.faultResources(il.resourceSet(['B']), 'primer', null, null, 10);
   il.faultedResources();
   il.counts();
   const restored = Interlock.restore(config, il.snapshot(11), false, true, 11);
-  restored.clear(restored.resourceSet(restored.faultedResources()), 12);
+  restored.clear(restored.resourceSet(restored.faultedResources()), null, null, false, 12);
   restored.drainEvents();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);

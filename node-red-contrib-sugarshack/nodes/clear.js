@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
-const { resourcesOf, readMsg } = require('../lib/request');
+const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
 
 module.exports = function (RED) {
@@ -9,15 +9,31 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
     const allFaulted = props.mode === 'all';
+    // A refusal is an answer a dashboard shows: out of output 2 when it is wired, else to the Catch nodes.
+    const refusalsWired = Array.isArray(props.wires) && Array.isArray(props.wires[1]) && props.wires[1].length > 0;
 
     onInput(node, runtime, (rt, msg, send, done) => {
-      const names = readMsg(() => (allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources)));
-      journal.action('clear', msg, names === null ? 'all' : names);
-      rt.clear(names, (cleared) => {
-        msg.cleared = cleared;
-        send(msg);
+      const request = readMsg(() => ({
+        names: allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources),
+        who: attributionOf(msg),
+      }));
+      const target = request.names === null ? 'all' : request.names;
+      try {
+        rt.clear(request.names, (cleared) => {
+          msg.cleared = cleared;
+          journal.action(request.who.force ? 'clear-forced' : 'clear', request.who, target);
+          msg.clearedBy = { by: request.who.by || 'unknown', reason: request.who.reason, forced: request.who.force };
+          send([msg, null]);
+          done();
+        }, request.who);
+      } catch (err) {
+        if (err.code === 'CLEAR_REFUSED') journal.action('clear-refused', request.who, target);
+        if (err.code !== 'CLEAR_REFUSED' || !refusalsWired) throw err;
+        msg.refused = { code: err.code, message: err.message, lines: err.lines || [] };
+        rt.showError(node, err.code);
+        send([null, msg]);
         done();
-      });
+      }
     }, 'interlock', { urgent: always }); // an operator's clear never waits for a deploy's drain
   }
 

@@ -1,6 +1,6 @@
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
-const { operationOf, resourcesOf, noteOf, readMsg } = require('../lib/request');
+const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 const { journal } = require('../lib/journal/bus');
 const { SugarshackError } = require('../lib/errors');
@@ -29,11 +29,16 @@ module.exports = function (RED) {
 
     // Output 2 gets one lockout group command per latched line, once the fault is saved.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const request = readMsg(() => ({
-        note: noteOf(msg),
-        operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
-        resources: byResources ? resourcesOf(msg, props.resources) : null,
-      }));
+      const request = readMsg(() => {
+        const who = byResources ? attributionOf(msg) : null;
+        return {
+          // An operator's stated reason is the line's fault note.
+          note: (who && who.reason) || noteOf(msg),
+          operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
+          resources: byResources ? resourcesOf(msg, props.resources) : null,
+          who,
+        };
+      });
       const { note, operation } = request;
       const out = (lockouts) => {
         // faultAtMs lets the group command that applies the lockout report the fault lockout time.
@@ -54,8 +59,8 @@ module.exports = function (RED) {
         send([msg, commands]);
         done();
       };
-      journal.action('fault', msg, byResources ? request.resources : operation);
-      if (byResources) rt.faultResources(request.resources, note, out);
+      if (byResources) journal.action('e-stop', request.who, request.resources);
+      if (byResources) rt.faultResources(request.resources, note, out, request.who);
       else rt.fault(operation, note, out);
     }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
   }

@@ -315,7 +315,7 @@ describe('sugarshack deploys while operations run', function () {
     await run(10);
     helper.getNode('r').receive({ topic: 'drain' });
     await quiet();
-    assert.equal(statusOf('r').text, 'full › 51');
+    assert.equal(statusOf('r').text, 'full › wait 51');
     assert.deepEqual(runtime().describe().runs, [{ operation: '52', granted: true }, { operation: '51', granted: false }]);
 
     await helper.setFlows(flowOf(changedDocument(), { operations: ['52'] }), 'full');

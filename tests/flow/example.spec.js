@@ -18,7 +18,7 @@ const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/89-d
 const EXAMPLES = path.join(PALETTE, 'examples');
 const CONFIG_TYPES = { 'sugarshack-interlock': true, 'sugarshack-plant': true };
 // Nodes of the palette that use no config node.
-const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true, 'sugarshack-journal': true };
+const STANDALONE_TYPES = { 'sugarshack-pid': true, 'sugarshack-rcc': true, 'sugarshack-rcc-io': true, 'sugarshack-state': true, 'sugarshack-journal': true };
 const NODE_MODULES = [...paletteNodes, ...subflowNodes, ...new Set([...subflowCoreNodes, ...coreNodes]), catchOnce, linkNodes];
 
 const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
@@ -476,7 +476,7 @@ describe('example: subflows-op12', function () {
     await helper.load(NODE_MODULES, flow);
     ids = interlocksOf(flow);
     await started(flow);
-    const seen = watch(flow, ['op 12 returned', 'device commands', 'faulted', 'step errors', 'lockout done', 'panel', 'not understood']);
+    const seen = watch(flow, ['op 12 returned', 'device commands', 'faulted', 'step errors', 'lockout done', 'panel', 'not understood', 'clear refused', 'state']);
     field = fakeField(flow);
     return { flow, seen };
   }
@@ -512,7 +512,7 @@ describe('example: subflows-op12', function () {
     assert.equal(seen['step errors'][0].error.source.type, 'sugarshack-wait');
   });
 
-  it('the operator panel: e-stop locks RED out through the group command entry, clear clears it, anything else comes out of output 3', async function () {
+  it('the operator panel: e-stop locks RED out through the group command entry, clear clears it, anything else comes out of output 4', async function () {
     const { flow, seen } = await start();
     const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
     helper.getNode(byName(flow, 'inject', 'e-stop RED')).receive({});
@@ -528,5 +528,59 @@ describe('example: subflows-op12', function () {
     await runTill(() => seen['not understood'].length === 1, 'the msg not understood');
     assert.equal(seen['not understood'][0].payload, 'reset');
     assert.equal(seen.panel.length, 2);
+  });
+
+  it('the operator panel refuses a clear while a RED device is offline, every reason listed, then clears; the state node shows it all', async function () {
+    const { flow, seen } = await start();
+    const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
+    const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+    const plantId = flow.find((n) => n.type === 'sugarshack-plant').id;
+    // What the state node sends, read straight from the runtimes while waiting.
+    const state = () => ({ interlocks: [helper.getNode(ids[0]).runtime.describe()], plants: [helper.getNode(plantId).runtime.describe()] });
+    panel.receive({ payload: 'e-stop', by: 'ana', reason: 'leak at the RED pump' });
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    let red = state().interlocks[0].lines.find((l) => l.name === 'RED');
+    assert.equal(red.fault.cause, 'manual');
+    assert.equal(red.fault.note, 'leak at the RED pump');
+    assert.deepEqual(red.clearBlockers, []);
+    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => state().plants[0].devices.find((d) => d.device === 'ctrl-5').state === 'offline', 'ctrl-5 offline');
+    red = state().interlocks[0].lines.find((l) => l.name === 'RED');
+    assert.deepEqual(red.clearBlockers, [{ kind: 'deviceOffline', device: 'ctrl-5' }]);
+    panel.receive({ payload: 'clear', by: 'ana' });
+    await runTill(() => seen['clear refused'].length === 1, 'the refusal');
+    const refused = seen['clear refused'][0].refused;
+    assert.equal(refused.code, 'CLEAR_REFUSED');
+    assert.deepEqual(refused.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'ctrl-5' }] }]);
+    assert.match(refused.message, /device ctrl-5 offline/);
+    assert.equal(state().interlocks[0].lines.find((l) => l.name === 'RED').state.state, 'faulted', 'refused whole');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    await runTill(() => state().interlocks[0].lines.find((l) => l.name === 'RED').clearBlockers.length === 0, 'RED isolated again on fresh feedback');
+    panel.receive({ payload: 'clear', by: 'ana', reason: 'pump fixed' });
+    await runTill(() => seen.panel.length === 2, 'the clear');
+    assert.deepEqual(seen.panel[1].cleared, ['RED']);
+    assert.deepEqual(seen.panel[1].clearedBy, { by: 'ana', reason: 'pump fixed', forced: false });
+    helper.getNode(byName(flow, 'inject', 'plant state')).receive({});
+    await runTill(() => seen.state.length === 1, 'the state msg');
+    const after = seen.state[0];
+    assert.equal(after.trigger, 'request');
+    assert.deepEqual(after.payload.interlocks[0].lines.find((l) => l.name === 'RED'), {
+      name: 'RED', state: { state: 'free' }, holder: null, fault: null, waiting: [], clearBlockers: [],
+    });
+    assert.ok(after.payload.plants[0].sensors.some((s) => s.sensor === 'LT-3'), 'sensors listed');
+    assert.deepEqual(after.payload.plants[0].devices.map((d) => [d.device, d.state]), [['ctrl-1', 'online'], ['ctrl-5', 'online'], ['station-3', 'online']]);
+  });
+
+  it('a forced clear goes through over the reasons and says so', async function () {
+    const { flow, seen } = await start();
+    const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
+    const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+    panel.receive({ payload: 'e-stop' });
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
+    panel.receive({ payload: 'clear', force: true, by: 'ana', reason: 'ctrl-5 is being replaced; valves closed by hand' });
+    await runTill(() => seen.panel.length === 2, 'the forced clear');
+    assert.deepEqual(seen.panel[1].clearedBy, { by: 'ana', reason: 'ctrl-5 is being replaced; valves closed by hand', forced: true });
+    assert.deepEqual(seen['clear refused'], []);
   });
 });

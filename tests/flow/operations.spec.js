@@ -245,7 +245,7 @@ describe('sugarshack operations and routines', function () {
     await quiet();
     assert.deepEqual(savedRoutine('truck'), { routine: 'truck', state: 'empty', pending: '10', halted: false },
       'saved with its operation pending before the operation starts');
-    assert.equal(statusOf('r').text, 'empty › 10');
+    assert.equal(statusOf('r').text, 'empty › run 10');
     helper.getNode('r').receive({ topic: 'load' });
     await until(() => seen.caught.length === 1, 'the busy refusal');
     assert.equal(seen.caught[0].error.code, 'ROUTINE_BUSY');

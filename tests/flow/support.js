@@ -9,7 +9,7 @@ const path = require('path');
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
 const NODE_FILES = [
   'interlock', 'acquire', 'release', 'fault', 'clear', 'cancel', 'interlock-events', 'plant', 'actuators', 'group-command',
-  'operation', 'wait', 'routine', 'pid', 'rcc', 'rcc-io', 'journal',
+  'operation', 'wait', 'routine', 'pid', 'rcc', 'rcc-io', 'journal', 'state',
 ];
 const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
 // The palette's subflow modules, and the core nodes their subflows are built from besides link and catch.

@@ -77,7 +77,7 @@ class JournalBus {
     const targetText = Array.isArray(target) ? target.join(' ') : target;
     this.publish({
       table: TABLES.action.name,
-      tags: { action: text(action), who: text(m.who ?? m.user), why: text(m.why ?? m.note), target: text(targetText) },
+      tags: { action: text(action), who: text(m.by ?? m.who ?? m.user), why: text(m.reason ?? m.why ?? m.note), target: text(targetText) },
       fields: {},
       at: clock.now(),
     });

@@ -5,12 +5,20 @@ use sugarshack_core::interlock::{
     FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
     Snapshot,
 };
+use sugarshack_core::clearance::{Attribution, LineBlockers};
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 fn core_error(err: InterlockError) -> JsValue {
-    js_error(err.code(), &err.to_string())
+    let error = js_error(err.code(), &err.to_string());
+    if let InterlockError::ClearRefused { lines } = &err {
+        // Every reason, per line, for a dashboard to list.
+        if let Ok(lines) = to_js(lines) {
+            let _ = js_sys::Reflect::set(&error, &"lines".into(), &lines);
+        }
+    }
+    error
 }
 
 fn parse_config(config: JsValue) -> Result<InterlockConfig, JsValue> {
@@ -304,28 +312,83 @@ impl Interlock {
         self.fault_view(outcome)
     }
 
+    /// An emergency stop of lines by a person (`by`, `"unknown"` when absent) for `reason`.
     #[wasm_bindgen(js_name = faultResources)]
     pub fn fault_resources(
         &mut self,
         set: u32,
         note: Option<String>,
+        by: Option<String>,
+        reason: Option<String>,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
         let set = self.set(set)?.clone();
+        let by = Attribution::new(by.as_deref(), reason.as_deref(), false);
         let outcome = self
             .core
-            .fault_resources(&set, note.as_deref(), now)
+            .fault_resources_by(&set, note.as_deref(), &by, now)
             .map_err(core_error)?;
         self.fault_view(outcome)
     }
 
-    /// Clears faulted resources; returns how many waiting operations it granted (see `granted`).
-    pub fn clear(&mut self, set: u32, now_ms: f64) -> Result<u32, JsValue> {
+    /// Clears faulted lines of an interlock that knows no plant; returns how
+    /// many waiting operations it granted (see `granted`).
+    pub fn clear(
+        &mut self,
+        set: u32,
+        by: Option<String>,
+        reason: Option<String>,
+        force: bool,
+        now_ms: f64,
+    ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
         let set = self.set(set)?.clone();
-        let grants = self.core.clear(&set, now).map_err(core_error)?;
+        let by = Attribution::new(by.as_deref(), reason.as_deref(), force);
+        let grants = self
+            .core
+            .clear_checked(&set, &by, |_| Vec::new(), now)
+            .map_err(core_error)?;
         Ok(self.keep_granted(&grants))
+    }
+
+    /// Clears faulted lines once `plant` shows them isolated (see the core's
+    /// `clear_checked`), or over its reasons when `force`; refused with
+    /// `CLEAR_REFUSED` and every reason (`lines` on the error) otherwise.
+    #[wasm_bindgen(js_name = clearAgainst)]
+    pub fn clear_against(
+        &mut self,
+        set: u32,
+        plant: &crate::Tracker,
+        by: Option<String>,
+        reason: Option<String>,
+        force: bool,
+        now_ms: f64,
+    ) -> Result<u32, JsValue> {
+        let now = time(now_ms)?;
+        let set = self.set(set)?.clone();
+        let by = Attribution::new(by.as_deref(), reason.as_deref(), force);
+        let grants = self
+            .core
+            .clear_checked(&set, &by, |line| plant.core.clear_blockers(line), now)
+            .map_err(core_error)?;
+        Ok(self.keep_granted(&grants))
+    }
+
+    /// Why each named line may not be cleared now (empty reasons: it may), against `plant`.
+    #[wasm_bindgen(js_name = clearBlockers)]
+    pub fn clear_blockers(&self, set: u32, plant: &crate::Tracker) -> Result<JsValue, JsValue> {
+        let set = self.set(set)?;
+        let lines: Vec<LineBlockers> = set
+            .ids()
+            .iter()
+            .filter_map(|r| self.core.resource_name(*r))
+            .map(|line| LineBlockers {
+                line: line.to_owned(),
+                reasons: plant.core.clear_blockers(line),
+            })
+            .collect();
+        to_js(&lines)
     }
 
     #[wasm_bindgen(js_name = faultedResources)]

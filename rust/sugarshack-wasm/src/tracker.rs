@@ -74,13 +74,30 @@ struct ActuatorView<'a> {
     lockout: f64,
 }
 
+#[derive(serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+struct SensorView {
+    sensor: String,
+    value: Option<f64>,
+    received_ms: Option<u64>,
+    fresh: bool,
+    why: Option<String>,
+}
+
+#[derive(serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+struct HealthView {
+    devices: Vec<sugarshack_core::actuator::DeviceHealth>,
+    sensors: Vec<SensorView>,
+}
+
 /// The plant as JS sees it: actuator tracking, live sensor values, and the
 /// operations and routines of its document. Calls queue their effects;
 /// `takeEffects` returns them, so a feedback batch that changes nothing costs
 /// no allocation.
 #[wasm_bindgen]
 pub struct Tracker {
-    core: sugarshack_core::actuator::Tracker,
+    pub(crate) core: sugarshack_core::actuator::Tracker,
     sensors: SensorStore,
     effects: Vec<Output>,
     scratch: Vec<Effect>,
@@ -647,6 +664,31 @@ impl Tracker {
             .record(id, value, device_ts(ts).unwrap_or(now), now)
             .map_err(sensor_error)?;
         Ok(true)
+    }
+
+    /// What an operator reads of the plant now: `{ devices: [{ device, online,
+    /// stale: [actuator] }], sensors: [{ sensor, value, receivedMs, fresh, why }] }`
+    /// (`value` null before the first sample or when the device reports none).
+    pub fn health(&self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let sensors: Vec<SensorView> = (0..self.sensors.len() as u32)
+            .map(|i| {
+                let id = sugarshack_core::sensor::SensorId::from_index(i);
+                let sample = self.sensors.sample(id);
+                let fresh = self.sensors.fresh(id, now);
+                SensorView {
+                    sensor: self.sensors.name(id).to_owned(),
+                    value: sample.map(|s| s.value).filter(|v| v.is_finite()),
+                    received_ms: sample.map(|s| s.received_ms),
+                    fresh: fresh.is_ok(),
+                    why: fresh.err().map(|e| e.to_string()),
+                }
+            })
+            .collect();
+        to_js(&HealthView {
+            devices: self.core.device_health(),
+            sensors,
+        })
     }
 
     /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.

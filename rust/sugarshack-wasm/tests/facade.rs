@@ -133,7 +133,7 @@ fn core_errors_become_js_errors_with_codes_and_clear_messages() {
         code_of(lock.acquire(op, 1, yel, f64::NAN).unwrap_err()),
         "INVALID_TIME"
     );
-    assert_eq!(code_of(lock.clear(yel, 0.0).unwrap_err()), "NOT_FAULTED");
+    assert_eq!(code_of(lock.clear(yel, None, None, false, 0.0).unwrap_err()), "NOT_FAULTED");
     lock.acquire(op, 1, yel, 0.0).unwrap();
     let err = lock.acquire(op, 1, yel, 0.0).unwrap_err();
     assert!(message_of(&err).contains("C1"));
@@ -186,7 +186,7 @@ fn fault_returns_lockout_commands_as_plain_objects() {
         lock.release(op, 11.0).is_err(),
         "a faulted operation holds nothing"
     );
-    let count = lock.clear(yel, 20.0).unwrap();
+    let count = lock.clear(yel, None, None, false, 20.0).unwrap();
     assert_eq!(
         granted(&lock, count),
         vec![waiter],
@@ -403,7 +403,7 @@ fn a_refused_snapshot_leaves_the_caller_free_to_start_unknown() {
         "an unknown line is not granted"
     );
     let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
-    let count = lock.clear(both, 150.0).unwrap();
+    let count = lock.clear(both, None, None, false, 150.0).unwrap();
     assert_eq!(granted(&lock, count), vec![op]);
     assert!(lock.faulted_resources().is_empty());
 

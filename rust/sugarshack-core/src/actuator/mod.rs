@@ -33,6 +33,7 @@ use serde::Serialize;
 
 pub use error::TrackError;
 
+use crate::clearance::ClearBlocker;
 use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
 use crate::topics::Contract;
 
@@ -183,6 +184,16 @@ pub enum Effect {
     },
 }
 
+/// A device as an operator sees it: online, and which of its actuators went silent.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct DeviceHealth {
+    pub device: String,
+    pub online: bool,
+    /// Its actuators whose feedback is stale, in plant order.
+    pub stale: Vec<String>,
+}
+
 /// A lockout not yet confirmed by feedback.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -237,6 +248,8 @@ struct ActuatorState {
     command: Option<Command>,
     /// Outlives its group command until feedback confirms it.
     lockout_order: Option<LockoutOrder>,
+    /// The target of its line's last lockout, until a normal command replaces it.
+    locked_at: Option<f64>,
     phase: Phase,
     stale: bool,
     uncommanded: bool,
@@ -359,6 +372,7 @@ impl Tracker {
                 retained: false,
                 command: None,
                 lockout_order: None,
+                locked_at: None,
                 phase: Phase::Idle,
                 stale: false,
                 uncommanded: false,
@@ -472,6 +486,68 @@ impl Tracker {
             .collect()
     }
 
+    /// Every device: online or not, and its actuators whose feedback is stale.
+    pub fn device_health(&self) -> Vec<DeviceHealth> {
+        self.devices
+            .iter()
+            .map(|d| DeviceHealth {
+                device: d.name.clone(),
+                online: d.online,
+                stale: d
+                    .actuators
+                    .iter()
+                    .filter(|a| self.actuators[a.index()].stale)
+                    .map(|a| self.actuators[a.index()].name.clone())
+                    .collect(),
+            })
+            .collect()
+    }
+
+    /// Why line `resource` may not be cleared now, per member actuator in
+    /// plant order: its device offline, its feedback stale, its lockout not
+    /// confirmed, no feedback yet, or feedback away from its lockout state
+    /// (the line's last lockout target, else its own lockout state).
+    pub fn clear_blockers(&self, resource: &str) -> Vec<ClearBlocker> {
+        let mut blockers = Vec::new();
+        let mut offline: Vec<DeviceId> = Vec::new();
+        for (i, spec) in self.plant.actuators.iter().enumerate() {
+            if spec.resource.as_deref() != Some(resource) {
+                continue;
+            }
+            let a = &self.actuators[i];
+            let actuator = a.name.clone();
+            if !self.devices[a.device.index()].online {
+                if !offline.contains(&a.device) {
+                    offline.push(a.device);
+                    blockers.push(ClearBlocker::DeviceOffline {
+                        device: self.devices[a.device.index()].name.clone(),
+                    });
+                }
+                continue;
+            }
+            let expected = a.locked_at.unwrap_or(a.lockout);
+            if a.stale {
+                blockers.push(ClearBlocker::Stale { actuator });
+            } else if let Some(order) = a.lockout_order {
+                blockers.push(ClearBlocker::LockoutPending {
+                    actuator,
+                    sends: order.sends,
+                });
+            } else if let Some(position) = a.position {
+                if (position - expected).abs() > a.range.tolerance {
+                    blockers.push(ClearBlocker::OffLockout {
+                        actuator,
+                        position,
+                        lockout: expected,
+                    });
+                }
+            } else {
+                blockers.push(ClearBlocker::NoFeedback { actuator });
+            }
+        }
+        blockers
+    }
+
     /// Reads a target for this actuator from JSON (a number for analog, true/false for binary).
     pub fn target_from_json(
         &self,
@@ -568,6 +644,7 @@ impl Tracker {
             a.resting = Some(target);
             a.retained = lockout;
             a.uncommanded = false;
+            a.locked_at = lockout.then_some(target);
             if lockout {
                 a.lockout_order = Some(match a.lockout_order {
                     Some(order) if order.target == target => LockoutOrder {

@@ -3,7 +3,7 @@ use std::fmt;
 use crate::text::quote;
 
 /// Why an interlock call was refused. A refused call changes no state.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum InterlockError {
     InvalidConfig {
         reason: String,
@@ -31,6 +31,10 @@ pub enum InterlockError {
     NotFaulted {
         resource: String,
     },
+    /// The plant does not show the lines isolated yet: every reason, per line.
+    ClearRefused {
+        lines: Vec<crate::clearance::LineBlockers>,
+    },
     QueueFull {
         bound: usize,
     },
@@ -52,6 +56,7 @@ impl InterlockError {
             Self::NotHolding { .. } => "NOT_HOLDING",
             Self::NotQueued { .. } => "NOT_QUEUED",
             Self::NotFaulted { .. } => "NOT_FAULTED",
+            Self::ClearRefused { .. } => "CLEAR_REFUSED",
             Self::QueueFull { .. } => "QUEUE_FULL",
             Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
         }
@@ -84,7 +89,17 @@ impl fmt::Display for InterlockError {
                 write!(f, "operation '{operation}' is not waiting in the queue; nothing to cancel")
             }
             Self::NotFaulted { resource } => {
-                write!(f, "resource '{resource}' is not faulted; nothing to clear")
+                write!(f, "line '{resource}' is not faulted; nothing to clear")
+            }
+            Self::ClearRefused { lines } => {
+                write!(f, "clear refused: ")?;
+                for (i, line) in lines.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(" | ")?;
+                    }
+                    write!(f, "{line}")?;
+                }
+                write!(f, "; clear once the plant shows the line isolated, or force it if you know it is safe")
             }
             Self::QueueFull { bound } => {
                 write!(f, "the interlock queue is full ({bound} requests waiting); request refused")

@@ -1,6 +1,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{OpId, ResourceSet};
+use crate::clearance::Attribution;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -37,6 +38,8 @@ pub struct Event {
     pub waited_ms: Option<u64>,
     pub held_ms: Option<u64>,
     pub note: Option<String>,
+    /// Who cleared or stopped the lines, and why (clears and emergency stops).
+    pub attribution: Option<Box<Attribution>>,
 }
 
 /// An [`Event`] with names, ready to journal or send to JS.
@@ -56,4 +59,10 @@ pub struct EventRecord {
     pub held_ms: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub forced: bool,
 }

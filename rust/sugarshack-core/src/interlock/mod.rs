@@ -28,6 +28,8 @@ use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
+use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
+
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
 pub use event::{Event, EventKind, EventRecord};
@@ -562,6 +564,17 @@ impl Interlock {
         note: Option<&str>,
         now_ms: u64,
     ) -> Result<FaultOutcome, InterlockError> {
+        self.fault_resources_by(resources, note, &Attribution::unknown(), now_ms)
+    }
+
+    /// [`Self::fault_resources`] by a person: its event says who and why.
+    pub fn fault_resources_by(
+        &mut self,
+        resources: &ResourceSet,
+        note: Option<&str>,
+        by: &Attribution,
+        now_ms: u64,
+    ) -> Result<FaultOutcome, InterlockError> {
         self.check_set(resources)?;
         let note = note.map(bound_note);
         let note = note.as_deref();
@@ -586,6 +599,7 @@ impl Interlock {
             None,
             note.map(str::to_owned),
         );
+        self.attribute_last(by);
         let latched = ResourceSet::from_unsorted(latched);
         Ok(FaultOutcome {
             lockouts: self.lockouts(&latched),
@@ -594,11 +608,27 @@ impl Interlock {
         })
     }
 
-    /// A person clears faulted resources; the queue is re-evaluated.
+    /// A person clears faulted resources of an interlock that knows no
+    /// plant (nothing to check them against); the queue is re-evaluated.
     /// Refused whole if any of them is not faulted.
     pub fn clear(
         &mut self,
         resources: &ResourceSet,
+        now_ms: u64,
+    ) -> Result<Vec<Grant>, InterlockError> {
+        self.clear_checked(resources, &Attribution::unknown(), |_| Vec::new(), now_ms)
+    }
+
+    /// A person clears faulted lines; the queue is re-evaluated. Refused
+    /// whole if any of them is not faulted, or, unless `by.forced`, if
+    /// `blockers` (the plant's reasons, per line name) gives any line a
+    /// reason: every reason of every line is listed in the refusal. The
+    /// `cleared` event records who, why, and whether it was forced.
+    pub fn clear_checked(
+        &mut self,
+        resources: &ResourceSet,
+        by: &Attribution,
+        blockers: impl Fn(&str) -> Vec<ClearBlocker>,
         now_ms: u64,
     ) -> Result<Vec<Grant>, InterlockError> {
         self.check_set(resources)?;
@@ -607,6 +637,28 @@ impl Interlock {
                 resource: self.config.resources[r.index()].name.clone(),
             });
         }
+        let lines: Vec<LineBlockers> = resources
+            .ids()
+            .iter()
+            .map(|r| {
+                let line = self.config.resources[r.index()].name.clone();
+                let reasons = blockers(&line);
+                LineBlockers { line, reasons }
+            })
+            .filter(|l| !l.reasons.is_empty())
+            .collect();
+        if !lines.is_empty() && !by.forced {
+            return Err(InterlockError::ClearRefused { lines });
+        }
+        // Forced with nothing to override is an ordinary clear.
+        let by = Attribution {
+            forced: by.forced && !lines.is_empty(),
+            ..by.clone()
+        };
+        let note = (!lines.is_empty()).then(|| {
+            let overridden: Vec<String> = lines.iter().map(ToString::to_string).collect();
+            bound_note(&format!("forced over: {}", overridden.join(" | "))).into_owned()
+        });
         let mut candidates = std::mem::take(&mut self.candidates);
         for &r in resources.ids() {
             self.faulted -= 1;
@@ -620,8 +672,9 @@ impl Interlock {
             resources,
             None,
             None,
-            None,
+            note,
         );
+        self.attribute_last(&by);
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -656,6 +709,7 @@ impl Interlock {
                         waited_ms: Some(waited),
                         held_ms: None,
                         note: None,
+                        attribution: None,
                     });
                 }
             }
@@ -675,6 +729,7 @@ impl Interlock {
                             waited_ms: None,
                             held_ms: Some(held),
                             note: None,
+                            attribution: None,
                         });
                     }
                 }
@@ -708,6 +763,9 @@ impl Interlock {
             waited_ms: event.waited_ms,
             held_ms: event.held_ms,
             note: event.note.clone(),
+            by: event.attribution.as_ref().map(|a| a.by.clone()),
+            reason: event.attribution.as_ref().and_then(|a| a.reason.clone()),
+            forced: event.attribution.as_ref().is_some_and(|a| a.forced),
         }
     }
 
@@ -1001,7 +1059,15 @@ impl Interlock {
                 waited_ms,
                 held_ms,
                 note,
+                attribution: None,
             });
+        }
+    }
+
+    /// Adds who asked, and why, to the event just recorded.
+    fn attribute_last(&mut self, attribution: &Attribution) {
+        if let Some(event) = self.events.last_mut() {
+            event.attribution = Some(Box::new(attribution.clone()));
         }
     }
 }

@@ -1,0 +1,39 @@
+'use strict';
+// The palette's state as one document, for the admin API, the state node, a
+// dashboard and the editor's sidebar: every interlock (lines, holders, queue,
+// routines) and every plant (devices, sensors, lockouts), as now. A change
+// anywhere is announced once per turn of the event loop, so a burst of
+// feedback is one notice; listeners throttle further as they like.
+const { EventEmitter } = require('events');
+const { clock } = require('./clock');
+
+/** { atMs, interlocks: [...], plants: [...] } of every runtime of `palette`. */
+function stateOf(palette) {
+  const interlocks = [];
+  const plants = [];
+  for (const [id, runtime] of palette.runtimes) {
+    const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
+    (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
+  }
+  return { atMs: clock.now(), interlocks, plants };
+}
+
+/** Announces 'changed' at most once per turn of the event loop. */
+class ChangeNotices extends EventEmitter {
+  constructor() {
+    super();
+    this.setMaxListeners(0); // one per state node and editor session
+    this.due = false;
+  }
+
+  touch() {
+    if (this.due || this.listenerCount('changed') === 0) return;
+    this.due = true;
+    setImmediate(() => {
+      this.due = false;
+      this.emit('changed');
+    });
+  }
+}
+
+module.exports = { stateOf, ChangeNotices };

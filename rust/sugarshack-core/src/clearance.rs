@@ -1,0 +1,174 @@
+//! Who may clear a faulted line, and when. A line is cleared by a person once
+//! the plant shows it isolated: its lockout completed, every member actuator
+//! confirmed at its lockout state by fresh feedback, no member device offline.
+//! Anything else is a reason to refuse, and every reason is listed; a person
+//! who knows better may force the clear, and the clear is recorded as forced.
+//! Every clear and emergency stop records who asked and why.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::text::quote;
+
+/// The longest name of a person kept in an event, in characters.
+pub const BY_MAX_CHARS: usize = 100;
+/// The longest reason kept in an event, in characters.
+pub const REASON_MAX_CHARS: usize = 500;
+
+/// Who asked for a clear or an emergency stop, why, and whether a refusal was overridden.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Attribution {
+    /// The dashboard or editor user; `"unknown"` when nobody is signed in.
+    pub by: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// The clear overrode the reasons to refuse it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub forced: bool,
+}
+
+impl Attribution {
+    /// Bounded: a name or reason from outside is cut, an empty name reads `"unknown"`.
+    pub fn new(by: Option<&str>, reason: Option<&str>, forced: bool) -> Self {
+        let by = by.map(str::trim).filter(|b| !b.is_empty()).unwrap_or("unknown");
+        Attribution {
+            by: cut(by, BY_MAX_CHARS),
+            reason: reason
+                .map(str::trim)
+                .filter(|r| !r.is_empty())
+                .map(|r| cut(r, REASON_MAX_CHARS)),
+            forced,
+        }
+    }
+
+    pub fn unknown() -> Self {
+        Attribution::new(None, None, false)
+    }
+}
+
+fn cut(text: &str, max_chars: usize) -> String {
+    if text.chars().nth(max_chars).is_none() {
+        return text.to_owned();
+    }
+    let mut kept: String = text.chars().take(max_chars - 1).collect();
+    kept.push('\u{2026}');
+    kept
+}
+
+/// Why a line may not be cleared yet.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", tag = "kind")]
+pub enum ClearBlocker {
+    /// The line's lockout is still a standing order for this actuator: feedback has not confirmed it.
+    #[serde(rename_all = "camelCase")]
+    LockoutPending { actuator: String, sends: u32 },
+    /// Feedback shows the actuator away from its lockout state.
+    #[serde(rename_all = "camelCase")]
+    OffLockout {
+        actuator: String,
+        position: f64,
+        lockout: f64,
+    },
+    /// The actuator never reported where it is.
+    #[serde(rename_all = "camelCase")]
+    NoFeedback { actuator: String },
+    /// Its feedback is stale: where it is now is not known.
+    #[serde(rename_all = "camelCase")]
+    Stale { actuator: String },
+    /// A device serving the line is offline.
+    #[serde(rename_all = "camelCase")]
+    DeviceOffline { device: String },
+}
+
+impl fmt::Display for ClearBlocker {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::LockoutPending { actuator, sends } => write!(
+                f,
+                "lockout not completed: {} not confirmed in its lockout state (sent {sends} time{})",
+                quote(actuator),
+                if *sends == 1 { "" } else { "s" }
+            ),
+            Self::OffLockout {
+                actuator,
+                position,
+                lockout,
+            } => write!(
+                f,
+                "member actuator {} not in its lockout state (reads {position}, lockout {lockout})",
+                quote(actuator)
+            ),
+            Self::NoFeedback { actuator } => write!(
+                f,
+                "member actuator {} has not reported its position",
+                quote(actuator)
+            ),
+            Self::Stale { actuator } => write!(
+                f,
+                "member actuator {} has stale feedback",
+                quote(actuator)
+            ),
+            Self::DeviceOffline { device } => write!(f, "device {} offline", quote(device)),
+        }
+    }
+}
+
+/// The reasons that keep one line from being cleared.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct LineBlockers {
+    pub line: String,
+    pub reasons: Vec<ClearBlocker>,
+}
+
+impl fmt::Display for LineBlockers {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", quote(&self.line))?;
+        for (i, reason) in self.reasons.iter().enumerate() {
+            if i > 0 {
+                f.write_str("; ")?;
+            }
+            write!(f, "{reason}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn attribution_is_bounded_and_defaults_to_unknown() {
+        let a = Attribution::new(Some("  "), Some(""), false);
+        assert_eq!(a.by, "unknown");
+        assert_eq!(a.reason, None);
+        let long = Attribution::new(Some(&"p".repeat(10_000)), Some(&"r".repeat(10_000)), true);
+        assert_eq!(long.by.chars().count(), BY_MAX_CHARS);
+        assert_eq!(long.reason.unwrap().chars().count(), REASON_MAX_CHARS);
+        assert!(long.forced);
+    }
+
+    #[test]
+    fn blockers_read_as_reasons() {
+        let line = LineBlockers {
+            line: "YEL".into(),
+            reasons: vec![
+                ClearBlocker::DeviceOffline {
+                    device: "ctrl-1".into(),
+                },
+                ClearBlocker::OffLockout {
+                    actuator: "V101".into(),
+                    position: 40.0,
+                    lockout: 0.0,
+                },
+            ],
+        };
+        assert_eq!(
+            line.to_string(),
+            "YEL: device ctrl-1 offline; member actuator V101 not in its lockout state (reads 40, lockout 0)"
+        );
+    }
+}

@@ -1,0 +1,127 @@
+'use strict';
+// The HMI of npm start (flows/case-study.json + flows/hmi.json, the case-study
+// plant simulated) in a real headless Chromium: the dashboard shows the five
+// lines and their holders, E-STOP on YEL faults it on the page and sends its
+// lockout, CLEAR is refused while a YEL device is offline (reason shown) and
+// accepted once it is back, and the alarm list shows the fault and its
+// acknowledgement. Screenshots go to tests/browser/screenshots-out/.
+const assert = require('node:assert/strict');
+const fs = require('fs');
+const os = require('os');
+const path = require('path');
+const puppeteer = require('puppeteer-core');
+const { NodeRedProcess } = require('../integration/support/node-red');
+const { startMosquitto } = require('../integration/support/mosquitto');
+const { startSimulator } = require('../../scripts/simulator');
+
+const ROOT = path.resolve(__dirname, '..', '..');
+const SHOTS = path.join(__dirname, 'screenshots-out');
+const CHROMIUM = process.env.CHROMIUM_BIN || '/usr/bin/chromium';
+const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+
+/** The flows npm start deploys, on the test's broker. */
+function npmStartFlows(mqttPort) {
+  const read = (f) => JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', f), 'utf8'));
+  return [...read('case-study.json'), ...read('hmi.json')]
+    .map((n) => (n.type === 'mqtt-broker' ? { ...n, port: String(mqttPort) } : n));
+}
+
+describe('the HMI at /dashboard in headless Chromium', function () {
+  this.timeout(180000);
+  let broker; let sim; let red; let browser; let page; let profile;
+
+  before(async function () {
+    fs.mkdirSync(SHOTS, { recursive: true });
+    broker = await startMosquitto();
+    const port = Number(new URL(broker.url).port);
+    sim = await startSimulator({ broker: broker.url, plant: path.join(ROOT, 'flows', 'plant.json'), seed: 7, sweepS: 1, pumpDelayMs: 200, reconnectMs: 200, log: () => {} });
+    red = new NodeRedProcess({ flows: npmStartFlows(port), tag: 'hmi' });
+    fs.mkdirSync(path.join(red.dir, 'node_modules', '@flowfuse'));
+    fs.symlinkSync(path.join(ROOT, 'node_modules', '@flowfuse', 'node-red-dashboard'), path.join(red.dir, 'node_modules', '@flowfuse', 'node-red-dashboard'), 'dir');
+    await red.start();
+    profile = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-chromium-'));
+    browser = await puppeteer.launch({
+      executablePath: CHROMIUM,
+      headless: true,
+      args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+        '--disable-component-update', '--disable-sync', `--user-data-dir=${profile}`],
+    });
+    page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 1000 });
+  });
+
+  after(async function () {
+    if (browser) await browser.close();
+    if (red) await red.stop();
+    if (sim) await sim.stop();
+    if (broker) await broker.stop();
+    if (profile) fs.rmSync(profile, { recursive: true, force: true });
+  });
+
+  const shot = (name) => page.screenshot({ path: path.join(SHOTS, `${name}.png`), fullPage: true });
+  const lineRow = (name) => `tr[data-line="${name}"]`;
+  const textOf = (selector) => page.$eval(selector, (el) => el.innerText).catch(() => '');
+  async function waitText(selector, re, what, timeoutMs = 30000) {
+    const deadline = Date.now() + timeoutMs;
+    let last = '';
+    while (Date.now() < deadline) {
+      last = await textOf(selector);
+      if (re.test(last)) return last;
+      await sleep(200);
+    }
+    await shot(`failed-${what.replace(/\W+/g, '-')}`);
+    throw new Error(`${what}: '${selector}' reads '${last}', wanted ${re}`);
+  }
+  const lockoutsSent = [];
+
+  it('shows the five lines and their holders within seconds', async function () {
+    const started = Date.now();
+    await page.goto(`http://127.0.0.1:${red.port}/dashboard/plant`, { waitUntil: 'domcontentloaded' });
+    for (const line of ['YEL', 'GRN', 'BLU', 'PUR', 'RED']) await waitText(lineRow(line), new RegExp(`${line}\\s+(free|held|faulted)`), `line ${line}`, 20000);
+    assert.ok(Date.now() - started < 20000);
+    const state = await red.get('/sugarshack/state');
+    const held = state.interlocks[0].lines.filter((l) => l.holder);
+    for (const l of held) {
+      const row = await textOf(lineRow(l.name));
+      if (/held/.test(row)) assert.match(row, /op \d+/, `${l.name} shows its holder`);
+    }
+    await shot('1-plant');
+  });
+
+  it('E-STOP on YEL turns YEL faulted on the page and sends its lockout', async function () {
+    const mqtt = require('mqtt');
+    const client = mqtt.connect(broker.url);
+    await new Promise((resolve) => client.on('connect', resolve));
+    client.subscribe('ctrl-1/#');
+    client.on('message', (topic, payload) => { if (/command/.test(topic)) lockoutsSent.push([topic, String(payload)]); });
+    await page.click(`${lineRow('YEL')} .ss-estop`);
+    await waitText(lineRow('YEL'), /faulted/, 'YEL faulted');
+    await waitText('.ss-alarms', /e-stop YEL/, 'the alarm of the e-stop');
+    const deadline = Date.now() + 15000;
+    while (Date.now() < deadline && lockoutsSent.length === 0) await sleep(100);
+    client.end(true);
+    assert.ok(lockoutsSent.length > 0, 'lockout commands published to ctrl-1');
+    await shot('2-yel-faulted');
+  });
+
+  it('CLEAR is refused while a YEL device is offline, the reason shown, then accepted', async function () {
+    await sim.inject({ fault: 'dead', device: 'ctrl-1' });
+    await waitText(lineRow('YEL'), /device ctrl-1 offline/, 'the reason not to clear', 30000);
+    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await waitText(`${lineRow('YEL')} .ss-refused`, /refused: device ctrl-1 offline/, 'the refusal');
+    await shot('3-clear-refused');
+    assert.match(await textOf(lineRow('YEL')), /faulted/);
+    await sim.inject({ fault: 'revive', device: 'ctrl-1' });
+    await waitText(lineRow('YEL'), /^(?![\s\S]*not clearable)[\s\S]*$/, 'YEL clearable again', 60000);
+    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await waitText(lineRow('YEL'), /YEL\s+(free|held)/, 'YEL cleared', 30000);
+    await shot('4-cleared');
+  });
+
+  it('the alarm list shows the fault, its acknowledgement and its return to normal', async function () {
+    await waitText('.ss-alarms', /e-stop YEL[\s\S]*returned to normal · unacknowledged/, 'the alarm back to normal, not yet acknowledged');
+    await page.click('.ss-alarm[data-kind="resource-faulted"] .ss-ack');
+    await waitText('.ss-alarms', /^(?![\s\S]*e-stop YEL)/, 'the acknowledged, normal alarm leaves the list');
+    await shot('5-alarm-acknowledged');
+  });
+});
