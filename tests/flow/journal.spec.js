@@ -209,6 +209,20 @@ describe('journal bus and local files', function () {
     writer.close();
   });
 
+  it('stamps rows of one series in one millisecond 1 ms apart, so a server keeping one value per ms keeps them all', function () {
+    const bus = new JournalBus();
+    const writer = new JournalWriter({ plant: 'p', target: filesTarget({ dir }) });
+    bus.attach(writer);
+    for (const value of [1, 2, 3]) bus.datapoint('ctrl-1', 'V101', value, null, 5000); // a backlog read in one ms
+    bus.datapoint('ctrl-1', 'V102', 9, null, 5000); // another series keeps its time
+    bus.datapoint('ctrl-1', 'V101', 4, null, 5001);
+    bus.datapoint('ctrl-1', 'V101', 5, null, 1000); // a clock set back is followed
+    writer.flush();
+    const back = readJournal(dir).map((r) => [r.tags.entity, r.fields.value, r.at]);
+    assert.deepEqual(back, [['V101', 1, 5000], ['V101', 2, 5001], ['V101', 3, 5002], ['V102', 9, 5000], ['V101', 4, 5003], ['V101', 5, 1000]]);
+    writer.close();
+  });
+
   it('rotates the local files and keeps at most maxFiles of them', function () {
     const target = filesTarget({ dir, fileBytes: 100, maxFiles: 3 });
     for (let i = 1; i <= 20; i++) target.append([row(i, 20)]);

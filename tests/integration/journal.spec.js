@@ -207,11 +207,16 @@ describe('journal on VictoriaMetrics', function () {
       const sensorNames = new Set(PLANT.sensors.map((s) => s.name));
       published += probe.on('station-2/sensor/+/state').filter((m) => sensorNames.has(m.topic.split('/')[2])).length;
       const writer = writers.get('j');
-      writer.flush();
-      await until(() => writer.metrics().backlog === 0 && writer.state === 'idle', 'the journal to drain', 5000);
-
-      const rows = await rowsIn(vm);
-      assert.equal(rows.filter((r) => r.table === 'sugarshack_datapoint').length, published);
+      // Node-RED may still be reading the last msgs the probe has: flush and look again until the count settles.
+      let rows = [];
+      const datapoints = () => rows.filter((r) => r.table === 'sugarshack_datapoint').length;
+      for (const deadline = Date.now() + 10000; Date.now() < deadline; await sleep(200)) {
+        writer.flush();
+        await until(() => writer.metrics().backlog === 0 && writer.state === 'idle', 'the journal to drain', 5000);
+        rows = await rowsIn(vm);
+        if (datapoints() >= published) break;
+      }
+      assert.equal(datapoints(), published);
       const events = rows.filter((r) => r.table === 'sugarshack_event' && r.tags.layer === 'actuator');
       const key = (kind, subject) => `${kind} ${subject}`;
       assert.deepEqual(

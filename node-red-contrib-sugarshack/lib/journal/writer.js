@@ -13,11 +13,29 @@ const { INT_FIELDS } = require('./schema');
 const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';
 const RETRY_MS = [500, 1000, 2000, 5000];
 
+// Series remembered for stamping before the map starts over (a plant names far fewer).
+const MAX_SERIES = 100000;
+
 /** Line-protocol rows (Buffers, one row each, newline-terminated) from journal rows. */
 class Encoder {
   constructor(plant) {
     this.plant = plant;
     this.buffer = questdb.createBuffer(new questdb.SenderOptions(ENCODER_OPTIONS));
+    // Last ms stamped per series: a time-series server keeps one value per series and
+    // millisecond (VictoriaMetrics does), so a second row in the same ms goes 1 ms later.
+    this.lastMs = new Map();
+  }
+
+  stamp(row) {
+    let key = row.table;
+    for (const k in row.tags) key += `\u0000${row.tags[k]}`;
+    const last = this.lastMs.get(key);
+    const at = Math.round(row.at);
+    // A clock set back by more than a burst's worth is followed, not outrun.
+    const ms = last !== undefined && at <= last && at > last - 1000 ? last + 1 : at;
+    if (this.lastMs.size >= MAX_SERIES && last === undefined) this.lastMs.clear();
+    this.lastMs.set(key, ms);
+    return ms;
   }
 
   encode(row, seq) {
@@ -33,7 +51,7 @@ class Encoder {
         else b.floatColumn(k, v);
       }
       b.intColumn('seq', seq);
-      b.at(Math.round(row.at), 'ms');
+      b.at(this.stamp(row), 'ms');
       return b.toBufferNew();
     } catch (err) {
       b.reset();
