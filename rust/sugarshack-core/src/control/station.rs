@@ -317,7 +317,7 @@ impl Station {
         self.over_ts = false;
         self.via_rcc = sample.decision.is_some();
         if measurement.is_some() && self.stale_ms > 0.0 {
-            self.stale_at_ms = Some(now_ms + self.stale_ms);
+            self.stale_at_ms = Some(later(now_ms, self.stale_ms));
         }
         Ok(Outcome { engaged, pid: self.report(step, measurement, dt_s) })
     }
@@ -339,7 +339,7 @@ impl Station {
             return Ok(Some(Stale::NoIo));
         }
         // Re-armed first: a refused step must not leave a tick due at once, again and again.
-        self.stale_at_ms = Some(now_ms + self.stale_ms);
+        self.stale_at_ms = Some(later(now_ms, self.stale_ms));
         let dt_s = self.stale_ms / 1000.0;
         let (step, _) = self.step(None, dt_s, None, None)?;
         self.over_ts = true;
@@ -393,5 +393,21 @@ impl Station {
     }
 }
 
+/// `period` after `now`, always later: at a time so large that adding the
+/// period changes nothing, the next float up (a tick is never due at once again).
+fn later(now_ms: f64, period_ms: f64) -> f64 {
+    let next = now_ms + period_ms;
+    if next > now_ms {
+        next
+    } else if now_ms == 0.0 {
+        f64::from_bits(1)
+    } else if now_ms > 0.0 {
+        f64::from_bits(now_ms.to_bits() + 1)
+    } else {
+        f64::from_bits(now_ms.to_bits() - 1)
+    }
+}
+
 #[cfg(test)]
 mod tests;
+
