@@ -4,7 +4,9 @@
 // lines and their holders, E-STOP on YEL faults it on the page and sends its
 // lockout, CLEAR is refused while a YEL device is offline (reason shown) and
 // accepted once it is back, and the alarm list shows the fault and its
-// acknowledgement. Screenshots go to tests/browser/screenshots-out/.
+// acknowledgement; the editor's interlock sidebar tab shows the same lines and
+// the timing page draws the paper's figures from GET /sugarshack/stats.
+// Screenshots go to tests/browser/screenshots-out/.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const os = require('os');
@@ -102,6 +104,36 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     client.end(true);
     assert.ok(lockoutsSent.length > 0, 'lockout commands published to ctrl-1');
     await shot('2-yel-faulted');
+  });
+
+  it('the editor\'s interlock sidebar tab shows the same state as the dashboard', async function () {
+    const editor = await browser.newPage();
+    await editor.setViewport({ width: 1400, height: 1000 });
+    try {
+      await editor.goto(`http://127.0.0.1:${red.port}/`, { waitUntil: 'domcontentloaded' });
+      // Loaded: the toolbar is up and the loading bar gone (the editor picks its own sidebar tab until then).
+      await editor.waitForFunction(() => window.RED && window.sugarshackSidebar && $('.red-ui-header-toolbar').is(':visible')
+        && !$('#red-ui-loading-progress').is(':visible'), { timeout: 60000 });
+      // What View > Interlock does (the tab sits in the sidebar's overflow menu at this width).
+      await editor.evaluate(() => RED.sidebar.show('sugarshack-interlock'));
+      await editor.waitForFunction(() => $('.sugarshack-sidebar').is(':visible'), { timeout: 5000 });
+      const sbRow = (line) => `.sugarshack-sidebar tr[data-line="${line}"]`;
+      await editor.waitForSelector(`${sbRow('YEL')}[data-state="faulted"]`, { timeout: 15000 });
+      const sidebarYel = await editor.$eval(sbRow('YEL'), (el) => el.innerText);
+      const dashboardYel = await textOf(lineRow('YEL'));
+      await editor.screenshot({ path: path.join(SHOTS, '2b-editor-sidebar.png') });
+      assert.ok(await editor.$eval('.sugarshack-sidebar', (el) => el.checkVisibility()), 'the tab is on screen');
+      assert.match(sidebarYel, /YEL\s+faulted\s+manual/);
+      assert.match(dashboardYel, /YEL\s+faulted\s+manual/);
+      // The same note on both: the operator's reason from the dashboard's E-STOP.
+      assert.ok(sidebarYel.includes('E-STOP YEL from the dashboard') && dashboardYel.includes('E-STOP YEL from the dashboard'), `${sidebarYel} | ${dashboardYel}`);
+      const names = await editor.$$eval('.sugarshack-sidebar tr.ss-sb-line', (rows) => rows.map((r) => r.dataset.line));
+      assert.deepEqual(names, ['YEL', 'GRN', 'BLU', 'PUR', 'RED']);
+      assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-queue', (el) => el.innerText), /^queue: /);
+      assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-routines', (el) => el.innerText), /truck/);
+    } finally {
+      await editor.close();
+    }
   });
 
   it('CLEAR is refused while a YEL device is offline, the reason shown, then accepted', async function () {
