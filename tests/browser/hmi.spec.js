@@ -156,4 +156,30 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await waitText('.ss-alarms', /^(?![\s\S]*e-stop YEL)/, 'the acknowledged, normal alarm leaves the list');
     await shot('5-alarm-acknowledged');
   });
+
+  it('the timing page draws the paper\'s Figs. 11-15 with data from the timing figures', async function () {
+    await page.goto(`http://127.0.0.1:${red.port}/dashboard/timing`, { waitUntil: 'domcontentloaded' });
+    const figures = ['fig11', 'fig12', 'fig13', 'fig14', 'fig15'];
+    // The case-study devices speak stock ESPHome, whose states carry no device time: no time of flight (Fig. 11).
+    const withData = ['fig12', 'fig13', 'fig14', 'fig15'];
+    const deadline = Date.now() + 60000;
+    let counts = {};
+    while (Date.now() < deadline) {
+      counts = await page.$$eval('.ss-fig', (els) => Object.fromEntries(els.map((el) => [el.dataset.fig, Number(el.dataset.series)]))).catch(() => ({}));
+      if (withData.every((f) => counts[f] > 0)) break;
+      await sleep(500);
+    }
+    await shot('6-timing');
+    assert.deepEqual(Object.keys(counts).sort(), figures, 'five figures on the page');
+    for (const f of withData) assert.ok(counts[f] > 0, `${f} has data: ${JSON.stringify(counts)}`);
+    // Fig. 11: a bar per device with a time-of-flight series, or why there is none.
+    const stats = await red.get('/sugarshack/stats');
+    const devices = Object.keys(stats).filter((n) => n.startsWith('tof/') && stats[n].n > 0).length;
+    assert.ok(counts.fig11 <= devices && (devices === 0) === (counts.fig11 === 0), `fig11 shows ${counts.fig11} of ${devices} devices`);
+    if (devices === 0) assert.match(await page.$eval('.ss-fig[data-fig="fig11"]', (el) => el.textContent), /no device feedback has carried a timestamp/);
+    // Read after the page: an operation may have finished in between and added a series.
+    assert.ok(counts.fig15 <= Object.keys(stats).filter((n) => /^operation\/(run|queued)\//.test(n)).length, 'a bar per operation series');
+    const fig14 = await page.$eval('.ss-fig[data-fig="fig14"]', (el) => el.textContent);
+    assert.match(fig14, /all lockouts \(n [1-9]/);
+  });
 });
