@@ -73,7 +73,7 @@ describe('season report', function () {
     helper.getNode('op10').receive({ topic: 'fill again' });
     await runUntil(helper, () => seen.caught.length === 1, 'the fault');
     await runFor(helper, 200);
-    helper.getNode('clr').receive({ who: 'Ann', why: 'float switch checked' });
+    helper.getNode('clr').receive({ by: 'Ann', reason: 'float switch checked' });
     helper.getNode('op12').receive({ topic: 'unload' });
     await runUntil(helper, () => seen.out.length === 2, 'operation 12 to finish');
     await runFor(helper, 300);
