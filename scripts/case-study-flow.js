@@ -25,9 +25,10 @@ function build(plant) {
     return node;
   };
   const comment = (z, name, info, x, y) => add({ id: nid(`comment:${z}:${name}`), type: 'comment', z, name, info, x, y, wires: [] });
-  const debug = (z, key, name, x, y, active = false) => add({
+  // `field`: the one msg property to show (a readable line), else the whole msg.
+  const debug = (z, key, name, x, y, active = false, field = null) => add({
     id: nid(`debug:${key}`), type: 'debug', z, name, active, tosidebar: true, console: false, tostatus: false,
-    complete: 'true', targetType: 'full', statusVal: '', statusType: 'auto', x, y, wires: [],
+    complete: field || 'true', targetType: field ? 'msg' : 'full', statusVal: '', statusType: 'auto', x, y, wires: [],
   });
   const inject = (z, key, name, props, x, y, wire) => add({
     id: nid(`inject:${key}`), type: 'inject', z, name, props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }, ...(props.extra || [])],
@@ -70,7 +71,7 @@ function build(plant) {
   // ---- interlock events, out to MQTT for dashboards and the measurements -----
   comment(z, 'Interlock: grants, queueing, faults and clears', 'Every interlock event, also published on sugarshack/events/interlock for outside tools.', 230, 220);
   add({ id: nid('interlock-events'), type: 'sugarshack-interlock-events', z, name: '', interlock: interlock.id, x: 180, y: 260, wires: [[nid('debug:interlock-events'), nid('events-out')]] });
-  debug(z, 'interlock-events', 'interlock events', 480, 240, true);
+  debug(z, 'interlock-events', 'interlock events', 480, 240, true, 'summary');
   add({ id: nid('events-out'), type: 'mqtt out', z, name: 'sugarshack/events/interlock', topic: 'sugarshack/events/interlock', qos: '0', retain: 'false', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker: broker.id, x: 530, y: 280, wires: [] });
 
   // ---- routines ---------------------------------------------------------------
@@ -84,7 +85,7 @@ function build(plant) {
     y += Math.max(80, topics.length * 40 + 20);
   }
   add({ id: nid('catch'), type: 'catch', z, name: 'faults and refusals', scope: null, uncaught: false, x: 180, y: y + 20, wires: [[nid('debug:faults')]] });
-  debug(z, 'faults', 'faults and refusals', 480, y + 20, true);
+  debug(z, 'faults', 'faults and refusals', 480, y + 20, true, 'error.message');
 
   // ---- manual operations ------------------------------------------------------
   const o = TABS.ops;
@@ -96,7 +97,7 @@ function build(plant) {
   });
   debug(o, 'manual-ops', 'completed', 780, 100, true);
   add({ id: nid('catch:ops'), type: 'catch', z: o, name: '', scope: null, uncaught: false, x: 560, y: 160, wires: [[nid('debug:ops-faults')]] });
-  debug(o, 'ops-faults', 'faults and refusals', 790, 160, true);
+  debug(o, 'ops-faults', 'faults and refusals', 790, 160, true, 'error.message');
 
   // ---- faults and clearing ----------------------------------------------------
   const f = TABS.faults;
@@ -109,14 +110,21 @@ function build(plant) {
     ['clear simulator faults', { fault: 'clear' }],
   ];
   faults.forEach(([name, payload], i) => inject(f, `fault:${name}`, name, { payload: JSON.stringify(payload), payloadType: 'json' }, 250, 100 + i * 40, sim.id));
+  // Op 10 (load truck) moves V101 first: run it now rather than wait for the truck routine to.
+  const op10 = (plant.operations || []).find((op) => op.id === '10');
+  if (op10) {
+    add({ id: nid('fault-op:10'), type: 'sugarshack-operation', z: f, name: 'op 10 (moves V101)', interlock: interlock.id, operation: '10', x: 560, y: 320, wires: [[nid('debug:fault-op')]] });
+    inject(f, 'fault-op:10', 'run op 10 now', {}, 250, 320, nid('fault-op:10'));
+    debug(f, 'fault-op', 'op 10 done', 780, 320, true, 'payload');
+  }
   add({ id: nid('sim-result'), type: 'mqtt in', z: f, name: '', topic: 'sim/control/result', qos: '1', datatype: 'auto-detect', broker: broker.id, nl: false, rap: true, rh: 0, inputs: 0, x: 210, y: 280, wires: [[nid('debug:sim-result')]] });
   debug(f, 'sim-result', 'simulator replies', 480, 280, true);
 
-  comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 340);
-  const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 420, wires: [[nid('debug:cleared')]] });
+  comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 380);
+  const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 460, wires: [[nid('debug:cleared')]] });
   (plant.resources || []).forEach((r, i) => inject(f, `clear:${r.id}`, `clear ${r.id}`,
-    { topic: 'clear', extra: [{ p: 'resources', v: r.id, vt: 'str' }] }, 220, 400 + i * 40, clear.id));
-  debug(f, 'cleared', 'cleared', 760, 420, true);
+    { topic: 'clear', extra: [{ p: 'resources', v: r.id, vt: 'str' }] }, 220, 440 + i * 40, clear.id));
+  debug(f, 'cleared', 'cleared', 760, 460, true);
   return nodes;
 }
 

@@ -22,6 +22,7 @@ const lockouts = id(); const toAlarms = id(); const waits = id(); const chart = 
 const LINES_VUE = fs.readFileSync(path.join(__dirname, 'hmi', 'lines.vue'), 'utf8');
 const ALARMS_VUE = fs.readFileSync(path.join(__dirname, 'hmi', 'alarms.vue'), 'utf8');
 const PLANT_VUE = fs.readFileSync(path.join(__dirname, 'hmi', 'plant.vue'), 'utf8');
+const TIMING_VUE = fs.readFileSync(path.join(__dirname, 'hmi', 'timing.vue'), 'utf8');
 
 const template = (nid, group, name, format, order, width, wires) => ({
   id: nid, type: 'ui-template', z: TAB, group, page: '', ui: '', name, order, width: String(width), height: '0',
@@ -41,7 +42,7 @@ const flow = [
   { id: gLines, type: 'ui-group', name: 'Lines', page: plantPage, width: '8', height: '1', order: 1, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
   { id: gAlarms, type: 'ui-group', name: 'Alarms', page: plantPage, width: '4', height: '1', order: 2, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
   { id: gPlant, type: 'ui-group', name: 'Tanks, sensors and devices', page: plantPage, width: '12', height: '1', order: 3, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
-  { id: gTiming, type: 'ui-group', name: 'Queue waits per grant (s)', page: timingPage, width: '12', height: '1', order: 1, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
+  { id: gTiming, type: 'ui-group', name: 'Queue waits per grant (s)', page: timingPage, width: '12', height: '1', order: 2, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
   { id: id(), type: 'comment', z: TAB, name: 'The plant state (on change, at most once a second) draws the page; requests from its buttons go to the core', info: '', x: 330, y: 20, wires: [] },
   { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalMs: 1000, x: 330, y: 120, wires: [[tLines, tPlant]] },
   template(tLines, gLines, 'lines', LINES_VUE, 1, 8, [route]),
@@ -70,6 +71,16 @@ flow.push({ id: chart, type: 'ui-chart', z: TAB, group: gTiming, name: 'queue wa
   ymin: '', ymax: '', bins: 10, action: 'append', stackSeries: false, pointShape: 'circle', pointRadius: 4, showLegend: true, removeOlder: 1, removeOlderUnit: '3600', removeOlderPoints: '200',
   colors: ['#0095ff', '#ff0000', '#ff7f0e', '#2ca02c', '#a347e1', '#d62728', '#ff9896', '#9467bd', '#c5b0d5'], textColor: ['#666666'], textColorDefault: true, gridColor: ['#e5e5e5'], gridColorDefault: true,
   width: '12', height: '6', className: '', interpolation: 'linear', x: 740, y: 360, wires: [[]] });
+
+// The paper's Figs. 11-15 from the timing figures, asked for every 2 s and when the page opens.
+const gFigures = id(); const tick = id(); const statsOf = id(); const tFigures = id();
+flow.push(
+  { id: gFigures, type: 'ui-group', name: 'The paper\'s timing figures (Figs. 11-15)', page: timingPage, width: '12', height: '1', order: 1, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' },
+  { id: id(), type: 'comment', z: TAB, name: 'Timing page: the figures of GET /sugarshack/stats, from the state node asked with topic sugarshack/stats', info: '', x: 380, y: 440, wires: [] },
+  { id: tick, type: 'inject', z: TAB, name: 'every 2 s', props: [{ p: 'topic', vt: 'str' }], repeat: '2', crontab: '', once: true, onceDelay: '1', topic: 'sugarshack/stats', x: 150, y: 480, wires: [[statsOf]] },
+  { id: statsOf, type: 'sugarshack-state', z: TAB, name: 'timing figures', onChange: false, intervalMs: 1000, x: 340, y: 480, wires: [[tFigures]] },
+  { ...template(tFigures, gFigures, 'timing figures', TIMING_VUE, 1, 12, [statsOf]), x: 560, y: 480 },
+);
 
 const out = process.argv[2] || path.join(__dirname, '..', 'flows', 'hmi.json');
 fs.writeFileSync(out, `${JSON.stringify(flow, null, 2)}\n`);

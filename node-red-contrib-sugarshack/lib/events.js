@@ -19,7 +19,7 @@ class EventFanout {
     if (!records || records.length === 0) return;
     journal.interlockEvents(records);
     for (const node of this.nodes) {
-      for (const record of records) node.send({ topic: `interlock/${record.kind}`, payload: record });
+      for (const record of records) node.send({ topic: `interlock/${record.kind}`, summary: describeEvent(record), payload: record });
     }
   }
 }
@@ -33,4 +33,28 @@ function describeWarning(record) {
   return `operation '${record.operation}' has held ${resources} for ${Math.round(record.heldMs / 1000)} s`;
 }
 
-module.exports = { EventFanout, describeWarning };
+const secs = (ms) => `${Math.round(ms / 1000)} s`;
+
+/** One readable line for an interlock event record (msg.summary), e.g. "granted 20 (YEL) after 31 s". */
+function describeEvent(r) {
+  const lines = r.resources.join('+');
+  const op = r.operation === undefined ? '' : ` ${r.operation}`;
+  const who = `${r.by ? ` by ${r.by}` : ''}${r.forced ? ' (forced)' : ''}${r.reason ? `: ${r.reason}` : ''}`;
+  switch (r.kind) {
+    case 'granted': return `granted${op} (${lines})${r.waitedMs ? ` after ${secs(r.waitedMs)}` : ''}`;
+    case 'queued': return `queued${op} (${lines}), prio ${r.priority}`;
+    case 'released': return `released${op} (${lines})${r.heldMs !== undefined ? ` after ${secs(r.heldMs)}` : ''}`;
+    case 'cancelled': return `cancelled${op} (${lines})`;
+    case 'faulted': return `faulted${op}: ${lines} locked out${r.note ? `: ${r.note}` : ''}`;
+    case 'dropped': return `dropped${op} (${lines}): its operation faulted while waiting`;
+    case 'resource-faulted': return `e-stop ${lines}${r.by ? ` by ${r.by}` : ''}${r.reason || r.note ? `: ${r.reason || r.note}` : ''}`;
+    case 'cleared': return `cleared ${lines}${who}`;
+    case 'interrupted': return `interrupted${op}: ${lines} held at the restart, now faulted`;
+    case 'resource-added': return `added ${lines}, free`;
+    case 'state-unknown': return `state unknown: ${lines} faulted until cleared`;
+    case 'warn-queued': case 'warn-held': return describeWarning(r);
+    default: return `${r.kind}${op} (${lines})`;
+  }
+}
+
+module.exports = { EventFanout, describeWarning, describeEvent };

@@ -1,9 +1,14 @@
 'use strict';
 // The plant's state as a msg: on request (any msg in), and, when set, on every
-// change (at most once per interval). The same document as GET /sugarshack/state.
+// change (at most once per interval). The same document as GET /sugarshack/state;
+// a msg with topic 'sugarshack/stats' gets the timing figures instead, the same
+// document as GET /sugarshack/stats (a dashboard needs no admin API access).
 const { paletteOf } = require('../lib/lifecycle');
 const { stateOf } = require('../lib/state');
 const { clock } = require('../lib/clock');
+const { stats } = require('../lib/stats');
+
+const STATS_TOPIC = 'sugarshack/stats';
 
 const MIN_INTERVAL_MS = 100;
 
@@ -35,6 +40,11 @@ module.exports = function (RED) {
     };
 
     node.on('input', (msg, send, done) => {
+      if (msg.topic === STATS_TOPIC) {
+        send(Object.assign(msg, { trigger: 'request', payload: stats.report() }));
+        done();
+        return;
+      }
       const answer = message('request');
       // The request's own fields (a dashboard's _client, a topic) ride along.
       send(Object.assign(msg, answer, { topic: msg.topic || answer.topic }));

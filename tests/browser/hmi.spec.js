@@ -4,7 +4,9 @@
 // lines and their holders, E-STOP on YEL faults it on the page and sends its
 // lockout, CLEAR is refused while a YEL device is offline (reason shown) and
 // accepted once it is back, and the alarm list shows the fault and its
-// acknowledgement. Screenshots go to tests/browser/screenshots-out/.
+// acknowledgement; the editor's interlock sidebar tab shows the same lines and
+// the timing page draws the paper's figures from GET /sugarshack/stats.
+// Screenshots go to tests/browser/screenshots-out/.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const os = require('os');
@@ -104,6 +106,36 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await shot('2-yel-faulted');
   });
 
+  it('the editor\'s interlock sidebar tab shows the same state as the dashboard', async function () {
+    const editor = await browser.newPage();
+    await editor.setViewport({ width: 1400, height: 1000 });
+    try {
+      await editor.goto(`http://127.0.0.1:${red.port}/`, { waitUntil: 'domcontentloaded' });
+      // Loaded: the toolbar is up and the loading bar gone (the editor picks its own sidebar tab until then).
+      await editor.waitForFunction(() => window.RED && window.sugarshackSidebar && $('.red-ui-header-toolbar').is(':visible')
+        && !$('#red-ui-loading-progress').is(':visible'), { timeout: 60000 });
+      // What View > Interlock does (the tab sits in the sidebar's overflow menu at this width).
+      await editor.evaluate(() => RED.sidebar.show('sugarshack-interlock'));
+      await editor.waitForFunction(() => $('.sugarshack-sidebar').is(':visible'), { timeout: 5000 });
+      const sbRow = (line) => `.sugarshack-sidebar tr[data-line="${line}"]`;
+      await editor.waitForSelector(`${sbRow('YEL')}[data-state="faulted"]`, { timeout: 15000 });
+      const sidebarYel = await editor.$eval(sbRow('YEL'), (el) => el.innerText);
+      const dashboardYel = await textOf(lineRow('YEL'));
+      await editor.screenshot({ path: path.join(SHOTS, '2b-editor-sidebar.png') });
+      assert.ok(await editor.$eval('.sugarshack-sidebar', (el) => el.checkVisibility()), 'the tab is on screen');
+      assert.match(sidebarYel, /YEL\s+faulted\s+manual/);
+      assert.match(dashboardYel, /YEL\s+faulted\s+manual/);
+      // The same note on both: the operator's reason from the dashboard's E-STOP.
+      assert.ok(sidebarYel.includes('E-STOP YEL from the dashboard') && dashboardYel.includes('E-STOP YEL from the dashboard'), `${sidebarYel} | ${dashboardYel}`);
+      const names = await editor.$$eval('.sugarshack-sidebar tr.ss-sb-line', (rows) => rows.map((r) => r.dataset.line));
+      assert.deepEqual(names, ['YEL', 'GRN', 'BLU', 'PUR', 'RED']);
+      assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-queue', (el) => el.innerText), /^queue: /);
+      assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-routines', (el) => el.innerText), /truck/);
+    } finally {
+      await editor.close();
+    }
+  });
+
   it('CLEAR is refused while a YEL device is offline, the reason shown, then accepted', async function () {
     await sim.inject({ fault: 'dead', device: 'ctrl-1' });
     await waitText(lineRow('YEL'), /device ctrl-1 offline/, 'the reason not to clear', 30000);
@@ -123,5 +155,31 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await page.click('.ss-alarm[data-kind="resource-faulted"] .ss-ack');
     await waitText('.ss-alarms', /^(?![\s\S]*e-stop YEL)/, 'the acknowledged, normal alarm leaves the list');
     await shot('5-alarm-acknowledged');
+  });
+
+  it('the timing page draws the paper\'s Figs. 11-15 with data from the timing figures', async function () {
+    await page.goto(`http://127.0.0.1:${red.port}/dashboard/timing`, { waitUntil: 'domcontentloaded' });
+    const figures = ['fig11', 'fig12', 'fig13', 'fig14', 'fig15'];
+    // The case-study devices speak stock ESPHome, whose states carry no device time: no time of flight (Fig. 11).
+    const withData = ['fig12', 'fig13', 'fig14', 'fig15'];
+    const deadline = Date.now() + 60000;
+    let counts = {};
+    while (Date.now() < deadline) {
+      counts = await page.$$eval('.ss-fig', (els) => Object.fromEntries(els.map((el) => [el.dataset.fig, Number(el.dataset.series)]))).catch(() => ({}));
+      if (withData.every((f) => counts[f] > 0)) break;
+      await sleep(500);
+    }
+    await shot('6-timing');
+    assert.deepEqual(Object.keys(counts).sort(), figures, 'five figures on the page');
+    for (const f of withData) assert.ok(counts[f] > 0, `${f} has data: ${JSON.stringify(counts)}`);
+    // Fig. 11: a bar per device with a time-of-flight series, or why there is none.
+    const stats = await red.get('/sugarshack/stats');
+    const devices = Object.keys(stats).filter((n) => n.startsWith('tof/') && stats[n].n > 0).length;
+    assert.ok(counts.fig11 <= devices && (devices === 0) === (counts.fig11 === 0), `fig11 shows ${counts.fig11} of ${devices} devices`);
+    if (devices === 0) assert.match(await page.$eval('.ss-fig[data-fig="fig11"]', (el) => el.textContent), /no device feedback has carried a timestamp/);
+    // Read after the page: an operation may have finished in between and added a series.
+    assert.ok(counts.fig15 <= Object.keys(stats).filter((n) => /^operation\/(run|queued)\//.test(n)).length, 'a bar per operation series');
+    const fig14 = await page.$eval('.ss-fig[data-fig="fig14"]', (el) => el.textContent);
+    assert.match(fig14, /all lockouts \(n [1-9]/);
   });
 });

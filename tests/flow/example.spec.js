@@ -571,6 +571,64 @@ describe('example: subflows-op12', function () {
     assert.deepEqual(after.payload.plants[0].devices.map((d) => [d.device, d.state]), [['ctrl-1', 'online'], ['ctrl-5', 'online'], ['station-3', 'online']]);
   });
 
+  it('the editor\'s POST /sugarshack/estop and /sugarshack/clear: lockout sent, clear refused with its reasons, then cleared, each recorded by "unknown" without adminAuth', async function () {
+    const { flow, seen } = await start();
+    const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+    const runtime = helper.getNode(ids[0]).runtime;
+    const records = [];
+    runtime.events.add({ send: (msg) => records.push(msg.payload) });
+    const post = (url, body) => helper.request().post(url).send(body);
+    const red = () => runtime.describe().lines.find((l) => l.name === 'RED');
+    const sent = seen['device commands'].length;
+
+    let res = await post('/sugarshack/estop', { interlock: ids[0], lines: ['RED'], reason: 'leak under P5' });
+    assert.equal(res.status, 200, res.text);
+    assert.deepEqual(res.body, { stopped: ['RED'], by: 'unknown' });
+    assert.equal(red().fault.note, 'leak under P5');
+    await runTill(() => red().clearBlockers.length === 0 && runtime.plant.describe().lockoutsPending.length === 0, 'RED locked out');
+    assert.ok(commandsOf(seen['device commands'].slice(sent)).some(([topic]) => topic.startsWith('ctrl-5/')), 'the lockout went to ctrl-5');
+
+    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => red().clearBlockers.length === 1, 'ctrl-5 offline');
+    res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'] });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'CLEAR_REFUSED');
+    assert.deepEqual(res.body.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'ctrl-5' }] }]);
+    assert.equal(red().state.state, 'faulted');
+
+    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    await runTill(() => red().clearBlockers.length === 0, 'RED isolated again on fresh feedback');
+    res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'], reason: 'pipe fixed' });
+    assert.equal(res.status, 200, res.text);
+    assert.deepEqual(res.body, { cleared: ['RED'], by: 'unknown' });
+    await runTill(() => records.some((r) => r.kind === 'cleared'), 'the cleared event');
+    const faulted = records.find((r) => r.kind === 'resource-faulted');
+    const cleared = records.find((r) => r.kind === 'cleared');
+    assert.equal(faulted.by, 'unknown');
+    assert.equal(faulted.reason, 'leak under P5');
+    assert.equal(cleared.by, 'unknown');
+    assert.equal(cleared.reason, 'pipe fixed');
+    assert.equal(cleared.forced, undefined, 'not forced');
+
+    // Not faulted any more, a line that does not exist, an interlock that does not, no lines to stop.
+    res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'] });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'NOT_FAULTED');
+    assert.match(res.body.message, /line 'RED' is not faulted/);
+    res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['PINK'] });
+    assert.equal(res.status, 409);
+    assert.match(res.body.code, /UNKNOWN_RESOURCE|INVALID_RESOURCES/);
+    res = await post('/sugarshack/estop', { interlock: 'nope', lines: ['RED'] });
+    assert.equal(res.status, 404);
+    assert.equal(res.body.code, 'NO_INTERLOCK');
+    res = await post('/sugarshack/estop', { interlock: ids[0], lines: [] });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'INVALID_RESOURCES');
+    res = await post('/sugarshack/estop', { interlock: ids[0], lines: 'RED' });
+    assert.equal(res.status, 409, 'lines must be a list');
+    assert.deepEqual(runtime.core.counts(), { holding: 0, queued: 0, faulted: 0 }, 'none of the bad requests changed anything');
+  });
+
   it('a forced clear goes through over the reasons and says so', async function () {
     const { flow, seen } = await start();
     const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));

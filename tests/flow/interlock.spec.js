@@ -383,6 +383,37 @@ describe('sugarshack interlock nodes', function () {
     assert.ok(warned.some((w) => /operation '12' has waited \d+ s for YEL/.test(w)), warned.join('; '));
   });
 
+  it('gives each event one readable line in msg.summary, for a debug node set to show it', async function () {
+    await helper.load(paletteNodes, [
+      TAB, interlockConfig(),
+      acquire('a10', '10', 20, 'YEL', 'out'), acquire('a12', '12', 22, 'YEL', 'out'),
+      { id: 'rel', z: 'f1', type: 'sugarshack-release', interlock: 'il', wires: [['out']] },
+      { id: 'estop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: 'RED', wires: [[], []] },
+      { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: 'RED', wires: [[]] },
+      { id: 'ev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
+      sinkNode('out'), sinkNode('events'),
+    ]);
+    const events = collect(helper, 'events');
+    helper.getNode('a10').receive({});
+    helper.getNode('a12').receive({});
+    await until(() => events.length === 2, 'granted and queued');
+    await clock().advance(31000);
+    helper.getNode('rel').receive({ operation: '10' });
+    await until(() => events.some((e) => e.payload.kind === 'granted' && e.payload.operation === '12'), 'op 12 granted');
+    helper.getNode('estop').receive({ by: 'ana', reason: 'leak' });
+    await until(() => events.some((e) => e.payload.kind === 'resource-faulted'), 'the e-stop');
+    helper.getNode('clr').receive({ by: 'ana', reason: 'fixed' });
+    await until(() => events.some((e) => e.payload.kind === 'cleared'), 'the clear');
+    assert.deepEqual(events.map((e) => e.summary), [
+      'granted 10 (YEL)',
+      'queued 12 (YEL), prio 22',
+      'released 10 (YEL) after 31 s',
+      'granted 12 (YEL) after 31 s',
+      'e-stop RED by ana: leak',
+      'cleared RED by ana: fixed',
+    ]);
+  });
+
   it('keeps every status text under 20 characters, even with a long queue', async function () {
     const ops = Array.from({ length: 120 }, (_, i) => `op${i}`);
     await helper.load(paletteNodes, [
