@@ -2,6 +2,7 @@
 // The plant config node's document, and plain words for what the tracker
 // reports about an actuator (for error messages a person reads).
 const { SugarshackError } = require('./errors');
+const wasm = require('./wasm');
 
 const invalid = (why) => new SugarshackError('INVALID_PLANT', `invalid plant document: ${why}`);
 
@@ -70,4 +71,68 @@ function describeFault(actuator, fault, { retries = 0, target } = {}) {
   return text;
 }
 
-module.exports = { plantDocument, describeFault, seconds };
+// "actuators[3] (V12): unknown device 'x'" -> the path before the first ": ".
+const PROBLEM = /^([A-Za-z_][\w.[\]-]*(?: \([^)]*\))?): ([\s\S]*)$/;
+
+function problem(text) {
+  const m = PROBLEM.exec(text);
+  return m ? { path: m[1], message: m[2] } : { path: '', message: text };
+}
+
+/** The problems of an INVALID_PLANT refusal: one per line under the core's header, or the one it names. */
+function problemsOf(err) {
+  const text = String(err && err.message ? err.message : err);
+  const lines = text.split('\n');
+  if (/^invalid plant document \(\d+ problems?\):$/.test(lines[0])) return lines.slice(1).map((l) => problem(l.trim()));
+  return [problem(text.replace(/^invalid plant document: /, ''))];
+}
+
+/**
+ * Every problem of a plant document, as deploying it would find them: the same
+ * reading as the plant node (JSON text or an object) and the core's own checks
+ * (a throwaway Tracker). `{ valid, errors, warnings }`, each a list of { path, message }.
+ */
+function validatePlant(value) {
+  let plant;
+  try {
+    plant = plantDocument(value);
+  } catch (err) {
+    return { valid: false, errors: problemsOf(err), warnings: [] };
+  }
+  const facade = wasm.load();
+  const generation = wasm.currentGeneration();
+  let tracker = null;
+  try {
+    tracker = new facade.Tracker(plant, 0);
+    return { valid: true, errors: [], warnings: tracker.warnings().map(problem) };
+  } catch (err) {
+    if (wasm.isTrap(err)) {
+      setImmediate(() => wasm.recover(err, generation));
+      throw new SugarshackError('INTERNAL', `the core failed while checking the plant document (${err.message})`);
+    }
+    return { valid: false, errors: problemsOf(err), warnings: [] };
+  } finally {
+    wasm.release(tracker);
+  }
+}
+
+const served = new WeakSet();
+
+/**
+ * POST /sugarshack/plant/validate { plant: JSON text or object }: what the
+ * editor's plant dialog shows before a deploy (see validatePlant).
+ */
+function servePlantValidation(RED) {
+  if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
+  served.add(RED.httpAdmin);
+  RED.httpAdmin.post('/sugarshack/plant/validate', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
+    const body = req.body && typeof req.body === 'object' ? req.body : {};
+    try {
+      res.json(validatePlant(body.plant));
+    } catch (err) {
+      res.status(500).json({ code: err.code || 'INTERNAL', message: err.message });
+    }
+  });
+}
+
+module.exports = { plantDocument, describeFault, seconds, validatePlant, servePlantValidation };

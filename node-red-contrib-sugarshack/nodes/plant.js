@@ -1,5 +1,5 @@
 'use strict';
-const { plantDocument } = require('../lib/plant');
+const { plantDocument, servePlantValidation } = require('../lib/plant');
 const { PlantRuntime } = require('../lib/plant-runtime');
 const { serveStats } = require('../lib/stats');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
@@ -7,6 +7,7 @@ const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycl
 module.exports = function (RED) {
   paletteOf(RED);
   serveStats(RED);
+  servePlantValidation(RED);
 
   function PlantNode(props) {
     RED.nodes.createNode(this, props);

@@ -413,6 +413,77 @@ describe('sugarshack actuator nodes', function () {
     assert.equal(seen.mqtt.length, 0);
   });
 
+  it('an invalid plant is logged once; each msg only fails with done(err), which a Catch node takes (then Node-RED does not log it)', async function () {
+    const seen = await start({ plant: { ...PLANT, actuators: [{ id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 }] } });
+    for (let i = 0; i < 3; i++) {
+      command({ valves: { V12: 100 } });
+      panel({ valve: { 12: 0 } });
+    }
+    await until(() => seen.caught.length === 6, 'every msg fails');
+    const calls = (id, level) => helper.getNode(id)[level].getCalls().filter((c) => c.thisValue.id === id);
+    // Node-RED logs each done(err) as node.error(err, msg); anything else would be the palette's own.
+    const ofDone = (c) => c.args[1] && typeof c.args[1] === 'object' && c.args[1]._msgid && c.args[0].code === 'INVALID_PLANT';
+    for (const id of ['gc', 'bus']) {
+      assert.equal(calls(id, 'error').filter(ofDone).length, 3, `${id}: one done(err) per msg`);
+      assert.deepEqual(calls(id, 'error').filter((c) => !ofDone(c)).map((c) => String(c.args[0])), [], `${id}: no log of its own`);
+      assert.deepEqual(calls(id, 'warn').map((c) => String(c.args[0])), [], `${id}: no warnings`);
+    }
+    assert.equal(errors('pl').length, 1, 'the document\'s problems, once');
+    assert.deepEqual(calls('pl', 'warn'), []);
+    assert.ok(seen.caught.every((m) => m.error.code === 'INVALID_PLANT'));
+    // With the Catch node in this flow, none of them reaches the log: only the plant's line does.
+    const log = helper.log();
+    const logged = log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR);
+    assert.deepEqual(logged.map((e) => e.id), ['pl']);
+  });
+
+  it('POST /sugarshack/plant/validate lists every problem with its path, and warnings, as a deploy would find them', async function () {
+    await start();
+    const validate = (plant) => helper.request().post('/sugarshack/plant/validate').send({ plant });
+    let res = await validate(PLANT);
+    assert.equal(res.status, 200, res.text);
+    assert.deepEqual(res.body, { valid: true, errors: [], warnings: [] });
+    res = await validate(JSON.stringify(PLANT, null, 2));
+    assert.deepEqual(res.body, { valid: true, errors: [], warnings: [] }, 'as typed in the editor');
+
+    res = await validate({
+      ...PLANT,
+      actuators: [
+        { id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 },
+        { id: 'V13', type: 'valve', device: 'ctrl-1', io: 0, idle: 0, lockout: 200 },
+      ],
+    });
+    assert.equal(res.status, 200);
+    assert.equal(res.body.valid, false);
+    assert.deepEqual(res.body.errors.map((e) => e.path), ['actuators[0] (V12)', 'actuators[1] (V13)', 'actuators[1] (V13)']);
+    assert.match(res.body.errors[0].message, /^unknown device 'ctrl-9'/);
+    assert.match(res.body.errors[1].message, /^io numbers start at 1/);
+    assert.match(res.body.errors[2].message, /lockout must be within 0\.\.100, got 200/);
+
+    res = await validate({ ...PLANT, actuatorTypes: { ...PLANT.actuatorTypes, pump: { signal: 'binary' } } });
+    assert.deepEqual(res.body.errors, [{ path: 'actuatorTypes.pump', message: 'missing field `noMotionMs`' }]);
+    res = await validate('{"devices": [');
+    assert.equal(res.body.valid, false);
+    assert.match(res.body.errors[0].message, /^it is not valid JSON/);
+    res = await validate('');
+    assert.match(res.body.errors[0].message, /^it is empty/);
+    res = await validate(undefined);
+    assert.match(res.body.errors[0].message, /^expected a JSON object/);
+
+    const step = (V12) => ({ command: { valves: { V12 } }, timeoutMs: 1000 });
+    res = await validate({
+      ...PLANT,
+      actuators: PLANT.actuators.map((a) => ({ ...a, resource: 'A' })),
+      resources: [{ id: 'A' }],
+      operations: [{ id: 'o1', priority: 1, resources: ['A'], steps: [step(100)] }, { id: 'o2', priority: 1, resources: ['A'], steps: [step(0)] }],
+    });
+    assert.equal(res.body.valid, true, res.text);
+    assert.deepEqual(res.body.warnings.map((w) => w.path), ['operations[1] (o2)']);
+    assert.match(res.body.warnings[0].message, /priority 1 is also operation 'o1''s/);
+
+    assert.equal(helper.getNode('pl').runtime.state, 'ready', 'the deployed plant is untouched');
+  });
+
   it('a plant that is not JSON is refused with the parse error', async function () {
     const seen = await start({ plant: '{"devices": [' });
     assert.match(errors('pl')[0], /invalid plant document: it is not valid JSON/);
