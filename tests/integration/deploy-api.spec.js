@@ -17,7 +17,7 @@ const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
 const { NodeRedProcess, sleep } = require('./support/node-red');
-const { PLANT_FILE, flow } = require('./support/routines-flow');
+const { PLANT_FILE, LINES, flow } = require('./support/routines-flow');
 
 describe('deploys through the admin API of a real Node-RED process, operations running', function () {
   this.timeout(120000);
@@ -34,7 +34,20 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     flows = flow(broker.port, 'deploys');
     red = new NodeRedProcess({ flows, tag: 'deploy' });
     await red.start();
+    await subscribed();
   });
+
+  // "Connected to broker" is logged before the mqtt in nodes subscribe: until the
+  // broker has their subscriptions, a request published is lost. The clear nodes
+  // subscribe after the operations' nodes; clearing a free line answers on test/errors.
+  async function subscribed() {
+    const line = LINES[LINES.length - 1];
+    for (const deadline = Date.now() + 20000; ; await sleep(200)) {
+      if (probe.on('test/errors').length > 0) return;
+      if (Date.now() > deadline) throw new Error('Node-RED never answered on test/errors');
+      await probe.publish(`test/clear/${line}`, 'probe');
+    }
+  }
 
   after(async function () {
     if (red) {
