@@ -17,7 +17,7 @@
 // Targets: the 95,200-I/O plant under 50 % of one core for Node-RED with lag
 // p99 under 50 ms; cost per datapoint within 20 % from 1x to 100x.
 //
-// usage: node tests/bench/scaling.js [--full] [--window S] [--cpu-prof]
+// usage: node tests/bench/scaling.js [--full] [--window S] [--cpu-prof] [--panels N]
 //   --cpu-prof: Node-RED runs with --cpu-prof (profiles in /tmp/sugarshack-scaling-prof)
 
 const fs = require('fs');
@@ -48,6 +48,9 @@ const SIZES = [
   ...(FULL ? [{ label: 'Table 1', panels: 5600 }] : []),
 ];
 const PROF_DIR = '/tmp/sugarshack-scaling-prof';
+// --panels N: just one plant of N panels (for a profile of one size).
+const panelsAt = args.indexOf('--panels');
+if (panelsAt >= 0) SIZES.splice(0, SIZES.length, { label: `${args[panelsAt + 1]} panels`, panels: Number(args[panelsAt + 1]) });
 
 /** A plant of `panels` panels, every I/O named (V<panel>_<io>, P<panel>). */
 function plantOf(panels) {
@@ -189,6 +192,7 @@ async function main() {
   }
   console.log(`  (load average at the end ${os.loadavg().map((x) => x.toFixed(2)).join(' ')}; µs/datapoint: Node-RED's CPU time per datapoint; above idle: less its CPU with no traffic, measured just before)`);
   const at = (label) => rows.find((r) => r.label === label);
+  if (panelsAt >= 0) return;
   const growth = at('100x').usPerDpAboveIdle / at('1x').usPerDpAboveIdle;
   const growth10 = at('100x').usPerDpAboveIdle / at('10x').usPerDpAboveIdle;
   console.log(verdict('cost per datapoint above idle, 100x against 1x', `${growth.toFixed(2)}x (100x against 10x: ${growth10.toFixed(2)}x)`, growth <= 1.2 && growth >= 1 / 1.2, 'within 20 %'));
