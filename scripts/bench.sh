@@ -28,11 +28,14 @@ quick=(--quick)
 
 log="$(mktemp -t sugarshack-bench.XXXXXX)"
 trap 'rm -f "$log"' EXIT
+failed=()
+# One benchmark failing does not stop the others; the run exits 1 at the end.
 run() {
+  local name="$1"
   echo
-  echo "== $1"
+  echo "== $name"
   shift
-  "$@" 2>&1 | tee -a "$log"
+  "$@" 2>&1 | tee -a "$log" || failed+=("$name")
 }
 
 bash scripts/build-wasm.sh
@@ -59,3 +62,7 @@ fi
 echo
 echo "== every target (load average $(cut -d' ' -f1-3 /proc/loadavg) at the end)"
 grep -E '^ *(PASS|MISS|----) ' "$log" | sed -E 's/^ */  /'
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "bench: failed to run: ${failed[*]}" >&2
+  exit 1
+fi
