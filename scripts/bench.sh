@@ -1,26 +1,68 @@
 #!/usr/bin/env bash
-# Benchmarks: builds the wasm package (release), then runs the interlock and
-# the feedback ingest benchmarks, each beside its native example, and the cost
-# of the interlock's durable state beside keeping it in memory. Prints
-# figures; extra arguments go to tests/bench/interlock-bench.js (--quick,
-# --no-native, --no-events).
+# Benchmarks: builds the wasm package (release, wasm-opt), then runs every
+# benchmark and ends with each target's PASS or MISS line gathered in one list.
+# Quick variants by default (about 10 minutes on 2 cores); `--full` runs the
+# long variants and the scaling run up to the cloud paper's 95,200-I/O plant.
+# Other arguments go to tests/bench/interlock-bench.js (--no-native, --no-events).
+#
+#   footprint      wasm size, palette's added RSS and start-up (tests/bench/footprint.js)
+#   interlock      case and large scale, wasm against a JS baseline and native
+#   tracker        feedback ingest through wasm as the nodes call it
+#   durable        what writing the interlock's state before a grant costs
+#   actuator node  Node-RED cost per feedback msg (test helper, no broker)
+#   peers          against node-red-contrib-simple-message-queue, -queue-gate and a function-node PID; durable grants/s
+#   layers         per-layer overhead p99 on the case-study plant, GC pauses apart (scripts/measure.js)
+#   plant load     CPU and memory of Node-RED on the simulated case-study plant
+#   scaling        1x, 10x, 100x (and --full: 95,200 I/O) end to end on Mosquitto
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
 
+full=0
+rest=()
+for a in "$@"; do
+  if [ "$a" = --full ]; then full=1; else rest+=("$a"); fi
+done
+quick=(--quick)
+[ "$full" = 1 ] && quick=()
+
+log="$(mktemp -t sugarshack-bench.XXXXXX)"
+trap 'rm -f "$log"' EXIT
+failed=()
+# One benchmark failing does not stop the others; the run exits 1 at the end.
+run() {
+  local name="$1"
+  echo
+  echo "== $name"
+  shift
+  "$@" 2>&1 | tee -a "$log" || failed+=("$name")
+}
+
 bash scripts/build-wasm.sh
 echo "bench: building the native examples (release)"
 cargo build -q --release -p sugarshack-core --example interlock_bench --example tracker_bench
-node tests/bench/interlock-bench.js "$@"
+echo "bench: load average $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores at start"
+
+run footprint node tests/bench/footprint.js --runs "$([ "$full" = 1 ] && echo 5 || echo 3)"
+run interlock node tests/bench/interlock-bench.js "${quick[@]}" ${rest[@]+"${rest[@]}"}
+run tracker node tests/bench/tracker-bench.js
+run durable node tests/bench/durable-bench.js "${quick[@]}"
+run "actuator node" node tests/bench/actuator-node-bench.js
+run peers node tests/bench/peers-bench.js "${quick[@]}"
+if [ "$full" = 1 ]; then
+  run layers node scripts/measure.js --minutes 10
+  run "plant load" node tests/bench/plant-load.js
+  run scaling node tests/bench/scaling.js --full
+else
+  run layers node scripts/measure.js --minutes 1 --speed 4 --warmup-s 10 --fault-every-min 0.5
+  run "plant load" node tests/bench/plant-load.js --quick
+  run scaling node tests/bench/scaling.js
+fi
+
 echo
-node tests/bench/tracker-bench.js
-echo
-# What writing the interlock's state before every grant costs (fsync), against memory.
-node tests/bench/durable-bench.js --quick
-echo
-# Node-RED cost per feedback msg through the actuators node (test helper, no broker).
-node tests/bench/actuator-node-bench.js
-echo
-# CPU and memory of Node-RED on the full simulated plant, 30 s per run; the
-# 3-minute run is opt-in: node tests/bench/plant-load.js (or --minutes N).
-node tests/bench/plant-load.js --quick
+echo "== every target (load average $(cut -d' ' -f1-3 /proc/loadavg) at the end)"
+grep -E '^ *(PASS|MISS|----) ' "$log" | sed -E 's/^ */  /'
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "bench: failed to run: ${failed[*]}" >&2
+  exit 1
+fi

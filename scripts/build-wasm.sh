@@ -13,30 +13,32 @@ if [ -n "$want" ] && [ "$have" != "$want" ]; then
   exit 1
 fi
 
+# opt-level 3 (the release profile): built for size ("z", "s", or "z" for the
+# dependencies only), the case-study acquire+release through wasm took 1.4-1.8x
+# longer for a module 7-18 % smaller after wasm-opt (tests/bench/footprint.js).
 echo "build-wasm: cargo build (wasm32-unknown-unknown, release)"
 cargo build -p sugarshack-wasm --target wasm32-unknown-unknown --release
+built="${CARGO_TARGET_DIR:-target}/wasm32-unknown-unknown/release/sugarshack_wasm.wasm"
 
-echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
-wasm-bindgen --target nodejs --out-dir "$out" \
-  "${CARGO_TARGET_DIR:-target}/wasm32-unknown-unknown/release/sugarshack_wasm.wasm"
-
-wasm="$out/sugarshack_wasm_bg.wasm"
-# Debian bookworm's binaryen (108) rewrites this module into one that loads but
-# misbehaves (the flow tests fail after even `wasm-opt -O0`): older ones are skipped.
-WASM_OPT_MIN=117
-wasm_opt_version() { wasm-opt --version 2>/dev/null | sed -nE 's/.*version ([0-9]+).*/\1/p'; }
-if command -v wasm-opt >/dev/null && [ "$(wasm_opt_version)" -lt "$WASM_OPT_MIN" ] 2>/dev/null; then
-  echo "build-wasm: wasm-opt $(wasm_opt_version) is older than $WASM_OPT_MIN; keeping the unoptimised module" >&2
-elif command -v wasm-opt >/dev/null; then
+# wasm-opt runs before wasm-bindgen: Debian's binaryen (108) rewrites the
+# export of the externref table wasm-bindgen adds onto the function table, and
+# the module then fails to load. -Oz: size first; names and producers only
+# serve debuggers.
+if command -v wasm-opt >/dev/null; then
   # Recent rustc emits these post-MVP features by default; older binaryen rejects them unless enabled.
-  if wasm-opt -O --enable-bulk-memory --enable-nontrapping-float-to-int --enable-sign-ext \
-       --enable-mutable-globals --enable-reference-types --enable-multivalue \
-       "$wasm" -o "$wasm.opt"; then
-    mv "$wasm.opt" "$wasm"
-    echo "build-wasm: wasm-opt -O applied"
+  if wasm-opt -Oz --strip-debug --strip-producers --enable-bulk-memory --enable-nontrapping-float-to-int \
+       --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue \
+       "$built" -o "$built.opt"; then
+    built="$built.opt"
+    echo "build-wasm: wasm-opt -Oz applied"
   else
-    rm -f "$wasm.opt"
     echo "build-wasm: wasm-opt failed; keeping the unoptimised module" >&2
   fi
+else
+  echo "build-wasm: no wasm-opt on PATH (apt-get install -y binaryen, or bash scripts/setup.sh); module left unoptimised" >&2
 fi
+
+echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
+wasm-bindgen --target nodejs --out-dir "$out" --out-name sugarshack_wasm "$built"
+wasm="$out/sugarshack_wasm_bg.wasm"
 echo "build-wasm: $(du -h "$wasm" | cut -f1) $wasm"

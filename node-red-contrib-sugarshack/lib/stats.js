@@ -4,29 +4,107 @@
 // lockout time, operation run and queue times, and the time our own code
 // takes per layer. Each series keeps its last SAMPLES values; one registry per
 // process, read through the editor's admin API (GET /sugarshack/stats).
+//
+// A garbage collection that runs during one of our calls lengthens it without
+// being our code's doing: the overhead series keep when each call started,
+// and their summary also gives the figures without the calls a GC pause
+// (seen by a PerformanceObserver on 'gc' entries) overlapped.
 
+const { PerformanceObserver, performance } = require('perf_hooks');
 const { journal } = require('./journal/bus');
 
 const SAMPLES = 20000;
+const GC_KEPT = 8192;
+
+/** The last GC_KEPT garbage collections, as [start, end] in performance.now() ms. */
+class GcPauses {
+  constructor() {
+    this.starts = new Float64Array(GC_KEPT);
+    this.ends = new Float64Array(GC_KEPT);
+    this.count = 0;
+    this.observer = null;
+  }
+
+  watch() {
+    if (this.observer) return;
+    this.observer = new PerformanceObserver((list) => {
+      for (const e of list.getEntries()) {
+        const i = this.count % GC_KEPT;
+        this.starts[i] = e.startTime;
+        this.ends[i] = e.startTime + e.duration;
+        this.count += 1;
+      }
+    });
+    this.observer.observe({ entryTypes: ['gc'] });
+  }
+
+  /** The pauses held, ordered by start: { starts, ends } (pauses do not overlap one another). */
+  held() {
+    const n = Math.min(this.count, GC_KEPT);
+    const order = Array.from({ length: n }, (_, k) => (this.count - n + k) % GC_KEPT);
+    return { starts: Float64Array.from(order, (i) => this.starts[i]), ends: Float64Array.from(order, (i) => this.ends[i]) };
+  }
+}
+
+const gc = new GcPauses();
+
+/** Whether [start, start + duration] overlaps a pause of `pauses` (ordered by start). */
+function overlapsPause(pauses, start, duration) {
+  const { starts, ends } = pauses;
+  let lo = 0;
+  let hi = starts.length; // first pause starting after the call ended
+  const end = start + duration;
+  while (lo < hi) {
+    const mid = (lo + hi) >> 1;
+    if (starts[mid] <= end) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo > 0 && ends[lo - 1] >= start;
+}
+
+function rankOf(values) {
+  const sorted = Float64Array.from(values).sort();
+  const n = sorted.length;
+  return (p) => sorted[Math.min(n - 1, Math.max(0, Math.ceil(p * n) - 1))];
+}
 
 class Series {
-  constructor() {
+  constructor(withStarts = false) {
     this.values = new Float64Array(SAMPLES);
+    this.starts = withStarts ? new Float64Array(SAMPLES) : null;
     this.count = 0; // ever recorded; the buffer holds the last SAMPLES
   }
 
-  add(value) {
-    this.values[this.count % SAMPLES] = value;
+  add(value, start) {
+    const i = this.count % SAMPLES;
+    this.values[i] = value;
+    if (this.starts) this.starts[i] = start;
     this.count += 1;
   }
 
-  /** { n, median, p90, p99, max } of the values held (nearest rank). */
-  summary() {
+  /**
+   * { n, median, p90, p99, max } of the values held (nearest rank); for a
+   * series with start times also `gcOverlapped` (calls a GC pause overlapped)
+   * and `withoutGc` { median, p99, max } of the others.
+   */
+  summary(pauses) {
     const held = Math.min(this.count, SAMPLES);
     if (held === 0) return { n: 0 };
-    const sorted = Float64Array.from(this.values.subarray(0, held)).sort();
-    const rank = (p) => sorted[Math.min(held - 1, Math.max(0, Math.ceil(p * held) - 1))];
-    return { n: this.count, median: rank(0.5), p90: rank(0.9), p99: rank(0.99), max: sorted[held - 1] };
+    const values = this.values.subarray(0, held);
+    const rank = rankOf(values);
+    const out = { n: this.count, median: rank(0.5), p90: rank(0.9), p99: rank(0.99), max: rank(1) };
+    if (this.starts && pauses) {
+      const ours = [];
+      for (let i = 0; i < held; i++) {
+        if (!overlapsPause(pauses, this.starts[i], values[i])) ours.push(values[i]);
+      }
+      out.gcOverlapped = held - ours.length;
+      if (ours.length) {
+        const r = rankOf(ours);
+        out.withoutGc = { median: r(0.5), p99: r(0.99), max: r(1) };
+      }
+    }
+    return out;
   }
 }
 
@@ -35,31 +113,38 @@ class Stats {
     this.series = new Map();
   }
 
-  add(name, value) {
+  add(name, value, start) {
     if (!Number.isFinite(value)) return;
     if (this === stats) journal.timing(name, value);
     let s = this.series.get(name);
     if (!s) {
-      s = new Series();
+      s = new Series(start !== undefined);
       this.series.set(name, s);
     }
-    s.add(value);
+    s.add(value, start);
+  }
+
+  /** Adds the time since `start` (a performance.now() reading) to `overhead/<layer>`. */
+  overhead(layer, start) {
+    gc.watch();
+    this.add(`overhead/${layer}`, performance.now() - start, start);
   }
 
   /** Runs `work` and adds its duration (ms) to `overhead/<layer>`; returns what it returns. */
   time(layer, work) {
-    const start = process.hrtime.bigint();
+    const start = performance.now();
     try {
       return work();
     } finally {
-      this.add(`overhead/${layer}`, Number(process.hrtime.bigint() - start) / 1e6);
+      this.overhead(layer, start);
     }
   }
 
   /** Every series' summary, keyed by name ("tof/ctrl-1", "operation/run/12", ...). */
   report() {
+    const pauses = gc.count ? gc.held() : { starts: new Float64Array(0), ends: new Float64Array(0) };
     const out = {};
-    for (const name of [...this.series.keys()].sort()) out[name] = this.series.get(name).summary();
+    for (const name of [...this.series.keys()].sort()) out[name] = this.series.get(name).summary(pauses);
     return out;
   }
 
@@ -95,4 +180,4 @@ function serveStats(RED) {
   });
 }
 
-module.exports = { stats, serveStats, timeLayer, Stats, SAMPLES };
+module.exports = { stats, serveStats, timeLayer, Stats, SAMPLES, overlapsPause };

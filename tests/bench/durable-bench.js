@@ -38,7 +38,7 @@ function fakeRuntime(persist, userDir, lines) {
     id: `bench-${persist ? 'file' : 'memory'}-${lines.length}`,
     settings: { config: { resources: lines.map((name) => ({ name, lockout: null })), policy: 'greedy', recordEvents: true }, persist, plantBound: false },
   });
-  rt.palette = { whenStarted() {}, draining: false, started: true, pokeDrain() {} };
+  rt.palette = { whenStarted() {}, draining: false, started: true, pokeDrain() {}, changes: { touch() {} } };
   rt.attach(quiet);
   return rt;
 }
