@@ -81,51 +81,24 @@ _sugarshack_setup() (
     # npm runs under whichever `node` is first on PATH: use Node 22 for Node-RED 5.
     (cd "$NR5_DIR" && PATH="$(dirname "$NODE22"):$PATH" npm install --no-audit --no-fund)
   fi
-  # Integration tests run their own Mosquitto (tests/integration/support/mosquitto.js);
-  # only the binary is needed, not the system service.
-  if command -v mosquitto >/dev/null || [ -x /usr/sbin/mosquitto ]; then
-    say "mosquitto: present"
-  else
-    say "mosquitto: apt-get install -y mosquitto"
+  # Test servers and tools from Debian, each skipped when present: Mosquitto and
+  # VictoriaMetrics (the integration tests run their own; only the binaries are
+  # needed), binaryen's wasm-opt (scripts/build-wasm.sh) and chromium (tests/browser).
+  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium)
+  have() { command -v "$1" >/dev/null || [ -x "/usr/sbin/$1" ] || [ -x "/usr/bin/$1" ] || { [ "$1" = chromium ] && [ -n "${CHROMIUM_BIN:-}" ]; }; }
+  local missing=() entry
+  for entry in "${needed[@]}"; do
+    if have "${entry%%:*}"; then say "${entry%%:*}: present"; else missing+=("${entry#*:}"); fi
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    say "apt-get install -y ${missing[*]}"
     local sudo=()
     [ "$(id -u)" = 0 ] || sudo=(sudo)
     "${sudo[@]}" apt-get update
-    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y mosquitto
-    [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || { say "mosquitto install failed"; exit 1; }
-  fi
-  # wasm-opt (Debian's binaryen) shrinks the palette's wasm in scripts/build-wasm.sh.
-  if command -v wasm-opt >/dev/null; then
-    say "wasm-opt: present"
-  else
-    say "wasm-opt: apt-get install -y binaryen"
-    local sudo=()
-    [ "$(id -u)" = 0 ] || sudo=(sudo)
-    "${sudo[@]}" apt-get update
-    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y binaryen
-    command -v wasm-opt >/dev/null || { say "binaryen install failed"; exit 1; }
-  fi
-  # The journal's integration tests write line protocol to a real VictoriaMetrics
-  # (tests/integration/support/victoria-metrics.js runs its own); only the binary is needed.
-  if command -v victoria-metrics >/dev/null || [ -x /usr/bin/victoria-metrics ]; then
-    say "victoria-metrics: present"
-  else
-    say "victoria-metrics: apt-get install -y victoria-metrics"
-    local sudo=()
-    [ "$(id -u)" = 0 ] || sudo=(sudo)
-    "${sudo[@]}" apt-get update
-    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y victoria-metrics
-    [ -x /usr/bin/victoria-metrics ] || { say "victoria-metrics install failed"; exit 1; }
-  fi
-  # The browser tests (tests/browser) drive Debian's chromium through puppeteer-core.
-  if [ -x /usr/bin/chromium ] || [ -n "${CHROMIUM_BIN:-}" ]; then
-    say "chromium: present"
-  else
-    say "chromium: apt-get install -y chromium"
-    local sudo=()
-    [ "$(id -u)" = 0 ] || sudo=(sudo)
-    "${sudo[@]}" apt-get update
-    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y chromium
-    [ -x /usr/bin/chromium ] || { say "chromium install failed"; exit 1; }
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y "${missing[@]}"
+    for entry in "${needed[@]}"; do
+      have "${entry%%:*}" || { say "${entry#*:} install failed"; exit 1; }
+    done
   fi
   say "done"
 )

@@ -21,7 +21,7 @@ const { mulberry32: random } = require('../../scripts/simulator/random');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
-const { NodeRedProcess, sleep } = require('./support/node-red');
+const { NodeRedProcess, sleep, waitFor } = require('./support/node-red');
 const {
   PLANT_FILE, PLANT, LINES, OPERATIONS, ROUTINES, flow,
 } = require('./support/routines-flow');
@@ -121,14 +121,6 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
       return sent.some((m) => m.topic === `${a.device}/${a.type}/${a.io}/command` && m.text === want);
     });
   };
-  async function waitFor(predicate, what, ms = 8000) {
-    const deadline = Date.now() + ms;
-    while (!predicate()) {
-      if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}`);
-      await sleep(10);
-    }
-  }
-
   // A clear is refused until the line's lockout is confirmed by fresh feedback; an operator asks again.
   async function clearLines(lines, what = 'the lines cleared') {
     const deadline = Date.now() + 20000;

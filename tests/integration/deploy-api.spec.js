@@ -16,7 +16,7 @@ const assert = require('node:assert/strict');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
-const { NodeRedProcess, sleep } = require('./support/node-red');
+const { NodeRedProcess, sleep, waitFor } = require('./support/node-red');
 const { PLANT_FILE, LINES, flow } = require('./support/routines-flow');
 
 describe('deploys through the admin API of a real Node-RED process, operations running', function () {
@@ -60,13 +60,7 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     if (broker) await broker.stop();
   });
 
-  async function waitFor(predicate, what, ms = 20000) {
-    const deadline = Date.now() + ms;
-    while (!(await predicate())) {
-      if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}`);
-      await sleep(20);
-    }
-  }
+  const waitLong = (predicate, what) => waitFor(predicate, what, 20000);
   const events = (since) => probe.on('test/events').filter((m) => m.at >= since).map((m) => m.json);
   const done = (since) => probe.on('test/done').filter((m) => m.at >= since).map((m) => ({ ...m.json, at: m.at }));
   const errors = (since) => probe.on('test/errors').filter((m) => m.at >= since).map((m) => m.json);
@@ -75,16 +69,16 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     const since = Date.now();
     await probe.publish('test/op/10', 'go'); // YEL
     await probe.publish('test/op/51', 'go'); // RED
-    await waitFor(() => ['10', '51'].every((op) => events(since).some((e) => e.kind === 'granted' && e.operation === op)), 'ops 10 and 51 granted');
+    await waitLong(() => ['10', '51'].every((op) => events(since).some((e) => e.kind === 'granted' && e.operation === op)), 'ops 10 and 51 granted');
     await probe.publish('test/op/41', 'go'); // PUR and RED: waits behind 51
-    await waitFor(() => events(since).some((e) => e.kind === 'queued' && e.operation === '41'), 'op 41 queued');
+    await waitLong(() => events(since).some((e) => e.kind === 'queued' && e.operation === '41'), 'op 41 queued');
     assert.equal(done(since).length, 0, 'nothing has returned before the deploy');
 
     await red.deploy(flows, 'full');
-    await waitFor(() => /Started flows/.test(red.logOfThisRun().split('Updated flows').slice(1).join('')), 'the deploy to start the flows again');
+    await waitLong(() => /Started flows/.test(red.logOfThisRun().split('Updated flows').slice(1).join('')), 'the deploy to start the flows again');
     const restartedAt = Date.now();
 
-    await waitFor(() => ['10', '51', '41'].every((op) => done(since).some((d) => d.id === op)), 'all three operations returned');
+    await waitLong(() => ['10', '51', '41'].every((op) => done(since).some((d) => d.id === op)), 'all three operations returned');
     // Op 41 was still waiting when the flows restarted: it ran, and returned, through the new node instances.
     assert.ok(done(since).find((d) => d.id === '41').at > restartedAt, 'op 41 returned after the deploy');
     assert.deepEqual(errors(since), [], 'no error reached a Catch node');
@@ -92,7 +86,7 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     for (const bad of ['faulted', 'resource-faulted', 'interrupted', 'state-unknown']) {
       assert.equal(kinds.includes(bad), false, `no ${bad} event: ${kinds.join(', ')}`);
     }
-    await waitFor(async () => Object.values(await red.lines('il')).every((s) => s === 'free'), 'every line free');
+    await waitLong(async () => Object.values(await red.lines('il')).every((s) => s === 'free'), 'every line free');
     assert.ok(red.alive);
   });
 
@@ -101,7 +95,7 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     await sim.inject({ fault: 'slow', device: 'ctrl-1', valve: 1, factor: 5 });
     const since = Date.now();
     await probe.publish('test/op/10', 'go');
-    await waitFor(() => events(since).some((e) => e.kind === 'granted' && e.operation === '10'), 'op 10 granted');
+    await waitLong(() => events(since).some((e) => e.kind === 'granted' && e.operation === '10'), 'op 10 granted');
 
     // The new document has an operation 99 on PUR, and the new flows a node and a topic for it.
     const changed = flows.map((n) => {
@@ -112,20 +106,20 @@ describe('deploys through the admin API of a real Node-RED process, operations r
     });
     const op99 = flows.filter((n) => n.id === 'in-op-12' || n.id === 'op-12').map((n) => JSON.parse(JSON.stringify(n).replace(/12/g, '99')));
     await red.deploy([...changed, ...op99], 'full');
-    await waitFor(async () => (await red.get('/sugarshack/state')).interlocks[0].draining, 'the interlock draining');
-    await waitFor(() => /Connected to broker/.test(red.logOfThisRun().split('Updated flows').pop()), 'the new flows subscribed');
+    await waitLong(async () => (await red.get('/sugarshack/state')).interlocks[0].draining, 'the interlock draining');
+    await waitLong(() => /Connected to broker/.test(red.logOfThisRun().split('Updated flows').pop()), 'the new flows subscribed');
     await sleep(100);
     await probe.publish('test/op/99', 'go'); // waits for the drain: op 99 is in the new document only
     await sleep(200);
     assert.equal(done(since).some((d) => d.id === '99'), false, 'op 99 waits while op 10 runs');
 
-    await waitFor(() => done(since).some((d) => d.id === '10'), 'op 10 returned');
+    await waitLong(() => done(since).some((d) => d.id === '10'), 'op 10 returned');
     await sim.inject({ fault: 'clear' });
-    await waitFor(async () => !(await red.get('/sugarshack/state')).interlocks[0].draining, 'the drain over');
-    await waitFor(() => done(since).some((d) => d.id === '99'), 'op 99 returned, run from the new document');
+    await waitLong(async () => !(await red.get('/sugarshack/state')).interlocks[0].draining, 'the drain over');
+    await waitLong(() => done(since).some((d) => d.id === '99'), 'op 99 returned, run from the new document');
     assert.ok(done(since).find((d) => d.id === '99').at > done(since).find((d) => d.id === '10').at, 'after op 10');
     assert.deepEqual(errors(since), []);
     assert.equal(events(since).some((e) => ['faulted', 'interrupted'].includes(e.kind)), false);
-    await waitFor(async () => Object.values(await red.lines('il')).every((s) => s === 'free'), 'every line free');
+    await waitLong(async () => Object.values(await red.lines('il')).every((s) => s === 'free'), 'every line free');
   });
 });

@@ -12,7 +12,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
-const { NodeRedProcess, mqttBroker, sleep } = require('./support/node-red');
+const { NodeRedProcess, mqttBroker, sleep, waitFor } = require('./support/node-red');
 const { loadPlant } = require('../../scripts/simulator/plant');
 
 const PLANT = loadPlant(path.join(__dirname, 'fixtures', 'plant-routines.json'));
@@ -135,14 +135,6 @@ describe('hostile MQTT payloads against a real Node-RED process', function () {
     if (probe) await probe.end();
     if (broker) await broker.stop();
   });
-
-  async function waitFor(predicate, what, ms = 8000) {
-    const deadline = Date.now() + ms;
-    while (!predicate()) {
-      if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}`);
-      await sleep(10);
-    }
-  }
 
   let probeCount = 0;
   /** The interlock still grants a free line and queues a second request on it until the first releases. */

@@ -163,4 +163,13 @@ function lineState(s) {
   return s.state;
 }
 
-module.exports = { NodeRedProcess, mqttBroker, lineState, sleep };
+/** Polls `predicate` (sync or async) every 10 ms until it holds; throws naming `what` after `ms`. */
+async function waitFor(predicate, what, ms = 8000) {
+  const deadline = Date.now() + ms;
+  while (!(await predicate())) {
+    if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}`);
+    await sleep(10);
+  }
+}
+
+module.exports = { NodeRedProcess, mqttBroker, lineState, sleep, waitFor };
