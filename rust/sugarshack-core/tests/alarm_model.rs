@@ -17,6 +17,9 @@ const SUBJECTS: [(AlarmKind, &str); 4] = [
 ];
 const PEOPLE: [&str; 2] = ["ana", "bo"];
 
+/// An alarm as compared: id, state, shelf end, who acknowledged and when.
+type Seen = (String, AlarmState, Option<u64>, Option<(String, u64)>);
+
 #[derive(Clone, Debug)]
 enum Step {
     /// The conditions that hold now, as a bit per subject.
@@ -160,10 +163,10 @@ proptest! {
                 }
             }
             // The alarms as listed are the model's, state, shelf and acknowledgement alike.
-            let listed: Vec<(String, AlarmState, Option<u64>, Option<(String, u64)>)> = alarms.list()
+            let listed: Vec<Seen> = alarms.list()
                 .map(|a| (a.id.clone(), a.state, a.shelved.as_ref().map(|s| s.until_ms), a.acked.as_ref().map(|s| (s.by.clone(), s.at_ms))))
                 .collect();
-            let mut expected: Vec<(String, AlarmState, Option<u64>, Option<(String, u64)>)> = model.alarms.iter()
+            let mut expected: Vec<Seen> = model.alarms.iter()
                 .map(|(i, e)| (id(*i), Model::state(e), e.shelf_until, e.acked_by.clone()))
                 .collect();
             expected.sort_by(|a, b| a.0.cmp(&b.0));
