@@ -629,6 +629,73 @@ describe('example: subflows-op12', function () {
     assert.deepEqual(runtime.core.counts(), { holding: 0, queued: 0, faulted: 0 }, 'none of the bad requests changed anything');
   });
 
+  it('alarms: an e-stop and an offline device raise them; acknowledged by POST and by the state node as who asked, shelved until a time, kept over a restart', async function () {
+    const { flow, seen } = await start();
+    const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
+    const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+    const runtime = () => helper.getNode(ids[0]).runtime;
+    const alarm = (id) => runtime().describe().alarms.find((a) => a.id === id);
+    const post = (url, body) => helper.request().post(url).send(body);
+    panel.receive({ payload: 'e-stop', by: 'ana', reason: 'leak at the RED pump' });
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    assert.equal(alarm('line-faulted:RED').state, 'active-unacknowledged');
+    assert.match(alarm('line-faulted:RED').text, /RED faulted, manual: leak at the RED pump/);
+    assert.equal(runtime().describe().recentEvents.at(-1).summary, 'e-stop RED by ana: leak at the RED pump');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => alarm('device-offline:ctrl-5'), 'the device-offline alarm');
+
+    // The editor acknowledges one; without adminAuth it is "unknown" who did.
+    const ackedAt = clock().now();
+    let res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:RED'] });
+    assert.equal(res.status, 200, res.text);
+    assert.deepEqual(res.body.changes.map((c) => [c.id, c.from, c.to, c.by]), [['line-faulted:RED', 'active-unacknowledged', 'active-acknowledged', 'unknown']]);
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt });
+    res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:PINK'] });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'UNKNOWN_ALARM');
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5' });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'INVALID_SHELF');
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5', forMs: NaN });
+    assert.equal(res.status, 409, 'NaN is no duration');
+
+    // The dashboard shelves through the state node, as its signed-in user.
+    const state = helper.getNode(byName(flow, 'sugarshack-state', 'plant state'));
+    state.receive({ topic: 'shelve', id: 'device-offline:ctrl-5', forMs: 2000, reason: 'ctrl-5 on the bench', _client: { user: { username: 'bo' } } });
+    await runTill(() => seen.state.length === 1, 'the answer of the state node');
+    assert.equal(seen.state[0].alarmChanges[0].action, 'shelve');
+    const shelved = seen.state[0].payload.interlocks[0].alarms.find((a) => a.id === 'device-offline:ctrl-5');
+    assert.equal(shelved.shelved.by, 'bo');
+    assert.equal(shelved.shelved.reason, 'ctrl-5 on the bench');
+    assert.equal(shelved.shelved.untilMs, shelved.shelved.atMs + 2000);
+    await runTill(() => !alarm('device-offline:ctrl-5').shelved, 'the shelf to run out', { maxMs: 3000 });
+    assert.equal(alarm('device-offline:ctrl-5').state, 'active-unacknowledged', 'back from the shelf in its true state');
+
+    // Acknowledged by the state node: the device comes back online, the alarm leaves the list.
+    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5', by: 'cy' });
+    await runTill(() => seen.state.length === 2, 'the ack');
+    assert.equal(alarm('device-offline:ctrl-5').acked.by, 'cy');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    await runTill(() => !alarm('device-offline:ctrl-5'), 'the acknowledged alarm to go once normal');
+    const refusals = [];
+    state.on('call:error', (call) => refusals.push(call.args[0]));
+    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5' });
+    await runTill(() => refusals.length === 1, 'the refusal of an alarm not listed');
+    assert.equal(refusals[0].code, 'UNKNOWN_ALARM');
+    assert.equal(seen.state.length, 2, 'nothing sent for it');
+
+    // The acknowledgement is saved with the interlock's state: a restart keeps it.
+    await settled(helper, ids[0]);
+    const saved = JSON.parse(fs.readFileSync(runtime().store.where, 'utf8'));
+    assert.deepEqual(saved.alarms.alarms.map((a) => [a.id, a.state, a.acked && a.acked.by]), [['line-faulted:RED', 'active-acknowledged', 'unknown']]);
+    await helper.unload();
+    await helper.load(NODE_MODULES, flow);
+    await started(flow);
+    await runTill(() => runtime().state === 'ready' && alarm('line-faulted:RED'), 'the interlock back');
+    assert.equal(alarm('line-faulted:RED').state, 'active-acknowledged');
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt });
+  });
+
   it('a forced clear goes through over the reasons and says so', async function () {
     const { flow, seen } = await start();
     const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
