@@ -13,6 +13,8 @@
 //! the shelf (kept even when normal) until that time or until unshelved, and
 //! follows its condition meanwhile; taken off the shelf, it shows its true state.
 //! Who acknowledged or shelved, and when, is recorded. Time is an argument.
+//! A kind may have an on-delay: its condition must hold that long before it
+//! is an alarm (a broker still connecting at start-up is none).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -50,7 +52,18 @@ pub enum AlarmKind {
     HeldLong,
 }
 
+/// How long a lost broker must stay lost before it is an alarm: Node-RED connects after the flows start.
+pub const BUS_ON_DELAY_MS: u64 = 10_000;
+
 impl AlarmKind {
+    /// How long its condition must hold before it is an alarm.
+    pub fn on_delay_ms(self) -> u64 {
+        match self {
+            Self::BusDisconnected => BUS_ON_DELAY_MS,
+            _ => 0,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Self::LineFaulted => "line-faulted",
@@ -228,6 +241,8 @@ pub struct AlarmsSnapshot {
 #[derive(Clone, Debug, Default)]
 pub struct Alarms {
     alarms: BTreeMap<String, Alarm>,
+    /// Conditions held for less than their kind's on-delay, by id: since when (not saved).
+    delayed: BTreeMap<String, u64>,
 }
 
 pub fn alarm_id(kind: AlarmKind, subject: &str) -> String {
@@ -296,8 +311,18 @@ impl Alarms {
             };
             changes.push(self.shift(&id, to, AlarmAction::Condition, None, now));
         }
+        self.delayed.retain(|id, _| holding.contains_key(id));
         for (id, c) in holding {
             let text = cut(&c.text, TEXT_MAX_CHARS);
+            let mut since = c.since_ms.filter(|&t| t <= now).unwrap_or(now);
+            if !self.alarms.contains_key(&id) && c.kind.on_delay_ms() > 0 {
+                let first = *self.delayed.entry(id.clone()).or_insert(since);
+                if now - first < c.kind.on_delay_ms() {
+                    continue;
+                }
+                self.delayed.remove(&id);
+                since = first;
+            }
             match self.alarms.get_mut(&id) {
                 Some(alarm) if alarm.state.is_active() => alarm.text = text,
                 Some(alarm) => {
@@ -316,7 +341,7 @@ impl Alarms {
                             subject,
                             text,
                             state: AlarmState::ActiveUnacked,
-                            active_since_ms: c.since_ms.filter(|&t| t <= now).unwrap_or(now),
+                            active_since_ms: since,
                             changed_ms: now,
                             acked: None,
                             shelved: None,
@@ -460,7 +485,10 @@ impl Alarms {
                 return Err(invalid("an alarm is listed twice".into()));
             }
         }
-        Ok(Alarms { alarms })
+        Ok(Alarms {
+            alarms,
+            delayed: BTreeMap::new(),
+        })
     }
 
     fn require(&self, ids: &[String]) -> Result<(), AlarmError> {
@@ -589,6 +617,26 @@ mod tests {
         let a = alarms.get(id).unwrap();
         assert_eq!((a.state, a.shelved.is_none()), (AlarmState::ActiveUnacked, true));
         assert_eq!(alarms.unshelve("nope", &bo, 1001).unwrap_err().code(), "UNKNOWN_ALARM");
+    }
+
+    #[test]
+    fn a_lost_broker_is_an_alarm_only_once_lost_for_its_on_delay() {
+        let mut alarms = Alarms::new();
+        let lost = Condition {
+            kind: AlarmKind::BusDisconnected,
+            subject: "all devices".into(),
+            text: "lost".into(),
+            since_ms: None,
+        };
+        alarms.observe(std::slice::from_ref(&lost), 0).unwrap();
+        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS - 1).unwrap();
+        assert_eq!(alarms.list().count(), 0, "still connecting");
+        alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
+        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS + 1).unwrap();
+        assert_eq!(alarms.list().count(), 0, "the delay starts again");
+        alarms.observe(std::slice::from_ref(&lost), 2 * BUS_ON_DELAY_MS + 1).unwrap();
+        let a = alarms.get("bus-disconnected:all devices").unwrap();
+        assert_eq!((a.state, a.active_since_ms), (AlarmState::ActiveUnacked, BUS_ON_DELAY_MS + 1));
     }
 
     #[test]

@@ -6,14 +6,16 @@
 use std::collections::BTreeMap;
 
 use proptest::prelude::*;
-use sugarshack_core::alarm::{alarm_id, AlarmKind, AlarmState, Alarms, Condition};
+use sugarshack_core::alarm::{alarm_id, AlarmKind, AlarmState, Alarms, Condition, BUS_ON_DELAY_MS};
 use sugarshack_core::clearance::Attribution;
 
-const SUBJECTS: [(AlarmKind, &str); 4] = [
+const SUBJECTS: [(AlarmKind, &str); 5] = [
     (AlarmKind::LineFaulted, "YEL"),
     (AlarmKind::LineFaulted, "GRN"),
     (AlarmKind::DeviceOffline, "ctrl-1"),
     (AlarmKind::DeviceStale, "ctrl-1"),
+    // With an on-delay: its condition must hold that long first.
+    (AlarmKind::BusDisconnected, "bus"),
 ];
 const PEOPLE: [&str; 2] = ["ana", "bo"];
 
@@ -33,7 +35,7 @@ enum Step {
 
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
-        4 => (0u8..16).prop_map(Step::Observe),
+        4 => (0u8..32).prop_map(Step::Observe),
         3 => (prop::option::weighted(0.7, 0..SUBJECTS.len()), 0..PEOPLE.len())
             .prop_map(|(alarm, person)| Step::Ack { alarm, person }),
         1 => (0..SUBJECTS.len(), prop_oneof![Just(1u64), Just(25), Just(200)], 0..PEOPLE.len())
@@ -54,6 +56,8 @@ struct Entry {
 #[derive(Default)]
 struct Model {
     alarms: BTreeMap<usize, Entry>,
+    /// Conditions held, not yet past their on-delay: since when.
+    waiting: BTreeMap<usize, u64>,
 }
 
 impl Model {
@@ -88,7 +92,8 @@ proptest! {
         let mut alarms = Alarms::new();
         let mut model = Model::default();
         for (t, step) in steps.into_iter().enumerate() {
-            let now = t as u64 * 10;
+            // Steps far enough apart for an on-delay to run out now and then.
+            let now = t as u64 * (BUS_ON_DELAY_MS / 4);
             match step {
                 Step::Observe(bits) => {
                     let conditions: Vec<Condition> = (0..SUBJECTS.len()).filter(|i| bits & (1 << i) != 0).map(|i| Condition {
@@ -96,8 +101,18 @@ proptest! {
                     }).collect();
                     alarms.observe(&conditions, now).unwrap();
                     model.tidy(now);
-                    for i in 0..SUBJECTS.len() {
-                        let holds = bits & (1 << i) != 0;
+                    for (i, (kind, _)) in SUBJECTS.iter().enumerate() {
+                        let mut holds = bits & (1 << i) != 0;
+                        let delay = kind.on_delay_ms();
+                        if !holds {
+                            model.waiting.remove(&i);
+                        } else if delay > 0 && !model.alarms.contains_key(&i) {
+                            let first = *model.waiting.entry(i).or_insert(now);
+                            holds = now - first >= delay;
+                            if holds {
+                                model.waiting.remove(&i);
+                            }
+                        }
                         let entry = model.alarms.entry(i).or_default();
                         if holds && !entry.holds {
                             entry.owed = true;
@@ -160,6 +175,8 @@ proptest! {
                 Step::Restart => {
                     let text = serde_json::to_string(&alarms.snapshot()).unwrap();
                     alarms = Alarms::restore(serde_json::from_str(&text).unwrap()).unwrap();
+                    // An on-delay under way is not saved: it starts again.
+                    model.waiting.clear();
                 }
             }
             // The alarms as listed are the model's, state, shelf and acknowledgement alike.
