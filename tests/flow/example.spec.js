@@ -26,15 +26,16 @@ const exampleFiles = () => fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.j
 
 /**
  * An example as the test helper runs it: debug and mqtt out nodes become helper
- * nodes, mqtt in nodes helper nodes keeping their wires, the broker goes.
- * `tweak(node)` may return a changed node.
+ * nodes, mqtt in nodes and Dashboard 2 widgets helper nodes keeping their wires,
+ * the broker and the dashboard's config nodes go (the browser and palette
+ * tests run the dashboard itself). `tweak(node)` may return a changed node.
  */
 function helperFlow(file, tweak = (n) => n) {
   return readExample(file)
-    .filter((n) => n.type !== 'mqtt-broker')
+    .filter((n) => n.type !== 'mqtt-broker' && !(n.type.startsWith('ui-') && !n.z))
     .map((n) => {
       if (n.type === 'debug' || n.type === 'mqtt out') return { id: n.id, z: n.z, type: 'helper', name: n.name };
-      if (n.type === 'mqtt in') return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires };
+      if (n.type === 'mqtt in' || n.type.startsWith('ui-')) return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires };
       return tweak(n);
     });
 }
@@ -181,11 +182,23 @@ describe('examples', function () {
         if (n.type === 'catch' && Array.isArray(n.scope)) {
           for (const target of n.scope) assert.ok(flow.some((c) => c.id === target), `${file}: catch ${n.id} watches a node of the file`);
         }
-        if (n.z) assert.ok(flow.some((c) => c.id === n.z && c.type === 'tab'), `${file}: ${n.id} is on a tab of the file`);
+        if (n.z) assert.ok(flow.some((c) => c.id === n.z && (c.type === 'tab' || c.type === 'subflow')), `${file}: ${n.id} is on a tab or in a subflow of the file`);
+        if (n.type.startsWith('subflow:')) assert.ok(flow.some((c) => c.id === n.type.slice(8) && c.type === 'subflow'), `${file}: ${n.id} is an instance of a subflow of the file`);
       }
     }
     const types = Object.keys(pkg['node-red'].nodes).map((set) => `sugarshack-${set}`);
     for (const type of types) assert.ok(used.has(type), `${type} appears in an example`);
+  });
+
+  it('the HMI example and flows/hmi.json are what scripts/hmi-flow.js makes of scripts/hmi/*.vue (one source, no hand copy)', function () {
+    const { npmStart, example } = require('../../scripts/hmi-flow.js');
+    assert.deepEqual(readExample('hmi-dashboard.json'), example());
+    assert.deepEqual(JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'flows', 'hmi.json'), 'utf8')), npmStart());
+    // The panels are the same subflows in both, the palette's own nodes inside, no private internals.
+    const panels = (flow) => flow.filter((n) => n.type === 'subflow').map((n) => n.name);
+    assert.deepEqual(panels(example()), ['sugarshack lines panel', 'sugarshack alarms panel']);
+    const inside = example().filter((n) => n.z && example().some((sf) => sf.type === 'subflow' && sf.id === n.z)).map((n) => n.type);
+    assert.deepEqual([...new Set(inside)].sort(), ['change', 'sugarshack-state', 'switch', 'ui-template']);
   });
 
   for (const file of exampleFiles()) {
