@@ -175,22 +175,24 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await shot('4-cleared');
   });
 
+  // BLU: free early on (only a late step of the evaporator's cycle takes it), so the routines keep
+  // running operations for the timing page.
   it('CLEAR with force and a reason goes through over a refusal and is recorded as forced, with that reason', async function () {
-    await page.click(`${lineRow('GRN')} .ss-estop`);
-    await waitText(lineRow('GRN'), /GRN\s+faulted/, 'GRN faulted');
-    await sim.inject({ fault: 'dead', device: 'ctrl-2' });
-    await waitText(lineRow('GRN'), /device ctrl-2 offline/, 'the reason not to clear GRN', 30000);
-    await page.type('.ss-reason', 'ctrl-2 being replaced; GRN valves closed by hand');
+    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await waitText(lineRow('BLU'), /BLU\s+faulted/, 'BLU faulted');
+    await sim.inject({ fault: 'dead', device: 'ctrl-3' });
+    await waitText(lineRow('BLU'), /device ctrl-3 offline/, 'the reason not to clear BLU', 30000);
+    await page.type('.ss-reason', 'ctrl-3 being replaced; BLU valves closed by hand');
     await page.click('.ss-force');
-    await page.click(`${lineRow('GRN')} .ss-clear`);
-    await waitText(lineRow('GRN'), /GRN\s+(free|held)/, 'GRN cleared over its reasons', 30000);
+    await page.click(`${lineRow('BLU')} .ss-clear`);
+    await waitText(lineRow('BLU'), /BLU\s+(free|held)/, 'BLU cleared over its reasons', 30000);
     const forced = await waitText('.ss-event.ss-forced', /FORCED/, 'the forced clear marked in the event list');
-    assert.match(forced, new RegExp(`cleared GRN by ${DASHBOARD_USER} \\(forced\\): ctrl-2 being replaced; GRN valves closed by hand`));
+    assert.match(forced, new RegExp(`cleared BLU by ${DASHBOARD_USER} \\(forced\\): ctrl-3 being replaced; BLU valves closed by hand`));
     assert.equal(await page.$eval('.ss-force', (el) => el.checked), false, 'force is for one clear only');
     const cleared = (await red.get('/sugarshack/state')).interlocks[0].recentEvents.filter((e) => e.kind === 'cleared').at(-1);
-    assert.deepEqual([cleared.resources, cleared.by, cleared.forced, cleared.reason], [['GRN'], DASHBOARD_USER, true, 'ctrl-2 being replaced; GRN valves closed by hand']);
+    assert.deepEqual([cleared.resources, cleared.by, cleared.forced, cleared.reason], [['BLU'], DASHBOARD_USER, true, 'ctrl-3 being replaced; BLU valves closed by hand']);
     await shot('5-forced-clear');
-    await sim.inject({ fault: 'revive', device: 'ctrl-2' });
+    await sim.inject({ fault: 'revive', device: 'ctrl-3' });
   });
 
   it('an alarm acknowledged on the page stays acknowledged after a reload, showing who acknowledged it and when', async function () {
@@ -200,18 +202,18 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await page.click(`${alarm('line-faulted:YEL')} .ss-ack`);
     await waitText('.ss-alarms', /^(?![\s\S]*YEL faulted)/, 'the acknowledged, normal alarm leaves the list');
     // An active one stays, acknowledged.
-    await page.type('.ss-reason', 'washball leak');
-    await page.click(`${lineRow('PUR')} .ss-estop`);
-    await waitText(alarm('line-faulted:PUR'), /PUR faulted, manual[\s\S]*washball leak[\s\S]*active · unacknowledged/, 'the PUR alarm');
-    await page.click(`${alarm('line-faulted:PUR')} .ss-ack`);
+    await page.type('.ss-reason', 'dye test on BLU');
+    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await waitText(alarm('line-faulted:BLU'), /BLU faulted, manual: dye test on BLU[\s\S]*active · unacknowledged/, 'the BLU alarm');
+    await page.click(`${alarm('line-faulted:BLU')} .ss-ack`);
     const acked = new RegExp(`active · acknowledged by ${DASHBOARD_USER} at \\d`);
-    await waitText(alarm('line-faulted:PUR'), acked, 'the acknowledgement with who');
+    await waitText(alarm('line-faulted:BLU'), acked, 'the acknowledgement with who');
     await page.reload({ waitUntil: 'domcontentloaded' });
-    await waitText(alarm('line-faulted:PUR'), acked, 'the acknowledgement after a reload', 20000);
+    await waitText(alarm('line-faulted:BLU'), acked, 'the acknowledgement after a reload', 20000);
     await sleep(500); // the navigation drawer slides away after a load
-    const pur = (await red.get('/sugarshack/state')).interlocks[0].alarms.find((a) => a.id === 'line-faulted:PUR');
-    assert.equal(pur.state, 'active-acknowledged');
-    assert.equal(pur.acked.by, DASHBOARD_USER);
+    const blu = (await red.get('/sugarshack/state')).interlocks[0].alarms.find((a) => a.id === 'line-faulted:BLU');
+    assert.equal(blu.state, 'active-acknowledged');
+    assert.equal(blu.acked.by, DASHBOARD_USER);
     await shot('6-alarm-acknowledged-after-reload');
   });
 
@@ -220,9 +222,7 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     const figures = ['fig11', 'fig12', 'fig13', 'fig14', 'fig15'];
     // The case-study devices speak stock ESPHome, whose states carry no device time: no time of flight (Fig. 11).
     const withData = ['fig12', 'fig13', 'fig14', 'fig15'];
-    // Fig. 15 needs an operation to have finished (the truck's op 10 runs about 2 min).
-    this.timeout(240000);
-    const deadline = Date.now() + 200000;
+    const deadline = Date.now() + 60000;
     let counts = {};
     while (Date.now() < deadline) {
       counts = await page.$$eval('.ss-fig', (els) => Object.fromEntries(els.map((el) => [el.dataset.fig, Number(el.dataset.series)]))).catch(() => ({}));
