@@ -73,7 +73,11 @@ describe('the README\'s fault walkthrough, as written', function () {
       await red.request('POST', '/sugarshack/clear', { interlock: (await red.get('/sugarshack/state')).interlocks[0].id, lines: ['YEL'] });
       assert.equal((await yel()).state.state, 'free', 'nothing queued for YEL took it: the truck routine is halted');
       const flows = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8'));
-      const click = (name) => red.request('POST', `/inject/${flows.find((n) => n.type === 'inject' && n.name === name).id}`);
+      // What the inject's button does (it answers "OK", not JSON).
+      const click = async (name) => {
+        const res = await fetch(`http://127.0.0.1:${red.port}/inject/${flows.find((n) => n.type === 'inject' && n.name === name).id}`, { method: 'POST' });
+        assert.equal(res.status, 200, `the button of '${name}'`);
+      };
       await click('stuck V101 (YEL)');
       await sleep(1000); // the simulator takes it over MQTT
       const clicked = Date.now();
