@@ -56,10 +56,14 @@ class AlarmBook {
     return changes;
   }
 
-  /** Notable interlock event records (with their one-line summary) for the event list. */
+  /**
+   * Keeps notable interlock event records (with their one-line summary) for
+   * the event list; true when there were any (a grant or a release changes no alarm).
+   */
   noteEvents(records, describe) {
     const notable = records.filter((r) => NOTABLE.has(r.kind));
     if (notable.length) this.events = this.events.concat(notable.map((r) => ({ ...r, summary: describe(r) }))).slice(-RECENT_EVENTS);
+    return notable.length > 0;
   }
 
   list() {

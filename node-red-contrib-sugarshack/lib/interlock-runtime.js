@@ -74,11 +74,8 @@ class InterlockRuntime extends RuntimeBase {
       snapshot: () => this.document(),
       collect: () => {
         const records = this.core ? this.core.drainEvents() : [];
-        if (records.length && this.alarms) {
-          // The alarms they raise or end go into this same write.
-          this.alarms.noteEvents(records, describeEvent);
-          this.observeAlarms({ inWrite: true });
-        }
+        // The alarms a fault or a clear raises or ends go into this same write.
+        if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
