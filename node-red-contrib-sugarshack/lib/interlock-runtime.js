@@ -18,6 +18,7 @@ const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
+const { journal } = require('./journal/bus');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
@@ -567,22 +568,23 @@ class InterlockRuntime extends RuntimeBase {
 
   /** Acknowledges alarms (`ids`, or every unacknowledged one when null) by `who`; `then(changes)` once saved. */
   acknowledgeAlarms(ids, who, then) {
-    this.alarmAction(() => this.alarms.acknowledge(ids, who, clock.now()), then);
+    this.alarmAction('alarm-ack', who, () => this.alarms.acknowledge(ids, who, clock.now()), then);
   }
 
   /** Shelves alarm `id` until `untilMs` by `who`; `then(changes)` once saved. */
   shelveAlarm(id, untilMs, who, then) {
-    this.alarmAction(() => this.alarms.shelve(id, untilMs, who, clock.now()), then);
+    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now()), then);
   }
 
   unshelveAlarm(id, who, then) {
-    this.alarmAction(() => this.alarms.unshelve(id, who, clock.now()), then);
+    this.alarmAction('alarm-unshelve', who, () => this.alarms.unshelve(id, who, clock.now()), then);
   }
 
-  /** The alarm states as of now first, so a person acts on what the page shows. */
-  alarmAction(act, then) {
+  /** The alarm states as of now first, so a person acts on what the page shows; journaled like a clear. */
+  alarmAction(action, who, act, then) {
     this.observeAlarms();
     const changes = act();
+    if (changes.length) journal.action(action, who, [...new Set(changes.map((c) => c.id))]);
     this.committer.change(() => then(changes));
     if (this.palette) this.palette.changes.touch();
   }

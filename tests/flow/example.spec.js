@@ -657,12 +657,22 @@ describe('example: subflows-op12', function () {
     bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
     await runTill(() => alarm('device-offline:ctrl-5'), 'the device-offline alarm');
 
-    // The editor acknowledges one; without adminAuth it is "unknown" who did.
+    // The editor acknowledges one; without adminAuth it is "unknown" who did. The journal gets it as an operator action.
     const ackedAt = clock().now();
-    let res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:RED'] });
+    const { journal } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
+    const journaled = [];
+    const action = journal.action;
+    journal.action = (...args) => journaled.push(args);
+    let res;
+    try {
+      res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:RED'], reason: 'seen' });
+    } finally {
+      journal.action = action;
+    }
+    assert.deepEqual(journaled.map(([kind, who, target]) => [kind, who.reason, target]), [['alarm-ack', 'seen', ['line-faulted:RED']]]);
     assert.equal(res.status, 200, res.text);
     assert.deepEqual(res.body.changes.map((c) => [c.id, c.from, c.to, c.by]), [['line-faulted:RED', 'active-unacknowledged', 'active-acknowledged', 'unknown']]);
-    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt });
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt, reason: 'seen' });
     res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:PINK'] });
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'UNKNOWN_ALARM');
@@ -706,7 +716,7 @@ describe('example: subflows-op12', function () {
     await started(flow);
     await runTill(() => runtime().state === 'ready' && alarm('line-faulted:RED'), 'the interlock back');
     assert.equal(alarm('line-faulted:RED').state, 'active-acknowledged');
-    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt });
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt, reason: 'seen' });
   });
 
   it('a forced clear goes through over the reasons and says so', async function () {
