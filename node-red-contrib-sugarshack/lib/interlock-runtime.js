@@ -584,7 +584,8 @@ class InterlockRuntime extends RuntimeBase {
   alarmAction(action, who, act, then) {
     this.observeAlarms();
     const changes = act();
-    if (changes.length) journal.action(action, who, [...new Set(changes.map((c) => c.id))]);
+    const done = changes.filter((c) => c.action !== 'shelf-expired');
+    if (done.length) journal.action(action, who, [...new Set(done.map((c) => c.id))]);
     this.committer.change(() => then(changes));
     if (this.palette) this.palette.changes.touch();
   }
