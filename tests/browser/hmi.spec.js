@@ -153,6 +153,8 @@ describe('the HMI at /dashboard in headless Chromium', function () {
       const names = await editor.$$eval('.sugarshack-sidebar tr.ss-sb-line', (rows) => rows.map((r) => r.dataset.line));
       assert.deepEqual(names, ['YEL', 'GRN', 'BLU', 'PUR', 'RED']);
       assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-queue', (el) => el.innerText), /^queue: /);
+      await editor.waitForSelector('.sugarshack-sidebar .ss-sb-alarm[data-alarm="line-faulted:YEL"]', { timeout: 5000 });
+      assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-alarm[data-alarm="line-faulted:YEL"]', (el) => el.innerText), /YEL faulted, manual/);
       assert.match(await editor.$eval('.sugarshack-sidebar .ss-sb-routines', (el) => el.innerText), /truck/);
     } finally {
       await editor.close();
