@@ -53,6 +53,10 @@ palette_test() { # <label> <node binary> <node-red dir>
   mkdir -p "$userdir"
   echo '{"name":"node-red-project","private":true}' >"$userdir/package.json"
   (cd "$userdir" && npm install --no-audit --no-fund --loglevel=error "$TARBALL")
+  # The HMI example needs FlowFuse Dashboard 2: the workspace's copy, linked (offline), as a user who installed it has it.
+  [ -d "$ROOT/node_modules/@flowfuse/node-red-dashboard" ] || { echo "no @flowfuse/node-red-dashboard in $ROOT/node_modules (npm install)" >&2; return 1; }
+  mkdir -p "$userdir/node_modules/@flowfuse"
+  ln -s "$ROOT/node_modules/@flowfuse/node-red-dashboard" "$userdir/node_modules/@flowfuse/node-red-dashboard"
   counted node tests/palette/install-test.js --label "$label" --node "$node" \
     --red "$nrdir/red.js" --userdir "$userdir" --pkg "$PALETTE/package.json" --examples "$PALETTE/examples"
 }

@@ -8,7 +8,8 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { deliver, grantedBy, takeGrants } = require('./grants');
-const { EventFanout, describeWarning } = require('./events');
+const { EventFanout, describeWarning, describeEvent } = require('./events');
+const { AlarmBook, conditionsOf } = require('./alarms');
 const { countsStatus, errorStatus } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
@@ -17,8 +18,10 @@ const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
+const { journal } = require('./journal/bus');
 
 const TICK_MS = 1000;
+const ALARM_CHECK_MS = 1000;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
 
 class InterlockRuntime extends RuntimeBase {
@@ -42,6 +45,8 @@ class InterlockRuntime extends RuntimeBase {
     this.heldBack = []; // waiting requests taken out of the queue while a deploy drains
     this.lostState = null; // why the state was unknown at start, until those lines are cleared
     this.tickTimer = null;
+    this.alarms = null; // AlarmBook, with the core
+    this.alarmTimer = null;
     this.store = settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore();
     this.committer = this.makeCommitter();
   }
@@ -70,6 +75,8 @@ class InterlockRuntime extends RuntimeBase {
       snapshot: () => this.document(),
       collect: () => {
         const records = this.core ? this.core.drainEvents() : [];
+        // The alarms a fault or a clear raises or ends go into this same write.
+        if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
@@ -88,7 +95,8 @@ class InterlockRuntime extends RuntimeBase {
       const snapshot = host.snapshot();
       if (snapshot) routines[id] = snapshot;
     }
-    return JSON.stringify({ format: FORMAT, version: 1, savedAtMs: now, interlock: this.core.snapshot(now), routines });
+    const alarms = this.alarms ? this.alarms.snapshot() : undefined;
+    return JSON.stringify({ format: FORMAT, version: 1, savedAtMs: now, interlock: this.core.snapshot(now), routines, alarms });
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -113,6 +121,7 @@ class InterlockRuntime extends RuntimeBase {
     if (this.ended) return;
     try {
       this.core = this.guard(() => this.build(saved, clock.now()));
+      this.alarms = this.guard(() => this.alarmBook(saved));
     } catch (err) {
       this.fail(err);
       return;
@@ -151,6 +160,11 @@ class InterlockRuntime extends RuntimeBase {
       return Interlock.unknownState(this.config, `state unknown after restart: ${saved.why}`, now);
     }
     return new Interlock(this.config);
+  }
+
+  /** The alarms as saved with the state (acknowledgements and shelves survive a restart), or none yet. */
+  alarmBook(saved) {
+    return new AlarmBook(saved.kind === 'saved' ? saved.doc.alarms : undefined, (text) => this.log('warn', text));
   }
 
   /** An interlock saved by an earlier version, in the global context store: read once, then the file takes over. */
@@ -223,16 +237,21 @@ class InterlockRuntime extends RuntimeBase {
   startTicking() {
     this.stopTimers();
     if (this.config.warnQueuedMs || this.config.warnHeldMs) this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.alarmTimer = clock.setInterval(() => this.observeAlarms(), ALARM_CHECK_MS);
   }
 
   stopTimers() {
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
+    if (this.alarmTimer) clock.clearInterval(this.alarmTimer);
+    this.alarmTimer = null;
   }
 
   freeCore() {
     wasm.release(this.core);
     this.core = null;
+    if (this.alarms) this.alarms.free();
+    this.alarms = null;
   }
 
   // ---- deploys -------------------------------------------------------------
@@ -292,8 +311,9 @@ class InterlockRuntime extends RuntimeBase {
         const snapshot = this.core ? this.core.snapshot(now) : null;
         return snapshot ? Interlock.restore(this.config, snapshot, false, true, now) : new Interlock(this.config);
       });
-      if (this.core) this.freeCore();
+      if (this.core) wasm.release(this.core);
       this.core = next;
+      if (!this.alarms) this.alarms = new AlarmBook(undefined, (text) => this.log('warn', text));
       this.state = 'ready';
       this.failure = null;
     } catch (err) {
@@ -320,6 +340,8 @@ class InterlockRuntime extends RuntimeBase {
     this.heldBack = [];
     wasm.forget(this.core);
     this.core = null;
+    if (this.alarms) wasm.forget(this.alarms.core);
+    this.alarms = null;
     let saved;
     try {
       saved = this.store.read();
@@ -328,6 +350,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     try {
       this.core = this.build(saved, clock.now());
+      this.alarms = this.alarmBook(saved);
     } catch (err) {
       this.state = 'starting';
       this.fail(err);
@@ -513,6 +536,64 @@ class InterlockRuntime extends RuntimeBase {
     return this.core.faultedResources();
   }
 
+  // ---- alarms (the core keeps their states; see alarms.js) ------------------
+
+  /**
+   * Tells the core which conditions hold now. A change is saved with the next
+   * write; `inWrite` when called while that write is being made.
+   */
+  observeAlarms({ inWrite = false } = {}) {
+    if (this.state !== 'ready' || !this.alarms) return;
+    const now = clock.now();
+    let changes;
+    try {
+      changes = this.guard(() => {
+        const plant = this.plant && this.plant.state === 'ready'
+          ? { devices: this.plant.t.health(now).devices, buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
+          : null;
+        const conditions = conditionsOf({
+          snapshot: this.core.snapshot(now), config: this.config, saveFailing: this.committer.failing, store: this.store.where, plant, now,
+        });
+        return this.alarms.observe(conditions, now);
+      });
+    } catch (err) {
+      this.log('error', `alarms not updated: ${err.message}`);
+      return;
+    }
+    if (changes.length === 0) return;
+    if (!inWrite) this.committer.change();
+    // No node's status shows alarms: only the state's readers hear of it.
+    if (this.palette) this.palette.changes.touch();
+  }
+
+  /** Acknowledges alarms (`ids`, or every unacknowledged one when null) by `who`; `then(changes)` once saved. */
+  acknowledgeAlarms(ids, who, then) {
+    this.alarmAction('alarm-ack', who, () => this.alarms.acknowledge(ids, who, clock.now()), then);
+  }
+
+  /** Shelves alarm `id` until `untilMs` by `who`; `then(changes)` once saved. */
+  shelveAlarm(id, untilMs, who, then) {
+    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now()), then);
+  }
+
+  unshelveAlarm(id, who, then) {
+    this.alarmAction('alarm-unshelve', who, () => this.alarms.unshelve(id, who, clock.now()), then);
+  }
+
+  /** The alarm states as of now first, so a person acts on what the page shows; journaled like a clear. */
+  alarmAction(action, who, act, then) {
+    this.observeAlarms();
+    const changes = act();
+    const done = changes.filter((c) => c.action !== 'shelf-expired');
+    if (done.length) journal.action(action, who, [...new Set(done.map((c) => c.id))]);
+    this.committer.change(() => then(changes));
+    if (this.palette) this.palette.changes.touch();
+  }
+
+  hasAlarm(id) {
+    return Boolean(this.alarms) && this.alarms.has(id);
+  }
+
   // ---- operations run from the plant document ------------------------------
 
   /** Starts an operation's run; `port` gets its progress, result or error. */
@@ -631,6 +712,9 @@ class InterlockRuntime extends RuntimeBase {
       queue,
       routines: [...this.routines.values()].map((host) => host.describe()),
       lostState: this.lostState,
+      alarms: this.alarms ? this.alarms.list() : [],
+      alarmChanges: this.alarms ? this.alarms.changes : [],
+      recentEvents: this.alarms ? this.alarms.events : [],
       saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
       runs: [...this.runs].map((run) => ({ operation: run.operation, granted: run.granted })),
     };

@@ -173,6 +173,7 @@ const served = new WeakSet();
  * every plant's devices, sensors and unconfirmed lockouts, as now (see state.js).
  * POST /sugarshack/clear and /sugarshack/estop: an operator's clear and
  * emergency stop from the editor, attributed to the signed-in editor user.
+ * POST /sugarshack/alarms/ack, /shelve and /unshelve: the same for alarms.
  */
 function serveState(RED, palette) {
   if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
@@ -195,7 +196,7 @@ function serveState(RED, palette) {
       force: body.force === true,
     };
     try {
-      runtime.guard(() => act(runtime, lines, who, (answer) => res.json(answer)));
+      runtime.guard(() => act(runtime, lines, who, (answer) => res.json(answer), body));
     } catch (err) {
       res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
     }
@@ -210,6 +211,41 @@ function serveState(RED, palette) {
       answer({ stopped: lockouts.map((l) => l.resource), by: who.by || 'unknown' });
     }, who);
   }));
+  const alarmAnswer = (who, answer) => (changes) => answer({ changes, by: who.by || 'unknown' });
+  RED.httpAdmin.post('/sugarshack/alarms/ack', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.acknowledgeAlarms(alarmIdsOf(body.ids), who, alarmAnswer(who, answer));
+  }));
+  RED.httpAdmin.post('/sugarshack/alarms/shelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.shelveAlarm(alarmIdOf(body.id), shelfEndOf(body, clock.now()), who, alarmAnswer(who, answer));
+  }));
+  RED.httpAdmin.post('/sugarshack/alarms/unshelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.unshelveAlarm(alarmIdOf(body.id), who, alarmAnswer(who, answer));
+  }));
+}
+
+const MAX_ALARM_ID = 300;
+
+/** An alarm's id (`kind:subject`, as listed in the state). */
+function alarmIdOf(id) {
+  if (typeof id !== 'string' || id === '' || id.length > MAX_ALARM_ID) {
+    throw new SugarshackError('INVALID_INPUT', `name the alarm by its id (kind:subject, as GET /sugarshack/state lists it), got ${JSON.stringify(id === undefined ? null : id).slice(0, 100)}`);
+  }
+  return id;
+}
+
+/** Alarm ids to acknowledge; absent: every unacknowledged one. */
+function alarmIdsOf(ids) {
+  if (ids === undefined || ids === null) return null;
+  if (!Array.isArray(ids) || ids.length > 20000) throw new SugarshackError('INVALID_INPUT', 'ids must be a list of alarm ids (at most 20000), or absent for every unacknowledged alarm');
+  return ids.map(alarmIdOf);
+}
+
+/** Until when a shelf lasts: `untilMs` (epoch ms) or `forMs` from now. */
+function shelfEndOf(body, now) {
+  const { untilMs, forMs } = body;
+  if (typeof untilMs === 'number' && Number.isFinite(untilMs)) return untilMs;
+  if (typeof forMs === 'number' && Number.isFinite(forMs) && forMs > 0) return now + forMs;
+  throw new SugarshackError('INVALID_SHELF', 'say how long to shelve: forMs (milliseconds from now, > 0) or untilMs (epoch milliseconds)');
 }
 
 /**
@@ -243,4 +279,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey, runtimeOfConfigNode };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, alarmIdOf, alarmIdsOf, shelfEndOf };

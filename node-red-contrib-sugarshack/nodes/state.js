@@ -3,7 +3,12 @@
 // change (at most once per interval). The same document as GET /sugarshack/state;
 // a msg with topic 'sugarshack/stats' gets the timing figures instead, the same
 // document as GET /sugarshack/stats (a dashboard needs no admin API access).
-const { paletteOf } = require('../lib/lifecycle');
+// Topics 'ack', 'shelve' and 'unshelve' act on alarms as the dashboard user
+// (msg._client) or msg.by, then answer with the state.
+const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf } = require('../lib/lifecycle');
+const { attributionOf } = require('../lib/request');
+const { SugarshackError } = require('../lib/errors');
+const { errorStatus } = require('../lib/status');
 const { stateOf } = require('../lib/state');
 const { clock } = require('../lib/clock');
 const { stats } = require('../lib/stats');
@@ -11,6 +16,41 @@ const { stats } = require('../lib/stats');
 const STATS_TOPIC = 'sugarshack/stats';
 
 const MIN_INTERVAL_MS = 100;
+const ALARM_TOPICS = new Set(['ack', 'shelve', 'unshelve']);
+
+/**
+ * The interlocks an alarm request goes to: msg.interlock when given, else
+ * those listing the alarm (every one, to acknowledge all).
+ */
+function alarmTargets(palette, msg, id) {
+  const ready = [...palette.runtimes].filter(([, rt]) => rt.kind !== 'plant' && rt.state === 'ready');
+  if (msg.interlock !== undefined) {
+    const found = ready.filter(([rid]) => rid === msg.interlock).map(([, rt]) => rt);
+    if (found.length === 0) throw new SugarshackError('NO_INTERLOCK', `no running interlock '${String(msg.interlock).slice(0, 100)}'`);
+    return found;
+  }
+  const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.hasAlarm(id));
+  if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', `no alarm '${id.slice(0, 100)}' is listed (it may have returned to normal and been acknowledged)`);
+  return targets;
+}
+
+/** Acts on alarms as msg asks; resolves with every change once saved. */
+function alarmRequest(palette, msg) {
+  const who = attributionOf(msg);
+  const ids = msg.topic === 'ack' ? alarmIdsOf(msg.ids !== undefined ? msg.ids : msg.id !== undefined ? [msg.id] : undefined) : null;
+  const id = msg.topic === 'ack' ? null : alarmIdOf(msg.id);
+  const untilMs = msg.topic === 'shelve' ? shelfEndOf(msg, clock.now()) : null;
+  const byInterlock = alarmTargets(palette, msg, id !== null ? id : ids && ids.length === 1 ? ids[0] : null);
+  return Promise.all(byInterlock.map((rt) => new Promise((resolve) => rt.guard(() => {
+    if (msg.topic === 'ack') {
+      // Named ids: each interlock takes those it lists.
+      const mine = ids === null ? null : ids.filter((a) => rt.hasAlarm(a));
+      if (mine !== null && mine.length === 0) resolve([]);
+      else rt.acknowledgeAlarms(mine, who, resolve);
+    } else if (msg.topic === 'shelve') rt.shelveAlarm(id, untilMs, who, resolve);
+    else rt.unshelveAlarm(id, who, resolve);
+  })))).then((lists) => lists.flat());
+}
 
 module.exports = function (RED) {
   function StateNode(props) {
@@ -40,6 +80,21 @@ module.exports = function (RED) {
     };
 
     node.on('input', (msg, send, done) => {
+      if (ALARM_TOPICS.has(msg.topic)) {
+        let asked;
+        try {
+          asked = alarmRequest(palette, msg);
+        } catch (err) {
+          node.status(errorStatus(err.code));
+          done(err);
+          return;
+        }
+        asked.then((changes) => {
+          send(Object.assign(msg, message('request'), { topic: msg.topic, alarmChanges: changes }));
+          done();
+        }, done);
+        return;
+      }
       if (msg.topic === STATS_TOPIC) {
         send(Object.assign(msg, { trigger: 'request', payload: stats.report() }));
         done();

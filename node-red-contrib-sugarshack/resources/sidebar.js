@@ -3,7 +3,9 @@
  * routines, and the plants' devices offline, from GET /sugarshack/state. It
  * asks once a second while the tab is on screen and not at all otherwise.
  * CLEAR posts to /sugarshack/clear as the signed-in editor user; the core
- * decides and its refusal reasons are shown. Loaded once by interlock.html. */
+ * decides and its refusal reasons are shown. Alarms not yet acknowledged are
+ * listed with an ack that posts to /sugarshack/alarms/ack. Loaded once by
+ * interlock.html. */
 /* global RED, $ */
 (function () {
   'use strict';
@@ -42,6 +44,27 @@
       var reasons = (answer.lines || []).reduce(function (all, l) { return all.concat((l.reasons || []).map(reasonText)); }, []);
       refused[key] = reasons.length ? reasons.join('; ') : (answer.message || ('HTTP ' + xhr.status));
       refresh();
+    });
+  }
+
+  function ackAlarm(interlock, id) {
+    $.ajax({
+      url: 'sugarshack/alarms/ack', method: 'POST', contentType: 'application/json',
+      data: JSON.stringify({ interlock: interlock, ids: [id] }),
+    }).always(function () { refresh(); });
+  }
+
+  /** The alarms a person still has to acknowledge (the dashboard lists them all). */
+  function alarmRows(il, section) {
+    var owed = (il.alarms || []).filter(function (a) { return !a.shelved && /unacknowledged$/.test(a.state); });
+    var box = $('<div class="ss-sb-alarms" style="margin-top: 4px;"></div>').appendTo(section);
+    $('<b></b>').text('alarms to acknowledge: ').appendTo(box);
+    if (!owed.length) box.append(document.createTextNode('none'));
+    owed.forEach(function (a) {
+      var row = $('<div class="ss-sb-alarm"></div>').attr('data-alarm', a.id).appendTo(box);
+      row.text(clockText(a.activeSinceMs) + ' ' + a.text + (a.state === 'returned-unacknowledged' ? ' (back to normal)' : ' '));
+      $('<button type="button" class="red-ui-button red-ui-button-small ss-sb-ack" style="margin-left: 4px;">ack</button>')
+        .on('click', function () { ackAlarm(il.id, a.id); }).appendTo(row);
     });
   }
 
@@ -86,6 +109,7 @@
         lineRow(il, line).appendTo(table);
         if (line.state.state !== 'faulted') delete refused[il.id + '/' + line.name];
       });
+      alarmRows(il, section);
       var queue = $('<div class="ss-sb-queue" style="margin-top: 6px;"></div>').appendTo(section);
       $('<b></b>').text('queue: ').appendTo(queue);
       queue.append(document.createTextNode(il.queue.length ? il.queue.map(function (q) {

@@ -26,15 +26,16 @@ const exampleFiles = () => fs.readdirSync(EXAMPLES).filter((f) => f.endsWith('.j
 
 /**
  * An example as the test helper runs it: debug and mqtt out nodes become helper
- * nodes, mqtt in nodes helper nodes keeping their wires, the broker goes.
- * `tweak(node)` may return a changed node.
+ * nodes, mqtt in nodes and Dashboard 2 widgets helper nodes keeping their wires,
+ * the broker and the dashboard's config nodes go (the browser and palette
+ * tests run the dashboard itself). `tweak(node)` may return a changed node.
  */
 function helperFlow(file, tweak = (n) => n) {
   return readExample(file)
-    .filter((n) => n.type !== 'mqtt-broker')
+    .filter((n) => n.type !== 'mqtt-broker' && !(n.type.startsWith('ui-') && !n.z))
     .map((n) => {
       if (n.type === 'debug' || n.type === 'mqtt out') return { id: n.id, z: n.z, type: 'helper', name: n.name };
-      if (n.type === 'mqtt in') return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires };
+      if (n.type === 'mqtt in' || n.type.startsWith('ui-')) return { id: n.id, z: n.z, type: 'helper', name: n.name, wires: n.wires };
       return tweak(n);
     });
 }
@@ -181,11 +182,23 @@ describe('examples', function () {
         if (n.type === 'catch' && Array.isArray(n.scope)) {
           for (const target of n.scope) assert.ok(flow.some((c) => c.id === target), `${file}: catch ${n.id} watches a node of the file`);
         }
-        if (n.z) assert.ok(flow.some((c) => c.id === n.z && c.type === 'tab'), `${file}: ${n.id} is on a tab of the file`);
+        if (n.z) assert.ok(flow.some((c) => c.id === n.z && (c.type === 'tab' || c.type === 'subflow')), `${file}: ${n.id} is on a tab or in a subflow of the file`);
+        if (n.type.startsWith('subflow:')) assert.ok(flow.some((c) => c.id === n.type.slice(8) && c.type === 'subflow'), `${file}: ${n.id} is an instance of a subflow of the file`);
       }
     }
     const types = Object.keys(pkg['node-red'].nodes).map((set) => `sugarshack-${set}`);
     for (const type of types) assert.ok(used.has(type), `${type} appears in an example`);
+  });
+
+  it('the HMI example and flows/hmi.json are what scripts/hmi-flow.js makes of scripts/hmi/*.vue (one source, no hand copy)', function () {
+    const { npmStart, example } = require('../../scripts/hmi-flow.js');
+    assert.deepEqual(readExample('hmi-dashboard.json'), example());
+    assert.deepEqual(JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'flows', 'hmi.json'), 'utf8')), npmStart());
+    // The panels are the same subflows in both, the palette's own nodes inside, no private internals.
+    const panels = (flow) => flow.filter((n) => n.type === 'subflow').map((n) => n.name);
+    assert.deepEqual(panels(example()), ['sugarshack lines panel', 'sugarshack alarms panel']);
+    const inside = example().filter((n) => n.z && example().some((sf) => sf.type === 'subflow' && sf.id === n.z)).map((n) => n.type);
+    assert.deepEqual([...new Set(inside)].sort(), ['change', 'sugarshack-state', 'switch', 'ui-template']);
   });
 
   for (const file of exampleFiles()) {
@@ -627,6 +640,83 @@ describe('example: subflows-op12', function () {
     res = await post('/sugarshack/estop', { interlock: ids[0], lines: 'RED' });
     assert.equal(res.status, 409, 'lines must be a list');
     assert.deepEqual(runtime.core.counts(), { holding: 0, queued: 0, faulted: 0 }, 'none of the bad requests changed anything');
+  });
+
+  it('alarms: an e-stop and an offline device raise them; acknowledged by POST and by the state node as who asked, shelved until a time, kept over a restart', async function () {
+    const { flow, seen } = await start();
+    const panel = helper.getNode(byName(flow, 'sugarshack-operator-panel', 'RED panel'));
+    const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
+    const runtime = () => helper.getNode(ids[0]).runtime;
+    const alarm = (id) => runtime().describe().alarms.find((a) => a.id === id);
+    const post = (url, body) => helper.request().post(url).send(body);
+    panel.receive({ payload: 'e-stop', by: 'ana', reason: 'leak at the RED pump' });
+    await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
+    assert.equal(alarm('line-faulted:RED').state, 'active-unacknowledged');
+    assert.match(alarm('line-faulted:RED').text, /RED faulted, manual: leak at the RED pump/);
+    assert.equal(runtime().describe().recentEvents.at(-1).summary, 'e-stop RED by ana: leak at the RED pump');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => alarm('device-offline:ctrl-5'), 'the device-offline alarm');
+
+    // The editor acknowledges one; without adminAuth it is "unknown" who did. The journal gets it as an operator action.
+    const ackedAt = clock().now();
+    const { journal } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
+    const journaled = [];
+    const action = journal.action;
+    journal.action = (...args) => journaled.push(args);
+    let res;
+    try {
+      res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:RED'], reason: 'seen' });
+    } finally {
+      journal.action = action;
+    }
+    assert.deepEqual(journaled.map(([kind, who, target]) => [kind, who.reason, target]), [['alarm-ack', 'seen', ['line-faulted:RED']]]);
+    assert.equal(res.status, 200, res.text);
+    assert.deepEqual(res.body.changes.map((c) => [c.id, c.from, c.to, c.by]), [['line-faulted:RED', 'active-unacknowledged', 'active-acknowledged', 'unknown']]);
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt, reason: 'seen' });
+    res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:PINK'] });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'UNKNOWN_ALARM');
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5' });
+    assert.equal(res.status, 409);
+    assert.equal(res.body.code, 'INVALID_SHELF');
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5', forMs: NaN });
+    assert.equal(res.status, 409, 'NaN is no duration');
+
+    // The dashboard shelves through the state node, as its signed-in user.
+    const state = helper.getNode(byName(flow, 'sugarshack-state', 'plant state'));
+    state.receive({ topic: 'shelve', id: 'device-offline:ctrl-5', forMs: 2000, reason: 'ctrl-5 on the bench', _client: { user: { username: 'bo' } } });
+    await runTill(() => seen.state.length === 1, 'the answer of the state node');
+    assert.equal(seen.state[0].alarmChanges[0].action, 'shelve');
+    const shelved = seen.state[0].payload.interlocks[0].alarms.find((a) => a.id === 'device-offline:ctrl-5');
+    assert.equal(shelved.shelved.by, 'bo');
+    assert.equal(shelved.shelved.reason, 'ctrl-5 on the bench');
+    assert.equal(shelved.shelved.untilMs, shelved.shelved.atMs + 2000);
+    await runTill(() => !alarm('device-offline:ctrl-5').shelved, 'the shelf to run out', { maxMs: 3000 });
+    assert.equal(alarm('device-offline:ctrl-5').state, 'active-unacknowledged', 'back from the shelf in its true state');
+
+    // Acknowledged by the state node: the device comes back online, the alarm leaves the list.
+    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5', by: 'cy' });
+    await runTill(() => seen.state.length === 2, 'the ack');
+    assert.equal(alarm('device-offline:ctrl-5').acked.by, 'cy');
+    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    await runTill(() => !alarm('device-offline:ctrl-5'), 'the acknowledged alarm to go once normal');
+    const refusals = [];
+    state.on('call:error', (call) => refusals.push(call.args[0]));
+    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5' });
+    await runTill(() => refusals.length === 1, 'the refusal of an alarm not listed');
+    assert.equal(refusals[0].code, 'UNKNOWN_ALARM');
+    assert.equal(seen.state.length, 2, 'nothing sent for it');
+
+    // The acknowledgement is saved with the interlock's state: a restart keeps it.
+    await settled(helper, ids[0]);
+    const saved = JSON.parse(fs.readFileSync(runtime().store.where, 'utf8'));
+    assert.deepEqual(saved.alarms.alarms.map((a) => [a.id, a.state, a.acked && a.acked.by]), [['line-faulted:RED', 'active-acknowledged', 'unknown']]);
+    await helper.unload();
+    await helper.load(NODE_MODULES, flow);
+    await started(flow);
+    await runTill(() => runtime().state === 'ready' && alarm('line-faulted:RED'), 'the interlock back');
+    assert.equal(alarm('line-faulted:RED').state, 'active-acknowledged');
+    assert.deepEqual(alarm('line-faulted:RED').acked, { by: 'unknown', atMs: ackedAt, reason: 'seen' });
   });
 
   it('a forced clear goes through over the reasons and says so', async function () {

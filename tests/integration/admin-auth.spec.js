@@ -117,4 +117,25 @@ describe('the editor\'s e-stop and clear under adminAuth (a real Node-RED proces
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'NOT_FAULTED');
   });
+
+  it('an alarm acknowledged and shelved by the signed-in editor user is recorded as hers; a read-only user may not', async function () {
+    const ana = await tokenOf('ana');
+    const viewer = await tokenOf('viewer', 'read');
+    await call('POST', '/sugarshack/estop', ana, { interlock: INTERLOCK, lines: ['RED'], reason: 'steam leak' });
+    const alarmOf = async (id) => (await call('GET', '/sugarshack/state', ana)).body.interlocks.find((il) => il.id === INTERLOCK).alarms.find((a) => a.id === id);
+    const deadline = Date.now() + 10000;
+    while (!(await alarmOf('line-faulted:RED')) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
+    assert.equal((await call('POST', '/sugarshack/alarms/ack', viewer, { interlock: INTERLOCK, ids: ['line-faulted:RED'] })).status, 401);
+    assert.equal((await alarmOf('line-faulted:RED')).state, 'active-unacknowledged', 'the viewer changed nothing');
+    let res = await call('POST', '/sugarshack/alarms/ack', ana, { interlock: INTERLOCK, ids: ['line-faulted:RED'], reason: 'on it' });
+    assert.equal(res.status, 200, JSON.stringify(res.body));
+    assert.equal(res.body.by, 'ana');
+    const acked = await alarmOf('line-faulted:RED');
+    assert.equal(acked.state, 'active-acknowledged');
+    assert.deepEqual([acked.acked.by, acked.acked.reason], ['ana', 'on it']);
+    res = await call('POST', '/sugarshack/alarms/shelve', ana, { interlock: INTERLOCK, id: 'line-faulted:RED', forMs: 60000 });
+    assert.equal(res.status, 200, JSON.stringify(res.body));
+    assert.equal((await alarmOf('line-faulted:RED')).shelved.by, 'ana');
+    await call('POST', '/sugarshack/clear', ana, { interlock: INTERLOCK, lines: ['RED'] });
+  });
 });

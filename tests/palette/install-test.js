@@ -177,6 +177,11 @@ async function main() {
       const unknown = [...inner].filter((t) => !nodes.some((s) => (s.types || []).includes(t)));
       check(unknown.length === 0, `subflow module ${set}: every node type inside is installed`, unknown.join(', '));
     }
+    // Users without Dashboard 2 load the palette as before: only its HMI example uses dashboard nodes.
+    const declared = Object.keys({ ...pkg.dependencies, ...pkg.peerDependencies, ...pkg.optionalDependencies });
+    const dashboardInside = subflows.flatMap(({ def }) => ((def && def.flow) || []).filter((n) => /^ui[-_]/.test(n.type)).map((n) => n.type));
+    check(!declared.some((d) => d.includes('dashboard')) && dashboardInside.length === 0,
+      'the palette\'s node sets need no dashboard (no dependency on it, no dashboard node in a subflow module)', `${declared.join(', ')} ${dashboardInside.join(', ')}`);
     await validateOffline(pkg, sets, types, base, nrVersion, nodeVersion);
 
     const examples = fs.existsSync(examplesDir)

@@ -48,7 +48,8 @@ impl Attribution {
     }
 }
 
-fn cut(text: &str, max_chars: usize) -> String {
+/// `text` cut to `max_chars` characters, the last one an ellipsis when cut.
+pub(crate) fn cut(text: &str, max_chars: usize) -> String {
     if text.chars().nth(max_chars).is_none() {
         return text.to_owned();
     }

@@ -3,6 +3,7 @@
 //! as returned values, so every rule here is deterministic and testable natively.
 
 pub mod actuator;
+pub mod alarm;
 pub mod clearance;
 pub mod control;
 pub mod interlock;

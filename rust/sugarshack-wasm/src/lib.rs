@@ -5,6 +5,7 @@
 //! nesting before anything recursive reads it (see [`Bound`]): the instance
 //! is shared by every node of the process and must outlive any input.
 
+mod alarm;
 mod control;
 mod device;
 mod interlock;
@@ -12,6 +13,7 @@ pub mod operation;
 mod routine;
 mod tracker;
 
+pub use alarm::Alarms;
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use device::DeviceSide;
 pub use interlock::Interlock;
@@ -69,6 +71,8 @@ pub(crate) enum Bound {
     InterlockConfig,
     InterlockSnapshot,
     RoutineSnapshot,
+    /// Alarm conditions and saved alarms.
+    Alarms,
     GroupCommand,
     /// PID and RCC configurations, RCC decisions and I/O states.
     Control,
@@ -83,6 +87,7 @@ impl Bound {
             Bound::InterlockConfig => MIB,
             Bound::InterlockSnapshot => 16 * MIB,
             Bound::RoutineSnapshot => 64 * KIB,
+            Bound::Alarms => 8 * MIB,
             Bound::GroupCommand => 64 * KIB,
             Bound::Control => 64 * KIB,
             Bound::Unnamed => MIB,
@@ -95,6 +100,7 @@ impl Bound {
             Bound::InterlockConfig => "an interlock configuration",
             Bound::InterlockSnapshot => "an interlock snapshot",
             Bound::RoutineSnapshot => "a routine snapshot",
+            Bound::Alarms => "alarms",
             Bound::GroupCommand => "a group command",
             Bound::Control => "a control configuration or state",
             Bound::Unnamed => "this input",

@@ -1,0 +1,129 @@
+'use strict';
+// The alarms of one interlock and its plant. The core keeps the ISA-18.2
+// states, acknowledgements and shelves; this reads which conditions hold now
+// off the interlock and plant (what GET /sugarshack/state reports) and hands
+// them over. Observed once a second, after every batch of interlock events
+// and before every answer, so an alarm's time is at most a second late.
+const wasm = require('./wasm');
+
+// Interlock events an operator looks back on, kept in memory for a page opened late.
+const NOTABLE = new Set(['faulted', 'resource-faulted', 'cleared', 'interrupted', 'state-unknown', 'dropped', 'warn-queued', 'warn-held']);
+const RECENT_EVENTS = 50;
+const RECENT_CHANGES = 50;
+
+class AlarmBook {
+  /** saved: the `alarms` of a saved interlock state, or undefined; warn(text) logs. */
+  constructor(saved, warn) {
+    const { Alarms } = wasm.load();
+    this.core = null;
+    if (saved !== undefined && saved !== null) {
+      try {
+        this.core = Alarms.restore(saved);
+      } catch (err) {
+        if (wasm.isTrap(err)) throw err;
+        warn(`the saved alarms could not be read (${err.message}); alarms start afresh`);
+      }
+    }
+    if (!this.core) this.core = new Alarms();
+    this.changes = []; // the latest alarm changes, newest last
+    this.events = []; // the latest notable interlock events, newest last
+  }
+
+  free() {
+    wasm.release(this.core);
+    this.core = null;
+  }
+
+  /** Hands the conditions holding at `now` to the core; true when an alarm changed. */
+  observe(conditions, now) {
+    return this.keep(this.core.observe(conditions, now));
+  }
+
+  acknowledge(ids, who, now) {
+    return this.keep(this.core.acknowledge(ids, who.by || null, who.reason || null, now));
+  }
+
+  shelve(id, untilMs, who, now) {
+    return this.keep(this.core.shelve(id, untilMs, who.by || null, who.reason || null, now));
+  }
+
+  unshelve(id, who, now) {
+    return this.keep(this.core.unshelve(id, who.by || null, who.reason || null, now));
+  }
+
+  keep(changes) {
+    if (changes.length) this.changes = this.changes.concat(changes).slice(-RECENT_CHANGES);
+    return changes;
+  }
+
+  /**
+   * Keeps notable interlock event records (with their one-line summary) for
+   * the event list; true when there were any (a grant or a release changes no alarm).
+   */
+  noteEvents(records, describe) {
+    const notable = records.filter((r) => NOTABLE.has(r.kind));
+    if (notable.length) this.events = this.events.concat(notable.map((r) => ({ ...r, summary: describe(r) }))).slice(-RECENT_EVENTS);
+    return notable.length > 0;
+  }
+
+  list() {
+    return this.core.list();
+  }
+
+  has(id) {
+    return this.core.list().some((a) => a.id === id);
+  }
+
+  snapshot() {
+    return this.core.snapshot();
+  }
+
+  nextExpiryMs() {
+    return this.core.nextExpiryMs();
+  }
+}
+
+const ago = (ms) => `${Math.round(ms / 1000)} s`;
+
+/**
+ * The abnormal conditions of an interlock (its core snapshot, its warning
+ * times, whether its state is saved) and of its plant's `describe()`, as the
+ * core's alarm conditions.
+ */
+function conditionsOf({ snapshot, config, saveFailing, store, plant, now }) {
+  const conditions = [];
+  for (const { name, state } of snapshot.resources) {
+    if (state.state !== 'faulted') continue;
+    const op = state.operation ? ` (op ${state.operation})` : '';
+    conditions.push({ kind: 'line-faulted', subject: name, text: `${name} faulted, ${state.cause}${op}${state.note ? `: ${state.note}` : ''}`, sinceMs: state.sinceMs });
+  }
+  if (config.warnQueuedMs) {
+    for (const q of snapshot.queue) {
+      const waited = now - q.sinceMs;
+      if (waited >= config.warnQueuedMs) {
+        conditions.push({ kind: 'waiting-long', subject: q.operation, text: `op ${q.operation} waiting for ${q.resources.join('+')} for ${ago(waited)}`, sinceMs: q.sinceMs + config.warnQueuedMs });
+      }
+    }
+  }
+  if (config.warnHeldMs) {
+    for (const h of snapshot.holds) {
+      const held = now - h.sinceMs;
+      if (held >= config.warnHeldMs) {
+        conditions.push({ kind: 'held-long', subject: h.operation, text: `op ${h.operation} holding ${h.resources.join('+')} for ${ago(held)}`, sinceMs: h.sinceMs + config.warnHeldMs });
+      }
+    }
+  }
+  if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: 'interlock', text: `the interlock state cannot be written to ${store}` });
+  if (plant) {
+    for (const d of plant.devices || []) {
+      if (!d.online) conditions.push({ kind: 'device-offline', subject: d.device, text: `device ${d.device} offline` });
+      else if (d.stale.length) conditions.push({ kind: 'device-stale', subject: d.device, text: `device ${d.device}: stale feedback from ${d.stale.join(', ')}` });
+    }
+    for (const b of plant.buses || []) {
+      if (b.connected === false) conditions.push({ kind: 'bus-disconnected', subject: b.node, text: `actuators node ${b.node} has lost its broker` });
+    }
+  }
+  return conditions;
+}
+
+module.exports = { AlarmBook, conditionsOf };

@@ -1,0 +1,662 @@
+//! Alarms as ISA-18.2 treats them. Each abnormal condition the plant reports
+//! (a faulted line, a device offline or with stale feedback, ...) is one alarm,
+//! named by its kind and subject. The caller says which conditions hold now
+//! ([`Alarms::observe`]); the alarm moves between
+//!
+//! - `normal`: not listed;
+//! - `active-unacknowledged`: the condition holds, nobody has acknowledged it;
+//! - `active-acknowledged`: the condition holds, a person acknowledged it;
+//! - `returned-unacknowledged`: the condition is gone, nobody acknowledged it.
+//!
+//! An alarm leaves the list once it is both back to normal and acknowledged.
+//! A person may shelve a listed alarm until a time they choose: it stays on
+//! the shelf (kept even when normal) until that time or until unshelved, and
+//! follows its condition meanwhile; taken off the shelf, it shows its true state.
+//! Who acknowledged or shelved, and when, is recorded. Time is an argument.
+//! A kind may have an on-delay: its condition must hold that long before it
+//! is an alarm (a broker still connecting at start-up is none).
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::clearance::{cut, Attribution};
+use crate::text::quote;
+
+/// The most conditions one observation may report.
+pub const MAX_CONDITIONS: usize = 10_000;
+/// The most alarms kept (active, returned unacknowledged or shelved).
+pub const MAX_ALARMS: usize = 2 * MAX_CONDITIONS;
+pub const SUBJECT_MAX_CHARS: usize = 200;
+pub const TEXT_MAX_CHARS: usize = 500;
+/// The longest a shelf may last: a shelved alarm must come back.
+pub const MAX_SHELVE_MS: u64 = 7 * 24 * 3600 * 1000;
+
+/// What is abnormal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AlarmKind {
+    /// A line is faulted (an operation faulted, an e-stop, a state lost at restart).
+    LineFaulted,
+    DeviceOffline,
+    /// A device is online but some of its actuators' feedback is stale.
+    DeviceStale,
+    /// An actuators node has lost its broker.
+    BusDisconnected,
+    /// The interlock's state cannot be written to its store.
+    StateNotSaved,
+    /// An operation has waited longer than the interlock's warning time.
+    WaitingLong,
+    /// An operation has held its lines longer than the interlock's warning time.
+    HeldLong,
+}
+
+/// How long a lost broker must stay lost before it is an alarm: Node-RED connects after the flows start.
+pub const BUS_ON_DELAY_MS: u64 = 10_000;
+
+impl AlarmKind {
+    /// How long its condition must hold before it is an alarm.
+    pub fn on_delay_ms(self) -> u64 {
+        match self {
+            Self::BusDisconnected => BUS_ON_DELAY_MS,
+            _ => 0,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::LineFaulted => "line-faulted",
+            Self::DeviceOffline => "device-offline",
+            Self::DeviceStale => "device-stale",
+            Self::BusDisconnected => "bus-disconnected",
+            Self::StateNotSaved => "state-not-saved",
+            Self::WaitingLong => "waiting-long",
+            Self::HeldLong => "held-long",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AlarmState {
+    /// Only a shelved alarm is kept in this state.
+    #[serde(rename = "normal")]
+    Normal,
+    #[serde(rename = "active-unacknowledged")]
+    ActiveUnacked,
+    #[serde(rename = "active-acknowledged")]
+    ActiveAcked,
+    #[serde(rename = "returned-unacknowledged")]
+    ReturnedUnacked,
+}
+
+impl AlarmState {
+    pub fn is_active(self) -> bool {
+        matches!(self, Self::ActiveUnacked | Self::ActiveAcked)
+    }
+
+    pub fn is_unacked(self) -> bool {
+        matches!(self, Self::ActiveUnacked | Self::ReturnedUnacked)
+    }
+}
+
+/// An abnormal condition that holds now.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Condition {
+    pub kind: AlarmKind,
+    /// What it is about: a line, a device, an operation.
+    pub subject: String,
+    /// One line for a person.
+    #[serde(default)]
+    pub text: String,
+    /// Since when it holds, when the caller knows (a fault's time).
+    #[serde(default)]
+    pub since_ms: Option<u64>,
+}
+
+/// Who did something to an alarm, and when.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Stamp {
+    pub by: String,
+    pub at_ms: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+impl Stamp {
+    fn new(who: &Attribution, at_ms: u64) -> Self {
+        Stamp {
+            by: who.by.clone(),
+            at_ms,
+            reason: who.reason.clone(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Shelf {
+    pub by: String,
+    pub at_ms: u64,
+    pub until_ms: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct Alarm {
+    /// `kind:subject`.
+    pub id: String,
+    pub kind: AlarmKind,
+    pub subject: String,
+    pub text: String,
+    pub state: AlarmState,
+    /// When its condition last began.
+    pub active_since_ms: u64,
+    /// When its state last changed.
+    pub changed_ms: u64,
+    /// The acknowledgement of the current activation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acked: Option<Stamp>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shelved: Option<Shelf>,
+}
+
+/// What moved an alarm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AlarmAction {
+    Condition,
+    Acknowledge,
+    Shelve,
+    Unshelve,
+    /// Its shelf's time ran out.
+    ShelfExpired,
+}
+
+/// One change of one alarm, for an event list.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct AlarmChange {
+    pub id: String,
+    pub action: AlarmAction,
+    pub from: AlarmState,
+    pub to: AlarmState,
+    pub at_ms: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum AlarmError {
+    UnknownAlarm { id: String },
+    InvalidShelf { reason: String },
+    TooMany { count: usize, max: usize },
+    InvalidSnapshot { reason: String },
+}
+
+impl AlarmError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::UnknownAlarm { .. } => "UNKNOWN_ALARM",
+            Self::InvalidShelf { .. } => "INVALID_SHELF",
+            Self::TooMany { .. } => "TOO_MANY_ALARMS",
+            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+        }
+    }
+}
+
+impl fmt::Display for AlarmError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::UnknownAlarm { id } => write!(
+                f,
+                "no alarm {} is listed (it may have returned to normal and been acknowledged)",
+                quote(id)
+            ),
+            Self::InvalidShelf { reason } => write!(f, "cannot shelve: {reason}"),
+            Self::TooMany { count, max } => {
+                write!(f, "{count} alarms, more than the {max} kept; refused")
+            }
+            Self::InvalidSnapshot { reason } => write!(f, "cannot restore the alarms: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for AlarmError {}
+
+/// The saved form: every kept alarm.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct AlarmsSnapshot {
+    pub alarms: Vec<Alarm>,
+}
+
+/// The alarms of one interlock and its plant.
+#[derive(Clone, Debug, Default)]
+pub struct Alarms {
+    alarms: BTreeMap<String, Alarm>,
+    /// Conditions held for less than their kind's on-delay, by id: since when (not saved).
+    delayed: BTreeMap<String, u64>,
+}
+
+pub fn alarm_id(kind: AlarmKind, subject: &str) -> String {
+    format!("{}:{}", kind.name(), subject)
+}
+
+impl Alarms {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Every kept alarm, by id.
+    pub fn list(&self) -> impl Iterator<Item = &Alarm> {
+        self.alarms.values()
+    }
+
+    pub fn get(&self, id: &str) -> Option<&Alarm> {
+        self.alarms.get(id)
+    }
+
+    /// When the next shelf runs out, if any alarm is shelved.
+    pub fn next_expiry_ms(&self) -> Option<u64> {
+        self.alarms
+            .values()
+            .filter_map(|a| a.shelved.as_ref().map(|s| s.until_ms))
+            .min()
+    }
+
+    /// The conditions that hold at `now` (every other one does not): alarms
+    /// activate, return to normal, and shelves past their time run out.
+    /// Refused whole, nothing changed, past [`MAX_CONDITIONS`] or [`MAX_ALARMS`].
+    pub fn observe(
+        &mut self,
+        conditions: &[Condition],
+        now: u64,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
+        if conditions.len() > MAX_CONDITIONS {
+            return Err(AlarmError::TooMany {
+                count: conditions.len(),
+                max: MAX_CONDITIONS,
+            });
+        }
+        let mut holding: BTreeMap<String, &Condition> = BTreeMap::new();
+        for c in conditions {
+            let subject = cut(&c.subject, SUBJECT_MAX_CHARS);
+            holding.entry(alarm_id(c.kind, &subject)).or_insert(c);
+        }
+        let kept = self.alarms.len() + holding.keys().filter(|id| !self.alarms.contains_key(*id)).count();
+        if kept > MAX_ALARMS {
+            return Err(AlarmError::TooMany {
+                count: kept,
+                max: MAX_ALARMS,
+            });
+        }
+        let mut changes = self.expire(now);
+        let ids: Vec<String> = self.alarms.keys().cloned().collect();
+        for id in ids {
+            if holding.contains_key(&id) {
+                continue;
+            }
+            let alarm = self.alarms.get_mut(&id).expect("listed");
+            let to = match alarm.state {
+                AlarmState::ActiveUnacked => AlarmState::ReturnedUnacked,
+                AlarmState::ActiveAcked => AlarmState::Normal,
+                _ => continue,
+            };
+            changes.push(self.shift(&id, to, AlarmAction::Condition, None, now));
+        }
+        self.delayed.retain(|id, _| holding.contains_key(id));
+        for (id, c) in holding {
+            let text = cut(&c.text, TEXT_MAX_CHARS);
+            let mut since = c.since_ms.filter(|&t| t <= now).unwrap_or(now);
+            if !self.alarms.contains_key(&id) && c.kind.on_delay_ms() > 0 {
+                let first = *self.delayed.entry(id.clone()).or_insert(since);
+                if now - first < c.kind.on_delay_ms() {
+                    continue;
+                }
+                self.delayed.remove(&id);
+                since = first;
+            }
+            match self.alarms.get_mut(&id) {
+                Some(alarm) if alarm.state.is_active() => alarm.text = text,
+                Some(alarm) => {
+                    alarm.text = text;
+                    alarm.acked = None;
+                    alarm.active_since_ms = now;
+                    changes.push(self.shift(&id, AlarmState::ActiveUnacked, AlarmAction::Condition, None, now));
+                }
+                None => {
+                    let subject = cut(&c.subject, SUBJECT_MAX_CHARS);
+                    self.alarms.insert(
+                        id.clone(),
+                        Alarm {
+                            id: id.clone(),
+                            kind: c.kind,
+                            subject,
+                            text,
+                            state: AlarmState::ActiveUnacked,
+                            active_since_ms: since,
+                            changed_ms: now,
+                            acked: None,
+                            shelved: None,
+                        },
+                    );
+                    changes.push(AlarmChange {
+                        id,
+                        action: AlarmAction::Condition,
+                        from: AlarmState::Normal,
+                        to: AlarmState::ActiveUnacked,
+                        at_ms: now,
+                        by: None,
+                        reason: None,
+                    });
+                }
+            }
+        }
+        Ok(changes)
+    }
+
+    /// Acknowledges the named alarms, or every unacknowledged one when `ids`
+    /// is `None`. Acknowledging an acknowledged alarm changes nothing; an id
+    /// not listed refuses the whole request.
+    pub fn acknowledge(
+        &mut self,
+        ids: Option<&[String]>,
+        who: &Attribution,
+        now: u64,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
+        if let Some(ids) = ids {
+            self.require(ids)?;
+        }
+        let mut changes = self.expire(now);
+        let targets: Vec<String> = match ids {
+            Some(ids) => ids.to_vec(),
+            None => self.alarms.keys().cloned().collect(),
+        };
+        for id in targets {
+            let Some(alarm) = self.alarms.get_mut(&id) else {
+                continue; // named twice and gone after the first
+            };
+            let to = match alarm.state {
+                AlarmState::ActiveUnacked => AlarmState::ActiveAcked,
+                AlarmState::ReturnedUnacked => AlarmState::Normal,
+                _ => continue,
+            };
+            alarm.acked = Some(Stamp::new(who, now));
+            changes.push(self.shift(&id, to, AlarmAction::Acknowledge, Some(who), now));
+        }
+        Ok(changes)
+    }
+
+    /// Shelves a listed alarm until `until_ms` (later than `now`, at most
+    /// [`MAX_SHELVE_MS`] ahead); shelving a shelved alarm sets its new time.
+    pub fn shelve(
+        &mut self,
+        id: &str,
+        until_ms: u64,
+        who: &Attribution,
+        now: u64,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
+        self.require(&[id.to_owned()])?;
+        if until_ms <= now {
+            return Err(AlarmError::InvalidShelf {
+                reason: format!("the shelf must end after now ({now} ms), got {until_ms} ms"),
+            });
+        }
+        if until_ms - now > MAX_SHELVE_MS {
+            return Err(AlarmError::InvalidShelf {
+                reason: format!(
+                    "a shelf lasts at most {} h, asked for {} h",
+                    MAX_SHELVE_MS / 3_600_000,
+                    (until_ms - now) / 3_600_000
+                ),
+            });
+        }
+        let mut changes = self.expire(now);
+        let Some(alarm) = self.alarms.get_mut(id) else {
+            // Its shelf just ran out and it was normal: nothing to shelve now.
+            return Err(AlarmError::UnknownAlarm { id: id.to_owned() });
+        };
+        alarm.shelved = Some(Shelf {
+            by: who.by.clone(),
+            at_ms: now,
+            until_ms,
+            reason: who.reason.clone(),
+        });
+        let state = alarm.state;
+        changes.push(AlarmChange {
+            id: id.to_owned(),
+            action: AlarmAction::Shelve,
+            from: state,
+            to: state,
+            at_ms: now,
+            by: Some(who.by.clone()),
+            reason: who.reason.clone(),
+        });
+        Ok(changes)
+    }
+
+    /// Takes a listed alarm off its shelf (nothing changes if it was not shelved).
+    pub fn unshelve(
+        &mut self,
+        id: &str,
+        who: &Attribution,
+        now: u64,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
+        self.require(&[id.to_owned()])?;
+        let mut changes = self.expire(now);
+        if let Some(change) = self.take_off_shelf(id, AlarmAction::Unshelve, Some(who), now) {
+            changes.push(change);
+        }
+        Ok(changes)
+    }
+
+    pub fn snapshot(&self) -> AlarmsSnapshot {
+        AlarmsSnapshot {
+            alarms: self.alarms.values().cloned().collect(),
+        }
+    }
+
+    /// The alarms as saved, checked: bounded, ids matching kind and subject,
+    /// a normal alarm only on a shelf.
+    pub fn restore(snapshot: AlarmsSnapshot) -> Result<Self, AlarmError> {
+        let invalid = |reason: String| AlarmError::InvalidSnapshot { reason };
+        if snapshot.alarms.len() > MAX_ALARMS {
+            return Err(invalid(format!("{} alarms, more than {MAX_ALARMS}", snapshot.alarms.len())));
+        }
+        let mut alarms = BTreeMap::new();
+        for alarm in snapshot.alarms {
+            if alarm.id != alarm_id(alarm.kind, &alarm.subject) {
+                return Err(invalid(format!("alarm {} does not match its kind and subject", quote(&alarm.id))));
+            }
+            if alarm.subject.chars().count() > SUBJECT_MAX_CHARS || alarm.text.chars().count() > TEXT_MAX_CHARS {
+                return Err(invalid(format!("alarm {} has a subject or text too long", quote(&alarm.id))));
+            }
+            if alarm.state == AlarmState::Normal && alarm.shelved.is_none() {
+                return Err(invalid(format!("alarm {} is normal and not shelved", quote(&alarm.id))));
+            }
+            if alarms.insert(alarm.id.clone(), alarm).is_some() {
+                return Err(invalid("an alarm is listed twice".into()));
+            }
+        }
+        Ok(Alarms {
+            alarms,
+            delayed: BTreeMap::new(),
+        })
+    }
+
+    fn require(&self, ids: &[String]) -> Result<(), AlarmError> {
+        match ids.iter().find(|id| !self.alarms.contains_key(*id)) {
+            Some(id) => Err(AlarmError::UnknownAlarm { id: id.clone() }),
+            None => Ok(()),
+        }
+    }
+
+    /// Shelves whose time has come.
+    fn expire(&mut self, now: u64) -> Vec<AlarmChange> {
+        let due: Vec<String> = self
+            .alarms
+            .values()
+            .filter(|a| a.shelved.as_ref().is_some_and(|s| s.until_ms <= now))
+            .map(|a| a.id.clone())
+            .collect();
+        due.iter()
+            .filter_map(|id| self.take_off_shelf(id, AlarmAction::ShelfExpired, None, now))
+            .collect()
+    }
+
+    fn take_off_shelf(
+        &mut self,
+        id: &str,
+        action: AlarmAction,
+        who: Option<&Attribution>,
+        now: u64,
+    ) -> Option<AlarmChange> {
+        let alarm = self.alarms.get_mut(id)?;
+        alarm.shelved.take()?;
+        let state = alarm.state;
+        if state == AlarmState::Normal {
+            self.alarms.remove(id);
+        }
+        Some(AlarmChange {
+            id: id.to_owned(),
+            action,
+            from: state,
+            to: state,
+            at_ms: now,
+            by: who.map(|w| w.by.clone()),
+            reason: who.and_then(|w| w.reason.clone()),
+        })
+    }
+
+    /// Moves alarm `id` to `to`; a normal alarm off the shelf leaves the list.
+    fn shift(
+        &mut self,
+        id: &str,
+        to: AlarmState,
+        action: AlarmAction,
+        who: Option<&Attribution>,
+        now: u64,
+    ) -> AlarmChange {
+        let alarm = self.alarms.get_mut(id).expect("listed");
+        let from = alarm.state;
+        alarm.state = to;
+        alarm.changed_ms = now;
+        if to == AlarmState::Normal && alarm.shelved.is_none() {
+            self.alarms.remove(id);
+        }
+        AlarmChange {
+            id: id.to_owned(),
+            action,
+            from,
+            to,
+            at_ms: now,
+            by: who.map(|w| w.by.clone()),
+            reason: who.and_then(|w| w.reason.clone()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn faulted(line: &str) -> Condition {
+        Condition {
+            kind: AlarmKind::LineFaulted,
+            subject: line.into(),
+            text: format!("{line} faulted"),
+            since_ms: Some(5),
+        }
+    }
+
+    #[test]
+    fn an_alarm_goes_round_the_isa_18_2_states() {
+        let mut alarms = Alarms::new();
+        let ana = Attribution::new(Some("ana"), Some("seen"), false);
+        alarms.observe(&[faulted("YEL")], 10).unwrap();
+        let a = alarms.get("line-faulted:YEL").unwrap();
+        assert_eq!((a.state, a.active_since_ms), (AlarmState::ActiveUnacked, 5));
+        alarms.acknowledge(None, &ana, 20).unwrap();
+        let a = alarms.get("line-faulted:YEL").unwrap();
+        assert_eq!(a.state, AlarmState::ActiveAcked);
+        assert_eq!(a.acked, Some(Stamp { by: "ana".into(), at_ms: 20, reason: Some("seen".into()) }));
+        let changes = alarms.observe(&[], 30).unwrap();
+        assert_eq!(changes[0].to, AlarmState::Normal);
+        assert!(alarms.get("line-faulted:YEL").is_none(), "normal and acknowledged: gone");
+        alarms.observe(&[faulted("YEL")], 40).unwrap();
+        alarms.observe(&[], 50).unwrap();
+        assert_eq!(alarms.get("line-faulted:YEL").unwrap().state, AlarmState::ReturnedUnacked);
+        let changes = alarms.acknowledge(Some(&["line-faulted:YEL".into()]), &ana, 60).unwrap();
+        assert_eq!((changes[0].from, changes[0].to), (AlarmState::ReturnedUnacked, AlarmState::Normal));
+        assert_eq!(alarms.list().count(), 0);
+    }
+
+    #[test]
+    fn a_shelf_keeps_the_alarm_until_its_time_then_shows_its_true_state() {
+        let mut alarms = Alarms::new();
+        let bo = Attribution::new(Some("bo"), None, false);
+        alarms.observe(&[faulted("RED")], 0).unwrap();
+        let id = "line-faulted:RED";
+        assert_eq!(alarms.shelve(id, 0, &bo, 0).unwrap_err().code(), "INVALID_SHELF");
+        assert_eq!(alarms.shelve(id, MAX_SHELVE_MS + 1, &bo, 0).unwrap_err().code(), "INVALID_SHELF");
+        alarms.shelve(id, 1000, &bo, 0).unwrap();
+        alarms.observe(&[], 100).unwrap();
+        alarms.acknowledge(None, &bo, 200).unwrap();
+        assert_eq!(alarms.get(id).unwrap().state, AlarmState::Normal, "kept on its shelf");
+        alarms.observe(&[faulted("RED")], 300).unwrap();
+        assert_eq!(alarms.next_expiry_ms(), Some(1000));
+        let changes = alarms.observe(&[faulted("RED")], 1000).unwrap();
+        assert_eq!(changes[0].action, AlarmAction::ShelfExpired);
+        let a = alarms.get(id).unwrap();
+        assert_eq!((a.state, a.shelved.is_none()), (AlarmState::ActiveUnacked, true));
+        assert_eq!(alarms.unshelve("nope", &bo, 1001).unwrap_err().code(), "UNKNOWN_ALARM");
+    }
+
+    #[test]
+    fn a_lost_broker_is_an_alarm_only_once_lost_for_its_on_delay() {
+        let mut alarms = Alarms::new();
+        let lost = Condition {
+            kind: AlarmKind::BusDisconnected,
+            subject: "all devices".into(),
+            text: "lost".into(),
+            since_ms: None,
+        };
+        alarms.observe(std::slice::from_ref(&lost), 0).unwrap();
+        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS - 1).unwrap();
+        assert_eq!(alarms.list().count(), 0, "still connecting");
+        alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
+        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS + 1).unwrap();
+        assert_eq!(alarms.list().count(), 0, "the delay starts again");
+        alarms.observe(std::slice::from_ref(&lost), 2 * BUS_ON_DELAY_MS + 1).unwrap();
+        let a = alarms.get("bus-disconnected:all devices").unwrap();
+        assert_eq!((a.state, a.active_since_ms), (AlarmState::ActiveUnacked, BUS_ON_DELAY_MS + 1));
+    }
+
+    #[test]
+    fn too_many_conditions_are_refused_whole() {
+        let mut alarms = Alarms::new();
+        let many: Vec<Condition> = (0..=MAX_CONDITIONS).map(|i| faulted(&i.to_string())).collect();
+        assert_eq!(alarms.observe(&many, 0).unwrap_err().code(), "TOO_MANY_ALARMS");
+        assert_eq!(alarms.list().count(), 0);
+    }
+
+    #[test]
+    fn a_snapshot_restores_and_a_bad_one_is_refused() {
+        let mut alarms = Alarms::new();
+        alarms.observe(&[faulted("YEL")], 10).unwrap();
+        alarms.acknowledge(None, &Attribution::new(Some("ana"), None, false), 11).unwrap();
+        let text = serde_json::to_string(&alarms.snapshot()).unwrap();
+        let back = Alarms::restore(serde_json::from_str(&text).unwrap()).unwrap();
+        assert_eq!(back.snapshot(), alarms.snapshot());
+        let mut bad = alarms.snapshot();
+        bad.alarms[0].id = "device-offline:YEL".into();
+        assert_eq!(Alarms::restore(bad).unwrap_err().code(), "INVALID_SNAPSHOT");
+    }
+}
