@@ -127,7 +127,8 @@ const MAX_REASON = 1000;
 function attributionOf(msg) {
   const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
   const user = client && client.user && typeof client.user === 'object' ? client.user : null;
-  const candidates = [msg.by, user && (user.username || user.name || user.email || user.userId)];
+  // A signed-in dashboard user outranks msg.by, so a page cannot record a clear under another name.
+  const candidates = [user && (user.username || user.name || user.email || user.userId), msg.by];
   const by = candidates.find((v) => typeof v === 'string' && v.trim() !== '');
   if (present(msg.by) && typeof msg.by !== 'string') {
     throw new SugarshackError('INVALID_INPUT', `msg.by must be the name of the person asking, got ${quote(msg.by)}`);

@@ -402,7 +402,8 @@ describe('sugarshack interlock nodes', function () {
     await until(() => events.some((e) => e.payload.kind === 'granted' && e.payload.operation === '12'), 'op 12 granted');
     helper.getNode('estop').receive({ by: 'ana', reason: 'leak' });
     await until(() => events.some((e) => e.payload.kind === 'resource-faulted'), 'the e-stop');
-    helper.getNode('clr').receive({ by: 'ana', reason: 'fixed' });
+    // A signed-in dashboard user outranks msg.by: a page cannot clear under another name.
+    helper.getNode('clr').receive({ by: 'ana', reason: 'fixed', _client: { user: { username: 'bo' } } });
     await until(() => events.some((e) => e.payload.kind === 'cleared'), 'the clear');
     assert.deepEqual(events.map((e) => e.summary), [
       'granted 10 (YEL)',
@@ -410,7 +411,7 @@ describe('sugarshack interlock nodes', function () {
       'released 10 (YEL) after 31 s',
       'granted 12 (YEL) after 31 s',
       'e-stop RED by ana: leak',
-      'cleared RED by ana: fixed',
+      'cleared RED by bo: fixed',
     ]);
   });
 
