@@ -22,11 +22,13 @@ impl ControlError {
         }
     }
 
-    pub(crate) fn config(message: impl Into<String>) -> Self {
+    /// An [`Self::InvalidConfig`] with `message`.
+    pub fn config(message: impl Into<String>) -> Self {
         Self::InvalidConfig(message.into())
     }
 
-    pub(crate) fn input(message: impl Into<String>) -> Self {
+    /// An [`Self::InvalidInput`] with `message`.
+    pub fn input(message: impl Into<String>) -> Self {
         Self::InvalidInput(message.into())
     }
 }
@@ -46,7 +48,7 @@ impl fmt::Display for ControlError {
 impl std::error::Error for ControlError {}
 
 /// `value` must be a finite number; `what` names it in the error.
-pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
+pub fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() {
         Ok(value)
     } else {
@@ -55,7 +57,7 @@ pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
 }
 
 /// `value` must be a finite number > 0; `what` names it in the error.
-pub(crate) fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
+pub fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
