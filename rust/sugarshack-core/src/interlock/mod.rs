@@ -32,7 +32,7 @@ use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
 
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
-pub use event::{Event, EventKind, EventRecord};
+pub use event::{Event, EventKind, EventRecord, Requester};
 pub use snapshot::{
     FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions,
     Snapshot, SNAPSHOT_VERSION,
@@ -414,16 +414,11 @@ impl Interlock {
             });
         }
         self.enqueue(key, resources.clone(), now_ms);
-        self.record(
-            now_ms,
-            EventKind::Queued,
-            Some(op),
-            Some(priority),
-            resources,
-            None,
-            None,
-            None,
-        );
+        self.record(Event::Queued {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: resources.clone(),
+        });
         Ok(Acquisition::Queued)
     }
 
@@ -453,16 +448,13 @@ impl Interlock {
             self.vacate(r, &mut candidates);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Released,
-            Some(op),
-            Some(hold.priority),
-            &hold.resources,
-            None,
-            Some(held_ms),
-            None,
-        );
+        let priority = hold.priority;
+        self.record(Event::Released {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: hold.resources,
+            held_ms,
+        });
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -480,16 +472,12 @@ impl Interlock {
         };
         let waiting = self.dequeue(key);
         let waited = now_ms.saturating_sub(waiting.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Cancelled,
-            Some(op),
-            Some(key.priority),
-            &waiting.resources,
-            Some(waited),
-            None,
-            None,
-        );
+        self.record(Event::Cancelled {
+            at_ms: now_ms,
+            request: Requester { op, priority: key.priority },
+            resources: waiting.resources.clone(),
+            waited_ms: waited,
+        });
         Ok(self.after_withdrawal(&waiting.resources, now_ms))
     }
 
@@ -535,16 +523,13 @@ impl Interlock {
             OpState::Queued(waiting) => {
                 let waiting = self.dequeue(waiting.key);
                 let waited = now_ms.saturating_sub(waiting.since_ms);
-                self.record(
-                    now_ms,
-                    EventKind::Dropped,
-                    Some(op),
-                    Some(waiting.key.priority),
-                    &waiting.resources,
-                    Some(waited),
-                    None,
-                    note.map(str::to_owned),
-                );
+                self.record(Event::Dropped {
+                    at_ms: now_ms,
+                    request: Requester { op, priority: waiting.key.priority },
+                    resources: waiting.resources.clone(),
+                    waited_ms: Some(waited),
+                    note: note.map(str::to_owned),
+                });
                 outcome.dropped = true;
                 outcome.grants = self.after_withdrawal(&waiting.resources, now_ms);
             }
@@ -589,17 +574,12 @@ impl Interlock {
                 Owner::Free => self.latch(r, FaultCause::Manual, None, note, now_ms),
             }
         }
-        self.record(
-            now_ms,
-            EventKind::ResourceFaulted,
-            None,
-            None,
-            resources,
-            None,
-            None,
-            note.map(str::to_owned),
-        );
-        self.attribute_last(by);
+        self.record(Event::ResourceFaulted {
+            at_ms: now_ms,
+            resources: resources.clone(),
+            note: note.map(str::to_owned),
+            attribution: Box::new(by.clone()),
+        });
         let latched = ResourceSet::from_unsorted(latched);
         Ok(FaultOutcome {
             lockouts: self.lockouts(&latched),
@@ -664,17 +644,12 @@ impl Interlock {
             self.faulted -= 1;
             self.vacate(r, &mut candidates);
         }
-        self.record(
-            now_ms,
-            EventKind::Cleared,
-            None,
-            None,
-            resources,
-            None,
-            None,
+        self.record(Event::Cleared {
+            at_ms: now_ms,
+            resources: resources.clone(),
             note,
-        );
-        self.attribute_last(&by);
+            attribution: Box::new(by),
+        });
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -700,16 +675,11 @@ impl Interlock {
                 let waited = now_ms.saturating_sub(waiting.since_ms);
                 if !waiting.warned && waited >= limit {
                     waiting.warned = true;
-                    warnings.push(Event {
+                    warnings.push(Event::WarnQueued {
                         at_ms: now_ms,
-                        kind: EventKind::WarnQueued,
-                        operation: Some(key.op),
-                        priority: Some(key.priority),
+                        request: Requester { op: key.op, priority: key.priority },
                         resources: waiting.resources.clone(),
-                        waited_ms: Some(waited),
-                        held_ms: None,
-                        note: None,
-                        attribution: None,
+                        waited_ms: waited,
                     });
                 }
             }
@@ -720,16 +690,11 @@ impl Interlock {
                     let held = now_ms.saturating_sub(hold.since_ms);
                     if !hold.warned && held >= limit {
                         hold.warned = true;
-                        warnings.push(Event {
+                        warnings.push(Event::WarnHeld {
                             at_ms: now_ms,
-                            kind: EventKind::WarnHeld,
-                            operation: Some(OpId(index as u32)),
-                            priority: Some(hold.priority),
+                            request: Requester { op: OpId(index as u32), priority: hold.priority },
                             resources: hold.resources.clone(),
-                            waited_ms: None,
-                            held_ms: Some(held),
-                            note: None,
-                            attribution: None,
+                            held_ms: held,
                         });
                     }
                 }
@@ -754,18 +719,20 @@ impl Interlock {
 
     /// An event with names in place of handles.
     pub fn describe(&self, event: &Event) -> EventRecord {
+        let request = event.requester();
+        let attribution = event.attribution();
         EventRecord {
-            at_ms: event.at_ms,
-            kind: event.kind,
-            operation: event.operation.map(|op| self.name(op)),
-            priority: event.priority,
-            resources: self.names(&event.resources),
-            waited_ms: event.waited_ms,
-            held_ms: event.held_ms,
-            note: event.note.clone(),
-            by: event.attribution.as_ref().map(|a| a.by.clone()),
-            reason: event.attribution.as_ref().and_then(|a| a.reason.clone()),
-            forced: event.attribution.as_ref().is_some_and(|a| a.forced),
+            at_ms: event.at_ms(),
+            kind: event.kind(),
+            operation: request.map(|r| self.name(r.op)),
+            priority: request.map(|r| r.priority),
+            resources: self.names(event.resources()),
+            waited_ms: event.waited_ms(),
+            held_ms: event.held_ms(),
+            note: event.note().map(str::to_owned),
+            by: attribution.map(|a| a.by.clone()),
+            reason: attribution.and_then(|a| a.reason.clone()),
+            forced: attribution.is_some_and(|a| a.forced),
         }
     }
 
@@ -837,16 +804,12 @@ impl Interlock {
             self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
-        self.record(
-            now_ms,
-            EventKind::Granted,
-            Some(op),
-            Some(priority),
-            &resources,
-            Some(waited_ms),
-            None,
-            None,
-        );
+        self.record(Event::Granted {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: resources.clone(),
+            waited_ms,
+        });
         self.operations[op.index()].state = OpState::Holding(Hold {
             priority,
             resources,
@@ -980,16 +943,13 @@ impl Interlock {
             self.latch(r, cause, Some(op), note, now_ms);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Faulted,
-            Some(op),
-            Some(hold.priority),
-            &hold.resources,
-            None,
-            Some(held_ms),
-            note.map(str::to_owned),
-        );
+        self.record(Event::Faulted {
+            at_ms: now_ms,
+            request: Requester { op, priority: hold.priority },
+            resources: hold.resources,
+            held_ms,
+            note: note.map(str::to_owned),
+        });
     }
 
     fn latched_under_hold(&self, op: OpId) -> Vec<ResourceId> {
@@ -1036,38 +996,10 @@ impl Interlock {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn record(
-        &mut self,
-        at_ms: u64,
-        kind: EventKind,
-        operation: Option<OpId>,
-        priority: Option<i32>,
-        resources: &ResourceSet,
-        waited_ms: Option<u64>,
-        held_ms: Option<u64>,
-        note: Option<String>,
-    ) {
+    /// Keeps `event` for [`Self::drain_events`] when recording is on.
+    fn record(&mut self, event: Event) {
         if self.config.record_events {
-            let resources = resources.clone();
-            self.events.push(Event {
-                at_ms,
-                kind,
-                operation,
-                priority,
-                resources,
-                waited_ms,
-                held_ms,
-                note,
-                attribution: None,
-            });
-        }
-    }
-
-    /// Adds who asked, and why, to the event just recorded.
-    fn attribute_last(&mut self, attribution: &Attribution) {
-        if let Some(event) = self.events.last_mut() {
-            event.attribution = Some(Box::new(attribution.clone()));
+            self.events.push(event);
         }
     }
 }

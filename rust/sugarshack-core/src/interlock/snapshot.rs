@@ -3,8 +3,8 @@ use std::collections::{HashMap, HashSet};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    bound_note, cut, EventKind, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpId,
-    OpState, Owner, QueueKey, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
+    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError,
+    OpState, Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 /// The whole interlock state by name, for persistence across restarts.
@@ -370,13 +370,12 @@ impl Interlock {
                     "resource {} in the saved state is no longer configured; its state is dropped",
                     quoted(name)
                 );
-                lock.record_note(
-                    now_ms,
-                    EventKind::Interrupted,
-                    None,
-                    &ResourceSet::default(),
+                lock.record(Event::Interrupted {
+                    at_ms: now_ms,
+                    request: None,
+                    resources: ResourceSet::default(),
                     note,
-                );
+                });
             }
         }
         let saved: HashSet<&str> = saved_lines.iter().copied().collect();
@@ -387,7 +386,11 @@ impl Interlock {
         if !added.is_empty() {
             let added = ResourceSet(added.into());
             let note = "not in the saved state: new lines start free".to_owned();
-            lock.record_note(now_ms, EventKind::ResourceAdded, None, &added, note);
+            lock.record(Event::ResourceAdded {
+                at_ms: now_ms,
+                resources: added,
+                note,
+            });
         }
 
         for entry in &snapshot.resources {
@@ -442,16 +445,12 @@ impl Interlock {
             for &r in lines.ids() {
                 lock.latch(r, FaultCause::Interrupted, Some(op), Some(&note), now_ms);
             }
-            lock.record(
-                now_ms,
-                EventKind::Interrupted,
-                Some(op),
-                Some(hold.priority),
-                &lines,
-                None,
-                None,
-                Some(note),
-            );
+            lock.record(Event::Interrupted {
+                at_ms: now_ms,
+                request: Some(Requester { op, priority: hold.priority }),
+                resources: lines,
+                note,
+            });
         }
 
         for waiting in &snapshot.queue {
@@ -470,19 +469,14 @@ impl Interlock {
             let resources = match resources {
                 Ok(set) => set,
                 Err(why) => {
-                    lock.record(
-                        now_ms,
-                        EventKind::Dropped,
-                        Some(op),
-                        Some(waiting.priority),
-                        &ResourceSet::default(),
-                        None,
-                        None,
-                        Some(
-                            bound_note(&format!("waiting request dropped on restore: {why}"))
-                                .into_owned(),
-                        ),
-                    );
+                    let note = format!("waiting request dropped on restore: {why}");
+                    lock.record(Event::Dropped {
+                        at_ms: now_ms,
+                        request: Requester { op, priority: waiting.priority },
+                        resources: ResourceSet::default(),
+                        waited_ms: None,
+                        note: Some(bound_note(&note).into_owned()),
+                    });
                     continue;
                 }
             };
@@ -522,36 +516,11 @@ impl Interlock {
             lock.latch(r, FaultCause::Unknown, None, note.as_deref(), now_ms);
         }
         let note = note.map(|n| n.into_owned());
-        lock.record(
-            now_ms,
-            EventKind::StateUnknown,
-            None,
-            None,
-            &all,
-            None,
-            None,
+        lock.record(Event::StateUnknown {
+            at_ms: now_ms,
+            resources: all,
             note,
-        );
+        });
         Ok(lock)
-    }
-
-    fn record_note(
-        &mut self,
-        at_ms: u64,
-        kind: EventKind,
-        operation: Option<OpId>,
-        resources: &ResourceSet,
-        note: String,
-    ) {
-        self.record(
-            at_ms,
-            kind,
-            operation,
-            None,
-            resources,
-            None,
-            None,
-            Some(note),
-        );
     }
 }
