@@ -8,6 +8,7 @@ use std::fmt;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
+use crate::routine::RESET_TOPIC;
 use crate::text::quote;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -1080,6 +1081,12 @@ impl PlantModel {
                             format!("C1: operation '{}' already belongs to routine '{}'; an operation belongs to one routine", quote(&t.operation), quote(other)),
                         );
                     }
+                }
+                if matches!(&t.trigger, Trigger::Msg { msg } if msg == RESET_TOPIC) {
+                    push(
+                        path.clone(),
+                        format!("the msg topic '{RESET_TOPIC}' is reserved: it sends the routine back to its initial state, so this transition could never fire; give it another topic"),
+                    );
                 }
                 if let Trigger::When {
                     when,

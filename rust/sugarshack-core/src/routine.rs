@@ -10,6 +10,10 @@ use serde::{Deserialize, Serialize};
 use crate::plant::{PlantModel, Routine, Trigger};
 use crate::text::quote;
 
+/// The msg topic that sends a routine back to its initial state (an
+/// operator's reset). Reserved: plant validation refuses a transition on it.
+pub const RESET_TOPIC: &str = "reset";
+
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RoutineError {
     UnknownRoutine {
