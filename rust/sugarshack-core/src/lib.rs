@@ -4,6 +4,7 @@
 
 pub mod actuator;
 pub mod clearance;
+pub mod code;
 pub mod control;
 pub mod interlock;
 pub mod json;

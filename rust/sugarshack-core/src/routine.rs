@@ -7,6 +7,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::code::Code;
 use crate::plant::{PlantModel, Routine, Trigger};
 use crate::text::quote;
 
@@ -43,14 +44,14 @@ pub enum RoutineError {
 }
 
 impl RoutineError {
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownRoutine { .. } => "UNKNOWN_ROUTINE",
-            Self::Busy { .. } => "ROUTINE_BUSY",
-            Self::NoTransition { .. } => "NO_TRANSITION",
-            Self::Halted { .. } => "ROUTINE_HALTED",
-            Self::NotPending { .. } => "NOT_PENDING",
-            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+            Self::UnknownRoutine { .. } => Code::UnknownRoutine,
+            Self::Busy { .. } => Code::RoutineBusy,
+            Self::NoTransition { .. } => Code::NoTransition,
+            Self::Halted { .. } => Code::RoutineHalted,
+            Self::NotPending { .. } => Code::NotPending,
+            Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
         }
     }
 }

@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::fmt;
 
+use crate::code::Code;
 use crate::plant::PlantModel;
 use crate::text::quote;
 
@@ -68,14 +69,14 @@ pub enum SensorError {
 }
 
 impl SensorError {
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownSensor { .. } => "UNKNOWN_SENSOR",
-            Self::InvalidValue { .. } => "INVALID_SENSOR_VALUE",
-            Self::NoValue { .. } => "SENSOR_NO_VALUE",
-            Self::Unavailable { .. } => "SENSOR_UNAVAILABLE",
-            Self::Stale { .. } => "SENSOR_STALE",
-            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
+            Self::UnknownSensor { .. } => Code::UnknownSensor,
+            Self::InvalidValue { .. } => Code::InvalidSensorValue,
+            Self::NoValue { .. } => Code::SensorNoValue,
+            Self::Unavailable { .. } => Code::SensorUnavailable,
+            Self::Stale { .. } => Code::SensorStale,
+            Self::FutureTimestamp { .. } => Code::FutureTimestamp,
         }
     }
 }

@@ -368,7 +368,7 @@ fn op_name(lock: &Interlock, op: sugarshack_core::interlock::OpId) -> String {
 }
 
 fn refused(err: InterlockError) -> Outcome {
-    Outcome::Refused(err.code())
+    Outcome::Refused(err.code().name())
 }
 
 fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Outcome {

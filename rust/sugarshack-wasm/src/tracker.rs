@@ -1,4 +1,5 @@
 use serde::Serialize;
+use sugarshack_core::code::Code;
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, TrackError};
 use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
@@ -166,7 +167,7 @@ impl Tracker {
                     let sampled = ts.unwrap_or(now);
                     match self.sensors.record(id, value, sampled, now) {
                         Ok(()) => self.last_sensors.push(id.index() as u32),
-                        Err(err) => self.malformed(device, err.code(), err.to_string()),
+                        Err(err) => self.malformed(device, err.code().name(), err.to_string()),
                     }
                 }
                 Reading::SensorUnavailable(id) => {
@@ -191,12 +192,12 @@ impl Tracker {
                     self.effects.push(Output::Rejected {
                         kind: "rejected",
                         actuator: id.index() as u32,
-                        code: err.code(),
+                        code: err.code().name(),
                         message: err.to_string(),
                     });
                 }
             }
-            Err(err) => self.malformed(device, err.code(), err.to_string()),
+            Err(err) => self.malformed(device, err.code().name(), err.to_string()),
         }
     }
 
@@ -217,12 +218,12 @@ impl Tracker {
     pub fn new(plant: JsValue, now_ms: f64) -> Result<Tracker, JsValue> {
         let plant: PlantModel = from_js_bounded(
             plant,
-            "INVALID_PLANT",
+            Code::InvalidPlant,
             "invalid plant document",
             Bound::PlantDocument,
         )?;
         let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
-            .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
+            .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
         Ok(Tracker {
             sensors: SensorStore::new(core.plant()),
             core,
@@ -317,7 +318,7 @@ impl Tracker {
         let now = time(now_ms)?;
         let payload: serde_json::Value = from_js_bounded(
             payload,
-            "INVALID_GROUP",
+            Code::InvalidGroup,
             "invalid group command",
             Bound::GroupCommand,
         )?;
@@ -371,7 +372,7 @@ impl Tracker {
         let now = time(now_ms)?;
         if actuators.len() != values.len() {
             return Err(js_error(
-                "INVALID_FEEDBACK",
+                Code::InvalidFeedback,
                 "a batch needs as many values as actuators",
             ));
         }
@@ -389,7 +390,7 @@ impl Tracker {
             self.effects.push(Output::Rejected {
                 kind: "rejected",
                 actuator: id.index() as u32,
-                code: err.code(),
+                code: err.code().name(),
                 message: err.to_string(),
             });
         }
@@ -594,7 +595,7 @@ impl Tracker {
     pub fn operation_plan(&self, id: &str) -> Result<JsValue, JsValue> {
         let plan = self.core.plant().operation_plan(id).ok_or_else(|| {
             js_error(
-                "UNKNOWN_OPERATION",
+                Code::UnknownOperation,
                 &format!(
                     "unknown operation '{}': it is not in the plant document",
                     quote(id)

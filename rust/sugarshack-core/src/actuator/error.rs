@@ -1,5 +1,6 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// Why a tracker call was refused. A refused command sends nothing.
@@ -56,21 +57,21 @@ pub enum TrackError {
 
 impl TrackError {
     /// A stable machine-readable code, for Catch nodes and tests.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownActuator { .. } => "UNKNOWN_ACTUATOR",
-            Self::UnknownDevice { .. } => "UNKNOWN_DEVICE",
-            Self::EmptyCommand => "EMPTY_COMMAND",
-            Self::InvalidGroup { .. } => "INVALID_GROUP",
-            Self::DuplicateActuator { .. } => "DUPLICATE_ACTUATOR",
-            Self::InvalidTarget { .. } => "INVALID_TARGET",
-            Self::StillMoving { .. } => "STILL_MOVING",
-            Self::DeviceOffline { .. } => "DEVICE_OFFLINE",
-            Self::CallerBusy { .. } => "CALLER_BUSY",
-            Self::InvalidFeedback { .. } => "INVALID_FEEDBACK",
-            Self::OutsideResources { .. } => "OUTSIDE_RESOURCES",
-            Self::LockoutPending { .. } => "LOCKOUT_PENDING",
-            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
+            Self::UnknownActuator { .. } => Code::UnknownActuator,
+            Self::UnknownDevice { .. } => Code::UnknownDevice,
+            Self::EmptyCommand => Code::EmptyCommand,
+            Self::InvalidGroup { .. } => Code::InvalidGroup,
+            Self::DuplicateActuator { .. } => Code::DuplicateActuator,
+            Self::InvalidTarget { .. } => Code::InvalidTarget,
+            Self::StillMoving { .. } => Code::StillMoving,
+            Self::DeviceOffline { .. } => Code::DeviceOffline,
+            Self::CallerBusy { .. } => Code::CallerBusy,
+            Self::InvalidFeedback { .. } => Code::InvalidFeedback,
+            Self::OutsideResources { .. } => Code::OutsideResources,
+            Self::LockoutPending { .. } => Code::LockoutPending,
+            Self::FutureTimestamp { .. } => Code::FutureTimestamp,
         }
     }
 }

@@ -1,5 +1,6 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// What a control call refused, with a message a process engineer can act on.
@@ -14,11 +15,11 @@ pub enum ControlError {
 }
 
 impl ControlError {
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::InvalidConfig(_) => "INVALID_CONFIG",
-            Self::InvalidInput(_) => "INVALID_INPUT",
-            Self::UnknownController { .. } => "UNKNOWN_CONTROLLER",
+            Self::InvalidConfig(_) => Code::InvalidConfig,
+            Self::InvalidInput(_) => Code::InvalidInput,
+            Self::UnknownController { .. } => Code::UnknownController,
         }
     }
 

@@ -1,5 +1,6 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// Why an interlock call was refused. A refused call changes no state.
@@ -45,20 +46,20 @@ pub enum InterlockError {
 
 impl InterlockError {
     /// A stable machine-readable code, for Catch nodes and tests.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::InvalidConfig { .. } => "INVALID_CONFIG",
-            Self::EmptyResourceSet => "EMPTY_RESOURCE_SET",
-            Self::UnknownResource { .. } => "UNKNOWN_RESOURCE",
-            Self::UnknownOperation { .. } => "UNKNOWN_OPERATION",
-            Self::AlreadyHolding { .. } => "ALREADY_HOLDING",
-            Self::AlreadyQueued { .. } => "ALREADY_QUEUED",
-            Self::NotHolding { .. } => "NOT_HOLDING",
-            Self::NotQueued { .. } => "NOT_QUEUED",
-            Self::NotFaulted { .. } => "NOT_FAULTED",
-            Self::ClearRefused { .. } => "CLEAR_REFUSED",
-            Self::QueueFull { .. } => "QUEUE_FULL",
-            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+            Self::InvalidConfig { .. } => Code::InvalidConfig,
+            Self::EmptyResourceSet => Code::EmptyResourceSet,
+            Self::UnknownResource { .. } => Code::UnknownResource,
+            Self::UnknownOperation { .. } => Code::UnknownOperation,
+            Self::AlreadyHolding { .. } => Code::AlreadyHolding,
+            Self::AlreadyQueued { .. } => Code::AlreadyQueued,
+            Self::NotHolding { .. } => Code::NotHolding,
+            Self::NotQueued { .. } => Code::NotQueued,
+            Self::NotFaulted { .. } => Code::NotFaulted,
+            Self::ClearRefused { .. } => Code::ClearRefused,
+            Self::QueueFull { .. } => Code::QueueFull,
+            Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
         }
     }
 }

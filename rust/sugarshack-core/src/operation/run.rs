@@ -24,12 +24,13 @@ use std::fmt;
 use serde::Serialize;
 
 use super::{OperationPlan, PlanStep};
+use crate::code::Code;
 use crate::plant::PlantModel;
 use crate::text::quote;
 
 /// Interlock refusals that mean the operation already runs (C1).
-const ALREADY_RUNNING: [&str; 2] = ["ALREADY_HOLDING", "ALREADY_QUEUED"];
-const ABORTED: &str = "ABORTED";
+const ALREADY_RUNNING: [Code; 2] = [Code::AlreadyHolding, Code::AlreadyQueued];
+const ABORTED: &str = Code::Aborted.name();
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RunError {
@@ -44,10 +45,10 @@ pub enum RunError {
 }
 
 impl RunError {
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownOperation { .. } => "UNKNOWN_OPERATION",
-            Self::AlreadyStarted { .. } => "ALREADY_STARTED",
+            Self::UnknownOperation { .. } => Code::UnknownOperation,
+            Self::AlreadyStarted { .. } => Code::AlreadyStarted,
         }
     }
 }
@@ -475,9 +476,9 @@ impl OperationRun {
         if !matches!(self.state, State::Queued) {
             return Vec::new();
         }
-        let (code, message) = if ALREADY_RUNNING.contains(&code) {
+        let (code, message) = if ALREADY_RUNNING.iter().any(|c| c.name() == code) {
             (
-                "OPERATION_RUNNING".to_owned(),
+                Code::OperationRunning.name().to_owned(),
                 format!(
                     "operation '{}' is already running (C1: one instance at a time); this start was refused and the running one goes on",
                     self.plan.id
