@@ -1,7 +1,7 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, msgNumber, describe, fmt, clip, revivable } = require('../lib/control');
+const { errorStatus, StatusBoard, clip } = require('../lib/status');
+const { isNumber, configNumber, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 
 const CONTEXT_KEY = 'pid';

@@ -45,3 +45,35 @@ describe('status text', function () {
     assert.ok(long.length < 20 && long.endsWith('…'), long);
   });
 });
+
+describe('error codes', function () {
+  const fs = require('fs');
+  const { isKnownCode } = require(path.join(PALETTE, 'lib', 'status.js'));
+
+  function sources(dir) {
+    return fs.readdirSync(dir, { withFileTypes: true }).flatMap((entry) => {
+      const file = path.join(dir, entry.name);
+      if (entry.isDirectory()) return sources(file);
+      return entry.name.endsWith('.js') ? [file] : [];
+    });
+  }
+
+  it('every code the nodes raise is in the core table, so its status text comes from there', function () {
+    const raised = new Map();
+    for (const file of [...sources(path.join(PALETTE, 'lib')), ...sources(path.join(PALETTE, 'nodes'))]) {
+      const text = fs.readFileSync(file, 'utf8');
+      for (const m of text.matchAll(/SugarshackError\(\s*'([A-Z_]+)'|code: '([A-Z_]+)'|errorStatus\('([A-Z_]+)'\)/g)) {
+        raised.set(m[1] || m[2] || m[3], path.relative(PALETTE, file));
+      }
+    }
+    assert.ok(raised.size > 10, `found ${raised.size} codes`);
+    const unknown = [...raised].filter(([code]) => !isKnownCode(code));
+    assert.deepEqual(unknown, [], 'codes missing from the core table (rust/sugarshack-core/src/code.rs)');
+  });
+
+  it('reads each status text from the core and words an unknown code plainly', function () {
+    assert.equal(shortReason('SENSOR_UNAVAILABLE'), 'sensor unavailable');
+    assert.equal(shortReason('INVALID_INPUT'), 'invalid input');
+    assert.equal(shortReason('ECONNREFUSED'), 'econnrefused');
+  });
+});

@@ -51,7 +51,7 @@ codes! {
     /// A configuration that cannot run.
     InvalidConfig = "INVALID_CONFIG", "config error", "the configuration is invalid";
     /// A value handed in that cannot be used.
-    InvalidInput = "INVALID_INPUT", "bad input", "the input cannot be used";
+    InvalidInput = "INVALID_INPUT", "invalid input", "the input cannot be used";
     /// A time that is not a non-negative number of milliseconds.
     InvalidTime = "INVALID_TIME", "bad time", "the time is not a number of milliseconds";
     /// An input nested deeper than the facade reads.
@@ -149,7 +149,7 @@ codes! {
     /// A run started twice.
     AlreadyStarted = "ALREADY_STARTED", "already started", "the run has already started";
     /// A step index or step outcome that does not fit the run.
-    InvalidStep = "INVALID_STEP", "bad step", "the step does not fit the run";
+    InvalidStep = "INVALID_STEP", "invalid step", "the step does not fit the run";
     /// A run stopped because its supervisor went away.
     Aborted = "ABORTED", "stopped", "the run was stopped";
     /// A condition that did not hold within its timeout.

@@ -1,6 +1,6 @@
 use serde::Serialize;
+use sugarshack_core::actuator::{describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError};
 use sugarshack_core::code::Code;
-use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, TrackError};
 use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
@@ -585,6 +585,33 @@ impl Tracker {
 
     pub fn position(&self, actuator: u32) -> Option<f64> {
         self.core.position(ActuatorId::from_index(actuator))
+    }
+
+    /// Why a group command failed on `actuator`: `{ code, message }`, worded
+    /// by the core from the plant document. `fault` is the effect's fault name;
+    /// `target` what the command asked for (a number or a boolean), if known.
+    #[wasm_bindgen(js_name = describeFault)]
+    pub fn describe_fault(
+        &self,
+        actuator: u32,
+        fault: &str,
+        retries: u32,
+        target: JsValue,
+    ) -> Result<JsValue, JsValue> {
+        let id = self.actuator_id(actuator)?;
+        let kind = FaultKind::from_name(fault).ok_or_else(|| {
+            js_error(Code::InvalidInput, &format!("unknown fault '{}'", quote(fault)))
+        })?;
+        let plant = self.core.plant();
+        let a = &plant.actuators[id.index()];
+        let t = plant.actuator_types.get(&a.kind).ok_or_else(|| {
+            js_error(Code::Internal, &format!("actuator '{}' has no type", a.id))
+        })?;
+        let target = target
+            .as_f64()
+            .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
+        let message = describe_fault(a, t, kind, retries, target);
+        to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 
     // ---- operations and routines -------------------------------------------

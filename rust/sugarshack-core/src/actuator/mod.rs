@@ -26,12 +26,14 @@
 //! ```
 
 mod error;
+mod fault;
 
 use std::collections::HashMap;
 
 use serde::Serialize;
 
 pub use error::TrackError;
+pub use fault::describe_fault;
 
 use crate::clearance::ClearBlocker;
 use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
