@@ -1,6 +1,7 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus, StatusBoard, clip } = require('../lib/status');
+const { errorStatus, status, StatusBoard } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 const { isNumber, configNumber, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 
@@ -114,6 +115,7 @@ module.exports = function (RED) {
   function PidNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
     const store = props.store && props.store !== 'default' ? props.store : undefined;
     let station = null;
@@ -139,14 +141,14 @@ module.exports = function (RED) {
     let closed = false;
     const early = []; // msgs that arrived while the saved state was read
 
-    const show = (status) => board.set(node, { ...status, text: clip(status.text) });
+    const show = (shown) => board.set(node, shown);
 
     function idleStatus() {
       const { mode, manual, setpoint, lastOutput } = station.state();
-      if (mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(manual)}` };
+      if (mode === 'manual') return status('manual', t('status.manual', { value: fmt(manual) }));
       return lastOutput === null
-        ? { fill: 'grey', shape: 'ring', text: `sp ${fmt(setpoint)}` }
-        : { fill: 'green', shape: 'dot', text: `auto ${fmt(lastOutput)}` };
+        ? status('idle', t('status.setpoint', { value: fmt(setpoint) }))
+        : status('ok', t('status.auto', { value: fmt(lastOutput) }));
     }
 
     function save() {
@@ -181,20 +183,21 @@ module.exports = function (RED) {
         return;
       }
       if (stale && stale.kind === 'noIo') {
-        show({ fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
+        show(status('warning', t('status.staleNoIo')));
       } else if (stale) {
         save();
         node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
-        show({ fill: 'yellow', shape: 'ring', text: stale.pid.mode === 'manual' ? 'stale: manual' : 'stale: fallback' });
+        show(status('warning', t(stale.pid.mode === 'manual' ? 'status.staleManual' : 'status.staleFallback')));
       }
       schedule();
     }
 
     function stepStatus(pid, engaged) {
-      if (!engaged) return { fill: 'grey', shape: 'ring', text: 'standby' };
-      if (pid.mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(pid.output)}` };
-      if (pid.mode === 'tracking') return { fill: 'blue', shape: 'dot', text: `tracking ${fmt(pid.output)}` };
-      return { fill: 'green', shape: pid.saturated ? 'ring' : 'dot', text: `auto ${fmt(pid.output)}` };
+      if (!engaged) return status('idle', t('status.standby'));
+      const value = fmt(pid.output);
+      if (pid.mode === 'manual') return status('manual', t('status.manual', { value }));
+      if (pid.mode === 'tracking') return status('running', t('status.tracking', { value }));
+      return status(pid.saturated ? 'degraded' : 'ok', t('status.auto', { value }));
     }
 
     function measure(msg, send, done) {
