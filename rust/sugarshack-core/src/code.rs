@@ -2,6 +2,14 @@
 //! or the nodes, in one table: its name (the `code` a Catch node sees), the
 //! status text a node shows for it, and the stem of the message a person reads.
 //! The nodes read this table through the facade; they never copy it.
+//!
+//! ```
+//! use sugarshack_core::code::{Code, MAX_STATUS_CHARS};
+//!
+//! assert_eq!(Code::QueueFull.name(), "QUEUE_FULL");
+//! assert_eq!(Code::from_name("QUEUE_FULL"), Some(Code::QueueFull));
+//! assert!(Code::ALL.iter().all(|c| c.status().chars().count() <= MAX_STATUS_CHARS));
+//! ```
 
 use std::fmt;
 

@@ -11,10 +11,16 @@ pub enum ControlError {
     /// A step input that cannot be used (dt <= 0, a set point that is not a number).
     InvalidInput(String),
     /// An id outside the configured controllers.
-    UnknownController { id: usize, controllers: usize },
+    UnknownController {
+        /// The id given.
+        id: usize,
+        /// How many controllers are configured.
+        controllers: usize,
+    },
 }
 
 impl ControlError {
+    /// The code a Catch node sees.
     pub fn code(&self) -> Code {
         match self {
             Self::InvalidConfig(_) => Code::InvalidConfig,

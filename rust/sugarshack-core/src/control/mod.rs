@@ -5,6 +5,7 @@
 //! them against lives in the experiments crate.
 
 pub mod delay;
+/// The refusal every control call returns, and the input checks they share.
 pub mod error;
 pub mod pid;
 pub mod pid_loop;

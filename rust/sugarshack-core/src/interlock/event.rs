@@ -327,23 +327,34 @@ impl Event {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct EventRecord {
+    /// When, in ms.
     pub at_ms: u64,
+    /// What kind of change.
     pub kind: EventKind,
+    /// The operation's id.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operation: Option<String>,
+    /// The request's priority (lower goes first).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub priority: Option<i32>,
+    /// The lines' names.
     pub resources: Vec<String>,
+    /// How long the request waited, for kinds that know.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub waited_ms: Option<u64>,
+    /// How long the operation held its lines, for kinds that know.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_ms: Option<u64>,
+    /// Free text kept with it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// Who cleared or stopped the lines.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub by: Option<String>,
+    /// Why, in words a person acts on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// Whether a clear overrode the plant's reasons to refuse it.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub forced: bool,
 }

@@ -68,6 +68,7 @@ const QUOTE_MAX_CHARS: usize = 100;
 pub struct ResourceId(u32);
 
 impl ResourceId {
+    /// Its position in the interlock's operation table.
     pub fn index(self) -> usize {
         self.0 as usize
     }
@@ -78,9 +79,11 @@ impl ResourceId {
 pub struct OpId(u32);
 
 impl OpId {
+    /// Its position in the configured lines.
     pub fn index(self) -> usize {
         self.0 as usize
     }
+    /// The handle at `index` of the configured lines.
     pub fn from_index(index: u32) -> Self {
         OpId(index)
     }
@@ -92,12 +95,15 @@ impl OpId {
 pub struct ResourceSet(Arc<[ResourceId]>);
 
 impl ResourceSet {
+    /// The lines, in configuration order.
     pub fn ids(&self) -> &[ResourceId] {
         &self.0
     }
+    /// How many lines.
     pub fn len(&self) -> usize {
         self.0.len()
     }
+    /// Whether it names no line.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
@@ -111,23 +117,31 @@ impl ResourceSet {
 /// What happened to an acquire request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Acquisition {
+    /// Granted at once.
     Granted,
+    /// Waiting in the queue.
     Queued,
 }
 
 /// A queued request granted by a release, clear or cancel: its caller can now be answered.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Grant {
+    /// The operation's handle.
     pub operation: OpId,
+    /// The request's priority (lower goes first).
     pub priority: i32,
+    /// The lines it holds.
     pub resources: ResourceSet,
+    /// How long it waited.
     pub waited_ms: u64,
 }
 
 /// A lockout group command to send because a resource is faulted.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lockout {
+    /// The line's handle.
     pub resource: ResourceId,
+    /// The lockout command to send.
     pub command: serde_json::Value,
 }
 
@@ -145,8 +159,11 @@ pub struct FaultOutcome {
 /// How many operations hold, wait, and how many resources are faulted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct Counts {
+    /// Operations holding lines.
     pub holding: usize,
+    /// Requests waiting.
     pub queued: usize,
+    /// Lines faulted.
     pub faulted: usize,
 }
 
@@ -244,6 +261,7 @@ pub struct Interlock {
 }
 
 impl Interlock {
+    /// An interlock for `config`, every line free; refused if the configuration cannot run.
     pub fn new(config: InterlockConfig) -> Result<Self, InterlockError> {
         config.validate()?;
         let count = config.resources.len();
@@ -270,6 +288,7 @@ impl Interlock {
         })
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &InterlockConfig {
         &self.config
     }
@@ -301,10 +320,12 @@ impl Interlock {
             })
     }
 
+    /// The name of the operation with handle `id`.
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
         self.operations.get(id.index()).map(|op| op.name.as_str())
     }
 
+    /// The handle of the line `name`.
     pub fn resource(&self, name: &str) -> Result<ResourceId, InterlockError> {
         self.resource_index
             .get(name)
@@ -314,6 +335,7 @@ impl Interlock {
             })
     }
 
+    /// The name of the line with handle `id`.
     pub fn resource_name(&self, id: ResourceId) -> Option<&str> {
         self.config
             .resources
@@ -336,6 +358,7 @@ impl Interlock {
 
     // ---- queries -----------------------------------------------------------
 
+    /// How many operations hold, wait, and how many lines are faulted.
     pub fn counts(&self) -> Counts {
         Counts {
             holding: self.holding,
@@ -344,10 +367,12 @@ impl Interlock {
         }
     }
 
+    /// Whether the line is faulted.
     pub fn is_faulted(&self, resource: ResourceId) -> bool {
         matches!(self.owners.get(resource.index()), Some(Owner::Faulted(_)))
     }
 
+    /// The operation holding the line, if any.
     pub fn owner_of(&self, resource: ResourceId) -> Option<OpId> {
         match self.owners.get(resource.index()) {
             Some(Owner::Held(op)) => Some(*op),
@@ -355,6 +380,7 @@ impl Interlock {
         }
     }
 
+    /// Whether the operation holds its lines.
     pub fn is_holding(&self, op: OpId) -> bool {
         matches!(
             self.operations.get(op.index()).map(|o| &o.state),
@@ -362,6 +388,7 @@ impl Interlock {
         )
     }
 
+    /// Whether the operation waits in the queue.
     pub fn is_queued(&self, op: OpId) -> bool {
         matches!(
             self.operations.get(op.index()).map(|o| &o.state),
@@ -713,6 +740,7 @@ impl Interlock {
         std::mem::take(&mut self.events)
     }
 
+    /// Whether events wait to be drained.
     pub fn has_events(&self) -> bool {
         !self.events.is_empty()
     }

@@ -11,47 +11,67 @@ use super::{
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Snapshot {
+    /// The snapshot format's version.
     pub version: u32,
+    /// When it was taken, in ms.
     pub taken_at_ms: u64,
     /// The lines configured when the state was saved, in configuration order.
     /// Absent from version 1, where the names in `resources` stand for it.
     #[serde(default)]
     pub configured: Vec<String>,
+    /// Every configured line and its state.
     pub resources: Vec<ResourceSnapshot>,
     /// Waiting requests in grant order (priority, then arrival).
     pub queue: Vec<RequestSnapshot>,
+    /// Every hold.
     pub holds: Vec<RequestSnapshot>,
 }
 
 /// The version [`Interlock::snapshot`] writes; [`Interlock::restore`] also reads version 1.
 pub const SNAPSHOT_VERSION: u32 = 2;
 
+/// One line and its state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ResourceSnapshot {
+    /// The line's name.
     pub name: String,
+    /// Free, held or faulted.
     pub state: ResourceState,
 }
 
+/// A line's state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", tag = "state")]
 pub enum ResourceState {
+    /// Nobody holds it.
     Free,
-    Held { operation: String },
+    /// An operation holds it.
+    Held {
+        /// The operation's id.
+        operation: String,
+    },
+    /// Faulted until a person clears it.
     Faulted(FaultSnapshot),
 }
 
+/// Why a line is faulted, and since when.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct FaultSnapshot {
+    /// What faulted it.
     pub cause: FaultCause,
+    /// The operation's id.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub operation: Option<String>,
+    /// Free text kept with it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// Since when, in ms.
     pub since_ms: u64,
 }
 
+/// What faulted a line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaultCause {
@@ -65,13 +85,19 @@ pub enum FaultCause {
     Unknown,
 }
 
+/// A hold or a waiting request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct RequestSnapshot {
+    /// The operation's id.
     pub operation: String,
+    /// The request's priority (lower goes first).
     pub priority: i32,
+    /// The lines' names.
     pub resources: Vec<String>,
+    /// Since when, in ms.
     pub since_ms: u64,
+    /// How long it waited before its grant (0 for a waiting request).
     #[serde(default)]
     pub waited_ms: u64,
 }
@@ -278,6 +304,7 @@ fn check(snapshot: &Snapshot) -> Result<Vec<&str>, InterlockError> {
 }
 
 impl Interlock {
+    /// The whole state by name at `now_ms`, to save and restore.
     pub fn snapshot(&self, now_ms: u64) -> Snapshot {
         let resources = self
             .owners

@@ -988,7 +988,7 @@ fn a_hand_over_keeps_holds_with_their_start() {
         .filter(|e| e.kind() == EventKind::Interrupted && e.operation().is_some())
         .collect();
     assert_eq!(interrupted.len(), 1);
-    assert_eq!(changed.names(&interrupted[0].resources()), ["YEL"]);
+    assert_eq!(changed.names(interrupted[0].resources()), ["YEL"]);
 }
 
 #[test]
