@@ -270,11 +270,16 @@ mod tests {
         for &code in Code::ALL {
             assert!(seen.insert(code.name()), "{code} twice");
             assert!(
-                code.name().chars().all(|c| c.is_ascii_uppercase() || c == '_'),
+                code.name()
+                    .chars()
+                    .all(|c| c.is_ascii_uppercase() || c == '_'),
                 "{code}"
             );
             assert_eq!(Code::from_name(code.name()), Some(code));
-            assert!(!code.stem().is_empty() && !code.stem().ends_with('.'), "{code}");
+            assert!(
+                !code.stem().is_empty() && !code.stem().ends_with('.'),
+                "{code}"
+            );
         }
         assert_eq!(Code::from_name("NOPE"), None);
     }

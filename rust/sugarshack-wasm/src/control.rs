@@ -42,7 +42,10 @@ fn finite_number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
     if n.is_finite() {
         Ok(n)
     } else {
-        Err(js_error(Code::InvalidInput, &format!("{what} must be a finite number, got {}", quote(n))))
+        Err(js_error(
+            Code::InvalidInput,
+            &format!("{what} must be a finite number, got {}", quote(n)),
+        ))
     }
 }
 
@@ -268,7 +271,8 @@ impl Rcc {
     /// The Computing step for a polled state `{ lastAction, agesMs }`: `{ engaged, firstCycle, track }`.
     /// With `nowMs` the polling timeout counts from it.
     pub fn decide(&mut self, state: JsValue, now_ms: JsValue) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
+        let state: IoState =
+            from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let decision = match optional_number(&now_ms, "time (ms)")? {
             Some(now_ms) => self.core.decide_at(&state, now_ms),
             None => self.core.decide(&state),
@@ -304,7 +308,8 @@ impl Rcc {
         measurement: JsValue,
         dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
+        let state: IoState =
+            from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let setpoint = number(&setpoint, "set point")?;
         let measurement = optional_number(&measurement, "measurement")?;
         let dt_s = number(&dt_s, "elapsed time (s)")?;
@@ -438,13 +443,15 @@ impl PidStation {
     /// `{ setpoint, mode, manual, tunings: { kp, tiS, tdS }, limits: { min, max } }`, any part
     /// absent; applied whole or refused whole.
     pub fn change(&mut self, change: JsValue) -> Result<(), JsValue> {
-        let change: Change = from_js_bounded(change, Code::InvalidInput, "loop change", Bound::Control)?;
+        let change: Change =
+            from_js_bounded(change, Code::InvalidInput, "loop change", Bound::Control)?;
         self.core.change(change).map_err(control_error)
     }
 
     /// `{ integral, setpoint, mode, manual }` as saved; refused whole if any is unusable.
     pub fn restore(&mut self, saved: JsValue) -> Result<(), JsValue> {
-        let saved: Saved = from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
+        let saved: Saved =
+            from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
         self.core.restore(saved).map_err(control_error)
     }
 

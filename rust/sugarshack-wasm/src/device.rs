@@ -3,8 +3,8 @@
 //! exactly as the palette's topics module expects them.
 
 use serde::Serialize;
-use sugarshack_core::code::Code;
 use sugarshack_core::actuator::{ActuatorId, DeviceId};
+use sugarshack_core::code::Code;
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::sensor::SensorId;
 use sugarshack_core::topics::{Command, Contract, Message};
@@ -42,7 +42,10 @@ impl DeviceSide {
         if (handle as usize) < self.plant.devices.len() {
             Ok(DeviceId::from_index(handle))
         } else {
-            Err(js_error(Code::UnknownDevice, &format!("no device #{handle}")))
+            Err(js_error(
+                Code::UnknownDevice,
+                &format!("no device #{handle}"),
+            ))
         }
     }
 }

@@ -192,7 +192,10 @@ impl Interlock {
     /// The handle of an operation, registering the name on first use.
     pub fn operation(&mut self, name: &str) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error(Code::MissingOperation, "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         Ok(self.core.operation(name).index() as u32)
     }
@@ -269,7 +272,10 @@ impl Interlock {
     #[wasm_bindgen(js_name = releaseNamed)]
     pub fn release_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error(Code::MissingOperation, "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         let grants = self
             .core
@@ -283,7 +289,10 @@ impl Interlock {
     #[wasm_bindgen(js_name = cancelNamed)]
     pub fn cancel_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error(Code::MissingOperation, "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         let grants = self
             .core

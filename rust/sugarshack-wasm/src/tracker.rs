@@ -1,5 +1,7 @@
 use serde::Serialize;
-use sugarshack_core::actuator::{describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError};
+use sugarshack_core::actuator::{
+    describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError,
+};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
@@ -600,13 +602,17 @@ impl Tracker {
     ) -> Result<JsValue, JsValue> {
         let id = self.actuator_id(actuator)?;
         let kind = FaultKind::from_name(fault).ok_or_else(|| {
-            js_error(Code::InvalidInput, &format!("unknown fault '{}'", quote(fault)))
+            js_error(
+                Code::InvalidInput,
+                &format!("unknown fault '{}'", quote(fault)),
+            )
         })?;
         let plant = self.core.plant();
         let a = &plant.actuators[id.index()];
-        let t = plant.actuator_types.get(&a.kind).ok_or_else(|| {
-            js_error(Code::Internal, &format!("actuator '{}' has no type", a.id))
-        })?;
+        let t = plant
+            .actuator_types
+            .get(&a.kind)
+            .ok_or_else(|| js_error(Code::Internal, &format!("actuator '{}' has no type", a.id)))?;
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));

@@ -8,7 +8,10 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 fn text(value: &JsValue, key: &str) -> String {
-    Reflect::get(value, &key.into()).unwrap().as_string().unwrap()
+    Reflect::get(value, &key.into())
+        .unwrap()
+        .as_string()
+        .unwrap()
 }
 
 #[wasm_bindgen_test]
@@ -24,10 +27,16 @@ fn the_code_table_reaches_js_with_status_texts_that_fit() {
     }
     // A code the facade throws is in the table.
     let thrown = Interlock::new(JsValue::from_str("{}")).err().unwrap();
-    let code = Reflect::get(&thrown, &"code".into()).unwrap().as_string().unwrap();
+    let code = Reflect::get(&thrown, &"code".into())
+        .unwrap()
+        .as_string()
+        .unwrap();
     assert_eq!(code, "INVALID_CONFIG");
     assert!(names.contains(&code));
-    assert!(names.iter().any(|n| n == "NO_PLANT"), "codes the nodes raise are there too");
+    assert!(
+        names.iter().any(|n| n == "NO_PLANT"),
+        "codes the nodes raise are there too"
+    );
 }
 
 #[wasm_bindgen_test]

@@ -89,7 +89,9 @@ pub fn describe_fault(
             "{who} cannot complete its command: its device {} went offline",
             actuator.device
         ),
-        FaultKind::LockedOut => format!("{who} was taken over by a lockout command before it completed"),
+        FaultKind::LockedOut => {
+            format!("{who} was taken over by a lockout command before it completed")
+        }
         FaultKind::Uncommanded => format!("{who} moved without a command"),
     };
     if retries > 0 {
@@ -133,8 +135,15 @@ mod tests {
             describe_fault(&v, &t, FaultKind::Stale, 0, None),
             "valve V12 sent no feedback for 5 s (device ctrl-1)"
         );
-        let pump = ActuatorType { signal: Signal::Binary, ..t };
-        let p = Actuator { kind: "pump".into(), id: "P1".into(), ..v };
+        let pump = ActuatorType {
+            signal: Signal::Binary,
+            ..t
+        };
+        let p = Actuator {
+            kind: "pump".into(),
+            id: "P1".into(),
+            ..v
+        };
         assert_eq!(
             describe_fault(&p, &pump, FaultKind::NotReached, 0, Some(1.0)),
             "pump P1 did not turn on within 4 s of its command"

@@ -501,7 +501,10 @@ impl Interlock {
         let waited = now_ms.saturating_sub(waiting.since_ms);
         self.record(Event::Cancelled {
             at_ms: now_ms,
-            request: Requester { op, priority: key.priority },
+            request: Requester {
+                op,
+                priority: key.priority,
+            },
             resources: waiting.resources.clone(),
             waited_ms: waited,
         });
@@ -552,7 +555,10 @@ impl Interlock {
                 let waited = now_ms.saturating_sub(waiting.since_ms);
                 self.record(Event::Dropped {
                     at_ms: now_ms,
-                    request: Requester { op, priority: waiting.key.priority },
+                    request: Requester {
+                        op,
+                        priority: waiting.key.priority,
+                    },
                     resources: waiting.resources.clone(),
                     waited_ms: Some(waited),
                     note: note.map(str::to_owned),
@@ -704,7 +710,10 @@ impl Interlock {
                     waiting.warned = true;
                     warnings.push(Event::WarnQueued {
                         at_ms: now_ms,
-                        request: Requester { op: key.op, priority: key.priority },
+                        request: Requester {
+                            op: key.op,
+                            priority: key.priority,
+                        },
                         resources: waiting.resources.clone(),
                         waited_ms: waited,
                     });
@@ -719,7 +728,10 @@ impl Interlock {
                         hold.warned = true;
                         warnings.push(Event::WarnHeld {
                             at_ms: now_ms,
-                            request: Requester { op: OpId(index as u32), priority: hold.priority },
+                            request: Requester {
+                                op: OpId(index as u32),
+                                priority: hold.priority,
+                            },
                             resources: hold.resources.clone(),
                             held_ms: held,
                         });
@@ -973,7 +985,10 @@ impl Interlock {
         let held_ms = now_ms.saturating_sub(hold.since_ms);
         self.record(Event::Faulted {
             at_ms: now_ms,
-            request: Requester { op, priority: hold.priority },
+            request: Requester {
+                op,
+                priority: hold.priority,
+            },
             resources: hold.resources,
             held_ms,
             note: note.map(str::to_owned),

@@ -3,8 +3,8 @@ use std::collections::{HashMap, HashSet};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError,
-    OpState, Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
+    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpState,
+    Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 /// The whole interlock state by name, for persistence across restarts.
@@ -474,7 +474,10 @@ impl Interlock {
             }
             lock.record(Event::Interrupted {
                 at_ms: now_ms,
-                request: Some(Requester { op, priority: hold.priority }),
+                request: Some(Requester {
+                    op,
+                    priority: hold.priority,
+                }),
                 resources: lines,
                 note,
             });
@@ -499,7 +502,10 @@ impl Interlock {
                     let note = format!("waiting request dropped on restore: {why}");
                     lock.record(Event::Dropped {
                         at_ms: now_ms,
-                        request: Requester { op, priority: waiting.priority },
+                        request: Requester {
+                            op,
+                            priority: waiting.priority,
+                        },
                         resources: ResourceSet::default(),
                         waited_ms: None,
                         note: Some(bound_note(&note).into_owned()),

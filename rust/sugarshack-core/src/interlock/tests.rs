@@ -481,10 +481,20 @@ fn event_records_keep_their_json_shape() {
     lock.acquire(a, 1, &yel, 0).unwrap();
     lock.acquire(b, 2, &yel, 10).unwrap();
     lock.cancel(b, 20).unwrap();
-    lock.fault_resources_by(&yel, Some("smoke"), &Attribution::new(Some("ann"), Some("drill"), false), 30)
-        .unwrap();
-    lock.clear_checked(&yel, &Attribution::new(Some("bob"), None, true), |_| Vec::new(), 40)
-        .unwrap();
+    lock.fault_resources_by(
+        &yel,
+        Some("smoke"),
+        &Attribution::new(Some("ann"), Some("drill"), false),
+        30,
+    )
+    .unwrap();
+    lock.clear_checked(
+        &yel,
+        &Attribution::new(Some("bob"), None, true),
+        |_| Vec::new(),
+        40,
+    )
+    .unwrap();
     let records: Vec<serde_json::Value> = lock
         .drain_events()
         .iter()
