@@ -157,7 +157,7 @@ module.exports = function (RED) {
       kept = { integral, setpoint, mode, manual };
       if (!persist) return;
       node.context().set(CONTEXT_KEY, kept, store, (err) => {
-        if (err) node.warn(`cannot save the PID state: ${err.message || err}`);
+        if (err) node.warn(t('errors.notSaved', { message: err.message || err }));
       });
     }
 
@@ -178,7 +178,7 @@ module.exports = function (RED) {
       try {
         stale = station.tick(clock.now());
       } catch (err) {
-        node.error(`PID stale watch: ${err.message}`);
+        node.error(t('errors.staleWatch', { message: err.message }));
         schedule();
         return;
       }
@@ -300,13 +300,13 @@ module.exports = function (RED) {
       } else {
         node.context().get(CONTEXT_KEY, store, (err, saved) => {
           if (closed) return;
-          if (err) node.warn(`cannot read the saved PID state (${err.message || err}); starting from the configuration`);
+          if (err) node.warn(t('errors.notRead', { message: err.message || err }));
           if (saved && typeof saved === 'object') {
             try {
               station.restore(readSaved(saved));
               save();
             } catch (e) {
-              node.warn(`the saved PID state cannot be used (${e.message}); starting from the configuration`);
+              node.warn(t('errors.unusable', { message: e.message }));
             }
           }
           start();

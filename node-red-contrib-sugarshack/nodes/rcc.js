@@ -82,7 +82,7 @@ module.exports = function (RED) {
         state = readMsg(() => {
           const given = msg.payload;
           if (!given || typeof given !== 'object' || Array.isArray(given)) {
-            throw new SugarshackError('INVALID_INPUT', `msg.payload must be the I/O module's state { procVar, lastAction, agesMs }, got ${describe(given)}`);
+            throw new SugarshackError('INVALID_INPUT', t('errors.notState', { got: describe(given) }));
           }
           return { procVar: given.procVar, lastAction: given.lastAction, agesMs: given.agesMs };
         });
