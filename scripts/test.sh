@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Full test run: setup, Rust tests (native and wasm under Node), the control
-# report, wasm build,
+# Full test run: setup, rustfmt and clippy gates, Rust tests (native, doctests
+# and wasm under Node), the control report, wasm build,
 # Node-RED flow tests, MQTT integration tests against a real Mosquitto, then
 # the palette install test on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
@@ -65,8 +65,18 @@ stage "setup"
 # shellcheck source=scripts/setup.sh
 . scripts/setup.sh
 
+stage "rustfmt (cargo fmt --check)"
+cargo fmt --all -- --check
+
+stage "clippy, native and wasm (warnings are errors)"
+cargo clippy --workspace --all-targets -- -D warnings
+cargo clippy -p sugarshack-wasm --target wasm32-unknown-unknown --all-targets -- -D warnings
+
 stage "cargo test (sugarshack-core, control experiments)"
 counted cargo test -p sugarshack-core -p sugarshack-experiments
+
+stage "doctests (the core's documented entry points)"
+counted cargo test --workspace --doc
 
 stage "control report (the paper's Tables 2-3, Figs. 11-12)"
 REPORT_DIR="$(mktemp -d)"

@@ -3,7 +3,6 @@
 // into numbers, checking msg fields, and numbers short enough for a status.
 // The control rules themselves (PID, Smith predictor, RCC) live in the core.
 const { SugarshackError } = require('./errors');
-const { MAX_STATUS_LENGTH } = require('./status');
 const wasm = require('./wasm');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
@@ -53,10 +52,6 @@ function fmt(x) {
   return String(Number(x.toPrecision(4)));
 }
 
-function clip(text) {
-  return text.length <= MAX_STATUS_LENGTH ? text : `${text.slice(0, MAX_STATUS_LENGTH - 1)}…`;
-}
-
 /**
  * A node's own wasm object (a PID loop, an RCC controller, an I/O module) that
  * survives a trap of the shared instance: `make(bindings)` builds it, again on
@@ -99,4 +94,4 @@ function revivable(make, { onRevive = () => {} } = {}) {
 }
 
 
-module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, clip, revivable };
+module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, revivable };

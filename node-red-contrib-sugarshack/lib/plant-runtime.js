@@ -8,7 +8,7 @@
 const { SugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { actuatorStatus, errorStatus } = require('./status');
-const { describeFault, seconds } = require('./plant');
+const { seconds } = require('./plant');
 const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
 const { readMsg } = require('./request');
 const { Condition } = require('./condition');
@@ -81,15 +81,9 @@ class PlantRuntime extends RuntimeBase {
 
   /** Ids, types and per-device slots, read once from the core. */
   index(t, plant) {
-    const types = plant.actuatorTypes;
     this.devices = t.devices();
     this.deviceIndex = new Map(this.devices.map((id, handle) => [id, handle]));
-    this.actuators = t.actuators().map((a) => ({
-      ...a,
-      deviceHandle: this.deviceIndex.get(a.device),
-      unit: types[a.type].unit,
-      timing: types[a.type],
-    }));
+    this.actuators = t.actuators().map((a) => ({ ...a, deviceHandle: this.deviceIndex.get(a.device) }));
     this.sensorNames = [];
     for (const sensor of plant.sensors || []) this.sensorNames[t.sensor(sensor.id)] = sensor.id;
     for (const bus of this.buses) this.resolveDevices(bus);
@@ -560,7 +554,7 @@ class PlantRuntime extends RuntimeBase {
     if (!entry) return;
     const a = this.actuators[e.actuator];
     const retries = entry.retries.get(e.actuator) || 0;
-    const code = e.fault === 'locked-out' ? 'LOCKED_OUT' : 'COMMAND_FAILED';
+    const { code, message } = this.t.describeFault(e.actuator, e.fault, retries, targetOf(entry.payload, a.id));
     if (entry.msg) {
       entry.msg.command = {
         failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
@@ -568,7 +562,7 @@ class PlantRuntime extends RuntimeBase {
       };
     }
     if (entry.node) this.showError(entry.node, code);
-    entry.refuse(new SugarshackError(code, describeFault(a, e.fault, { retries, target: targetOf(entry.payload, a.id) })));
+    entry.refuse(new SugarshackError(code, message));
   }
 
   reject(e, source) {

@@ -1,6 +1,5 @@
 'use strict';
-// The plant config node's document, and plain words for what the tracker
-// reports about an actuator (for error messages a person reads).
+// The plant config node's document, and its validation for the editor.
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
 
@@ -23,52 +22,6 @@ function plantDocument(value) {
 /** 4000 -> "4 s", 300 -> "0.3 s". */
 function seconds(ms) {
   return `${Number((ms / 1000).toFixed(3))} s`;
-}
-
-function targetWords(actuator, target) {
-  if (target === undefined || target === null) return 'its target';
-  if (actuator.binary) return target === true || target === 1 ? 'on' : 'off';
-  const unit = actuator.unit ? ` ${actuator.unit}` : '';
-  return `${target}${unit}`;
-}
-
-/**
- * What went wrong, in plain words: "valve V12 did not move within 4 s of its
- * command (after 1 retry)". actuator: { id, type, device, binary, unit, timing }
- * where timing holds the type's noMotionMs, completionMs and staleMs.
- */
-function describeFault(actuator, fault, { retries = 0, target } = {}) {
-  const who = `${actuator.type} ${actuator.id}`;
-  const t = actuator.timing || {};
-  let text;
-  switch (fault) {
-    case 'no-motion':
-      text = actuator.binary
-        ? `${who} did not respond within ${seconds(t.noMotionMs)} of its command`
-        : `${who} did not move within ${seconds(t.noMotionMs)} of its command`;
-      break;
-    case 'not-reached':
-      text = actuator.binary
-        ? `${who} did not turn ${targetWords(actuator, target)} within ${seconds(t.completionMs)} of its command`
-        : `${who} did not reach ${targetWords(actuator, target)} within ${seconds(t.completionMs)} of its command`;
-      break;
-    case 'stale':
-      text = `${who} sent no feedback for ${seconds(t.staleMs)} (device ${actuator.device})`;
-      break;
-    case 'device-offline':
-      text = `${who} cannot complete its command: its device ${actuator.device} went offline`;
-      break;
-    case 'locked-out':
-      text = `${who} was taken over by a lockout command before it completed`;
-      break;
-    case 'uncommanded':
-      text = `${who} moved without a command`;
-      break;
-    default:
-      text = `${who} failed (${fault})`;
-  }
-  if (retries > 0) text += ` (after ${retries} ${retries === 1 ? 'retry' : 'retries'})`;
-  return text;
 }
 
 // "actuators[3] (V12): unknown device 'x'" -> the path before the first ": ".
@@ -135,4 +88,4 @@ function servePlantValidation(RED) {
   });
 }
 
-module.exports = { plantDocument, describeFault, seconds, validatePlant, servePlantValidation };
+module.exports = { plantDocument, seconds, validatePlant, servePlantValidation };

@@ -6,7 +6,7 @@
 // a routine and its lines disagree. A routine node is only its port: msgs in,
 // events out; a deploy hands the routine to the node's next instance.
 const { SugarshackError, asSugarshackError } = require('./errors');
-const { errorStatus, MAX_STATUS_LENGTH } = require('./status');
+const { errorStatus, status } = require('./status');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
@@ -15,9 +15,8 @@ const wasm = require('./wasm');
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
 const TICK_MS = 250;
 
-function clip(text) {
-  return text.length <= MAX_STATUS_LENGTH ? text : `${text.slice(0, MAX_STATUS_LENGTH - 1)}…`;
-}
+// The msg topic that resets a routine: reserved by the core, which refuses a transition on it.
+const RESET_TOPIC = wasm.load().routineResetTopic();
 
 class RoutineHost {
   constructor({ interlock, plant, id }) {
@@ -114,10 +113,10 @@ class RoutineHost {
     if (this.node === node) this.node = null;
   }
 
-  /** A msg's topic is its trigger ("reset" goes back to the initial state). Throws the core's refusal. */
+  /** A msg's topic is its trigger (RESET_TOPIC goes back to the initial state). Throws the core's refusal. */
   onMsg(topic) {
     if (!this.machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
-    if (topic === 'reset') {
+    if (topic === RESET_TOPIC) {
       const moved = this.machine.reset();
       this.lastFault = false;
       this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to }));
@@ -230,12 +229,12 @@ class RoutineHost {
     if (!this.node || !this.machine || this.ended) return;
     const state = this.machine.state();
     const pending = this.machine.pending();
-    if (this.machine.halted()) this.node.status({ fill: 'red', shape: 'ring', text: clip(`halted ${state}`) });
+    if (this.machine.halted()) this.node.status(status('error', `halted ${state}`));
     else if (pending) {
       const running = Boolean(this.run && this.run.granted);
-      this.node.status({ fill: 'blue', shape: running ? 'dot' : 'ring', text: clip(`${state} › ${running ? 'run' : 'wait'} ${pending}`) });
+      this.node.status(status(running ? 'running' : 'waiting', `${state} › ${running ? 'run' : 'wait'} ${pending}`));
     }
-    else this.node.status({ fill: this.lastFault ? 'red' : 'green', shape: 'dot', text: clip(state) });
+    else this.node.status(status(this.lastFault ? 'fault' : 'ok', state));
   }
 
   /** The routine as an operator reads it: its state and the operation it waits for or runs. */

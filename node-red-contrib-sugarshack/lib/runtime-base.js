@@ -4,7 +4,7 @@
 // holds new work while a deploy drains, and the guard that turns a wasm trap
 // into a rebuild instead of a dead process.
 const { SugarshackError, asSugarshackError } = require('./errors');
-const { errorStatus, StatusBoard } = require('./status');
+const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
 
 class RuntimeBase {
@@ -210,6 +210,6 @@ class RuntimeBase {
   }
 }
 
-const DRAINING_STATUS = { fill: 'yellow', shape: 'ring', text: 'draining' };
+const DRAINING_STATUS = status('warning', 'draining');
 
 module.exports = { RuntimeBase, DRAINING_STATUS };

@@ -1,8 +1,39 @@
 'use strict';
-// Node status: what the interlock or the actuators are doing, in fewer than
-// 20 characters so the editor never truncates it.
+// Node status: what a node is doing, in fewer than 20 characters so the editor
+// never truncates it. Every status object is built here; the texts for error
+// codes come from the core's table of codes.
+const wasm = require('./wasm');
 
-const MAX_STATUS_LENGTH = 19;
+const core = wasm.load();
+const MAX_STATUS_LENGTH = core.maxStatusChars();
+/** code -> { status, stem }, as the core defines them. */
+const CODES = new Map(core.codes().map(({ code, status, stem }) => [code, { status, stem }]));
+
+/** How a status looks, by what it means. */
+const LOOKS = {
+  ok: ['green', 'dot'],
+  degraded: ['green', 'ring'],
+  idle: ['grey', 'ring'],
+  standby: ['grey', 'dot'],
+  running: ['blue', 'dot'],
+  waiting: ['blue', 'ring'],
+  warning: ['yellow', 'ring'],
+  manual: ['yellow', 'dot'],
+  fault: ['red', 'dot'],
+  error: ['red', 'ring'],
+};
+
+/** Cuts `text` to fit a status, marking the cut. */
+function clip(text) {
+  const s = String(text);
+  return s.length <= MAX_STATUS_LENGTH ? s : `${s.slice(0, MAX_STATUS_LENGTH - 1)}…`;
+}
+
+/** The status object for a node: `look` is one of LOOKS' keys, `text` is cut to fit. */
+function status(look, text) {
+  const [fill, shape] = LOOKS[look] || LOOKS.error;
+  return { fill, shape, text: clip(text) };
+}
 
 /** A count in at most 4 characters: 999, 9.9k, 999k, 9.9M, 999M, >1G. */
 function compact(n) {
@@ -53,7 +84,7 @@ function statusText({ holding = 0, queued = 0, faulted = 0 }) {
 }
 
 function countsStatus(counts) {
-  return { fill: counts.faulted > 0 ? 'red' : 'green', shape: 'dot', text: statusText(counts) };
+  return status(counts.faulted > 0 ? 'fault' : 'ok', statusText(counts));
 }
 
 /**
@@ -81,75 +112,19 @@ function actuatorStatus(counts, { offline = 0 } = {}) {
   };
 }
 
-const REASONS = {
-  INVALID_CONFIG: 'config error',
-  EMPTY_RESOURCE_SET: 'no resources',
-  UNKNOWN_RESOURCE: 'unknown resource',
-  UNKNOWN_RESOURCE_SET: 'unknown resources',
-  UNKNOWN_OPERATION: 'unknown operation',
-  MISSING_OPERATION: 'no operation id',
-  INVALID_OPERATION: 'bad operation id',
-  ALREADY_HOLDING: 'already holding',
-  ALREADY_QUEUED: 'already queued',
-  NOT_HOLDING: 'holds nothing',
-  NOT_QUEUED: 'not queued',
-  NOT_FAULTED: 'not faulted',
-  CLEAR_REFUSED: 'clear refused',
-  QUEUE_FULL: 'queue full',
-  INVALID_PRIORITY: 'bad priority',
-  INVALID_RESOURCES: 'bad resources',
-  INVALID_SNAPSHOT: 'state error',
-  ACQUIRE_TIMEOUT: 'timed out',
-  NO_INTERLOCK: 'no interlock',
-  INTERLOCK_STOPPED: 'stopped',
-  NO_PLANT: 'no plant',
-  INVALID_PLANT: 'plant invalid',
-  UNKNOWN_ACTUATOR: 'unknown actuator',
-  UNKNOWN_DEVICE: 'unknown device',
-  EMPTY_COMMAND: 'empty command',
-  INVALID_GROUP: 'bad command',
-  DUPLICATE_ACTUATOR: 'duplicate actuator',
-  INVALID_TARGET: 'bad target',
-  STILL_MOVING: 'still moving',
-  DEVICE_OFFLINE: 'device offline',
-  CALLER_BUSY: 'busy',
-  INVALID_FEEDBACK: 'bad feedback',
-  COMMAND_FAILED: 'command failed',
-  COMMAND_TIMEOUT: 'timed out',
-  LOCKED_OUT: 'locked out',
-  OPERATION_RUNNING: 'already running',
-  OUTSIDE_RESOURCES: 'C2: outside lines',
-  CONDITION_TIMEOUT: 'condition timeout',
-  INVALID_CONDITION: 'bad condition',
-  UNKNOWN_SENSOR: 'unknown sensor',
-  SENSOR_STALE: 'sensor stale',
-  UNKNOWN_ROUTINE: 'unknown routine',
-  ROUTINE_BUSY: 'busy',
-  NO_TRANSITION: 'no transition',
-  ROUTINE_HALTED: 'halted',
-  ABORTED: 'stopped',
-  INPUT_TOO_DEEP: 'input too deep',
-  INPUT_TOO_LARGE: 'input too large',
-  INPUT_CIRCULAR: 'circular input',
-  INTERNAL: 'internal error',
-  LOCKOUT_PENDING: 'lockout pending',
-  FUTURE_TIMESTAMP: 'clock ahead',
-  ROUTINE_TAKEN: 'routine taken',
-  SENSOR_NO_VALUE: 'no sensor value',
-  INVALID_SENSOR_VALUE: 'bad sensor value',
-  BAD_MEASUREMENT: 'bad measurement',
-  UNKNOWN_CONTROLLER: 'unknown controller',
-  INVALID_TIME: 'bad time',
-  NOT_PENDING: 'nothing pending',
-};
-
+/** The core's status text for `code`; a code from elsewhere (a device, the OS) in plain words. */
 function shortReason(code) {
-  const reason = REASONS[code] || String(code || 'error').toLowerCase().replace(/_/g, ' ');
-  return fits(reason) ? reason : `${reason.slice(0, MAX_STATUS_LENGTH - 1)}…`;
+  const known = CODES.get(code);
+  return clip(known ? known.status : String(code || 'error').toLowerCase().replace(/_/g, ' '));
+}
+
+/** Whether `code` is one of the core's codes. */
+function isKnownCode(code) {
+  return CODES.has(code);
 }
 
 function errorStatus(code) {
-  return { fill: 'red', shape: 'ring', text: shortReason(code) };
+  return status('error', shortReason(code));
 }
 
 /** Sets a node's status only when it changes: every call goes out to the editor. */
@@ -167,6 +142,6 @@ class StatusBoard {
 }
 
 module.exports = {
-  StatusBoard,
+  StatusBoard, status, clip, isKnownCode,
   MAX_STATUS_LENGTH, compact, countsText, statusText, countsStatus, actuatorText, actuatorStatus, shortReason, errorStatus,
 };

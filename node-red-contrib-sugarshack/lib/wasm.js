@@ -170,6 +170,7 @@ function primeInterlock({ Interlock, Tracker }) {
   t.takeEffects();
   t.counts();
   t.phase(v);
+  t.describeFault(v, 'no-motion', 1, 100);
   t.position(v);
   t.slot(0, 'valve', 1);
   t.actuators();

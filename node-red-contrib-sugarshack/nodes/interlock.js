@@ -3,6 +3,7 @@ const { coreConfig } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
+const { translator } = require('../lib/i18n');
 
 module.exports = function (RED) {
   paletteOf(RED);
@@ -10,6 +11,7 @@ module.exports = function (RED) {
   function InterlockNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-interlock');
     node.name = props.name;
     // Bound to a plant, the interlock takes its resources and lockouts from the
     // plant document, and operation and routine nodes can run on it.
@@ -19,7 +21,7 @@ module.exports = function (RED) {
     const settings = { config: null, persist, plantBound: Boolean(props.plant), legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null };
     try {
       settings.config = coreConfig(props);
-      if (props.plant && !plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
+      if (props.plant && !plant) throw new SugarshackError('NO_PLANT', t('errors.noSuchPlant'));
     } catch (err) {
       settings.error = err;
     }

@@ -4,7 +4,8 @@ const { journal } = require('../lib/journal/bus');
 const { JournalWriter, httpTarget } = require('../lib/journal/writer');
 const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
-const { compact } = require('../lib/status');
+const { compact, status } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 
 const MB = 1024 * 1024;
 const writers = new Map(); // node id (or 'default') -> JournalWriter
@@ -17,11 +18,11 @@ function bounded(value, fallback, min, max, what) {
   return n;
 }
 
-function statusOf(m) {
-  if (m.state === 'down') return { fill: 'red', shape: 'ring', text: `down · ${compact(m.backlog)} queued` };
-  if (m.dropped > 0) return { fill: 'yellow', shape: 'dot', text: `dropped ${compact(m.dropped)}` };
-  if (m.backlog > 0) return { fill: 'blue', shape: 'dot', text: `backlog ${compact(m.backlog)}` };
-  return { fill: 'green', shape: 'dot', text: `rows ${compact(m.rows)}` };
+function statusOf(t, m) {
+  if (m.state === 'down') return status('error', t('status.down', { backlog: compact(m.backlog) }));
+  if (m.dropped > 0) return status('manual', t('status.dropped', { count: compact(m.dropped) }));
+  if (m.backlog > 0) return status('running', t('status.backlog', { count: compact(m.backlog) }));
+  return status('ok', t('status.rows', { count: compact(m.rows) }));
 }
 
 /** The writer for a node's settings: local files, or a database with a spool in the user dir. */
@@ -67,10 +68,11 @@ module.exports = function (RED) {
   function JournalNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-journal');
     let writer;
     let shown = '';
     const refresh = () => {
-      const s = statusOf(writer.metrics());
+      const s = statusOf(t, writer.metrics());
       if (s.text + s.fill === shown) return;
       shown = s.text + s.fill;
       node.status(s);
@@ -78,8 +80,8 @@ module.exports = function (RED) {
     try {
       writer = writerFor({ props, credentials: node.credentials || {}, userDir, id: node.id, onChange: () => writer && refresh() });
     } catch (err) {
-      node.error(`journal not started: ${err.message}`);
-      node.status({ fill: 'red', shape: 'ring', text: 'bad settings' });
+      node.error(t('errors.notStarted', { message: err.message }));
+      node.status(status('error', t('status.badSettings')));
       return;
     }
     writer.detach = journal.attach(writer);

@@ -1,14 +1,15 @@
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus } = require('../lib/status');
+const { errorStatus, status } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 const { seconds } = require('../lib/plant');
 
 /**
  * Where a run started by an operation node reports: the node's status, and its
  * msg sent on (or failed) by the instance of the node that is current then.
  */
-function nodePort(node, msg, send, done, total, id) {
+function nodePort(t, node, msg, send, done, total, id) {
   const port = {
     nodeId: node.id,
     node,
@@ -17,14 +18,14 @@ function nodePort(node, msg, send, done, total, id) {
     shown: null, // the run's progress, shown again by the node's next instance
     progress(phase, index, step) {
       port.shown = phase === 'queued'
-        ? { fill: 'yellow', shape: 'ring', text: 'queued' }
-        : { fill: 'blue', shape: 'dot', text: `${index + 1}/${total} ${step.kind === 'returnToIdle' ? 'to idle' : step.kind}` };
+        ? status('warning', t('status.queued'))
+        : status('running', t('status.step', { step: index + 1, total, kind: step.kind === 'returnToIdle' ? t('status.toIdle') : step.kind }));
       if (port.node) port.node.status(port.shown);
     },
     finish(result) {
       msg.operation = result;
       if (!port.node) return;
-      port.node.status({ fill: 'green', shape: 'dot', text: `done ${seconds(result.runMs)}` });
+      port.node.status(status('ok', t('status.done', { time: seconds(result.runMs) })));
       port.send(msg);
       if (port.done) port.done();
     },
@@ -37,7 +38,7 @@ function nodePort(node, msg, send, done, total, id) {
         msg.operation = e.operation || { id };
         const kind = e.operation ? e.operation.kind : 'acquire';
         const where = kind === 'acquire' ? null : kind === 'release' ? 'release' : `${e.operation.step + 1}/${total}`;
-        port.node.status(where ? { fill: 'red', shape: 'dot', text: `fault at ${where}` } : errorStatus(e.code));
+        port.node.status(where ? status('fault', t('status.faultAt', { where })) : errorStatus(e.code));
       }
       if (port.done) port.done(e);
       else port.node.error(e, msg);
@@ -68,6 +69,7 @@ module.exports = function (RED) {
   function OperationNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-operation');
     const id = String(props.operation || '').trim();
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
     let total = 0;
@@ -75,12 +77,12 @@ module.exports = function (RED) {
       // Checked against the document in force, so a broken operation shows at deploy.
       interlock.whenOpen(() => {
         try {
-          if (!interlock.plant) throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run operations from its document');
-          if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+          if (!interlock.plant) throw new SugarshackError('NO_PLANT', t('errors.noPlant'));
+          if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           const plan = interlock.plant.plan(id);
           total = plan.steps.length;
           for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.condition(step.condition, step.sensors);
-          if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status({ fill: 'grey', shape: 'ring', text: 'idle' });
+          if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status(status('idle', t('status.idle')));
         } catch (err) {
           const refusal = asSugarshackError(err);
           node.error(refusal.message);
@@ -92,10 +94,10 @@ module.exports = function (RED) {
     // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, steps }.
     node.on('input', (msg, send, done) => {
       if (!interlock) {
-        done(new SugarshackError('NO_INTERLOCK', 'no interlock is configured for this node'));
+        done(new SugarshackError('NO_INTERLOCK', t('errors.noInterlock')));
         return;
       }
-      interlock.submit(node, done, (rt) => rt.startRun(id, msg, nodePort(node, msg, send, done, total, id)));
+      interlock.submit(node, done, (rt) => rt.startRun(id, msg, nodePort(t, node, msg, send, done, total, id)));
     });
   }
 

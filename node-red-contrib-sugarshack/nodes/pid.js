@@ -1,7 +1,8 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, msgNumber, describe, fmt, clip, revivable } = require('../lib/control');
+const { errorStatus, status, StatusBoard } = require('../lib/status');
+const { translator } = require('../lib/i18n');
+const { isNumber, configNumber, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 
 const CONTEXT_KEY = 'pid';
@@ -114,6 +115,7 @@ module.exports = function (RED) {
   function PidNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
     const store = props.store && props.store !== 'default' ? props.store : undefined;
     let station = null;
@@ -139,14 +141,14 @@ module.exports = function (RED) {
     let closed = false;
     const early = []; // msgs that arrived while the saved state was read
 
-    const show = (status) => board.set(node, { ...status, text: clip(status.text) });
+    const show = (shown) => board.set(node, shown);
 
     function idleStatus() {
       const { mode, manual, setpoint, lastOutput } = station.state();
-      if (mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(manual)}` };
+      if (mode === 'manual') return status('manual', t('status.manual', { value: fmt(manual) }));
       return lastOutput === null
-        ? { fill: 'grey', shape: 'ring', text: `sp ${fmt(setpoint)}` }
-        : { fill: 'green', shape: 'dot', text: `auto ${fmt(lastOutput)}` };
+        ? status('idle', t('status.setpoint', { value: fmt(setpoint) }))
+        : status('ok', t('status.auto', { value: fmt(lastOutput) }));
     }
 
     function save() {
@@ -155,7 +157,7 @@ module.exports = function (RED) {
       kept = { integral, setpoint, mode, manual };
       if (!persist) return;
       node.context().set(CONTEXT_KEY, kept, store, (err) => {
-        if (err) node.warn(`cannot save the PID state: ${err.message || err}`);
+        if (err) node.warn(t('errors.notSaved', { message: err.message || err }));
       });
     }
 
@@ -176,25 +178,26 @@ module.exports = function (RED) {
       try {
         stale = station.tick(clock.now());
       } catch (err) {
-        node.error(`PID stale watch: ${err.message}`);
+        node.error(t('errors.staleWatch', { message: err.message }));
         schedule();
         return;
       }
       if (stale && stale.kind === 'noIo') {
-        show({ fill: 'yellow', shape: 'ring', text: 'stale: no I/O' });
+        show(status('warning', t('status.staleNoIo')));
       } else if (stale) {
         save();
         node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
-        show({ fill: 'yellow', shape: 'ring', text: stale.pid.mode === 'manual' ? 'stale: manual' : 'stale: fallback' });
+        show(status('warning', t(stale.pid.mode === 'manual' ? 'status.staleManual' : 'status.staleFallback')));
       }
       schedule();
     }
 
     function stepStatus(pid, engaged) {
-      if (!engaged) return { fill: 'grey', shape: 'ring', text: 'standby' };
-      if (pid.mode === 'manual') return { fill: 'yellow', shape: 'dot', text: `manual ${fmt(pid.output)}` };
-      if (pid.mode === 'tracking') return { fill: 'blue', shape: 'dot', text: `tracking ${fmt(pid.output)}` };
-      return { fill: 'green', shape: pid.saturated ? 'ring' : 'dot', text: `auto ${fmt(pid.output)}` };
+      if (!engaged) return status('idle', t('status.standby'));
+      const value = fmt(pid.output);
+      if (pid.mode === 'manual') return status('manual', t('status.manual', { value }));
+      if (pid.mode === 'tracking') return status('running', t('status.tracking', { value }));
+      return status(pid.saturated ? 'degraded' : 'ok', t('status.auto', { value }));
     }
 
     function measure(msg, send, done) {
@@ -297,13 +300,13 @@ module.exports = function (RED) {
       } else {
         node.context().get(CONTEXT_KEY, store, (err, saved) => {
           if (closed) return;
-          if (err) node.warn(`cannot read the saved PID state (${err.message || err}); starting from the configuration`);
+          if (err) node.warn(t('errors.notRead', { message: err.message || err }));
           if (saved && typeof saved === 'object') {
             try {
               station.restore(readSaved(saved));
               save();
             } catch (e) {
-              node.warn(`the saved PID state cannot be used (${e.message}); starting from the configuration`);
+              node.warn(t('errors.unusable', { message: e.message }));
             }
           }
           start();

@@ -1,7 +1,8 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus, StatusBoard } = require('../lib/status');
-const { isNumber, configNumber, describe, fmt, clip, revivable } = require('../lib/control');
+const { errorStatus, status, StatusBoard } = require('../lib/status');
+const { translator } = require('../lib/i18n');
+const { isNumber, configNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
@@ -18,6 +19,7 @@ module.exports = function (RED) {
   function RccIoNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-rcc-io');
     let io = null;
     let settings = null;
     let lastWritten = null;
@@ -32,7 +34,7 @@ module.exports = function (RED) {
       node.status(errorStatus(refusal.code));
     }
     let procVar = null; // no measurement yet
-    const show = (status) => board.set(node, { ...status, text: clip(status.text) });
+    const show = (shown) => board.set(node, shown);
 
     // Output 1, every period: the state tuple (a, u_1..u_n) and the measurement, for the controllers.
     function publish() {
@@ -43,7 +45,7 @@ module.exports = function (RED) {
     }
     let timer = null;
     if (io) {
-      show({ fill: 'grey', shape: 'ring', text: `idle ${fmt(settings.initialAction)}` });
+      show(status('idle', t('status.idle', { value: fmt(settings.initialAction) })));
       timer = clock.setInterval(publish, settings.periodMs);
     }
 
@@ -69,7 +71,7 @@ module.exports = function (RED) {
           return;
         }
         procVar = null; // the controllers see no measurement and output their fallback
-        const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(payload)}; the controllers get procVar null until the next good one`);
+        const e = new SugarshackError('BAD_MEASUREMENT', t('errors.badMeasurement', { got: describe(payload) }));
         show(errorStatus(e.code));
         done(e);
         return;
@@ -78,14 +80,14 @@ module.exports = function (RED) {
         const id = readMsg(() => (msg.controller !== undefined ? msg.controller : msg.rcc && msg.rcc.id));
         if (!Number.isInteger(id) || id < 1) {
           throw new SugarshackError(id === undefined ? 'INVALID_INPUT' : 'UNKNOWN_CONTROLLER',
-            `a write needs the controller id in msg.controller or msg.rcc.id (1 to ${settings.controllers}), got ${describe(id)}; a measurement needs topic "measurement"`);
+            t('errors.noController', { controllers: settings.controllers, got: describe(id) }));
         }
         if (!isNumber(payload)) {
-          throw new SugarshackError('INVALID_INPUT', `the action written by controller ${id} (msg.payload) must be a number, got ${describe(payload)}`);
+          throw new SugarshackError('INVALID_INPUT', t('errors.badAction', { id, got: describe(payload) }));
         }
         io.write(id, payload, clock.now()); // Conditional Acting: a := action, u_id := 0
         lastWritten = payload;
-        show({ fill: 'green', shape: 'dot', text: `C${id} ${fmt(payload)}` });
+        show(status('ok', t('status.written', { id, value: fmt(payload) })));
       } catch (err) {
         const e = asSugarshackError(err);
         show(errorStatus(e.code));

@@ -1,6 +1,7 @@
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { errorStatus, StatusBoard } = require('../lib/status');
+const { errorStatus, status, StatusBoard } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 const { configNumber, parseList, describe, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
@@ -24,6 +25,7 @@ module.exports = function (RED) {
   function RccNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-rcc');
     let rcc = null;
     let settings = null;
     let refusal = null;
@@ -56,14 +58,14 @@ module.exports = function (RED) {
       if (!rcc) return;
       try {
         // the next scan re-seeds the controller's integrator
-        if (rcc.tick(clock.now())) show({ fill: 'yellow', shape: 'ring', text: 'no I/O' });
+        if (rcc.tick(clock.now())) show(status('warning', t('status.noIo')));
       } catch (err) {
-        node.error(`rcc polling timeout: ${err.message}`);
+        node.error(t('errors.pollTimeout', { message: err.message }));
       }
       schedule();
     }
     if (rcc) {
-      show({ fill: 'grey', shape: 'ring', text: `C${settings.id} waiting` });
+      show(status('idle', t('status.waiting', { id: settings.id })));
       schedule();
     }
 
@@ -80,7 +82,7 @@ module.exports = function (RED) {
         state = readMsg(() => {
           const given = msg.payload;
           if (!given || typeof given !== 'object' || Array.isArray(given)) {
-            throw new SugarshackError('INVALID_INPUT', `msg.payload must be the I/O module's state { procVar, lastAction, agesMs }, got ${describe(given)}`);
+            throw new SugarshackError('INVALID_INPUT', t('errors.notState', { got: describe(given) }));
           }
           return { procVar: given.procVar, lastAction: given.lastAction, agesMs: given.agesMs };
         });
@@ -94,7 +96,7 @@ module.exports = function (RED) {
       schedule();
       msg.payload = state.procVar;
       msg.rcc = { id: settings.id, engaged: decision.engaged, firstCycle: decision.firstCycle, track: decision.track ?? null };
-      show(decision.engaged ? { fill: 'green', shape: 'dot', text: 'engaged' } : { fill: 'grey', shape: 'dot', text: 'standby' });
+      show(decision.engaged ? status('ok', t('status.engaged')) : status('standby', t('status.standby')));
       send(msg);
       done();
     });

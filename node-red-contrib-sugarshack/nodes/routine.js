@@ -2,6 +2,7 @@
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 const { readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 
@@ -12,10 +13,11 @@ module.exports = function (RED) {
   function RoutineNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-routine');
     const id = String(props.routine || '').trim();
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
     let host = null;
-    let refusal = interlock ? null : new SugarshackError('NO_INTERLOCK', 'no interlock is configured for this node');
+    let refusal = interlock ? null : new SugarshackError('NO_INTERLOCK', t('errors.noInterlock'));
 
     // The routine lives in the interlock's runtime; this node is its port (a deploy hands it over).
     if (interlock) {
@@ -24,7 +26,7 @@ module.exports = function (RED) {
           host = interlock.routineHost(id);
           if (!host.attach(node)) {
             host = null;
-            throw new SugarshackError('ROUTINE_TAKEN', `routine '${id}' is already run by another routine node; one node per routine`);
+            throw new SugarshackError('ROUTINE_TAKEN', t('errors.taken', { id }));
           }
           refusal = null;
         } catch (err) {
@@ -35,7 +37,7 @@ module.exports = function (RED) {
       });
     }
 
-    // A msg's topic is its trigger ("reset" goes back to the initial state); the msg is completed at once.
+    // A msg's topic is its trigger (the core's reset topic goes back to the initial state); the msg is completed at once.
     node.on('input', (msg, send, done) => {
       if (!interlock) {
         done(refusal);
@@ -43,11 +45,11 @@ module.exports = function (RED) {
       }
       interlock.submit(node, done, () => {
         if (refusal) throw refusal;
-        if (!host) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${id}' is not running yet`);
+        if (!host) throw new SugarshackError('UNKNOWN_ROUTINE', t('errors.notRunning', { id }));
         try {
           const topic = readMsg(() => String(msg.topic ?? ''));
           if (topic.length > MAX_TOPIC) {
-            throw new SugarshackError('INVALID_INPUT', `a routine's trigger (msg.topic) is at most ${MAX_TOPIC} characters; this one has ${topic.length}`);
+            throw new SugarshackError('INVALID_INPUT', t('errors.topicTooLong', { max: MAX_TOPIC, length: topic.length }));
           }
           host.onMsg(topic);
         } catch (err) {

@@ -12,6 +12,8 @@ const { errorStatus } = require('../lib/status');
 const { stateOf } = require('../lib/state');
 const { clock } = require('../lib/clock');
 const { stats } = require('../lib/stats');
+const { status } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 
 const STATS_TOPIC = 'sugarshack/stats';
 
@@ -56,6 +58,7 @@ module.exports = function (RED) {
   function StateNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-state');
     const palette = paletteOf(RED);
     const intervalMs = Math.max(MIN_INTERVAL_MS, Number(props.intervalMs) || 1000);
     let timer = null;
@@ -65,7 +68,7 @@ module.exports = function (RED) {
       const state = stateOf(palette);
       const lines = state.interlocks.reduce((n, il) => n + (il.lines ? il.lines.length : 0), 0);
       const faulted = state.interlocks.reduce((n, il) => n + (il.lines ? il.lines.filter((l) => l.fault).length : 0), 0);
-      node.status({ fill: faulted ? 'red' : 'green', shape: 'dot', text: `${lines} lines · ${faulted} faulted` });
+      node.status(status(faulted ? 'fault' : 'ok', t('status.lines', { lines, faulted })));
       lastSentMs = clock.now();
       return { topic: 'sugarshack/state', trigger, payload: state };
     };

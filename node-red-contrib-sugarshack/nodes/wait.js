@@ -3,23 +3,25 @@ const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { Condition } = require('../lib/condition');
 const { splitNames } = require('../lib/request');
-const { errorStatus } = require('../lib/status');
+const { errorStatus, status } = require('../lib/status');
+const { translator } = require('../lib/i18n');
 const { clock } = require('../lib/clock');
 
 module.exports = function (RED) {
   function WaitNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-wait');
     const plant = bindPlant(RED, node, props.plant, { showCounts: false });
     const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
     let condition = null;
-    let refusal = plant ? null : new SugarshackError('NO_PLANT', 'no plant is configured for this node');
+    let refusal = plant ? null : new SugarshackError('NO_PLANT', t('errors.noPlant'));
     // Compiled against the document in force (after a deploy's drain, the new one).
     if (plant) {
       plant.whenOpen(() => {
         try {
-          if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
-          if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', 'a condition wait needs a timeout (seconds, above 0)');
+          if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
+          if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
           const text = String(props.sensors || '').trim();
           condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
           refusal = null;
@@ -44,11 +46,11 @@ module.exports = function (RED) {
         const signal = {};
         const since = clock.now();
         waiting.add(signal);
-        node.status({ fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` });
+        node.status(status('waiting', t('status.waiting', { count: waiting.size })));
         condition.waitUntil(timeoutMs, signal).then((values) => {
           waiting.delete(signal);
           msg.condition = { values, waitedMs: clock.now() - since };
-          node.status(waiting.size ? { fill: 'blue', shape: 'ring', text: `waiting ${waiting.size}` } : { fill: 'green', shape: 'dot', text: 'held' });
+          node.status(waiting.size ? status('waiting', t('status.waiting', { count: waiting.size })) : status('ok', t('status.held')));
           send(msg);
           done();
         }, (err) => {

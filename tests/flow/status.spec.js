@@ -45,3 +45,38 @@ describe('status text', function () {
     assert.ok(long.length < 20 && long.endsWith('…'), long);
   });
 });
+
+describe('error codes', function () {
+  const fs = require('fs');
+  const { isKnownCode } = require(path.join(PALETTE, 'lib', 'status.js'));
+
+  function sources(dir) {
+    return fs.readdirSync(dir, { withFileTypes: true }).flatMap((entry) => {
+      const file = path.join(dir, entry.name);
+      if (entry.isDirectory()) return sources(file);
+      return entry.name.endsWith('.js') ? [file] : [];
+    });
+  }
+
+  it('every code the nodes raise or test for is in the core table, so its status text comes from there', function () {
+    const raised = new Map();
+    const uses = /SugarshackError\(\s*'([A-Z_]+)'|code: '([A-Z_]+)'|errorStatus\('([A-Z_]+)'\)|code [!=]== '([A-Z_]+)'/g;
+    // What Node.js itself throws, tested for where a file or module may be missing.
+    const fromNode = new Set(['ENOENT', 'MODULE_NOT_FOUND']);
+    for (const file of [...sources(path.join(PALETTE, 'lib')), ...sources(path.join(PALETTE, 'nodes'))]) {
+      const text = fs.readFileSync(file, 'utf8');
+      for (const m of text.matchAll(uses)) {
+        for (const code of m.slice(1).filter(Boolean)) if (!fromNode.has(code)) raised.set(code, path.relative(PALETTE, file));
+      }
+    }
+    assert.ok(raised.size > 10, `found ${raised.size} codes`);
+    const unknown = [...raised].filter(([code]) => !isKnownCode(code));
+    assert.deepEqual(unknown, [], 'codes missing from the core table (rust/sugarshack-core/src/code.rs)');
+  });
+
+  it('reads each status text from the core and words an unknown code plainly', function () {
+    assert.equal(shortReason('SENSOR_UNAVAILABLE'), 'sensor unavailable');
+    assert.equal(shortReason('INVALID_INPUT'), 'invalid input');
+    assert.equal(shortReason('ECONNREFUSED'), 'econnrefused');
+  });
+});

@@ -22,13 +22,16 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::clearance::{cut, Attribution};
+use crate::code::Code;
 use crate::text::quote;
 
 /// The most conditions one observation may report.
 pub const MAX_CONDITIONS: usize = 10_000;
 /// The most alarms kept (active, returned unacknowledged or shelved).
 pub const MAX_ALARMS: usize = 2 * MAX_CONDITIONS;
+/// The longest subject kept; longer ones are cut.
 pub const SUBJECT_MAX_CHARS: usize = 200;
+/// The longest text kept; longer ones are cut.
 pub const TEXT_MAX_CHARS: usize = 500;
 /// The longest a shelf may last: a shelved alarm must come back.
 pub const MAX_SHELVE_MS: u64 = 7 * 24 * 3600 * 1000;
@@ -39,6 +42,7 @@ pub const MAX_SHELVE_MS: u64 = 7 * 24 * 3600 * 1000;
 pub enum AlarmKind {
     /// A line is faulted (an operation faulted, an e-stop, a state lost at restart).
     LineFaulted,
+    /// A device has gone offline (its last will, or no feedback at all).
     DeviceOffline,
     /// A device is online but some of its actuators' feedback is stale.
     DeviceStale,
@@ -64,6 +68,7 @@ impl AlarmKind {
         }
     }
 
+    /// Its name in alarm ids and JSON, e.g. `"line-faulted"`.
     pub fn name(self) -> &'static str {
         match self {
             Self::LineFaulted => "line-faulted",
@@ -77,24 +82,30 @@ impl AlarmKind {
     }
 }
 
+/// Where an alarm stands, as ISA-18.2 names the states.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum AlarmState {
     /// Only a shelved alarm is kept in this state.
     #[serde(rename = "normal")]
     Normal,
+    /// The condition holds; nobody has acknowledged it.
     #[serde(rename = "active-unacknowledged")]
     ActiveUnacked,
+    /// The condition holds; a person acknowledged it.
     #[serde(rename = "active-acknowledged")]
     ActiveAcked,
+    /// The condition is gone; nobody acknowledged it yet.
     #[serde(rename = "returned-unacknowledged")]
     ReturnedUnacked,
 }
 
 impl AlarmState {
+    /// Whether its condition holds.
     pub fn is_active(self) -> bool {
         matches!(self, Self::ActiveUnacked | Self::ActiveAcked)
     }
 
+    /// Whether it still needs a person's acknowledgement.
     pub fn is_unacked(self) -> bool {
         matches!(self, Self::ActiveUnacked | Self::ReturnedUnacked)
     }
@@ -104,6 +115,7 @@ impl AlarmState {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Condition {
+    /// What is abnormal.
     pub kind: AlarmKind,
     /// What it is about: a line, a device, an operation.
     pub subject: String,
@@ -119,8 +131,11 @@ pub struct Condition {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Stamp {
+    /// Who.
     pub by: String,
+    /// When, in ms since the epoch.
     pub at_ms: u64,
+    /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
 }
@@ -135,24 +150,34 @@ impl Stamp {
     }
 }
 
+/// A shelving: who put the alarm aside, when, and until when.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Shelf {
+    /// Who.
     pub by: String,
+    /// When, in ms since the epoch.
     pub at_ms: u64,
+    /// When it comes back off the shelf, in ms since the epoch.
     pub until_ms: u64,
+    /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
 }
 
+/// One listed alarm.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Alarm {
     /// `kind:subject`.
     pub id: String,
+    /// What is abnormal.
     pub kind: AlarmKind,
+    /// What it is about.
     pub subject: String,
+    /// One line for a person.
     pub text: String,
+    /// Where it stands.
     pub state: AlarmState,
     /// When its condition last began.
     pub active_since_ms: u64,
@@ -161,6 +186,7 @@ pub struct Alarm {
     /// The acknowledgement of the current activation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acked: Option<Stamp>,
+    /// Its shelving, while shelved.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shelved: Option<Shelf>,
 }
@@ -169,9 +195,13 @@ pub struct Alarm {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AlarmAction {
+    /// Its condition began or ended.
     Condition,
+    /// A person acknowledged it.
     Acknowledge,
+    /// A person shelved it.
     Shelve,
+    /// A person took it off the shelf.
     Unshelve,
     /// Its shelf's time ran out.
     ShelfExpired,
@@ -181,32 +211,59 @@ pub enum AlarmAction {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct AlarmChange {
+    /// The alarm's id.
     pub id: String,
+    /// What moved it.
     pub action: AlarmAction,
+    /// Its state before.
     pub from: AlarmState,
+    /// Its state after.
     pub to: AlarmState,
+    /// When, in ms since the epoch.
     pub at_ms: u64,
+    /// Who, for a person's action.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub by: Option<String>,
+    /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
 }
 
+/// Why an alarm request was refused.
 #[derive(Clone, Debug, PartialEq)]
 pub enum AlarmError {
-    UnknownAlarm { id: String },
-    InvalidShelf { reason: String },
-    TooMany { count: usize, max: usize },
-    InvalidSnapshot { reason: String },
+    /// No alarm with this id is listed.
+    UnknownAlarm {
+        /// The id asked for.
+        id: String,
+    },
+    /// A shelve time that is past or too far ahead.
+    InvalidShelf {
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// More conditions or alarms than are kept.
+    TooMany {
+        /// How many there were.
+        count: usize,
+        /// How many are kept.
+        max: usize,
+    },
+    /// A saved form that cannot be restored.
+    InvalidSnapshot {
+        /// What is wrong with it.
+        reason: String,
+    },
 }
 
 impl AlarmError {
-    pub fn code(&self) -> &'static str {
+    /// Its code, as Catch nodes see it.
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownAlarm { .. } => "UNKNOWN_ALARM",
-            Self::InvalidShelf { .. } => "INVALID_SHELF",
-            Self::TooMany { .. } => "TOO_MANY_ALARMS",
-            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+            Self::UnknownAlarm { .. } => Code::UnknownAlarm,
+            Self::InvalidShelf { .. } => Code::InvalidShelf,
+            Self::TooMany { .. } => Code::TooManyAlarms,
+            Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
         }
     }
 }
@@ -234,6 +291,7 @@ impl std::error::Error for AlarmError {}
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct AlarmsSnapshot {
+    /// Every kept alarm.
     pub alarms: Vec<Alarm>,
 }
 
@@ -245,11 +303,13 @@ pub struct Alarms {
     delayed: BTreeMap<String, u64>,
 }
 
+/// The id of the alarm for `kind` on `subject`: `kind:subject`.
 pub fn alarm_id(kind: AlarmKind, subject: &str) -> String {
     format!("{}:{}", kind.name(), subject)
 }
 
 impl Alarms {
+    /// No alarms.
     pub fn new() -> Self {
         Self::default()
     }
@@ -259,6 +319,7 @@ impl Alarms {
         self.alarms.values()
     }
 
+    /// The alarm with this id, if listed.
     pub fn get(&self, id: &str) -> Option<&Alarm> {
         self.alarms.get(id)
     }
@@ -457,6 +518,7 @@ impl Alarms {
         Ok(changes)
     }
 
+    /// The saved form.
     pub fn snapshot(&self) -> AlarmsSnapshot {
         AlarmsSnapshot {
             alarms: self.alarms.values().cloned().collect(),

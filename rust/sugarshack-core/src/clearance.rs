@@ -4,6 +4,27 @@
 //! Anything else is a reason to refuse, and every reason is listed; a person
 //! who knows better may force the clear, and the clear is recorded as forced.
 //! Every clear and emergency stop records who asked and why.
+//!
+//! ```
+//! use sugarshack_core::clearance::{Attribution, ClearBlocker};
+//! use sugarshack_core::interlock::{Interlock, InterlockConfig, InterlockError};
+//!
+//! let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL"])).unwrap();
+//! let yel = lock.resource_set(&["YEL"]).unwrap();
+//! lock.fault_resources(&yel, Some("emergency stop"), 0).unwrap();
+//! // The plant's reasons, per line: here its panel is offline.
+//! let offline = |_: &str| vec![ClearBlocker::DeviceOffline { device: "ctrl-1".into() }];
+//! let ann = Attribution::new(Some("ann"), None, false);
+//! let refused = lock.clear_checked(&yel, &ann, offline, 10).unwrap_err();
+//! assert!(matches!(refused, InterlockError::ClearRefused { .. }));
+//! assert!(refused.to_string().contains("ctrl-1"), "{refused}");
+//! // A person who knows better forces it: cleared, and recorded as forced.
+//! let forced = Attribution::new(Some("ann"), Some("checked on site"), true);
+//! lock.clear_checked(&yel, &forced, offline, 20).unwrap();
+//! assert!(!lock.is_faulted(lock.resource("YEL").unwrap()));
+//! let cleared = lock.drain_events().pop().unwrap();
+//! assert!(lock.describe(&cleared).forced);
+//! ```
 
 use std::fmt;
 
@@ -22,6 +43,7 @@ pub const REASON_MAX_CHARS: usize = 500;
 pub struct Attribution {
     /// The dashboard or editor user; `"unknown"` when nobody is signed in.
     pub by: String,
+    /// Why, in words a person acts on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     /// The clear overrode the reasons to refuse it.
@@ -43,6 +65,7 @@ impl Attribution {
         }
     }
 
+    /// Nobody signed in, no reason, not forced.
     pub fn unknown() -> Self {
         Attribution::new(None, None, false)
     }
@@ -64,23 +87,40 @@ pub(crate) fn cut(text: &str, max_chars: usize) -> String {
 pub enum ClearBlocker {
     /// The line's lockout is still a standing order for this actuator: feedback has not confirmed it.
     #[serde(rename_all = "camelCase")]
-    LockoutPending { actuator: String, sends: u32 },
+    LockoutPending {
+        /// The actuator's id.
+        actuator: String,
+        /// How many times its lockout was published.
+        sends: u32,
+    },
     /// Feedback shows the actuator away from its lockout state.
     #[serde(rename_all = "camelCase")]
     OffLockout {
+        /// The actuator's id.
         actuator: String,
+        /// Its last feedback value.
         position: f64,
+        /// Its lockout state.
         lockout: f64,
     },
     /// The actuator never reported where it is.
     #[serde(rename_all = "camelCase")]
-    NoFeedback { actuator: String },
+    NoFeedback {
+        /// The actuator's id.
+        actuator: String,
+    },
     /// Its feedback is stale: where it is now is not known.
     #[serde(rename_all = "camelCase")]
-    Stale { actuator: String },
+    Stale {
+        /// The actuator's id.
+        actuator: String,
+    },
     /// A device serving the line is offline.
     #[serde(rename_all = "camelCase")]
-    DeviceOffline { device: String },
+    DeviceOffline {
+        /// The device's id.
+        device: String,
+    },
 }
 
 impl fmt::Display for ClearBlocker {
@@ -120,7 +160,9 @@ impl fmt::Display for ClearBlocker {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct LineBlockers {
+    /// The line's name.
     pub line: String,
+    /// Every reason it cannot be cleared yet.
     pub reasons: Vec<ClearBlocker>,
 }
 

@@ -14,14 +14,19 @@ pub const MAX_DEPTH: usize = 127;
 /// A serde message names what it expected after the bad value: room for both.
 const MESSAGE_CHARS: usize = 200;
 
+/// Why JSON text could not be read.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum JsonError {
     /// Arrays and objects nested deeper than [`MAX_DEPTH`].
-    TooDeep { limit: usize },
+    TooDeep {
+        /// The deepest nesting read.
+        limit: usize,
+    },
     /// Not JSON, or not the shape expected.
     Invalid {
         /// Where, as `actuators[3].io`; None at the top or when unknown.
         path: Option<String>,
+        /// What is wrong, and where.
         message: String,
         /// Line and column in the text, counted from 1.
         position: Option<(usize, usize)>,

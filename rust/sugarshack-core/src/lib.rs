@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! The pure core of sugarshack: no clock, no I/O, no JS. Time comes in as an
 //! argument in milliseconds; effects (grants, lockout commands, events) go out
 //! as returned values, so every rule here is deterministic and testable natively.
@@ -5,6 +6,7 @@
 pub mod actuator;
 pub mod alarm;
 pub mod clearance;
+pub mod code;
 pub mod control;
 pub mod interlock;
 pub mod json;

@@ -8,25 +8,53 @@ use std::fmt;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
+use crate::routine::RESET_TOPIC;
 use crate::text::quote;
 
+/// The plant document: devices, actuators, sensors, lines, operations and routines.
+/// Read with serde, then checked whole by [`PlantModel::validate`], which
+/// lists every problem with its path.
+///
+/// ```
+/// use sugarshack_core::plant::PlantModel;
+///
+/// let mut doc = serde_json::json!({
+///   "actuatorTypes": { "valve": { "signal": "analog", "noMotionMs": 3000, "completionMs": 10000, "staleMs": 5000 } },
+///   "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+///   "actuators": [{ "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 }]
+/// });
+/// let plant: PlantModel = serde_json::from_value(doc.clone()).unwrap();
+/// assert!(plant.validate().unwrap().is_empty(), "sound, and nothing looks unintended");
+///
+/// doc["actuators"][0]["device"] = "ctrl-9".into();
+/// let plant: PlantModel = serde_json::from_value(doc).unwrap();
+/// let problems = plant.validate().unwrap_err();
+/// assert_eq!(problems.0[0].path, "actuators[0] (V12)");
+/// assert!(problems.0[0].message.contains("ctrl-9"));
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct PlantModel {
+    /// A name for people; the core does not use it.
     #[serde(default)]
     pub name: Option<String>,
     /// Keyed by type name, which is also the MQTT topic component (`<device>/<type>/<io>/command`).
     pub actuator_types: BTreeMap<String, ActuatorType>,
+    /// The devices on the bus.
     pub devices: Vec<Device>,
+    /// The actuators.
     #[serde(default)]
     pub actuators: Vec<Actuator>,
+    /// The sensors.
     #[serde(default)]
     pub sensors: Vec<Sensor>,
     /// The shared resources (lines of piping) operations acquire at the interlock.
     #[serde(default)]
     pub resources: Vec<Resource>,
+    /// The operations.
     #[serde(default)]
     pub operations: Vec<Operation>,
+    /// The routines.
     #[serde(default)]
     pub routines: Vec<Routine>,
     /// How far ahead of the reception time a device's timestamp may be; a
@@ -45,6 +73,7 @@ fn default_clock_skew_ms() -> u64 {
     DEFAULT_CLOCK_SKEW_MS
 }
 
+/// How an actuator is commanded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Signal {
@@ -65,14 +94,19 @@ pub enum Escalation {
     Hang,
 }
 
+/// What actuators of one type share: signal, range and timing.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ActuatorType {
+    /// Binary or analog.
     pub signal: Signal,
+    /// The unit of its positions, for people.
     #[serde(default)]
     pub unit: Option<String>,
+    /// The lowest position.
     #[serde(default)]
     pub min: Option<f64>,
+    /// The highest position.
     #[serde(default)]
     pub max: Option<f64>,
     /// Feedback within this of a position counts as at that position.
@@ -87,6 +121,7 @@ pub struct ActuatorType {
     /// Retries before a failure escalates.
     #[serde(default)]
     pub retries: u32,
+    /// What a failure after its retries does.
     #[serde(default)]
     pub escalation: Escalation,
     /// How its devices publish feedback; a device's own setting wins.
@@ -94,10 +129,13 @@ pub struct ActuatorType {
     pub reports: Option<Reports>,
 }
 
+/// What a device carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum DeviceKind {
+    /// Actuators.
     ActuatorPanel,
+    /// Sensors.
     SensorStation,
 }
 
@@ -108,8 +146,11 @@ pub enum Profile {
     /// This palette's own format (`<prefix>/<type>/<io>/state`, `<prefix>/state` batches).
     #[default]
     Sugarshack,
+    /// ESPHome's MQTT format.
     Esphome,
+    /// Tasmota's MQTT format.
     Tasmota,
+    /// Shelly's second-generation MQTT format.
     #[serde(rename = "shelly-gen2")]
     ShellyGen2,
     /// Topic templates, a payload path and value maps given in the device's `custom`.
@@ -117,6 +158,7 @@ pub enum Profile {
 }
 
 impl Profile {
+    /// Its name in the plant document.
     pub fn name(self) -> &'static str {
         match self {
             Profile::Sugarshack => "sugarshack",
@@ -150,7 +192,9 @@ impl Profile {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Reports {
+    /// It re-publishes its states: silence means trouble.
     Periodic,
+    /// It publishes only on change.
     OnChange,
 }
 
@@ -158,13 +202,18 @@ pub enum Reports {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Component {
+    /// An ESPHome valve.
     Valve,
+    /// An ESPHome cover.
     Cover,
+    /// An ESPHome number.
     Number,
+    /// An ESPHome switch.
     Switch,
 }
 
 impl Component {
+    /// Its name in the plant document.
     pub fn name(self) -> &'static str {
         match self {
             Component::Valve => "valve",
@@ -175,11 +224,15 @@ impl Component {
     }
 }
 
+/// A device on the bus.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Device {
+    /// Its id in the plant document.
     pub id: String,
+    /// What it carries.
     pub kind: DeviceKind,
+    /// The MQTT format it speaks.
     #[serde(default, skip_serializing_if = "is_default")]
     pub profile: Profile,
     /// Its MQTT topic prefix (ESPHome `topic_prefix`, Tasmota `%topic%`,
@@ -195,6 +248,7 @@ pub struct Device {
 }
 
 impl Device {
+    /// Its topic prefix (its id unless set).
     pub fn prefix(&self) -> &str {
         self.prefix.as_deref().unwrap_or(&self.id)
     }
@@ -204,12 +258,16 @@ fn is_default<T: Default + PartialEq>(value: &T) -> bool {
     *value == T::default()
 }
 
+/// An actuator of the plant.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Actuator {
+    /// Its id in the plant document.
     pub id: String,
+    /// Its type, a key of `actuatorTypes`.
     #[serde(rename = "type")]
     pub kind: String,
+    /// The device's id.
     pub device: String,
     /// Its output number on a `sugarshack` device (`<device>/<type>/<io>/command`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -234,10 +292,13 @@ pub struct Actuator {
     pub lockout: serde_json::Value,
 }
 
+/// A sensor of the plant.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Sensor {
+    /// Its id in the plant document.
     pub id: String,
+    /// The device's id.
     pub device: String,
     /// The datapoint name in `<device>/sensor/<name>/state`.
     pub name: String,
@@ -246,24 +307,29 @@ pub struct Sensor {
     /// component and field (`temperature:0.tC`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub entity: Option<String>,
+    /// The unit of its values, for people.
     #[serde(default)]
     pub unit: Option<String>,
     /// How often its device publishes it; `staleMs` defaults to five of these.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub update_ms: Option<u64>,
+    /// How old a value may be before it is stale; the plant's default when unset.
     #[serde(default)]
     pub stale_ms: Option<u64>,
 }
 
 impl Sensor {
+    /// Its entity on its device.
     pub fn entity(&self) -> &str {
         self.entity.as_deref().unwrap_or(&self.name)
     }
 }
 
+/// A line the interlock arbitrates.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Resource {
+    /// Its id in the plant document.
     pub id: String,
     /// The group command that isolates the line on a fault. By default every
     /// member actuator goes to its own lockout state.
@@ -275,12 +341,16 @@ pub struct Resource {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Operation {
+    /// Its id in the plant document.
     pub id: String,
+    /// What it does, for people.
     #[serde(default)]
     pub description: Option<String>,
     /// Higher is more urgent.
     pub priority: i32,
+    /// The lines' names.
     pub resources: Vec<String>,
+    /// Its steps, in order.
     pub steps: Vec<Step>,
 }
 
@@ -292,14 +362,19 @@ pub enum Step {
     /// A group command, e.g. `{"valves": {"V101": 100}, "pumps": {"P1": true}}`.
     #[serde(rename_all = "camelCase")]
     Command {
+        /// The group command.
         command: serde_json::Value,
+        /// How long it may take.
         timeout_ms: u64,
     },
     /// Wait until a JSONata condition over the listed sensors holds.
     #[serde(rename_all = "camelCase")]
     Wait {
+        /// The condition (JSONata).
         wait: String,
+        /// The sensors it reads.
         sensors: Vec<String>,
+        /// How long it may take.
         timeout_ms: u64,
     },
 }
@@ -371,21 +446,30 @@ impl<'de> Deserialize<'de> for Step {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Routine {
+    /// Its id in the plant document.
     pub id: String,
+    /// Its states.
     pub states: Vec<String>,
+    /// The state it starts in.
     pub initial: String,
     /// Where the routine goes when its operation faults.
     #[serde(default)]
     pub error_state: Option<String>,
+    /// Its transitions.
     pub transitions: Vec<Transition>,
 }
 
+/// A move between two states of a routine, running one operation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Transition {
+    /// The state it leaves.
     pub from: String,
+    /// The state it enters.
     pub to: String,
+    /// The operation's id.
     pub operation: String,
+    /// What fires it.
     pub trigger: Trigger,
 }
 
@@ -394,12 +478,18 @@ pub struct Transition {
 #[serde(untagged)]
 pub enum Trigger {
     /// A msg with this topic.
-    Msg { msg: String },
+    Msg {
+        /// The msg topic.
+        msg: String,
+    },
     /// A JSONata condition over the listed sensors, evaluated every `everyMs`.
     #[serde(rename_all = "camelCase")]
     When {
+        /// The condition (JSONata).
         when: String,
+        /// The sensors it reads.
         sensors: Vec<String>,
+        /// How often it is checked, in ms.
         every_ms: u64,
     },
 }
@@ -459,7 +549,9 @@ impl<'de> Deserialize<'de> for Trigger {
 /// Something legal but probably unintended, reported at deploy.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PlantWarning {
+    /// Where in the document, e.g. `actuators[3] (V12)`.
     pub path: String,
+    /// What is wrong.
     pub message: String,
 }
 
@@ -474,6 +566,7 @@ impl fmt::Display for PlantWarning {
 pub struct PlantError {
     /// Where: `actuators[3] (V12)`, `actuatorTypes.valve`, ...
     pub path: String,
+    /// What looks unintended.
     pub message: String,
 }
 
@@ -507,8 +600,11 @@ impl std::error::Error for PlantErrors {}
 /// A validated setting of one actuator, in the form the tracker uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Range {
+    /// The lowest position.
     pub min: f64,
+    /// The highest position.
     pub max: f64,
+    /// How close to a position counts as there.
     pub tolerance: f64,
 }
 
@@ -560,9 +656,18 @@ pub fn state_value(signal: Signal, range: Range, value: &serde_json::Value) -> R
 /// Why a group command payload cannot be read.
 #[derive(Clone, Debug, PartialEq)]
 pub enum GroupError {
+    /// The command cannot be read.
     Invalid(String),
+    /// An actuator the plant does not have.
     UnknownActuator(String),
-    InvalidTarget { actuator: String, reason: String },
+    /// A target the actuator cannot take.
+    InvalidTarget {
+        /// The actuator's id.
+        actuator: String,
+        /// Why.
+        reason: String,
+    },
+    /// The command names no actuator.
     Empty,
 }
 
@@ -1080,6 +1185,12 @@ impl PlantModel {
                             format!("C1: operation '{}' already belongs to routine '{}'; an operation belongs to one routine", quote(&t.operation), quote(other)),
                         );
                     }
+                }
+                if matches!(&t.trigger, Trigger::Msg { msg } if msg == RESET_TOPIC) {
+                    push(
+                        path.clone(),
+                        format!("the msg topic '{RESET_TOPIC}' is reserved: it sends the routine back to its initial state, so this transition could never fire; give it another topic"),
+                    );
                 }
                 if let Trigger::When {
                     when,

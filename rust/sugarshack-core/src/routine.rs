@@ -7,46 +7,67 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::code::Code;
 use crate::plant::{PlantModel, Routine, Trigger};
 use crate::text::quote;
 
+/// The msg topic that sends a routine back to its initial state (an
+/// operator's reset). Reserved: plant validation refuses a transition on it.
+pub const RESET_TOPIC: &str = "reset";
+
+/// Why a routine refused a call.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RoutineError {
+    /// The plant document has no such routine.
     UnknownRoutine {
+        /// The name as given.
         name: String,
     },
     /// One pending operation per routine: a trigger while it runs is refused.
     Busy {
+        /// The routine's id.
         routine: String,
+        /// The operation's id.
         operation: String,
     },
+    /// No transition from the current state fires on this trigger.
     NoTransition {
+        /// The routine's id.
         routine: String,
+        /// The state's name.
         state: String,
+        /// The trigger given.
         trigger: String,
     },
     /// Its last operation faulted and it has no error state: it waits for a reset.
     Halted {
+        /// The routine's id.
         routine: String,
+        /// The state's name.
         state: String,
     },
+    /// An operation's result while none is pending.
     NotPending {
+        /// The routine's id.
         routine: String,
     },
+    /// A saved routine state that cannot be restored.
     InvalidSnapshot {
+        /// Why, in words a person acts on.
         reason: String,
     },
 }
 
 impl RoutineError {
-    pub fn code(&self) -> &'static str {
+    /// The code a Catch node sees.
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownRoutine { .. } => "UNKNOWN_ROUTINE",
-            Self::Busy { .. } => "ROUTINE_BUSY",
-            Self::NoTransition { .. } => "NO_TRANSITION",
-            Self::Halted { .. } => "ROUTINE_HALTED",
-            Self::NotPending { .. } => "NOT_PENDING",
-            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+            Self::UnknownRoutine { .. } => Code::UnknownRoutine,
+            Self::Busy { .. } => Code::RoutineBusy,
+            Self::NoTransition { .. } => Code::NoTransition,
+            Self::Halted { .. } => Code::RoutineHalted,
+            Self::NotPending { .. } => Code::NotPending,
+            Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
         }
     }
 }
@@ -94,9 +115,13 @@ impl std::error::Error for RoutineError {}
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Dispatch {
+    /// The transition's index.
     pub transition: usize,
+    /// The operation's id.
     pub operation: String,
+    /// The state it leaves.
     pub from: String,
+    /// The state it enters.
     pub to: String,
 }
 
@@ -104,9 +129,13 @@ pub struct Dispatch {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Moved {
+    /// The state it leaves.
     pub from: String,
+    /// The state it enters.
     pub to: String,
+    /// The operation's id.
     pub operation: Option<String>,
+    /// Whether it halted (a fault with no error state).
     pub halted: bool,
 }
 
@@ -114,14 +143,19 @@ pub struct Moved {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct RoutineSnapshot {
+    /// The routine's id.
     pub routine: String,
+    /// The state's name.
     pub state: String,
+    /// The operation pending when it was saved.
     #[serde(default)]
     pub pending: Option<String>,
+    /// Whether it was halted.
     #[serde(default)]
     pub halted: bool,
 }
 
+/// One routine's state machine.
 #[derive(Clone, Debug)]
 pub struct RoutineMachine {
     routine: Routine,
@@ -201,6 +235,7 @@ impl RoutineMachine {
         self.faulted().map(Some)
     }
 
+    /// What survives a restart.
     pub fn snapshot(&self) -> RoutineSnapshot {
         RoutineSnapshot {
             routine: self.routine.id.clone(),
@@ -210,10 +245,12 @@ impl RoutineMachine {
         }
     }
 
+    /// The routine's id.
     pub fn id(&self) -> &str {
         &self.routine.id
     }
 
+    /// The current state.
     pub fn state(&self) -> &str {
         &self.routine.states[self.state]
     }
@@ -224,6 +261,7 @@ impl RoutineMachine {
             .map(|t| self.routine.transitions[t].operation.as_str())
     }
 
+    /// Whether it halted after a fault and waits for a reset.
     pub fn halted(&self) -> bool {
         self.halted
     }

@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::fmt;
 
+use crate::code::Code;
 use crate::plant::PlantModel;
 use crate::text::quote;
 
@@ -17,65 +18,88 @@ use crate::text::quote;
 /// on a sugarshack device: five missed 1 Hz samples (see [`PlantModel::sensor_stale_ms`]).
 pub const DEFAULT_STALE_MS: u64 = 5000;
 
+/// A sensor's handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SensorId(u32);
 
 impl SensorId {
+    /// Its position in the plant document's list.
     pub fn index(self) -> usize {
         self.0 as usize
     }
 
+    /// The handle at `index` in the plant document's list.
     pub fn from_index(index: u32) -> Self {
         Self(index)
     }
 }
 
+/// A sensor's last value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
+    /// The value read.
     pub value: f64,
     /// The device's own timestamp of the sample.
     pub sampled_ms: u64,
+    /// When it was received, in ms.
     pub received_ms: u64,
 }
 
+/// Why a sensor value cannot be used.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SensorError {
+    /// The plant document has no such sensor.
     UnknownSensor {
+        /// The name as given.
         name: String,
     },
+    /// A value that is not a finite number.
     InvalidValue {
+        /// The sensor's id.
         sensor: String,
+        /// The value given.
         value: f64,
     },
+    /// No value received yet.
     NoValue {
+        /// The sensor's id.
         sensor: String,
     },
     /// Its device said it has no reading (ESPHome `nan`: a failed probe).
     Unavailable {
+        /// The sensor's id.
         sensor: String,
     },
+    /// The last value is too old.
     Stale {
+        /// The sensor's id.
         sensor: String,
+        /// Its age.
         age_ms: u64,
+        /// The allowed age.
         stale_ms: u64,
     },
     /// The device's clock is ahead of ours by more than the plant allows.
     FutureTimestamp {
+        /// The sensor's id.
         sensor: String,
+        /// How far ahead of its reception it is stamped.
         ahead_ms: u64,
+        /// The allowed clock skew.
         skew_ms: u64,
     },
 }
 
 impl SensorError {
-    pub fn code(&self) -> &'static str {
+    /// The code a Catch node sees.
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownSensor { .. } => "UNKNOWN_SENSOR",
-            Self::InvalidValue { .. } => "INVALID_SENSOR_VALUE",
-            Self::NoValue { .. } => "SENSOR_NO_VALUE",
-            Self::Unavailable { .. } => "SENSOR_UNAVAILABLE",
-            Self::Stale { .. } => "SENSOR_STALE",
-            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
+            Self::UnknownSensor { .. } => Code::UnknownSensor,
+            Self::InvalidValue { .. } => Code::InvalidSensorValue,
+            Self::NoValue { .. } => Code::SensorNoValue,
+            Self::Unavailable { .. } => Code::SensorUnavailable,
+            Self::Stale { .. } => Code::SensorStale,
+            Self::FutureTimestamp { .. } => Code::FutureTimestamp,
         }
     }
 }
@@ -117,6 +141,7 @@ impl fmt::Display for SensorError {
 
 impl std::error::Error for SensorError {}
 
+/// The last value of every sensor.
 #[derive(Clone, Debug)]
 pub struct SensorStore {
     clock_skew_ms: u64,
@@ -151,6 +176,7 @@ impl SensorStore {
         store
     }
 
+    /// The handle of the sensor `name`.
     pub fn sensor(&self, name: &str) -> Result<SensorId, SensorError> {
         self.by_name
             .get(name)
@@ -158,14 +184,17 @@ impl SensorStore {
             .ok_or_else(|| SensorError::UnknownSensor { name: name.into() })
     }
 
+    /// The id of the sensor with handle `id`.
     pub fn name(&self, id: SensorId) -> &str {
         &self.names[id.index()]
     }
 
+    /// How many sensors.
     pub fn len(&self) -> usize {
         self.names.len()
     }
 
+    /// Whether the plant has no sensor.
     pub fn is_empty(&self) -> bool {
         self.names.is_empty()
     }

@@ -504,7 +504,7 @@ proptest! {
                     let lockout = matches!(step, Step::Lockout(_));
                     match tracker.command(&[(valve, target)], caller, lockout, now) {
                         Ok(effects) => observe(effects),
-                        Err(err) => vec![Seen::Refused(err.code())],
+                        Err(err) => vec![Seen::Refused(err.code().name())],
                     }
                 }
                 Step::Sample(v) => observe(tracker.feedback(valve, v, None, now).unwrap()),

@@ -368,7 +368,7 @@ fn op_name(lock: &Interlock, op: sugarshack_core::interlock::OpId) -> String {
 }
 
 fn refused(err: InterlockError) -> Outcome {
-    Outcome::Refused(err.code())
+    Outcome::Refused(err.code().name())
 }
 
 fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Outcome {
@@ -443,11 +443,11 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
                 .tick(now)
                 .iter()
                 .map(|w| {
-                    let kind = match w.kind {
+                    let kind = match w.kind() {
                         sugarshack_core::interlock::EventKind::WarnQueued => "warn-queued",
                         _ => "warn-held",
                     };
-                    (op_name(lock, w.operation.unwrap()), kind)
+                    (op_name(lock, w.operation().unwrap()), kind)
                 })
                 .collect();
             warnings.sort();
@@ -476,8 +476,8 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             let mut interrupted = 0;
             let mut dropped = 0;
             for event in restored.drain_events() {
-                match event.kind {
-                    EventKind::Interrupted if event.operation.is_some() => interrupted += 1,
+                match event.kind() {
+                    EventKind::Interrupted if event.operation().is_some() => interrupted += 1,
                     EventKind::Dropped => dropped += 1,
                     other => panic!("unexpected {other:?} on restore under the same configuration"),
                 }

@@ -236,6 +236,10 @@ fn the_papers_conditions_are_checked_at_deploy() {
         (|d| d["routines"][0]["transitions"][0]["operation"] = json!("77"), "routines[0] (truck).transitions[0]: unknown operation '77'"),
         (|d| d["routines"][0]["transitions"][1]["to"] = json!("gone"), "routines[0] (truck).transitions[1]: unknown state 'gone'"),
         (|d| d["routines"][0]["initial"] = json!("start"), "routines[0] (truck): initial 'start' is not one of its states"),
+        (
+            |d| d["routines"][0]["transitions"][0]["trigger"] = json!({ "msg": "reset" }),
+            "routines[0] (truck).transitions[0]: the msg topic 'reset' is reserved: it sends the routine back to its initial state, so this transition could never fire; give it another topic",
+        ),
         (|d| d["actuators"][2]["resource"] = json!("BLU"), "actuators[2] (V40): unknown resource 'BLU'"),
         (
             |d| {

@@ -5,7 +5,7 @@
 
 use sugarshack_core::control::pid::{Action, PidConfig, PidInput};
 use sugarshack_core::control::pid_loop::{PidLoop, PidLoopConfig};
-use sugarshack_core::control::sim::{
+use crate::sim::{
     DelayDist, FirstOrderParams, FirstOrderProcess, Link, DS2_MAX_MS, DS2_MEAN_MS, DS2_SD_MS,
 };
 use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig};

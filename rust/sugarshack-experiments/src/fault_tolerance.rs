@@ -5,9 +5,9 @@
 
 use std::collections::VecDeque;
 
+use crate::sim::{DelayDist, Failure, FailureSchedule, FirstOrderParams, FirstOrderProcess, Link};
 use sugarshack_core::control::pid::{Action, Pid, PidConfig};
 use sugarshack_core::control::rcc::{IoModule, IoState, RccConfig, RccController};
-use sugarshack_core::control::sim::{DelayDist, Failure, FailureSchedule, FirstOrderParams, FirstOrderProcess, Link};
 use sugarshack_core::control::ControlError;
 
 use crate::metrics::{max_difference, step_metrics, Step, StepMetrics, Trace};

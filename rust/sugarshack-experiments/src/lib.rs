@@ -6,5 +6,6 @@
 pub mod delay_compensation;
 pub mod fault_tolerance;
 pub mod metrics;
+pub mod sim;
 pub mod svg;
 pub mod tuning;

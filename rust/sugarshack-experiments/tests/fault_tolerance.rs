@@ -2,7 +2,7 @@
 
 use std::sync::OnceLock;
 
-use sugarshack_core::control::sim::Failure;
+use sugarshack_experiments::sim::Failure;
 use sugarshack_experiments::fault_tolerance::{
     self as ft, event_bumps, handover_events, simulate, stall, theorem3, FaultScenario, Figure11, Redundancy, BACKUP,
     FAIL_AT_S, PRIMARY, RECOVER_AT_S, SET_POINT_STEP, STALL_SETTLE_S, TICK_MS,

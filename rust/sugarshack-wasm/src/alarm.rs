@@ -1,5 +1,6 @@
 use sugarshack_core::alarm::{AlarmError, AlarmsSnapshot, Condition, MAX_ALARMS};
 use sugarshack_core::clearance::Attribution;
+use sugarshack_core::code::Code;
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
@@ -29,7 +30,7 @@ impl Alarms {
     pub fn restore(snapshot: JsValue) -> Result<Alarms, JsValue> {
         let snapshot: AlarmsSnapshot = from_js_bounded(
             snapshot,
-            "INVALID_SNAPSHOT",
+            Code::InvalidSnapshot,
             "cannot restore the alarms",
             Bound::Alarms,
         )?;
@@ -42,7 +43,7 @@ impl Alarms {
         let now = time(now_ms)?;
         let conditions: Vec<Condition> = from_js_bounded(
             conditions,
-            "INVALID_INPUT",
+            Code::InvalidInput,
             "invalid alarm conditions",
             Bound::Alarms,
         )?;
@@ -60,7 +61,7 @@ impl Alarms {
         let now = time(now_ms)?;
         if ids.as_ref().is_some_and(|ids| ids.len() > MAX_ALARMS) {
             return Err(js_error(
-                "INVALID_INPUT",
+                Code::InvalidInput,
                 &format!("at most {MAX_ALARMS} alarms may be acknowledged at once"),
             ));
         }

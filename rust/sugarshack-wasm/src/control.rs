@@ -1,4 +1,5 @@
 use serde::Serialize;
+use sugarshack_core::code::Code;
 use sugarshack_core::control::pid::{PidInput, PidStep};
 use sugarshack_core::control::pid_loop::{PidLoop as CoreLoop, PidLoopConfig};
 use sugarshack_core::control::rcc::{self, Decision, IoState, RccConfig, RccController};
@@ -32,7 +33,7 @@ fn kind(value: &JsValue) -> String {
 fn number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
     value
         .as_f64()
-        .ok_or_else(|| js_error("INVALID_INPUT", &format!("{what} must be a number, got {}", kind(value))))
+        .ok_or_else(|| js_error(Code::InvalidInput, &format!("{what} must be a number, got {}", kind(value))))
 }
 
 /// A number that must also be finite (where the core takes any f64 without a check).
@@ -41,7 +42,10 @@ fn finite_number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
     if n.is_finite() {
         Ok(n)
     } else {
-        Err(js_error("INVALID_INPUT", &format!("{what} must be a finite number, got {}", quote(n))))
+        Err(js_error(
+            Code::InvalidInput,
+            &format!("{what} must be a finite number, got {}", quote(n)),
+        ))
     }
 }
 
@@ -58,7 +62,7 @@ fn optional_decision(value: JsValue) -> Result<Option<Decision>, JsValue> {
     if value.is_undefined() || value.is_null() {
         return Ok(None);
     }
-    from_js_bounded(value, "INVALID_INPUT", "RCC decision", Bound::Control).map(Some)
+    from_js_bounded(value, Code::InvalidInput, "RCC decision", Bound::Control).map(Some)
 }
 
 #[derive(Serialize)]
@@ -121,7 +125,7 @@ impl PidLoop {
     pub fn new(config: JsValue) -> Result<PidLoop, JsValue> {
         let config: PidLoopConfig = from_js_bounded(
             config,
-            "INVALID_CONFIG",
+            Code::InvalidConfig,
             "PID configuration",
             Bound::Control,
         )?;
@@ -159,7 +163,7 @@ impl PidLoop {
         dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
         let decision: Decision =
-            from_js_bounded(decision, "INVALID_INPUT", "RCC decision", Bound::Control)?;
+            from_js_bounded(decision, Code::InvalidInput, "RCC decision", Bound::Control)?;
         let setpoint = number(&setpoint, "set point")?;
         let measurement = optional_number(&measurement, "measurement")?;
         let dt_s = number(&dt_s, "elapsed time (s)")?;
@@ -255,7 +259,7 @@ impl Rcc {
     pub fn new(config: JsValue) -> Result<Rcc, JsValue> {
         let config: RccConfig = from_js_bounded(
             config,
-            "INVALID_CONFIG",
+            Code::InvalidConfig,
             "RCC configuration",
             Bound::Control,
         )?;
@@ -267,7 +271,8 @@ impl Rcc {
     /// The Computing step for a polled state `{ lastAction, agesMs }`: `{ engaged, firstCycle, track }`.
     /// With `nowMs` the polling timeout counts from it.
     pub fn decide(&mut self, state: JsValue, now_ms: JsValue) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
+        let state: IoState =
+            from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let decision = match optional_number(&now_ms, "time (ms)")? {
             Some(now_ms) => self.core.decide_at(&state, now_ms),
             None => self.core.decide(&state),
@@ -303,7 +308,8 @@ impl Rcc {
         measurement: JsValue,
         dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
-        let state: IoState = from_js_bounded(state, "INVALID_INPUT", "I/O state", Bound::Control)?;
+        let state: IoState =
+            from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let setpoint = number(&setpoint, "set point")?;
         let measurement = optional_number(&measurement, "measurement")?;
         let dt_s = number(&dt_s, "elapsed time (s)")?;
@@ -340,7 +346,7 @@ impl IoModule {
         let initial_action = number(&initial_action, "initial action")?;
         let controllers = whole(controllers).ok_or_else(|| {
             js_error(
-                "INVALID_CONFIG",
+                Code::InvalidConfig,
                 &format!(
                     "controllers must be a whole number >= 1, got {}",
                     quote(controllers)
@@ -358,7 +364,7 @@ impl IoModule {
         let id = number(&id, "controller id")?;
         let (action, now_ms) = (number(&action, "action")?, number(&now_ms, "time (ms)")?);
         let id = whole(id).ok_or_else(|| {
-            js_error("UNKNOWN_CONTROLLER", &format!("controller id {} is not one of the {controllers} configured (ids run from 1 to {controllers})", quote(id)))
+            js_error(Code::UnknownController, &format!("controller id {} is not one of the {controllers} configured (ids run from 1 to {controllers})", quote(id)))
         })?;
         self.core.write(id, action, now_ms).map_err(control_error)
     }
@@ -394,7 +400,7 @@ pub struct PidStation {
 impl PidStation {
     #[wasm_bindgen(constructor)]
     pub fn new(config: JsValue) -> Result<PidStation, JsValue> {
-        let config: StationConfig = from_js_bounded(config, "INVALID_CONFIG", "PID configuration", Bound::Control)?;
+        let config: StationConfig = from_js_bounded(config, Code::InvalidConfig, "PID configuration", Bound::Control)?;
         Station::new(config).map(|core| PidStation { core }).map_err(control_error)
     }
 
@@ -437,13 +443,15 @@ impl PidStation {
     /// `{ setpoint, mode, manual, tunings: { kp, tiS, tdS }, limits: { min, max } }`, any part
     /// absent; applied whole or refused whole.
     pub fn change(&mut self, change: JsValue) -> Result<(), JsValue> {
-        let change: Change = from_js_bounded(change, "INVALID_INPUT", "loop change", Bound::Control)?;
+        let change: Change =
+            from_js_bounded(change, Code::InvalidInput, "loop change", Bound::Control)?;
         self.core.change(change).map_err(control_error)
     }
 
     /// `{ integral, setpoint, mode, manual }` as saved; refused whole if any is unusable.
     pub fn restore(&mut self, saved: JsValue) -> Result<(), JsValue> {
-        let saved: Saved = from_js_bounded(saved, "INVALID_INPUT", "saved PID state", Bound::Control)?;
+        let saved: Saved =
+            from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
         self.core.restore(saved).map_err(control_error)
     }
 

@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId};
+use sugarshack_core::code::Code;
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::sensor::SensorId;
 use sugarshack_core::topics::{Command, Contract, Message};
@@ -41,7 +42,10 @@ impl DeviceSide {
         if (handle as usize) < self.plant.devices.len() {
             Ok(DeviceId::from_index(handle))
         } else {
-            Err(js_error("UNKNOWN_DEVICE", &format!("no device #{handle}")))
+            Err(js_error(
+                Code::UnknownDevice,
+                &format!("no device #{handle}"),
+            ))
         }
     }
 }
@@ -53,16 +57,16 @@ impl DeviceSide {
     pub fn new(plant: JsValue) -> Result<DeviceSide, JsValue> {
         let plant: PlantModel = from_js_bounded(
             plant,
-            "INVALID_PLANT",
+            Code::InvalidPlant,
             "invalid plant document",
             Bound::PlantDocument,
         )?;
         plant
             .validate()
-            .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
+            .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
         let contract = Contract::new(&plant).map_err(|errors| {
             js_error(
-                "INVALID_PLANT",
+                Code::InvalidPlant,
                 &sugarshack_core::plant::PlantErrors(errors).to_string(),
             )
         })?;

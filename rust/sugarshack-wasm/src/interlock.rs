@@ -1,6 +1,7 @@
 use std::collections::HashMap;
 
 use serde::Serialize;
+use sugarshack_core::code::Code;
 use sugarshack_core::interlock::{
     FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
     Snapshot,
@@ -24,7 +25,7 @@ fn core_error(err: InterlockError) -> JsValue {
 fn parse_config(config: JsValue) -> Result<InterlockConfig, JsValue> {
     from_js_bounded(
         config,
-        "INVALID_CONFIG",
+        Code::InvalidConfig,
         "invalid interlock configuration",
         Bound::InterlockConfig,
     )
@@ -90,7 +91,7 @@ impl Interlock {
     fn set(&self, handle: u32) -> Result<&ResourceSet, JsValue> {
         self.sets.get(handle as usize).ok_or_else(|| {
             js_error(
-                "UNKNOWN_RESOURCE_SET",
+                Code::UnknownResourceSet,
                 &format!("resource set handle {handle} was not made by this interlock"),
             )
         })
@@ -149,7 +150,7 @@ impl Interlock {
         let config = parse_config(config)?;
         let snapshot: Snapshot = from_js_bounded(
             snapshot,
-            "INVALID_SNAPSHOT",
+            Code::InvalidSnapshot,
             "cannot restore interlock state",
             Bound::InterlockSnapshot,
         )?;
@@ -191,7 +192,10 @@ impl Interlock {
     /// The handle of an operation, registering the name on first use.
     pub fn operation(&mut self, name: &str) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         Ok(self.core.operation(name).index() as u32)
     }
@@ -238,7 +242,7 @@ impl Interlock {
         let now = time(now_ms)?;
         let set = self.sets.get(set as usize).ok_or_else(|| {
             js_error(
-                "UNKNOWN_RESOURCE_SET",
+                Code::UnknownResourceSet,
                 &format!("resource set handle {set} was not made by this interlock"),
             )
         })?;
@@ -268,7 +272,10 @@ impl Interlock {
     #[wasm_bindgen(js_name = releaseNamed)]
     pub fn release_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         let grants = self
             .core
@@ -282,7 +289,10 @@ impl Interlock {
     #[wasm_bindgen(js_name = cancelNamed)]
     pub fn cancel_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
         if name.is_empty() {
-            return Err(js_error("MISSING_OPERATION", "an operation id is required"));
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
         }
         let grants = self
             .core

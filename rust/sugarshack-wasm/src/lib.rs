@@ -6,6 +6,7 @@
 //! is shared by every node of the process and must outlive any input.
 
 mod alarm;
+mod contract;
 mod control;
 mod device;
 mod interlock;
@@ -14,6 +15,7 @@ mod routine;
 mod tracker;
 
 pub use alarm::Alarms;
+pub use contract::{codes, max_status_chars, routine_reset_topic};
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use device::DeviceSide;
 pub use interlock::Interlock;
@@ -23,6 +25,7 @@ pub use tracker::{Ingest, Tracker};
 use js_sys::{JsString, Reflect, JSON};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use sugarshack_core::code::Code;
 use sugarshack_core::json::{self, JsonError};
 use sugarshack_core::text::quote;
 use wasm_bindgen::prelude::*;
@@ -35,14 +38,14 @@ pub(crate) fn serializer() -> serde_wasm_bindgen::Serializer {
 pub(crate) fn to_js<T: Serialize + ?Sized>(value: &T) -> Result<JsValue, JsValue> {
     value
         .serialize(&serializer())
-        .map_err(|e| js_error("SERIALIZE", &e.to_string()))
+        .map_err(|e| js_error(Code::Internal, &e.to_string()))
 }
 
-pub(crate) fn js_error(code: &str, message: &str) -> JsValue {
+pub(crate) fn js_error(code: Code, message: &str) -> JsValue {
     let error = js_sys::Error::new(message);
     error.set_name("SugarshackError");
     // Reflect::set on a fresh Error object cannot fail.
-    let _ = js_sys::Reflect::set(&error, &"code".into(), &code.into());
+    let _ = js_sys::Reflect::set(&error, &"code".into(), &code.name().into());
     error.into()
 }
 
@@ -51,7 +54,7 @@ pub(crate) fn time(now_ms: f64) -> Result<u64, JsValue> {
         Ok(now_ms as u64)
     } else {
         Err(js_error(
-            "INVALID_TIME",
+            Code::InvalidTime,
             &format!(
                 "time must be a non-negative number of milliseconds, got {}",
                 quote(now_ms)
@@ -121,7 +124,7 @@ fn size_text(bytes: usize) -> String {
 #[allow(dead_code)]
 pub(crate) fn from_js<T: DeserializeOwned>(
     value: JsValue,
-    code: &str,
+    code: Code,
     what: &str,
 ) -> Result<T, JsValue> {
     from_js_bounded(value, code, what, Bound::Unnamed)
@@ -136,7 +139,7 @@ pub(crate) fn from_js<T: DeserializeOwned>(
 /// so a misspelt option is refused too.
 pub(crate) fn from_js_bounded<T: DeserializeOwned>(
     value: JsValue,
-    code: &str,
+    code: Code,
     what: &str,
     bound: Bound,
 ) -> Result<T, JsValue> {
@@ -171,7 +174,7 @@ fn json_text(value: &JsValue, what: &str, bound: Bound) -> Result<(String, bool)
     // JSON.stringify gives undefined for undefined, a function or a symbol.
     if !text.is_string() {
         return Err(js_error(
-            "INVALID_INPUT",
+            Code::InvalidInput,
             &format!("{what}: there is nothing to read (undefined, a function or a symbol); pass an object or JSON text"),
         ));
     }
@@ -190,14 +193,14 @@ fn json_text(value: &JsValue, what: &str, bound: Bound) -> Result<(String, bool)
 
 fn too_deep(what: &str, limit: usize) -> JsValue {
     js_error(
-        "INPUT_TOO_DEEP",
+        Code::InputTooDeep,
         &format!("{what}: nested deeper than {limit} levels; refused"),
     )
 }
 
 fn too_large(what: &str, bound: Bound, size: usize, at_least: bool) -> JsValue {
     js_error(
-        "INPUT_TOO_LARGE",
+        Code::InputTooLarge,
         &format!(
             "{what}: {}{size} bytes of JSON, over the {} limit for {}; refused",
             if at_least { "at least " } else { "" },
@@ -222,12 +225,12 @@ fn unconvertible(thrown: &JsValue, what: &str, bound: Bound) -> JsValue {
     };
     match name.as_str() {
         "TypeError" if message.contains("circular") => js_error(
-            "INPUT_CIRCULAR",
+            Code::InputCircular,
             &format!("{what}: the value refers to itself (a circular structure) and cannot be read; pass plain data"),
         ),
         "RangeError" if message.contains("call stack") => too_deep(what, json::MAX_DEPTH),
         "RangeError" if message.contains("string length") => js_error(
-            "INPUT_TOO_LARGE",
+            Code::InputTooLarge,
             &format!(
                 "{what}: too large to turn into text, over the {} limit for {}; refused",
                 size_text(bound.max_bytes()),
@@ -241,7 +244,7 @@ fn unconvertible(thrown: &JsValue, what: &str, bound: Bound) -> JsValue {
                 (false, _) => format!("{name}: {message}"),
             };
             js_error(
-                "INVALID_INPUT",
+                Code::InvalidInput,
                 &format!(
                     "{what}: cannot be turned into JSON ({}); pass plain data: objects, arrays, strings, numbers, booleans",
                     quote(why)

@@ -1,3 +1,4 @@
+use sugarshack_core::code::Code;
 use sugarshack_core::operation::{OperationRun as CoreRun, RunEffect, RunError};
 use sugarshack_core::plant::PlantModel;
 use wasm_bindgen::prelude::*;
@@ -17,7 +18,7 @@ fn step_index(index: f64) -> Result<usize, JsValue> {
         Ok(index as usize)
     } else {
         Err(js_error(
-            "INVALID_STEP",
+            Code::InvalidStep,
             &format!("a step index is a whole number from 0, got {index}"),
         ))
     }
@@ -29,7 +30,7 @@ fn run_time(now_ms: f64) -> Result<u64, JsValue> {
     let now = time(now_ms)?;
     if now > MAX_SAFE_MS {
         return Err(js_error(
-            "INVALID_TIME",
+            Code::InvalidTime,
             &format!("time must be at most Number.MAX_SAFE_INTEGER milliseconds, got {now_ms}"),
         ));
     }

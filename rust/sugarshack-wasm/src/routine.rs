@@ -1,3 +1,4 @@
+use sugarshack_core::code::Code;
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::routine::{RoutineError, RoutineMachine, RoutineSnapshot};
 use wasm_bindgen::prelude::*;
@@ -58,7 +59,7 @@ impl Routine {
     pub fn condition(&self, transition: u32) -> Result<JsValue, JsValue> {
         let (when, sensors) = self.core.condition(transition as usize).ok_or_else(|| {
             js_error(
-                "NO_TRANSITION",
+                Code::NoTransition,
                 &format!(
                     "transition #{transition} of routine '{}' has no condition",
                     self.core.id()
@@ -117,7 +118,7 @@ impl Routine {
     pub fn restore(&mut self, snapshot: JsValue) -> Result<JsValue, JsValue> {
         let snapshot: RoutineSnapshot = from_js_bounded(
             snapshot,
-            "INVALID_SNAPSHOT",
+            Code::InvalidSnapshot,
             "invalid routine snapshot",
             Bound::RoutineSnapshot,
         )?;

@@ -1,5 +1,8 @@
 use serde::Serialize;
-use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, TrackError};
+use sugarshack_core::actuator::{
+    describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError,
+};
+use sugarshack_core::code::Code;
 use sugarshack_core::plant::{PlantModel, Signal};
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
@@ -166,7 +169,7 @@ impl Tracker {
                     let sampled = ts.unwrap_or(now);
                     match self.sensors.record(id, value, sampled, now) {
                         Ok(()) => self.last_sensors.push(id.index() as u32),
-                        Err(err) => self.malformed(device, err.code(), err.to_string()),
+                        Err(err) => self.malformed(device, err.code().name(), err.to_string()),
                     }
                 }
                 Reading::SensorUnavailable(id) => {
@@ -191,12 +194,12 @@ impl Tracker {
                     self.effects.push(Output::Rejected {
                         kind: "rejected",
                         actuator: id.index() as u32,
-                        code: err.code(),
+                        code: err.code().name(),
                         message: err.to_string(),
                     });
                 }
             }
-            Err(err) => self.malformed(device, err.code(), err.to_string()),
+            Err(err) => self.malformed(device, err.code().name(), err.to_string()),
         }
     }
 
@@ -217,12 +220,12 @@ impl Tracker {
     pub fn new(plant: JsValue, now_ms: f64) -> Result<Tracker, JsValue> {
         let plant: PlantModel = from_js_bounded(
             plant,
-            "INVALID_PLANT",
+            Code::InvalidPlant,
             "invalid plant document",
             Bound::PlantDocument,
         )?;
         let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
-            .map_err(|errors| js_error("INVALID_PLANT", &errors.to_string()))?;
+            .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
         Ok(Tracker {
             sensors: SensorStore::new(core.plant()),
             core,
@@ -317,7 +320,7 @@ impl Tracker {
         let now = time(now_ms)?;
         let payload: serde_json::Value = from_js_bounded(
             payload,
-            "INVALID_GROUP",
+            Code::InvalidGroup,
             "invalid group command",
             Bound::GroupCommand,
         )?;
@@ -371,7 +374,7 @@ impl Tracker {
         let now = time(now_ms)?;
         if actuators.len() != values.len() {
             return Err(js_error(
-                "INVALID_FEEDBACK",
+                Code::InvalidFeedback,
                 "a batch needs as many values as actuators",
             ));
         }
@@ -389,7 +392,7 @@ impl Tracker {
             self.effects.push(Output::Rejected {
                 kind: "rejected",
                 actuator: id.index() as u32,
-                code: err.code(),
+                code: err.code().name(),
                 message: err.to_string(),
             });
         }
@@ -586,6 +589,37 @@ impl Tracker {
         self.core.position(ActuatorId::from_index(actuator))
     }
 
+    /// Why a group command failed on `actuator`: `{ code, message }`, worded
+    /// by the core from the plant document. `fault` is the effect's fault name;
+    /// `target` what the command asked for (a number or a boolean), if known.
+    #[wasm_bindgen(js_name = describeFault)]
+    pub fn describe_fault(
+        &self,
+        actuator: u32,
+        fault: &str,
+        retries: u32,
+        target: JsValue,
+    ) -> Result<JsValue, JsValue> {
+        let id = self.actuator_id(actuator)?;
+        let kind = FaultKind::from_name(fault).ok_or_else(|| {
+            js_error(
+                Code::InvalidInput,
+                &format!("unknown fault '{}'", quote(fault)),
+            )
+        })?;
+        let plant = self.core.plant();
+        let a = &plant.actuators[id.index()];
+        let t = plant
+            .actuator_types
+            .get(&a.kind)
+            .ok_or_else(|| js_error(Code::Internal, &format!("actuator '{}' has no type", a.id)))?;
+        let target = target
+            .as_f64()
+            .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
+        let message = describe_fault(a, t, kind, retries, target);
+        to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
+    }
+
     // ---- operations and routines -------------------------------------------
 
     /// The plan of an operation: `{ id, priority, resources, steps: [{ kind, ... }] }`,
@@ -594,7 +628,7 @@ impl Tracker {
     pub fn operation_plan(&self, id: &str) -> Result<JsValue, JsValue> {
         let plan = self.core.plant().operation_plan(id).ok_or_else(|| {
             js_error(
-                "UNKNOWN_OPERATION",
+                Code::UnknownOperation,
                 &format!(
                     "unknown operation '{}': it is not in the plant document",
                     quote(id)

@@ -1,76 +1,106 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// Why a tracker call was refused. A refused command sends nothing.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TrackError {
+    /// The plant document has no actuator of that id.
     UnknownActuator {
+        /// The name as given.
         name: String,
     },
+    /// The plant document has no device of that id.
     UnknownDevice {
+        /// The name as given.
         name: String,
     },
+    /// The group command names no actuator.
     EmptyCommand,
+    /// The group command cannot be read.
     InvalidGroup {
+        /// Why, in words a person acts on.
         reason: String,
     },
+    /// One actuator appears twice in a group command.
     DuplicateActuator {
+        /// The actuator's id.
         actuator: String,
     },
+    /// A target the actuator cannot take.
     InvalidTarget {
+        /// The actuator's id.
         actuator: String,
+        /// Why, in words a person acts on.
         reason: String,
     },
+    /// The actuator is still carrying out an earlier command.
     StillMoving {
+        /// The actuator's id.
         actuator: String,
     },
+    /// The actuator's device is offline: the command could not arrive.
     DeviceOffline {
+        /// The actuator's id.
         actuator: String,
+        /// The device's id.
         device: String,
     },
+    /// This caller's previous group command has not completed.
     CallerBusy {
+        /// The caller's handle of the group command.
         caller: u64,
     },
+    /// Feedback that is not a state the actuator can be in.
     InvalidFeedback {
+        /// The actuator's id.
         actuator: String,
+        /// The value given.
         value: f64,
     },
     /// C2: an operation commanded an actuator outside the resources it holds.
     OutsideResources {
+        /// The actuator's id.
         actuator: String,
+        /// The line's name.
         resource: Option<String>,
+        /// The lines the operation holds.
         held: Vec<String>,
     },
     /// A normal command to an actuator whose lockout feedback has not confirmed.
     LockoutPending {
+        /// The actuator's id.
         actuator: String,
     },
     /// A sample stamped further ahead of its reception than the plant's `clockSkewMs`.
     FutureTimestamp {
+        /// The actuator's id.
         actuator: String,
+        /// How far ahead of its reception the sample is stamped.
         ahead_ms: u64,
+        /// The plant's allowed clock skew.
         skew_ms: u64,
     },
 }
 
 impl TrackError {
     /// A stable machine-readable code, for Catch nodes and tests.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownActuator { .. } => "UNKNOWN_ACTUATOR",
-            Self::UnknownDevice { .. } => "UNKNOWN_DEVICE",
-            Self::EmptyCommand => "EMPTY_COMMAND",
-            Self::InvalidGroup { .. } => "INVALID_GROUP",
-            Self::DuplicateActuator { .. } => "DUPLICATE_ACTUATOR",
-            Self::InvalidTarget { .. } => "INVALID_TARGET",
-            Self::StillMoving { .. } => "STILL_MOVING",
-            Self::DeviceOffline { .. } => "DEVICE_OFFLINE",
-            Self::CallerBusy { .. } => "CALLER_BUSY",
-            Self::InvalidFeedback { .. } => "INVALID_FEEDBACK",
-            Self::OutsideResources { .. } => "OUTSIDE_RESOURCES",
-            Self::LockoutPending { .. } => "LOCKOUT_PENDING",
-            Self::FutureTimestamp { .. } => "FUTURE_TIMESTAMP",
+            Self::UnknownActuator { .. } => Code::UnknownActuator,
+            Self::UnknownDevice { .. } => Code::UnknownDevice,
+            Self::EmptyCommand => Code::EmptyCommand,
+            Self::InvalidGroup { .. } => Code::InvalidGroup,
+            Self::DuplicateActuator { .. } => Code::DuplicateActuator,
+            Self::InvalidTarget { .. } => Code::InvalidTarget,
+            Self::StillMoving { .. } => Code::StillMoving,
+            Self::DeviceOffline { .. } => Code::DeviceOffline,
+            Self::CallerBusy { .. } => Code::CallerBusy,
+            Self::InvalidFeedback { .. } => Code::InvalidFeedback,
+            Self::OutsideResources { .. } => Code::OutsideResources,
+            Self::LockoutPending { .. } => Code::LockoutPending,
+            Self::FutureTimestamp { .. } => Code::FutureTimestamp,
         }
     }
 }

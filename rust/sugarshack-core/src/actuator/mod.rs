@@ -26,12 +26,14 @@
 //! ```
 
 mod error;
+mod fault;
 
 use std::collections::HashMap;
 
 use serde::Serialize;
 
 pub use error::TrackError;
+pub use fault::describe_fault;
 
 use crate::clearance::ClearBlocker;
 use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
@@ -43,9 +45,11 @@ use crate::topics::Contract;
 pub struct ActuatorId(u32);
 
 impl ActuatorId {
+    /// Its position in the plant document's list.
     pub fn index(self) -> usize {
         self.0 as usize
     }
+    /// The handle at `index` in the plant document's list.
     pub const fn from_index(index: u32) -> Self {
         ActuatorId(index)
     }
@@ -57,9 +61,11 @@ impl ActuatorId {
 pub struct DeviceId(u32);
 
 impl DeviceId {
+    /// Its position in the plant document's list.
     pub fn index(self) -> usize {
         self.0 as usize
     }
+    /// The handle at `index` in the plant document's list.
     pub const fn from_index(index: u32) -> Self {
         DeviceId(index)
     }
@@ -68,6 +74,7 @@ impl DeviceId {
 /// The caller's handle for a group command (one msg waiting for it).
 pub type Caller = u64;
 
+/// Where an actuator is in carrying out its command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Phase {
@@ -75,12 +82,15 @@ pub enum Phase {
     Idle,
     /// Commanded; no motion seen yet.
     Pending,
+    /// Feedback shows it moving towards its target.
     Moving,
     /// At its last commanded position.
     Stopped,
+    /// It failed its command; see its [`FaultKind`].
     Faulted,
 }
 
+/// Why an actuator failed its command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaultKind {
@@ -104,71 +114,109 @@ pub enum FaultKind {
 pub enum Effect {
     /// Send this MQTT message (to `device`, through the node that serves it).
     Publish {
+        /// The device to send it to.
         device: DeviceId,
+        /// The MQTT topic.
         topic: String,
+        /// The MQTT payload.
         payload: String,
+        /// Whether the broker keeps it for later subscribers.
         retain: bool,
     },
     /// First sample that departed from the start position.
     #[serde(rename_all = "camelCase")]
     Moving {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// The caller's handle of the group command.
         caller: Caller,
+        /// From the command to the first motion seen.
         issue_to_motion_ms: u64,
     },
     /// One actuator of a group reached its target.
     #[serde(rename_all = "camelCase")]
     Completed {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// The caller's handle of the group command.
         caller: Caller,
+        /// The position commanded (0/1 for binary actuators).
         target: f64,
+        /// From the command to the first motion seen.
         issue_to_motion_ms: u64,
+        /// From the command to its completion.
         completion_ms: u64,
+        /// Retries made before this.
         retries: u32,
     },
     /// Every actuator of the group reached its target: answer the caller.
     #[serde(rename_all = "camelCase")]
-    GroupCompleted { caller: Caller, completion_ms: u64 },
+    GroupCompleted {
+        /// The caller's handle of the group command.
+        caller: Caller,
+        /// From the command to the last actuator's completion.
+        completion_ms: u64,
+    },
     /// The group failed (fail-fast): answer the caller with an error.
     #[serde(rename_all = "camelCase")]
     GroupFailed {
+        /// The caller's handle of the group command.
         caller: Caller,
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// Which failure.
         fault: FaultKind,
     },
     /// A command failed its check and was sent again.
     #[serde(rename_all = "camelCase")]
     Retry {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// The caller's handle of the group command.
         caller: Caller,
+        /// Which try this is (1 for the first retry).
         attempt: u32,
+        /// Which failure.
         fault: FaultKind,
     },
     /// A failure that escalated, or a fault seen without a command.
     #[serde(rename_all = "camelCase")]
     Fault {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// Which failure.
         fault: FaultKind,
     },
     /// The condition of an earlier fault is gone (fresh feedback, back in place, device online).
     #[serde(rename_all = "camelCase")]
     Recovered {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// Which failure.
         fault: FaultKind,
     },
     /// A feedback value that changed beyond tolerance (report by exception).
     #[serde(rename_all = "camelCase")]
     Changed {
+        /// The actuator's handle.
         actuator: ActuatorId,
+        /// The new feedback value.
         value: f64,
+        /// The sample's own timestamp against its reception, when the device stamped it.
         time_of_flight_ms: Option<i64>,
     },
     /// A device went offline or came back.
     #[serde(rename_all = "camelCase")]
-    DeviceStatus { device: DeviceId, online: bool },
+    DeviceStatus {
+        /// The device.
+        device: DeviceId,
+        /// Whether it is online now.
+        online: bool,
+    },
     /// Feedback showed the actuator at its lockout state: the standing order ends.
     #[serde(rename_all = "camelCase")]
     LockoutConfirmed {
+        /// The actuator's handle.
         actuator: ActuatorId,
         /// Since the order was first issued.
         after_ms: u64,
@@ -178,6 +226,7 @@ pub enum Effect {
     /// An unconfirmed lockout was published again (a `Publish` follows).
     #[serde(rename_all = "camelCase")]
     LockoutResent {
+        /// The actuator's handle.
         actuator: ActuatorId,
         /// Re-sends of this order so far, this one included.
         attempt: u32,
@@ -188,7 +237,9 @@ pub enum Effect {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct DeviceHealth {
+    /// The device's id.
     pub device: String,
+    /// Whether the device is online.
     pub online: bool,
     /// Its actuators whose feedback is stale, in plant order.
     pub stale: Vec<String>,
@@ -198,9 +249,13 @@ pub struct DeviceHealth {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct PendingLockout {
+    /// The actuator's handle.
     pub actuator: ActuatorId,
+    /// The position commanded (0/1 for binary actuators).
     pub target: f64,
+    /// Since when, in ms.
     pub since_ms: u64,
+    /// How many times the lockout was published, the first included.
     pub sends: u32,
 }
 
@@ -281,8 +336,11 @@ struct Group {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Counts {
+    /// Actuators moving towards a target.
     pub moving: usize,
+    /// Actuators at their last commanded position.
     pub stopped: usize,
+    /// Actuators that failed their command.
     pub faulted: usize,
     /// Lockouts that feedback has not confirmed yet.
     pub lockouts_pending: usize,
@@ -391,6 +449,7 @@ impl Tracker {
         })
     }
 
+    /// The plant document it tracks.
     pub fn plant(&self) -> &PlantModel {
         &self.plant
     }
@@ -402,6 +461,7 @@ impl Tracker {
 
     // ---- names ---------------------------------------------------------------
 
+    /// The handle of the actuator `name`.
     pub fn actuator(&self, name: &str) -> Result<ActuatorId, TrackError> {
         self.by_name
             .get(name)
@@ -411,10 +471,12 @@ impl Tracker {
             })
     }
 
+    /// The id of the actuator with handle `id`.
     pub fn actuator_name(&self, id: ActuatorId) -> Option<&str> {
         self.actuators.get(id.index()).map(|a| a.name.as_str())
     }
 
+    /// The handle of the device `name`.
     pub fn device(&self, name: &str) -> Result<DeviceId, TrackError> {
         self.device_by_name
             .get(name)
@@ -424,6 +486,7 @@ impl Tracker {
             })
     }
 
+    /// The id of the device with handle `id`.
     pub fn device_name(&self, id: DeviceId) -> Option<&str> {
         self.devices.get(id.index()).map(|d| d.name.as_str())
     }
@@ -434,26 +497,32 @@ impl Tracker {
         self.slots.get(&(device, kind.to_owned(), io)).copied()
     }
 
+    /// Whether the actuator is binary or analog.
     pub fn signal(&self, id: ActuatorId) -> Option<Signal> {
         self.actuators.get(id.index()).map(|a| a.signal)
     }
 
+    /// Where the actuator is in carrying out its command.
     pub fn phase(&self, id: ActuatorId) -> Option<Phase> {
         self.actuators.get(id.index()).map(|a| a.phase)
     }
 
+    /// Its last feedback value, if any.
     pub fn position(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).and_then(|a| a.position)
     }
 
+    /// Its idle state as a number (0/1 for binary), if it has one.
     pub fn idle_state(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).and_then(|a| a.idle)
     }
 
+    /// Its lockout state as a number (0/1 for binary).
     pub fn lockout_state(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).map(|a| a.lockout)
     }
 
+    /// How many actuators are moving, stopped and faulted.
     pub fn counts(&self) -> Counts {
         let mut counts = Counts::default();
         for a in &self.actuators {

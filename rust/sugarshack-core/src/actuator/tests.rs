@@ -493,8 +493,10 @@ fn a_bad_sample_in_a_batch_is_reported_and_the_rest_still_counts() {
             &mut effects,
         )
         .unwrap();
-    let codes: Vec<(ActuatorId, &str)> =
-        rejected.iter().map(|(id, err)| (*id, err.code())).collect();
+    let codes: Vec<(ActuatorId, &str)> = rejected
+        .iter()
+        .map(|(id, err)| (*id, err.code().name()))
+        .collect();
     assert_eq!(
         codes,
         vec![(p1, "INVALID_FEEDBACK"), (v2, "INVALID_FEEDBACK")]

@@ -9,6 +9,7 @@ use super::error::{positive, ControlError};
 /// absurd value could otherwise hold the variance at infinity for ever.
 pub const MAX_ROUND_TRIP_MS: f64 = 86_400_000.0;
 
+/// Estimates the network's round trip from observed samples: its mean and spread give the dead time the Smith predictor compensates.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DelayEstimator {
     alpha: f64,
@@ -30,6 +31,7 @@ impl DelayEstimator {
         Ok(Self { alpha, h, mean_ms: None, variance_ms2: 0.0 })
     }
 
+    /// Takes one measured round trip, in ms.
     pub fn observe(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
         if !(round_trip_ms.is_finite() && (0.0..=MAX_ROUND_TRIP_MS).contains(&round_trip_ms)) {
             return Err(ControlError::input(format!(
@@ -49,10 +51,12 @@ impl DelayEstimator {
         Ok(())
     }
 
+    /// The mean round trip so far, in ms.
     pub fn mean_ms(&self) -> Option<f64> {
         self.mean_ms
     }
 
+    /// The standard deviation of the round trip so far, in ms.
     pub fn std_ms(&self) -> Option<f64> {
         self.mean_ms.map(|_| self.variance_ms2.sqrt())
     }

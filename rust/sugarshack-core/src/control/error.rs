@@ -1,5 +1,6 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// What a control call refused, with a message a process engineer can act on.
@@ -10,23 +11,31 @@ pub enum ControlError {
     /// A step input that cannot be used (dt <= 0, a set point that is not a number).
     InvalidInput(String),
     /// An id outside the configured controllers.
-    UnknownController { id: usize, controllers: usize },
+    UnknownController {
+        /// The id given.
+        id: usize,
+        /// How many controllers are configured.
+        controllers: usize,
+    },
 }
 
 impl ControlError {
-    pub fn code(&self) -> &'static str {
+    /// The code a Catch node sees.
+    pub fn code(&self) -> Code {
         match self {
-            Self::InvalidConfig(_) => "INVALID_CONFIG",
-            Self::InvalidInput(_) => "INVALID_INPUT",
-            Self::UnknownController { .. } => "UNKNOWN_CONTROLLER",
+            Self::InvalidConfig(_) => Code::InvalidConfig,
+            Self::InvalidInput(_) => Code::InvalidInput,
+            Self::UnknownController { .. } => Code::UnknownController,
         }
     }
 
-    pub(crate) fn config(message: impl Into<String>) -> Self {
+    /// An [`Self::InvalidConfig`] with `message`.
+    pub fn config(message: impl Into<String>) -> Self {
         Self::InvalidConfig(message.into())
     }
 
-    pub(crate) fn input(message: impl Into<String>) -> Self {
+    /// An [`Self::InvalidInput`] with `message`.
+    pub fn input(message: impl Into<String>) -> Self {
         Self::InvalidInput(message.into())
     }
 }
@@ -46,7 +55,7 @@ impl fmt::Display for ControlError {
 impl std::error::Error for ControlError {}
 
 /// `value` must be a finite number; `what` names it in the error.
-pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
+pub fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() {
         Ok(value)
     } else {
@@ -55,7 +64,7 @@ pub(crate) fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
 }
 
 /// `value` must be a finite number > 0; `what` names it in the error.
-pub(crate) fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
+pub fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {

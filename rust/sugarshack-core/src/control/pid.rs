@@ -39,6 +39,7 @@ pub enum Action {
     Direct,
 }
 
+/// A PID's tuning, limits and behaviour.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct PidConfig {
@@ -50,13 +51,17 @@ pub struct PidConfig {
     /// Derivative time in seconds; 0 turns derivative action off.
     #[serde(default)]
     pub td_s: f64,
+    /// The lowest output.
     pub out_min: f64,
+    /// The highest output.
     pub out_max: f64,
+    /// Direct or reverse action.
     #[serde(default)]
     pub action: Action,
     /// Output while the measurement is missing or not a number; `None` holds the last output.
     #[serde(default)]
     pub fallback: Option<f64>,
+    /// Whether P acts on the error or on the measurement (no kick on set point changes).
     #[serde(default)]
     pub proportional_on: ProportionalOn,
 }
@@ -74,6 +79,7 @@ pub enum ProportionalOn {
 }
 
 impl PidConfig {
+    /// Refuses a tuning or limits that cannot run.
     pub fn validate(&self) -> Result<(), ControlError> {
         check_tunings(self.kp, self.ti_s, self.td_s)?;
         check_limits(self.out_min, self.out_max)?;
@@ -154,8 +160,10 @@ fn check_limits(out_min: f64, out_max: f64) -> Result<(), ControlError> {
     Ok(())
 }
 
+/// One sample for [`Pid::step`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PidInput {
+    /// The set point.
     pub setpoint: f64,
     /// `None` or a non-finite value: the step outputs the fallback.
     pub measurement: Option<f64>,
@@ -166,26 +174,56 @@ pub struct PidInput {
     pub track: Option<f64>,
 }
 
+/// How a step computed its output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum StepMode {
+    /// The PID computed it from the measurement.
     Auto,
+    /// It followed an output applied by someone else.
     Tracking,
+    /// No usable measurement: the fallback output was sent.
     Fallback,
 }
 
 /// Every term of one step, for telemetry.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PidStep {
+    /// The proportional term.
     pub p: f64,
+    /// The integral term.
     pub i: f64,
+    /// The derivative term.
     pub d: f64,
+    /// The output sent, within the limits.
     pub output: f64,
+    /// How it was computed.
     pub mode: StepMode,
     /// The unclamped P + I + D was outside the limits.
     pub saturated: bool,
 }
 
+/// A PID with exact bumpless transfer between tunings, limits and modes.
+///
+/// ```
+/// use sugarshack_core::control::pid::{Pid, PidConfig, PidInput, StepMode};
+///
+/// let config: PidConfig =
+///     serde_json::from_str(r#"{ "kp": 2, "tiS": 10, "outMin": 0, "outMax": 100, "fallback": 5 }"#).unwrap();
+/// let mut pid = Pid::new(config).unwrap();
+/// // Reverse action: 10 below the set point, P = kp·e = 20 and the output rises.
+/// let step = pid.step(PidInput { setpoint: 50.0, measurement: Some(40.0), dt_s: 1.0, track: None }).unwrap();
+/// assert_eq!((step.p, step.mode), (20.0, StepMode::Auto));
+/// assert!((step.output - (step.p + step.i + step.d)).abs() < 1e-9);
+/// // No measurement: the fallback goes out and the integrator holds.
+/// let integral = pid.integral();
+/// let blind = pid.step(PidInput { setpoint: 50.0, measurement: None, dt_s: 1.0, track: None }).unwrap();
+/// assert_eq!((blind.output, blind.mode), (5.0, StepMode::Fallback));
+/// assert_eq!(pid.integral(), integral);
+/// // A configuration that cannot run is refused with its code.
+/// let inverted: PidConfig = serde_json::from_str(r#"{ "kp": 1, "outMin": 10, "outMax": 0 }"#).unwrap();
+/// assert_eq!(Pid::new(inverted).unwrap_err().code(), "INVALID_CONFIG");
+/// ```
 #[derive(Clone, Debug)]
 pub struct Pid {
     config: PidConfig,
@@ -197,15 +235,18 @@ pub struct Pid {
 }
 
 impl Pid {
+    /// A PID for `config`, refused if the configuration cannot run.
     pub fn new(config: PidConfig) -> Result<Self, ControlError> {
         config.validate()?;
         Ok(Self { config, integral: 0.0, last_measurement: None, last_output: None, reseed: false })
     }
 
+    /// Its configuration now.
     pub fn config(&self) -> &PidConfig {
         &self.config
     }
 
+    /// Its integral term now.
     pub fn integral(&self) -> f64 {
         self.integral
     }
@@ -218,6 +259,7 @@ impl Pid {
         Ok(())
     }
 
+    /// The last output it computed, if any.
     pub fn last_output(&self) -> Option<f64> {
         self.last_output
     }
@@ -227,6 +269,7 @@ impl Pid {
         self.last_measurement = None;
     }
 
+    /// New tunings, bumpless: the next output continues from the last.
     pub fn set_tunings(&mut self, kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
         check_tunings(kp, ti_s, td_s)?;
         (self.config.kp, self.config.ti_s, self.config.td_s) = (kp, ti_s, td_s);
@@ -234,6 +277,7 @@ impl Pid {
         Ok(())
     }
 
+    /// New output limits; refused if min > max.
     pub fn set_limits(&mut self, out_min: f64, out_max: f64) -> Result<(), ControlError> {
         check_limits(out_min, out_max)?;
         if let Some(fallback) = self.config.fallback {
@@ -252,6 +296,7 @@ impl Pid {
         Ok(())
     }
 
+    /// One control step: the output for `input`.
     pub fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError> {
         let setpoint = finite(input.setpoint, "set point")?;
         if !(input.dt_s.is_finite() && input.dt_s > 0.0) {

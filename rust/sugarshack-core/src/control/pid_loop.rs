@@ -8,14 +8,18 @@ use super::pid::{Pid, PidConfig, PidInput, PidStep};
 use super::rcc::Controller;
 use super::smith::{SmithConfig, SmithPredictor};
 
+/// A PID and, optionally, the Smith predictor in front of it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct PidLoopConfig {
+    /// The PID.
     pub pid: PidConfig,
+    /// The Smith predictor, when the loop has a dead time to compensate.
     #[serde(default)]
     pub smith: Option<SmithConfig>,
 }
 
+/// A PID with an optional Smith predictor: what a pid node runs.
 #[derive(Clone, Debug)]
 pub struct PidLoop {
     pid: Pid,
@@ -25,27 +29,33 @@ pub struct PidLoop {
 }
 
 impl PidLoop {
+    /// A loop for `config`, refused if it cannot run.
     pub fn new(config: PidLoopConfig) -> Result<Self, ControlError> {
         let smith = config.smith.map(SmithPredictor::new).transpose()?;
         Ok(Self { pid: Pid::new(config.pid)?, smith, seen: None })
     }
 
+    /// Its PID.
     pub fn pid(&self) -> &Pid {
         &self.pid
     }
 
+    /// Its PID, to change tunings or limits.
     pub fn pid_mut(&mut self) -> &mut Pid {
         &mut self.pid
     }
 
+    /// Its Smith predictor, if any.
     pub fn smith(&self) -> Option<&SmithPredictor> {
         self.smith.as_ref()
     }
 
+    /// The measurement the PID saw last (after the predictor's correction).
     pub fn seen(&self) -> Option<f64> {
         self.seen
     }
 
+    /// A measured round trip, in ms, for the adaptive dead time.
     pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
         match &mut self.smith {
             Some(smith) => smith.observe_round_trip(round_trip_ms),

@@ -42,6 +42,7 @@ pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), Cont
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct IoState {
+    /// The last action written.
     pub last_action: f64,
     /// Per controller id 1..n: ms since it last acted; `None` if it never has (∞).
     pub ages_ms: Vec<Option<f64>>,
@@ -65,10 +66,12 @@ impl IoModule {
         Ok(Self { last_action, last_write_ms: vec![None; controllers] })
     }
 
+    /// How many controllers it serves.
     pub fn controllers(&self) -> usize {
         self.last_write_ms.len()
     }
 
+    /// The last action written.
     pub fn last_action(&self) -> f64 {
         self.last_action
     }
@@ -87,6 +90,7 @@ impl IoModule {
         Ok(())
     }
 
+    /// The state the controllers poll at `now_ms`.
     pub fn state(&self, now_ms: f64) -> IoState {
         IoState {
             last_action: self.last_action,
@@ -95,6 +99,7 @@ impl IoModule {
     }
 }
 
+/// One controller's place in the redundancy scheme.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct RccConfig {
@@ -102,6 +107,7 @@ pub struct RccConfig {
     pub id: usize,
     /// D_1..D_n in ms, one per controller of the group.
     pub thresholds_ms: Vec<f64>,
+    /// The sampling period, in ms.
     pub ts_ms: f64,
     /// Bumpless handover (§5.3); off only to show what it prevents.
     #[serde(default = "yes")]
@@ -119,7 +125,9 @@ fn yes() -> bool {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Decision {
+    /// Whether this controller writes this scan.
     pub engaged: bool,
+    /// The first cycle after it engaged: its integrator starts from the action in place.
     pub first_cycle: bool,
     /// The action the controller's integrator must track this scan (§5.3).
     pub track: Option<f64>,
@@ -129,13 +137,17 @@ pub struct Decision {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Scan {
+    /// Whether this controller writes this scan.
     pub engaged: bool,
+    /// The first cycle after it engaged.
     pub first_cycle: bool,
     /// The action to write to the I/O side: present only when engaged.
     pub write: Option<f64>,
+    /// The PID's step for this scan.
     pub step: PidStep,
 }
 
+/// One controller of an RCC group: decides from the polled state whether it is the one that writes.
 #[derive(Clone, Debug)]
 pub struct RccController {
     config: RccConfig,
@@ -146,6 +158,7 @@ pub struct RccController {
 }
 
 impl RccController {
+    /// A controller for `config`, refused if its thresholds break D_i > D_j >= Ts.
     pub fn new(config: RccConfig) -> Result<Self, ControlError> {
         validate_thresholds(&config.thresholds_ms, config.ts_ms)?;
         let controllers = config.thresholds_ms.len();
@@ -198,10 +211,12 @@ impl RccController {
         }
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &RccConfig {
         &self.config
     }
 
+    /// Whether its next engaged scan is a first cycle.
     pub fn first_cycle(&self) -> bool {
         self.first_cycle
     }
@@ -252,6 +267,7 @@ impl RccController {
 
 /// A controller RCC can drive: one step, optionally tracking an action.
 pub trait Controller {
+    /// One control step for `input`.
     fn step(&mut self, input: PidInput) -> Result<PidStep, ControlError>;
     /// Forget the previous measurement (after a gap in polling).
     fn restart(&mut self);

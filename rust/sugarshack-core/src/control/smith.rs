@@ -25,25 +25,39 @@ pub const MAX_DELAY_LINE: usize = 100_000;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct FopdtModel {
+    /// The process gain.
     pub gain: f64,
+    /// The process time constant, in seconds.
     pub tau_s: f64,
 }
 
+/// How the predictor knows the dead time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "mode", rename_all = "lowercase", deny_unknown_fields)]
 pub enum DeadTime {
     /// A dead time set at design time, e.g. floor((μ + 3σ) / Ts) as in the paper's Table 3.
-    Fixed { samples: usize },
+    Fixed {
+        /// The dead time, in samples.
+        samples: usize,
+    },
     /// D_c from the estimator fed with measured round trips.
-    Adaptive { alpha: f64, h: f64 },
+    Adaptive {
+        /// The weight of each new round trip in the estimate.
+        alpha: f64,
+        /// How many standard deviations above the mean the dead time is taken.
+        h: f64,
+    },
 }
 
+/// A Smith predictor's process model and dead time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct SmithConfig {
+    /// The first-order process model.
     pub model: FopdtModel,
     /// Sampling period in seconds: the unit of the dead time.
     pub ts_s: f64,
+    /// The dead time: fixed, or following the measured round trip.
     pub dead_time: DeadTime,
     /// Longest dead time the delay line holds, in samples.
     #[serde(default = "default_max_samples")]
@@ -55,6 +69,7 @@ fn default_max_samples() -> usize {
 }
 
 impl SmithConfig {
+    /// Refuses a model or dead time that cannot run.
     pub fn validate(&self) -> Result<(), ControlError> {
         if !(self.model.gain.is_finite() && self.model.gain != 0.0) {
             return Err(ControlError::config(format!(
@@ -81,6 +96,7 @@ impl SmithConfig {
     }
 }
 
+/// Corrects the measurement for a dead time, so the PID acts on the process it would see without it.
 #[derive(Clone, Debug)]
 pub struct SmithPredictor {
     config: SmithConfig,
@@ -97,6 +113,7 @@ struct ModelSample {
 }
 
 impl SmithPredictor {
+    /// A predictor for `config`, refused if it cannot run.
     pub fn new(config: SmithConfig) -> Result<Self, ControlError> {
         config.validate()?;
         let estimator = match config.dead_time {
@@ -106,10 +123,12 @@ impl SmithPredictor {
         Ok(Self { config, estimator, model_outputs: VecDeque::from([ModelSample { y: 0.0, dt_s: 0.0 }]) })
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &SmithConfig {
         &self.config
     }
 
+    /// Its round-trip estimator, when the dead time is adaptive.
     pub fn estimator(&self) -> Option<&DelayEstimator> {
         self.estimator.as_ref()
     }

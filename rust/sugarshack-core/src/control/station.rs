@@ -22,17 +22,22 @@ use super::pid::{PidInput, PidStep, StepMode};
 use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
 
+/// Who sets the output.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Mode {
+    /// The PID.
     #[default]
     Auto,
+    /// A person, through the manual output.
     Manual,
 }
 
+/// What a pid node runs: its loop, timing and start values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct StationConfig {
+    /// The PID and its Smith predictor.
     #[serde(rename = "loop")]
     pub pid_loop: PidLoopConfig,
     /// Sample period in seconds: the dt of a first sample.
@@ -40,9 +45,12 @@ pub struct StationConfig {
     /// No valid measurement for this long (ms) sends the fallback; 0 turns it off.
     #[serde(default)]
     pub stale_ms: f64,
+    /// The set point at start.
     pub setpoint: f64,
+    /// The mode at start.
     #[serde(default)]
     pub mode: Mode,
+    /// The manual output at start, if any.
     #[serde(default)]
     pub manual: Option<f64>,
 }
@@ -66,34 +74,46 @@ pub struct Sample {
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Change {
+    /// A new set point.
     #[serde(default, deserialize_with = "number")]
     pub setpoint: Option<f64>,
+    /// A new mode.
     #[serde(default)]
     pub mode: Option<Mode>,
+    /// A new manual output.
     #[serde(default, deserialize_with = "number")]
     pub manual: Option<f64>,
+    /// New tunings.
     #[serde(default)]
     pub tunings: Option<Tunings>,
+    /// New output limits.
     #[serde(default)]
     pub limits: Option<Limits>,
 }
 
+/// Tunings to change; the others stay.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Tunings {
+    /// Proportional gain.
     #[serde(default, deserialize_with = "number")]
     pub kp: Option<f64>,
+    /// Integral time, in seconds.
     #[serde(default, deserialize_with = "number")]
     pub ti_s: Option<f64>,
+    /// Derivative time, in seconds.
     #[serde(default, deserialize_with = "number")]
     pub td_s: Option<f64>,
 }
 
+/// Output limits to change; the other stays.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Limits {
+    /// The lowest output.
     #[serde(default, deserialize_with = "number")]
     pub min: Option<f64>,
+    /// The highest output.
     #[serde(default, deserialize_with = "number")]
     pub max: Option<f64>,
 }
@@ -107,22 +127,31 @@ fn number<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Option<f64>, D::
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Saved {
+    /// The integral term.
     #[serde(default)]
     pub integral: Option<f64>,
+    /// The set point.
     #[serde(default)]
     pub setpoint: Option<f64>,
+    /// The mode.
     #[serde(default)]
     pub mode: Option<Mode>,
+    /// The manual output.
     #[serde(default)]
     pub manual: Option<f64>,
 }
 
+/// How the reported output was computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ReportMode {
+    /// By the PID.
     Auto,
+    /// Following an action applied by someone else.
     Tracking,
+    /// The fallback: no usable measurement.
     Fallback,
+    /// Set by a person.
     Manual,
 }
 
@@ -130,25 +159,37 @@ pub enum ReportMode {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Report {
+    /// The proportional term.
     pub p: f64,
+    /// The integral term.
     pub i: f64,
+    /// The derivative term.
     pub d: f64,
+    /// The output sent.
     pub output: f64,
+    /// How it was computed.
     pub mode: ReportMode,
+    /// Whether the output is at a limit.
     pub saturated: bool,
+    /// The set point used.
     pub setpoint: f64,
+    /// The measurement used, if any.
     pub measurement: Option<f64>,
     /// What the PID saw: the measurement, or the Smith predictor's estimate.
     pub seen: Option<f64>,
+    /// The Smith predictor's dead time, in samples, if it has one.
     pub dead_time_samples: Option<usize>,
+    /// The time since the last step, in seconds.
     pub dt_s: f64,
 }
 
+/// One measurement's result.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Outcome {
     /// False behind an RCC decision in standby: the output is not to be sent.
     pub engaged: bool,
+    /// What the PID did.
     pub pid: Report,
 }
 
@@ -157,7 +198,10 @@ pub struct Outcome {
 #[serde(tag = "kind", rename_all = "camelCase")]
 pub enum Stale {
     /// A fallback step, to be sent.
-    Fallback { pid: Report },
+    Fallback {
+        /// What the PID did.
+        pid: Report,
+    },
     /// Behind RCC: nothing stepped; the watch ends until the next measurement.
     NoIo,
 }
@@ -166,13 +210,19 @@ pub enum Stale {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct StationState {
+    /// The set point.
     pub setpoint: f64,
+    /// The mode.
     pub mode: Mode,
+    /// The manual output, if any.
     pub manual: Option<f64>,
+    /// The last output, if any.
     pub last_output: Option<f64>,
+    /// The integral term.
     pub integral: f64,
 }
 
+/// A pid node's loop with its set point, mode and stale watch.
 #[derive(Clone, Debug)]
 pub struct Station {
     pid_loop: PidLoop,
@@ -193,6 +243,7 @@ fn manual_needed() -> ControlError {
 }
 
 impl Station {
+    /// A station for `config`, refused if it cannot run.
     pub fn new(config: StationConfig) -> Result<Self, ControlError> {
         let config_number = |value: f64, what: &str| finite(value, what).map_err(|e| ControlError::config(e.to_string()));
         if !(config.ts_s.is_finite() && config.ts_s > 0.0) {
@@ -226,10 +277,12 @@ impl Station {
         })
     }
 
+    /// Its loop.
     pub fn pid_loop(&self) -> &PidLoop {
         &self.pid_loop
     }
 
+    /// What survives a restart, and what a dashboard shows.
     pub fn state(&self) -> StationState {
         StationState {
             setpoint: self.setpoint,
@@ -240,6 +293,7 @@ impl Station {
         }
     }
 
+    /// A measured round trip, in ms, for the adaptive dead time.
     pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
         self.pid_loop.observe_round_trip(round_trip_ms)
     }

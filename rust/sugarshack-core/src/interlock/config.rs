@@ -22,15 +22,20 @@ pub enum Policy {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ResourceConfig {
+    /// The line's name.
     pub name: String,
+    /// What is sent to put the line in a safe state when it faults.
     #[serde(default)]
     pub lockout: serde_json::Value,
 }
 
+/// An interlock's lines and how it arbitrates them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct InterlockConfig {
+    /// The lines, each with its lockout command.
     pub resources: Vec<ResourceConfig>,
+    /// Strict priority order, or greedy (any request that fits goes).
     #[serde(default)]
     pub policy: Policy,
     /// Most requests that may wait at once; past it an acquire is refused.
@@ -47,6 +52,7 @@ pub struct InterlockConfig {
     pub record_events: bool,
 }
 
+/// The default bound on waiting requests.
 pub const DEFAULT_QUEUE_BOUND: usize = 1024;
 
 fn default_queue_bound() -> usize {

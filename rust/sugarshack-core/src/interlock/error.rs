@@ -1,64 +1,86 @@
 use std::fmt;
 
+use crate::code::Code;
 use crate::text::quote;
 
 /// Why an interlock call was refused. A refused call changes no state.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InterlockError {
+    /// The configuration cannot run.
     InvalidConfig {
+        /// Why, in words a person acts on.
         reason: String,
     },
+    /// The request names no resource.
     EmptyResourceSet,
+    /// A resource the interlock is not configured with.
     UnknownResource {
+        /// The name as given.
         name: String,
     },
+    /// An operation the interlock has never seen.
     UnknownOperation {
+        /// The name as given.
         name: String,
     },
     /// The paper's C1: one instance of an operation at a time.
     AlreadyHolding {
+        /// The operation's id.
         operation: String,
     },
+    /// C1: the operation already waits in the queue.
     AlreadyQueued {
+        /// The operation's id.
         operation: String,
     },
+    /// A release by an operation that holds nothing.
     NotHolding {
+        /// The operation's id.
         operation: String,
     },
+    /// A cancel of an operation that is not waiting.
     NotQueued {
+        /// The operation's id.
         operation: String,
     },
+    /// A clear of a line that is not faulted.
     NotFaulted {
+        /// The line's name.
         resource: String,
     },
     /// The plant does not show the lines isolated yet: every reason, per line.
     ClearRefused {
+        /// Each line that may not be cleared yet, with its reasons.
         lines: Vec<crate::clearance::LineBlockers>,
     },
+    /// The queue is at its bound.
     QueueFull {
+        /// The bound.
         bound: usize,
     },
+    /// A saved state that cannot be restored.
     InvalidSnapshot {
+        /// Why, in words a person acts on.
         reason: String,
     },
 }
 
 impl InterlockError {
     /// A stable machine-readable code, for Catch nodes and tests.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            Self::InvalidConfig { .. } => "INVALID_CONFIG",
-            Self::EmptyResourceSet => "EMPTY_RESOURCE_SET",
-            Self::UnknownResource { .. } => "UNKNOWN_RESOURCE",
-            Self::UnknownOperation { .. } => "UNKNOWN_OPERATION",
-            Self::AlreadyHolding { .. } => "ALREADY_HOLDING",
-            Self::AlreadyQueued { .. } => "ALREADY_QUEUED",
-            Self::NotHolding { .. } => "NOT_HOLDING",
-            Self::NotQueued { .. } => "NOT_QUEUED",
-            Self::NotFaulted { .. } => "NOT_FAULTED",
-            Self::ClearRefused { .. } => "CLEAR_REFUSED",
-            Self::QueueFull { .. } => "QUEUE_FULL",
-            Self::InvalidSnapshot { .. } => "INVALID_SNAPSHOT",
+            Self::InvalidConfig { .. } => Code::InvalidConfig,
+            Self::EmptyResourceSet => Code::EmptyResourceSet,
+            Self::UnknownResource { .. } => Code::UnknownResource,
+            Self::UnknownOperation { .. } => Code::UnknownOperation,
+            Self::AlreadyHolding { .. } => Code::AlreadyHolding,
+            Self::AlreadyQueued { .. } => Code::AlreadyQueued,
+            Self::NotHolding { .. } => Code::NotHolding,
+            Self::NotQueued { .. } => Code::NotQueued,
+            Self::NotFaulted { .. } => Code::NotFaulted,
+            Self::ClearRefused { .. } => Code::ClearRefused,
+            Self::QueueFull { .. } => Code::QueueFull,
+            Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
         }
     }
 }

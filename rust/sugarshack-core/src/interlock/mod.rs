@@ -32,7 +32,7 @@ use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
 
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
-pub use event::{Event, EventKind, EventRecord};
+pub use event::{Event, EventKind, EventRecord, Requester};
 pub use snapshot::{
     FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions,
     Snapshot, SNAPSHOT_VERSION,
@@ -68,6 +68,7 @@ const QUOTE_MAX_CHARS: usize = 100;
 pub struct ResourceId(u32);
 
 impl ResourceId {
+    /// Its position in the interlock's operation table.
     pub fn index(self) -> usize {
         self.0 as usize
     }
@@ -78,9 +79,11 @@ impl ResourceId {
 pub struct OpId(u32);
 
 impl OpId {
+    /// Its position in the configured lines.
     pub fn index(self) -> usize {
         self.0 as usize
     }
+    /// The handle at `index` of the configured lines.
     pub fn from_index(index: u32) -> Self {
         OpId(index)
     }
@@ -92,12 +95,15 @@ impl OpId {
 pub struct ResourceSet(Arc<[ResourceId]>);
 
 impl ResourceSet {
+    /// The lines, in configuration order.
     pub fn ids(&self) -> &[ResourceId] {
         &self.0
     }
+    /// How many lines.
     pub fn len(&self) -> usize {
         self.0.len()
     }
+    /// Whether it names no line.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
@@ -111,23 +117,31 @@ impl ResourceSet {
 /// What happened to an acquire request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Acquisition {
+    /// Granted at once.
     Granted,
+    /// Waiting in the queue.
     Queued,
 }
 
 /// A queued request granted by a release, clear or cancel: its caller can now be answered.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Grant {
+    /// The operation's handle.
     pub operation: OpId,
+    /// The request's priority (lower goes first).
     pub priority: i32,
+    /// The lines it holds.
     pub resources: ResourceSet,
+    /// How long it waited.
     pub waited_ms: u64,
 }
 
 /// A lockout group command to send because a resource is faulted.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lockout {
+    /// The line's handle.
     pub resource: ResourceId,
+    /// The lockout command to send.
     pub command: serde_json::Value,
 }
 
@@ -145,8 +159,11 @@ pub struct FaultOutcome {
 /// How many operations hold, wait, and how many resources are faulted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct Counts {
+    /// Operations holding lines.
     pub holding: usize,
+    /// Requests waiting.
     pub queued: usize,
+    /// Lines faulted.
     pub faulted: usize,
 }
 
@@ -244,6 +261,7 @@ pub struct Interlock {
 }
 
 impl Interlock {
+    /// An interlock for `config`, every line free; refused if the configuration cannot run.
     pub fn new(config: InterlockConfig) -> Result<Self, InterlockError> {
         config.validate()?;
         let count = config.resources.len();
@@ -270,6 +288,7 @@ impl Interlock {
         })
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &InterlockConfig {
         &self.config
     }
@@ -301,10 +320,12 @@ impl Interlock {
             })
     }
 
+    /// The name of the operation with handle `id`.
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
         self.operations.get(id.index()).map(|op| op.name.as_str())
     }
 
+    /// The handle of the line `name`.
     pub fn resource(&self, name: &str) -> Result<ResourceId, InterlockError> {
         self.resource_index
             .get(name)
@@ -314,6 +335,7 @@ impl Interlock {
             })
     }
 
+    /// The name of the line with handle `id`.
     pub fn resource_name(&self, id: ResourceId) -> Option<&str> {
         self.config
             .resources
@@ -336,6 +358,7 @@ impl Interlock {
 
     // ---- queries -----------------------------------------------------------
 
+    /// How many operations hold, wait, and how many lines are faulted.
     pub fn counts(&self) -> Counts {
         Counts {
             holding: self.holding,
@@ -344,10 +367,12 @@ impl Interlock {
         }
     }
 
+    /// Whether the line is faulted.
     pub fn is_faulted(&self, resource: ResourceId) -> bool {
         matches!(self.owners.get(resource.index()), Some(Owner::Faulted(_)))
     }
 
+    /// The operation holding the line, if any.
     pub fn owner_of(&self, resource: ResourceId) -> Option<OpId> {
         match self.owners.get(resource.index()) {
             Some(Owner::Held(op)) => Some(*op),
@@ -355,6 +380,7 @@ impl Interlock {
         }
     }
 
+    /// Whether the operation holds its lines.
     pub fn is_holding(&self, op: OpId) -> bool {
         matches!(
             self.operations.get(op.index()).map(|o| &o.state),
@@ -362,6 +388,7 @@ impl Interlock {
         )
     }
 
+    /// Whether the operation waits in the queue.
     pub fn is_queued(&self, op: OpId) -> bool {
         matches!(
             self.operations.get(op.index()).map(|o| &o.state),
@@ -414,16 +441,11 @@ impl Interlock {
             });
         }
         self.enqueue(key, resources.clone(), now_ms);
-        self.record(
-            now_ms,
-            EventKind::Queued,
-            Some(op),
-            Some(priority),
-            resources,
-            None,
-            None,
-            None,
-        );
+        self.record(Event::Queued {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: resources.clone(),
+        });
         Ok(Acquisition::Queued)
     }
 
@@ -453,16 +475,13 @@ impl Interlock {
             self.vacate(r, &mut candidates);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Released,
-            Some(op),
-            Some(hold.priority),
-            &hold.resources,
-            None,
-            Some(held_ms),
-            None,
-        );
+        let priority = hold.priority;
+        self.record(Event::Released {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: hold.resources,
+            held_ms,
+        });
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -480,16 +499,15 @@ impl Interlock {
         };
         let waiting = self.dequeue(key);
         let waited = now_ms.saturating_sub(waiting.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Cancelled,
-            Some(op),
-            Some(key.priority),
-            &waiting.resources,
-            Some(waited),
-            None,
-            None,
-        );
+        self.record(Event::Cancelled {
+            at_ms: now_ms,
+            request: Requester {
+                op,
+                priority: key.priority,
+            },
+            resources: waiting.resources.clone(),
+            waited_ms: waited,
+        });
         Ok(self.after_withdrawal(&waiting.resources, now_ms))
     }
 
@@ -535,16 +553,16 @@ impl Interlock {
             OpState::Queued(waiting) => {
                 let waiting = self.dequeue(waiting.key);
                 let waited = now_ms.saturating_sub(waiting.since_ms);
-                self.record(
-                    now_ms,
-                    EventKind::Dropped,
-                    Some(op),
-                    Some(waiting.key.priority),
-                    &waiting.resources,
-                    Some(waited),
-                    None,
-                    note.map(str::to_owned),
-                );
+                self.record(Event::Dropped {
+                    at_ms: now_ms,
+                    request: Requester {
+                        op,
+                        priority: waiting.key.priority,
+                    },
+                    resources: waiting.resources.clone(),
+                    waited_ms: Some(waited),
+                    note: note.map(str::to_owned),
+                });
                 outcome.dropped = true;
                 outcome.grants = self.after_withdrawal(&waiting.resources, now_ms);
             }
@@ -589,17 +607,12 @@ impl Interlock {
                 Owner::Free => self.latch(r, FaultCause::Manual, None, note, now_ms),
             }
         }
-        self.record(
-            now_ms,
-            EventKind::ResourceFaulted,
-            None,
-            None,
-            resources,
-            None,
-            None,
-            note.map(str::to_owned),
-        );
-        self.attribute_last(by);
+        self.record(Event::ResourceFaulted {
+            at_ms: now_ms,
+            resources: resources.clone(),
+            note: note.map(str::to_owned),
+            attribution: Box::new(by.clone()),
+        });
         let latched = ResourceSet::from_unsorted(latched);
         Ok(FaultOutcome {
             lockouts: self.lockouts(&latched),
@@ -664,17 +677,12 @@ impl Interlock {
             self.faulted -= 1;
             self.vacate(r, &mut candidates);
         }
-        self.record(
-            now_ms,
-            EventKind::Cleared,
-            None,
-            None,
-            resources,
-            None,
-            None,
+        self.record(Event::Cleared {
+            at_ms: now_ms,
+            resources: resources.clone(),
             note,
-        );
-        self.attribute_last(&by);
+            attribution: Box::new(by),
+        });
         Ok(self.grant_candidates(candidates, now_ms))
     }
 
@@ -700,16 +708,14 @@ impl Interlock {
                 let waited = now_ms.saturating_sub(waiting.since_ms);
                 if !waiting.warned && waited >= limit {
                     waiting.warned = true;
-                    warnings.push(Event {
+                    warnings.push(Event::WarnQueued {
                         at_ms: now_ms,
-                        kind: EventKind::WarnQueued,
-                        operation: Some(key.op),
-                        priority: Some(key.priority),
+                        request: Requester {
+                            op: key.op,
+                            priority: key.priority,
+                        },
                         resources: waiting.resources.clone(),
-                        waited_ms: Some(waited),
-                        held_ms: None,
-                        note: None,
-                        attribution: None,
+                        waited_ms: waited,
                     });
                 }
             }
@@ -720,16 +726,14 @@ impl Interlock {
                     let held = now_ms.saturating_sub(hold.since_ms);
                     if !hold.warned && held >= limit {
                         hold.warned = true;
-                        warnings.push(Event {
+                        warnings.push(Event::WarnHeld {
                             at_ms: now_ms,
-                            kind: EventKind::WarnHeld,
-                            operation: Some(OpId(index as u32)),
-                            priority: Some(hold.priority),
+                            request: Requester {
+                                op: OpId(index as u32),
+                                priority: hold.priority,
+                            },
                             resources: hold.resources.clone(),
-                            waited_ms: None,
-                            held_ms: Some(held),
-                            note: None,
-                            attribution: None,
+                            held_ms: held,
                         });
                     }
                 }
@@ -748,24 +752,27 @@ impl Interlock {
         std::mem::take(&mut self.events)
     }
 
+    /// Whether events wait to be drained.
     pub fn has_events(&self) -> bool {
         !self.events.is_empty()
     }
 
     /// An event with names in place of handles.
     pub fn describe(&self, event: &Event) -> EventRecord {
+        let request = event.requester();
+        let attribution = event.attribution();
         EventRecord {
-            at_ms: event.at_ms,
-            kind: event.kind,
-            operation: event.operation.map(|op| self.name(op)),
-            priority: event.priority,
-            resources: self.names(&event.resources),
-            waited_ms: event.waited_ms,
-            held_ms: event.held_ms,
-            note: event.note.clone(),
-            by: event.attribution.as_ref().map(|a| a.by.clone()),
-            reason: event.attribution.as_ref().and_then(|a| a.reason.clone()),
-            forced: event.attribution.as_ref().is_some_and(|a| a.forced),
+            at_ms: event.at_ms(),
+            kind: event.kind(),
+            operation: request.map(|r| self.name(r.op)),
+            priority: request.map(|r| r.priority),
+            resources: self.names(event.resources()),
+            waited_ms: event.waited_ms(),
+            held_ms: event.held_ms(),
+            note: event.note().map(str::to_owned),
+            by: attribution.map(|a| a.by.clone()),
+            reason: attribution.and_then(|a| a.reason.clone()),
+            forced: attribution.is_some_and(|a| a.forced),
         }
     }
 
@@ -837,16 +844,12 @@ impl Interlock {
             self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
-        self.record(
-            now_ms,
-            EventKind::Granted,
-            Some(op),
-            Some(priority),
-            &resources,
-            Some(waited_ms),
-            None,
-            None,
-        );
+        self.record(Event::Granted {
+            at_ms: now_ms,
+            request: Requester { op, priority },
+            resources: resources.clone(),
+            waited_ms,
+        });
         self.operations[op.index()].state = OpState::Holding(Hold {
             priority,
             resources,
@@ -980,16 +983,16 @@ impl Interlock {
             self.latch(r, cause, Some(op), note, now_ms);
         }
         let held_ms = now_ms.saturating_sub(hold.since_ms);
-        self.record(
-            now_ms,
-            EventKind::Faulted,
-            Some(op),
-            Some(hold.priority),
-            &hold.resources,
-            None,
-            Some(held_ms),
-            note.map(str::to_owned),
-        );
+        self.record(Event::Faulted {
+            at_ms: now_ms,
+            request: Requester {
+                op,
+                priority: hold.priority,
+            },
+            resources: hold.resources,
+            held_ms,
+            note: note.map(str::to_owned),
+        });
     }
 
     fn latched_under_hold(&self, op: OpId) -> Vec<ResourceId> {
@@ -1036,38 +1039,10 @@ impl Interlock {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn record(
-        &mut self,
-        at_ms: u64,
-        kind: EventKind,
-        operation: Option<OpId>,
-        priority: Option<i32>,
-        resources: &ResourceSet,
-        waited_ms: Option<u64>,
-        held_ms: Option<u64>,
-        note: Option<String>,
-    ) {
+    /// Keeps `event` for [`Self::drain_events`] when recording is on.
+    fn record(&mut self, event: Event) {
         if self.config.record_events {
-            let resources = resources.clone();
-            self.events.push(Event {
-                at_ms,
-                kind,
-                operation,
-                priority,
-                resources,
-                waited_ms,
-                held_ms,
-                note,
-                attribution: None,
-            });
-        }
-    }
-
-    /// Adds who asked, and why, to the event just recorded.
-    fn attribute_last(&mut self, attribution: &Attribution) {
-        if let Some(event) = self.events.last_mut() {
-            event.attribution = Some(Box::new(attribution.clone()));
+            self.events.push(event);
         }
     }
 }

@@ -3,55 +3,75 @@ use std::collections::{HashMap, HashSet};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    bound_note, cut, EventKind, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpId,
-    OpState, Owner, QueueKey, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
+    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpState,
+    Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 /// The whole interlock state by name, for persistence across restarts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Snapshot {
+    /// The snapshot format's version.
     pub version: u32,
+    /// When it was taken, in ms.
     pub taken_at_ms: u64,
     /// The lines configured when the state was saved, in configuration order.
     /// Absent from version 1, where the names in `resources` stand for it.
     #[serde(default)]
     pub configured: Vec<String>,
+    /// Every configured line and its state.
     pub resources: Vec<ResourceSnapshot>,
     /// Waiting requests in grant order (priority, then arrival).
     pub queue: Vec<RequestSnapshot>,
+    /// Every hold.
     pub holds: Vec<RequestSnapshot>,
 }
 
 /// The version [`Interlock::snapshot`] writes; [`Interlock::restore`] also reads version 1.
 pub const SNAPSHOT_VERSION: u32 = 2;
 
+/// One line and its state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ResourceSnapshot {
+    /// The line's name.
     pub name: String,
+    /// Free, held or faulted.
     pub state: ResourceState,
 }
 
+/// A line's state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", tag = "state")]
 pub enum ResourceState {
+    /// Nobody holds it.
     Free,
-    Held { operation: String },
+    /// An operation holds it.
+    Held {
+        /// The operation's id.
+        operation: String,
+    },
+    /// Faulted until a person clears it.
     Faulted(FaultSnapshot),
 }
 
+/// Why a line is faulted, and since when.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct FaultSnapshot {
+    /// What faulted it.
     pub cause: FaultCause,
+    /// The operation's id.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub operation: Option<String>,
+    /// Free text kept with it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// Since when, in ms.
     pub since_ms: u64,
 }
 
+/// What faulted a line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaultCause {
@@ -65,13 +85,19 @@ pub enum FaultCause {
     Unknown,
 }
 
+/// A hold or a waiting request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct RequestSnapshot {
+    /// The operation's id.
     pub operation: String,
+    /// The request's priority (lower goes first).
     pub priority: i32,
+    /// The lines' names.
     pub resources: Vec<String>,
+    /// Since when, in ms.
     pub since_ms: u64,
+    /// How long it waited before its grant (0 for a waiting request).
     #[serde(default)]
     pub waited_ms: u64,
 }
@@ -278,6 +304,7 @@ fn check(snapshot: &Snapshot) -> Result<Vec<&str>, InterlockError> {
 }
 
 impl Interlock {
+    /// The whole state by name at `now_ms`, to save and restore.
     pub fn snapshot(&self, now_ms: u64) -> Snapshot {
         let resources = self
             .owners
@@ -370,13 +397,12 @@ impl Interlock {
                     "resource {} in the saved state is no longer configured; its state is dropped",
                     quoted(name)
                 );
-                lock.record_note(
-                    now_ms,
-                    EventKind::Interrupted,
-                    None,
-                    &ResourceSet::default(),
+                lock.record(Event::Interrupted {
+                    at_ms: now_ms,
+                    request: None,
+                    resources: ResourceSet::default(),
                     note,
-                );
+                });
             }
         }
         let saved: HashSet<&str> = saved_lines.iter().copied().collect();
@@ -387,7 +413,11 @@ impl Interlock {
         if !added.is_empty() {
             let added = ResourceSet(added.into());
             let note = "not in the saved state: new lines start free".to_owned();
-            lock.record_note(now_ms, EventKind::ResourceAdded, None, &added, note);
+            lock.record(Event::ResourceAdded {
+                at_ms: now_ms,
+                resources: added,
+                note,
+            });
         }
 
         for entry in &snapshot.resources {
@@ -442,16 +472,15 @@ impl Interlock {
             for &r in lines.ids() {
                 lock.latch(r, FaultCause::Interrupted, Some(op), Some(&note), now_ms);
             }
-            lock.record(
-                now_ms,
-                EventKind::Interrupted,
-                Some(op),
-                Some(hold.priority),
-                &lines,
-                None,
-                None,
-                Some(note),
-            );
+            lock.record(Event::Interrupted {
+                at_ms: now_ms,
+                request: Some(Requester {
+                    op,
+                    priority: hold.priority,
+                }),
+                resources: lines,
+                note,
+            });
         }
 
         for waiting in &snapshot.queue {
@@ -470,19 +499,17 @@ impl Interlock {
             let resources = match resources {
                 Ok(set) => set,
                 Err(why) => {
-                    lock.record(
-                        now_ms,
-                        EventKind::Dropped,
-                        Some(op),
-                        Some(waiting.priority),
-                        &ResourceSet::default(),
-                        None,
-                        None,
-                        Some(
-                            bound_note(&format!("waiting request dropped on restore: {why}"))
-                                .into_owned(),
-                        ),
-                    );
+                    let note = format!("waiting request dropped on restore: {why}");
+                    lock.record(Event::Dropped {
+                        at_ms: now_ms,
+                        request: Requester {
+                            op,
+                            priority: waiting.priority,
+                        },
+                        resources: ResourceSet::default(),
+                        waited_ms: None,
+                        note: Some(bound_note(&note).into_owned()),
+                    });
                     continue;
                 }
             };
@@ -522,36 +549,11 @@ impl Interlock {
             lock.latch(r, FaultCause::Unknown, None, note.as_deref(), now_ms);
         }
         let note = note.map(|n| n.into_owned());
-        lock.record(
-            now_ms,
-            EventKind::StateUnknown,
-            None,
-            None,
-            &all,
-            None,
-            None,
+        lock.record(Event::StateUnknown {
+            at_ms: now_ms,
+            resources: all,
             note,
-        );
+        });
         Ok(lock)
-    }
-
-    fn record_note(
-        &mut self,
-        at_ms: u64,
-        kind: EventKind,
-        operation: Option<OpId>,
-        resources: &ResourceSet,
-        note: String,
-    ) {
-        self.record(
-            at_ms,
-            kind,
-            operation,
-            None,
-            resources,
-            None,
-            None,
-            Some(note),
-        );
     }
 }

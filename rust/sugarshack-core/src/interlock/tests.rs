@@ -424,16 +424,16 @@ fn tick_warns_once_per_crossing_at_the_threshold() {
     assert_eq!(warnings.len(), 1);
     assert_eq!(
         (
-            warnings[0].kind,
-            warnings[0].operation,
-            warnings[0].waited_ms
+            warnings[0].kind(),
+            warnings[0].operation(),
+            warnings[0].waited_ms()
         ),
         (EventKind::WarnQueued, Some(waiter), Some(1000))
     );
     assert!(lock.tick(1500).is_empty(), "once per crossing");
     let held = lock.tick(5000);
     assert_eq!(
-        held.iter().map(|w| w.kind).collect::<Vec<_>>(),
+        held.iter().map(|w| w.kind()).collect::<Vec<_>>(),
         vec![EventKind::WarnHeld]
     );
     lock.release(holder, 5001).unwrap();
@@ -471,6 +471,47 @@ fn every_state_change_yields_an_event() {
     assert_eq!(records[4].note.as_deref(), Some("no flow"));
     assert_eq!(records[5].resources, vec!["YEL".to_string()]);
     assert!(lock.drain_events().is_empty());
+}
+
+#[test]
+fn event_records_keep_their_json_shape() {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
+    let yel = set(&lock, &["YEL"]);
+    lock.acquire(a, 1, &yel, 0).unwrap();
+    lock.acquire(b, 2, &yel, 10).unwrap();
+    lock.cancel(b, 20).unwrap();
+    lock.fault_resources_by(
+        &yel,
+        Some("smoke"),
+        &Attribution::new(Some("ann"), Some("drill"), false),
+        30,
+    )
+    .unwrap();
+    lock.clear_checked(
+        &yel,
+        &Attribution::new(Some("bob"), None, true),
+        |_| Vec::new(),
+        40,
+    )
+    .unwrap();
+    let records: Vec<serde_json::Value> = lock
+        .drain_events()
+        .iter()
+        .map(|e| serde_json::to_value(lock.describe(e)).unwrap())
+        .collect();
+    assert_eq!(
+        records,
+        [
+            json!({ "atMs": 0, "kind": "granted", "operation": "a", "priority": 1, "resources": ["YEL"], "waitedMs": 0 }),
+            json!({ "atMs": 10, "kind": "queued", "operation": "b", "priority": 2, "resources": ["YEL"] }),
+            json!({ "atMs": 20, "kind": "cancelled", "operation": "b", "priority": 2, "resources": ["YEL"], "waitedMs": 10 }),
+            json!({ "atMs": 30, "kind": "faulted", "operation": "a", "priority": 1, "resources": ["YEL"], "heldMs": 30, "note": "smoke" }),
+            json!({ "atMs": 30, "kind": "resource-faulted", "resources": ["YEL"], "note": "smoke", "by": "ann", "reason": "drill" }),
+            // Forced with nothing to override is an ordinary clear.
+            json!({ "atMs": 40, "kind": "cleared", "resources": ["YEL"], "by": "bob" }),
+        ]
+    );
 }
 
 #[test]
@@ -517,7 +558,7 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
         }
         other => panic!("YEL restored as {other:?}"),
     }
-    let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind).collect();
+    let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind()).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted]);
     // The interrupted line clears like any fault and the waiter goes through.
     let grants = restored
@@ -544,7 +585,7 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
     let notes: Vec<String> = restored
         .drain_events()
         .into_iter()
-        .filter_map(|e| e.note)
+        .filter_map(|e| e.note().map(str::to_owned))
         .collect();
     assert!(notes.iter().any(|n| n.contains("'RED'")), "{notes:?}");
     let bad = Snapshot {
@@ -576,7 +617,7 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
             faulted: 1
         }
     );
-    let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind).collect();
+    let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind()).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted, EventKind::Dropped]);
 }
 
@@ -885,8 +926,8 @@ fn lines_no_longer_configured_are_dropped_with_an_event_each() {
     let notes: Vec<String> = restored
         .drain_events()
         .into_iter()
-        .filter(|e| e.kind == EventKind::Interrupted && e.operation.is_none())
-        .filter_map(|e| e.note)
+        .filter(|e| e.kind() == EventKind::Interrupted && e.operation().is_none())
+        .filter_map(|e| e.note().map(str::to_owned))
         .collect();
     assert_eq!(notes.len(), 2, "{notes:?}");
     assert!(
@@ -923,7 +964,7 @@ fn a_hand_over_keeps_holds_with_their_start() {
     same.release(a2, 300).unwrap();
     let released = same.drain_events().pop().unwrap();
     assert_eq!(
-        released.held_ms,
+        released.held_ms(),
         Some(200),
         "held since 100, not since the hand-over"
     );
@@ -954,10 +995,10 @@ fn a_hand_over_keeps_holds_with_their_start() {
     let interrupted: Vec<Event> = changed
         .drain_events()
         .into_iter()
-        .filter(|e| e.kind == EventKind::Interrupted && e.operation.is_some())
+        .filter(|e| e.kind() == EventKind::Interrupted && e.operation().is_some())
         .collect();
     assert_eq!(interrupted.len(), 1);
-    assert_eq!(changed.names(&interrupted[0].resources), ["YEL"]);
+    assert_eq!(changed.names(interrupted[0].resources()), ["YEL"]);
 }
 
 #[test]
@@ -1093,9 +1134,9 @@ fn fault_notes_are_kept_to_a_bounded_length() {
     let faulted = lock
         .drain_events()
         .into_iter()
-        .find(|e| e.kind == EventKind::Faulted)
+        .find(|e| e.kind() == EventKind::Faulted)
         .unwrap();
-    assert_eq!(faulted.note.as_deref(), Some(kept.as_str()));
+    assert_eq!(faulted.note(), Some(kept.as_str()));
 
     lock.fault_resources(&set(&lock, &["GRN", "RED"]), Some(&"x".repeat(501)), 2)
         .unwrap();

@@ -10,33 +10,48 @@ use serde::Serialize;
 
 use crate::plant::{PlantModel, Step};
 
+/// An operation as it runs: its steps in order, the return to idle last.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct OperationPlan {
+    /// Its id in the plant document.
     pub id: String,
+    /// The request's priority (lower goes first).
     pub priority: i32,
+    /// The lines' names.
     pub resources: Vec<String>,
+    /// Its steps, in order.
     pub steps: Vec<PlanStep>,
 }
 
+/// One step of a plan.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "camelCase")]
 pub enum PlanStep {
+    /// Send a group command and wait for it to complete.
     #[serde(rename_all = "camelCase")]
     Command {
+        /// The group command.
         command: serde_json::Value,
+        /// How long it may take.
         timeout_ms: u64,
     },
+    /// Wait until a condition on sensors holds.
     #[serde(rename_all = "camelCase")]
     Wait {
+        /// The condition (JSONata).
         condition: String,
+        /// The sensors it reads.
         sensors: Vec<String>,
+        /// How long it may take.
         timeout_ms: u64,
     },
     /// The C3 step the plan appends: every commanded actuator back to idle.
     #[serde(rename_all = "camelCase")]
     ReturnToIdle {
+        /// Every commanded actuator to its idle state.
         command: serde_json::Value,
+        /// How long it may take.
         timeout_ms: u64,
     },
 }

@@ -24,30 +24,37 @@ use std::fmt;
 use serde::Serialize;
 
 use super::{OperationPlan, PlanStep};
+use crate::code::Code;
 use crate::plant::PlantModel;
 use crate::text::quote;
 
 /// Interlock refusals that mean the operation already runs (C1).
-const ALREADY_RUNNING: [&str; 2] = ["ALREADY_HOLDING", "ALREADY_QUEUED"];
-const ABORTED: &str = "ABORTED";
+const ALREADY_RUNNING: [Code; 2] = [Code::AlreadyHolding, Code::AlreadyQueued];
+const ABORTED: &str = Code::Aborted.name();
 
+/// Why an operation run could not be made or started.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RunError {
+    /// The plant document has no such operation.
     UnknownOperation {
+        /// Its id in the plant document.
         id: String,
     },
     /// A run is one start of its operation; a second start would never be answered.
     AlreadyStarted {
+        /// The operation's id.
         operation: String,
+        /// Where the run is.
         phase: Phase,
     },
 }
 
 impl RunError {
-    pub fn code(&self) -> &'static str {
+    /// The code a Catch node sees.
+    pub fn code(&self) -> Code {
         match self {
-            Self::UnknownOperation { .. } => "UNKNOWN_OPERATION",
-            Self::AlreadyStarted { .. } => "ALREADY_STARTED",
+            Self::UnknownOperation { .. } => Code::UnknownOperation,
+            Self::AlreadyStarted { .. } => Code::AlreadyStarted,
         }
     }
 }
@@ -70,6 +77,7 @@ impl fmt::Display for RunError {
 
 impl std::error::Error for RunError {}
 
+/// Where a run is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub enum Phase {
@@ -85,13 +93,18 @@ pub enum Phase {
     Releasing,
     /// Waiting for the interlock to fault the operation and the lockouts to go out.
     Faulting,
+    /// It completed and released its lines.
     Done,
+    /// It faulted; its lines are locked out.
     Faulted,
+    /// The interlock refused it before any grant.
     Refused,
+    /// Its waiting request was withdrawn.
     Withdrawn,
 }
 
 impl Phase {
+    /// Its name, as JS and the journal see it.
     pub fn as_str(self) -> &'static str {
         match self {
             Self::New => "new",
@@ -122,11 +135,15 @@ impl fmt::Display for Phase {
     }
 }
 
+/// What a step does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub enum StepKind {
+    /// A group command.
     Command,
+    /// A condition wait.
     Wait,
+    /// The return to idle.
     ReturnToIdle,
 }
 
@@ -142,6 +159,7 @@ impl StepKind {
 }
 
 impl PlanStep {
+    /// What it does.
     pub fn kind(&self) -> StepKind {
         match self {
             Self::Command { .. } => StepKind::Command,
@@ -155,10 +173,15 @@ impl PlanStep {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub enum Stage {
+    /// Acquiring its lines.
     Acquire,
+    /// A group command step.
     Command,
+    /// A condition wait step.
     Wait,
+    /// The return to idle.
     ReturnToIdle,
+    /// Releasing its lines.
     Release,
 }
 
@@ -175,7 +198,9 @@ impl From<StepKind> for Stage {
 /// One step done, and how long it took.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct StepRecord {
+    /// What the step did.
     pub kind: StepKind,
+    /// How long it took.
     pub ms: u64,
 }
 
@@ -189,42 +214,73 @@ pub struct StepRecord {
 pub enum RunEffect {
     /// Request the operation's lines at the interlock; report `granted` or `refused`.
     Acquire {
+        /// The operation's id.
         operation: String,
+        /// The request's priority (lower goes first).
         priority: i32,
+        /// The lines' names.
         resources: Vec<String>,
     },
     /// Run step `index` within its timeout; report `step_done` or `step_failed`.
     /// A command step carries the operation's lines as `within`, for the C2 check.
     StartStep {
+        /// The step's index.
         index: usize,
+        /// The step.
         step: PlanStep,
+        /// The lines the command must stay within (C2).
         #[serde(skip_serializing_if = "Option::is_none")]
         within: Option<Vec<String>>,
     },
     /// Stop step `index` (its timers, its wait); report nothing for it.
-    CancelStep { index: usize },
+    CancelStep {
+        /// The step's index.
+        index: usize,
+    },
     /// Release the operation's lines; report `released` or `release_failed`.
-    Release { operation: String },
+    Release {
+        /// The operation's id.
+        operation: String,
+    },
     /// Withdraw the queued request; report `withdrawn` once it is gone.
-    Withdraw { operation: String },
+    Withdraw {
+        /// The operation's id.
+        operation: String,
+    },
     /// Fault the operation at the interlock and send its lines' lockouts;
     /// report `fault_applied` with the lines locked out.
-    Fault { operation: String, note: String },
+    Fault {
+        /// The operation's id.
+        operation: String,
+        /// Why, kept with the fault.
+        note: String,
+    },
     /// The run completed.
     Finished {
+        /// Its id in the plant document.
         id: String,
+        /// How long it waited for its lines.
         queued_ms: u64,
+        /// How long it ran once granted.
         run_ms: u64,
+        /// Each step's record.
         steps: Vec<StepRecord>,
     },
     /// The run ended without completing.
     Failed {
+        /// Its id in the plant document.
         id: String,
+        /// The code a Catch node sees.
         code: String,
+        /// What happened, in words.
         message: String,
+        /// The step that failed, if it failed in one.
         step: Option<usize>,
+        /// Where it failed.
         stage: Stage,
+        /// The lines locked out.
         locked_out: Vec<String>,
+        /// Whether it was stopped from outside rather than failing.
         aborted: bool,
     },
 }
@@ -270,6 +326,7 @@ pub struct OperationRun {
 }
 
 impl OperationRun {
+    /// A run of `plan`, not started.
     pub fn new(plan: OperationPlan) -> Self {
         OperationRun {
             steps: Vec::with_capacity(plan.steps.len()),
@@ -288,14 +345,17 @@ impl OperationRun {
             .ok_or_else(|| RunError::UnknownOperation { id: id.into() })
     }
 
+    /// The operation's id.
     pub fn id(&self) -> &str {
         &self.plan.id
     }
 
+    /// Its plan.
     pub fn plan(&self) -> &OperationPlan {
         &self.plan
     }
 
+    /// Where it is.
     pub fn phase(&self) -> Phase {
         match &self.state {
             State::New => Phase::New,
@@ -475,9 +535,9 @@ impl OperationRun {
         if !matches!(self.state, State::Queued) {
             return Vec::new();
         }
-        let (code, message) = if ALREADY_RUNNING.contains(&code) {
+        let (code, message) = if ALREADY_RUNNING.iter().any(|c| c.name() == code) {
             (
-                "OPERATION_RUNNING".to_owned(),
+                Code::OperationRunning.name().to_owned(),
                 format!(
                     "operation '{}' is already running (C1: one instance at a time); this start was refused and the running one goes on",
                     self.plan.id

@@ -31,6 +31,7 @@ use crate::plant::{Actuator, Sensor, Signal};
 use crate::sensor::SensorId;
 use crate::text::quote;
 
+/// A custom device's topic templates and value maps.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomProfile {
@@ -40,15 +41,20 @@ pub struct CustomProfile {
     /// Per actuator type name.
     #[serde(default)]
     pub actuators: BTreeMap<String, CustomActuator>,
+    /// How its sensor values are read.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensors: Option<CustomValue>,
 }
 
+/// How a custom device reports its availability.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomStatus {
+    /// The availability topic.
     pub topic: String,
+    /// The payload that means online.
     pub online: String,
+    /// The payload that means offline.
     pub offline: String,
 }
 
@@ -69,9 +75,11 @@ pub struct CustomValue {
     pub ts: Option<String>,
 }
 
+/// How a custom device's actuator is commanded and read.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomActuator {
+    /// How its state is read.
     #[serde(flatten)]
     pub state: CustomValue,
     /// Command topic template.
@@ -82,6 +90,7 @@ pub struct CustomActuator {
     /// Binary command payloads (default `ON` / `OFF`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub on: Option<String>,
+    /// The payload that means off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub off: Option<String>,
 }

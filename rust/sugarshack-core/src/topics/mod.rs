@@ -50,8 +50,11 @@ pub(crate) use read::Read;
 /// One MQTT message to publish.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Message {
+    /// The MQTT topic.
     pub topic: String,
+    /// The MQTT payload.
     pub payload: String,
+    /// Whether the broker keeps it for later subscribers.
     pub retain: bool,
 }
 
@@ -60,6 +63,7 @@ pub struct Message {
 pub struct Refusal {
     /// Short and stable, for counting: `bad JSON`, `bad status`, `non-numeric value`...
     pub reason: &'static str,
+    /// What is wrong with it.
     pub message: String,
 }
 
@@ -79,23 +83,46 @@ pub enum Incoming {
     Foreign,
     /// A topic of a device that carries nothing the palette reads (logs,
     /// telemetry, its commands echoed back, an entity the plant does not name).
-    Other { device: DeviceId },
+    Other {
+        /// The device.
+        device: DeviceId,
+    },
     /// Its availability (birth message or last will).
-    Status { device: DeviceId, online: bool },
+    Status {
+        /// The device.
+        device: DeviceId,
+        /// Whether it is online.
+        online: bool,
+    },
     /// Samples and refusals of parts, put in the caller's [`Readings`];
     /// `ts` is the device's time (epoch ms) when the message carried one.
-    Samples { device: DeviceId, ts: Option<u64> },
+    Samples {
+        /// The device.
+        device: DeviceId,
+        /// The device's time (epoch ms), when given.
+        ts: Option<u64>,
+    },
     /// Nothing in it could be used.
-    Refused { device: DeviceId, refusal: Refusal },
+    Refused {
+        /// The device.
+        device: DeviceId,
+        /// Why.
+        refusal: Refusal,
+    },
     /// Shaped like a sugarshack device's state topic, from a device the
     /// plant does not have (a typo in a device id, a device not added yet).
-    UnknownDevice { name: String },
+    UnknownDevice {
+        /// The device id in the topic.
+        name: String,
+    },
 }
 
 /// A value read from a device.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Reading {
+    /// An actuator's position.
     Actuator(ActuatorId, f64),
+    /// A sensor's value.
     Sensor(SensorId, f64),
     /// The device says the sensor has no reading (ESPHome `nan`).
     SensorUnavailable(SensorId),
@@ -104,6 +131,7 @@ pub enum Reading {
 /// Filled by [`Contract::parse`]; reused from message to message so the hot path does not allocate.
 #[derive(Clone, Debug, Default)]
 pub struct Readings {
+    /// The values read.
     pub samples: Vec<Reading>,
     /// Parts of a message refused while the rest was read (one bad member of a batch).
     pub refusals: Vec<Refusal>,
@@ -119,6 +147,7 @@ impl Readings {
 /// A command a device received, as it understood it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Command {
+    /// Set the actuator to this value.
     Set(ActuatorId, f64),
     /// An empty payload: a retained command cleared from the broker.
     Cleared(ActuatorId),

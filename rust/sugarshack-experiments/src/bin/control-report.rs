@@ -7,7 +7,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use sugarshack_core::control::sim::DelayDist;
+use sugarshack_experiments::sim::DelayDist;
 use sugarshack_experiments::delay_compensation::{self as dc, CaseResults, Compensation, Table3};
 use sugarshack_experiments::fault_tolerance::{self as ft, Figure11};
 use sugarshack_experiments::metrics::Trace;

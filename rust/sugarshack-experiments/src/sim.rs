@@ -6,8 +6,8 @@
 
 use std::collections::VecDeque;
 
-use crate::text::quote;
-use super::error::{finite, positive, ControlError};
+use sugarshack_core::control::error::{finite, positive, ControlError};
+use sugarshack_core::text::quote;
 
 /// xoshiro256** seeded through splitmix64: fast, small, and reproducible
 /// everywhere, which is all a simulator needs (not for cryptography).
