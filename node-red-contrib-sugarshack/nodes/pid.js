@@ -45,7 +45,8 @@ function readConfig(props) {
         : {
           mode: 'adaptive',
           alpha: configNumber(props.alpha, 'Smith predictor: alpha', { fallback: 0.1 }),
-          h: configNumber(props.h, 'Smith predictor: h', { fallback: 3 }),
+          // 'h' in flows written by hand before the setting was named 'horizon'.
+          h: configNumber(props.horizon ?? props.h, 'Smith predictor: h', { fallback: 3 }),
         },
       maxSamples: configNumber(props.maxSamples, 'Smith predictor: max samples', { fallback: 400 }),
     };

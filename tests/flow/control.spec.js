@@ -26,7 +26,7 @@ function pidNode(id, extra = {}, wire = 'out') {
     id, z: 'f1', type: 'sugarshack-pid', name: '',
     kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '',
     setpoint: '50', mode: 'auto', manual: '', ts: '1', staleMs: '0',
-    smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', h: '3', maxSamples: '400',
+    smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', horizon: '3', maxSamples: '400',
     persist: false, store: 'default',
     wires: [[wire]], ...extra,
   };
@@ -341,6 +341,22 @@ describe('sugarshack control: pid', function () {
     assert.equal(seen.ad[0].pid.deadTimeSamples, 3, 'floor(900 / 300)');
     await deliver('smithAdaptive', { roundTripMs: -1 });
     assert.equal(seen.caught.at(-1).error.code, 'INVALID_INPUT');
+  });
+
+  it("the adaptive Smith predictor's horizon h is read from 'horizon', or from 'h' in flows written before", async function () {
+    const adaptive = { smith: 'adaptive', modelGain: '1', modelTau: '3', alpha: '0.5', ts: '0.3', td: '0' };
+    const seen = await start([
+      pidNode('flat', { ...adaptive, horizon: '0' }, 'flat'),
+      pidNode('wide', { ...adaptive, horizon: '10' }, 'wide'),
+      pidNode('legacy', { ...adaptive, horizon: undefined, h: '10' }, 'legacy'),
+    ], ['flat', 'wide', 'legacy']);
+    for (const id of ['flat', 'wide', 'legacy']) {
+      await deliver(id, { payload: 0, timestamp: 1000, roundTripMs: 900 });
+      await deliver(id, { payload: 0, timestamp: 1300, roundTripMs: 300 });
+    }
+    const dead = (id) => seen[id].at(-1).pid.deadTimeSamples;
+    assert.ok(dead('wide') > dead('flat'), `h = 10 covers the spread of round trips: ${dead('wide')} vs ${dead('flat')}`);
+    assert.equal(dead('legacy'), dead('wide'));
   });
 
   it('a change is applied whole or not at all: new tunings with limits the fallback falls outside change nothing', async function () {
