@@ -186,6 +186,7 @@ class PlantRuntime extends RuntimeBase {
   resolveDevices(bus) {
     if (!bus.names) return;
     bus.devices = new Set();
+    bus.deviceHandles = null;
     for (const name of bus.names) {
       const handle = this.deviceIndex.get(name);
       if (handle === undefined) {
@@ -679,18 +680,11 @@ class PlantRuntime extends RuntimeBase {
     return this.buses.find((b) => !b.devices || b.devices.has(device)) || null;
   }
 
-  /** Counts of the actuators on `devices` (phases and unconfirmed lockouts from the core). */
-  countsOn(devices) {
-    const counts = { moving: 0, stopped: 0, faulted: 0, lockouts: 0 };
-    for (const order of this.t.pendingLockouts()) if (devices.has(this.actuators[order.actuator].deviceHandle)) counts.lockouts++;
-    for (const a of this.actuators) {
-      if (!devices.has(a.deviceHandle)) continue;
-      const phase = this.t.phase(a.handle);
-      if (phase === 'pending' || phase === 'moving') counts.moving++;
-      else if (phase === 'stopped') counts.stopped++;
-      else if (phase === 'faulted') counts.faulted++;
-    }
-    return counts;
+  /** Counts of the actuators on a bus's devices (phases and unconfirmed lockouts, kept by the core). */
+  countsOn(bus) {
+    if (!bus.deviceHandles) bus.deviceHandles = Uint32Array.from(bus.devices);
+    const c = this.t.countsOn(bus.deviceHandles);
+    return { moving: c.moving, stopped: c.stopped, faulted: c.faulted, lockouts: c.lockoutsPending };
   }
 
   refreshStatus(only) {
@@ -722,7 +716,7 @@ class PlantRuntime extends RuntimeBase {
       let counts;
       let offline;
       if (bus && bus.devices) {
-        counts = this.countsOn(bus.devices);
+        counts = this.countsOn(bus);
         offline = [...bus.devices].filter((d) => this.offline.has(d)).length;
       } else {
         if (!all) {
