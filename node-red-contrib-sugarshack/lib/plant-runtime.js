@@ -453,15 +453,26 @@ class PlantRuntime extends RuntimeBase {
     if (restored && this.t.pathRestored(clock.now()) > 0) this.flush(null);
   }
 
-  /** After every core call: act on its effects, then update status. `source`: the feedback msg's bus and topic. */
+  /**
+   * After every core call: act on its effects, then update status. `source`:
+   * the feedback msg's bus and topic. A feedback msg whose effects are only
+   * new values (or none: the usual report of positions that did not move)
+   * changed no count, so the status is left as it is.
+   */
   flush(source) {
-    const effects = this.t.takeEffects();
+    const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
+    let counted = source === null;
     try {
-      for (const effect of effects) this.route(effect, source);
+      for (const effect of effects) {
+        this.route(effect, source);
+        if (effect.kind !== 'changed') counted = true;
+      }
     } catch (err) {
+      counted = true;
       this.log('error', `cannot route actuator effects: ${err.message || err}`);
     }
-    this.refreshStatus();
+    if (counted) this.refreshStatus();
+    else if (this.palette) this.palette.changes.touch();
   }
 
   route(e, source) {
