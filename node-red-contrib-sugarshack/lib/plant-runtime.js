@@ -42,6 +42,7 @@ class PlantRuntime extends RuntimeBase {
     this.pending = new PendingRegistry(); // caller -> held group command
     this.buses = []; // { nodeId, node, names, devices, bad, warned, broker, connected }
     this.sticky = new Map(); // node -> { status, until }: a refusal shown instead of the counts
+    this.countsShown = new WeakMap(); // node -> { figures, key }: the counts its status shows
     this.offline = new Set(); // device handles, as the core last reported them
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
@@ -737,7 +738,15 @@ class PlantRuntime extends RuntimeBase {
         counts = all;
         offline = this.offline.size;
       }
-      this.statusBoard.set(node, actuatorStatus({ ...counts, bad: bus ? bus.bad : 0, ignored: bus ? bus.ignored : 0 }, { offline }));
+      const bad = bus ? bus.bad : 0;
+      const ignored = bus ? bus.ignored : 0;
+      // The same counts as last shown on this node: no text to make again (hundreds of changes a second at plant scale).
+      const seen = this.countsShown.get(node);
+      const figures = [counts.moving, counts.stopped, counts.faulted, counts.lockouts, bad, ignored, offline];
+      if (seen && this.statusBoard.shown.get(node) === seen.key && figures.every((n, i) => n === seen.figures[i])) continue;
+      const status = actuatorStatus({ ...counts, bad, ignored }, { offline });
+      this.statusBoard.set(node, status);
+      this.countsShown.set(node, { figures, key: this.statusBoard.shown.get(node) });
     }
   }
 
