@@ -71,7 +71,12 @@ class InterlockRuntime extends RuntimeBase {
       clock,
       snapshot: () => this.document(),
       collect: () => {
-        const records = this.core ? this.core.drainEvents() : [];
+        if (!this.core) return null;
+        if (!this.events.listened()) {
+          this.core.clearEvents(); // records nobody reads are not made
+          return null;
+        }
+        const records = this.core.drainEvents();
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
