@@ -597,17 +597,19 @@ class PlantRuntime extends RuntimeBase {
   emitActuator(e) {
     const a = this.actuators[e.actuator];
     if (!a) return;
+    const bus = this.busFor(a.deviceHandle);
+    if (!journal.active && !(bus && bus.node && eventsWired(bus.node))) return;
     const payload = { ...e, actuator: a.id };
     journal.event('actuator', e.kind, a.id, e);
     if (e.caller !== undefined) {
       const entry = this.pending.get(e.caller);
       payload.msgid = entry && entry.msg ? entry.msg._msgid : null;
     }
-    this.emit(this.busFor(a.deviceHandle), `actuator/${e.kind}/${a.id}`, payload);
+    this.emit(bus, `actuator/${e.kind}/${a.id}`, payload);
   }
 
   emit(bus, topic, payload) {
-    if (bus && bus.node) bus.node.send([null, null, { topic, payload }]);
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, { topic, payload }]);
   }
 
   // ---- sensors, operations, routines ---------------------------------------
@@ -761,6 +763,15 @@ class PlantRuntime extends RuntimeBase {
 // The actuator layer's own time per call, for the overhead figures.
 timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'tick']);
 
+
+/**
+ * Whether an actuators node's events output (its third) is wired: at plant
+ * scale an event msg per changed value costs as much as the feedback itself,
+ * and one wired to nothing goes nowhere.
+ */
+function eventsWired(node) {
+  return !Array.isArray(node.wires) || (Array.isArray(node.wires[2]) && node.wires[2].length > 0);
+}
 
 /** A group command msg held by a group command or actuators node until its command completes. */
 function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
