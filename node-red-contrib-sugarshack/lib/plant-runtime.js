@@ -17,12 +17,9 @@ const { journal } = require('./journal/bus');
 const { clock } = require('./clock');
 const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const wasm = require('./wasm');
-const { performance } = require('perf_hooks');
+const { StatusPacer } = require('./status-pacer');
 
 const TICK_MS = 250;
-// Status after feedback: at most STATUS_BURST updates per STATUS_MIN_MS, then one at its end.
-const STATUS_MIN_MS = 100;
-const STATUS_BURST = 10;
 const MAX_CALLER = 0xffffffff;
 // Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
 const MAX_WARNED = 1000;
@@ -47,8 +44,7 @@ class PlantRuntime extends RuntimeBase {
     this.buses = []; // { nodeId, node, names, devices, bad, warned, broker, connected }
     this.sticky = new Map(); // node -> { status, until }: a refusal shown instead of the counts
     this.countsShown = new WeakMap(); // node -> { figures, key }: the counts its status shows
-    this.statusWindow = { start: -Infinity, shown: 0 }; // statuses shown after feedback in the current window
-    this.statusTimer = null;
+    this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready'); // after feedback
     this.offline = new Set(); // device handles, as the core last reported them
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
@@ -109,8 +105,7 @@ class PlantRuntime extends RuntimeBase {
     this.endCommon();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
-    if (this.statusTimer) clearTimeout(this.statusTimer);
-    this.statusTimer = null;
+    this.statusPacer.stop();
     for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
     if (wasReady) this.freeTracker();
   }
@@ -485,31 +480,10 @@ class PlantRuntime extends RuntimeBase {
     } else if (source === null) {
       this.refreshStatus();
     } else {
-      this.feedbackStatus();
+      this.statusPacer.request();
     }
   }
 
-  /**
-   * The status after feedback: at once for the first STATUS_BURST of a
-   * STATUS_MIN_MS window, then once at its end (status is for people; at
-   * plant scale the counts move hundreds of times a second).
-   */
-  feedbackStatus() {
-    const now = performance.now();
-    if (now - this.statusWindow.start >= STATUS_MIN_MS) this.statusWindow = { start: now, shown: 0 };
-    if (this.statusWindow.shown < STATUS_BURST) {
-      this.statusWindow.shown += 1;
-      this.refreshStatus();
-      return;
-    }
-    if (this.statusTimer) return;
-    this.statusTimer = setTimeout(() => {
-      this.statusTimer = null;
-      this.statusWindow = { start: performance.now(), shown: 1 };
-      if (this.state === 'ready') this.refreshStatus();
-    }, Math.max(0, this.statusWindow.start + STATUS_MIN_MS - now));
-    this.statusTimer.unref();
-  }
 
   route(e, source) {
     switch (e.kind) {
