@@ -566,7 +566,8 @@ impl Tracker {
     /// The same counts for the actuators on `devices` (device handles; an unknown one counts nothing).
     #[wasm_bindgen(js_name = countsOn)]
     pub fn counts_on(&self, devices: &[u32]) -> Result<JsValue, JsValue> {
-        to_js(&self.core.counts_on(devices.iter().map(|&d| DeviceId::from_index(d))))
+        let devices = devices.iter().map(|&d| DeviceId::from_index(d));
+        to_js(&self.core.counts_on(devices))
     }
 
     /// Lockouts feedback has not confirmed yet: `[{ actuator, target, sinceMs, sends }]`

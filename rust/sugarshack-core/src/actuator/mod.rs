@@ -297,7 +297,10 @@ impl Counts {
             Phase::Faulted => Some(&mut self.faulted),
             Phase::Idle => None,
         };
-        for n in bucket.into_iter().chain(lockout_pending.then_some(&mut self.lockouts_pending)) {
+        for n in bucket
+            .into_iter()
+            .chain(lockout_pending.then_some(&mut self.lockouts_pending))
+        {
             if add {
                 *n += 1;
             } else {
