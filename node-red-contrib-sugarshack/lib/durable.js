@@ -48,6 +48,11 @@ class FileStore {
     return this.file;
   }
 
+  /** Effects wait for a write to this store. */
+  get durable() {
+    return true;
+  }
+
   /**
    * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', doc }
    * or { kind: 'lost', why } (ran before, state missing or unreadable).
@@ -119,31 +124,43 @@ function syncDir(dir) {
   }
 }
 
-/** Persistence off: the last committed state lives in memory only (a restart starts afresh). */
+/**
+ * Persistence off: nothing is kept, not even in memory. Effects need not wait
+ * for a write, and no state is taken per change (the snapshot was most of a
+ * grant's cost). A restart starts afresh; a rebuild after a core failure
+ * finds the state lost, so every line starts faulted, as after a lost file.
+ */
 class MemoryStore {
   constructor() {
-    this.text = null;
+    this.ran = false;
   }
 
   get where() {
     return 'memory';
   }
 
-  read() {
-    return this.text === null ? { kind: 'first' } : { kind: 'saved', doc: JSON.parse(this.text) };
+  get durable() {
+    return false;
   }
 
-  markRan() {}
+  read() {
+    return this.ran ? { kind: 'lost', why: 'persistence is off, so the state before the failure was not kept' } : { kind: 'first' };
+  }
 
-  write(text) {
-    this.text = text;
+  markRan() {
+    this.ran = true;
+  }
+
+  write() {
     return Promise.resolve();
   }
 }
 
 /**
  * Group commit: state changes of one event-loop turn are written once, and the
- * effects waiting for them run after the write. `snapshot()` returns the text to
+ * effects waiting for them run after the write. With a store that is not
+ * durable, a change's effect runs at once (nothing to wait for) and only the
+ * effects collected per turn (event records) wait for the end of the turn. `snapshot()` returns the text to
  * write. An effect marked `evenUnsaved` (a lockout: isolating the line matters
  * more than the record of it) also runs when the write fails; the others wait
  * for the next successful write, retried every second.
@@ -175,7 +192,11 @@ class Committer {
   change(effect, { evenUnsaved = false } = {}) {
     if (this.frozen) return;
     this.dirty = true;
-    if (effect) this.effects.push({ run: effect, evenUnsaved });
+    if (effect) {
+      // In order behind effects still waiting (an `after` queued behind an earlier change).
+      if (!this.store.durable && this.effects.length === 0) this.run(effect);
+      else this.effects.push({ run: effect, evenUnsaved });
+    }
     this.schedule();
   }
 
@@ -211,7 +232,9 @@ class Committer {
     }
     const effects = this.effects;
     this.effects = [];
-    if (this.dirty) {
+    if (this.dirty && !this.store.durable) {
+      this.dirty = false;
+    } else if (this.dirty) {
       this.dirty = false;
       let text;
       try {

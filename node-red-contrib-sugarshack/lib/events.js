@@ -15,6 +15,11 @@ class EventFanout {
     this.nodes.delete(node);
   }
 
+  /** Whether records would go anywhere: an events node, or the journal. */
+  listened() {
+    return this.nodes.size > 0 || journal.active;
+  }
+
   publish(records) {
     if (!records || records.length === 0) return;
     journal.interlockEvents(records);

@@ -22,6 +22,8 @@ const { journal } = require('./journal/bus');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
+// Operation names and resource sets whose core handles are remembered; past it the memory starts afresh.
+const HANDLES_KEPT = 4096;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
 
 class InterlockRuntime extends RuntimeBase {
@@ -74,9 +76,15 @@ class InterlockRuntime extends RuntimeBase {
       clock,
       snapshot: () => this.document(),
       collect: () => {
-        const records = this.core ? this.core.drainEvents() : [];
+        if (!this.core) return null;
+        if (!this.events.listened() && !this.alarms) {
+          this.core.clearEvents(); // records nobody reads are not made
+          return null;
+        }
+        const records = this.core.drainEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
+        if (!this.events.listened()) return null;
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
@@ -412,11 +420,50 @@ class InterlockRuntime extends RuntimeBase {
     this.request(entry);
   }
 
+  /**
+   * The core's handles of operation names and resource sets, remembered for
+   * the core that made them: a msg names its operation and lines as text on
+   * every acquire, and text crossing into wasm costs more than the call.
+   */
+  handles() {
+    if (this.handlesOf !== this.core) {
+      this.handlesOf = this.core;
+      this.opHandles = new Map();
+      this.setHandles = new Map(); // one line, by its name
+      this.multiSetHandles = new Map(); // several, by their names' JSON
+    }
+    return this;
+  }
+
+  opHandle(name) {
+    const ops = this.handles().opHandles;
+    let handle = ops.get(name);
+    if (handle === undefined) {
+      handle = this.core.operation(name);
+      if (ops.size >= HANDLES_KEPT) ops.clear();
+      ops.set(name, handle);
+    }
+    return handle;
+  }
+
+  setHandle(names) {
+    const sets = this.handles().setHandles;
+    const key = names.length === 1 ? names[0] : JSON.stringify(names);
+    const map = names.length === 1 ? sets : this.multiSetHandles;
+    let handle = map.get(key);
+    if (handle === undefined) {
+      handle = this.core.resourceSet(names);
+      if (map.size >= HANDLES_KEPT) map.clear();
+      map.set(key, handle);
+    }
+    return handle;
+  }
+
   /** Acquire for any waiting entry: granted now (answered once saved) or queued. */
   request(entry) {
     const now = clock.now();
-    const handle = this.core.operation(entry.operation);
-    const set = this.core.resourceSet(entry.resources);
+    const handle = this.opHandle(entry.operation);
+    const set = this.setHandle(entry.resources);
     if (this.core.acquire(handle, entry.priority, set, now)) {
       this.changed(() => entry.grant(now));
       return;
@@ -438,7 +485,11 @@ class InterlockRuntime extends RuntimeBase {
   /** Releases by name; `then` runs once saved. An operation that holds nothing is refused (NOT_HOLDING). */
   release(operation, then) {
     const now = clock.now();
-    const answers = this.grantsOf(this.core.releaseNamed(requireName(operation), now), now);
+    const name = requireName(operation);
+    // A name this core never saw holds nothing: releaseNamed refuses it without registering it.
+    const handle = this.handles().opHandles.get(name);
+    const count = handle === undefined ? this.core.releaseNamed(name, now) : this.core.release(handle, now);
+    const answers = this.grantsOf(count, now);
     this.changed(() => {
       if (then) then();
       answers.forEach((answer) => answer());
@@ -630,10 +681,10 @@ class InterlockRuntime extends RuntimeBase {
 
   // ---- internals -----------------------------------------------------------
 
-  /** A state change: status now; `effect` once the change is on disk. */
+  /** A state change: status now; `effect` once the change is on disk (at once without persistence: after the status, which it may override). */
   changed(effect) {
-    this.committer.change(effect);
     this.refreshStatus();
+    this.committer.change(effect);
   }
 
   grantsOf(count, now) {

@@ -17,6 +17,7 @@ const { journal } = require('./journal/bus');
 const { clock } = require('./clock');
 const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const wasm = require('./wasm');
+const { StatusPacer } = require('./status-pacer');
 
 const TICK_MS = 250;
 const MAX_CALLER = 0xffffffff;
@@ -42,6 +43,8 @@ class PlantRuntime extends RuntimeBase {
     this.pending = new PendingRegistry(); // caller -> held group command
     this.buses = []; // { nodeId, node, names, devices, bad, warned, broker, connected }
     this.sticky = new Map(); // node -> { status, until }: a refusal shown instead of the counts
+    this.countsShown = new WeakMap(); // node -> { figures, key }: the counts its status shows
+    this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready'); // after feedback
     this.offline = new Set(); // device handles, as the core last reported them
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
@@ -96,6 +99,7 @@ class PlantRuntime extends RuntimeBase {
     this.endCommon();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
+    this.statusPacer.stop();
     for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
     if (wasReady) this.freeTracker();
   }
@@ -180,6 +184,7 @@ class PlantRuntime extends RuntimeBase {
   resolveDevices(bus) {
     if (!bus.names) return;
     bus.devices = new Set();
+    bus.deviceHandles = null;
     for (const name of bus.names) {
       const handle = this.deviceIndex.get(name);
       if (handle === undefined) {
@@ -446,16 +451,33 @@ class PlantRuntime extends RuntimeBase {
     if (restored && this.t.pathRestored(clock.now()) > 0) this.flush(null);
   }
 
-  /** After every core call: act on its effects, then update status. `source`: the feedback msg's bus and topic. */
+  /**
+   * After every core call: act on its effects, then update status. `source`:
+   * the feedback msg's bus and topic. A feedback msg whose effects are only
+   * new values (or none: the usual report of positions that did not move)
+   * changed no count, so the status is left as it is.
+   */
   flush(source) {
-    const effects = this.t.takeEffects();
+    const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
+    let counted = source === null;
     try {
-      for (const effect of effects) this.route(effect, source);
+      for (const effect of effects) {
+        this.route(effect, source);
+        if (effect.kind !== 'changed') counted = true;
+      }
     } catch (err) {
+      counted = true;
       this.log('error', `cannot route actuator effects: ${err.message || err}`);
     }
-    this.refreshStatus();
+    if (!counted) {
+      if (this.palette) this.palette.changes.touch();
+    } else if (source === null) {
+      this.refreshStatus();
+    } else {
+      this.statusPacer.request();
+    }
   }
+
 
   route(e, source) {
     switch (e.kind) {
@@ -578,17 +600,19 @@ class PlantRuntime extends RuntimeBase {
   emitActuator(e) {
     const a = this.actuators[e.actuator];
     if (!a) return;
+    const bus = this.busFor(a.deviceHandle);
+    if (!journal.active && !(bus && bus.node && eventsWired(bus.node))) return;
     const payload = { ...e, actuator: a.id };
     journal.event('actuator', e.kind, a.id, e);
     if (e.caller !== undefined) {
       const entry = this.pending.get(e.caller);
       payload.msgid = entry && entry.msg ? entry.msg._msgid : null;
     }
-    this.emit(this.busFor(a.deviceHandle), `actuator/${e.kind}/${a.id}`, payload);
+    this.emit(bus, `actuator/${e.kind}/${a.id}`, payload);
   }
 
   emit(bus, topic, payload) {
-    if (bus && bus.node) bus.node.send([null, null, { topic, payload }]);
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, { topic, payload }]);
   }
 
   // ---- sensors, operations, routines ---------------------------------------
@@ -673,18 +697,11 @@ class PlantRuntime extends RuntimeBase {
     return this.buses.find((b) => !b.devices || b.devices.has(device)) || null;
   }
 
-  /** Counts of the actuators on `devices` (phases and unconfirmed lockouts from the core). */
-  countsOn(devices) {
-    const counts = { moving: 0, stopped: 0, faulted: 0, lockouts: 0 };
-    for (const order of this.t.pendingLockouts()) if (devices.has(this.actuators[order.actuator].deviceHandle)) counts.lockouts++;
-    for (const a of this.actuators) {
-      if (!devices.has(a.deviceHandle)) continue;
-      const phase = this.t.phase(a.handle);
-      if (phase === 'pending' || phase === 'moving') counts.moving++;
-      else if (phase === 'stopped') counts.stopped++;
-      else if (phase === 'faulted') counts.faulted++;
-    }
-    return counts;
+  /** Counts of the actuators on a bus's devices (phases and unconfirmed lockouts, kept by the core). */
+  countsOn(bus) {
+    if (!bus.deviceHandles) bus.deviceHandles = Uint32Array.from(bus.devices);
+    const c = this.t.countsOn(bus.deviceHandles);
+    return { moving: c.moving, stopped: c.stopped, faulted: c.faulted, lockouts: c.lockoutsPending };
   }
 
   refreshStatus(only) {
@@ -716,7 +733,7 @@ class PlantRuntime extends RuntimeBase {
       let counts;
       let offline;
       if (bus && bus.devices) {
-        counts = this.countsOn(bus.devices);
+        counts = this.countsOn(bus);
         offline = [...bus.devices].filter((d) => this.offline.has(d)).length;
       } else {
         if (!all) {
@@ -726,7 +743,15 @@ class PlantRuntime extends RuntimeBase {
         counts = all;
         offline = this.offline.size;
       }
-      this.statusBoard.set(node, actuatorStatus({ ...counts, bad: bus ? bus.bad : 0, ignored: bus ? bus.ignored : 0 }, { offline }));
+      const bad = bus ? bus.bad : 0;
+      const ignored = bus ? bus.ignored : 0;
+      // The same counts as last shown on this node: no text to make again (hundreds of changes a second at plant scale).
+      const seen = this.countsShown.get(node);
+      const figures = [counts.moving, counts.stopped, counts.faulted, counts.lockouts, bad, ignored, offline];
+      if (seen && this.statusBoard.shown.get(node) === seen.key && figures.every((n, i) => n === seen.figures[i])) continue;
+      const status = actuatorStatus({ ...counts, bad, ignored }, { offline });
+      this.statusBoard.set(node, status);
+      this.countsShown.set(node, { figures, key: this.statusBoard.shown.get(node) });
     }
   }
 
@@ -741,6 +766,15 @@ class PlantRuntime extends RuntimeBase {
 // The actuator layer's own time per call, for the overhead figures.
 timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'tick']);
 
+
+/**
+ * Whether an actuators node's events output (its third) is wired: at plant
+ * scale an event msg per changed value costs as much as the feedback itself,
+ * and one wired to nothing goes nowhere.
+ */
+function eventsWired(node) {
+  return !Array.isArray(node.wires) || (Array.isArray(node.wires[2]) && node.wires[2].length > 0);
+}
 
 /** A group command msg held by a group command or actuators node until its command completes. */
 function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {

@@ -2,8 +2,10 @@
 // Timing figures of a running plant, as the paper reports them (Figs. 11-15):
 // time of flight per device, command issuance-to-motion and completion, fault
 // lockout time, operation run and queue times, and the time our own code
-// takes per layer. Each series keeps its last SAMPLES values; one registry per
-// process, read through the editor's admin API (GET /sugarshack/stats).
+// takes per layer. Each series keeps its last SAMPLES values (a series per
+// device, its last PER_SUBJECT_SAMPLES: 5,600 panels at the cloud paper's
+// scale), in buffers that grow as values come; one registry per process,
+// read through the editor's admin API (GET /sugarshack/stats).
 //
 // A garbage collection that runs during one of our calls lengthens it without
 // being our code's doing: the overhead series keep when each call started,
@@ -14,6 +16,10 @@ const { PerformanceObserver, performance } = require('perf_hooks');
 const { journal } = require('./journal/bus');
 
 const SAMPLES = 20000;
+const PER_SUBJECT_SAMPLES = 1000;
+const FIRST_CAPACITY = 64;
+// Series with one per subject (`tof/<device>`): many of them, each kept shorter.
+const PER_SUBJECT = ['tof/'];
 const GC_KEPT = 8192;
 
 /** The last GC_KEPT garbage collections, as [start, end] in performance.now() ms. */
@@ -69,17 +75,32 @@ function rankOf(values) {
 }
 
 class Series {
-  constructor(withStarts = false) {
-    this.values = new Float64Array(SAMPLES);
-    this.starts = withStarts ? new Float64Array(SAMPLES) : null;
-    this.count = 0; // ever recorded; the buffer holds the last SAMPLES
+  constructor(withStarts = false, limit = SAMPLES) {
+    this.limit = limit;
+    this.values = new Float64Array(Math.min(FIRST_CAPACITY, limit));
+    this.starts = withStarts ? new Float64Array(this.values.length) : null;
+    this.count = 0; // ever recorded; the buffer holds the last `limit`
   }
 
   add(value, start) {
-    const i = this.count % SAMPLES;
+    if (this.count === this.values.length && this.count < this.limit) this.grow();
+    const i = this.count % this.values.length;
     this.values[i] = value;
     if (this.starts) this.starts[i] = start;
     this.count += 1;
+  }
+
+  /** Doubles the buffer (up to the limit) while it has not wrapped yet. */
+  grow() {
+    const size = Math.min(this.limit, this.values.length * 2);
+    const values = new Float64Array(size);
+    values.set(this.values);
+    this.values = values;
+    if (this.starts) {
+      const starts = new Float64Array(size);
+      starts.set(this.starts);
+      this.starts = starts;
+    }
   }
 
   /**
@@ -88,7 +109,7 @@ class Series {
    * and `withoutGc` { median, p99, max } of the others.
    */
   summary(pauses) {
-    const held = Math.min(this.count, SAMPLES);
+    const held = Math.min(this.count, this.values.length);
     if (held === 0) return { n: 0 };
     const values = this.values.subarray(0, held);
     const rank = rankOf(values);
@@ -118,7 +139,7 @@ class Stats {
     if (this === stats) journal.timing(name, value);
     let s = this.series.get(name);
     if (!s) {
-      s = new Series(start !== undefined);
+      s = new Series(start !== undefined, PER_SUBJECT.some((p) => name.startsWith(p)) ? PER_SUBJECT_SAMPLES : SAMPLES);
       this.series.set(name, s);
     }
     s.add(value, start);
@@ -180,4 +201,4 @@ function serveStats(RED) {
   });
 }
 
-module.exports = { stats, serveStats, timeLayer, Stats, SAMPLES, overlapsPause };
+module.exports = { stats, serveStats, timeLayer, Stats, SAMPLES, PER_SUBJECT_SAMPLES, overlapsPause };

@@ -24,8 +24,27 @@ function load() {
     }
     throw err;
   }
+  numericCalls(bindings);
   prime(bindings);
   return bindings;
+}
+
+/**
+ * acquire and release, the interlock's calls per msg, through the facade's
+ * numeric variants: a `Result` from wasm comes back as a three-value array
+ * allocated in JS on every call, a number does not. Same answers, same errors.
+ */
+function numericCalls({ Interlock }) {
+  Interlock.prototype.acquire = function acquire(op, priority, set, nowMs) {
+    const code = this.acquireCode(op, priority, set, nowMs);
+    if (code < 0) throw this.takeError();
+    return code === 1;
+  };
+  Interlock.prototype.release = function release(op, nowMs) {
+    const count = this.releaseCode(op, nowMs);
+    if (count < 0) throw this.takeError();
+    return count;
+  };
 }
 
 /** Counts instances: an object made under another generation belongs to a dropped instance. */
@@ -142,6 +161,7 @@ function primeInterlock({ Interlock, Tracker }) {
   const restored = Interlock.restore(config, il.snapshot(11), false, true, 11);
   restored.clear(restored.resourceSet(restored.faultedResources()), null, null, false, 12);
   restored.drainEvents();
+  restored.clearEvents();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
   unknown.free();

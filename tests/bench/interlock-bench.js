@@ -4,7 +4,7 @@
 //
 // Three implementations run the same seeded workloads in one run:
 //   baseline  plain-JS Algorithms 1 and 2 (tests/bench/baseline-interlock.js)
-//   wasm      the wasm facade as the nodes call it: handles resolved once, then
+//   wasm      the wasm facade as the nodes call it (loaded by lib/wasm.js): handles resolved once, then
 //             acquire/release per msg with Date.now(), and a Map from waiting
 //             request to its pending msg, looked up per grant
 //   native    the Rust core, via `cargo run --release --example interlock_bench`
@@ -39,7 +39,8 @@ const { spawnSync } = require('child_process');
 const { BaselineInterlock } = require('./baseline-interlock');
 
 const ROOT = path.resolve(__dirname, '../..');
-const WASM_MODULE = path.join(ROOT, 'node-red-contrib-sugarshack/wasm/sugarshack_wasm.js');
+// Loaded as the nodes load it (lib/wasm.js: acquire and release through the facade's numeric calls).
+const WASM_LOADER = path.join(ROOT, 'node-red-contrib-sugarshack/lib/wasm.js');
 const argv = new Set(process.argv.slice(2));
 const QUICK = argv.has('--quick');
 
@@ -437,9 +438,9 @@ function timerOverhead() {
 
 function main() {
   try {
-    ({ Interlock } = require(WASM_MODULE));
+    ({ Interlock } = require(WASM_LOADER).load());
   } catch (err) {
-    fail(`cannot load ${path.relative(ROOT, WASM_MODULE)} (build it: npm run build): ${err.message}`);
+    fail(`cannot load the wasm package through ${path.relative(ROOT, WASM_LOADER)} (build it: npm run build): ${err.message}`);
   }
   const load = os.loadavg()[0];
   const native = argv.has('--no-native') ? [] : runNative();

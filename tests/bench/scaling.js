@@ -9,7 +9,7 @@
 //
 // Per size, after a warm-up, over a window: msgs/s and datapoints/s in (the
 // publisher's count), CPU of Node-RED, the broker and the publisher
-// (/proc/<pid>/stat utime+stime), Node-RED's RSS, its event-loop lag p99
+// (the run time of their threads, /proc/<pid>/task/*/schedstat), Node-RED's RSS, its event-loop lag p99
 // (monitorEventLoopDelay started from settings.js, palette-independent,
 // written to a file in the user directory every second), and Node-RED's CPU
 // per datapoint.
@@ -19,6 +19,7 @@
 //
 // usage: node tests/bench/scaling.js [--full] [--window S] [--cpu-prof] [--panels N]
 //   --cpu-prof: Node-RED runs with --cpu-prof (profiles in /tmp/sugarshack-scaling-prof)
+//   --threads: also Node-RED's CPU per thread (main, libuv pool, V8 workers), idle and in the window
 
 const fs = require('fs');
 const os = require('os');
@@ -31,6 +32,7 @@ const { verdict } = require('./verdict');
 const args = process.argv.slice(2);
 const FULL = args.includes('--full');
 const PROFILE = args.includes('--cpu-prof');
+const THREADS = args.includes('--threads');
 const windowAt = args.indexOf('--window');
 const WINDOW_S = windowAt >= 0 ? Number(args[windowAt + 1]) : FULL ? 30 : 10;
 const WARMUP_S = FULL ? 15 : 6;
@@ -90,11 +92,46 @@ setInterval(() => {
 `;
 }
 
+// CPU time of a process in CLK_TCK units: the sum of its threads' run time
+// from /proc/<pid>/task/*/schedstat (ns, exact), not utime+stime from
+// /proc/<pid>/stat (sampled once per 10 ms tick: at 1x a few ticks a second,
+// of the order of their own noise).
 function cpuTicks(pid) {
-  const stat = fs.readFileSync(`/proc/${pid}/stat`, 'utf8');
-  const f = stat.slice(stat.lastIndexOf(')') + 2).split(' ');
-  return Number(f[11]) + Number(f[12]); // utime + stime (fields 14, 15)
+  let ns = 0;
+  try {
+    for (const task of fs.readdirSync(`/proc/${pid}/task`)) {
+      try {
+        ns += Number(fs.readFileSync(`/proc/${pid}/task/${task}/schedstat`, 'utf8').split(' ')[0]);
+      } catch {
+        // a thread that ended in between
+      }
+    }
+  } catch {
+    const stat = fs.readFileSync(`/proc/${pid}/stat`, 'utf8');
+    const f = stat.slice(stat.lastIndexOf(')') + 2).split(' ');
+    return Number(f[11]) + Number(f[12]); // utime + stime (fields 14, 15)
+  }
+  return (ns / 1e9) * CLK_TCK;
 }
+/** Run time (ns) per thread name of a process. */
+function threadNs(pid) {
+  const out = {};
+  for (const task of fs.readdirSync(`/proc/${pid}/task`)) {
+    try {
+      const name = fs.readFileSync(`/proc/${pid}/task/${task}/comm`, 'utf8').trim();
+      out[name] = (out[name] || 0) + Number(fs.readFileSync(`/proc/${pid}/task/${task}/schedstat`, 'utf8').split(' ')[0]);
+    } catch {
+      // ended in between
+    }
+  }
+  return out;
+}
+
+function threadShare(before, after, seconds) {
+  return Object.entries(after).map(([name, ns]) => [name, ((ns - (before[name] || 0)) / 1e9 / seconds) * 100])
+    .filter(([, pct]) => pct >= 0.05).sort((a, b) => b[1] - a[1]).map(([name, pct]) => `${name} ${pct.toFixed(2)} %`).join(', ');
+}
+
 const rssMB = (pid) => Number(/VmRSS:\s+(\d+)/.exec(fs.readFileSync(`/proc/${pid}/status`, 'utf8'))[1]) / 1024;
 
 async function startRed(dir, flow, lagFile) {
@@ -137,8 +174,9 @@ async function runSize(size, broker) {
     ({ red } = await startRed(dir, flowOf(size.panels, broker.port), lagFile));
     // Node-RED's floor: the same flow with no traffic, after its start-up work.
     await sleep(3000);
-    const i0 = { ticks: cpuTicks(red.pid), at: process.hrtime.bigint() };
+    const i0 = { ticks: cpuTicks(red.pid), at: process.hrtime.bigint(), threads: THREADS ? threadNs(red.pid) : null };
     await sleep(IDLE_S * 1000);
+    if (THREADS) console.log(`    idle, Node-RED per thread: ${threadShare(i0.threads, threadNs(red.pid), Number(process.hrtime.bigint() - i0.at) / 1e9)}`);
     const idle = ((cpuTicks(red.pid) - i0.ticks) / CLK_TCK / (Number(process.hrtime.bigint() - i0.at) / 1e9)) * 100;
     pub = spawn(process.execPath, [path.join(__dirname, 'scaling', 'publisher.js'), broker.url, String(size.panels)], { stdio: ['ignore', 'pipe', 'inherit'] });
     let sent = 0;
@@ -149,13 +187,14 @@ async function runSize(size, broker) {
     await sleep(WARMUP_S * 1000);
     const lagSkip = fs.existsSync(lagFile) ? fs.readFileSync(lagFile, 'utf8').split('\n').filter(Boolean).length : 0;
     const t0 = process.hrtime.bigint();
-    const c0 = { red: cpuTicks(red.pid), broker: cpuTicks(broker.pid), pub: cpuTicks(pub.pid), sent };
+    const c0 = { red: cpuTicks(red.pid), broker: cpuTicks(broker.pid), pub: cpuTicks(pub.pid), sent, threads: THREADS ? threadNs(red.pid) : null };
     const rss = [];
     for (let s = 0; s < WINDOW_S; s++) {
       await sleep(1000);
       rss.push(rssMB(red.pid));
     }
     const seconds = Number(process.hrtime.bigint() - t0) / 1e9;
+    if (THREADS) console.log(`    window, Node-RED per thread: ${threadShare(c0.threads, threadNs(red.pid), seconds)}`);
     const pct = (pid, before) => ((cpuTicks(pid) - before) / CLK_TCK / seconds) * 100;
     const cpu = { red: pct(red.pid, c0.red), broker: pct(broker.pid, c0.broker), pub: pct(pub.pid, c0.pub) };
     const msgsPerS = (sent - c0.sent) / seconds;

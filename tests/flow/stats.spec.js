@@ -2,7 +2,7 @@
 const assert = require('node:assert/strict');
 const path = require('path');
 const { PALETTE } = require('./support');
-const { Stats, overlapsPause } = require(path.join(PALETTE, 'lib', 'stats.js'));
+const { Stats, SAMPLES, PER_SUBJECT_SAMPLES, overlapsPause } = require(path.join(PALETTE, 'lib', 'stats.js'));
 
 const pauses = (...spans) => ({
   starts: Float64Array.from(spans, ([s]) => s),
@@ -50,5 +50,23 @@ describe('stats: per-layer overhead with GC pauses told apart', function () {
     assert.equal(r.n, 2);
     assert.ok(r.max >= 0 && r.max < 1000);
     assert.equal(typeof r.gcOverlapped, 'number');
+  });
+
+  it('a series holds what came so far in a buffer that grows, then its last values: fewer per device', function () {
+    const s = new Stats();
+    s.add('command/completion', 1);
+    s.add('tof/ctrl-1', 1);
+    assert.ok(s.series.get('command/completion').values.length < 100, 'one value takes a small buffer');
+    for (let i = 2; i <= SAMPLES + 10; i++) {
+      s.add('command/completion', i, i);
+      s.add('tof/ctrl-1', i);
+    }
+    const r = s.report();
+    assert.deepEqual(r['command/completion'], { n: SAMPLES + 10, median: 10010, p90: 18010, p99: 19810, max: SAMPLES + 10 });
+    assert.equal(s.series.get('command/completion').values.length, SAMPLES);
+    assert.equal(s.series.get('tof/ctrl-1').values.length, PER_SUBJECT_SAMPLES);
+    assert.equal(r['tof/ctrl-1'].n, SAMPLES + 10);
+    assert.equal(r['tof/ctrl-1'].max, SAMPLES + 10);
+    assert.equal(r['tof/ctrl-1'].median, SAMPLES + 10 - PER_SUBJECT_SAMPLES / 2, 'the last values only');
   });
 });

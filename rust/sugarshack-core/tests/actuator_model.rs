@@ -5,7 +5,7 @@
 
 use proptest::prelude::*;
 use serde_json::json;
-use sugarshack_core::actuator::{ActuatorId, Effect, FaultKind, Tracker};
+use sugarshack_core::actuator::{ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Tracker};
 use sugarshack_core::plant::PlantModel;
 
 const TOLERANCE: f64 = 2.0;
@@ -575,6 +575,59 @@ proptest! {
             prop_assert!(batched.feedback_batch(&batch, Some(now), now, &mut together).unwrap().is_empty());
             prop_assert_eq!(&together, &one_by_one);
             prop_assert_eq!(single.tick(now), batched.tick(now));
+        }
+    }
+
+    /// The counts a status line reads in O(1), kept current on every change,
+    /// against counting each actuator's phase and lockout order afresh:
+    /// group commands over devices, lockouts taking over, samples, ticks,
+    /// devices going offline and back, withdrawals.
+    #[test]
+    fn counts_equal_a_fresh_count(
+        steps in prop::collection::vec(
+            (gap(), 0u32..7, prop::collection::vec((0u32..3, 1u32..=3), 1..4), prop::sample::select(vec![0.0, 2.5, 50.0, 100.0])),
+            1..60),
+    ) {
+        let mut t = Tracker::new(plant(3, 3), 0).unwrap();
+        let devices: Vec<DeviceId> = (0..3).map(DeviceId::from_index).collect();
+        let mut now = 0;
+        for (caller, (gap, kind, members, value)) in steps.iter().enumerate() {
+            now += gap;
+            let ids: Vec<ActuatorId> = members.iter().map(|&(d, io)| t.slot(devices[d as usize], "valve", io).unwrap()).collect();
+            let targets: Vec<(ActuatorId, f64)> = ids.iter().map(|&id| (id, *value)).collect();
+            match kind {
+                0 => drop(t.command(&targets, caller as u64, false, now)),
+                1 => drop(t.command(&targets, caller as u64, true, now)),
+                2 => drop(t.feedback(ids[0], *value, None, now)),
+                3 => drop(t.feedback_batch(&targets, None, now, &mut Vec::new())),
+                4 => drop(t.tick(now)),
+                5 => drop(t.device_status(devices[members[0].0 as usize], *value < 50.0, now)),
+                _ => drop(t.withdraw(caller.saturating_sub(members.len()) as u64)),
+            }
+            let fresh = |on: &[DeviceId]| {
+                let mut c = Counts::default();
+                for i in 0..9 {
+                    let id = ActuatorId::from_index(i);
+                    if !on.iter().any(|&d| t.slot(d, "valve", i % 3 + 1) == Some(id)) {
+                        continue;
+                    }
+                    match t.phase(id).unwrap() {
+                        Phase::Pending | Phase::Moving => c.moving += 1,
+                        Phase::Stopped => c.stopped += 1,
+                        Phase::Faulted => c.faulted += 1,
+                        Phase::Idle => {}
+                    }
+                    if t.pending_lockouts().iter().any(|p| p.actuator == id) {
+                        c.lockouts_pending += 1;
+                    }
+                }
+                c
+            };
+            prop_assert_eq!(t.counts(), fresh(&devices), "after step {} at {}", caller, now);
+            for d in 0..3 {
+                prop_assert_eq!(t.counts_on([devices[d]]), fresh(&devices[d..=d]));
+            }
+            prop_assert_eq!(t.counts_on([devices[0], devices[2]]), fresh(&[devices[0], devices[2]]));
         }
     }
 }

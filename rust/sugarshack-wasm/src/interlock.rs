@@ -67,6 +67,8 @@ pub struct Interlock {
     /// Operations granted by the last release, cancel or clear, read with
     /// `granted(i)`: returning a count spares a typed array per call.
     granted: Vec<u32>,
+    /// The refusal of the last `acquireCode` or `releaseCode` that returned -1.
+    error: Option<JsValue>,
 }
 
 impl Interlock {
@@ -76,7 +78,13 @@ impl Interlock {
             sets: Vec::new(),
             set_index: HashMap::new(),
             granted: Vec::new(),
+            error: None,
         }
+    }
+
+    fn refused(&mut self, err: JsValue) -> i32 {
+        self.error = Some(err);
+        -1
     }
 
     fn op(&self, handle: u32) -> Result<OpId, JsValue> {
@@ -253,6 +261,32 @@ impl Interlock {
         Ok(acquisition == sugarshack_core::interlock::Acquisition::Granted)
     }
 
+    /// `acquire` as the nodes call it per msg: 1 granted, 0 queued, -1 refused
+    /// (read the error with `takeError()`). A number crosses back where a
+    /// `Result` costs a three-value array allocated in JS on every call.
+    #[wasm_bindgen(js_name = acquireCode)]
+    pub fn acquire_code(&mut self, op: u32, priority: i32, set: u32, now_ms: f64) -> i32 {
+        match self.acquire(op, priority, set, now_ms) {
+            Ok(granted) => i32::from(granted),
+            Err(err) => self.refused(err),
+        }
+    }
+
+    /// `release` as the nodes call it: how many waiting operations it granted, or -1 (see `takeError()`).
+    #[wasm_bindgen(js_name = releaseCode)]
+    pub fn release_code(&mut self, op: u32, now_ms: f64) -> f64 {
+        match self.release(op, now_ms) {
+            Ok(count) => f64::from(count),
+            Err(err) => f64::from(self.refused(err)),
+        }
+    }
+
+    /// The refusal of the last call that returned -1, once.
+    #[wasm_bindgen(js_name = takeError)]
+    pub fn take_error(&mut self) -> JsValue {
+        self.error.take().unwrap_or(JsValue::UNDEFINED)
+    }
+
     /// Releases and returns how many waiting operations it granted; read them with `granted(i)`.
     pub fn release(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
         let op = self.op(op)?;
@@ -425,6 +459,12 @@ impl Interlock {
         let events = self.core.drain_events();
         let records: Vec<_> = events.iter().map(|e| self.core.describe(e)).collect();
         to_js(&records)
+    }
+
+    /// Drops the events recorded so far unread: nobody listens (no events node, no journal).
+    #[wasm_bindgen(js_name = clearEvents)]
+    pub fn clear_events(&mut self) {
+        self.core.drain_events();
     }
 
     pub fn snapshot(&self, now_ms: f64) -> Result<JsValue, JsValue> {

@@ -566,6 +566,13 @@ impl Tracker {
         to_js(&self.core.counts())
     }
 
+    /// The same counts for the actuators on `devices` (device handles; an unknown one counts nothing).
+    #[wasm_bindgen(js_name = countsOn)]
+    pub fn counts_on(&self, devices: &[u32]) -> Result<JsValue, JsValue> {
+        let devices = devices.iter().map(|&d| DeviceId::from_index(d));
+        to_js(&self.core.counts_on(devices))
+    }
+
     /// Lockouts feedback has not confirmed yet: `[{ actuator, target, sinceMs, sends }]`
     /// (`actuator` a handle, `target` a number, 0/1 for binary), in handle order.
     #[wasm_bindgen(js_name = pendingLockouts)]

@@ -488,3 +488,30 @@ fn release_and_cancel_by_name() {
     let count = lock.release_named("12", 4.0).unwrap();
     assert_eq!(granted(&lock, count), vec![waiter]);
 }
+
+#[wasm_bindgen_test]
+fn numeric_calls_answer_as_acquire_and_release_and_keep_the_refusal() {
+    let mut lock = plant();
+    let load = lock.operation("10").unwrap();
+    let flit = lock.operation("18").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    assert_eq!(lock.acquire_code(load, 20, yel, 0.0), 1, "granted");
+    assert_eq!(lock.acquire_code(flit, 92, yel, 1.0), 0, "queued");
+    assert!(lock.take_error().is_undefined(), "no refusal kept");
+
+    assert_eq!(lock.acquire_code(load, 20, yel, 2.0), -1, "already holding");
+    assert_eq!(code_of(lock.take_error()), "ALREADY_HOLDING");
+    assert!(lock.take_error().is_undefined(), "taken once");
+    assert_eq!(lock.acquire_code(999, 1, yel, 2.0), -1);
+    assert_eq!(code_of(lock.take_error()), "UNKNOWN_OPERATION");
+    assert_eq!(lock.acquire_code(load, 1, 999, 2.0), -1);
+    assert_eq!(code_of(lock.take_error()), "UNKNOWN_RESOURCE_SET");
+    assert_eq!(lock.acquire_code(load, 1, yel, f64::NAN), -1, "a time that is not finite");
+    lock.take_error();
+
+    assert_eq!(lock.release_code(load, 3.0), 1.0, "the waiter is granted");
+    assert_eq!(granted(&lock, 1), vec![flit]);
+    assert_eq!(lock.release_code(load, 4.0), -1.0);
+    assert_eq!(code_of(lock.take_error()), "NOT_HOLDING");
+    assert_eq!(lock.release_code(flit, 5.0), 0.0);
+}

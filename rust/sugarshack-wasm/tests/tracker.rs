@@ -182,3 +182,48 @@ fn bad_samples_in_a_batch_come_back_as_rejections() {
     let counts = t.counts().unwrap();
     assert_eq!(get(&counts, "faulted").as_f64(), Some(0.0));
 }
+
+#[wasm_bindgen_test]
+fn counts_on_a_device_list_count_only_its_actuators() {
+    let mut t = Tracker::new(
+        json(
+            r#"{
+        "actuatorTypes": { "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 } },
+        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "ctrl-2", "kind": "actuator-panel" }],
+        "actuators": [
+            { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0 },
+            { "id": "V2", "type": "valve", "device": "ctrl-2", "io": 1, "idle": 0, "lockout": 0 },
+            { "id": "V3", "type": "valve", "device": "ctrl-2", "io": 2, "idle": 0, "lockout": 0 }
+        ]
+    }"#,
+        ),
+        0.0,
+    )
+    .unwrap();
+    t.command(
+        json(r#"{ "valves": { "V2": 100, "V3": 100 } }"#),
+        1,
+        false,
+        0.0,
+        None,
+    )
+    .unwrap();
+    t.command(json(r#"{ "valves": { "V1": 0 } }"#), 2, true, 0.0, None)
+        .unwrap();
+    let moving = |c: &JsValue| get(c, "moving").as_f64().unwrap();
+    let on_two = t.counts_on(&[1]).unwrap();
+    assert_eq!(moving(&on_two), 2.0);
+    assert_eq!(get(&on_two, "lockoutsPending").as_f64(), Some(0.0));
+    let on_one = t.counts_on(&[0]).unwrap();
+    assert_eq!(moving(&on_one), 1.0);
+    assert_eq!(get(&on_one, "lockoutsPending").as_f64(), Some(1.0));
+    assert_eq!(
+        moving(&t.counts_on(&[0, 1]).unwrap()),
+        moving(&t.counts().unwrap())
+    );
+    assert_eq!(
+        moving(&t.counts_on(&[7, 1_000_000]).unwrap()),
+        0.0,
+        "unknown devices count nothing"
+    );
+}
