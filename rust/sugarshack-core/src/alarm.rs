@@ -351,7 +351,11 @@ impl Alarms {
             let subject = cut(&c.subject, SUBJECT_MAX_CHARS);
             holding.entry(alarm_id(c.kind, &subject)).or_insert(c);
         }
-        let kept = self.alarms.len() + holding.keys().filter(|id| !self.alarms.contains_key(*id)).count();
+        let kept = self.alarms.len()
+            + holding
+                .keys()
+                .filter(|id| !self.alarms.contains_key(*id))
+                .count();
         if kept > MAX_ALARMS {
             return Err(AlarmError::TooMany {
                 count: kept,
@@ -390,7 +394,13 @@ impl Alarms {
                     alarm.text = text;
                     alarm.acked = None;
                     alarm.active_since_ms = now;
-                    changes.push(self.shift(&id, AlarmState::ActiveUnacked, AlarmAction::Condition, None, now));
+                    changes.push(self.shift(
+                        &id,
+                        AlarmState::ActiveUnacked,
+                        AlarmAction::Condition,
+                        None,
+                        now,
+                    ));
                 }
                 None => {
                     let subject = cut(&c.subject, SUBJECT_MAX_CHARS);
@@ -530,18 +540,32 @@ impl Alarms {
     pub fn restore(snapshot: AlarmsSnapshot) -> Result<Self, AlarmError> {
         let invalid = |reason: String| AlarmError::InvalidSnapshot { reason };
         if snapshot.alarms.len() > MAX_ALARMS {
-            return Err(invalid(format!("{} alarms, more than {MAX_ALARMS}", snapshot.alarms.len())));
+            return Err(invalid(format!(
+                "{} alarms, more than {MAX_ALARMS}",
+                snapshot.alarms.len()
+            )));
         }
         let mut alarms = BTreeMap::new();
         for alarm in snapshot.alarms {
             if alarm.id != alarm_id(alarm.kind, &alarm.subject) {
-                return Err(invalid(format!("alarm {} does not match its kind and subject", quote(&alarm.id))));
+                return Err(invalid(format!(
+                    "alarm {} does not match its kind and subject",
+                    quote(&alarm.id)
+                )));
             }
-            if alarm.subject.chars().count() > SUBJECT_MAX_CHARS || alarm.text.chars().count() > TEXT_MAX_CHARS {
-                return Err(invalid(format!("alarm {} has a subject or text too long", quote(&alarm.id))));
+            if alarm.subject.chars().count() > SUBJECT_MAX_CHARS
+                || alarm.text.chars().count() > TEXT_MAX_CHARS
+            {
+                return Err(invalid(format!(
+                    "alarm {} has a subject or text too long",
+                    quote(&alarm.id)
+                )));
             }
             if alarm.state == AlarmState::Normal && alarm.shelved.is_none() {
-                return Err(invalid(format!("alarm {} is normal and not shelved", quote(&alarm.id))));
+                return Err(invalid(format!(
+                    "alarm {} is normal and not shelved",
+                    quote(&alarm.id)
+                )));
             }
             if alarms.insert(alarm.id.clone(), alarm).is_some() {
                 return Err(invalid("an alarm is listed twice".into()));
@@ -648,15 +672,33 @@ mod tests {
         alarms.acknowledge(None, &ana, 20).unwrap();
         let a = alarms.get("line-faulted:YEL").unwrap();
         assert_eq!(a.state, AlarmState::ActiveAcked);
-        assert_eq!(a.acked, Some(Stamp { by: "ana".into(), at_ms: 20, reason: Some("seen".into()) }));
+        assert_eq!(
+            a.acked,
+            Some(Stamp {
+                by: "ana".into(),
+                at_ms: 20,
+                reason: Some("seen".into())
+            })
+        );
         let changes = alarms.observe(&[], 30).unwrap();
         assert_eq!(changes[0].to, AlarmState::Normal);
-        assert!(alarms.get("line-faulted:YEL").is_none(), "normal and acknowledged: gone");
+        assert!(
+            alarms.get("line-faulted:YEL").is_none(),
+            "normal and acknowledged: gone"
+        );
         alarms.observe(&[faulted("YEL")], 40).unwrap();
         alarms.observe(&[], 50).unwrap();
-        assert_eq!(alarms.get("line-faulted:YEL").unwrap().state, AlarmState::ReturnedUnacked);
-        let changes = alarms.acknowledge(Some(&["line-faulted:YEL".into()]), &ana, 60).unwrap();
-        assert_eq!((changes[0].from, changes[0].to), (AlarmState::ReturnedUnacked, AlarmState::Normal));
+        assert_eq!(
+            alarms.get("line-faulted:YEL").unwrap().state,
+            AlarmState::ReturnedUnacked
+        );
+        let changes = alarms
+            .acknowledge(Some(&["line-faulted:YEL".into()]), &ana, 60)
+            .unwrap();
+        assert_eq!(
+            (changes[0].from, changes[0].to),
+            (AlarmState::ReturnedUnacked, AlarmState::Normal)
+        );
         assert_eq!(alarms.list().count(), 0);
     }
 
@@ -666,19 +708,38 @@ mod tests {
         let bo = Attribution::new(Some("bo"), None, false);
         alarms.observe(&[faulted("RED")], 0).unwrap();
         let id = "line-faulted:RED";
-        assert_eq!(alarms.shelve(id, 0, &bo, 0).unwrap_err().code(), "INVALID_SHELF");
-        assert_eq!(alarms.shelve(id, MAX_SHELVE_MS + 1, &bo, 0).unwrap_err().code(), "INVALID_SHELF");
+        assert_eq!(
+            alarms.shelve(id, 0, &bo, 0).unwrap_err().code(),
+            "INVALID_SHELF"
+        );
+        assert_eq!(
+            alarms
+                .shelve(id, MAX_SHELVE_MS + 1, &bo, 0)
+                .unwrap_err()
+                .code(),
+            "INVALID_SHELF"
+        );
         alarms.shelve(id, 1000, &bo, 0).unwrap();
         alarms.observe(&[], 100).unwrap();
         alarms.acknowledge(None, &bo, 200).unwrap();
-        assert_eq!(alarms.get(id).unwrap().state, AlarmState::Normal, "kept on its shelf");
+        assert_eq!(
+            alarms.get(id).unwrap().state,
+            AlarmState::Normal,
+            "kept on its shelf"
+        );
         alarms.observe(&[faulted("RED")], 300).unwrap();
         assert_eq!(alarms.next_expiry_ms(), Some(1000));
         let changes = alarms.observe(&[faulted("RED")], 1000).unwrap();
         assert_eq!(changes[0].action, AlarmAction::ShelfExpired);
         let a = alarms.get(id).unwrap();
-        assert_eq!((a.state, a.shelved.is_none()), (AlarmState::ActiveUnacked, true));
-        assert_eq!(alarms.unshelve("nope", &bo, 1001).unwrap_err().code(), "UNKNOWN_ALARM");
+        assert_eq!(
+            (a.state, a.shelved.is_none()),
+            (AlarmState::ActiveUnacked, true)
+        );
+        assert_eq!(
+            alarms.unshelve("nope", &bo, 1001).unwrap_err().code(),
+            "UNKNOWN_ALARM"
+        );
     }
 
     #[test]
@@ -691,21 +752,35 @@ mod tests {
             since_ms: None,
         };
         alarms.observe(std::slice::from_ref(&lost), 0).unwrap();
-        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS - 1).unwrap();
+        alarms
+            .observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS - 1)
+            .unwrap();
         assert_eq!(alarms.list().count(), 0, "still connecting");
         alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
-        alarms.observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS + 1).unwrap();
+        alarms
+            .observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS + 1)
+            .unwrap();
         assert_eq!(alarms.list().count(), 0, "the delay starts again");
-        alarms.observe(std::slice::from_ref(&lost), 2 * BUS_ON_DELAY_MS + 1).unwrap();
+        alarms
+            .observe(std::slice::from_ref(&lost), 2 * BUS_ON_DELAY_MS + 1)
+            .unwrap();
         let a = alarms.get("bus-disconnected:all devices").unwrap();
-        assert_eq!((a.state, a.active_since_ms), (AlarmState::ActiveUnacked, BUS_ON_DELAY_MS + 1));
+        assert_eq!(
+            (a.state, a.active_since_ms),
+            (AlarmState::ActiveUnacked, BUS_ON_DELAY_MS + 1)
+        );
     }
 
     #[test]
     fn too_many_conditions_are_refused_whole() {
         let mut alarms = Alarms::new();
-        let many: Vec<Condition> = (0..=MAX_CONDITIONS).map(|i| faulted(&i.to_string())).collect();
-        assert_eq!(alarms.observe(&many, 0).unwrap_err().code(), "TOO_MANY_ALARMS");
+        let many: Vec<Condition> = (0..=MAX_CONDITIONS)
+            .map(|i| faulted(&i.to_string()))
+            .collect();
+        assert_eq!(
+            alarms.observe(&many, 0).unwrap_err().code(),
+            "TOO_MANY_ALARMS"
+        );
         assert_eq!(alarms.list().count(), 0);
     }
 
@@ -713,7 +788,9 @@ mod tests {
     fn a_snapshot_restores_and_a_bad_one_is_refused() {
         let mut alarms = Alarms::new();
         alarms.observe(&[faulted("YEL")], 10).unwrap();
-        alarms.acknowledge(None, &Attribution::new(Some("ana"), None, false), 11).unwrap();
+        alarms
+            .acknowledge(None, &Attribution::new(Some("ana"), None, false), 11)
+            .unwrap();
         let text = serde_json::to_string(&alarms.snapshot()).unwrap();
         let back = Alarms::restore(serde_json::from_str(&text).unwrap()).unwrap();
         assert_eq!(back.snapshot(), alarms.snapshot());

@@ -54,7 +54,10 @@ pub struct Attribution {
 impl Attribution {
     /// Bounded: a name or reason from outside is cut, an empty name reads `"unknown"`.
     pub fn new(by: Option<&str>, reason: Option<&str>, forced: bool) -> Self {
-        let by = by.map(str::trim).filter(|b| !b.is_empty()).unwrap_or("unknown");
+        let by = by
+            .map(str::trim)
+            .filter(|b| !b.is_empty())
+            .unwrap_or("unknown");
         Attribution {
             by: cut(by, BY_MAX_CHARS),
             reason: reason

@@ -26,9 +26,19 @@ type Seen = (String, AlarmState, Option<u64>, Option<(String, u64)>);
 enum Step {
     /// The conditions that hold now, as a bit per subject.
     Observe(u8),
-    Ack { alarm: Option<usize>, person: usize },
-    Shelve { alarm: usize, for_ms: u64, person: usize },
-    Unshelve { alarm: usize, person: usize },
+    Ack {
+        alarm: Option<usize>,
+        person: usize,
+    },
+    Shelve {
+        alarm: usize,
+        for_ms: u64,
+        person: usize,
+    },
+    Unshelve {
+        alarm: usize,
+        person: usize,
+    },
     /// Restore from a snapshot through JSON.
     Restart,
 }
@@ -67,7 +77,8 @@ impl Model {
                 e.shelf_until = None;
             }
         }
-        self.alarms.retain(|_, e| e.holds || e.owed || e.shelf_until.is_some());
+        self.alarms
+            .retain(|_, e| e.holds || e.owed || e.shelf_until.is_some());
     }
 
     fn state(e: &Entry) -> AlarmState {

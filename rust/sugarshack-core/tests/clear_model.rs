@@ -11,7 +11,12 @@ use sugarshack_core::interlock::{EventKind, Interlock, InterlockError};
 use sugarshack_core::plant::PlantModel;
 
 /// YEL: V1, V2 on ctrl-1. GRN: V3 on ctrl-2 and V4 on ctrl-1 (a device shared by two lines).
-const MEMBERS: [(&str, &str, usize); 4] = [("V1", "YEL", 0), ("V2", "YEL", 0), ("V3", "GRN", 1), ("V4", "GRN", 0)];
+const MEMBERS: [(&str, &str, usize); 4] = [
+    ("V1", "YEL", 0),
+    ("V2", "YEL", 0),
+    ("V3", "GRN", 1),
+    ("V4", "GRN", 0),
+];
 const LINES: [&str; 2] = ["YEL", "GRN"];
 const TOLERANCE: f64 = 2.0;
 
@@ -30,11 +35,22 @@ fn plant() -> PlantModel {
 
 #[derive(Clone, Debug)]
 enum Step {
-    Feedback { actuator: usize, value: f64 },
-    Device { device: usize, online: bool },
+    Feedback {
+        actuator: usize,
+        value: f64,
+    },
+    Device {
+        device: usize,
+        online: bool,
+    },
     /// The interlock faults the line and its lockout goes out.
-    EStop { line: usize },
-    Clear { line: usize, forced: bool },
+    EStop {
+        line: usize,
+    },
+    Clear {
+        line: usize,
+        forced: bool,
+    },
 }
 
 fn step() -> impl Strategy<Value = Step> {
@@ -68,9 +84,15 @@ impl Model {
 
     /// The line is isolated: every member heard at its lockout state, confirmed, on an online device.
     fn isolated(&self, line: usize) -> bool {
-        MEMBERS.iter().enumerate().filter(|(_, m)| m.1 == LINES[line]).all(|(i, m)| {
-            self.online[m.2] && Self::at_lockout(self.seen[i].value) && !self.seen[i].unconfirmed
-        })
+        MEMBERS
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.1 == LINES[line])
+            .all(|(i, m)| {
+                self.online[m.2]
+                    && Self::at_lockout(self.seen[i].value)
+                    && !self.seen[i].unconfirmed
+            })
     }
 }
 
@@ -156,35 +178,61 @@ fn a_refusal_lists_every_reason_of_every_line() {
     let v3 = tracker.actuator("V3").unwrap();
     tracker.feedback(v1, 40.0, None, 1).unwrap();
     tracker.feedback(v3, 0.0, None, 1).unwrap();
-    tracker.device_status(DeviceId::from_index(1), false, 2).unwrap();
+    tracker
+        .device_status(DeviceId::from_index(1), false, 2)
+        .unwrap();
     let err = lock
-        .clear_checked(&both, &Attribution::unknown(), |l| tracker.clear_blockers(l), 3)
+        .clear_checked(
+            &both,
+            &Attribution::unknown(),
+            |l| tracker.clear_blockers(l),
+            3,
+        )
         .unwrap_err();
-    let InterlockError::ClearRefused { lines } = &err else { panic!("{err}") };
+    let InterlockError::ClearRefused { lines } = &err else {
+        panic!("{err}")
+    };
     assert_eq!(lines[0].line, "YEL");
     assert_eq!(
         lines[0].reasons,
         vec![
-            ClearBlocker::OffLockout { actuator: "V1".into(), position: 40.0, lockout: 0.0 },
-            ClearBlocker::NoFeedback { actuator: "V2".into() },
+            ClearBlocker::OffLockout {
+                actuator: "V1".into(),
+                position: 40.0,
+                lockout: 0.0
+            },
+            ClearBlocker::NoFeedback {
+                actuator: "V2".into()
+            },
         ]
     );
     assert_eq!(lines[1].line, "GRN");
     assert_eq!(
         lines[1].reasons,
-        vec![ClearBlocker::DeviceOffline { device: "ctrl-2".into() }, ClearBlocker::NoFeedback { actuator: "V4".into() }]
+        vec![
+            ClearBlocker::DeviceOffline {
+                device: "ctrl-2".into()
+            },
+            ClearBlocker::NoFeedback {
+                actuator: "V4".into()
+            }
+        ]
     );
     assert_eq!(err.code(), "CLEAR_REFUSED");
     assert!(err.to_string().contains("device ctrl-2 offline"), "{err}");
     // Refused whole: both lines still faulted.
     assert_eq!(lock.faulted_resources().len(), 2);
     let forced = Attribution::new(Some("ana"), Some("valves checked by hand"), true);
-    lock.clear_checked(&both, &forced, |l| tracker.clear_blockers(l), 4).unwrap();
+    lock.clear_checked(&both, &forced, |l| tracker.clear_blockers(l), 4)
+        .unwrap();
     let events = lock.drain_events();
     let record = lock.describe(events.last().unwrap());
     assert!(record.forced);
     assert_eq!(record.reason.as_deref(), Some("valves checked by hand"));
-    assert!(record.note.unwrap().starts_with("forced over: YEL: member actuator V1"));
+    assert!(record
+        .note
+        .unwrap()
+        .starts_with("forced over: YEL: member actuator V1"));
 }
 
 #[test]
@@ -192,6 +240,16 @@ fn clearing_a_line_that_is_not_faulted_names_the_line() {
     let tracker = Tracker::new(plant(), 0).unwrap();
     let mut lock = Interlock::new(tracker.plant().interlock_config()).unwrap();
     let yel = lock.resource_set(&["YEL"]).unwrap();
-    let err = lock.clear_checked(&yel, &Attribution::unknown(), |l| tracker.clear_blockers(l), 0).unwrap_err();
-    assert_eq!(err.to_string(), "line 'YEL' is not faulted; nothing to clear");
+    let err = lock
+        .clear_checked(
+            &yel,
+            &Attribution::unknown(),
+            |l| tracker.clear_blockers(l),
+            0,
+        )
+        .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "line 'YEL' is not faulted; nothing to clear"
+    );
 }

@@ -8,20 +8,54 @@ use sugarshack_core::control::delay::DelayEstimator;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn, StepMode};
 use sugarshack_core::control::pid_loop::PidLoopConfig;
 use sugarshack_core::control::rcc::{Decision, IoState};
-use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig, SmithPredictor};
-use sugarshack_core::control::station::{Change, Limits, Mode, Sample, Saved, Stale, Station, StationConfig, Tunings};
 use sugarshack_core::control::rcc::{IoModule, RccConfig, RccController};
+use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig, SmithPredictor};
+use sugarshack_core::control::station::{
+    Change, Limits, Mode, Sample, Saved, Stale, Station, StationConfig, Tunings,
+};
 
-fn pid_config(kp: f64, ti_s: f64, td_s: f64, out_min: f64, out_max: f64, direct: bool) -> PidConfig {
-    let action = if direct { Action::Direct } else { Action::Reverse };
-    PidConfig { kp, ti_s, td_s, out_min, out_max, action, fallback: None, proportional_on: Default::default() }
+fn pid_config(
+    kp: f64,
+    ti_s: f64,
+    td_s: f64,
+    out_min: f64,
+    out_max: f64,
+    direct: bool,
+) -> PidConfig {
+    let action = if direct {
+        Action::Direct
+    } else {
+        Action::Reverse
+    };
+    PidConfig {
+        kp,
+        ti_s,
+        td_s,
+        out_min,
+        out_max,
+        action,
+        fallback: None,
+        proportional_on: Default::default(),
+    }
 }
 
 #[derive(Clone, Debug)]
 enum Op {
-    Step { setpoint: f64, measurement: Option<f64>, dt_s: f64, track: Option<f64> },
-    Tunings { kp: f64, ti_s: f64, td_s: f64 },
-    Limits { low: f64, span: f64 },
+    Step {
+        setpoint: f64,
+        measurement: Option<f64>,
+        dt_s: f64,
+        track: Option<f64>,
+    },
+    Tunings {
+        kp: f64,
+        ti_s: f64,
+        td_s: f64,
+    },
+    Limits {
+        low: f64,
+        span: f64,
+    },
     Integral(f64),
 }
 
@@ -165,7 +199,13 @@ fn alive(outages: &Outages, t: u64) -> bool {
 
 /// Time since `id`'s liveness last changed, or since the start.
 fn stable_for(outages: &Outages, t: u64) -> u64 {
-    outages.iter().flat_map(|&(d, u)| [d, u]).filter(|&e| e <= t).map(|e| t - e).min().unwrap_or(t)
+    outages
+        .iter()
+        .flat_map(|&(d, u)| [d, u])
+        .filter(|&e| e <= t)
+        .map(|e| t - e)
+        .min()
+        .unwrap_or(t)
 }
 
 proptest! {
@@ -257,10 +297,28 @@ fn maybe_f64() -> impl Strategy<Value = Option<f64>> {
 
 #[derive(Clone, Debug)]
 enum AnyOp {
-    Measure { measurement: Option<f64>, sample_ms: f64, now_ms: f64, track: Option<f64>, rcc: Option<(bool, bool, Option<f64>)> },
+    Measure {
+        measurement: Option<f64>,
+        sample_ms: f64,
+        now_ms: f64,
+        track: Option<f64>,
+        rcc: Option<(bool, bool, Option<f64>)>,
+    },
     Tick(f64),
-    Change { setpoint: Option<f64>, manual: Option<Option<f64>>, kp: Option<f64>, ti_s: Option<f64>, td_s: Option<f64>, min: Option<f64>, max: Option<f64> },
-    Restore { integral: Option<f64>, setpoint: Option<f64>, manual: Option<f64> },
+    Change {
+        setpoint: Option<f64>,
+        manual: Option<Option<f64>>,
+        kp: Option<f64>,
+        ti_s: Option<f64>,
+        td_s: Option<f64>,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    Restore {
+        integral: Option<f64>,
+        setpoint: Option<f64>,
+        manual: Option<f64>,
+    },
     RoundTrip(f64),
 }
 
@@ -293,9 +351,18 @@ fn station_config(values: [f64; 10], smith: Option<u8>, on_measurement: bool) ->
                 out_max,
                 action: Action::Reverse,
                 fallback: fallback.is_finite().then_some(fallback),
-                proportional_on: if on_measurement { ProportionalOn::Measurement } else { ProportionalOn::Error },
+                proportional_on: if on_measurement {
+                    ProportionalOn::Measurement
+                } else {
+                    ProportionalOn::Error
+                },
             },
-            smith: dead_time.map(|dead_time| SmithConfig { model: FopdtModel { gain, tau_s }, ts_s, dead_time, max_samples: 20 }),
+            smith: dead_time.map(|dead_time| SmithConfig {
+                model: FopdtModel { gain, tau_s },
+                ts_s,
+                dead_time,
+                max_samples: 20,
+            }),
         },
         ts_s,
         stale_ms: 50.0,
@@ -312,7 +379,10 @@ fn assert_sound(station: &Station) -> Result<(), TestCaseError> {
     prop_assert!(state.integral.is_finite() && state.setpoint.is_finite());
     prop_assert!(state.manual.is_none_or(f64::is_finite));
     if let Some(output) = state.last_output {
-        prop_assert!(output.is_finite() && output >= config.out_min && output <= config.out_max, "{output} {config:?}");
+        prop_assert!(
+            output.is_finite() && output >= config.out_min && output <= config.out_max,
+            "{output} {config:?}"
+        );
     }
     if let Some(smith) = station.pid_loop().smith() {
         prop_assert!(smith.model_output().is_finite());

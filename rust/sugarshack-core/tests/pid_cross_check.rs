@@ -26,14 +26,37 @@ fn parallel(kp: f64, ki: f64, kd: f64) -> PidConfig {
 }
 
 fn call(pid: &mut Pid, setpoint: f64, measurement: f64, dt_s: f64) -> f64 {
-    pid.step(PidInput { setpoint, measurement: Some(measurement), dt_s, track: None }).unwrap().output
+    pid.step(PidInput {
+        setpoint,
+        measurement: Some(measurement),
+        dt_s,
+        track: None,
+    })
+    .unwrap()
+    .output
 }
 
 /// test_zero, test_desired_state: no error, no output.
 #[test]
 fn no_error_no_output() {
-    assert_eq!(call(&mut Pid::new(parallel(1.0, 1.0, 1.0)).unwrap(), 0.0, 0.0, 0.1), 0.0);
-    assert_eq!(call(&mut Pid::new(parallel(10.0, 5.0, 2.0)).unwrap(), 10.0, 10.0, 0.1), 0.0);
+    assert_eq!(
+        call(
+            &mut Pid::new(parallel(1.0, 1.0, 1.0)).unwrap(),
+            0.0,
+            0.0,
+            0.1
+        ),
+        0.0
+    );
+    assert_eq!(
+        call(
+            &mut Pid::new(parallel(10.0, 5.0, 2.0)).unwrap(),
+            10.0,
+            10.0,
+            0.1
+        ),
+        0.0
+    );
 }
 
 /// test_P, test_P_negative_setpoint.
@@ -55,9 +78,21 @@ fn proportional() {
 #[test]
 fn integral() {
     for (setpoint, expected) in [(10.0, [10.0, 20.0]), (-10.0, [-10.0, -20.0])] {
-        let mut pid = Pid::new(PidConfig { kp: 1.0, ti_s: 0.1, ..parallel(1.0, 0.0, 0.0) }).unwrap();
+        let mut pid = Pid::new(PidConfig {
+            kp: 1.0,
+            ti_s: 0.1,
+            ..parallel(1.0, 0.0, 0.0)
+        })
+        .unwrap();
         for want in expected {
-            let step = pid.step(PidInput { setpoint, measurement: Some(0.0), dt_s: 0.1, track: None }).unwrap();
+            let step = pid
+                .step(PidInput {
+                    setpoint,
+                    measurement: Some(0.0),
+                    dt_s: 0.1,
+                    track: None,
+                })
+                .unwrap();
             assert_eq!(step.i.round(), want);
         }
     }
@@ -67,15 +102,49 @@ fn integral() {
 /// sample. PID(0, 0, 0.1) is kp 1, td 0.1 here, and the D term is compared.
 #[test]
 fn derivative() {
-    let mut pid = Pid::new(PidConfig { kp: 1.0, td_s: 0.1, ..parallel(1.0, 0.0, 0.0) }).unwrap();
-    let mut d = |pv: f64| pid.step(PidInput { setpoint: 10.0, measurement: Some(pv), dt_s: 0.1, track: None }).unwrap().d;
+    let mut pid = Pid::new(PidConfig {
+        kp: 1.0,
+        td_s: 0.1,
+        ..parallel(1.0, 0.0, 0.0)
+    })
+    .unwrap();
+    let mut d = |pv: f64| {
+        pid.step(PidInput {
+            setpoint: 10.0,
+            measurement: Some(pv),
+            dt_s: 0.1,
+            track: None,
+        })
+        .unwrap()
+        .d
+    };
     assert_eq!(d(0.0), 0.0, "no previous input: no derivative");
     assert_eq!(d(0.0), 0.0);
     assert_eq!(d(5.0).round(), -5.0);
     assert_eq!(d(15.0).round(), -10.0);
-    let mut pid = Pid::new(PidConfig { kp: 1.0, td_s: 0.1, ..parallel(1.0, 0.0, 0.0) }).unwrap();
-    let mut d = |pv: f64| pid.step(PidInput { setpoint: -10.0, measurement: Some(pv), dt_s: 0.1, track: None }).unwrap().d;
-    for (pv, want) in [(0.0, 0.0), (0.0, 0.0), (5.0, -5.0), (-5.0, 10.0), (-15.0, 10.0)] {
+    let mut pid = Pid::new(PidConfig {
+        kp: 1.0,
+        td_s: 0.1,
+        ..parallel(1.0, 0.0, 0.0)
+    })
+    .unwrap();
+    let mut d = |pv: f64| {
+        pid.step(PidInput {
+            setpoint: -10.0,
+            measurement: Some(pv),
+            dt_s: 0.1,
+            track: None,
+        })
+        .unwrap()
+        .d
+    };
+    for (pv, want) in [
+        (0.0, 0.0),
+        (0.0, 0.0),
+        (5.0, -5.0),
+        (-5.0, 10.0),
+        (-15.0, 10.0),
+    ] {
         assert_eq!(d(pv).round(), want);
     }
 }
@@ -84,9 +153,26 @@ fn derivative() {
 #[test]
 fn separate_components() {
     let mut pid = Pid::new(parallel(1.0, 0.0, 1.0)).unwrap();
-    let first = pid.step(PidInput { setpoint: 10.0, measurement: Some(0.0), dt_s: 0.1, track: None }).unwrap();
-    assert_eq!((first.output, first.p, first.i, first.d), (10.0, 10.0, 0.0, 0.0));
-    let second = pid.step(PidInput { setpoint: 10.0, measurement: Some(5.0), dt_s: 0.1, track: None }).unwrap();
+    let first = pid
+        .step(PidInput {
+            setpoint: 10.0,
+            measurement: Some(0.0),
+            dt_s: 0.1,
+            track: None,
+        })
+        .unwrap();
+    assert_eq!(
+        (first.output, first.p, first.i, first.d),
+        (10.0, 10.0, 0.0, 0.0)
+    );
+    let second = pid
+        .step(PidInput {
+            setpoint: 10.0,
+            measurement: Some(5.0),
+            dt_s: 0.1,
+            track: None,
+        })
+        .unwrap();
     assert_eq!((second.p, second.i, second.d.round()), (5.0, 0.0, -50.0));
     assert_eq!(second.output.round(), -45.0);
 }
@@ -94,7 +180,12 @@ fn separate_components() {
 /// test_output_limits: PID(100, 20, 40) within (0, 100) whatever the input.
 #[test]
 fn output_limits() {
-    let mut pid = Pid::new(PidConfig { out_min: 0.0, out_max: 100.0, ..parallel(100.0, 20.0, 40.0) }).unwrap();
+    let mut pid = Pid::new(PidConfig {
+        out_min: 0.0,
+        out_max: 100.0,
+        ..parallel(100.0, 20.0, 40.0)
+    })
+    .unwrap();
     for pv in [0.0, -100.0] {
         let out = call(&mut pid, 10.0, pv, 0.1);
         assert!((0.0..=100.0).contains(&out), "{out}");
@@ -120,7 +211,10 @@ fn starting_output() {
 #[test]
 fn auto_mode() {
     let mut station = Station::new(StationConfig {
-        pid_loop: PidLoopConfig { pid: parallel(1.0, 0.0, 0.0), smith: None },
+        pid_loop: PidLoopConfig {
+            pid: parallel(1.0, 0.0, 0.0),
+            smith: None,
+        },
         ts_s: 1.0,
         stale_ms: 0.0,
         setpoint: 10.0,
@@ -131,17 +225,44 @@ fn auto_mode() {
     let mut at = 0.0;
     let mut call = |station: &mut Station, pv: f64| {
         at += 1000.0;
-        station.measure(Sample { measurement: Some(pv), sample_ms: at, now_ms: at, track: None, decision: None }).unwrap().pid
+        station
+            .measure(Sample {
+                measurement: Some(pv),
+                sample_ms: at,
+                now_ms: at,
+                track: None,
+                decision: None,
+            })
+            .unwrap()
+            .pid
     };
     assert_eq!(call(&mut station, 0.0).output, 10.0);
     assert_eq!(call(&mut station, 5.0).output, 5.0);
-    station.change(Change { mode: Some(Mode::Manual), ..Change::default() }).unwrap();
-    assert_eq!(call(&mut station, 1.0).output, 5.0, "off: the last output is held");
+    station
+        .change(Change {
+            mode: Some(Mode::Manual),
+            ..Change::default()
+        })
+        .unwrap();
+    assert_eq!(
+        call(&mut station, 1.0).output,
+        5.0,
+        "off: the last output is held"
+    );
     let held = call(&mut station, 7.0);
     assert_eq!(held.output, 5.0);
-    station.change(Change { mode: Some(Mode::Auto), ..Change::default() }).unwrap();
+    station
+        .change(Change {
+            mode: Some(Mode::Auto),
+            ..Change::default()
+        })
+        .unwrap();
     let first = call(&mut station, 8.0);
-    assert_eq!(first.output, 5.0 + (first.p - held.p), "simple-pid gives 2 here: it restarts from a zero integral");
+    assert_eq!(
+        first.output,
+        5.0 + (first.p - held.p),
+        "simple-pid gives 2 here: it restarts from a zero integral"
+    );
 }
 
 /// Set point change: simple-pid differentiates the measurement by default
@@ -150,7 +271,14 @@ fn auto_mode() {
 fn set_point_change_moves_no_derivative() {
     let mut pid = Pid::new(parallel(1.0, 0.0, 1.0)).unwrap();
     call(&mut pid, 10.0, 0.0, 0.1);
-    let step = pid.step(PidInput { setpoint: 20.0, measurement: Some(0.0), dt_s: 0.1, track: None }).unwrap();
+    let step = pid
+        .step(PidInput {
+            setpoint: 20.0,
+            measurement: Some(0.0),
+            dt_s: 0.1,
+            track: None,
+        })
+        .unwrap();
     assert_eq!((step.p, step.d, step.output), (20.0, 0.0, 20.0));
 }
 

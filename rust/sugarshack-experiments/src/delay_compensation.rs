@@ -3,11 +3,11 @@
 //! (uncompensated), with a Smith predictor set to floor((μ + 3σ)/Ts), and with
 //! the adaptive predictor fed the round trips it measures.
 
-use sugarshack_core::control::pid::{Action, PidConfig, PidInput};
-use sugarshack_core::control::pid_loop::{PidLoop, PidLoopConfig};
 use crate::sim::{
     DelayDist, FirstOrderParams, FirstOrderProcess, Link, DS2_MAX_MS, DS2_MEAN_MS, DS2_SD_MS,
 };
+use sugarshack_core::control::pid::{Action, PidConfig, PidInput};
+use sugarshack_core::control::pid_loop::{PidLoop, PidLoopConfig};
 use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig};
 use sugarshack_core::control::ControlError;
 
@@ -18,13 +18,21 @@ use crate::tuning::{apparent_dead_time_s, gain_for_crossover, ziegler_nichols_pi
 pub const TS_MS: i64 = 300;
 pub const TICK_MS: i64 = 10;
 /// Table 3 gives τ = 3 s only; gain 1 as in Table 2, and no dead time of its own.
-pub const FLOW_PROCESS: FirstOrderParams = FirstOrderParams { gain: 1.0, tau_s: 3.0, dead_time_s: 0.0 };
+pub const FLOW_PROCESS: FirstOrderParams = FirstOrderParams {
+    gain: 1.0,
+    tau_s: 3.0,
+    dead_time_s: 0.0,
+};
 /// Table 3's delay distributions: DS² stretched by these factors.
 pub const DS2_SCALES: [f64; 4] = [10.0, 20.0, 30.0, 40.0];
 /// The dead times Table 3 lists for them (z^-10 .. z^-40).
 pub const PAPER_DEAD_TIME_SAMPLES: [usize; 4] = [10, 20, 30, 40];
 /// Table 3's unit step at t = 0.
-pub const UNIT_STEP: Step = Step { at_s: 0.0, initial: 0.0, setpoint: 1.0 };
+pub const UNIT_STEP: Step = Step {
+    at_s: 0.0,
+    initial: 0.0,
+    setpoint: 1.0,
+};
 /// The loop runs at rest this long before the step, as a plant loop would have:
 /// the adaptive estimator starts the step with round trips already measured.
 pub const WARM_UP_S: f64 = 60.0;
@@ -72,7 +80,12 @@ pub fn target_crossover_rad_s() -> f64 {
 pub fn tuning() -> PiTuning {
     let zn = ziegler_nichols();
     PiTuning {
-        kp: gain_for_crossover(FLOW_PROCESS.gain, FLOW_PROCESS.tau_s, zn.ti_s, target_crossover_rad_s()),
+        kp: gain_for_crossover(
+            FLOW_PROCESS.gain,
+            FLOW_PROCESS.tau_s,
+            zn.ti_s,
+            target_crossover_rad_s(),
+        ),
         ti_s: zn.ti_s,
     }
 }
@@ -114,7 +127,12 @@ pub struct DelayCase {
 
 impl DelayCase {
     pub fn new(scale: Option<f64>, compensation: Compensation, seed: u64) -> Self {
-        Self { scale, compensation, seed, tuning: tuning() }
+        Self {
+            scale,
+            compensation,
+            seed,
+            tuning: tuning(),
+        }
     }
 }
 
@@ -166,16 +184,23 @@ pub fn simulate(case: &DelayCase) -> Result<DelayRun, ControlError> {
     // The drawn delay is the whole round trip, put on the action's way out; the
     // sample comes back at once, so each action's round trip is one draw.
     let mut to_io: Link<ActionPacket> = Link::new(forward, case.seed);
-    let mut to_controller: Link<Measurement> = Link::new(DelayDist::constant(0.0)?, case.seed ^ 0x5EED);
+    let mut to_controller: Link<Measurement> =
+        Link::new(DelayDist::constant(0.0)?, case.seed ^ 0x5EED);
     let smith = match (case.compensation, case.scale) {
         (Compensation::None, _) => None,
-        (Compensation::Fixed, scale) => {
-            Some(DeadTime::Fixed { samples: scale.map(fixed_dead_time_samples).transpose()?.unwrap_or(0) })
-        }
-        (Compensation::Adaptive, _) => Some(DeadTime::Adaptive { alpha: ADAPTIVE_ALPHA, h: ADAPTIVE_H }),
+        (Compensation::Fixed, scale) => Some(DeadTime::Fixed {
+            samples: scale.map(fixed_dead_time_samples).transpose()?.unwrap_or(0),
+        }),
+        (Compensation::Adaptive, _) => Some(DeadTime::Adaptive {
+            alpha: ADAPTIVE_ALPHA,
+            h: ADAPTIVE_H,
+        }),
     }
     .map(|dead_time| SmithConfig {
-        model: FopdtModel { gain: FLOW_PROCESS.gain, tau_s: FLOW_PROCESS.tau_s },
+        model: FopdtModel {
+            gain: FLOW_PROCESS.gain,
+            tau_s: FLOW_PROCESS.tau_s,
+        },
         ts_s: TS_MS as f64 / 1000.0,
         dead_time,
         max_samples: 400,
@@ -215,7 +240,13 @@ pub fn simulate(case: &DelayCase) -> Result<DelayRun, ControlError> {
             applied_sent_ms = Some(packet.sent_ms);
         }
         if sampling {
-            to_controller.send(Measurement { value: process.output(), applied_sent_ms }, now_f);
+            to_controller.send(
+                Measurement {
+                    value: process.output(),
+                    applied_sent_ms,
+                },
+                now_f,
+            );
         }
 
         // Controller, every Ts.
@@ -229,13 +260,28 @@ pub fn simulate(case: &DelayCase) -> Result<DelayRun, ControlError> {
                     last_echo = Some(sent);
                 }
             }
-            let setpoint = if t_s >= UNIT_STEP.at_s { UNIT_STEP.setpoint } else { UNIT_STEP.initial };
+            let setpoint = if t_s >= UNIT_STEP.at_s {
+                UNIT_STEP.setpoint
+            } else {
+                UNIT_STEP.initial
+            };
             let dead_time = controller.smith().map_or(0, |s| s.dead_time_samples());
             if now == 0 {
                 run.dead_time_at_step = dead_time;
             }
-            let step = controller.step(PidInput { setpoint, measurement: measured, dt_s: ts_s, track: None })?;
-            to_io.send(ActionPacket { action: step.output, sent_ms: now }, now_f);
+            let step = controller.step(PidInput {
+                setpoint,
+                measurement: measured,
+                dt_s: ts_s,
+                track: None,
+            })?;
+            to_io.send(
+                ActionPacket {
+                    action: step.output,
+                    sent_ms: now,
+                },
+                now_f,
+            );
             if t_s >= UNIT_STEP.at_s {
                 run.dead_time_samples.push(t_s, dead_time as f64);
             }
@@ -259,7 +305,11 @@ pub struct CaseResults {
 }
 
 impl CaseResults {
-    pub fn run(scale: Option<f64>, compensation: Compensation, seeds: u64) -> Result<Self, ControlError> {
+    pub fn run(
+        scale: Option<f64>,
+        compensation: Compensation,
+        seeds: u64,
+    ) -> Result<Self, ControlError> {
         let runs = (1..=seeds)
             .map(|seed| {
                 let run = simulate(&DelayCase::new(scale, compensation, seed))?;
@@ -267,14 +317,22 @@ impl CaseResults {
                 Ok((seed, run, metrics))
             })
             .collect::<Result<Vec<_>, ControlError>>()?;
-        Ok(Self { scale, compensation, runs })
+        Ok(Self {
+            scale,
+            compensation,
+            runs,
+        })
     }
 
     /// The worst run: unsettled before settled, then largest overshoot, then latest settling.
     pub fn worst(&self) -> &(u64, DelayRun, StepMetrics) {
         self.runs
             .iter()
-            .max_by(|a, b| rank(&a.2).partial_cmp(&rank(&b.2)).unwrap_or(std::cmp::Ordering::Equal))
+            .max_by(|a, b| {
+                rank(&a.2)
+                    .partial_cmp(&rank(&b.2))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
             .expect("at least one seed")
     }
 
@@ -282,16 +340,26 @@ impl CaseResults {
     pub fn best(&self) -> &(u64, DelayRun, StepMetrics) {
         self.runs
             .iter()
-            .min_by(|a, b| rank(&a.2).partial_cmp(&rank(&b.2)).unwrap_or(std::cmp::Ordering::Equal))
+            .min_by(|a, b| {
+                rank(&a.2)
+                    .partial_cmp(&rank(&b.2))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
             .expect("at least one seed")
     }
 
     pub fn unstable_runs(&self) -> usize {
-        self.runs.iter().filter(|(_, run, _)| run.unstable()).count()
+        self.runs
+            .iter()
+            .filter(|(_, run, _)| run.unstable())
+            .count()
     }
 
     pub fn unsettled_runs(&self) -> usize {
-        self.runs.iter().filter(|(_, _, m)| m.settling_time_s.is_none()).count()
+        self.runs
+            .iter()
+            .filter(|(_, _, m)| m.settling_time_s.is_none())
+            .count()
     }
 
     /// Median overshoot over the seeds.
@@ -308,15 +376,21 @@ impl CaseResults {
 
     /// Smallest and largest D_c (samples) in force at the step.
     pub fn dead_time_range(&self) -> (usize, usize) {
-        self.runs.iter().fold((usize::MAX, 0), |(lo, hi), (_, run, _)| {
-            (lo.min(run.dead_time_at_step), hi.max(run.dead_time_at_step))
-        })
+        self.runs
+            .iter()
+            .fold((usize::MAX, 0), |(lo, hi), (_, run, _)| {
+                (lo.min(run.dead_time_at_step), hi.max(run.dead_time_at_step))
+            })
     }
 }
 
 /// Unsettled runs rank after settled ones; then by overshoot, then by settling time.
 fn rank(m: &StepMetrics) -> (bool, f64, f64) {
-    (m.settling_time_s.is_none(), m.overshoot_pct, m.settling_time_s.unwrap_or(f64::INFINITY))
+    (
+        m.settling_time_s.is_none(),
+        m.overshoot_pct,
+        m.settling_time_s.unwrap_or(f64::INFINITY),
+    )
 }
 
 /// Whether run `a` performed better than run `b`, by the order `best` and `worst` use.

@@ -19,7 +19,11 @@ pub const TS_MS: i64 = 200;
 pub const TICK_MS: i64 = 10;
 /// Table 2 gives τ = 2 s only; the gain is taken as 1 (the action is the flow
 /// the valve is asked for, in gal/min) and the process itself has no dead time.
-pub const FLOW_PROCESS: FirstOrderParams = FirstOrderParams { gain: 1.0, tau_s: 2.0, dead_time_s: 0.0 };
+pub const FLOW_PROCESS: FirstOrderParams = FirstOrderParams {
+    gain: 1.0,
+    tau_s: 2.0,
+    dead_time_s: 0.0,
+};
 /// Table 2's 200 ms average round trip, split evenly between the two directions.
 pub const ONE_WAY_DELAY_MS: f64 = 100.0;
 pub const ROUND_TRIP_MS: f64 = 2.0 * ONE_WAY_DELAY_MS;
@@ -35,7 +39,11 @@ pub const ENGAGEMENT_THRESHOLDS_MS: [f64; 2] = [TS_MS as f64, 2.0 * TS_MS as f64
 /// A valve sized for about twice the nominal flow.
 pub const ACTION_LIMITS: (f64, f64) = (0.0, 2.0);
 /// Table 2's set point 0.69 + 0.35·u(t - 5) gal/min.
-pub const SET_POINT_STEP: Step = Step { at_s: 5.0, initial: 0.69, setpoint: 1.04 };
+pub const SET_POINT_STEP: Step = Step {
+    at_s: 5.0,
+    initial: 0.69,
+    setpoint: 1.04,
+};
 /// Table 2: the primary fails at 22 s and recovers at 78 s.
 pub const FAIL_AT_S: f64 = 22.0;
 pub const RECOVER_AT_S: f64 = 78.0;
@@ -47,7 +55,11 @@ pub const PRIMARY_PHASE_MS: i64 = 0;
 
 /// The dead time the controller sees: the round trip plus half a sample of hold.
 pub fn apparent_dead_time() -> f64 {
-    apparent_dead_time_s(ROUND_TRIP_MS / 1000.0, TS_MS as f64 / 1000.0, FLOW_PROCESS.dead_time_s)
+    apparent_dead_time_s(
+        ROUND_TRIP_MS / 1000.0,
+        TS_MS as f64 / 1000.0,
+        FLOW_PROCESS.dead_time_s,
+    )
 }
 
 /// Ziegler-Nichols' reaction-curve PI for the loop the controller sees.
@@ -65,7 +77,12 @@ pub const TARGET_CROSSOVER_RAD_S: f64 = 0.1;
 pub fn tuning() -> PiTuning {
     let zn = ziegler_nichols();
     PiTuning {
-        kp: gain_for_crossover(FLOW_PROCESS.gain, FLOW_PROCESS.tau_s, zn.ti_s, TARGET_CROSSOVER_RAD_S),
+        kp: gain_for_crossover(
+            FLOW_PROCESS.gain,
+            FLOW_PROCESS.tau_s,
+            zn.ti_s,
+            TARGET_CROSSOVER_RAD_S,
+        ),
         ti_s: zn.ti_s,
     }
 }
@@ -95,7 +112,10 @@ impl FaultScenario {
         Self {
             redundancy,
             failures: if failure {
-                vec![(FAIL_AT_S, Failure::LinkDown(PRIMARY)), (RECOVER_AT_S, Failure::LinkUp(PRIMARY))]
+                vec![
+                    (FAIL_AT_S, Failure::LinkDown(PRIMARY)),
+                    (RECOVER_AT_S, Failure::LinkUp(PRIMARY)),
+                ]
             } else {
                 Vec::new()
             },
@@ -219,7 +239,12 @@ impl Remote {
         Ok((rcc, pid))
     }
 
-    fn apply(&mut self, event: Failure, controllers: usize, scenario: &FaultScenario) -> Result<(), ControlError> {
+    fn apply(
+        &mut self,
+        event: Failure,
+        controllers: usize,
+        scenario: &FaultScenario,
+    ) -> Result<(), ControlError> {
         match event {
             Failure::LinkDown(_) | Failure::LinkUp(_) => {
                 let up = matches!(event, Failure::LinkUp(_));
@@ -247,7 +272,13 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
     let steady_action = SET_POINT_STEP.initial / FLOW_PROCESS.gain;
     let mut process = FirstOrderProcess::new(FLOW_PROCESS, SET_POINT_STEP.initial)?;
     let mut io = IoModule::new(controllers, steady_action)?;
-    let mut remotes = vec![Remote::new(PRIMARY, controllers, scenario, 0, PRIMARY_PHASE_MS)?];
+    let mut remotes = vec![Remote::new(
+        PRIMARY,
+        controllers,
+        scenario,
+        0,
+        PRIMARY_PHASE_MS,
+    )?];
     // The plant has been running at rest under the primary before t = 0.
     remotes[0].pid.set_integral(steady_action)?;
     if controllers == 2 {
@@ -259,8 +290,13 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
             scenario.backup_start_ms % TS_MS,
         )?);
     }
-    let mut schedule =
-        FailureSchedule::new(scenario.failures.iter().map(|&(at_s, event)| (at_s * 1000.0, event)).collect())?;
+    let mut schedule = FailureSchedule::new(
+        scenario
+            .failures
+            .iter()
+            .map(|&(at_s, event)| (at_s * 1000.0, event))
+            .collect(),
+    )?;
 
     let mut run = FaultRun::default();
     let mut last_writer: Option<usize> = None;
@@ -270,8 +306,10 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
         let now_f = now as f64;
         let t_s = now_f / 1000.0;
         for event in schedule.due(now_f) {
-            let (Failure::LinkDown(id) | Failure::LinkUp(id) | Failure::ControllerDown(id) | Failure::ControllerUp(id)) =
-                event;
+            let (Failure::LinkDown(id)
+            | Failure::LinkUp(id)
+            | Failure::ControllerDown(id)
+            | Failure::ControllerUp(id)) = event;
             let remote = id
                 .checked_sub(1)
                 .and_then(|index| remotes.get_mut(index))
@@ -284,14 +322,21 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
             for message in remote.to_io.receive(now_f) {
                 match message {
                     ToIo::Poll { sent_ms } => {
-                        let reply =
-                            Reply { poll_sent_ms: sent_ms, measurement: process.output(), state: io.state(now_f) };
+                        let reply = Reply {
+                            poll_sent_ms: sent_ms,
+                            measurement: process.output(),
+                            state: io.state(now_f),
+                        };
                         remote.to_controller.send(reply, now_f);
                     }
                     ToIo::Write { action } => {
                         io.write(remote.id, action, now_f)?;
                         if let Some(from) = last_writer.filter(|&w| w != remote.id) {
-                            run.handovers.push(Handover { at_s: t_s, from, to: remote.id });
+                            run.handovers.push(Handover {
+                                at_s: t_s,
+                                from,
+                                to: remote.id,
+                            });
                         }
                         last_writer = Some(remote.id);
                     }
@@ -305,7 +350,11 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
                 remote.to_controller.receive(now_f); // a host that is down reads nothing
                 continue;
             }
-            while remote.outstanding.front().is_some_and(|&sent| now - sent >= POLL_TIMEOUT_MS) {
+            while remote
+                .outstanding
+                .front()
+                .is_some_and(|&sent| now - sent >= POLL_TIMEOUT_MS)
+            {
                 remote.outstanding.pop_front();
                 remote.rcc.poll_timed_out();
             }
@@ -315,7 +364,11 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
                 remote.outstanding.push_back(now);
             }
             for reply in remote.to_controller.receive(now_f) {
-                let Some(position) = remote.outstanding.iter().position(|&sent| sent == reply.poll_sent_ms) else {
+                let Some(position) = remote
+                    .outstanding
+                    .iter()
+                    .position(|&sent| sent == reply.poll_sent_ms)
+                else {
                     continue; // answered after its timeout: already given up on
                 };
                 if position > 0 {
@@ -323,8 +376,13 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
                     remote.rcc.poll_timed_out();
                 }
                 remote.outstanding.drain(..=position);
-                let scan =
-                    remote.rcc.scan(&mut remote.pid, &reply.state, set_point(t_s), Some(reply.measurement), ts_s)?;
+                let scan = remote.rcc.scan(
+                    &mut remote.pid,
+                    &reply.state,
+                    set_point(t_s),
+                    Some(reply.measurement),
+                    ts_s,
+                )?;
                 if let Some(action) = scan.write {
                     remote.to_io.send(ToIo::Write { action }, now_f);
                 }
@@ -356,9 +414,24 @@ pub struct Figure11 {
 
 pub fn figure11() -> Result<Figure11, ControlError> {
     Ok(Figure11 {
-        no_failure: simulate(&FaultScenario::paper(Redundancy::Rcc { smooth_handover: true }, false))?,
-        rcc: simulate(&FaultScenario::paper(Redundancy::Rcc { smooth_handover: true }, true))?,
-        rcc_no_smooth_handover: simulate(&FaultScenario::paper(Redundancy::Rcc { smooth_handover: false }, true))?,
+        no_failure: simulate(&FaultScenario::paper(
+            Redundancy::Rcc {
+                smooth_handover: true,
+            },
+            false,
+        ))?,
+        rcc: simulate(&FaultScenario::paper(
+            Redundancy::Rcc {
+                smooth_handover: true,
+            },
+            true,
+        ))?,
+        rcc_no_smooth_handover: simulate(&FaultScenario::paper(
+            Redundancy::Rcc {
+                smooth_handover: false,
+            },
+            true,
+        ))?,
         no_redundancy: simulate(&FaultScenario::paper(Redundancy::PrimaryOnly, true))?,
     })
 }
@@ -394,7 +467,10 @@ pub fn event_bumps(run: &FaultRun, reference: &FaultRun) -> Vec<(f64, f64)> {
         .enumerate()
         .map(|(i, &at)| {
             let until = events.get(i + 1).copied().unwrap_or(f64::INFINITY);
-            (at, max_difference(&run.output, &reference.output, at, until))
+            (
+                at,
+                max_difference(&run.output, &reference.output, at, until),
+            )
         })
         .collect()
 }
@@ -444,7 +520,13 @@ pub struct Theorem3 {
 impl Theorem3 {
     /// The failure that added the most settling time, and how much.
     pub fn worst(&self) -> (f64, f64) {
-        self.sweep.iter().copied().fold((f64::NAN, f64::NEG_INFINITY), |w, p| if p.1 > w.1 { p } else { w })
+        self.sweep
+            .iter()
+            .copied()
+            .fold(
+                (f64::NAN, f64::NEG_INFINITY),
+                |w, p| if p.1 > w.1 { p } else { w },
+            )
     }
 }
 
@@ -466,12 +548,21 @@ pub fn theorem3(figure: &Figure11) -> Result<Theorem3, ControlError> {
         // One failure, no recovery within the run.
         let scenario = FaultScenario {
             failures: vec![(fail_at, Failure::LinkDown(PRIMARY))],
-            ..FaultScenario::paper(Redundancy::Rcc { smooth_handover: true }, true)
+            ..FaultScenario::paper(
+                Redundancy::Rcc {
+                    smooth_handover: true,
+                },
+                true,
+            )
         };
         sweep.push((fail_at, settling_s(&simulate(&scenario)?) - base));
         fail_at += SWEEP_STEP_S;
     }
-    let (rtt, threshold, ts) = (ROUND_TRIP_MS, ENGAGEMENT_THRESHOLDS_MS[BACKUP - 1], TS_MS as f64);
+    let (rtt, threshold, ts) = (
+        ROUND_TRIP_MS,
+        ENGAGEMENT_THRESHOLDS_MS[BACKUP - 1],
+        TS_MS as f64,
+    );
     Ok(Theorem3 {
         bound_s: theorem3_bound_s(rtt, threshold, ts),
         gap_bound_s: ((rtt + threshold) / ts).ceil() * ts / 1000.0,

@@ -48,7 +48,9 @@ impl Trace {
     pub fn peak_to_peak(&self, from_s: f64, to_s: f64) -> f64 {
         let (low, high) = self
             .window(from_s, to_s)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, v)| (lo.min(v), hi.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, v)| {
+                (lo.min(v), hi.max(v))
+            });
         if high >= low {
             high - low
         } else {
@@ -57,7 +59,9 @@ impl Trace {
     }
 
     pub fn mean(&self, from_s: f64, to_s: f64) -> f64 {
-        let (sum, count) = self.window(from_s, to_s).fold((0.0, 0usize), |(s, n), (_, v)| (s + v, n + 1));
+        let (sum, count) = self
+            .window(from_s, to_s)
+            .fold((0.0, 0usize), |(s, n), (_, v)| (s + v, n + 1));
         sum / count as f64
     }
 }
@@ -123,13 +127,22 @@ pub fn overshoot_pct(trace: &Trace, step: Step, final_value: f64) -> f64 {
     if change == 0.0 {
         return 0.0;
     }
-    let peak = trace.window(step.at_s, f64::INFINITY).map(|(_, v)| direction * (v - final_value)).fold(0.0, f64::max);
+    let peak = trace
+        .window(step.at_s, f64::INFINITY)
+        .map(|(_, v)| direction * (v - final_value))
+        .fold(0.0, f64::max);
     100.0 * peak / change
 }
 
 /// Time from the step to the last entry into `final_value ± band`; `None` if the
 /// output is outside the band anywhere in the last `tail_s` of the run.
-pub fn settling_time_s(trace: &Trace, step: Step, final_value: f64, band: f64, tail_s: f64) -> Option<f64> {
+pub fn settling_time_s(
+    trace: &Trace,
+    step: Step,
+    final_value: f64,
+    band: f64,
+    tail_s: f64,
+) -> Option<f64> {
     let outside = |v: f64| (v - final_value).abs() > band;
     let after: Vec<(f64, f64)> = trace.window(step.at_s, f64::INFINITY).collect();
     let last_out = after.iter().rposition(|&(_, v)| outside(v));
@@ -142,7 +155,9 @@ pub fn settling_time_s(trace: &Trace, step: Step, final_value: f64, band: f64, t
 
 /// Largest |a - b| over the window, comparing each sample of `a` with `b`'s value then.
 pub fn max_difference(a: &Trace, b: &Trace, from_s: f64, to_s: f64) -> f64 {
-    a.window(from_s, to_s).filter_map(|(t, va)| b.at(t).map(|vb| (va - vb).abs())).fold(0.0, f64::max)
+    a.window(from_s, to_s)
+        .filter_map(|(t, va)| b.at(t).map(|vb| (va - vb).abs()))
+        .fold(0.0, f64::max)
 }
 
 /// A response that neither settles nor creeps: over the last quarter of the

@@ -27,7 +27,10 @@ impl Rng {
             z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             z ^ (z >> 31)
         };
-        Self { state: [next(), next(), next(), next()], spare_normal: None }
+        Self {
+            state: [next(), next(), next(), next()],
+            spare_normal: None,
+        }
     }
 
     pub fn next_u64(&mut self) -> u64 {
@@ -79,7 +82,10 @@ pub const DS2_MAX_MS: f64 = 500.0;
 impl DelayDist {
     pub fn constant(ms: f64) -> Result<Self, ControlError> {
         if !(ms.is_finite() && ms >= 0.0) {
-            return Err(ControlError::config(format!("a constant delay must be a number of ms >= 0, got {ms}", ms = quote(ms))));
+            return Err(ControlError::config(format!(
+                "a constant delay must be a number of ms >= 0, got {ms}",
+                ms = quote(ms)
+            )));
         }
         Ok(Self::Constant { ms })
     }
@@ -178,7 +184,13 @@ impl SkewedDelay {
                 max_ms = quote(max_ms)
             )));
         }
-        Ok(Self { mean_ms, sd_ms, max_ms, log_mean, log_sd })
+        Ok(Self {
+            mean_ms,
+            sd_ms,
+            max_ms,
+            log_mean,
+            log_sd,
+        })
     }
 
     pub fn sample_ms(&self, rng: &mut Rng) -> f64 {
@@ -221,7 +233,8 @@ fn erfc(x: f64) -> f64 {
                 + t * (0.096_784_18
                     + t * (-0.186_288_06
                         + t * (0.278_868_07
-                            + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
     let value = t * poly.exp();
     if x >= 0.0 {
         value
@@ -256,7 +269,10 @@ impl FirstOrderProcess {
     /// Starts at rest at `initial_output`, as if the matching input had always been applied.
     pub fn new(params: FirstOrderParams, initial_output: f64) -> Result<Self, ControlError> {
         if !(params.gain.is_finite() && params.gain != 0.0) {
-            return Err(ControlError::config(format!("process gain must be a non-zero number, got {}", quote(params.gain))));
+            return Err(ControlError::config(format!(
+                "process gain must be a non-zero number, got {}",
+                quote(params.gain)
+            )));
         }
         positive(params.tau_s, "process time constant (s)")?;
         if !(params.dead_time_s.is_finite() && params.dead_time_s >= 0.0) {
@@ -265,8 +281,14 @@ impl FirstOrderProcess {
                 quote(params.dead_time_s)
             )));
         }
-        let output = finite(initial_output, "initial output").map_err(|e| ControlError::config(e.to_string()))?;
-        Ok(Self { params, output, elapsed_s: 0.0, inputs: VecDeque::from([(f64::NEG_INFINITY, output / params.gain)]) })
+        let output = finite(initial_output, "initial output")
+            .map_err(|e| ControlError::config(e.to_string()))?;
+        Ok(Self {
+            params,
+            output,
+            elapsed_s: 0.0,
+            inputs: VecDeque::from([(f64::NEG_INFINITY, output / params.gain)]),
+        })
     }
 
     pub fn params(&self) -> FirstOrderParams {
@@ -283,9 +305,16 @@ impl FirstOrderProcess {
         let input = finite(input, "process input")?;
         let disturbance = finite(disturbance, "disturbance")?;
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(ControlError::input(format!("a process step must last > 0 s, got {dt_s}", dt_s = quote(dt_s))));
+            return Err(ControlError::input(format!(
+                "a process step must last > 0 s, got {dt_s}",
+                dt_s = quote(dt_s)
+            )));
         }
-        let FirstOrderParams { gain, tau_s, dead_time_s } = self.params;
+        let FirstOrderParams {
+            gain,
+            tau_s,
+            dead_time_s,
+        } = self.params;
         if self.inputs.back().is_none_or(|&(_, last)| last != input) {
             self.inputs.push_back((self.elapsed_s, input));
         }
@@ -293,10 +322,15 @@ impl FirstOrderProcess {
         let mut t = self.elapsed_s;
         while t < end {
             let source = t - dead_time_s;
-            let active = self.inputs.partition_point(|&(start, _)| start <= source + TIME_EPSILON_S);
+            let active = self
+                .inputs
+                .partition_point(|&(start, _)| start <= source + TIME_EPSILON_S);
             // The first entry starts at -∞, so `active` >= 1.
             let held = self.inputs[active - 1].1;
-            let segment_end = self.inputs.get(active).map_or(end, |&(start, _)| (start + dead_time_s).min(end));
+            let segment_end = self
+                .inputs
+                .get(active)
+                .map_or(end, |&(start, _)| (start + dead_time_s).min(end));
             let target = gain * (held + disturbance);
             self.output = target + (self.output - target) * (-(segment_end - t) / tau_s).exp();
             t = segment_end;
@@ -324,7 +358,13 @@ pub struct Link<T> {
 
 impl<T> Link<T> {
     pub fn new(delay: DelayDist, seed: u64) -> Self {
-        Self { delay, rng: Rng::new(seed), up: true, in_flight: VecDeque::new(), last_delivery_ms: f64::NEG_INFINITY }
+        Self {
+            delay,
+            rng: Rng::new(seed),
+            up: true,
+            in_flight: VecDeque::new(),
+            last_delivery_ms: f64::NEG_INFINITY,
+        }
     }
 
     pub fn delay(&self) -> &DelayDist {
@@ -367,7 +407,10 @@ impl<T> Link<T> {
     /// Every packet delivered by `now_ms`, oldest first.
     pub fn receive(&mut self, now_ms: f64) -> Vec<T> {
         let delivered = self.in_flight.partition_point(|&(at, _)| at <= now_ms);
-        self.in_flight.drain(..delivered).map(|(_, packet)| packet).collect()
+        self.in_flight
+            .drain(..delivered)
+            .map(|(_, packet)| packet)
+            .collect()
     }
 
     /// The newest packet delivered by `now_ms`: a receiver that writes each one to
@@ -400,7 +443,10 @@ pub struct FailureSchedule {
 impl FailureSchedule {
     pub fn new(mut events: Vec<(f64, Failure)>) -> Result<Self, ControlError> {
         if let Some((at, _)) = events.iter().find(|(at, _)| !at.is_finite()) {
-            return Err(ControlError::config(format!("a failure time must be a number of ms, got {at}", at = quote(at))));
+            return Err(ControlError::config(format!(
+                "a failure time must be a number of ms, got {at}",
+                at = quote(at)
+            )));
         }
         // Stable: events at the same time keep the order given.
         events.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -417,7 +463,10 @@ impl FailureSchedule {
         while self.next < self.events.len() && self.events[self.next].0 <= now_ms {
             self.next += 1;
         }
-        self.events[start..self.next].iter().map(|&(_, event)| event).collect()
+        self.events[start..self.next]
+            .iter()
+            .map(|&(_, event)| event)
+            .collect()
     }
 
     pub fn controller_up(&self, id: usize, at_ms: f64) -> bool {
@@ -499,14 +548,29 @@ mod tests {
             let draws: Vec<f64> = (0..200_000).map(|_| dist.sample_ms(&mut rng)).collect();
             let (mean, sd) = mean_and_sd(&draws);
             let (mu, sigma, max) = (100.0 * scale, 70.0 * scale, 500.0 * scale);
-            assert!(((mean - mu) / mu).abs() < 0.015, "scale {scale}: mean {mean} vs {mu}");
-            assert!(((sd - sigma) / sigma).abs() < 0.03, "scale {scale}: sd {sd} vs {sigma}");
-            assert!(draws.iter().all(|&d| d > 0.0 && d <= max), "scale {scale}: a draw outside (0, {max}]");
+            assert!(
+                ((mean - mu) / mu).abs() < 0.015,
+                "scale {scale}: mean {mean} vs {mu}"
+            );
+            assert!(
+                ((sd - sigma) / sigma).abs() < 0.03,
+                "scale {scale}: sd {sd} vs {sigma}"
+            );
+            assert!(
+                draws.iter().all(|&d| d > 0.0 && d <= max),
+                "scale {scale}: a draw outside (0, {max}]"
+            );
             let mut sorted = draws.clone();
             sorted.sort_by(f64::total_cmp);
             let median = sorted[sorted.len() / 2];
-            assert!(median < mean, "right-skewed: median {median} under mean {mean}");
-            assert!(sorted[sorted.len() * 999 / 1000] > 3.0 * mu, "a long tail reaches far past the mean");
+            assert!(
+                median < mean,
+                "right-skewed: median {median} under mean {mean}"
+            );
+            assert!(
+                sorted[sorted.len() * 999 / 1000] > 3.0 * mu,
+                "a long tail reaches far past the mean"
+            );
         }
     }
 
@@ -517,7 +581,10 @@ mod tests {
         let (mu, sigma, max) = (1000.0, 700.0, 4000.0);
         let (log_mean, log_sd) = lognormal_parameters(mu, sigma);
         let (_, naive_sd, _) = truncated_moments(log_mean, log_sd, max);
-        assert!(naive_sd < 0.92 * sigma, "the cap alone shrinks the sd: {naive_sd}");
+        assert!(
+            naive_sd < 0.92 * sigma,
+            "the cap alone shrinks the sd: {naive_sd}"
+        );
         let dist = DelayDist::skewed(mu, sigma, max).unwrap();
         let mut rng = Rng::new(1);
         let draws: Vec<f64> = (0..200_000).map(|_| dist.sample_ms(&mut rng)).collect();
@@ -535,15 +602,33 @@ mod tests {
             (100.0, 70.0, f64::NAN),
             (100.0, 500.0, 700.0),
         ] {
-            assert_eq!(DelayDist::skewed(mean, sd, max).unwrap_err().code(), "INVALID_CONFIG", "{mean} {sd} {max}");
+            assert_eq!(
+                DelayDist::skewed(mean, sd, max).unwrap_err().code(),
+                "INVALID_CONFIG",
+                "{mean} {sd} {max}"
+            );
         }
-        assert_eq!(DelayDist::constant(-1.0).unwrap_err().code(), "INVALID_CONFIG");
+        assert_eq!(
+            DelayDist::constant(-1.0).unwrap_err().code(),
+            "INVALID_CONFIG"
+        );
         let mut rng = Rng::new(0);
-        assert_eq!(DelayDist::constant(100.0).unwrap().sample_ms(&mut rng), 100.0);
+        assert_eq!(
+            DelayDist::constant(100.0).unwrap().sample_ms(&mut rng),
+            100.0
+        );
     }
 
     fn process(dead_time_s: f64) -> FirstOrderProcess {
-        FirstOrderProcess::new(FirstOrderParams { gain: 2.0, tau_s: 3.0, dead_time_s }, 0.0).unwrap()
+        FirstOrderProcess::new(
+            FirstOrderParams {
+                gain: 2.0,
+                tau_s: 3.0,
+                dead_time_s,
+            },
+            0.0,
+        )
+        .unwrap()
     }
 
     #[test]
@@ -554,7 +639,10 @@ mod tests {
         while t < 0.35 - 1e-9 {
             let y = p.step(1.0, 0.0, 0.05).unwrap();
             t += 0.05;
-            assert!(y.abs() < 1e-12, "nothing reaches the output within the dead time (t = {t})");
+            assert!(
+                y.abs() < 1e-12,
+                "nothing reaches the output within the dead time (t = {t})"
+            );
         }
         // θ + τ = 3.35 s = 67 steps of 0.05 s.
         let mut p = process(0.35);
@@ -583,7 +671,11 @@ mod tests {
             p.output()
         };
         let coarse = run(0.3);
-        assert!((coarse - run(0.01)).abs() < 1e-9, "{coarse} vs {}", run(0.01));
+        assert!(
+            (coarse - run(0.01)).abs() < 1e-9,
+            "{coarse} vs {}",
+            run(0.01)
+        );
         assert!((coarse - run(0.6)).abs() < 1e-9);
     }
 
@@ -597,18 +689,47 @@ mod tests {
 
     #[test]
     fn starts_at_rest_and_refuses_bad_parameters() {
-        let mut p = FirstOrderProcess::new(FirstOrderParams { gain: 0.5, tau_s: 1.0, dead_time_s: 1.0 }, 0.69).unwrap();
+        let mut p = FirstOrderProcess::new(
+            FirstOrderParams {
+                gain: 0.5,
+                tau_s: 1.0,
+                dead_time_s: 1.0,
+            },
+            0.69,
+        )
+        .unwrap();
         for _ in 0..50 {
-            assert!((p.step(1.38, 0.0, 0.01).unwrap() - 0.69).abs() < 1e-12, "held input keeps it at rest");
+            assert!(
+                (p.step(1.38, 0.0, 0.01).unwrap() - 0.69).abs() < 1e-12,
+                "held input keeps it at rest"
+            );
         }
         for params in [
-            FirstOrderParams { gain: 0.0, tau_s: 1.0, dead_time_s: 0.0 },
-            FirstOrderParams { gain: 1.0, tau_s: 0.0, dead_time_s: 0.0 },
-            FirstOrderParams { gain: 1.0, tau_s: 1.0, dead_time_s: -1.0 },
+            FirstOrderParams {
+                gain: 0.0,
+                tau_s: 1.0,
+                dead_time_s: 0.0,
+            },
+            FirstOrderParams {
+                gain: 1.0,
+                tau_s: 0.0,
+                dead_time_s: 0.0,
+            },
+            FirstOrderParams {
+                gain: 1.0,
+                tau_s: 1.0,
+                dead_time_s: -1.0,
+            },
         ] {
-            assert_eq!(FirstOrderProcess::new(params, 0.0).unwrap_err().code(), "INVALID_CONFIG");
+            assert_eq!(
+                FirstOrderProcess::new(params, 0.0).unwrap_err().code(),
+                "INVALID_CONFIG"
+            );
         }
-        assert_eq!(p.step(f64::NAN, 0.0, 0.1).unwrap_err().code(), "INVALID_INPUT");
+        assert_eq!(
+            p.step(f64::NAN, 0.0, 0.1).unwrap_err().code(),
+            "INVALID_INPUT"
+        );
         assert_eq!(p.step(1.0, 0.0, 0.0).unwrap_err().code(), "INVALID_INPUT");
     }
 
@@ -616,10 +737,18 @@ mod tests {
     fn a_late_packet_holds_back_the_ones_behind_it_and_the_batch_keeps_the_last() {
         let mut link = Link::new(DelayDist::constant(0.0).unwrap(), 0);
         assert_eq!(link.send_with_delay("a", 0.0, 500.0), Some(500.0));
-        assert_eq!(link.send_with_delay("b", 10.0, 50.0), Some(500.0), "b waits for a");
+        assert_eq!(
+            link.send_with_delay("b", 10.0, 50.0),
+            Some(500.0),
+            "b waits for a"
+        );
         assert_eq!(link.send_with_delay("c", 20.0, 600.0), Some(620.0));
         assert_eq!(link.receive_latest(499.0), None);
-        assert_eq!(link.receive_latest(500.0), Some("b"), "a and b arrive together; b is written last");
+        assert_eq!(
+            link.receive_latest(500.0),
+            Some("b"),
+            "a and b arrive together; b is written last"
+        );
         assert_eq!(link.receive(619.0), Vec::<&str>::new());
         assert_eq!(link.receive(620.0), vec!["c"]);
     }
@@ -638,8 +767,15 @@ mod tests {
             received.extend(batch);
         }
         assert!(received.windows(2).all(|w| w[0] < w[1]), "in order");
-        assert!(received.len() > 600, "most packets arrived: {}", received.len());
-        assert!(batches > 10, "delays this variable make packets bunch up: {batches} batches");
+        assert!(
+            received.len() > 600,
+            "most packets arrived: {}",
+            received.len()
+        );
+        assert!(
+            batches > 10,
+            "delays this variable make packets bunch up: {batches} batches"
+        );
     }
 
     #[test]
@@ -650,7 +786,11 @@ mod tests {
         assert_eq!(link.send(2, 50.0), None);
         assert_eq!(link.receive(1000.0), Vec::<i32>::new());
         link.set_up(true);
-        assert_eq!(link.send(3, 1000.0), Some(1100.0), "a new connection waits for nothing old");
+        assert_eq!(
+            link.send(3, 1000.0),
+            Some(1100.0),
+            "a new connection waits for nothing old"
+        );
         assert_eq!(link.receive(1100.0), vec![3]);
     }
 
@@ -658,7 +798,9 @@ mod tests {
     fn the_same_seed_gives_the_same_delivery_times() {
         let deliveries = |seed| {
             let mut link = Link::new(DelayDist::ds2_scaled(10.0).unwrap(), seed);
-            (0..100).map(|k| link.send((), f64::from(k) * 300.0).unwrap()).collect::<Vec<_>>()
+            (0..100)
+                .map(|k| link.send((), f64::from(k) * 300.0).unwrap())
+                .collect::<Vec<_>>()
         };
         assert_eq!(deliveries(5), deliveries(5));
         assert_ne!(deliveries(5), deliveries(6));
@@ -679,9 +821,21 @@ mod tests {
         assert!(!schedule.controller_up(2, 90_000.0), "never recovered");
         assert!(schedule.controller_up(1, 90_000.0));
         assert_eq!(schedule.due(10_000.0), vec![]);
-        assert_eq!(schedule.due(60_000.0), vec![Failure::LinkDown(1), Failure::ControllerDown(2)]);
-        assert_eq!(schedule.due(60_000.0), vec![], "each event is reported once");
+        assert_eq!(
+            schedule.due(60_000.0),
+            vec![Failure::LinkDown(1), Failure::ControllerDown(2)]
+        );
+        assert_eq!(
+            schedule.due(60_000.0),
+            vec![],
+            "each event is reported once"
+        );
         assert_eq!(schedule.due(1e9), vec![Failure::LinkUp(1)]);
-        assert_eq!(FailureSchedule::new(vec![(f64::NAN, Failure::LinkUp(0))]).unwrap_err().code(), "INVALID_CONFIG");
+        assert_eq!(
+            FailureSchedule::new(vec![(f64::NAN, Failure::LinkUp(0))])
+                .unwrap_err()
+                .code(),
+            "INVALID_CONFIG"
+        );
     }
 }

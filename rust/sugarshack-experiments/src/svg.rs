@@ -20,8 +20,18 @@ pub struct Series {
 }
 
 impl Series {
-    pub fn new(label: impl Into<String>, points: Vec<(f64, f64)>, color: &'static str, stroke: Stroke) -> Self {
-        Self { label: label.into(), points, color, stroke }
+    pub fn new(
+        label: impl Into<String>,
+        points: Vec<(f64, f64)>,
+        color: &'static str,
+        stroke: Stroke,
+    ) -> Self {
+        Self {
+            label: label.into(),
+            points,
+            color,
+            stroke,
+        }
     }
 }
 
@@ -50,17 +60,32 @@ pub const COLORS: [&str; 5] = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#555
 
 impl Plot {
     pub fn to_svg(&self) -> String {
-        let (x_min, x_max) =
-            self.x_range.unwrap_or_else(|| extent(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0))));
+        let (x_min, x_max) = self.x_range.unwrap_or_else(|| {
+            extent(
+                self.series
+                    .iter()
+                    .flat_map(|s| s.points.iter().map(|p| p.0)),
+            )
+        });
         let (y_min, y_max) = self.y_range.unwrap_or_else(|| {
-            let (lo, hi) = extent(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+            let (lo, hi) = extent(
+                self.series
+                    .iter()
+                    .flat_map(|s| s.points.iter().map(|p| p.1)),
+            );
             let pad = (hi - lo) * 0.05;
             (lo - pad, hi + pad)
         });
         let x_ticks = nice_ticks(x_min, x_max, 10);
         let y_ticks = nice_ticks(y_min, y_max, 8);
-        let (x_min, x_max) = (x_min.min(x_ticks[0]), x_max.max(*x_ticks.last().unwrap_or(&x_max)));
-        let (y_min, y_max) = (y_min.min(y_ticks[0]), y_max.max(*y_ticks.last().unwrap_or(&y_max)));
+        let (x_min, x_max) = (
+            x_min.min(x_ticks[0]),
+            x_max.max(*x_ticks.last().unwrap_or(&x_max)),
+        );
+        let (y_min, y_max) = (
+            y_min.min(y_ticks[0]),
+            y_max.max(*y_ticks.last().unwrap_or(&y_max)),
+        );
         let plot_w = WIDTH - LEFT - RIGHT;
         let plot_h = HEIGHT - TOP - BOTTOM;
         let sx = |x: f64| LEFT + (x - x_min) / (x_max - x_min) * plot_w;
@@ -71,7 +96,10 @@ impl Plot {
             out,
             r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" viewBox="0 0 {WIDTH} {HEIGHT}" font-family="Helvetica, Arial, sans-serif" font-size="12">"#
         );
-        let _ = writeln!(out, r#"<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>"#);
+        let _ = writeln!(
+            out,
+            r#"<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>"#
+        );
         let _ = writeln!(
             out,
             r#"<text x="{}" y="22" text-anchor="middle" font-size="14">{}</text>"#,
@@ -178,8 +206,11 @@ fn dash(stroke: Stroke) -> &'static str {
 }
 
 fn extent(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) =
-        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     match (lo.is_finite(), hi > lo) {
         (true, true) => (lo, hi),
         (true, false) => (lo - 1.0, lo + 1.0),
@@ -192,7 +223,11 @@ pub fn nice_ticks(min: f64, max: f64, target: usize) -> Vec<f64> {
     let span = (max - min).abs().max(f64::MIN_POSITIVE);
     let raw = span / target.max(1) as f64;
     let magnitude = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * magnitude).find(|s| *s >= raw).unwrap_or(10.0 * magnitude);
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * magnitude)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * magnitude);
     let first = (min / step).floor() as i64;
     let last = (max / step).ceil() as i64;
     (first..=last).map(|k| k as f64 * step).collect()
@@ -208,5 +243,8 @@ fn tick_label(value: f64) -> String {
 }
 
 fn escape(text: &str) -> String {
-    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

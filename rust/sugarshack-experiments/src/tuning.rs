@@ -10,7 +10,10 @@ pub struct PiTuning {
 /// The rule for a first-order process with dead time as the controller sees it
 /// (gain K, time constant τ, apparent dead time L): kp = 0.9·τ/(K·L), ti = L/0.3.
 pub fn ziegler_nichols_pi(gain: f64, tau_s: f64, dead_time_s: f64) -> PiTuning {
-    PiTuning { kp: 0.9 * tau_s / (gain * dead_time_s), ti_s: dead_time_s / 0.3 }
+    PiTuning {
+        kp: 0.9 * tau_s / (gain * dead_time_s),
+        ti_s: dead_time_s / 0.3,
+    }
 }
 
 /// The dead time a sampled remote loop adds to the process: the round trip from

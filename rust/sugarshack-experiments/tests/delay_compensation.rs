@@ -6,8 +6,8 @@ use std::sync::OnceLock;
 use sugarshack_experiments::metrics::SETTLING_BAND;
 
 use sugarshack_experiments::delay_compensation::{
-    self as dc, simulate, CaseResults, Compensation, DelayCase, Table3, DS2_SCALES, PAPER_DEAD_TIME_SAMPLES, SEEDS,
-    UNIT_STEP,
+    self as dc, simulate, CaseResults, Compensation, DelayCase, Table3, DS2_SCALES,
+    PAPER_DEAD_TIME_SAMPLES, SEEDS, UNIT_STEP,
 };
 
 /// A Smith predictor with an exact model gives the no-delay response, only
@@ -39,9 +39,16 @@ fn the_fixed_setting_follows_the_papers_formula() {
         let samples = dc::fixed_dead_time_samples(scale).unwrap();
         let (mu, sigma) = (0.1 * scale, 0.07 * scale);
         let exact = (mu + 3.0 * sigma) / 0.3;
-        assert!(samples as f64 <= exact + 1e-9 && exact < samples as f64 + 1.0, "floor of {exact}");
+        assert!(
+            samples as f64 <= exact + 1e-9 && exact < samples as f64 + 1.0,
+            "floor of {exact}"
+        );
         // Table 3 lists 10, 20, 30, 40: the last two are (μ + 3σ)/Ts = 31 and 41.3 rounded down to tens.
-        assert!(samples.abs_diff(PAPER_DEAD_TIME_SAMPLES[i]) <= 1, "{samples} vs {}", PAPER_DEAD_TIME_SAMPLES[i]);
+        assert!(
+            samples.abs_diff(PAPER_DEAD_TIME_SAMPLES[i]) <= 1,
+            "{samples} vs {}",
+            PAPER_DEAD_TIME_SAMPLES[i]
+        );
     }
 }
 
@@ -59,9 +66,17 @@ fn compensated_runs_all_settle_on_the_set_point_with_near_zero_typical_overshoot
     for (i, scale) in DS2_SCALES.iter().enumerate() {
         for compensation in [Compensation::Fixed, Compensation::Adaptive] {
             let c = case(i, compensation);
-            assert_eq!(c.unsettled_runs(), 0, "{} at scale {scale}", compensation.label());
+            assert_eq!(
+                c.unsettled_runs(),
+                0,
+                "{} at scale {scale}",
+                compensation.label()
+            );
             for (seed, _, m) in &c.runs {
-                assert!(m.steady_state_error.abs() < 0.1 * UNIT_STEP.band(), "seed {seed}: {m:?}");
+                assert!(
+                    m.steady_state_error.abs() < 0.1 * UNIT_STEP.band(),
+                    "seed {seed}: {m:?}"
+                );
             }
             let median = c.median_overshoot_pct();
             let limit = zero_delay_overshoot_pct() + NEAR_ZERO_EXTRA_OVERSHOOT_PCT;
@@ -94,23 +109,41 @@ fn the_worst_compensated_run_beats_the_best_uncompensated_one() {
 
 #[test]
 fn uncompensated_overshoot_grows_with_the_delay_and_exceeds_the_band() {
-    let medians: Vec<f64> = (0..DS2_SCALES.len()).map(|i| case(i, Compensation::None).median_overshoot_pct()).collect();
+    let medians: Vec<f64> = (0..DS2_SCALES.len())
+        .map(|i| case(i, Compensation::None).median_overshoot_pct())
+        .collect();
     // Grows while the PI alone still settles; once it swings between the
     // valve's limits the peak measures the limits, not the delay.
-    let settling = (0..DS2_SCALES.len()).take_while(|&i| case(i, Compensation::None).unsettled_runs() == 0).count();
+    let settling = (0..DS2_SCALES.len())
+        .take_while(|&i| case(i, Compensation::None).unsettled_runs() == 0)
+        .count();
     assert!(settling >= 2, "the PI alone settles at the smaller delays");
-    assert!(medians[..settling].windows(2).all(|w| w[1] > w[0]), "{medians:?}");
-    assert!(medians[0] > zero_delay_overshoot_pct() + NEAR_ZERO_EXTRA_OVERSHOOT_PCT, "{medians:?}");
+    assert!(
+        medians[..settling].windows(2).all(|w| w[1] > w[0]),
+        "{medians:?}"
+    );
+    assert!(
+        medians[0] > zero_delay_overshoot_pct() + NEAR_ZERO_EXTRA_OVERSHOOT_PCT,
+        "{medians:?}"
+    );
     // From (2, 1.4, 10) on the round trip is about the process's time constant
     // or longer: the PI alone overshoots past the whole settling band.
-    assert!(medians[1..].iter().all(|&m| m > 100.0 * SETTLING_BAND), "{medians:?}");
+    assert!(
+        medians[1..].iter().all(|&m| m > 100.0 * SETTLING_BAND),
+        "{medians:?}"
+    );
 }
 
 #[test]
 fn at_the_largest_delay_most_uncompensated_runs_never_settle() {
     let largest = DS2_SCALES.len() - 1;
     let c = case(largest, Compensation::None);
-    assert!(c.unsettled_runs() > c.runs.len() / 2, "{} of {} unsettled", c.unsettled_runs(), c.runs.len());
+    assert!(
+        c.unsettled_runs() > c.runs.len() / 2,
+        "{} of {} unsettled",
+        c.unsettled_runs(),
+        c.runs.len()
+    );
     assert!(c.unstable_runs() > 0, "some keep swinging to the end");
 }
 
@@ -118,20 +151,29 @@ fn at_the_largest_delay_most_uncompensated_runs_never_settle() {
 fn adaptive_dead_time_tracks_the_measured_round_trips() {
     let medians: Vec<usize> = (0..DS2_SCALES.len())
         .map(|i| {
-            let mut d: Vec<usize> =
-                case(i, Compensation::Adaptive).runs.iter().map(|(_, r, _)| r.dead_time_at_step).collect();
+            let mut d: Vec<usize> = case(i, Compensation::Adaptive)
+                .runs
+                .iter()
+                .map(|(_, r, _)| r.dead_time_at_step)
+                .collect();
             d.sort_unstable();
             d[d.len() / 2]
         })
         .collect();
-    assert!(medians.windows(2).all(|w| w[1] > w[0]), "D_c grows with the delay: {medians:?}");
+    assert!(
+        medians.windows(2).all(|w| w[1] > w[0]),
+        "D_c grows with the delay: {medians:?}"
+    );
     // Once delays spread over several samples, in-order delivery holds packets
     // behind late ones, so the round trips measured exceed the drawn ones (μ).
     for (i, scale) in DS2_SCALES.iter().enumerate().skip(1) {
         let drawn_mean_ms = 100.0 * scale;
         for (seed, run, _) in &case(i, Compensation::Adaptive).runs {
             let mean = run.round_trips_ms.iter().sum::<f64>() / run.round_trips_ms.len() as f64;
-            assert!(mean > drawn_mean_ms, "scale {scale}, seed {seed}: measured {mean} ms");
+            assert!(
+                mean > drawn_mean_ms,
+                "scale {scale}, seed {seed}: measured {mean} ms"
+            );
         }
     }
 }

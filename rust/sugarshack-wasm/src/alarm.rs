@@ -66,7 +66,12 @@ impl Alarms {
             ));
         }
         let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
-        to_js(&self.core.acknowledge(ids.as_deref(), &who, now).map_err(core_error)?)
+        to_js(
+            &self
+                .core
+                .acknowledge(ids.as_deref(), &who, now)
+                .map_err(core_error)?,
+        )
     }
 
     pub fn shelve(

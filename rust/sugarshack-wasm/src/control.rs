@@ -31,9 +31,12 @@ fn kind(value: &JsValue) -> String {
 /// A number argument: a JS number, never null, a string or a boolean coerced into one.
 /// Whether it may be NaN or infinite is the core's to say.
 fn number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
-    value
-        .as_f64()
-        .ok_or_else(|| js_error(Code::InvalidInput, &format!("{what} must be a number, got {}", kind(value))))
+    value.as_f64().ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!("{what} must be a number, got {}", kind(value)),
+        )
+    })
 }
 
 /// A number that must also be finite (where the core takes any f64 without a check).
@@ -186,8 +189,17 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setTunings)]
-    pub fn set_tunings(&mut self, kp: JsValue, ti_s: JsValue, td_s: JsValue) -> Result<(), JsValue> {
-        let (kp, ti_s, td_s) = (number(&kp, "kp")?, number(&ti_s, "ti (s)")?, number(&td_s, "td (s)")?);
+    pub fn set_tunings(
+        &mut self,
+        kp: JsValue,
+        ti_s: JsValue,
+        td_s: JsValue,
+    ) -> Result<(), JsValue> {
+        let (kp, ti_s, td_s) = (
+            number(&kp, "kp")?,
+            number(&ti_s, "ti (s)")?,
+            number(&td_s, "td (s)")?,
+        );
         self.core
             .pid_mut()
             .set_tunings(kp, ti_s, td_s)
@@ -196,7 +208,10 @@ impl PidLoop {
 
     #[wasm_bindgen(js_name = setLimits)]
     pub fn set_limits(&mut self, out_min: JsValue, out_max: JsValue) -> Result<(), JsValue> {
-        let (out_min, out_max) = (number(&out_min, "output min")?, number(&out_max, "output max")?);
+        let (out_min, out_max) = (
+            number(&out_min, "output min")?,
+            number(&out_max, "output max")?,
+        );
         self.core
             .pid_mut()
             .set_limits(out_min, out_max)
@@ -400,8 +415,15 @@ pub struct PidStation {
 impl PidStation {
     #[wasm_bindgen(constructor)]
     pub fn new(config: JsValue) -> Result<PidStation, JsValue> {
-        let config: StationConfig = from_js_bounded(config, Code::InvalidConfig, "PID configuration", Bound::Control)?;
-        Station::new(config).map(|core| PidStation { core }).map_err(control_error)
+        let config: StationConfig = from_js_bounded(
+            config,
+            Code::InvalidConfig,
+            "PID configuration",
+            Bound::Control,
+        )?;
+        Station::new(config)
+            .map(|core| PidStation { core })
+            .map_err(control_error)
     }
 
     /// A sample: `measurement` undefined, null or NaN is a bad one (the fallback
@@ -463,7 +485,9 @@ impl PidStation {
     #[wasm_bindgen(js_name = observeRoundTrip)]
     pub fn observe_round_trip(&mut self, round_trip_ms: JsValue) -> Result<(), JsValue> {
         let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
-        self.core.observe_round_trip(round_trip_ms).map_err(control_error)
+        self.core
+            .observe_round_trip(round_trip_ms)
+            .map_err(control_error)
     }
 
     #[wasm_bindgen(js_name = delayEstimate)]

@@ -1,12 +1,12 @@
 use std::collections::HashMap;
 
 use serde::Serialize;
+use sugarshack_core::clearance::{Attribution, LineBlockers};
 use sugarshack_core::code::Code;
 use sugarshack_core::interlock::{
     FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
     Snapshot,
 };
-use sugarshack_core::clearance::{Attribution, LineBlockers};
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};

@@ -302,8 +302,11 @@ fn plant_document_errors_name_their_entry() {
         message_of(&err),
         "invalid plant document: actuators[1]: missing field `lockout`"
     );
-    let text = PLANT.replace(r#", "lockout": 0 }
-    ]"#, " }\n    ]");
+    let text = PLANT.replace(
+        r#", "lockout": 0 }
+    ]"#,
+        " }\n    ]",
+    );
     let err = Tracker::new(JsValue::from_str(&text), 0.0).err().unwrap();
     assert!(
         message_of(&err).starts_with(
@@ -411,7 +414,10 @@ fn a_non_finite_number_is_refused_where_it_stands_not_taken_for_absent() {
     ))
     .unwrap();
     let err = rcc
-        .decide(js("return { lastAction: 1, agesMs: [Infinity, 3] };"), JsValue::UNDEFINED)
+        .decide(
+            js("return { lastAction: 1, agesMs: [Infinity, 3] };"),
+            JsValue::UNDEFINED,
+        )
         .unwrap_err();
     assert_eq!(code_of(&err), "INVALID_INPUT");
     assert!(
@@ -477,7 +483,10 @@ fn deep_rcc_states_and_configs_are_refused_and_the_controller_carries_on() {
     let decision = rcc.decide(json(state), JsValue::UNDEFINED).unwrap();
     assert_eq!(get(&decision, "engaged").as_bool(), Some(false));
     let big = js("return { lastAction: 1, agesMs: new Array(40000).fill(1) };");
-    assert_eq!(code_of(&rcc.decide(big, JsValue::UNDEFINED).unwrap_err()), "INPUT_TOO_LARGE");
+    assert_eq!(
+        code_of(&rcc.decide(big, JsValue::UNDEFINED).unwrap_err()),
+        "INPUT_TOO_LARGE"
+    );
 }
 
 #[wasm_bindgen_test]

@@ -133,7 +133,10 @@ fn core_errors_become_js_errors_with_codes_and_clear_messages() {
         code_of(lock.acquire(op, 1, yel, f64::NAN).unwrap_err()),
         "INVALID_TIME"
     );
-    assert_eq!(code_of(lock.clear(yel, None, None, false, 0.0).unwrap_err()), "NOT_FAULTED");
+    assert_eq!(
+        code_of(lock.clear(yel, None, None, false, 0.0).unwrap_err()),
+        "NOT_FAULTED"
+    );
     lock.acquire(op, 1, yel, 0.0).unwrap();
     let err = lock.acquire(op, 1, yel, 0.0).unwrap_err();
     assert!(message_of(&err).contains("C1"));
@@ -506,7 +509,11 @@ fn numeric_calls_answer_as_acquire_and_release_and_keep_the_refusal() {
     assert_eq!(code_of(lock.take_error()), "UNKNOWN_OPERATION");
     assert_eq!(lock.acquire_code(load, 1, 999, 2.0), -1);
     assert_eq!(code_of(lock.take_error()), "UNKNOWN_RESOURCE_SET");
-    assert_eq!(lock.acquire_code(load, 1, yel, f64::NAN), -1, "a time that is not finite");
+    assert_eq!(
+        lock.acquire_code(load, 1, yel, f64::NAN),
+        -1,
+        "a time that is not finite"
+    );
     lock.take_error();
 
     assert_eq!(lock.release_code(load, 3.0), 1.0, "the waiter is granted");

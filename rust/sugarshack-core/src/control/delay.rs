@@ -2,8 +2,8 @@
 //! variance, and the compensator's dead time D_c = floor((D + h·sqrt V) / Ts),
 //! which follows a change of delay without overreacting to a single spike.
 
-use crate::text::quote;
 use super::error::{positive, ControlError};
+use crate::text::quote;
 
 /// Longest round trip taken (a day): beyond it a sample is an error, and one
 /// absurd value could otherwise hold the variance at infinity for ever.
@@ -23,12 +23,23 @@ impl DelayEstimator {
     /// deviations above the mean the dead time covers.
     pub fn new(alpha: f64, h: f64) -> Result<Self, ControlError> {
         if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
-            return Err(ControlError::config(format!("delay estimator alpha must be in (0, 1], got {alpha}", alpha = quote(alpha))));
+            return Err(ControlError::config(format!(
+                "delay estimator alpha must be in (0, 1], got {alpha}",
+                alpha = quote(alpha)
+            )));
         }
         if !(h.is_finite() && h >= 0.0) {
-            return Err(ControlError::config(format!("delay estimator h must be a number >= 0, got {h}", h = quote(h))));
+            return Err(ControlError::config(format!(
+                "delay estimator h must be a number >= 0, got {h}",
+                h = quote(h)
+            )));
         }
-        Ok(Self { alpha, h, mean_ms: None, variance_ms2: 0.0 })
+        Ok(Self {
+            alpha,
+            h,
+            mean_ms: None,
+            variance_ms2: 0.0,
+        })
     }
 
     /// Takes one measured round trip, in ms.
@@ -44,7 +55,8 @@ impl DelayEstimator {
             None => self.mean_ms = Some(round_trip_ms),
             Some(previous) => {
                 let mean = a * round_trip_ms + (1.0 - a) * previous;
-                self.variance_ms2 = a * (round_trip_ms - mean).powi(2) + (1.0 - a) * self.variance_ms2;
+                self.variance_ms2 =
+                    a * (round_trip_ms - mean).powi(2) + (1.0 - a) * self.variance_ms2;
                 self.mean_ms = Some(mean);
             }
         }
@@ -64,7 +76,9 @@ impl DelayEstimator {
     /// Dead time in whole samples of `ts_ms`; 0 before any round trip was seen.
     pub fn dead_time_samples(&self, ts_ms: f64) -> Result<usize, ControlError> {
         let ts_ms = positive(ts_ms, "sampling period (ms)")?;
-        let Some(mean) = self.mean_ms else { return Ok(0) };
+        let Some(mean) = self.mean_ms else {
+            return Ok(0);
+        };
         Ok(((mean + self.h * self.variance_ms2.sqrt()) / ts_ms).floor() as usize)
     }
 }
@@ -95,14 +109,30 @@ mod tests {
 
     #[test]
     fn refuses_bad_parameters_and_samples() {
-        assert_eq!(DelayEstimator::new(0.0, 3.0).unwrap_err().code(), "INVALID_CONFIG");
-        assert_eq!(DelayEstimator::new(1.5, 3.0).unwrap_err().code(), "INVALID_CONFIG");
-        assert_eq!(DelayEstimator::new(0.2, -1.0).unwrap_err().code(), "INVALID_CONFIG");
+        assert_eq!(
+            DelayEstimator::new(0.0, 3.0).unwrap_err().code(),
+            "INVALID_CONFIG"
+        );
+        assert_eq!(
+            DelayEstimator::new(1.5, 3.0).unwrap_err().code(),
+            "INVALID_CONFIG"
+        );
+        assert_eq!(
+            DelayEstimator::new(0.2, -1.0).unwrap_err().code(),
+            "INVALID_CONFIG"
+        );
         let mut e = DelayEstimator::new(0.2, 3.0).unwrap();
         assert_eq!(e.observe(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
         assert_eq!(e.observe(-5.0).unwrap_err().code(), "INVALID_INPUT");
-        assert_eq!(e.mean_ms(), None, "a refused sample leaves the estimate alone");
-        assert_eq!(e.dead_time_samples(0.0).unwrap_err().code(), "INVALID_CONFIG");
+        assert_eq!(
+            e.mean_ms(),
+            None,
+            "a refused sample leaves the estimate alone"
+        );
+        assert_eq!(
+            e.dead_time_samples(0.0).unwrap_err().code(),
+            "INVALID_CONFIG"
+        );
     }
 
     #[test]

@@ -59,7 +59,10 @@ pub fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(ControlError::input(format!("{what} must be a finite number, got {value}", value = quote(value))))
+        Err(ControlError::input(format!(
+            "{what} must be a finite number, got {value}",
+            value = quote(value)
+        )))
     }
 }
 
@@ -68,7 +71,10 @@ pub fn positive(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
-        Err(ControlError::config(format!("{what} must be a number greater than 0, got {value}", value = quote(value))))
+        Err(ControlError::config(format!(
+            "{what} must be a number greater than 0, got {value}",
+            value = quote(value)
+        )))
     }
 }
 

@@ -25,8 +25,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::text::quote;
 use super::error::{computed, finite, ControlError};
+use crate::text::quote;
 
 /// Direction of the controller (ISA terms).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -123,7 +123,11 @@ fn trim(increment: f64, before: f64, out_min: f64, out_max: f64) -> f64 {
 }
 
 fn check_tunings(kp: f64, ti_s: f64, td_s: f64) -> Result<(), ControlError> {
-    for (value, what) in [(kp, "kp"), (ti_s, "ti (integral time, s)"), (td_s, "td (derivative time, s)")] {
+    for (value, what) in [
+        (kp, "kp"),
+        (ti_s, "ti (integral time, s)"),
+        (td_s, "td (derivative time, s)"),
+    ] {
         if !value.is_finite() || value < 0.0 {
             return Err(ControlError::config(format!(
                 "{what} must be a number >= 0, got {value} (use the action setting to reverse the loop's direction)",
@@ -238,7 +242,13 @@ impl Pid {
     /// A PID for `config`, refused if the configuration cannot run.
     pub fn new(config: PidConfig) -> Result<Self, ControlError> {
         config.validate()?;
-        Ok(Self { config, integral: 0.0, last_measurement: None, last_output: None, reseed: false })
+        Ok(Self {
+            config,
+            integral: 0.0,
+            last_measurement: None,
+            last_output: None,
+            reseed: false,
+        })
     }
 
     /// Its configuration now.
@@ -305,7 +315,10 @@ impl Pid {
                 quote(input.dt_s)
             )));
         }
-        let track = input.track.map(|a| finite(a, "tracked action")).transpose()?;
+        let track = input
+            .track
+            .map(|a| finite(a, "tracked action"))
+            .transpose()?;
         let Some(measurement) = input.measurement.filter(|m| m.is_finite()) else {
             return Ok(match track {
                 // P and D are unknown: follow the action, and re-seed from it on the next good sample.
@@ -320,21 +333,35 @@ impl Pid {
             Action::Direct => -1.0,
         };
         // `+ 0.0` turns a -0 into 0, so telemetry never shows "-0".
-        let error = computed(sign * (setpoint - measurement) + 0.0, "control error (set point - measurement)")?;
+        let error = computed(
+            sign * (setpoint - measurement) + 0.0,
+            "control error (set point - measurement)",
+        )?;
         let change = match self.last_measurement {
-            Some(previous) => Some(computed(measurement - previous, "change of the measurement")?),
+            Some(previous) => Some(computed(
+                measurement - previous,
+                "change of the measurement",
+            )?),
             None => None,
         };
         let on_error = c.proportional_on == ProportionalOn::Error;
-        let p = if on_error && c.kp != 0.0 { computed(c.kp * error + 0.0, "proportional term")? } else { 0.0 };
+        let p = if on_error && c.kp != 0.0 {
+            computed(c.kp * error + 0.0, "proportional term")?
+        } else {
+            0.0
+        };
         let kd = c.kp * c.td_s;
         let d = match change {
-            Some(dm) if kd != 0.0 => computed(-sign * kd * (dm / input.dt_s) + 0.0, "derivative term")?,
+            Some(dm) if kd != 0.0 => {
+                computed(-sign * kd * (dm / input.dt_s) + 0.0, "derivative term")?
+            }
             _ => 0.0,
         };
         // Proportional on measurement: its change this step, carried by the integrator.
         let p_moved = match change {
-            Some(dm) if !on_error && c.kp != 0.0 => computed(-sign * c.kp * dm, "proportional change")?,
+            Some(dm) if !on_error && c.kp != 0.0 => {
+                computed(-sign * c.kp * dm, "proportional change")?
+            }
             _ => 0.0,
         };
 
@@ -345,7 +372,14 @@ impl Pid {
             self.last_measurement = Some(measurement);
             self.reseed = false;
             self.last_output = Some(output);
-            return Ok(PidStep { p, i: self.integral, d, output, mode: StepMode::Tracking, saturated: output != action });
+            return Ok(PidStep {
+                p,
+                i: self.integral,
+                d,
+                output,
+                mode: StepMode::Tracking,
+                saturated: output != action,
+            });
         }
         if self.reseed {
             if let Some(last) = self.last_output {
@@ -357,7 +391,10 @@ impl Pid {
             }
         }
 
-        let increment = computed(c.integral_gain() * error * input.dt_s + p_moved, "integration")?;
+        let increment = computed(
+            c.integral_gain() * error * input.dt_s + p_moved,
+            "integration",
+        )?;
         let before = computed(p + self.integral + d, "output")?;
         let trimmed = trim(increment, before, c.out_min, c.out_max);
         let integral = computed(self.integral + trimmed, "integrator")?;
@@ -368,12 +405,25 @@ impl Pid {
     }
 
     /// Commits `integral` and the output, once P + I + D is known to be a number.
-    fn finish(&mut self, p: f64, integral: f64, d: f64, mode: StepMode) -> Result<PidStep, ControlError> {
+    fn finish(
+        &mut self,
+        p: f64,
+        integral: f64,
+        d: f64,
+        mode: StepMode,
+    ) -> Result<PidStep, ControlError> {
         let unclamped = computed(p + integral + d, "output")?;
         let output = self.config.clamp(unclamped);
         self.integral = integral;
         self.last_output = Some(output);
-        Ok(PidStep { p, i: integral, d, output, mode, saturated: output != unclamped })
+        Ok(PidStep {
+            p,
+            i: integral,
+            d,
+            output,
+            mode,
+            saturated: output != unclamped,
+        })
     }
 
     fn blind_tracking_step(&mut self, action: f64) -> PidStep {
@@ -381,7 +431,14 @@ impl Pid {
         self.last_measurement = None;
         self.last_output = Some(output);
         self.reseed = true;
-        PidStep { p: 0.0, i: self.integral, d: 0.0, output, mode: StepMode::Tracking, saturated: output != action }
+        PidStep {
+            p: 0.0,
+            i: self.integral,
+            d: 0.0,
+            output,
+            mode: StepMode::Tracking,
+            saturated: output != action,
+        }
     }
 
     fn fallback_step(&mut self) -> PidStep {
@@ -393,7 +450,14 @@ impl Pid {
         // The next good sample must not differentiate across the gap.
         self.last_measurement = None;
         self.last_output = Some(output);
-        PidStep { p: 0.0, i: self.integral, d: 0.0, output, mode: StepMode::Fallback, saturated: false }
+        PidStep {
+            p: 0.0,
+            i: self.integral,
+            d: 0.0,
+            output,
+            mode: StepMode::Fallback,
+            saturated: false,
+        }
     }
 }
 

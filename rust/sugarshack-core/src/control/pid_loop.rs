@@ -32,7 +32,11 @@ impl PidLoop {
     /// A loop for `config`, refused if it cannot run.
     pub fn new(config: PidLoopConfig) -> Result<Self, ControlError> {
         let smith = config.smith.map(SmithPredictor::new).transpose()?;
-        Ok(Self { pid: Pid::new(config.pid)?, smith, seen: None })
+        Ok(Self {
+            pid: Pid::new(config.pid)?,
+            smith,
+            seen: None,
+        })
     }
 
     /// Its PID.
@@ -71,7 +75,10 @@ impl PidLoop {
             (_, m) => m,
         };
         let before = self.smith.is_some().then(|| self.pid.clone());
-        let step = self.pid.step(PidInput { measurement: seen, ..input })?;
+        let step = self.pid.step(PidInput {
+            measurement: seen,
+            ..input
+        })?;
         if let (Some(smith), Some(before)) = (&mut self.smith, before) {
             if let Err(err) = smith.advance(step.output, input.dt_s) {
                 self.pid = before;
@@ -101,20 +108,44 @@ mod tests {
 
     fn config(smith: Option<SmithConfig>) -> PidLoopConfig {
         PidLoopConfig {
-            pid: PidConfig { kp: 1.0, ti_s: 3.0, td_s: 0.0, out_min: -10.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() },
+            pid: PidConfig {
+                kp: 1.0,
+                ti_s: 3.0,
+                td_s: 0.0,
+                out_min: -10.0,
+                out_max: 10.0,
+                action: Action::Reverse,
+                fallback: None,
+                proportional_on: Default::default(),
+            },
             smith,
         }
     }
 
     /// Closed loop on a first-order process with `dead` samples of dead time.
     fn overshoot(smith: bool, dead: usize) -> f64 {
-        let model = FopdtModel { gain: 1.0, tau_s: 3.0 };
-        let smith = smith.then_some(SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: dead }, max_samples: 100 });
+        let model = FopdtModel {
+            gain: 1.0,
+            tau_s: 3.0,
+        };
+        let smith = smith.then_some(SmithConfig {
+            model,
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples: dead },
+            max_samples: 100,
+        });
         let mut pid = PidLoop::new(config(smith)).unwrap();
         let a = (-0.3f64 / 3.0).exp();
         let (mut y, mut actions, mut peak) = (0.0f64, vec![0.0; dead + 1], 0.0f64);
         for _ in 0..400 {
-            let step = pid.step(PidInput { setpoint: 1.0, measurement: Some(y), dt_s: 0.3, track: None }).unwrap();
+            let step = pid
+                .step(PidInput {
+                    setpoint: 1.0,
+                    measurement: Some(y),
+                    dt_s: 0.3,
+                    track: None,
+                })
+                .unwrap();
             actions.push(step.output);
             let applied = actions[actions.len() - 1 - dead];
             y = a * y + (1.0 - a) * applied;
@@ -128,18 +159,45 @@ mod tests {
     fn the_predictor_removes_the_overshoot_dead_time_causes() {
         let without = overshoot(false, 10);
         let with = overshoot(true, 10);
-        assert!(without > 0.2, "3 s of dead time makes this PI overshoot: {without}");
-        assert!(with < 0.01, "the predictor's loop behaves as with no delay: {with}");
+        assert!(
+            without > 0.2,
+            "3 s of dead time makes this PI overshoot: {without}"
+        );
+        assert!(
+            with < 0.01,
+            "the predictor's loop behaves as with no delay: {with}"
+        );
         assert!((with - overshoot(false, 0)).abs() < 1e-9);
     }
 
     #[test]
     fn a_missing_measurement_leaves_the_model_running_on_the_fallback() {
-        let model = FopdtModel { gain: 1.0, tau_s: 3.0 };
-        let smith = SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: 2 }, max_samples: 10 };
+        let model = FopdtModel {
+            gain: 1.0,
+            tau_s: 3.0,
+        };
+        let smith = SmithConfig {
+            model,
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples: 2 },
+            max_samples: 10,
+        };
         let mut pid = PidLoop::new(config(Some(smith))).unwrap();
-        pid.step(PidInput { setpoint: 1.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap();
-        let step = pid.step(PidInput { setpoint: 1.0, measurement: None, dt_s: 0.3, track: None }).unwrap();
+        pid.step(PidInput {
+            setpoint: 1.0,
+            measurement: Some(0.0),
+            dt_s: 0.3,
+            track: None,
+        })
+        .unwrap();
+        let step = pid
+            .step(PidInput {
+                setpoint: 1.0,
+                measurement: None,
+                dt_s: 0.3,
+                track: None,
+            })
+            .unwrap();
         assert!(step.output.is_finite());
         assert_eq!(pid.seen(), None);
     }
@@ -147,13 +205,37 @@ mod tests {
     #[test]
     fn a_refused_model_step_leaves_the_pid_as_it_was() {
         // gain·(1 - e^(-dt/τ))·action overflows once the action is 10
-        let model = FopdtModel { gain: 1e308, tau_s: 0.01 };
-        let smith = SmithConfig { model, ts_s: 0.3, dead_time: DeadTime::Fixed { samples: 2 }, max_samples: 10 };
+        let model = FopdtModel {
+            gain: 1e308,
+            tau_s: 0.01,
+        };
+        let smith = SmithConfig {
+            model,
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples: 2 },
+            max_samples: 10,
+        };
         let mut pid = PidLoop::new(config(Some(smith))).unwrap();
-        pid.step(PidInput { setpoint: 0.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap();
+        pid.step(PidInput {
+            setpoint: 0.0,
+            measurement: Some(0.0),
+            dt_s: 0.3,
+            track: None,
+        })
+        .unwrap();
         let (integral, last) = (pid.pid().integral(), pid.pid().last_output());
-        let err = pid.step(PidInput { setpoint: 50.0, measurement: Some(0.0), dt_s: 0.3, track: None }).unwrap_err();
+        let err = pid
+            .step(PidInput {
+                setpoint: 50.0,
+                measurement: Some(0.0),
+                dt_s: 0.3,
+                track: None,
+            })
+            .unwrap_err();
         assert_eq!(err.code(), "INVALID_INPUT");
-        assert_eq!((pid.pid().integral(), pid.pid().last_output()), (integral, last));
+        assert_eq!(
+            (pid.pid().integral(), pid.pid().last_output()),
+            (integral, last)
+        );
     }
 }

@@ -7,15 +7,17 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::text::quote;
 use super::error::{computed, finite, positive, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
+use crate::text::quote;
 
 /// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
 pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), ControlError> {
     positive(ts_ms, "sampling period Ts (ms)")?;
     if thresholds_ms.is_empty() {
-        return Err(ControlError::config("engagement thresholds: give one per controller, D_1..D_n"));
+        return Err(ControlError::config(
+            "engagement thresholds: give one per controller, D_1..D_n",
+        ));
     }
     for (index, &threshold) in thresholds_ms.iter().enumerate() {
         let id = index + 1;
@@ -60,10 +62,16 @@ impl IoModule {
     /// `initial_action` is what the actuator holds before any controller acts.
     pub fn new(controllers: usize, initial_action: f64) -> Result<Self, ControlError> {
         if controllers == 0 {
-            return Err(ControlError::config("an I/O module serves at least one controller"));
+            return Err(ControlError::config(
+                "an I/O module serves at least one controller",
+            ));
         }
-        let last_action = finite(initial_action, "initial action").map_err(|e| ControlError::config(e.to_string()))?;
-        Ok(Self { last_action, last_write_ms: vec![None; controllers] })
+        let last_action = finite(initial_action, "initial action")
+            .map_err(|e| ControlError::config(e.to_string()))?;
+        Ok(Self {
+            last_action,
+            last_write_ms: vec![None; controllers],
+        })
     }
 
     /// How many controllers it serves.
@@ -94,7 +102,11 @@ impl IoModule {
     pub fn state(&self, now_ms: f64) -> IoState {
         IoState {
             last_action: self.last_action,
-            ages_ms: self.last_write_ms.iter().map(|w| w.map(|at| (now_ms - at).max(0.0))).collect(),
+            ages_ms: self
+                .last_write_ms
+                .iter()
+                .map(|w| w.map(|at| (now_ms - at).max(0.0)))
+                .collect(),
         }
     }
 }
@@ -175,7 +187,12 @@ impl RccController {
                 quote(poll_timeout_ms)
             )));
         }
-        Ok(Self { config, poll_timeout_ms, first_cycle: true, poll_due_ms: None })
+        Ok(Self {
+            config,
+            poll_timeout_ms,
+            first_cycle: true,
+            poll_due_ms: None,
+        })
     }
 
     /// Starts counting the polling timeout from `now_ms` (at deploy: no state yet).
@@ -187,7 +204,10 @@ impl RccController {
 
     /// The Computing step for a state polled at `now_ms`; the polling timeout counts from it.
     pub fn decide_at(&mut self, state: &IoState, now_ms: f64) -> Result<Decision, ControlError> {
-        let due = computed(finite(now_ms, "time (ms)")? + self.poll_timeout_ms, "polling deadline")?;
+        let due = computed(
+            finite(now_ms, "time (ms)")? + self.poll_timeout_ms,
+            "polling deadline",
+        )?;
         let decision = self.decide(state)?;
         self.poll_due_ms = Some(due);
         Ok(decision)
@@ -235,11 +255,21 @@ impl RccController {
                 state.ages_ms.len()
             )));
         }
-        if let Some(age) = state.ages_ms.iter().flatten().find(|age| !(age.is_finite() && **age >= 0.0)) {
-            return Err(ControlError::input(format!("a controller age must be a number of ms >= 0, got {age}", age = quote(age))));
+        if let Some(age) = state
+            .ages_ms
+            .iter()
+            .flatten()
+            .find(|age| !(age.is_finite() && **age >= 0.0))
+        {
+            return Err(ControlError::input(format!(
+                "a controller age must be a number of ms >= 0, got {age}",
+                age = quote(age)
+            )));
         }
         let threshold = self.config.thresholds_ms[self.config.id - 1];
-        Ok(state.ages_ms[..self.config.id - 1].iter().all(|age| age.is_none_or(|age| age >= threshold)))
+        Ok(state.ages_ms[..self.config.id - 1]
+            .iter()
+            .all(|age| age.is_none_or(|age| age >= threshold)))
     }
 
     /// Computing step: engagement, and what the integrator tracks. Clears firstCycle.
@@ -247,8 +277,13 @@ impl RccController {
         let engaged = self.engaged(state)?;
         let last_action = finite(state.last_action, "the I/O side's last action")?;
         let first_cycle = std::mem::replace(&mut self.first_cycle, false);
-        let track = (self.config.smooth_handover && (!engaged || first_cycle)).then_some(last_action);
-        Ok(Decision { engaged, first_cycle, track })
+        let track =
+            (self.config.smooth_handover && (!engaged || first_cycle)).then_some(last_action);
+        Ok(Decision {
+            engaged,
+            first_cycle,
+            track,
+        })
     }
 
     /// Computing and Conditional Acting for one polled state.
@@ -294,7 +329,12 @@ pub fn act<C: Controller>(
     if decision.first_cycle {
         controller.restart();
     }
-    let step = controller.step(PidInput { setpoint, measurement, dt_s, track: decision.track })?;
+    let step = controller.step(PidInput {
+        setpoint,
+        measurement,
+        dt_s,
+        track: decision.track,
+    })?;
     Ok(Scan {
         engaged: decision.engaged,
         first_cycle: decision.first_cycle,

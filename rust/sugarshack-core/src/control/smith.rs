@@ -14,9 +14,9 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::text::quote;
 use super::delay::DelayEstimator;
 use super::error::{computed, finite, positive, ControlError};
+use crate::text::quote;
 
 /// Upper bound on `max_samples`: 100 000 samples of f64 is 800 kB per loop.
 pub const MAX_DELAY_LINE: usize = 100_000;
@@ -86,10 +86,12 @@ impl SmithConfig {
             )));
         }
         match self.dead_time {
-            DeadTime::Fixed { samples } if samples > self.max_samples => Err(ControlError::config(format!(
-                "fixed dead time of {samples} samples exceeds maxSamples {}",
-                self.max_samples
-            ))),
+            DeadTime::Fixed { samples } if samples > self.max_samples => {
+                Err(ControlError::config(format!(
+                    "fixed dead time of {samples} samples exceeds maxSamples {}",
+                    self.max_samples
+                )))
+            }
             DeadTime::Fixed { .. } => Ok(()),
             DeadTime::Adaptive { alpha, h } => DelayEstimator::new(alpha, h).map(|_| ()),
         }
@@ -120,7 +122,11 @@ impl SmithPredictor {
             DeadTime::Fixed { .. } => None,
             DeadTime::Adaptive { alpha, h } => Some(DelayEstimator::new(alpha, h)?),
         };
-        Ok(Self { config, estimator, model_outputs: VecDeque::from([ModelSample { y: 0.0, dt_s: 0.0 }]) })
+        Ok(Self {
+            config,
+            estimator,
+            model_outputs: VecDeque::from([ModelSample { y: 0.0, dt_s: 0.0 }]),
+        })
     }
 
     /// Its configuration.
@@ -144,7 +150,9 @@ impl SmithPredictor {
     /// D_c in samples, capped at `max_samples`.
     pub fn dead_time_samples(&self) -> usize {
         let samples = match (&self.estimator, self.config.dead_time) {
-            (Some(estimator), _) => estimator.dead_time_samples(self.config.ts_s * 1000.0).unwrap_or(0),
+            (Some(estimator), _) => estimator
+                .dead_time_samples(self.config.ts_s * 1000.0)
+                .unwrap_or(0),
             (None, DeadTime::Fixed { samples }) => samples,
             (None, DeadTime::Adaptive { .. }) => 0,
         };
@@ -155,7 +163,10 @@ impl SmithPredictor {
     /// what the delay still hides.
     pub fn feedback(&self, measurement: f64) -> Result<f64, ControlError> {
         let now = self.model_output();
-        computed(measurement + (now - self.delayed_output()), "Smith predictor's corrected measurement")
+        computed(
+            measurement + (now - self.delayed_output()),
+            "Smith predictor's corrected measurement",
+        )
     }
 
     /// ŷ D_c·Ts seconds ago, or the oldest the line holds.
@@ -183,11 +194,17 @@ impl SmithPredictor {
     pub fn advance(&mut self, action: f64, dt_s: f64) -> Result<(), ControlError> {
         let action = finite(action, "action")?;
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(ControlError::input(format!("elapsed time must be > 0 s, got {dt_s}", dt_s = quote(dt_s))));
+            return Err(ControlError::input(format!(
+                "elapsed time must be > 0 s, got {dt_s}",
+                dt_s = quote(dt_s)
+            )));
         }
         let FopdtModel { gain, tau_s } = self.config.model;
         let a = (-dt_s / tau_s).exp();
-        let next = computed(a * self.model_output() + gain * (1.0 - a) * action, "Smith predictor's model output")?;
+        let next = computed(
+            a * self.model_output() + gain * (1.0 - a) * action,
+            "Smith predictor's model output",
+        )?;
         self.model_outputs.push_front(ModelSample { y: next, dt_s });
         self.model_outputs.truncate(self.config.max_samples + 1);
         Ok(())
@@ -205,7 +222,10 @@ mod tests {
 
     fn predictor(dead_time: DeadTime) -> SmithPredictor {
         SmithPredictor::new(SmithConfig {
-            model: FopdtModel { gain: 2.0, tau_s: 3.0 },
+            model: FopdtModel {
+                gain: 2.0,
+                tau_s: 3.0,
+            },
             ts_s: 0.3,
             dead_time,
             max_samples: 50,
@@ -233,7 +253,11 @@ mod tests {
             s.advance(action, 0.3).unwrap();
             outputs.push(s.model_output());
             // a real process matching the model shows ŷ delayed by `dead` samples
-            let measured = if outputs.len() > dead { outputs[outputs.len() - 1 - dead] } else { 0.0 };
+            let measured = if outputs.len() > dead {
+                outputs[outputs.len() - 1 - dead]
+            } else {
+                0.0
+            };
             assert!((s.feedback(measured).unwrap() - s.model_output()).abs() < 1e-12);
         }
     }
@@ -262,7 +286,10 @@ mod tests {
     #[test]
     fn refuses_configs_that_cannot_run() {
         let base = SmithConfig {
-            model: FopdtModel { gain: 1.0, tau_s: 3.0 },
+            model: FopdtModel {
+                gain: 1.0,
+                tau_s: 3.0,
+            },
             ts_s: 0.3,
             dead_time: DeadTime::Fixed { samples: 10 },
             max_samples: 400,
@@ -270,17 +297,45 @@ mod tests {
         let broken = [
             SmithConfig { ts_s: 0.0, ..base },
             SmithConfig { ts_s: -0.3, ..base },
-            SmithConfig { model: FopdtModel { gain: 0.0, tau_s: 3.0 }, ..base },
-            SmithConfig { model: FopdtModel { gain: 1.0, tau_s: f64::NAN }, ..base },
-            SmithConfig { dead_time: DeadTime::Fixed { samples: 401 }, ..base },
-            SmithConfig { dead_time: DeadTime::Adaptive { alpha: 0.0, h: 3.0 }, ..base },
-            SmithConfig { max_samples: 0, ..base },
+            SmithConfig {
+                model: FopdtModel {
+                    gain: 0.0,
+                    tau_s: 3.0,
+                },
+                ..base
+            },
+            SmithConfig {
+                model: FopdtModel {
+                    gain: 1.0,
+                    tau_s: f64::NAN,
+                },
+                ..base
+            },
+            SmithConfig {
+                dead_time: DeadTime::Fixed { samples: 401 },
+                ..base
+            },
+            SmithConfig {
+                dead_time: DeadTime::Adaptive { alpha: 0.0, h: 3.0 },
+                ..base
+            },
+            SmithConfig {
+                max_samples: 0,
+                ..base
+            },
         ];
         for config in broken {
-            assert_eq!(SmithPredictor::new(config).unwrap_err().code(), "INVALID_CONFIG", "{config:?}");
+            assert_eq!(
+                SmithPredictor::new(config).unwrap_err().code(),
+                "INVALID_CONFIG",
+                "{config:?}"
+            );
         }
         let mut s = SmithPredictor::new(base).unwrap();
-        assert_eq!(s.advance(f64::NAN, 0.3).unwrap_err().code(), "INVALID_INPUT");
+        assert_eq!(
+            s.advance(f64::NAN, 0.3).unwrap_err().code(),
+            "INVALID_INPUT"
+        );
         assert_eq!(s.advance(1.0, 0.0).unwrap_err().code(), "INVALID_INPUT");
     }
 
@@ -298,7 +353,11 @@ mod tests {
             t += dt;
             // ŷ at t - dead_s, by the exact first-order step response (unit action from 0)
             let at = t - dead_s;
-            let measured = if at <= 0.0 { 0.0 } else { 2.0 * (1.0 - (-at / 3.0).exp()) };
+            let measured = if at <= 0.0 {
+                0.0
+            } else {
+                2.0 * (1.0 - (-at / 3.0).exp())
+            };
             if at > 0.6 {
                 let error = (s.feedback(measured).unwrap() - s.model_output()).abs();
                 // linear interpolation between samples at most 0.5 s apart
@@ -310,7 +369,10 @@ mod tests {
     #[test]
     fn a_model_output_too_large_to_compute_is_refused_and_changes_nothing() {
         let mut s = SmithPredictor::new(SmithConfig {
-            model: FopdtModel { gain: 1e308, tau_s: 3.0 },
+            model: FopdtModel {
+                gain: 1e308,
+                tau_s: 3.0,
+            },
             ts_s: 0.3,
             dead_time: DeadTime::Fixed { samples: 2 },
             max_samples: 10,

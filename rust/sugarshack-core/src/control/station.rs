@@ -16,11 +16,11 @@
 
 use serde::{Deserialize, Deserializer, Serialize};
 
-use crate::text::quote;
 use super::error::{computed, finite, ControlError};
 use super::pid::{PidInput, PidStep, StepMode};
 use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
+use crate::text::quote;
 
 /// Who sets the output.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -245,7 +245,9 @@ fn manual_needed() -> ControlError {
 impl Station {
     /// A station for `config`, refused if it cannot run.
     pub fn new(config: StationConfig) -> Result<Self, ControlError> {
-        let config_number = |value: f64, what: &str| finite(value, what).map_err(|e| ControlError::config(e.to_string()));
+        let config_number = |value: f64, what: &str| {
+            finite(value, what).map_err(|e| ControlError::config(e.to_string()))
+        };
         if !(config.ts_s.is_finite() && config.ts_s > 0.0) {
             return Err(ControlError::config(format!(
                 "sample period Ts must be a number of seconds greater than 0, got {}",
@@ -259,9 +261,14 @@ impl Station {
             )));
         }
         let setpoint = config_number(config.setpoint, "set point")?;
-        let manual = config.manual.map(|m| config_number(m, "manual output")).transpose()?;
+        let manual = config
+            .manual
+            .map(|m| config_number(m, "manual output"))
+            .transpose()?;
         if config.mode == Mode::Manual && manual.is_none() {
-            return Err(ControlError::config("starting in manual mode needs a manual output"));
+            return Err(ControlError::config(
+                "starting in manual mode needs a manual output",
+            ));
         }
         Ok(Self {
             pid_loop: PidLoop::new(config.pid_loop)?,
@@ -300,9 +307,19 @@ impl Station {
 
     /// What a restart brings back, checked as a whole: a refused one changes nothing.
     pub fn restore(&mut self, saved: Saved) -> Result<(), ControlError> {
-        let integral = saved.integral.map(|i| finite(i, "saved integral")).transpose()?;
-        let setpoint = saved.setpoint.map(|s| finite(s, "saved set point")).transpose()?;
-        let manual = saved.manual.map(|m| finite(m, "saved manual output")).transpose()?.or(self.manual);
+        let integral = saved
+            .integral
+            .map(|i| finite(i, "saved integral"))
+            .transpose()?;
+        let setpoint = saved
+            .setpoint
+            .map(|s| finite(s, "saved set point"))
+            .transpose()?;
+        let manual = saved
+            .manual
+            .map(|m| finite(m, "saved manual output"))
+            .transpose()?
+            .or(self.manual);
         let mode = match saved.mode.unwrap_or(self.mode) {
             // a manual mode saved without its output resumes in auto
             Mode::Manual if manual.is_none() => Mode::Auto,
@@ -318,12 +335,20 @@ impl Station {
 
     /// Applies `change` whole, or refuses it and changes nothing.
     pub fn change(&mut self, change: Change) -> Result<(), ControlError> {
-        let setpoint = change.setpoint.map(|s| finite(s, "set point")).transpose()?;
-        let given_manual = change.manual.map(|m| finite(m, "manual output")).transpose()?;
+        let setpoint = change
+            .setpoint
+            .map(|s| finite(s, "set point"))
+            .transpose()?;
+        let given_manual = change
+            .manual
+            .map(|m| finite(m, "manual output"))
+            .transpose()?;
         let mut next = self.pid_loop.pid().config().clone();
         if let Some(t) = change.tunings {
             if t.kp.is_none() && t.ti_s.is_none() && t.td_s.is_none() {
-                return Err(ControlError::input("a tunings change names none of kp, ti, td"));
+                return Err(ControlError::input(
+                    "a tunings change names none of kp, ti, td",
+                ));
             }
             next.kp = t.kp.unwrap_or(next.kp);
             next.ti_s = t.ti_s.unwrap_or(next.ti_s);
@@ -331,7 +356,9 @@ impl Station {
         }
         if let Some(l) = change.limits {
             if l.min.is_none() && l.max.is_none() {
-                return Err(ControlError::input("a limits change names none of min, max"));
+                return Err(ControlError::input(
+                    "a limits change names none of min, max",
+                ));
             }
             next.out_min = l.min.unwrap_or(next.out_min);
             next.out_max = l.max.unwrap_or(next.out_max);
@@ -340,7 +367,11 @@ impl Station {
         let mode = change.mode.unwrap_or(self.mode);
         // Into manual without a value: hold the loop's last output (bumpless), else the configured one.
         let entering = mode == Mode::Manual && self.mode != Mode::Manual;
-        let manual = given_manual.or(if entering { self.pid_loop.pid().last_output().or(self.manual) } else { self.manual });
+        let manual = given_manual.or(if entering {
+            self.pid_loop.pid().last_output().or(self.manual)
+        } else {
+            self.manual
+        });
         if mode == Mode::Manual && manual.is_none() {
             return Err(manual_needed());
         }
@@ -363,7 +394,9 @@ impl Station {
         let sample_ms = finite(sample.sample_ms, "sample time (ms)")?;
         let measurement = sample.measurement.filter(|m| m.is_finite());
         let dt_s = match self.previous_sample_ms {
-            Some(previous) if !self.over_ts => computed((sample_ms - previous) / 1000.0, "elapsed time")?,
+            Some(previous) if !self.over_ts => {
+                computed((sample_ms - previous) / 1000.0, "elapsed time")?
+            }
             _ => self.ts_s,
         };
         let (step, engaged) = self.step(measurement, dt_s, sample.track, sample.decision)?;
@@ -373,7 +406,10 @@ impl Station {
         if measurement.is_some() && self.stale_ms > 0.0 {
             self.stale_at_ms = Some(later(now_ms, self.stale_ms));
         }
-        Ok(Outcome { engaged, pid: self.report(step, measurement, dt_s) })
+        Ok(Outcome {
+            engaged,
+            pid: self.report(step, measurement, dt_s),
+        })
     }
 
     /// When `tick` next has something to do (ms), if ever.
@@ -397,7 +433,9 @@ impl Station {
         let dt_s = self.stale_ms / 1000.0;
         let (step, _) = self.step(None, dt_s, None, None)?;
         self.over_ts = true;
-        Ok(Some(Stale::Fallback { pid: self.report(step, None, dt_s) }))
+        Ok(Some(Stale::Fallback {
+            pid: self.report(step, None, dt_s),
+        }))
     }
 
     fn step(
@@ -413,12 +451,26 @@ impl Station {
         };
         match decision {
             Some(decision) => {
-                let follow = Decision { track: manual.or(decision.track).or(track), ..decision };
-                let scan = rcc::act(&follow, &mut self.pid_loop, self.setpoint, measurement, dt_s)?;
+                let follow = Decision {
+                    track: manual.or(decision.track).or(track),
+                    ..decision
+                };
+                let scan = rcc::act(
+                    &follow,
+                    &mut self.pid_loop,
+                    self.setpoint,
+                    measurement,
+                    dt_s,
+                )?;
                 Ok((scan.step, scan.engaged))
             }
             None => {
-                let input = PidInput { setpoint: self.setpoint, measurement, dt_s, track: manual.or(track) };
+                let input = PidInput {
+                    setpoint: self.setpoint,
+                    measurement,
+                    dt_s,
+                    track: manual.or(track),
+                };
                 Ok((self.pid_loop.step(input)?, true))
             }
         }
@@ -464,4 +516,3 @@ fn later(now_ms: f64, period_ms: f64) -> f64 {
 
 #[cfg(test)]
 mod tests;
-

@@ -7,10 +7,10 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use sugarshack_experiments::sim::DelayDist;
 use sugarshack_experiments::delay_compensation::{self as dc, CaseResults, Compensation, Table3};
 use sugarshack_experiments::fault_tolerance::{self as ft, Figure11};
 use sugarshack_experiments::metrics::Trace;
+use sugarshack_experiments::sim::DelayDist;
 use sugarshack_experiments::svg::{Plot, Series, Stroke, COLORS};
 
 fn main() -> ExitCode {
@@ -90,31 +90,54 @@ fn print_table2(figure: &Figure11) -> Result<(), String> {
     let rows: Vec<(String, String, &str)> = vec![
         (
             "no failure: overshoot, settling (5 % band)".into(),
-            format!("{:.2} %, {:.2} s after the step", base.overshoot_pct, base.settling_time_s.unwrap_or(f64::NAN)),
+            format!(
+                "{:.2} %, {:.2} s after the step",
+                base.overshoot_pct,
+                base.settling_time_s.unwrap_or(f64::NAN)
+            ),
             "reaches the steady state",
         ),
         (
             "no failure: flow at the failure instant".into(),
             format!(
                 "{:.3} gal/min (set point {})",
-                figure.no_failure.output.at(ft::FAIL_AT_S).unwrap_or(f64::NAN),
+                figure
+                    .no_failure
+                    .output
+                    .at(ft::FAIL_AT_S)
+                    .unwrap_or(f64::NAN),
                 ft::SET_POINT_STEP.setpoint
             ),
             "22 s is in the transient",
         ),
-        ("RCC: max |flow - no-failure flow|".into(), format!("{band:.5} gal/min"), "as if there are no failures"),
+        (
+            "RCC: max |flow - no-failure flow|".into(),
+            format!("{band:.5} gal/min"),
+            "as if there are no failures",
+        ),
         (
             "RCC: handover events".into(),
-            events.iter().map(|t| format!("{t:.2} s")).collect::<Vec<_>>().join(", "),
+            events
+                .iter()
+                .map(|t| format!("{t:.2} s"))
+                .collect::<Vec<_>>()
+                .join(", "),
             "one in the transient, one in steady state",
         ),
         (
             "RCC without smooth handover: bumps".into(),
-            bumps.iter().map(|(t, b)| format!("{b:.3} gal/min at {t:.2} s")).collect::<Vec<_>>().join(", "),
+            bumps
+                .iter()
+                .map(|(t, b)| format!("{b:.3} gal/min at {t:.2} s"))
+                .collect::<Vec<_>>()
+                .join(", "),
             "two bumps",
         ),
         (
-            format!("no redundancy: flow {:.0}-{:.0} s", stall.from_s, stall.to_s),
+            format!(
+                "no redundancy: flow {:.0}-{:.0} s",
+                stall.from_s, stall.to_s
+            ),
             format!(
                 "{:.4} gal/min, swing {:.1e}, {:.3} below the set point",
                 stall.level,
@@ -125,12 +148,22 @@ fn print_table2(figure: &Figure11) -> Result<(), String> {
         ),
         (
             "Theorem 3: bound on added settling time".into(),
-            format!("(ceil(({} + {d2}) / {}) - 2) samples = {:.2} s", ft::ROUND_TRIP_MS, ft::TS_MS, theorem.bound_s),
+            format!(
+                "(ceil(({} + {d2}) / {}) - 2) samples = {:.2} s",
+                ft::ROUND_TRIP_MS,
+                ft::TS_MS,
+                theorem.bound_s
+            ),
             "Delta t_s = ceil((RTT_j + D_j)/Ts) - 2",
         ),
         (
             "  detection-gap bound of this model".into(),
-            format!("ceil(({} + {d2}) / {}) samples = {:.2} s", ft::ROUND_TRIP_MS, ft::TS_MS, theorem.gap_bound_s),
+            format!(
+                "ceil(({} + {d2}) / {}) samples = {:.2} s",
+                ft::ROUND_TRIP_MS,
+                ft::TS_MS,
+                theorem.gap_bound_s
+            ),
             "-",
         ),
         (
@@ -149,7 +182,10 @@ fn print_table2(figure: &Figure11) -> Result<(), String> {
                 theorem.sweep.last().map_or(f64::NAN, |p| p.0),
                 ft::SWEEP_STEP_S
             ),
-            format!("{worst:.2} s at {worst_at:.2} s ({})", verdict(worst, &theorem)),
+            format!(
+                "{worst:.2} s at {worst_at:.2} s ({})",
+                verdict(worst, &theorem)
+            ),
             "within the bound",
         ),
     ];
@@ -174,7 +210,12 @@ fn delay_label(scale: Option<f64>) -> Result<String, String> {
         None => Ok("no delay".into()),
         Some(scale) => {
             let d = DelayDist::ds2_scaled(scale).map_err(|e| e.to_string())?;
-            Ok(format!("({}, {}, {})", d.mean_ms() / 1000.0, d.sd_ms() / 1000.0, d.max_ms() / 1000.0))
+            Ok(format!(
+                "({}, {}, {})",
+                d.mean_ms() / 1000.0,
+                d.sd_ms() / 1000.0,
+                d.max_ms() / 1000.0
+            ))
         }
     }
 }
@@ -256,7 +297,9 @@ fn print_table3(table: &Table3) -> Result<(), String> {
                 format!("{lo}..{hi}")
             }
         };
-        let pure = |m: &sugarshack_experiments::metrics::StepMetrics, run: &dc::DelayRun| match case.compensation {
+        let pure = |m: &sugarshack_experiments::metrics::StepMetrics, run: &dc::DelayRun| match case
+            .compensation
+        {
             Compensation::None => "-".to_string(),
             _ => seconds(m.pure_settling_time_s(run.dead_time_at_step_s())),
         };
@@ -271,11 +314,33 @@ fn print_table3(table: &Table3) -> Result<(), String> {
             delay_label(case.scale)?,
             case.compensation.label(),
             dead_time,
-            format!("{:.1} / {:.1} / {:.1}", best.overshoot_pct, case.median_overshoot_pct(), worst.overshoot_pct),
-            if max_ess.is_nan() { "-".to_string() } else { format!("{max_ess:.4}") },
-            format!("{} / {}", seconds(best.settling_time_s), seconds(worst.settling_time_s)),
-            format!("{} / {}", pure(best, &case.best().1), pure(worst, &case.worst().1)),
-            format!("{}/{} ({})", case.unsettled_runs(), case.runs.len(), case.unstable_runs()),
+            format!(
+                "{:.1} / {:.1} / {:.1}",
+                best.overshoot_pct,
+                case.median_overshoot_pct(),
+                worst.overshoot_pct
+            ),
+            if max_ess.is_nan() {
+                "-".to_string()
+            } else {
+                format!("{max_ess:.4}")
+            },
+            format!(
+                "{} / {}",
+                seconds(best.settling_time_s),
+                seconds(worst.settling_time_s)
+            ),
+            format!(
+                "{} / {}",
+                pure(best, &case.best().1),
+                pure(worst, &case.worst().1)
+            ),
+            format!(
+                "{}/{} ({})",
+                case.unsettled_runs(),
+                case.runs.len(),
+                case.unstable_runs()
+            ),
             paper_claim(index, case.compensation)
         );
     }
@@ -303,7 +368,13 @@ fn set_point_series(points: Vec<(f64, f64)>) -> Series {
 }
 
 fn write_figures(out: &Path, figure: &Figure11, table: &Table3) -> Result<(), String> {
-    let set_point: Vec<(f64, f64)> = figure.no_failure.output.times_s.iter().map(|&t| (t, ft::set_point(t))).collect();
+    let set_point: Vec<(f64, f64)> = figure
+        .no_failure
+        .output
+        .times_s
+        .iter()
+        .map(|&t| (t, ft::set_point(t)))
+        .collect();
     let flow_axes = |title: &str, series: Vec<Series>, y_range: (f64, f64)| Plot {
         title: title.into(),
         x_label: "time (s)".into(),
@@ -319,9 +390,19 @@ fn write_figures(out: &Path, figure: &Figure11, table: &Table3) -> Result<(), St
             "Fig. 11a: RCC under a primary failure (22-78 s)",
             vec![
                 set_point_series(set_point.clone()),
-                series("no failure", &figure.no_failure.output, COLORS[0], Stroke::Dotted),
+                series(
+                    "no failure",
+                    &figure.no_failure.output,
+                    COLORS[0],
+                    Stroke::Dotted,
+                ),
                 series("RCC", &figure.rcc.output, COLORS[1], Stroke::Solid),
-                series("no redundancy", &figure.no_redundancy.output, COLORS[2], Stroke::Solid),
+                series(
+                    "no redundancy",
+                    &figure.no_redundancy.output,
+                    COLORS[2],
+                    Stroke::Solid,
+                ),
             ],
             (0.6, 1.1),
         ),
@@ -334,17 +415,31 @@ fn write_figures(out: &Path, figure: &Figure11, table: &Table3) -> Result<(), St
             vec![
                 set_point_series(set_point),
                 series("RCC", &figure.rcc.output, COLORS[1], Stroke::Solid),
-                series("RCC (no S.H.)", &figure.rcc_no_smooth_handover.output, COLORS[0], Stroke::Solid),
+                series(
+                    "RCC (no S.H.)",
+                    &figure.rcc_no_smooth_handover.output,
+                    COLORS[0],
+                    Stroke::Solid,
+                ),
             ],
             (0.0, 1.2),
         ),
     )?;
     // The paper shows the 1, 2 and 4 s delays as 12a-c; the 3 s one it left out is 12d here.
-    for (name, index) in [("fig12a.svg", 0), ("fig12b.svg", 1), ("fig12c.svg", 3), ("fig12d.svg", 2)] {
+    for (name, index) in [
+        ("fig12a.svg", 0),
+        ("fig12b.svg", 1),
+        ("fig12c.svg", 3),
+        ("fig12d.svg", 2),
+    ] {
         let [uncompensated, fixed, adaptive] = &table.rows[index];
         let label = delay_label(Some(dc::DS2_SCALES[index]))?;
         let zero = &table.zero_delay.runs[0].1.output;
-        let step: Vec<(f64, f64)> = zero.times_s.iter().map(|&t| (t, dc::UNIT_STEP.setpoint)).collect();
+        let step: Vec<(f64, f64)> = zero
+            .times_s
+            .iter()
+            .map(|&t| (t, dc::UNIT_STEP.setpoint))
+            .collect();
         let plot = Plot {
             title: format!("Fig. 12: round trip (mu, sd, max) = {label} s"),
             x_label: "time (s)".into(),
@@ -352,9 +447,24 @@ fn write_figures(out: &Path, figure: &Figure11, table: &Table3) -> Result<(), St
             series: vec![
                 set_point_series(step),
                 series("no delay", zero, COLORS[4], Stroke::Dotted),
-                series("uncompensated (best)", &uncompensated.best().1.output, COLORS[1], Stroke::Solid),
-                series("Smith, fixed D_c (worst)", &fixed.worst().1.output, COLORS[0], Stroke::Solid),
-                series("Smith, adaptive (worst)", &adaptive.worst().1.output, COLORS[2], Stroke::Dashed),
+                series(
+                    "uncompensated (best)",
+                    &uncompensated.best().1.output,
+                    COLORS[1],
+                    Stroke::Solid,
+                ),
+                series(
+                    "Smith, fixed D_c (worst)",
+                    &fixed.worst().1.output,
+                    COLORS[0],
+                    Stroke::Solid,
+                ),
+                series(
+                    "Smith, adaptive (worst)",
+                    &adaptive.worst().1.output,
+                    COLORS[2],
+                    Stroke::Dashed,
+                ),
             ],
             x_range: Some((0.0, dc::DURATION_S)),
             y_range: Some((0.0, 2.2)),

@@ -2,17 +2,35 @@ use super::*;
 use crate::control::pid::{Action, PidConfig, StepMode};
 
 fn controller(id: usize) -> RccController {
-    RccController::new(RccConfig { id, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true, poll_timeout_ms: None })
-        .unwrap()
+    RccController::new(RccConfig {
+        id,
+        thresholds_ms: vec![200.0, 400.0, 600.0],
+        ts_ms: 200.0,
+        smooth_handover: true,
+        poll_timeout_ms: None,
+    })
+    .unwrap()
 }
 
 fn pid() -> Pid {
-    Pid::new(PidConfig { kp: 1.0, ti_s: 2.0, td_s: 0.0, out_min: 0.0, out_max: 10.0, action: Action::Reverse, fallback: None, proportional_on: Default::default() })
-        .unwrap()
+    Pid::new(PidConfig {
+        kp: 1.0,
+        ti_s: 2.0,
+        td_s: 0.0,
+        out_min: 0.0,
+        out_max: 10.0,
+        action: Action::Reverse,
+        fallback: None,
+        proportional_on: Default::default(),
+    })
+    .unwrap()
 }
 
 fn state(last_action: f64, ages: [Option<f64>; 3]) -> IoState {
-    IoState { last_action, ages_ms: ages.to_vec() }
+    IoState {
+        last_action,
+        ages_ms: ages.to_vec(),
+    }
 }
 
 #[test]
@@ -26,16 +44,31 @@ fn thresholds_must_rise_with_the_id_from_ts() {
         (vec![200.0, f64::NAN], 200.0),
         (vec![200.0, 400.0], 0.0),
     ] {
-        assert_eq!(validate_thresholds(&thresholds, ts).unwrap_err().code(), "INVALID_CONFIG", "{thresholds:?} {ts}");
+        assert_eq!(
+            validate_thresholds(&thresholds, ts).unwrap_err().code(),
+            "INVALID_CONFIG",
+            "{thresholds:?} {ts}"
+        );
     }
-    let outside = RccConfig { id: 4, thresholds_ms: vec![200.0, 400.0, 600.0], ts_ms: 200.0, smooth_handover: true, poll_timeout_ms: None };
-    assert_eq!(RccController::new(outside).unwrap_err().code(), "INVALID_CONFIG");
+    let outside = RccConfig {
+        id: 4,
+        thresholds_ms: vec![200.0, 400.0, 600.0],
+        ts_ms: 200.0,
+        smooth_handover: true,
+        poll_timeout_ms: None,
+    };
+    assert_eq!(
+        RccController::new(outside).unwrap_err().code(),
+        "INVALID_CONFIG"
+    );
 }
 
 #[test]
 fn the_primary_is_always_engaged() {
     let primary = controller(1);
-    assert!(primary.engaged(&state(0.0, [Some(0.0), Some(0.0), Some(0.0)])).unwrap());
+    assert!(primary
+        .engaged(&state(0.0, [Some(0.0), Some(0.0), Some(0.0)]))
+        .unwrap());
 }
 
 #[test]
@@ -46,45 +79,120 @@ fn a_backup_engages_only_when_every_lower_id_is_older_than_its_threshold() {
     assert!(!secondary.engaged(&fresh).unwrap());
     let primary_gone = state(0.0, [Some(450.0), None, None]);
     assert!(secondary.engaged(&primary_gone).unwrap());
-    assert!(!tertiary.engaged(&primary_gone).unwrap(), "450 ms < D_3 = 600 ms");
+    assert!(
+        !tertiary.engaged(&primary_gone).unwrap(),
+        "450 ms < D_3 = 600 ms"
+    );
     // the secondary acted meanwhile: the tertiary stays out even past its threshold for the primary
-    assert!(!tertiary.engaged(&state(0.0, [Some(900.0), Some(150.0), None])).unwrap());
-    assert!(tertiary.engaged(&state(0.0, [Some(900.0), Some(700.0), None])).unwrap());
-    assert!(tertiary.engaged(&state(0.0, [None, None, None])).unwrap(), "never acted counts as infinitely old");
+    assert!(!tertiary
+        .engaged(&state(0.0, [Some(900.0), Some(150.0), None]))
+        .unwrap());
+    assert!(tertiary
+        .engaged(&state(0.0, [Some(900.0), Some(700.0), None]))
+        .unwrap());
+    assert!(
+        tertiary.engaged(&state(0.0, [None, None, None])).unwrap(),
+        "never acted counts as infinitely old"
+    );
 }
 
 #[test]
 fn standby_and_first_cycle_track_the_last_action() {
     let mut secondary = controller(2);
     let mut pid = pid();
-    let scan = secondary.scan(&mut pid, &state(6.0, [Some(50.0), None, None]), 5.0, Some(4.0), 0.2).unwrap();
-    assert_eq!((scan.engaged, scan.first_cycle, scan.write), (false, true, None));
-    assert_eq!((scan.step.mode, scan.step.output), (StepMode::Tracking, 6.0));
+    let scan = secondary
+        .scan(
+            &mut pid,
+            &state(6.0, [Some(50.0), None, None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
+    assert_eq!(
+        (scan.engaged, scan.first_cycle, scan.write),
+        (false, true, None)
+    );
+    assert_eq!(
+        (scan.step.mode, scan.step.output),
+        (StepMode::Tracking, 6.0)
+    );
     // engaged after the primary's age passes D_2: first write continues from 6.0
-    let scan = secondary.scan(&mut pid, &state(6.0, [Some(420.0), None, None]), 5.0, Some(4.0), 0.2).unwrap();
+    let scan = secondary
+        .scan(
+            &mut pid,
+            &state(6.0, [Some(420.0), None, None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
     assert!(scan.engaged && !scan.first_cycle);
     let written = scan.write.unwrap();
-    assert!((written - (6.0 + 1.0 / 2.0 * 1.0 * 0.2)).abs() < 1e-12, "one integration step away: {written}");
+    assert!(
+        (written - (6.0 + 1.0 / 2.0 * 1.0 * 0.2)).abs() < 1e-12,
+        "one integration step away: {written}"
+    );
 }
 
 #[test]
 fn an_engaged_controller_after_a_timeout_tracks_once_then_runs_free() {
     let mut primary = controller(1);
     let mut pid = pid();
-    primary.scan(&mut pid, &state(0.0, [None, None, None]), 5.0, Some(4.0), 0.2).unwrap();
-    let free = primary.scan(&mut pid, &state(3.0, [Some(0.0), None, None]), 5.0, Some(4.0), 0.2).unwrap();
+    primary
+        .scan(
+            &mut pid,
+            &state(0.0, [None, None, None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
+    let free = primary
+        .scan(
+            &mut pid,
+            &state(3.0, [Some(0.0), None, None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
     assert_eq!(free.step.mode, StepMode::Auto);
     primary.poll_timed_out();
-    let back = primary.scan(&mut pid, &state(7.5, [Some(900.0), Some(10.0), None]), 5.0, Some(4.0), 0.2).unwrap();
+    let back = primary
+        .scan(
+            &mut pid,
+            &state(7.5, [Some(900.0), Some(10.0), None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
     assert!(back.first_cycle && back.engaged);
-    assert_eq!((back.step.mode, back.write), (StepMode::Tracking, Some(7.5)), "takes over from the backup's action");
+    assert_eq!(
+        (back.step.mode, back.write),
+        (StepMode::Tracking, Some(7.5)),
+        "takes over from the backup's action"
+    );
 }
 
 #[test]
 fn without_smooth_handover_the_standby_integrator_runs_free() {
-    let mut secondary = RccController::new(RccConfig { smooth_handover: false, ..controller(2).config().clone() }).unwrap();
+    let mut secondary = RccController::new(RccConfig {
+        smooth_handover: false,
+        ..controller(2).config().clone()
+    })
+    .unwrap();
     let mut pid = pid();
-    let scan = secondary.scan(&mut pid, &state(6.0, [Some(50.0), None, None]), 5.0, Some(4.0), 0.2).unwrap();
+    let scan = secondary
+        .scan(
+            &mut pid,
+            &state(6.0, [Some(50.0), None, None]),
+            5.0,
+            Some(4.0),
+            0.2,
+        )
+        .unwrap();
     assert_eq!(scan.step.mode, StepMode::Auto);
     assert!(scan.write.is_none());
 }
@@ -95,21 +203,50 @@ fn the_io_module_ages_writes_by_its_own_clock() {
     assert_eq!(io.state(1000.0), state(1.5, [None, None, None]));
     io.write(2, 4.0, 1000.0).unwrap();
     io.write(1, 5.0, 1100.0).unwrap();
-    assert_eq!(io.state(1300.0), state(5.0, [Some(200.0), Some(300.0), None]));
-    assert_eq!(io.write(4, 1.0, 1400.0).unwrap_err(), ControlError::UnknownController { id: 4, controllers: 3 });
-    assert_eq!(io.write(0, 1.0, 1400.0).unwrap_err().code(), "UNKNOWN_CONTROLLER");
-    assert_eq!(io.write(1, f64::NAN, 1400.0).unwrap_err().code(), "INVALID_INPUT");
+    assert_eq!(
+        io.state(1300.0),
+        state(5.0, [Some(200.0), Some(300.0), None])
+    );
+    assert_eq!(
+        io.write(4, 1.0, 1400.0).unwrap_err(),
+        ControlError::UnknownController {
+            id: 4,
+            controllers: 3
+        }
+    );
+    assert_eq!(
+        io.write(0, 1.0, 1400.0).unwrap_err().code(),
+        "UNKNOWN_CONTROLLER"
+    );
+    assert_eq!(
+        io.write(1, f64::NAN, 1400.0).unwrap_err().code(),
+        "INVALID_INPUT"
+    );
     assert_eq!(io.last_action(), 5.0, "refused writes change nothing");
 }
 
 #[test]
 fn a_malformed_state_is_refused() {
     let secondary = controller(2);
-    let short = IoState { last_action: 0.0, ages_ms: vec![Some(1.0)] };
-    assert_eq!(secondary.engaged(&short).unwrap_err().code(), "INVALID_INPUT");
-    assert_eq!(secondary.engaged(&state(0.0, [Some(-1.0), None, None])).unwrap_err().code(), "INVALID_INPUT");
+    let short = IoState {
+        last_action: 0.0,
+        ages_ms: vec![Some(1.0)],
+    };
+    assert_eq!(
+        secondary.engaged(&short).unwrap_err().code(),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        secondary
+            .engaged(&state(0.0, [Some(-1.0), None, None]))
+            .unwrap_err()
+            .code(),
+        "INVALID_INPUT"
+    );
     let mut secondary = controller(2);
-    assert!(secondary.decide(&state(f64::NAN, [None, None, None])).is_err());
+    assert!(secondary
+        .decide(&state(f64::NAN, [None, None, None]))
+        .is_err());
 }
 
 #[test]
@@ -118,18 +255,34 @@ fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
     assert_eq!(rcc.next_tick_ms(), None);
     rcc.watch_from(0.0).unwrap();
     assert_eq!(rcc.next_tick_ms(), Some(600.0), "3·Ts by default");
-    rcc.decide_at(&state(1.0, [None, None, None]), 100.0).unwrap();
+    rcc.decide_at(&state(1.0, [None, None, None]), 100.0)
+        .unwrap();
     assert!(!rcc.first_cycle());
     assert!(!rcc.tick(699.0).unwrap());
     assert!(rcc.tick(700.0).unwrap(), "600 ms after the last state");
     assert!(rcc.first_cycle(), "the next scan re-seeds");
     assert!(!rcc.tick(2000.0).unwrap(), "once per silence");
     assert_eq!(rcc.next_tick_ms(), None);
-    assert!(rcc.decide_at(&state(1.0, [None, None, None]), 2000.0).unwrap().first_cycle);
+    assert!(
+        rcc.decide_at(&state(1.0, [None, None, None]), 2000.0)
+            .unwrap()
+            .first_cycle
+    );
     assert_eq!(rcc.tick(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
-    let custom = RccConfig { poll_timeout_ms: Some(150.0), ..rcc.config().clone() };
+    let custom = RccConfig {
+        poll_timeout_ms: Some(150.0),
+        ..rcc.config().clone()
+    };
     let mut rcc = RccController::new(custom.clone()).unwrap();
     rcc.watch_from(0.0).unwrap();
     assert_eq!(rcc.next_tick_ms(), Some(150.0));
-    assert_eq!(RccController::new(RccConfig { poll_timeout_ms: Some(0.0), ..custom }).unwrap_err().code(), "INVALID_CONFIG");
+    assert_eq!(
+        RccController::new(RccConfig {
+            poll_timeout_ms: Some(0.0),
+            ..custom
+        })
+        .unwrap_err()
+        .code(),
+        "INVALID_CONFIG"
+    );
 }

@@ -25,45 +25,80 @@ fn config() -> StationConfig {
 }
 
 fn sample(measurement: f64, sample_ms: f64) -> Sample {
-    Sample { measurement: Some(measurement), sample_ms, now_ms: sample_ms, track: None, decision: None }
+    Sample {
+        measurement: Some(measurement),
+        sample_ms,
+        now_ms: sample_ms,
+        track: None,
+        decision: None,
+    }
 }
 
 #[test]
 fn dt_runs_between_sample_times_and_the_first_sample_integrates_over_ts() {
     let mut s = Station::new(config()).unwrap();
     let a = s.measure(sample(40.0, 1000.0)).unwrap().pid;
-    assert_eq!((a.dt_s, a.p, a.i, a.d, a.output), (1.0, 20.0, 2.0, 0.0, 22.0));
+    assert_eq!(
+        (a.dt_s, a.p, a.i, a.d, a.output),
+        (1.0, 20.0, 2.0, 0.0, 22.0)
+    );
     let b = s.measure(sample(45.0, 1500.0)).unwrap().pid;
     assert_eq!(b.dt_s, 0.5);
     assert_eq!(b.d, -2.0 * 1.0 * 5.0 / 0.5);
     let err = s.measure(sample(46.0, 1500.0)).unwrap_err();
     assert!(err.to_string().contains("same timestamp"), "{err}");
-    assert_eq!(s.measure(sample(46.0, 2500.0)).unwrap().pid.dt_s, 1.0, "the refused sample moved no clock");
+    assert_eq!(
+        s.measure(sample(46.0, 2500.0)).unwrap().pid.dt_s,
+        1.0,
+        "the refused sample moved no clock"
+    );
 }
 
 #[test]
 fn manual_tracks_its_output_and_back_to_auto_is_bumpless() {
     let mut s = Station::new(config()).unwrap();
     s.measure(sample(40.0, 1000.0)).unwrap();
-    s.change(Change { mode: Some(Mode::Manual), manual: Some(30.0), ..Change::default() }).unwrap();
+    s.change(Change {
+        mode: Some(Mode::Manual),
+        manual: Some(30.0),
+        ..Change::default()
+    })
+    .unwrap();
     let held = s.measure(sample(43.0, 2000.0)).unwrap().pid;
     assert_eq!((held.output, held.mode), (30.0, ReportMode::Manual));
-    s.change(Change { mode: Some(Mode::Auto), ..Change::default() }).unwrap();
+    s.change(Change {
+        mode: Some(Mode::Auto),
+        ..Change::default()
+    })
+    .unwrap();
     let first = s.measure(sample(45.0, 3000.0)).unwrap().pid;
     let expected = 30.0 + (first.p - held.p) + (first.d - held.d) + 2.0 / 10.0 * 5.0;
     assert!((first.output - expected).abs() < 1e-12, "{first:?}");
     // into manual without a value holds the last output
-    s.change(Change { mode: Some(Mode::Manual), ..Change::default() }).unwrap();
+    s.change(Change {
+        mode: Some(Mode::Manual),
+        ..Change::default()
+    })
+    .unwrap();
     assert_eq!(s.state().manual, Some(first.output));
 }
 
 #[test]
 fn manual_without_any_output_to_hold_is_refused() {
     let mut s = Station::new(config()).unwrap();
-    let err = s.change(Change { mode: Some(Mode::Manual), ..Change::default() }).unwrap_err();
+    let err = s
+        .change(Change {
+            mode: Some(Mode::Manual),
+            ..Change::default()
+        })
+        .unwrap_err();
     assert_eq!(err.code(), "INVALID_INPUT");
     assert_eq!(s.state().mode, Mode::Auto);
-    let err = Station::new(StationConfig { mode: Mode::Manual, ..config() }).unwrap_err();
+    let err = Station::new(StationConfig {
+        mode: Mode::Manual,
+        ..config()
+    })
+    .unwrap_err();
     assert_eq!(err.code(), "INVALID_CONFIG");
 }
 
@@ -75,19 +110,42 @@ fn a_change_applies_whole_or_not_at_all() {
     s.measure(sample(40.0, 1000.0)).unwrap();
     let change = Change {
         setpoint: Some(60.0),
-        tunings: Some(Tunings { kp: Some(5.0), ..Tunings::default() }),
-        limits: Some(Limits { min: Some(10.0), max: Some(60.0) }),
+        tunings: Some(Tunings {
+            kp: Some(5.0),
+            ..Tunings::default()
+        }),
+        limits: Some(Limits {
+            min: Some(10.0),
+            max: Some(60.0),
+        }),
         ..Change::default()
     };
     assert_eq!(s.change(change).unwrap_err().code(), "INVALID_CONFIG");
     assert_eq!(s.pid_loop().pid().config().kp, 2.0);
     assert_eq!(s.pid_loop().pid().config().out_min, 0.0);
     assert_eq!(s.state().setpoint, 50.0);
-    let empty = Change { tunings: Some(Tunings::default()), ..Change::default() };
-    assert_eq!(s.change(empty).unwrap_err().code(), "INVALID_INPUT", "a misspelt key is not 'no change'");
-    let nan = Change { setpoint: Some(f64::NAN), ..Change::default() };
+    let empty = Change {
+        tunings: Some(Tunings::default()),
+        ..Change::default()
+    };
+    assert_eq!(
+        s.change(empty).unwrap_err().code(),
+        "INVALID_INPUT",
+        "a misspelt key is not 'no change'"
+    );
+    let nan = Change {
+        setpoint: Some(f64::NAN),
+        ..Change::default()
+    };
     assert_eq!(s.change(nan).unwrap_err().code(), "INVALID_INPUT");
-    s.change(Change { limits: Some(Limits { max: Some(60.0), ..Limits::default() }), ..Change::default() }).unwrap();
+    s.change(Change {
+        limits: Some(Limits {
+            max: Some(60.0),
+            ..Limits::default()
+        }),
+        ..Change::default()
+    })
+    .unwrap();
     assert_eq!(s.pid_loop().pid().config().out_max, 60.0);
 }
 
@@ -102,30 +160,76 @@ fn a_null_in_a_change_is_refused_not_taken_for_absent() {
 #[test]
 fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
     let mut s = Station::new(config()).unwrap();
-    assert_eq!(s.next_tick_ms(), None, "the watch starts with the first measurement");
+    assert_eq!(
+        s.next_tick_ms(),
+        None,
+        "the watch starts with the first measurement"
+    );
     s.measure(sample(40.0, 1000.0)).unwrap();
     assert_eq!(s.next_tick_ms(), Some(1080.0));
     assert_eq!(s.tick(1079.0).unwrap(), None);
-    let Some(Stale::Fallback { pid }) = s.tick(1080.0).unwrap() else { panic!("stale at 1080") };
-    assert_eq!((pid.output, pid.mode, pid.dt_s, pid.measurement), (7.0, ReportMode::Fallback, 0.08, None));
+    let Some(Stale::Fallback { pid }) = s.tick(1080.0).unwrap() else {
+        panic!("stale at 1080")
+    };
+    assert_eq!(
+        (pid.output, pid.mode, pid.dt_s, pid.measurement),
+        (7.0, ReportMode::Fallback, 0.08, None)
+    );
     assert_eq!(s.next_tick_ms(), Some(1160.0));
     // a bad measurement does not restart the watch
-    s.measure(Sample { measurement: None, ..sample(0.0, 1100.0) }).unwrap();
+    s.measure(Sample {
+        measurement: None,
+        ..sample(0.0, 1100.0)
+    })
+    .unwrap();
     assert_eq!(s.next_tick_ms(), Some(1160.0));
-    assert!(matches!(s.tick(1160.0).unwrap(), Some(Stale::Fallback { .. })));
+    assert!(matches!(
+        s.tick(1160.0).unwrap(),
+        Some(Stale::Fallback { .. })
+    ));
     let back = s.measure(sample(41.0, 1200.0)).unwrap().pid;
-    assert_eq!((back.mode, back.dt_s), (ReportMode::Auto, 1.0), "the first sample after going stale integrates over Ts");
-    assert_eq!(Station::new(StationConfig { stale_ms: 0.0, ..config() }).unwrap().next_tick_ms(), None);
+    assert_eq!(
+        (back.mode, back.dt_s),
+        (ReportMode::Auto, 1.0),
+        "the first sample after going stale integrates over Ts"
+    );
+    assert_eq!(
+        Station::new(StationConfig {
+            stale_ms: 0.0,
+            ..config()
+        })
+        .unwrap()
+        .next_tick_ms(),
+        None
+    );
 }
 
 #[test]
 fn stale_behind_rcc_steps_nothing_and_says_so_once() {
     let mut s = Station::new(config()).unwrap();
-    let decision = Decision { engaged: true, first_cycle: true, track: Some(10.0) };
-    let first = s.measure(Sample { decision: Some(decision), ..sample(40.0, 1000.0) }).unwrap();
+    let decision = Decision {
+        engaged: true,
+        first_cycle: true,
+        track: Some(10.0),
+    };
+    let first = s
+        .measure(Sample {
+            decision: Some(decision),
+            ..sample(40.0, 1000.0)
+        })
+        .unwrap();
     assert_eq!((first.engaged, first.pid.output), (true, 10.0));
-    let standby = Decision { engaged: false, first_cycle: false, track: Some(12.0) };
-    let out = s.measure(Sample { decision: Some(standby), ..sample(40.0, 1050.0) }).unwrap();
+    let standby = Decision {
+        engaged: false,
+        first_cycle: false,
+        track: Some(12.0),
+    };
+    let out = s
+        .measure(Sample {
+            decision: Some(standby),
+            ..sample(40.0, 1050.0)
+        })
+        .unwrap();
     assert!(!out.engaged);
     assert_eq!(s.tick(1130.0).unwrap(), Some(Stale::NoIo));
     assert_eq!(s.next_tick_ms(), None);
@@ -134,21 +238,62 @@ fn stale_behind_rcc_steps_nothing_and_says_so_once() {
 
 #[test]
 fn manual_overrides_what_an_rcc_decision_tracks() {
-    let mut s = Station::new(StationConfig { mode: Mode::Manual, manual: Some(33.0), ..config() }).unwrap();
-    let decision = Decision { engaged: true, first_cycle: false, track: Some(10.0) };
-    let out = s.measure(Sample { decision: Some(decision), ..sample(40.0, 1000.0) }).unwrap();
+    let mut s = Station::new(StationConfig {
+        mode: Mode::Manual,
+        manual: Some(33.0),
+        ..config()
+    })
+    .unwrap();
+    let decision = Decision {
+        engaged: true,
+        first_cycle: false,
+        track: Some(10.0),
+    };
+    let out = s
+        .measure(Sample {
+            decision: Some(decision),
+            ..sample(40.0, 1000.0)
+        })
+        .unwrap();
     assert_eq!((out.pid.output, out.pid.mode), (33.0, ReportMode::Manual));
 }
 
 #[test]
 fn a_restart_restores_what_was_saved_or_refuses_it_whole() {
     let mut s = Station::new(config()).unwrap();
-    s.restore(Saved { integral: Some(12.0), setpoint: Some(55.0), mode: Some(Mode::Manual), manual: Some(33.0) }).unwrap();
-    assert_eq!(s.state(), StationState { setpoint: 55.0, mode: Mode::Manual, manual: Some(33.0), last_output: None, integral: 12.0 });
+    s.restore(Saved {
+        integral: Some(12.0),
+        setpoint: Some(55.0),
+        mode: Some(Mode::Manual),
+        manual: Some(33.0),
+    })
+    .unwrap();
+    assert_eq!(
+        s.state(),
+        StationState {
+            setpoint: 55.0,
+            mode: Mode::Manual,
+            manual: Some(33.0),
+            last_output: None,
+            integral: 12.0
+        }
+    );
     let mut s = Station::new(config()).unwrap();
-    s.restore(Saved { mode: Some(Mode::Manual), ..Saved::default() }).unwrap();
-    assert_eq!(s.state().mode, Mode::Auto, "manual saved without its output resumes in auto");
-    let bad = Saved { integral: Some(1.0), setpoint: Some(f64::INFINITY), ..Saved::default() };
+    s.restore(Saved {
+        mode: Some(Mode::Manual),
+        ..Saved::default()
+    })
+    .unwrap();
+    assert_eq!(
+        s.state().mode,
+        Mode::Auto,
+        "manual saved without its output resumes in auto"
+    );
+    let bad = Saved {
+        integral: Some(1.0),
+        setpoint: Some(f64::INFINITY),
+        ..Saved::default()
+    };
     assert!(s.restore(bad).is_err());
     assert_eq!((s.state().integral, s.state().setpoint), (0.0, 50.0));
 }
@@ -156,11 +301,27 @@ fn a_restart_restores_what_was_saved_or_refuses_it_whole() {
 #[test]
 fn refuses_configurations_that_cannot_run() {
     for broken in [
-        StationConfig { ts_s: 0.0, ..config() },
-        StationConfig { stale_ms: -1.0, ..config() },
-        StationConfig { stale_ms: f64::NAN, ..config() },
-        StationConfig { setpoint: f64::INFINITY, ..config() },
+        StationConfig {
+            ts_s: 0.0,
+            ..config()
+        },
+        StationConfig {
+            stale_ms: -1.0,
+            ..config()
+        },
+        StationConfig {
+            stale_ms: f64::NAN,
+            ..config()
+        },
+        StationConfig {
+            setpoint: f64::INFINITY,
+            ..config()
+        },
     ] {
-        assert_eq!(Station::new(broken.clone()).unwrap_err().code(), "INVALID_CONFIG", "{broken:?}");
+        assert_eq!(
+            Station::new(broken.clone()).unwrap_err().code(),
+            "INVALID_CONFIG",
+            "{broken:?}"
+        );
     }
 }
