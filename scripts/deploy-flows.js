@@ -33,7 +33,7 @@ function build(caseStudy) {
     {
       id: journal, type: 'sugarshack-journal', z: tab, name: 'journal → database', target: 'http',
       plantId: env('SUGARSHACK_PLANT_ID'), host: env('SUGARSHACK_DB_HOST'), port: env('SUGARSHACK_DB_PORT'),
-      tls: env('SUGARSHACK_DB_TLS'), bufferMB: env('SUGARSHACK_JOURNAL_BUFFER_MB'), flushMs: 1000, dir: '', filesMB: 512,
+      tls: env('SUGARSHACK_DB_TLS'), bufferMB: env('SUGARSHACK_JOURNAL_BUFFER_MB'), flushS: 1, dir: '', filesMB: 512,
       x: 420, y: 100, wires: [[nid('debug:journal')]],
     },
     {

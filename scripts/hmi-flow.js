@@ -62,7 +62,7 @@ function panels(id) {
         category: 'sugarshack', in: [{ x: 60, y: 80, wires: [{ id: lTemplate }] }],
         out: [{ x: 760, y: 60, wires: [{ id: lRoute, port: 0 }] }, { x: 760, y: 100, wires: [{ id: lRoute, port: 1 }] }],
         env: [groupEnv, interlockEnv], meta: {}, color: '#D9A55B', inputLabels: ['clear refusals'], outputLabels: ['e-stop requests', 'clear requests'], icon: 'font-awesome/fa-th-list' },
-      { id: lState, type: 'sugarshack-state', z: sfLines, name: 'plant state', onChange: true, intervalMs: 1000, x: 160, y: 160, wires: [[lPanel]] },
+      { id: lState, type: 'sugarshack-state', z: sfLines, name: 'plant state', onChange: true, intervalS: 1, x: 160, y: 160, wires: [[lPanel]] },
       panelOf(lPanel, sfLines, 340, 160, [lTemplate]),
       template({ id: lTemplate, z: sfLines, group: '${GROUP}', name: 'lines', format: LINES_VUE, x: 400, y: 80, wires: [[lRoute]] }),
       { id: lRoute, type: 'switch', z: sfLines, name: 'request', property: 'topic', propertyType: 'msg',
@@ -72,7 +72,7 @@ function panels(id) {
         category: 'sugarshack', in: [], out: [],
         env: [groupEnv, interlockEnv, { name: 'SHELVE_MINUTES', type: 'num', value: '60', ui: { label: { 'en-US': 'Shelve minutes' }, type: 'input', opts: { types: ['num'] } } }],
         meta: {}, color: '#D9A55B', icon: 'font-awesome/fa-bell' },
-      { id: aState, type: 'sugarshack-state', z: sfAlarms, name: 'plant state', onChange: true, intervalMs: 1000, x: 160, y: 80, wires: [[aPanel]] },
+      { id: aState, type: 'sugarshack-state', z: sfAlarms, name: 'plant state', onChange: true, intervalS: 1, x: 160, y: 80, wires: [[aPanel]] },
       panelOf(aPanel, sfAlarms, 340, 80, [aTemplate]),
       template({ id: aTemplate, z: sfAlarms, group: '${GROUP}', name: 'alarms', format: ALARMS_VUE, x: 520, y: 80, wires: [[aState]] }),
     ],
@@ -117,7 +117,7 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
     { id: alarmsPanel, type: `subflow:${sf.alarms}`, z: TAB, name: 'alarms', env: [{ name: 'GROUP', type: 'conf-type', value: gAlarms }, { name: 'INTERLOCK', type: 'str', value: interlock }, { name: 'SHELVE_MINUTES', type: 'num', value: '60' }], x: 160, y: 180, wires: [] },
 
     comment('Tanks, sensors, device health and unconfirmed lockouts, from the plant state', 300, 240),
-    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalMs: 1000, x: 150, y: 280, wires: [[tPlant]] },
+    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalS: 1, x: 150, y: 280, wires: [[tPlant]] },
     template({ id: tPlant, z: TAB, group: gPlant, name: 'plant', format: PLANT_VUE, order: 1, width: 12, x: 340, y: 280, wires: [[]] }),
 
     comment('Timing page: a grant\'s queue wait per line set (Figs. 13-15), from the interlock events', 300, 340),
@@ -134,7 +134,7 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
 
     comment('Timing page: the figures of GET /sugarshack/stats, from the state node asked with topic sugarshack/stats', 380, 440),
     { id: tick, type: 'inject', z: TAB, name: 'every 2 s', props: [{ p: 'topic', vt: 'str' }], repeat: '2', crontab: '', once: true, onceDelay: '1', topic: 'sugarshack/stats', x: 150, y: 480, wires: [[statsOf]] },
-    { id: statsOf, type: 'sugarshack-state', z: TAB, name: 'timing figures', onChange: false, intervalMs: 1000, x: 340, y: 480, wires: [[tFigures]] },
+    { id: statsOf, type: 'sugarshack-state', z: TAB, name: 'timing figures', onChange: false, intervalS: 1, x: 340, y: 480, wires: [[tFigures]] },
     template({ id: tFigures, z: TAB, group: gFigures, name: 'timing figures', format: TIMING_VUE, order: 1, width: 12, x: 560, y: 480, wires: [[statsOf]] }),
     ...extra(TAB, id),
   ];

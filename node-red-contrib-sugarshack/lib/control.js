@@ -23,10 +23,30 @@ function configNumber(value, label, { required = false, fallback } = {}) {
 }
 
 /** "1000, 2000, 4000" -> [1000, 2000, 4000]; the order rules are the core's. */
-function parseList(text, label) {
+function parseList(text, label, example = '1000, 2000') {
   const items = String(text ?? '').split(',').map((s) => s.trim()).filter((s) => s !== '');
-  if (items.length === 0) throw new SugarshackError('INVALID_CONFIG', `${label}: give one number per controller, comma-separated (e.g. 1000, 2000)`);
+  if (items.length === 0) throw new SugarshackError('INVALID_CONFIG', `${label}: give one number per controller, comma-separated (e.g. ${example})`);
   return items.map((s, i) => configNumber(s, `${label} (item ${i + 1})`, { required: true }));
+}
+
+// Seconds to ms without float noise (1.1 s is 1100 ms, not 1100.0000000000002).
+const secondsToMs = (s) => Math.round(s * 1e6) / 1e3;
+
+/**
+ * A duration setting, in ms for the runtime. Settings are in seconds under
+ * `name`; flows saved before that carry the same duration in ms under
+ * `legacyMs`, read when `name` is blank. Blank both: `fallbackMs`.
+ */
+function configDurationMs(props, name, legacyMs, label, { required = false, fallbackMs } = {}) {
+  if (!blank(props[name])) return secondsToMs(configNumber(props[name], `${label} (${name}, s)`, { required: true }));
+  if (!blank(props[legacyMs])) return configNumber(props[legacyMs], `${label} (${legacyMs}, ms)`, { required: true });
+  return configNumber(undefined, `${label} (${name}, s)`, { required, fallback: fallbackMs });
+}
+
+/** A list of durations, "1, 2.5" in seconds under `name`, else "1000, 2500" in ms under `legacyMs`; in ms. */
+function configDurationListMs(props, name, legacyMs, label) {
+  if (blank(props[name]) && !blank(props[legacyMs])) return parseList(props[legacyMs], `${label} (${legacyMs}, ms)`);
+  return parseList(props[name], `${label} (${name}, s)`, '1, 2').map(secondsToMs);
 }
 
 /** A msg field that must be a finite number when present. */
@@ -94,4 +114,4 @@ function revivable(make, { onRevive = () => {} } = {}) {
 }
 
 
-module.exports = { isNumber, blank, configNumber, parseList, msgNumber, describe, fmt, revivable };
+module.exports = { isNumber, blank, configNumber, configDurationMs, configDurationListMs, parseList, msgNumber, describe, fmt, revivable };

@@ -6,6 +6,7 @@ const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
 const { compact, status } = require('../lib/status');
 const { translator } = require('../lib/i18n');
+const { configDurationMs } = require('../lib/control');
 
 const MB = 1024 * 1024;
 const writers = new Map(); // node id (or 'default') -> JournalWriter
@@ -28,7 +29,8 @@ function statusOf(t, m) {
 /** The writer for a node's settings: local files, or a database with a spool in the user dir. */
 function writerFor({ props, credentials, userDir, id, onChange }) {
   const plant = String(props.plantId || '').trim();
-  const flushMs = bounded(props.flushMs, 1000, 50, 60000, 'the flush interval (ms)');
+  const flushMs = configDurationMs(props, 'flushS', 'flushMs', 'the flush interval', { fallbackMs: 1000 });
+  if (!(flushMs >= 50 && flushMs <= 60000)) throw new Error(`the flush interval (flushS) must be from 0.05 to 60 s, got ${flushMs / 1000} s`);
   const base = path.join(userDir, 'sugarshack-journal');
   if ((props.target || 'files') === 'files') {
     const dir = props.dir ? path.resolve(userDir, props.dir) : path.join(base, 'files');

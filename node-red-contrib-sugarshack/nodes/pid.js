@@ -2,7 +2,7 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
-const { isNumber, configNumber, msgNumber, describe, fmt, revivable } = require('../lib/control');
+const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 
 const CONTEXT_KEY = 'pid';
@@ -56,7 +56,7 @@ function readConfig(props) {
   return {
     loop: { pid, smith },
     tsS,
-    staleMs: configNumber(props.staleMs, 'stale after (ms)', { fallback: 3 * tsS * 1000 }),
+    staleMs: configDurationMs(props, 'staleS', 'staleMs', 'stale after', { fallbackMs: 3 * tsS * 1000 }),
     setpoint: configNumber(props.setpoint, 'set point', { required: true }),
     mode: props.mode === 'manual' ? 'manual' : 'auto',
     manual: configNumber(props.manual, 'manual output', { fallback: null }),

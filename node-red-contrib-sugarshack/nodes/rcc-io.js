@@ -2,7 +2,7 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
-const { isNumber, configNumber, describe, fmt, revivable } = require('../lib/control');
+const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
@@ -10,8 +10,8 @@ const board = new StatusBoard();
 
 function readConfig(props) {
   const controllers = configNumber(props.controllers, 'controllers', { required: true }); // a whole number >= 1: the core checks
-  const periodMs = configNumber(props.period, 'publish period (ms)', { required: true });
-  if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', `publish period must be a number of ms greater than 0, got ${periodMs}`);
+  const periodMs = configDurationMs(props, 'periodS', 'period', 'publish period', { required: true });
+  if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', `publish period (periodS) must be a number of seconds greater than 0, got ${periodMs / 1000}`);
   return { controllers, initialAction: configNumber(props.initialAction, 'initial action', { fallback: 0 }), periodMs };
 }
 

@@ -2,21 +2,21 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
-const { configNumber, parseList, describe, revivable } = require('../lib/control');
+const { configNumber, configDurationMs, configDurationListMs, describe, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
 
 function readConfig(props) {
-  const tsMs = configNumber(props.ts, 'sampling period Ts (ms)', { required: true });
-  const thresholdsMs = parseList(props.thresholds, 'engagement thresholds D_1..D_n (ms)');
+  const tsMs = configDurationMs(props, 'tsS', 'ts', 'sampling period Ts', { required: true });
+  const thresholdsMs = configDurationListMs(props, 'thresholdsS', 'thresholds', 'engagement thresholds D_1..D_n');
   const id = configNumber(props.controller, 'controller id', { required: true });
   if (!Number.isInteger(id) || id < 1) {
     throw new SugarshackError('INVALID_CONFIG', `controller id must be a whole number from 1 (primary) to ${thresholdsMs.length}, got ${id}`);
   }
   // Blank: the core's default, 3·Ts.
-  const pollTimeoutMs = configNumber(props.pollTimeout, 'poll timeout (ms)', { fallback: null });
+  const pollTimeoutMs = configDurationMs(props, 'pollTimeoutS', 'pollTimeout', 'poll timeout', { fallbackMs: null });
   const smoothHandover = !(props.smooth === false || props.smooth === 'false');
   return { id, thresholdsMs, tsMs, smoothHandover, pollTimeoutMs };
 }

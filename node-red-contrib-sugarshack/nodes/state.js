@@ -14,6 +14,7 @@ const { clock } = require('../lib/clock');
 const { stats } = require('../lib/stats');
 const { status } = require('../lib/status');
 const { translator } = require('../lib/i18n');
+const { configDurationMs } = require('../lib/control');
 
 const STATS_TOPIC = 'sugarshack/stats';
 
@@ -60,7 +61,12 @@ module.exports = function (RED) {
     const node = this;
     const t = translator(RED, 'sugarshack-state');
     const palette = paletteOf(RED);
-    const intervalMs = Math.max(MIN_INTERVAL_MS, Number(props.intervalMs) || 1000);
+    let intervalMs = 1000;
+    try {
+      intervalMs = Math.max(MIN_INTERVAL_MS, configDurationMs(props, 'intervalS', 'intervalMs', 'the send interval', { fallbackMs: 1000 }) || 1000);
+    } catch (err) {
+      node.error(`${err.message}; sending every 1 s`); // a bad interval still leaves a working state feed
+    }
     let timer = null;
     let lastSentMs = -Infinity;
 

@@ -25,7 +25,7 @@ function pidNode(id, extra = {}, wire = 'out') {
   return {
     id, z: 'f1', type: 'sugarshack-pid', name: '',
     kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '',
-    setpoint: '50', mode: 'auto', manual: '', ts: '1', staleMs: '0',
+    setpoint: '50', mode: 'auto', manual: '', ts: '1', staleS: '0',
     smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', horizon: '3', maxSamples: '400',
     persist: false, store: 'default',
     wires: [[wire]], ...extra,
@@ -33,9 +33,11 @@ function pidNode(id, extra = {}, wire = 'out') {
 }
 
 const rccNode = (id, controller, wire, extra = {}) => ({
-  id, z: 'f1', type: 'sugarshack-rcc', controller: String(controller), thresholds: '100, 200', ts: '50', smooth: true, pollTimeout: '150',
+  id, z: 'f1', type: 'sugarshack-rcc', controller: String(controller), thresholdsS: '0.1, 0.2', tsS: '0.05', smooth: true, pollTimeoutS: '0.15',
   wires: [[wire]], ...extra,
 });
+// The same rcc settings as a flow saved while they were in ms carries them.
+const LEGACY_RCC = { thresholdsS: '', tsS: '', pollTimeoutS: '', thresholds: '100, 200', ts: '50', pollTimeout: '150' };
 
 const CATCH = { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] };
 
@@ -253,8 +255,8 @@ describe('sugarshack control: pid', function () {
     assert.match(seen.caught[0].error.message, /same timestamp/);
   });
 
-  it('stale: without a valid measurement for staleMs it sends the fallback every staleMs', async function () {
-    const seen = await start([pidNode('pid', { staleMs: '80', fallback: '7' })]);
+  for (const [settings, stale] of [['staleS in s', { staleS: '0.08' }], ['staleMs of older flows', { staleS: '', staleMs: '80' }]]) it(`stale (${settings}): without a valid measurement for 'stale after' it sends the fallback every 'stale after'`, async function () {
+    const seen = await start([pidNode('pid', { ...stale, fallback: '7' })]);
     await clock().advance(150);
     assert.equal(seen.out.length, 0, 'the watchdog starts with the first measurement');
     await deliver('pid', { payload: 40 });
@@ -416,8 +418,8 @@ describe('sugarshack control: pid', function () {
 describe('sugarshack control: rcc and rcc-io', function () {
   withServer();
 
-  it('rcc: the primary is engaged; the secondary stands by while the primary is fresh and engages once its age reaches D2', async function () {
-    const seen = await start([rccNode('r1', 1, 'o1'), rccNode('r2', 2, 'o2')], ['o1', 'o2']);
+  for (const [settings, extra] of [['in s', {}], ['in ms, older flows', LEGACY_RCC]]) it(`rcc (${settings}): the primary is engaged; the secondary stands by while the primary is fresh and engages once its age reaches D2`, async function () {
+    const seen = await start([rccNode('r1', 1, 'o1', extra), rccNode('r2', 2, 'o2', extra)], ['o1', 'o2']);
     const both = async (payload, timestamp) => {
       await deliver('r1', { payload, timestamp });
       await deliver('r2', { payload, timestamp });
@@ -439,8 +441,8 @@ describe('sugarshack control: rcc and rcc-io', function () {
     assert.deepEqual(statusOf('r1'), { fill: 'green', shape: 'dot', text: 'engaged' });
   });
 
-  it('rcc: a poll timeout shows "no I/O" and makes the next decision a first cycle that tracks; bad states are refused', async function () {
-    const seen = await start([rccNode('r1', 1, 'o1')], ['o1']);
+  for (const [settings, extra] of [['in s', {}], ['in ms, older flows', LEGACY_RCC]]) it(`rcc (${settings}): a poll timeout shows "no I/O" and makes the next decision a first cycle that tracks; bad states are refused`, async function () {
+    const seen = await start([rccNode('r1', 1, 'o1', extra)], ['o1']);
     await deliver('r1', { payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } });
     await deliver('r1', { payload: { procVar: 40, lastAction: 15, agesMs: [30, null] } });
     assert.equal(seen.o1.at(-1).rcc.firstCycle, false);
@@ -463,17 +465,23 @@ describe('sugarshack control: rcc and rcc-io', function () {
 
   it('rcc: refuses thresholds out of order or below Ts, Ts <= 0 and an id outside the group at deploy', async function () {
     const seen = await start([
-      rccNode('order', 2, 'o1', { thresholds: '2000, 1000', ts: '500' }),
-      rccNode('below', 1, 'o1', { thresholds: '400, 1000', ts: '500' }),
-      rccNode('ts0', 1, 'o1', { ts: '0' }),
+      rccNode('order', 2, 'o1', { thresholdsS: '2, 1', tsS: '0.5' }),
+      rccNode('below', 1, 'o1', { thresholdsS: '0.4, 1', tsS: '0.5' }),
+      rccNode('ts0', 1, 'o1', { tsS: '0' }),
       rccNode('id3', 3, 'o1'),
-      { id: 'io0', z: 'f1', type: 'sugarshack-rcc-io', controllers: '0', initialAction: '0', period: '100', wires: [[], []] },
+      rccNode('text', 1, 'o1', { thresholdsS: '1, soon' }),
+      rccNode('none', 1, 'o1', { thresholdsS: '' }),
+      { id: 'io0', z: 'f1', type: 'sugarshack-rcc-io', controllers: '0', initialAction: '0', periodS: '0.1', wires: [[], []] },
+      { id: 'io-1', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '0', periodS: '-1', wires: [[], []] },
     ], ['o1']);
     const expected = {
       order: /engagement threshold D_2 = 1000 ms must be greater than D_1 = 2000 ms/,
       below: /engagement threshold D_1 = 400 ms must be at least the sampling period Ts = 500 ms/,
       ts0: /sampling period Ts \(ms\) must be a number greater than 0, got 0/,
       id3: /controller id 3 is outside 1..2/,
+      text: /engagement thresholds D_1..D_n \(thresholdsS, s\) \(item 2\) must be a number, got 'soon'/,
+      none: /engagement thresholds D_1..D_n \(thresholdsS, s\): give one number per controller, comma-separated \(e.g. 1, 2\)/,
+      'io-1': /publish period \(periodS\) must be a number of seconds greater than 0, got -1/,
       io0: /controllers must be a whole number >= 1, got 0/,
     };
     for (const [id, text] of Object.entries(expected)) {
@@ -484,9 +492,9 @@ describe('sugarshack control: rcc and rcc-io', function () {
     }
   });
 
-  it('rcc-io: publishes the state every period; ages grow from each write and reset on the next; writes go to output 2', async function () {
+  for (const [settings, period] of [['periodS in s', { periodS: '0.04' }], ['period in ms, older flows', { periodS: '', period: '40' }]]) it(`rcc-io (${settings}): publishes the state every period; ages grow from each write and reset on the next; writes go to output 2`, async function () {
     const seen = await start([
-      { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '10', period: '40', wires: [['state'], ['act']] },
+      { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '10', ...period, wires: [['state'], ['act']] },
     ], ['state', 'act']);
     await clock().advance(39);
     assert.equal(seen.state.length, 0, 'the first state after one period');
@@ -535,9 +543,9 @@ describe('sugarshack control: rcc and rcc-io', function () {
   });
 
   it('two redundant controllers: the secondary takes over without a bump (G1, G3) and the primary takes back (G2)', async function () {
-    const pidOf = (id, wire) => pidNode(id, { kp: '1', ti: '0.3', td: '0', ts: '0.05', staleMs: '', setpoint: '50' }, wire);
+    const pidOf = (id, wire) => pidNode(id, { kp: '1', ti: '0.3', td: '0', ts: '0.05', staleS: '', setpoint: '50' }, wire);
     const seen = await start([
-      { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '0', period: '50', wires: [['link1', 'link2'], ['act']] },
+      { id: 'io', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '0', periodS: '0.05', wires: [['link1', 'link2'], ['act']] },
       rccNode('rcc1', 1, 'pid1'), rccNode('rcc2', 2, 'pid2'),
       pidOf('pid1', 'w1'), pidOf('pid2', 'w2'),
     ], ['link1', 'link2', 'w1', 'w2', 'act']);

@@ -76,12 +76,12 @@ function flow() {
     n('wt', 'sugarshack-wait', { plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 60 }, [['waited']]),
     n('pid', 'sugarshack-pid', {
       kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '',
-      setpoint: '50', mode: 'auto', manual: '', ts: '1', staleMs: '0',
+      setpoint: '50', mode: 'auto', manual: '', ts: '1', staleS: '0',
       smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', h: '3', maxSamples: '400',
       persist: false, store: 'default',
     }, [['pidout']]),
-    n('rcc', 'sugarshack-rcc', { controller: '1', thresholds: '100, 200', ts: '50', smooth: true, pollTimeout: '' }, [['rccout']]),
-    n('io', 'sugarshack-rcc-io', { controllers: '2', initialAction: '0', period: '1000' }, [['iostate'], ['ioact']]),
+    n('rcc', 'sugarshack-rcc', { controller: '1', thresholdsS: '0.1, 0.2', tsS: '0.05', smooth: true, pollTimeoutS: '' }, [['rccout']]),
+    n('io', 'sugarshack-rcc-io', { controllers: '2', initialAction: '0', periodS: '1' }, [['iostate'], ['ioact']]),
     ...SINKS.map(sinkNode),
   ];
 }

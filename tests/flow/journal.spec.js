@@ -241,10 +241,10 @@ describe('journal node', function () {
   beforeEach(startServer);
   afterEach(stopServer);
 
-  it('journals a plant run into local files: the operator action, the interlock events, and the timing series', async function () {
+  for (const [settings, flush] of [['flushS in s', { flushS: '0.1' }], ['flushMs of older flows', { flushS: '', flushMs: 100 }]]) it(`journals a plant run into local files (${settings}): the operator action, the interlock events, and the timing series`, async function () {
     const flow = [
       { id: 'f1', type: 'tab', label: 'test' },
-      { id: 'j', z: 'f1', type: 'sugarshack-journal', name: '', target: 'files', plantId: 'p1', flushMs: 100, wires: [['out']] },
+      { id: 'j', z: 'f1', type: 'sugarshack-journal', name: '', target: 'files', plantId: 'p1', ...flush, wires: [['out']] },
       { id: 'out', z: 'f1', type: 'helper' },
     ];
     await helper.load(paletteNodes, flow);

@@ -59,7 +59,7 @@ describe('season report', function () {
       { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
       { id: 'op12', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '12', wires: [['out']] },
       { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', resources: 'YEL', wires: [[]] },
-      { id: 'j', z: 'f1', type: 'sugarshack-journal', target: 'files', plantId: 'test', flushMs: 100, wires: [[]] },
+      { id: 'j', z: 'f1', type: 'sugarshack-journal', target: 'files', plantId: 'test', flushS: 0.1, wires: [[]] },
       ...SINKS.map(sinkNode),
     ]);
     const seen = Object.fromEntries(SINKS.map((id) => [id, collect(helper, id)]));

@@ -26,8 +26,8 @@ const BASE = 'sugarshack/rcc/flow-1';
 const byName = (name) => EXAMPLE.find((n) => n.name === name);
 const pidOf = (id) => byName(`flow PI C${id}`);
 const rccOf = (id) => byName(`RCC C${id}`);
-const TS_MS = rccOf(1).ts;
-const THRESHOLDS = rccOf(1).thresholds.split(',').map(Number);
+const TS_MS = Math.round(Number(rccOf(1).tsS) * 1000);
+const THRESHOLDS = rccOf(1).thresholdsS.split(',').map((s) => Math.round(Number(s) * 1000));
 // MQTT hops and Node-RED's event loop on a busy test machine.
 const SLACK_MS = 600;
 

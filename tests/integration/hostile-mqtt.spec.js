@@ -40,7 +40,7 @@ const TARGETS = {
     put: 'msg.tunings = { kp: v };',
     text: true,
   },
-  'rcc-state': { node: { type: 'sugarshack-rcc', controller: '1', thresholds: '1000,2000', ts: '500', pollTimeout: '' }, put: 'msg.payload = { procVar: 1, lastAction: 1, agesMs: v };' },
+  'rcc-state': { node: { type: 'sugarshack-rcc', controller: '1', thresholdsS: '1,2', tsS: '0.5', pollTimeoutS: '' }, put: 'msg.payload = { procVar: 1, lastAction: 1, agesMs: v };' },
 };
 
 function flow(port) {

@@ -182,7 +182,7 @@ describe('journal on VictoriaMetrics', function () {
         { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mout'], [], ['ev']] },
         { id: 'mout', z: 'f1', type: 'mqtt out', name: '', topic: '', qos: '', retain: '', broker: 'br', wires: [] },
         { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']] },
-        { id: 'j', z: 'f1', type: 'sugarshack-journal', target: 'http', host: '127.0.0.1', port: vm.port, plantId: 'small', flushMs: 200, wires: [[]] },
+        { id: 'j', z: 'f1', type: 'sugarshack-journal', target: 'http', host: '127.0.0.1', port: vm.port, plantId: 'small', flushS: 0.2, wires: [[]] },
         sinkNode('ev'), sinkNode('out'),
       ]);
       const seen = { ev: collect(helper, 'ev'), out: collect(helper, 'out') };
