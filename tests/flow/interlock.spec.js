@@ -6,6 +6,8 @@ const {
   collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settings, settled, clock, userDir,
 } = require('./support');
 
+const { WINDOW_MS } = require('../../node-red-contrib-sugarshack/lib/status-pacer');
+
 helper.init(require.resolve('node-red'));
 
 const runtimeOf = () => helper.getNode('il').runtime;
@@ -426,7 +428,10 @@ describe('sugarshack interlock nodes', function () {
     helper.getNode('estop').receive({});
     for (const op of ops) helper.getNode('a').receive({ operation: op, priority: 1 });
     await until(() => counts().queued === ops.length - 1, 'the queue');
+    // Statuses are paced: the last state shows once the window ends.
+    await clock().advance(WINDOW_MS);
     const texts = helper.getNode('a').status.getCalls().map((c) => c.args[0].text);
+    assert.ok(texts.length < ops.length, `${texts.length} statuses for ${ops.length} changes: not paced`);
     assert.equal(texts[texts.length - 1], 'flt 1·hld 1·q 119');
     for (const text of texts) assert.ok(text.length < 20, `"${text}" is ${text.length} characters`);
   });
