@@ -85,7 +85,8 @@ class InterlockRuntime extends RuntimeBase {
           this.core.clearEvents(); // records nobody reads are not made
           return null;
         }
-        const records = this.core.drainEvents();
+        // Only its alarms listen: they keep the abnormal records, so the others are not made.
+        const records = this.events.listened() ? this.core.drainEvents() : this.core.drainAbnormalEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
         if (!this.events.listened()) return null;
