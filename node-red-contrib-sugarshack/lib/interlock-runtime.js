@@ -19,6 +19,7 @@ const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
 const { journal } = require('./journal/bus');
+const { StatusPacer } = require('./status-pacer');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
@@ -51,6 +52,9 @@ class InterlockRuntime extends RuntimeBase {
     this.alarmTimer = null;
     this.store = settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore();
     this.committer = this.makeCommitter();
+    // Counts on nodes change with every grant: shown paced, the last state always (after each window).
+    this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready');
+    this.countsShown = null; // { holding, queued, faulted, lost, status }: the counts status last made
   }
 
   applySettings(settings) {
@@ -81,7 +85,8 @@ class InterlockRuntime extends RuntimeBase {
           this.core.clearEvents(); // records nobody reads are not made
           return null;
         }
-        const records = this.core.drainEvents();
+        // Only its alarms listen: they keep the abnormal records, so the others are not made.
+        const records = this.events.listened() ? this.core.drainEvents() : this.core.drainAbnormalEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
         if (!this.events.listened()) return null;
@@ -91,7 +96,7 @@ class InterlockRuntime extends RuntimeBase {
         this.log('error', `cannot save the interlock state to ${this.store.where}: ${err.message || err}`);
         this.refreshStatus();
       },
-      onSaved: () => this.refreshStatus(),
+      onSaved: () => this.statusPacer.request(),
     });
   }
 
@@ -253,6 +258,7 @@ class InterlockRuntime extends RuntimeBase {
     this.tickTimer = null;
     if (this.alarmTimer) clock.clearInterval(this.alarmTimer);
     this.alarmTimer = null;
+    this.statusPacer.stop();
   }
 
   freeCore() {
@@ -683,7 +689,8 @@ class InterlockRuntime extends RuntimeBase {
 
   /** A state change: status now; `effect` once the change is on disk (at once without persistence: after the status, which it may override). */
   changed(effect) {
-    this.refreshStatus();
+    if (this.palette) this.palette.changes.touch();
+    this.statusPacer.request();
     this.committer.change(effect);
   }
 
@@ -776,16 +783,25 @@ class InterlockRuntime extends RuntimeBase {
     return this.committer.settled();
   }
 
+  /** The counts as a status; the same object while they do not change, so unchanged nodes cost nothing. */
+  countsStatus() {
+    const { holding, queued, faulted } = this.core.counts();
+    const lost = Boolean(this.lostState);
+    const seen = this.countsShown;
+    if (seen && seen.holding === holding && seen.queued === queued && seen.faulted === faulted && seen.lost === lost) return seen.status;
+    let status = countsStatus({ holding, queued, faulted });
+    if (lost) status = { ...status, text: `lost · ${status.text}`.slice(0, 19) };
+    this.countsShown = { holding, queued, faulted, lost, status };
+    return status;
+  }
+
   refreshStatus(only) {
     if (this.palette) this.palette.changes.touch();
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = DRAINING_STATUS;
       else if (this.committer.failing) status = { fill: 'red', shape: 'ring', text: 'state not saved' };
-      else {
-        status = countsStatus(this.core.counts());
-        if (this.lostState) status = { ...status, text: `lost · ${status.text}`.slice(0, 19) };
-      }
+      else status = this.countsStatus();
     } else if (this.state === 'failed') status = errorStatus(this.failure.code);
     else if (this.state === 'starting') status = { fill: 'grey', shape: 'ring', text: 'starting' };
     else return;

@@ -3,8 +3,9 @@
 // or thousands of times a second, and each status goes out to every editor.
 // A pacer shows the first BURST updates of each WINDOW_MS at once (a person,
 // and a test, sees every step of a slow sequence) and the rest once, at the
-// end of the window.
-const { performance } = require('perf_hooks');
+// end of the window: the last state always shows, never a stale one. Time is
+// the palette's clock, so tests move it instead of waiting.
+const { clock } = require('./clock');
 
 const WINDOW_MS = 100;
 const BURST = 10;
@@ -20,7 +21,7 @@ class StatusPacer {
   }
 
   request() {
-    const now = performance.now();
+    const now = clock.now();
     if (now - this.start >= WINDOW_MS) {
       this.start = now;
       this.shown = 0;
@@ -31,9 +32,9 @@ class StatusPacer {
       return;
     }
     if (this.timer) return;
-    this.timer = setTimeout(() => {
+    this.timer = clock.setTimeout(() => {
       this.timer = null;
-      this.start = performance.now();
+      this.start = clock.now();
       this.shown = 1;
       if (this.live()) this.show();
     }, Math.max(0, this.start + WINDOW_MS - now));
@@ -41,7 +42,7 @@ class StatusPacer {
   }
 
   stop() {
-    if (this.timer) clearTimeout(this.timer);
+    if (this.timer) clock.clearTimeout(this.timer);
     this.timer = null;
   }
 }

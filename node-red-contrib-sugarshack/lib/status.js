@@ -131,9 +131,12 @@ function errorStatus(code) {
 class StatusBoard {
   constructor() {
     this.shown = new WeakMap();
+    this.lastObject = new WeakMap(); // node -> the status object last set: the same one needs no key
   }
 
   set(node, status) {
+    if (this.lastObject.get(node) === status) return;
+    this.lastObject.set(node, status);
     const key = `${status.fill}|${status.shape}|${status.text}`;
     if (this.shown.get(node) === key) return;
     this.shown.set(node, key);

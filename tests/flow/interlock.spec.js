@@ -6,6 +6,8 @@ const {
   collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settings, settled, clock, userDir,
 } = require('./support');
 
+const { WINDOW_MS } = require('../../node-red-contrib-sugarshack/lib/status-pacer');
+
 helper.init(require.resolve('node-red'));
 
 const runtimeOf = () => helper.getNode('il').runtime;
@@ -415,6 +417,28 @@ describe('sugarshack interlock nodes', function () {
     ]);
   });
 
+  it('keeps the abnormal events for the alarms when no events node listens, and not the grants of normal work', async function () {
+    await helper.load(paletteNodes, [
+      TAB, interlockConfig(),
+      acquire('a10', '10', 20, 'YEL', 'out'), acquire('a12', '12', 22, 'YEL', 'out'),
+      { id: 'rel', z: 'f1', type: 'sugarshack-release', interlock: 'il', wires: [['out']] },
+      { id: 'estop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: 'RED', wires: [[], []] },
+      { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: 'RED', wires: [[]] },
+      sinkNode('out'),
+    ]);
+    helper.getNode('a10').receive({});
+    helper.getNode('a12').receive({});
+    helper.getNode('rel').receive({ operation: '10' });
+    helper.getNode('estop').receive({ by: 'ana', reason: 'leak' });
+    await quiet();
+    helper.getNode('clr').receive({ by: 'bo', reason: 'fixed' });
+    await quiet();
+    assert.deepEqual(runtimeOf().describe().recentEvents.map((e) => [e.kind, e.summary]), [
+      ['resource-faulted', 'e-stop RED by ana: leak'],
+      ['cleared', 'cleared RED by bo: fixed'],
+    ]);
+  });
+
   it('keeps every status text under 20 characters, even with a long queue', async function () {
     const ops = Array.from({ length: 120 }, (_, i) => `op${i}`);
     await helper.load(paletteNodes, [
@@ -426,7 +450,10 @@ describe('sugarshack interlock nodes', function () {
     helper.getNode('estop').receive({});
     for (const op of ops) helper.getNode('a').receive({ operation: op, priority: 1 });
     await until(() => counts().queued === ops.length - 1, 'the queue');
+    // Statuses are paced: the last state shows once the window ends.
+    await clock().advance(WINDOW_MS);
     const texts = helper.getNode('a').status.getCalls().map((c) => c.args[0].text);
+    assert.ok(texts.length < ops.length, `${texts.length} statuses for ${ops.length} changes: not paced`);
     assert.equal(texts[texts.length - 1], 'flt 1·hld 1·q 119');
     for (const text of texts) assert.ok(text.length < 20, `"${text}" is ${text.length} characters`);
   });

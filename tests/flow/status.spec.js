@@ -80,3 +80,50 @@ describe('error codes', function () {
     assert.equal(shortReason('ECONNREFUSED'), 'econnrefused');
   });
 });
+
+describe('status pacing', function () {
+  const { StatusPacer, WINDOW_MS, BURST } = require(path.join(PALETTE, 'lib', 'status-pacer.js'));
+  const { useClock, ManualClock } = require(path.join(PALETTE, 'lib', 'clock.js'));
+  let manual;
+  beforeEach(function () {
+    manual = useClock(new ManualClock());
+  });
+  afterEach(function () {
+    useClock();
+  });
+
+  it('shows the first updates of a window at once and the last state at its end, never a stale one', async function () {
+    let state = 0;
+    const shown = [];
+    const pacer = new StatusPacer(() => shown.push(state), () => true);
+    for (state = 1; state <= 50; state++) pacer.request();
+    state = 50;
+    assert.deepEqual(shown, Array.from({ length: BURST }, (_, i) => i + 1));
+    await manual.advance(WINDOW_MS - 1);
+    assert.equal(shown.length, BURST, 'nothing more within the window');
+    await manual.advance(1);
+    assert.equal(shown[shown.length - 1], 50, 'the last state shows when the window ends');
+    assert.equal(shown.length, BURST + 1);
+    // A quiet window later, updates show at once again.
+    await manual.advance(WINDOW_MS);
+    state = 51;
+    pacer.request();
+    assert.equal(shown[shown.length - 1], 51);
+  });
+
+  it('shows nothing after the runtime stopped, and stop() drops the pending update', async function () {
+    const shown = [];
+    let live = true;
+    const pacer = new StatusPacer(() => shown.push(1), () => live);
+    for (let i = 0; i < BURST + 5; i++) pacer.request();
+    live = false;
+    await manual.advance(WINDOW_MS);
+    assert.equal(shown.length, BURST);
+    live = true;
+    for (let i = 0; i < BURST * 3; i++) pacer.request();
+    const before = shown.length;
+    pacer.stop();
+    await manual.advance(WINDOW_MS * 2);
+    assert.equal(shown.length, before);
+  });
+});

@@ -461,6 +461,19 @@ impl Interlock {
         to_js(&records)
     }
 
+    /// The abnormal event records since the last call (faults, clears,
+    /// warnings...: what an alarm view keeps); the others are dropped unread.
+    #[wasm_bindgen(js_name = drainAbnormalEvents)]
+    pub fn drain_abnormal_events(&mut self) -> Result<JsValue, JsValue> {
+        let events = self.core.drain_events();
+        let records: Vec<_> = events
+            .iter()
+            .filter(|e| e.kind().is_abnormal())
+            .map(|e| self.core.describe(e))
+            .collect();
+        to_js(&records)
+    }
+
     /// Drops the events recorded so far unread: nobody listens (no events node, no journal).
     #[wasm_bindgen(js_name = clearEvents)]
     pub fn clear_events(&mut self) {

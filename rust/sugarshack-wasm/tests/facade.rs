@@ -522,3 +522,36 @@ fn numeric_calls_answer_as_acquire_and_release_and_keep_the_refusal() {
     assert_eq!(code_of(lock.take_error()), "NOT_HOLDING");
     assert_eq!(lock.release_code(flit, 5.0), 0.0);
 }
+
+#[wasm_bindgen_test]
+fn abnormal_events_are_kept_and_normal_work_is_dropped_unread() {
+    let mut lock = plant();
+    let load = lock.operation("10").unwrap();
+    let flit = lock.operation("18").unwrap();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    let red = lock.resource_set(vec!["RED".into()]).unwrap();
+    assert!(lock.acquire(load, 20, yel, 1000.0).unwrap());
+    assert!(!lock.acquire(flit, 92, yel, 1001.0).unwrap());
+    lock.release(load, 1500.0).unwrap();
+    assert_eq!(
+        Array::from(&lock.drain_abnormal_events().unwrap()).length(),
+        0
+    );
+    lock.fault_resources(red, None, Some("ana".into()), Some("leak".into()), 1600.0)
+        .unwrap();
+    let events = Array::from(&lock.drain_abnormal_events().unwrap());
+    let kinds: Vec<String> = events
+        .iter()
+        .map(|e| get(&e, "kind").as_string().unwrap())
+        .collect();
+    assert_eq!(kinds, ["resource-faulted"]);
+    assert_eq!(
+        get(&events.get(0), "by").as_string().as_deref(),
+        Some("ana")
+    );
+    assert_eq!(
+        Array::from(&lock.drain_events().unwrap()).length(),
+        0,
+        "drained, the others too"
+    );
+}

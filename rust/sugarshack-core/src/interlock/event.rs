@@ -36,6 +36,35 @@ pub enum EventKind {
     WarnHeld,
 }
 
+impl EventKind {
+    /// Whether an alarm view keeps events of this kind: faults, clears,
+    /// interruptions, lost state, dropped requests and elapsed-time warnings,
+    /// not the grants, queueing and releases of normal work.
+    ///
+    /// ```
+    /// use sugarshack_core::interlock::EventKind;
+    /// assert!(EventKind::Faulted.is_abnormal());
+    /// assert!(!EventKind::Granted.is_abnormal());
+    /// ```
+    pub fn is_abnormal(self) -> bool {
+        match self {
+            EventKind::Faulted
+            | EventKind::Dropped
+            | EventKind::ResourceFaulted
+            | EventKind::Cleared
+            | EventKind::Interrupted
+            | EventKind::StateUnknown
+            | EventKind::WarnQueued
+            | EventKind::WarnHeld => true,
+            EventKind::Granted
+            | EventKind::Queued
+            | EventKind::Released
+            | EventKind::Cancelled
+            | EventKind::ResourceAdded => false,
+        }
+    }
+}
+
 /// An operation and the priority it asked with, as events name them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Requester {
