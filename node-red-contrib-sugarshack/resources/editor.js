@@ -66,7 +66,22 @@
     namePicker(inputSelector, configSelector, boxSelector, deviceNames);
   }
 
+  function blank(v) { return v === undefined || v === null || String(v).trim() === ''; }
+
+  /** "1000, 2000" (ms) -> "1, 2" (s). */
+  function msToSeconds(v) {
+    return parseNames(v).map(function (s) { return String(Number(s) / 1000); }).join(', ');
+  }
+
+  /**
+   * Flows saved before durations were in seconds carry them in ms under the old
+   * name: shown in seconds in the dialog's `name` field, saved under the new name.
+   */
+  function migrateMs(node, name, legacyMs) {
+    if (blank(node[name]) && !blank(node[legacyMs])) $('#node-input-' + name).val(msToSeconds(node[legacyMs]));
+  }
+
   window.sugarshackEditor = {
-    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, color: '#D9A55B',
+    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, migrateMs: migrateMs, color: '#D9A55B',
   };
 })();
