@@ -6,8 +6,8 @@
 // and before every answer, so an alarm's time is at most a second late.
 const wasm = require('./wasm');
 
-// Interlock events an operator looks back on, kept in memory for a page opened late.
-const NOTABLE = new Set(['faulted', 'resource-faulted', 'cleared', 'interrupted', 'state-unknown', 'dropped', 'warn-queued', 'warn-held']);
+// Interlock events an operator looks back on, kept in memory for a page opened late: the core says which.
+const NOTABLE = new Set(wasm.load().abnormalEventKinds());
 const RECENT_EVENTS = 50;
 const RECENT_CHANGES = 50;
 
@@ -83,36 +83,13 @@ class AlarmBook {
   }
 }
 
-const ago = (ms) => `${Math.round(ms / 1000)} s`;
-
 /**
- * The abnormal conditions of an interlock (its core snapshot, its warning
- * times, whether its state is saved) and of its plant's `describe()`, as the
- * core's alarm conditions.
+ * The abnormal conditions of an interlock (what its core reports: faulted
+ * lines, waits and holds past the warning times), of its store, and of its
+ * plant's health and buses, as the core's alarm conditions.
  */
-function conditionsOf({ snapshot, config, saveFailing, store, plant, now }) {
-  const conditions = [];
-  for (const { name, state } of snapshot.resources) {
-    if (state.state !== 'faulted') continue;
-    const op = state.operation ? ` (op ${state.operation})` : '';
-    conditions.push({ kind: 'line-faulted', subject: name, text: `${name} faulted, ${state.cause}${op}${state.note ? `: ${state.note}` : ''}`, sinceMs: state.sinceMs });
-  }
-  if (config.warnQueuedMs) {
-    for (const q of snapshot.queue) {
-      const waited = now - q.sinceMs;
-      if (waited >= config.warnQueuedMs) {
-        conditions.push({ kind: 'waiting-long', subject: q.operation, text: `op ${q.operation} waiting for ${q.resources.join('+')} for ${ago(waited)}`, sinceMs: q.sinceMs + config.warnQueuedMs });
-      }
-    }
-  }
-  if (config.warnHeldMs) {
-    for (const h of snapshot.holds) {
-      const held = now - h.sinceMs;
-      if (held >= config.warnHeldMs) {
-        conditions.push({ kind: 'held-long', subject: h.operation, text: `op ${h.operation} holding ${h.resources.join('+')} for ${ago(held)}`, sinceMs: h.sinceMs + config.warnHeldMs });
-      }
-    }
-  }
+function conditionsOf({ interlock, saveFailing, store, plant }) {
+  const conditions = [...interlock];
   if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: 'interlock', text: `the interlock state cannot be written to ${store}` });
   if (plant) {
     for (const d of plant.devices || []) {

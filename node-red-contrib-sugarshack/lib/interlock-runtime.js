@@ -609,7 +609,7 @@ class InterlockRuntime extends RuntimeBase {
           ? { devices: this.plant.t.health(now).devices, buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
           : null;
         const conditions = conditionsOf({
-          snapshot: this.core.snapshot(now), config: this.config, saveFailing: this.committer.failing, store: this.store.where, plant, now,
+          interlock: this.core.alarmConditions(now), saveFailing: this.committer.failing, store: this.store.where, plant,
         });
         return this.alarms.observe(conditions, now);
       });

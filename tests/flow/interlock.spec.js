@@ -381,6 +381,11 @@ describe('sugarshack interlock nodes', function () {
     const warning = events.find((e) => e.topic === 'interlock/warn-queued').payload;
     assert.equal(warning.operation, '12');
     assert.equal(warning.waitedMs, 1000);
+    // The same long wait is an alarm, worded by the core.
+    await until(() => runtimeOf().describe().alarms.some((a) => a.id === 'waiting-long:12'), 'the waiting-long alarm');
+    const alarm = runtimeOf().describe().alarms.find((a) => a.id === 'waiting-long:12');
+    assert.equal(alarm.text, 'op 12 waiting for YEL for 1 s');
+    assert.equal(alarm.state, 'active-unacknowledged');
     const warned = helper.getNode('il').warn.getCalls().filter((c) => c.thisValue.id === 'il').map((c) => c.args[0]);
     assert.ok(warned.some((w) => /operation '12' has waited \d+ s for YEL/.test(w)), warned.join('; '));
   });

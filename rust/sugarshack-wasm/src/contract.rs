@@ -2,6 +2,7 @@
 //! codes with their status texts, and the reserved names.
 
 use sugarshack_core::code::{self, MAX_STATUS_CHARS};
+use sugarshack_core::interlock::EventKind;
 use sugarshack_core::routine::RESET_TOPIC;
 use wasm_bindgen::prelude::*;
 
@@ -24,4 +25,15 @@ pub fn max_status_chars() -> u32 {
 #[wasm_bindgen(js_name = routineResetTopic)]
 pub fn routine_reset_topic() -> String {
     RESET_TOPIC.into()
+}
+
+/// The interlock event kinds an operator looks back on (faults, clears,
+/// warnings, ...): the ones `drainAbnormalEvents` keeps.
+#[wasm_bindgen(js_name = abnormalEventKinds)]
+pub fn abnormal_event_kinds() -> Result<JsValue, JsValue> {
+    let kinds: Vec<EventKind> = EventKind::ALL
+        .into_iter()
+        .filter(|k| k.is_abnormal())
+        .collect();
+    to_js(&kinds)
 }

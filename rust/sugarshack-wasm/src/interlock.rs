@@ -484,6 +484,12 @@ impl Interlock {
         to_js(&self.core.snapshot(time(now_ms)?))
     }
 
+    /// The alarm conditions that hold now: faulted lines, waits and holds past the warning times.
+    #[wasm_bindgen(js_name = alarmConditions)]
+    pub fn alarm_conditions(&self, now_ms: f64) -> Result<JsValue, JsValue> {
+        to_js(&self.core.alarm_conditions(time(now_ms)?))
+    }
+
     /// `{ holding, queued, faulted }`.
     pub fn counts(&self) -> Result<JsValue, JsValue> {
         let c = self.core.counts();

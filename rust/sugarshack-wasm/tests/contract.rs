@@ -3,7 +3,9 @@
 //! The table the nodes read instead of copying the core's codes, run under Node.
 
 use js_sys::{Array, Reflect};
-use sugarshack_wasm::{codes, max_status_chars, routine_reset_topic, Interlock};
+use sugarshack_wasm::{
+    abnormal_event_kinds, codes, max_status_chars, routine_reset_topic, Interlock,
+};
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -42,4 +44,25 @@ fn the_code_table_reaches_js_with_status_texts_that_fit() {
 #[wasm_bindgen_test]
 fn the_reserved_reset_topic_comes_from_the_core() {
     assert_eq!(routine_reset_topic(), "reset");
+}
+
+#[wasm_bindgen_test]
+fn the_abnormal_event_kinds_are_the_faults_clears_and_warnings() {
+    let kinds: Vec<String> = Array::from(&abnormal_event_kinds().unwrap())
+        .iter()
+        .map(|k| k.as_string().unwrap())
+        .collect();
+    for kind in [
+        "faulted",
+        "resource-faulted",
+        "cleared",
+        "interrupted",
+        "state-unknown",
+        "dropped",
+        "warn-queued",
+        "warn-held",
+    ] {
+        assert!(kinds.iter().any(|k| k == kind), "{kind} in {kinds:?}");
+    }
+    assert_eq!(kinds.len(), 8, "{kinds:?}");
 }

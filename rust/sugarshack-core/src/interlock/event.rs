@@ -37,6 +37,23 @@ pub enum EventKind {
 }
 
 impl EventKind {
+    /// Every kind.
+    pub const ALL: [EventKind; 13] = [
+        EventKind::Granted,
+        EventKind::Queued,
+        EventKind::Released,
+        EventKind::Cancelled,
+        EventKind::Faulted,
+        EventKind::Dropped,
+        EventKind::ResourceFaulted,
+        EventKind::Cleared,
+        EventKind::Interrupted,
+        EventKind::ResourceAdded,
+        EventKind::StateUnknown,
+        EventKind::WarnQueued,
+        EventKind::WarnHeld,
+    ];
+
     /// Whether an alarm view keeps events of this kind: faults, clears,
     /// interruptions, lost state, dropped requests and elapsed-time warnings,
     /// not the grants, queueing and releases of normal work.

@@ -19,6 +19,7 @@
 //! assert_eq!(grants[0].waited_ms, 490);
 //! ```
 
+mod alarms;
 mod config;
 mod error;
 mod event;
