@@ -23,8 +23,6 @@ const { StatusPacer } = require('./status-pacer');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
-// Operation names and resource sets whose core handles are remembered; past it the memory starts afresh.
-const HANDLES_KEPT = 4096;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
 
 class InterlockRuntime extends RuntimeBase {
@@ -429,38 +427,47 @@ class InterlockRuntime extends RuntimeBase {
   /**
    * The core's handles of operation names and resource sets, remembered for
    * the core that made them: a msg names its operation and lines as text on
-   * every acquire, and text crossing into wasm costs more than the call.
+   * every acquire, and text crossing into wasm costs more than the call. The
+   * core forgets idle names past a bound (a flow may name a new operation
+   * per msg) and drops set handles past a bound; it says so by a new
+   * handleEpoch(), and the handles are asked again. So these maps are no
+   * larger than the core's own tables.
    */
   handles() {
-    if (this.handlesOf !== this.core) {
-      this.handlesOf = this.core;
-      this.opHandles = new Map();
-      this.setHandles = new Map(); // one line, by its name
-      this.multiSetHandles = new Map(); // several, by their names' JSON
-    }
+    if (this.handlesOf !== this.core) this.forgetHandles();
     return this;
   }
 
+  forgetHandles() {
+    this.handlesOf = this.core;
+    this.handlesEpoch = this.core.handleEpoch();
+    this.opHandles = new Map();
+    this.setHandles = new Map(); // one line, by its name
+    this.multiSetHandles = new Map(); // several, by their names' JSON
+  }
+
+  /** After asking the core for a handle: the other handles kept may be stale. */
+  checkEpoch() {
+    if (this.core.handleEpoch() !== this.handlesEpoch) this.forgetHandles();
+  }
+
   opHandle(name) {
-    const ops = this.handles().opHandles;
-    let handle = ops.get(name);
+    let handle = this.handles().opHandles.get(name);
     if (handle === undefined) {
       handle = this.core.operation(name);
-      if (ops.size >= HANDLES_KEPT) ops.clear();
-      ops.set(name, handle);
+      this.checkEpoch();
+      this.opHandles.set(name, handle);
     }
     return handle;
   }
 
   setHandle(names) {
-    const sets = this.handles().setHandles;
     const key = names.length === 1 ? names[0] : JSON.stringify(names);
-    const map = names.length === 1 ? sets : this.multiSetHandles;
-    let handle = map.get(key);
+    let handle = (names.length === 1 ? this.handles().setHandles : this.handles().multiSetHandles).get(key);
     if (handle === undefined) {
       handle = this.core.resourceSet(names);
-      if (map.size >= HANDLES_KEPT) map.clear();
-      map.set(key, handle);
+      this.checkEpoch();
+      (names.length === 1 ? this.setHandles : this.multiSetHandles).set(key, handle);
     }
     return handle;
   }

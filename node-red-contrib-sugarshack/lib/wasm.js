@@ -154,6 +154,7 @@ function primeInterlock({ Interlock, Tracker }) {
   il.cancelNamed('a', 8);
   il.findOperation('b');
   il.operationName(b);
+  il.handleEpoch();
   il.fault(b, 'primer', 9);
   il.faultResources(il.resourceSet(['B']), 'primer', null, null, 10);
   il.faultedResources();

@@ -157,22 +157,39 @@ class WasmNode {
     this.il = new Interlock({ resources: resources.map((name) => ({ name })), queueBound, recordEvents });
     this.recordEvents = recordEvents;
     this.pending = new Map();
+    this.names = [];
+    this.handles = [];
+    this.epoch = this.il.handleEpoch();
   }
   op(id, name) {
-    const handle = this.il.operation(name);
-    if (handle !== id) throw new Error(`operation ${name}: handle ${handle}, expected ${id}`);
+    this.names[id] = name;
+    this.handle(id);
+    return id;
+  }
+  /** The core's handle of operation `id`, asked again once the core forgot idle names (as the nodes do). */
+  handle(id) {
+    let handle = this.handles[id];
+    if (handle === undefined) {
+      handle = this.il.operation(this.names[id]);
+      if (this.il.handleEpoch() !== this.epoch) {
+        this.epoch = this.il.handleEpoch();
+        this.handles = [];
+      }
+      this.handles[id] = handle;
+    }
     return handle;
   }
   set(names) {
     return this.il.resourceSet(names);
   }
   acquire(op, priority, set, msg) {
-    if (this.il.acquire(op, priority, set, Date.now())) return true;
-    this.pending.set(op, msg);
+    const handle = this.handle(op);
+    if (this.il.acquire(handle, priority, set, Date.now())) return true;
+    this.pending.set(handle, msg);
     return false;
   }
   release(op) {
-    const count = this.il.release(op, Date.now());
+    const count = this.il.release(this.handle(op), Date.now());
     const msgs = [];
     for (let i = 0; i < count; i++) {
       const h = this.il.granted(i);

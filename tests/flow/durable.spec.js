@@ -99,6 +99,34 @@ describe('sugarshack durable interlock state', function () {
     assert.equal(seenAtClear[0].YEL, 'held');
   });
 
+  it('a new operation name per msg: idle names are forgotten, state and memory stay bounded, a known name still works', async function () {
+    this.timeout(60000);
+    await helper.load(paletteNodes, [...flow([{ id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] }, sinkNode('caught')])]);
+    const [out, relout, caught] = ['out', 'relout', 'caught'].map((id) => collect(helper, id));
+    const epoch = runtimeOf().core.handleEpoch();
+    helper.getNode('a10').receive({ operation: 'steady' });
+    helper.getNode('rel').receive({ operation: 'steady' });
+    const batches = 6000; // past the 4096 names an interlock keeps
+    for (let i = 0; i < batches; i++) {
+      helper.getNode('a10').receive({ operation: `batch-${i}` });
+      helper.getNode('rel').receive({ operation: `batch-${i}` });
+      // Msgs from a flow arrive over many turns, and events are drained between them.
+      if (i % 100 === 99) await new Promise(setImmediate);
+    }
+    await until(() => relout.length === batches + 1, 'every batch released', 30000);
+    assert.notEqual(runtimeOf().core.handleEpoch(), epoch, 'idle names were forgotten');
+    const slot = runtimeOf().core.findOperation(`batch-${batches - 1}`) % 2 ** 32;
+    assert.ok(slot <= 4096, `slots are reused: the last batch is in slot ${slot}`);
+    // 'steady' was forgotten while its handle was kept by name: it is asked for again, not refused.
+    helper.getNode('a10').receive({ operation: 'steady' });
+    await until(() => out.length === batches + 2, 'steady granted again');
+    await quiet();
+    assert.deepEqual(caught.map((m) => m.error.message), []);
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
+    assert.equal(saved().interlock.holds.length, 1);
+    assert.ok(fs.statSync(stateFile()).size < 4000, `saved state ${fs.statSync(stateFile()).size} bytes`);
+  });
+
   it('one turn of the event loop is one write, however many changes it made', async function () {
     await helper.load(paletteNodes, flow());
     await quiet();

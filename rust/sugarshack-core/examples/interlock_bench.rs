@@ -7,6 +7,7 @@
 //!
 //! PARAMS_JSON overrides the workload parameters, e.g. `{"large":{"samples":500}}`.
 
+use std::collections::HashMap;
 use std::hint::black_box;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
@@ -80,9 +81,9 @@ impl GrantLog {
     fn acquired(&mut self, op: usize, granted: bool) {
         self.add(if granted { ACQ_GRANTED } else { ACQ_QUEUED } | op as u32);
     }
-    fn released(&mut self, op: usize, grants: &[Grant]) {
-        for g in grants {
-            self.add(REL_GRANT | g.operation.index() as u32);
+    fn released(&mut self, op: usize, granted: impl IntoIterator<Item = usize>) {
+        for g in granted {
+            self.add(REL_GRANT | g as u32);
         }
         self.add(REL_END | op as u32);
     }
@@ -221,7 +222,7 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         for i in 0..n {
             holders[i].swap_remove(victim_index[i]);
             let grants = std::mem::take(&mut results[i]);
-            log.released(victim[i], &grants);
+            log.released(victim[i], grants.iter().map(|g| g.operation.index()));
             holders[i].extend(grants.iter().map(|g| g.operation.index()));
             let (op, priority, set) = &ops[i][victim[i]];
             let granted = locks[i].acquire(*op, *priority, set, now).expect("acquire")
@@ -250,6 +251,10 @@ struct Large<'a> {
     owner: Vec<Option<usize>>,
     priority: Vec<i32>,
     op_set: Vec<usize>,
+    /// Each operation's handle, and back: past the names an interlock keeps,
+    /// slots of idle operations are reused, so handles are not positions.
+    ids: Vec<OpId>,
+    of_id: HashMap<OpId, usize>,
     holders: Vec<usize>,
     queued: usize,
 }
@@ -264,9 +269,7 @@ impl Large<'_> {
 
     fn acquire(&mut self, op: usize, now: u64) {
         let set = &self.pool[self.op_set[op]].1;
-        let outcome = self
-            .lock
-            .acquire(OpId::from_index(op as u32), self.priority[op], set, now);
+        let outcome = self.lock.acquire(self.ids[op], self.priority[op], set, now);
         let granted = outcome.expect("acquire") == Acquisition::Granted;
         self.log.acquired(op, granted);
         if granted {
@@ -279,11 +282,8 @@ impl Large<'_> {
     fn register(&mut self, priority: i32) -> usize {
         let op = self.priority.len();
         let id = self.lock.operation(&format!("op{op}"));
-        assert_eq!(
-            id.index(),
-            op,
-            "operations are numbered in registration order"
-        );
+        self.ids.push(id);
+        self.of_id.insert(id, op);
         self.priority.push(priority);
         self.op_set.push(usize::MAX);
         op
@@ -334,11 +334,13 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         owner: vec![None; p.resources],
         priority: Vec::new(),
         op_set: Vec::new(),
+        ids: Vec::new(),
+        of_id: HashMap::new(),
         holders: Vec::new(),
         queued: 0,
     };
     let now = now_ms();
-    let probe = OpId::from_index(st.register(0) as u32);
+    st.register(0);
     while st.queued < p.waiting {
         st.new_op(now);
     }
@@ -351,10 +353,7 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         let victim = st.holders[index];
         let now = now_ms();
         let t0 = Instant::now();
-        let grants = st
-            .lock
-            .release(OpId::from_index(victim as u32), now)
-            .expect("release");
+        let grants = st.lock.release(st.ids[victim], now).expect("release");
         let elapsed = t0.elapsed();
         if s >= p.warmup {
             release.push(elapsed.as_nanos() as f64);
@@ -364,9 +363,10 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
             let r = st.pool[st.op_set[victim]].0[i];
             st.owner[r] = None;
         }
-        st.log.released(victim, &grants);
+        st.log
+            .released(victim, grants.iter().map(|g| st.of_id[&g.operation]));
         for g in &grants {
-            st.take(g.operation.index());
+            st.take(st.of_id[&g.operation]);
         }
         st.queued -= grants.len();
         st.op_set[victim] = st.rng.int(p.pool);
@@ -382,6 +382,8 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
             continue;
         }
         let set = &singles[free[st.rng.int(free.len())]];
+        // Idle between steps, the probe may have been forgotten: named anew, as a node would.
+        let probe = st.lock.operation("op0");
         let t0 = Instant::now();
         let granted = st.lock.acquire(probe, 0, set, now).expect("probe acquire");
         let stray = black_box(st.lock.release(probe, now).expect("probe release")).len();

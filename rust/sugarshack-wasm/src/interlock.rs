@@ -31,8 +31,39 @@ fn parse_config(config: JsValue) -> Result<InterlockConfig, JsValue> {
     )
 }
 
-fn handles(grants: &[Grant]) -> Vec<u32> {
-    grants.iter().map(|g| g.operation.index() as u32).collect()
+/// An operation's handle as JS holds it: a whole number below 2^53.
+fn op_handle(op: OpId) -> f64 {
+    op.to_bits() as f64
+}
+
+fn handles(grants: &[Grant]) -> Vec<f64> {
+    grants.iter().map(|g| op_handle(g.operation)).collect()
+}
+
+/// How many resource-set handles an interlock keeps before it drops them all
+/// (a flow naming ever new combinations of lines would grow it without end);
+/// at about 100 bytes a set, a few MB at most.
+pub const RESOURCE_SETS_KEPT: usize = 65_536;
+
+/// The set of a handle made under `generation`; refused otherwise.
+fn set_of(sets: &[ResourceSet], generation: u32, handle: f64) -> Result<&ResourceSet, JsValue> {
+    whole(handle)
+        .filter(|bits| bits >> 32 == u64::from(generation))
+        .and_then(|bits| sets.get(bits as u32 as usize))
+        .ok_or_else(|| {
+            js_error(
+                Code::UnknownResourceSet,
+                &format!(
+                    "resource set handle {handle} was not made by this interlock, or was dropped"
+                ),
+            )
+        })
+}
+
+/// A whole number below 2^53 as an integer, or `None`.
+fn whole(handle: f64) -> Option<u64> {
+    (handle >= 0.0 && handle.fract() == 0.0 && handle < 9_007_199_254_740_992.0)
+        .then_some(handle as u64)
 }
 
 #[derive(Serialize)]
@@ -47,7 +78,7 @@ struct LockoutView<'a> {
 struct FaultView<'a> {
     lockouts: Vec<LockoutView<'a>>,
     dropped: bool,
-    grants: Vec<u32>,
+    grants: Vec<f64>,
 }
 
 #[derive(Serialize)]
@@ -64,9 +95,12 @@ pub struct Interlock {
     core: sugarshack_core::interlock::Interlock,
     sets: Vec<ResourceSet>,
     set_index: HashMap<Vec<u32>, u32>,
+    /// How many times the resource-set handles were dropped; part of each
+    /// handle, so one made before is refused, never taken for another set.
+    set_generation: u32,
     /// Operations granted by the last release, cancel or clear, read with
     /// `granted(i)`: returning a count spares a typed array per call.
-    granted: Vec<u32>,
+    granted: Vec<f64>,
     /// The refusal of the last `acquireCode` or `releaseCode` that returned -1.
     error: Option<JsValue>,
 }
@@ -77,6 +111,7 @@ impl Interlock {
             core,
             sets: Vec::new(),
             set_index: HashMap::new(),
+            set_generation: 0,
             granted: Vec::new(),
             error: None,
         }
@@ -87,28 +122,29 @@ impl Interlock {
         -1
     }
 
-    fn op(&self, handle: u32) -> Result<OpId, JsValue> {
-        let op = OpId::from_index(handle);
-        self.core.operation_name(op).map(|_| op).ok_or_else(|| {
-            core_error(InterlockError::UnknownOperation {
-                name: format!("#{handle}"),
+    fn op(&self, handle: f64) -> Result<OpId, JsValue> {
+        whole(handle)
+            .and_then(OpId::from_bits)
+            .filter(|&op| self.core.operation_name(op).is_some())
+            .ok_or_else(|| {
+                core_error(InterlockError::UnknownOperation {
+                    name: format!("#{handle}"),
+                })
             })
-        })
     }
 
-    fn set(&self, handle: u32) -> Result<&ResourceSet, JsValue> {
-        self.sets.get(handle as usize).ok_or_else(|| {
-            js_error(
-                Code::UnknownResourceSet,
-                &format!("resource set handle {handle} was not made by this interlock"),
-            )
-        })
+    fn set(&self, handle: f64) -> Result<&ResourceSet, JsValue> {
+        set_of(&self.sets, self.set_generation, handle)
+    }
+
+    fn set_handle(&self, index: u32) -> f64 {
+        (u64::from(self.set_generation) << 32 | u64::from(index)) as f64
     }
 
     fn keep_granted(&mut self, grants: &[Grant]) -> u32 {
         self.granted.clear();
         self.granted
-            .extend(grants.iter().map(|g| g.operation.index() as u32));
+            .extend(grants.iter().map(|g| op_handle(g.operation)));
         self.granted.len() as u32
     }
 
@@ -197,63 +233,74 @@ impl Interlock {
         .map_err(core_error)
     }
 
-    /// The handle of an operation, registering the name on first use.
-    pub fn operation(&mut self, name: &str) -> Result<u32, JsValue> {
+    /// The handle of an operation, registering the name on first use. Past
+    /// the names an interlock keeps, registering forgets the idle ones and
+    /// `handleEpoch()` changes: handles kept by name must be asked again.
+    pub fn operation(&mut self, name: &str) -> Result<f64, JsValue> {
         if name.is_empty() {
             return Err(js_error(
                 Code::MissingOperation,
                 "an operation id is required",
             ));
         }
-        Ok(self.core.operation(name).index() as u32)
+        Ok(op_handle(self.core.operation(name)))
     }
 
-    /// The handle of an operation that has used this interlock before.
+    /// The handle of an operation that holds, waits or is named by a fault.
     #[wasm_bindgen(js_name = findOperation)]
-    pub fn find_operation(&self, name: &str) -> Result<u32, JsValue> {
+    pub fn find_operation(&self, name: &str) -> Result<f64, JsValue> {
         self.core
             .find_operation(name)
-            .map(|op| op.index() as u32)
+            .map(op_handle)
             .map_err(core_error)
     }
 
     #[wasm_bindgen(js_name = operationName)]
-    pub fn operation_name(&self, handle: u32) -> Option<String> {
-        self.core
-            .operation_name(OpId::from_index(handle))
-            .map(str::to_owned)
+    pub fn operation_name(&self, handle: f64) -> Option<String> {
+        let op = self.op(handle).ok()?;
+        self.core.operation_name(op).map(str::to_owned)
     }
 
-    /// A handle for a set of resource names; the same names give the same handle.
+    /// Changes whenever handles made before may be refused (idle operations
+    /// forgotten, resource-set handles dropped): a cache of handles by name
+    /// is emptied then. It changes only in `operation` and `resourceSet`.
+    #[wasm_bindgen(js_name = handleEpoch)]
+    pub fn handle_epoch(&self) -> f64 {
+        self.core.forgettings() as f64 + f64::from(self.set_generation)
+    }
+
+    /// A handle for a set of resource names; the same names give the same
+    /// handle until `handleEpoch()` changes.
     #[wasm_bindgen(js_name = resourceSet)]
-    pub fn resource_set(&mut self, names: Vec<String>) -> Result<u32, JsValue> {
+    pub fn resource_set(&mut self, names: Vec<String>) -> Result<f64, JsValue> {
         let set = self.core.resource_set(&names).map_err(core_error)?;
         let key: Vec<u32> = set.ids().iter().map(|r| r.index() as u32).collect();
-        if let Some(&handle) = self.set_index.get(&key) {
-            return Ok(handle);
+        if let Some(&index) = self.set_index.get(&key) {
+            return Ok(self.set_handle(index));
         }
-        let handle = self.sets.len() as u32;
+        if self.sets.len() >= RESOURCE_SETS_KEPT {
+            self.sets.clear();
+            self.set_index.clear();
+            self.set_generation = (self.set_generation + 1) & ((1 << 21) - 1);
+        }
+        let index = self.sets.len() as u32;
         self.sets.push(set);
-        self.set_index.insert(key, handle);
-        Ok(handle)
+        self.set_index.insert(key, index);
+        Ok(self.set_handle(index))
     }
 
     /// True when granted at once, false when queued.
     pub fn acquire(
         &mut self,
-        op: u32,
+        op: f64,
         priority: i32,
-        set: u32,
+        set: f64,
         now_ms: f64,
     ) -> Result<bool, JsValue> {
         let op = self.op(op)?;
         let now = time(now_ms)?;
-        let set = self.sets.get(set as usize).ok_or_else(|| {
-            js_error(
-                Code::UnknownResourceSet,
-                &format!("resource set handle {set} was not made by this interlock"),
-            )
-        })?;
+        // The set is borrowed apart from the core it is given to.
+        let set = set_of(&self.sets, self.set_generation, set)?;
         let acquisition = self
             .core
             .acquire(op, priority, set, now)
@@ -265,7 +312,7 @@ impl Interlock {
     /// (read the error with `takeError()`). A number crosses back where a
     /// `Result` costs a three-value array allocated in JS on every call.
     #[wasm_bindgen(js_name = acquireCode)]
-    pub fn acquire_code(&mut self, op: u32, priority: i32, set: u32, now_ms: f64) -> i32 {
+    pub fn acquire_code(&mut self, op: f64, priority: i32, set: f64, now_ms: f64) -> i32 {
         match self.acquire(op, priority, set, now_ms) {
             Ok(granted) => i32::from(granted),
             Err(err) => self.refused(err),
@@ -274,7 +321,7 @@ impl Interlock {
 
     /// `release` as the nodes call it: how many waiting operations it granted, or -1 (see `takeError()`).
     #[wasm_bindgen(js_name = releaseCode)]
-    pub fn release_code(&mut self, op: u32, now_ms: f64) -> f64 {
+    pub fn release_code(&mut self, op: f64, now_ms: f64) -> f64 {
         match self.release(op, now_ms) {
             Ok(count) => f64::from(count),
             Err(err) => f64::from(self.refused(err)),
@@ -288,14 +335,14 @@ impl Interlock {
     }
 
     /// Releases and returns how many waiting operations it granted; read them with `granted(i)`.
-    pub fn release(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
+    pub fn release(&mut self, op: f64, now_ms: f64) -> Result<u32, JsValue> {
         let op = self.op(op)?;
         let grants = self.core.release(op, time(now_ms)?).map_err(core_error)?;
         Ok(self.keep_granted(&grants))
     }
 
     /// Withdraws a waiting request; returns how many others it let through (see `granted`).
-    pub fn cancel(&mut self, op: u32, now_ms: f64) -> Result<u32, JsValue> {
+    pub fn cancel(&mut self, op: f64, now_ms: f64) -> Result<u32, JsValue> {
         let op = self.op(op)?;
         let grants = self.core.cancel(op, time(now_ms)?).map_err(core_error)?;
         Ok(self.keep_granted(&grants))
@@ -337,14 +384,14 @@ impl Interlock {
 
     /// The handle of the i-th operation granted by the last release, cancel,
     /// clear or restore, in grant order.
-    pub fn granted(&self, index: u32) -> Option<u32> {
+    pub fn granted(&self, index: u32) -> Option<f64> {
         self.granted.get(index as usize).copied()
     }
 
     /// `{ lockouts: [{ resource, command }], dropped, grants }`.
     pub fn fault(
         &mut self,
-        op: u32,
+        op: f64,
         note: Option<String>,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
@@ -360,7 +407,7 @@ impl Interlock {
     #[wasm_bindgen(js_name = faultResources)]
     pub fn fault_resources(
         &mut self,
-        set: u32,
+        set: f64,
         note: Option<String>,
         by: Option<String>,
         reason: Option<String>,
@@ -380,7 +427,7 @@ impl Interlock {
     /// many waiting operations it granted (see `granted`).
     pub fn clear(
         &mut self,
-        set: u32,
+        set: f64,
         by: Option<String>,
         reason: Option<String>,
         force: bool,
@@ -402,7 +449,7 @@ impl Interlock {
     #[wasm_bindgen(js_name = clearAgainst)]
     pub fn clear_against(
         &mut self,
-        set: u32,
+        set: f64,
         plant: &crate::Tracker,
         by: Option<String>,
         reason: Option<String>,
@@ -421,7 +468,7 @@ impl Interlock {
 
     /// Why each named line may not be cleared now (empty reasons: it may), against `plant`.
     #[wasm_bindgen(js_name = clearBlockers)]
-    pub fn clear_blockers(&self, set: u32, plant: &crate::Tracker) -> Result<JsValue, JsValue> {
+    pub fn clear_blockers(&self, set: f64, plant: &crate::Tracker) -> Result<JsValue, JsValue> {
         let set = self.set(set)?;
         let lines: Vec<LineBlockers> = set
             .ids()
@@ -501,22 +548,22 @@ impl Interlock {
     }
 
     #[wasm_bindgen(js_name = isHolding)]
-    pub fn is_holding(&self, op: u32) -> bool {
-        self.core.is_holding(OpId::from_index(op))
+    pub fn is_holding(&self, op: f64) -> bool {
+        self.op(op).is_ok_and(|op| self.core.is_holding(op))
     }
 
     #[wasm_bindgen(js_name = isQueued)]
-    pub fn is_queued(&self, op: u32) -> bool {
-        self.core.is_queued(OpId::from_index(op))
+    pub fn is_queued(&self, op: f64) -> bool {
+        self.op(op).is_ok_and(|op| self.core.is_queued(op))
     }
 
     /// Handles of the waiting operations, in the order they would be granted.
     #[wasm_bindgen(js_name = queuedOperations)]
-    pub fn queued_operations(&self) -> Vec<u32> {
+    pub fn queued_operations(&self) -> Vec<f64> {
         self.core
             .queued_operations()
-            .iter()
-            .map(|op| op.index() as u32)
+            .into_iter()
+            .map(op_handle)
             .collect()
     }
 }

@@ -24,7 +24,7 @@ fn get(value: &JsValue, key: &str) -> JsValue {
     Reflect::get(value, &key.into()).unwrap()
 }
 
-fn setup() -> (Tracker, Interlock, u32) {
+fn setup() -> (Tracker, Interlock, f64) {
     let plant = Tracker::new(JSON::parse(PLANT).unwrap(), 0.0).unwrap();
     let mut lock = Interlock::new(
         plant

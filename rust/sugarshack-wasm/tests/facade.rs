@@ -4,7 +4,7 @@
 //! `Error`s with a `code`, and the snapshot round trip through plain JSON.
 
 use js_sys::{Array, Reflect, JSON};
-use sugarshack_wasm::Interlock;
+use sugarshack_wasm::{Interlock, RESOURCE_SETS_KEPT};
 use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -27,7 +27,7 @@ fn plant() -> Interlock {
 }
 
 /// The operations granted by the last release, cancel or clear.
-fn granted(lock: &Interlock, count: u32) -> Vec<u32> {
+fn granted(lock: &Interlock, count: u32) -> Vec<f64> {
     assert_eq!(
         lock.granted(count),
         None,
@@ -121,11 +121,11 @@ fn core_errors_become_js_errors_with_codes_and_clear_messages() {
     );
     assert_eq!(code_of(lock.release(op, 0.0).unwrap_err()), "NOT_HOLDING");
     assert_eq!(
-        code_of(lock.acquire(op, 1, 77, 0.0).unwrap_err()),
+        code_of(lock.acquire(op, 1, 77.0, 0.0).unwrap_err()),
         "UNKNOWN_RESOURCE_SET"
     );
     assert_eq!(
-        code_of(lock.acquire(999, 1, 0, 0.0).unwrap_err()),
+        code_of(lock.acquire(999.0, 1, 0.0, 0.0).unwrap_err()),
         "UNKNOWN_OPERATION"
     );
     let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
@@ -198,7 +198,7 @@ fn fault_returns_lockout_commands_as_plain_objects() {
     assert_eq!(lock.release(waiter, 30.0).unwrap(), 0);
     assert_eq!(
         granted(&lock, 0),
-        Vec::<u32>::new(),
+        Vec::<f64>::new(),
         "a release that grants nothing clears the last grants"
     );
 }
@@ -505,9 +505,9 @@ fn numeric_calls_answer_as_acquire_and_release_and_keep_the_refusal() {
     assert_eq!(lock.acquire_code(load, 20, yel, 2.0), -1, "already holding");
     assert_eq!(code_of(lock.take_error()), "ALREADY_HOLDING");
     assert!(lock.take_error().is_undefined(), "taken once");
-    assert_eq!(lock.acquire_code(999, 1, yel, 2.0), -1);
+    assert_eq!(lock.acquire_code(999.0, 1, yel, 2.0), -1);
     assert_eq!(code_of(lock.take_error()), "UNKNOWN_OPERATION");
-    assert_eq!(lock.acquire_code(load, 1, 999, 2.0), -1);
+    assert_eq!(lock.acquire_code(load, 1, 999.0, 2.0), -1);
     assert_eq!(code_of(lock.take_error()), "UNKNOWN_RESOURCE_SET");
     assert_eq!(
         lock.acquire_code(load, 1, yel, f64::NAN),
@@ -554,4 +554,65 @@ fn abnormal_events_are_kept_and_normal_work_is_dropped_unread() {
         0,
         "drained, the others too"
     );
+}
+
+#[wasm_bindgen_test]
+fn a_new_operation_name_per_msg_is_forgotten_once_idle_and_old_handles_are_refused() {
+    let mut lock = plant();
+    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
+    let first = lock.operation("batch-0").unwrap();
+    let epoch = lock.handle_epoch();
+    for i in 0..5000 {
+        let op = lock.operation(&format!("batch-{i}")).unwrap();
+        assert!(lock.acquire(op, 1, yel, i as f64).unwrap());
+        lock.release(op, i as f64).unwrap();
+        lock.clear_events();
+    }
+    assert_ne!(lock.handle_epoch(), epoch, "forgetting is announced");
+    assert_eq!(lock.operation_name(first), None);
+    assert_eq!(
+        code_of(lock.acquire(first, 1, yel, 5000.0).unwrap_err()),
+        "UNKNOWN_OPERATION"
+    );
+    assert_eq!(lock.acquire_code(first, 1, yel, 5000.0), -1);
+    assert_eq!(code_of(lock.take_error()), "UNKNOWN_OPERATION");
+    for bad in [f64::NAN, -1.0, 0.5, 1e300] {
+        assert_eq!(lock.acquire_code(bad, 1, yel, 5000.0), -1, "{bad}");
+        lock.take_error();
+    }
+    // The name registers anew and works.
+    let again = lock.operation("batch-0").unwrap();
+    assert_ne!(again, first);
+    assert!(lock.acquire(again, 1, yel, 5001.0).unwrap());
+}
+
+#[wasm_bindgen_test]
+fn resource_set_handles_are_dropped_past_the_bound_and_old_ones_refused() {
+    let names: Vec<String> = (0..17).map(|i| format!("L{i}")).collect();
+    let resources: Vec<String> = names
+        .iter()
+        .map(|n| format!(r#"{{ "name": "{n}" }}"#))
+        .collect();
+    let mut lock = Interlock::new(json(&format!(
+        r#"{{ "resources": [{}] }}"#,
+        resources.join(",")
+    )))
+    .unwrap();
+    let first = lock.resource_set(vec!["L0".into()]).unwrap();
+    let epoch = lock.handle_epoch();
+    for mask in 1..=RESOURCE_SETS_KEPT as u32 + 1 {
+        let set: Vec<String> = (0..17)
+            .filter(|b| mask & (1 << b) != 0)
+            .map(|b| names[b].clone())
+            .collect();
+        lock.resource_set(set).unwrap();
+    }
+    assert_ne!(lock.handle_epoch(), epoch);
+    let op = lock.operation("a").unwrap();
+    assert_eq!(
+        code_of(lock.acquire(op, 1, first, 0.0).unwrap_err()),
+        "UNKNOWN_RESOURCE_SET"
+    );
+    let again = lock.resource_set(vec!["L0".into()]).unwrap();
+    assert!(lock.acquire(op, 1, again, 0.0).unwrap());
 }

@@ -94,7 +94,7 @@ impl fmt::Display for InterlockError {
                 write!(f, "unknown resource '{}': it is not configured in the interlock", quote(name))
             }
             Self::UnknownOperation { name } => {
-                write!(f, "unknown operation '{}': it has never acquired through this interlock", quote(name))
+                write!(f, "unknown operation '{}': it neither holds nor waits for lines of this interlock", quote(name))
             }
             Self::AlreadyHolding { operation } => write!(
                 f,

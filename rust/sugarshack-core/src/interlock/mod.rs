@@ -26,7 +26,7 @@ mod event;
 mod snapshot;
 
 use std::borrow::Cow;
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 
 use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
@@ -75,20 +75,49 @@ impl ResourceId {
     }
 }
 
-/// An operation known to the interlock (interned by name).
+/// An operation known to the interlock (interned by name): its slot in the
+/// operation table and the slot's generation. Slots of forgotten operations
+/// are reused under a new generation, so an old handle is refused rather
+/// than taken for the operation now in its slot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct OpId(u32);
+pub struct OpId {
+    index: u32,
+    generation: u32,
+}
+
+/// Generations wrap below 2^21 so that [`OpId::to_bits`] is exact in an `f64`.
+const GENERATION_MASK: u32 = (1 << 21) - 1;
 
 impl OpId {
-    /// Its position in the configured lines.
+    /// Its slot in the interlock's operation table.
     pub fn index(self) -> usize {
-        self.0 as usize
+        self.index as usize
     }
-    /// The handle at `index` of the configured lines.
-    pub fn from_index(index: u32) -> Self {
-        OpId(index)
+    /// The handle as one integer below 2^53 (exact as a JS number).
+    pub fn to_bits(self) -> u64 {
+        (u64::from(self.generation) << 32) | u64::from(self.index)
+    }
+    /// The handle written by [`OpId::to_bits`]; `None` for a number it cannot have written.
+    pub fn from_bits(bits: u64) -> Option<Self> {
+        let generation = u32::try_from(bits >> 32).ok()?;
+        (generation <= GENERATION_MASK).then_some(OpId {
+            index: bits as u32,
+            generation,
+        })
     }
 }
+
+impl std::fmt::Display for OpId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "#{}", self.to_bits())
+    }
+}
+
+/// How many operation names an interlock remembers before it forgets the
+/// idle ones (holding, waiting or named by a fault are never forgotten).
+/// A flow that names a new operation per msg would otherwise grow the
+/// interlock without end.
+pub const OPERATION_NAMES_KEPT: usize = 4096;
 
 /// A set of resources, sorted and without duplicates. Cloning shares it, so
 /// holding and queueing a set made once at deploy allocates nothing.
@@ -235,6 +264,9 @@ enum OpState {
 struct Operation {
     name: String,
     state: OpState,
+    generation: u32,
+    /// False once forgotten, until the slot is reused.
+    known: bool,
 }
 
 /// The interlock state machine. Every method takes the current time; none reads a clock.
@@ -255,6 +287,14 @@ pub struct Interlock {
     /// Reused buffer of candidates for a grant, to spare an allocation per call.
     candidates: Vec<QueueKey>,
     operation_index: HashMap<String, OpId>,
+    /// Slots of forgotten operations, reused before the table grows.
+    free_slots: Vec<u32>,
+    /// The fewest names kept before forgetting ([`OPERATION_NAMES_KEPT`]; lower in tests).
+    names_kept: usize,
+    /// Known operations at which registering a new name forgets the idle ones.
+    forget_at: usize,
+    /// How many times idle operations were forgotten (handles made before may be refused).
+    forgettings: u64,
     next_seq: u64,
     holding: usize,
     faulted: usize,
@@ -282,6 +322,10 @@ impl Interlock {
             busy: Vec::new(),
             candidates: Vec::new(),
             operation_index: HashMap::new(),
+            free_slots: Vec::new(),
+            names_kept: OPERATION_NAMES_KEPT,
+            forget_at: OPERATION_NAMES_KEPT,
+            forgettings: 0,
             next_seq: 0,
             holding: 0,
             faulted: 0,
@@ -296,19 +340,88 @@ impl Interlock {
 
     // ---- names and handles -------------------------------------------------
 
-    /// The handle of an operation, registering the name on first use.
+    /// The handle of an operation, registering the name on first use. Past
+    /// [`OPERATION_NAMES_KEPT`] names, registering one first forgets the
+    /// idle operations: their handles are refused from then on (see
+    /// [`Interlock::forgettings`]), and their names register anew.
     pub fn operation(&mut self, name: &str) -> OpId {
         if let Some(&id) = self.operation_index.get(name) {
             return id;
         }
-        let id = OpId(self.operations.len() as u32);
-        self.operations.push(Operation {
-            name: name.to_owned(),
-            state: OpState::Idle,
-        });
-        self.busy.push(0);
+        if self.free_slots.is_empty() && self.operation_index.len() >= self.forget_at {
+            self.forget_idle_operations();
+        }
+        let id = match self.free_slots.pop() {
+            Some(index) => {
+                let slot = &mut self.operations[index as usize];
+                slot.name = name.to_owned();
+                slot.known = true;
+                OpId {
+                    index,
+                    generation: slot.generation,
+                }
+            }
+            None => {
+                self.operations.push(Operation {
+                    name: name.to_owned(),
+                    state: OpState::Idle,
+                    generation: 0,
+                    known: true,
+                });
+                self.busy.push(0);
+                OpId {
+                    index: (self.operations.len() - 1) as u32,
+                    generation: 0,
+                }
+            }
+        };
         self.operation_index.insert(name.to_owned(), id);
         id
+    }
+
+    /// How many operation names the interlock knows now.
+    pub fn known_operations(&self) -> usize {
+        self.operation_index.len()
+    }
+
+    /// How many times idle operations were forgotten: a caller that keeps
+    /// handles by name drops them when this changes.
+    pub fn forgettings(&self) -> u64 {
+        self.forgettings
+    }
+
+    /// Forgets every operation that neither holds, waits, is named by a
+    /// faulted line nor by an event not yet drained. The next forgetting
+    /// waits until the known names double, so registering stays O(1) on
+    /// average however many operations are busy.
+    fn forget_idle_operations(&mut self) {
+        let mut named: HashSet<OpId> = self
+            .owners
+            .iter()
+            .filter_map(|owner| match owner {
+                Owner::Faulted(fault) => fault.operation,
+                _ => None,
+            })
+            .collect();
+        named.extend(self.events.iter().filter_map(Event::operation));
+        for (index, slot) in self.operations.iter_mut().enumerate() {
+            let id = OpId {
+                index: index as u32,
+                generation: slot.generation,
+            };
+            if !slot.known || !matches!(slot.state, OpState::Idle) || named.contains(&id) {
+                continue;
+            }
+            self.operation_index.remove(&slot.name);
+            slot.name = String::new();
+            slot.known = false;
+            slot.generation = (slot.generation + 1) & GENERATION_MASK;
+            self.free_slots.push(index as u32);
+        }
+        // Lowest slots first, so the table's tail stays the least used.
+        self.free_slots.sort_unstable_by(|a, b| b.cmp(a));
+        self.forget_at = self.names_kept.max(2 * self.operation_index.len());
+        self.forgettings += 1;
     }
 
     /// The handle of an operation that has used this interlock before.
@@ -323,7 +436,7 @@ impl Interlock {
 
     /// The name of the operation with handle `id`.
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
-        self.operations.get(id.index()).map(|op| op.name.as_str())
+        self.slot(id).map(|op| op.name.as_str())
     }
 
     /// The handle of the line `name`.
@@ -383,18 +496,12 @@ impl Interlock {
 
     /// Whether the operation holds its lines.
     pub fn is_holding(&self, op: OpId) -> bool {
-        matches!(
-            self.operations.get(op.index()).map(|o| &o.state),
-            Some(OpState::Holding(_))
-        )
+        matches!(self.slot(op).map(|o| &o.state), Some(OpState::Holding(_)))
     }
 
     /// Whether the operation waits in the queue.
     pub fn is_queued(&self, op: OpId) -> bool {
-        matches!(
-            self.operations.get(op.index()).map(|o| &o.state),
-            Some(OpState::Queued(_))
-        )
+        matches!(self.slot(op).map(|o| &o.state), Some(OpState::Queued(_)))
     }
 
     /// Waiting operations in the order they would be considered for a grant.
@@ -730,7 +837,10 @@ impl Interlock {
                         warnings.push(Event::WarnHeld {
                             at_ms: now_ms,
                             request: Requester {
-                                op: OpId(index as u32),
+                                op: OpId {
+                                    index: index as u32,
+                                    generation: op.generation,
+                                },
                                 priority: hold.priority,
                             },
                             resources: hold.resources.clone(),
@@ -779,17 +889,23 @@ impl Interlock {
 
     // ---- internals ---------------------------------------------------------
 
-    fn op(&self, op: OpId) -> Result<&Operation, InterlockError> {
+    /// The operation of a handle still valid: known, and of the slot's generation.
+    fn slot(&self, op: OpId) -> Option<&Operation> {
         self.operations
             .get(op.index())
+            .filter(|slot| slot.known && slot.generation == op.generation)
+    }
+
+    fn op(&self, op: OpId) -> Result<&Operation, InterlockError> {
+        self.slot(op)
             .ok_or_else(|| InterlockError::UnknownOperation {
-                name: format!("#{}", op.0),
+                name: op.to_string(),
             })
     }
 
     fn name(&self, op: OpId) -> String {
         self.operation_name(op)
-            .map_or_else(|| format!("#{}", op.0), str::to_owned)
+            .map_or_else(|| op.to_string(), str::to_owned)
     }
 
     fn names(&self, set: &ResourceSet) -> Vec<String> {

@@ -308,7 +308,9 @@ fn bad_calls_are_refused_without_changing_state() {
     assert_eq!(lock.release(op, 0).unwrap_err().code(), "NOT_HOLDING");
     assert_eq!(lock.clear(&yel, 0).unwrap_err().code(), "NOT_FAULTED");
     assert_eq!(
-        lock.acquire(OpId(99), 1, &yel, 0).unwrap_err().code(),
+        lock.acquire(OpId::from_bits(99).unwrap(), 1, &yel, 0)
+            .unwrap_err()
+            .code(),
         "UNKNOWN_OPERATION"
     );
     assert_eq!(
@@ -1200,4 +1202,227 @@ fn release_and_cancel_by_name_do_not_register_unknown_names() {
     lock.acquire(c, 1, &yel, 5).unwrap();
     assert_eq!(lock.cancel_named("c", 6), Ok(vec![]));
     assert!(!lock.is_queued(c));
+}
+
+// ---- forgetting idle operation names ---------------------------------------
+
+/// An interlock that starts forgetting idle names past `kept` instead of
+/// [`OPERATION_NAMES_KEPT`].
+fn keeping_names(mut lock: Interlock, kept: usize) -> Interlock {
+    lock.names_kept = kept;
+    lock.forget_at = kept;
+    lock
+}
+
+#[test]
+fn a_new_name_per_msg_does_not_grow_the_interlock() {
+    let mut lock = plant(Policy::Greedy);
+    let yel = set(&lock, &["YEL"]);
+    for i in 0..3 * OPERATION_NAMES_KEPT {
+        let op = lock.operation(&format!("batch-{i}"));
+        assert_eq!(
+            lock.acquire(op, 1, &yel, i as u64),
+            Ok(Acquisition::Granted)
+        );
+        lock.release(op, i as u64).unwrap();
+        lock.drain_events();
+    }
+    assert!(lock.known_operations() <= OPERATION_NAMES_KEPT);
+    assert!(lock.operations.len() <= OPERATION_NAMES_KEPT);
+    assert_eq!(lock.forgettings(), 2);
+}
+
+#[test]
+fn a_forgotten_handle_is_refused_even_once_its_slot_is_reused() {
+    let mut lock = keeping_names(plant(Policy::Greedy), 2);
+    let yel = set(&lock, &["YEL"]);
+    let old = lock.operation("old");
+    lock.operation("other");
+    let newer = lock.operation("newer"); // forgets "old" and "other", reuses a slot
+    assert_eq!(newer.index(), old.index());
+    assert_eq!(lock.forgettings(), 1);
+    assert_eq!(lock.operation_name(old), None);
+    assert_eq!(
+        lock.acquire(old, 1, &yel, 0).unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
+    assert!(!lock.is_holding(newer));
+    assert_eq!(lock.acquire(newer, 1, &yel, 0), Ok(Acquisition::Granted));
+    assert!(
+        !lock.is_holding(old),
+        "the old handle never stands for the new name"
+    );
+    assert_ne!(lock.operation("old"), old, "the name registers anew");
+}
+
+#[test]
+fn busy_and_faulted_operations_and_undrained_events_keep_their_names() {
+    let mut lock = keeping_names(plant(Policy::Greedy), 1);
+    let (yel, grn) = (set(&lock, &["YEL"]), set(&lock, &["GRN"]));
+    let holder = lock.operation("holder");
+    lock.acquire(holder, 1, &yel, 0).unwrap();
+    let waiter = lock.operation("waiter");
+    lock.acquire(waiter, 1, &yel, 0).unwrap();
+    let faulted = lock.operation("faulted");
+    lock.acquire(faulted, 1, &grn, 0).unwrap();
+    lock.fault(faulted, Some("stuck"), 1).unwrap();
+    lock.drain_events();
+    let evented = lock.operation("evented");
+    lock.acquire(evented, 1, &set(&lock, &["BLU"]), 2).unwrap();
+    lock.release(evented, 3).unwrap(); // its events are not drained yet
+    for i in 0..10 {
+        lock.operation(&format!("passer-{i}"));
+    }
+    assert!(lock.forgettings() > 0);
+    for (op, name) in [
+        (holder, "holder"),
+        (waiter, "waiter"),
+        (faulted, "faulted"),
+        (evented, "evented"),
+    ] {
+        assert_eq!(lock.operation_name(op), Some(name));
+        assert_eq!(lock.find_operation(name), Ok(op));
+    }
+    let records: Vec<_> = lock
+        .drain_events()
+        .iter()
+        .map(|e| lock.describe(e))
+        .collect();
+    assert!(records
+        .iter()
+        .all(|r| r.operation.as_deref() == Some("evented")));
+    let snapshot = lock.snapshot(4);
+    let grn_state = &snapshot.resources[1].state;
+    assert!(
+        matches!(grn_state, ResourceState::Faulted(f) if f.operation.as_deref() == Some("faulted"))
+    );
+    // Once cleared and drained, the faulted operation may be forgotten too.
+    lock.clear(&grn, 5).unwrap();
+    lock.drain_events();
+    for i in 10..40 {
+        lock.operation(&format!("passer-{i}"));
+    }
+    assert_eq!(
+        lock.find_operation("faulted").unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
+    assert_eq!(lock.find_operation("holder"), Ok(holder));
+}
+
+mod forgetting_model {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[derive(Clone, Debug)]
+    enum Call {
+        Acquire { op: usize, mask: u8, priority: i32 },
+        Release { op: usize },
+        Cancel { op: usize },
+        Fault { op: usize },
+        Clear { mask: u8 },
+        Drain,
+    }
+
+    fn call() -> impl Strategy<Value = Call> {
+        let op = 0..24usize;
+        let mask = 1u8..32;
+        prop_oneof![
+            6 => (op.clone(), mask.clone(), 0..3i32)
+                .prop_map(|(op, mask, priority)| Call::Acquire { op, mask, priority }),
+            4 => op.clone().prop_map(|op| Call::Release { op }),
+            1 => op.clone().prop_map(|op| Call::Cancel { op }),
+            1 => op.prop_map(|op| Call::Fault { op }),
+            2 => mask.prop_map(|mask| Call::Clear { mask }),
+            2 => Just(Call::Drain),
+        ]
+    }
+
+    fn lines(lock: &Interlock, mask: u8) -> ResourceSet {
+        let names: Vec<&str> = ["YEL", "GRN", "BLU", "PUR", "RED"]
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| mask & (1 << i) != 0)
+            .map(|(_, n)| n)
+            .collect();
+        set(lock, &names)
+    }
+
+    /// What a caller sees of a call, by name: never a handle.
+    fn apply(lock: &mut Interlock, call: &Call, now: u64) -> String {
+        let names = |lock: &Interlock, grants: Vec<Grant>| -> Vec<String> {
+            grants
+                .iter()
+                .map(|g| lock.operation_name(g.operation).unwrap().to_owned())
+                .collect()
+        };
+        match call {
+            Call::Acquire { op, mask, priority } => {
+                let id = lock.operation(&format!("op{op}"));
+                let lines = lines(lock, *mask);
+                format!(
+                    "{:?}",
+                    lock.acquire(id, *priority, &lines, now)
+                        .map_err(|e| e.code())
+                )
+            }
+            Call::Release { op } => {
+                let out = lock.release_named(&format!("op{op}"), now);
+                format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
+            }
+            Call::Cancel { op } => {
+                let out = lock.cancel_named(&format!("op{op}"), now);
+                format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
+            }
+            // Faulting an idle operation and a forgotten one both latch nothing.
+            Call::Fault { op } => match lock.find_operation(&format!("op{op}")) {
+                Ok(id) => match lock.fault(id, None, now).unwrap() {
+                    out if out == FaultOutcome::default() => "nothing to fault".to_owned(),
+                    out => format!(
+                        "{:?}",
+                        (out.lockouts.len(), out.dropped, names(lock, out.grants))
+                    ),
+                },
+                Err(_) => "nothing to fault".to_owned(),
+            },
+            Call::Clear { mask } => {
+                let lines = lines(lock, *mask);
+                let out = lock.clear(&lines, now);
+                format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
+            }
+            Call::Drain => {
+                let events = lock.drain_events();
+                format!(
+                    "{:?}",
+                    events.iter().map(|e| lock.describe(e)).collect::<Vec<_>>()
+                )
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        /// An interlock that forgets idle names after 2 behaves, by name,
+        /// exactly as one that never forgets, and stays bounded.
+        #[test]
+        fn forgetting_idle_names_is_invisible_by_name(calls in prop::collection::vec(call(), 1..120)) {
+            let mut forgetful = keeping_names(plant(Policy::NoOvertaking), 2);
+            let mut keeping = plant(Policy::NoOvertaking);
+            let mut peak_busy = 0;
+            for (step, call) in calls.iter().enumerate() {
+                let now = step as u64 * 10;
+                prop_assert_eq!(apply(&mut forgetful, call, now), apply(&mut keeping, call, now), "step {}: {:?}", step, call);
+                // Holds are listed by slot, and slots are reused: compare them as a set.
+                let by_name = |mut snapshot: Snapshot| {
+                    snapshot.holds.sort_by(|a, b| a.operation.cmp(&b.operation));
+                    snapshot
+                };
+                prop_assert_eq!(by_name(forgetful.snapshot(now)), by_name(keeping.snapshot(now)));
+                let c = forgetful.counts();
+                // Names held by busy operations (a fault or an event names at most one).
+                peak_busy = peak_busy.max(c.holding + c.queued + c.faulted + forgetful.events.len());
+                prop_assert!(forgetful.known_operations() <= 2usize.max(2 * peak_busy) + 1);
+            }
+        }
+    }
 }
