@@ -5,6 +5,78 @@ use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+export type AlarmKind =
+    | "line-faulted" | "device-offline" | "device-stale" | "bus-disconnected"
+    | "state-not-saved" | "waiting-long" | "held-long";
+
+export type AlarmState =
+    | "normal" | "active-unacknowledged" | "active-acknowledged" | "returned-unacknowledged";
+
+/** An abnormal condition that holds now (`text` and `sinceMs` may be left out as input). */
+export interface AlarmCondition {
+    kind: AlarmKind;
+    subject: string;
+    text: string;
+    sinceMs: number | null;
+}
+
+/** An alarm condition as `observe` reads it: `text` and `sinceMs` may be left out. */
+export interface AlarmConditionInput {
+    kind: AlarmKind;
+    subject: string;
+    text?: string;
+    sinceMs?: number | null;
+}
+
+/** Who acknowledged an alarm, and when. */
+export interface AlarmStamp {
+    by: string;
+    atMs: number;
+    reason?: string;
+}
+
+/** Who shelved an alarm, when, and until when. */
+export interface AlarmShelf {
+    by: string;
+    atMs: number;
+    untilMs: number;
+    reason?: string;
+}
+
+/** One listed alarm. */
+export interface Alarm {
+    id: string;
+    kind: AlarmKind;
+    subject: string;
+    text: string;
+    state: AlarmState;
+    activeSinceMs: number;
+    changedMs: number;
+    acked?: AlarmStamp;
+    shelved?: AlarmShelf;
+}
+
+/** One change of one alarm, for an event list. */
+export interface AlarmChange {
+    id: string;
+    action: "condition" | "acknowledge" | "shelve" | "unshelve" | "shelf-expired";
+    from: AlarmState;
+    to: AlarmState;
+    atMs: number;
+    by?: string;
+    reason?: string;
+}
+
+/** `Alarms.snapshot()`. */
+export interface AlarmsSnapshot {
+    alarms: Alarm[];
+}
+"#;
+
 fn core_error(err: AlarmError) -> JsValue {
     js_error(err.code(), &err.to_string())
 }
@@ -27,7 +99,9 @@ impl Alarms {
     }
 
     /// The alarms as saved by `snapshot()`; refused with `INVALID_SNAPSHOT`.
-    pub fn restore(snapshot: JsValue) -> Result<Alarms, JsValue> {
+    pub fn restore(
+        #[wasm_bindgen(unchecked_param_type = "AlarmsSnapshot")] snapshot: JsValue,
+    ) -> Result<Alarms, JsValue> {
         let snapshot: AlarmsSnapshot = from_js_bounded(
             snapshot,
             Code::InvalidSnapshot,
@@ -39,7 +113,12 @@ impl Alarms {
     }
 
     /// `conditions`: every `{ kind, subject, text, sinceMs }` that holds now.
-    pub fn observe(&mut self, conditions: JsValue, now_ms: f64) -> Result<JsValue, JsValue> {
+    #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
+    pub fn observe(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "AlarmConditionInput[]")] conditions: JsValue,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
         let conditions: Vec<Condition> = from_js_bounded(
             conditions,
@@ -51,6 +130,7 @@ impl Alarms {
     }
 
     /// Acknowledges the alarms named by `ids`, or every unacknowledged one when absent.
+    #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
     pub fn acknowledge(
         &mut self,
         ids: Option<Vec<String>>,
@@ -74,6 +154,7 @@ impl Alarms {
         )
     }
 
+    #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
     pub fn shelve(
         &mut self,
         id: &str,
@@ -88,6 +169,7 @@ impl Alarms {
         to_js(&self.core.shelve(id, until, &who, now).map_err(core_error)?)
     }
 
+    #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
     pub fn unshelve(
         &mut self,
         id: &str,
@@ -101,10 +183,12 @@ impl Alarms {
     }
 
     /// Every listed alarm, by id.
+    #[wasm_bindgen(unchecked_return_type = "Alarm[]")]
     pub fn list(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.list().collect::<Vec<_>>())
     }
 
+    #[wasm_bindgen(unchecked_return_type = "AlarmsSnapshot")]
     pub fn snapshot(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.snapshot())
     }

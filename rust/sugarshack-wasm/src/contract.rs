@@ -8,9 +8,31 @@ use wasm_bindgen::prelude::*;
 
 use crate::to_js;
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** One row of `codes()`: a code, the status text a node shows for it, its message stem. */
+export interface CodeEntry {
+    code: string;
+    status: string;
+    stem: string;
+}
+
+/** What a facade call throws: an `Error` whose `code` names a row of `codes()`. */
+export interface SugarshackError extends Error {
+    code: string;
+    /** On `CLEAR_REFUSED`: every reason, per line. */
+    lines?: LineBlockers[];
+}
+
+/** A group command: `{ valves: { V12: 100 }, pumps: { P1: true } }`. */
+export type GroupCommand = Record<string, Record<string, number | boolean>>;
+"#;
+
 /// `[{ code, status, stem }]`: every error and status code, with the text a
 /// node's status shows for it and the stem of its message.
-#[wasm_bindgen]
+#[wasm_bindgen(unchecked_return_type = "CodeEntry[]")]
 pub fn codes() -> Result<JsValue, JsValue> {
     to_js(&code::table())
 }
@@ -29,7 +51,7 @@ pub fn routine_reset_topic() -> String {
 
 /// The interlock event kinds an operator looks back on (faults, clears,
 /// warnings, ...): the ones `drainAbnormalEvents` keeps.
-#[wasm_bindgen(js_name = abnormalEventKinds)]
+#[wasm_bindgen(js_name = abnormalEventKinds, unchecked_return_type = "EventKind[]")]
 pub fn abnormal_event_kinds() -> Result<JsValue, JsValue> {
     let kinds: Vec<EventKind> = EventKind::ALL
         .into_iter()

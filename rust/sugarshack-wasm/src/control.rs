@@ -11,6 +11,169 @@ use wasm_bindgen::prelude::*;
 use crate::{from_js_bounded, js_error, to_js, Bound};
 use sugarshack_core::text::quote;
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** One PID step. */
+export interface PidStep {
+    p: number;
+    i: number;
+    d: number;
+    output: number;
+    mode: "auto" | "tracking" | "fallback";
+    saturated: boolean;
+}
+
+/** One step of a `PidLoop`: the PID's, with what the Smith predictor saw. */
+export interface PidLoopStep extends PidStep {
+    seen: number | null;
+    deadTimeSamples: number | null;
+}
+
+/** `PidLoop.stepDecided()`. */
+export interface PidLoopScan {
+    engaged: boolean;
+    firstCycle: boolean;
+    write: number | null;
+    step: PidLoopStep;
+}
+
+/** `Rcc.scan()`. */
+export interface RccScan {
+    engaged: boolean;
+    firstCycle: boolean;
+    write: number | null;
+    step: PidStep;
+}
+
+/** The Smith predictor's dead-time estimate. */
+export interface DelayEstimate {
+    deadTimeSamples: number;
+    meanMs: number | null;
+    stdMs: number | null;
+}
+
+/** The PID configuration in force. */
+export interface PidConfig {
+    kp: number;
+    tiS: number;
+    tdS: number;
+    outMin: number;
+    outMax: number;
+    action: "direct" | "reverse";
+    fallback: number | null;
+    proportionalOn: "error" | "measurement";
+}
+
+/** The Computing step's decision (`Rcc.decide()`). */
+export interface RccDecision {
+    engaged: boolean;
+    firstCycle: boolean;
+    track: number | null;
+}
+
+/** The I/O side's state tuple: the last action and each controller's age (null: never acted). */
+export interface IoState {
+    lastAction: number;
+    agesMs: (number | null)[];
+}
+
+/** What a `PidStation` step did. */
+export interface StationReport {
+    p: number;
+    i: number;
+    d: number;
+    output: number;
+    mode: "auto" | "tracking" | "fallback" | "manual";
+    saturated: boolean;
+    setpoint: number;
+    measurement: number | null;
+    seen: number | null;
+    deadTimeSamples: number | null;
+    dtS: number;
+}
+
+/** `PidStation.measure()`: `engaged` false behind an RCC decision in standby. */
+export interface StationOutcome {
+    engaged: boolean;
+    pid: StationReport;
+}
+
+/** `PidStation.tick()`: a fallback step to send, or no I/O state came. */
+export type StationStale = { kind: "fallback"; pid: StationReport } | { kind: "noIo" };
+
+/** `PidStation.state()`. */
+export interface StationState {
+    setpoint: number;
+    mode: "auto" | "manual";
+    manual: number | null;
+    lastOutput: number | null;
+    integral: number;
+}
+/** A PID configuration as given (`tiS`, `tdS`, `action`, `fallback` and `proportionalOn` may be left out). */
+export interface PidConfigInput {
+    kp: number;
+    tiS?: number;
+    tdS?: number;
+    outMin: number;
+    outMax: number;
+    action?: "direct" | "reverse";
+    fallback?: number | null;
+    proportionalOn?: "error" | "measurement";
+}
+
+/** A Smith predictor's configuration: its process model, sample time and dead-time mode. */
+export interface SmithConfig {
+    model: Record<string, unknown>;
+    tsS: number;
+    deadTime: Record<string, unknown>;
+    maxSamples?: number;
+}
+
+/** `new PidLoop(config)`. */
+export interface PidLoopConfig {
+    pid: PidConfigInput;
+    smith?: SmithConfig | null;
+}
+
+/** `new Rcc(config)`. */
+export interface RccConfig {
+    id: number;
+    thresholdsMs: number[];
+    tsMs: number;
+    smoothHandover?: boolean;
+    pollTimeoutMs?: number | null;
+}
+
+/** `new PidStation(config)`. */
+export interface StationConfig {
+    loop: PidLoopConfig;
+    tsS: number;
+    staleMs?: number;
+    setpoint: number;
+    mode?: "auto" | "manual";
+    manual?: number | null;
+}
+
+/** `PidStation.change()`: any part absent; applied whole or refused whole. */
+export interface StationChange {
+    setpoint?: number;
+    mode?: "auto" | "manual";
+    manual?: number | null;
+    tunings?: { kp?: number; tiS?: number; tdS?: number };
+    limits?: { min?: number; max?: number };
+}
+
+/** `PidStation.restore()`: what was saved of a station. */
+export interface StationSaved {
+    integral?: number | null;
+    setpoint?: number | null;
+    mode?: "auto" | "manual" | null;
+    manual?: number | null;
+}
+"#;
+
 fn control_error(err: ControlError) -> JsValue {
     js_error(err.code(), &err.to_string())
 }
@@ -125,7 +288,9 @@ fn whole(value: f64) -> Option<usize> {
 #[wasm_bindgen]
 impl PidLoop {
     #[wasm_bindgen(constructor)]
-    pub fn new(config: JsValue) -> Result<PidLoop, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "PidLoopConfig")] config: JsValue,
+    ) -> Result<PidLoop, JsValue> {
         let config: PidLoopConfig = from_js_bounded(
             config,
             Code::InvalidConfig,
@@ -139,12 +304,13 @@ impl PidLoop {
 
     /// One step; `measurement` undefined, null or NaN outputs the fallback, `track`
     /// set makes the integrator follow an action someone else applied.
+    #[wasm_bindgen(unchecked_return_type = "PidLoopStep")]
     pub fn step(
         &mut self,
-        setpoint: JsValue,
-        measurement: JsValue,
-        dt_s: JsValue,
-        track: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] setpoint: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] measurement: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] dt_s: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] track: JsValue,
     ) -> Result<JsValue, JsValue> {
         let input = PidInput {
             setpoint: number(&setpoint, "set point")?,
@@ -157,13 +323,13 @@ impl PidLoop {
     }
 
     /// One step as an RCC decision (from `Rcc.decide`) says: `{ engaged, firstCycle, write, step }`.
-    #[wasm_bindgen(js_name = stepDecided)]
+    #[wasm_bindgen(js_name = stepDecided, unchecked_return_type = "PidLoopScan")]
     pub fn step_decided(
         &mut self,
-        decision: JsValue,
-        setpoint: JsValue,
-        measurement: JsValue,
-        dt_s: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RccDecision")] decision: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] setpoint: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] measurement: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
         let decision: Decision =
             from_js_bounded(decision, Code::InvalidInput, "RCC decision", Bound::Control)?;
@@ -191,9 +357,9 @@ impl PidLoop {
     #[wasm_bindgen(js_name = setTunings)]
     pub fn set_tunings(
         &mut self,
-        kp: JsValue,
-        ti_s: JsValue,
-        td_s: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] kp: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] ti_s: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] td_s: JsValue,
     ) -> Result<(), JsValue> {
         let (kp, ti_s, td_s) = (
             number(&kp, "kp")?,
@@ -207,7 +373,11 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setLimits)]
-    pub fn set_limits(&mut self, out_min: JsValue, out_max: JsValue) -> Result<(), JsValue> {
+    pub fn set_limits(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] out_min: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] out_max: JsValue,
+    ) -> Result<(), JsValue> {
         let (out_min, out_max) = (
             number(&out_min, "output min")?,
             number(&out_max, "output max")?,
@@ -223,7 +393,10 @@ impl PidLoop {
     }
 
     #[wasm_bindgen(js_name = setIntegral)]
-    pub fn set_integral(&mut self, integral: JsValue) -> Result<(), JsValue> {
+    pub fn set_integral(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] integral: JsValue,
+    ) -> Result<(), JsValue> {
         let integral = number(&integral, "integral")?;
         self.core
             .pid_mut()
@@ -243,7 +416,10 @@ impl PidLoop {
 
     /// A measured round trip (ms) for the adaptive Smith predictor.
     #[wasm_bindgen(js_name = observeRoundTrip)]
-    pub fn observe_round_trip(&mut self, round_trip_ms: JsValue) -> Result<(), JsValue> {
+    pub fn observe_round_trip(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
+    ) -> Result<(), JsValue> {
         let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
         self.core
             .observe_round_trip(round_trip_ms)
@@ -251,12 +427,13 @@ impl PidLoop {
     }
 
     /// `{ deadTimeSamples, meanMs, stdMs }`, or undefined without a Smith predictor.
-    #[wasm_bindgen(js_name = delayEstimate)]
+    #[wasm_bindgen(js_name = delayEstimate, unchecked_return_type = "DelayEstimate | undefined")]
     pub fn delay_estimate(&self) -> Result<JsValue, JsValue> {
         estimate(self.core.smith())
     }
 
     /// The configuration in force (tunings and limits as last set).
+    #[wasm_bindgen(unchecked_return_type = "PidConfig")]
     pub fn config(&self) -> Result<JsValue, JsValue> {
         to_js(self.core.pid().config())
     }
@@ -271,7 +448,9 @@ pub struct Rcc {
 #[wasm_bindgen]
 impl Rcc {
     #[wasm_bindgen(constructor)]
-    pub fn new(config: JsValue) -> Result<Rcc, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "RccConfig")] config: JsValue,
+    ) -> Result<Rcc, JsValue> {
         let config: RccConfig = from_js_bounded(
             config,
             Code::InvalidConfig,
@@ -285,7 +464,12 @@ impl Rcc {
 
     /// The Computing step for a polled state `{ lastAction, agesMs }`: `{ engaged, firstCycle, track }`.
     /// With `nowMs` the polling timeout counts from it.
-    pub fn decide(&mut self, state: JsValue, now_ms: JsValue) -> Result<JsValue, JsValue> {
+    #[wasm_bindgen(unchecked_return_type = "RccDecision")]
+    pub fn decide(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "IoState")] state: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] now_ms: JsValue,
+    ) -> Result<JsValue, JsValue> {
         let state: IoState =
             from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let decision = match optional_number(&now_ms, "time (ms)")? {
@@ -297,13 +481,19 @@ impl Rcc {
 
     /// Counts the polling timeout from `nowMs` (at deploy, before any state).
     #[wasm_bindgen(js_name = watchFrom)]
-    pub fn watch_from(&mut self, now_ms: JsValue) -> Result<(), JsValue> {
+    pub fn watch_from(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+    ) -> Result<(), JsValue> {
         let now_ms = number(&now_ms, "time (ms)")?;
         self.core.watch_from(now_ms).map_err(control_error)
     }
 
     /// True once when no state came within the polling timeout.
-    pub fn tick(&mut self, now_ms: JsValue) -> Result<bool, JsValue> {
+    pub fn tick(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+    ) -> Result<bool, JsValue> {
         let now_ms = number(&now_ms, "time (ms)")?;
         self.core.tick(now_ms).map_err(control_error)
     }
@@ -315,13 +505,14 @@ impl Rcc {
     }
 
     /// Decide and step `pid` in one call: `{ engaged, firstCycle, write, step }`.
+    #[wasm_bindgen(unchecked_return_type = "RccScan")]
     pub fn scan(
         &mut self,
         pid: &mut PidLoop,
-        state: JsValue,
-        setpoint: JsValue,
-        measurement: JsValue,
-        dt_s: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "IoState")] state: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] setpoint: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] measurement: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] dt_s: JsValue,
     ) -> Result<JsValue, JsValue> {
         let state: IoState =
             from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
@@ -356,7 +547,10 @@ pub struct IoModule {
 #[wasm_bindgen]
 impl IoModule {
     #[wasm_bindgen(constructor)]
-    pub fn new(controllers: JsValue, initial_action: JsValue) -> Result<IoModule, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "number")] controllers: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] initial_action: JsValue,
+    ) -> Result<IoModule, JsValue> {
         let controllers = number(&controllers, "controllers")?;
         let initial_action = number(&initial_action, "initial action")?;
         let controllers = whole(controllers).ok_or_else(|| {
@@ -374,7 +568,12 @@ impl IoModule {
     }
 
     /// Conditional Acting's write from controller `id` (1-based).
-    pub fn write(&mut self, id: JsValue, action: JsValue, now_ms: JsValue) -> Result<(), JsValue> {
+    pub fn write(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] id: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] action: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+    ) -> Result<(), JsValue> {
         let controllers = self.core.controllers();
         let id = number(&id, "controller id")?;
         let (action, now_ms) = (number(&action, "action")?, number(&now_ms, "time (ms)")?);
@@ -385,7 +584,11 @@ impl IoModule {
     }
 
     /// `{ lastAction, agesMs }`; an age is null for a controller that never acted.
-    pub fn state(&self, now_ms: JsValue) -> Result<JsValue, JsValue> {
+    #[wasm_bindgen(unchecked_return_type = "IoState")]
+    pub fn state(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+    ) -> Result<JsValue, JsValue> {
         to_js(&self.core.state(finite_number(&now_ms, "time (ms)")?))
     }
 
@@ -397,7 +600,10 @@ impl IoModule {
 
 /// Refuses engagement thresholds that break D_i > D_j >= Ts for i > j.
 #[wasm_bindgen(js_name = validateThresholds)]
-pub fn validate_thresholds(thresholds_ms: Vec<f64>, ts_ms: JsValue) -> Result<(), JsValue> {
+pub fn validate_thresholds(
+    thresholds_ms: Vec<f64>,
+    #[wasm_bindgen(unchecked_param_type = "number")] ts_ms: JsValue,
+) -> Result<(), JsValue> {
     let ts_ms = number(&ts_ms, "sampling period Ts (ms)")?;
     rcc::validate_thresholds(&thresholds_ms, ts_ms).map_err(control_error)
 }
@@ -414,7 +620,9 @@ pub struct PidStation {
 #[wasm_bindgen]
 impl PidStation {
     #[wasm_bindgen(constructor)]
-    pub fn new(config: JsValue) -> Result<PidStation, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "StationConfig")] config: JsValue,
+    ) -> Result<PidStation, JsValue> {
         let config: StationConfig = from_js_bounded(
             config,
             Code::InvalidConfig,
@@ -429,13 +637,14 @@ impl PidStation {
     /// A sample: `measurement` undefined, null or NaN is a bad one (the fallback
     /// is stepped); `sampleMs` when it was measured, `nowMs` when it arrived;
     /// `track` an action someone else applied; `decision` an rcc node's.
+    #[wasm_bindgen(unchecked_return_type = "StationOutcome")]
     pub fn measure(
         &mut self,
-        measurement: JsValue,
-        sample_ms: JsValue,
-        now_ms: JsValue,
-        track: JsValue,
-        decision: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] measurement: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] sample_ms: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] track: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RccDecision | null | undefined")] decision: JsValue,
     ) -> Result<JsValue, JsValue> {
         let sample = Sample {
             measurement: optional_number(&measurement, "measurement")?,
@@ -448,7 +657,11 @@ impl PidStation {
     }
 
     /// `{ kind: "fallback", pid }` to send, `{ kind: "noIo" }`, or undefined when nothing is due.
-    pub fn tick(&mut self, now_ms: JsValue) -> Result<JsValue, JsValue> {
+    #[wasm_bindgen(unchecked_return_type = "StationStale | undefined")]
+    pub fn tick(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+    ) -> Result<JsValue, JsValue> {
         let now_ms = number(&now_ms, "time (ms)")?;
         match self.core.tick(now_ms).map_err(control_error)? {
             Some(stale) => to_js(&stale),
@@ -464,38 +677,49 @@ impl PidStation {
 
     /// `{ setpoint, mode, manual, tunings: { kp, tiS, tdS }, limits: { min, max } }`, any part
     /// absent; applied whole or refused whole.
-    pub fn change(&mut self, change: JsValue) -> Result<(), JsValue> {
+    pub fn change(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "StationChange")] change: JsValue,
+    ) -> Result<(), JsValue> {
         let change: Change =
             from_js_bounded(change, Code::InvalidInput, "loop change", Bound::Control)?;
         self.core.change(change).map_err(control_error)
     }
 
     /// `{ integral, setpoint, mode, manual }` as saved; refused whole if any is unusable.
-    pub fn restore(&mut self, saved: JsValue) -> Result<(), JsValue> {
+    pub fn restore(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "StationSaved")] saved: JsValue,
+    ) -> Result<(), JsValue> {
         let saved: Saved =
             from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
         self.core.restore(saved).map_err(control_error)
     }
 
     /// `{ setpoint, mode, manual, lastOutput, integral }`.
+    #[wasm_bindgen(unchecked_return_type = "StationState")]
     pub fn state(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.state())
     }
 
     #[wasm_bindgen(js_name = observeRoundTrip)]
-    pub fn observe_round_trip(&mut self, round_trip_ms: JsValue) -> Result<(), JsValue> {
+    pub fn observe_round_trip(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
+    ) -> Result<(), JsValue> {
         let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
         self.core
             .observe_round_trip(round_trip_ms)
             .map_err(control_error)
     }
 
-    #[wasm_bindgen(js_name = delayEstimate)]
+    #[wasm_bindgen(js_name = delayEstimate, unchecked_return_type = "DelayEstimate | undefined")]
     pub fn delay_estimate(&self) -> Result<JsValue, JsValue> {
         estimate(self.core.pid_loop().smith())
     }
 
     /// The PID configuration in force (tunings and limits as last set).
+    #[wasm_bindgen(unchecked_return_type = "PidConfig")]
     pub fn config(&self) -> Result<JsValue, JsValue> {
         to_js(self.core.pid_loop().pid().config())
     }

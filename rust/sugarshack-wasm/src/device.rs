@@ -12,6 +12,24 @@ use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, to_js, Bound};
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** An MQTT message a device publishes. */
+export interface DeviceMessage {
+    topic: string;
+    payload: string;
+    retain: boolean;
+}
+
+/** A command a device received. */
+export type DeviceCommand =
+    | { kind: "set"; actuator: number; value: number }
+    | { kind: "cleared"; actuator: number }
+    | { kind: "refused"; actuator: number | null; reason: string; message: string };
+"#;
+
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase", tag = "kind")]
 enum Read {
@@ -54,7 +72,9 @@ impl DeviceSide {
 impl DeviceSide {
     /// `plant`: the plant document (refused like the tracker refuses it: `INVALID_PLANT`).
     #[wasm_bindgen(constructor)]
-    pub fn new(plant: JsValue) -> Result<DeviceSide, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "PlantDocument | string")] plant: JsValue,
+    ) -> Result<DeviceSide, JsValue> {
         let plant: PlantModel = from_js_bounded(
             plant,
             Code::InvalidPlant,
@@ -102,6 +122,7 @@ impl DeviceSide {
     }
 
     /// `{ topic, payload, retain }`: its birth message, or its last will when `online` is false.
+    #[wasm_bindgen(unchecked_return_type = "DeviceMessage | null")]
     pub fn status(&self, device: u32, online: bool) -> Result<JsValue, JsValue> {
         to_js(&self.contract.format_status(self.device_id(device)?, online))
     }
@@ -114,7 +135,7 @@ impl DeviceSide {
 
     /// A command it received: `{ kind: "set", actuator, value }`, `{ kind: "cleared", actuator }`,
     /// `{ kind: "refused", actuator, reason, message }`, or undefined when the topic commands nothing.
-    #[wasm_bindgen(js_name = parseCommand)]
+    #[wasm_bindgen(js_name = parseCommand, unchecked_return_type = "DeviceCommand | undefined")]
     pub fn parse_command(&self, topic: &str, payload: &[u8]) -> Result<JsValue, JsValue> {
         let read = match self.contract.parse_command(topic, payload) {
             None => return Ok(JsValue::UNDEFINED),
@@ -135,7 +156,7 @@ impl DeviceSide {
     }
 
     /// What it publishes for its actuators at `values` (`ts`: its clock, epoch ms, where the profile carries one).
-    #[wasm_bindgen(js_name = actuatorMessages)]
+    #[wasm_bindgen(js_name = actuatorMessages, unchecked_return_type = "DeviceMessage[]")]
     pub fn actuator_messages(
         &self,
         device: u32,
@@ -155,7 +176,7 @@ impl DeviceSide {
     }
 
     /// What it publishes for its sensors at `values` (NaN: no reading).
-    #[wasm_bindgen(js_name = sensorMessages)]
+    #[wasm_bindgen(js_name = sensorMessages, unchecked_return_type = "DeviceMessage[]")]
     pub fn sensor_messages(
         &self,
         device: u32,

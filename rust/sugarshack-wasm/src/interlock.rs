@@ -11,6 +11,113 @@ use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** The kind of an interlock event record. */
+export type EventKind =
+    | "granted" | "queued" | "released" | "cancelled" | "faulted" | "dropped"
+    | "resource-faulted" | "cleared" | "interrupted" | "resource-added"
+    | "state-unknown" | "warn-queued" | "warn-held";
+
+/** One interlock event with names, as journalled. */
+export interface EventRecord {
+    atMs: number;
+    kind: EventKind;
+    operation?: string;
+    priority?: number;
+    resources: string[];
+    waitedMs?: number;
+    heldMs?: number;
+    note?: string;
+    by?: string;
+    reason?: string;
+    /** Present (true) only on a clear that overrode the plant's reasons. */
+    forced?: boolean;
+}
+
+/** `Interlock.counts()`. */
+export interface InterlockCounts {
+    holding: number;
+    queued: number;
+    faulted: number;
+}
+
+/** A lockout command a fault sends for one line. */
+export interface LockoutCommand {
+    resource: string;
+    command: GroupCommand | null;
+}
+
+/** What `fault` and `faultResources` did. */
+export interface FaultOutcome {
+    lockouts: LockoutCommand[];
+    /** Whether the faulted operation's waiting request was dropped. */
+    dropped: boolean;
+    /** Handles of the operations granted meanwhile, in grant order. */
+    grants: number[];
+}
+
+/** One line of an interlock configuration. */
+export interface ResourceConfig {
+    name: string;
+    lockout?: GroupCommand | null;
+}
+
+/** `new Interlock(config)`. */
+export interface InterlockConfig {
+    resources: ResourceConfig[];
+    policy?: "greedy" | "no-overtaking";
+    queueBound?: number;
+    warnQueuedMs?: number | null;
+    warnHeldMs?: number | null;
+    recordEvents?: boolean;
+}
+
+/** A reason a line may not be cleared yet. */
+export type ClearBlocker =
+    | { kind: "lockoutPending"; actuator: string; sends: number }
+    | { kind: "offLockout"; actuator: string; position: number; lockout: number }
+    | { kind: "noFeedback"; actuator: string }
+    | { kind: "stale"; actuator: string }
+    | { kind: "deviceOffline"; device: string };
+
+/** Every reason that keeps one line from being cleared (none: it may be). */
+export interface LineBlockers {
+    line: string;
+    reasons: ClearBlocker[];
+}
+
+/** A request (waiting) or hold, by name, in a snapshot. */
+export interface RequestSnapshot {
+    operation: string;
+    priority: number;
+    resources: string[];
+    sinceMs: number;
+    waitedMs: number;
+}
+
+/** One line and its state, in a snapshot. */
+export interface ResourceSnapshot {
+    name: string;
+    state:
+        | { state: "free" }
+        | { state: "held"; operation: string }
+        | { state: "faulted"; cause: "operation" | "manual" | "interrupted"; operation?: string; note?: string; sinceMs: number };
+}
+
+/** `Interlock.snapshot()`: the whole state by name, for persistence. */
+export interface InterlockSnapshot {
+    version: number;
+    takenAtMs: number;
+    configured: string[];
+    resources: ResourceSnapshot[];
+    queue: RequestSnapshot[];
+    holds: RequestSnapshot[];
+}
+"#;
+
 fn core_error(err: InterlockError) -> JsValue {
     let error = js_error(err.code(), &err.to_string());
     if let InterlockError::ClearRefused { lines } = &err {
@@ -170,7 +277,9 @@ impl Interlock {
     /// `config`: `{ resources: [{ name, lockout }], policy: "greedy" | "no-overtaking",
     /// queueBound, warnQueuedMs, warnHeldMs, recordEvents }`.
     #[wasm_bindgen(constructor)]
-    pub fn new(config: JsValue) -> Result<Interlock, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
+    ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
         sugarshack_core::interlock::Interlock::new(config)
             .map(Interlock::wrap)
@@ -185,8 +294,8 @@ impl Interlock {
     /// all still configured. Operations a changed configuration lets through
     /// at once are read with `granted(i)`.
     pub fn restore(
-        config: JsValue,
-        snapshot: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "InterlockSnapshot")] snapshot: JsValue,
         keep_queue: bool,
         keep_holds: bool,
         now_ms: f64,
@@ -218,7 +327,7 @@ impl Interlock {
     /// `"unknown"`) with `note`, until a person clears it.
     #[wasm_bindgen(js_name = unknownState)]
     pub fn unknown_state(
-        config: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
         note: Option<String>,
         now_ms: f64,
     ) -> Result<Interlock, JsValue> {
@@ -329,7 +438,7 @@ impl Interlock {
     }
 
     /// The refusal of the last call that returned -1, once.
-    #[wasm_bindgen(js_name = takeError)]
+    #[wasm_bindgen(js_name = takeError, unchecked_return_type = "SugarshackError | undefined")]
     pub fn take_error(&mut self) -> JsValue {
         self.error.take().unwrap_or(JsValue::UNDEFINED)
     }
@@ -389,6 +498,7 @@ impl Interlock {
     }
 
     /// `{ lockouts: [{ resource, command }], dropped, grants }`.
+    #[wasm_bindgen(unchecked_return_type = "FaultOutcome")]
     pub fn fault(
         &mut self,
         op: f64,
@@ -404,7 +514,7 @@ impl Interlock {
     }
 
     /// An emergency stop of lines by a person (`by`, `"unknown"` when absent) for `reason`.
-    #[wasm_bindgen(js_name = faultResources)]
+    #[wasm_bindgen(js_name = faultResources, unchecked_return_type = "FaultOutcome")]
     pub fn fault_resources(
         &mut self,
         set: f64,
@@ -467,7 +577,7 @@ impl Interlock {
     }
 
     /// Why each named line may not be cleared now (empty reasons: it may), against `plant`.
-    #[wasm_bindgen(js_name = clearBlockers)]
+    #[wasm_bindgen(js_name = clearBlockers, unchecked_return_type = "LineBlockers[]")]
     pub fn clear_blockers(&self, set: f64, plant: &crate::Tracker) -> Result<JsValue, JsValue> {
         let set = self.set(set)?;
         let lines: Vec<LineBlockers> = set
@@ -494,6 +604,7 @@ impl Interlock {
     }
 
     /// Elapsed-time warnings as event records; each crossing warns once.
+    #[wasm_bindgen(unchecked_return_type = "EventRecord[]")]
     pub fn tick(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let warnings = self.core.tick(time(now_ms)?);
         let records: Vec<_> = warnings.iter().map(|e| self.core.describe(e)).collect();
@@ -501,7 +612,7 @@ impl Interlock {
     }
 
     /// Event records since the last call.
-    #[wasm_bindgen(js_name = drainEvents)]
+    #[wasm_bindgen(js_name = drainEvents, unchecked_return_type = "EventRecord[]")]
     pub fn drain_events(&mut self) -> Result<JsValue, JsValue> {
         let events = self.core.drain_events();
         let records: Vec<_> = events.iter().map(|e| self.core.describe(e)).collect();
@@ -510,7 +621,7 @@ impl Interlock {
 
     /// The abnormal event records since the last call (faults, clears,
     /// warnings...: what an alarm view keeps); the others are dropped unread.
-    #[wasm_bindgen(js_name = drainAbnormalEvents)]
+    #[wasm_bindgen(js_name = drainAbnormalEvents, unchecked_return_type = "EventRecord[]")]
     pub fn drain_abnormal_events(&mut self) -> Result<JsValue, JsValue> {
         let events = self.core.drain_events();
         let records: Vec<_> = events
@@ -527,17 +638,19 @@ impl Interlock {
         self.core.drain_events();
     }
 
+    #[wasm_bindgen(unchecked_return_type = "InterlockSnapshot")]
     pub fn snapshot(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         to_js(&self.core.snapshot(time(now_ms)?))
     }
 
     /// The alarm conditions that hold now: faulted lines, waits and holds past the warning times.
-    #[wasm_bindgen(js_name = alarmConditions)]
+    #[wasm_bindgen(js_name = alarmConditions, unchecked_return_type = "AlarmCondition[]")]
     pub fn alarm_conditions(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         to_js(&self.core.alarm_conditions(time(now_ms)?))
     }
 
     /// `{ holding, queued, faulted }`.
+    #[wasm_bindgen(unchecked_return_type = "InterlockCounts")]
     pub fn counts(&self) -> Result<JsValue, JsValue> {
         let c = self.core.counts();
         to_js(&CountsView {

@@ -5,6 +5,44 @@ use wasm_bindgen::prelude::*;
 
 use crate::{js_error, time, to_js};
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** One step of an operation's plan. */
+export type PlanStep =
+    | { kind: "command"; command: GroupCommand; timeoutMs: number }
+    | { kind: "wait"; condition: string; sensors: string[]; timeoutMs: number }
+    | { kind: "returnToIdle"; command: GroupCommand; timeoutMs: number };
+
+/** `Tracker.operationPlan()` and `OperationRun.plan()`. */
+export interface OperationPlan {
+    id: string;
+    priority: number;
+    resources: string[];
+    steps: PlanStep[];
+}
+
+export type StepKind = "command" | "wait" | "returnToIdle";
+
+/** How long one step of a finished run took. */
+export interface StepRecord {
+    kind: StepKind;
+    ms: number;
+}
+
+/** What an operation run asks JS to do. */
+export type RunEffect =
+    | { kind: "acquire"; operation: string; priority: number; resources: string[] }
+    | { kind: "startStep"; index: number; step: PlanStep; within?: string[] }
+    | { kind: "cancelStep"; index: number }
+    | { kind: "release"; operation: string }
+    | { kind: "withdraw"; operation: string }
+    | { kind: "fault"; operation: string; note: string }
+    | { kind: "finished"; id: string; queuedMs: number; runMs: number; steps: StepRecord[] }
+    | { kind: "failed"; id: string; code: string; message: string; step: number | null; stage: "acquire" | StepKind | "release"; lockedOut: string[]; aborted: boolean };
+"#;
+
 /// JS's `Number.MAX_SAFE_INTEGER`: durations up to it come back as exact numbers.
 const MAX_SAFE_MS: u64 = (1 << 53) - 1;
 
@@ -66,6 +104,7 @@ impl OperationRun {
     }
 
     /// `{ id, priority, resources, steps: [{ kind, ... }] }`, as `Tracker.operationPlan` gives it.
+    #[wasm_bindgen(unchecked_return_type = "OperationPlan")]
     pub fn plan(&self) -> Result<JsValue, JsValue> {
         to_js(self.core.plan())
     }
@@ -82,23 +121,25 @@ impl OperationRun {
     }
 
     /// `[acquire]`; throws `ALREADY_STARTED` on a run already started.
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn start(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.start(now).map_err(run_error)?)
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn granted(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.granted(now))
     }
 
-    #[wasm_bindgen(js_name = stepDone)]
+    #[wasm_bindgen(js_name = stepDone, unchecked_return_type = "RunEffect[]")]
     pub fn step_done(&mut self, index: f64, now_ms: f64) -> Result<JsValue, JsValue> {
         let (index, now) = (step_index(index)?, run_time(now_ms)?);
         effects(self.core.step_done(index, now))
     }
 
-    #[wasm_bindgen(js_name = stepFailed)]
+    #[wasm_bindgen(js_name = stepFailed, unchecked_return_type = "RunEffect[]")]
     pub fn step_failed(
         &mut self,
         index: f64,
@@ -110,12 +151,13 @@ impl OperationRun {
         effects(self.core.step_failed(index, code, message, now))
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn released(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.released(now))
     }
 
-    #[wasm_bindgen(js_name = releaseFailed)]
+    #[wasm_bindgen(js_name = releaseFailed, unchecked_return_type = "RunEffect[]")]
     pub fn release_failed(
         &mut self,
         code: &str,
@@ -127,21 +169,24 @@ impl OperationRun {
     }
 
     /// `lines`: the resources whose lockouts went out.
-    #[wasm_bindgen(js_name = faultApplied)]
+    #[wasm_bindgen(js_name = faultApplied, unchecked_return_type = "RunEffect[]")]
     pub fn fault_applied(&mut self, lines: Vec<String>, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.fault_applied(lines, now))
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn refused(&mut self, code: &str, message: &str) -> Result<JsValue, JsValue> {
         effects(self.core.refused(code, message))
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn abort(&mut self, reason: &str, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.abort(reason, now))
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn withdrawn(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.withdrawn(now))

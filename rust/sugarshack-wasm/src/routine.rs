@@ -5,6 +5,47 @@ use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** A routine dispatching an operation on a transition. */
+export interface RoutineDispatch {
+    transition: number;
+    operation: string;
+    from: string;
+    to: string;
+}
+
+/** A routine's move once its operation ended (or on reset). */
+export interface RoutineMove {
+    from: string;
+    to: string;
+    operation: string | null;
+    /** A fault with no error state halts the routine. */
+    halted: boolean;
+}
+
+/** The condition of a transition. */
+export interface RoutineCondition {
+    when: string;
+    sensors: string[];
+}
+
+/** A condition transition of `Routine.conditions()`. */
+export interface RoutineTransitionCondition extends RoutineCondition {
+    transition: number;
+}
+
+/** `Routine.snapshot()`, for the context store. */
+export interface RoutineSnapshot {
+    routine: string;
+    state: string;
+    pending: string | null;
+    halted: boolean;
+}
+"#;
+
 fn routine_error(err: RoutineError) -> JsValue {
     js_error(err.code(), &err.to_string())
 }
@@ -43,7 +84,7 @@ impl Routine {
     }
 
     /// A trigger msg: the dispatch, or a refusal (busy, halted, no transition).
-    #[wasm_bindgen(js_name = onMsg)]
+    #[wasm_bindgen(js_name = onMsg, unchecked_return_type = "RoutineDispatch")]
     pub fn on_msg(&mut self, topic: &str) -> Result<JsValue, JsValue> {
         let dispatch = self.core.on_msg(topic).map_err(routine_error)?;
         to_js(&dispatch)
@@ -56,6 +97,7 @@ impl Routine {
     }
 
     /// `{ when, sensors }` of a condition transition.
+    #[wasm_bindgen(unchecked_return_type = "RoutineCondition")]
     pub fn condition(&self, transition: u32) -> Result<JsValue, JsValue> {
         let (when, sensors) = self.core.condition(transition as usize).ok_or_else(|| {
             js_error(
@@ -70,6 +112,7 @@ impl Routine {
     }
 
     /// `[{ transition, when, sensors }]`: every condition transition, to compile once.
+    #[wasm_bindgen(unchecked_return_type = "RoutineTransitionCondition[]")]
     pub fn conditions(&self) -> Result<JsValue, JsValue> {
         let all: Vec<serde_json::Value> = self
             .core
@@ -81,7 +124,7 @@ impl Routine {
     }
 
     /// A due condition held: the dispatch, or undefined if the routine moved on meanwhile.
-    #[wasm_bindgen(js_name = conditionMet)]
+    #[wasm_bindgen(js_name = conditionMet, unchecked_return_type = "RoutineDispatch | undefined")]
     pub fn condition_met(&mut self, transition: u32) -> Result<JsValue, JsValue> {
         match self.core.condition_met(transition as usize) {
             Some(dispatch) => to_js(&dispatch),
@@ -89,6 +132,7 @@ impl Routine {
         }
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RoutineMove")]
     pub fn completed(&mut self) -> Result<JsValue, JsValue> {
         let moved = self.core.completed().map_err(routine_error)?;
         to_js(&moved)
@@ -99,23 +143,30 @@ impl Routine {
         self.core.refused().map_err(routine_error)
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RoutineMove")]
     pub fn faulted(&mut self) -> Result<JsValue, JsValue> {
         let moved = self.core.faulted().map_err(routine_error)?;
         to_js(&moved)
     }
 
+    #[wasm_bindgen(unchecked_return_type = "RoutineMove")]
     pub fn reset(&mut self) -> Result<JsValue, JsValue> {
         let moved = self.core.reset().map_err(routine_error)?;
         to_js(&moved)
     }
 
     /// `{ routine, state, pending, halted }`, for the context store.
+    #[wasm_bindgen(unchecked_return_type = "RoutineSnapshot")]
     pub fn snapshot(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.snapshot())
     }
 
     /// Back to a saved snapshot; returns the move made if an operation was pending (it counts as faulted).
-    pub fn restore(&mut self, snapshot: JsValue) -> Result<JsValue, JsValue> {
+    #[wasm_bindgen(unchecked_return_type = "RoutineMove | null")]
+    pub fn restore(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "RoutineSnapshot")] snapshot: JsValue,
+    ) -> Result<JsValue, JsValue> {
         let snapshot: RoutineSnapshot = from_js_bounded(
             snapshot,
             Code::InvalidSnapshot,

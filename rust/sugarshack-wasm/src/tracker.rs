@@ -13,6 +13,93 @@ use crate::routine::Routine;
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 use sugarshack_core::text::quote;
 
+/// The TypeScript shapes of what this module's calls return and take
+/// (`unchecked_return_type` / `unchecked_param_type` name them).
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** A plant document (see the palette's plant schema), as an object or JSON text. */
+export type PlantDocument = Record<string, unknown>;
+
+/** `Tracker.counts()` and `countsOn()`. */
+export interface TrackerCounts {
+    moving: number;
+    stopped: number;
+    faulted: number;
+    lockoutsPending: number;
+}
+
+/** One actuator of `Tracker.actuators()`. */
+export interface PlantActuator {
+    handle: number;
+    id: string;
+    type: string;
+    device: string;
+    io: number | null;
+    binary: boolean;
+    idle: number | null;
+    lockout: number;
+}
+
+/** A lockout feedback has not confirmed yet. */
+export interface PendingLockout {
+    /** An actuator handle. */
+    actuator: number;
+    /** 0/1 for a binary actuator. */
+    target: number;
+    sinceMs: number;
+    sends: number;
+}
+
+/** `Tracker.describeFault()`. */
+export interface FaultDescription {
+    code: string;
+    message: string;
+}
+
+export type FaultKind =
+    | "no-motion" | "not-reached" | "uncommanded" | "stale" | "device-offline" | "locked-out";
+
+/** What the tracker asks JS to do (`takeEffects()`), and samples it refused. */
+export type TrackerEffect =
+    | { kind: "publish"; device: number; topic: string; payload: string; retain: boolean }
+    | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
+    | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number }
+    | { kind: "groupCompleted"; caller: number; completionMs: number }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind }
+    | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
+    | { kind: "fault"; actuator: number; fault: FaultKind }
+    | { kind: "recovered"; actuator: number; fault: FaultKind }
+    | { kind: "changed"; actuator: number; value: number; timeOfFlightMs: number | null }
+    | { kind: "deviceStatus"; device: number; online: boolean }
+    | { kind: "lockoutConfirmed"; actuator: number; afterMs: number; sends: number }
+    | { kind: "lockoutResent"; actuator: number; attempt: number }
+    | { kind: "rejected"; actuator: number; code: string; message: string }
+    | { kind: "malformed"; device: string; reason: string; message: string };
+
+/** A device as an operator sees it. */
+export interface DeviceHealth {
+    device: string;
+    online: boolean;
+    /** Actuators whose feedback went silent. */
+    stale: string[];
+}
+
+/** A sensor as an operator sees it (`value` null before the first sample or with no reading). */
+export interface SensorHealth {
+    sensor: string;
+    value: number | null;
+    receivedMs: number | null;
+    fresh: boolean;
+    why: string | null;
+}
+
+/** `Tracker.health()`. */
+export interface PlantHealth {
+    devices: DeviceHealth[];
+    sensors: SensorHealth[];
+}
+"#;
+
 fn sensor_error(err: SensorError) -> JsValue {
     js_error(err.code(), &err.to_string())
 }
@@ -217,7 +304,10 @@ fn device_ts(ts: Option<f64>) -> Option<u64> {
 impl Tracker {
     /// `plant`: the plant document. Refused with every problem listed (code `INVALID_PLANT`).
     #[wasm_bindgen(constructor)]
-    pub fn new(plant: JsValue, now_ms: f64) -> Result<Tracker, JsValue> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "PlantDocument | string")] plant: JsValue,
+        now_ms: f64,
+    ) -> Result<Tracker, JsValue> {
         let plant: PlantModel = from_js_bounded(
             plant,
             Code::InvalidPlant,
@@ -271,6 +361,7 @@ impl Tracker {
     }
 
     /// Every actuator: `[{ handle, id, type, device, io, binary, idle, lockout }]`.
+    #[wasm_bindgen(unchecked_return_type = "PlantActuator[]")]
     pub fn actuators(&self) -> Result<JsValue, JsValue> {
         let views: Vec<ActuatorView> = self
             .core
@@ -311,7 +402,7 @@ impl Tracker {
     /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
     pub fn command(
         &mut self,
-        payload: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "GroupCommand | string")] payload: JsValue,
         caller: u32,
         lockout: bool,
         now_ms: f64,
@@ -554,7 +645,7 @@ impl Tracker {
     }
 
     /// The queued effects, oldest first, as plain objects with a `kind`.
-    #[wasm_bindgen(js_name = takeEffects)]
+    #[wasm_bindgen(js_name = takeEffects, unchecked_return_type = "TrackerEffect[]")]
     pub fn take_effects(&mut self) -> Result<JsValue, JsValue> {
         let out = to_js(&self.effects);
         self.effects.clear();
@@ -562,12 +653,13 @@ impl Tracker {
     }
 
     /// `{ moving, stopped, faulted, lockoutsPending }`.
+    #[wasm_bindgen(unchecked_return_type = "TrackerCounts")]
     pub fn counts(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.counts())
     }
 
     /// The same counts for the actuators on `devices` (device handles; an unknown one counts nothing).
-    #[wasm_bindgen(js_name = countsOn)]
+    #[wasm_bindgen(js_name = countsOn, unchecked_return_type = "TrackerCounts")]
     pub fn counts_on(&self, devices: &[u32]) -> Result<JsValue, JsValue> {
         let devices = devices.iter().map(|&d| DeviceId::from_index(d));
         to_js(&self.core.counts_on(devices))
@@ -575,7 +667,7 @@ impl Tracker {
 
     /// Lockouts feedback has not confirmed yet: `[{ actuator, target, sinceMs, sends }]`
     /// (`actuator` a handle, `target` a number, 0/1 for binary), in handle order.
-    #[wasm_bindgen(js_name = pendingLockouts)]
+    #[wasm_bindgen(js_name = pendingLockouts, unchecked_return_type = "PendingLockout[]")]
     pub fn pending_lockouts(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.pending_lockouts())
     }
@@ -599,12 +691,13 @@ impl Tracker {
     /// Why a group command failed on `actuator`: `{ code, message }`, worded
     /// by the core from the plant document. `fault` is the effect's fault name;
     /// `target` what the command asked for (a number or a boolean), if known.
-    #[wasm_bindgen(js_name = describeFault)]
+    #[wasm_bindgen(js_name = describeFault, unchecked_return_type = "FaultDescription")]
     pub fn describe_fault(
         &self,
         actuator: u32,
         fault: &str,
         retries: u32,
+        #[wasm_bindgen(unchecked_param_type = "number | boolean | null | undefined")]
         target: JsValue,
     ) -> Result<JsValue, JsValue> {
         let id = self.actuator_id(actuator)?;
@@ -631,7 +724,7 @@ impl Tracker {
 
     /// The plan of an operation: `{ id, priority, resources, steps: [{ kind, ... }] }`,
     /// its last step returning every commanded actuator to idle.
-    #[wasm_bindgen(js_name = operationPlan)]
+    #[wasm_bindgen(js_name = operationPlan, unchecked_return_type = "OperationPlan")]
     pub fn operation_plan(&self, id: &str) -> Result<JsValue, JsValue> {
         let plan = self.core.plant().operation_plan(id).ok_or_else(|| {
             js_error(
@@ -646,7 +739,7 @@ impl Tracker {
     }
 
     /// `[{ name, lockout }]`: the plant's resources as an interlock configures them.
-    #[wasm_bindgen(js_name = interlockResources)]
+    #[wasm_bindgen(js_name = interlockResources, unchecked_return_type = "ResourceConfig[]")]
     pub fn interlock_resources(&self) -> Result<JsValue, JsValue> {
         to_js(&self.core.plant().interlock_config().resources)
     }
@@ -710,6 +803,7 @@ impl Tracker {
     /// What an operator reads of the plant now: `{ devices: [{ device, online,
     /// stale: [actuator] }], sensors: [{ sensor, value, receivedMs, fresh, why }] }`
     /// (`value` null before the first sample or when the device reports none).
+    #[wasm_bindgen(unchecked_return_type = "PlantHealth")]
     pub fn health(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
         let sensors: Vec<SensorView> = (0..self.sensors.len() as u32)
