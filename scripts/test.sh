@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Full test run: setup, rustfmt and clippy gates, Rust tests (native, doctests
-# and wasm under Node), the control report, wasm build,
+# and wasm under Node), the control report, wasm build, the JS type check,
 # Node-RED flow tests, MQTT integration tests against a real Mosquitto, then
 # the palette install test on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
@@ -92,6 +92,10 @@ CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER=wasm-bindgen-test-runner \
 
 stage "build wasm package"
 bash scripts/build-wasm.sh
+
+# After the build: the palette's JS is checked against the facade's generated .d.ts.
+stage "typecheck (tsc --noEmit)"
+npx tsc -p tsconfig.json --noEmit
 
 stage "Node-RED flow tests (mocha)"
 [ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }

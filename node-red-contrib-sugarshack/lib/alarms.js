@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The alarms of one interlock and its plant. The core keeps the ISA-18.2
 // states, acknowledgements and shelves; this reads which conditions hold now
@@ -31,7 +32,7 @@ class AlarmBook {
 
   free() {
     wasm.release(this.core);
-    this.core = null;
+    this.core = /** @type {any} */ (null); // never read again
   }
 
   /** Hands the conditions holding at `now` to the core; true when an alarm changed. */

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Connects a node to the runtime of its config node (an interlock or a plant).
 // Runtimes outlive deploys: a node of a new deploy takes over what its previous
@@ -50,6 +51,13 @@ function bindPlant(RED, node, configId, options) {
  * does the node's part. `urgent(msg)` says whether the msg may go in while a
  * deploy drains (see RuntimeBase.submit); reading it must not throw.
  */
+/**
+ * @param {NodeRed.Node} node
+ * @param {any} runtime the interlock or plant runtime, null when unset
+ * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done) => void} work
+ * @param {'interlock' | 'plant'} [kind]
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean }} [options]
+ */
 function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
@@ -67,6 +75,7 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
   });
 }
 
+/** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
 
 module.exports = { bindInterlock, bindPlant, onInput, always };

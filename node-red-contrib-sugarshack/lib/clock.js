@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The one clock of the palette's runtimes: every time they read and every timer
 // they set goes through here, so tests can drive time instead of waiting for it.

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // A condition over live sensor values, written in JSONata against an object of
 // the listed sensors by id: `LT-3` >= 12000. It passes only on fresh values: the

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Translates the interlock config node's properties into the core's configuration.
 const { SugarshackError } = require('./errors');

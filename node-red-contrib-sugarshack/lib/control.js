@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Shared by the pid, rcc and rcc-io nodes: reading their configuration fields
 // into numbers, checking msg fields, and numbers short enough for a status.
@@ -9,8 +10,26 @@ const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';
 
 /**
+ * @overload
+ * @param {unknown} value
+ * @param {string} label
+ * @param {{ required: true } | { fallback: number }} options
+ * @returns {number}
+ */
+/**
+ * @overload
+ * @param {unknown} value
+ * @param {string} label
+ * @param {{ required?: boolean, fallback?: number | null }} [options]
+ * @returns {number | null | undefined}
+ */
+/**
  * A configuration field as a number. Blank gives `fallback` (undefined when the
  * field is required, which refuses it); text that is not a number is refused.
+ * @param {unknown} value
+ * @param {string} label
+ * @param {{ required?: boolean, fallback?: number | null }} [options]
+ * @returns {number | null | undefined}
  */
 function configNumber(value, label, { required = false, fallback } = {}) {
   if (blank(value)) {
@@ -33,9 +52,32 @@ function parseList(text, label, example = '1000, 2000') {
 const secondsToMs = (s) => Math.round(s * 1e6) / 1e3;
 
 /**
+ * @overload
+ * @param {Record<string, any>} props the node's properties
+ * @param {string} name
+ * @param {string} legacyMs
+ * @param {string} label
+ * @param {{ required: true } | { fallbackMs: number }} options
+ * @returns {number}
+ */
+/**
+ * @overload
+ * @param {Record<string, any>} props the node's properties
+ * @param {string} name
+ * @param {string} legacyMs
+ * @param {string} label
+ * @param {{ required?: boolean, fallbackMs?: number | null }} [options]
+ * @returns {number | null | undefined}
+ */
+/**
  * A duration setting, in ms for the runtime. Settings are in seconds under
  * `name`; flows saved before that carry the same duration in ms under
  * `legacyMs`, read when `name` is blank. Blank both: `fallbackMs`.
+ * @param {Record<string, any>} props the node's properties
+ * @param {string} name
+ * @param {string} legacyMs
+ * @param {string} label
+ * @param {{ required?: boolean, fallbackMs?: number | null }} [options]
  */
 function configDurationMs(props, name, legacyMs, label, { required = false, fallbackMs } = {}) {
   if (!blank(props[name])) return secondsToMs(configNumber(props[name], `${label} (${name}, s)`, { required: true }));

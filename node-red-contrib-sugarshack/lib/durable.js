@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Safety state that must survive a crash (a power cut, kill -9), whatever
 // context store the user chose: each interlock's state is a file under

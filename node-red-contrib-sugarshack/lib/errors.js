@@ -1,16 +1,27 @@
+// @ts-check
 'use strict';
 // Errors reported to flows. They look like the core's (name "SugarshackError"
 // and a `code`) so a Catch node sees one shape, whichever layer refused the msg.
 
 class SugarshackError extends Error {
+  /** @param {string} code @param {string} message */
   constructor(code, message) {
     super(message);
     this.name = 'SugarshackError';
     this.code = code;
+    /**
+     * Set on an operation's failure after its grant (see lib/operation-run.js).
+     * @type {{ id: string, step: number | null, kind: string, lockedOut: string[], aborted: boolean } | undefined}
+     */
+    this.operation; // declared for the type checker; not set here
   }
 }
 
-/** The error as thrown by the core, or wrapped so that it always carries a code. */
+/**
+ * The error as thrown by the core, or wrapped so that it always carries a code.
+ * @param {any} err whatever was thrown
+ * @returns {SugarshackError}
+ */
 function asSugarshackError(err) {
   if (err && typeof err === 'object' && typeof err.code === 'string' && err.message) return err;
   const wrapped = new SugarshackError('INTERNAL', err && err.message ? err.message : String(err));

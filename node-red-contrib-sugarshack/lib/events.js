@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Fans interlock event records out to every `interlock events` node.
 const { journal } = require('./journal/bus');

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Grants of the interlock, answered by whoever waits for them: a msg held by an
 // acquire node (sent on with that node's own send/done, so a link call returns

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Reads a group command msg. Whether the command is allowed is the core's call.
 const { SugarshackError } = require('./errors');

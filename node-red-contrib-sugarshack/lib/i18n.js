@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Texts a person reads (status, errors built in JS), from the catalogs in
 // nodes/locales/<lang>/<node file>.json, keyed by node type as Node-RED's own

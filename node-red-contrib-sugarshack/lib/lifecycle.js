@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The palette's runtimes (one per interlock and per plant config node) live in
 // the Node-RED process, not in node instances, so a deploy is not a crash:

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Hosts one run of a singular operation (the paper's §III-D). The sequence
 // (acquire, steps, return to idle, release; fault and lockout on any failure
@@ -152,6 +153,7 @@ class RunHost {
         this.feed((r) => r.stepDone(index, clock.now()));
       }
     };
+    /** @type {{ index: number, cancel: (reason: string) => void }} */
     const token = { index, cancel: () => {} };
     this.current = token;
     try {

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Msgs held while they wait: by acquire nodes until their operation is granted,
 // keyed by operation handle (an operation waits at most once); by group command
@@ -50,12 +51,29 @@ class PendingRegistry {
 }
 
 /**
+ * A held msg (see `heldMsg`). `grant` and `refuse` are set by whoever answers
+ * an acquire; `cancel` by whoever runs a command's wait.
+ * @typedef {{
+ *   node: NodeRed.Node | null, nodeId: string | null, msg: NodeRed.Message | null,
+ *   send: NodeRed.Send | null, done: NodeRed.Done | null, sinceMs: number,
+ *   timer: unknown, [key: string]: any,
+ *   reject(err: Error): void, abandon(): void, detach(): void,
+ *   adopt(next: NodeRed.Node): void, stopTimer(): void,
+ *   grant?: () => void, refuse?: (err: { code: string, message: string }) => void,
+ * }} HeldMsg
+ */
+
+/**
  * A msg held by a node until its work is answered. Between a deploy's restart
  * of that node and its next instance taking the msg over (`adopt`), `node`,
  * `send` and `done` are null: the first instance completed the msg when it
  * closed (`detach`), and the next one sends it on.
+ * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
+ *   done: NodeRed.Done | null, sinceMs: number, [key: string]: any }} fields
+ * @returns {HeldMsg}
  */
 function heldMsg({ node, msg, send, done, sinceMs, ...rest }) {
+  /** @type {HeldMsg} */
   const held = {
     node,
     nodeId: node ? node.id : null,

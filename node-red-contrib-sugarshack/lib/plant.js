@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The plant config node's document, and its validation for the editor.
 const { SugarshackError } = require('./errors');

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Reads what a msg asks for (operation, priority, resources), falling back to
 // the node's configuration. Only shapes are checked here; whether a request is

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Hosts one routine of the plant document (the paper's §III-E) in its
 // interlock's runtime: the core's state machine, its condition checks, and the

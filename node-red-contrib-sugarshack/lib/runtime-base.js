@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // What the interlock and plant runtimes share: the config node that owns them
 // (replaced on each deploy), the nodes showing their status, the gate that
@@ -7,8 +8,11 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
 
+/** @typedef {import('./pending').HeldMsg} HeldMsg */
+/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
+
 class RuntimeBase {
-  /** kind: 'interlock' | 'plant', for messages. */
+  /** kind: 'interlock' | 'plant', for messages. @param {'interlock' | 'plant'} kind */
   constructor(kind) {
     this.kind = kind;
     this.owner = null; // the config node instance of the current deploy
@@ -20,8 +24,10 @@ class RuntimeBase {
     this.users = new Set();
     this.statusBoard = new StatusBoard();
     this.gateOpen = true;
-    this.parked = []; // { node, done, work } held while starting or draining
-    this.openWaiters = []; // functions to run once ready with the gate open
+    /** @type {ParkedWork[]} held while starting or draining */
+    this.parked = [];
+    /** @type {(() => void)[]} run once ready with the gate open */
+    this.openWaiters = [];
     this.generation = wasm.currentGeneration();
     this.stopTrapWatch = wasm.onTrap((err, generation) => this.afterTrap(err, generation));
   }
@@ -60,6 +66,7 @@ class RuntimeBase {
   // ---- held msgs across deploys ----------------------------------------------
 
   /** The msgs this runtime holds for nodes (each a `heldMsg`); a runtime lists its own. */
+  /** @returns {HeldMsg[]} */
   heldEntries() {
     return [];
   }
@@ -70,7 +77,8 @@ class RuntimeBase {
     this.adopted(node);
   }
 
-  adopted() {}
+  /** @param {NodeRed.Node} _node */
+  adopted(_node) {}
 
   /**
    * A node closes in a deploy (not a shutdown). Restarted, its held msgs are
@@ -89,10 +97,12 @@ class RuntimeBase {
     else this.palette.whenStarted(settle);
   }
 
-  closing() {}
+  /** @param {NodeRed.Node} _node */
+  closing(_node) {}
 
   /** Withdraws what the held msgs of node `nodeId`, not taken over, wait for. */
-  withdrawOrphans() {}
+  /** @param {string} _nodeId */
+  withdrawOrphans(_nodeId) {}
 
   // ---- work from nodes -----------------------------------------------------
 
@@ -200,6 +210,19 @@ class RuntimeBase {
   }
 
   // ---- status -----------------------------------------------------------------
+
+  /**
+   * Shows the runtime's state on `only`, or on every user; each runtime says how.
+   * @param {NodeRed.Node} [_only]
+   */
+  refreshStatus(_only) {
+    throw new Error(`the ${this.kind} runtime does not show a status`);
+  }
+
+  /** Makes its core objects again from its last durable state, after a trap; each runtime says how. */
+  rebuild() {
+    throw new Error(`the ${this.kind} runtime cannot rebuild`);
+  }
 
   showError(node, code) {
     this.statusBoard.set(node, errorStatus(code));

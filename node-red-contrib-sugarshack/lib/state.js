@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The palette's state as one document, for the admin API, the state node, a
 // dashboard and the editor's sidebar: every interlock (lines, holders, queue,

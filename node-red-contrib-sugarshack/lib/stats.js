@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Timing figures of a running plant, as the paper reports them (Figs. 11-15):
 // time of flight per device, command issuance-to-motion and completion, fault

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Status is for people: at plant scale the counts a node shows move hundreds
 // or thousands of times a second, and each status goes out to every editor.

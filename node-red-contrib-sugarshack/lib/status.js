@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Node status: what a node is doing, in fewer than 20 characters so the editor
 // never truncates it. Every status object is built here; the texts for error

@@ -1,8 +1,11 @@
+// @ts-check
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
 const { operationOf, priorityOf, resourcesOf, readMsg } = require('../lib/request');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function AcquireNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

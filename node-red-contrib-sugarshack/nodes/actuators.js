@@ -1,9 +1,12 @@
+// @ts-check
 'use strict';
 const { bindPlant, onInput, always } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ActuatorsNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

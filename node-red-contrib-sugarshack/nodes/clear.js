@@ -1,9 +1,12 @@
+// @ts-check
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ClearNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
@@ -18,7 +19,9 @@ function faultedError(msg, operation, lockouts, note) {
   return error;
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function FaultNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

@@ -1,9 +1,12 @@
+// @ts-check
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { readMsg } = require('../lib/request');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function GroupCommandNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

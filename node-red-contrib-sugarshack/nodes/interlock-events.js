@@ -1,7 +1,10 @@
+// @ts-check
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function InterlockEventsNode(props) {
     RED.nodes.createNode(this, props);
     const runtime = bindInterlock(RED, this, props.interlock);

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { coreConfig } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
@@ -5,8 +6,11 @@ const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 const { translator } = require('../lib/i18n');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
   paletteOf(RED);
+
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
 
   function InterlockNode(props) {
     RED.nodes.createNode(this, props);
@@ -18,6 +22,7 @@ module.exports = function (RED) {
     const plantNode = props.plant ? RED.nodes.getNode(props.plant) : null;
     const plant = plantNode ? plantNode.runtime || null : null;
     const persist = props.persist === true || props.persist === 'true';
+    /** @type {{ config: object | null, persist: boolean, plantBound: boolean, legacyStore: string | undefined, error: Error | null }} */
     const settings = { config: null, persist, plantBound: Boolean(props.plant), legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null };
     try {
       settings.config = coreConfig(props);

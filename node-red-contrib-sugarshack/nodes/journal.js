@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const path = require('path');
 const { journal } = require('../lib/journal/bus');
@@ -26,7 +27,10 @@ function statusOf(t, m) {
   return status('ok', t('status.rows', { count: compact(m.rows) }));
 }
 
-/** The writer for a node's settings: local files, or a database with a spool in the user dir. */
+/**
+ * The writer for a node's settings: local files, or a database with a spool in the user dir.
+ * @param {{ props: Record<string, any>, credentials: Record<string, any>, userDir: string, id: string, onChange?: () => void }} options
+ */
 function writerFor({ props, credentials, userDir, id, onChange }) {
   const plant = String(props.plantId || '').trim();
   const flushMs = configDurationMs(props, 'flushS', 'flushMs', 'the flush interval', { fallbackMs: 1000 });
@@ -47,6 +51,7 @@ function writerFor({ props, credentials, userDir, id, onChange }) {
   return new JournalWriter({ plant, flushMs, onChange, spool, target });
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
   const userDir = (RED.settings && RED.settings.userDir) || process.cwd();
 
@@ -66,6 +71,8 @@ module.exports = function (RED) {
       res.json(out);
     });
   }
+
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
 
   function JournalNode(props) {
     RED.nodes.createNode(this, props);

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
@@ -15,7 +16,8 @@ function nodePort(t, node, msg, send, done, total, id) {
     node,
     send,
     done,
-    shown: null, // the run's progress, shown again by the node's next instance
+    /** @type {NodeRed.NodeStatus | null} the run's progress, shown again by the node's next instance */
+    shown: null,
     progress(phase, index, step) {
       port.shown = phase === 'queued'
         ? status('warning', t('status.queued'))
@@ -35,9 +37,10 @@ function nodePort(t, node, msg, send, done, total, id) {
       if (e.code === 'OPERATION_RUNNING') {
         port.node.status(errorStatus(e.code));
       } else {
-        msg.operation = e.operation || { id };
-        const kind = e.operation ? e.operation.kind : 'acquire';
-        const where = kind === 'acquire' ? null : kind === 'release' ? 'release' : `${e.operation.step + 1}/${total}`;
+        const failed = e.operation;
+        msg.operation = failed || { id };
+        const kind = failed ? failed.kind : 'acquire';
+        const where = !failed || kind === 'acquire' ? null : kind === 'release' ? 'release' : `${(failed.step ?? 0) + 1}/${total}`;
         port.node.status(where ? status('fault', t('status.faultAt', { where })) : errorStatus(e.code));
       }
       if (port.done) port.done(e);
@@ -65,7 +68,9 @@ function nodePort(t, node, msg, send, done, total, id) {
   return port;
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function OperationNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

@@ -1,5 +1,7 @@
+// @ts-check
 'use strict';
 // A subflow module: the palette node is the subflow in subflows/operator-panel.json, built from the palette's nodes.
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
   RED.nodes.registerSubflow(require('./subflows/operator-panel.json'));
 };

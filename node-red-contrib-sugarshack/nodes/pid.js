@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
@@ -112,7 +113,9 @@ function readDecision(rcc) {
   return { engaged: rcc.engaged, firstCycle: rcc.firstCycle, track: rcc.track ?? null };
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function PidNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

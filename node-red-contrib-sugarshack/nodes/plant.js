@@ -1,18 +1,23 @@
+// @ts-check
 'use strict';
 const { plantDocument, servePlantValidation } = require('../lib/plant');
 const { PlantRuntime } = require('../lib/plant-runtime');
 const { serveStats } = require('../lib/stats');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
   paletteOf(RED);
   serveStats(RED);
   servePlantValidation(RED);
 
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
+
   function PlantNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
     node.name = props.name;
+    /** @type {{ plant: object | null, error: Error | null }} */
     const settings = { plant: null, error: null };
     try {
       settings.plant = plantDocument(props.plant);

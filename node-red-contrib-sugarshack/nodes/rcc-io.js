@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
@@ -15,7 +16,9 @@ function readConfig(props) {
   return { controllers, initialAction: configNumber(props.initialAction, 'initial action', { fallback: 0 }), periodMs };
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccIoNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
@@ -44,14 +47,14 @@ module.exports = function (RED) {
       node.send([{ payload: { procVar, lastAction, agesMs }, timestamp: now }, null]);
     }
     let timer = null;
-    if (io) {
+    if (io && settings) {
       show(status('idle', t('status.idle', { value: fmt(settings.initialAction) })));
       timer = clock.setInterval(publish, settings.periodMs);
     }
 
     node.on('input', (msg, send, done) => {
-      if (refusal) {
-        done(refusal);
+      if (refusal || !settings) {
+        done(refusal ?? undefined); // settings are read whenever nothing was refused
         return;
       }
       // Read once, as plain values: a getter or proxy that throws is INVALID_INPUT.

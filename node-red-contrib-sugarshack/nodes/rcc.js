@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
@@ -21,7 +22,9 @@ function readConfig(props) {
   return { id, thresholdsMs, tsMs, smoothHandover, pollTimeoutMs };
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
@@ -64,15 +67,15 @@ module.exports = function (RED) {
       }
       schedule();
     }
-    if (rcc) {
+    if (rcc && settings) {
       show(status('idle', t('status.waiting', { id: settings.id })));
       schedule();
     }
 
     // The I/O module's state { procVar, lastAction, agesMs } -> the measurement with msg.rcc, for a pid node.
     node.on('input', (msg, send, done) => {
-      if (refusal) {
-        done(refusal);
+      if (refusal || !settings) {
+        done(refusal ?? undefined); // settings are read whenever nothing was refused
         return;
       }
       let state;

@@ -1,8 +1,11 @@
+// @ts-check
 'use strict';
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ReleaseNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

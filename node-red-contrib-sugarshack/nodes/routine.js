@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
@@ -9,7 +10,9 @@ const { clock } = require('../lib/clock');
 // Longer than any transition's trigger a plant document names.
 const MAX_TOPIC = 1024;
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RoutineNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
@@ -40,7 +43,7 @@ module.exports = function (RED) {
     // A msg's topic is its trigger (the core's reset topic goes back to the initial state); the msg is completed at once.
     node.on('input', (msg, send, done) => {
       if (!interlock) {
-        done(refusal);
+        done(refusal ?? undefined); // set whenever the config node is missing
         return;
       }
       interlock.submit(node, done, () => {

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The plant's state as a msg: on request (any msg in), and, when set, on every
 // change (at most once per interval). The same document as GET /sugarshack/state;
@@ -19,6 +20,7 @@ const { configDurationMs } = require('../lib/control');
 const STATS_TOPIC = 'sugarshack/stats';
 
 const MIN_INTERVAL_MS = 100;
+/** @type {Set<string | undefined>} */
 const ALARM_TOPICS = new Set(['ack', 'shelve', 'unshelve']);
 
 /**
@@ -55,7 +57,9 @@ function alarmRequest(palette, msg) {
   })))).then((lists) => lists.flat());
 }
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function StateNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
@@ -7,7 +8,9 @@ const { errorStatus, status } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { clock } = require('../lib/clock');
 
+/** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function WaitNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
@@ -38,7 +41,7 @@ module.exports = function (RED) {
     // Holds the msg until the condition holds on fresh values; then it goes on with msg.condition.
     node.on('input', (msg, send, done) => {
       if (!plant) {
-        done(refusal);
+        done(refusal ?? undefined); // set whenever the config node is missing
         return;
       }
       plant.submit(node, done, () => {

@@ -93,6 +93,8 @@ class JournalWriter {
    * @param {function} [o.onChange] called when the state or the backlog changed
    */
   constructor({ plant, spool, target, flushMs = 1000, chunkBytes = 512 * 1024, maxPending = 10000, onChange }) {
+    /** Detaches it from the journal bus; the node that attaches it sets this. */
+    this.detach = () => {};
     this.encoder = new Encoder(plant);
     this.spool = spool || null;
     this.target = target;
