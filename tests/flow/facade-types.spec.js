@@ -1,0 +1,414 @@
+'use strict';
+// The shapes the wasm facade declares (the typescript_custom_section blocks of
+// rust/sugarshack-wasm/src, in the generated wasm/sugarshack_wasm.d.ts) against
+// what its calls really return: a field serde stops writing, starts writing
+// or renames fails here, so the declarations the palette's JS is type-checked
+// against cannot drift from the facade. Every declared shape must be met by
+// at least one real value below.
+const assert = require('node:assert/strict');
+const fs = require('fs');
+const path = require('path');
+const ts = require('typescript');
+
+const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
+const DTS = path.join(PALETTE, 'wasm', 'sugarshack_wasm.d.ts');
+const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+
+/** Every exported interface and type alias of the .d.ts, by name. */
+function declarations() {
+  const source = ts.createSourceFile(DTS, fs.readFileSync(DTS, 'utf8'), ts.ScriptTarget.Latest, true);
+  const decls = new Map();
+  for (const statement of source.statements) {
+    if (ts.isInterfaceDeclaration(statement) || ts.isTypeAliasDeclaration(statement)) decls.set(statement.name.text, statement);
+  }
+  return decls;
+}
+
+const nameOf = (name) => (ts.isIdentifier(name) || ts.isStringLiteral(name) ? name.text : name.getText());
+
+/**
+ * Checks `value` against declared shapes: every required field present,
+ * no field that is not declared, every field of its declared type.
+ */
+class ShapeChecker {
+  constructor(decls) {
+    this.decls = decls;
+    this.met = new Set(); // declared names some value was checked against
+  }
+
+  /** Throws an AssertionError naming the first mismatch. */
+  expect(typeText, value, where = typeText) {
+    const problem = this.check(this.parseType(typeText), value, where);
+    assert.equal(problem, null, problem || '');
+  }
+
+  parseType(text) {
+    const source = ts.createSourceFile('t.ts', `type T = ${text};`, ts.ScriptTarget.Latest, true);
+    return source.statements[0].type;
+  }
+
+  /** Null when `value` fits `type`, else what does not. */
+  check(type, value, where) {
+    switch (type.kind) {
+      case ts.SyntaxKind.ParenthesizedType:
+        return this.check(type.type, value, where);
+      case ts.SyntaxKind.NumberKeyword:
+        return typeof value === 'number' ? null : `${where}: a number expected, got ${JSON.stringify(value)}`;
+      case ts.SyntaxKind.StringKeyword:
+        return typeof value === 'string' ? null : `${where}: a string expected, got ${JSON.stringify(value)}`;
+      case ts.SyntaxKind.BooleanKeyword:
+        return typeof value === 'boolean' ? null : `${where}: a boolean expected, got ${JSON.stringify(value)}`;
+      case ts.SyntaxKind.UndefinedKeyword:
+        return value === undefined ? null : `${where}: undefined expected`;
+      case ts.SyntaxKind.UnknownKeyword:
+      case ts.SyntaxKind.AnyKeyword:
+        return null;
+      case ts.SyntaxKind.LiteralType: {
+        const literal = type.literal;
+        if (literal.kind === ts.SyntaxKind.NullKeyword) return value === null ? null : `${where}: null expected`;
+        if (literal.kind === ts.SyntaxKind.TrueKeyword) return value === true ? null : `${where}: true expected`;
+        if (literal.kind === ts.SyntaxKind.FalseKeyword) return value === false ? null : `${where}: false expected`;
+        const expected = ts.isNumericLiteral(literal) ? Number(literal.text) : literal.text;
+        return value === expected ? null : `${where}: ${JSON.stringify(expected)} expected, got ${JSON.stringify(value)}`;
+      }
+      case ts.SyntaxKind.ArrayType:
+        if (!Array.isArray(value)) return `${where}: an array expected, got ${JSON.stringify(value)}`;
+        for (const [i, item] of value.entries()) {
+          const problem = this.check(type.elementType, item, `${where}[${i}]`);
+          if (problem) return problem;
+        }
+        return null;
+      case ts.SyntaxKind.UnionType:
+        return this.checkUnion(type, value, where);
+      case ts.SyntaxKind.TypeLiteral:
+        return this.checkMembers(type.members, value, where);
+      case ts.SyntaxKind.TypeReference:
+        return this.checkReference(type, value, where);
+      default:
+        return `${where}: the checker does not read '${type.getText()}'; teach it`;
+    }
+  }
+
+  checkUnion(type, value, where) {
+    // An object with a `kind` is checked against the member of that kind alone, for a clear message.
+    const members = type.types.map((t) => this.resolveAlias(t));
+    if (value && typeof value === 'object' && typeof value.kind === 'string') {
+      const tagged = members.filter((t) => this.kindOf(t) !== undefined);
+      if (tagged.length > 0) {
+        const member = tagged.find((t) => this.kindOf(t) === value.kind);
+        if (!member) return `${where}: kind ${JSON.stringify(value.kind)} is not declared`;
+        return this.check(member, value, `${where}<${value.kind}>`);
+      }
+    }
+    const problems = [];
+    for (const member of type.types) {
+      const problem = this.check(member, value, where);
+      if (!problem) return null;
+      problems.push(problem);
+    }
+    return problems.join(' | ');
+  }
+
+  resolveAlias(type) {
+    if (ts.isTypeReferenceNode(type)) {
+      const decl = this.decls.get(nameOf(type.typeName));
+      if (decl && ts.isTypeAliasDeclaration(decl)) return decl.type;
+    }
+    return type;
+  }
+
+  /** The `kind` literal of an object-literal type, if it has one. */
+  kindOf(type) {
+    if (!ts.isTypeLiteralNode(type)) return undefined;
+    const member = type.members.find((m) => m.name && nameOf(m.name) === 'kind');
+    return member && member.type && ts.isLiteralTypeNode(member.type) && ts.isStringLiteral(member.type.literal) ? member.type.literal.text : undefined;
+  }
+
+  checkReference(type, value, where) {
+    const name = nameOf(type.typeName);
+    if (name === 'Record') {
+      if (!value || typeof value !== 'object' || Array.isArray(value)) return `${where}: an object expected`;
+      for (const [key, item] of Object.entries(value)) {
+        const problem = this.check(type.typeArguments[1], item, `${where}.${key}`);
+        if (problem) return problem;
+      }
+      return null;
+    }
+    const decl = this.decls.get(name);
+    if (!decl) return `${where}: ${name} is not declared in the .d.ts`;
+    this.met.add(name);
+    if (ts.isTypeAliasDeclaration(decl)) return this.check(decl.type, value, `${where}:${name}`);
+    return this.checkMembers(this.interfaceMembers(decl), value, `${where}:${name}`, name);
+  }
+
+  /** An interface's members with those it extends (an Error's own fields are not listed). */
+  interfaceMembers(decl) {
+    const members = [...decl.members];
+    for (const clause of decl.heritageClauses || []) {
+      for (const base of clause.types) {
+        const parent = this.decls.get(base.expression.getText());
+        if (parent) members.push(...this.interfaceMembers(parent));
+      }
+    }
+    return members;
+  }
+
+  checkMembers(members, value, where, name) {
+    if (!value || typeof value !== 'object' || Array.isArray(value)) return `${where}: an object expected, got ${JSON.stringify(value)}`;
+    const declared = new Set();
+    for (const member of members) {
+      if (!ts.isPropertySignature(member)) continue;
+      const key = nameOf(member.name);
+      declared.add(key);
+      if (!(key in value)) {
+        if (member.questionToken) continue;
+        return `${where}: field '${key}' is declared but missing`;
+      }
+      const problem = this.check(member.type, value[key], `${where}.${key}`);
+      if (problem) return problem;
+    }
+    // An Error's message, name and stack are its own; only the declared extras are compared.
+    if (value instanceof Error) return null;
+    const extra = Object.keys(value).filter((key) => !declared.has(key));
+    return extra.length ? `${where}: field(s) ${extra.join(', ')} not declared${name ? ` in ${name}` : ''}` : null;
+  }
+}
+
+// A plant with one of everything the facade describes: two lines, a valve and
+// a pump on one panel, a sensor station, an operation with a wait, a routine.
+const PLANT = {
+  actuatorTypes: {
+    valve: { signal: 'analog', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
+    pump: { signal: 'binary', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
+  },
+  devices: [{ id: 'p', kind: 'actuator-panel' }, { id: 's', kind: 'sensor-station' }],
+  actuators: [
+    { id: 'V', type: 'valve', device: 'p', io: 1, idle: 0, lockout: 0, resource: 'A' },
+    { id: 'P', type: 'pump', device: 'p', io: 1, idle: false, lockout: false, resource: 'B' },
+  ],
+  sensors: [{ id: 'L', device: 's', name: 'level' }],
+  resources: [{ id: 'A', lockout: { valves: { V: 0 } } }, { id: 'B', lockout: { pumps: { P: false } } }],
+  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'L > 1', sensors: ['L'], timeoutMs: 1000 }] }],
+  routines: [{ id: 'r', states: ['x', 'y', 'e'], initial: 'x', errorState: 'e', transitions: [
+    { from: 'x', to: 'y', operation: 'o', trigger: { msg: 'go' } },
+    { from: 'y', to: 'x', operation: 'o', trigger: { when: 'L > 1', sensors: ['L'], everyMs: 1 } },
+  ] }],
+};
+
+describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function () {
+  let facade;
+  let shapes;
+  const freed = [];
+  const keep = (object) => {
+    freed.push(object);
+    return object;
+  };
+
+  before(function () {
+    facade = wasm.load();
+    shapes = new ShapeChecker(declarations());
+  });
+
+  after(function () {
+    for (const object of freed) wasm.release(object);
+  });
+
+  it('no method of the facade returns or takes `any`', function () {
+    const text = fs.readFileSync(DTS, 'utf8');
+    const anys = text.split('\n').filter((line) => /\bany\b/.test(line) && !/^\s*(\*|\/\*\*)/.test(line));
+    assert.deepEqual(anys, []);
+  });
+
+  it('the contract: codes and abnormal event kinds', function () {
+    shapes.expect('CodeEntry[]', facade.codes());
+    shapes.expect('EventKind[]', facade.abnormalEventKinds());
+  });
+
+  it('the interlock: counts, fault outcomes, event records, snapshot, alarm conditions, errors', function () {
+    const config = { resources: [{ name: 'A', lockout: { valves: { V: 0 } } }, { name: 'B' }], policy: 'greedy', warnQueuedMs: 1, warnHeldMs: 1, recordEvents: true };
+    shapes.expect('InterlockConfig', config);
+    const il = keep(new facade.Interlock(config));
+    const [a, b, c] = [il.operation('a'), il.operation('b'), il.operation('c')];
+    const setA = il.resourceSet(['A']);
+    il.acquire(a, 1, setA, 0);
+    il.acquire(b, 2, setA, 1);
+    shapes.expect('EventRecord[]', il.tick(10));
+    shapes.expect('InterlockCounts', il.counts());
+    const snapshot = il.snapshot(11);
+    shapes.expect('InterlockSnapshot', snapshot);
+    assert.ok(snapshot.queue.length > 0 && snapshot.holds.length > 0, 'a snapshot with a queue and a hold');
+    const faulted = il.fault(a, 'note', 12);
+    shapes.expect('FaultOutcome', faulted);
+    assert.ok(faulted.lockouts.length > 0);
+    shapes.expect('FaultOutcome', il.faultResources(il.resourceSet(['B']), 'stop', 'Ann', 'leak', 13));
+    il.acquire(c, 1, il.resourceSet(['B']), 14);
+    shapes.expect('AlarmCondition[]', il.alarmConditions(20));
+    const faultedSnapshot = il.snapshot(21);
+    shapes.expect('InterlockSnapshot', faultedSnapshot);
+    il.clear(il.resourceSet(['A', 'B']), 'Ann', 'fixed', true, 22);
+    const events = il.drainEvents();
+    shapes.expect('EventRecord[]', events);
+    assert.ok(events.some((e) => e.kind === 'cleared' && e.by === 'Ann'), 'an attributed clear');
+    assert.equal(il.acquireCode(il.operation('d'), 1, 999, 23), -1);
+    shapes.expect('SugarshackError', il.takeError());
+    shapes.expect('ResourceConfig[]', config.resources);
+  });
+
+  it('clear blockers against a plant', function () {
+    const plant = keep(new facade.Tracker(PLANT, 0));
+    const il = keep(new facade.Interlock({ resources: plant.interlockResources() }));
+    shapes.expect('ResourceConfig[]', plant.interlockResources());
+    il.faultResources(il.resourceSet(['A']), null, null, null, 1);
+    const lines = il.clearBlockers(il.resourceSet(['A', 'B']), plant);
+    shapes.expect('LineBlockers[]', lines);
+    assert.ok(lines.some((l) => l.reasons.length > 0), 'some line has reasons');
+    try {
+      il.clearAgainst(il.resourceSet(['A']), plant, 'Ann', null, false, 2);
+      assert.fail('the clear should be refused');
+    } catch (err) {
+      shapes.expect('SugarshackError', err);
+      assert.ok(err.lines, 'a refused clear lists its lines');
+    }
+    il.clearAgainst(il.resourceSet(['A']), plant, 'Ann', 'override', true, 3);
+    const events = il.drainEvents();
+    shapes.expect('EventRecord[]', events);
+    assert.ok(events.some((e) => e.forced), 'a forced clear');
+  });
+
+  it('the alarms: changes, list, snapshot', function () {
+    const alarms = keep(new facade.Alarms());
+    const conditions = [{ kind: 'line-faulted', subject: 'A', text: 'faulted', sinceMs: 1 }, { kind: 'device-offline', subject: 'p' }];
+    shapes.expect('AlarmConditionInput[]', conditions);
+    shapes.expect('AlarmChange[]', alarms.observe(conditions, 10));
+    shapes.expect('AlarmChange[]', alarms.acknowledge(['line-faulted:A'], 'Ann', 'seen', 11));
+    shapes.expect('AlarmChange[]', alarms.shelve('device-offline:p', 100000, 'Ann', 'maintenance', 12));
+    shapes.expect('Alarm[]', alarms.list());
+    const saved = alarms.snapshot();
+    shapes.expect('AlarmsSnapshot', saved);
+    assert.ok(saved.alarms.some((x) => x.acked) && saved.alarms.some((x) => x.shelved), 'an acknowledged and a shelved alarm');
+    shapes.expect('AlarmChange[]', alarms.unshelve('device-offline:p', 'Ann', null, 13));
+    shapes.expect('AlarmChange[]', alarms.observe([], 14));
+  });
+
+  it('the tracker: views, counts, effects, health, plans', function () {
+    shapes.expect('PlantDocument', PLANT);
+    const t = keep(new facade.Tracker(PLANT, 0));
+    shapes.expect('PlantActuator[]', t.actuators());
+    const v = t.actuator('V');
+    const p = t.actuator('P');
+    t.deviceStatus(t.device('p'), true, 0);
+    const command = { valves: { V: 100 }, pumps: { P: true } };
+    shapes.expect('GroupCommand', command);
+    t.command(command, 1, false, 0, ['A', 'B']);
+    t.feedback(v, 50, null, 100);
+    t.feedback(v, 100, null, 200);
+    t.feedback(p, 1, null, 200);
+    t.command({ pumps: { P: false } }, 2, true, 300);
+    t.tick(5000);
+    t.ingest('p/status', 'offline', 5100);
+    t.ingest('p/status', 'online', 5200);
+    t.ingest('p/valve/1/state', 'not a number', 5300);
+    t.feedbackBatch(Uint32Array.of(v), Float64Array.of(-5), null, 5400);
+    shapes.expect('PendingLockout[]', t.pendingLockouts());
+    const effects = t.takeEffects();
+    shapes.expect('TrackerEffect[]', effects);
+    const kinds = new Set(effects.map((e) => e.kind));
+    for (const kind of ['publish', 'moving', 'completed', 'groupCompleted', 'changed', 'deviceStatus']) assert.ok(kinds.has(kind), `an effect of kind ${kind} (got ${[...kinds]})`);
+    shapes.expect('TrackerCounts', t.counts());
+    shapes.expect('TrackerCounts', t.countsOn(Uint32Array.of(t.device('p'))));
+    shapes.expect('FaultDescription', t.describeFault(v, 'no-motion', 1, 100));
+    t.recordSensor(t.sensor('L'), 2, null, 5500);
+    shapes.expect('PlantHealth', t.health(5600));
+    shapes.expect('OperationPlan', t.operationPlan('o'));
+  });
+
+  it('an operation run: every effect', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const ok = keep(t.operationRun('o'));
+    shapes.expect('OperationPlan', ok.plan());
+    const effects = [...ok.start(0), ...ok.granted(1), ...ok.stepDone(0, 2), ...ok.stepDone(1, 3), ...ok.stepDone(2, 4), ...ok.released(5)];
+    const failing = keep(t.operationRun('o'));
+    effects.push(...failing.start(10), ...failing.granted(11), ...failing.stepFailed(0, 'STEP_TIMEOUT', 'no', 12), ...failing.faultApplied(['A'], 13));
+    const withdrawn = keep(t.operationRun('o'));
+    effects.push(...withdrawn.start(20), ...withdrawn.abort('stop', 21), ...withdrawn.withdrawn(22));
+    shapes.expect('RunEffect[]', effects);
+    const kinds = new Set(effects.map((e) => e.kind));
+    for (const kind of ['acquire', 'startStep', 'release', 'finished', 'fault', 'failed']) assert.ok(kinds.has(kind), `an effect of kind ${kind} (got ${[...kinds]})`);
+  });
+
+  it('a routine: dispatches, moves, conditions, snapshot', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const r = keep(t.routine('r'));
+    shapes.expect('RoutineTransitionCondition[]', r.conditions());
+    shapes.expect('RoutineCondition', r.condition(1));
+    shapes.expect('RoutineDispatch', r.onMsg('go'));
+    shapes.expect('RoutineSnapshot', r.snapshot());
+    shapes.expect('RoutineMove', r.completed());
+    shapes.expect('RoutineDispatch | undefined', r.conditionMet(1));
+    shapes.expect('RoutineMove', r.faulted());
+    shapes.expect('RoutineMove', r.reset());
+    r.onMsg('go');
+    const saved = r.snapshot();
+    shapes.expect('RoutineSnapshot', saved);
+    shapes.expect('RoutineMove | null', r.restore(saved));
+  });
+
+  it('the device side: messages and commands', function () {
+    const d = keep(new facade.DeviceSide(PLANT));
+    const panel = d.device('p');
+    shapes.expect('DeviceMessage | null', d.status(panel, true));
+    shapes.expect('DeviceMessage[]', d.actuatorMessages(panel, Uint32Array.of(0, 1), Float64Array.of(50, 1)));
+    shapes.expect('DeviceMessage[]', d.sensorMessages(d.device('s'), Uint32Array.of(0), Float64Array.of(1.5)));
+    for (const topic of d.commandTopics(panel)) {
+      shapes.expect('DeviceCommand | undefined', d.parseCommand(topic, Buffer.from('50')));
+      shapes.expect('DeviceCommand | undefined', d.parseCommand(topic, Buffer.from('nonsense')));
+      shapes.expect('DeviceCommand | undefined', d.parseCommand(topic, Buffer.alloc(0)));
+    }
+  });
+
+  it('the control facade: steps, decisions, states, configurations', function () {
+    const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: 5, proportionalOn: 'error' };
+    const smith = { model: { gain: 1, tauS: 10 }, tsS: 1, deadTime: { mode: 'adaptive', alpha: 0.2, h: 3 }, maxSamples: 10 };
+    shapes.expect('PidLoopConfig', { pid, smith });
+    const loop = keep(new facade.PidLoop({ pid, smith }));
+    loop.observeRoundTrip(1500);
+    shapes.expect('DelayEstimate | undefined', loop.delayEstimate());
+    shapes.expect('PidLoopStep', loop.step(50, 40, 1, undefined));
+    shapes.expect('PidLoopStep', loop.step(50, undefined, 1, undefined));
+    shapes.expect('PidConfig', loop.config());
+    const rccConfig = { id: 2, thresholdsMs: [1000, 2000], tsMs: 500, smoothHandover: true };
+    shapes.expect('RccConfig', rccConfig);
+    const rcc = keep(new facade.Rcc(rccConfig));
+    const io = keep(new facade.IoModule(2, 10));
+    io.write(1, 20, 0);
+    const state = io.state(100);
+    shapes.expect('IoState', state);
+    const decision = rcc.decide(state, 100);
+    shapes.expect('RccDecision', decision);
+    shapes.expect('PidLoopScan', loop.stepDecided(decision, 50, 42, 0.5));
+    const plain = keep(new facade.PidLoop({ pid, smith: null }));
+    shapes.expect('RccScan', rcc.scan(plain, io.state(3000), 50, 42, 0.5));
+    const stationConfig = { loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null };
+    shapes.expect('StationConfig', stationConfig);
+    const station = keep(new facade.PidStation(stationConfig));
+    shapes.expect('StationOutcome', station.measure(40, 0, 0, undefined, undefined));
+    shapes.expect('StationOutcome', station.measure(41, 1000, 1000, undefined, rcc.decide(io.state(1000), 1000)));
+    const change = { setpoint: 55, tunings: { kp: 2 }, limits: { max: 90 } };
+    shapes.expect('StationChange', change);
+    station.change(change);
+    const saved = { integral: 1, setpoint: 55, mode: 'manual', manual: 20 };
+    shapes.expect('StationSaved', saved);
+    station.restore(saved);
+    shapes.expect('StationState', station.state());
+    shapes.expect('DelayEstimate | undefined', station.delayEstimate());
+    shapes.expect('PidConfig', station.config());
+    shapes.expect('StationStale | undefined', station.tick(5000));
+    shapes.expect('PidConfigInput', pid);
+    shapes.expect('SmithConfig', smith);
+  });
+
+  it('every declared shape was met by a real value', function () {
+    const unmet = [...declarations().keys()].filter((name) => !shapes.met.has(name));
+    assert.deepEqual(unmet, []);
+  });
+});
