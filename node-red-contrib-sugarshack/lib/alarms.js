@@ -12,22 +12,29 @@ const NOTABLE = new Set(wasm.load().abnormalEventKinds());
 const RECENT_EVENTS = 50;
 const RECENT_CHANGES = 50;
 
+/** @typedef {import('../wasm/sugarshack_wasm').Alarms} Alarms */
+/** @typedef {import('../wasm/sugarshack_wasm').AlarmChange} AlarmChange */
+/** @typedef {import('../wasm/sugarshack_wasm').EventRecord} EventRecord */
+
 class AlarmBook {
   /** saved: the `alarms` of a saved interlock state, or undefined; warn(text) logs. */
   constructor(saved, warn) {
     const { Alarms } = wasm.load();
-    this.core = null;
+    /** @type {Alarms | null} */
+    let restored = null;
     if (saved !== undefined && saved !== null) {
       try {
-        this.core = Alarms.restore(saved);
+        restored = Alarms.restore(saved);
       } catch (err) {
         if (wasm.isTrap(err)) throw err;
         warn(`the saved alarms could not be read (${err.message}); alarms start afresh`);
       }
     }
-    if (!this.core) this.core = new Alarms();
-    this.changes = []; // the latest alarm changes, newest last
-    this.events = []; // the latest notable interlock events, newest last
+    this.core = restored || new Alarms();
+    /** @type {AlarmChange[]} the latest alarm changes, newest last */
+    this.changes = [];
+    /** @type {EventRecord[]} the latest notable interlock events, newest last */
+    this.events = [];
   }
 
   free() {

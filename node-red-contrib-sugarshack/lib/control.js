@@ -120,6 +120,10 @@ function fmt(x) {
  * the fresh instance after any trap. Returns a stand-in whose method calls go to
  * the current object; a trap in one ends that call with INTERNAL and starts the
  * rebuild. `free()` lets it go.
+ * @template {{ free(): void }} T
+ * @param {(facade: import('./wasm').Facade) => T} make
+ * @param {{ onRevive?: () => void }} [options]
+ * @returns {T} typed as the object it stands in for
  */
 function revivable(make, { onRevive = () => {} } = {}) {
   let object = make(wasm.load());
@@ -140,7 +144,7 @@ function revivable(make, { onRevive = () => {} } = {}) {
       throw new SugarshackError('INTERNAL', `the core failed (${err.message}); it is being rebuilt, this msg was dropped`);
     }
   };
-  return new Proxy({}, {
+  return /** @type {T} */ (new Proxy({}, {
     get(_, prop) {
       if (prop === 'free') {
         return () => {
@@ -152,7 +156,7 @@ function revivable(make, { onRevive = () => {} } = {}) {
       if (typeof value !== 'function') return call((o) => o[prop]);
       return (...args) => call((o) => o[prop](...args));
     },
-  });
+  }));
 }
 
 

@@ -13,6 +13,13 @@ const { journal } = require('./journal/bus');
 const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
+/** @typedef {import('../wasm/sugarshack_wasm').OperationRun} OperationRun */
+/** @typedef {import('../wasm/sugarshack_wasm').RunEffect} RunEffect */
+/**
+ * @template {RunEffect['kind']} K
+ * @typedef {Extract<RunEffect, { kind: K }>} EffectOf
+ */
+
 class RunHost {
   /** port: where progress, the result and the error go ({ progress, finish, fail, abandon, adopt, detachNode }). */
   constructor({ interlock, plant, operation, msg, port }) {
@@ -21,6 +28,7 @@ class RunHost {
     this.operation = operation;
     this.msg = msg;
     this.port = port;
+    /** @type {OperationRun | null} */
     this.run = null;
     this.granted = false;
     this.ended = false;
@@ -47,12 +55,15 @@ class RunHost {
     this.start();
   }
 
-  /** Gives the core machine an input and acts on the effects it returns. */
+  /**
+   * Gives the core machine an input and acts on the effects it returns.
+   * @param {(run: OperationRun) => RunEffect[]} input
+   */
   feed(input) {
     if (this.ended) return;
     let effects;
     try {
-      effects = this.interlock.guard(() => input(this.run));
+      effects = this.interlock.guard(() => input(/** @type {OperationRun} */ (this.run)));
     } catch (err) {
       this.abandon(asSugarshackError(err));
       return;
@@ -60,6 +71,7 @@ class RunHost {
     for (const effect of effects) this.effect(effect);
   }
 
+  /** @param {RunEffect} e */
   effect(e) {
     journal.event('operation', e.kind, this.operation, e);
     switch (e.kind) {
@@ -104,8 +116,10 @@ class RunHost {
       case 'failed':
         this.finishWith(() => this.port.fail(failure(e, this.operation)));
         break;
-      default:
-        this.interlock.log('warn', `operation '${this.operation}': unknown run effect '${e.kind}' ignored`);
+      default: {
+        const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added
+        this.interlock.log('warn', `operation '${this.operation}': unknown run effect '${unknown.kind}' ignored`);
+      }
     }
   }
 
@@ -117,6 +131,7 @@ class RunHost {
     }
   }
 
+  /** @param {EffectOf<'acquire'>} e */
   acquire(e) {
     this.port.progress('queued');
     // Held for the run, not for a node: no node takes it over in a deploy.
@@ -141,6 +156,7 @@ class RunHost {
     this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }
 
+  /** @param {EffectOf<'startStep'>} effect */
   startStep({ index, step, within }) {
     this.port.progress('step', index, step);
     const done = (err) => {
@@ -236,6 +252,10 @@ class RunHost {
  * The core's `failed` effect as the error a Catch node gets. A run that failed
  * after its grant (a step, its release, or stopped while running) carries
  * msg.operation-style details: { id, step, kind, lockedOut, aborted }.
+ */
+/**
+ * @param {EffectOf<'failed'>} e
+ * @param {string} operation
  */
 function failure(e, operation) {
   const error = new SugarshackError(e.code, e.message);

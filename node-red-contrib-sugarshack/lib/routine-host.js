@@ -24,6 +24,7 @@ class RoutineHost {
     this.interlock = interlock;
     this.plant = plant;
     this.id = id;
+    /** @type {import('../wasm/sugarshack_wasm').Routine | null} */
     this.machine = null;
     this.conditions = new Map(); // transition index -> Condition
     this.node = null; // the routine node of the current deploy
@@ -42,6 +43,7 @@ class RoutineHost {
   }
 
   build(saved) {
+    /** @type {import('../wasm/sugarshack_wasm').Routine} */
     const machine = this.plant.guard(() => this.plant.routine(this.id));
     const conditions = new Map();
     try {
@@ -116,15 +118,16 @@ class RoutineHost {
 
   /** A msg's topic is its trigger (RESET_TOPIC goes back to the initial state). Throws the core's refusal. */
   onMsg(topic) {
-    if (!this.machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
+    const machine = this.machine;
+    if (!machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
     if (topic === RESET_TOPIC) {
-      const moved = this.machine.reset();
+      const moved = machine.reset();
       this.lastFault = false;
       this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to }));
       this.refresh();
       return;
     }
-    const d = stats.time('routine', () => this.machine.onMsg(topic));
+    const d = stats.time('routine', () => machine.onMsg(topic));
     this.dispatch(d);
   }
 
@@ -141,8 +144,9 @@ class RoutineHost {
       progress: () => this.refresh(), // queued, then its first step: the status tells which
       finish: (result) => {
         this.run = null;
-        if (this.ended || !this.machine) return;
-        const moved = stats.time('routine', () => this.machine.completed());
+        const machine = this.machine;
+        if (this.ended || !machine) return;
+        const moved = stats.time('routine', () => machine.completed());
         this.lastFault = false;
         this.interlock.changed(() => this.emit('completed', {
           operation, from: moved.from, to: moved.to, queuedMs: result.queuedMs, runMs: result.runMs,
@@ -173,11 +177,12 @@ class RoutineHost {
   }
 
   checkConditions() {
-    if (this.ended || !this.machine || this.run || !this.interlock.gateOpen || this.interlock.state !== 'ready') return;
+    const machine = this.machine;
+    if (this.ended || !machine || this.run || !this.interlock.gateOpen || this.interlock.state !== 'ready') return;
     const now = clock.now();
     let due;
     try {
-      due = this.interlock.guard(() => stats.time('routine', () => this.machine.due(now)));
+      due = this.interlock.guard(() => stats.time('routine', () => machine.due(now)));
     } catch (err) {
       this.interlock.log('error', `routine '${this.id}': ${err.message}`);
       return;
@@ -186,8 +191,9 @@ class RoutineHost {
       const condition = this.conditions.get(t);
       if (!condition) continue;
       condition.check(now).then((outcome) => {
-        if (!outcome.met || this.ended || !this.machine || this.run || !this.interlock.gateOpen) return;
-        const d = stats.time('routine', () => this.machine.conditionMet(t));
+        const current = this.machine;
+        if (!outcome.met || this.ended || !current || this.run || !this.interlock.gateOpen) return;
+        const d = stats.time('routine', () => current.conditionMet(t));
         if (d) this.dispatch(d);
       }, (err) => {
         if (this.warned.has(t)) return;

@@ -18,9 +18,16 @@ const inputError = (err) => (err instanceof SugarshackError || (err && typeof er
   ? err
   : invalidInput(`could not read the msg: ${String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100)}`));
 
-/** The node's fields as the core's PidStation configuration; the rules on them are the core's. */
+/** @typedef {import('../wasm/sugarshack_wasm').StationConfig} StationConfig */
+
+/**
+ * The node's fields as the core's PidStation configuration; the rules on them are the core's.
+ * @param {NodeRed.NodeProps} props
+ * @returns {StationConfig}
+ */
 function readConfig(props) {
   const tsS = configNumber(props.ts, 'sample period Ts (s)', { required: true });
+  /** @type {StationConfig['loop']['pid']} */
   const pid = {
     kp: configNumber(props.kp, 'kp (proportional gain)', { required: true }),
     tiS: configNumber(props.ti, 'ti (integral time, s)', { fallback: 0 }),
@@ -32,6 +39,7 @@ function readConfig(props) {
     // Saved flows from before this setting act on the error, as they did.
     proportionalOn: props.pOn === 'measurement' ? 'measurement' : 'error',
   };
+  /** @type {StationConfig['loop']['smith']} */
   let smith = null;
   const predictor = props.smith || 'off';
   if (predictor === 'fixed' || predictor === 'adaptive') {
@@ -122,7 +130,9 @@ module.exports = function (RED) {
     const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
     const store = props.store && props.store !== 'default' ? props.store : undefined;
-    let station = null;
+    // Made below unless the configuration is refused, and then every msg is refused before it is used.
+    /** @type {import('../wasm/sugarshack_wasm').PidStation} */
+    let station = /** @type {any} */ (null);
     let refusal = null;
     let kept = null; // the loop's own state, kept outside the core to rebuild it after a trap
     try {
@@ -330,7 +340,7 @@ module.exports = function (RED) {
       timer = null;
       for (const [, , held] of early.splice(0)) held();
       if (station) station.free();
-      station = null;
+      station = /** @type {any} */ (null);
       done();
     });
   }

@@ -23,6 +23,7 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const t = translator(RED, 'sugarshack-rcc-io');
+    /** @type {import('../wasm/sugarshack_wasm').IoModule | null} */
     let io = null;
     let settings = null;
     let lastWritten = null;
@@ -53,8 +54,8 @@ module.exports = function (RED) {
     }
 
     node.on('input', (msg, send, done) => {
-      if (refusal || !settings) {
-        done(refusal ?? undefined); // settings are read whenever nothing was refused
+      if (refusal || !settings || !io) {
+        done(refusal ?? undefined); // the settings and the core object exist whenever nothing was refused
         return;
       }
       // Read once, as plain values: a getter or proxy that throws is INVALID_INPUT.

@@ -29,6 +29,7 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const t = translator(RED, 'sugarshack-rcc');
+    /** @type {import('../wasm/sugarshack_wasm').Rcc | null} */
     let rcc = null;
     let settings = null;
     let refusal = null;
@@ -74,8 +75,8 @@ module.exports = function (RED) {
 
     // The I/O module's state { procVar, lastAction, agesMs } -> the measurement with msg.rcc, for a pid node.
     node.on('input', (msg, send, done) => {
-      if (refusal || !settings) {
-        done(refusal ?? undefined); // settings are read whenever nothing was refused
+      if (refusal || !settings || !rcc) {
+        done(refusal ?? undefined); // the settings and the core object exist whenever nothing was refused
         return;
       }
       let state;
