@@ -53,47 +53,56 @@ class PendingRegistry {
  * A msg held by a node until its work is answered. Between a deploy's restart
  * of that node and its next instance taking the msg over (`adopt`), `node`,
  * `send` and `done` are null: the first instance completed the msg when it
- * closed (`detach`), and the next one sends it on.
+ * closed (`detach`), and the next one sends it on. A class, not an object of
+ * closures: one is made per msg.
  */
-function heldMsg({ node, msg, send, done, sinceMs, ...rest }) {
-  const held = {
-    node,
-    nodeId: node ? node.id : null,
-    msg,
-    send,
-    done,
-    sinceMs,
-    timer: null,
-    ...rest,
-    /** The work failed: the msg ends with the error (a Catch node gets it). */
-    reject(err) {
-      held.stopTimer();
-      if (held.done) held.done(err);
-      else if (held.node) held.node.error(err, held.msg);
-      held.done = null;
-    },
-    /** Completed without being sent on (withdrawn, or the flows stop). */
-    abandon() {
-      held.stopTimer();
-      if (held.done) held.done();
-      held.done = null;
-    },
-    detach() {
-      if (held.done) held.done();
-      held.node = null;
-      held.send = null;
-      held.done = null;
-    },
-    adopt(next) {
-      held.node = next;
-      held.send = (m) => next.send(m);
-    },
-    stopTimer() {
-      if (held.timer) clock.clearTimeout(held.timer);
-      held.timer = null;
-    },
-  };
-  return held;
+class HeldMsg {
+  constructor({ node, msg, send, done, sinceMs, ...rest }) {
+    this.node = node;
+    this.nodeId = node ? node.id : null;
+    this.msg = msg;
+    this.send = send;
+    this.done = done;
+    this.sinceMs = sinceMs;
+    this.timer = null;
+    Object.assign(this, rest);
+  }
+
+  /** The work failed: the msg ends with the error (a Catch node gets it). */
+  reject(err) {
+    this.stopTimer();
+    if (this.done) this.done(err);
+    else if (this.node) this.node.error(err, this.msg);
+    this.done = null;
+  }
+
+  /** Completed without being sent on (withdrawn, or the flows stop). */
+  abandon() {
+    this.stopTimer();
+    if (this.done) this.done();
+    this.done = null;
+  }
+
+  detach() {
+    if (this.done) this.done();
+    this.node = null;
+    this.send = null;
+    this.done = null;
+  }
+
+  adopt(next) {
+    this.node = next;
+    this.send = (m) => next.send(m);
+  }
+
+  stopTimer() {
+    if (this.timer) clock.clearTimeout(this.timer);
+    this.timer = null;
+  }
+}
+
+function heldMsg(fields) {
+  return new HeldMsg(fields);
 }
 
 module.exports = { PendingRegistry, heldMsg };
