@@ -57,15 +57,11 @@ class PendingRegistry {
  * closures: one is made per msg.
  */
 class HeldMsg {
-  constructor({ node, msg, send, done, sinceMs, ...rest }) {
-    this.node = node;
-    this.nodeId = node ? node.id : null;
-    this.msg = msg;
-    this.send = send;
-    this.done = done;
-    this.sinceMs = sinceMs;
+  /** fields: { node, msg, send, done, sinceMs } and whatever the holder keeps with them. */
+  constructor(fields) {
+    Object.assign(this, fields);
+    this.nodeId = fields.node ? fields.node.id : null;
     this.timer = null;
-    Object.assign(this, rest);
   }
 
   /** The work failed: the msg ends with the error (a Catch node gets it). */
