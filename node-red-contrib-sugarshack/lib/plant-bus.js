@@ -299,4 +299,4 @@ function clip(value) {
   return s.length > 60 ? `${s.slice(0, 57)}...` : s;
 }
 
-module.exports = { PlantBuses, commandLike, payloadText };
+module.exports = { PlantBuses };

@@ -33,7 +33,7 @@ class GroupCommands {
     const caller = this.newCaller();
     const now = clock.now();
     plant.t.command(payload, caller, lockout, now, within);
-    plant.statusView.accepted(node);
+    plant.statusView.dropRefusal(node);
     const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
     this.hold(caller, entry, timeoutMs);
     plant.flush(null);

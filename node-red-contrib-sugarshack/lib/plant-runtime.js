@@ -146,7 +146,7 @@ class PlantRuntime extends RuntimeBase {
 
   removeUser(node) {
     super.removeUser(node);
-    this.statusView.forget(node);
+    this.statusView.dropRefusal(node);
   }
 
   /** An actuators node (see PlantBuses.add). */

@@ -30,12 +30,8 @@ class PlantStatus {
     this.pacer.stop();
   }
 
-  /** A node's command was accepted: its counts show again. */
-  accepted(node) {
-    this.sticky.delete(node);
-  }
-
-  forget(node) {
+  /** A node's command was accepted, or the node left: no refusal shows on it any more. */
+  dropRefusal(node) {
     this.sticky.delete(node);
   }
 
