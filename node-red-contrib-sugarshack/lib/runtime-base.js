@@ -6,6 +6,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
+const { UntilReady } = require('./until-ready');
 
 class RuntimeBase {
   /** kind: 'interlock' | 'plant', for messages. */
@@ -20,7 +21,7 @@ class RuntimeBase {
     this.users = new Set();
     this.statusBoard = new StatusBoard();
     this.gateOpen = true;
-    this.parked = []; // { node, done, work } held while starting or draining
+    this.parked = new UntilReady(); // { node, done, work } held while starting or draining
     this.openWaiters = []; // functions to run once ready with the gate open
     this.generation = wasm.currentGeneration();
     this.stopTrapWatch = wasm.onTrap((err, generation) => this.afterTrap(err, generation));
@@ -39,7 +40,7 @@ class RuntimeBase {
     this.state = 'failed';
     this.log('error', e.message);
     this.refreshStatus();
-    for (const task of this.parked.splice(0)) task.done(e);
+    this.parked.completeAll(e);
   }
 
   log(level, text) {
@@ -106,7 +107,7 @@ class RuntimeBase {
   submit(node, done, work, { urgent = false } = {}) {
     if (this.ended) done();
     else if (this.state === 'failed') done(this.failure);
-    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.push({ node, done, work });
+    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.hold({ node, done, work });
     else this.perform(node, done, work);
   }
 
@@ -154,16 +155,12 @@ class RuntimeBase {
         this.log('error', err.message);
       }
     }
-    const parked = this.parked;
-    this.parked = [];
-    for (const task of parked) this.submit(task.node, task.done, task.work);
+    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work);
   }
 
   /** A closing node's held work is completed unsent. */
   dropParked(node) {
-    const mine = this.parked.filter((t) => t.node === node);
-    this.parked = this.parked.filter((t) => t.node !== node);
-    for (const task of mine) task.done();
+    this.parked.completeOf(node);
   }
 
   closeGate() {
@@ -196,7 +193,7 @@ class RuntimeBase {
     this.ended = true;
     this.state = 'stopped';
     this.stopTrapWatch();
-    for (const task of this.parked.splice(0)) task.done();
+    this.parked.completeAll();
   }
 
   // ---- status -----------------------------------------------------------------
