@@ -421,7 +421,6 @@ pub struct Tracker {
     timings: Vec<Timing>,
     actuators: Vec<ActuatorState>,
     devices: Vec<DeviceState>,
-    by_name: HashMap<String, ActuatorId>,
     device_by_name: HashMap<String, DeviceId>,
     /// (device, type name, io) -> actuator, for device feedback.
     slots: HashMap<(DeviceId, String, u32), ActuatorId>,
@@ -462,7 +461,6 @@ impl Tracker {
             .collect();
         let plant_devices = devices.len();
         let mut actuators = Vec::with_capacity(plant.actuators.len());
-        let mut by_name = HashMap::new();
         let mut slots = HashMap::new();
         for (i, a) in plant.actuators.iter().enumerate() {
             let id = ActuatorId(i as u32);
@@ -470,7 +468,6 @@ impl Tracker {
             let range = t.range(a.tolerance);
             let device = device_by_name[&a.device];
             devices[device.index()].actuators.push(id);
-            by_name.insert(a.id.clone(), id);
             if let Some(io) = a.io {
                 slots.insert((device, a.kind.clone(), io), id);
             }
@@ -510,7 +507,6 @@ impl Tracker {
             timings,
             actuators,
             devices,
-            by_name,
             device_by_name,
             slots,
             groups: HashMap::new(),
@@ -535,9 +531,9 @@ impl Tracker {
 
     /// The handle of the actuator `name`.
     pub fn actuator(&self, name: &str) -> Result<ActuatorId, TrackError> {
-        self.by_name
-            .get(name)
-            .copied()
+        self.plant
+            .actuator(name)
+            .map(|i| ActuatorId(i as u32))
             .ok_or_else(|| TrackError::UnknownActuator {
                 name: name.to_owned(),
             })

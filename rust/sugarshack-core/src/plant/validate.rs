@@ -75,6 +75,7 @@ pub(super) fn topic_safe(name: &str) -> bool {
 /// Timings, ranges, and names that are topic components; a type called
 /// as another's plural is a warning (its name in a group command means the other).
 fn actuator_types(plant: &PlantModel, report: &mut Report) {
+    let keys = GroupKeys::new(plant.actuator_types.keys());
     for (name, t) in &plant.actuator_types {
         let path = format!("actuatorTypes.{}", quote(name));
         if !topic_safe(name) {
@@ -83,10 +84,7 @@ fn actuator_types(plant: &PlantModel, report: &mut Report) {
                 "a type name is a topic component: no spaces, '/', '+' or '#'",
             );
         }
-        if let Some(singular) = name
-            .strip_suffix('s')
-            .filter(|s| plant.actuator_types.contains_key(*s))
-        {
+        if let Some(singular) = keys.kind(name).filter(|kind| kind != name) {
             report.warn(
                 &path,
                 format!(
