@@ -669,9 +669,10 @@ impl PlantModel {
             self.resources.iter().map(|r| r.id.clone()),
         );
         for r in &mut config.resources {
+            // Booleans and finite numbers under string keys: always JSON.
             r.lockout = self
                 .lockout_of(&r.name)
-                .map(|command| serde_json::to_value(command).expect("a group command is JSON"))
+                .and_then(|command| serde_json::to_value(command).ok())
                 .unwrap_or_default();
         }
         config
