@@ -244,9 +244,10 @@ impl Tracker {
     pub fn warnings(&self) -> Vec<String> {
         self.core
             .plant()
-            .validate()
-            .map(|warnings| warnings.iter().map(ToString::to_string).collect())
-            .unwrap_or_default()
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .collect()
     }
 
     pub fn actuator(&self, name: &str) -> Result<u32, JsValue> {
