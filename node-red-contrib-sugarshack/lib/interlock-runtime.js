@@ -611,7 +611,7 @@ class InterlockRuntime extends RuntimeBase {
     try {
       changes = this.guard(() => {
         const plant = this.plant && this.plant.state === 'ready'
-          ? { devices: this.plant.t.health(now).devices, buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
+          ? { devices: this.plant.t.alarmConditions(), buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
           : null;
         const conditions = conditionsOf({
           interlock: this.core.alarmConditions(now), saveFailing: this.committer.failing, store: this.store.where, plant,

@@ -733,6 +733,15 @@ impl Tracker {
         })
     }
 
+    /// The alarm conditions of the plant's devices (offline, stale feedback),
+    /// worded by the core: `[{ kind, subject, text, sinceMs }]`.
+    #[wasm_bindgen(js_name = alarmConditions)]
+    pub fn alarm_conditions(&self) -> Result<JsValue, JsValue> {
+        to_js(&sugarshack_core::alarm::device_conditions(
+            &self.core.device_health(),
+        ))
+    }
+
     /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.
     #[wasm_bindgen(js_name = readSensors)]
     pub fn read_sensors(&self, sensors: &[u32], now_ms: f64) -> Result<Vec<f64>, JsValue> {
