@@ -6,6 +6,7 @@
 # Other arguments go to tests/bench/interlock-bench.js (--no-native, --no-events).
 #
 #   footprint      wasm size, palette's added RSS and start-up (tests/bench/footprint.js)
+#   wasm size      where the module's bytes go, by crate and function (tests/bench/wasm-size.js)
 #   interlock      case and large scale, wasm against a JS baseline and native
 #   tracker        feedback ingest through wasm as the nodes call it
 #   durable        what writing the interlock's state before a grant costs
@@ -44,6 +45,7 @@ cargo build -q --release -p sugarshack-core --example interlock_bench --example 
 echo "bench: load average $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores at start"
 
 run footprint node tests/bench/footprint.js --runs "$([ "$full" = 1 ] && echo 5 || echo 3)"
+run "wasm size" node tests/bench/wasm-size.js
 run interlock node tests/bench/interlock-bench.js "${quick[@]}" ${rest[@]+"${rest[@]}"}
 run tracker node tests/bench/tracker-bench.js
 run durable node tests/bench/durable-bench.js "${quick[@]}"

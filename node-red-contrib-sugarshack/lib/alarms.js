@@ -94,18 +94,16 @@ class AlarmBook {
 /**
  * The abnormal conditions of an interlock (what its core reports: faulted
  * lines, waits and holds past the warning times), of its store, and of its
- * plant's health and buses, as the core's alarm conditions.
+ * plant's devices and buses, as the core's alarm conditions. The core words
+ * them all: a store or a bus is named only by its subject.
  */
 function conditionsOf({ interlock, saveFailing, store, plant }) {
   const conditions = [...interlock];
-  if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: 'interlock', text: `the interlock state cannot be written to ${store}` });
+  if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: store });
   if (plant) {
-    for (const d of plant.devices || []) {
-      if (!d.online) conditions.push({ kind: 'device-offline', subject: d.device, text: `device ${d.device} offline` });
-      else if (d.stale.length) conditions.push({ kind: 'device-stale', subject: d.device, text: `device ${d.device}: stale feedback from ${d.stale.join(', ')}` });
-    }
+    conditions.push(...plant.devices);
     for (const b of plant.buses || []) {
-      if (b.connected === false) conditions.push({ kind: 'bus-disconnected', subject: b.node, text: `actuators node ${b.node} has lost its broker` });
+      if (b.connected === false) conditions.push({ kind: 'bus-disconnected', subject: b.node });
     }
   }
   return conditions;

@@ -10,7 +10,7 @@ const { PendingRegistry, heldMsg } = require('./pending');
 const { deliver, grantedBy, takeGrants } = require('./grants');
 const { EventFanout, describeWarning, describeEvent } = require('./events');
 const { AlarmBook, conditionsOf } = require('./alarms');
-const { countsStatus, errorStatus } = require('./status');
+const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
@@ -24,6 +24,8 @@ const { StatusPacer } = require('./status-pacer');
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
+const STATE_NOT_SAVED_STATUS = statusOf('error', 'state not saved');
+const STARTING_STATUS = statusOf('idle', 'starting');
 
 class InterlockRuntime extends RuntimeBase {
   /**
@@ -79,11 +81,7 @@ class InterlockRuntime extends RuntimeBase {
       snapshot: () => this.document(),
       collect: () => {
         if (!this.core) return null;
-        if (!this.events.listened() && !this.alarms) {
-          this.core.clearEvents(); // records nobody reads are not made
-          return null;
-        }
-        // Only its alarms listen: they keep the abnormal records, so the others are not made.
+        // The alarms are made with the core and always listen: with no other reader they keep the abnormal records only.
         const records = this.events.listened() ? this.core.drainEvents() : this.core.drainAbnormalEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
@@ -613,7 +611,7 @@ class InterlockRuntime extends RuntimeBase {
     try {
       changes = this.guard(() => {
         const plant = this.plant && this.plant.state === 'ready'
-          ? { devices: this.plant.t.health(now).devices, buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
+          ? { devices: this.plant.t.alarmConditions(), buses: this.plant.buses.map((b) => ({ node: (b.node && b.node.name) || b.nodeId, connected: b.connected })) }
           : null;
         const conditions = conditionsOf({
           interlock: this.core.alarmConditions(now), saveFailing: this.committer.failing, store: this.store.where, plant,
@@ -807,10 +805,10 @@ class InterlockRuntime extends RuntimeBase {
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = DRAINING_STATUS;
-      else if (this.committer.failing) status = { fill: 'red', shape: 'ring', text: 'state not saved' };
+      else if (this.committer.failing) status = STATE_NOT_SAVED_STATUS;
       else status = this.countsStatus();
     } else if (this.state === 'failed') status = errorStatus(this.failure.code);
-    else if (this.state === 'starting') status = { fill: 'grey', shape: 'ring', text: 'starting' };
+    else if (this.state === 'starting') status = STARTING_STATUS;
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);
   }

@@ -51,67 +51,74 @@ class PendingRegistry {
 }
 
 /**
- * A held msg (see `heldMsg`). `grant` and `refuse` are set by whoever answers
- * an acquire; `cancel` by whoever runs a command's wait.
- * @typedef {{
- *   node: NodeRed.Node | null, nodeId: string | null, msg: NodeRed.Message | null,
- *   send: NodeRed.Send | null, done: NodeRed.Done | null, sinceMs: number,
- *   timer: unknown, [key: string]: any,
- *   reject(err: Error): void, abandon(): void, detach(): void,
- *   adopt(next: NodeRed.Node): void, stopTimer(): void,
- *   grant?: () => void, refuse?: (err: { code: string, message: string }) => void,
- * }} HeldMsg
- */
-
-/**
  * A msg held by a node until its work is answered. Between a deploy's restart
  * of that node and its next instance taking the msg over (`adopt`), `node`,
  * `send` and `done` are null: the first instance completed the msg when it
- * closed (`detach`), and the next one sends it on.
- * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
- *   done: NodeRed.Done | null, sinceMs: number, [key: string]: any }} fields
- * @returns {HeldMsg}
+ * closed (`detach`), and the next one sends it on. A class, not an object of
+ * closures: one is made per msg. Whoever holds it adds its own fields
+ * (`grant` and `refuse` for an acquire, `cancel` for a command's wait...).
  */
-function heldMsg({ node, msg, send, done, sinceMs, ...rest }) {
-  /** @type {HeldMsg} */
-  const held = {
-    node,
-    nodeId: node ? node.id : null,
-    msg,
-    send,
-    done,
-    sinceMs,
-    timer: null,
-    ...rest,
-    /** The work failed: the msg ends with the error (a Catch node gets it). */
-    reject(err) {
-      held.stopTimer();
-      if (held.done) held.done(err);
-      else if (held.node) held.node.error(err, held.msg);
-      held.done = null;
-    },
-    /** Completed without being sent on (withdrawn, or the flows stop). */
-    abandon() {
-      held.stopTimer();
-      if (held.done) held.done();
-      held.done = null;
-    },
-    detach() {
-      if (held.done) held.done();
-      held.node = null;
-      held.send = null;
-      held.done = null;
-    },
-    adopt(next) {
-      held.node = next;
-      held.send = (m) => next.send(m);
-    },
-    stopTimer() {
-      if (held.timer) clock.clearTimeout(held.timer);
-      held.timer = null;
-    },
-  };
-  return held;
+class HeldMsg {
+  /**
+   * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
+   *   done: NodeRed.Done | null, sinceMs: number, [key: string]: any }} fields
+   */
+  constructor(fields) {
+    /** @type {NodeRed.Node | null} */
+    this.node = null;
+    /** @type {NodeRed.Message | null} */
+    this.msg = null;
+    /** @type {NodeRed.Send | null} */
+    this.send = null;
+    /** @type {NodeRed.Done | null} */
+    this.done = null;
+    this.sinceMs = 0;
+    Object.assign(this, fields);
+    this.nodeId = fields.node ? fields.node.id : null;
+    /** @type {unknown} */
+    this.timer = null;
+  }
+
+  /** The work failed: the msg ends with the error (a Catch node gets it). @param {Error} err */
+  reject(err) {
+    this.stopTimer();
+    if (this.done) this.done(err);
+    else if (this.node) this.node.error(err, this.msg);
+    this.done = null;
+  }
+
+  /** Completed without being sent on (withdrawn, or the flows stop). */
+  abandon() {
+    this.stopTimer();
+    if (this.done) this.done();
+    this.done = null;
+  }
+
+  detach() {
+    if (this.done) this.done();
+    this.node = null;
+    this.send = null;
+    this.done = null;
+  }
+
+  /** @param {NodeRed.Node} next */
+  adopt(next) {
+    this.node = next;
+    this.send = (m) => next.send(m);
+  }
+
+  stopTimer() {
+    if (this.timer) clock.clearTimeout(this.timer);
+    this.timer = null;
+  }
 }
 
-module.exports = { PendingRegistry, heldMsg };
+/**
+ * @param {ConstructorParameters<typeof HeldMsg>[0]} fields
+ * @returns {HeldMsg & { [key: string]: any }}
+ */
+function heldMsg(fields) {
+  return new HeldMsg(fields);
+}
+
+module.exports = { PendingRegistry, HeldMsg, heldMsg };

@@ -7,6 +7,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
+const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('./pending').HeldMsg} HeldMsg */
 /** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
@@ -24,8 +25,8 @@ class RuntimeBase {
     this.users = new Set();
     this.statusBoard = new StatusBoard();
     this.gateOpen = true;
-    /** @type {ParkedWork[]} held while starting or draining */
-    this.parked = [];
+    /** held while starting or draining (`ParkedWork` each) */
+    this.parked = new UntilReady();
     /** @type {(() => void)[]} run once ready with the gate open */
     this.openWaiters = [];
     this.generation = wasm.currentGeneration();
@@ -45,7 +46,7 @@ class RuntimeBase {
     this.state = 'failed';
     this.log('error', e.message);
     this.refreshStatus();
-    for (const task of this.parked.splice(0)) task.done(e);
+    this.parked.completeAll(e);
   }
 
   log(level, text) {
@@ -116,7 +117,7 @@ class RuntimeBase {
   submit(node, done, work, { urgent = false } = {}) {
     if (this.ended) done();
     else if (this.state === 'failed') done(this.failure);
-    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.push({ node, done, work });
+    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.hold({ node, done, work });
     else this.perform(node, done, work);
   }
 
@@ -164,16 +165,12 @@ class RuntimeBase {
         this.log('error', err.message);
       }
     }
-    const parked = this.parked;
-    this.parked = [];
-    for (const task of parked) this.submit(task.node, task.done, task.work);
+    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work);
   }
 
   /** A closing node's held work is completed unsent. */
   dropParked(node) {
-    const mine = this.parked.filter((t) => t.node === node);
-    this.parked = this.parked.filter((t) => t.node !== node);
-    for (const task of mine) task.done();
+    this.parked.completeOf(node);
   }
 
   closeGate() {
@@ -206,7 +203,7 @@ class RuntimeBase {
     this.ended = true;
     this.state = 'stopped';
     this.stopTrapWatch();
-    for (const task of this.parked.splice(0)) task.done();
+    this.parked.completeAll();
   }
 
   // ---- status -----------------------------------------------------------------

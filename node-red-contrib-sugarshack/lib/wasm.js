@@ -150,6 +150,7 @@ function prime(facade) {
 
 function primeInterlock({ Interlock, Tracker }) {
   const t = new Tracker(PRIMER_PLANT, 0);
+  t.alarmConditions();
   const config = { resources: t.interlockResources(), policy: 'greedy', recordEvents: true, warnQueuedMs: 1, warnHeldMs: 1 };
   const il = new Interlock(config);
   const [a, b] = [il.operation('a'), il.operation('b')];

@@ -2,6 +2,7 @@
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { seconds } = require('../lib/plant');
@@ -89,9 +90,7 @@ module.exports = function (RED) {
           for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.condition(step.condition, step.sensors);
           if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status(status('idle', t('status.idle')));
         } catch (err) {
-          const refusal = asSugarshackError(err);
-          node.error(refusal.message);
-          node.status(errorStatus(refusal.code));
+          refuseDeploy(node, err);
         }
       });
     }

@@ -1,10 +1,12 @@
 // @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
+const { UntilReady } = require('../lib/until-ready');
 
 const CONTEXT_KEY = 'pid';
 // A msg with one of these (or topic "setpoint") changes the loop and is not a measurement.
@@ -144,16 +146,14 @@ module.exports = function (RED) {
         return fresh;
       });
     } catch (err) {
-      refusal = asSugarshackError(err);
-      node.error(refusal.message);
-      node.status(errorStatus(refusal.code));
+      refusal = refuseDeploy(node, err);
     }
 
     let lastTopic;
     let timer = null;
     let ready = false;
     let closed = false;
-    const early = []; // msgs that arrived while the saved state was read
+    const early = new UntilReady(); // msgs that arrived while the saved state was read
 
     const show = (shown) => board.set(node, shown);
 
@@ -305,7 +305,7 @@ module.exports = function (RED) {
     function start() {
       ready = true;
       show(idleStatus());
-      for (const [msg, send, done] of early.splice(0)) safeHandle(msg, send, done);
+      for (const { msg, send, done } of early.take()) safeHandle(msg, send, done);
     }
 
     if (station) {
@@ -330,7 +330,7 @@ module.exports = function (RED) {
 
     node.on('input', (msg, send, done) => {
       if (refusal) done(refusal);
-      else if (!ready) early.push([msg, send, done]);
+      else if (!ready) early.hold({ node, msg, send, done });
       else safeHandle(msg, send, done);
     });
 
@@ -338,7 +338,7 @@ module.exports = function (RED) {
       closed = true;
       if (timer) clock.clearTimeout(timer);
       timer = null;
-      for (const [, , held] of early.splice(0)) held();
+      early.completeAll();
       if (station) station.free();
       station = /** @type {any} */ (null);
       done();

@@ -1,6 +1,7 @@
 // @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
@@ -33,9 +34,7 @@ module.exports = function (RED) {
       // After a trap the module starts again from the last action written, not the initial one.
       io = revivable(({ IoModule }) => new IoModule(settings.controllers, lastWritten ?? settings.initialAction));
     } catch (err) {
-      refusal = asSugarshackError(err);
-      node.error(refusal.message);
-      node.status(errorStatus(refusal.code));
+      refusal = refuseDeploy(node, err);
     }
     let procVar = null; // no measurement yet
     const show = (shown) => board.set(node, shown);

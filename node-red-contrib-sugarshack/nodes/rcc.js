@@ -1,6 +1,7 @@
 // @ts-check
 'use strict';
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { configNumber, configDurationMs, configDurationListMs, describe, revivable } = require('../lib/control');
@@ -42,9 +43,7 @@ module.exports = function (RED) {
         return fresh;
       }, { onRevive: () => schedule() });
     } catch (err) {
-      refusal = asSugarshackError(err);
-      node.error(refusal.message);
-      node.status(errorStatus(refusal.code));
+      refusal = refuseDeploy(node, err);
     }
     const show = (status) => board.set(node, status);
 

@@ -2,6 +2,7 @@
 'use strict';
 const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus } = require('../lib/status');
 const { translator } = require('../lib/i18n');
 const { readMsg } = require('../lib/request');
@@ -33,9 +34,7 @@ module.exports = function (RED) {
           }
           refusal = null;
         } catch (err) {
-          refusal = asSugarshackError(err);
-          node.error(refusal.message);
-          node.status(errorStatus(refusal.code));
+          refusal = refuseDeploy(node, err);
         }
       });
     }

@@ -2,6 +2,7 @@
 'use strict';
 const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
+const { refuseDeploy } = require('../lib/deploy-refusal');
 const { Condition } = require('../lib/condition');
 const { splitNames } = require('../lib/request');
 const { errorStatus, status } = require('../lib/status');
@@ -30,9 +31,7 @@ module.exports = function (RED) {
           refusal = null;
           node.status({});
         } catch (err) {
-          refusal = asSugarshackError(err);
-          node.error(refusal.message);
-          node.status(errorStatus(refusal.code));
+          refusal = refuseDeploy(node, err);
         }
       });
     }

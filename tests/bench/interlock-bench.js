@@ -14,7 +14,8 @@
 // Workloads (mirrored in rust/sugarshack-core/examples/interlock_bench.rs):
 //   case   the 16 operations of Fig. 8 on the 5 lines.
 //          pair:    acquire (granted at once) + release (nobody waiting) of each
-//                   operation in turn on an idle interlock.
+//                   operation in turn on an idle interlock; the implementations'
+//                   batches interleaved, so none runs on a cooler machine.
 //          release: 128 independent interlocks, each with all 16 operations
 //                   started; every sample releases one random holder in each
 //                   (the release re-evaluates the waiting requests), then,
@@ -226,34 +227,49 @@ function fail(message) {
   process.exit(1);
 }
 
+/**
+ * Case pair for every implementation, their batches interleaved (the order
+ * rotating each sample), so JIT warm-up, GC and a noisy neighbour fall on
+ * all of them alike instead of on whichever row ran first.
+ */
+function runCasePairs(makers) {
+  const P = PARAMS.case;
+  const runs = makers.map((make) => {
+    const node = make(LINES);
+    const ops = FIG8.map(([id, priority, lines], i) => ({
+      op: node.op(i, `op${id}`),
+      priority,
+      set: node.set(lines),
+      msg: { _msgId: `pair-${id}`, op: i },
+    }));
+    return { node, ops, samples: [], refused: 0, stray: 0 };
+  });
+  for (let s = 0; s < P.warmup + P.samples; s++) {
+    for (let k = 0; k < runs.length; k++) {
+      const run = runs[(s + k) % runs.length];
+      const { node, ops } = run;
+      const t0 = now();
+      for (let b = 0; b < P.pairBatch; b++) {
+        const o = ops[b % 16];
+        if (!node.acquire(o.op, o.priority, o.set, o.msg)) run.refused++;
+        run.stray += node.release(o.op).length;
+      }
+      const t1 = now();
+      if (s >= P.warmup) run.samples.push(Number(t1 - t0) / P.pairBatch);
+      node.drain();
+    }
+  }
+  return runs.map((run) => {
+    run.node.free();
+    if (run.refused || run.stray) fail(`case pair: ${run.refused} acquires queued and ${run.stray} stray grants on an idle interlock`);
+    return summary(run.samples);
+  });
+}
+
 function runCase(makeNode) {
   const P = PARAMS.case;
   const random = rng(P.seed);
   const log = new GrantLog();
-
-  const idle = makeNode(LINES);
-  const idleOps = FIG8.map(([id, priority, lines], i) => ({
-    op: idle.op(i, `op${id}`),
-    priority,
-    set: idle.set(lines),
-    msg: { _msgId: `pair-${id}`, op: i },
-  }));
-  const pair = [];
-  let refused = 0;
-  let stray = 0;
-  for (let s = 0; s < P.warmup + P.samples; s++) {
-    const t0 = now();
-    for (let k = 0; k < P.pairBatch; k++) {
-      const o = idleOps[k % 16];
-      if (!idle.acquire(o.op, o.priority, o.set, o.msg)) refused++;
-      stray += idle.release(o.op).length;
-    }
-    const t1 = now();
-    if (s >= P.warmup) pair.push(Number(t1 - t0) / P.pairBatch);
-    idle.drain();
-  }
-  idle.free();
-  if (refused || stray) fail(`case pair: ${refused} acquires queued and ${stray} stray grants on an idle interlock`);
 
   const n = P.instances;
   const nodes = [];
@@ -306,7 +322,6 @@ function runCase(makeNode) {
   }
   for (const node of nodes) node.free();
   return {
-    pair: summary(pair),
     release: summary(release),
     log,
     waitingAvg: waiting / ((P.warmup + P.samples) * n),
@@ -472,12 +487,14 @@ function main() {
 
   const rows = [];
   const details = {};
+  const casePairs = runCasePairs(impls.map(({ make }) => make));
   for (const [scale, run] of [
     ['case', runCase],
     ['large', runLarge],
   ]) {
-    for (const { impl, events, make } of impls) {
+    for (const [k, { impl, events, make }] of impls.entries()) {
       const r = run(make);
+      if (scale === 'case') r.pair = casePairs[k];
       rows.push({ scale, impl, events, ...r });
       if (impl === 'baseline JS') details[scale] = r;
     }

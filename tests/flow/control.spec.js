@@ -475,9 +475,10 @@ describe('sugarshack control: rcc and rcc-io', function () {
       { id: 'io-1', z: 'f1', type: 'sugarshack-rcc-io', controllers: '2', initialAction: '0', periodS: '-1', wires: [[], []] },
     ], ['o1']);
     const expected = {
-      order: /engagement threshold D_2 = 1000 ms must be greater than D_1 = 2000 ms/,
-      below: /engagement threshold D_1 = 400 ms must be at least the sampling period Ts = 500 ms/,
-      ts0: /sampling period Ts \(ms\) must be a number greater than 0, got 0/,
+      // Worded in seconds, as typed in the form.
+      order: /engagement threshold D_2 = 1 s must be greater than D_1 = 2 s/,
+      below: /engagement threshold D_1 = 0.4 s must be at least the sampling period Ts = 0.5 s/,
+      ts0: /sampling period Ts must be greater than 0 s, got 0 s/,
       id3: /controller id 3 is outside 1..2/,
       text: /engagement thresholds D_1..D_n \(thresholdsS, s\) \(item 2\) must be a number, got 'soon'/,
       none: /engagement thresholds D_1..D_n \(thresholdsS, s\): give one number per controller, comma-separated \(e.g. 1, 2\)/,

@@ -656,6 +656,7 @@ describe('example: subflows-op12', function () {
     assert.equal(runtime().describe().recentEvents.at(-1).summary, 'e-stop RED by ana: leak at the RED pump');
     bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
     await runTill(() => alarm('device-offline:ctrl-5'), 'the device-offline alarm');
+    assert.equal(alarm('device-offline:ctrl-5').text, 'device ctrl-5 offline', 'worded by the core');
 
     // The editor acknowledges one; without adminAuth it is "unknown" who did. The journal gets it as an operator action.
     const ackedAt = clock().now();

@@ -158,7 +158,8 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
       assert.equal(Object.values(lines).some((s) => s.startsWith('faulted:unknown')), false, 'the saved state was never lost');
       model.reset(lines);
       const faulted = LINES.filter((l) => lines[l].startsWith('faulted'));
-      for (const line of faulted) await waitFor(() => lockoutSeen(line, restartedAt), `the lockout of ${line} sent again`);
+      // A loaded machine may take seconds to reconnect after a restart: the deadline is generous, the check is not.
+      for (const line of faulted) await waitFor(() => lockoutSeen(line, restartedAt), `the lockout of ${line} sent again`, 20000);
       if (faulted.length) checks.push(`lockouts of ${faulted.join(', ')} sent again`);
       if (kill === KILLS) break;
 

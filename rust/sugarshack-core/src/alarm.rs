@@ -21,6 +21,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::actuator::DeviceHealth;
 use crate::clearance::{cut, Attribution};
 use crate::code::Code;
 use crate::text::quote;
@@ -125,6 +126,58 @@ pub struct Condition {
     /// Since when it holds, when the caller knows (a fault's time).
     #[serde(default)]
     pub since_ms: Option<u64>,
+}
+
+impl Condition {
+    /// The condition `kind` on `subject`, worded by [`Condition::wording`].
+    pub fn new(kind: AlarmKind, subject: &str) -> Self {
+        Condition {
+            kind,
+            subject: subject.to_owned(),
+            text: Condition::wording(kind, subject),
+            since_ms: None,
+        }
+    }
+
+    /// The one line a condition reads as when its caller gave none: a bus
+    /// or a store knows only which one it is.
+    pub fn wording(kind: AlarmKind, subject: &str) -> String {
+        let subject = quote(subject);
+        match kind {
+            AlarmKind::LineFaulted => format!("{subject} faulted"),
+            AlarmKind::DeviceOffline => format!("device {subject} offline"),
+            AlarmKind::DeviceStale => format!("device {subject}: stale feedback"),
+            AlarmKind::BusDisconnected => format!("actuators node {subject} has lost its broker"),
+            AlarmKind::StateNotSaved => {
+                format!("the interlock state cannot be written to {subject}")
+            }
+            AlarmKind::WaitingLong => format!("operation {subject} waits long"),
+            AlarmKind::HeldLong => format!("operation {subject} holds its lines long"),
+        }
+    }
+
+    /// A device's condition, if it has one: offline, else stale feedback
+    /// from some of its actuators (named).
+    pub fn of_device(health: &DeviceHealth) -> Option<Self> {
+        if !health.online {
+            return Some(Condition::new(AlarmKind::DeviceOffline, &health.device));
+        }
+        if health.stale.is_empty() {
+            return None;
+        }
+        let mut condition = Condition::new(AlarmKind::DeviceStale, &health.device);
+        condition.text = format!(
+            "device {}: stale feedback from {}",
+            quote(&health.device),
+            health.stale.join(", ")
+        );
+        Some(condition)
+    }
+}
+
+/// The conditions of a plant's devices ([`Condition::of_device`]), in plant order.
+pub fn device_conditions(devices: &[DeviceHealth]) -> Vec<Condition> {
+    devices.iter().filter_map(Condition::of_device).collect()
 }
 
 /// Who did something to an alarm, and when.
@@ -378,7 +431,12 @@ impl Alarms {
         }
         self.delayed.retain(|id, _| holding.contains_key(id));
         for (id, c) in holding {
-            let text = cut(&c.text, TEXT_MAX_CHARS);
+            let text = if c.text.is_empty() {
+                Condition::wording(c.kind, &c.subject)
+            } else {
+                c.text.clone()
+            };
+            let text = cut(&text, TEXT_MAX_CHARS);
             let mut since = c.since_ms.filter(|&t| t <= now).unwrap_or(now);
             if !self.alarms.contains_key(&id) && c.kind.on_delay_ms() > 0 {
                 let first = *self.delayed.entry(id.clone()).or_insert(since);
@@ -797,5 +855,52 @@ mod tests {
         let mut bad = alarms.snapshot();
         bad.alarms[0].id = "device-offline:YEL".into();
         assert_eq!(Alarms::restore(bad).unwrap_err().code(), "INVALID_SNAPSHOT");
+    }
+
+    #[test]
+    fn devices_buses_and_stores_are_worded_here_not_by_the_caller() {
+        let health = |device: &str, online: bool, stale: &[&str]| DeviceHealth {
+            device: device.into(),
+            online,
+            stale: stale.iter().map(|s| s.to_string()).collect(),
+        };
+        let conditions = device_conditions(&[
+            health("ctrl-1", false, &["V101"]),
+            health("ctrl-2", true, &[]),
+            health("ctrl-3", true, &["V301", "P3"]),
+        ]);
+        let texts: Vec<(AlarmKind, &str)> = conditions
+            .iter()
+            .map(|c| (c.kind, c.text.as_str()))
+            .collect();
+        assert_eq!(
+            texts,
+            [
+                (AlarmKind::DeviceOffline, "device ctrl-1 offline"),
+                (
+                    AlarmKind::DeviceStale,
+                    "device ctrl-3: stale feedback from V301, P3"
+                ),
+            ]
+        );
+        // A condition handed over without text is worded by its kind and subject.
+        let mut alarms = Alarms::new();
+        let bare = |kind, subject: &str| Condition {
+            kind,
+            subject: subject.into(),
+            text: String::new(),
+            since_ms: None,
+        };
+        alarms
+            .observe(&[bare(AlarmKind::StateNotSaved, "/data/sugarshack")], 0)
+            .unwrap();
+        assert_eq!(
+            alarms.get("state-not-saved:/data/sugarshack").unwrap().text,
+            "the interlock state cannot be written to /data/sugarshack"
+        );
+        assert_eq!(
+            Condition::new(AlarmKind::BusDisconnected, "plant bus").text,
+            "actuators node plant bus has lost its broker"
+        );
     }
 }

@@ -8,7 +8,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::code::Code;
-use crate::plant::{PlantModel, Routine, Trigger};
+use crate::plant::{Plant, Routine, Trigger};
 use crate::text::quote;
 
 /// The msg topic that sends a routine back to its initial state (an
@@ -168,7 +168,7 @@ pub struct RoutineMachine {
 
 impl RoutineMachine {
     /// Routine `id` of a validated plant, in its initial state.
-    pub fn new(plant: &PlantModel, id: &str) -> Result<Self, RoutineError> {
+    pub fn new(plant: &Plant, id: &str) -> Result<Self, RoutineError> {
         let routine = plant
             .routines
             .iter()

@@ -9,6 +9,15 @@ pub const QUOTE_CHARS: usize = 100;
 
 const ELLIPSIS: char = '…';
 
+/// A duration in ms, worded in seconds as the node settings are: 4000 -> "4 s", 300 -> "0.3 s".
+pub fn seconds(ms: f64) -> String {
+    if ms.is_finite() {
+        format!("{} s", ms / 1000.0)
+    } else {
+        quote(ms)
+    }
+}
+
 /// `value` as text, cut to [`QUOTE_CHARS`] characters with an ellipsis.
 /// Quoting a quote changes nothing.
 ///

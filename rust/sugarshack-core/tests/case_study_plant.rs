@@ -74,11 +74,9 @@ fn every_operation_uses_each_of_its_lines_and_waits_on_the_plant() {
         for step in &op.steps {
             match step {
                 Step::Command { command, .. } => {
-                    for members in command.as_object().unwrap().values() {
-                        for name in members.as_object().unwrap().keys() {
-                            let a = plant.actuators.iter().find(|a| &a.id == name).unwrap();
-                            lines.insert(a.resource.clone().unwrap());
-                        }
+                    for (_, name, _) in command.members() {
+                        let a = plant.actuators.iter().find(|a| a.id == name).unwrap();
+                        lines.insert(a.resource.clone().unwrap());
                     }
                 }
                 Step::Wait { .. } => waits += 1,

@@ -5,7 +5,12 @@ use serde_json::json;
 use sugarshack_core::operation::{
     OperationPlan, OperationRun, Phase, PlanStep, RunEffect, Stage, StepKind, StepRecord,
 };
-use sugarshack_core::plant::PlantModel;
+use sugarshack_core::plant::{GroupCommand, Plant, PlantModel};
+
+/// A group command as a plant document writes it.
+fn group(written: serde_json::Value) -> GroupCommand {
+    serde_json::from_value(written).expect("a group command")
+}
 
 fn lines() -> Vec<String> {
     vec!["YEL".into(), "RED".into()]
@@ -19,11 +24,11 @@ fn plan() -> OperationPlan {
         resources: lines(),
         steps: vec![
             PlanStep::Command {
-                command: json!({ "valves": { "V1": 100 } }),
+                command: group(json!({ "valves": { "V1": 100 } })),
                 timeout_ms: 9000,
             },
             PlanStep::Command {
-                command: json!({ "valves": { "V9": 100 } }),
+                command: group(json!({ "valves": { "V9": 100 } })),
                 timeout_ms: 9000,
             },
             PlanStep::Wait {
@@ -32,7 +37,7 @@ fn plan() -> OperationPlan {
                 timeout_ms: 60000,
             },
             PlanStep::ReturnToIdle {
-                command: json!({ "valve": { "V1": 0, "V9": 0 } }),
+                command: group(json!({ "valve": { "V1": 0, "V9": 0 } })),
                 timeout_ms: 9000,
             },
         ],
@@ -613,7 +618,7 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
             "steps": [{ "command": { "valves": { "V1": 100 } }, "timeoutMs": 20000 }] }]
     }))
     .unwrap();
-    plant.validate().unwrap();
+    let plant = Plant::new(plant).unwrap();
     let mut r = OperationRun::of(&plant, "10").unwrap();
     assert_eq!(r.plan(), &plant.operation_plan("10").unwrap());
     r.start(0).unwrap();
@@ -624,7 +629,7 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
             step: PlanStep::ReturnToIdle { command, .. },
             within: Some(within),
         }] => {
-            assert_eq!(command, &json!({ "valve": { "V1": 0 } }));
+            assert_eq!(command, &group(json!({ "valve": { "V1": 0 } })));
             assert_eq!(within, &["YEL".to_string()]);
         }
         other => panic!("{other:?}"),

@@ -8,6 +8,12 @@ use serde_json::json;
 use sugarshack_core::operation::{
     OperationPlan, OperationRun, PlanStep, RunEffect, Stage, StepKind, StepRecord,
 };
+use sugarshack_core::plant::GroupCommand;
+
+/// A group command as a plant document writes it.
+fn group(written: serde_json::Value) -> GroupCommand {
+    serde_json::from_value(written).expect("a group command")
+}
 
 const ID: &str = "op";
 const LINES: [&str; 2] = ["YEL", "RED"];
@@ -21,7 +27,7 @@ fn plan(commands: &[bool]) -> OperationPlan {
         .map(|(i, &command)| {
             if command {
                 PlanStep::Command {
-                    command: json!({ "valves": { format!("V{i}"): 100 } }),
+                    command: group(json!({ "valves": { format!("V{i}"): 100 } })),
                     timeout_ms: 1000 + i as u64,
                 }
             } else {
@@ -35,7 +41,7 @@ fn plan(commands: &[bool]) -> OperationPlan {
         .collect();
     if commands.contains(&true) {
         steps.push(PlanStep::ReturnToIdle {
-            command: json!({ "valve": {} }),
+            command: group(json!({ "valve": {} })),
             timeout_ms: 3000,
         });
     }

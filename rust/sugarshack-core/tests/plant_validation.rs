@@ -136,7 +136,7 @@ fn a_slot_taken_twice_is_refused() {
 fn all_problems_are_reported_together() {
     let mut doc = good();
     doc["actuators"][0]["device"] = json!("nowhere");
-    doc["actuators"][1]["idle"] = json!("off");
+    doc["actuators"][1]["idle"] = json!(0);
     let plant: PlantModel = serde_json::from_value(doc).unwrap();
     let err = Tracker::new(plant, 0).unwrap_err();
     let text = err.to_string();
@@ -187,12 +187,17 @@ fn with_operations() -> Value {
 fn operations_and_routines_validate_and_lockouts_derive_from_members() {
     let plant: PlantModel = serde_json::from_value(with_operations()).unwrap();
     assert_eq!(plant.validate().unwrap(), vec![]);
+    let lockout_of = |r| {
+        plant
+            .lockout_of(r)
+            .map(|c| serde_json::to_value(c).unwrap())
+    };
     assert_eq!(
-        plant.lockout_of("YEL"),
+        lockout_of("YEL"),
         Some(json!({ "valves": { "V12": 0 }, "pumps": { "P1": false } }))
     );
     assert_eq!(
-        plant.lockout_of("RED"),
+        lockout_of("RED"),
         Some(json!({ "pumps": { "P1": false } })),
         "a configured lockout wins"
     );
@@ -388,8 +393,8 @@ fn a_null_command_is_a_bad_command_not_a_missing_one() {
     let mut doc = with_operations();
     doc["operations"][1]["steps"][0]["command"] = json!(null);
     assert_eq!(
-        problems(doc),
-        vec!["operations[1] (18).steps[0]: invalid group command: expected an object such as {\"valves\": {\"V12\": 100}}, got null"]
+        read_error(doc),
+        "operations[1].steps[0].command: invalid type: null, expected a group command such as {\"valves\": {\"V12\": 100}}"
     );
 }
 
@@ -397,11 +402,10 @@ fn a_null_command_is_a_bad_command_not_a_missing_one() {
 fn problems_quote_at_most_a_hundred_characters_of_what_they_were_given() {
     let long = "x".repeat(1_000_000);
     let mut doc = with_operations();
-    doc["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V12": long } });
     doc["actuators"][0]["device"] = json!(long);
     doc["routines"][0]["initial"] = json!(long);
     let found = problems(doc);
-    assert_eq!(found.len(), 3, "{found:?}");
+    assert_eq!(found.len(), 2, "{found:?}");
     for problem in &found {
         assert!(
             problem.chars().count() < 300,
@@ -412,9 +416,15 @@ fn problems_quote_at_most_a_hundred_characters_of_what_they_were_given() {
     assert!(found
         .iter()
         .any(|p| p.starts_with("actuators[0] (V12): unknown device 'xxx")));
-    assert!(found.iter().any(|p| p.starts_with(
-        "operations[0] (10).steps[0]: target for 'V12' must be a number within 0..100, got \"xxx"
-    )));
+
+    let mut doc = with_operations();
+    doc["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V12": long } });
+    let error = read_error(doc);
+    assert!(error.chars().count() < 320, "{error:.320}");
+    assert!(
+        error.starts_with("operations[0].steps[0].command.valves.V12: invalid type: string \"xxx"),
+        "{error:.320}"
+    );
 
     let mut doc = with_operations();
     doc["actuators"][0]["id"] = json!(long);
@@ -533,5 +543,51 @@ fn a_custom_device_reads_its_templates() {
     assert_eq!(
         problems(doc),
         vec!["actuators[0] (V12): custom.actuators.valve.payload '{\"position\":1}' must hold {value} once".to_string()]
+    );
+}
+
+#[test]
+fn a_setpoint_that_is_not_true_false_or_a_finite_number_cannot_be_read() {
+    let mut doc = with_operations();
+    doc["actuators"][1]["idle"] = json!("off");
+    assert_eq!(
+        read_error(doc),
+        "actuators[1].idle: invalid type: string \"off\", expected a setpoint: true or false for a binary actuator, a finite number for an analog one"
+    );
+    let mut doc = with_operations();
+    doc["operations"][0]["steps"][0]["command"]["valves"]["V12"] = json!(null);
+    assert!(read_error(doc).starts_with(
+        "operations[0].steps[0].command.valves.V12: invalid type: null, expected a setpoint"
+    ));
+    let mut doc = with_operations();
+    doc["resources"][1]["lockout"] = json!({ "pumps": ["P1"] });
+    assert!(read_error(doc).starts_with(
+        "resources[1].lockout.pumps: invalid type: sequence, expected an object of actuator ids and setpoints"
+    ));
+    // JSON text cannot hold NaN; a number too large for an f64 is refused where it stands.
+    let text = with_operations()
+        .to_string()
+        .replace("\"lockout\":0", "\"lockout\":1e999");
+    let err = sugarshack_core::json::from_str::<PlantModel>(&text)
+        .unwrap_err()
+        .without_position()
+        .to_string();
+    assert!(
+        err.starts_with("actuators[0].lockout: number out of range"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_setpoint_of_the_wrong_kind_for_its_actuator_is_refused_naming_the_entry() {
+    let mut doc = with_operations();
+    doc["operations"][1]["steps"][0]["command"] = json!({ "pumps": { "P1": 1 } });
+    doc["resources"][1]["lockout"] = json!({ "valves": { "V40": true } });
+    assert_eq!(
+        problems(doc),
+        vec![
+            "resources[1] (RED).lockout: target for 'V40' must be a number within 0..100, got true",
+            "operations[1] (18).steps[0]: target for 'P1' must be true or false, got 1",
+        ]
     );
 }

@@ -4,7 +4,7 @@
 
 use proptest::prelude::*;
 use serde_json::json;
-use sugarshack_core::plant::PlantModel;
+use sugarshack_core::plant::{Plant, PlantModel};
 use sugarshack_core::routine::{RoutineMachine, RoutineSnapshot};
 use sugarshack_core::sensor::SensorStore;
 
@@ -26,7 +26,7 @@ fn transitions() -> impl Strategy<Value = Vec<(usize, usize, usize, Trig)>> {
     prop::collection::vec((0..3usize, 0..4usize, 0..4usize, trig), 1..8)
 }
 
-fn plant(transitions: &[(usize, usize, usize, Trig)], error_state: bool) -> PlantModel {
+fn plant(transitions: &[(usize, usize, usize, Trig)], error_state: bool) -> Plant {
     let ts: Vec<_> = transitions
         .iter()
         .map(|(from, to, op, trig)| {
@@ -54,8 +54,7 @@ fn plant(transitions: &[(usize, usize, usize, Trig)], error_state: bool) -> Plan
         "operations": ops, "routines": [routine]
     }))
     .unwrap();
-    plant.validate().unwrap();
-    plant
+    Plant::new(plant).unwrap()
 }
 
 #[derive(Clone, Debug)]

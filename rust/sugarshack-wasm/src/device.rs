@@ -5,9 +5,9 @@
 use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId};
 use sugarshack_core::code::Code;
-use sugarshack_core::plant::PlantModel;
+use sugarshack_core::plant::{Plant, PlantModel};
 use sugarshack_core::sensor::SensorId;
-use sugarshack_core::topics::{Command, Contract, Message};
+use sugarshack_core::topics::{Command, Message};
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, to_js, Bound};
@@ -47,8 +47,7 @@ enum Read {
 /// The devices of one plant document as its devices speak.
 #[wasm_bindgen]
 pub struct DeviceSide {
-    plant: PlantModel,
-    contract: Contract,
+    plant: Plant,
 }
 
 fn ts_of(ts: Option<f64>) -> Option<u64> {
@@ -81,16 +80,9 @@ impl DeviceSide {
             "invalid plant document",
             Bound::PlantDocument,
         )?;
-        plant
-            .validate()
+        let plant = Plant::new(plant)
             .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
-        let contract = Contract::new(&plant).map_err(|errors| {
-            js_error(
-                Code::InvalidPlant,
-                &sugarshack_core::plant::PlantErrors(errors).to_string(),
-            )
-        })?;
-        Ok(DeviceSide { plant, contract })
+        Ok(DeviceSide { plant })
     }
 
     /// Handles are indices in the document: devices, actuators and sensors in their lists.
@@ -106,7 +98,8 @@ impl DeviceSide {
     pub fn profile(&self, device: u32) -> Result<String, JsValue> {
         let d = self.device_id(device)?;
         Ok(self
-            .contract
+            .plant
+            .contract()
             .profile(d)
             .map(|p| p.name().to_owned())
             .unwrap_or_default())
@@ -124,20 +117,28 @@ impl DeviceSide {
     /// `{ topic, payload, retain }`: its birth message, or its last will when `online` is false.
     #[wasm_bindgen(unchecked_return_type = "DeviceMessage | null")]
     pub fn status(&self, device: u32, online: bool) -> Result<JsValue, JsValue> {
-        to_js(&self.contract.format_status(self.device_id(device)?, online))
+        to_js(
+            &self
+                .plant
+                .contract()
+                .format_status(self.device_id(device)?, online),
+        )
     }
 
     /// The topics it subscribes to for commands.
     #[wasm_bindgen(js_name = commandTopics)]
     pub fn command_topics(&self, device: u32) -> Result<Vec<String>, JsValue> {
-        Ok(self.contract.command_topics(self.device_id(device)?))
+        Ok(self
+            .plant
+            .contract()
+            .command_topics(self.device_id(device)?))
     }
 
     /// A command it received: `{ kind: "set", actuator, value }`, `{ kind: "cleared", actuator }`,
     /// `{ kind: "refused", actuator, reason, message }`, or undefined when the topic commands nothing.
     #[wasm_bindgen(js_name = parseCommand, unchecked_return_type = "DeviceCommand | undefined")]
     pub fn parse_command(&self, topic: &str, payload: &[u8]) -> Result<JsValue, JsValue> {
-        let read = match self.contract.parse_command(topic, payload) {
+        let read = match self.plant.contract().parse_command(topic, payload) {
             None => return Ok(JsValue::UNDEFINED),
             Some(Ok(Command::Set(a, value))) => Read::Set {
                 actuator: a.index() as u32,
@@ -170,7 +171,8 @@ impl DeviceSide {
             .map(|(&a, &v)| (ActuatorId::from_index(a), v))
             .collect();
         let messages: Vec<Message> =
-            self.contract
+            self.plant
+                .contract()
                 .format_actuators(self.device_id(device)?, &values, ts_of(ts));
         to_js(&messages)
     }
@@ -191,7 +193,8 @@ impl DeviceSide {
             .collect();
         to_js(
             &self
-                .contract
+                .plant
+                .contract()
                 .format_sensors(self.device_id(device)?, &values, ts_of(ts)),
         )
     }

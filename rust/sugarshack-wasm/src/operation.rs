@@ -1,6 +1,6 @@
 use sugarshack_core::code::Code;
 use sugarshack_core::operation::{OperationRun as CoreRun, RunEffect, RunError};
-use sugarshack_core::plant::PlantModel;
+use sugarshack_core::plant::Plant;
 use wasm_bindgen::prelude::*;
 
 use crate::{js_error, time, to_js};
@@ -90,7 +90,7 @@ pub struct OperationRun {
 }
 
 impl OperationRun {
-    pub(crate) fn of(plant: &PlantModel, id: &str) -> Result<OperationRun, JsValue> {
+    pub(crate) fn of(plant: &Plant, id: &str) -> Result<OperationRun, JsValue> {
         CoreRun::of(plant, id)
             .map(|core| OperationRun { core })
             .map_err(run_error)

@@ -1,5 +1,5 @@
 use sugarshack_core::code::Code;
-use sugarshack_core::plant::PlantModel;
+use sugarshack_core::plant::Plant;
 use sugarshack_core::routine::{RoutineError, RoutineMachine, RoutineSnapshot};
 use wasm_bindgen::prelude::*;
 
@@ -58,7 +58,7 @@ pub struct Routine {
 }
 
 impl Routine {
-    pub(crate) fn of(plant: &PlantModel, id: &str) -> Result<Routine, JsValue> {
+    pub(crate) fn of(plant: &Plant, id: &str) -> Result<Routine, JsValue> {
         RoutineMachine::new(plant, id)
             .map(|core| Routine { core })
             .map_err(routine_error)

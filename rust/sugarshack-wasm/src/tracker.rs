@@ -334,9 +334,10 @@ impl Tracker {
     pub fn warnings(&self) -> Vec<String> {
         self.core
             .plant()
-            .validate()
-            .map(|warnings| warnings.iter().map(ToString::to_string).collect())
-            .unwrap_or_default()
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .collect()
     }
 
     pub fn actuator(&self, name: &str) -> Result<u32, JsValue> {
@@ -824,6 +825,15 @@ impl Tracker {
             devices: self.core.device_health(),
             sensors,
         })
+    }
+
+    /// The alarm conditions of the plant's devices (offline, stale feedback),
+    /// worded by the core: `[{ kind, subject, text, sinceMs }]`.
+    #[wasm_bindgen(js_name = alarmConditions)]
+    pub fn alarm_conditions(&self) -> Result<JsValue, JsValue> {
+        to_js(&sugarshack_core::alarm::device_conditions(
+            &self.core.device_health(),
+        ))
     }
 
     /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.

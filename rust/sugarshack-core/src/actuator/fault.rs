@@ -44,9 +44,8 @@ impl FaultKind {
     }
 }
 
-/// 4000 -> "4 s", 300 -> "0.3 s".
 fn seconds(ms: u64) -> String {
-    format!("{} s", ms as f64 / 1000.0)
+    crate::text::seconds(ms as f64)
 }
 
 /// What went wrong with `actuator` (of type `kind`), in plain words: "valve

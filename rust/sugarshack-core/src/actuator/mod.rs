@@ -36,7 +36,9 @@ pub use error::TrackError;
 pub use fault::describe_fault;
 
 use crate::clearance::ClearBlocker;
-use crate::plant::{state_value, Escalation, GroupError, PlantErrors, PlantModel, Range, Signal};
+use crate::plant::{
+    state_value, Escalation, GroupError, Plant, PlantErrors, PlantModel, Range, Signal,
+};
 use crate::topics::Contract;
 
 /// An actuator of the plant, by its index in the plant document.
@@ -415,25 +417,21 @@ impl ActuatorState {
 /// Tracks every actuator of a plant. Every method takes the current time; none reads a clock.
 #[derive(Clone, Debug)]
 pub struct Tracker {
-    plant: PlantModel,
+    plant: Plant,
     timings: Vec<Timing>,
     actuators: Vec<ActuatorState>,
     devices: Vec<DeviceState>,
-    by_name: HashMap<String, ActuatorId>,
     device_by_name: HashMap<String, DeviceId>,
     /// (device, type name, io) -> actuator, for device feedback.
     slots: HashMap<(DeviceId, String, u32), ActuatorId>,
     groups: HashMap<Caller, Group>,
-    /// The MQTT topics and payloads of every device.
-    contract: Contract,
     tally: Tally,
 }
 
 impl Tracker {
     /// Validates the plant and starts tracking at `now_ms` (feedback is stale `staleMs` after it).
     pub fn new(plant: PlantModel, now_ms: u64) -> Result<Self, PlantErrors> {
-        plant.validate()?;
-        let contract = Contract::new(&plant).map_err(PlantErrors)?;
+        let plant = Plant::new(plant)?;
         let type_names: Vec<&String> = plant.actuator_types.keys().collect();
         let timings = plant
             .actuator_types
@@ -463,7 +461,6 @@ impl Tracker {
             .collect();
         let plant_devices = devices.len();
         let mut actuators = Vec::with_capacity(plant.actuators.len());
-        let mut by_name = HashMap::new();
         let mut slots = HashMap::new();
         for (i, a) in plant.actuators.iter().enumerate() {
             let id = ActuatorId(i as u32);
@@ -471,7 +468,6 @@ impl Tracker {
             let range = t.range(a.tolerance);
             let device = device_by_name[&a.device];
             devices[device.index()].actuators.push(id);
-            by_name.insert(a.id.clone(), id);
             if let Some(io) = a.io {
                 slots.insert((device, a.kind.clone(), io), id);
             }
@@ -487,9 +483,11 @@ impl Tracker {
                 on_change: plant.reports_on_change(a),
                 idle: a
                     .idle
-                    .as_ref()
-                    .map(|v| state_value(t.signal, range, v).expect("validated idle")),
-                lockout: state_value(t.signal, range, &a.lockout).expect("validated lockout"),
+                    .map(|s| s.position(t.signal, range).expect("validated idle")),
+                lockout: a
+                    .lockout
+                    .position(t.signal, range)
+                    .expect("validated lockout"),
                 position: None,
                 last_sample_ms: now_ms,
                 reported: None,
@@ -509,11 +507,9 @@ impl Tracker {
             timings,
             actuators,
             devices,
-            by_name,
             device_by_name,
             slots,
             groups: HashMap::new(),
-            contract,
             tally: Tally {
                 total: Counts::default(),
                 per_device: vec![Counts::default(); plant_devices],
@@ -522,22 +518,22 @@ impl Tracker {
     }
 
     /// The plant document it tracks.
-    pub fn plant(&self) -> &PlantModel {
+    pub fn plant(&self) -> &Plant {
         &self.plant
     }
 
     /// The plant's MQTT contract (topics and payloads of every device).
     pub fn contract(&self) -> &Contract {
-        &self.contract
+        self.plant.contract()
     }
 
     // ---- names ---------------------------------------------------------------
 
     /// The handle of the actuator `name`.
     pub fn actuator(&self, name: &str) -> Result<ActuatorId, TrackError> {
-        self.by_name
-            .get(name)
-            .copied()
+        self.plant
+            .actuator(name)
+            .map(|i| ActuatorId(i as u32))
             .ok_or_else(|| TrackError::UnknownActuator {
                 name: name.to_owned(),
             })
@@ -719,18 +715,14 @@ impl Tracker {
         &self,
         payload: &serde_json::Value,
     ) -> Result<Vec<(ActuatorId, f64)>, TrackError> {
-        let index = |name: &str| self.by_name.get(name).map(|id| id.index());
-        let targets = self
-            .plant
-            .group_targets(payload, &index)
-            .map_err(|err| match err {
-                GroupError::Invalid(reason) => TrackError::InvalidGroup { reason },
-                GroupError::UnknownActuator(name) => TrackError::UnknownActuator { name },
-                GroupError::InvalidTarget { actuator, reason } => {
-                    TrackError::InvalidTarget { actuator, reason }
-                }
-                GroupError::Empty => TrackError::EmptyCommand,
-            })?;
+        let targets = self.plant.group_targets(payload).map_err(|err| match err {
+            GroupError::Invalid(reason) => TrackError::InvalidGroup { reason },
+            GroupError::UnknownActuator(name) => TrackError::UnknownActuator { name },
+            GroupError::InvalidTarget { actuator, reason } => {
+                TrackError::InvalidTarget { actuator, reason }
+            }
+            GroupError::Empty => TrackError::EmptyCommand,
+        })?;
         Ok(targets
             .into_iter()
             .map(|(i, target)| (ActuatorId(i as u32), target))
@@ -784,12 +776,18 @@ impl Tracker {
             if a.retained && !lockout {
                 effects.push(Effect::Publish {
                     device: a.device,
-                    topic: self.contract.command_topic(id).to_owned(),
+                    topic: self.plant.contract().command_topic(id).to_owned(),
                     payload: String::new(),
                     retain: true,
                 });
             }
-            effects.push(publish(&self.contract, id, a.device, target, lockout));
+            effects.push(publish(
+                self.plant.contract(),
+                id,
+                a.device,
+                target,
+                lockout,
+            ));
             a.commanded = Some(target);
             a.resting = Some(target);
             a.retained = lockout;
@@ -1266,7 +1264,7 @@ impl Tracker {
                 fault,
             });
             effects.push(publish(
-                &self.contract,
+                self.plant.contract(),
                 id,
                 a.device,
                 command.target,
@@ -1297,7 +1295,13 @@ impl Tracker {
         if a.lockout_order.is_some() {
             self.resend_lockout(id, now_ms, effects);
         } else if let Some(target) = a.commanded {
-            effects.push(publish(&self.contract, id, a.device, target, a.retained));
+            effects.push(publish(
+                self.plant.contract(),
+                id,
+                a.device,
+                target,
+                a.retained,
+            ));
         }
     }
 
@@ -1312,7 +1316,13 @@ impl Tracker {
             actuator: id,
             attempt: order.sends - 1,
         });
-        effects.push(publish(&self.contract, id, a.device, order.target, true));
+        effects.push(publish(
+            self.plant.contract(),
+            id,
+            a.device,
+            order.target,
+            true,
+        ));
     }
 
     fn state(&self, id: ActuatorId) -> Result<&ActuatorState, TrackError> {

@@ -2,7 +2,7 @@
 //! variance, and the compensator's dead time D_c = floor((D + h·sqrt V) / Ts),
 //! which follows a change of delay without overreacting to a single spike.
 
-use super::error::{positive, ControlError};
+use super::error::{positive_duration, ControlError};
 use crate::text::quote;
 
 /// Longest round trip taken (a day): beyond it a sample is an error, and one
@@ -75,7 +75,7 @@ impl DelayEstimator {
 
     /// Dead time in whole samples of `ts_ms`; 0 before any round trip was seen.
     pub fn dead_time_samples(&self, ts_ms: f64) -> Result<usize, ControlError> {
-        let ts_ms = positive(ts_ms, "sampling period (ms)")?;
+        let ts_ms = positive_duration(ts_ms, "sampling period")?;
         let Some(mean) = self.mean_ms else {
             return Ok(0);
         };

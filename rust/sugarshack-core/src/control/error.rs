@@ -1,7 +1,7 @@
 use std::fmt;
 
 use crate::code::Code;
-use crate::text::quote;
+use crate::text::{quote, seconds};
 
 /// What a control call refused, with a message a process engineer can act on.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,6 +62,18 @@ pub fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
         Err(ControlError::input(format!(
             "{what} must be a finite number, got {value}",
             value = quote(value)
+        )))
+    }
+}
+
+/// `ms` must be a finite duration > 0; `what` names it in the error, worded in seconds.
+pub fn positive_duration(ms: f64, what: &str) -> Result<f64, ControlError> {
+    if ms.is_finite() && ms > 0.0 {
+        Ok(ms)
+    } else {
+        Err(ControlError::config(format!(
+            "{what} must be greater than 0 s, got {}",
+            seconds(ms)
         )))
     }
 }

@@ -7,13 +7,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{computed, finite, positive, ControlError};
+use super::error::{computed, finite, positive_duration, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
-use crate::text::quote;
+use crate::text::{quote, seconds};
 
 /// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
 pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), ControlError> {
-    positive(ts_ms, "sampling period Ts (ms)")?;
+    positive_duration(ts_ms, "sampling period Ts")?;
     if thresholds_ms.is_empty() {
         return Err(ControlError::config(
             "engagement thresholds: give one per controller, D_1..D_n",
@@ -23,17 +23,17 @@ pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), Cont
         let id = index + 1;
         if !threshold.is_finite() || threshold < ts_ms {
             return Err(ControlError::config(format!(
-                "engagement threshold D_{id} = {threshold} ms must be at least the sampling period Ts = {ts_ms} ms",
-                threshold = quote(threshold),
-                ts_ms = quote(ts_ms)
+                "engagement threshold D_{id} = {threshold} must be at least the sampling period Ts = {ts}",
+                threshold = seconds(threshold),
+                ts = seconds(ts_ms)
             )));
         }
         if index > 0 && threshold <= thresholds_ms[index - 1] {
             return Err(ControlError::config(format!(
-                "engagement threshold D_{id} = {threshold} ms must be greater than D_{} = {} ms: a backup must wait longer than every controller above it",
+                "engagement threshold D_{id} = {threshold} must be greater than D_{} = {}: a backup must wait longer than every controller above it",
                 index,
-                quote(thresholds_ms[index - 1]),
-                threshold = quote(threshold)
+                seconds(thresholds_ms[index - 1]),
+                threshold = seconds(threshold)
             )));
         }
     }
@@ -181,12 +181,7 @@ impl RccController {
             )));
         }
         let poll_timeout_ms = config.poll_timeout_ms.unwrap_or(3.0 * config.ts_ms);
-        if !(poll_timeout_ms.is_finite() && poll_timeout_ms > 0.0) {
-            return Err(ControlError::config(format!(
-                "poll timeout must be a number of ms greater than 0, got {}",
-                quote(poll_timeout_ms)
-            )));
-        }
+        positive_duration(poll_timeout_ms, "poll timeout")?;
         Ok(Self {
             config,
             poll_timeout_ms,

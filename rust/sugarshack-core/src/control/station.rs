@@ -21,6 +21,7 @@ use super::pid::{PidInput, PidStep, StepMode};
 use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
 use crate::text::quote;
+use crate::text::seconds;
 
 /// Who sets the output.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -256,8 +257,8 @@ impl Station {
         }
         if !(config.stale_ms.is_finite() && config.stale_ms >= 0.0) {
             return Err(ControlError::config(format!(
-                "stale after must be a number of ms >= 0 (0 turns the watchdog off), got {}",
-                quote(config.stale_ms)
+                "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
+                seconds(config.stale_ms)
             )));
         }
         let setpoint = config_number(config.setpoint, "set point")?;

@@ -8,7 +8,7 @@ pub use run::{OperationRun, Phase, RunEffect, RunError, Stage, StepKind, StepRec
 
 use serde::Serialize;
 
-use crate::plant::{PlantModel, Step};
+use crate::plant::{GroupCommand, Plant, Step};
 
 /// An operation as it runs: its steps in order, the return to idle last.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -32,7 +32,7 @@ pub enum PlanStep {
     #[serde(rename_all = "camelCase")]
     Command {
         /// The group command.
-        command: serde_json::Value,
+        command: GroupCommand,
         /// How long it may take.
         timeout_ms: u64,
     },
@@ -50,19 +50,20 @@ pub enum PlanStep {
     #[serde(rename_all = "camelCase")]
     ReturnToIdle {
         /// Every commanded actuator to its idle state.
-        command: serde_json::Value,
+        command: GroupCommand,
         /// How long it may take.
         timeout_ms: u64,
     },
 }
 
-impl PlantModel {
-    /// The plan of operation `id` of a validated plant; None when there is no such operation.
+impl Plant {
+    /// The plan of operation `id`; None when there is no such operation.
     pub fn operation_plan(&self, id: &str) -> Option<OperationPlan> {
         let op = self.operations.iter().find(|o| o.id == id)?;
         let mut steps = Vec::with_capacity(op.steps.len() + 1);
-        // Actuator ids in order of first command, grouped by type as a group command reads them.
-        let mut idle = serde_json::Map::new();
+        // Actuator ids in order of first command, grouped by type name (a
+        // step may say "pump" and another "pumps").
+        let mut idle = GroupCommand::default();
         let mut idle_timeout_ms = 0;
         for step in &op.steps {
             match step {
@@ -71,20 +72,13 @@ impl PlantModel {
                     timeout_ms,
                 } => {
                     idle_timeout_ms = idle_timeout_ms.max(*timeout_ms);
-                    for members in command.as_object().into_iter().flatten().map(|(_, m)| m) {
-                        for name in members.as_object().into_iter().flatten().map(|(n, _)| n) {
-                            let Some(a) = self.actuators.iter().find(|a| &a.id == name) else {
-                                continue;
-                            };
-                            let Some(state) = a.idle.clone() else {
-                                continue;
-                            };
-                            // Keyed by type name: "pump" and "pumps" may both appear in the steps.
-                            idle.entry(a.kind.clone())
-                                .or_insert_with(|| serde_json::Value::Object(Default::default()))
-                                .as_object_mut()
-                                .expect("made as an object")
-                                .insert(name.clone(), state);
+                    for (_, name, _) in command.members() {
+                        // Validated: every actuator commanded exists and has an idle state.
+                        let Some(a) = self.actuator(name).map(|i| &self.actuators[i]) else {
+                            continue;
+                        };
+                        if let Some(state) = a.idle {
+                            idle.set(&a.kind, name, state);
                         }
                     }
                     steps.push(PlanStep::Command {
@@ -105,7 +99,7 @@ impl PlantModel {
         }
         if !idle.is_empty() {
             steps.push(PlanStep::ReturnToIdle {
-                command: serde_json::Value::Object(idle),
+                command: idle,
                 timeout_ms: idle_timeout_ms,
             });
         }
@@ -123,8 +117,8 @@ mod tests {
     use super::*;
     use serde_json::json;
 
-    fn plant() -> PlantModel {
-        serde_json::from_value(json!({
+    fn plant() -> Plant {
+        Plant::new(serde_json::from_value(json!({
             "actuatorTypes": {
                 "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
                 "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
@@ -147,19 +141,22 @@ mod tests {
                 ]
             }]
         }))
+        .unwrap())
         .unwrap()
     }
 
     #[test]
     fn the_plan_ends_with_every_commanded_actuator_back_to_idle() {
         let plant = plant();
-        plant.validate().unwrap();
         let plan = plant.operation_plan("10").unwrap();
         assert_eq!(plan.steps.len(), 5);
         assert_eq!(
             plan.steps[4],
             PlanStep::ReturnToIdle {
-                command: json!({ "valve": { "V2": 0, "V1": 0 }, "pump": { "P1": false } }),
+                command: serde_json::from_value(
+                    json!({ "valve": { "V2": 0, "V1": 0 }, "pump": { "P1": false } })
+                )
+                .unwrap(),
                 timeout_ms: 20000,
             }
         );

@@ -25,7 +25,7 @@ use serde::Serialize;
 
 use super::{OperationPlan, PlanStep};
 use crate::code::Code;
-use crate::plant::PlantModel;
+use crate::plant::Plant;
 use crate::text::quote;
 
 /// Interlock refusals that mean the operation already runs (C1).
@@ -338,7 +338,7 @@ impl OperationRun {
     }
 
     /// A run of operation `id` of a validated plant.
-    pub fn of(plant: &PlantModel, id: &str) -> Result<Self, RunError> {
+    pub fn of(plant: &Plant, id: &str) -> Result<Self, RunError> {
         plant
             .operation_plan(id)
             .map(Self::new)

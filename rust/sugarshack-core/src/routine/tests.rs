@@ -1,8 +1,9 @@
 use serde_json::json;
 
 use super::*;
+use crate::plant::PlantModel;
 
-fn plant(error_state: bool) -> PlantModel {
+fn plant(error_state: bool) -> Plant {
     let mut routine = json!({
         "id": "truck",
         "states": ["empty", "full", "primed", "fault"],
@@ -35,8 +36,7 @@ fn plant(error_state: bool) -> PlantModel {
         "routines": [routine]
     }))
     .unwrap();
-    plant.validate().unwrap();
-    plant
+    Plant::new(plant).unwrap()
 }
 
 #[test]

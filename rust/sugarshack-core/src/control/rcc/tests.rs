@@ -50,6 +50,19 @@ fn thresholds_must_rise_with_the_id_from_ts() {
             "{thresholds:?} {ts}"
         );
     }
+    // Worded in seconds, the unit of the node settings.
+    assert_eq!(
+        validate_thresholds(&[1500.0, 1000.0], 500.0)
+            .unwrap_err()
+            .to_string(),
+        "engagement threshold D_2 = 1 s must be greater than D_1 = 1.5 s: a backup must wait longer than every controller above it"
+    );
+    assert_eq!(
+        validate_thresholds(&[400.0], 500.0)
+            .unwrap_err()
+            .to_string(),
+        "engagement threshold D_1 = 0.4 s must be at least the sampling period Ts = 0.5 s"
+    );
     let outside = RccConfig {
         id: 4,
         thresholds_ms: vec![200.0, 400.0, 600.0],

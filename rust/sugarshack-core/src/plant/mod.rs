@@ -1,19 +1,30 @@
-//! The plant document: devices, actuators and sensors (later resources,
-//! operations and routines), and its validation. Every error names the
-//! entry at fault so an engineer can find it in the document.
+//! The plant document: devices, actuators, sensors, resources, operations
+//! and routines. Read once with serde into typed values (setpoints and group
+//! commands cannot hold anything but booleans and finite numbers), then
+//! checked once, concern by concern (see `validate`), into a [`Plant`] that
+//! keeps its warnings. Every error names the entry at fault so an engineer
+//! can find it in the document.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+mod group;
+mod setpoint;
+mod validate;
+
+use group::Targeting;
+pub use group::{Group, GroupCommand, GroupError, GroupKeys};
+pub use setpoint::Setpoint;
+
+use std::collections::BTreeMap;
 use std::fmt;
+use std::ops::Deref;
 
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
-use crate::routine::RESET_TOPIC;
-use crate::text::quote;
+use crate::topics::Contract;
 
 /// The plant document: devices, actuators, sensors, lines, operations and routines.
-/// Read with serde, then checked whole by [`PlantModel::validate`], which
-/// lists every problem with its path.
+/// Read with serde, then checked whole by [`Plant::new`] (or
+/// [`PlantModel::validate`]), which lists every problem with its path.
 ///
 /// ```
 /// use sugarshack_core::plant::PlantModel;
@@ -287,9 +298,9 @@ pub struct Actuator {
     pub resource: Option<String>,
     /// The state every operation returns it to (the paper's C3); required to command it in an operation.
     #[serde(default)]
-    pub idle: Option<serde_json::Value>,
+    pub idle: Option<Setpoint>,
     /// The state a fault lockout commands.
-    pub lockout: serde_json::Value,
+    pub lockout: Setpoint,
 }
 
 /// A sensor of the plant.
@@ -334,7 +345,7 @@ pub struct Resource {
     /// The group command that isolates the line on a fault. By default every
     /// member actuator goes to its own lockout state.
     #[serde(default)]
-    pub lockout: Option<serde_json::Value>,
+    pub lockout: Option<GroupCommand>,
 }
 
 /// A singular operation (the paper's §III-D): acquire, steps, return to idle, release.
@@ -363,7 +374,7 @@ pub enum Step {
     #[serde(rename_all = "camelCase")]
     Command {
         /// The group command.
-        command: serde_json::Value,
+        command: GroupCommand,
         /// How long it may take.
         timeout_ms: u64,
     },
@@ -388,7 +399,7 @@ pub enum Step {
 )]
 struct StepFields {
     #[serde(default, deserialize_with = "present")]
-    command: Option<serde_json::Value>,
+    command: Option<GroupCommand>,
     #[serde(default, deserialize_with = "present")]
     wait: Option<String>,
     #[serde(default, deserialize_with = "present")]
@@ -626,157 +637,30 @@ impl ActuatorType {
     }
 }
 
-/// Reads a state value (idle, lockout, or a command target) for this signal.
+/// Reads a command target given as JSON for this signal: true/false, or a number within the range.
 pub fn state_value(signal: Signal, range: Range, value: &serde_json::Value) -> Result<f64, String> {
-    match (signal, value) {
-        (Signal::Binary, serde_json::Value::Bool(on)) => Ok(if *on { 1.0 } else { 0.0 }),
-        (Signal::Binary, other) => Err(format!("must be true or false, got {}", quote(other))),
-        (Signal::Analog, serde_json::Value::Number(n)) => {
-            let v = n.as_f64().unwrap_or(f64::NAN);
-            if v.is_finite() && v >= range.min && v <= range.max {
-                Ok(v)
-            } else {
-                Err(format!(
-                    "must be within {}..{}, got {}",
-                    quote(range.min),
-                    quote(range.max),
-                    quote(v)
-                ))
-            }
-        }
-        (Signal::Analog, other) => Err(format!(
-            "must be a number within {}..{}, got {}",
-            quote(range.min),
-            quote(range.max),
-            quote(other)
-        )),
-    }
-}
-
-/// Why a group command payload cannot be read.
-#[derive(Clone, Debug, PartialEq)]
-pub enum GroupError {
-    /// The command cannot be read.
-    Invalid(String),
-    /// An actuator the plant does not have.
-    UnknownActuator(String),
-    /// A target the actuator cannot take.
-    InvalidTarget {
-        /// The actuator's id.
-        actuator: String,
-        /// Why.
-        reason: String,
-    },
-    /// The command names no actuator.
-    Empty,
-}
-
-impl fmt::Display for GroupError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Invalid(reason) => write!(f, "invalid group command: {reason}"),
-            Self::UnknownActuator(name) => write!(f, "unknown actuator '{}'", quote(name)),
-            Self::InvalidTarget { actuator, reason } => {
-                write!(f, "target for '{}' {reason}", quote(actuator))
-            }
-            Self::Empty => write!(f, "the group command names no actuator"),
-        }
-    }
+    Setpoint::from_json(value)
+        .ok_or_else(|| setpoint::wrong_setpoint(signal, range, value))?
+        .position(signal, range)
 }
 
 impl PlantModel {
-    /// Reads a group command such as `{"valves": {"V12": 100, "V13": 0}, "pumps": {"P1": true}}`
-    /// into (actuator index, target): each key is an actuator type (or its plural),
-    /// each id must be of that type. `index` finds an actuator by id.
-    pub fn group_targets(
-        &self,
-        payload: &serde_json::Value,
-        index: &dyn Fn(&str) -> Option<usize>,
-    ) -> Result<Vec<(usize, f64)>, GroupError> {
-        let groups = payload.as_object().ok_or_else(|| {
-            GroupError::Invalid(format!(
-                "expected an object such as {{\"valves\": {{\"V12\": 100}}}}, got {}",
-                quote(payload)
-            ))
-        })?;
-        let mut targets = Vec::new();
-        for (key, members) in groups {
-            let kind = key
-                .strip_suffix('s')
-                .filter(|k| self.actuator_types.contains_key(*k))
-                .unwrap_or(key);
-            let Some(t) = self.actuator_types.get(kind) else {
-                let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
-                return Err(GroupError::Invalid(format!(
-                    "unknown actuator type '{}' (known: {})",
-                    quote(key),
-                    quote(known.join(", "))
-                )));
-            };
-            let members = members.as_object().ok_or_else(|| {
-                GroupError::Invalid(format!(
-                    "'{}' must map actuator ids to targets, got {}",
-                    quote(key),
-                    quote(members)
-                ))
-            })?;
-            for (name, value) in members {
-                // Quoted here: the name goes on into messages built elsewhere.
-                let i = index(name).ok_or_else(|| GroupError::UnknownActuator(quote(name)))?;
-                let a = &self.actuators[i];
-                if a.kind != kind {
-                    return Err(GroupError::Invalid(format!(
-                        "'{}' is a {}, not a {kind}",
-                        quote(name),
-                        a.kind
-                    )));
-                }
-                let target =
-                    state_value(t.signal, t.range(a.tolerance), value).map_err(|reason| {
-                        GroupError::InvalidTarget {
-                            actuator: name.clone(),
-                            reason,
-                        }
-                    })?;
-                targets.push((i, target));
-            }
-        }
-        if targets.is_empty() {
-            return Err(GroupError::Empty);
-        }
-        Ok(targets)
-    }
-
-    /// Whether `key` names an actuator type (or its plural), as group commands' keys do.
-    pub fn is_group_key(&self, key: &str) -> bool {
-        self.actuator_types.contains_key(key)
-            || key
-                .strip_suffix('s')
-                .is_some_and(|k| self.actuator_types.contains_key(k))
-    }
-
     /// The group command that isolates a resource: its configured lockout, or
     /// every member actuator at its lockout state. None when it has neither.
-    pub fn lockout_of(&self, resource: &str) -> Option<serde_json::Value> {
+    pub fn lockout_of(&self, resource: &str) -> Option<GroupCommand> {
         let r = self.resources.iter().find(|r| r.id == resource)?;
         if let Some(lockout) = &r.lockout {
             return Some(lockout.clone());
         }
-        let mut groups = serde_json::Map::new();
+        let mut command = GroupCommand::default();
         for a in self
             .actuators
             .iter()
             .filter(|a| a.resource.as_deref() == Some(resource))
         {
-            let group = groups
-                .entry(format!("{}s", a.kind))
-                .or_insert_with(|| serde_json::Value::Object(Default::default()));
-            group
-                .as_object_mut()
-                .expect("made as an object")
-                .insert(a.id.clone(), a.lockout.clone());
+            command.set(&GroupKeys::plural(&a.kind), &a.id, a.lockout);
         }
-        (!groups.is_empty()).then_some(serde_json::Value::Object(groups))
+        (!command.is_empty()).then_some(command)
     }
 
     /// The interlock's configuration for this plant: its resources with their lockouts.
@@ -785,7 +669,11 @@ impl PlantModel {
             self.resources.iter().map(|r| r.id.clone()),
         );
         for r in &mut config.resources {
-            r.lockout = self.lockout_of(&r.name).unwrap_or_default();
+            // Booleans and finite numbers under string keys: always JSON.
+            r.lockout = self
+                .lockout_of(&r.name)
+                .and_then(|command| serde_json::to_value(command).ok())
+                .unwrap_or_default();
         }
         config
     }
@@ -825,396 +713,92 @@ impl PlantModel {
     }
 }
 
-fn topic_safe(name: &str) -> bool {
-    !name.is_empty() && !name.contains(['/', '+', '#']) && !name.chars().any(char::is_whitespace)
+impl PlantModel {
+    /// Every problem in the document, or the warnings of a sound one. Each
+    /// check is run once by [`Plant::new`], which keeps the warnings.
+    pub fn validate(&self) -> Result<Vec<PlantWarning>, PlantErrors> {
+        validate::check(self).map(|checked| checked.warnings)
+    }
 }
 
-impl PlantModel {
-    /// Every problem in the document, or the warnings of a sound one.
-    pub fn validate(&self) -> Result<Vec<PlantWarning>, PlantErrors> {
-        let mut errors = Vec::new();
-        let mut warnings = Vec::new();
-        let mut push = |path: String, message: String| errors.push(PlantError { path, message });
+/// A plant document that passed every check: read and checked once, with
+/// its warnings, the keys and ids its group commands name, and its MQTT
+/// contract. Reads as the document it was made from.
+///
+/// ```
+/// use sugarshack_core::plant::{Plant, PlantModel};
+///
+/// let doc = serde_json::json!({
+///   "actuatorTypes": { "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 } },
+///   "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
+///   "actuators": [{ "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false }]
+/// });
+/// let plant = Plant::new(serde_json::from_value::<PlantModel>(doc).unwrap()).unwrap();
+/// assert!(plant.warnings().is_empty());
+/// assert_eq!(plant.group_targets(&serde_json::json!({ "pumps": { "P1": true } })), Ok(vec![(0, 1.0)]));
+/// assert!(plant.group_targets(&serde_json::json!({ "pumps": { "P1": 1 } })).is_err());
+/// ```
+#[derive(Clone, Debug)]
+pub struct Plant {
+    model: PlantModel,
+    warnings: Vec<PlantWarning>,
+    targeting: Targeting,
+    contract: Contract,
+}
 
-        for (name, t) in &self.actuator_types {
-            let path = format!("actuatorTypes.{}", quote(name));
-            if !topic_safe(name) {
-                push(
-                    path.clone(),
-                    "a type name is a topic component: no spaces, '/', '+' or '#'".into(),
-                );
-            }
-            for (field, value) in [
-                ("noMotionMs", t.no_motion_ms),
-                ("completionMs", t.completion_ms),
-                ("staleMs", t.stale_ms),
-            ] {
-                if value == 0 {
-                    push(path.clone(), format!("{field} must be positive"));
-                }
-            }
-            if t.no_motion_ms > t.completion_ms {
-                push(
-                    path.clone(),
-                    "noMotionMs must not exceed completionMs".into(),
-                );
-            }
-            if t.signal == Signal::Analog {
-                let r = t.range(None);
-                if !(r.min.is_finite() && r.max.is_finite() && r.min < r.max) {
-                    push(
-                        path.clone(),
-                        format!(
-                            "min ({}) must be below max ({})",
-                            quote(r.min),
-                            quote(r.max)
-                        ),
-                    );
-                }
-                if !(r.tolerance >= 0.0 && r.tolerance < (r.max - r.min) / 2.0) {
-                    push(
-                        path.clone(),
-                        format!(
-                            "tolerance must be at least 0 and less than half the range, got {}",
-                            quote(r.tolerance)
-                        ),
-                    );
-                }
-            } else if t.min.is_some() || t.max.is_some() || t.tolerance.is_some() {
-                push(
-                    path.clone(),
-                    "a binary type has no min, max or tolerance".into(),
-                );
-            }
-        }
+impl Plant {
+    /// Checks the document once; every problem with its path when it is not sound.
+    pub fn new(model: PlantModel) -> Result<Plant, PlantErrors> {
+        let checked = validate::check(&model)?;
+        Ok(Plant {
+            model,
+            warnings: checked.warnings,
+            targeting: checked.targeting,
+            contract: checked.contract,
+        })
+    }
 
-        let mut devices = HashMap::new();
-        let mut profiles = HashMap::new();
-        for (i, d) in self.devices.iter().enumerate() {
-            let path = format!("devices[{i}] ({})", quote(&d.id));
-            if d.prefix.is_none() && !topic_safe(&d.id) {
-                push(
-                    path.clone(),
-                    "a device id is its topic prefix: no spaces, '/', '+' or '#' (or give it a 'prefix')".into(),
-                );
-            }
-            profiles.insert(d.id.as_str(), d.profile);
-            if devices.insert(d.id.as_str(), d.kind).is_some() {
-                push(path, format!("device '{}' is defined twice", quote(&d.id)));
-            }
-        }
+    /// The document as read.
+    pub fn model(&self) -> &PlantModel {
+        &self.model
+    }
 
-        let mut ids = HashSet::new();
-        let mut slots = HashSet::new();
-        for (i, a) in self.actuators.iter().enumerate() {
-            let path = format!("actuators[{i}] ({})", quote(&a.id));
-            if a.id.trim().is_empty() {
-                push(path.clone(), "an actuator needs an id".into());
-            }
-            if !ids.insert(a.id.as_str()) {
-                push(path.clone(), format!("id '{}' is used twice", quote(&a.id)));
-            }
-            match devices.get(a.device.as_str()) {
-                None => push(
-                    path.clone(),
-                    format!("unknown device '{}'", quote(&a.device)),
-                ),
-                Some(DeviceKind::SensorStation) => push(
-                    path.clone(),
-                    format!(
-                        "device '{}' is a sensor station, not an actuator panel",
-                        quote(&a.device)
-                    ),
-                ),
-                Some(DeviceKind::ActuatorPanel) => {}
-            }
-            if a.io == Some(0) {
-                push(path.clone(), "io numbers start at 1".into());
-            }
-            let sugarshack = profiles.get(a.device.as_str()) == Some(&Profile::Sugarshack);
-            if let Some(io) = a.io.filter(|_| sugarshack) {
-                if !slots.insert((a.device.as_str(), a.kind.as_str(), io)) {
-                    push(
-                        path.clone(),
-                        format!(
-                            "{} {} io {} is already taken by another actuator",
-                            quote(&a.device),
-                            quote(&a.kind),
-                            io
-                        ),
-                    );
-                }
-            }
-            let Some(t) = self.actuator_types.get(&a.kind) else {
-                let known: Vec<&str> = self.actuator_types.keys().map(String::as_str).collect();
-                push(
-                    path,
-                    format!(
-                        "unknown type '{}' (known: {})",
-                        quote(&a.kind),
-                        quote(known.join(", "))
-                    ),
-                );
-                continue;
-            };
-            if t.signal == Signal::Binary && a.tolerance.is_some() {
-                push(path.clone(), "a binary actuator has no tolerance".into());
-            }
-            let range = t.range(a.tolerance);
-            if let Some(tol) = a.tolerance {
-                if !(tol >= 0.0 && tol < (range.max - range.min) / 2.0) {
-                    push(
-                        path.clone(),
-                        format!(
-                            "tolerance must be at least 0 and less than half the range, got {}",
-                            quote(tol)
-                        ),
-                    );
-                }
-            }
-            for (field, value) in [("idle", a.idle.as_ref()), ("lockout", Some(&a.lockout))] {
-                if let Some(Err(why)) = value.map(|v| state_value(t.signal, range, v)) {
-                    push(path.clone(), format!("{field} {why}"));
-                }
-            }
-        }
+    /// What the document holds that is legal but probably unintended.
+    pub fn warnings(&self) -> &[PlantWarning] {
+        &self.warnings
+    }
 
-        for (i, s) in self.sensors.iter().enumerate() {
-            let path = format!("sensors[{i}] ({})", quote(&s.id));
-            if !ids.insert(s.id.as_str()) {
-                push(path.clone(), format!("id '{}' is used twice", quote(&s.id)));
-            }
-            if !devices.contains_key(s.device.as_str()) {
-                push(
-                    path.clone(),
-                    format!("unknown device '{}'", quote(&s.device)),
-                );
-            }
-            if !topic_safe(&s.name) {
-                push(
-                    path.clone(),
-                    "a datapoint name is a topic component: no spaces, '/', '+' or '#'".into(),
-                );
-            }
-            if s.stale_ms == Some(0) {
-                push(path.clone(), "staleMs must be positive".into());
-            }
-            if s.update_ms == Some(0) {
-                push(path, "updateMs must be positive".into());
-            }
-        }
+    /// The MQTT topics and payloads of its devices.
+    pub fn contract(&self) -> &Contract {
+        &self.contract
+    }
 
-        if let Err(problems) = crate::topics::Contract::new(self) {
-            errors.extend(problems);
-        }
-        let mut push = |path: String, message: String| errors.push(PlantError { path, message });
+    /// Reads a group command given at run time, such as
+    /// `{"valves": {"V12": 100, "V13": 0}, "pumps": {"P1": true}}`, into
+    /// (actuator index, position): each key an actuator type or its plural,
+    /// each id an actuator of that type, each target one it can take.
+    pub fn group_targets(
+        &self,
+        payload: &serde_json::Value,
+    ) -> Result<Vec<(usize, f64)>, GroupError> {
+        self.targeting.read(&self.model, payload)
+    }
 
-        let resources: HashSet<&str> = self.resources.iter().map(|r| r.id.as_str()).collect();
-        for (i, a) in self.actuators.iter().enumerate() {
-            if let Some(r) = a.resource.as_deref().filter(|r| !resources.contains(r)) {
-                push(
-                    format!("actuators[{i}] ({})", quote(&a.id)),
-                    format!("unknown resource '{}'", quote(r)),
-                );
-            }
-        }
-        let mut seen = HashSet::new();
-        for (i, r) in self.resources.iter().enumerate() {
-            let path = format!("resources[{i}] ({})", quote(&r.id));
-            if !seen.insert(r.id.as_str()) {
-                push(
-                    path.clone(),
-                    format!("resource '{}' is defined twice", quote(&r.id)),
-                );
-            }
-            if self.lockout_of(&r.id).is_none() {
-                push(
-                    path,
-                    "no lockout command: give it one, or actuators that belong to it".into(),
-                );
-            }
-        }
+    /// The index of actuator `id` in the document's list.
+    pub fn actuator(&self, id: &str) -> Option<usize> {
+        self.targeting.actuator(id)
+    }
 
-        let actuator_index: HashMap<&str, usize> = self
-            .actuators
-            .iter()
-            .enumerate()
-            .map(|(i, a)| (a.id.as_str(), i))
-            .collect();
-        let index = |name: &str| actuator_index.get(name).copied();
-        let sensors: HashSet<&str> = self.sensors.iter().map(|s| s.id.as_str()).collect();
-        let unknown_sensors = |names: &[String]| -> Vec<String> {
-            names
-                .iter()
-                .filter(|n| !sensors.contains(n.as_str()))
-                .cloned()
-                .collect()
-        };
-        let mut operations = HashMap::new();
-        let mut priorities: HashMap<i32, &str> = HashMap::new();
-        for (i, op) in self.operations.iter().enumerate() {
-            let path = format!("operations[{i}] ({})", quote(&op.id));
-            if operations.insert(op.id.as_str(), i).is_some() {
-                push(
-                    path.clone(),
-                    format!("operation '{}' is defined twice", quote(&op.id)),
-                );
-            }
-            if let Some(other) = priorities.insert(op.priority, &op.id) {
-                warnings.push(PlantWarning {
-                    path: path.clone(),
-                    message: format!("priority {} is also operation '{}''s: equal priorities are granted first come, first served", op.priority, quote(other)),
-                });
-            }
-            if op.resources.is_empty() {
-                push(
-                    path.clone(),
-                    "an operation acquires at least one resource".into(),
-                );
-            }
-            for r in op
-                .resources
-                .iter()
-                .filter(|r| !resources.contains(r.as_str()))
-            {
-                push(path.clone(), format!("unknown resource '{}'", quote(r)));
-            }
-            if op.steps.is_empty() {
-                push(path.clone(), "an operation has at least one step".into());
-            }
-            for (j, step) in op.steps.iter().enumerate() {
-                let path = format!("{path}.steps[{j}]");
-                match step {
-                    Step::Command {
-                        command,
-                        timeout_ms,
-                    } => {
-                        if *timeout_ms == 0 {
-                            push(path.clone(), "timeoutMs must be positive".into());
-                        }
-                        let targets = match self.group_targets(command, &index) {
-                            Ok(targets) => targets,
-                            Err(err) => {
-                                push(path, err.to_string());
-                                continue;
-                            }
-                        };
-                        for (a, _) in targets {
-                            let a = &self.actuators[a];
-                            match a.resource.as_deref() {
-                                Some(r) if op.resources.iter().any(|o| o == r) => {}
-                                Some(r) => push(
-                                    path.clone(),
-                                    format!("C2: commands '{}' on resource '{}', outside the operation's resources ({})", quote(&a.id), quote(r), quote(op.resources.join(", "))),
-                                ),
-                                None => push(path.clone(), format!("C2: commands '{}', which belongs to no resource", quote(&a.id))),
-                            }
-                            if a.idle.is_none() {
-                                push(
-                                    path.clone(),
-                                    format!(
-                                        "C3: commands '{}', which has no idle state to return to",
-                                        quote(&a.id)
-                                    ),
-                                );
-                            }
-                        }
-                    }
-                    Step::Wait {
-                        wait,
-                        sensors,
-                        timeout_ms,
-                    } => {
-                        if wait.trim().is_empty() {
-                            push(path.clone(), "the condition is empty".into());
-                        }
-                        if *timeout_ms == 0 {
-                            push(path.clone(), "timeoutMs must be positive".into());
-                        }
-                        for s in unknown_sensors(sensors) {
-                            push(path.clone(), format!("unknown sensor '{}'", quote(s)));
-                        }
-                    }
-                }
-            }
-        }
+    /// Whether `key` names an actuator type (or its plural), as group commands' keys do.
+    pub fn is_group_key(&self, key: &str) -> bool {
+        self.targeting.kind(key).is_some()
+    }
+}
 
-        let mut owner: HashMap<&str, &str> = HashMap::new();
-        let mut routine_ids = HashSet::new();
-        for (i, routine) in self.routines.iter().enumerate() {
-            let path = format!("routines[{i}] ({})", quote(&routine.id));
-            if !routine_ids.insert(routine.id.as_str()) {
-                push(
-                    path.clone(),
-                    format!("routine '{}' is defined twice", quote(&routine.id)),
-                );
-            }
-            let states: HashSet<&str> = routine.states.iter().map(String::as_str).collect();
-            if states.len() != routine.states.len() {
-                push(path.clone(), "a state is listed twice".into());
-            }
-            for (field, state) in [
-                ("initial", Some(&routine.initial)),
-                ("errorState", routine.error_state.as_ref()),
-            ] {
-                if let Some(state) = state.filter(|s| !states.contains(s.as_str())) {
-                    push(
-                        path.clone(),
-                        format!("{field} '{}' is not one of its states", quote(state)),
-                    );
-                }
-            }
-            let mut mine = HashSet::new();
-            for (j, t) in routine.transitions.iter().enumerate() {
-                let path = format!("{path}.transitions[{j}]");
-                for state in [&t.from, &t.to]
-                    .into_iter()
-                    .filter(|s| !states.contains(s.as_str()))
-                {
-                    push(path.clone(), format!("unknown state '{}'", quote(state)));
-                }
-                if !operations.contains_key(t.operation.as_str()) {
-                    push(
-                        path.clone(),
-                        format!("unknown operation '{}'", quote(&t.operation)),
-                    );
-                } else if mine.insert(t.operation.as_str()) {
-                    if let Some(other) = owner.insert(t.operation.as_str(), routine.id.as_str()) {
-                        push(
-                            path.clone(),
-                            format!("C1: operation '{}' already belongs to routine '{}'; an operation belongs to one routine", quote(&t.operation), quote(other)),
-                        );
-                    }
-                }
-                if matches!(&t.trigger, Trigger::Msg { msg } if msg == RESET_TOPIC) {
-                    push(
-                        path.clone(),
-                        format!("the msg topic '{RESET_TOPIC}' is reserved: it sends the routine back to its initial state, so this transition could never fire; give it another topic"),
-                    );
-                }
-                if let Trigger::When {
-                    when,
-                    sensors,
-                    every_ms,
-                } = &t.trigger
-                {
-                    if when.trim().is_empty() {
-                        push(path.clone(), "the condition is empty".into());
-                    }
-                    if *every_ms == 0 {
-                        push(path.clone(), "everyMs must be positive".into());
-                    }
-                    for s in unknown_sensors(sensors) {
-                        push(path.clone(), format!("unknown sensor '{}'", quote(s)));
-                    }
-                }
-            }
-        }
+impl Deref for Plant {
+    type Target = PlantModel;
 
-        if errors.is_empty() {
-            Ok(warnings)
-        } else {
-            Err(PlantErrors(errors))
-        }
+    fn deref(&self) -> &PlantModel {
+        &self.model
     }
 }

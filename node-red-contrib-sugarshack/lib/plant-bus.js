@@ -1,0 +1,302 @@
+'use strict';
+// A plant's MQTT side: the actuators nodes that speak for its devices, the
+// device msgs they hand in (read by the core's topics module), the publishes
+// and event msgs that leave from them, and whether each one's broker is up.
+// Which topic is whose, and what a payload on a foreign topic means, is decided
+// here (and by the core it asks); everything else about a msg is the core's.
+const { journal } = require('./journal/bus');
+const { clock } = require('./clock');
+const wasm = require('./wasm');
+
+// Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
+const MAX_WARNED = 1000;
+// Publishes kept while a deploy has no actuators node serving their device yet.
+const MAX_UNSENT = 10000;
+// JSON text on a foreign topic longer than this is taken as a (too large) group command unread.
+const COMMAND_TEXT_MAX = 64 * 1024;
+
+class PlantBuses {
+  /** plant: the PlantRuntime (its core `t`, device ids and handles, effects pump and status). */
+  constructor(plant) {
+    this.plant = plant;
+    this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
+    this.offline = new Set(); // device handles, as the core last reported them
+    this.unserved = new Set(); // device ids already reported as served by no actuators node
+    this.unsent = []; // publishes waiting for an actuators node during a deploy
+  }
+
+  /**
+   * An actuators node: it speaks for `names` (device ids), or for every device
+   * when null; `broker`: its mqtt-broker config node, watched to know when the
+   * MQTT path is down. A new instance of a deployed node takes its place.
+   */
+  add(node, names, broker, resolve) {
+    this.list = this.list.filter((b) => b.nodeId !== node.id);
+    const bus = { nodeId: node.id, node, names, devices: null, bad: 0, ignored: 0, warned: new Set(), broker: broker || null, connected: null };
+    if (resolve) this.resolveDevices(bus);
+    this.list.push(bus);
+    this.unserved.clear();
+    this.sendUnsent();
+  }
+
+  /** The device handles of every bus, against the document in force. */
+  resolveAll() {
+    for (const bus of this.list) this.resolveDevices(bus);
+  }
+
+  resolveDevices(bus) {
+    if (!bus.names) return;
+    const { deviceIndex, devices } = this.plant;
+    bus.devices = new Set();
+    bus.deviceHandles = null;
+    for (const name of bus.names) {
+      const handle = deviceIndex.get(name);
+      if (handle === undefined) {
+        bus.node.error(`unknown device '${name}' in this node's device list (the plant has ${devices.join(', ')}); it is ignored`);
+      } else {
+        bus.devices.add(handle);
+      }
+    }
+  }
+
+  remove(node) {
+    this.list = this.list.filter((b) => b.node !== node);
+  }
+
+  of(node) {
+    return this.list.find((b) => b.node === node);
+  }
+
+  /** The first actuators node serving the device (its MQTT msgs and events leave from it). */
+  serving(device) {
+    return this.list.find((b) => !b.devices || b.devices.has(device)) || null;
+  }
+
+  /** How many of the devices a bus serves (or of all, for none) the core last reported offline. */
+  offlineOn(bus) {
+    if (!bus || !bus.devices) return this.offline.size;
+    return [...bus.devices].filter((d) => this.offline.has(d)).length;
+  }
+
+  // ---- device msgs in ------------------------------------------------------
+
+  /**
+   * Hands a device msg (its topic and payload) to the core, which reads it by
+   * the plant's device profiles and applies it. Returns false when the msg is
+   * a group command: its topic is no device's, and it comes from the flow or
+   * carries a group command. Other MQTT traffic on topics of no device
+   * (discovery, other devices: `fromMqtt`) is ignored and counted; bad input
+   * is warned about, counted and skipped.
+   */
+  feedback(node, topic, payload, fromMqtt) {
+    if (typeof topic !== 'string' || topic === '') return false;
+    const { plant } = this;
+    const { t } = plant;
+    const bus = this.of(node);
+    if (bus && bus.devices) {
+      const device = t.topicDevice(topic);
+      if (device !== undefined && !bus.devices.has(device)) {
+        this.malformed(bus, topic, plant.devices[device], 'device not served', `device '${plant.devices[device]}' is not in this node's device list`);
+        plant.refreshStatus(node);
+        return true;
+      }
+    }
+    const now = clock.now();
+    const text = payloadText(payload);
+    const kind = text === null ? t.ingestBytes(topic, payload, now) : t.ingest(topic, text, now);
+    const { Ingest } = wasm.load();
+    if (kind === Ingest.Foreign) return fromMqtt && this.foreign(bus, payload);
+    if (kind === Ingest.Other) return true;
+    if (kind === Ingest.Samples) plant.sensors.sampled(now);
+    plant.flush({ bus, topic });
+    return true;
+  }
+
+  /** An MQTT msg on a topic of no device: a group command if it carries one, else someone else's traffic (ignored, counted). */
+  foreign(bus, payload) {
+    if (commandLike(payload, (key) => this.plant.t.isGroupKey(key))) return false;
+    if (bus) {
+      bus.ignored += 1;
+      this.plant.refreshStatus(bus.node);
+    }
+    return true;
+  }
+
+  malformed(bus, topic, device, reason, message) {
+    if (!bus) return;
+    bus.bad += 1;
+    this.warnOnce(bus, topic, reason, `ignored ${clip(topic)}: ${message}`);
+    this.emit(bus, `actuator/malformed/${device}`, { kind: 'malformed', device, topic, reason, message, count: bus.bad });
+  }
+
+  /** A sample the core refused (`source`: the feedback msg's bus and topic, when it came from one). */
+  reject(e, source) {
+    const a = this.plant.actuators[e.actuator];
+    const bus = (source && source.bus) || this.serving(a.deviceHandle);
+    if (!bus) return;
+    bus.bad += 1;
+    this.warnOnce(bus, source ? source.topic : a.device, e.code, `ignored a sample in ${source ? source.topic : a.device}: ${e.message}`);
+    this.emit(bus, `actuator/rejected/${a.id}`, { ...e, actuator: a.id, topic: source ? source.topic : null, count: bus.bad });
+  }
+
+  warnOnce(bus, topic, reason, text) {
+    // Keyed by the start of the topic: a stream of long distinct topics must not grow the set by their size.
+    const key = `${String(topic).slice(0, 200)}\u0000${reason}`;
+    if (bus.warned.has(key) || bus.warned.size >= MAX_WARNED) return;
+    bus.warned.add(key);
+    bus.node.warn(text);
+  }
+
+  // ---- msgs out ------------------------------------------------------------
+
+  publish(e) {
+    const { plant } = this;
+    const name = plant.devices[e.device];
+    const bus = this.serving(e.device);
+    if (!bus) {
+      if (plant.palette && !plant.palette.started) {
+        // A deploy in progress: the actuators node serving it comes back in a moment.
+        if (this.unsent.length < MAX_UNSENT) this.unsent.push(e);
+        return;
+      }
+      if (!this.unserved.has(name)) {
+        this.unserved.add(name);
+        plant.log('error', `no actuators node serves device '${name}': ${e.topic} "${e.payload}" was not sent `
+          + `(add an actuators node for all devices, or list ${name} in one)`);
+      }
+      return;
+    }
+    bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
+  }
+
+  sendUnsent() {
+    const unsent = this.unsent;
+    this.unsent = [];
+    for (const e of unsent) this.publish(e);
+  }
+
+  deviceStatus(e) {
+    if (e.online) this.offline.delete(e.device);
+    else this.offline.add(e.device);
+    const name = this.plant.devices[e.device];
+    this.emit(this.serving(e.device), `actuator/deviceStatus/${name}`, { ...e, device: name });
+  }
+
+  /** Report by exception, motion, completion, faults...: an event msg from the node serving the actuator. */
+  emitActuator(e) {
+    const a = this.plant.actuators[e.actuator];
+    if (!a) return;
+    const bus = this.serving(a.deviceHandle);
+    if (!journal.active && !(bus && bus.node && eventsWired(bus.node))) return;
+    const payload = { ...e, actuator: a.id };
+    journal.event('actuator', e.kind, a.id, e);
+    if (e.caller !== undefined) payload.msgid = this.plant.commands.msgId(e.caller);
+    this.emit(bus, `actuator/${e.kind}/${a.id}`, payload);
+  }
+
+  emit(bus, topic, payload) {
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, { topic, payload }]);
+  }
+
+  /**
+   * The palette sees its MQTT path through each actuators node's broker config
+   * node (`mqtt out` drops publishes while disconnected without telling anyone):
+   * when it comes back, every commanded state and standing lockout is sent again.
+   */
+  watchBrokers() {
+    const { plant } = this;
+    let restored = false;
+    for (const bus of this.list) {
+      if (!bus.broker) continue;
+      const connected = Boolean(bus.broker.connected);
+      // First seen up, or back up: what went out before may have been dropped.
+      if (bus.connected !== true && connected) restored = true;
+      if (bus.connected !== connected) {
+        bus.connected = connected;
+        this.emit(bus, 'actuator/mqtt', { kind: 'mqtt', connected });
+        plant.refreshStatus(bus.node);
+      }
+    }
+    if (restored && plant.t.pathRestored(clock.now()) > 0) plant.flush(null);
+  }
+}
+
+/**
+ * Whether an actuators node's events output (its third) is wired: at plant
+ * scale an event msg per changed value costs as much as the feedback itself,
+ * and one wired to nothing goes nowhere.
+ */
+function eventsWired(node) {
+  return !Array.isArray(node.wires) || (Array.isArray(node.wires[2]) && node.wires[2].length > 0);
+}
+
+/**
+ * Whether a payload on a foreign topic is meant as a group command: an
+ * object with a group command key (`isGroupKey`, the core's), or JSON text
+ * that is not an object without one (so that a broken command is refused,
+ * not ignored).
+ */
+function commandLike(payload, isGroupKey) {
+  let value = payload;
+  if (typeof payload === 'string') {
+    const start = payload.trimStart()[0];
+    if (start === '[') return true;
+    if (start !== '{') return false;
+    if (payload.length > COMMAND_TEXT_MAX) return true;
+    try {
+      value = JSON.parse(payload);
+    } catch {
+      return true;
+    }
+  }
+  if (value === null || typeof value !== 'object' || Buffer.isBuffer(value)) return false;
+  if (Array.isArray(value)) return true;
+  const keys = Object.keys(value);
+  for (let i = 0; i < keys.length && i < 100; i++) if (isGroupKey(keys[i])) return true;
+  return false;
+}
+
+/**
+ * A payload as the text its device sent: `mqtt in` hands over text, a Buffer
+ * (null here: passed as bytes), or what auto-detect parsed from JSON text.
+ */
+function payloadText(payload) {
+  if (typeof payload === 'string') return payload;
+  try {
+    if (payload instanceof Uint8Array) return null; // a Buffer too
+  } catch (err) {
+    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`); // a revoked proxy
+  }
+  if (payload === undefined) return '';
+  return jsonText(payload, true);
+}
+
+/**
+ * JSON text of a value; one that cannot be written (circular, too deep, a
+ * getter that throws) becomes a string saying so, which the core refuses as
+ * it would any wrong value: at the top, or in its own field (`value`).
+ */
+function jsonText(value, top) {
+  try {
+    const text = JSON.stringify(value);
+    return text === undefined ? JSON.stringify(String(value)) : text;
+  } catch (err) {
+    if (top && value !== null && typeof value === 'object' && !Array.isArray(value)) {
+      try {
+        const fields = Object.keys(value).slice(0, 1000).map((k) => `${JSON.stringify(k)}:${jsonText(value[k], false)}`);
+        return `{${fields.join(',')}}`;
+      } catch {
+        // a proxy or getter that throws on its keys: unreadable as a whole
+      }
+    }
+    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`);
+  }
+}
+
+/** A value as a short quote for a log line. */
+function clip(value) {
+  const s = String(value);
+  return s.length > 60 ? `${s.slice(0, 57)}...` : s;
+}
+
+module.exports = { PlantBuses };

@@ -1,0 +1,249 @@
+'use strict';
+// A plant's group commands in flight: each one the core is carrying out, by
+// its caller id, with what waits for its outcome (a msg held by a group command
+// or actuators node, an operation step, a lockout), its timeout, and the
+// actuators that completed so far. The core says when one completes or fails.
+const { SugarshackError } = require('./errors');
+const { PendingRegistry, heldMsg } = require('./pending');
+const { seconds } = require('./plant');
+const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
+const { readMsg } = require('./request');
+const { stats } = require('./stats');
+const { clock } = require('./clock');
+
+const MAX_CALLER = 0xffffffff;
+
+class GroupCommands {
+  /** plant: the PlantRuntime (its core `t`, guard, effects pump and status). */
+  constructor(plant) {
+    this.plant = plant;
+    this.pending = new PendingRegistry(); // caller -> held group command
+    this.nextCaller = 0;
+  }
+
+  /**
+   * Issues msg.payload as a group command and holds the msg until it completes;
+   * it then leaves `node` on output `output` (of `outputs`). Throws the core's refusal.
+   * `within`: the resources the commanding operation holds; a command outside them is refused (C2).
+   */
+  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
+    const { plant } = this;
+    // The msg is read again here: a getter or proxy that throws is the sender's error (INVALID_INPUT).
+    const { payload, lockout } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg) }));
+    const caller = this.newCaller();
+    const now = clock.now();
+    plant.t.command(payload, caller, lockout, now, within);
+    plant.statusView.dropRefusal(node);
+    const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
+    this.hold(caller, entry, timeoutMs);
+    plant.flush(null);
+  }
+
+  /**
+   * A group command of an operation's run (not gated by a drain: the run must
+   * finish). `onDone(err)` gets the outcome; returns a function that withdraws it.
+   */
+  run({ payload, timeoutMs, within, onDone }) {
+    const { plant } = this;
+    const caller = this.newCaller();
+    const now = clock.now();
+    plant.guard(() => plant.t.command(payload, caller, false, now, within));
+    const entry = callbackEntry({ payload, onDone, sinceMs: now });
+    this.hold(caller, entry, timeoutMs);
+    plant.flush(null);
+    return () => {
+      if (this.pending.get(caller) !== entry) return;
+      this.pending.take(caller);
+      plant.guard(() => plant.t.withdraw(caller));
+      plant.refreshStatus();
+    };
+  }
+
+  /**
+   * Sends lockout commands ([{ resource, command }]) of faulted lines. The core
+   * keeps each one as a standing order until feedback confirms it, re-sending it
+   * whatever happens to this call; a refusal here is logged.
+   */
+  lockouts(lockouts, operation) {
+    const { plant } = this;
+    const faultAtMs = clock.now();
+    for (const { resource, command } of lockouts) {
+      const onDone = (err) => {
+        if (err) plant.log('warn', `lockout of ${resource} is not confirmed yet (${err.message}); it is sent again until it is`);
+      };
+      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
+      try {
+        const caller = this.newCaller();
+        plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined));
+        const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
+        this.hold(caller, entry, 0);
+        plant.flush(null);
+      } catch (err) {
+        plant.log('error', `lockout of ${resource} could not be sent: ${err.message}`);
+      }
+    }
+  }
+
+  hold(caller, entry, timeoutMs) {
+    this.pending.add(caller, entry);
+    if (timeoutMs > 0) entry.timer = clock.setTimeout(() => this.expire(caller, entry, timeoutMs), timeoutMs);
+  }
+
+  newCaller() {
+    do {
+      this.nextCaller = this.nextCaller >= MAX_CALLER ? 1 : this.nextCaller + 1;
+    } while (this.pending.has(this.nextCaller));
+    return this.nextCaller;
+  }
+
+  expire(caller, entry, timeoutMs) {
+    const { plant } = this;
+    if (plant.state !== 'ready' || this.pending.get(caller) !== entry) return;
+    this.pending.take(caller);
+    try {
+      plant.guard(() => plant.t.withdraw(caller));
+    } catch (err) {
+      plant.log('error', err.message);
+    }
+    const completed = new Set(entry.completed.map((c) => c.actuator));
+    const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
+    if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
+    if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
+    entry.refuse(new SugarshackError(
+      'COMMAND_TIMEOUT',
+      `group command did not complete within ${seconds(timeoutMs)}: ${waiting.join(', ')} had not completed; `
+        + 'the command was withdrawn (its actuators keep their last command)',
+    ));
+    plant.refreshStatus();
+  }
+
+  // ---- what the held msgs are ----------------------------------------------
+
+  entries() {
+    return this.pending.entries();
+  }
+
+  /** Drained: nothing in flight but standing lockouts (the core's, sent again after a swap). */
+  onlyLockouts() {
+    return this.pending.entries().every((entry) => entry.lockout);
+  }
+
+  /** The _msgid of the msg waiting on `caller`, or null. */
+  msgId(caller) {
+    const entry = this.pending.get(caller);
+    return entry && entry.msg ? entry.msg._msgid : null;
+  }
+
+  /** Every held command completed unsent (a shutdown, a new document). */
+  abandonAll() {
+    for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
+  }
+
+  /** Every held command fails with `error` (the core that carried them is gone). */
+  refuseAll(error) {
+    for (const caller of this.pending.handles()) this.pending.take(caller).refuse(error);
+  }
+
+  /** Withdraws the commands of node `nodeId` that no next instance took over. */
+  withdrawOrphans(nodeId) {
+    const { plant } = this;
+    for (const caller of this.pending.handles()) {
+      const entry = this.pending.get(caller);
+      if (entry.nodeId !== nodeId || entry.node) continue;
+      this.pending.take(caller);
+      plant.guard(() => plant.t.withdraw(caller));
+    }
+  }
+
+  // ---- outcomes, from the core's effects -----------------------------------
+
+  recordCompleted(e) {
+    const entry = this.pending.get(e.caller);
+    if (!entry) return;
+    // Commands that found their actuator already in place say nothing about timing.
+    if (e.completionMs > 0) {
+      stats.add('command/issueToMotion', e.issueToMotionMs);
+      stats.add('command/completion', e.completionMs);
+    }
+    entry.completed.push({
+      actuator: this.plant.actuators[e.actuator].id,
+      target: e.target,
+      issueToMotionMs: e.issueToMotionMs,
+      completionMs: e.completionMs,
+      retries: e.retries,
+    });
+  }
+
+  recordRetry(e) {
+    const entry = this.pending.get(e.caller);
+    if (entry) entry.retries.set(e.actuator, e.attempt);
+  }
+
+  /** The same msg goes on from the node that holds it (a link call return stays intact). */
+  complete(e) {
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const result = { completionMs: e.completionMs, actuators: entry.completed };
+    const { msg } = entry;
+    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
+    if (msg && typeof msg.faultAtMs === 'number') {
+      result.faultLockoutMs = Math.max(0, clock.now() - msg.faultAtMs);
+      stats.add('fault/lockout', result.faultLockoutMs);
+    }
+    entry.complete(result);
+  }
+
+  /** The msg ends with an error a Catch node can turn into a fault of the operation. */
+  fail(e) {
+    const { plant } = this;
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const a = plant.actuators[e.actuator];
+    const retries = entry.retries.get(e.actuator) || 0;
+    const { code, message } = plant.t.describeFault(e.actuator, e.fault, retries, targetOf(entry.payload, a.id));
+    if (entry.msg) {
+      entry.msg.command = {
+        failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
+        actuators: entry.completed,
+      };
+    }
+    if (entry.node) plant.showError(entry.node, code);
+    entry.refuse(new SugarshackError(code, message));
+  }
+}
+
+/** A group command msg held by a group command or actuators node until its command completes. */
+function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
+  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [], retries: new Map() });
+  entry.complete = (result) => {
+    msg.command = result;
+    if (entry.send) {
+      if (outputs === 1) {
+        entry.send(msg);
+      } else {
+        const out = new Array(outputs).fill(null);
+        out[output] = msg;
+        entry.send(out);
+      }
+    }
+    if (entry.done) entry.done();
+  };
+  entry.refuse = entry.reject;
+  return entry;
+}
+
+/** A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once. */
+function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
+  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [], retries: new Map() });
+  let answered = false;
+  const answer = (err) => {
+    if (answered) return;
+    answered = true;
+    onDone(err || null);
+  };
+  entry.complete = () => answer(null);
+  entry.refuse = (err) => answer(err);
+  return entry;
+}
+
+module.exports = { GroupCommands };

@@ -1,0 +1,332 @@
+//! Each check on its own: a sound document passes it, and one breakage of
+//! its concern gives the expected problem at the expected path.
+
+use serde_json::{json, Value};
+
+use super::*;
+use crate::plant::Plant;
+
+fn sound() -> Value {
+    json!({
+        "actuatorTypes": {
+            "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
+            "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
+        },
+        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+        "actuators": [
+            { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
+            { "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false, "resource": "YEL" }
+        ],
+        "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume" }],
+        "resources": [{ "id": "YEL" }],
+        "operations": [{
+            "id": "10", "priority": 20, "resources": ["YEL"],
+            "steps": [
+                { "command": { "valves": { "V1": 100 }, "pumps": { "P1": true } }, "timeoutMs": 20000 },
+                { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 }
+            ]
+        }],
+        "routines": [{ "id": "r", "states": ["a", "b"], "initial": "a", "transitions": [
+            { "from": "a", "to": "b", "operation": "10", "trigger": { "msg": "go" } }
+        ] }]
+    })
+}
+
+fn read(doc: Value) -> PlantModel {
+    serde_json::from_value(doc).expect("a readable document")
+}
+
+/// The errors and warnings one check finds, each as `path: message`.
+fn found(report: Report) -> (Vec<String>, Vec<String>) {
+    (
+        report.errors.iter().map(ToString::to_string).collect(),
+        report.warnings.iter().map(ToString::to_string).collect(),
+    )
+}
+
+fn with(change: impl FnOnce(&mut Value)) -> PlantModel {
+    let mut doc = sound();
+    change(&mut doc);
+    read(doc)
+}
+
+#[test]
+fn a_sound_document_passes_every_check_once_and_keeps_no_warning() {
+    let plant = Plant::new(read(sound())).unwrap();
+    assert!(plant.warnings().is_empty());
+    assert!(plant.is_group_key("valves") && plant.is_group_key("pump"));
+    assert!(!plant.is_group_key("blob"));
+}
+
+#[test]
+fn actuator_types_need_positive_timings_and_a_range() {
+    let plant = with(|d| {
+        d["actuatorTypes"]["valve"]["staleMs"] = json!(0);
+        d["actuatorTypes"]["valve"]["min"] = json!(100);
+        d["actuatorTypes"]["pump"]["max"] = json!(1);
+    });
+    let mut report = Report::default();
+    actuator_types(&plant, &mut report);
+    let (errors, warnings) = found(report);
+    assert_eq!(
+        errors,
+        vec![
+            "actuatorTypes.pump: a binary type has no min, max or tolerance",
+            "actuatorTypes.valve: staleMs must be positive",
+            "actuatorTypes.valve: min (100) must be below max (100)",
+            "actuatorTypes.valve: tolerance must be at least 0 and less than half the range, got 0",
+        ]
+    );
+    assert!(warnings.is_empty());
+}
+
+#[test]
+fn a_type_named_as_another_types_plural_is_a_warning() {
+    let plant = with(|d| {
+        d["actuatorTypes"]["valves"] = d["actuatorTypes"]["valve"].clone();
+    });
+    let mut report = Report::default();
+    actuator_types(&plant, &mut report);
+    assert_eq!(
+        found(report),
+        (
+            vec![],
+            vec!["actuatorTypes.valves: in a group command 'valves' is the plural of type 'valve': command these actuators under 'valvess'".to_string()]
+        )
+    );
+    // Computed once, when the plant is made, and kept on it.
+    let plant = Plant::new(plant).unwrap();
+    assert_eq!(plant.warnings().len(), 1);
+}
+
+#[test]
+fn devices_are_defined_once_with_topic_safe_ids() {
+    let plant = with(|d| {
+        d["devices"][1]["id"] = json!("ctrl-1");
+        d["devices"][0]["id"] = json!("ctrl 1");
+    });
+    let mut report = Report::default();
+    devices(&plant, &mut report);
+    assert_eq!(
+        found(report).0,
+        vec!["devices[0] (ctrl 1): a device id is its topic prefix: no spaces, '/', '+' or '#' (or give it a 'prefix')"]
+    );
+}
+
+fn actuator_errors(plant: &PlantModel) -> Vec<String> {
+    let mut report = Report::default();
+    let devices = devices(plant, &mut report);
+    actuators(plant, &devices, &mut HashSet::new(), &mut report);
+    found(report).0
+}
+
+#[test]
+fn an_idle_or_lockout_setpoint_of_the_wrong_kind_is_refused_naming_the_actuator() {
+    let plant = with(|d| {
+        d["actuators"][0]["idle"] = json!(true);
+        d["actuators"][1]["lockout"] = json!(0);
+    });
+    assert_eq!(
+        actuator_errors(&plant),
+        vec![
+            "actuators[0] (V1): idle must be a number within 0..100, got true",
+            "actuators[1] (P1): lockout must be true or false, got 0",
+        ]
+    );
+}
+
+#[test]
+fn an_analog_setpoint_must_lie_within_its_range() {
+    let plant = with(|d| {
+        d["actuatorTypes"]["valve"]["max"] = json!(50);
+        d["actuators"][0]["lockout"] = json!(80);
+    });
+    assert_eq!(
+        actuator_errors(&plant),
+        vec!["actuators[0] (V1): lockout must be within 0..50, got 80"]
+    );
+}
+
+#[test]
+fn actuators_need_a_known_device_type_and_free_output() {
+    let plant = with(|d| {
+        d["actuators"][1]["type"] = json!("valve");
+        d["actuators"][1]["io"] = json!(2);
+        d["actuators"][1]["idle"] = json!(0);
+        d["actuators"][1]["lockout"] = json!(0);
+        d["actuators"][0]["device"] = json!("station-3");
+    });
+    assert_eq!(
+        actuator_errors(&plant),
+        vec!["actuators[0] (V1): device 'station-3' is a sensor station, not an actuator panel"]
+    );
+    let plant = with(|d| d["actuators"][1]["type"] = json!("motor"));
+    assert_eq!(
+        actuator_errors(&plant),
+        vec!["actuators[1] (P1): unknown type 'motor' (known: pump, valve)"]
+    );
+}
+
+#[test]
+fn sensors_share_ids_with_actuators_and_need_positive_periods() {
+    let plant = with(|d| {
+        d["sensors"][0]["id"] = json!("V1");
+        d["sensors"][0]["updateMs"] = json!(0);
+    });
+    let mut report = Report::default();
+    let devices = devices(&plant, &mut report);
+    let mut ids = HashSet::new();
+    actuators(&plant, &devices, &mut ids, &mut report);
+    sensors(&plant, &devices, &mut ids, &mut report);
+    assert_eq!(
+        found(report).0,
+        vec![
+            "sensors[0] (V1): id 'V1' is used twice",
+            "sensors[0] (V1): updateMs must be positive",
+        ]
+    );
+}
+
+fn resource_errors(plant: &PlantModel) -> Vec<String> {
+    let mut report = Report::default();
+    resources(plant, &Targeting::new(plant), &mut report);
+    found(report).0
+}
+
+#[test]
+fn a_configured_lockout_is_checked_like_a_command_but_may_be_empty() {
+    let plant = with(|d| d["resources"][0]["lockout"] = json!({ "valves": {}, "motors": {} }));
+    assert_eq!(resource_errors(&plant), Vec::<String>::new());
+    let plant = with(|d| d["resources"][0]["lockout"] = json!({ "pumps": { "P1": 0 } }));
+    assert_eq!(
+        resource_errors(&plant),
+        vec!["resources[0] (YEL).lockout: target for 'P1' must be true or false, got 0"]
+    );
+    let plant = with(|d| d["resources"][0]["lockout"] = json!({ "valves": { "V9": 0 } }));
+    assert_eq!(
+        resource_errors(&plant),
+        vec!["resources[0] (YEL).lockout: unknown actuator 'V9'"]
+    );
+}
+
+#[test]
+fn a_resource_without_lockout_or_members_is_refused() {
+    let plant = with(|d| {
+        d["resources"] = json!([{ "id": "YEL" }, { "id": "RED" }, { "id": "YEL" }]);
+    });
+    assert_eq!(
+        resource_errors(&plant),
+        vec![
+            "resources[1] (RED): no lockout command: give it one, or actuators that belong to it",
+            "resources[2] (YEL): resource 'YEL' is defined twice",
+        ]
+    );
+}
+
+fn operation_report(plant: &PlantModel) -> (Vec<String>, Vec<String>) {
+    let mut report = Report::default();
+    operations(plant, &Targeting::new(plant), &mut report);
+    found(report)
+}
+
+#[test]
+fn a_step_setpoint_of_the_wrong_kind_is_refused_naming_the_step_and_actuator() {
+    let plant = with(|d| {
+        d["operations"][0]["steps"][0]["command"] = json!({ "pumps": { "P1": 1 } });
+    });
+    assert_eq!(
+        operation_report(&plant).0,
+        vec!["operations[0] (10).steps[0]: target for 'P1' must be true or false, got 1"]
+    );
+    let plant = with(|d| {
+        d["operations"][0]["steps"][0]["command"] = json!({ "valves": { "V1": 101 } });
+    });
+    assert_eq!(
+        operation_report(&plant).0,
+        vec!["operations[0] (10).steps[0]: target for 'V1' must be within 0..100, got 101"]
+    );
+}
+
+#[test]
+fn steps_keep_c2_and_c3_and_equal_priorities_warn() {
+    let plant = with(|d| {
+        d["actuators"][0]["idle"] = json!(null);
+        d["actuators"][1]["resource"] = json!(null);
+        let mut second = d["operations"][0].clone();
+        second["id"] = json!("11");
+        d["operations"].as_array_mut().unwrap().push(second);
+    });
+    let (errors, warnings) = operation_report(&plant);
+    assert_eq!(
+        &errors[..2],
+        [
+            "operations[0] (10).steps[0]: C3: commands 'V1', which has no idle state to return to",
+            "operations[0] (10).steps[0]: C2: commands 'P1', which belongs to no resource",
+        ]
+    );
+    assert_eq!(
+        warnings,
+        vec!["operations[1] (11): priority 20 is also operation '10''s: equal priorities are granted first come, first served"]
+    );
+}
+
+#[test]
+fn an_empty_command_or_unknown_sensor_is_refused() {
+    let plant = with(|d| {
+        d["operations"][0]["steps"][0]["command"] = json!({});
+        d["operations"][0]["steps"][1]["sensors"] = json!(["LT-9"]);
+    });
+    assert_eq!(
+        operation_report(&plant).0,
+        vec![
+            "operations[0] (10).steps[0]: the group command names no actuator",
+            "operations[0] (10).steps[1]: unknown sensor 'LT-9'",
+        ]
+    );
+}
+
+fn routine_errors(plant: &PlantModel) -> Vec<String> {
+    let mut report = Report::default();
+    let known = operations(plant, &Targeting::new(plant), &mut report);
+    let mut report = Report::default();
+    routines(plant, &known, &mut report);
+    found(report).0
+}
+
+#[test]
+fn routines_need_known_states_and_operations_and_triggers_that_can_fire() {
+    let plant = with(|d| {
+        d["routines"][0]["transitions"][0]["trigger"] = json!({ "msg": "reset" });
+        d["routines"][0]["initial"] = json!("z");
+    });
+    let errors = routine_errors(&plant);
+    assert_eq!(errors.len(), 2, "{errors:?}");
+    assert_eq!(
+        errors[0],
+        "routines[0] (r): initial 'z' is not one of its states"
+    );
+    assert!(
+        errors[1].starts_with("routines[0] (r).transitions[0]: the msg topic 'reset' is reserved")
+    );
+    let plant = with(|d| d["routines"][0]["transitions"][0]["operation"] = json!("77"));
+    assert_eq!(
+        routine_errors(&plant),
+        vec!["routines[0] (r).transitions[0]: unknown operation '77'"]
+    );
+}
+
+#[test]
+fn check_reports_every_concern_together_in_document_order() {
+    let plant = with(|d| {
+        d["actuators"][1]["lockout"] = json!(3);
+        d["operations"][0]["steps"][1]["timeoutMs"] = json!(0);
+    });
+    let errors = check(&plant).unwrap_err();
+    assert_eq!(
+        errors.0.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        vec![
+            "actuators[1] (P1): lockout must be true or false, got 3",
+            "operations[0] (10).steps[1]: timeoutMs must be positive",
+        ]
+    );
+}
