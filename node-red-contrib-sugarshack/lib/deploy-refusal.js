@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // A node that cannot run as deployed (its settings, or what it names in the
 // plant document, refused): the reason is logged once and shown in red, and

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // A plant's MQTT side: the actuators nodes that speak for its devices, the
 // device msgs they hand in (read by the core's topics module), the publishes

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // A plant's group commands in flight: each one the core is carrying out, by
 // its caller id, with what waits for its outcome (a msg held by a group command
@@ -232,7 +233,10 @@ function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, si
   return entry;
 }
 
-/** A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once. */
+/**
+ * A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once.
+ * @param {{ payload: unknown, onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
+ */
 function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
   const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [], retries: new Map() });
   let answered = false;

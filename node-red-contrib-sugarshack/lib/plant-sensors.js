@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // What a plant does with the samples each device msg brings: the conditions
 // (wait steps, routine transitions, wait nodes) watching its sensors are

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // What the nodes of a plant show: on each, the core's counts of the actuators
 // it serves (one core call per node), its bad and ignored msgs and offline

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // Msgs that arrive before what handles them can take them (a runtime starting
 // or draining for a deploy, a pid node reading its saved state): kept in

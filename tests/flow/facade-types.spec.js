@@ -319,6 +319,10 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('FaultDescription', t.describeFault(v, 'no-motion', 1, 100));
     t.recordSensor(t.sensor('L'), 2, null, 5500);
     shapes.expect('PlantHealth', t.health(5600));
+    t.ingest('p/status', 'offline', 5700);
+    const offline = t.alarmConditions();
+    assert.equal(offline.length, 1, 'device p offline');
+    shapes.expect('AlarmCondition[]', offline);
     shapes.expect('OperationPlan', t.operationPlan('o'));
   });
 

@@ -829,7 +829,7 @@ impl Tracker {
 
     /// The alarm conditions of the plant's devices (offline, stale feedback),
     /// worded by the core: `[{ kind, subject, text, sinceMs }]`.
-    #[wasm_bindgen(js_name = alarmConditions)]
+    #[wasm_bindgen(js_name = alarmConditions, unchecked_return_type = "AlarmCondition[]")]
     pub fn alarm_conditions(&self) -> Result<JsValue, JsValue> {
         to_js(&sugarshack_core::alarm::device_conditions(
             &self.core.device_health(),
