@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The running interlock behind one interlock config node, for the whole life
 // of the Node-RED process: one core Interlock, the operations running on it and
@@ -55,6 +56,15 @@ class InterlockRuntime extends RuntimeBase {
     // Counts on nodes change with every grant: shown paced, the last state always (after each window).
     this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready');
     this.countsShown = null; // { holding, queued, faulted, lost, status }: the counts status last made
+    // The core's handles by name (see handles()).
+    this.handlesOf = null;
+    this.handlesEpoch = -1;
+    /** @type {Map<string, number>} */
+    this.opHandles = new Map();
+    /** @type {Map<string, number>} */
+    this.setHandles = new Map();
+    /** @type {Map<string, number>} */
+    this.multiSetHandles = new Map();
   }
 
   applySettings(settings) {
@@ -449,24 +459,24 @@ class InterlockRuntime extends RuntimeBase {
     if (this.core.handleEpoch() !== this.handlesEpoch) this.forgetHandles();
   }
 
+  /** @param {string} name */
   opHandle(name) {
-    let handle = this.handles().opHandles.get(name);
-    if (handle === undefined) {
-      handle = this.core.operation(name);
-      this.checkEpoch();
-      this.opHandles.set(name, handle);
-    }
+    const known = this.handles().opHandles.get(name);
+    if (known !== undefined) return known;
+    const handle = this.core.operation(name);
+    this.checkEpoch();
+    this.opHandles.set(name, handle);
     return handle;
   }
 
+  /** @param {string[]} names */
   setHandle(names) {
     const key = names.length === 1 ? names[0] : JSON.stringify(names);
-    let handle = (names.length === 1 ? this.handles().setHandles : this.handles().multiSetHandles).get(key);
-    if (handle === undefined) {
-      handle = this.core.resourceSet(names);
-      this.checkEpoch();
-      (names.length === 1 ? this.setHandles : this.multiSetHandles).set(key, handle);
-    }
+    const known = (names.length === 1 ? this.handles().setHandles : this.handles().multiSetHandles).get(key);
+    if (known !== undefined) return known;
+    const handle = this.core.resourceSet(names);
+    this.checkEpoch();
+    (names.length === 1 ? this.setHandles : this.multiSetHandles).set(key, handle);
     return handle;
   }
 
@@ -807,7 +817,7 @@ class InterlockRuntime extends RuntimeBase {
       if (!this.gateOpen) status = DRAINING_STATUS;
       else if (this.committer.failing) status = STATE_NOT_SAVED_STATUS;
       else status = this.countsStatus();
-    } else if (this.state === 'failed') status = errorStatus(this.failure.code);
+    } else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
     else if (this.state === 'starting') status = STARTING_STATUS;
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The running plant behind one plant config node, for the whole life of the
 // Node-RED process: one core Tracker (actuators, sensors, the document's
@@ -73,7 +74,8 @@ class PlantRuntime extends RuntimeBase {
   index(t, plant) {
     this.devices = t.devices();
     this.deviceIndex = new Map(this.devices.map((id, handle) => [id, handle]));
-    this.actuators = t.actuators().map((a) => ({ ...a, deviceHandle: this.deviceIndex.get(a.device) }));
+    const deviceIndex = this.deviceIndex;
+    this.actuators = t.actuators().map((a) => ({ ...a, deviceHandle: deviceIndex.get(a.device) }));
     this.sensorNames = [];
     for (const sensor of plant.sensors || []) this.sensorNames[t.sensor(sensor.id)] = sensor.id;
     this.bus.resolveAll();

@@ -213,6 +213,14 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     for (const object of freed) wasm.release(object);
   });
 
+  it('every file of lib/ and nodes/ is type-checked against these declarations (// @ts-check)', function () {
+    const files = ['lib', 'nodes'].flatMap((dir) => fs.readdirSync(path.join(PALETTE, dir))
+      .filter((f) => f.endsWith('.js')).map((f) => path.join(dir, f)));
+    const unchecked = files.filter((f) => !fs.readFileSync(path.join(PALETTE, f), 'utf8').startsWith('// @ts-check'));
+    assert.deepEqual(unchecked, []);
+    assert.ok(files.length > 40, `${files.length} files`);
+  });
+
   it('no method of the facade returns or takes `any`', function () {
     const text = fs.readFileSync(DTS, 'utf8');
     const anys = text.split('\n').filter((line) => /\bany\b/.test(line) && !/^\s*(\*|\/\*\*)/.test(line));
