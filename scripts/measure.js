@@ -191,11 +191,13 @@ async function main() {
     const w = (r && r.withoutGc) || {};
     console.log(`  ${name.padEnd(28)} ${String(r.gcOverlapped ?? '-').padStart(6)} ${msf(w.median).padStart(10)} ${msf(w.p99).padStart(9)} ${msf(w.max).padStart(9)}`);
   }
-  const worstOf = (pick) => layers.reduce((acc, [name, r]) => (pick(r) > acc.p99 ? { name, p99: pick(r), n: r.n } : acc), { name: '-', p99: 0, n: 0 });
+  const worstOf = (pick) => layers.reduce((acc, [name, r]) => (pick(r) > acc.p99 ? { name, p99: pick(r), n: r.n, slowest: r.slowest } : acc), { name: '-', p99: 0, n: 0 });
   const worst = worstOf((r) => (r && r.p99) || 0);
   const ours = worstOf((r) => (r && r.withoutGc && r.withoutGc.p99) || 0);
   // Under 100 calls a p99 is the slowest call; say so rather than let it pass for a percentile.
   const few = ours.n < 100 ? `; ${ours.n} calls, so this p99 is their slowest` : '';
+  // Which call was slowest of all (GC pauses in): where to look first.
+  if (ours.slowest) console.log(`  slowest call of ${ours.name}: ${ours.slowest.call}, ${msf(ours.slowest.ms)} ms`);
   console.log(`\n  ${ours.p99 < 1 ? 'PASS' : 'MISS'}  per-layer overhead p99, GC pauses apart: worst ${msf(ours.p99)} ms, ${ours.name}${few} (target < 1 ms)`);
   console.log(`  ----  per-layer overhead p99 with GC pauses in: worst ${msf(worst.p99)} ms, ${worst.name}`);
   console.log(`\ninterlock event log: ${log.grants} grants, ${log.faults.length} faults; ${log.violations.length === 0 ? 'no line was ever held by two operations' : `VIOLATIONS: ${log.violations.join('; ')}`}`);

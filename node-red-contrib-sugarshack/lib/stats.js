@@ -81,14 +81,16 @@ class Series {
     this.values = new Float64Array(Math.min(FIRST_CAPACITY, limit));
     this.starts = withStarts ? new Float64Array(this.values.length) : null;
     this.count = 0; // ever recorded; the buffer holds the last `limit`
+    this.slowest = { value: -Infinity, what: undefined }; // the largest value ever, and what it was
   }
 
-  add(value, start) {
+  add(value, start, what) {
     if (this.count === this.values.length && this.count < this.limit) this.grow();
     const i = this.count % this.values.length;
     this.values[i] = value;
     if (this.starts) this.starts[i] = start;
     this.count += 1;
+    if (what !== undefined && value > this.slowest.value) this.slowest = { value, what };
   }
 
   /** Doubles the buffer (up to the limit) while it has not wrapped yet. */
@@ -115,6 +117,7 @@ class Series {
     const values = this.values.subarray(0, held);
     const rank = rankOf(values);
     const out = { n: this.count, median: rank(0.5), p90: rank(0.9), p99: rank(0.99), max: rank(1) };
+    if (this.slowest.what !== undefined) out.slowest = { ms: this.slowest.value, call: this.slowest.what };
     if (this.starts && pauses) {
       const ours = [];
       for (let i = 0; i < held; i++) {
@@ -135,7 +138,8 @@ class Stats {
     this.series = new Map();
   }
 
-  add(name, value, start) {
+  /** `what`: which call took `value`, kept for the slowest (a layer's method). */
+  add(name, value, start, what) {
     if (!Number.isFinite(value)) return;
     if (this === stats) journal.timing(name, value);
     let s = this.series.get(name);
@@ -143,7 +147,7 @@ class Stats {
       s = new Series(start !== undefined, PER_SUBJECT.some((p) => name.startsWith(p)) ? PER_SUBJECT_SAMPLES : SAMPLES);
       this.series.set(name, s);
     }
-    s.add(value, start);
+    s.add(value, start, what);
   }
 
   /** Adds the time since `start` (a performance.now() reading) to `overhead/<layer>`. */
@@ -152,9 +156,9 @@ class Stats {
   }
 
   /** `overhead` with the series name made once: the per-msg calls spare a string each. */
-  overheadOf(series, start) {
+  overheadOf(series, start, what) {
     gc.watch();
-    this.add(series, performance.now() - start, start);
+    this.add(series, performance.now() - start, start, what);
   }
 
   /** Runs `work` and adds its duration (ms) to `overhead/<layer>`; returns what it returns. */
@@ -193,7 +197,7 @@ function timeLayer(Class, layer, methods) {
       try {
         return plain.apply(this, args);
       } finally {
-        stats.overheadOf(series, start);
+        stats.overheadOf(series, start, name);
       }
     };
   }

@@ -35,6 +35,14 @@ describe('stats: per-layer overhead with GC pauses told apart', function () {
     assert.ok(Math.abs(r.withoutGc.p99 - (0.01 + 98 * 1e-5)) < 1e-9);
   });
 
+  it('a series keeps which call was its slowest, for the layer verdict to name', function () {
+    const s = new Stats();
+    s.add('overhead/interlock', 0.2, 0, 'acquire');
+    s.add('overhead/interlock', 1.4, 10, 'clear');
+    s.add('overhead/interlock', 0.3, 20, 'release');
+    assert.deepEqual(s.series.get('overhead/interlock').summary(pauses()).slowest, { ms: 1.4, call: 'clear' });
+  });
+
   it('series without start times are summarised as before', function () {
     const s = new Stats();
     for (let i = 1; i <= 100; i++) s.add('tof/ctrl-1', i);
