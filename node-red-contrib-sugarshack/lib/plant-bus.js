@@ -21,7 +21,6 @@ class PlantBuses {
   constructor(plant) {
     this.plant = plant;
     this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
-    this.offline = new Set(); // device handles, as the core last reported them
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
   }
@@ -71,12 +70,6 @@ class PlantBuses {
   /** The first actuators node serving the device (its MQTT msgs and events leave from it). */
   serving(device) {
     return this.list.find((b) => !b.devices || b.devices.has(device)) || null;
-  }
-
-  /** How many of the devices a bus serves (or of all, for none) the core last reported offline. */
-  offlineOn(bus) {
-    if (!bus || !bus.devices) return this.offline.size;
-    return [...bus.devices].filter((d) => this.offline.has(d)).length;
   }
 
   // ---- device msgs in ------------------------------------------------------
@@ -177,8 +170,6 @@ class PlantBuses {
   }
 
   deviceStatus(e) {
-    if (e.online) this.offline.delete(e.device);
-    else this.offline.add(e.device);
     const name = this.plant.devices[e.device];
     this.emit(this.serving(e.device), `actuator/deviceStatus/${name}`, { ...e, device: name });
   }

@@ -314,7 +314,7 @@ class PlantRuntime extends RuntimeBase {
     return {
       lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
       buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
-      devicesOffline: [...this.bus.offline].map((d) => this.devices[d]),
+      devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
       devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
       sensors: health.sensors,
     };

@@ -83,7 +83,7 @@ class PlantStatus {
         if (!all) all = countsOf(plant.t.counts());
         counts = all;
       }
-      const offline = plant.bus.offlineOn(bus);
+      const offline = counts.offline;
       const bad = bus ? bus.bad : 0;
       const ignored = bus ? bus.ignored : 0;
       // The same counts as last shown on this node: no text to make again (hundreds of changes a second at plant scale).
@@ -104,7 +104,7 @@ class PlantStatus {
 
 /** The core's counts as the actuators status reads them. */
 function countsOf(c) {
-  return { moving: c.moving, stopped: c.stopped, faulted: c.faulted, lockouts: c.lockoutsPending };
+  return { moving: c.moving, stopped: c.stopped, faulted: c.faulted, lockouts: c.lockoutsPending, offline: c.offlineDevices };
 }
 
 module.exports = { PlantStatus };

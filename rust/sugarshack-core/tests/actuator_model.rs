@@ -581,7 +581,7 @@ proptest! {
     /// The counts a status line reads in O(1), kept current on every change,
     /// against counting each actuator's phase and lockout order afresh:
     /// group commands over devices, lockouts taking over, samples, ticks,
-    /// devices going offline and back, withdrawals.
+    /// devices going offline and back (counted too), withdrawals.
     #[test]
     fn counts_equal_a_fresh_count(
         steps in prop::collection::vec(
@@ -621,6 +621,8 @@ proptest! {
                         c.lockouts_pending += 1;
                     }
                 }
+                let health = t.device_health();
+                c.offline_devices = on.iter().filter(|d| !health[d.index()].online).count();
                 c
             };
             prop_assert_eq!(t.counts(), fresh(&devices), "after step {} at {}", caller, now);

@@ -26,6 +26,7 @@ export interface TrackerCounts {
     stopped: number;
     faulted: number;
     lockoutsPending: number;
+    offlineDevices: number;
 }
 
 /** One actuator of `Tracker.actuators()`. */

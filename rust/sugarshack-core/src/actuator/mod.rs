@@ -346,6 +346,8 @@ pub struct Counts {
     pub faulted: usize,
     /// Lockouts that feedback has not confirmed yet.
     pub lockouts_pending: usize,
+    /// Devices that reported offline.
+    pub offline_devices: usize,
 }
 
 impl Counts {
@@ -374,6 +376,7 @@ impl Counts {
         self.stopped += other.stopped;
         self.faulted += other.faulted;
         self.lockouts_pending += other.lockouts_pending;
+        self.offline_devices += other.offline_devices;
     }
 }
 
@@ -387,6 +390,17 @@ struct Tally {
 }
 
 impl Tally {
+    /// A device went offline or came back: it counts in its own tally and the total.
+    fn device_online(&mut self, device: DeviceId, online: bool) {
+        for counts in [&mut self.total, &mut self.per_device[device.index()]] {
+            if online {
+                counts.offline_devices -= 1;
+            } else {
+                counts.offline_devices += 1;
+            }
+        }
+    }
+
     fn change(&mut self, a: &ActuatorState, phase: Phase, lockout_pending: bool) {
         let was_pending = a.lockout_order.is_some();
         for counts in [&mut self.total, &mut self.per_device[a.device.index()]] {
@@ -590,13 +604,13 @@ impl Tracker {
         self.actuators.get(id.index()).map(|a| a.lockout)
     }
 
-    /// How many actuators are moving, stopped and faulted, in O(1).
+    /// How many actuators are moving, stopped and faulted, and devices offline, in O(1).
     pub fn counts(&self) -> Counts {
         debug_assert_eq!(self.tally.total, self.recount(), "tally out of step");
         self.tally.total
     }
 
-    /// The counts of the actuators on `devices` (an unknown device counts nothing), in O(devices).
+    /// The counts of the actuators and devices among `devices` (an unknown device counts nothing), in O(devices).
     pub fn counts_on(&self, devices: impl IntoIterator<Item = DeviceId>) -> Counts {
         let mut counts = Counts::default();
         for d in devices {
@@ -613,6 +627,7 @@ impl Tracker {
         for a in &self.actuators {
             counts.tally(a.phase, a.lockout_order.is_some(), true);
         }
+        counts.offline_devices = self.devices.iter().filter(|d| !d.online).count();
         counts
     }
 
@@ -1132,6 +1147,7 @@ impl Tracker {
         }
         let members = d.actuators.clone();
         self.devices[device.index()].online = online;
+        self.tally.device_online(device, online);
         effects.push(Effect::DeviceStatus { device, online });
         for id in members {
             if online {

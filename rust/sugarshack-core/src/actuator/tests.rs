@@ -523,7 +523,8 @@ fn withdrawing_a_group_leaves_its_actuators_idle() {
             moving: 0,
             stopped: 0,
             faulted: 0,
-            lockouts_pending: 0
+            lockouts_pending: 0,
+            offline_devices: 0
         }
     );
     assert!(t.tick(1500).is_empty(), "nothing left to time out");
