@@ -39,6 +39,9 @@ run() {
   "$@" 2>&1 | tee -a "$log" || failed+=("$name")
 }
 
+# What the benchmarks need (npm packages, the peers' packages, Mosquitto, binaryen), skipping what is there.
+# shellcheck source=scripts/setup.sh
+. scripts/setup.sh
 bash scripts/build-wasm.sh
 echo "bench: building the native examples (release)"
 cargo build -q --release -p sugarshack-core --example interlock_bench --example tracker_bench
