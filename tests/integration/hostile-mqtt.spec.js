@@ -9,6 +9,7 @@
 //
 // Run: npx mocha --timeout 30000 --exit tests/integration/hostile-mqtt.spec.js
 const assert = require('node:assert/strict');
+const fs = require('fs');
 const path = require('path');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
@@ -186,4 +187,36 @@ describe('hostile MQTT payloads against a real Node-RED process', function () {
       assert.equal(/uncaught|RuntimeError|recursive use/i.test(red.logOfThisRun()), false, red.logOfThisRun().slice(-2000));
     });
   }
+
+  it('a new operation name per msg, 5,000 from the broker: idle names are forgotten, the saved state stays small, and a SIGKILL brings back the last hold', async function () {
+    const granted = () => probe.on('test/granted').map((m) => m.json && m.json.operation);
+    const errorsBefore = probe.on('test/errors').length;
+    // 'steady' is granted and released first: its handle is cached by name, then forgotten with the idle batches.
+    await probe.publish('test/acquire/steady', 'go');
+    await waitFor(() => granted().includes('steady'), 'steady granted');
+    await probe.publish('test/release/steady', 'done');
+    const batches = 5000; // past the 4,096 names an interlock keeps
+    // Sent in order on one connection, a hundred pairs at a time.
+    for (let i = 0; i < batches; i += 100) {
+      const pairs = [];
+      for (let k = i; k < i + 100; k++) pairs.push(probe.publish(`test/acquire/batch-${k}`, 'go'), probe.publish(`test/release/batch-${k}`, 'done'));
+      await Promise.all(pairs);
+    }
+    await waitFor(() => granted().includes(`batch-${batches - 1}`), 'the last batch granted', 120000);
+    // Granted only once the last batch released YEL; then it holds YEL when Node-RED is killed.
+    await probe.publish('test/acquire/steady', 'again');
+    await waitFor(() => granted().filter((op) => op === 'steady').length === 2, 'steady granted again', 30000);
+    assert.deepEqual(probe.on('test/errors').slice(errorsBefore).map((m) => m.json), [], 'no refusal: no stale handle, no lost release');
+    const saved = path.join(red.dir, 'sugarshack');
+    const largest = Math.max(...fs.readdirSync(saved).map((f) => fs.statSync(path.join(saved, f)).size));
+    assert.ok(largest < 64 * 1024, `the largest saved state file is ${largest} bytes after ${batches} names`);
+
+    await red.kill();
+    await red.start();
+    const lines = await red.lines('il');
+    assert.equal(lines.YEL, 'faulted:interrupted', 'the hold of steady comes back faulted, not free and not lost');
+    const state = await red.get('/sugarshack/state');
+    assert.equal(state.interlocks[0].state, 'ready');
+    assert.equal(/uncaught|RuntimeError|recursive use/i.test(red.logOfThisRun()), false, red.logOfThisRun().slice(-2000));
+  });
 });
