@@ -174,7 +174,6 @@ function primeInterlock({ Interlock, Tracker }) {
   const restored = Interlock.restore(config, il.snapshot(11), false, true, 11);
   restored.clear(restored.resourceSet(restored.faultedResources()), null, null, false, 12);
   restored.drainEvents();
-  restored.clearEvents();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
   unknown.free();

@@ -632,12 +632,6 @@ impl Interlock {
         to_js(&records)
     }
 
-    /// Drops the events recorded so far unread: nobody listens (no events node, no journal).
-    #[wasm_bindgen(js_name = clearEvents)]
-    pub fn clear_events(&mut self) {
-        self.core.drain_events();
-    }
-
     #[wasm_bindgen(unchecked_return_type = "InterlockSnapshot")]
     pub fn snapshot(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         to_js(&self.core.snapshot(time(now_ms)?))

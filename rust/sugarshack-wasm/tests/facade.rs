@@ -566,7 +566,7 @@ fn a_new_operation_name_per_msg_is_forgotten_once_idle_and_old_handles_are_refus
         let op = lock.operation(&format!("batch-{i}")).unwrap();
         assert!(lock.acquire(op, 1, yel, i as f64).unwrap());
         lock.release(op, i as f64).unwrap();
-        lock.clear_events();
+        lock.drain_abnormal_events().unwrap();
     }
     assert_ne!(lock.handle_epoch(), epoch, "forgetting is announced");
     assert_eq!(lock.operation_name(first), None);
