@@ -8,7 +8,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::code::Code;
-use crate::plant::{Plant, Routine, Trigger};
+use crate::plant::{Edge, Plant, RoutineGraph, StateId, Trigger};
 use crate::text::quote;
 
 /// The msg topic that sends a routine back to its initial state (an
@@ -158,8 +158,8 @@ pub struct RoutineSnapshot {
 /// One routine's state machine.
 #[derive(Clone, Debug)]
 pub struct RoutineMachine {
-    routine: Routine,
-    state: usize,
+    graph: RoutineGraph,
+    state: StateId,
     pending: Option<usize>,
     halted: bool,
     /// Per transition: when its condition was last handed out for evaluation.
@@ -169,17 +169,14 @@ pub struct RoutineMachine {
 impl RoutineMachine {
     /// Routine `id` of a validated plant, in its initial state.
     pub fn new(plant: &Plant, id: &str) -> Result<Self, RoutineError> {
-        let routine = plant
-            .routines
-            .iter()
-            .find(|r| r.id == id)
+        let graph = plant
+            .routine(id)
             .cloned()
             .ok_or_else(|| RoutineError::UnknownRoutine { name: id.into() })?;
-        let state = position(&routine, &routine.initial).expect("validated initial state");
         Ok(RoutineMachine {
-            checked_ms: vec![None; routine.transitions.len()],
-            routine,
-            state,
+            checked_ms: vec![None; graph.edges().len()],
+            state: graph.initial(),
+            graph,
             pending: None,
             halted: false,
         })
@@ -190,8 +187,8 @@ impl RoutineMachine {
     /// faulted it), so it counts as faulted: the move that caused is returned.
     /// A refused snapshot changes nothing.
     pub fn restore(&mut self, snapshot: &RoutineSnapshot) -> Result<Option<Moved>, RoutineError> {
-        let id = &self.routine.id;
-        if &snapshot.routine != id {
+        let id = self.graph.id();
+        if snapshot.routine != id {
             return Err(RoutineError::InvalidSnapshot {
                 reason: format!(
                     "it is routine '{}''s, not '{}''s",
@@ -200,22 +197,23 @@ impl RoutineMachine {
                 ),
             });
         }
-        let state = position(&self.routine, &snapshot.state).ok_or_else(|| {
-            RoutineError::InvalidSnapshot {
-                reason: format!(
-                    "routine '{}' has no state '{}' any more",
-                    quote(id),
-                    quote(&snapshot.state)
-                ),
-            }
-        })?;
+        let state =
+            self.graph
+                .state(&snapshot.state)
+                .ok_or_else(|| RoutineError::InvalidSnapshot {
+                    reason: format!(
+                        "routine '{}' has no state '{}' any more",
+                        quote(id),
+                        quote(&snapshot.state)
+                    ),
+                })?;
         let pending = match &snapshot.pending {
             None => None,
             Some(operation) => Some(
-                self.routine
-                    .transitions
+                self.graph
+                    .edges()
                     .iter()
-                    .position(|t| &t.operation == operation && t.from == snapshot.state)
+                    .position(|t| &t.operation == operation && t.from == state)
                     .ok_or_else(|| RoutineError::InvalidSnapshot {
                         reason: format!(
                             "routine '{}' has no transition from '{}' running '{}' any more",
@@ -226,7 +224,7 @@ impl RoutineMachine {
                     })?,
             ),
         };
-        self.enter_index(state);
+        self.enter(state);
         self.halted = snapshot.halted;
         self.pending = pending;
         if pending.is_none() {
@@ -238,7 +236,7 @@ impl RoutineMachine {
     /// What survives a restart.
     pub fn snapshot(&self) -> RoutineSnapshot {
         RoutineSnapshot {
-            routine: self.routine.id.clone(),
+            routine: self.graph.id().into(),
             state: self.state().into(),
             pending: self.pending().map(Into::into),
             halted: self.halted,
@@ -247,18 +245,18 @@ impl RoutineMachine {
 
     /// The routine's id.
     pub fn id(&self) -> &str {
-        &self.routine.id
+        self.graph.id()
     }
 
     /// The current state.
     pub fn state(&self) -> &str {
-        &self.routine.states[self.state]
+        self.graph.name(self.state)
     }
 
     /// The operation dispatched and not yet returned.
     pub fn pending(&self) -> Option<&str> {
         self.pending
-            .map(|t| self.routine.transitions[t].operation.as_str())
+            .map(|t| self.graph.edges()[t].operation.as_str())
     }
 
     /// Whether it halted after a fault and waits for a reset.
@@ -269,7 +267,7 @@ impl RoutineMachine {
     /// The operations this routine owns (its O), in transition order without repeats.
     pub fn operations(&self) -> Vec<&str> {
         let mut ops: Vec<&str> = Vec::new();
-        for t in &self.routine.transitions {
+        for t in self.graph.edges() {
             if !ops.contains(&t.operation.as_str()) {
                 ops.push(&t.operation);
             }
@@ -280,13 +278,13 @@ impl RoutineMachine {
     fn ready(&self) -> Result<(), RoutineError> {
         if let Some(operation) = self.pending() {
             return Err(RoutineError::Busy {
-                routine: self.routine.id.clone(),
+                routine: self.id().into(),
                 operation: operation.into(),
             });
         }
         if self.halted {
             return Err(RoutineError::Halted {
-                routine: self.routine.id.clone(),
+                routine: self.id().into(),
                 state: self.state().into(),
             });
         }
@@ -295,29 +293,29 @@ impl RoutineMachine {
 
     fn dispatch(&mut self, transition: usize) -> Dispatch {
         self.pending = Some(transition);
-        let t = &self.routine.transitions[transition];
+        let t = &self.graph.edges()[transition];
         Dispatch {
             transition,
             operation: t.operation.clone(),
-            from: t.from.clone(),
-            to: t.to.clone(),
+            from: self.graph.name(t.from).into(),
+            to: self.graph.name(t.to).into(),
         }
     }
 
     /// A msg with `topic` arrived: the first transition from the current state it triggers fires.
     pub fn on_msg(&mut self, topic: &str) -> Result<Dispatch, RoutineError> {
         self.ready()?;
-        let state = self.state();
+        let state = self.state;
         let transition = self
-            .routine
-            .transitions
+            .graph
+            .edges()
             .iter()
             .position(|t| {
                 t.from == state && matches!(&t.trigger, Trigger::Msg { msg } if msg == topic)
             })
             .ok_or_else(|| RoutineError::NoTransition {
-                routine: self.routine.id.clone(),
-                state: state.into(),
+                routine: self.id().into(),
+                state: self.state().into(),
                 trigger: topic.into(),
             })?;
         Ok(self.dispatch(transition))
@@ -330,11 +328,11 @@ impl RoutineMachine {
             return Vec::new();
         }
         let mut due = Vec::new();
-        for (i, t) in self.routine.transitions.iter().enumerate() {
+        for (i, t) in self.graph.edges().iter().enumerate() {
             let Trigger::When { every_ms, .. } = t.trigger else {
                 continue;
             };
-            if t.from != self.routine.states[self.state] {
+            if t.from != self.state {
                 continue;
             }
             if self.checked_ms[i].is_none_or(|at| now_ms.saturating_sub(at) >= every_ms) {
@@ -348,8 +346,8 @@ impl RoutineMachine {
     /// The condition of `transition` held: it fires if the routine is still in its
     /// `from` state with nothing pending (an earlier one may have fired meanwhile).
     pub fn condition_met(&mut self, transition: usize) -> Option<Dispatch> {
-        let t = self.routine.transitions.get(transition)?;
-        if t.from != self.state() || self.ready().is_err() {
+        let t = self.graph.edges().get(transition)?;
+        if t.from != self.state || self.ready().is_err() {
             return None;
         }
         Some(self.dispatch(transition))
@@ -357,39 +355,40 @@ impl RoutineMachine {
 
     /// Every condition transition: (index, condition, sensors).
     pub fn conditions(&self) -> Vec<(usize, &str, &[String])> {
-        (0..self.routine.transitions.len())
+        (0..self.graph.edges().len())
             .filter_map(|t| self.condition(t).map(|(when, sensors)| (t, when, sensors)))
             .collect()
     }
 
     /// The condition and sensors of a condition transition.
     pub fn condition(&self, transition: usize) -> Option<(&str, &[String])> {
-        match &self.routine.transitions.get(transition)?.trigger {
+        match &self.graph.edges().get(transition)?.trigger {
             Trigger::When { when, sensors, .. } => Some((when, sensors)),
             Trigger::Msg { .. } => None,
         }
     }
 
-    fn enter(&mut self, state: &str) {
-        self.enter_index(position(&self.routine, state).expect("validated state"));
-    }
-
-    fn enter_index(&mut self, state: usize) {
+    fn enter(&mut self, state: StateId) {
         self.state = state;
         self.checked_ms.iter_mut().for_each(|c| *c = None);
+    }
+
+    /// A move from `from` to where the routine is now.
+    fn moved(&self, from: StateId, operation: Option<String>, halted: bool) -> Moved {
+        Moved {
+            from: self.graph.name(from).into(),
+            to: self.state().into(),
+            operation,
+            halted,
+        }
     }
 
     /// The pending operation returned: move to the transition's target state.
     pub fn completed(&mut self) -> Result<Moved, RoutineError> {
         let t = self.take_pending()?;
-        let (from, to, operation) = (t.from.clone(), t.to.clone(), t.operation.clone());
-        self.enter(&to);
-        Ok(Moved {
-            from,
-            to,
-            operation: Some(operation),
-            halted: false,
-        })
+        let (from, to, operation) = (t.from, t.to, t.operation.clone());
+        self.enter(to);
+        Ok(self.moved(from, Some(operation), false))
     }
 
     /// The pending operation was refused before it ran (the interlock refused its
@@ -402,62 +401,43 @@ impl RoutineMachine {
     /// The pending operation faulted: go to the error state, or halt where it is.
     pub fn faulted(&mut self) -> Result<Moved, RoutineError> {
         let t = self.take_pending()?;
-        let (from, operation) = (t.from.clone(), t.operation.clone());
-        match self.routine.error_state.clone() {
+        let (from, operation) = (t.from, t.operation.clone());
+        let halted = match self.graph.error_state() {
             Some(error_state) => {
-                self.enter(&error_state);
-                Ok(Moved {
-                    from,
-                    to: error_state,
-                    operation: Some(operation),
-                    halted: false,
-                })
+                self.enter(error_state);
+                false
             }
             None => {
                 self.halted = true;
-                Ok(Moved {
-                    to: from.clone(),
-                    from,
-                    operation: Some(operation),
-                    halted: true,
-                })
+                true
             }
-        }
+        };
+        Ok(self.moved(from, Some(operation), halted))
     }
 
-    fn take_pending(&mut self) -> Result<&crate::plant::Transition, RoutineError> {
+    fn take_pending(&mut self) -> Result<&Edge, RoutineError> {
         let t = self
             .pending
             .take()
             .ok_or_else(|| RoutineError::NotPending {
-                routine: self.routine.id.clone(),
+                routine: self.id().into(),
             })?;
-        Ok(&self.routine.transitions[t])
+        Ok(&self.graph.edges()[t])
     }
 
     /// Back to the initial state (an operator's reset); refused while an operation runs.
     pub fn reset(&mut self) -> Result<Moved, RoutineError> {
         if let Some(operation) = self.pending() {
             return Err(RoutineError::Busy {
-                routine: self.routine.id.clone(),
+                routine: self.id().into(),
                 operation: operation.into(),
             });
         }
-        let from = self.state().to_owned();
-        let initial = self.routine.initial.clone();
+        let from = self.state;
         self.halted = false;
-        self.enter(&initial);
-        Ok(Moved {
-            from,
-            to: initial,
-            operation: None,
-            halted: false,
-        })
+        self.enter(self.graph.initial());
+        Ok(self.moved(from, None, false))
     }
-}
-
-fn position(routine: &Routine, state: &str) -> Option<usize> {
-    routine.states.iter().position(|s| s == state)
 }
 
 #[cfg(test)]

@@ -5,10 +5,12 @@
 //! keeps its warnings. Every error names the entry at fault so an engineer
 //! can find it in the document.
 
+mod graph;
 mod group;
 mod setpoint;
 mod validate;
 
+pub use graph::{Edge, RoutineGraph, StateId};
 use group::Targeting;
 pub use group::{Group, GroupCommand, GroupError, GroupKeys};
 pub use setpoint::Setpoint;
@@ -744,6 +746,7 @@ pub struct Plant {
     warnings: Vec<PlantWarning>,
     targeting: Targeting,
     contract: Contract,
+    routines: Vec<RoutineGraph>,
 }
 
 impl Plant {
@@ -755,7 +758,13 @@ impl Plant {
             warnings: checked.warnings,
             targeting: checked.targeting,
             contract: checked.contract,
+            routines: checked.routines,
         })
+    }
+
+    /// Routine `id`, its states resolved.
+    pub fn routine(&self, id: &str) -> Option<&RoutineGraph> {
+        self.routines.iter().find(|r| r.id() == id)
     }
 
     /// The document as read.

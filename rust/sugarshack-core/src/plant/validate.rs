@@ -5,6 +5,7 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::graph::RoutineGraph;
 use super::group::{GroupCommand, GroupError, GroupKeys, Targeting};
 use super::{
     DeviceKind, PlantError, PlantErrors, PlantModel, PlantWarning, Profile, Signal, Step, Trigger,
@@ -42,6 +43,7 @@ pub(super) struct Checked {
     pub(super) warnings: Vec<PlantWarning>,
     pub(super) targeting: Targeting,
     pub(super) contract: Contract,
+    pub(super) routines: Vec<RoutineGraph>,
 }
 
 /// Every check, once: the warnings and what was built on the way, or every error.
@@ -57,11 +59,14 @@ pub(super) fn check(plant: &PlantModel) -> Result<Checked, PlantErrors> {
     resources(plant, &targeting, &mut report);
     let operations = operations(plant, &targeting, &mut report);
     routines(plant, &operations, &mut report);
-    match contract {
-        Ok(contract) if report.errors.is_empty() => Ok(Checked {
+    let graphs: Option<Vec<RoutineGraph>> =
+        plant.routines.iter().map(RoutineGraph::resolve).collect();
+    match (contract, graphs) {
+        (Ok(contract), Some(routines)) if report.errors.is_empty() => Ok(Checked {
             warnings: report.warnings,
             targeting,
             contract,
+            routines,
         }),
         _ => Err(PlantErrors(report.errors)),
     }

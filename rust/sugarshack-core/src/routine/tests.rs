@@ -227,3 +227,26 @@ fn a_dispatch_refused_before_it_ran_leaves_the_state_unchanged() {
     r.completed().unwrap();
     assert!(r.refused().is_err());
 }
+
+#[test]
+fn the_checked_plant_resolves_every_state_of_a_routine_once() {
+    let p = plant(true);
+    let graph = p.routine("truck").unwrap();
+    let name = |s: StateId| graph.name(s);
+    assert_eq!(name(graph.initial()), "empty");
+    assert_eq!(graph.error_state().map(name), Some("fault"));
+    let edges: Vec<(&str, &str, &str)> = graph
+        .edges()
+        .iter()
+        .map(|e| (name(e.from), name(e.to), e.operation.as_str()))
+        .collect();
+    assert_eq!(edges[1], ("full", "primed", "11"));
+    assert_eq!(edges.len(), 5);
+    assert_eq!(graph.state("primed"), Some(edges_from(graph, 3)));
+    assert!(p.routine("nope").is_none());
+    assert_eq!(plant(false).routine("truck").unwrap().error_state(), None);
+}
+
+fn edges_from(graph: &RoutineGraph, edge: usize) -> StateId {
+    graph.edges()[edge].from
+}
