@@ -3,14 +3,13 @@
 //! Alarms at the JS boundary: conditions in as plain data, acknowledgement
 //! and shelf attributed, a snapshot restored, bad input refused with a code.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::{Array, JSON};
 use sugarshack_wasm::Alarms;
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
+mod support;
+use support::get;
 
 fn code(err: JsValue) -> String {
     get(&err, "code").as_string().unwrap()

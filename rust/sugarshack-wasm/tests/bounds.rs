@@ -9,9 +9,8 @@ use sugarshack_wasm::{Interlock, PidLoop, Rcc, Tracker};
 use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
+mod support;
+use support::{get, json, message_of};
 
 /// The value a JS function body returns.
 fn js(body: &str) -> JsValue {
@@ -20,20 +19,12 @@ fn js(body: &str) -> JsValue {
         .expect("test JS runs")
 }
 
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
-
 fn code_of(error: &JsValue) -> String {
     assert!(
         error.is_instance_of::<js_sys::Error>(),
         "errors are JS Errors"
     );
     get(error, "code").as_string().expect("error has a code")
-}
-
-fn message_of(error: &JsValue) -> String {
-    error.dyn_ref::<js_sys::Error>().unwrap().message().into()
 }
 
 const LEVELS: usize = 10_000;

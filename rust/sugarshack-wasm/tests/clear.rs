@@ -6,8 +6,10 @@
 
 use js_sys::{Array, Reflect, JSON};
 use sugarshack_wasm::{Interlock, Tracker};
-use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
+
+mod support;
+use support::get;
 
 const PLANT: &str = r#"{
     "actuatorTypes": {
@@ -19,10 +21,6 @@ const PLANT: &str = r#"{
         { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" }
     ]
 }"#;
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
 
 fn setup() -> (Tracker, Interlock, f64) {
     let plant = Tracker::new(JSON::parse(PLANT).unwrap(), 0.0).unwrap();

@@ -4,18 +4,12 @@
 //! predictor's estimate, an RCC pair deciding over a JS state tuple, and the
 //! errors a flow author sees for a broken configuration.
 
-use js_sys::{Reflect, JSON};
 use sugarshack_wasm::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
-use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
+mod support;
+use support::{code_of, get, json};
 
 fn number(value: &JsValue, key: &str) -> f64 {
     get(value, key)
@@ -29,11 +23,6 @@ fn n(x: f64) -> JsValue {
 }
 
 const NONE: JsValue = JsValue::UNDEFINED;
-
-fn code_of(error: JsValue) -> String {
-    assert!(error.is_instance_of::<js_sys::Error>());
-    get(&error, "code").as_string().unwrap()
-}
 
 const PI: &str = r#"{ "pid": { "kp": 2, "tiS": 4, "outMin": 0, "outMax": 100 } }"#;
 

@@ -3,14 +3,13 @@
 //! The JS boundary of the interlock, run under Node: handles, errors as JS
 //! `Error`s with a `code`, and the snapshot round trip through plain JSON.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::{Array, JSON};
 use sugarshack_wasm::{Interlock, RESOURCE_SETS_KEPT};
 use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
+mod support;
+use support::{get, json, message_of};
 
 fn plant() -> Interlock {
     Interlock::new(json(
@@ -36,20 +35,12 @@ fn granted(lock: &Interlock, count: u32) -> Vec<f64> {
     (0..count).map(|i| lock.granted(i).unwrap()).collect()
 }
 
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
-
 fn code_of(error: JsValue) -> String {
     assert!(
         error.is_instance_of::<js_sys::Error>(),
         "errors are JS Error objects"
     );
     get(&error, "code").as_string().expect("error has a code")
-}
-
-fn message_of(error: &JsValue) -> String {
-    error.dyn_ref::<js_sys::Error>().unwrap().message().into()
 }
 
 #[wasm_bindgen_test]

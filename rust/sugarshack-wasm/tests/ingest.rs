@@ -4,18 +4,13 @@
 //! the plant's profiles and applies them; what it cannot use comes back as
 //! `malformed` effects, and foreign topics are told apart.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::Array;
 use sugarshack_wasm::{Ingest, Tracker};
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
+mod support;
+use support::{get, json};
 
 const PLANT: &str = r#"{
     "actuatorTypes": {

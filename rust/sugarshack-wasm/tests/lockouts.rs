@@ -3,27 +3,13 @@
 //! Standing lockouts, a restored MQTT path and future device timestamps at
 //! the JS boundary, run under Node.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::Array;
 use sugarshack_wasm::Tracker;
-use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
-
-fn code_of(error: JsValue) -> String {
-    assert!(error.is_instance_of::<js_sys::Error>());
-    get(&error, "code").as_string().unwrap()
-}
-
-fn message_of(error: &JsValue) -> String {
-    error.dyn_ref::<js_sys::Error>().unwrap().message().into()
-}
+mod support;
+use support::{code_of, get, json, message_of};
 
 const PLANT: &str = r#"{
     "actuatorTypes": {

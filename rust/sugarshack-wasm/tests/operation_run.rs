@@ -3,26 +3,16 @@
 //! An operation's run across the JS boundary, under Node: one run through to
 //! its release, one through a fault, and the refusals of bad input.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::{Array, JSON};
 use sugarshack_wasm::Tracker;
-use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
+mod support;
+use support::{code_of, get, json};
 
 fn stringify(value: &JsValue) -> String {
     JSON::stringify(value).unwrap().into()
-}
-
-fn code_of(error: JsValue) -> String {
-    assert!(error.is_instance_of::<js_sys::Error>());
-    get(&error, "code").as_string().unwrap()
 }
 
 /// The only effect of an input.

@@ -3,26 +3,16 @@
 //! Operations, sensors and routines across the JS boundary, run under Node:
 //! plans, C2 refusals, stale sensors and a routine's round trip through a snapshot.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::{Array, JSON};
 use sugarshack_wasm::Tracker;
-use wasm_bindgen::{JsCast, JsValue};
+use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
+mod support;
+use support::{code_of, get, json};
 
 fn text(value: &JsValue, key: &str) -> String {
     get(value, key).as_string().unwrap_or_default()
-}
-
-fn code_of(error: JsValue) -> String {
-    assert!(error.is_instance_of::<js_sys::Error>());
-    get(&error, "code").as_string().unwrap()
 }
 
 const PLANT: &str = r#"{

@@ -3,23 +3,13 @@
 //! The tracker's JS boundary, run under Node: plant errors, group commands as
 //! plain objects, typed-array batches, effects and rejections.
 
-use js_sys::{Array, Reflect, JSON};
+use js_sys::Array;
 use sugarshack_wasm::Tracker;
 use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
-fn json(text: &str) -> JsValue {
-    JSON::parse(text).expect("test JSON parses")
-}
-
-fn get(value: &JsValue, key: &str) -> JsValue {
-    Reflect::get(value, &key.into()).unwrap()
-}
-
-fn code_of(error: JsValue) -> String {
-    assert!(error.is_instance_of::<js_sys::Error>());
-    get(&error, "code").as_string().unwrap()
-}
+mod support;
+use support::{code_of, get, json};
 
 const PLANT: &str = r#"{
     "actuatorTypes": {
