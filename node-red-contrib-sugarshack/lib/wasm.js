@@ -123,8 +123,11 @@ function onTrap(listener) {
 
 // Every facade call once on a throwaway plant and interlock: V8 compiles wasm
 // functions and their JS glue on first use, which costs milliseconds; a plant's
-// first fault, clear or restore should not pay that.
-const PRIMER_PLANT = {
+// first fault, clear or restore should not pay that. A flow test checks that
+// every method of every facade class is called here.
+
+/** A plant with one of everything the facade describes: two lines with their lockouts, a valve and a pump on one panel, a sensor station, an operation with a wait, a routine with an error state. */
+const SAMPLE_PLANT = Object.freeze({
   actuatorTypes: {
     valve: { signal: 'analog', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
     pump: { signal: 'binary', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
@@ -132,24 +135,25 @@ const PRIMER_PLANT = {
   devices: [{ id: 'p', kind: 'actuator-panel' }, { id: 's', kind: 'sensor-station' }],
   actuators: [
     { id: 'V', type: 'valve', device: 'p', io: 1, idle: 0, lockout: 0, resource: 'A' },
-    { id: 'P', type: 'pump', device: 'p', io: 1, idle: false, lockout: false, resource: 'A' },
+    { id: 'P', type: 'pump', device: 'p', io: 1, idle: false, lockout: false, resource: 'B' },
   ],
   sensors: [{ id: 'L', device: 's', name: 'level' }],
-  resources: [{ id: 'A' }, { id: 'B', lockout: { valves: {} } }],
-  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'true', sensors: ['L'], timeoutMs: 1000 }] }],
-  routines: [{ id: 'r', states: ['x', 'y'], initial: 'x', errorState: 'y', transitions: [
+  resources: [{ id: 'A', lockout: { valves: { V: 0 } } }, { id: 'B', lockout: { pumps: { P: false } } }],
+  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'L > 1', sensors: ['L'], timeoutMs: 1000 }] }],
+  routines: [{ id: 'r', states: ['x', 'y', 'e'], initial: 'x', errorState: 'e', transitions: [
     { from: 'x', to: 'y', operation: 'o', trigger: { msg: 'go' } },
-    { from: 'y', to: 'x', operation: 'o', trigger: { when: 'true', sensors: ['L'], everyMs: 1 } },
+    { from: 'y', to: 'x', operation: 'o', trigger: { when: 'L > 1', sensors: ['L'], everyMs: 1 } },
   ] }],
-};
+});
 
 function prime(facade) {
   primeInterlock(facade);
+  primeAlarms(facade);
   primeControl(facade);
 }
 
 function primeInterlock({ Interlock, Tracker }) {
-  const t = new Tracker(PRIMER_PLANT, 0);
+  const t = new Tracker(SAMPLE_PLANT, 0);
   t.alarmConditions();
   const config = { resources: t.interlockResources(), policy: 'greedy', recordEvents: true, warnQueuedMs: 1, warnHeldMs: 1 };
   const il = new Interlock(config);
@@ -163,7 +167,11 @@ function primeInterlock({ Interlock, Tracker }) {
   il.acquire(b, 2, setAB, 7);
   for (let i = il.releaseNamed('a', 8); i > 0; i--) il.granted(i - 1);
   il.acquire(a, 1, setA, 8);
+  il.isQueued(a);
   il.cancelNamed('a', 8);
+  il.isHolding(b);
+  il.release(b, 8);
+  il.acquire(b, 2, setAB, 8);
   il.findOperation('b');
   il.operationName(b);
   il.handleEpoch();
@@ -171,8 +179,15 @@ function primeInterlock({ Interlock, Tracker }) {
   il.faultResources(il.resourceSet(['B']), 'primer', null, null, 10);
   il.faultedResources();
   il.counts();
+  il.alarmConditions(10);
+  il.drainAbnormalEvents();
   const restored = Interlock.restore(config, il.snapshot(11), false, true, 11);
-  restored.clear(restored.resourceSet(restored.faultedResources()), null, null, false, 12);
+  const faulted = restored.resourceSet(restored.faultedResources());
+  restored.clearBlockers(faulted, t);
+  restored.clear(faulted, null, null, false, 12);
+  const checked = Interlock.restore(config, il.snapshot(11), false, true, 11);
+  checked.clearAgainst(checked.resourceSet(checked.faultedResources()), t, null, null, true, 12);
+  checked.free();
   restored.drainEvents();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
@@ -201,6 +216,9 @@ function primeInterlock({ Interlock, Tracker }) {
   t.pendingLockouts();
   t.takeEffects();
   t.counts();
+  t.countsOn(Uint32Array.of(t.device('p')));
+  t.health(460);
+  t.lastSamples();
   t.phase(v);
   t.describeFault(v, 'no-motion', 1, 100);
   t.position(v);
@@ -210,19 +228,48 @@ function primeInterlock({ Interlock, Tracker }) {
   t.warnings();
   t.operationPlan('o');
   const run = t.operationRun('o');
+  run.id();
+  run.plan();
   run.start(0);
   run.granted(1);
+  run.step();
   run.stepDone(0, 2);
   run.stepFailed(1, 'X', 'primer', 3);
   run.faultApplied(['A'], 4);
   run.phase();
   run.free();
+  const ended = t.operationRun('o');
+  ended.start(0);
+  ended.refused('X', 'primer');
+  ended.free();
+  const done = t.operationRun('o');
+  done.start(0);
+  done.granted(1);
+  done.stepDone(0, 2);
+  done.stepDone(1, 3);
+  done.releaseFailed('X', 'primer', 4);
+  done.released(5);
+  done.free();
+  const stopped = t.operationRun('o');
+  stopped.start(0);
+  stopped.withdrawn(1);
+  stopped.free();
+  const aborted = t.operationRun('o');
+  aborted.start(0);
+  aborted.granted(1);
+  aborted.abort('primer', 2);
+  aborted.free();
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
   t.readSensors(Uint32Array.of(sensor), 1);
   const r = t.routine('r');
   r.conditions();
+  r.condition(1);
+  r.state();
+  r.pending();
+  r.halted();
+  r.operations();
   r.onMsg('go');
   r.completed();
   r.due(0);
@@ -234,6 +281,19 @@ function primeInterlock({ Interlock, Tracker }) {
   r.restore(r.snapshot());
   r.free();
   t.free();
+}
+
+/** The alarm list of an interlock, through a raise, an acknowledgement, a shelving and a restore. */
+function primeAlarms({ Alarms }) {
+  const alarms = new Alarms();
+  alarms.observe([{ kind: 'line-faulted', subject: 'A', text: 'primer', sinceMs: 0 }], 1);
+  const [first] = alarms.list();
+  alarms.acknowledge(null, 'primer', null, 2);
+  alarms.shelve(first.id, 10, 'primer', null, 3);
+  alarms.nextExpiryMs();
+  alarms.unshelve(first.id, 'primer', null, 4);
+  Alarms.restore(alarms.snapshot()).free();
+  alarms.free();
 }
 
 // The control facade (pid, rcc and rcc-io nodes): every call once on throwaway loops.
@@ -283,4 +343,4 @@ function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }
   loop.free();
 }
 
-module.exports = { load, isTrap, recover, onTrap, currentGeneration, forget, release };
+module.exports = { load, isTrap, recover, onTrap, currentGeneration, forget, release, prime, SAMPLE_PLANT };

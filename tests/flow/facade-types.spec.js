@@ -174,26 +174,7 @@ class ShapeChecker {
   }
 }
 
-// A plant with one of everything the facade describes: two lines, a valve and
-// a pump on one panel, a sensor station, an operation with a wait, a routine.
-const PLANT = {
-  actuatorTypes: {
-    valve: { signal: 'analog', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
-    pump: { signal: 'binary', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 },
-  },
-  devices: [{ id: 'p', kind: 'actuator-panel' }, { id: 's', kind: 'sensor-station' }],
-  actuators: [
-    { id: 'V', type: 'valve', device: 'p', io: 1, idle: 0, lockout: 0, resource: 'A' },
-    { id: 'P', type: 'pump', device: 'p', io: 1, idle: false, lockout: false, resource: 'B' },
-  ],
-  sensors: [{ id: 'L', device: 's', name: 'level' }],
-  resources: [{ id: 'A', lockout: { valves: { V: 0 } } }, { id: 'B', lockout: { pumps: { P: false } } }],
-  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'L > 1', sensors: ['L'], timeoutMs: 1000 }] }],
-  routines: [{ id: 'r', states: ['x', 'y', 'e'], initial: 'x', errorState: 'e', transitions: [
-    { from: 'x', to: 'y', operation: 'o', trigger: { msg: 'go' } },
-    { from: 'y', to: 'x', operation: 'o', trigger: { when: 'L > 1', sensors: ['L'], everyMs: 1 } },
-  ] }],
-};
+const PLANT = wasm.SAMPLE_PLANT;
 
 describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function () {
   let facade;
