@@ -113,13 +113,6 @@ class NodeRedProcess {
     fs.rmSync(this.dir, { recursive: true, force: true });
   }
 
-  /** Stops and removes it; after a failed test its log's tail is printed first. */
-  async dispose(test) {
-    await this.stop();
-    if (test && test.state === 'failed') console.log(this.log().slice(-4000));
-    this.remove();
-  }
-
   /** GET on the admin API; resolves with the parsed JSON body. */
   get(urlPath) {
     return this.request('GET', urlPath);
