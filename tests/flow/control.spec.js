@@ -10,8 +10,8 @@ const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, clock, runFor, runUntil, userDir,
+  PALETTE, paletteNodes, TAB, sinkNode, collect, until, serverPerTest, completions,
+  settings, settled, clock, runFor, runUntil, userDir,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -49,12 +49,11 @@ async function start(nodes, sinks = ['out'], modules = []) {
   return seen;
 }
 
-let completions = [];
 /** Gives `msg` to node `id` and waits until the node completed it (and what it sent was delivered). */
 async function deliver(id, msg) {
-  const before = completions.filter((c) => c.nodeId === id).length;
+  const before = completions().filter((c) => c.nodeId === id).length;
   helper.getNode(id).receive(msg);
-  await until(() => completions.filter((c) => c.nodeId === id).length > before, `node ${id} to complete the msg`);
+  await until(() => completions().filter((c) => c.nodeId === id).length > before, `node ${id} to complete the msg`);
   await settled(helper);
 }
 
@@ -64,21 +63,8 @@ function errorLogs(id) {
   return log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR && (!id || e.id === id)).map((e) => e.msg);
 }
 
-/** A Node-RED test runtime per test (manual clock), with msg completions tracked. */
-function withServer() {
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await stopServer();
-  });
-}
-
 describe('sugarshack control: pid', function () {
-  withServer();
+  serverPerTest();
 
   it('gives P = kp·e, I += kp/ti·e·dt, D = −kp·td·dpv/dt for known inputs, dt from msg.timestamp', async function () {
     const seen = await start([pidNode('pid')]);
@@ -493,7 +479,7 @@ describe('sugarshack control: pid', function () {
 });
 
 describe('sugarshack control: rcc and rcc-io', function () {
-  withServer();
+  serverPerTest();
 
   for (const [settings, extra] of [['in s', {}], ['in ms, older flows', LEGACY_RCC]]) it(`rcc (${settings}): the primary is engaged; the secondary stands by while the primary is fresh and engages once its age reaches D2`, async function () {
     const seen = await start([rccNode('r1', 1, 'o1', extra), rccNode('r2', 2, 'o2', extra)], ['o1', 'o2']);
@@ -710,7 +696,7 @@ describe('example: pid-loop', function () {
   const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/10-function.js']
     .map((f) => require(path.join(coreNodesDir, 'core', f)));
 
-  withServer();
+  serverPerTest();
 
   it('settles the simulated process on the set point without overshoot, follows a new set point, and goes back to auto bumplessly', async function () {
     const flow = JSON.parse(fs.readFileSync(path.join(PALETTE, 'examples', 'pid-loop.json'), 'utf8'))

@@ -11,8 +11,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settled, clock,
+  PALETTE, paletteNodes, collect, until, serverPerTest, completions, settled, clock,
 } = require('./support');
 const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
@@ -100,7 +99,6 @@ function revoked() {
 
 // ---- helpers --------------------------------------------------------------------
 
-let completions = [];
 const runtimeOf = (id) => helper.getNode(id).runtime;
 const quiet = () => settled(helper, 'il');
 const statusCalls = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]);
@@ -160,7 +158,7 @@ function sensorSample(payload) {
   helper.getNode('bus').receive({ topic: 'station-3/sensor/volume/state', payload });
 }
 
-const completionsOf = (id, msg) => completions.filter((c) => c.nodeId === id && c.msgid === msg._msgid);
+const completionsOf = (id, msg) => completions().filter((c) => c.nodeId === id && c.msgid === msg._msgid);
 
 /**
  * Gives `msg` to node `id` and checks it is refused as it should be: exactly one
@@ -253,15 +251,7 @@ async function stillWorks(seen, tag) {
 describe('sugarshack hostile input', function () {
   this.timeout(30000);
 
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await stopServer();
-  });
+  serverPerTest();
 
   for (const [name, make, codes] of [
     ['a 10,000-level nested array', () => deep(), { wasm: 'INPUT_TOO_DEEP', ages: 'INPUT_TOO_DEEP', tunings: deep, topic: 'INVALID_INPUT' }],
