@@ -1,7 +1,8 @@
 // @ts-check
 'use strict';
 // Safety state that must survive a crash (a power cut, kill -9), whatever
-// context store the user chose: each interlock's state is a file under
+// context store the user chose: each interlock's state (and each persisted
+// pid node's loop state) is a file under
 // <userDir>/sugarshack/, replaced atomically (temp file, fsync, rename, fsync
 // of the directory). A marker file says "this interlock has run before", so a
 // state that is missing, empty or unreadable after a previous run is reported
@@ -15,6 +16,12 @@ const fs = require('fs');
 const path = require('path');
 
 const FORMAT = 'sugarshack-interlock-state';
+/** What a FileStore keeps: its files' prefix, the format its documents carry, the marker's text. */
+const INTERLOCK_STATE = {
+  kind: 'interlock',
+  format: FORMAT,
+  note: 'This interlock has run here: if its state file is missing, it starts with every line faulted.\n',
+};
 // A saved state is read whole at start; past this it is refused as corrupt.
 const MAX_STATE_BYTES = 16 * 1024 * 1024;
 const RETRY_MS = 1000;
@@ -37,11 +44,16 @@ function stateDir(RED) {
 }
 
 class FileStore {
-  /** dir: the state directory; name: the interlock config node's id. */
-  constructor(dir, name) {
+  /**
+   * @param {string} dir the state directory
+   * @param {string} name the owning node's id
+   * @param {{ kind: string, format: string, note: string }} [of] what is kept (an interlock's state unless told)
+   */
+  constructor(dir, name, of = INTERLOCK_STATE) {
     this.dir = dir;
-    this.file = path.join(dir, `interlock-${safeName(name)}.json`);
-    this.marker = path.join(dir, `interlock-${safeName(name)}.ran`);
+    this.of = of;
+    this.file = path.join(dir, `${of.kind}-${safeName(name)}.json`);
+    this.marker = path.join(dir, `${of.kind}-${safeName(name)}.ran`);
     this.tmp = `${this.file}.tmp`;
   }
 
@@ -72,8 +84,8 @@ class FileStore {
     if (text !== null) {
       try {
         const doc = JSON.parse(text);
-        if (doc && doc.format === FORMAT) return { kind: 'saved', doc };
-        why = `${this.file} is not a sugarshack interlock state`;
+        if (doc && doc.format === this.of.format) return { kind: 'saved', doc };
+        why = `${this.file} is not a sugarshack ${this.of.kind} state`;
       } catch (err) {
         why = `${this.file} is not valid JSON (${err.message.slice(0, 100)})`;
       }
@@ -82,13 +94,13 @@ class FileStore {
     return { kind: 'lost', why };
   }
 
-  /** Marks that this interlock ran here; from now on a missing state is a lost one. */
+  /** Marks that its owner ran here; from now on a missing state is a lost one. */
   markRan() {
     fs.mkdirSync(this.dir, { recursive: true });
     if (fs.existsSync(this.marker)) return;
     const fd = fs.openSync(this.marker, 'w');
     try {
-      fs.writeSync(fd, 'This interlock has run here: if its state file is missing, it starts with every line faulted.\n');
+      fs.writeSync(fd, this.of.note);
       fs.fsyncSync(fd);
     } finally {
       fs.closeSync(fd);
@@ -170,6 +182,13 @@ class Committer {
   /**
    * `collect()`, called just before each write, may return one more effect for
    * that write (an interlock's event records, drained once per write).
+   * @param {object} o
+   * @param {FileStore | MemoryStore} o.store
+   * @param {() => string} o.snapshot the text to write
+   * @param {{ setTimeout: Function, clearTimeout: Function }} o.clock times the retries
+   * @param {(err: any) => void} [o.onError] a snapshot, write or effect failed
+   * @param {() => void} [o.onSaved] a write is on disk
+   * @param {() => ((() => void) | null)} [o.collect]
    */
   constructor({ store, snapshot, clock, onError, onSaved, collect }) {
     this.store = store;

@@ -7,8 +7,15 @@ const { translator } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
+const { FileStore, Committer, stateDir } = require('../lib/durable');
 
+// Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';
+const PID_STATE = {
+  kind: 'pid',
+  format: 'sugarshack-pid-state',
+  note: 'This pid node has run here: if its state file is missing, it starts from its configuration.\n',
+};
 // A msg with one of these (or topic "setpoint") changes the loop and is not a measurement.
 const CONTROL_KEYS = ['setpoint', 'mode', 'manual', 'tunings', 'limits'];
 const board = new StatusBoard();
@@ -131,7 +138,8 @@ module.exports = function (RED) {
     const node = this;
     const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
-    const store = props.store && props.store !== 'default' ? props.store : undefined;
+    // The context store of earlier versions: read only to carry their saved state over to the file.
+    const legacyStore = props.store && props.store !== 'default' ? props.store : undefined;
     // Made below unless the configuration is refused, and then every msg is refused before it is used.
     /** @type {import('../wasm/sugarshack_wasm').PidStation} */
     let station = /** @type {any} */ (null);
@@ -157,6 +165,27 @@ module.exports = function (RED) {
 
     const show = (shown) => board.set(node, shown);
 
+    let saveFailing = false; // warned once per run of failed writes
+    /** With persist: the state file and the writes to it (the interlock's atomic writes, grouped per turn). */
+    function durableState() {
+      const store = new FileStore(stateDir(RED), node.id, PID_STATE);
+      const committer = new Committer({
+        store,
+        clock,
+        snapshot: () => JSON.stringify({ format: PID_STATE.format, version: 1, savedAtMs: clock.now(), state: kept }),
+        onError: (err) => {
+          if (!saveFailing) node.warn(t('errors.notSaved', { where: store.where, message: err.message || err }));
+          saveFailing = true;
+        },
+        onSaved: () => {
+          saveFailing = false;
+        },
+      });
+      return { store, committer };
+    }
+    const durable = persist ? durableState() : null;
+    let lostWhy = null; // why the saved state could not be used, shown until the first msg
+
     function idleStatus() {
       const { mode, manual, setpoint, lastOutput } = station.state();
       if (mode === 'manual') return status('manual', t('status.manual', { value: fmt(manual) }));
@@ -169,10 +198,7 @@ module.exports = function (RED) {
       if (closed) return;
       const { integral, setpoint, mode, manual } = station.state();
       kept = { integral, setpoint, mode, manual };
-      if (!persist) return;
-      node.context().set(CONTEXT_KEY, kept, store, (err) => {
-        if (err) node.warn(t('errors.notSaved', { message: err.message || err }));
-      });
+      if (durable) durable.committer.change();
     }
 
     /** One timer, for when the core says its stale rule is next due. */
@@ -304,28 +330,84 @@ module.exports = function (RED) {
 
     function start() {
       ready = true;
-      show(idleStatus());
+      show(lostWhy ? status('warning', t('status.stateLost')) : idleStatus());
       for (const { msg, send, done } of early.take()) safeHandle(msg, send, done);
     }
 
-    if (station) {
-      if (!persist) {
-        start();
-      } else {
-        node.context().get(CONTEXT_KEY, store, (err, saved) => {
-          if (closed) return;
-          if (err) node.warn(t('errors.notRead', { message: err.message || err }));
-          if (saved && typeof saved === 'object') {
-            try {
-              station.restore(readSaved(saved));
-              save();
-            } catch (e) {
-              node.warn(t('errors.unusable', { message: e.message }));
-            }
+    /** The loop from a saved state; one that cannot be used is reported and the configuration used. */
+    function restoreFrom(saved) {
+      try {
+        if (!saved || typeof saved !== 'object' || Array.isArray(saved)) throw new Error(`it is ${describe(saved)}, not { integral, setpoint, mode, manual }`);
+        station.restore(readSaved(saved));
+      } catch (e) {
+        lostWhy = e.message;
+        node.warn(t('errors.unusable', { message: e.message }));
+      }
+    }
+
+    /**
+     * Persisted: the state file when there is one; a first start reads what an
+     * earlier version left in the context store. The state as started is written
+     * at once; only then is the node marked as run here and the old context value
+     * deleted, so a crash before that write migrates again on the next start.
+     */
+    function startPersisted({ store, committer }) {
+      let saved;
+      try {
+        saved = store.read();
+      } catch (err) {
+        saved = { kind: 'lost', why: err.message };
+      }
+      const begin = (afterWrite) => {
+        save();
+        committer.change(() => {
+          try {
+            store.markRan();
+          } catch (err) {
+            node.warn(t('errors.notSaved', { where: store.where, message: err.message }));
           }
-          start();
+          if (afterWrite) afterWrite();
+        });
+        start();
+      };
+      if (saved.kind === 'saved') {
+        restoreFrom(saved.doc.state);
+        begin();
+      } else if (saved.kind === 'lost') {
+        lostWhy = saved.why;
+        node.warn(t('errors.lost', { why: saved.why }));
+        begin();
+      } else {
+        readLegacy((value) => {
+          if (closed) return;
+          if (value === undefined || value === null) {
+            begin();
+            return;
+          }
+          restoreFrom(value);
+          begin(() => node.context().set(CONTEXT_KEY, undefined, legacyStore, (err) => {
+            if (err) node.warn(t('errors.legacyNotDeleted', { message: err.message || err }));
+          }));
         });
       }
+    }
+
+    /** The state an earlier version saved in the node's context (undefined when none or unreadable). */
+    function readLegacy(then) {
+      try {
+        node.context().get(CONTEXT_KEY, legacyStore, (err, value) => {
+          if (err) node.warn(t('errors.notRead', { message: err.message || err }));
+          then(err ? undefined : value);
+        });
+      } catch (err) {
+        node.warn(t('errors.notRead', { message: err.message }));
+        then(undefined);
+      }
+    }
+
+    if (station) {
+      if (durable) startPersisted(durable);
+      else start();
     }
 
     node.on('input', (msg, send, done) => {
@@ -341,7 +423,13 @@ module.exports = function (RED) {
       early.completeAll();
       if (station) station.free();
       station = /** @type {any} */ (null);
-      done();
+      if (!durable) {
+        done();
+        return;
+      }
+      // The last state is on disk before the node that replaces it (a redeploy, a restart) reads it.
+      const { committer } = durable;
+      committer.drain().then(() => committer.freeze()).then(() => done(), () => done());
     });
   }
 

@@ -81,7 +81,52 @@
     if (blank(node[name]) && !blank(node[legacyMs])) $('#node-input-' + name).val(msToSeconds(node[legacyMs]));
   }
 
+  var COLOR = '#D9A55B';
+
+  /**
+   * A node that acts on one operation of an interlock, named in the node or
+   * the msg (release: its lines; cancel: its waiting request). The two are
+   * alike but for the verb, which names the type, icon, label and texts
+   * (`sugarshack-<verb>.paletteLabel`, `.label.interlock`, `.label.operation`):
+   * this registers the type and adds its dialog.
+   */
+  function operationNode(verb) {
+    var type = 'sugarshack-' + verb;
+    var text = function (key) { return '<span data-i18n="' + type + '.' + key + '"></span>'; };
+    $('<script type="text/html"></script>').attr('data-template-name', type).text([
+      '<div class="form-row">',
+      '  <label for="node-input-interlock"><i class="fa fa-lock"></i> ' + text('label.interlock') + '</label>',
+      '  <input type="text" id="node-input-interlock">',
+      '</div>',
+      '<div class="form-row">',
+      '  <label for="node-input-operation"><i class="fa fa-cog"></i> ' + text('label.operation') + '</label>',
+      '  <input type="text" id="node-input-operation" placeholder="msg.operation, else msg.interlock.operation">',
+      '</div>',
+      '<div class="form-row">',
+      '  <label for="node-input-name"><i class="fa fa-tag"></i> <span data-i18n="node-red:common.label.name"></span></label>',
+      '  <input type="text" id="node-input-name">',
+      '</div>',
+    ].join('\n')).appendTo('body');
+    RED.nodes.registerType(type, {
+      category: 'sugarshack',
+      color: COLOR,
+      paletteLabel: function () { return this._(type + '.paletteLabel'); },
+      icon: verb + '.svg',
+      inputs: 1,
+      outputs: 1,
+      defaults: {
+        name: { value: '' },
+        interlock: { value: '', type: 'sugarshack-interlock', required: true },
+        operation: { value: '' },
+      },
+      label: function () {
+        return this.name || (this.operation ? verb + ' ' + this.operation : verb);
+      },
+      labelStyle: function () { return this.name ? 'node_label_italic' : ''; },
+    });
+  }
+
   window.sugarshackEditor = {
-    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, migrateMs: migrateMs, color: '#D9A55B',
+    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, migrateMs: migrateMs, operationNode: operationNode, color: COLOR,
   };
 })();

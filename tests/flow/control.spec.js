@@ -10,8 +10,8 @@ const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, clock, runFor, runUntil,
+  PALETTE, paletteNodes, TAB, sinkNode, collect, until, serverPerTest, completions,
+  settings, settled, clock, runFor, runUntil, userDir,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -49,12 +49,11 @@ async function start(nodes, sinks = ['out'], modules = []) {
   return seen;
 }
 
-let completions = [];
 /** Gives `msg` to node `id` and waits until the node completed it (and what it sent was delivered). */
 async function deliver(id, msg) {
-  const before = completions.filter((c) => c.nodeId === id).length;
+  const before = completions().filter((c) => c.nodeId === id).length;
   helper.getNode(id).receive(msg);
-  await until(() => completions.filter((c) => c.nodeId === id).length > before, `node ${id} to complete the msg`);
+  await until(() => completions().filter((c) => c.nodeId === id).length > before, `node ${id} to complete the msg`);
   await settled(helper);
 }
 
@@ -64,21 +63,8 @@ function errorLogs(id) {
   return log.args.map((a) => a[0]).filter((e) => e && e.level === log.ERROR && (!id || e.id === id)).map((e) => e.msg);
 }
 
-/** A Node-RED test runtime per test (manual clock), with msg completions tracked. */
-function withServer() {
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await stopServer();
-  });
-}
-
 describe('sugarshack control: pid', function () {
-  withServer();
+  serverPerTest();
 
   it('gives P = kp·e, I += kp/ti·e·dt, D = −kp·td·dpv/dt for known inputs, dt from msg.timestamp', async function () {
     const seen = await start([pidNode('pid')]);
@@ -278,36 +264,57 @@ describe('sugarshack control: pid', function () {
     assert.equal(seen.out.length, count, 'the watchdog stops with the node');
   });
 
-  it('persists the integral, set point and mode: a restart resumes where it left off', async function () {
-    const data = {};
-    const memoryStore = () => ({
+  describe('persist: the loop state in a file of the user directory', function () {
+    const data = {}; // the 'kept' context store's contents: scope -> key -> value
+    // A context store that takes 20 ms (manual clock) to read, as earlier versions' flows may have used.
+    const slowStore = () => ({
       open: () => Promise.resolve(),
       close: () => Promise.resolve(),
-      get: (scope, key, cb) => clock().setTimeout(() => cb(null, (data[scope] || {})[key]), 20), // a store that takes 20 ms
-      set: (scope, key, value, cb) => { (data[scope] = data[scope] || {})[key] = JSON.parse(JSON.stringify(value)); if (cb) cb(); },
+      get: (scope, key, cb) => clock().setTimeout(() => cb(null, (data[scope] || {})[key]), 20),
+      set: (scope, key, value, cb) => {
+        const values = (data[scope] = data[scope] || {});
+        if (value === undefined) delete values[key];
+        else values[key] = JSON.parse(JSON.stringify(value));
+        if (cb) cb();
+      },
       keys: (scope, cb) => cb(null, Object.keys(data[scope] || {})),
       delete: (scope) => { delete data[scope]; return Promise.resolve(); },
       clean: () => Promise.resolve(),
     });
-    settings({ contextStorage: { kept: { module: memoryStore } } });
-    try {
-      const node = pidNode('pid', { persist: true, store: 'kept' });
-      let seen = await start([node], ['out'], [() => contextModule.load()]);
-      helper.getNode('pid').receive({ payload: 40, timestamp: 1000 }); // arrives while the saved state is read
-      await settled(helper);
-      assert.equal(seen.out.length, 0, 'held until the saved state is read');
-      await clock().advance(20);
-      await until(() => seen.out.length === 1, 'the first output');
+    const stateFile = () => path.join(userDir(), 'sugarshack', 'pid-pid.json');
+    const markerFile = () => path.join(userDir(), 'sugarshack', 'pid-pid.ran');
+    const savedState = () => JSON.parse(fs.readFileSync(stateFile(), 'utf8'));
+    const contextValue = () => (data['pid:f1'] || {}).pid;
+    const warnings = () => helper.getNode('pid').warn.getCalls().filter((c) => c.thisValue.id === 'pid').map((c) => String(c.args[0]));
+    const node = pidNode('pid', { persist: true, store: 'kept' });
+    const load = () => start([node], ['out'], [() => contextModule.load()]);
+    const restart = async () => {
+      await helper.unload();
+      await contextModule.close();
+      return load();
+    };
+
+    beforeEach(function () {
+      for (const scope of Object.keys(data)) delete data[scope];
+      settings({ contextStorage: { kept: { module: slowStore } } });
+    });
+    afterEach(() => contextModule.close());
+
+    it('a restart resumes where it left off, from the file (the context store holds nothing)', async function () {
+      let seen = await load();
+      await clock().advance(20); // a first start looks in the old context store once
+      await until(() => statusOf('pid') && statusOf('pid').text === 'sp 50', 'started');
+      await deliver('pid', { payload: 40, timestamp: 1000 });
       await deliver('pid', { payload: 42, timestamp: 2000 });
       await deliver('pid', { topic: 'setpoint', payload: 55 });
       const { i } = seen.out.at(-1).pid;
-      const saved = Object.values(data).map((scope) => scope.pid).find(Boolean);
-      assert.deepEqual(saved, { integral: i, setpoint: 55, mode: 'auto', manual: null });
-      await helper.unload();
-      await contextModule.close();
+      seen = await restart(); // closing writes what was not yet on disk
+      assert.deepEqual(savedState().state, { integral: i, setpoint: 55, mode: 'auto', manual: null });
+      assert.equal(savedState().format, 'sugarshack-pid-state');
+      assert.ok(fs.existsSync(markerFile()), 'marked as run here');
+      assert.equal(contextValue(), undefined, 'nothing in the context store');
 
-      seen = await start([node], ['out'], [() => contextModule.load()]);
-      await clock().advance(20);
+      // No context read this time (the file is there): restored at once, no clock needed.
       await until(() => statusOf('pid') && statusOf('pid').text === 'sp 55', 'the restored set point');
       await deliver('pid', { payload: 47, timestamp: 60000 });
       const first = seen.out[0].pid;
@@ -316,15 +323,71 @@ describe('sugarshack control: pid', function () {
       close(first.output, 2 * 8 + i + 0.2 * 8 * 1, 1e-9);
       // Manual mode and its output come back too.
       await deliver('pid', { mode: 'manual', manual: 33 });
-      await helper.unload();
-      await contextModule.close();
-      seen = await start([node], ['out'], [() => contextModule.load()]);
-      await clock().advance(20);
+      seen = await restart();
       await until(() => statusOf('pid') && statusOf('pid').text === 'manual 33', 'restored in manual');
       await deliver('pid', { payload: 47, timestamp: 70000 });
       assert.deepEqual([seen.out[0].payload, seen.out[0].pid.mode], [33, 'manual']);
-    } finally {
-      await contextModule.close();
+      assert.deepEqual(warnings(), []);
+    });
+
+    it('a state an earlier version saved in the context store is carried over once: restored, written to the file, deleted from the store', async function () {
+      data['pid:f1'] = { pid: { integral: 7, setpoint: 60, mode: 'auto', manual: null } };
+      let seen = await load();
+      helper.getNode('pid').receive({ payload: 40, timestamp: 1000 }); // arrives while the old store is read
+      await settled(helper);
+      assert.equal(seen.out.length, 0, 'held until the saved state is read');
+      assert.equal(fs.existsSync(stateFile()), false);
+      await clock().advance(20);
+      await until(() => seen.out.length === 1, 'the first output');
+      const first = seen.out[0].pid;
+      assert.equal(first.setpoint, 60);
+      close(first.output, 2 * 20 + 7 + 0.2 * 20 * 1, 1e-9); // P + the carried-over integral + one step of it
+      await until(() => contextValue() === undefined, 'the old context value deleted once the file holds it');
+      assert.equal(savedState().state.setpoint, 60);
+      assert.ok(fs.existsSync(markerFile()));
+
+      // From now on the file is the state: a value left in the context store is not read again.
+      data['pid:f1'] = { pid: { integral: 0, setpoint: 10, mode: 'manual', manual: 5 } };
+      seen = await restart();
+      await until(() => statusOf('pid') && statusOf('pid').text === 'sp 60', 'the state from the file');
+      assert.deepEqual(contextValue(), { integral: 0, setpoint: 10, mode: 'manual', manual: 5 });
+      assert.deepEqual(warnings(), []);
+    });
+
+    for (const [what, damage] of [
+      ['not JSON', () => fs.writeFileSync(stateFile(), '{"format":"sugarshack-pid-st')],
+      ['empty', () => fs.writeFileSync(stateFile(), '')],
+      ['missing though the node ran here', () => fs.rmSync(stateFile())],
+      ['not a pid state', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-interlock-state' }))],
+      ['holding no state object', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-pid-state', state: 'x' }))],
+    ]) {
+      it(`a state file ${what}: a warning that says so, "saved state lost", the configured set point and mode with a zero integrator`, async function () {
+        await load();
+        await clock().advance(20);
+        await deliver('pid', { topic: 'setpoint', payload: 65 });
+        await helper.unload();
+        await contextModule.close();
+        assert.equal(savedState().state.setpoint, 65);
+        damage();
+        // Not read: the node ran here, so the old context store is not asked again.
+        data['pid:f1'] = { pid: { integral: 9, setpoint: 70, mode: 'manual', manual: 12 } };
+
+        const seen = await load();
+        await until(() => statusOf('pid') !== undefined, 'started');
+        assert.deepEqual(statusOf('pid'), { fill: 'yellow', shape: 'ring', text: 'saved state lost' });
+        const [warning, ...others] = warnings();
+        assert.deepEqual(others, []);
+        assert.match(warning, /saved PID state (is lost|cannot be used)/);
+        assert.match(warning, /pid-pid\.json|not \{ integral/);
+        assert.match(warning, /starting from the config/);
+        await deliver('pid', { payload: 40, timestamp: 1000 });
+        const first = seen.out[0].pid;
+        assert.deepEqual([first.setpoint, first.mode], [50, 'auto'], 'the configured set point and mode, not the context value');
+        close(first.output, 2 * 10 + 0.2 * 10 * 1, 1e-9); // P + one step of a zero integrator
+        assert.equal(statusOf('pid').fill, 'green', 'the next msg shows the loop again');
+        await helper.unload();
+        assert.equal(savedState().state.setpoint, 50, 'the file written afresh');
+      });
     }
   });
 
@@ -416,7 +479,7 @@ describe('sugarshack control: pid', function () {
 });
 
 describe('sugarshack control: rcc and rcc-io', function () {
-  withServer();
+  serverPerTest();
 
   for (const [settings, extra] of [['in s', {}], ['in ms, older flows', LEGACY_RCC]]) it(`rcc (${settings}): the primary is engaged; the secondary stands by while the primary is fresh and engages once its age reaches D2`, async function () {
     const seen = await start([rccNode('r1', 1, 'o1', extra), rccNode('r2', 2, 'o2', extra)], ['o1', 'o2']);
@@ -633,7 +696,7 @@ describe('example: pid-loop', function () {
   const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/10-function.js']
     .map((f) => require(path.join(coreNodesDir, 'core', f)));
 
-  withServer();
+  serverPerTest();
 
   it('settles the simulated process on the set point without overshoot, follows a new set point, and goes back to auto bumplessly', async function () {
     const flow = JSON.parse(fs.readFileSync(path.join(PALETTE, 'examples', 'pid-loop.json'), 'utf8'))

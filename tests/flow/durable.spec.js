@@ -321,23 +321,42 @@ describe('sugarshack durable interlock state', function () {
   });
 
   describe('deploys', function () {
-    it('a full deploy of unchanged flows hands everything over: holds, faults and waiting msgs go on, nothing faults', async function () {
-      const f = flow();
+    /** Loads `f`: op 10 holds YEL, GRN is e-stopped, and op 12 (msg `waiter`) waits for YEL. */
+    async function holdFaultAndWait(f, waiter = {}) {
       await helper.load(paletteNodes, f);
       const out = collect(helper, 'out');
       helper.getNode('a10').receive({});
       helper.getNode('stopGRN').receive({});
       await until(() => out.length === 1, 'op 10 holds YEL');
-      const waiter = { payload: 'unload' };
       helper.getNode('a12').receive(waiter);
       await quiet();
+    }
+    /** What holdFaultAndWait set up, still there. */
+    function assertHeldFaultedWaiting() {
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'faulted:manual', BLU: 'free', PUR: 'free', RED: 'free' });
+      assert.deepEqual(counts(), { holding: 1, queued: 1, faulted: 1 });
+    }
+    /** Loads `f` (no overtaking): op 10 holds YEL; op 18 (msg `wide`, YEL and RED), then op 51 (RED) wait. */
+    async function holdAndTwoWaiting(f, wide) {
+      await helper.load(paletteNodes, f);
+      const out = collect(helper, 'out');
+      helper.getNode('a10').receive({});
+      await until(() => out.length === 1, 'op 10 granted');
+      helper.getNode('a18').receive(wide);
+      helper.getNode('a51').receive({ payload: 'drain silo' });
+      await quiet();
+    }
+
+    it('a full deploy of unchanged flows hands everything over: holds, faults and waiting msgs go on, nothing faults', async function () {
+      const f = flow();
+      const waiter = { payload: 'unload' };
+      await holdFaultAndWait(f, waiter);
       const core = runtimeOf().core;
 
       await helper.setFlows(f, 'full');
       await quiet();
       assert.equal(runtimeOf().core, core, 'the same interlock, not a restored one');
-      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'faulted:manual', BLU: 'free', PUR: 'free', RED: 'free' });
-      assert.deepEqual(counts(), { holding: 1, queued: 1, faulted: 1 });
+      assertHeldFaultedWaiting();
       const after = collect(helper, 'out');
       const events = collect(helper, 'events');
       helper.getNode('rel').receive({ operation: '10' });
@@ -350,14 +369,8 @@ describe('sugarshack durable interlock state', function () {
 
     it('a modified-nodes deploy of a waiting acquire node sends its msg from its new instance', async function () {
       const f = flow([], { policy: 'no-overtaking' });
-      await helper.load(paletteNodes, f);
-      const out = collect(helper, 'out');
-      helper.getNode('a10').receive({});
-      await until(() => out.length === 1, 'op 10 granted');
       const wide = { payload: 'flit downstock' };
-      helper.getNode('a18').receive(wide);
-      helper.getNode('a51').receive({ payload: 'drain silo' });
-      await quiet();
+      await holdAndTwoWaiting(f, wide);
       assert.deepEqual(counts(), { holding: 1, queued: 2, faulted: 0 });
 
       await helper.setFlows(f.map((n) => (n.id === 'a18' ? { ...n, name: 'renamed' } : n)), 'nodes');
@@ -371,15 +384,9 @@ describe('sugarshack durable interlock state', function () {
 
     it('a deploy that removes a waiting acquire node withdraws its request; the next waiter goes', async function () {
       const f = flow([], { policy: 'no-overtaking' });
-      await helper.load(paletteNodes, f);
-      const out = collect(helper, 'out');
       const completions = trackCompletions();
-      helper.getNode('a10').receive({});
-      await until(() => out.length === 1, 'op 10 granted');
       const wide = { payload: 'flit downstock' };
-      helper.getNode('a18').receive(wide);
-      helper.getNode('a51').receive({ payload: 'drain silo' });
-      await quiet();
+      await holdAndTwoWaiting(f, wide);
       await helper.setFlows(f.filter((n) => n.id !== 'a18'), 'nodes');
       const after = collect(helper, 'out');
       await until(() => after.length === 1, 'op 51 granted once 18 left');
@@ -389,20 +396,13 @@ describe('sugarshack durable interlock state', function () {
 
     it('a deploy that changes the interlock\'s settings keeps holds, faults and waiting requests', async function () {
       const f = flow();
-      await helper.load(paletteNodes, f);
-      const out = collect(helper, 'out');
-      helper.getNode('a10').receive({});
-      helper.getNode('stopGRN').receive({});
-      await until(() => out.length === 1, 'op 10 granted');
-      helper.getNode('a12').receive({});
-      await quiet();
+      await holdFaultAndWait(f);
       const core = runtimeOf().core;
       await helper.setFlows(f.map((n) => (n.id === 'il' ? { ...n, policy: 'no-overtaking' } : n)), 'full');
       await until(() => runtimeOf().core !== core && runtimeOf().gateOpen, 'the new settings applied');
       await quiet();
       assert.equal(runtimeOf().config.policy, 'no-overtaking');
-      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'faulted:manual', BLU: 'free', PUR: 'free', RED: 'free' });
-      assert.deepEqual(counts(), { holding: 1, queued: 1, faulted: 1 });
+      assertHeldFaultedWaiting();
       const after = collect(helper, 'out');
       helper.getNode('rel').receive({ operation: '10' });
       await until(() => after.length === 1, 'the waiting request granted');

@@ -149,6 +149,61 @@ const statusOf = (id) => helper.getNode(id).status.getCalls().filter((c) => c.th
 
 const commandsOf = (msgs) => msgs.map((m) => [m.topic, m.payload]);
 
+/**
+ * Op 12 of the examples that run it (unload truck: YEL's two valves open, the
+ * pump runs, then the idle step closes all), from its inject with LT-3 empty:
+ * returns the msg it comes back with, once its commands are checked.
+ */
+async function unloadTruck({ flow, seen, field }, runTill) {
+  field.sensor('LT-3', 0);
+  const sent = seen['device commands'].length;
+  helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
+  await runTill(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
+  const back = seen['op 12 returned'][0];
+  assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
+  assert.deepEqual(back.interlock.resources, ['YEL']);
+  assert.equal(back.interlock.operation, '12');
+  assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
+    ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
+    ['ctrl-1/pump/1/command', 'ON'],
+    ['ctrl-1/pump/1/command', 'OFF'],
+    ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
+  ]);
+  return back;
+}
+
+/**
+ * The hooks and start of a describe block that runs example `file` against a
+ * fake field, each test in its own user directory (the interlock's state):
+ * `start(tweak)` loads it (each node through `tweak`), waits for its plants and
+ * interlocks, and watches the helper nodes named in `watched`; `run(ms)` and
+ * `runTill(predicate, what)` move the manual clock, the interlocks (`ids`)
+ * saving as it goes.
+ */
+function exampleRun(file, watched) {
+  let field = null;
+  const ids = interlocksOf(helperFlow(file));
+  beforeEach(startServer);
+  afterEach(async function () {
+    field?.stop();
+    field = null;
+    await stopServer();
+  });
+  return {
+    async start(tweak) {
+      const flow = helperFlow(file, tweak);
+      await helper.load(NODE_MODULES, flow);
+      await started(flow);
+      const seen = watch(flow, watched);
+      field = fakeField(flow);
+      return { flow, seen, field };
+    },
+    ids,
+    run: (ms) => runFor(helper, ms, { ids }),
+    runTill: (predicate, what) => runUntil(helper, predicate, what, { ids }),
+  };
+}
+
 describe('examples', function () {
   beforeEach(startServer);
   afterEach(stopServer);
@@ -268,49 +323,14 @@ describe('example: interlock-yel-contention', function () {
 });
 
 describe('example: operation-subflow', function () {
-  const FILE = 'operation-subflow.json';
-  let field = null;
-
-  beforeEach(startServer);
-
-  afterEach(async function () {
-    field?.stop();
-    field = null;
-    await stopServer();
-  });
-
-  let ids = [];
-  const run = (ms) => runFor(helper, ms, { ids });
-  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
-
-  /** The example (each test has its own user directory for the interlock's state) with `waitS` as the condition's timeout. */
-  async function start({ waitS } = {}) {
-    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-wait' && waitS ? { ...n, timeout: waitS } : n));
-    await helper.load(NODE_MODULES, flow);
-    ids = interlocksOf(flow);
-    await started(flow);
-    const seen = watch(flow, ['op 12 returned', 'device commands', 'command errors', 'faulted', 'lockout done',
-      'refused calls', 'cleared', 'interlock events']);
-    field = fakeField(flow);
-    return { flow, seen };
-  }
+  const { start: startExample, run, runTill } = exampleRun('operation-subflow.json', ['op 12 returned', 'device commands',
+    'command errors', 'faulted', 'lockout done', 'refused calls', 'cleared', 'interlock events']);
+  /** The example with `waitS` as the condition's timeout. */
+  const start = ({ waitS } = {}) => startExample((n) => (n.type === 'sugarshack-wait' && waitS ? { ...n, timeout: waitS } : n));
 
   it('op 12 runs from its link call: acquire, commands through the shared block, condition, back to idle, release, return', async function () {
-    const { flow, seen } = await start();
-    field.sensor('LT-3', 0);
-    const sent = seen['device commands'].length;
-    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await runTill(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
-    const back = seen['op 12 returned'][0];
-    assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
-    assert.deepEqual(back.interlock.resources, ['YEL']);
-    assert.equal(back.interlock.operation, '12');
-    assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
-      ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
-      ['ctrl-1/pump/1/command', 'ON'],
-      ['ctrl-1/pump/1/command', 'OFF'],
-      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
-    ]);
+    const { flow, seen, field } = await start();
+    await unloadTruck({ flow, seen, field }, runTill);
     // Interlock events are published once per turn of the event loop: the release may follow the msg.
     const kinds = () => seen['interlock events'].map((m) => m.payload.kind).filter((k) => k === 'granted' || k === 'released');
     await runTill(() => kinds().length === 2, 'the granted and released events');
@@ -340,7 +360,7 @@ describe('example: operation-subflow', function () {
   });
 
   it('a condition that does not hold in time faults op 12 through the Catch: YEL locks out, blocks op 12 until cleared', async function () {
-    const { flow, seen } = await start({ waitS: 0.3 });
+    const { flow, seen, field } = await start({ waitS: 0.3 });
     field.sensor('LT-3', 5000);
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
     await runTill(() => seen.faulted.length === 1, 'the fault');
@@ -371,28 +391,7 @@ describe('example: operation-subflow', function () {
 
 describe('example: operations-and-routines', function () {
   const FILE = 'operations-and-routines.json';
-  let field = null;
-
-  beforeEach(startServer);
-
-  afterEach(async function () {
-    field?.stop();
-    field = null;
-    await stopServer();
-  });
-
-  let ids = [];
-  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
-
-  async function start() {
-    const flow = helperFlow(FILE);
-    await helper.load(NODE_MODULES, flow);
-    ids = interlocksOf(flow);
-    await started(flow);
-    const seen = watch(flow, ['operation returned', 'routine events', 'errors', 'interlock events', 'device commands']);
-    field = fakeField(flow);
-    return { flow, seen };
-  }
+  const { start, runTill } = exampleRun(FILE, ['operation returned', 'routine events', 'errors', 'interlock events', 'device commands']);
 
   const inject = (flow, name) => helper.getNode(byName(flow, 'inject', name)).receive({});
 
@@ -413,7 +412,7 @@ describe('example: operations-and-routines', function () {
   });
 
   it('op 18 from its inject; a second start is refused (C1); drain silo waits for LT-2, then queues behind op 18 on RED', async function () {
-    const { flow, seen } = await start();
+    const { flow, seen, field } = await start();
     field.sensor('LT-7', 1000);
     field.sensor('LT-2', 20000);
     inject(flow, 'start op 18 (flit downstock)');
@@ -437,7 +436,7 @@ describe('example: operations-and-routines', function () {
   });
 
   it('the truck routine: load runs op 10 to loaded, unload runs op 12 back to empty, one pending operation at a time', async function () {
-    const { flow, seen } = await start();
+    const { flow, seen, field } = await start();
     field.sensor('LT-2', 20000);
     field.sensor('LT-3', 0);
     inject(flow, 'reset');
@@ -470,53 +469,21 @@ describe('example: operations-and-routines', function () {
 });
 
 describe('example: subflows-op12', function () {
-  const FILE = 'subflows-op12.json';
-  let field = null;
-
-  beforeEach(startServer);
-
-  afterEach(async function () {
-    field?.stop();
-    field = null;
-    await stopServer();
-  });
-
-  let ids = [];
-  const runTill = (predicate, what) => runUntil(helper, predicate, what, { ids });
-
-  async function start({ waitS } = {}) {
-    const flow = helperFlow(FILE, (n) => (n.type === 'sugarshack-condition-step' && waitS ? { ...n, timeout: waitS } : n));
-    await helper.load(NODE_MODULES, flow);
-    ids = interlocksOf(flow);
-    await started(flow);
-    const seen = watch(flow, ['op 12 returned', 'device commands', 'faulted', 'step errors', 'lockout done', 'panel', 'not understood', 'clear refused', 'state']);
-    field = fakeField(flow);
-    return { flow, seen };
-  }
+  const { start: startExample, runTill, ids } = exampleRun('subflows-op12.json', ['op 12 returned', 'device commands', 'faulted',
+    'step errors', 'lockout done', 'panel', 'not understood', 'clear refused', 'state']);
+  /** The example with `waitS` as the condition step's timeout. */
+  const start = ({ waitS } = {}) => startExample((n) => (n.type === 'sugarshack-condition-step' && waitS ? { ...n, timeout: waitS } : n));
 
   it('op 12 from the singular operation node: its steps through the group command entry and a condition step, then return', async function () {
-    const { flow, seen } = await start();
-    field.sensor('LT-3', 0);
-    const sent = seen['device commands'].length;
-    helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
-    await runTill(() => seen['op 12 returned'].length === 1, 'op 12 to return to its caller');
-    const back = seen['op 12 returned'][0];
-    assert.equal(back.payload.pumps.P1, false, 'the msg has been through the idle step');
-    assert.deepEqual(back.interlock.resources, ['YEL']);
-    assert.equal(back.interlock.operation, '12');
+    const loaded = await start();
+    const back = await unloadTruck(loaded, runTill);
     assert.equal(back.interlock.priority, 22);
     assert.equal(typeof back.condition.waitedMs, 'number', 'the condition step held');
-    assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
-      ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
-      ['ctrl-1/pump/1/command', 'ON'],
-      ['ctrl-1/pump/1/command', 'OFF'],
-      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
-    ]);
-    for (const name of ['faulted', 'step errors', 'lockout done']) assert.deepEqual(seen[name], [], name);
+    for (const name of ['faulted', 'step errors', 'lockout done']) assert.deepEqual(loaded.seen[name], [], name);
   });
 
   it('a condition step that does not hold in time reports which condition failed, to the Catch of the steps', async function () {
-    const { flow, seen } = await start({ waitS: 0.3 });
+    const { flow, seen, field } = await start({ waitS: 0.3 });
     field.sensor('LT-3', 5000);
     helper.getNode(byName(flow, 'inject', 'unload truck (op 12)')).receive({});
     await runTill(() => seen['step errors'].length === 1, 'the condition failure');

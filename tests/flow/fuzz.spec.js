@@ -14,8 +14,9 @@ const path = require('path');
 const { mulberry32 } = require('../../scripts/simulator/random');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, settled, clock,
+  PALETTE, paletteNodes, collect, until, startServer, stopServer, settled, clock,
 } = require('./support');
+const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
@@ -29,21 +30,9 @@ const PER_ROUND = 5;
 
 // ---- the plant ------------------------------------------------------------------
 
-const valve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
-
 function plantDocument() {
-  return {
-    actuatorTypes: {
-      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 2000, completionMs: 5000, staleMs: 600000, retries: 1 },
-      pump: { signal: 'binary', noMotionMs: 2000, completionMs: 5000, staleMs: 600000, retries: 1 },
-    },
-    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
-    actuators: [
-      valve('V101', 1, 'YEL'), valve('V102', 2, 'YEL'), valve('V201', 3, 'GRN'), valve('V501', 5, 'RED'),
-      { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' },
-    ],
-    sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 5000 }],
-    resources: [{ id: 'YEL' }, { id: 'GRN' }, { id: 'RED' }],
+  return plantOf({
+    actuatorStaleMs: 600000, retries: 1, sensorStaleMs: 5000,
     operations: [
       { id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 8000 }] },
       { id: '18', priority: 90, resources: ['YEL', 'RED'], steps: [
@@ -59,7 +48,7 @@ function plantDocument() {
         { from: 'fault', to: 'empty', operation: '10', trigger: { when: '`LT-3` < 50', sensors: ['LT-3'], everyMs: 1000 } },
       ],
     }],
-  };
+  });
 }
 
 // The node each kind of msg goes to.
@@ -67,41 +56,16 @@ const TARGETS = {
   acquire: 'acq', release: 'rel', fault: 'flt', estop: 'stop', clear: 'clr', cancel: 'cnl', group: 'gc',
   actuators: 'bus', operation: 'op', wait: 'wt', routine: 'rt', pid: 'pid', rcc: 'rcc', rccio: 'io',
 };
-const SINKS = ['mqtt', 'busret', 'ev', 'gcout', 'granted', 'released', 'faulted', 'lockouts', 'cleared', 'cancelled',
-  'events', 'rtev', 'waited', 'opout', 'pidout', 'rccout', 'iostate', 'ioact'];
 
-function flow() {
-  const n = (id, type, props, wires) => ({ id, z: 'f1', type, ...props, wires });
-  return [
-    TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
-    {
-      id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy',
-      queueBound: '', warnQueued: '', warnHeld: '', persist: true, store: 'default',
-    },
-    n('bus', 'sugarshack-actuators', { plant: 'pl', devices: '' }, [['mqtt'], ['busret'], ['ev']]),
-    n('gc', 'sugarshack-group-command', { plant: 'pl', timeout: 10 }, [['gcout']]),
-    n('acq', 'sugarshack-acquire', { interlock: 'il', operation: '', priority: '', resources: '', timeout: 30 }, [['granted']]),
-    n('rel', 'sugarshack-release', { interlock: 'il', operation: '' }, [['released']]),
-    n('flt', 'sugarshack-fault', { interlock: 'il', mode: 'operation', operation: '', resources: '' }, [['faulted'], ['lockouts']]),
-    n('stop', 'sugarshack-fault', { interlock: 'il', mode: 'resources', operation: '', resources: 'GRN' }, [['faulted'], ['lockouts']]),
-    n('clr', 'sugarshack-clear', { interlock: 'il', mode: 'all', resources: '' }, [['cleared']]),
-    n('cnl', 'sugarshack-cancel', { interlock: 'il', operation: '' }, [['cancelled']]),
-    n('ilev', 'sugarshack-interlock-events', { interlock: 'il' }, [['events']]),
-    n('op', 'sugarshack-operation', { interlock: 'il', operation: '10' }, [['opout']]),
-    n('rt', 'sugarshack-routine', { interlock: 'il', routine: 'truck', store: 'default' }, [['rtev']]),
-    n('wt', 'sugarshack-wait', { plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 5 }, [['waited']]),
-    n('pid', 'sugarshack-pid', {
-      kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '5',
-      setpoint: '50', mode: 'auto', manual: '', ts: '1', staleS: '0',
-      smith: 'adaptive', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', h: '3', maxSamples: '50',
-      persist: false, store: 'default',
-    }, [['pidout']]),
-    n('rcc', 'sugarshack-rcc', { controller: '2', thresholdsS: '0.1, 0.2', tsS: '0.05', smooth: true, pollTimeoutS: '' }, [['rccout']]),
-    n('io', 'sugarshack-rcc-io', { controllers: '2', initialAction: '0', periodS: '0.5' }, [['iostate'], ['ioact']]),
-    ...SINKS.map(sinkNode),
-  ];
-}
+const flow = () => everyNodeFlow(plantDocument(), {
+  gc: { timeout: 10 },
+  acq: { timeout: 30 },
+  stop: { resources: 'GRN' },
+  wt: { timeout: 5 },
+  pid: { fallback: '5', smith: 'adaptive', maxSamples: '50' },
+  rcc: { controller: '2' },
+  io: { periodS: '0.5' },
+});
 
 // ---- seeded random msgs -----------------------------------------------------------
 

@@ -11,9 +11,9 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settled, clock,
+  PALETTE, paletteNodes, collect, until, serverPerTest, completions, settled, clock,
 } = require('./support');
+const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
@@ -22,21 +22,9 @@ helper.init(require.resolve('node-red'));
 
 // ---- the plant ------------------------------------------------------------------
 
-const valve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
-
 function plantDocument() {
-  return {
-    actuatorTypes: {
-      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 2000, completionMs: 5000, staleMs: 3600000, retries: 0 },
-      pump: { signal: 'binary', noMotionMs: 2000, completionMs: 5000, staleMs: 3600000, retries: 0 },
-    },
-    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
-    actuators: [
-      valve('V101', 1, 'YEL'), valve('V102', 2, 'YEL'), valve('V201', 3, 'GRN'), valve('V501', 5, 'RED'),
-      { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' },
-    ],
-    sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 60000 }],
-    resources: [{ id: 'YEL' }, { id: 'GRN' }, { id: 'RED' }],
+  return plantOf({
+    actuatorStaleMs: 3600000, retries: 0, sensorStaleMs: 60000,
     operations: [
       { id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 10000 }] },
     ],
@@ -47,44 +35,10 @@ function plantDocument() {
         { from: 'full', to: 'empty', operation: '10', trigger: { msg: 'unload' } },
       ],
     }],
-  };
+  });
 }
 
-const SINKS = ['mqtt', 'busret', 'ev', 'gcout', 'granted', 'released', 'faulted', 'lockouts', 'cleared', 'cancelled',
-  'events', 'rtev', 'waited', 'pidout', 'rccout', 'iostate', 'ioact', 'opout'];
-
-function flow() {
-  const n = (id, type, props, wires) => ({ id, z: 'f1', type, ...props, wires });
-  return [
-    TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
-    {
-      id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy',
-      queueBound: '', warnQueued: '', warnHeld: '', persist: true, store: 'default',
-    },
-    n('bus', 'sugarshack-actuators', { plant: 'pl', devices: '' }, [['mqtt'], ['busret'], ['ev']]),
-    n('gc', 'sugarshack-group-command', { plant: 'pl', timeout: 0 }, [['gcout']]),
-    n('acq', 'sugarshack-acquire', { interlock: 'il', operation: '', priority: '', resources: '', timeout: 0 }, [['granted']]),
-    n('rel', 'sugarshack-release', { interlock: 'il', operation: '' }, [['released']]),
-    n('flt', 'sugarshack-fault', { interlock: 'il', mode: 'operation', operation: '', resources: '' }, [['faulted'], ['lockouts']]),
-    n('stop', 'sugarshack-fault', { interlock: 'il', mode: 'resources', operation: '', resources: '' }, [['faulted'], ['lockouts']]),
-    n('clr', 'sugarshack-clear', { interlock: 'il', mode: 'all', resources: '' }, [['cleared']]),
-    n('cnl', 'sugarshack-cancel', { interlock: 'il', operation: '' }, [['cancelled']]),
-    n('ilev', 'sugarshack-interlock-events', { interlock: 'il' }, [['events']]),
-    n('op', 'sugarshack-operation', { interlock: 'il', operation: '10' }, [['opout']]),
-    n('rt', 'sugarshack-routine', { interlock: 'il', routine: 'truck', store: 'default' }, [['rtev']]),
-    n('wt', 'sugarshack-wait', { plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 60 }, [['waited']]),
-    n('pid', 'sugarshack-pid', {
-      kp: '2', ti: '10', td: '1', outMin: '0', outMax: '100', action: 'reverse', fallback: '',
-      setpoint: '50', mode: 'auto', manual: '', ts: '1', staleS: '0',
-      smith: 'off', modelGain: '1', modelTau: '10', deadSamples: '0', alpha: '0.1', h: '3', maxSamples: '400',
-      persist: false, store: 'default',
-    }, [['pidout']]),
-    n('rcc', 'sugarshack-rcc', { controller: '1', thresholdsS: '0.1, 0.2', tsS: '0.05', smooth: true, pollTimeoutS: '' }, [['rccout']]),
-    n('io', 'sugarshack-rcc-io', { controllers: '2', initialAction: '0', periodS: '1' }, [['iostate'], ['ioact']]),
-    ...SINKS.map(sinkNode),
-  ];
-}
+const flow = () => everyNodeFlow(plantDocument());
 
 // ---- hostile values -------------------------------------------------------------
 
@@ -145,7 +99,6 @@ function revoked() {
 
 // ---- helpers --------------------------------------------------------------------
 
-let completions = [];
 const runtimeOf = (id) => helper.getNode(id).runtime;
 const quiet = () => settled(helper, 'il');
 const statusCalls = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]);
@@ -205,7 +158,7 @@ function sensorSample(payload) {
   helper.getNode('bus').receive({ topic: 'station-3/sensor/volume/state', payload });
 }
 
-const completionsOf = (id, msg) => completions.filter((c) => c.nodeId === id && c.msgid === msg._msgid);
+const completionsOf = (id, msg) => completions().filter((c) => c.nodeId === id && c.msgid === msg._msgid);
 
 /**
  * Gives `msg` to node `id` and checks it is refused as it should be: exactly one
@@ -298,15 +251,7 @@ async function stillWorks(seen, tag) {
 describe('sugarshack hostile input', function () {
   this.timeout(30000);
 
-  beforeEach(function (done) {
-    completions = trackCompletions();
-    startServer(done);
-  });
-
-  afterEach(async function () {
-    untrackCompletions();
-    await stopServer();
-  });
+  serverPerTest();
 
   for (const [name, make, codes] of [
     ['a 10,000-level nested array', () => deep(), { wasm: 'INPUT_TOO_DEEP', ages: 'INPUT_TOO_DEEP', tunings: deep, topic: 'INVALID_INPUT' }],

@@ -36,8 +36,11 @@ describe('i18n catalogs', function () {
     let keys = 0;
     for (const stem of stems('.html')) {
       const source = fs.readFileSync(path.join(NODES, `${stem}.html`), 'utf8');
-      for (const m of source.matchAll(/data-i18n="([^"]+)"|this\._\('([^']+)'\)/g)) {
-        const key = m[1] || m[2];
+      // A node resources/editor.js registers with its dialog reads these for its type.
+      const made = [...source.matchAll(/sugarshackEditor\.operationNode\('([\w-]+)'\)/g)]
+        .flatMap(([, verb]) => ['paletteLabel', 'label.interlock', 'label.operation'].map((key) => `sugarshack-${verb}.${key}`));
+      const read = [...source.matchAll(/data-i18n="([^"]+)"|this\._\('([^']+)'\)/g)].map((m) => m[1] || m[2]);
+      for (const key of [...made, ...read]) {
         if (key.startsWith('node-red:')) continue;
         keys++;
         if (typeof textAt(catalogOf(stem), key) !== 'string') missing.push(`${stem}.html: ${key}`);

@@ -390,16 +390,22 @@ describe('sugarshack interlock nodes', function () {
     assert.ok(warned.some((w) => /operation '12' has waited \d+ s for YEL/.test(w)), warned.join('; '));
   });
 
+  /** Ops 10 and 12 on YEL, a release, an e-stop of RED and its clear: one of each kind of event. */
+  const eventFlow = (...extra) => [
+    TAB, interlockConfig(),
+    acquire('a10', '10', 20, 'YEL', 'out'), acquire('a12', '12', 22, 'YEL', 'out'),
+    { id: 'rel', z: 'f1', type: 'sugarshack-release', interlock: 'il', wires: [['out']] },
+    { id: 'estop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: 'RED', wires: [[], []] },
+    { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: 'RED', wires: [[]] },
+    sinkNode('out'),
+    ...extra,
+  ];
+
   it('gives each event one readable line in msg.summary, for a debug node set to show it', async function () {
-    await helper.load(paletteNodes, [
-      TAB, interlockConfig(),
-      acquire('a10', '10', 20, 'YEL', 'out'), acquire('a12', '12', 22, 'YEL', 'out'),
-      { id: 'rel', z: 'f1', type: 'sugarshack-release', interlock: 'il', wires: [['out']] },
-      { id: 'estop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: 'RED', wires: [[], []] },
-      { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: 'RED', wires: [[]] },
+    await helper.load(paletteNodes, eventFlow(
       { id: 'ev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
-      sinkNode('out'), sinkNode('events'),
-    ]);
+      sinkNode('events'),
+    ));
     const events = collect(helper, 'events');
     helper.getNode('a10').receive({});
     helper.getNode('a12').receive({});
@@ -423,14 +429,7 @@ describe('sugarshack interlock nodes', function () {
   });
 
   it('keeps the abnormal events for the alarms when no events node listens, and not the grants of normal work', async function () {
-    await helper.load(paletteNodes, [
-      TAB, interlockConfig(),
-      acquire('a10', '10', 20, 'YEL', 'out'), acquire('a12', '12', 22, 'YEL', 'out'),
-      { id: 'rel', z: 'f1', type: 'sugarshack-release', interlock: 'il', wires: [['out']] },
-      { id: 'estop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: 'RED', wires: [[], []] },
-      { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: 'RED', wires: [[]] },
-      sinkNode('out'),
-    ]);
+    await helper.load(paletteNodes, eventFlow());
     helper.getNode('a10').receive({});
     helper.getNode('a12').receive({});
     helper.getNode('rel').receive({ operation: '10' });

@@ -111,7 +111,7 @@ function catchOnce(RED) {
 let helperCatch = null;
 
 // The current test's user directory and clock (see startServer).
-const current = { userDir: null, clock: null };
+const current = { userDir: null, clock: null, completions: [] };
 
 /** Runtime settings for the helper, always with the test's own user directory. */
 function settings(extra = {}) {
@@ -159,6 +159,21 @@ async function stopServer() {
 const clock = () => current.clock;
 const userDir = () => current.userDir;
 
+/** A describe block's hooks: each test on its own server (startServer), its msg completions tracked. */
+function serverPerTest() {
+  beforeEach(function (done) {
+    current.completions = trackCompletions();
+    startServer(done);
+  });
+  afterEach(async function () {
+    untrackCompletions();
+    await stopServer();
+  });
+}
+
+/** The msg completions of the current test of a serverPerTest block: [{ nodeId, msgid, error }]. */
+const completions = () => current.completions;
+
 /**
  * Lets the runtimes of these config nodes save what changed and run its effects,
  * twice over (an effect may change state again), then a few turns of the loop.
@@ -203,6 +218,6 @@ async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs
 }
 
 module.exports = {
-  PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

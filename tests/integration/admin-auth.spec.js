@@ -45,11 +45,7 @@ describe('the editor\'s e-stop and clear under adminAuth (a real Node-RED proces
   });
 
   after(async function () {
-    if (red) {
-      await red.stop();
-      if (this.currentTest && this.currentTest.state === 'failed') console.log(red.log().slice(-4000));
-      red.remove();
-    }
+    if (red) await red.finish(this.currentTest);
   });
 
   const url = (p) => `http://127.0.0.1:${red.port}${p}`;

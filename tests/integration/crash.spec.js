@@ -102,11 +102,7 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
   });
 
   after(async function () {
-    if (red) {
-      await red.stop();
-      if (this.currentTest && this.currentTest.state === 'failed') console.log(red.log().slice(-4000));
-      red.remove();
-    }
+    if (red) await red.finish(this.currentTest);
     if (probe) await probe.end();
     if (sim) await sim.stop();
     if (broker) await broker.stop();

@@ -50,11 +50,7 @@ describe('deploys through the admin API of a real Node-RED process, operations r
   }
 
   after(async function () {
-    if (red) {
-      await red.stop();
-      if (this.currentTest && this.currentTest.state === 'failed') console.log(red.log().slice(-4000));
-      red.remove();
-    }
+    if (red) await red.finish(this.currentTest);
     if (probe) await probe.end();
     if (sim) await sim.stop();
     if (broker) await broker.stop();

@@ -128,11 +128,7 @@ describe('hostile MQTT payloads against a real Node-RED process', function () {
   });
 
   after(async function () {
-    if (red) {
-      await red.stop();
-      if (this.currentTest && this.currentTest.state === 'failed') console.log(red.log().slice(-4000));
-      red.remove();
-    }
+    if (red) await red.finish(this.currentTest);
     if (probe) await probe.end();
     if (broker) await broker.stop();
   });

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The palette-wide journal bus: the runtimes say what happened in one call
 // each, and every journal writer attached gets the row. With no writer

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The embedded journal: line protocol appended to local files, rotated at
 // `fileBytes`, the oldest removed past `maxFiles`. The files are plain line
@@ -19,7 +20,7 @@ function listFiles(dir) {
   } catch (err) {
     if (err.code !== 'ENOENT') throw err;
   }
-  return names.map((f) => FILE_RE.exec(f)).filter(Boolean).map((m) => ({ n: Number(m[1]), file: path.join(dir, m[0]) })).sort((a, b) => a.n - b.n);
+  return names.map((f) => FILE_RE.exec(f)).filter((m) => m !== null).map((m) => ({ n: Number(m[1]), file: path.join(dir, m[0]) })).sort((a, b) => a.n - b.n);
 }
 
 function filesTarget({ dir, fileBytes = 16 * 1024 * 1024, maxFiles = 32 }) {
@@ -92,13 +93,13 @@ function parseLine(line) {
   return { table: unescape(table), tags, fields, at: ts === undefined ? null : Number(BigInt(ts) / 1000000n) };
 }
 
-/** Every row in the journal files of `dir` whose time is in [fromMs, toMs). */
+/** Every row in the journal files of `dir` whose time is in [fromMs, toMs); a row without a time (the writer never writes one) is skipped. */
 function readJournal(dir, { fromMs = -Infinity, toMs = Infinity } = {}) {
   const rows = [];
   for (const { file } of listFiles(dir)) {
     for (const line of fs.readFileSync(file, 'utf8').split('\n')) {
       const row = parseLine(line);
-      if (row && row.at >= fromMs && row.at < toMs) rows.push(row);
+      if (row && row.at !== null && row.at >= fromMs && row.at < toMs) rows.push(row);
     }
   }
   return rows;

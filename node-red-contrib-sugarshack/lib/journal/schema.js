@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The journal's tables: what each row of line protocol holds. Text goes in
 // tags (QuestDB symbols) and numbers in fields, because that is what every

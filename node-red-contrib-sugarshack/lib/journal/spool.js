@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // The journal's store-and-forward buffer: complete line-protocol rows appended
 // to segment files in a directory, read back in order from a saved cursor,
@@ -34,6 +35,14 @@ class Spool {
     this.dir = dir;
     this.maxBytes = maxBytes;
     this.segmentBytes = Math.max(1, Math.min(segmentBytes, maxBytes));
+    /** @type {{ n: number, size: number }[]} the segment files in order; the cursor is in the first */
+    this.segments = [];
+    this.offset = 0;
+    this.bytes = 0;
+    this.rows = 0;
+    this.dropped = 0;
+    /** @type {number | null} */
+    this.droppedSince = null;
     fs.mkdirSync(dir, { recursive: true });
     this.load();
   }
@@ -42,15 +51,14 @@ class Spool {
     const saved = this.readState();
     this.dropped = saved.dropped;
     this.droppedSince = saved.droppedSince;
-    this.segments = fs.readdirSync(this.dir)
+    const found = fs.readdirSync(this.dir)
       .map((f) => SEGMENT_RE.exec(f))
-      .filter(Boolean)
+      .filter((m) => m !== null)
       .map((m) => ({ n: Number(m[1]), size: fs.statSync(path.join(this.dir, m[0])).size }))
       .sort((a, b) => a.n - b.n);
     // Rows of segments older than the cursor's were all sent before a crash cut the clean-up short.
-    while (this.segments.length && this.segments[0].n < saved.segment) {
-      fs.rmSync(this.file(this.segments.shift().n), { force: true });
-    }
+    for (const stale of found.filter((s) => s.n < saved.segment)) fs.rmSync(this.file(stale.n), { force: true });
+    this.segments = found.filter((s) => s.n >= saved.segment);
     this.offset = this.segments.length && this.segments[0].n === saved.segment ? Math.min(saved.offset, this.segments[0].size) : 0;
     for (const s of this.segments) this.trimPartialRow(s);
     this.bytes = this.segments.reduce((sum, s) => sum + s.size, 0) - this.offset;

@@ -1,3 +1,4 @@
+// @ts-check
 'use strict';
 // A journal writer: takes rows from the bus, encodes them as line protocol
 // with QuestDB's client, and either appends them to local files (no database)
@@ -90,6 +91,7 @@ class JournalWriter {
    * @param {object} o.target     { send(Buffer): Promise, close(), where }
    * @param {number} [o.flushMs]  rows wait in memory at most this long
    * @param {number} [o.chunkBytes] largest request body
+   * @param {number} [o.maxPending] rows held in memory before a flush is forced
    * @param {function} [o.onChange] called when the state or the backlog changed
    */
   constructor({ plant, spool, target, flushMs = 1000, chunkBytes = 512 * 1024, maxPending = 10000, onChange }) {

@@ -113,6 +113,13 @@ class NodeRedProcess {
     fs.rmSync(this.dir, { recursive: true, force: true });
   }
 
+  /** A suite's end: stopped, the tail of its log printed when `test` (the last one run) failed, its directory removed. */
+  async finish(test) {
+    await this.stop();
+    if (test && test.state === 'failed') console.log(this.log().slice(-4000));
+    this.remove();
+  }
+
   /** GET on the admin API; resolves with the parsed JSON body. */
   get(urlPath) {
     return this.request('GET', urlPath);

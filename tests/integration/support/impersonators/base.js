@@ -8,6 +8,7 @@
 // The firmware-specific modules (esphome.js, tasmota.js, shelly-gen2.js) say
 // what is published and how commands are parsed; nothing here knows a topic.
 const mqtt = require('mqtt');
+const { topicMatches } = require('../mqtt-probe');
 
 class Impersonator {
   /**
@@ -125,15 +126,4 @@ class Impersonator {
   }
 }
 
-// MQTT wildcard match: '+' one level, '#' the rest.
-function topicMatches(filter, topic) {
-  const f = filter.split('/');
-  const t = topic.split('/');
-  for (let i = 0; i < f.length; i++) {
-    if (f[i] === '#') return true;
-    if (i >= t.length || (f[i] !== '+' && f[i] !== t[i])) return false;
-  }
-  return f.length === t.length;
-}
-
-module.exports = { Impersonator, topicMatches };
+module.exports = { Impersonator };
