@@ -179,4 +179,19 @@ async function waitFor(predicate, what, ms = 8000) {
   }
 }
 
-module.exports = { NodeRedProcess, mqttBroker, lineState, sleep, waitFor };
+/**
+ * Like waitFor, for a long run on a machine of unknown speed: it fails only when
+ * `progress()` stays the same for `stallMs` (slow is fine, stuck is not).
+ */
+async function waitWhileMoving(predicate, progress, what, stallMs = 15000) {
+  let last = await progress();
+  let deadline = Date.now() + stallMs;
+  while (!(await predicate())) {
+    const now = await progress();
+    if (now !== last) [last, deadline] = [now, Date.now() + stallMs];
+    if (Date.now() > deadline) throw new Error(`timed out waiting for ${what}: no progress for ${stallMs / 1000} s (at ${last})`);
+    await sleep(10);
+  }
+}
+
+module.exports = { NodeRedProcess, mqttBroker, lineState, sleep, waitFor, waitWhileMoving };
