@@ -8,10 +8,10 @@ const { SugarshackError } = require('./errors');
 const { errorStatus } = require('./status');
 const { paletteOf } = require('./lifecycle');
 
-// What a node says when its config node is unset: [code, message].
+// What a node says when its config node is unset: [code, catalog key].
 const MISSING = {
-  interlock: ['NO_INTERLOCK', 'no interlock is configured for this node'],
-  plant: ['NO_PLANT', 'no plant is configured for this node'],
+  interlock: ['NO_INTERLOCK', 'noInterlockConfigured'],
+  plant: ['NO_PLANT', 'noPlantConfigured'],
 };
 
 /**
@@ -61,8 +61,8 @@ function bindPlant(RED, node, configId, options) {
 function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
-      const [code, message] = MISSING[kind];
-      done(new SugarshackError(code, message));
+      const [code, key] = MISSING[kind];
+      done(SugarshackError.of(code, key));
       return;
     }
     let now = false;

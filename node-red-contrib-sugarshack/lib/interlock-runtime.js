@@ -79,8 +79,8 @@ class InterlockRuntime extends RuntimeBase {
   resolveConfig() {
     if (this.configError) throw this.configError;
     if (!this.settings.plantBound) return this.config;
-    if (!this.plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
-    if (this.plant.state !== 'ready') throw this.plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+    if (!this.plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
+    if (this.plant.state !== 'ready') throw this.plant.failure || SugarshackError.of('NO_PLANT', 'plantNotRunning');
     return { ...this.settings.config, resources: this.plant.interlockResources() };
   }
 
@@ -353,7 +353,7 @@ class InterlockRuntime extends RuntimeBase {
     if (this.state !== 'ready') return;
     this.committer.discard();
     for (const host of this.routines.values()) host.suspend();
-    const error = new SugarshackError('INTERNAL', 'the interlock core failed and was rebuilt from its last saved state; this msg was dropped');
+    const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
     for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
     for (const run of [...this.runs]) run.abandon(error);
     for (const entry of this.heldBack) entry.refuse(error);
@@ -671,7 +671,7 @@ class InterlockRuntime extends RuntimeBase {
   /** Starts an operation's run; `port` gets its progress, result or error. */
   startRun(operation, msg, port) {
     if (!this.plant) {
-      throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run operations from its document');
+      throw SugarshackError.of('NO_PLANT', 'noPlantForOperations');
     }
     const run = new RunHost({ interlock: this, plant: this.plant, operation, msg, port });
     this.runs.add(run);
@@ -689,7 +689,7 @@ class InterlockRuntime extends RuntimeBase {
     let host = this.routines.get(id);
     if (!host) {
       if (!this.plant) {
-        throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run routines from its document');
+        throw SugarshackError.of('NO_PLANT', 'noPlantForRoutines');
       }
       host = new RoutineHost({ interlock: this, plant: this.plant, id });
       const saved = this.savedRoutines[id];
@@ -729,10 +729,9 @@ class InterlockRuntime extends RuntimeBase {
     }
     this.changed(() => {
       answers.forEach((answer) => answer());
-      entry.refuse(new SugarshackError(
-        'ACQUIRE_TIMEOUT',
-        `operation '${entry.operation}' was not granted ${entry.resources.join(', ')} within ${entry.timeoutMs / 1000} s; its request was withdrawn`,
-      ));
+      entry.refuse(SugarshackError.of('ACQUIRE_TIMEOUT', 'acquireTimeout', {
+        operation: entry.operation, resources: entry.resources.join(', '), seconds: entry.timeoutMs / 1000,
+      }));
     });
   }
 
@@ -828,7 +827,7 @@ class InterlockRuntime extends RuntimeBase {
 timeLayer(InterlockRuntime, 'interlock', ['acquire', 'release', 'cancel', 'fault', 'faultResources', 'clear']);
 
 function requireName(name) {
-  if (!name) throw new SugarshackError('MISSING_OPERATION', 'an operation id is required');
+  if (!name) throw SugarshackError.of('MISSING_OPERATION', 'operationRequired');
   return name;
 }
 

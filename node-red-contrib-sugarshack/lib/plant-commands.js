@@ -110,11 +110,7 @@ class GroupCommands {
     const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
     if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
     if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
-    entry.refuse(new SugarshackError(
-      'COMMAND_TIMEOUT',
-      `group command did not complete within ${seconds(timeoutMs)}: ${waiting.join(', ')} had not completed; `
-        + 'the command was withdrawn (its actuators keep their last command)',
-    ));
+    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(timeoutMs), waiting: waiting.join(', ') }));
     plant.refreshStatus();
   }
 

@@ -131,7 +131,7 @@ class PlantRuntime extends RuntimeBase {
   /** After a wasm trap: a new tracker (positions come back with the next feedback); held commands fail. */
   rebuild() {
     if (this.state !== 'ready') return;
-    this.commands.refuseAll(new SugarshackError('INTERNAL', 'the plant core failed and was rebuilt; this group command was dropped (its actuators keep their last command)'));
+    this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
     wasm.forget(this.t);
     this.t = null;
     this.sensors.forget({ watchers: false });

@@ -119,7 +119,7 @@ class RoutineHost {
   /** A msg's topic is its trigger (RESET_TOPIC goes back to the initial state). Throws the core's refusal. */
   onMsg(topic) {
     const machine = this.machine;
-    if (!machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
+    if (!machine) throw SugarshackError.of('UNKNOWN_ROUTINE', 'routineNotRunning', { id: this.id });
     if (topic === RESET_TOPIC) {
       const moved = machine.reset();
       this.lastFault = false;

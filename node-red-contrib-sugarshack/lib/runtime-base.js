@@ -139,7 +139,7 @@ class RuntimeBase {
       if (!wasm.isTrap(err)) throw err;
       const generation = this.generation;
       setImmediate(() => wasm.recover(err, generation));
-      throw new SugarshackError('INTERNAL', `the ${this.kind}'s core failed (${err.message}); it is being rebuilt from its last saved state`);
+      throw SugarshackError.of('INTERNAL', 'coreTrapped', { kind: this.kind, message: err.message });
     }
   }
 

@@ -3,9 +3,11 @@
 const { bindPlant, onInput, always } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ActuatorsNode(props) {
     RED.nodes.createNode(this, props);

@@ -4,10 +4,11 @@ const { coreConfig } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   paletteOf(RED);
 
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */

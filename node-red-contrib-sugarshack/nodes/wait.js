@@ -6,11 +6,12 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { Condition } = require('../lib/condition');
 const { splitNames } = require('../lib/request');
 const { errorStatus, status } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { clock } = require('../lib/clock');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function WaitNode(props) {
     RED.nodes.createNode(this, props);
