@@ -4,20 +4,18 @@
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
 
-const invalid = (key, subs) => SugarshackError.of('INVALID_PLANT', key, subs);
-
 /** The plant document from the node's property: an object, or JSON text as typed in the editor. */
 function plantDocument(value) {
   if (typeof value === 'string') {
-    if (value.trim() === '') throw invalid('plantEmpty');
+    if (value.trim() === '') throw SugarshackError.of('INVALID_PLANT', 'plantEmpty');
     try {
       return JSON.parse(value);
     } catch (err) {
-      throw invalid('plantNotJson', { message: err.message });
+      throw SugarshackError.of('INVALID_PLANT', 'plantNotJson', { message: err.message });
     }
   }
   if (value && typeof value === 'object' && !Array.isArray(value)) return value;
-  throw invalid('plantNotObject');
+  throw SugarshackError.of('INVALID_PLANT', 'plantNotObject');
 }
 
 /** 4000 -> "4 s", 300 -> "0.3 s". */
