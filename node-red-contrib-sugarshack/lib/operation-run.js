@@ -10,6 +10,7 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
+const { text } = require('./i18n');
 const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
@@ -195,7 +196,7 @@ class RunHost {
   cancelStep() {
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('the operation was stopped');
+    if (token) token.cancel(text('labels.operationStopped'));
   }
 
   finishWith(report) {
@@ -233,7 +234,7 @@ class RunHost {
     this.ended = true;
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('Node-RED is stopping');
+    if (token) token.cancel(text('labels.nodeRedStopping'));
     this.free();
     if (this.port.abandon) this.port.abandon();
   }
@@ -243,7 +244,7 @@ class RunHost {
     if (this.ended) return;
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('the core failed');
+    if (token) token.cancel(text('labels.coreFailed'));
     this.finishWith(() => this.port.fail(err));
   }
 }

@@ -28,7 +28,7 @@ module.exports = function (RED) {
           if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
           const text = String(props.sensors || '').trim();
-          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
+          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : [], plant, 'operation');
           refusal = null;
           node.status({});
         } catch (err) {
@@ -70,7 +70,7 @@ module.exports = function (RED) {
     });
 
     node.on('close', (removed, done) => {
-      for (const signal of waiting) if (signal.cancel) signal.cancel('its node was stopped');
+      for (const signal of waiting) if (signal.cancel) signal.cancel(t('errors.nodeStopped'));
       done();
     });
   }
