@@ -13,6 +13,7 @@
 // event loop changes goes out in one write.
 const fs = require('fs');
 const path = require('path');
+const i18n = require('./i18n');
 
 const FORMAT = 'sugarshack-interlock-state';
 // A saved state is read whole at start; past this it is refused as corrupt.
@@ -63,11 +64,11 @@ class FileStore {
     let why = null;
     try {
       const size = fs.statSync(this.file).size;
-      if (size === 0) why = `${this.file} is empty`;
-      else if (size > MAX_STATE_BYTES) why = `${this.file} is ${size} bytes, more than a state can be (${MAX_STATE_BYTES})`;
+      if (size === 0) why = i18n.text('labels.stateFileEmpty', { file: this.file });
+      else if (size > MAX_STATE_BYTES) why = i18n.text('labels.stateFileTooLarge', { file: this.file, size, max: MAX_STATE_BYTES });
       else text = fs.readFileSync(this.file, 'utf8');
     } catch (err) {
-      why = err.code === 'ENOENT' ? `${this.file} is missing` : `cannot read ${this.file}: ${err.message}`;
+      why = err.code === 'ENOENT' ? i18n.text('labels.stateFileMissing', { file: this.file }) : i18n.text('labels.stateFileUnreadable', { file: this.file, message: err.message });
     }
     if (text !== null) {
       try {
@@ -145,7 +146,7 @@ class MemoryStore {
   }
 
   read() {
-    return this.ran ? { kind: 'lost', why: 'persistence is off, so the state before the failure was not kept' } : { kind: 'first' };
+    return this.ran ? { kind: 'lost', why: i18n.text('labels.persistenceOff') } : { kind: 'first' };
   }
 
   markRan() {

@@ -19,6 +19,7 @@ const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 const { journal } = require('./journal/bus');
 const { StatusPacer } = require('./status-pacer');
 
@@ -99,7 +100,7 @@ class InterlockRuntime extends RuntimeBase {
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
-        this.log('error', `cannot save the interlock state to ${this.store.where}: ${err.message || err}`);
+        this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
         this.refreshStatus();
       },
       onSaved: () => this.statusPacer.request(),
@@ -149,13 +150,13 @@ class InterlockRuntime extends RuntimeBase {
       this.store.markRan();
     } catch (err) {
       // Its state cannot be written either: grants will wait for it (status "state not saved").
-      this.log('error', `cannot mark this interlock as run in ${this.store.where}: ${err.message}`);
+      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
     }
     this.state = 'ready';
     this.committer.change(); // the state as started is the first one on disk
     this.startTicking();
     this.refreshStatus();
-    this.resendLockouts('restored faulted: lockout sent again at start');
+    this.resendLockouts(i18n.text('labels.resentAtStart'));
     this.replayParked();
   }
 
@@ -174,9 +175,8 @@ class InterlockRuntime extends RuntimeBase {
     }
     if (saved.kind === 'lost') {
       this.lostState = saved.why;
-      this.log('error', `state unknown after restart (${saved.why}): every line starts faulted and its lockout is sent; `
-        + 'check the plant, then clear the lines with a clear node');
-      return Interlock.unknownState(this.config, `state unknown after restart: ${saved.why}`, now);
+      this.log('error', i18n.text('logs.stateUnknown', { why: saved.why }));
+      return Interlock.unknownState(this.config, i18n.text('labels.stateUnknown', { why: saved.why }), now);
     }
     return new Interlock(this.config);
   }
@@ -209,7 +209,7 @@ class InterlockRuntime extends RuntimeBase {
       try {
         this.guard(() => this.faultResources(faulted, note, (lockouts) => this.plant.issueLockouts(lockouts, null)));
       } catch (err) {
-        this.log('error', `cannot send the lockouts of ${faulted.join(', ')} again: ${err.message}`);
+        this.log('error', i18n.text('logs.lockoutsNotResent', { lines: faulted.join(', '), message: err.message }));
       }
     });
   }
@@ -345,7 +345,7 @@ class InterlockRuntime extends RuntimeBase {
     this.committer.change();
     this.refreshStatus();
     // A new plant tracker knows no standing lockout yet.
-    this.resendLockouts('plant document changed: lockout sent again');
+    this.resendLockouts(i18n.text('labels.resentPlantChanged'));
   }
 
   /** After a wasm trap: back to the last saved state, as after a restart (held lines faulted, waiting dropped). */
@@ -382,7 +382,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     this.committer.change();
     this.refreshStatus();
-    this.resendLockouts('rebuilt after a core failure: lockout sent again');
+    this.resendLockouts(i18n.text('labels.resentAfterRebuild'));
   }
 
   // ---- nodes using this interlock ------------------------------------------
@@ -629,7 +629,7 @@ class InterlockRuntime extends RuntimeBase {
         return this.alarms.observe(conditions, now);
       });
     } catch (err) {
-      this.log('error', `alarms not updated: ${err.message}`);
+      this.log('error', i18n.text('logs.alarmsNotUpdated', { message: err.message }));
       return;
     }
     if (changes.length === 0) return;
@@ -725,7 +725,7 @@ class InterlockRuntime extends RuntimeBase {
     try {
       answers = this.grantsOf(this.guard(() => this.core.cancel(handle, now)), now);
     } catch (err) {
-      this.log('warn', `timed-out request of '${entry.operation}' was no longer queued: ${err.message}`);
+      this.log('warn', i18n.text('logs.timedOutNotQueued', { operation: entry.operation, message: err.message }));
     }
     this.changed(() => {
       answers.forEach((answer) => answer());

@@ -95,7 +95,7 @@ class RunHost {
             this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
           }),
           (err) => {
-            this.interlock.log('error', `cannot fault operation '${e.operation}' at the interlock: ${err.message}`);
+            this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
             this.feed((r) => r.faultApplied([], clock.now()));
           },
         );
@@ -119,7 +119,7 @@ class RunHost {
         break;
       default: {
         const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added
-        this.interlock.log('warn', `operation '${this.operation}': unknown run effect '${unknown.kind}' ignored`);
+        this.interlock.log('warn', text('logs.unknownRunEffect', { operation: this.operation, kind: unknown.kind }));
       }
     }
   }

@@ -156,8 +156,7 @@ class PlantBuses {
       }
       if (!this.unserved.has(name)) {
         this.unserved.add(name);
-        plant.log('error', `no actuators node serves device '${name}': ${e.topic} "${e.payload}" was not sent `
-          + `(add an actuators node for all devices, or list ${name} in one)`);
+        plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
       }
       return;
     }

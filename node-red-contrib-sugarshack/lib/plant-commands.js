@@ -11,6 +11,7 @@ const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
+const i18n = require('./i18n');
 
 const MAX_CALLER = 0xffffffff;
 
@@ -70,7 +71,7 @@ class GroupCommands {
     const faultAtMs = clock.now();
     for (const { resource, command } of lockouts) {
       const onDone = (err) => {
-        if (err) plant.log('warn', `lockout of ${resource} is not confirmed yet (${err.message}); it is sent again until it is`);
+        if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
       const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
       try {
@@ -80,7 +81,7 @@ class GroupCommands {
         this.hold(caller, entry, 0);
         plant.flush(null);
       } catch (err) {
-        plant.log('error', `lockout of ${resource} could not be sent: ${err.message}`);
+        plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
       }
     }
   }

@@ -12,6 +12,7 @@ const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
 const TICK_MS = 250;
@@ -63,7 +64,7 @@ class RoutineHost {
         this.interlock.changed(() => this.emit('interrupted', { operation: moved.operation, from: moved.from, to: moved.to }));
       }
     } catch (e) {
-      this.interlock.log('warn', `routine '${this.id}': the saved state does not fit the routine any more (${e.message}); starting in its initial state`);
+      this.interlock.log('warn', i18n.text('logs.routineStateUnfit', { id: this.id, message: e.message }));
     }
   }
 
@@ -88,7 +89,7 @@ class RoutineHost {
     try {
       this.build(snapshot);
     } catch (err) {
-      this.interlock.log('error', `routine '${this.id}' cannot run on the new plant document: ${err.message}`);
+      this.interlock.log('error', i18n.text('logs.routineUnfit', { id: this.id, message: err.message }));
     }
     this.refresh();
   }
@@ -184,7 +185,7 @@ class RoutineHost {
     try {
       due = this.interlock.guard(() => stats.time('routine', () => machine.due(now)));
     } catch (err) {
-      this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+      this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
       return;
     }
     for (const t of due) {
@@ -198,7 +199,7 @@ class RoutineHost {
       }, (err) => {
         if (this.warned.has(t)) return;
         this.warned.add(t);
-        this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+        this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
       });
     }
   }
@@ -229,7 +230,7 @@ class RoutineHost {
   report(error, event, details) {
     const msg = this.emit(event, details);
     if (this.node && msg) this.node.error(error, msg);
-    else this.interlock.log('error', `routine '${this.id}': ${error.message}`);
+    else this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: error.message }));
   }
 
   refresh() {

@@ -7,6 +7,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('./pending').HeldMsg} HeldMsg */
@@ -146,7 +147,7 @@ class RuntimeBase {
   afterTrap(err, generation) {
     if (this.ended) return;
     this.generation = generation;
-    this.log('error', `the wasm core trapped (${err && err.message}); rebuilding from the last saved state`);
+    this.log('error', i18n.text('logs.trapped', { message: err && err.message }));
     this.rebuild();
   }
 
