@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-// Texts a person reads (status, errors built in JS), from the catalogs in
+// Texts a person reads (status, errors, logs built in JS), from the catalogs in
 // nodes/locales/<lang>/<node file>.json, keyed by node type as Node-RED's own
 // nodes are, through RED._ with its "__name__" placeholders. Where RED._ knows
 // no catalog (node-red-node-test-helper's returns the key), the en-US text is used.
@@ -41,7 +41,8 @@ function lookup(key) {
 
 /** @param {string} text @param {Record<string, any>} [subs] */
 function fill(text, subs = {}) {
-  return text.replace(/__(\w+)__/g, (whole, name) => (name in subs ? String(subs[name]) : whole));
+  // Non-greedy as i18next's, so that two placeholders may touch ("__a____b__").
+  return text.replace(/__(\w+?)__/g, (whole, name) => (name in subs ? String(subs[name]) : whole));
 }
 
 /**

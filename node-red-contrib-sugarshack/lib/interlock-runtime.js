@@ -15,7 +15,7 @@ const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
-const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
+const { RuntimeBase, drainingStatus } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
@@ -26,8 +26,6 @@ const { StatusPacer } = require('./status-pacer');
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
-const STATE_NOT_SAVED_STATUS = statusOf('error', 'state not saved');
-const STARTING_STATUS = statusOf('idle', 'starting');
 
 class InterlockRuntime extends RuntimeBase {
   /**
@@ -804,7 +802,7 @@ class InterlockRuntime extends RuntimeBase {
     const seen = this.countsShown;
     if (seen && seen.holding === holding && seen.queued === queued && seen.faulted === faulted && seen.lost === lost) return seen.status;
     let status = countsStatus({ holding, queued, faulted });
-    if (lost) status = { ...status, text: `lost · ${status.text}`.slice(0, 19) };
+    if (lost) status = { ...status, text: i18n.text('status.lost', { counts: status.text }).slice(0, 19) };
     this.countsShown = { holding, queued, faulted, lost, status };
     return status;
   }
@@ -813,11 +811,11 @@ class InterlockRuntime extends RuntimeBase {
     if (this.palette) this.palette.changes.touch();
     let status;
     if (this.state === 'ready') {
-      if (!this.gateOpen) status = DRAINING_STATUS;
-      else if (this.committer.failing) status = STATE_NOT_SAVED_STATUS;
+      if (!this.gateOpen) status = drainingStatus();
+      else if (this.committer.failing) status = statusOf('error', i18n.text('status.stateNotSaved'));
       else status = this.countsStatus();
     } else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
-    else if (this.state === 'starting') status = STARTING_STATUS;
+    else if (this.state === 'starting') status = statusOf('idle', i18n.text('status.starting'));
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);
   }

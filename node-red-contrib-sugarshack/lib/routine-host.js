@@ -237,10 +237,10 @@ class RoutineHost {
     if (!this.node || !this.machine || this.ended) return;
     const state = this.machine.state();
     const pending = this.machine.pending();
-    if (this.machine.halted()) this.node.status(status('error', `halted ${state}`));
+    if (this.machine.halted()) this.node.status(status('error', i18n.text('status.halted', { state })));
     else if (pending) {
       const running = Boolean(this.run && this.run.granted);
-      this.node.status(status(running ? 'running' : 'waiting', `${state} › ${running ? 'run' : 'wait'} ${pending}`));
+      this.node.status(status(running ? 'running' : 'waiting', i18n.text(running ? 'status.running' : 'status.waiting', { state, operation: pending })));
     }
     else this.node.status(status(this.lastFault ? 'fault' : 'ok', state));
   }

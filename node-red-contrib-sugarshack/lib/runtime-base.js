@@ -231,6 +231,6 @@ class RuntimeBase {
   }
 }
 
-const DRAINING_STATUS = status('warning', 'draining');
+const drainingStatus = () => status('warning', i18n.text('status.draining'));
 
-module.exports = { RuntimeBase, DRAINING_STATUS };
+module.exports = { RuntimeBase, drainingStatus };

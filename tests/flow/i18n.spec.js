@@ -97,7 +97,7 @@ function subsNames(arg) {
   return names.every(Boolean) ? names.map((m) => m[1]) : null;
 }
 
-const placeholders = (text) => [...text.matchAll(/__(\w+)__/g)].map((m) => m[1]).sort();
+const placeholders = (text) => [...text.matchAll(/__(\w+?)__/g)].map((m) => m[1]).sort();
 
 /** Every text lookup in the sources: { file, keys (full catalog keys), subs, catalog }. */
 function lookups() {
@@ -207,7 +207,7 @@ describe('texts in the runtime language', function () {
   const germanRED = (key, subs = {}) => {
     const [ns, bare] = key.includes(':') ? key.split(':') : [null, key];
     const text = ns ? textAt(GERMAN[ns] || {}, bare) : textAt(GERMAN, bare);
-    return typeof text === 'string' ? text.replace(/__(\w+)__/g, (w, n) => (n in subs ? String(subs[n]) : w)) : bare;
+    return typeof text === 'string' ? text.replace(/__(\w+?)__/g, (w, n) => (n in subs ? String(subs[n]) : w)) : bare;
   };
   const inGerman = paletteNodes.map((init) => (RED) => {
     RED._ = germanRED;
