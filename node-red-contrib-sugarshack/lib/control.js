@@ -5,6 +5,7 @@
 // The control rules themselves (PID, Smith predictor, RCC) live in the core.
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';
@@ -45,7 +46,7 @@ function configNumber(value, label, { required = false, fallback } = {}) {
 function parseList(text, label, example = '1000, 2000') {
   const items = String(text ?? '').split(',').map((s) => s.trim()).filter((s) => s !== '');
   if (items.length === 0) throw SugarshackError.of('INVALID_CONFIG', 'configEmptyList', { label, example });
-  return items.map((s, i) => configNumber(s, `${label} (item ${i + 1})`, { required: true }));
+  return items.map((s, i) => configNumber(s, i18n.text('labels.listItem', { label, n: i + 1 }), { required: true }));
 }
 
 // Seconds to ms without float noise (1.1 s is 1100 ms, not 1100.0000000000002).
@@ -100,9 +101,9 @@ function msgNumber(value, what) {
 }
 
 function describe(value) {
-  if (value === undefined) return 'nothing';
+  if (value === undefined) return i18n.text('labels.nothing');
   if (typeof value === 'number') return String(value);
-  if (typeof value === 'string') return `the string '${value.length > 20 ? `${value.slice(0, 20)}…` : value}'`;
+  if (typeof value === 'string') return i18n.text('labels.aString', { text: value.length > 20 ? `${value.slice(0, 20)}…` : value });
   return value === null ? 'null' : typeof value;
 }
 

@@ -74,9 +74,9 @@ class FileStore {
       try {
         const doc = JSON.parse(text);
         if (doc && doc.format === FORMAT) return { kind: 'saved', doc };
-        why = `${this.file} is not a sugarshack interlock state`;
+        why = i18n.text('labels.stateFileForeign', { file: this.file });
       } catch (err) {
-        why = `${this.file} is not valid JSON (${err.message.slice(0, 100)})`;
+        why = i18n.text('labels.stateFileNotJson', { file: this.file, message: err.message.slice(0, 100) });
       }
     }
     if (!fs.existsSync(this.marker)) return text === null ? { kind: 'first' } : { kind: 'lost', why };

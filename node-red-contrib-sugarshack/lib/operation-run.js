@@ -150,7 +150,7 @@ class RunHost {
     entry.abandon = () => {
       if (this.interlock.ended) return;
       this.feed((r) => [
-        ...r.refused('ABORTED', `operation '${e.operation}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted`),
+        ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
         ...r.withdrawn(clock.now()),
       ]);
     };

@@ -219,7 +219,7 @@ module.exports = function (RED) {
       let track;
       try {
         if (msg.rcc !== undefined) decision = readDecision(msg.rcc, t);
-        if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, 'msg.track (the action applied by someone else)');
+        if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, t('input.track'));
       } catch (err) {
         const e = inputError(t, err);
         show(errorStatus(e.code));
