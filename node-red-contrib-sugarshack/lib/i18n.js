@@ -19,6 +19,10 @@ const SHARED_PREFIX = 'sugarshack';
 let english = null;
 /** @type {{ _?: (key: string, subs?: object) => string } | null} */
 let sharedRED = null;
+// Texts without placeholders, as read through sharedRED: a status reads a dozen words on every
+// change, and i18next takes some 20 µs a lookup. The runtime's language is fixed once it runs.
+/** @type {Map<string, string>} */
+const plainTexts = new Map();
 
 /** Every en-US catalog merged: node type (and "sugarshack" for lib/) -> its texts. */
 function englishCatalog() {
@@ -71,6 +75,7 @@ function translator(RED, type) {
  * @param {any} RED
  */
 function useRED(RED) {
+  if (RED !== sharedRED) plainTexts.clear();
   sharedRED = RED;
 }
 
@@ -79,8 +84,12 @@ function useRED(RED) {
  * @param {string} key @param {Record<string, any>} [subs]
  */
 function text(key, subs) {
+  const known = subs === undefined ? plainTexts.get(key) : undefined;
+  if (known !== undefined) return known;
   const full = `${SHARED_PREFIX}.${key}`;
-  return translate(sharedRED, `${SHARED_NAMESPACE}:${full}`, full, subs);
+  const read = translate(sharedRED, `${SHARED_NAMESPACE}:${full}`, full, subs);
+  if (subs === undefined) plainTexts.set(key, read);
+  return read;
 }
 
 module.exports = { translator, useRED, text, englishCatalog, SHARED_NAMESPACE };
