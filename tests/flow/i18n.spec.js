@@ -56,10 +56,13 @@ const LIB = path.join(PALETTE, 'lib');
 const MECHANISM = new Set(['i18n.js', 'errors.js']);
 const SHARED_CATALOG = catalogOf('interlock');
 
-/** Source files whose texts are checked: lib/*.js and nodes/*.js. */
+/** Source files whose texts are checked: lib/*.js, lib/journal/*.js and nodes/*.js. */
 function sources() {
+  const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
+    .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
   return [
-    ...fs.readdirSync(LIB).filter((f) => f.endsWith('.js') && !MECHANISM.has(f)).map((f) => ({ file: `lib/${f}`, full: path.join(LIB, f) })),
+    ...libFiles(''),
+    ...libFiles('journal'),
     ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
   ].map(({ file, full }) => ({ file, source: fs.readFileSync(full, 'utf8') }));
 }
@@ -105,8 +108,11 @@ function lookups() {
   for (const { file, source } of sources()) {
     const type = /translator\(RED, '([^']+)'\)/.exec(source);
     const stem = path.basename(file, '.js');
+    // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
+    const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('\.\.?\/i18n'\)/.test(source);
     const calls = /(?<![\w.$])(t|text|i18n\.text|SugarshackError\.of)\(/g;
     for (const m of source.matchAll(calls)) {
+      if (m[1] === 'text' && !importsText) continue;
       const args = callArgs(source, m.index + m[0].length - 1);
       const [keyArg, subsArg] = m[1] === 'SugarshackError.of' ? args.slice(1) : args;
       // The key, or each key a conditional may pick: a catalog key has a dot (SugarshackError.of's names the entry under errors).
