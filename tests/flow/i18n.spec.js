@@ -56,7 +56,7 @@ const LIB = path.join(PALETTE, 'lib');
 const MECHANISM = new Set(['i18n.js', 'errors.js']);
 const SHARED_CATALOG = catalogOf('interlock');
 
-/** Source files whose texts are checked: lib/*.js, lib/journal/*.js and nodes/*.js. */
+/** Source files whose texts are checked: lib/*.js, lib/journal/*.js, nodes/*.js and the editor's resources/*.js. */
 function sources() {
   const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
     .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
@@ -64,6 +64,8 @@ function sources() {
     ...libFiles(''),
     ...libFiles('journal'),
     ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
+    ...fs.readdirSync(path.join(PALETTE, 'resources')).filter((f) => f.endsWith('.js'))
+      .map((f) => ({ file: `resources/${f}`, full: path.join(PALETTE, 'resources', f) })),
   ].map(({ file, full }) => ({ file, source: fs.readFileSync(full, 'utf8') }));
 }
 
@@ -102,15 +104,29 @@ function subsNames(arg) {
 
 const placeholders = (text) => [...text.matchAll(/__(\w+?)__/g)].map((m) => m[1]).sort();
 
-/** Every text lookup in the sources: { file, keys (full catalog keys), subs, catalog }. */
+const PACKAGE_NAME = JSON.parse(fs.readFileSync(path.join(PALETTE, 'package.json'), 'utf8')).name;
+
+/**
+ * Whose catalog a file's t() reads: a node file's translator(RED, '<type>'), or an editor
+ * script's `var NS = '<module>/<set>:<prefix>.'` (RED._ by namespace). Null when it has neither.
+ */
+function tCatalog(file, source) {
+  const type = /translator\(RED, '([^']+)'\)/.exec(source);
+  if (type) return { stem: path.basename(file, '.js'), prefix: type[1] };
+  const ns = /var NS = '([^':]+)\/([\w-]+):([\w.-]+)\.';/.exec(source);
+  if (!ns) return null;
+  assert.equal(ns[1], PACKAGE_NAME, `${file}: the namespace names another module`);
+  return { stem: ns[2], prefix: ns[3] };
+}
+
+/** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
 function lookups() {
   const found = [];
   for (const { file, source } of sources()) {
-    const type = /translator\(RED, '([^']+)'\)/.exec(source);
-    const stem = path.basename(file, '.js');
+    const own = tCatalog(file, source);
     // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
     const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('\.\.?\/i18n'\)/.test(source);
-    const calls = /(?<![\w.$])(t|text|i18n\.text|SugarshackError\.of)\(/g;
+    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of)\(/g;
     for (const m of source.matchAll(calls)) {
       if (m[1] === 'text' && !importsText) continue;
       const args = callArgs(source, m.index + m[0].length - 1);
@@ -119,11 +135,11 @@ function lookups() {
       const keys = [...keyArg.matchAll(m[1] === 'SugarshackError.of' ? /'(\w+)'/g : /'(\w+(?:\.\w+)+)'/g)].map((k) => k[1]);
       const at = `${file}: ${m[0]}${args.join(', ')})`;
       if (m[1] === 't') {
-        assert.ok(type, `${at}: t() in a file without translator(RED, '<type>')`);
-        found.push({ at, keys: keys.map((k) => `${type[1]}.${k}`), subs: subsNames(subsArg), catalog: catalogOf(stem) });
+        assert.ok(own, `${at}: t() in a file without translator(RED, '<type>') or var NS`);
+        found.push({ at, keys: keys.map((k) => `${own.prefix}.${k}`), subs: subsNames(subsArg), stem: own.stem, catalog: catalogOf(own.stem) });
       } else {
         const prefix = m[1] === 'SugarshackError.of' ? 'sugarshack.errors.' : 'sugarshack.';
-        found.push({ at, keys: keys.map((k) => prefix + k), subs: subsNames(subsArg), catalog: SHARED_CATALOG });
+        found.push({ at, keys: keys.map((k) => prefix + k), subs: subsNames(subsArg), stem: 'interlock', catalog: SHARED_CATALOG });
       }
     }
   }
@@ -176,8 +192,8 @@ describe('texts built in JS', function () {
   });
 
   it('every catalog key is read by some code or editor dialog', function () {
-    const read = new Set(lookups().flatMap(({ at, keys }) => keys.map((k) => `${at.split(':')[0]}|${k}`)));
-    const readKey = (stem, key) => [...read].some((r) => r.endsWith(`|${key}`) && (key.startsWith('sugarshack.') || r.startsWith(`nodes/${stem}.js|`)));
+    const read = new Set(lookups().flatMap(({ stem, keys }) => keys.map((k) => `${stem}|${k}`)));
+    const readKey = (stem, key) => read.has(`${stem}|${key}`);
     const unused = [];
     for (const file of fs.readdirSync(path.join(NODES, 'locales', 'en-US')).filter((f) => f.endsWith('.json'))) {
       const stem = file.slice(0, -5);
