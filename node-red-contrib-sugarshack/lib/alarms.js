@@ -6,6 +6,7 @@
 // them over. Observed once a second, after every batch of interlock events
 // and before every answer, so an alarm's time is at most a second late.
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 // Interlock events an operator looks back on, kept in memory for a page opened late: the core says which.
 const NOTABLE = new Set(wasm.load().abnormalEventKinds());
@@ -27,7 +28,7 @@ class AlarmBook {
         restored = Alarms.restore(saved);
       } catch (err) {
         if (wasm.isTrap(err)) throw err;
-        warn(`the saved alarms could not be read (${err.message}); alarms start afresh`);
+        warn(i18n.text('logs.alarmsUnreadable', { message: err.message }));
       }
     }
     this.core = restored || new Alarms();

@@ -8,10 +8,10 @@ const { SugarshackError } = require('./errors');
 const { errorStatus } = require('./status');
 const { paletteOf } = require('./lifecycle');
 
-// What a node says when its config node is unset: [code, message].
+// What a node says when its config node is unset.
 const MISSING = {
-  interlock: ['NO_INTERLOCK', 'no interlock is configured for this node'],
-  plant: ['NO_PLANT', 'no plant is configured for this node'],
+  interlock: () => SugarshackError.of('NO_INTERLOCK', 'noInterlockConfigured'),
+  plant: () => SugarshackError.of('NO_PLANT', 'noPlantConfigured'),
 };
 
 /**
@@ -23,7 +23,7 @@ function bindRuntime(RED, node, configId, kind, { showCounts = true } = {}) {
   const configNode = configId ? RED.nodes.getNode(configId) : null;
   const runtime = configNode && configNode.runtime;
   if (!runtime) {
-    node.status(errorStatus(MISSING[kind][0]));
+    node.status(errorStatus(MISSING[kind]().code));
     return null;
   }
   const palette = paletteOf(RED);
@@ -61,8 +61,7 @@ function bindPlant(RED, node, configId, options) {
 function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
-      const [code, message] = MISSING[kind];
-      done(new SugarshackError(code, message));
+      done(MISSING[kind]());
       return;
     }
     let now = false;

@@ -5,6 +5,7 @@
 // core refuses a read with a stale or missing sensor, and the condition then
 // does not hold (it never passes on old data).
 const { SugarshackError } = require('./errors');
+const { text } = require('./i18n');
 const { performance } = require('perf_hooks');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
@@ -22,7 +23,7 @@ class Condition {
     try {
       this.expression = RED.util.prepareJSONataExpression(expression, node);
     } catch (err) {
-      throw new SugarshackError('INVALID_CONDITION', `condition ${expression} is not valid JSONata: ${err.message}`);
+      throw SugarshackError.of('INVALID_CONDITION', 'conditionNotJsonata', { condition: expression, message: err.message });
     }
     this.RED = RED;
     this.plant = plant;
@@ -58,11 +59,11 @@ class Condition {
     return new Promise((resolve, reject) => {
       this.RED.util.evaluateJSONataExpression(this.expression, input, (err, result) => {
         if (err) {
-          reject(new SugarshackError('INVALID_CONDITION', `condition ${this.text} failed: ${err.message}`));
+          reject(SugarshackError.of('INVALID_CONDITION', 'conditionFailed', { condition: this.text, message: err.message }));
         } else if (typeof result !== 'boolean') {
-          reject(new SugarshackError('INVALID_CONDITION', `condition ${this.text} must give true or false, got ${JSON.stringify(result)}`));
+          reject(SugarshackError.of('INVALID_CONDITION', 'conditionNotBoolean', { condition: this.text, got: JSON.stringify(result) }));
         } else {
-          resolve({ met: result, values: input, reason: result ? null : `values ${JSON.stringify(input)}` });
+          resolve({ met: result, values: input, reason: result ? null : text('labels.values', { values: JSON.stringify(input) }) });
         }
       });
     });
@@ -77,7 +78,7 @@ class Condition {
     return new Promise((resolve, reject) => {
       let busy = false;
       let again = false;
-      let lastReason = 'it was never checked';
+      let lastReason = text('labels.neverChecked');
       let finished = false;
       const finish = (fn, value) => {
         if (finished) return;
@@ -106,9 +107,10 @@ class Condition {
           }
         }, (err) => finish(reject, err));
       };
-      const timer = clock.setTimeout(() => finish(reject, new SugarshackError(
+      const timer = clock.setTimeout(() => finish(reject, SugarshackError.of(
         'CONDITION_TIMEOUT',
-        `condition ${this.text} did not hold within ${timeoutMs / 1000} s (last check: ${lastReason})`,
+        'conditionTimeout',
+        { condition: this.text, seconds: timeoutMs / 1000, reason: lastReason },
       )), timeoutMs);
       const unwatch = this.plant.watchSensors(this.handles, evaluate);
       signal.cancel = (reason) => finish(reject, new SugarshackError('ABORTED', reason));

@@ -11,7 +11,7 @@ function parseLockout(resource, index) {
     return JSON.parse(lockout);
   } catch (err) {
     const name = resource.name || `#${index + 1}`;
-    throw new SugarshackError('INVALID_CONFIG', `invalid interlock configuration: the lockout command of resource '${name}' is not valid JSON (${err.message})`);
+    throw SugarshackError.of('INVALID_CONFIG', 'lockoutNotJson', { name, message: err.message });
   }
 }
 

@@ -5,6 +5,7 @@
 // The control rules themselves (PID, Smith predictor, RCC) live in the core.
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';
@@ -33,19 +34,19 @@ const blank = (v) => v === undefined || v === null || String(v).trim() === '';
  */
 function configNumber(value, label, { required = false, fallback } = {}) {
   if (blank(value)) {
-    if (required && fallback === undefined) throw new SugarshackError('INVALID_CONFIG', `${label} is required`);
+    if (required && fallback === undefined) throw SugarshackError.of('INVALID_CONFIG', 'configRequired', { label });
     return fallback;
   }
   const n = Number(String(value).trim());
-  if (!Number.isFinite(n)) throw new SugarshackError('INVALID_CONFIG', `${label} must be a number, got '${value}'`);
+  if (!Number.isFinite(n)) throw SugarshackError.of('INVALID_CONFIG', 'configNotNumber', { label, got: value });
   return n;
 }
 
 /** "1000, 2000, 4000" -> [1000, 2000, 4000]; the order rules are the core's. */
 function parseList(text, label, example = '1000, 2000') {
   const items = String(text ?? '').split(',').map((s) => s.trim()).filter((s) => s !== '');
-  if (items.length === 0) throw new SugarshackError('INVALID_CONFIG', `${label}: give one number per controller, comma-separated (e.g. ${example})`);
-  return items.map((s, i) => configNumber(s, `${label} (item ${i + 1})`, { required: true }));
+  if (items.length === 0) throw SugarshackError.of('INVALID_CONFIG', 'configEmptyList', { label, example });
+  return items.map((s, i) => configNumber(s, i18n.text('labels.listItem', { label, n: i + 1 }), { required: true }));
 }
 
 // Seconds to ms without float noise (1.1 s is 1100 ms, not 1100.0000000000002).
@@ -94,15 +95,15 @@ function configDurationListMs(props, name, legacyMs, label) {
 /** A msg field that must be a finite number when present. */
 function msgNumber(value, what) {
   if (!isNumber(value)) {
-    throw new SugarshackError('INVALID_INPUT', `${what} must be a number, got ${describe(value)}`);
+    throw SugarshackError.of('INVALID_INPUT', 'inputNotNumber', { what, got: describe(value) });
   }
   return value;
 }
 
 function describe(value) {
-  if (value === undefined) return 'nothing';
+  if (value === undefined) return i18n.text('labels.nothing');
   if (typeof value === 'number') return String(value);
-  if (typeof value === 'string') return `the string '${value.length > 20 ? `${value.slice(0, 20)}…` : value}'`;
+  if (typeof value === 'string') return i18n.text('labels.aString', { text: value.length > 20 ? `${value.slice(0, 20)}…` : value });
   return value === null ? 'null' : typeof value;
 }
 
@@ -141,7 +142,7 @@ function revivable(make, { onRevive = () => {} } = {}) {
       if (!wasm.isTrap(err)) throw err;
       const broken = generation;
       setImmediate(() => wasm.recover(err, broken));
-      throw new SugarshackError('INTERNAL', `the core failed (${err.message}); it is being rebuilt, this msg was dropped`);
+      throw SugarshackError.of('INTERNAL', 'controlTrapped', { message: err.message });
     }
   };
   return /** @type {T} */ (new Proxy({}, {

@@ -14,6 +14,7 @@
 // event loop changes goes out in one write.
 const fs = require('fs');
 const path = require('path');
+const i18n = require('./i18n');
 
 const FORMAT = 'sugarshack-interlock-state';
 /** What a FileStore keeps: its files' prefix, the format its documents carry, the marker's text. */
@@ -75,19 +76,19 @@ class FileStore {
     let why = null;
     try {
       const size = fs.statSync(this.file).size;
-      if (size === 0) why = `${this.file} is empty`;
-      else if (size > MAX_STATE_BYTES) why = `${this.file} is ${size} bytes, more than a state can be (${MAX_STATE_BYTES})`;
+      if (size === 0) why = i18n.text('labels.stateFileEmpty', { file: this.file });
+      else if (size > MAX_STATE_BYTES) why = i18n.text('labels.stateFileTooLarge', { file: this.file, size, max: MAX_STATE_BYTES });
       else text = fs.readFileSync(this.file, 'utf8');
     } catch (err) {
-      why = err.code === 'ENOENT' ? `${this.file} is missing` : `cannot read ${this.file}: ${err.message}`;
+      why = err.code === 'ENOENT' ? i18n.text('labels.stateFileMissing', { file: this.file }) : i18n.text('labels.stateFileUnreadable', { file: this.file, message: err.message });
     }
     if (text !== null) {
       try {
         const doc = JSON.parse(text);
         if (doc && doc.format === this.of.format) return { kind: 'saved', doc };
-        why = `${this.file} is not a sugarshack ${this.of.kind} state`;
+        why = i18n.text('labels.stateFileForeign', { file: this.file, kind: this.of.kind });
       } catch (err) {
-        why = `${this.file} is not valid JSON (${err.message.slice(0, 100)})`;
+        why = i18n.text('labels.stateFileNotJson', { file: this.file, message: err.message.slice(0, 100) });
       }
     }
     if (!fs.existsSync(this.marker)) return text === null ? { kind: 'first' } : { kind: 'lost', why };
@@ -157,7 +158,7 @@ class MemoryStore {
   }
 
   read() {
-    return this.ran ? { kind: 'lost', why: 'persistence is off, so the state before the failure was not kept' } : { kind: 'first' };
+    return this.ran ? { kind: 'lost', why: i18n.text('labels.persistenceOff') } : { kind: 'first' };
   }
 
   markRan() {

@@ -2,6 +2,7 @@
 'use strict';
 // Errors reported to flows. They look like the core's (name "SugarshackError"
 // and a `code`) so a Catch node sees one shape, whichever layer refused the msg.
+const { text } = require('./i18n');
 
 class SugarshackError extends Error {
   /** @param {string} code @param {string} message */
@@ -14,6 +15,14 @@ class SugarshackError extends Error {
      * @type {{ id: string, step: number | null, kind: string, lockedOut: string[], aborted: boolean } | undefined}
      */
     this.operation; // declared for the type checker; not set here
+  }
+
+  /**
+   * An error whose text is lib/'s catalog entry "sugarshack.errors.<key>" (see lib/i18n.js).
+   * @param {string} code @param {string} key @param {Record<string, any>} [subs]
+   */
+  static of(code, key, subs) {
+    return new SugarshackError(code, text(`errors.${key}`, subs));
   }
 }
 

@@ -2,6 +2,7 @@
 'use strict';
 // Fans interlock event records out to every `interlock events` node.
 const { journal } = require('./journal/bus');
+const i18n = require('./i18n');
 
 class EventFanout {
   constructor() {
@@ -32,11 +33,11 @@ class EventFanout {
 
 /** One line for a node.warn about an elapsed-time warning record. */
 function describeWarning(record) {
-  const resources = record.resources.join(', ');
+  const lines = record.resources.join(', ');
   if (record.kind === 'warn-queued') {
-    return `operation '${record.operation}' has waited ${Math.round(record.waitedMs / 1000)} s for ${resources}`;
+    return i18n.text('events.waitedLong', { operation: record.operation, seconds: Math.round(record.waitedMs / 1000), lines });
   }
-  return `operation '${record.operation}' has held ${resources} for ${Math.round(record.heldMs / 1000)} s`;
+  return i18n.text('events.heldLong', { operation: record.operation, seconds: Math.round(record.heldMs / 1000), lines });
 }
 
 const secs = (ms) => `${Math.round(ms / 1000)} s`;
@@ -44,20 +45,23 @@ const secs = (ms) => `${Math.round(ms / 1000)} s`;
 /** One readable line for an interlock event record (msg.summary), e.g. "granted 20 (YEL) after 31 s". */
 function describeEvent(r) {
   const lines = r.resources.join('+');
+  // The operation with its leading space, so that a record without one reads "granted (YEL)".
   const op = r.operation === undefined ? '' : ` ${r.operation}`;
-  const who = `${r.by ? ` by ${r.by}` : ''}${r.forced ? ' (forced)' : ''}${r.reason ? `: ${r.reason}` : ''}`;
+  const note = (text) => (text ? `: ${text}` : '');
+  const by = r.by ? i18n.text('events.by', { by: r.by }) : '';
+  const after = (ms) => i18n.text('events.after', { time: secs(ms) });
   switch (r.kind) {
-    case 'granted': return `granted${op} (${lines})${r.waitedMs ? ` after ${secs(r.waitedMs)}` : ''}`;
-    case 'queued': return `queued${op} (${lines}), prio ${r.priority}`;
-    case 'released': return `released${op} (${lines})${r.heldMs !== undefined ? ` after ${secs(r.heldMs)}` : ''}`;
-    case 'cancelled': return `cancelled${op} (${lines})`;
-    case 'faulted': return `faulted${op}: ${lines} locked out${r.note ? `: ${r.note}` : ''}`;
-    case 'dropped': return `dropped${op} (${lines}): its operation faulted while waiting`;
-    case 'resource-faulted': return `e-stop ${lines}${r.by ? ` by ${r.by}` : ''}${r.reason || r.note ? `: ${r.reason || r.note}` : ''}`;
-    case 'cleared': return `cleared ${lines}${who}`;
-    case 'interrupted': return `interrupted${op}: ${lines} held at the restart, now faulted`;
-    case 'resource-added': return `added ${lines}, free`;
-    case 'state-unknown': return `state unknown: ${lines} faulted until cleared`;
+    case 'granted': return i18n.text('events.granted', { op, lines }) + (r.waitedMs ? after(r.waitedMs) : '');
+    case 'queued': return i18n.text('events.queued', { op, lines, priority: r.priority });
+    case 'released': return i18n.text('events.released', { op, lines }) + (r.heldMs !== undefined ? after(r.heldMs) : '');
+    case 'cancelled': return i18n.text('events.cancelled', { op, lines });
+    case 'faulted': return i18n.text('events.faulted', { op, lines }) + note(r.note);
+    case 'dropped': return i18n.text('events.dropped', { op, lines });
+    case 'resource-faulted': return i18n.text('events.stopped', { lines }) + by + note(r.reason || r.note);
+    case 'cleared': return i18n.text('events.cleared', { lines }) + by + (r.forced ? i18n.text('events.forced') : '') + note(r.reason);
+    case 'interrupted': return i18n.text('events.interrupted', { op, lines });
+    case 'resource-added': return i18n.text('events.added', { lines });
+    case 'state-unknown': return i18n.text('events.stateUnknown', { lines });
     case 'warn-queued': case 'warn-held': return describeWarning(r);
     default: return `${r.kind}${op} (${lines})`;
   }

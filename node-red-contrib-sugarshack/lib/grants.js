@@ -3,6 +3,7 @@
 // Grants of the interlock, answered by whoever waits for them: a msg held by an
 // acquire node (sent on with that node's own send/done, so a link call returns
 // to the right caller), or an operation's run.
+const i18n = require('./i18n');
 
 /**
  * The operations granted by the last release, cancel or clear. The core
@@ -44,7 +45,7 @@ function takeGrants(interlock, pending, grants, { nowMs, warn }) {
       continue;
     }
     const name = interlock.operationName(handle);
-    warn(`operation '${name}' was granted but nothing waits for it; releasing it`);
+    warn(i18n.text('logs.grantedUnclaimed', { operation: name }));
     todo.push(...grantedBy(interlock, interlock.release(handle, nowMs)));
   }
   return answers;

@@ -16,12 +16,12 @@ function groupPayload(msg) {
   const { payload } = msg;
   if (typeof payload !== 'string' && !Buffer.isBuffer(payload)) return payload;
   if (payload.length > MAX_GROUP_TEXT) {
-    throw new SugarshackError('INPUT_TOO_LARGE', `group command is ${payload.length} bytes of text, more than ${MAX_GROUP_TEXT}; refused`);
+    throw SugarshackError.of('INPUT_TOO_LARGE', 'groupTooLarge', { length: payload.length, max: MAX_GROUP_TEXT });
   }
   try {
     return JSON.parse(payload.toString());
   } catch (err) {
-    throw new SugarshackError('INVALID_GROUP', `invalid group command: msg.payload is text but not JSON (${err.message})`);
+    throw SugarshackError.of('INVALID_GROUP', 'groupNotJson', { message: err.message });
   }
 }
 
@@ -60,7 +60,7 @@ function heldResources(msg) {
   if (interlock === undefined) return undefined;
   const held = interlock !== null && typeof interlock === 'object' ? interlock.resources : undefined;
   if (Array.isArray(held) && held.length <= MAX_HELD && held.every((r) => typeof r === 'string' && r.length <= MAX_NAME)) return held;
-  throw new SugarshackError('INVALID_RESOURCES', `C2: msg.interlock.resources must list the lines this msg holds (as an acquire node sets it), got ${quote(held === undefined ? interlock : held)}; the command was refused`);
+  throw SugarshackError.of('INVALID_RESOURCES', 'heldNotListed', { got: quote(held === undefined ? interlock : held) });
 }
 
 module.exports = { groupPayload, isLockout, actuatorIds, targetOf, heldResources };

@@ -15,18 +15,17 @@ const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
-const { RuntimeBase, DRAINING_STATUS } = require('./runtime-base');
+const { RuntimeBase, drainingStatus } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 const { journal } = require('./journal/bus');
 const { StatusPacer } = require('./status-pacer');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;
-const STATE_NOT_SAVED_STATUS = statusOf('error', 'state not saved');
-const STARTING_STATUS = statusOf('idle', 'starting');
 
 class InterlockRuntime extends RuntimeBase {
   /**
@@ -79,8 +78,8 @@ class InterlockRuntime extends RuntimeBase {
   resolveConfig() {
     if (this.configError) throw this.configError;
     if (!this.settings.plantBound) return this.config;
-    if (!this.plant) throw new SugarshackError('NO_PLANT', 'the plant chosen for this interlock does not exist; choose another or none');
-    if (this.plant.state !== 'ready') throw this.plant.failure || new SugarshackError('NO_PLANT', 'the plant is not running');
+    if (!this.plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
+    if (this.plant.state !== 'ready') throw this.plant.failure || SugarshackError.of('NO_PLANT', 'plantNotRunning');
     return { ...this.settings.config, resources: this.plant.interlockResources() };
   }
 
@@ -99,7 +98,7 @@ class InterlockRuntime extends RuntimeBase {
         return records.length ? () => this.events.publish(records) : null;
       },
       onError: (err) => {
-        this.log('error', `cannot save the interlock state to ${this.store.where}: ${err.message || err}`);
+        this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
         this.refreshStatus();
       },
       onSaved: () => this.statusPacer.request(),
@@ -149,13 +148,13 @@ class InterlockRuntime extends RuntimeBase {
       this.store.markRan();
     } catch (err) {
       // Its state cannot be written either: grants will wait for it (status "state not saved").
-      this.log('error', `cannot mark this interlock as run in ${this.store.where}: ${err.message}`);
+      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
     }
     this.state = 'ready';
     this.committer.change(); // the state as started is the first one on disk
     this.startTicking();
     this.refreshStatus();
-    this.resendLockouts('restored faulted: lockout sent again at start');
+    this.resendLockouts(i18n.text('labels.resentAtStart'));
     this.replayParked();
   }
 
@@ -174,9 +173,8 @@ class InterlockRuntime extends RuntimeBase {
     }
     if (saved.kind === 'lost') {
       this.lostState = saved.why;
-      this.log('error', `state unknown after restart (${saved.why}): every line starts faulted and its lockout is sent; `
-        + 'check the plant, then clear the lines with a clear node');
-      return Interlock.unknownState(this.config, `state unknown after restart: ${saved.why}`, now);
+      this.log('error', i18n.text('logs.stateUnknown', { why: saved.why }));
+      return Interlock.unknownState(this.config, i18n.text('labels.stateUnknown', { why: saved.why }), now);
     }
     return new Interlock(this.config);
   }
@@ -209,7 +207,7 @@ class InterlockRuntime extends RuntimeBase {
       try {
         this.guard(() => this.faultResources(faulted, note, (lockouts) => this.plant.issueLockouts(lockouts, null)));
       } catch (err) {
-        this.log('error', `cannot send the lockouts of ${faulted.join(', ')} again: ${err.message}`);
+        this.log('error', i18n.text('logs.lockoutsNotResent', { lines: faulted.join(', '), message: err.message }));
       }
     });
   }
@@ -345,7 +343,7 @@ class InterlockRuntime extends RuntimeBase {
     this.committer.change();
     this.refreshStatus();
     // A new plant tracker knows no standing lockout yet.
-    this.resendLockouts('plant document changed: lockout sent again');
+    this.resendLockouts(i18n.text('labels.resentPlantChanged'));
   }
 
   /** After a wasm trap: back to the last saved state, as after a restart (held lines faulted, waiting dropped). */
@@ -353,7 +351,7 @@ class InterlockRuntime extends RuntimeBase {
     if (this.state !== 'ready') return;
     this.committer.discard();
     for (const host of this.routines.values()) host.suspend();
-    const error = new SugarshackError('INTERNAL', 'the interlock core failed and was rebuilt from its last saved state; this msg was dropped');
+    const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
     for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
     for (const run of [...this.runs]) run.abandon(error);
     for (const entry of this.heldBack) entry.refuse(error);
@@ -382,7 +380,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     this.committer.change();
     this.refreshStatus();
-    this.resendLockouts('rebuilt after a core failure: lockout sent again');
+    this.resendLockouts(i18n.text('labels.resentAfterRebuild'));
   }
 
   // ---- nodes using this interlock ------------------------------------------
@@ -629,7 +627,7 @@ class InterlockRuntime extends RuntimeBase {
         return this.alarms.observe(conditions, now);
       });
     } catch (err) {
-      this.log('error', `alarms not updated: ${err.message}`);
+      this.log('error', i18n.text('logs.alarmsNotUpdated', { message: err.message }));
       return;
     }
     if (changes.length === 0) return;
@@ -671,7 +669,7 @@ class InterlockRuntime extends RuntimeBase {
   /** Starts an operation's run; `port` gets its progress, result or error. */
   startRun(operation, msg, port) {
     if (!this.plant) {
-      throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run operations from its document');
+      throw SugarshackError.of('NO_PLANT', 'noPlantForOperations');
     }
     const run = new RunHost({ interlock: this, plant: this.plant, operation, msg, port });
     this.runs.add(run);
@@ -689,7 +687,7 @@ class InterlockRuntime extends RuntimeBase {
     let host = this.routines.get(id);
     if (!host) {
       if (!this.plant) {
-        throw new SugarshackError('NO_PLANT', 'this interlock has no plant: choose the plant in the interlock config node to run routines from its document');
+        throw SugarshackError.of('NO_PLANT', 'noPlantForRoutines');
       }
       host = new RoutineHost({ interlock: this, plant: this.plant, id });
       const saved = this.savedRoutines[id];
@@ -725,14 +723,13 @@ class InterlockRuntime extends RuntimeBase {
     try {
       answers = this.grantsOf(this.guard(() => this.core.cancel(handle, now)), now);
     } catch (err) {
-      this.log('warn', `timed-out request of '${entry.operation}' was no longer queued: ${err.message}`);
+      this.log('warn', i18n.text('logs.timedOutNotQueued', { operation: entry.operation, message: err.message }));
     }
     this.changed(() => {
       answers.forEach((answer) => answer());
-      entry.refuse(new SugarshackError(
-        'ACQUIRE_TIMEOUT',
-        `operation '${entry.operation}' was not granted ${entry.resources.join(', ')} within ${entry.timeoutMs / 1000} s; its request was withdrawn`,
-      ));
+      entry.refuse(SugarshackError.of('ACQUIRE_TIMEOUT', 'acquireTimeout', {
+        operation: entry.operation, resources: entry.resources.join(', '), seconds: entry.timeoutMs / 1000,
+      }));
     });
   }
 
@@ -805,7 +802,7 @@ class InterlockRuntime extends RuntimeBase {
     const seen = this.countsShown;
     if (seen && seen.holding === holding && seen.queued === queued && seen.faulted === faulted && seen.lost === lost) return seen.status;
     let status = countsStatus({ holding, queued, faulted });
-    if (lost) status = { ...status, text: `lost · ${status.text}`.slice(0, 19) };
+    if (lost) status = { ...status, text: i18n.text('status.lost', { counts: status.text }).slice(0, 19) };
     this.countsShown = { holding, queued, faulted, lost, status };
     return status;
   }
@@ -814,11 +811,11 @@ class InterlockRuntime extends RuntimeBase {
     if (this.palette) this.palette.changes.touch();
     let status;
     if (this.state === 'ready') {
-      if (!this.gateOpen) status = DRAINING_STATUS;
-      else if (this.committer.failing) status = STATE_NOT_SAVED_STATUS;
+      if (!this.gateOpen) status = drainingStatus();
+      else if (this.committer.failing) status = statusOf('error', i18n.text('status.stateNotSaved'));
       else status = this.countsStatus();
     } else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
-    else if (this.state === 'starting') status = STARTING_STATUS;
+    else if (this.state === 'starting') status = statusOf('idle', i18n.text('status.starting'));
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);
   }
@@ -828,7 +825,7 @@ class InterlockRuntime extends RuntimeBase {
 timeLayer(InterlockRuntime, 'interlock', ['acquire', 'release', 'cancel', 'fault', 'faultResources', 'clear']);
 
 function requireName(name) {
-  if (!name) throw new SugarshackError('MISSING_OPERATION', 'an operation id is required');
+  if (!name) throw SugarshackError.of('MISSING_OPERATION', 'operationRequired');
   return name;
 }
 

@@ -15,6 +15,7 @@
 const { clock } = require('./clock');
 const { stateOf, ChangeNotices } = require('./state');
 const { SugarshackError } = require('./errors');
+const { text } = require('./i18n');
 
 const DRAIN_CHECK_MS = 250;
 
@@ -186,7 +187,7 @@ function serveState(RED, palette) {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
     const runtime = palette.runtimes.get(String(body.interlock || ''));
     if (!runtime || runtime.kind === 'plant' || runtime.state !== 'ready') {
-      res.status(404).json({ code: 'NO_INTERLOCK', message: `no running interlock '${String(body.interlock).slice(0, 100)}'` });
+      res.status(404).json({ code: 'NO_INTERLOCK', message: text('errors.noRunningInterlock', { id: String(body.interlock).slice(0, 100) }) });
       return;
     }
     const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
@@ -206,8 +207,8 @@ function serveState(RED, palette) {
     rt.clear(lines, (cleared) => answer({ cleared, by: who.by || 'unknown' }), who);
   }));
   RED.httpAdmin.post('/sugarshack/estop', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
-    if (!lines || lines.length === 0) throw new SugarshackError('INVALID_RESOURCES', 'name the lines to stop');
-    rt.faultResources(lines, who.reason || 'emergency stop from the editor', (lockouts) => {
+    if (!lines || lines.length === 0) throw SugarshackError.of('INVALID_RESOURCES', 'noLinesToStop');
+    rt.faultResources(lines, who.reason || text('labels.editorEstop'), (lockouts) => {
       if (rt.plant) rt.plant.issueLockouts(lockouts, null);
       answer({ stopped: lockouts.map((l) => l.resource), by: who.by || 'unknown' });
     }, who);
@@ -225,11 +226,12 @@ function serveState(RED, palette) {
 }
 
 const MAX_ALARM_ID = 300;
+const MAX_ALARM_IDS = 20000;
 
 /** An alarm's id (`kind:subject`, as listed in the state). */
 function alarmIdOf(id) {
   if (typeof id !== 'string' || id === '' || id.length > MAX_ALARM_ID) {
-    throw new SugarshackError('INVALID_INPUT', `name the alarm by its id (kind:subject, as GET /sugarshack/state lists it), got ${JSON.stringify(id === undefined ? null : id).slice(0, 100)}`);
+    throw SugarshackError.of('INVALID_INPUT', 'alarmIdInvalid', { got: JSON.stringify(id === undefined ? null : id).slice(0, 100) });
   }
   return id;
 }
@@ -237,7 +239,7 @@ function alarmIdOf(id) {
 /** Alarm ids to acknowledge; absent: every unacknowledged one. */
 function alarmIdsOf(ids) {
   if (ids === undefined || ids === null) return null;
-  if (!Array.isArray(ids) || ids.length > 20000) throw new SugarshackError('INVALID_INPUT', 'ids must be a list of alarm ids (at most 20000), or absent for every unacknowledged alarm');
+  if (!Array.isArray(ids) || ids.length > MAX_ALARM_IDS) throw SugarshackError.of('INVALID_INPUT', 'alarmIdsInvalid', { max: MAX_ALARM_IDS });
   return ids.map(alarmIdOf);
 }
 
@@ -246,7 +248,7 @@ function shelfEndOf(body, now) {
   const { untilMs, forMs } = body;
   if (typeof untilMs === 'number' && Number.isFinite(untilMs)) return untilMs;
   if (typeof forMs === 'number' && Number.isFinite(forMs) && forMs > 0) return now + forMs;
-  throw new SugarshackError('INVALID_SHELF', 'say how long to shelve: forMs (milliseconds from now, > 0) or untilMs (epoch milliseconds)');
+  throw SugarshackError.of('INVALID_SHELF', 'shelfUnbounded');
 }
 
 /**

@@ -10,6 +10,7 @@ const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
+const { text } = require('./i18n');
 const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
@@ -94,7 +95,7 @@ class RunHost {
             this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
           }),
           (err) => {
-            this.interlock.log('error', `cannot fault operation '${e.operation}' at the interlock: ${err.message}`);
+            this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
             this.feed((r) => r.faultApplied([], clock.now()));
           },
         );
@@ -118,7 +119,7 @@ class RunHost {
         break;
       default: {
         const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added
-        this.interlock.log('warn', `operation '${this.operation}': unknown run effect '${unknown.kind}' ignored`);
+        this.interlock.log('warn', text('logs.unknownRunEffect', { operation: this.operation, kind: unknown.kind }));
       }
     }
   }
@@ -149,7 +150,7 @@ class RunHost {
     entry.abandon = () => {
       if (this.interlock.ended) return;
       this.feed((r) => [
-        ...r.refused('ABORTED', `operation '${e.operation}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted`),
+        ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
         ...r.withdrawn(clock.now()),
       ]);
     };
@@ -195,7 +196,7 @@ class RunHost {
   cancelStep() {
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('the operation was stopped');
+    if (token) token.cancel(text('labels.operationStopped'));
   }
 
   finishWith(report) {
@@ -233,7 +234,7 @@ class RunHost {
     this.ended = true;
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('Node-RED is stopping');
+    if (token) token.cancel(text('labels.nodeRedStopping'));
     this.free();
     if (this.port.abandon) this.port.abandon();
   }
@@ -243,7 +244,7 @@ class RunHost {
     if (this.ended) return;
     const token = this.current;
     this.current = null;
-    if (token) token.cancel('the core failed');
+    if (token) token.cancel(text('labels.coreFailed'));
     this.finishWith(() => this.port.fail(err));
   }
 }

@@ -8,6 +8,7 @@
 const { journal } = require('./journal/bus');
 const { clock } = require('./clock');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 // Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
 const MAX_WARNED = 1000;
@@ -52,7 +53,7 @@ class PlantBuses {
     for (const name of bus.names) {
       const handle = deviceIndex.get(name);
       if (handle === undefined) {
-        bus.node.error(`unknown device '${name}' in this node's device list (the plant has ${devices.join(', ')}); it is ignored`);
+        bus.node.error(i18n.text('logs.unknownDevice', { name, devices: devices.join(', ') }));
       } else {
         bus.devices.add(handle);
       }
@@ -90,7 +91,7 @@ class PlantBuses {
     if (bus && bus.devices) {
       const device = t.topicDevice(topic);
       if (device !== undefined && !bus.devices.has(device)) {
-        this.malformed(bus, topic, plant.devices[device], 'device not served', `device '${plant.devices[device]}' is not in this node's device list`);
+        this.malformed(bus, topic, plant.devices[device], 'device not served', i18n.text('logs.deviceNotServed', { device: plant.devices[device] }));
         plant.refreshStatus(node);
         return true;
       }
@@ -129,7 +130,7 @@ class PlantBuses {
     const bus = (source && source.bus) || this.serving(a.deviceHandle);
     if (!bus) return;
     bus.bad += 1;
-    this.warnOnce(bus, source ? source.topic : a.device, e.code, `ignored a sample in ${source ? source.topic : a.device}: ${e.message}`);
+    this.warnOnce(bus, source ? source.topic : a.device, e.code, i18n.text('logs.sampleIgnored', { topic: source ? source.topic : a.device, message: e.message }));
     this.emit(bus, `actuator/rejected/${a.id}`, { ...e, actuator: a.id, topic: source ? source.topic : null, count: bus.bad });
   }
 
@@ -155,8 +156,7 @@ class PlantBuses {
       }
       if (!this.unserved.has(name)) {
         this.unserved.add(name);
-        plant.log('error', `no actuators node serves device '${name}': ${e.topic} "${e.payload}" was not sent `
-          + `(add an actuators node for all devices, or list ${name} in one)`);
+        plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
       }
       return;
     }

@@ -11,6 +11,7 @@ const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
+const i18n = require('./i18n');
 
 const MAX_CALLER = 0xffffffff;
 
@@ -70,7 +71,7 @@ class GroupCommands {
     const faultAtMs = clock.now();
     for (const { resource, command } of lockouts) {
       const onDone = (err) => {
-        if (err) plant.log('warn', `lockout of ${resource} is not confirmed yet (${err.message}); it is sent again until it is`);
+        if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
       const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
       try {
@@ -80,7 +81,7 @@ class GroupCommands {
         this.hold(caller, entry, 0);
         plant.flush(null);
       } catch (err) {
-        plant.log('error', `lockout of ${resource} could not be sent: ${err.message}`);
+        plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
       }
     }
   }
@@ -110,11 +111,7 @@ class GroupCommands {
     const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
     if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
     if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
-    entry.refuse(new SugarshackError(
-      'COMMAND_TIMEOUT',
-      `group command did not complete within ${seconds(timeoutMs)}: ${waiting.join(', ')} had not completed; `
-        + 'the command was withdrawn (its actuators keep their last command)',
-    ));
+    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(timeoutMs), waiting: waiting.join(', ') }));
     plant.refreshStatus();
   }
 

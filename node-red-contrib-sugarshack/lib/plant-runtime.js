@@ -17,6 +17,7 @@ const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 const TICK_MS = 250;
 
@@ -66,7 +67,7 @@ class PlantRuntime extends RuntimeBase {
     const { Tracker } = wasm.load();
     const t = new Tracker(plant, clock.now());
     this.index(t, plant);
-    for (const warning of t.warnings()) this.log('warn', `plant document: ${warning}`);
+    for (const warning of t.warnings()) this.log('warn', i18n.text('logs.plantWarning', { warning }));
     return t;
   }
 
@@ -131,7 +132,7 @@ class PlantRuntime extends RuntimeBase {
   /** After a wasm trap: a new tracker (positions come back with the next feedback); held commands fail. */
   rebuild() {
     if (this.state !== 'ready') return;
-    this.commands.refuseAll(new SugarshackError('INTERNAL', 'the plant core failed and was rebuilt; this group command was dropped (its actuators keep their last command)'));
+    this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
     wasm.forget(this.t);
     this.t = null;
     this.sensors.forget({ watchers: false });
@@ -182,7 +183,7 @@ class PlantRuntime extends RuntimeBase {
 
   issueLockouts(lockouts, operation) {
     if (this.state !== 'ready') {
-      if (lockouts.length) this.log('error', `lockouts of ${lockouts.map((l) => l.resource).join(', ')} not sent: the plant is not running`);
+      if (lockouts.length) this.log('error', i18n.text('logs.lockoutsNotSent', { lines: lockouts.map((l) => l.resource).join(', ') }));
       return;
     }
     this.commands.lockouts(lockouts, operation);
@@ -260,7 +261,7 @@ class PlantRuntime extends RuntimeBase {
       }
     } catch (err) {
       counted = true;
-      this.log('error', `cannot route actuator effects: ${err.message || err}`);
+      this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
     if (!counted) {
       if (this.palette) this.palette.changes.touch();

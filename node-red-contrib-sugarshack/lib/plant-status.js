@@ -6,12 +6,12 @@
 // is what matters. Paced: at plant scale the counts move hundreds of times a second.
 const { actuatorStatus, errorStatus, status } = require('./status');
 const { clock } = require('./clock');
-const { DRAINING_STATUS } = require('./runtime-base');
+const { drainingStatus } = require('./runtime-base');
+const i18n = require('./i18n');
 const { StatusPacer } = require('./status-pacer');
 
 // How long a refusal shows on an actuators node before its counts come back.
 const BUS_ERROR_MS = 10000;
-const MQTT_DOWN_STATUS = status('error', 'mqtt down');
 
 class PlantStatus {
   /** plant: the PlantRuntime (its core `t`, users, bus, status board). */
@@ -68,12 +68,12 @@ class PlantStatus {
       }
       if (sticky) this.sticky.delete(node);
       if (!plant.gateOpen) {
-        board.set(node, DRAINING_STATUS);
+        board.set(node, drainingStatus());
         continue;
       }
       const bus = plant.bus.of(node);
       if (bus && bus.connected === false) {
-        board.set(node, MQTT_DOWN_STATUS);
+        board.set(node, status('error', i18n.text('status.mqttDown')));
         continue;
       }
       let counts;

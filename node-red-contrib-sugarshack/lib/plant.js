@@ -4,20 +4,18 @@
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
 
-const invalid = (why) => new SugarshackError('INVALID_PLANT', `invalid plant document: ${why}`);
-
 /** The plant document from the node's property: an object, or JSON text as typed in the editor. */
 function plantDocument(value) {
   if (typeof value === 'string') {
-    if (value.trim() === '') throw invalid('it is empty; paste the plant document (JSON) into the plant node');
+    if (value.trim() === '') throw SugarshackError.of('INVALID_PLANT', 'plantEmpty');
     try {
       return JSON.parse(value);
     } catch (err) {
-      throw invalid(`it is not valid JSON (${err.message})`);
+      throw SugarshackError.of('INVALID_PLANT', 'plantNotJson', { message: err.message });
     }
   }
   if (value && typeof value === 'object' && !Array.isArray(value)) return value;
-  throw invalid('expected a JSON object with actuatorTypes, devices and actuators');
+  throw SugarshackError.of('INVALID_PLANT', 'plantNotObject');
 }
 
 /** 4000 -> "4 s", 300 -> "0.3 s". */
@@ -62,7 +60,7 @@ function validatePlant(value) {
   } catch (err) {
     if (wasm.isTrap(err)) {
       setImmediate(() => wasm.recover(err, generation));
-      throw new SugarshackError('INTERNAL', `the core failed while checking the plant document (${err.message})`);
+      throw SugarshackError.of('INTERNAL', 'plantCheckTrapped', { message: err.message });
     }
     return { valid: false, errors: problemsOf(err), warnings: [] };
   } finally {

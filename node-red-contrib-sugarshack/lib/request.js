@@ -4,6 +4,7 @@
 // the node's configuration. Only shapes are checked here; whether a request is
 // allowed is for the core to say.
 const { SugarshackError } = require('./errors');
+const i18n = require('./i18n');
 const { isTrap } = require('./wasm');
 
 const I32_MIN = -2147483648;
@@ -19,7 +20,7 @@ function quote(value) {
   } catch {
     text = undefined;
   }
-  if (text === undefined) text = Array.isArray(value) ? 'an array' : typeof value;
+  if (text === undefined) text = Array.isArray(value) ? i18n.text('labels.anArray') : typeof value;
   return text.length > QUOTE_MAX ? `${text.slice(0, QUOTE_MAX - 1)}…` : text;
 }
 
@@ -34,7 +35,7 @@ function readMsg(read) {
   } catch (err) {
     if (err instanceof SugarshackError || isTrap(err)) throw err;
     const why = err && typeof err.message === 'string' ? err.message : String(err);
-    throw new SugarshackError('INVALID_INPUT', `could not read the msg: ${why.slice(0, QUOTE_MAX)}`);
+    throw SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) });
   }
 }
 
@@ -48,10 +49,10 @@ const MAX_OPERATION_NAME = 200;
 function asOperationName(value, from) {
   if (typeof value === 'number' && Number.isFinite(value)) return String(value);
   if (typeof value === 'string' && value.length > MAX_OPERATION_NAME) {
-    throw new SugarshackError('INVALID_OPERATION', `${from} is ${value.length} characters long; an operation id has at most ${MAX_OPERATION_NAME}`);
+    throw SugarshackError.of('INVALID_OPERATION', 'operationTooLong', { from, length: value.length, max: MAX_OPERATION_NAME });
   }
   if (typeof value === 'string') return value.trim();
-  throw new SugarshackError('INVALID_OPERATION', `${from} must be a string or a number, got ${quote(value)}`);
+  throw SugarshackError.of('INVALID_OPERATION', 'operationNotName', { from, got: quote(value) });
 }
 
 /**
@@ -60,21 +61,21 @@ function asOperationName(value, from) {
  */
 function operationOf(msg, configured, { followAcquire = false } = {}) {
   if (present(msg.operation)) return asOperationName(msg.operation, 'msg.operation');
-  if (present(configured)) return asOperationName(configured, 'the configured operation');
+  if (present(configured)) return asOperationName(configured, i18n.text('labels.configuredOperation'));
   if (followAcquire && msg.interlock && present(msg.interlock.operation)) {
     return asOperationName(msg.interlock.operation, 'msg.interlock.operation');
   }
-  throw new SugarshackError('MISSING_OPERATION', 'an operation id is required: set msg.operation or configure one in the node');
+  throw SugarshackError.of('MISSING_OPERATION', 'operationMissing');
 }
 
 function priorityOf(msg, configured) {
-  const [value, from] = present(msg.priority) ? [msg.priority, 'msg.priority'] : [configured, 'the configured priority'];
+  const [value, from] = present(msg.priority) ? [msg.priority, 'msg.priority'] : [configured, i18n.text('labels.configuredPriority')];
   if (!present(value)) return 0;
   let number = NaN;
   if (typeof value === 'number') number = value;
   else if (typeof value === 'string' && /^\s*[-+]?\d+\s*$/.test(value)) number = Number(value);
   if (!Number.isInteger(number) || number < I32_MIN || number > I32_MAX) {
-    throw new SugarshackError('INVALID_PRIORITY', `${from} must be an integer (higher = more urgent), got ${quote(value)}`);
+    throw SugarshackError.of('INVALID_PRIORITY', 'priorityNotInteger', { from, got: quote(value) });
   }
   return number;
 }
@@ -88,8 +89,7 @@ function splitNames(value, from) {
   if (typeof value === 'string' && value.length <= MAX_NAMES * (MAX_NAME + 1)) names = value.split(',');
   else if (Array.isArray(value) && value.length <= MAX_NAMES && value.every((v) => typeof v === 'string')) names = value;
   if (!names || names.length > MAX_NAMES || names.some((n) => n.length > MAX_NAME)) {
-    throw new SugarshackError('INVALID_RESOURCES', `${from} must be an array of resource names or a comma-separated string `
-      + `(at most ${MAX_NAMES} names of at most ${MAX_NAME} characters), got ${quote(value)}`);
+    throw SugarshackError.of('INVALID_RESOURCES', 'notNames', { from, names: MAX_NAMES, length: MAX_NAME, got: quote(value) });
   }
   return names.map((s) => s.trim()).filter(Boolean);
 }
@@ -97,7 +97,7 @@ function splitNames(value, from) {
 /** Resource names from msg.resources, else the configured list (possibly empty). */
 function resourcesOf(msg, configured) {
   if (present(msg.resources)) return splitNames(msg.resources, 'msg.resources');
-  if (present(configured)) return splitNames(configured, 'the configured resources');
+  if (present(configured)) return splitNames(configured, i18n.text('labels.configuredResources'));
   return [];
 }
 
@@ -111,7 +111,7 @@ const MAX_NOTE = 1000;
 function noteOf(msg) {
   const message = msg.error ? msg.error.message : undefined;
   // A note that is not text never stops a fault: isolating the line comes first.
-  if (message !== undefined && message !== null && typeof message !== 'string') return `(a note that is not text: ${quote(message)})`;
+  if (message !== undefined && message !== null && typeof message !== 'string') return i18n.text('labels.noteNotText', { got: quote(message) });
   const text = message || (typeof msg.payload === 'string' && msg.payload) || undefined;
   return text === undefined ? undefined : text.slice(0, MAX_NOTE);
 }
@@ -132,10 +132,10 @@ function attributionOf(msg) {
   const candidates = [user && (user.username || user.name || user.email || user.userId), msg.by];
   const by = candidates.find((v) => typeof v === 'string' && v.trim() !== '');
   if (present(msg.by) && typeof msg.by !== 'string') {
-    throw new SugarshackError('INVALID_INPUT', `msg.by must be the name of the person asking, got ${quote(msg.by)}`);
+    throw SugarshackError.of('INVALID_INPUT', 'byNotName', { got: quote(msg.by) });
   }
   if (present(msg.reason) && typeof msg.reason !== 'string') {
-    throw new SugarshackError('INVALID_INPUT', `msg.reason must be text, got ${quote(msg.reason)}`);
+    throw SugarshackError.of('INVALID_INPUT', 'reasonNotText', { got: quote(msg.reason) });
   }
   return {
     by: by === undefined ? null : by.slice(0, MAX_BY),

@@ -12,6 +12,7 @@ const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
 const TICK_MS = 250;
@@ -63,7 +64,7 @@ class RoutineHost {
         this.interlock.changed(() => this.emit('interrupted', { operation: moved.operation, from: moved.from, to: moved.to }));
       }
     } catch (e) {
-      this.interlock.log('warn', `routine '${this.id}': the saved state does not fit the routine any more (${e.message}); starting in its initial state`);
+      this.interlock.log('warn', i18n.text('logs.routineStateUnfit', { id: this.id, message: e.message }));
     }
   }
 
@@ -88,7 +89,7 @@ class RoutineHost {
     try {
       this.build(snapshot);
     } catch (err) {
-      this.interlock.log('error', `routine '${this.id}' cannot run on the new plant document: ${err.message}`);
+      this.interlock.log('error', i18n.text('logs.routineUnfit', { id: this.id, message: err.message }));
     }
     this.refresh();
   }
@@ -119,7 +120,7 @@ class RoutineHost {
   /** A msg's topic is its trigger (RESET_TOPIC goes back to the initial state). Throws the core's refusal. */
   onMsg(topic) {
     const machine = this.machine;
-    if (!machine) throw new SugarshackError('UNKNOWN_ROUTINE', `routine '${this.id}' is not running`);
+    if (!machine) throw SugarshackError.of('UNKNOWN_ROUTINE', 'routineNotRunning', { id: this.id });
     if (topic === RESET_TOPIC) {
       const moved = machine.reset();
       this.lastFault = false;
@@ -184,7 +185,7 @@ class RoutineHost {
     try {
       due = this.interlock.guard(() => stats.time('routine', () => machine.due(now)));
     } catch (err) {
-      this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+      this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
       return;
     }
     for (const t of due) {
@@ -198,7 +199,7 @@ class RoutineHost {
       }, (err) => {
         if (this.warned.has(t)) return;
         this.warned.add(t);
-        this.interlock.log('error', `routine '${this.id}': ${err.message}`);
+        this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
       });
     }
   }
@@ -229,17 +230,17 @@ class RoutineHost {
   report(error, event, details) {
     const msg = this.emit(event, details);
     if (this.node && msg) this.node.error(error, msg);
-    else this.interlock.log('error', `routine '${this.id}': ${error.message}`);
+    else this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: error.message }));
   }
 
   refresh() {
     if (!this.node || !this.machine || this.ended) return;
     const state = this.machine.state();
     const pending = this.machine.pending();
-    if (this.machine.halted()) this.node.status(status('error', `halted ${state}`));
+    if (this.machine.halted()) this.node.status(status('error', i18n.text('status.halted', { state })));
     else if (pending) {
       const running = Boolean(this.run && this.run.granted);
-      this.node.status(status(running ? 'running' : 'waiting', `${state} › ${running ? 'run' : 'wait'} ${pending}`));
+      this.node.status(status(running ? 'running' : 'waiting', i18n.text(running ? 'status.running' : 'status.waiting', { state, operation: pending })));
     }
     else this.node.status(status(this.lastFault ? 'fault' : 'ok', state));
   }

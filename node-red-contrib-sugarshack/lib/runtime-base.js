@@ -7,6 +7,7 @@
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('./pending').HeldMsg} HeldMsg */
@@ -139,14 +140,14 @@ class RuntimeBase {
       if (!wasm.isTrap(err)) throw err;
       const generation = this.generation;
       setImmediate(() => wasm.recover(err, generation));
-      throw new SugarshackError('INTERNAL', `the ${this.kind}'s core failed (${err.message}); it is being rebuilt from its last saved state`);
+      throw SugarshackError.of('INTERNAL', 'coreTrapped', { kind: this.kind, message: err.message });
     }
   }
 
   afterTrap(err, generation) {
     if (this.ended) return;
     this.generation = generation;
-    this.log('error', `the wasm core trapped (${err && err.message}); rebuilding from the last saved state`);
+    this.log('error', i18n.text('logs.trapped', { message: err && err.message }));
     this.rebuild();
   }
 
@@ -230,6 +231,6 @@ class RuntimeBase {
   }
 }
 
-const DRAINING_STATUS = status('warning', 'draining');
+const drainingStatus = () => status('warning', i18n.text('status.draining'));
 
-module.exports = { RuntimeBase, DRAINING_STATUS };
+module.exports = { RuntimeBase, drainingStatus };

@@ -4,6 +4,7 @@
 // never truncates it. Every status object is built here; the texts for error
 // codes come from the core's table of codes.
 const wasm = require('./wasm');
+const i18n = require('./i18n');
 
 const core = wasm.load();
 const MAX_STATUS_LENGTH = core.maxStatusChars();
@@ -57,7 +58,7 @@ function fits(text) {
  * first; zero counts are left out. "held 2 · queued 3", then shorter forms, and
  * as a last resort the least important items are dropped.
  */
-function countsText(items, empty = 'idle') {
+function countsText(items, empty = i18n.text('status.idle')) {
   const shown = items.filter((item) => item[3] > 0);
   if (shown.length === 0) return empty;
   const candidates = [
@@ -78,9 +79,9 @@ function countsText(items, empty = 'idle') {
 /** "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed. */
 function statusText({ holding = 0, queued = 0, faulted = 0 }) {
   return countsText([
-    ['faulted', 'flt', 'F', faulted],
-    ['held', 'hld', 'H', holding],
-    ['queued', 'q', 'Q', queued],
+    [i18n.text('status.faulted'), i18n.text('status.faultedShort'), i18n.text('status.faultedLetter'), faulted],
+    [i18n.text('status.held'), i18n.text('status.heldShort'), i18n.text('status.heldLetter'), holding],
+    [i18n.text('status.queued'), i18n.text('status.queuedShort'), i18n.text('status.queuedLetter'), queued],
   ]);
 }
 
@@ -95,12 +96,12 @@ function countsStatus(counts) {
  */
 function actuatorText({ moving = 0, stopped = 0, faulted = 0, lockouts = 0, bad = 0, ignored = 0 }) {
   return countsText([
-    ['lockout', 'lock', 'L', lockouts],
-    ['faulted', 'flt', 'F', faulted],
-    ['moving', 'mov', 'M', moving],
-    ['stopped', 'stop', 'S', stopped],
-    ['bad', 'bad', 'B', bad],
-    ['ignored', 'ign', 'I', ignored],
+    [i18n.text('status.lockout'), i18n.text('status.lockoutShort'), i18n.text('status.lockoutLetter'), lockouts],
+    [i18n.text('status.faulted'), i18n.text('status.faultedShort'), i18n.text('status.faultedLetter'), faulted],
+    [i18n.text('status.moving'), i18n.text('status.movingShort'), i18n.text('status.movingLetter'), moving],
+    [i18n.text('status.stopped'), i18n.text('status.stoppedShort'), i18n.text('status.stoppedLetter'), stopped],
+    [i18n.text('status.bad'), i18n.text('status.badShort'), i18n.text('status.badLetter'), bad],
+    [i18n.text('status.ignored'), i18n.text('status.ignoredShort'), i18n.text('status.ignoredLetter'), ignored],
   ]);
 }
 

@@ -2,9 +2,11 @@
 'use strict';
 const { bindInterlock, onInput } = require('../lib/binding');
 const { operationOf, priorityOf, resourcesOf, readMsg } = require('../lib/request');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function AcquireNode(props) {
     RED.nodes.createNode(this, props);

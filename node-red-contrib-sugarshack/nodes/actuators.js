@@ -3,15 +3,18 @@
 const { bindPlant, onInput, always } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
+const { translator, useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ActuatorsNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-actuators');
     const runtime = bindPlant(RED, node, props.plant);
-    const devices = props.devices && String(props.devices).trim() ? splitNames(String(props.devices), 'the device list') : null;
+    const devices = props.devices && String(props.devices).trim() ? splitNames(String(props.devices), t('config.devices')) : null;
     // Its broker's connection tells the plant when commands cannot reach the devices.
     const broker = props.broker ? RED.nodes.getNode(props.broker) : null;
     if (runtime) runtime.addBus(node, devices, broker);

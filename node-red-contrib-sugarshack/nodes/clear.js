@@ -3,9 +3,11 @@
 const { bindInterlock, onInput, always } = require('../lib/binding');
 const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function ClearNode(props) {
     RED.nodes.createNode(this, props);

@@ -5,26 +5,30 @@ const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('..
 const { clock } = require('../lib/clock');
 const { journal } = require('../lib/journal/bus');
 const { SugarshackError } = require('../lib/errors');
+const { translator, useRED } = require('../lib/i18n');
 
 /**
  * The error a faulted msg ends with when the node is set to fail it: it names
  * what was faulted and what locked out, and keeps the Catch's error as `cause`.
  */
-function faultedError(msg, operation, lockouts, note) {
-  const lines = lockouts.map((l) => l.resource);
-  const what = operation === null ? `${lines.join(', ') || 'nothing'} faulted (emergency stop)` : `operation '${operation}' faulted`;
-  const locked = lines.length ? `; ${lines.join(', ')} locked out until cleared` : '; it held nothing';
-  const error = new SugarshackError('FAULTED', `${what}${operation === null ? '' : locked}${note ? `: ${note}` : ''}`);
+function faultedError(t, msg, operation, lockouts, note) {
+  const lines = lockouts.map((l) => l.resource).join(', ');
+  const what = operation === null
+    ? t('errors.stopped', { lines: lines || t('errors.nothing') })
+    : t(lines ? 'errors.faultedLocked' : 'errors.faultedHeldNothing', { operation, lines });
+  const error = new SugarshackError('FAULTED', note ? t('errors.withNote', { what, note }) : what);
   if (msg.error && typeof msg.error === 'object') error.cause = msg.error;
   return error;
 }
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function FaultNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
+    const t = translator(RED, 'sugarshack-fault');
     const runtime = bindInterlock(RED, node, props.interlock);
     const byResources = props.mode === 'resources';
     // Failing the msg lets the Catch of whoever called the operation see the fault (a subflow's caller).
@@ -56,7 +60,7 @@ module.exports = function (RED) {
         }));
         if (failMsg) {
           send([null, commands]);
-          done(faultedError(msg, operation, lockouts, note));
+          done(faultedError(t, msg, operation, lockouts, note));
           return;
         }
         send([msg, commands]);

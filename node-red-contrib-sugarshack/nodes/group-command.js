@@ -3,9 +3,11 @@
 const { bindPlant, onInput } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { readMsg } = require('../lib/request');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function GroupCommandNode(props) {
     RED.nodes.createNode(this, props);

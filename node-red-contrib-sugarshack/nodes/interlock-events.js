@@ -1,9 +1,11 @@
 // @ts-check
 'use strict';
 const { bindInterlock } = require('../lib/binding');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function InterlockEventsNode(props) {
     RED.nodes.createNode(this, props);

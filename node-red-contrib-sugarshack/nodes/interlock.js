@@ -4,10 +4,11 @@ const { coreConfig } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
-const { translator } = require('../lib/i18n');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   paletteOf(RED);
 
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
@@ -15,7 +16,6 @@ module.exports = function (RED) {
   function InterlockNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
-    const t = translator(RED, 'sugarshack-interlock');
     node.name = props.name;
     // Bound to a plant, the interlock takes its resources and lockouts from the
     // plant document, and operation and routine nodes can run on it.
@@ -26,7 +26,7 @@ module.exports = function (RED) {
     const settings = { config: null, persist, plantBound: Boolean(props.plant), legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null };
     try {
       settings.config = coreConfig(props);
-      if (props.plant && !plant) throw new SugarshackError('NO_PLANT', t('errors.noSuchPlant'));
+      if (props.plant && !plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
     } catch (err) {
       settings.error = err;
     }

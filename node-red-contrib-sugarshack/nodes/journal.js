@@ -6,17 +6,17 @@ const { JournalWriter, httpTarget } = require('../lib/journal/writer');
 const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
 const { compact, status } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { configDurationMs } = require('../lib/control');
 
 const MB = 1024 * 1024;
 const writers = new Map(); // node id (or 'default') -> JournalWriter
 
 /** A whole number in [min, max] from an editor field, or `fallback` when empty. */
-function bounded(value, fallback, min, max, what) {
+function bounded(t, value, fallback, min, max, what) {
   if (value === undefined || value === null || value === '') return fallback;
   const n = Number(value);
-  if (!Number.isFinite(n) || n < min || n > max) throw new Error(`${what} must be a number from ${min} to ${max}, got '${value}'`);
+  if (!Number.isFinite(n) || n < min || n > max) throw new Error(t('errors.outOfRange', { what, min, max, got: value }));
   return n;
 }
 
@@ -29,23 +29,24 @@ function statusOf(t, m) {
 
 /**
  * The writer for a node's settings: local files, or a database with a spool in the user dir.
+ * @param {(key: string, subs?: Record<string, any>) => string} t
  * @param {{ props: Record<string, any>, credentials: Record<string, any>, userDir: string, id: string, onChange?: () => void }} options
  */
-function writerFor({ props, credentials, userDir, id, onChange }) {
+function writerFor(t, { props, credentials, userDir, id, onChange }) {
   const plant = String(props.plantId || '').trim();
-  const flushMs = configDurationMs(props, 'flushS', 'flushMs', 'the flush interval', { fallbackMs: 1000 });
-  if (!(flushMs >= 50 && flushMs <= 60000)) throw new Error(`the flush interval (flushS) must be from 0.05 to 60 s, got ${flushMs / 1000} s`);
+  const flushMs = configDurationMs(props, 'flushS', 'flushMs', t('config.flush'), { fallbackMs: 1000 });
+  if (!(flushMs >= 50 && flushMs <= 60000)) throw new Error(t('errors.badFlush', { got: flushMs / 1000 }));
   const base = path.join(userDir, 'sugarshack-journal');
   if ((props.target || 'files') === 'files') {
     const dir = props.dir ? path.resolve(userDir, props.dir) : path.join(base, 'files');
-    const maxMB = bounded(props.filesMB, 512, 1, 1e6, 'the size of the local journal (MB)');
+    const maxMB = bounded(t, props.filesMB, 512, 1, 1e6, t('config.filesMB'));
     const fileBytes = Math.max(MB, Math.floor((maxMB * MB) / 32));
     return new JournalWriter({ plant, flushMs, onChange, target: filesTarget({ dir, fileBytes, maxFiles: 32 }) });
   }
   const host = String(props.host || '').trim();
-  if (!host) throw new Error('the journal needs the database host (or choose local files)');
-  const port = bounded(props.port, 9000, 1, 65535, 'the port');
-  const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(props.bufferMB, 64, 0.001, 1e6, 'the buffer bound (MB)') * MB) });
+  if (!host) throw new Error(t('errors.noHost'));
+  const port = bounded(t, props.port, 9000, 1, 65535, t('config.port'));
+  const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(t, props.bufferMB, 64, 0.001, 1e6, t('config.bufferMB')) * MB) });
   // HTTPS is the text 'true' when the flow file sets it from the environment (${NAME}).
   const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token });
   return new JournalWriter({ plant, flushMs, onChange, spool, target });
@@ -53,15 +54,17 @@ function writerFor({ props, credentials, userDir, id, onChange }) {
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
+  const t = translator(RED, 'sugarshack-journal');
   const userDir = (RED.settings && RED.settings.userDir) || process.cwd();
 
   // `npm start` sets sugarshackJournal.dir: with no database, the plant still keeps its journal in files.
   const embedded = RED.settings && RED.settings.sugarshackJournal;
   if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
-    const writer = writerFor({ props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
+    const writer = writerFor(t, { props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
     writer.detach = journal.attach(writer);
     writers.set('default', writer);
-    RED.log.info(`sugarshack journal: local files in ${writer.target.where}`);
+    RED.log.info(t('log.localFiles', { where: writer.target.where }));
   }
 
   if (RED.httpAdmin) {
@@ -77,7 +80,6 @@ module.exports = function (RED) {
   function JournalNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
-    const t = translator(RED, 'sugarshack-journal');
     let writer;
     let shown = '';
     const refresh = () => {
@@ -87,7 +89,7 @@ module.exports = function (RED) {
       node.status(s);
     };
     try {
-      writer = writerFor({ props, credentials: node.credentials || {}, userDir, id: node.id, onChange: () => writer && refresh() });
+      writer = writerFor(t, { props, credentials: node.credentials || {}, userDir, id: node.id, onChange: () => writer && refresh() });
     } catch (err) {
       node.error(t('errors.notStarted', { message: err.message }));
       node.status(status('error', t('status.badSettings')));

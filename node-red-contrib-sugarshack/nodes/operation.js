@@ -4,7 +4,7 @@ const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { seconds } = require('../lib/plant');
 
 /**
@@ -71,6 +71,7 @@ function nodePort(t, node, msg, send, done, total, id) {
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function OperationNode(props) {
     RED.nodes.createNode(this, props);

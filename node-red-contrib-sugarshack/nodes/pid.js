@@ -3,7 +3,7 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
@@ -20,31 +20,30 @@ const PID_STATE = {
 const CONTROL_KEYS = ['setpoint', 'mode', 'manual', 'tunings', 'limits'];
 const board = new StatusBoard();
 
-const invalidConfig = (message) => new SugarshackError('INVALID_CONFIG', message);
-const invalidInput = (message) => new SugarshackError('INVALID_INPUT', message);
 /** What reading a msg threw: ours and the core's pass; anything else (a getter, a proxy) is the sender's INVALID_INPUT. */
-const inputError = (err) => (err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)
+const inputError = (t, err) => (err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)
   ? err
-  : invalidInput(`could not read the msg: ${String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100)}`));
+  : new SugarshackError('INVALID_INPUT', t('errors.msgUnreadable', { why: String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100) })));
 
 /** @typedef {import('../wasm/sugarshack_wasm').StationConfig} StationConfig */
 
 /**
  * The node's fields as the core's PidStation configuration; the rules on them are the core's.
  * @param {NodeRed.NodeProps} props
+ * @param {(key: string, subs?: Record<string, any>) => string} t
  * @returns {StationConfig}
  */
-function readConfig(props) {
-  const tsS = configNumber(props.ts, 'sample period Ts (s)', { required: true });
+function readConfig(props, t) {
+  const tsS = configNumber(props.ts, t('config.ts'), { required: true });
   /** @type {StationConfig['loop']['pid']} */
   const pid = {
-    kp: configNumber(props.kp, 'kp (proportional gain)', { required: true }),
-    tiS: configNumber(props.ti, 'ti (integral time, s)', { fallback: 0 }),
-    tdS: configNumber(props.td, 'td (derivative time, s)', { fallback: 0 }),
-    outMin: configNumber(props.outMin, 'output min', { required: true }),
-    outMax: configNumber(props.outMax, 'output max', { required: true }),
+    kp: configNumber(props.kp, t('config.kp'), { required: true }),
+    tiS: configNumber(props.ti, t('config.ti'), { fallback: 0 }),
+    tdS: configNumber(props.td, t('config.td'), { fallback: 0 }),
+    outMin: configNumber(props.outMin, t('config.outMin'), { required: true }),
+    outMax: configNumber(props.outMax, t('config.outMax'), { required: true }),
     action: props.action === 'direct' ? 'direct' : 'reverse',
-    fallback: configNumber(props.fallback, 'fallback output', { fallback: null }),
+    fallback: configNumber(props.fallback, t('config.fallback'), { fallback: null }),
     // Saved flows from before this setting act on the error, as they did.
     proportionalOn: props.pOn === 'measurement' ? 'measurement' : 'error',
   };
@@ -54,45 +53,45 @@ function readConfig(props) {
   if (predictor === 'fixed' || predictor === 'adaptive') {
     smith = {
       model: {
-        gain: configNumber(props.modelGain, 'Smith predictor: model gain', { required: true }),
-        tauS: configNumber(props.modelTau, 'Smith predictor: model time constant tau (s)', { required: true }),
+        gain: configNumber(props.modelGain, t('config.modelGain'), { required: true }),
+        tauS: configNumber(props.modelTau, t('config.modelTau'), { required: true }),
       },
       tsS,
       deadTime: predictor === 'fixed'
-        ? { mode: 'fixed', samples: configNumber(props.deadSamples, 'Smith predictor: dead time (samples)', { required: true }) }
+        ? { mode: 'fixed', samples: configNumber(props.deadSamples, t('config.deadSamples'), { required: true }) }
         : {
           mode: 'adaptive',
-          alpha: configNumber(props.alpha, 'Smith predictor: alpha', { fallback: 0.1 }),
+          alpha: configNumber(props.alpha, t('config.alpha'), { fallback: 0.1 }),
           // 'h' in flows written by hand before the setting was named 'horizon'.
-          h: configNumber(props.horizon ?? props.h, 'Smith predictor: h', { fallback: 3 }),
+          h: configNumber(props.horizon ?? props.h, t('config.horizon'), { fallback: 3 }),
         },
-      maxSamples: configNumber(props.maxSamples, 'Smith predictor: max samples', { fallback: 400 }),
+      maxSamples: configNumber(props.maxSamples, t('config.maxSamples'), { fallback: 400 }),
     };
   } else if (predictor !== 'off') {
-    throw invalidConfig(`Smith predictor must be off, fixed or adaptive, got '${predictor}'`);
+    throw new SugarshackError('INVALID_CONFIG', t('errors.smithMode', { got: predictor }));
   }
   return {
     loop: { pid, smith },
     tsS,
-    staleMs: configDurationMs(props, 'staleS', 'staleMs', 'stale after', { fallbackMs: 3 * tsS * 1000 }),
-    setpoint: configNumber(props.setpoint, 'set point', { required: true }),
+    staleMs: configDurationMs(props, 'staleS', 'staleMs', t('config.staleS'), { fallbackMs: 3 * tsS * 1000 }),
+    setpoint: configNumber(props.setpoint, t('config.setpoint'), { required: true }),
     mode: props.mode === 'manual' ? 'manual' : 'auto',
-    manual: configNumber(props.manual, 'manual output', { fallback: null }),
+    manual: configNumber(props.manual, t('config.manual'), { fallback: null }),
   };
 }
 
 /** msg fields of a change as the core's Change: each checked a number here, the rules applied there. */
-function readChange(msg) {
+function readChange(msg, t) {
   const change = {};
-  if (msg.topic === 'setpoint') change.setpoint = msgNumber(msg.payload, 'the set point (msg.payload with topic "setpoint")');
+  if (msg.topic === 'setpoint') change.setpoint = msgNumber(msg.payload, t('input.setpointPayload'));
   else if (msg.setpoint !== undefined) change.setpoint = msgNumber(msg.setpoint, 'msg.setpoint');
   if (msg.mode !== undefined) {
-    if (msg.mode !== 'auto' && msg.mode !== 'manual') throw invalidInput(`msg.mode must be 'auto' or 'manual', got ${describe(msg.mode)}`);
+    if (msg.mode !== 'auto' && msg.mode !== 'manual') throw new SugarshackError('INVALID_INPUT', t('errors.modeInvalid', { got: describe(msg.mode) }));
     change.mode = msg.mode;
   }
-  if (msg.manual !== undefined) change.manual = msgNumber(msg.manual, 'msg.manual (the manual output)');
+  if (msg.manual !== undefined) change.manual = msgNumber(msg.manual, t('input.manual'));
   const object = (v, what) => {
-    if (!v || typeof v !== 'object' || Array.isArray(v)) throw invalidInput(`${what} must be an object, got ${describe(v)}`);
+    if (!v || typeof v !== 'object' || Array.isArray(v)) throw new SugarshackError('INVALID_INPUT', t('errors.notObject', { what, got: describe(v) }));
     return v;
   };
   const fields = (obj, names, what) => {
@@ -101,8 +100,8 @@ function readChange(msg) {
     return out;
   };
   if (msg.tunings !== undefined) {
-    const t = object(msg.tunings, 'msg.tunings ({ kp, ti, td })');
-    change.tunings = fields(t, [['kp', 'kp', 'kp'], ['ti', 'tiS', 'ti (s)'], ['td', 'tdS', 'td (s)']], 'msg.tunings');
+    const tunings = object(msg.tunings, 'msg.tunings ({ kp, ti, td })');
+    change.tunings = fields(tunings, [['kp', 'kp', 'kp'], ['ti', 'tiS', 'ti (s)'], ['td', 'tdS', 'td (s)']], 'msg.tunings');
   }
   if (msg.limits !== undefined) {
     const l = object(msg.limits, 'msg.limits ({ min, max })');
@@ -122,16 +121,17 @@ function readSaved(saved) {
 }
 
 /** msg.rcc as the rcc node sends it: { id, engaged, firstCycle, track }. */
-function readDecision(rcc) {
+function readDecision(rcc, t) {
   if (!rcc || typeof rcc !== 'object' || typeof rcc.engaged !== 'boolean' || typeof rcc.firstCycle !== 'boolean'
     || !(rcc.track === undefined || rcc.track === null || isNumber(rcc.track))) {
-    throw invalidInput('msg.rcc must be the rcc node\'s decision { id, engaged, firstCycle, track }: engaged and firstCycle true or false, track a number or null');
+    throw new SugarshackError('INVALID_INPUT', t('errors.decisionInvalid'));
   }
   return { engaged: rcc.engaged, firstCycle: rcc.firstCycle, track: rcc.track ?? null };
 }
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function PidNode(props) {
     RED.nodes.createNode(this, props);
@@ -146,7 +146,7 @@ module.exports = function (RED) {
     let refusal = null;
     let kept = null; // the loop's own state, kept outside the core to rebuild it after a trap
     try {
-      const config = readConfig(props);
+      const config = readConfig(props, t);
       // Rebuilt on a fresh wasm instance after a trap, with the state it had.
       station = revivable(({ PidStation }) => {
         const fresh = new PidStation(config);
@@ -244,10 +244,10 @@ module.exports = function (RED) {
       let decision;
       let track;
       try {
-        if (msg.rcc !== undefined) decision = readDecision(msg.rcc);
-        if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, 'msg.track (the action applied by someone else)');
+        if (msg.rcc !== undefined) decision = readDecision(msg.rcc, t);
+        if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, t('input.track'));
       } catch (err) {
-        const e = inputError(err);
+        const e = inputError(t, err);
         show(errorStatus(e.code));
         done(e);
         return;
@@ -278,9 +278,9 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const sent = pid.mode === 'tracking' ? 'the tracked action' : pid.mode === 'manual' ? 'the manual output' : 'the fallback output';
-      const what = engaged ? `sent ${sent} ${fmt(pid.output)}` : 'in standby: nothing sent';
-      const e = new SugarshackError('BAD_MEASUREMENT', `the measurement in msg.payload must be a number, got ${describe(given)}; ${what}`);
+      const sent = t(pid.mode === 'tracking' ? 'errors.sentTracked' : pid.mode === 'manual' ? 'errors.sentManual' : 'errors.sentFallback', { value: fmt(pid.output) });
+      const what = engaged ? sent : t('errors.sentNothing');
+      const e = new SugarshackError('BAD_MEASUREMENT', t('errors.badMeasurement', { got: describe(given), what }));
       show(errorStatus(e.code));
       done(e);
     }
@@ -288,7 +288,7 @@ module.exports = function (RED) {
     function handle(msg, send, done) {
       try {
         if (msg.topic === 'setpoint' || CONTROL_KEYS.some((k) => msg[k] !== undefined)) {
-          station.change(readChange(msg));
+          station.change(readChange(msg, t));
           save();
           show(idleStatus());
           if (msg.roundTripMs !== undefined) station.observeRoundTrip(msgNumber(msg.roundTripMs, 'msg.roundTripMs'));
@@ -303,7 +303,7 @@ module.exports = function (RED) {
           }
         }
       } catch (err) {
-        const e = inputError(err);
+        const e = inputError(t, err);
         show(errorStatus(e.code));
         done(e);
         return;
@@ -322,7 +322,7 @@ module.exports = function (RED) {
       try {
         handle(msg, send, once);
       } catch (err) {
-        const e = inputError(err);
+        const e = inputError(t, err);
         show(errorStatus(e.code));
         once(e);
       }

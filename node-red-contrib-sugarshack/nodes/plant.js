@@ -4,9 +4,11 @@ const { plantDocument, servePlantValidation } = require('../lib/plant');
 const { PlantRuntime } = require('../lib/plant-runtime');
 const { serveStats } = require('../lib/stats');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
+const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   paletteOf(RED);
   serveStats(RED);
   servePlantValidation(RED);

@@ -3,22 +3,23 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
 
-function readConfig(props) {
-  const controllers = configNumber(props.controllers, 'controllers', { required: true }); // a whole number >= 1: the core checks
-  const periodMs = configDurationMs(props, 'periodS', 'period', 'publish period', { required: true });
-  if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', `publish period (periodS) must be a number of seconds greater than 0, got ${periodMs / 1000}`);
-  return { controllers, initialAction: configNumber(props.initialAction, 'initial action', { fallback: 0 }), periodMs };
+function readConfig(props, t) {
+  const controllers = configNumber(props.controllers, t('config.controllers'), { required: true }); // a whole number >= 1: the core checks
+  const periodMs = configDurationMs(props, 'periodS', 'period', t('config.period'), { required: true });
+  if (!(periodMs > 0)) throw new SugarshackError('INVALID_CONFIG', t('errors.badPeriod', { got: periodMs / 1000 }));
+  return { controllers, initialAction: configNumber(props.initialAction, t('config.initialAction'), { fallback: 0 }), periodMs };
 }
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccIoNode(props) {
     RED.nodes.createNode(this, props);
@@ -30,7 +31,7 @@ module.exports = function (RED) {
     let lastWritten = null;
     let refusal = null;
     try {
-      settings = readConfig(props);
+      settings = readConfig(props, t);
       // After a trap the module starts again from the last action written, not the initial one.
       io = revivable(({ IoModule }) => new IoModule(settings.controllers, lastWritten ?? settings.initialAction));
     } catch (err) {

@@ -3,28 +3,29 @@
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { configNumber, configDurationMs, configDurationListMs, describe, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
 const board = new StatusBoard();
 
-function readConfig(props) {
-  const tsMs = configDurationMs(props, 'tsS', 'ts', 'sampling period Ts', { required: true });
-  const thresholdsMs = configDurationListMs(props, 'thresholdsS', 'thresholds', 'engagement thresholds D_1..D_n');
-  const id = configNumber(props.controller, 'controller id', { required: true });
+function readConfig(props, t) {
+  const tsMs = configDurationMs(props, 'tsS', 'ts', t('config.ts'), { required: true });
+  const thresholdsMs = configDurationListMs(props, 'thresholdsS', 'thresholds', t('config.thresholds'));
+  const id = configNumber(props.controller, t('config.controller'), { required: true });
   if (!Number.isInteger(id) || id < 1) {
-    throw new SugarshackError('INVALID_CONFIG', `controller id must be a whole number from 1 (primary) to ${thresholdsMs.length}, got ${id}`);
+    throw new SugarshackError('INVALID_CONFIG', t('errors.badControllerId', { max: thresholdsMs.length, got: id }));
   }
   // Blank: the core's default, 3·Ts.
-  const pollTimeoutMs = configDurationMs(props, 'pollTimeoutS', 'pollTimeout', 'poll timeout', { fallbackMs: null });
+  const pollTimeoutMs = configDurationMs(props, 'pollTimeoutS', 'pollTimeout', t('config.pollTimeout'), { fallbackMs: null });
   const smoothHandover = !(props.smooth === false || props.smooth === 'false');
   return { id, thresholdsMs, tsMs, smoothHandover, pollTimeoutMs };
 }
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccNode(props) {
     RED.nodes.createNode(this, props);
@@ -35,7 +36,7 @@ module.exports = function (RED) {
     let settings = null;
     let refusal = null;
     try {
-      settings = readConfig(props);
+      settings = readConfig(props, t);
       // The core refuses thresholds breaking D_i > D_j >= Ts, and a poll timeout <= 0.
       rcc = revivable(({ Rcc }) => {
         const fresh = new Rcc(settings);

@@ -4,7 +4,7 @@ const { bindInterlock } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 
@@ -13,6 +13,7 @@ const MAX_TOPIC = 1024;
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RoutineNode(props) {
     RED.nodes.createNode(this, props);

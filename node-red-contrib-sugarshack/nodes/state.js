@@ -14,7 +14,7 @@ const { stateOf } = require('../lib/state');
 const { clock } = require('../lib/clock');
 const { stats } = require('../lib/stats');
 const { status } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { configDurationMs } = require('../lib/control');
 
 const STATS_TOPIC = 'sugarshack/stats';
@@ -27,25 +27,25 @@ const ALARM_TOPICS = new Set(['ack', 'shelve', 'unshelve']);
  * The interlocks an alarm request goes to: msg.interlock when given, else
  * those listing the alarm (every one, to acknowledge all).
  */
-function alarmTargets(palette, msg, id) {
+function alarmTargets(t, palette, msg, id) {
   const ready = [...palette.runtimes].filter(([, rt]) => rt.kind !== 'plant' && rt.state === 'ready');
   if (msg.interlock !== undefined) {
     const found = ready.filter(([rid]) => rid === msg.interlock).map(([, rt]) => rt);
-    if (found.length === 0) throw new SugarshackError('NO_INTERLOCK', `no running interlock '${String(msg.interlock).slice(0, 100)}'`);
+    if (found.length === 0) throw new SugarshackError('NO_INTERLOCK', t('errors.noInterlock', { id: String(msg.interlock).slice(0, 100) }));
     return found;
   }
   const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.hasAlarm(id));
-  if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', `no alarm '${id.slice(0, 100)}' is listed (it may have returned to normal and been acknowledged)`);
+  if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', t('errors.noAlarm', { id: id.slice(0, 100) }));
   return targets;
 }
 
 /** Acts on alarms as msg asks; resolves with every change once saved. */
-function alarmRequest(palette, msg) {
+function alarmRequest(t, palette, msg) {
   const who = attributionOf(msg);
   const ids = msg.topic === 'ack' ? alarmIdsOf(msg.ids !== undefined ? msg.ids : msg.id !== undefined ? [msg.id] : undefined) : null;
   const id = msg.topic === 'ack' ? null : alarmIdOf(msg.id);
   const untilMs = msg.topic === 'shelve' ? shelfEndOf(msg, clock.now()) : null;
-  const byInterlock = alarmTargets(palette, msg, id !== null ? id : ids && ids.length === 1 ? ids[0] : null);
+  const byInterlock = alarmTargets(t, palette, msg, id !== null ? id : ids && ids.length === 1 ? ids[0] : null);
   return Promise.all(byInterlock.map((rt) => new Promise((resolve) => rt.guard(() => {
     if (msg.topic === 'ack') {
       // Named ids: each interlock takes those it lists.
@@ -59,6 +59,7 @@ function alarmRequest(palette, msg) {
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function StateNode(props) {
     RED.nodes.createNode(this, props);
@@ -67,9 +68,9 @@ module.exports = function (RED) {
     const palette = paletteOf(RED);
     let intervalMs = 1000;
     try {
-      intervalMs = Math.max(MIN_INTERVAL_MS, configDurationMs(props, 'intervalS', 'intervalMs', 'the send interval', { fallbackMs: 1000 }) || 1000);
+      intervalMs = Math.max(MIN_INTERVAL_MS, configDurationMs(props, 'intervalS', 'intervalMs', t('config.interval'), { fallbackMs: 1000 }) || 1000);
     } catch (err) {
-      node.error(`${err.message}; sending every 1 s`); // a bad interval still leaves a working state feed
+      node.error(t('errors.badInterval', { message: err.message })); // a bad interval still leaves a working state feed
     }
     let timer = null;
     let lastSentMs = -Infinity;
@@ -96,7 +97,7 @@ module.exports = function (RED) {
       if (ALARM_TOPICS.has(msg.topic)) {
         let asked;
         try {
-          asked = alarmRequest(palette, msg);
+          asked = alarmRequest(t, palette, msg);
         } catch (err) {
           node.status(errorStatus(err.code));
           done(err);

@@ -6,11 +6,12 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { Condition } = require('../lib/condition');
 const { splitNames } = require('../lib/request');
 const { errorStatus, status } = require('../lib/status');
-const { translator } = require('../lib/i18n');
+const { translator, useRED } = require('../lib/i18n');
 const { clock } = require('../lib/clock');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
+  useRED(RED);
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function WaitNode(props) {
     RED.nodes.createNode(this, props);
@@ -27,7 +28,7 @@ module.exports = function (RED) {
           if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
           const text = String(props.sensors || '').trim();
-          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, 'the sensor list') : [], plant, 'operation');
+          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : [], plant, 'operation');
           refusal = null;
           node.status({});
         } catch (err) {
@@ -69,7 +70,7 @@ module.exports = function (RED) {
     });
 
     node.on('close', (removed, done) => {
-      for (const signal of waiting) if (signal.cancel) signal.cancel('its node was stopped');
+      for (const signal of waiting) if (signal.cancel) signal.cancel(t('errors.nodeStopped'));
       done();
     });
   }

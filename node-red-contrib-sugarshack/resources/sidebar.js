@@ -5,7 +5,8 @@
  * CLEAR posts to /sugarshack/clear as the signed-in editor user; the core
  * decides and its refusal reasons are shown. Alarms not yet acknowledged are
  * listed with an ack that posts to /sugarshack/alarms/ack. Loaded once by
- * interlock.html. */
+ * interlock.html. Its texts are the interlock set's catalog's, in the editor's
+ * language (nodes/locales/<lang>/interlock.json, sugarshack-interlock.sidebar). */
 /* global RED, $ */
 (function () {
   'use strict';
@@ -20,16 +21,19 @@
   var busy = false;
 
   var COLORS = { free: '#2e7d32', held: '#1565c0', faulted: '#c62828' };
+  var NS = 'node-red-contrib-sugarshack/interlock:sugarshack-interlock.';
+
+  function t(key, subs) { return RED._(NS + key, subs); }
 
   function secs(ms) { return Math.round(ms / 1000) + ' s'; }
   function clockText(ms) { return new Date(ms).toLocaleTimeString(); }
 
   function reasonText(r) {
-    if (r.kind === 'deviceOffline') return 'device ' + r.device + ' offline';
-    if (r.kind === 'lockoutPending') return 'lockout not completed (' + r.actuator + ')';
-    if (r.kind === 'offLockout') return r.actuator + ' reads ' + r.position + ', lockout ' + r.lockout;
-    if (r.kind === 'stale') return r.actuator + ' feedback stale';
-    if (r.kind === 'noFeedback') return r.actuator + ' not heard';
+    if (r.kind === 'deviceOffline') return t('sidebar.deviceOffline', { device: r.device });
+    if (r.kind === 'lockoutPending') return t('sidebar.lockoutPending', { actuator: r.actuator });
+    if (r.kind === 'offLockout') return t('sidebar.offLockout', { actuator: r.actuator, position: r.position, lockout: r.lockout });
+    if (r.kind === 'stale') return t('sidebar.stale', { actuator: r.actuator });
+    if (r.kind === 'noFeedback') return t('sidebar.noFeedback', { actuator: r.actuator });
     return r.kind;
   }
 
@@ -38,7 +42,7 @@
     delete refused[key];
     $.ajax({
       url: 'sugarshack/clear', method: 'POST', contentType: 'application/json',
-      data: JSON.stringify({ interlock: interlock, lines: [line], reason: 'cleared from the editor sidebar' }),
+      data: JSON.stringify({ interlock: interlock, lines: [line], reason: t('sidebar.clearReason') }),
     }).done(function () { refresh(); }).fail(function (xhr) {
       var answer = xhr.responseJSON || {};
       var reasons = (answer.lines || []).reduce(function (all, l) { return all.concat((l.reasons || []).map(reasonText)); }, []);
@@ -58,12 +62,12 @@
   function alarmRows(il, section) {
     var owed = (il.alarms || []).filter(function (a) { return !a.shelved && /unacknowledged$/.test(a.state); });
     var box = $('<div class="ss-sb-alarms" style="margin-top: 4px;"></div>').appendTo(section);
-    $('<b></b>').text('alarms to acknowledge: ').appendTo(box);
-    if (!owed.length) box.append(document.createTextNode('none'));
+    $('<b></b>').text(t('sidebar.alarmsToAck')).appendTo(box);
+    if (!owed.length) box.append(document.createTextNode(t('sidebar.none')));
     owed.forEach(function (a) {
       var row = $('<div class="ss-sb-alarm"></div>').attr('data-alarm', a.id).appendTo(box);
-      row.text(clockText(a.activeSinceMs) + ' ' + a.text + (a.state === 'returned-unacknowledged' ? ' (back to normal)' : ' '));
-      $('<button type="button" class="red-ui-button red-ui-button-small ss-sb-ack" style="margin-left: 4px;">ack</button>')
+      row.text(clockText(a.activeSinceMs) + ' ' + a.text + (a.state === 'returned-unacknowledged' ? ' ' + t('sidebar.backToNormal') : ' '));
+      $('<button type="button" class="red-ui-button red-ui-button-small ss-sb-ack" style="margin-left: 4px;"></button>').text(t('sidebar.ack'))
         .on('click', function () { ackAlarm(il.id, a.id); }).appendTo(row);
     });
   }
@@ -75,31 +79,32 @@
     $('<td class="ss-sb-state" style="color: white; padding: 2px 6px;"></td>').css('background', COLORS[state] || '#777').text(state).appendTo(row);
     var what = $('<td style="padding: 2px 6px;"></td>').appendTo(row);
     if (line.holder) {
-      what.text('op ' + line.holder.operation + ' (prio ' + line.holder.priority + ') for ' + secs(line.holder.heldMs));
+      what.text(t('sidebar.holder', { operation: line.holder.operation, priority: line.holder.priority, time: secs(line.holder.heldMs) }));
     } else if (line.fault) {
-      what.text(line.fault.cause + (line.fault.operation ? ', op ' + line.fault.operation : '') +
-        (line.fault.note ? ': ' + line.fault.note : '') + ' since ' + clockText(line.fault.sinceMs));
+      var cause = line.fault.cause + (line.fault.operation ? ', ' + t('sidebar.op', { operation: line.fault.operation }) : '') +
+        (line.fault.note ? ': ' + line.fault.note : '');
+      what.text(t('sidebar.faultSince', { cause: cause, time: clockText(line.fault.sinceMs) }));
       if (line.clearBlockers.length) {
         $('<div class="ss-sb-blockers" style="color: #c62828;"></div>')
-          .text('not clearable yet: ' + line.clearBlockers.map(reasonText).join('; ')).appendTo(what);
+          .text(t('sidebar.notClearable', { reasons: line.clearBlockers.map(reasonText).join('; ') })).appendTo(what);
       }
       var key = il.id + '/' + line.name;
-      if (refused[key]) $('<div class="ss-sb-refused" style="color: #c62828;"></div>').text('refused: ' + refused[key]).appendTo(what);
-      $('<button type="button" class="red-ui-button red-ui-button-small ss-sb-clear" style="margin-top: 2px;">clear</button>')
+      if (refused[key]) $('<div class="ss-sb-refused" style="color: #c62828;"></div>').text(t('sidebar.refused', { reason: refused[key] })).appendTo(what);
+      $('<button type="button" class="red-ui-button red-ui-button-small ss-sb-clear" style="margin-top: 2px;"></button>').text(t('sidebar.clear'))
         .on('click', function () { clearLine(il.id, line.name); }).appendTo($('<div></div>').appendTo(what));
     }
     if (line.waiting.length) {
-      $('<div class="ss-sb-waiting" style="color: #666;"></div>').text('waiting: ' + line.waiting.map(function (o) { return 'op ' + o; }).join(', ')).appendTo(what);
+      $('<div class="ss-sb-waiting" style="color: #666;"></div>').text(t('sidebar.waiting', { operations: line.waiting.map(function (o) { return t('sidebar.op', { operation: o }); }).join(', ') })).appendTo(what);
     }
     return row;
   }
 
   function render(state) {
     body.empty();
-    if (!state.interlocks.length) body.text('No interlock is deployed.');
+    if (!state.interlocks.length) body.text(t('sidebar.noInterlock'));
     state.interlocks.forEach(function (il) {
       var section = $('<div class="ss-sb-interlock" style="margin-bottom: 12px;"></div>').attr('data-interlock', il.id).appendTo(body);
-      $('<h4 style="margin: 4px 0;"></h4>').text((il.name || il.id) + (il.draining ? ' (deploy waits for operations to finish)' : '')).appendTo(section);
+      $('<h4 style="margin: 4px 0;"></h4>').text((il.name || il.id) + (il.draining ? ' ' + t('sidebar.draining') : '')).appendTo(section);
       if (il.state !== 'ready' || !il.lines) {
         $('<div style="color: #c62828;"></div>').text(il.state + (il.failure ? ': ' + il.failure.message : '')).appendTo(section);
         return;
@@ -111,15 +116,16 @@
       });
       alarmRows(il, section);
       var queue = $('<div class="ss-sb-queue" style="margin-top: 6px;"></div>').appendTo(section);
-      $('<b></b>').text('queue: ').appendTo(queue);
+      $('<b></b>').text(t('sidebar.queue')).appendTo(queue);
       queue.append(document.createTextNode(il.queue.length ? il.queue.map(function (q) {
-        return 'op ' + q.operation + ' (prio ' + q.priority + ') wants ' + q.resources.join('+') + ', waiting ' + secs(q.waitedMs);
-      }).join('; ') : 'empty'));
+        return t('sidebar.queued', { operation: q.operation, priority: q.priority, lines: q.resources.join('+'), time: secs(q.waitedMs) });
+      }).join('; ') : t('sidebar.empty')));
       if (il.routines.length) {
         var routines = $('<div class="ss-sb-routines" style="margin-top: 4px;"></div>').appendTo(section);
-        $('<b></b>').text('routines: ').appendTo(routines);
+        $('<b></b>').text(t('sidebar.routines')).appendTo(routines);
         routines.append(document.createTextNode(il.routines.map(function (r) {
-          return r.id + ' ' + r.state + (r.halted ? ' (halted)' : '') + (r.pending ? ' › ' + (r.pending.phase === 'running' ? 'run ' : 'wait ') + r.pending.operation : '');
+          var pending = r.pending ? ' › ' + t(r.pending.phase === 'running' ? 'sidebar.routineRun' : 'sidebar.routineWait', { operation: r.pending.operation }) : '';
+          return r.id + ' ' + r.state + (r.halted ? ' ' + t('sidebar.halted') : '') + pending;
         }).join(', ')));
       }
     });
@@ -129,16 +135,16 @@
       $('<b></b>').text((plant.name || plant.id) + ': ').appendTo(row);
       row.append(document.createTextNode(offline.length
         ? offline.map(function (d) { return d.device + ' ' + d.state; }).join(', ')
-        : (plant.devices ? 'every device online' : plant.state)));
+        : (plant.devices ? t('sidebar.allOnline') : plant.state)));
     });
-    footer.text('state at ' + clockText(state.atMs));
+    footer.text(t('sidebar.stateAt', { time: clockText(state.atMs) }));
   }
 
   function refresh() {
     if (busy) return;
     busy = true;
     $.getJSON('sugarshack/state').done(render).fail(function (xhr) {
-      footer.text('GET /sugarshack/state: ' + (xhr.status === 401 || xhr.status === 403 ? 'no permission (sugarshack.read)' : 'HTTP ' + xhr.status));
+      footer.text('GET /sugarshack/state: ' + (xhr.status === 401 || xhr.status === 403 ? t('sidebar.noPermission') : 'HTTP ' + xhr.status));
     }).always(function () { busy = false; });
   }
 
@@ -148,8 +154,8 @@
 
   RED.sidebar.addTab({
     id: 'sugarshack-interlock',
-    label: 'interlock',
-    name: 'Interlock',
+    label: t('sidebar.tabLabel'),
+    name: t('sidebar.tabName'),
     iconClass: 'fa fa-lock',
     content: content,
     enableOnEdit: true,

@@ -1,6 +1,7 @@
 'use strict';
-// Every text key the nodes and their editor dialogs use has its en-US text, in
-// the catalog Node-RED loads for that node file (nodes/locales/en-US/<file>.json).
+// Every text key the nodes, their editor dialogs and lib/ use has its en-US text, in
+// the catalog Node-RED loads for that node file (nodes/locales/en-US/<file>.json);
+// lib/'s are under "sugarshack" in the interlock set's. No SugarshackError text is worded inline.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
@@ -48,5 +49,236 @@ describe('i18n catalogs', function () {
     }
     assert.ok(keys > 80, `${keys} keys`);
     assert.deepEqual(missing, []);
+  });
+});
+
+// ---- Texts built in JS: every one a catalog key, every key used, placeholders matching.
+
+const LIB = path.join(PALETTE, 'lib');
+// The mechanism itself (it builds the "errors.<key>" of SugarshackError.of).
+const MECHANISM = new Set(['i18n.js', 'errors.js']);
+const SHARED_CATALOG = catalogOf('interlock');
+
+/** Source files whose texts are checked: lib/*.js, lib/journal/*.js, nodes/*.js and the editor's resources/*.js. */
+function sources() {
+  const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
+    .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
+  return [
+    ...libFiles(''),
+    ...libFiles('journal'),
+    ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
+    ...fs.readdirSync(path.join(PALETTE, 'resources')).filter((f) => f.endsWith('.js'))
+      .map((f) => ({ file: `resources/${f}`, full: path.join(PALETTE, 'resources', f) })),
+  ].map(({ file, full }) => ({ file, source: fs.readFileSync(full, 'utf8') }));
+}
+
+/** The arguments of the call whose "(" is at `open`, as source text, split at top-level commas. */
+function callArgs(source, open) {
+  const args = [];
+  let depth = 0;
+  let start = open + 1;
+  for (let i = open; i < source.length; i++) {
+    const c = source[i];
+    if (c === "'" || c === '"' || c === '`') {
+      for (i++; i < source.length && source[i] !== c; i++) if (source[i] === '\\') i++;
+    } else if ('([{'.includes(c)) depth++;
+    else if (')]}'.includes(c)) {
+      depth--;
+      if (depth === 0) {
+        args.push(source.slice(start, i).trim());
+        return args.filter((a) => a !== '');
+      }
+    } else if (c === ',' && depth === 1) {
+      args.push(source.slice(start, i).trim());
+      start = i + 1;
+    }
+  }
+  throw new Error(`unclosed call at ${open}`);
+}
+
+/** The names an object literal `{ a, b: x }` gives; null when the argument is not one. */
+function subsNames(arg) {
+  if (arg === undefined) return [];
+  if (!arg.startsWith('{')) return null;
+  const inner = callArgs(`(${arg.slice(1, -1)})`, 0);
+  const names = inner.map((part) => /^(\w+)\s*(:|$)/.exec(part));
+  return names.every(Boolean) ? names.map((m) => m[1]) : null;
+}
+
+const placeholders = (text) => [...text.matchAll(/__(\w+?)__/g)].map((m) => m[1]).sort();
+
+const PACKAGE_NAME = JSON.parse(fs.readFileSync(path.join(PALETTE, 'package.json'), 'utf8')).name;
+
+/**
+ * Whose catalog a file's t() reads: a node file's translator(RED, '<type>'), or an editor
+ * script's `var NS = '<module>/<set>:<prefix>.'` (RED._ by namespace). Null when it has neither.
+ */
+function tCatalog(file, source) {
+  const type = /translator\(RED, '([^']+)'\)/.exec(source);
+  if (type) return { stem: path.basename(file, '.js'), prefix: type[1] };
+  const ns = /var NS = '([^':]+)\/([\w-]+):([\w.-]+)\.';/.exec(source);
+  if (!ns) return null;
+  assert.equal(ns[1], PACKAGE_NAME, `${file}: the namespace names another module`);
+  return { stem: ns[2], prefix: ns[3] };
+}
+
+/** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
+function lookups() {
+  const found = [];
+  for (const { file, source } of sources()) {
+    const own = tCatalog(file, source);
+    // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
+    const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('\.\.?\/i18n'\)/.test(source);
+    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of)\(/g;
+    for (const m of source.matchAll(calls)) {
+      if (m[1] === 'text' && !importsText) continue;
+      const args = callArgs(source, m.index + m[0].length - 1);
+      const [keyArg, subsArg] = m[1] === 'SugarshackError.of' ? args.slice(1) : args;
+      // The key, or each key a conditional may pick: a catalog key has a dot (SugarshackError.of's names the entry under errors).
+      const keys = [...keyArg.matchAll(m[1] === 'SugarshackError.of' ? /'(\w+)'/g : /'(\w+(?:\.\w+)+)'/g)].map((k) => k[1]);
+      const at = `${file}: ${m[0]}${args.join(', ')})`;
+      if (m[1] === 't') {
+        assert.ok(own, `${at}: t() in a file without translator(RED, '<type>') or var NS`);
+        found.push({ at, keys: keys.map((k) => `${own.prefix}.${k}`), subs: subsNames(subsArg), stem: own.stem, catalog: catalogOf(own.stem) });
+      } else {
+        const prefix = m[1] === 'SugarshackError.of' ? 'sugarshack.errors.' : 'sugarshack.';
+        found.push({ at, keys: keys.map((k) => prefix + k), subs: subsNames(subsArg), stem: 'interlock', catalog: SHARED_CATALOG });
+      }
+    }
+  }
+  return found;
+}
+
+function leaves(object, prefix = '') {
+  return Object.entries(object).flatMap(([k, v]) => (v && typeof v === 'object' ? leaves(v, `${prefix}${k}.`) : [`${prefix}${k}`]));
+}
+
+describe('texts built in JS', function () {
+  it('no SugarshackError is worded inline: its text is a catalog key (SugarshackError.of, or t() in a node file)', function () {
+    const inline = [];
+    let calls = 0;
+    for (const { file, source } of sources()) {
+      for (const m of source.matchAll(/new SugarshackError\(/g)) {
+        calls++;
+        const [, message] = callArgs(source, m.index + m[0].length - 1);
+        // Texts the core worded (e.message), a catalog text (t(...)), or a variable passing one on.
+        if (/^['"`]/.test(message) || /['"`]\s*\+|\+\s*['"`]/.test(message)) inline.push(`${file}: ${source.slice(m.index, m.index + 120)}`);
+      }
+    }
+    assert.ok(calls > 10, `${calls} SugarshackError constructions`);
+    assert.deepEqual(inline, []);
+  });
+
+  it('every key a lookup reads is in the en-US catalog, with the placeholders the call fills', function () {
+    const problems = [];
+    const all = lookups();
+    assert.ok(all.length > 100, `${all.length} lookups`);
+    for (const { at, keys, subs, catalog } of all) {
+      if (keys.length === 0) problems.push(`${at}: no literal key`);
+      if (subs === null) problems.push(`${at}: placeholders not given as an object literal`);
+      const used = new Set();
+      for (const key of keys) {
+        const text = textAt(catalog, key);
+        if (typeof text !== 'string') {
+          problems.push(`${at}: ${key} missing`);
+          continue;
+        }
+        const wanted = placeholders(text);
+        wanted.forEach((p) => used.add(p));
+        const missing = wanted.filter((p) => !(subs || []).includes(p));
+        if (missing.length) problems.push(`${at}: ${key} needs ${missing.join(', ')}`);
+      }
+      const extra = (subs || []).filter((s) => !used.has(s));
+      if (extra.length) problems.push(`${at}: gives ${extra.join(', ')}, which no text of ${keys.join(' | ')} reads`);
+    }
+    assert.deepEqual(problems, []);
+  });
+
+  it('every catalog key is read by some code or editor dialog', function () {
+    const editor = fs.readFileSync(path.join(PALETTE, 'resources', 'editor.js'), 'utf8');
+    const operationNode = editor.slice(editor.indexOf('function operationNode('));
+    const OPERATION_NODE_KEYS = [...operationNode.slice(0, operationNode.indexOf('\n  }\n')).matchAll(/text\('([^']+)'\)|this\._\(type \+ '\.([^']+)'\)/g)]
+      .map((m) => m[1] || m[2]);
+    assert.ok(OPERATION_NODE_KEYS.includes('paletteLabel'), `operationNode's keys read from resources/editor.js: ${OPERATION_NODE_KEYS}`);
+    const read = new Set(lookups().flatMap(({ stem, keys }) => keys.map((k) => `${stem}|${k}`)));
+    const readKey = (stem, key) => read.has(`${stem}|${key}`);
+    const unused = [];
+    for (const file of fs.readdirSync(path.join(NODES, 'locales', 'en-US')).filter((f) => f.endsWith('.json'))) {
+      const stem = file.slice(0, -5);
+      const html = fs.existsSync(path.join(NODES, `${stem}.html`)) ? fs.readFileSync(path.join(NODES, `${stem}.html`), 'utf8') : '';
+      const dialogKeys = new Set([...html.matchAll(/data-i18n="(?:\[[^\]]*\])?([^"]+)"|this\._\('([^']+)'\)/g)].map((m) => m[1] || m[2]));
+      // A dialog built by resources/editor.js's operationNode(verb) reads the keys it names there.
+      if (/sugarshackEditor\.operationNode\(/.test(html)) OPERATION_NODE_KEYS.forEach((key) => dialogKeys.add(`sugarshack-${stem}.${key}`));
+      for (const key of leaves(catalogOf(stem))) {
+        if (!readKey(stem, key) && !dialogKeys.has(key)) unused.push(`${file}: ${key}`);
+      }
+    }
+    assert.deepEqual(unused, []);
+  });
+});
+
+// ---- A runtime in another language: the texts change, the codes do not.
+
+describe('texts in the runtime language', function () {
+  const helper = require('node-red-node-test-helper');
+  const { TAB, interlockConfig, acquire, sinkNode, collect, until, paletteNodes, startServer, stopServer } = require('./support');
+  const { SHARED_NAMESPACE } = require(path.join(PALETTE, 'lib', 'i18n.js'));
+  helper.init(require.resolve('node-red'));
+
+  // A "de" catalog as Node-RED would hold it: by namespace, then the key.
+  const GERMAN = {
+    [SHARED_NAMESPACE]: {
+      sugarshack: {
+        errors: { priorityNotInteger: '__from__ muss eine ganze Zahl sein, nicht __got__' },
+        labels: { configuredPriority: 'die eingestellte Priorität' },
+      },
+    },
+    'sugarshack-fault': { errors: { stopped: '__lines__ ausgefallen (Not-Aus)' } },
+  };
+  // RED._ as Node-RED's: "ns:key" reads that namespace, a bare key the node set's own; the key when there is no text.
+  const germanRED = (key, subs = {}) => {
+    const [ns, bare] = key.includes(':') ? key.split(':') : [null, key];
+    const text = ns ? textAt(GERMAN[ns] || {}, bare) : textAt(GERMAN, bare);
+    return typeof text === 'string' ? text.replace(/__(\w+?)__/g, (w, n) => (n in subs ? String(subs[n]) : w)) : bare;
+  };
+  const inGerman = paletteNodes.map((init) => (RED) => {
+    RED._ = germanRED;
+    return init(RED);
+  });
+
+  beforeEach(startServer);
+  afterEach(stopServer);
+
+  it('a Catch node gets a lib/ error and a node error in the catalog language, with their codes', async function () {
+    await helper.load(inGerman, [
+      TAB, interlockConfig(),
+      acquire('a', '10', 'urgent', 'YEL', 'out'),
+      { id: 'f', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', resources: 'GRN', after: 'fail', wires: [['out'], []] },
+      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+      sinkNode('out'), sinkNode('caught'),
+    ]);
+    const caught = collect(helper, 'caught');
+    helper.getNode('a').receive({});
+    await until(() => caught.length === 1, 'the refused acquire');
+    assert.equal(caught[0].error.code, 'INVALID_PRIORITY');
+    assert.equal(caught[0].error.message, 'SugarshackError: die eingestellte Priorität muss eine ganze Zahl sein, nicht "urgent"');
+
+    helper.getNode('f').receive({ resources: 'GRN' });
+    await until(() => caught.length === 2, 'the failed fault msg');
+    assert.equal(caught[1].error.code, 'FAULTED');
+    assert.equal(caught[1].error.message, 'SugarshackError: GRN ausgefallen (Not-Aus)');
+  });
+
+  it('without a catalog for the language a text stays in English', async function () {
+    await helper.load(paletteNodes, [
+      TAB, interlockConfig(),
+      acquire('a', '10', 'urgent', 'YEL', 'out'),
+      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+      sinkNode('out'), sinkNode('caught'),
+    ]);
+    const caught = collect(helper, 'caught');
+    helper.getNode('a').receive({});
+    await until(() => caught.length === 1, 'the refused acquire');
+    assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be an integer (higher = more urgent), got "urgent"');
   });
 });

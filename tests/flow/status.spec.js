@@ -60,7 +60,7 @@ describe('error codes', function () {
 
   it('every code the nodes raise or test for is in the core table, so its status text comes from there', function () {
     const raised = new Map();
-    const uses = /SugarshackError\(\s*'([A-Z_]+)'|code: '([A-Z_]+)'|errorStatus\('([A-Z_]+)'\)|code [!=]== '([A-Z_]+)'/g;
+    const uses = /SugarshackError(?:\.of)?\(\s*'([A-Z_]+)'|code: '([A-Z_]+)'|errorStatus\('([A-Z_]+)'\)|code [!=]== '([A-Z_]+)'/g;
     // What Node.js itself throws, tested for where a file or module may be missing.
     const fromNode = new Set(['ENOENT', 'MODULE_NOT_FOUND']);
     for (const file of [...sources(path.join(PALETTE, 'lib')), ...sources(path.join(PALETTE, 'nodes'))]) {

@@ -8,6 +8,7 @@
 // the palette clock, so tests drive them instead of waiting.
 
 const { clock } = require('../clock');
+const i18n = require('../i18n');
 const { INT_FIELDS } = require('./schema');
 
 const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';
@@ -73,7 +74,7 @@ function httpTarget({ host, port, username, password, token, tls, timeoutMs = 10
   const parts = [`addr=${host}:${port}`, 'protocol_version=1', 'retry_timeout=0', 'stdlib_http=on', `request_timeout=${timeoutMs}`];
   if (token) parts.push(`token=${token}`);
   else if (username) parts.push(`username=${username}`, `password=${password || ''}`);
-  if (/[;\n]/.test(parts.join(''))) throw new Error('the journal database settings may not contain ";" or line breaks');
+  if (/[;\n]/.test(parts.join(''))) throw new Error(i18n.text('errors.journalSettings'));
   const options = new (questdb().SenderOptions)(`${tls ? 'https' : 'http'}::${parts.join(';')}`);
   const transport = questdb().createTransport(options);
   return {
@@ -126,7 +127,7 @@ class JournalWriter {
   }
 
   failed(err) {
-    this.lastError = `cannot encode a row: ${err.message}`;
+    this.lastError = i18n.text('logs.rowNotEncoded', { message: err.message });
     this.refused += 1;
     this.onChange();
   }

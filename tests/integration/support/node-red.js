@@ -67,8 +67,11 @@ class NodeRedProcess {
     return Boolean(this.child && this.child.exitCode === null && this.child.signalCode === null);
   }
 
-  /** Starts Node-RED; resolves once its flows run and its MQTT client is connected. */
-  async start({ timeoutMs = 60000, waitForBroker = true } = {}) {
+  /**
+   * Starts Node-RED; resolves once its flows run (`started` is the log's line for it,
+   * in the runtime's language) and its MQTT client is connected.
+   */
+  async start({ timeoutMs = 60000, waitForBroker = true, started = 'Started flows' } = {}) {
     this.port = this.port || await freePort();
     this.logStart = this.log().length;
     const out = fs.openSync(this.logFile, 'a');
@@ -83,7 +86,7 @@ class NodeRedProcess {
     const deadline = Date.now() + timeoutMs;
     for (;;) {
       const text = this.logOfThisRun();
-      if (text.includes('Started flows') && (!waitForBroker || text.includes('Connected to broker'))) return;
+      if (text.includes(started) && (!waitForBroker || text.includes('Connected to broker'))) return;
       if (!this.alive) throw new Error(`Node-RED exited during start-up:\n${text.slice(-3000)}`);
       if (Date.now() > deadline) throw new Error(`Node-RED not started after ${timeoutMs} ms:\n${text.slice(-3000)}`);
       await sleep(50);
