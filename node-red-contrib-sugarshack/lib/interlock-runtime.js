@@ -801,8 +801,7 @@ class InterlockRuntime extends RuntimeBase {
     const lost = Boolean(this.lostState);
     const seen = this.countsShown;
     if (seen && seen.holding === holding && seen.queued === queued && seen.faulted === faulted && seen.lost === lost) return seen.status;
-    let status = countsStatus({ holding, queued, faulted });
-    if (lost) status = { ...status, text: i18n.text('status.lost', { counts: status.text }).slice(0, 19) };
+    const status = countsStatus({ holding, queued, faulted, lost });
     this.countsShown = { holding, queued, faulted, lost, status };
     return status;
   }

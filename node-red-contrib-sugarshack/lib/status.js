@@ -85,8 +85,10 @@ function statusText({ holding = 0, queued = 0, faulted = 0 }) {
   ]);
 }
 
+/** The interlock's counts; `lost`: its state was unknown at start and lines it faulted for that are not cleared yet. */
 function countsStatus(counts) {
-  return status(counts.faulted > 0 ? 'fault' : 'ok', statusText(counts));
+  const text = statusText(counts);
+  return status(counts.faulted > 0 ? 'fault' : 'ok', counts.lost ? i18n.text('status.lost', { counts: text }) : text);
 }
 
 /**

@@ -40,6 +40,10 @@ describe('status text', function () {
   it('shows faults in red and short refusal reasons', function () {
     assert.equal(countsStatus({ holding: 1, queued: 0, faulted: 1 }).fill, 'red');
     assert.equal(countsStatus({ holding: 1, queued: 4, faulted: 0 }).fill, 'green');
+    // A state lost at start leads, and a long count is cut as every status is, with its mark.
+    assert.equal(countsStatus({ holding: 0, queued: 0, faulted: 3, lost: true }).text, 'lost · faulted 3');
+    const lostLong = countsStatus({ holding: 1234, queued: 12345, faulted: 5, lost: true }).text;
+    assert.ok(lostLong.startsWith('lost · ') && lostLong.length < 20 && lostLong.endsWith('…'), lostLong);
     assert.equal(shortReason('UNKNOWN_RESOURCE'), 'unknown resource');
     const long = shortReason('SOME_VERY_LONG_FUTURE_ERROR_CODE');
     assert.ok(long.length < 20 && long.endsWith('…'), long);
