@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use sugarshack_core::time::ms;
 
 use serde_json::{json, Value};
 use sugarshack_core::interlock::{
@@ -164,10 +165,11 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         let t0 = Instant::now();
         for k in 0..p.pair_batch {
             let (op, priority, set) = &idle_ops[k % 16];
-            if idle.acquire(*op, *priority, set, now).expect("acquire") != Acquisition::Granted {
+            if idle.acquire(*op, *priority, set, ms(now)).expect("acquire") != Acquisition::Granted
+            {
                 refused += 1;
             }
-            stray += black_box(idle.release(*op, now).expect("release")).len();
+            stray += black_box(idle.release(*op, ms(now)).expect("release")).len();
         }
         let elapsed = t0.elapsed();
         if s >= p.warmup {
@@ -190,8 +192,8 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         let o = fig8_ops(&mut lock);
         let mut h = Vec::new();
         for (k, (op, priority, set)) in o.iter().enumerate() {
-            let granted =
-                lock.acquire(*op, *priority, set, now).expect("acquire") == Acquisition::Granted;
+            let granted = lock.acquire(*op, *priority, set, ms(now)).expect("acquire")
+                == Acquisition::Granted;
             log.acquired(k, granted);
             if granted {
                 h.push(k);
@@ -213,7 +215,9 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
         let now = now_ms();
         let t0 = Instant::now();
         for i in 0..n {
-            results[i] = locks[i].release(ops[i][victim[i]].0, now).expect("release");
+            results[i] = locks[i]
+                .release(ops[i][victim[i]].0, ms(now))
+                .expect("release");
         }
         let elapsed = t0.elapsed();
         if s >= p.warmup {
@@ -225,7 +229,9 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
             log.released(victim[i], grants.iter().map(|g| g.operation.index()));
             holders[i].extend(grants.iter().map(|g| g.operation.index()));
             let (op, priority, set) = &ops[i][victim[i]];
-            let granted = locks[i].acquire(*op, *priority, set, now).expect("acquire")
+            let granted = locks[i]
+                .acquire(*op, *priority, set, ms(now))
+                .expect("acquire")
                 == Acquisition::Granted;
             log.acquired(victim[i], granted);
             if granted {
@@ -269,7 +275,9 @@ impl Large<'_> {
 
     fn acquire(&mut self, op: usize, now: u64) {
         let set = &self.pool[self.op_set[op]].1;
-        let outcome = self.lock.acquire(self.ids[op], self.priority[op], set, now);
+        let outcome = self
+            .lock
+            .acquire(self.ids[op], self.priority[op], set, ms(now));
         let granted = outcome.expect("acquire") == Acquisition::Granted;
         self.log.acquired(op, granted);
         if granted {
@@ -353,7 +361,7 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         let victim = st.holders[index];
         let now = now_ms();
         let t0 = Instant::now();
-        let grants = st.lock.release(st.ids[victim], now).expect("release");
+        let grants = st.lock.release(st.ids[victim], ms(now)).expect("release");
         let elapsed = t0.elapsed();
         if s >= p.warmup {
             release.push(elapsed.as_nanos() as f64);
@@ -385,8 +393,11 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         // Idle between steps, the probe may have been forgotten: named anew, as a node would.
         let probe = st.lock.operation("op0");
         let t0 = Instant::now();
-        let granted = st.lock.acquire(probe, 0, set, now).expect("probe acquire");
-        let stray = black_box(st.lock.release(probe, now).expect("probe release")).len();
+        let granted = st
+            .lock
+            .acquire(probe, 0, set, ms(now))
+            .expect("probe acquire");
+        let stray = black_box(st.lock.release(probe, ms(now)).expect("probe release")).len();
         let elapsed = t0.elapsed();
         assert!(
             granted == Acquisition::Granted && stray == 0,
