@@ -79,6 +79,11 @@ impl Millis {
         Self((self.0 + other.0).min(f64::MAX))
     }
 
+    /// `self + other`, or `None` if that leaves the finite numbers.
+    pub fn checked_add(self, other: Self) -> Option<Self> {
+        Self::new(self.0 + other.0)
+    }
+
     /// `self - other`, or zero when `other` is later.
     pub fn saturating_sub(self, other: Self) -> Self {
         Self((self.0 - other.0).max(0.0))
@@ -179,6 +184,12 @@ impl de::Visitor<'_> for MillisVisitor {
     fn visit_f64<E: de::Error>(self, v: f64) -> Result<Millis, E> {
         Millis::new(v).ok_or_else(|| E::invalid_value(de::Unexpected::Float(v), &self))
     }
+}
+
+/// A test's time in ms, known valid.
+#[cfg(test)]
+pub(crate) fn millis(value: f64) -> Millis {
+    Millis::new(value).expect("a valid time")
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 use std::collections::VecDeque;
 
 use crate::sim::{DelayDist, Failure, FailureSchedule, FirstOrderParams, FirstOrderProcess, Link};
+use sugarshack_core::control::error::time;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig};
 use sugarshack_core::control::rcc::{IoModule, IoState, RccConfig, RccController};
 use sugarshack_core::control::ControlError;
@@ -325,12 +326,12 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
                         let reply = Reply {
                             poll_sent_ms: sent_ms,
                             measurement: process.output(),
-                            state: io.state(now_f),
+                            state: io.state(time(now_f, "time (ms)")?),
                         };
                         remote.to_controller.send(reply, now_f);
                     }
                     ToIo::Write { action } => {
-                        io.write(remote.id, action, now_f)?;
+                        io.write(remote.id, action, time(now_f, "time (ms)")?)?;
                         if let Some(from) = last_writer.filter(|&w| w != remote.id) {
                             run.handovers.push(Handover {
                                 at_s: t_s,

@@ -7,9 +7,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{computed, finite, positive_duration, ControlError};
+use super::error::{finite, out_of_range, positive_duration, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
 use crate::text::{quote, seconds};
+use crate::time::Millis;
 
 /// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
 pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), ControlError> {
@@ -55,7 +56,7 @@ pub struct IoState {
 #[serde(rename_all = "camelCase")]
 pub struct IoModule {
     last_action: f64,
-    last_write_ms: Vec<Option<f64>>,
+    last_write_ms: Vec<Option<Millis>>,
 }
 
 impl IoModule {
@@ -85,27 +86,26 @@ impl IoModule {
     }
 
     /// Conditional Acting's write: the action and a zeroed age for `id` (1-based).
-    pub fn write(&mut self, id: usize, action: f64, now_ms: f64) -> Result<(), ControlError> {
+    pub fn write(&mut self, id: usize, action: f64, now: Millis) -> Result<(), ControlError> {
         let controllers = self.controllers();
         let slot = id
             .checked_sub(1)
             .and_then(|index| self.last_write_ms.get_mut(index))
             .ok_or(ControlError::UnknownController { id, controllers })?;
         let action = finite(action, "action")?;
-        let now_ms = finite(now_ms, "time (ms)")?;
-        *slot = Some(now_ms);
+        *slot = Some(now);
         self.last_action = action;
         Ok(())
     }
 
-    /// The state the controllers poll at `now_ms`.
-    pub fn state(&self, now_ms: f64) -> IoState {
+    /// The state the controllers poll at `now`.
+    pub fn state(&self, now: Millis) -> IoState {
         IoState {
             last_action: self.last_action,
             ages_ms: self
                 .last_write_ms
                 .iter()
-                .map(|w| w.map(|at| (now_ms - at).max(0.0)))
+                .map(|w| w.map(|at| now.saturating_sub(at).as_f64()))
                 .collect(),
         }
     }
@@ -163,10 +163,10 @@ pub struct Scan {
 #[derive(Clone, Debug)]
 pub struct RccController {
     config: RccConfig,
-    poll_timeout_ms: f64,
+    poll_timeout: Millis,
     first_cycle: bool,
-    /// When the polling timeout falls due (ms), while one is being watched for.
-    poll_due_ms: Option<f64>,
+    /// When the polling timeout falls due, while one is being watched for.
+    poll_due: Option<Millis>,
 }
 
 impl RccController {
@@ -181,44 +181,49 @@ impl RccController {
             )));
         }
         let poll_timeout_ms = config.poll_timeout_ms.unwrap_or(3.0 * config.ts_ms);
-        positive_duration(poll_timeout_ms, "poll timeout")?;
+        let poll_timeout =
+            Millis::new(positive_duration(poll_timeout_ms, "poll timeout")?).unwrap_or(Millis::MAX);
         Ok(Self {
             config,
-            poll_timeout_ms,
+            poll_timeout,
             first_cycle: true,
-            poll_due_ms: None,
+            poll_due: None,
         })
     }
 
-    /// Starts counting the polling timeout from `now_ms` (at deploy: no state yet).
-    pub fn watch_from(&mut self, now_ms: f64) -> Result<(), ControlError> {
-        let now_ms = finite(now_ms, "time (ms)")?;
-        self.poll_due_ms = Some(computed(now_ms + self.poll_timeout_ms, "polling deadline")?);
+    /// Starts counting the polling timeout from `now` (at deploy: no state yet).
+    pub fn watch_from(&mut self, now: Millis) -> Result<(), ControlError> {
+        self.poll_due = Some(self.deadline(now)?);
         Ok(())
     }
 
-    /// The Computing step for a state polled at `now_ms`; the polling timeout counts from it.
-    pub fn decide_at(&mut self, state: &IoState, now_ms: f64) -> Result<Decision, ControlError> {
-        let due = computed(
-            finite(now_ms, "time (ms)")? + self.poll_timeout_ms,
-            "polling deadline",
-        )?;
+    /// The Computing step for a state polled at `now`; the polling timeout counts from it.
+    pub fn decide_at(&mut self, state: &IoState, now: Millis) -> Result<Decision, ControlError> {
+        let due = self.deadline(now)?;
         let decision = self.decide(state)?;
-        self.poll_due_ms = Some(due);
+        self.poll_due = Some(due);
         Ok(decision)
     }
 
-    /// When `tick` next has something to do (ms), if ever.
-    pub fn next_tick_ms(&self) -> Option<f64> {
-        self.poll_due_ms
+    fn deadline(&self, now: Millis) -> Result<Millis, ControlError> {
+        now.checked_add(self.poll_timeout).ok_or_else(|| {
+            out_of_range(
+                now.as_f64() + self.poll_timeout.as_f64(),
+                "polling deadline",
+            )
+        })
+    }
+
+    /// When `tick` next has something to do, if ever.
+    pub fn next_tick(&self) -> Option<Millis> {
+        self.poll_due
     }
 
     /// True once when no state came within the polling timeout: the next scan re-seeds.
-    pub fn tick(&mut self, now_ms: f64) -> Result<bool, ControlError> {
-        let now_ms = finite(now_ms, "time (ms)")?;
-        match self.poll_due_ms {
-            Some(due) if now_ms >= due => {
-                self.poll_due_ms = None;
+    pub fn tick(&mut self, now: Millis) -> Result<bool, ControlError> {
+        match self.poll_due {
+            Some(due) if now >= due => {
+                self.poll_due = None;
                 self.poll_timed_out();
                 Ok(true)
             }

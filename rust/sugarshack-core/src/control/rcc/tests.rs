@@ -1,5 +1,6 @@
 use super::*;
 use crate::control::pid::{Action, PidConfig, StepMode};
+use crate::time::millis;
 
 fn controller(id: usize) -> RccController {
     RccController::new(RccConfig {
@@ -213,26 +214,26 @@ fn without_smooth_handover_the_standby_integrator_runs_free() {
 #[test]
 fn the_io_module_ages_writes_by_its_own_clock() {
     let mut io = IoModule::new(3, 1.5).unwrap();
-    assert_eq!(io.state(1000.0), state(1.5, [None, None, None]));
-    io.write(2, 4.0, 1000.0).unwrap();
-    io.write(1, 5.0, 1100.0).unwrap();
+    assert_eq!(io.state(millis(1000.0)), state(1.5, [None, None, None]));
+    io.write(2, 4.0, millis(1000.0)).unwrap();
+    io.write(1, 5.0, millis(1100.0)).unwrap();
     assert_eq!(
-        io.state(1300.0),
+        io.state(millis(1300.0)),
         state(5.0, [Some(200.0), Some(300.0), None])
     );
     assert_eq!(
-        io.write(4, 1.0, 1400.0).unwrap_err(),
+        io.write(4, 1.0, millis(1400.0)).unwrap_err(),
         ControlError::UnknownController {
             id: 4,
             controllers: 3
         }
     );
     assert_eq!(
-        io.write(0, 1.0, 1400.0).unwrap_err().code(),
+        io.write(0, 1.0, millis(1400.0)).unwrap_err().code(),
         "UNKNOWN_CONTROLLER"
     );
     assert_eq!(
-        io.write(1, f64::NAN, 1400.0).unwrap_err().code(),
+        io.write(1, f64::NAN, millis(1400.0)).unwrap_err().code(),
         "INVALID_INPUT"
     );
     assert_eq!(io.last_action(), 5.0, "refused writes change nothing");
@@ -265,30 +266,36 @@ fn a_malformed_state_is_refused() {
 #[test]
 fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
     let mut rcc = controller(1);
-    assert_eq!(rcc.next_tick_ms(), None);
-    rcc.watch_from(0.0).unwrap();
-    assert_eq!(rcc.next_tick_ms(), Some(600.0), "3·Ts by default");
-    rcc.decide_at(&state(1.0, [None, None, None]), 100.0)
+    assert_eq!(rcc.next_tick(), None);
+    rcc.watch_from(millis(0.0)).unwrap();
+    assert_eq!(rcc.next_tick(), Some(millis(600.0)), "3·Ts by default");
+    rcc.decide_at(&state(1.0, [None, None, None]), millis(100.0))
         .unwrap();
     assert!(!rcc.first_cycle());
-    assert!(!rcc.tick(699.0).unwrap());
-    assert!(rcc.tick(700.0).unwrap(), "600 ms after the last state");
-    assert!(rcc.first_cycle(), "the next scan re-seeds");
-    assert!(!rcc.tick(2000.0).unwrap(), "once per silence");
-    assert_eq!(rcc.next_tick_ms(), None);
+    assert!(!rcc.tick(millis(699.0)).unwrap());
     assert!(
-        rcc.decide_at(&state(1.0, [None, None, None]), 2000.0)
+        rcc.tick(millis(700.0)).unwrap(),
+        "600 ms after the last state"
+    );
+    assert!(rcc.first_cycle(), "the next scan re-seeds");
+    assert!(!rcc.tick(millis(2000.0)).unwrap(), "once per silence");
+    assert_eq!(rcc.next_tick(), None);
+    assert!(
+        rcc.decide_at(&state(1.0, [None, None, None]), millis(2000.0))
             .unwrap()
             .first_cycle
     );
-    assert_eq!(rcc.tick(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
+    for bad in [f64::NAN, -1.0] {
+        let refused = crate::control::error::time(bad, "time (ms)").unwrap_err();
+        assert_eq!(refused.code(), "INVALID_INPUT");
+    }
     let custom = RccConfig {
         poll_timeout_ms: Some(150.0),
         ..rcc.config().clone()
     };
     let mut rcc = RccController::new(custom.clone()).unwrap();
-    rcc.watch_from(0.0).unwrap();
-    assert_eq!(rcc.next_tick_ms(), Some(150.0));
+    rcc.watch_from(millis(0.0)).unwrap();
+    assert_eq!(rcc.next_tick(), Some(millis(150.0)));
     assert_eq!(
         RccController::new(RccConfig {
             poll_timeout_ms: Some(0.0),
