@@ -5,10 +5,11 @@
 
 use proptest::prelude::*;
 use sugarshack_core::control::delay::DelayEstimator;
+use sugarshack_core::control::error::positive_duration;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn, StepMode};
 use sugarshack_core::control::pid_loop::PidLoopConfig;
+use sugarshack_core::control::rcc::{thresholds_from_ms, IoModule, RccConfig, RccController};
 use sugarshack_core::control::rcc::{Decision, IoState};
-use sugarshack_core::control::rcc::{IoModule, RccConfig, RccController};
 use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig, SmithPredictor};
 use sugarshack_core::control::station::{
     Change, Limits, Mode, Sample, Saved, Stale, Station, StationConfig, Tunings,
@@ -234,7 +235,7 @@ proptest! {
         let mut jitter = move || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng % JITTER_MS };
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut controllers: Vec<_> = (1..=3)
-            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true, poll_timeout_ms: None }).unwrap())
+            .map(|id| RccController::new(RccConfig { id, thresholds: THRESHOLDS.iter().map(|&t| millis(t)).collect(), ts: millis(TS_MS as f64), smooth_handover: true, poll_timeout: None }).unwrap())
             .collect();
         let mut pids: Vec<_> = (0..3).map(|_| Pid::new(pid_config(KP, TI_S, 0.0, 0.0, 2.0, false)).unwrap()).collect();
         let mut next_poll: Vec<u64> = phases.to_vec();
@@ -371,7 +372,7 @@ fn station_config(values: [f64; 10], smith: Option<u8>, on_measurement: bool) ->
             }),
         },
         ts_s,
-        stale_ms: 50.0,
+        stale: millis(50.0),
         setpoint,
         mode: Mode::Auto,
         manual: None,
@@ -498,13 +499,16 @@ proptest! {
         id in 0usize..5,
         calls in prop::collection::vec((0u8..4, any_f64(), prop::collection::vec(prop::option::of(any_f64()), 0..4)), 1..30),
     ) {
-        let config = RccConfig { id, thresholds_ms: thresholds, ts_ms, smooth_handover: true, poll_timeout_ms: timeout };
-        let rcc = RccController::new(config);
+        // Numbers become Millis where the facade turns them into a config.
+        let rcc = thresholds_from_ms(&thresholds, ts_ms).and_then(|(thresholds, ts)| {
+            let poll_timeout = timeout.map(|t| positive_duration(t, "poll timeout")).transpose()?;
+            RccController::new(RccConfig { id, thresholds, ts, smooth_handover: true, poll_timeout })
+        });
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut pid = Pid::new(pid_config(1.0, 2.0, 0.5, 0.0, 10.0, false)).unwrap();
         if let Ok(mut rcc) = rcc {
             for (call, x, ages) in calls {
-                let state = IoState { last_action: x, ages_ms: ages };
+                let state = IoState { last_action: x, ages: ages.into_iter().map(|a| a.and_then(Millis::new)).collect() };
                 // A time that is not one is refused before it reaches RCC.
                 let now = Millis::new(x);
                 match (call, now) {

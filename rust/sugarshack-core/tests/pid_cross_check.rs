@@ -222,7 +222,7 @@ fn auto_mode() {
             smith: None,
         },
         ts_s: 1.0,
-        stale_ms: 0.0,
+        stale: Millis::ZERO,
         setpoint: 10.0,
         mode: Mode::Auto,
         manual: None,

@@ -8,7 +8,9 @@ use std::collections::VecDeque;
 use crate::sim::{DelayDist, Failure, FailureSchedule, FirstOrderParams, FirstOrderProcess, Link};
 use sugarshack_core::control::error::time;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig};
-use sugarshack_core::control::rcc::{IoModule, IoState, RccConfig, RccController};
+use sugarshack_core::control::rcc::{
+    thresholds_from_ms, IoModule, IoState, RccConfig, RccController,
+};
 use sugarshack_core::control::ControlError;
 
 use crate::metrics::{max_difference, step_metrics, Step, StepMetrics, Trace};
@@ -230,12 +232,14 @@ impl Remote {
             Redundancy::Rcc { smooth_handover } => smooth_handover,
             Redundancy::PrimaryOnly => true,
         };
+        let (thresholds, ts) =
+            thresholds_from_ms(&ENGAGEMENT_THRESHOLDS_MS[..controllers], TS_MS as f64)?;
         let rcc = RccController::new(RccConfig {
             id,
-            thresholds_ms: ENGAGEMENT_THRESHOLDS_MS[..controllers].to_vec(),
-            ts_ms: TS_MS as f64,
+            thresholds,
+            ts,
             smooth_handover,
-            poll_timeout_ms: None,
+            poll_timeout: None,
         })?;
         Ok((rcc, pid))
     }

@@ -605,7 +605,9 @@ pub fn validate_thresholds(
     #[wasm_bindgen(unchecked_param_type = "number")] ts_ms: JsValue,
 ) -> Result<(), JsValue> {
     let ts_ms = number(&ts_ms, "sampling period Ts (ms)")?;
-    rcc::validate_thresholds(&thresholds_ms, ts_ms).map_err(control_error)
+    rcc::thresholds_from_ms(&thresholds_ms, ts_ms)
+        .map(drop)
+        .map_err(control_error)
 }
 
 /// A PID loop with its set point, auto/manual mode, manual output and stale

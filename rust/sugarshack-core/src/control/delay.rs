@@ -85,7 +85,7 @@ impl DelayEstimator {
 
     /// Dead time in whole samples of `ts`; 0 before any round trip was seen.
     pub fn dead_time_samples(&self, ts: Millis) -> Result<usize, ControlError> {
-        let ts_ms = positive_duration(ts.as_f64(), "sampling period")?;
+        let ts_ms = positive_duration(ts.as_f64(), "sampling period")?.as_f64();
         let Some(mean) = self.mean_ms else {
             return Ok(0);
         };

@@ -78,16 +78,16 @@ pub fn time(ms: f64, what: &str) -> Result<Millis, ControlError> {
     })
 }
 
-/// `ms` must be a finite duration > 0; `what` names it in the error, worded in seconds.
-pub fn positive_duration(ms: f64, what: &str) -> Result<f64, ControlError> {
-    if ms.is_finite() && ms > 0.0 {
-        Ok(ms)
-    } else {
-        Err(ControlError::config(format!(
-            "{what} must be greater than 0 s, got {}",
-            seconds(ms)
-        )))
-    }
+/// `ms` as a duration > 0; `what` names it in the error, worded in seconds.
+pub fn positive_duration(ms: f64, what: &str) -> Result<Millis, ControlError> {
+    Millis::new(ms)
+        .filter(|d| *d > Millis::ZERO)
+        .ok_or_else(|| {
+            ControlError::config(format!(
+                "{what} must be greater than 0 s, got {}",
+                seconds(ms)
+            ))
+        })
 }
 
 /// `value` must be a finite number > 0; `what` names it in the error.

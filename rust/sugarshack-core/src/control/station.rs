@@ -44,9 +44,9 @@ pub struct StationConfig {
     pub pid_loop: PidLoopConfig,
     /// Sample period in seconds: the dt of a first sample.
     pub ts_s: f64,
-    /// No valid measurement for this long (ms) sends the fallback; 0 turns it off.
-    #[serde(default)]
-    pub stale_ms: f64,
+    /// No valid measurement for this long sends the fallback; 0 turns it off.
+    #[serde(rename = "staleMs", default, deserialize_with = "stale_after")]
+    pub stale: Millis,
     /// The set point at start.
     pub setpoint: f64,
     /// The mode at start.
@@ -55,6 +55,17 @@ pub struct StationConfig {
     /// The manual output at start, if any.
     #[serde(default)]
     pub manual: Option<f64>,
+}
+
+/// The stale time as written, in ms: refused unless a number >= 0.
+fn stale_after<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Millis, D::Error> {
+    let ms = f64::deserialize(deserializer)?;
+    Millis::new(ms).ok_or_else(|| {
+        serde::de::Error::custom(format!(
+            "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
+            seconds(ms)
+        ))
+    })
 }
 
 /// One sample as it arrived.
@@ -256,12 +267,6 @@ impl Station {
                 quote(config.ts_s)
             )));
         }
-        let Some(stale) = Millis::new(config.stale_ms) else {
-            return Err(ControlError::config(format!(
-                "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
-                seconds(config.stale_ms)
-            )));
-        };
         let setpoint = config_number(config.setpoint, "set point")?;
         let manual = config
             .manual
@@ -275,7 +280,7 @@ impl Station {
         Ok(Self {
             pid_loop: PidLoop::new(config.pid_loop)?,
             ts_s: config.ts_s,
-            stale,
+            stale: config.stale,
             setpoint,
             mode: config.mode,
             manual,

@@ -5,10 +5,10 @@ use crate::time::millis;
 fn controller(id: usize) -> RccController {
     RccController::new(RccConfig {
         id,
-        thresholds_ms: vec![200.0, 400.0, 600.0],
-        ts_ms: 200.0,
+        thresholds: vec![millis(200.0), millis(400.0), millis(600.0)],
+        ts: millis(200.0),
         smooth_handover: true,
-        poll_timeout_ms: None,
+        poll_timeout: None,
     })
     .unwrap()
 }
@@ -30,13 +30,19 @@ fn pid() -> Pid {
 fn state(last_action: f64, ages: [Option<f64>; 3]) -> IoState {
     IoState {
         last_action,
-        ages_ms: ages.to_vec(),
+        ages: ages.iter().map(|a| a.map(millis)).collect(),
     }
 }
 
 #[test]
 fn thresholds_must_rise_with_the_id_from_ts() {
-    assert!(validate_thresholds(&[200.0, 400.0, 600.0], 200.0).is_ok());
+    let valid = [millis(200.0), millis(400.0), millis(600.0)];
+    assert!(validate_thresholds(&valid, millis(200.0)).is_ok());
+    assert!(validate_thresholds(&valid, millis(300.0)).is_err());
+    assert_eq!(
+        thresholds_from_ms(&[200.0, 400.0, 600.0], 200.0).unwrap(),
+        (valid.to_vec(), millis(200.0))
+    );
     for (thresholds, ts) in [
         (vec![100.0, 400.0], 200.0),
         (vec![400.0, 400.0], 200.0),
@@ -46,30 +52,28 @@ fn thresholds_must_rise_with_the_id_from_ts() {
         (vec![200.0, 400.0], 0.0),
     ] {
         assert_eq!(
-            validate_thresholds(&thresholds, ts).unwrap_err().code(),
+            thresholds_from_ms(&thresholds, ts).unwrap_err().code(),
             "INVALID_CONFIG",
             "{thresholds:?} {ts}"
         );
     }
     // Worded in seconds, the unit of the node settings.
     assert_eq!(
-        validate_thresholds(&[1500.0, 1000.0], 500.0)
+        thresholds_from_ms(&[1500.0, 1000.0], 500.0)
             .unwrap_err()
             .to_string(),
         "engagement threshold D_2 = 1 s must be greater than D_1 = 1.5 s: a backup must wait longer than every controller above it"
     );
     assert_eq!(
-        validate_thresholds(&[400.0], 500.0)
-            .unwrap_err()
-            .to_string(),
+        thresholds_from_ms(&[400.0], 500.0).unwrap_err().to_string(),
         "engagement threshold D_1 = 0.4 s must be at least the sampling period Ts = 0.5 s"
     );
     let outside = RccConfig {
         id: 4,
-        thresholds_ms: vec![200.0, 400.0, 600.0],
-        ts_ms: 200.0,
+        thresholds: vec![millis(200.0), millis(400.0), millis(600.0)],
+        ts: millis(200.0),
         smooth_handover: true,
-        poll_timeout_ms: None,
+        poll_timeout: None,
     };
     assert_eq!(
         RccController::new(outside).unwrap_err().code(),
@@ -244,18 +248,27 @@ fn a_malformed_state_is_refused() {
     let secondary = controller(2);
     let short = IoState {
         last_action: 0.0,
-        ages_ms: vec![Some(1.0)],
+        ages: vec![Some(millis(1.0))],
     };
     assert_eq!(
         secondary.engaged(&short).unwrap_err().code(),
         "INVALID_INPUT"
     );
+    // An age that is not one is refused as the state is read.
+    let negative = r#"{ "lastAction": 0, "agesMs": [-1, null, null] }"#;
+    let refused = serde_json::from_str::<IoState>(negative).unwrap_err();
+    assert!(
+        refused
+            .to_string()
+            .starts_with("a controller age must be a number of ms >= 0, got -1"),
+        "{refused}"
+    );
+    let read: IoState =
+        serde_json::from_str(r#"{ "lastAction": 0, "agesMs": [150, null, 0.5] }"#).unwrap();
+    assert_eq!(read, state(0.0, [Some(150.0), None, Some(0.5)]));
     assert_eq!(
-        secondary
-            .engaged(&state(0.0, [Some(-1.0), None, None]))
-            .unwrap_err()
-            .code(),
-        "INVALID_INPUT"
+        serde_json::to_string(&read).unwrap(),
+        r#"{"lastAction":0.0,"agesMs":[150,null,0.5]}"#
     );
     let mut secondary = controller(2);
     assert!(secondary
@@ -290,7 +303,7 @@ fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
         assert_eq!(refused.code(), "INVALID_INPUT");
     }
     let custom = RccConfig {
-        poll_timeout_ms: Some(150.0),
+        poll_timeout: Some(millis(150.0)),
         ..rcc.config().clone()
     };
     let mut rcc = RccController::new(custom.clone()).unwrap();
@@ -298,7 +311,7 @@ fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
     assert_eq!(rcc.next_tick(), Some(millis(150.0)));
     assert_eq!(
         RccController::new(RccConfig {
-            poll_timeout_ms: Some(0.0),
+            poll_timeout: Some(millis(0.0)),
             ..custom
         })
         .unwrap_err()

@@ -18,7 +18,7 @@ fn config() -> StationConfig {
             smith: None,
         },
         ts_s: 1.0,
-        stale_ms: 80.0,
+        stale: millis(80.0),
         setpoint: 50.0,
         mode: Mode::Auto,
         manual: None,
@@ -196,7 +196,7 @@ fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
     );
     assert_eq!(
         Station::new(StationConfig {
-            stale_ms: 0.0,
+            stale: Millis::ZERO,
             ..config()
         })
         .unwrap()
@@ -300,18 +300,24 @@ fn a_restart_restores_what_was_saved_or_refuses_it_whole() {
 }
 
 #[test]
+fn a_stale_time_that_is_not_one_is_refused_as_it_is_read() {
+    for bad in [serde_json::json!(-1000.0), serde_json::json!(-1)] {
+        let mut written = serde_json::to_value(config()).unwrap();
+        assert_eq!(written["staleMs"], serde_json::json!(80));
+        written["staleMs"] = bad;
+        let refused = serde_json::from_value::<StationConfig>(written).unwrap_err();
+        assert!(
+            refused.to_string().contains("stale after must be"),
+            "{refused}"
+        );
+    }
+}
+
+#[test]
 fn refuses_configurations_that_cannot_run() {
     for broken in [
         StationConfig {
             ts_s: 0.0,
-            ..config()
-        },
-        StationConfig {
-            stale_ms: -1.0,
-            ..config()
-        },
-        StationConfig {
-            stale_ms: f64::NAN,
             ..config()
         },
         StationConfig {
