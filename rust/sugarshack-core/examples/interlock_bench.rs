@@ -10,7 +10,7 @@
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
-use sugarshack_core::time::ms;
+use sugarshack_core::time::{ms, Millis};
 
 use serde_json::{json, Value};
 use sugarshack_core::interlock::{
@@ -99,10 +99,11 @@ fn summary(mut samples: Vec<f64>) -> Value {
     json!({ "median": rank(0.5), "p99": rank(0.99), "samples": samples.len() })
 }
 
-fn now_ms() -> u64 {
+/// The bench plays the runtime: it reads the clock and hands the time in.
+fn clock() -> Millis {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis() as u64)
+        .map_or(Millis::ZERO, |d| ms(d.as_millis() as u64))
 }
 
 struct CaseParams {
@@ -161,15 +162,14 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
     let mut pair = Vec::with_capacity(p.samples);
     let (mut refused, mut stray) = (0usize, 0usize);
     for s in 0..p.warmup + p.samples {
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
         for k in 0..p.pair_batch {
             let (op, priority, set) = &idle_ops[k % 16];
-            if idle.acquire(*op, *priority, set, ms(now)).expect("acquire") != Acquisition::Granted
-            {
+            if idle.acquire(*op, *priority, set, now).expect("acquire") != Acquisition::Granted {
                 refused += 1;
             }
-            stray += black_box(idle.release(*op, ms(now)).expect("release")).len();
+            stray += black_box(idle.release(*op, now).expect("release")).len();
         }
         let elapsed = t0.elapsed();
         if s >= p.warmup {
@@ -186,14 +186,14 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
     let mut locks = Vec::with_capacity(n);
     let mut ops = Vec::with_capacity(n);
     let mut holders: Vec<Vec<usize>> = Vec::with_capacity(n);
-    let now = now_ms();
+    let now = clock();
     for _ in 0..n {
         let mut lock = Interlock::new(case_config(events)).expect("config");
         let o = fig8_ops(&mut lock);
         let mut h = Vec::new();
         for (k, (op, priority, set)) in o.iter().enumerate() {
-            let granted = lock.acquire(*op, *priority, set, ms(now)).expect("acquire")
-                == Acquisition::Granted;
+            let granted =
+                lock.acquire(*op, *priority, set, now).expect("acquire") == Acquisition::Granted;
             log.acquired(k, granted);
             if granted {
                 h.push(k);
@@ -212,12 +212,10 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
             victim_index[i] = rng.int(holders[i].len());
             victim[i] = holders[i][victim_index[i]];
         }
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
         for i in 0..n {
-            results[i] = locks[i]
-                .release(ops[i][victim[i]].0, ms(now))
-                .expect("release");
+            results[i] = locks[i].release(ops[i][victim[i]].0, now).expect("release");
         }
         let elapsed = t0.elapsed();
         if s >= p.warmup {
@@ -229,9 +227,7 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
             log.released(victim[i], grants.iter().map(|g| g.operation.index()));
             holders[i].extend(grants.iter().map(|g| g.operation.index()));
             let (op, priority, set) = &ops[i][victim[i]];
-            let granted = locks[i]
-                .acquire(*op, *priority, set, ms(now))
-                .expect("acquire")
+            let granted = locks[i].acquire(*op, *priority, set, now).expect("acquire")
                 == Acquisition::Granted;
             log.acquired(victim[i], granted);
             if granted {
@@ -273,11 +269,9 @@ impl Large<'_> {
         }
     }
 
-    fn acquire(&mut self, op: usize, now: u64) {
+    fn acquire(&mut self, op: usize, now: Millis) {
         let set = &self.pool[self.op_set[op]].1;
-        let outcome = self
-            .lock
-            .acquire(self.ids[op], self.priority[op], set, ms(now));
+        let outcome = self.lock.acquire(self.ids[op], self.priority[op], set, now);
         let granted = outcome.expect("acquire") == Acquisition::Granted;
         self.log.acquired(op, granted);
         if granted {
@@ -297,7 +291,7 @@ impl Large<'_> {
         op
     }
 
-    fn new_op(&mut self, now: u64) {
+    fn new_op(&mut self, now: Millis) {
         let priority = 1 + self.rng.int(self.p.priorities) as i32;
         let op = self.register(priority);
         self.op_set[op] = self.rng.int(self.p.pool);
@@ -347,7 +341,7 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         holders: Vec::new(),
         queued: 0,
     };
-    let now = now_ms();
+    let now = clock();
     st.register(0);
     while st.queued < p.waiting {
         st.new_op(now);
@@ -359,9 +353,9 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
     for s in 0..p.warmup + p.samples {
         let index = st.rng.int(st.holders.len());
         let victim = st.holders[index];
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
-        let grants = st.lock.release(st.ids[victim], ms(now)).expect("release");
+        let grants = st.lock.release(st.ids[victim], now).expect("release");
         let elapsed = t0.elapsed();
         if s >= p.warmup {
             release.push(elapsed.as_nanos() as f64);
@@ -393,11 +387,8 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         // Idle between steps, the probe may have been forgotten: named anew, as a node would.
         let probe = st.lock.operation("op0");
         let t0 = Instant::now();
-        let granted = st
-            .lock
-            .acquire(probe, 0, set, ms(now))
-            .expect("probe acquire");
-        let stray = black_box(st.lock.release(probe, ms(now)).expect("probe release")).len();
+        let granted = st.lock.acquire(probe, 0, set, now).expect("probe acquire");
+        let stray = black_box(st.lock.release(probe, now).expect("probe release")).len();
         let elapsed = t0.elapsed();
         assert!(
             granted == Acquisition::Granted && stray == 0,
