@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use sugarshack_core::time::{ms, Millis};
 
 use serde_json::{json, Value};
 use sugarshack_core::interlock::{
@@ -98,10 +99,11 @@ fn summary(mut samples: Vec<f64>) -> Value {
     json!({ "median": rank(0.5), "p99": rank(0.99), "samples": samples.len() })
 }
 
-fn now_ms() -> u64 {
+/// The bench plays the runtime: it reads the clock and hands the time in.
+fn clock() -> Millis {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis() as u64)
+        .map_or(Millis::ZERO, |d| ms(d.as_millis() as u64))
 }
 
 struct CaseParams {
@@ -160,7 +162,7 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
     let mut pair = Vec::with_capacity(p.samples);
     let (mut refused, mut stray) = (0usize, 0usize);
     for s in 0..p.warmup + p.samples {
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
         for k in 0..p.pair_batch {
             let (op, priority, set) = &idle_ops[k % 16];
@@ -184,7 +186,7 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
     let mut locks = Vec::with_capacity(n);
     let mut ops = Vec::with_capacity(n);
     let mut holders: Vec<Vec<usize>> = Vec::with_capacity(n);
-    let now = now_ms();
+    let now = clock();
     for _ in 0..n {
         let mut lock = Interlock::new(case_config(events)).expect("config");
         let o = fig8_ops(&mut lock);
@@ -210,7 +212,7 @@ fn run_case(p: &CaseParams, events: bool) -> Value {
             victim_index[i] = rng.int(holders[i].len());
             victim[i] = holders[i][victim_index[i]];
         }
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
         for i in 0..n {
             results[i] = locks[i].release(ops[i][victim[i]].0, now).expect("release");
@@ -267,7 +269,7 @@ impl Large<'_> {
         }
     }
 
-    fn acquire(&mut self, op: usize, now: u64) {
+    fn acquire(&mut self, op: usize, now: Millis) {
         let set = &self.pool[self.op_set[op]].1;
         let outcome = self.lock.acquire(self.ids[op], self.priority[op], set, now);
         let granted = outcome.expect("acquire") == Acquisition::Granted;
@@ -289,7 +291,7 @@ impl Large<'_> {
         op
     }
 
-    fn new_op(&mut self, now: u64) {
+    fn new_op(&mut self, now: Millis) {
         let priority = 1 + self.rng.int(self.p.priorities) as i32;
         let op = self.register(priority);
         self.op_set[op] = self.rng.int(self.p.pool);
@@ -339,7 +341,7 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
         holders: Vec::new(),
         queued: 0,
     };
-    let now = now_ms();
+    let now = clock();
     st.register(0);
     while st.queued < p.waiting {
         st.new_op(now);
@@ -351,7 +353,7 @@ fn run_large(p: &LargeParams, events: bool) -> Value {
     for s in 0..p.warmup + p.samples {
         let index = st.rng.int(st.holders.len());
         let victim = st.holders[index];
-        let now = now_ms();
+        let now = clock();
         let t0 = Instant::now();
         let grants = st.lock.release(st.ids[victim], now).expect("release");
         let elapsed = t0.elapsed();

@@ -7,6 +7,7 @@
 
 use std::hint::black_box;
 use std::time::Instant;
+use sugarshack_core::time::ms;
 
 use serde_json::json;
 use sugarshack_core::actuator::{ActuatorId, Tracker};
@@ -54,7 +55,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let panels: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1000);
     let seconds: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20);
-    let mut tracker = Tracker::new(plant(panels), 0).unwrap();
+    let mut tracker = Tracker::new(plant(panels), ms(0)).unwrap();
     let slots: Vec<Vec<ActuatorId>> = (1..=panels)
         .map(|p| {
             let device = tracker.device(&format!("ctrl-{p}")).unwrap();
@@ -87,13 +88,13 @@ fn main() {
         for batch in second {
             black_box(
                 tracker
-                    .feedback_batch(batch, Some(now - 80), now, &mut effects)
+                    .feedback_batch(batch, Some(ms(now - 80)), ms(now), &mut effects)
                     .expect("stamped before reception"),
             );
             passed_on += effects.len();
             effects.clear();
         }
-        black_box(tracker.tick(now));
+        black_box(tracker.tick(ms(now)));
     }
     let elapsed = started.elapsed().as_secs_f64();
     let datapoints = u64::from(seconds) * u64::from(panels) * u64::from(VALVES + 1);

@@ -25,6 +25,7 @@ use crate::actuator::DeviceHealth;
 use crate::clearance::{cut, Attribution};
 use crate::code::Code;
 use crate::text::quote;
+use crate::time::{ms, Millis};
 
 /// The most conditions one observation may report.
 pub const MAX_CONDITIONS: usize = 10_000;
@@ -35,7 +36,7 @@ pub const SUBJECT_MAX_CHARS: usize = 200;
 /// The longest text kept; longer ones are cut.
 pub const TEXT_MAX_CHARS: usize = 500;
 /// The longest a shelf may last: a shelved alarm must come back.
-pub const MAX_SHELVE_MS: u64 = 7 * 24 * 3600 * 1000;
+pub const MAX_SHELVE_MS: Millis = ms(7 * 24 * 3600 * 1000);
 
 /// What is abnormal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -58,14 +59,14 @@ pub enum AlarmKind {
 }
 
 /// How long a lost broker must stay lost before it is an alarm: Node-RED connects after the flows start.
-pub const BUS_ON_DELAY_MS: u64 = 10_000;
+pub const BUS_ON_DELAY_MS: Millis = ms(10_000);
 
 impl AlarmKind {
     /// How long its condition must hold before it is an alarm.
-    pub fn on_delay_ms(self) -> u64 {
+    pub fn on_delay_ms(self) -> Millis {
         match self {
             Self::BusDisconnected => BUS_ON_DELAY_MS,
-            _ => 0,
+            _ => Millis::ZERO,
         }
     }
 
@@ -125,7 +126,7 @@ pub struct Condition {
     pub text: String,
     /// Since when it holds, when the caller knows (a fault's time).
     #[serde(default)]
-    pub since_ms: Option<u64>,
+    pub since_ms: Option<Millis>,
 }
 
 impl Condition {
@@ -187,14 +188,14 @@ pub struct Stamp {
     /// Who.
     pub by: String,
     /// When, in ms since the epoch.
-    pub at_ms: u64,
+    pub at_ms: Millis,
     /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
 }
 
 impl Stamp {
-    fn new(who: &Attribution, at_ms: u64) -> Self {
+    fn new(who: &Attribution, at_ms: Millis) -> Self {
         Stamp {
             by: who.by.clone(),
             at_ms,
@@ -210,9 +211,9 @@ pub struct Shelf {
     /// Who.
     pub by: String,
     /// When, in ms since the epoch.
-    pub at_ms: u64,
+    pub at_ms: Millis,
     /// When it comes back off the shelf, in ms since the epoch.
-    pub until_ms: u64,
+    pub until_ms: Millis,
     /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -233,9 +234,9 @@ pub struct Alarm {
     /// Where it stands.
     pub state: AlarmState,
     /// When its condition last began.
-    pub active_since_ms: u64,
+    pub active_since_ms: Millis,
     /// When its state last changed.
-    pub changed_ms: u64,
+    pub changed_ms: Millis,
     /// The acknowledgement of the current activation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acked: Option<Stamp>,
@@ -273,7 +274,7 @@ pub struct AlarmChange {
     /// Its state after.
     pub to: AlarmState,
     /// When, in ms since the epoch.
-    pub at_ms: u64,
+    pub at_ms: Millis,
     /// Who, for a person's action.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub by: Option<String>,
@@ -353,7 +354,7 @@ pub struct AlarmsSnapshot {
 pub struct Alarms {
     alarms: BTreeMap<String, Alarm>,
     /// Conditions held for less than their kind's on-delay, by id: since when (not saved).
-    delayed: BTreeMap<String, u64>,
+    delayed: BTreeMap<String, Millis>,
 }
 
 /// The id of the alarm for `kind` on `subject`: `kind:subject`.
@@ -378,7 +379,7 @@ impl Alarms {
     }
 
     /// When the next shelf runs out, if any alarm is shelved.
-    pub fn next_expiry_ms(&self) -> Option<u64> {
+    pub fn next_expiry_ms(&self) -> Option<Millis> {
         self.alarms
             .values()
             .filter_map(|a| a.shelved.as_ref().map(|s| s.until_ms))
@@ -391,7 +392,7 @@ impl Alarms {
     pub fn observe(
         &mut self,
         conditions: &[Condition],
-        now: u64,
+        now: Millis,
     ) -> Result<Vec<AlarmChange>, AlarmError> {
         if conditions.len() > MAX_CONDITIONS {
             return Err(AlarmError::TooMany {
@@ -438,9 +439,9 @@ impl Alarms {
             };
             let text = cut(&text, TEXT_MAX_CHARS);
             let mut since = c.since_ms.filter(|&t| t <= now).unwrap_or(now);
-            if !self.alarms.contains_key(&id) && c.kind.on_delay_ms() > 0 {
+            if !self.alarms.contains_key(&id) && c.kind.on_delay_ms() > Millis::ZERO {
                 let first = *self.delayed.entry(id.clone()).or_insert(since);
-                if now - first < c.kind.on_delay_ms() {
+                if now.saturating_sub(first) < c.kind.on_delay_ms() {
                     continue;
                 }
                 self.delayed.remove(&id);
@@ -498,7 +499,7 @@ impl Alarms {
         &mut self,
         ids: Option<&[String]>,
         who: &Attribution,
-        now: u64,
+        now: Millis,
     ) -> Result<Vec<AlarmChange>, AlarmError> {
         if let Some(ids) = ids {
             self.require(ids)?;
@@ -528,9 +529,9 @@ impl Alarms {
     pub fn shelve(
         &mut self,
         id: &str,
-        until_ms: u64,
+        until_ms: Millis,
         who: &Attribution,
-        now: u64,
+        now: Millis,
     ) -> Result<Vec<AlarmChange>, AlarmError> {
         self.require(&[id.to_owned()])?;
         if until_ms <= now {
@@ -538,12 +539,12 @@ impl Alarms {
                 reason: format!("the shelf must end after now ({now} ms), got {until_ms} ms"),
             });
         }
-        if until_ms - now > MAX_SHELVE_MS {
+        if until_ms.saturating_sub(now) > MAX_SHELVE_MS {
             return Err(AlarmError::InvalidShelf {
                 reason: format!(
                     "a shelf lasts at most {} h, asked for {} h",
-                    MAX_SHELVE_MS / 3_600_000,
-                    (until_ms - now) / 3_600_000
+                    hours(MAX_SHELVE_MS),
+                    hours(until_ms.saturating_sub(now))
                 ),
             });
         }
@@ -576,7 +577,7 @@ impl Alarms {
         &mut self,
         id: &str,
         who: &Attribution,
-        now: u64,
+        now: Millis,
     ) -> Result<Vec<AlarmChange>, AlarmError> {
         self.require(&[id.to_owned()])?;
         let mut changes = self.expire(now);
@@ -643,7 +644,7 @@ impl Alarms {
     }
 
     /// Shelves whose time has come.
-    fn expire(&mut self, now: u64) -> Vec<AlarmChange> {
+    fn expire(&mut self, now: Millis) -> Vec<AlarmChange> {
         let due: Vec<String> = self
             .alarms
             .values()
@@ -660,7 +661,7 @@ impl Alarms {
         id: &str,
         action: AlarmAction,
         who: Option<&Attribution>,
-        now: u64,
+        now: Millis,
     ) -> Option<AlarmChange> {
         let alarm = self.alarms.get_mut(id)?;
         alarm.shelved.take()?;
@@ -686,7 +687,7 @@ impl Alarms {
         to: AlarmState,
         action: AlarmAction,
         who: Option<&Attribution>,
-        now: u64,
+        now: Millis,
     ) -> AlarmChange {
         let alarm = self.alarms.get_mut(id).expect("listed");
         let from = alarm.state;
@@ -707,6 +708,11 @@ impl Alarms {
     }
 }
 
+/// Whole hours in `duration`, rounded down.
+fn hours(duration: Millis) -> f64 {
+    (duration.as_f64() / 3_600_000.0).floor()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -716,7 +722,7 @@ mod tests {
             kind: AlarmKind::LineFaulted,
             subject: line.into(),
             text: format!("{line} faulted"),
-            since_ms: Some(5),
+            since_ms: Some(ms(5)),
         }
     }
 
@@ -724,34 +730,37 @@ mod tests {
     fn an_alarm_goes_round_the_isa_18_2_states() {
         let mut alarms = Alarms::new();
         let ana = Attribution::new(Some("ana"), Some("seen"), false);
-        alarms.observe(&[faulted("YEL")], 10).unwrap();
+        alarms.observe(&[faulted("YEL")], ms(10)).unwrap();
         let a = alarms.get("line-faulted:YEL").unwrap();
-        assert_eq!((a.state, a.active_since_ms), (AlarmState::ActiveUnacked, 5));
-        alarms.acknowledge(None, &ana, 20).unwrap();
+        assert_eq!(
+            (a.state, a.active_since_ms),
+            (AlarmState::ActiveUnacked, ms(5))
+        );
+        alarms.acknowledge(None, &ana, ms(20)).unwrap();
         let a = alarms.get("line-faulted:YEL").unwrap();
         assert_eq!(a.state, AlarmState::ActiveAcked);
         assert_eq!(
             a.acked,
             Some(Stamp {
                 by: "ana".into(),
-                at_ms: 20,
+                at_ms: ms(20),
                 reason: Some("seen".into())
             })
         );
-        let changes = alarms.observe(&[], 30).unwrap();
+        let changes = alarms.observe(&[], ms(30)).unwrap();
         assert_eq!(changes[0].to, AlarmState::Normal);
         assert!(
             alarms.get("line-faulted:YEL").is_none(),
             "normal and acknowledged: gone"
         );
-        alarms.observe(&[faulted("YEL")], 40).unwrap();
-        alarms.observe(&[], 50).unwrap();
+        alarms.observe(&[faulted("YEL")], ms(40)).unwrap();
+        alarms.observe(&[], ms(50)).unwrap();
         assert_eq!(
             alarms.get("line-faulted:YEL").unwrap().state,
             AlarmState::ReturnedUnacked
         );
         let changes = alarms
-            .acknowledge(Some(&["line-faulted:YEL".into()]), &ana, 60)
+            .acknowledge(Some(&["line-faulted:YEL".into()]), &ana, ms(60))
             .unwrap();
         assert_eq!(
             (changes[0].from, changes[0].to),
@@ -764,30 +773,30 @@ mod tests {
     fn a_shelf_keeps_the_alarm_until_its_time_then_shows_its_true_state() {
         let mut alarms = Alarms::new();
         let bo = Attribution::new(Some("bo"), None, false);
-        alarms.observe(&[faulted("RED")], 0).unwrap();
+        alarms.observe(&[faulted("RED")], ms(0)).unwrap();
         let id = "line-faulted:RED";
         assert_eq!(
-            alarms.shelve(id, 0, &bo, 0).unwrap_err().code(),
+            alarms.shelve(id, ms(0), &bo, ms(0)).unwrap_err().code(),
             "INVALID_SHELF"
         );
         assert_eq!(
             alarms
-                .shelve(id, MAX_SHELVE_MS + 1, &bo, 0)
+                .shelve(id, MAX_SHELVE_MS.saturating_add(ms(1)), &bo, ms(0))
                 .unwrap_err()
                 .code(),
             "INVALID_SHELF"
         );
-        alarms.shelve(id, 1000, &bo, 0).unwrap();
-        alarms.observe(&[], 100).unwrap();
-        alarms.acknowledge(None, &bo, 200).unwrap();
+        alarms.shelve(id, ms(1000), &bo, ms(0)).unwrap();
+        alarms.observe(&[], ms(100)).unwrap();
+        alarms.acknowledge(None, &bo, ms(200)).unwrap();
         assert_eq!(
             alarms.get(id).unwrap().state,
             AlarmState::Normal,
             "kept on its shelf"
         );
-        alarms.observe(&[faulted("RED")], 300).unwrap();
-        assert_eq!(alarms.next_expiry_ms(), Some(1000));
-        let changes = alarms.observe(&[faulted("RED")], 1000).unwrap();
+        alarms.observe(&[faulted("RED")], ms(300)).unwrap();
+        assert_eq!(alarms.next_expiry_ms(), Some(ms(1000)));
+        let changes = alarms.observe(&[faulted("RED")], ms(1000)).unwrap();
         assert_eq!(changes[0].action, AlarmAction::ShelfExpired);
         let a = alarms.get(id).unwrap();
         assert_eq!(
@@ -795,7 +804,7 @@ mod tests {
             (AlarmState::ActiveUnacked, true)
         );
         assert_eq!(
-            alarms.unshelve("nope", &bo, 1001).unwrap_err().code(),
+            alarms.unshelve("nope", &bo, ms(1001)).unwrap_err().code(),
             "UNKNOWN_ALARM"
         );
     }
@@ -809,23 +818,35 @@ mod tests {
             text: "lost".into(),
             since_ms: None,
         };
-        alarms.observe(std::slice::from_ref(&lost), 0).unwrap();
+        alarms.observe(std::slice::from_ref(&lost), ms(0)).unwrap();
         alarms
-            .observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS - 1)
+            .observe(
+                std::slice::from_ref(&lost),
+                BUS_ON_DELAY_MS.saturating_sub(ms(1)),
+            )
             .unwrap();
         assert_eq!(alarms.list().count(), 0, "still connecting");
         alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
         alarms
-            .observe(std::slice::from_ref(&lost), BUS_ON_DELAY_MS + 1)
+            .observe(
+                std::slice::from_ref(&lost),
+                BUS_ON_DELAY_MS.saturating_add(ms(1)),
+            )
             .unwrap();
         assert_eq!(alarms.list().count(), 0, "the delay starts again");
         alarms
-            .observe(std::slice::from_ref(&lost), 2 * BUS_ON_DELAY_MS + 1)
+            .observe(
+                std::slice::from_ref(&lost),
+                ms(2 * BUS_ON_DELAY_MS.as_u64() + 1),
+            )
             .unwrap();
         let a = alarms.get("bus-disconnected:all devices").unwrap();
         assert_eq!(
             (a.state, a.active_since_ms),
-            (AlarmState::ActiveUnacked, BUS_ON_DELAY_MS + 1)
+            (
+                AlarmState::ActiveUnacked,
+                BUS_ON_DELAY_MS.saturating_add(ms(1))
+            )
         );
     }
 
@@ -836,7 +857,7 @@ mod tests {
             .map(|i| faulted(&i.to_string()))
             .collect();
         assert_eq!(
-            alarms.observe(&many, 0).unwrap_err().code(),
+            alarms.observe(&many, ms(0)).unwrap_err().code(),
             "TOO_MANY_ALARMS"
         );
         assert_eq!(alarms.list().count(), 0);
@@ -845,9 +866,9 @@ mod tests {
     #[test]
     fn a_snapshot_restores_and_a_bad_one_is_refused() {
         let mut alarms = Alarms::new();
-        alarms.observe(&[faulted("YEL")], 10).unwrap();
+        alarms.observe(&[faulted("YEL")], ms(10)).unwrap();
         alarms
-            .acknowledge(None, &Attribution::new(Some("ana"), None, false), 11)
+            .acknowledge(None, &Attribution::new(Some("ana"), None, false), ms(11))
             .unwrap();
         let text = serde_json::to_string(&alarms.snapshot()).unwrap();
         let back = Alarms::restore(serde_json::from_str(&text).unwrap()).unwrap();
@@ -892,7 +913,7 @@ mod tests {
             since_ms: None,
         };
         alarms
-            .observe(&[bare(AlarmKind::StateNotSaved, "/data/sugarshack")], 0)
+            .observe(&[bare(AlarmKind::StateNotSaved, "/data/sugarshack")], ms(0))
             .unwrap();
         assert_eq!(
             alarms.get("state-not-saved:/data/sugarshack").unwrap().text,

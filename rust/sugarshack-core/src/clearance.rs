@@ -8,19 +8,20 @@
 //! ```
 //! use sugarshack_core::clearance::{Attribution, ClearBlocker};
 //! use sugarshack_core::interlock::{Interlock, InterlockConfig, InterlockError};
+//! use sugarshack_core::time::ms;
 //!
 //! let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL"])).unwrap();
 //! let yel = lock.resource_set(&["YEL"]).unwrap();
-//! lock.fault_resources(&yel, Some("emergency stop"), 0).unwrap();
+//! lock.fault_resources(&yel, Some("emergency stop"), ms(0)).unwrap();
 //! // The plant's reasons, per line: here its panel is offline.
 //! let offline = |_: &str| vec![ClearBlocker::DeviceOffline { device: "ctrl-1".into() }];
 //! let ann = Attribution::new(Some("ann"), None, false);
-//! let refused = lock.clear_checked(&yel, &ann, offline, 10).unwrap_err();
+//! let refused = lock.clear_checked(&yel, &ann, offline, ms(10)).unwrap_err();
 //! assert!(matches!(refused, InterlockError::ClearRefused { .. }));
 //! assert!(refused.to_string().contains("ctrl-1"), "{refused}");
 //! // A person who knows better forces it: cleared, and recorded as forced.
 //! let forced = Attribution::new(Some("ann"), Some("checked on site"), true);
-//! lock.clear_checked(&yel, &forced, offline, 20).unwrap();
+//! lock.clear_checked(&yel, &forced, offline, ms(20)).unwrap();
 //! assert!(!lock.is_faulted(lock.resource("YEL").unwrap()));
 //! let cleared = lock.drain_events().pop().unwrap();
 //! assert!(lock.describe(&cleared).forced);

@@ -1,6 +1,6 @@
 #![warn(missing_docs)]
 //! The pure core of sugarshack: no clock, no I/O, no JS. Time comes in as an
-//! argument in milliseconds; effects (grants, lockout commands, events) go out
+//! argument in milliseconds ([`time::Millis`]); effects (grants, lockout commands, events) go out
 //! as returned values, so every rule here is deterministic and testable natively.
 
 pub mod actuator;
@@ -15,4 +15,5 @@ pub mod plant;
 pub mod routine;
 pub mod sensor;
 pub mod text;
+pub mod time;
 pub mod topics;

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::code::Code;
 use crate::plant::{Edge, Plant, RoutineGraph, StateId, Trigger};
 use crate::text::quote;
+use crate::time::Millis;
 
 /// The msg topic that sends a routine back to its initial state (an
 /// operator's reset). Reserved: plant validation refuses a transition on it.
@@ -163,7 +164,7 @@ pub struct RoutineMachine {
     pending: Option<usize>,
     halted: bool,
     /// Per transition: when its condition was last handed out for evaluation.
-    checked_ms: Vec<Option<u64>>,
+    checked_ms: Vec<Option<Millis>>,
 }
 
 impl RoutineMachine {
@@ -321,9 +322,9 @@ impl RoutineMachine {
         Ok(self.dispatch(transition))
     }
 
-    /// The condition transitions of the current state due for evaluation at `now_ms`
+    /// The condition transitions of the current state due for evaluation at `now`
     /// (never checked in this state, or checked `everyMs` ago). They count as checked now.
-    pub fn due(&mut self, now_ms: u64) -> Vec<usize> {
+    pub fn due(&mut self, now: Millis) -> Vec<usize> {
         if self.ready().is_err() {
             return Vec::new();
         }
@@ -335,8 +336,8 @@ impl RoutineMachine {
             if t.from != self.state {
                 continue;
             }
-            if self.checked_ms[i].is_none_or(|at| now_ms.saturating_sub(at) >= every_ms) {
-                self.checked_ms[i] = Some(now_ms);
+            if self.checked_ms[i].is_none_or(|at| now.saturating_sub(at) >= every_ms) {
+                self.checked_ms[i] = Some(now);
                 due.push(i);
             }
         }

@@ -13,10 +13,11 @@ use std::fmt;
 use crate::code::Code;
 use crate::plant::PlantModel;
 use crate::text::quote;
+use crate::time::{ms, Millis};
 
 /// For sensors whose document entry sets neither `staleMs` nor `updateMs`
 /// on a sugarshack device: five missed 1 Hz samples (see [`PlantModel::sensor_stale_ms`]).
-pub const DEFAULT_STALE_MS: u64 = 5000;
+pub const DEFAULT_STALE_MS: Millis = ms(5000);
 
 /// A sensor's handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -40,9 +41,9 @@ pub struct Sample {
     /// The value read.
     pub value: f64,
     /// The device's own timestamp of the sample.
-    pub sampled_ms: u64,
+    pub sampled_ms: Millis,
     /// When it was received, in ms.
-    pub received_ms: u64,
+    pub received_ms: Millis,
 }
 
 /// Why a sensor value cannot be used.
@@ -75,18 +76,18 @@ pub enum SensorError {
         /// The sensor's id.
         sensor: String,
         /// Its age.
-        age_ms: u64,
+        age_ms: Millis,
         /// The allowed age.
-        stale_ms: u64,
+        stale_ms: Millis,
     },
     /// The device's clock is ahead of ours by more than the plant allows.
     FutureTimestamp {
         /// The sensor's id.
         sensor: String,
         /// How far ahead of its reception it is stamped.
-        ahead_ms: u64,
+        ahead_ms: Millis,
         /// The allowed clock skew.
-        skew_ms: u64,
+        skew_ms: Millis,
     },
 }
 
@@ -144,9 +145,9 @@ impl std::error::Error for SensorError {}
 /// The last value of every sensor.
 #[derive(Clone, Debug)]
 pub struct SensorStore {
-    clock_skew_ms: u64,
+    clock_skew_ms: Millis,
     names: Vec<String>,
-    stale_ms: Vec<u64>,
+    stale_ms: Vec<Millis>,
     samples: Vec<Option<Sample>>,
     by_name: HashMap<String, SensorId>,
     /// (device, datapoint name) -> sensor, for `<device>/sensor/<name>/state` topics.
@@ -206,15 +207,15 @@ impl SensorStore {
             .copied()
     }
 
-    /// Keeps a sample received at `now_ms` in place of the last one, whatever
+    /// Keeps a sample received at `now` in place of the last one, whatever
     /// its device timestamp `sampled_ms`, unless that stamp is more than the
-    /// plant's `clockSkewMs` ahead of `now_ms`: then nothing is kept.
+    /// plant's `clockSkewMs` ahead of `now`: then nothing is kept.
     pub fn record(
         &mut self,
         id: SensorId,
         value: f64,
-        sampled_ms: u64,
-        now_ms: u64,
+        sampled_ms: Millis,
+        now: Millis,
     ) -> Result<(), SensorError> {
         let slot = self
             .samples
@@ -228,7 +229,7 @@ impl SensorStore {
                 value,
             });
         }
-        let ahead_ms = sampled_ms.saturating_sub(now_ms);
+        let ahead_ms = sampled_ms.saturating_sub(now);
         if ahead_ms > self.clock_skew_ms {
             return Err(SensorError::FutureTimestamp {
                 sensor: self.names[id.index()].clone(),
@@ -239,14 +240,14 @@ impl SensorStore {
         *slot = Some(Sample {
             value,
             sampled_ms,
-            received_ms: now_ms,
+            received_ms: now,
         });
         Ok(())
     }
 
     /// The device reports no reading for the sensor (`nan`): reads fail
     /// until its next value.
-    pub fn record_unavailable(&mut self, id: SensorId, now_ms: u64) -> Result<(), SensorError> {
+    pub fn record_unavailable(&mut self, id: SensorId, now: Millis) -> Result<(), SensorError> {
         let slot = self
             .samples
             .get_mut(id.index())
@@ -255,14 +256,14 @@ impl SensorStore {
             })?;
         *slot = Some(Sample {
             value: f64::NAN,
-            sampled_ms: now_ms,
-            received_ms: now_ms,
+            sampled_ms: now,
+            received_ms: now,
         });
         Ok(())
     }
 
     /// How far ahead of its reception a device timestamp may be.
-    pub fn clock_skew_ms(&self) -> u64 {
+    pub fn clock_skew_ms(&self) -> Millis {
         self.clock_skew_ms
     }
 
@@ -271,8 +272,8 @@ impl SensorStore {
         self.samples.get(id.index()).copied().flatten()
     }
 
-    /// The value if it is fresh at `now_ms` (received less than `staleMs` ago).
-    pub fn fresh(&self, id: SensorId, now_ms: u64) -> Result<f64, SensorError> {
+    /// The value if it is fresh at `now` (received less than `staleMs` ago).
+    pub fn fresh(&self, id: SensorId, now: Millis) -> Result<f64, SensorError> {
         let sensor = || self.names[id.index()].clone();
         let sample = self
             .sample(id)
@@ -280,7 +281,7 @@ impl SensorStore {
         if sample.value.is_nan() {
             return Err(SensorError::Unavailable { sensor: sensor() });
         }
-        let age_ms = now_ms.saturating_sub(sample.received_ms);
+        let age_ms = now.saturating_sub(sample.received_ms);
         let stale_ms = self.stale_ms[id.index()];
         if age_ms >= stale_ms {
             return Err(SensorError::Stale {
@@ -293,8 +294,8 @@ impl SensorStore {
     }
 
     /// Every value of `ids` if all are fresh, else the first that is not.
-    pub fn read(&self, ids: &[SensorId], now_ms: u64) -> Result<Vec<f64>, SensorError> {
-        ids.iter().map(|&id| self.fresh(id, now_ms)).collect()
+    pub fn read(&self, ids: &[SensorId], now: Millis) -> Result<Vec<f64>, SensorError> {
+        ids.iter().map(|&id| self.fresh(id, now)).collect()
     }
 }
 
@@ -321,14 +322,14 @@ mod tests {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
         assert_eq!(
-            s.fresh(lt, 0),
+            s.fresh(lt, ms(0)),
             Err(SensorError::NoValue {
                 sensor: "LT-2".into()
             })
         );
-        s.record(lt, 120.0, 900, 1000).unwrap();
-        assert_eq!(s.fresh(lt, 3999), Ok(120.0));
-        let err = s.fresh(lt, 4000).unwrap_err();
+        s.record(lt, 120.0, ms(900), ms(1000)).unwrap();
+        assert_eq!(s.fresh(lt, ms(3999)), Ok(120.0));
+        let err = s.fresh(lt, ms(4000)).unwrap_err();
         assert_eq!(err.code(), "SENSOR_STALE");
         assert_eq!(
             err.to_string(),
@@ -340,8 +341,8 @@ mod tests {
     fn a_sensor_without_a_limit_uses_the_default() {
         let mut s = SensorStore::new(&plant());
         let ft = s.sensor("FT-2").unwrap();
-        s.record(ft, 0.0, 0, 0).unwrap();
-        assert!(s.fresh(ft, DEFAULT_STALE_MS - 1).is_ok());
+        s.record(ft, 0.0, ms(0), ms(0)).unwrap();
+        assert!(s.fresh(ft, DEFAULT_STALE_MS.saturating_sub(ms(1))).is_ok());
         assert!(s.fresh(ft, DEFAULT_STALE_MS).is_err());
     }
 
@@ -349,11 +350,11 @@ mod tests {
     fn a_read_fails_on_the_first_stale_sensor() {
         let mut s = SensorStore::new(&plant());
         let (lt, ft) = (s.sensor("LT-2").unwrap(), s.sensor("FT-2").unwrap());
-        s.record(lt, 1.0, 0, 0).unwrap();
-        s.record(ft, 2.0, 0, 2500).unwrap();
-        assert_eq!(s.read(&[lt, ft], 2999), Ok(vec![1.0, 2.0]));
+        s.record(lt, 1.0, ms(0), ms(0)).unwrap();
+        s.record(ft, 2.0, ms(0), ms(2500)).unwrap();
+        assert_eq!(s.read(&[lt, ft], ms(2999)), Ok(vec![1.0, 2.0]));
         assert!(
-            matches!(s.read(&[ft, lt], 3000), Err(SensorError::Stale { sensor, .. }) if sensor == "LT-2")
+            matches!(s.read(&[ft, lt], ms(3000)), Err(SensorError::Stale { sensor, .. }) if sensor == "LT-2")
         );
     }
 
@@ -361,24 +362,26 @@ mod tests {
     fn non_finite_samples_are_not_kept() {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
-        s.record(lt, 5.0, 2000, 2000).unwrap();
+        s.record(lt, 5.0, ms(2000), ms(2000)).unwrap();
         assert_eq!(
-            s.record(lt, f64::NAN, 3000, 3000).unwrap_err().code(),
+            s.record(lt, f64::NAN, ms(3000), ms(3000))
+                .unwrap_err()
+                .code(),
             "INVALID_SENSOR_VALUE"
         );
-        assert_eq!(s.sample(lt).unwrap().received_ms, 2000);
+        assert_eq!(s.sample(lt).unwrap().received_ms, ms(2000));
     }
 
     #[test]
     fn the_last_sample_received_wins_whatever_its_timestamp() {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
-        s.record(lt, 5.0, 2000, 2000).unwrap();
-        s.record(lt, 4.0, 1000, 2100).unwrap();
+        s.record(lt, 5.0, ms(2000), ms(2000)).unwrap();
+        s.record(lt, 4.0, ms(1000), ms(2100)).unwrap();
         assert_eq!(s.sample(lt).unwrap().value, 4.0);
-        assert_eq!(s.sample(lt).unwrap().sampled_ms, 1000);
+        assert_eq!(s.sample(lt).unwrap().sampled_ms, ms(1000));
         assert_eq!(
-            s.fresh(lt, 2100 + 2999),
+            s.fresh(lt, ms(2100 + 2999)),
             Ok(4.0),
             "fresh from its reception"
         );
@@ -388,15 +391,15 @@ mod tests {
     fn a_sample_stamped_in_the_future_is_refused_and_the_next_real_one_kept() {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
-        s.record(lt, 5.0, 10_000, 10_000).unwrap();
+        s.record(lt, 5.0, ms(10_000), ms(10_000)).unwrap();
         let err = s
-            .record(lt, 99.0, 9_000_000_000_000_000, 11_000)
+            .record(lt, 99.0, ms(9_000_000_000_000_000), ms(11_000))
             .unwrap_err();
         assert_eq!(
             err,
             SensorError::FutureTimestamp {
                 sensor: "LT-2".into(),
-                ahead_ms: 9_000_000_000_000_000 - 11_000,
+                ahead_ms: ms(9_000_000_000_000_000 - 11_000),
                 skew_ms: DEFAULT_CLOCK_SKEW_MS,
             }
         );
@@ -408,25 +411,35 @@ mod tests {
         );
         assert!(message.contains("allows 5000 ms"), "{message}");
         assert_eq!(s.sample(lt).unwrap().value, 5.0, "nothing of it kept");
-        assert_eq!(s.sample(lt).unwrap().received_ms, 10_000);
-        s.record(lt, 6.0, 12_000, 12_000).unwrap();
-        assert_eq!(s.fresh(lt, 12_500), Ok(6.0));
+        assert_eq!(s.sample(lt).unwrap().received_ms, ms(10_000));
+        s.record(lt, 6.0, ms(12_000), ms(12_000)).unwrap();
+        assert_eq!(s.fresh(lt, ms(12_500)), Ok(6.0));
     }
 
     #[test]
     fn a_sample_exactly_at_the_allowed_skew_is_kept() {
         let mut s = SensorStore::new(&plant());
         let lt = s.sensor("LT-2").unwrap();
-        s.record(lt, 1.0, 1000 + DEFAULT_CLOCK_SKEW_MS, 1000)
-            .unwrap();
-        assert_eq!(s.fresh(lt, 1000), Ok(1.0));
+        s.record(
+            lt,
+            1.0,
+            ms(1000).saturating_add(DEFAULT_CLOCK_SKEW_MS),
+            ms(1000),
+        )
+        .unwrap();
+        assert_eq!(s.fresh(lt, ms(1000)), Ok(1.0));
         assert_eq!(
-            s.record(lt, 2.0, 2000 + DEFAULT_CLOCK_SKEW_MS + 1, 2000)
-                .unwrap_err()
-                .code(),
+            s.record(
+                lt,
+                2.0,
+                ms(2001).saturating_add(DEFAULT_CLOCK_SKEW_MS),
+                ms(2000)
+            )
+            .unwrap_err()
+            .code(),
             "FUTURE_TIMESTAMP"
         );
-        assert_eq!(s.fresh(lt, 2000), Ok(1.0));
+        assert_eq!(s.fresh(lt, ms(2000)), Ok(1.0));
     }
 
     #[test]
@@ -434,10 +447,10 @@ mod tests {
         let mut doc = serde_json::to_value(plant()).unwrap();
         doc["clockSkewMs"] = json!(0);
         let mut s = SensorStore::new(&serde_json::from_value(doc).unwrap());
-        assert_eq!(s.clock_skew_ms(), 0);
+        assert_eq!(s.clock_skew_ms(), ms(0));
         let ft = s.sensor("FT-2").unwrap();
-        s.record(ft, 1.0, 500, 500).unwrap();
-        assert!(s.record(ft, 1.0, 502, 501).is_err());
+        s.record(ft, 1.0, ms(500), ms(500)).unwrap();
+        assert!(s.record(ft, 1.0, ms(502), ms(501)).is_err());
     }
 
     #[test]
@@ -445,11 +458,11 @@ mod tests {
         let mut s = SensorStore::new(&plant());
         let ft = s.sensor("FT-2").unwrap();
         let hour = 3_600_000;
-        s.record(ft, 1.0, 2 * hour, 2 * hour).unwrap();
+        s.record(ft, 1.0, ms(2 * hour), ms(2 * hour)).unwrap();
         for k in 1..=5 {
             let now = 2 * hour + k * 1000;
-            s.record(ft, k as f64, now - hour, now).unwrap();
-            assert_eq!(s.fresh(ft, now), Ok(k as f64));
+            s.record(ft, k as f64, ms(now - hour), ms(now)).unwrap();
+            assert_eq!(s.fresh(ft, ms(now)), Ok(k as f64));
         }
     }
 
@@ -465,13 +478,13 @@ mod tests {
     fn a_sensor_its_device_reports_without_a_reading_fails_until_its_next_value() {
         let mut store = SensorStore::new(&plant());
         let lt = store.sensor("LT-2").unwrap();
-        store.record(lt, 10.0, 0, 0).unwrap();
-        store.record_unavailable(lt, 100).unwrap();
-        let err = store.fresh(lt, 200).unwrap_err();
+        store.record(lt, 10.0, ms(0), ms(0)).unwrap();
+        store.record_unavailable(lt, ms(100)).unwrap();
+        let err = store.fresh(lt, ms(200)).unwrap_err();
         assert_eq!(err.code(), "SENSOR_UNAVAILABLE");
         assert!(err.to_string().contains("nan"), "{err}");
-        store.record(lt, 12.0, 300, 300).unwrap();
-        assert_eq!(store.fresh(lt, 400), Ok(12.0));
+        store.record(lt, 12.0, ms(300), ms(300)).unwrap();
+        assert_eq!(store.fresh(lt, ms(400)), Ok(12.0));
     }
 
     #[test]
@@ -490,17 +503,23 @@ mod tests {
             ]
         }))
         .unwrap();
-        let limits: Vec<u64> = plant
+        let limits: Vec<Millis> = plant
             .sensors
             .iter()
             .map(|s| plant.sensor_stale_ms(s))
             .collect();
         // Five missed updates; ESPHome's default update_interval is 60 s; staleMs wins.
-        assert_eq!(limits, vec![50_000, 300_000, DEFAULT_STALE_MS, 3000]);
+        assert_eq!(
+            limits,
+            vec![ms(50_000), ms(300_000), DEFAULT_STALE_MS, ms(3000)]
+        );
         let mut store = SensorStore::new(&plant);
         let a = store.sensor("A").unwrap();
-        store.record(a, 1.0, 0, 0).unwrap();
-        assert_eq!(store.fresh(a, 49_999), Ok(1.0));
-        assert_eq!(store.fresh(a, 50_000).unwrap_err().code(), "SENSOR_STALE");
+        store.record(a, 1.0, ms(0), ms(0)).unwrap();
+        assert_eq!(store.fresh(a, ms(49_999)), Ok(1.0));
+        assert_eq!(
+            store.fresh(a, ms(50_000)).unwrap_err().code(),
+            "SENSOR_STALE"
+        );
     }
 }

@@ -7,6 +7,7 @@ use proptest::prelude::*;
 use serde_json::json;
 use sugarshack_core::actuator::{ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Tracker};
 use sugarshack_core::plant::PlantModel;
+use sugarshack_core::time::ms;
 
 const TOLERANCE: f64 = 2.0;
 const NO_MOTION_MS: u64 = 1000;
@@ -435,7 +436,7 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 ..
             } => Some(Seen::Moving {
                 caller,
-                after: issue_to_motion_ms,
+                after: issue_to_motion_ms.as_u64(),
             }),
             Effect::Completed {
                 caller,
@@ -445,8 +446,8 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 ..
             } => Some(Seen::Completed {
                 caller,
-                motion: issue_to_motion_ms,
-                completion: completion_ms,
+                motion: issue_to_motion_ms.as_u64(),
+                completion: completion_ms.as_u64(),
                 retries,
             }),
             Effect::GroupCompleted {
@@ -454,7 +455,7 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 completion_ms,
             } => Some(Seen::GroupCompleted {
                 caller,
-                after: completion_ms,
+                after: completion_ms.as_u64(),
             }),
             Effect::GroupFailed { caller, fault, .. } => Some(Seen::GroupFailed { caller, fault }),
             Effect::Retry {
@@ -473,7 +474,7 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
             Effect::LockoutConfirmed {
                 after_ms, sends, ..
             } => Some(Seen::LockoutConfirmed {
-                after: after_ms,
+                after: after_ms.as_u64(),
                 sends,
             }),
             Effect::LockoutResent { attempt, .. } => Some(Seen::LockoutResent { attempt }),
@@ -488,7 +489,7 @@ proptest! {
     #[test]
     fn one_valve_follows_the_reference_model(steps in prop::collection::vec((gap(), step()), 1..80), on_change in any::<bool>()) {
         let reports = if on_change { "on-change" } else { "periodic" };
-        let mut tracker = Tracker::new(plant_reporting(1, 1, reports), 0).unwrap();
+        let mut tracker = Tracker::new(plant_reporting(1, 1, reports), ms(0)).unwrap();
         let valve = tracker.actuator("V11").unwrap();
         let device = tracker.device("ctrl-1").unwrap();
         let mut model = Model::new(on_change);
@@ -502,23 +503,23 @@ proptest! {
             let actual = match *step {
                 Step::Command(target) | Step::Lockout(target) => {
                     let lockout = matches!(step, Step::Lockout(_));
-                    match tracker.command(&[(valve, target)], caller, lockout, now) {
+                    match tracker.command(&[(valve, target)], caller, lockout, ms(now)) {
                         Ok(effects) => observe(effects),
                         Err(err) => vec![Seen::Refused(err.code().name())],
                     }
                 }
-                Step::Sample(v) => observe(tracker.feedback(valve, v, None, now).unwrap()),
-                Step::Tick => observe(tracker.tick(now)),
-                Step::Offline => observe(tracker.device_status(device, false, now).unwrap()),
-                Step::Online => observe(tracker.device_status(device, true, now).unwrap()),
-                Step::PathRestored => observe(tracker.path_restored(now)),
+                Step::Sample(v) => observe(tracker.feedback(valve, v, None, ms(now)).unwrap()),
+                Step::Tick => observe(tracker.tick(ms(now))),
+                Step::Offline => observe(tracker.device_status(device, false, ms(now)).unwrap()),
+                Step::Online => observe(tracker.device_status(device, true, ms(now)).unwrap()),
+                Step::PathRestored => observe(tracker.path_restored(ms(now))),
             };
             prop_assert_eq!(&actual, &expected, "{:?} at {}", step, now);
 
             let pending: Vec<(f64, u64, u32)> = tracker
                 .pending_lockouts()
                 .iter()
-                .map(|p| (p.target, p.since_ms, p.sends))
+                .map(|p| (p.target, p.since_ms.as_u64(), p.sends))
                 .collect();
             let modelled: Vec<(f64, u64, u32)> = model.order.iter().map(|o| (o.target, o.since, o.sends)).collect();
             prop_assert_eq!(&pending, &modelled, "pending lockouts after {:?} at {}", step, now);
@@ -555,26 +556,26 @@ proptest! {
              prop::option::of((1u32..=3, prop::sample::select(vec![0.0, 100.0])))),
             1..40),
     ) {
-        let mut single = Tracker::new(plant(3, 2), 0).unwrap();
+        let mut single = Tracker::new(plant(3, 2), ms(0)).unwrap();
         let mut batched = single.clone();
         let id = |t: &Tracker, d: u32, io: u32| t.slot(t.device(&format!("ctrl-{}", d + 1)).unwrap(), "valve", io).unwrap();
         let mut now = 0;
         for (caller, (device, samples, gap, command)) in reports.iter().enumerate() {
             now += gap;
             if let Some((io, target)) = command {
-                let a = single.command(&[(id(&single, *device, *io), *target)], caller as u64, false, now);
-                let b = batched.command(&[(id(&batched, *device, *io), *target)], caller as u64, false, now);
+                let a = single.command(&[(id(&single, *device, *io), *target)], caller as u64, false, ms(now));
+                let b = batched.command(&[(id(&batched, *device, *io), *target)], caller as u64, false, ms(now));
                 prop_assert_eq!(a, b);
             }
             let mut one_by_one = Vec::new();
             for &(io, value) in samples {
-                one_by_one.extend(single.feedback(id(&single, *device, io), value, Some(now), now).unwrap());
+                one_by_one.extend(single.feedback(id(&single, *device, io), value, Some(ms(now)), ms(now)).unwrap());
             }
             let batch: Vec<(ActuatorId, f64)> = samples.iter().map(|&(io, v)| (id(&batched, *device, io), v)).collect();
             let mut together = Vec::new();
-            prop_assert!(batched.feedback_batch(&batch, Some(now), now, &mut together).unwrap().is_empty());
+            prop_assert!(batched.feedback_batch(&batch, Some(ms(now)), ms(now), &mut together).unwrap().is_empty());
             prop_assert_eq!(&together, &one_by_one);
-            prop_assert_eq!(single.tick(now), batched.tick(now));
+            prop_assert_eq!(single.tick(ms(now)), batched.tick(ms(now)));
         }
     }
 
@@ -588,7 +589,7 @@ proptest! {
             (gap(), 0u32..7, prop::collection::vec((0u32..3, 1u32..=3), 1..4), prop::sample::select(vec![0.0, 2.5, 50.0, 100.0])),
             1..60),
     ) {
-        let mut t = Tracker::new(plant(3, 3), 0).unwrap();
+        let mut t = Tracker::new(plant(3, 3), ms(0)).unwrap();
         let devices: Vec<DeviceId> = (0..3).map(DeviceId::from_index).collect();
         let mut now = 0;
         for (caller, (gap, kind, members, value)) in steps.iter().enumerate() {
@@ -596,12 +597,12 @@ proptest! {
             let ids: Vec<ActuatorId> = members.iter().map(|&(d, io)| t.slot(devices[d as usize], "valve", io).unwrap()).collect();
             let targets: Vec<(ActuatorId, f64)> = ids.iter().map(|&id| (id, *value)).collect();
             match kind {
-                0 => drop(t.command(&targets, caller as u64, false, now)),
-                1 => drop(t.command(&targets, caller as u64, true, now)),
-                2 => drop(t.feedback(ids[0], *value, None, now)),
-                3 => drop(t.feedback_batch(&targets, None, now, &mut Vec::new())),
-                4 => drop(t.tick(now)),
-                5 => drop(t.device_status(devices[members[0].0 as usize], *value < 50.0, now)),
+                0 => drop(t.command(&targets, caller as u64, false, ms(now))),
+                1 => drop(t.command(&targets, caller as u64, true, ms(now))),
+                2 => drop(t.feedback(ids[0], *value, None, ms(now))),
+                3 => drop(t.feedback_batch(&targets, None, ms(now), &mut Vec::new())),
+                4 => drop(t.tick(ms(now))),
+                5 => drop(t.device_status(devices[members[0].0 as usize], *value < 50.0, ms(now))),
                 _ => drop(t.withdraw(caller.saturating_sub(members.len()) as u64)),
             }
             let fresh = |on: &[DeviceId]| {

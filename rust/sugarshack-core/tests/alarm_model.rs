@@ -4,6 +4,7 @@
 //! and shelves record who and when; snapshots restore the same alarms.
 
 use std::collections::BTreeMap;
+use sugarshack_core::time::ms;
 
 use proptest::prelude::*;
 use sugarshack_core::alarm::{alarm_id, AlarmKind, AlarmState, Alarms, Condition, BUS_ON_DELAY_MS};
@@ -104,22 +105,22 @@ proptest! {
         let mut model = Model::default();
         for (t, step) in steps.into_iter().enumerate() {
             // Steps far enough apart for an on-delay to run out now and then.
-            let now = t as u64 * (BUS_ON_DELAY_MS / 4);
+            let now = t as u64 * (BUS_ON_DELAY_MS.as_u64() / 4);
             match step {
                 Step::Observe(bits) => {
                     let conditions: Vec<Condition> = (0..SUBJECTS.len()).filter(|i| bits & (1 << i) != 0).map(|i| Condition {
                         kind: SUBJECTS[i].0, subject: SUBJECTS[i].1.into(), text: format!("{} {}", SUBJECTS[i].0.name(), t), since_ms: None,
                     }).collect();
-                    alarms.observe(&conditions, now).unwrap();
+                    alarms.observe(&conditions, ms(now)).unwrap();
                     model.tidy(now);
                     for (i, (kind, _)) in SUBJECTS.iter().enumerate() {
                         let mut holds = bits & (1 << i) != 0;
                         let delay = kind.on_delay_ms();
                         if !holds {
                             model.waiting.remove(&i);
-                        } else if delay > 0 && !model.alarms.contains_key(&i) {
+                        } else if delay > ms(0) && !model.alarms.contains_key(&i) {
                             let first = *model.waiting.entry(i).or_insert(now);
-                            holds = now - first >= delay;
+                            holds = now - first >= delay.as_u64();
                             if holds {
                                 model.waiting.remove(&i);
                             }
@@ -137,7 +138,7 @@ proptest! {
                     let who = Attribution::new(Some(PEOPLE[person]), None, false);
                     let ids = alarm.map(|i| vec![id(i)]);
                     let listed_before = alarm.map(|i| model.alarms.contains_key(&i));
-                    let result = alarms.acknowledge(ids.as_deref(), &who, now);
+                    let result = alarms.acknowledge(ids.as_deref(), &who, ms(now));
                     if listed_before == Some(false) {
                         prop_assert_eq!(result.unwrap_err().code(), "UNKNOWN_ALARM");
                         continue;
@@ -154,7 +155,7 @@ proptest! {
                 }
                 Step::Shelve { alarm, for_ms, person } => {
                     let who = Attribution::new(Some(PEOPLE[person]), None, false);
-                    let result = alarms.shelve(&id(alarm), now + for_ms, &who, now);
+                    let result = alarms.shelve(&id(alarm), ms(now + for_ms), &who, ms(now));
                     if !model.alarms.contains_key(&alarm) {
                         prop_assert_eq!(result.unwrap_err().code(), "UNKNOWN_ALARM");
                         continue;
@@ -165,14 +166,14 @@ proptest! {
                             result.unwrap();
                             e.shelf_until = Some(now + for_ms);
                             let shelf = alarms.get(&id(alarm)).unwrap().shelved.clone().unwrap();
-                            prop_assert_eq!((shelf.by.as_str(), shelf.at_ms), (PEOPLE[person], now));
+                            prop_assert_eq!((shelf.by.as_str(), shelf.at_ms), (PEOPLE[person], ms(now)));
                         }
                         None => prop_assert!(result.is_err()),
                     }
                 }
                 Step::Unshelve { alarm, person } => {
                     let who = Attribution::new(Some(PEOPLE[person]), None, false);
-                    let result = alarms.unshelve(&id(alarm), &who, now);
+                    let result = alarms.unshelve(&id(alarm), &who, ms(now));
                     if !model.alarms.contains_key(&alarm) {
                         prop_assert_eq!(result.unwrap_err().code(), "UNKNOWN_ALARM");
                         continue;
@@ -192,7 +193,7 @@ proptest! {
             }
             // The alarms as listed are the model's, state, shelf and acknowledgement alike.
             let listed: Vec<Seen> = alarms.list()
-                .map(|a| (a.id.clone(), a.state, a.shelved.as_ref().map(|s| s.until_ms), a.acked.as_ref().map(|s| (s.by.clone(), s.at_ms))))
+                .map(|a| (a.id.clone(), a.state, a.shelved.as_ref().map(|s| s.until_ms.as_u64()), a.acked.as_ref().map(|s| (s.by.clone(), s.at_ms.as_u64()))))
                 .collect();
             let mut expected: Vec<Seen> = model.alarms.iter()
                 .map(|(i, e)| (id(*i), Model::state(e), e.shelf_until, e.acked_by.clone()))

@@ -9,6 +9,7 @@ use sugarshack_core::actuator::{ActuatorId, DeviceId, Tracker};
 use sugarshack_core::clearance::{Attribution, ClearBlocker};
 use sugarshack_core::interlock::{EventKind, Interlock, InterlockError};
 use sugarshack_core::plant::PlantModel;
+use sugarshack_core::time::ms;
 
 /// YEL: V1, V2 on ctrl-1. GRN: V3 on ctrl-2 and V4 on ctrl-1 (a device shared by two lines).
 const MEMBERS: [(&str, &str, usize); 4] = [
@@ -101,7 +102,7 @@ proptest! {
 
     #[test]
     fn no_clear_while_a_member_is_off_its_lockout_state_unless_forced(steps in prop::collection::vec(step(), 1..60)) {
-        let mut tracker = Tracker::new(plant(), 0).unwrap();
+        let mut tracker = Tracker::new(plant(), ms(0)).unwrap();
         let mut lock = Interlock::new(tracker.plant().interlock_config()).unwrap();
         let ids: Vec<ActuatorId> = MEMBERS.iter().map(|m| tracker.actuator(m.0).unwrap()).collect();
         let mut model = Model { seen: [Seen::default(); MEMBERS.len()], online: [true; 2], faulted: [false; 2] };
@@ -109,7 +110,7 @@ proptest! {
             let now = t as u64 * 10;
             match step {
                 Step::Feedback { actuator, value } => {
-                    tracker.feedback(ids[actuator], value, None, now).unwrap();
+                    tracker.feedback(ids[actuator], value, None, ms(now)).unwrap();
                     let seen = &mut model.seen[actuator];
                     seen.value = Some(value);
                     if model.online[MEMBERS[actuator].2] && Model::at_lockout(Some(value)) {
@@ -117,15 +118,15 @@ proptest! {
                     }
                 }
                 Step::Device { device, online } => {
-                    tracker.device_status(DeviceId::from_index(device as u32), online, now).unwrap();
+                    tracker.device_status(DeviceId::from_index(device as u32), online, ms(now)).unwrap();
                     model.online[device] = online;
                 }
                 Step::EStop { line } => {
                     let set = lock.resource_set(&[LINES[line]]).unwrap();
-                    let outcome = lock.fault_resources_by(&set, Some("e-stop"), &Attribution::new(Some("ana"), None, false), now).unwrap();
+                    let outcome = lock.fault_resources_by(&set, Some("e-stop"), &Attribution::new(Some("ana"), None, false), ms(now)).unwrap();
                     for lockout in outcome.lockouts {
                         let targets = tracker.parse_group(&lockout.command).unwrap();
-                        tracker.command(&targets, t as u64 + 1, true, now).unwrap();
+                        tracker.command(&targets, t as u64 + 1, true, ms(now)).unwrap();
                     }
                     model.faulted[line] = true;
                     for (i, m) in MEMBERS.iter().enumerate() {
@@ -138,7 +139,7 @@ proptest! {
                 Step::Clear { line, forced } => {
                     let set = lock.resource_set(&[LINES[line]]).unwrap();
                     let by = Attribution::new(Some("ana"), Some("checked on site"), forced);
-                    let result = lock.clear_checked(&set, &by, |l| tracker.clear_blockers(l), now);
+                    let result = lock.clear_checked(&set, &by, |l| tracker.clear_blockers(l), ms(now));
                     let isolated = model.isolated(line);
                     match result {
                         Ok(_) => {
@@ -170,23 +171,23 @@ proptest! {
 
 #[test]
 fn a_refusal_lists_every_reason_of_every_line() {
-    let mut tracker = Tracker::new(plant(), 0).unwrap();
+    let mut tracker = Tracker::new(plant(), ms(0)).unwrap();
     let mut lock = Interlock::new(tracker.plant().interlock_config()).unwrap();
     let both = lock.resource_set(&LINES).unwrap();
-    lock.fault_resources(&both, None, 0).unwrap();
+    lock.fault_resources(&both, None, ms(0)).unwrap();
     let v1 = tracker.actuator("V1").unwrap();
     let v3 = tracker.actuator("V3").unwrap();
-    tracker.feedback(v1, 40.0, None, 1).unwrap();
-    tracker.feedback(v3, 0.0, None, 1).unwrap();
+    tracker.feedback(v1, 40.0, None, ms(1)).unwrap();
+    tracker.feedback(v3, 0.0, None, ms(1)).unwrap();
     tracker
-        .device_status(DeviceId::from_index(1), false, 2)
+        .device_status(DeviceId::from_index(1), false, ms(2))
         .unwrap();
     let err = lock
         .clear_checked(
             &both,
             &Attribution::unknown(),
             |l| tracker.clear_blockers(l),
-            3,
+            ms(3),
         )
         .unwrap_err();
     let InterlockError::ClearRefused { lines } = &err else {
@@ -223,7 +224,7 @@ fn a_refusal_lists_every_reason_of_every_line() {
     // Refused whole: both lines still faulted.
     assert_eq!(lock.faulted_resources().len(), 2);
     let forced = Attribution::new(Some("ana"), Some("valves checked by hand"), true);
-    lock.clear_checked(&both, &forced, |l| tracker.clear_blockers(l), 4)
+    lock.clear_checked(&both, &forced, |l| tracker.clear_blockers(l), ms(4))
         .unwrap();
     let events = lock.drain_events();
     let record = lock.describe(events.last().unwrap());
@@ -237,7 +238,7 @@ fn a_refusal_lists_every_reason_of_every_line() {
 
 #[test]
 fn clearing_a_line_that_is_not_faulted_names_the_line() {
-    let tracker = Tracker::new(plant(), 0).unwrap();
+    let tracker = Tracker::new(plant(), ms(0)).unwrap();
     let mut lock = Interlock::new(tracker.plant().interlock_config()).unwrap();
     let yel = lock.resource_set(&["YEL"]).unwrap();
     let err = lock
@@ -245,7 +246,7 @@ fn clearing_a_line_that_is_not_faulted_names_the_line() {
             &yel,
             &Attribution::unknown(),
             |l| tracker.clear_blockers(l),
-            0,
+            ms(0),
         )
         .unwrap_err();
     assert_eq!(

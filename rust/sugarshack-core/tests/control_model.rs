@@ -5,14 +5,21 @@
 
 use proptest::prelude::*;
 use sugarshack_core::control::delay::DelayEstimator;
+use sugarshack_core::control::error::positive_duration;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn, StepMode};
 use sugarshack_core::control::pid_loop::PidLoopConfig;
+use sugarshack_core::control::rcc::{thresholds_from_ms, IoModule, RccConfig, RccController};
 use sugarshack_core::control::rcc::{Decision, IoState};
-use sugarshack_core::control::rcc::{IoModule, RccConfig, RccController};
 use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig, SmithPredictor};
 use sugarshack_core::control::station::{
     Change, Limits, Mode, Sample, Saved, Stale, Station, StationConfig, Tunings,
 };
+use sugarshack_core::time::Millis;
+
+/// A test's time in ms, known valid.
+fn millis(value: f64) -> Millis {
+    Millis::new(value).expect("a valid time")
+}
 
 fn pid_config(
     kp: f64,
@@ -157,16 +164,16 @@ proptest! {
     ) {
         let mut e = DelayEstimator::new(alpha, h).unwrap();
         for d in &before {
-            e.observe(*d).unwrap();
+            e.observe(millis(*d)).unwrap();
         }
-        let gap = (e.mean_ms().unwrap() - delay).abs();
+        let gap = (e.mean().unwrap().as_f64() - delay).abs();
         for n in 1..=2000 {
-            e.observe(delay).unwrap();
+            e.observe(millis(delay)).unwrap();
             let bound = (1.0 - alpha).powi(n) * gap + 1e-6;
-            prop_assert!((e.mean_ms().unwrap() - delay).abs() <= bound);
+            prop_assert!((e.mean().unwrap().as_f64() - delay).abs() <= bound);
         }
-        prop_assert!(e.std_ms().unwrap() < 1e-3 * (1.0 + delay));
-        let settled = e.dead_time_samples(ts_ms).unwrap() as f64;
+        prop_assert!(e.std().unwrap().as_f64() < 1e-3 * (1.0 + delay));
+        let settled = e.dead_time_samples(millis(ts_ms)).unwrap() as f64;
         let exact = delay / ts_ms;
         prop_assert!(settled == exact.floor() || (settled - exact).abs() < 1e-3, "{settled} vs {exact}");
     }
@@ -228,7 +235,7 @@ proptest! {
         let mut jitter = move || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng % JITTER_MS };
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut controllers: Vec<_> = (1..=3)
-            .map(|id| RccController::new(RccConfig { id, thresholds_ms: THRESHOLDS.to_vec(), ts_ms: TS_MS as f64, smooth_handover: true, poll_timeout_ms: None }).unwrap())
+            .map(|id| RccController::new(RccConfig { id, thresholds: THRESHOLDS.iter().map(|&t| millis(t)).collect(), ts: millis(TS_MS as f64), smooth_handover: true, poll_timeout: None }).unwrap())
             .collect();
         let mut pids: Vec<_> = (0..3).map(|_| Pid::new(pid_config(KP, TI_S, 0.0, 0.0, 2.0, false)).unwrap()).collect();
         let mut next_poll: Vec<u64> = phases.to_vec();
@@ -251,7 +258,7 @@ proptest! {
                 }
                 next_poll[index] = t + TS_MS + jitter();
                 let dt_s = last_poll[index].map_or(TS_MS as f64 / 1000.0, |(at, _)| (t - at) as f64 / 1000.0);
-                let state = io.state(t as f64);
+                let state = io.state(millis(t as f64));
                 let scan = controllers[index].scan(&mut pids[index], &state, 1.0, Some(y), dt_s).unwrap();
                 if let Some(action) = scan.write {
                     let expected_writer = (0..3).find(|&i| alive(&schedule[i], t)).unwrap();
@@ -266,7 +273,7 @@ proptest! {
                                 "t={t}: C{} took over with {action} after {}", index + 1, state.last_action);
                         }
                     }
-                    io.write(index + 1, action, t as f64).unwrap();
+                    io.write(index + 1, action, millis(t as f64)).unwrap();
                     (last_writer, last_write_at) = (Some(index), t);
                 }
                 last_poll[index] = Some((t, y));
@@ -365,7 +372,7 @@ fn station_config(values: [f64; 10], smith: Option<u8>, on_measurement: bool) ->
             }),
         },
         ts_s,
-        stale_ms: 50.0,
+        stale: millis(50.0),
         setpoint,
         mode: Mode::Auto,
         manual: None,
@@ -408,21 +415,22 @@ proptest! {
             match op {
                 AnyOp::Measure { measurement, sample_ms, now_ms, track, rcc } => {
                     let decision = rcc.map(|(engaged, first_cycle, track)| Decision { engaged, first_cycle, track });
-                    if let Ok(outcome) = station.measure(Sample { measurement, sample_ms, now_ms, track, decision }) {
+                    // Times that are not times are refused before they reach the station.
+                    let (Some(sampled), Some(now)) = (Millis::new(sample_ms), Millis::new(now_ms)) else { continue };
+                    if let Ok(outcome) = station.measure(Sample { measurement, sampled, now, track, decision }) {
                         let c = station.pid_loop().pid().config();
                         prop_assert!(outcome.pid.output >= c.out_min && outcome.pid.output <= c.out_max);
                         prop_assert!([outcome.pid.p, outcome.pid.i, outcome.pid.d, outcome.pid.dt_s].iter().all(|v| v.is_finite()));
                     }
                 }
                 AnyOp::Tick(now) => {
+                    let Some(now) = Millis::new(now) else { continue };
                     if let Ok(Some(Stale::Fallback { pid })) = station.tick(now) {
                         prop_assert!(pid.output.is_finite());
                     }
                     // a tick at the due time never leaves one due at once again
-                    if let Some(due) = station.next_tick_ms() {
-                        if now.is_finite() && due.is_finite() {
-                            prop_assert!(due > now || station.tick(now).is_ok());
-                        }
+                    if let Some(due) = station.next_tick() {
+                        prop_assert!(due > now || station.tick(now).is_ok());
                     }
                 }
                 AnyOp::Change { setpoint, manual, kp, ti_s, td_s, min, max } => {
@@ -434,7 +442,11 @@ proptest! {
                 AnyOp::Restore { integral, setpoint, manual } => {
                     let _ = station.restore(Saved { integral, setpoint, mode: None, manual });
                 }
-                AnyOp::RoundTrip(ms) => { let _ = station.observe_round_trip(ms); }
+                AnyOp::RoundTrip(ms) => {
+                    if let Ok(round_trip) = DelayEstimator::round_trip(ms) {
+                        let _ = station.observe_round_trip(round_trip);
+                    }
+                }
             }
             assert_sound(&station)?;
         }
@@ -461,15 +473,21 @@ proptest! {
                 2 => { let _ = pid.set_limits(a, b); }
                 3 => { let _ = pid.set_integral(a); }
                 4 => { let _ = smith.advance(a, b); let _ = smith.feedback(c); }
-                5 => { let _ = smith.observe_round_trip(a); let _ = smith.dead_time_samples(); }
-                6 => { let _ = estimator.observe(a); let _ = estimator.dead_time_samples(b); }
+                5 => {
+                    if let Some(round_trip) = Millis::new(a) { let _ = smith.observe_round_trip(round_trip); }
+                    let _ = smith.dead_time_samples();
+                }
+                6 => {
+                    if let Some(round_trip) = Millis::new(a) { let _ = estimator.observe(round_trip); }
+                    if let Some(ts) = Millis::new(b) { let _ = estimator.dead_time_samples(ts); }
+                }
                 _ => { let _ = DelayEstimator::new(a, b); pid.restart(); }
             }
             let c = pid.config();
             prop_assert!(pid.integral().is_finite());
             prop_assert!(pid.last_output().is_none_or(|o| o.is_finite() && o >= c.out_min && o <= c.out_max));
             prop_assert!(smith.model_output().is_finite());
-            prop_assert!(estimator.mean_ms().is_none_or(f64::is_finite) && estimator.std_ms().is_none_or(f64::is_finite));
+            prop_assert!(estimator.mean().is_some() == estimator.std().is_some());
         }
     }
 
@@ -481,22 +499,27 @@ proptest! {
         id in 0usize..5,
         calls in prop::collection::vec((0u8..4, any_f64(), prop::collection::vec(prop::option::of(any_f64()), 0..4)), 1..30),
     ) {
-        let config = RccConfig { id, thresholds_ms: thresholds, ts_ms, smooth_handover: true, poll_timeout_ms: timeout };
-        let rcc = RccController::new(config);
+        // Numbers become Millis where the facade turns them into a config.
+        let rcc = thresholds_from_ms(&thresholds, ts_ms).and_then(|(thresholds, ts)| {
+            let poll_timeout = timeout.map(|t| positive_duration(t, "poll timeout")).transpose()?;
+            RccController::new(RccConfig { id, thresholds, ts, smooth_handover: true, poll_timeout })
+        });
         let mut io = IoModule::new(3, 0.0).unwrap();
         let mut pid = Pid::new(pid_config(1.0, 2.0, 0.5, 0.0, 10.0, false)).unwrap();
         if let Ok(mut rcc) = rcc {
             for (call, x, ages) in calls {
-                let state = IoState { last_action: x, ages_ms: ages };
-                match call {
-                    0 => { let _ = rcc.decide_at(&state, x); }
-                    1 => { let _ = rcc.tick(x); let _ = rcc.watch_from(x); }
-                    2 => { let _ = rcc.scan(&mut pid, &state, x, Some(x), x); }
-                    _ => { let _ = io.write(id, x, x); let _ = io.state(x); }
+                let state = IoState { last_action: x, ages: ages.into_iter().map(|a| a.and_then(Millis::new)).collect() };
+                // A time that is not one is refused before it reaches RCC.
+                let now = Millis::new(x);
+                match (call, now) {
+                    (0, Some(now)) => { let _ = rcc.decide_at(&state, now); }
+                    (1, Some(now)) => { let _ = rcc.tick(now); let _ = rcc.watch_from(now); }
+                    (2, _) => { let _ = rcc.scan(&mut pid, &state, x, Some(x), x); }
+                    (_, Some(now)) => { let _ = io.write(id, x, now); let _ = io.state(now); }
+                    (_, None) => prop_assert!(sugarshack_core::control::error::time(x, "time (ms)").is_err()),
                 }
                 prop_assert!(io.last_action().is_finite());
                 prop_assert!(pid.integral().is_finite());
-                prop_assert!(rcc.next_tick_ms().is_none_or(f64::is_finite));
             }
         }
     }

@@ -4,6 +4,7 @@
 //! and single mutations of a valid snapshot, which restore must refuse.
 
 use std::collections::BTreeSet;
+use sugarshack_core::time::ms;
 
 use proptest::prelude::*;
 use sugarshack_core::interlock::{
@@ -358,8 +359,8 @@ fn config(policy: Policy) -> InterlockConfig {
     let mut config = InterlockConfig::with_resources(RESOURCES);
     config.policy = policy;
     config.queue_bound = QUEUE_BOUND;
-    config.warn_queued_ms = Some(WARN_QUEUED_MS);
-    config.warn_held_ms = Some(WARN_HELD_MS);
+    config.warn_queued_ms = Some(ms(WARN_QUEUED_MS));
+    config.warn_held_ms = Some(ms(WARN_HELD_MS));
     config
 }
 
@@ -384,28 +385,28 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
         Call::Acquire { op: i, mask } => {
             let id = op(lock, i);
             let set = set(lock, mask);
-            match lock.acquire(id, priorities[i], &set, now) {
+            match lock.acquire(id, priorities[i], &set, ms(now)) {
                 Ok(a) => Outcome::Acquired(a == Acquisition::Granted),
                 Err(e) => refused(e),
             }
         }
         Call::Release { op: i } => {
             let id = op(lock, i);
-            match lock.release(id, now) {
+            match lock.release(id, ms(now)) {
                 Ok(g) => Outcome::Grants(grant_names(lock, &g)),
                 Err(e) => refused(e),
             }
         }
         Call::Cancel { op: i } => {
             let id = op(lock, i);
-            match lock.cancel(id, now) {
+            match lock.cancel(id, ms(now)) {
                 Ok(g) => Outcome::Grants(grant_names(lock, &g)),
                 Err(e) => refused(e),
             }
         }
         Call::Fault { op: i } => {
             let id = op(lock, i);
-            match lock.fault(id, Some("test"), now) {
+            match lock.fault(id, Some("test"), ms(now)) {
                 Ok(f) => Outcome::Faulted {
                     lockouts: f
                         .lockouts
@@ -420,7 +421,7 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
         }
         Call::FaultResources { mask } => {
             let set = set(lock, mask);
-            let f = lock.fault_resources(&set, None, now).unwrap();
+            let f = lock.fault_resources(&set, None, ms(now)).unwrap();
             Outcome::Faulted {
                 lockouts: f
                     .lockouts
@@ -433,14 +434,14 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
         }
         Call::Clear { mask } => {
             let set = set(lock, mask);
-            match lock.clear(&set, now) {
+            match lock.clear(&set, ms(now)) {
                 Ok(g) => Outcome::Grants(grant_names(lock, &g)),
                 Err(e) => refused(e),
             }
         }
         Call::Tick => Outcome::Warnings({
             let mut warnings: Vec<_> = lock
-                .tick(now)
+                .tick(ms(now))
                 .iter()
                 .map(|w| {
                     let kind = match w.kind() {
@@ -461,16 +462,16 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
                 keep_queue,
                 keep_holds,
             };
-            let before = lock.snapshot(now);
+            let before = lock.snapshot(ms(now));
             let json = serde_json::to_value(&before).unwrap();
             let parsed: Snapshot = serde_json::from_value(json).unwrap();
             let (mut restored, grants) =
-                Interlock::restore(lock.config().clone(), &parsed, options, now).unwrap();
+                Interlock::restore(lock.config().clone(), &parsed, options, ms(now)).unwrap();
             assert!(
                 grants.is_empty(),
                 "same configuration: nothing becomes grantable on restore"
             );
-            assert_round_trip(&before, &restored.snapshot(now), options);
+            assert_round_trip(&before, &restored.snapshot(ms(now)), options);
             // Same configuration: no line added or dropped, only the holds and
             // waiters the options let go are reported.
             let mut interrupted = 0;
@@ -528,7 +529,7 @@ fn assert_round_trip(before: &Snapshot, after: &Snapshot, options: RestoreOption
 
 /// The system's state in model terms.
 fn observed_owners(lock: &Interlock) -> Vec<Owner> {
-    lock.snapshot(0)
+    lock.snapshot(ms(0))
         .resources
         .iter()
         .map(|r| match &r.state {
@@ -548,7 +549,7 @@ fn check_invariants(
     call: &Call,
     outcome: &Outcome,
 ) {
-    let snapshot = lock.snapshot(0);
+    let snapshot = lock.snapshot(ms(0));
     // No resource has two owners: holds are disjoint and match ownership.
     let mut taken = BTreeSet::new();
     for hold in &snapshot.holds {
@@ -782,8 +783,8 @@ fn mutate(snapshot: &mut Snapshot, mutation: &Mutation) {
                 operation,
                 priority: 0,
                 resources: vec![RESOURCES[line % RESOURCES.len()].to_owned()],
-                since_ms: 0,
-                waited_ms: 0,
+                since_ms: ms(0),
+                waited_ms: ms(0),
             });
         }
         Mutation::DropHold(hold) if !snapshot.holds.is_empty() => {
@@ -823,22 +824,22 @@ proptest! {
         // End on acquisitions, so most snapshots have holds to mutate.
         let faulted = lock.faulted_resources();
         if clear_faults && !faulted.is_empty() {
-            lock.clear(&faulted, now).unwrap();
+            lock.clear(&faulted, ms(now)).unwrap();
         }
         for &(op, mask) in &tail {
             apply(&mut lock, &priorities, &Call::Acquire { op, mask }, now);
         }
-        let mut snapshot = lock.snapshot(now);
+        let mut snapshot = lock.snapshot(ms(now));
         mutate(&mut snapshot, &mutation);
         // What a store would hand back.
         let json = serde_json::to_value(&snapshot).unwrap();
         let parsed: Snapshot = serde_json::from_value(json).unwrap();
         for (keep_queue, keep_holds) in [(false, false), (true, false), (false, true), (true, true)] {
             let options = RestoreOptions { keep_queue, keep_holds };
-            match Interlock::restore(lock.config().clone(), &parsed, options, now + 1) {
+            match Interlock::restore(lock.config().clone(), &parsed, options, ms(now + 1)) {
                 Ok((restored, _)) => panic!(
                     "{mutation:?} restored as {:?}",
-                    restored.snapshot(now + 1).resources
+                    restored.snapshot(ms(now + 1)).resources
                 ),
                 Err(err) => prop_assert_eq!(err.code(), "INVALID_SNAPSHOT"),
             }

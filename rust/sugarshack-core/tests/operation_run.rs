@@ -6,6 +6,7 @@ use sugarshack_core::operation::{
     OperationPlan, OperationRun, Phase, PlanStep, RunEffect, Stage, StepKind, StepRecord,
 };
 use sugarshack_core::plant::{GroupCommand, Plant, PlantModel};
+use sugarshack_core::time::ms;
 
 /// A group command as a plant document writes it.
 fn group(written: serde_json::Value) -> GroupCommand {
@@ -25,20 +26,20 @@ fn plan() -> OperationPlan {
         steps: vec![
             PlanStep::Command {
                 command: group(json!({ "valves": { "V1": 100 } })),
-                timeout_ms: 9000,
+                timeout_ms: ms(9000),
             },
             PlanStep::Command {
                 command: group(json!({ "valves": { "V9": 100 } })),
-                timeout_ms: 9000,
+                timeout_ms: ms(9000),
             },
             PlanStep::Wait {
                 condition: "`LT-3` > 100".into(),
                 sensors: vec!["LT-3".into()],
-                timeout_ms: 60000,
+                timeout_ms: ms(60000),
             },
             PlanStep::ReturnToIdle {
                 command: group(json!({ "valve": { "V1": 0, "V9": 0 } })),
-                timeout_ms: 9000,
+                timeout_ms: ms(9000),
             },
         ],
     }
@@ -51,8 +52,8 @@ fn run() -> OperationRun {
 /// A run granted at `t = 1000` after a start at 0, running step 0.
 fn granted() -> OperationRun {
     let mut r = run();
-    r.start(0).unwrap();
-    r.granted(1000);
+    r.start(ms(0)).unwrap();
+    r.granted(ms(1000));
     r
 }
 
@@ -60,7 +61,7 @@ fn granted() -> OperationRun {
 fn at_step(index: usize) -> OperationRun {
     let mut r = granted();
     for i in 0..index {
-        assert_eq!(r.step_done(i, 2000 + 1000 * i as u64).len(), 1);
+        assert_eq!(r.step_done(i, ms(2000 + 1000 * i as u64)).len(), 1);
     }
     assert_eq!(r.step(), Some(index));
     r
@@ -87,7 +88,7 @@ fn start_requests_the_lines_at_the_operations_priority() {
     assert_eq!(r.phase(), Phase::New);
     assert_eq!(r.id(), "10");
     assert_eq!(
-        r.start(5).unwrap(),
+        r.start(ms(5)).unwrap(),
         vec![RunEffect::Acquire {
             operation: "10".into(),
             priority: 20,
@@ -101,15 +102,15 @@ fn start_requests_the_lines_at_the_operations_priority() {
 #[test]
 fn a_second_start_is_refused_in_every_phase() {
     let mut r = run();
-    r.start(0).unwrap();
-    let err = r.start(1).unwrap_err();
+    r.start(ms(0)).unwrap();
+    let err = r.start(ms(1)).unwrap_err();
     assert_eq!(err.code(), "ALREADY_STARTED");
     assert_eq!(
         err.to_string(),
         "this run of operation '10' was already started (it is queued); make a new run for each start"
     );
-    r.granted(2);
-    assert_eq!(r.start(3).unwrap_err().code(), "ALREADY_STARTED");
+    r.granted(ms(2));
+    assert_eq!(r.start(ms(3)).unwrap_err().code(), "ALREADY_STARTED");
     assert_eq!(r.phase(), Phase::Running);
     assert_eq!(r.step(), Some(0));
 }
@@ -117,9 +118,9 @@ fn a_second_start_is_refused_in_every_phase() {
 #[test]
 fn the_grant_starts_step_0_with_the_lines_as_within() {
     let mut r = run();
-    r.start(0).unwrap();
+    r.start(ms(0)).unwrap();
     assert_eq!(
-        r.granted(1000),
+        r.granted(ms(1000)),
         vec![RunEffect::StartStep {
             index: 0,
             step: plan().steps[0].clone(),
@@ -127,7 +128,7 @@ fn the_grant_starts_step_0_with_the_lines_as_within() {
         }]
     );
     assert_eq!((r.phase(), r.step()), (Phase::Running, Some(0)));
-    assert!(r.granted(1001).is_empty(), "a second grant is ignored");
+    assert!(r.granted(ms(1001)).is_empty(), "a second grant is ignored");
     assert_eq!(r.step(), Some(0));
 }
 
@@ -135,7 +136,7 @@ fn the_grant_starts_step_0_with_the_lines_as_within() {
 fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
     let mut r = at_step(1);
     assert_eq!(
-        r.step_done(1, 5000),
+        r.step_done(1, ms(5000)),
         vec![RunEffect::StartStep {
             index: 2,
             step: plan().steps[2].clone(),
@@ -143,7 +144,7 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
         }]
     );
     assert_eq!(
-        r.step_done(2, 6000),
+        r.step_done(2, ms(6000)),
         vec![RunEffect::StartStep {
             index: 3,
             step: plan().steps[3].clone(),
@@ -155,38 +156,38 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
 #[test]
 fn after_the_last_step_the_lines_are_released_and_the_run_finishes() {
     let mut r = granted();
-    r.step_done(0, 1500);
-    r.step_done(1, 4000);
-    r.step_done(2, 4000);
+    r.step_done(0, ms(1500));
+    r.step_done(1, ms(4000));
+    r.step_done(2, ms(4000));
     assert_eq!(
-        r.step_done(3, 7000),
+        r.step_done(3, ms(7000)),
         vec![RunEffect::Release {
             operation: "10".into()
         }]
     );
     assert_eq!((r.phase(), r.step()), (Phase::Releasing, None));
     assert_eq!(
-        r.released(7200),
+        r.released(ms(7200)),
         vec![RunEffect::Finished {
             id: "10".into(),
-            queued_ms: 1000,
-            run_ms: 6200,
+            queued_ms: ms(1000),
+            run_ms: ms(6200),
             steps: vec![
                 StepRecord {
                     kind: StepKind::Command,
-                    ms: 500
+                    ms: ms(500)
                 },
                 StepRecord {
                     kind: StepKind::Command,
-                    ms: 2500
+                    ms: ms(2500)
                 },
                 StepRecord {
                     kind: StepKind::Wait,
-                    ms: 0
+                    ms: ms(0)
                 },
                 StepRecord {
                     kind: StepKind::ReturnToIdle,
-                    ms: 3000
+                    ms: ms(3000)
                 },
             ],
         }]
@@ -201,19 +202,19 @@ fn a_plan_without_steps_releases_on_the_grant() {
         steps: Vec::new(),
         ..plan()
     });
-    r.start(10).unwrap();
+    r.start(ms(10)).unwrap();
     assert_eq!(
-        r.granted(20),
+        r.granted(ms(20)),
         vec![RunEffect::Release {
             operation: "10".into()
         }]
     );
     assert_eq!(
-        r.released(25),
+        r.released(ms(25)),
         vec![RunEffect::Finished {
             id: "10".into(),
-            queued_ms: 10,
-            run_ms: 5,
+            queued_ms: ms(10),
+            run_ms: ms(5),
             steps: Vec::new(),
         }]
     );
@@ -222,34 +223,34 @@ fn a_plan_without_steps_releases_on_the_grant() {
 #[test]
 fn late_duplicated_and_out_of_order_inputs_are_ignored() {
     let mut r = at_step(2);
-    assert!(r.step_done(1, 9000).is_empty(), "a late done of step 1");
+    assert!(r.step_done(1, ms(9000)).is_empty(), "a late done of step 1");
     assert!(
-        r.step_done(3, 9000).is_empty(),
+        r.step_done(3, ms(9000)).is_empty(),
         "a done of a step not started"
     );
-    assert!(r.step_done(usize::MAX, 9000).is_empty());
-    assert!(r.step_failed(0, "TIMEOUT", "late", 9000).is_empty());
-    assert!(r.step_failed(99, "TIMEOUT", "unknown", 9000).is_empty());
-    assert!(r.released(9000).is_empty(), "nothing was released");
-    assert!(r.release_failed("NOT_HOLDING", "x", 9000).is_empty());
-    assert!(r.fault_applied(lines(), 9000).is_empty());
+    assert!(r.step_done(usize::MAX, ms(9000)).is_empty());
+    assert!(r.step_failed(0, "TIMEOUT", "late", ms(9000)).is_empty());
+    assert!(r.step_failed(99, "TIMEOUT", "unknown", ms(9000)).is_empty());
+    assert!(r.released(ms(9000)).is_empty(), "nothing was released");
+    assert!(r.release_failed("NOT_HOLDING", "x", ms(9000)).is_empty());
+    assert!(r.fault_applied(lines(), ms(9000)).is_empty());
     assert!(r.refused("QUEUE_FULL", "x").is_empty());
-    assert!(r.withdrawn(9000).is_empty());
+    assert!(r.withdrawn(ms(9000)).is_empty());
     assert_eq!((r.phase(), r.step()), (Phase::Running, Some(2)));
     // The run goes on exactly as before.
-    assert_eq!(r.step_done(2, 9000).len(), 1);
+    assert_eq!(r.step_done(2, ms(9000)).len(), 1);
     assert_eq!(r.step(), Some(3));
 }
 
 #[test]
 fn inputs_before_the_start_are_ignored() {
     let mut r = run();
-    assert!(r.granted(0).is_empty());
+    assert!(r.granted(ms(0)).is_empty());
     assert!(r.refused("ALREADY_HOLDING", "x").is_empty());
-    assert!(r.abort("closed", 0).is_empty());
-    assert!(r.step_done(0, 0).is_empty());
+    assert!(r.abort("closed", ms(0)).is_empty());
+    assert!(r.step_done(0, ms(0)).is_empty());
     assert_eq!(r.phase(), Phase::New);
-    assert_eq!(r.start(0).unwrap().len(), 1);
+    assert_eq!(r.start(ms(0)).unwrap().len(), 1);
 }
 
 #[test]
@@ -257,16 +258,16 @@ fn a_failed_step_faults_the_operation_then_reports_the_lines_locked_out() {
     let mut r = at_step(2);
     let cause = "condition `LT-3` > 100 did not hold within 60 s";
     assert_eq!(
-        r.step_failed(2, "CONDITION_TIMEOUT", cause, 70000),
+        r.step_failed(2, "CONDITION_TIMEOUT", cause, ms(70000)),
         vec![RunEffect::Fault {
             operation: "10".into(),
             note: format!("step 3 (wait): {cause}"),
         }]
     );
     assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
-    assert!(r.step_done(2, 70001).is_empty(), "the step's late done");
-    assert!(r.abort("closed", 70001).is_empty(), "already faulting");
-    let effects = r.fault_applied(lines(), 70002);
+    assert!(r.step_done(2, ms(70001)).is_empty(), "the step's late done");
+    assert!(r.abort("closed", ms(70001)).is_empty(), "already faulting");
+    let effects = r.fault_applied(lines(), ms(70002));
     assert_eq!(
         failed(&effects),
         (
@@ -279,7 +280,10 @@ fn a_failed_step_faults_the_operation_then_reports_the_lines_locked_out() {
         )
     );
     assert_eq!(r.phase(), Phase::Faulted);
-    assert!(r.fault_applied(lines(), 70003).is_empty(), "reported once");
+    assert!(
+        r.fault_applied(lines(), ms(70003)).is_empty(),
+        "reported once"
+    );
 }
 
 #[test]
@@ -287,7 +291,7 @@ fn each_step_kind_is_named_in_the_note() {
     let notes: Vec<String> = (0..4)
         .map(|i| {
             let mut r = at_step(i);
-            match r.step_failed(i, "E", "m", 0).as_slice() {
+            match r.step_failed(i, "E", "m", ms(0)).as_slice() {
                 [RunEffect::Fault { note, .. }] => note.clone(),
                 other => panic!("{other:?}"),
             }
@@ -307,8 +311,8 @@ fn each_step_kind_is_named_in_the_note() {
 #[test]
 fn nothing_locked_out_leaves_the_locked_out_part_away() {
     let mut r = at_step(0);
-    r.step_failed(0, "OUTSIDE_RESOURCES", "V9 is on RED", 10);
-    let effects = r.fault_applied(Vec::new(), 11);
+    r.step_failed(0, "OUTSIDE_RESOURCES", "V9 is on RED", ms(10));
+    let effects = r.fault_applied(Vec::new(), ms(11));
     let (code, message, step, stage, locked_out, _) = failed(&effects);
     assert_eq!(code, "OUTSIDE_RESOURCES");
     assert_eq!(
@@ -324,20 +328,20 @@ fn nothing_locked_out_leaves_the_locked_out_part_away() {
 #[test]
 fn a_failed_release_faults_the_operation_at_its_release() {
     let mut r = at_step(3);
-    assert_eq!(r.step_done(3, 8000).len(), 1);
+    assert_eq!(r.step_done(3, ms(8000)).len(), 1);
     assert!(
-        r.abort("closed", 8000).is_empty(),
+        r.abort("closed", ms(8000)).is_empty(),
         "a release under way goes on"
     );
     assert_eq!(
-        r.release_failed("NOT_HOLDING", "operation '10' holds nothing", 8001),
+        r.release_failed("NOT_HOLDING", "operation '10' holds nothing", ms(8001)),
         vec![RunEffect::Fault {
             operation: "10".into(),
             note: "its release: operation '10' holds nothing".into(),
         }]
     );
-    assert!(r.released(8002).is_empty());
-    let effects = r.fault_applied(vec!["YEL".into()], 8003);
+    assert!(r.released(ms(8002)).is_empty());
+    let effects = r.fault_applied(vec!["YEL".into()], ms(8003));
     assert_eq!(
         failed(&effects),
         (
@@ -355,7 +359,7 @@ fn a_failed_release_faults_the_operation_at_its_release() {
 fn c1_refusals_become_operation_running() {
     for code in ["ALREADY_HOLDING", "ALREADY_QUEUED"] {
         let mut r = run();
-        r.start(0).unwrap();
+        r.start(ms(0)).unwrap();
         let effects = r.refused(code, "operation '10' already holds YEL");
         assert_eq!(
             failed(&effects),
@@ -369,14 +373,14 @@ fn c1_refusals_become_operation_running() {
             )
         );
         assert_eq!(r.phase(), Phase::Refused);
-        assert!(r.granted(1).is_empty(), "nothing after the end");
+        assert!(r.granted(ms(1)).is_empty(), "nothing after the end");
     }
 }
 
 #[test]
 fn other_refusals_keep_the_interlocks_words() {
     let mut r = run();
-    r.start(0).unwrap();
+    r.start(ms(0)).unwrap();
     let effects = r.refused("QUEUE_FULL", "the queue is full (64 requests)");
     let (code, message, ..) = failed(&effects);
     assert_eq!(
@@ -388,17 +392,17 @@ fn other_refusals_keep_the_interlocks_words() {
 #[test]
 fn an_abort_while_queued_withdraws_the_request() {
     let mut r = run();
-    r.start(0).unwrap();
+    r.start(ms(0)).unwrap();
     assert_eq!(
-        r.abort("its node closed", 5),
+        r.abort("its node closed", ms(5)),
         vec![RunEffect::Withdraw {
             operation: "10".into()
         }]
     );
     assert_eq!(r.phase(), Phase::Withdrawing);
-    assert!(r.abort("again", 6).is_empty());
+    assert!(r.abort("again", ms(6)).is_empty());
     assert!(r.refused("QUEUE_FULL", "x").is_empty());
-    let effects = r.withdrawn(7);
+    let effects = r.withdrawn(ms(7));
     assert_eq!(
         failed(&effects),
         (
@@ -411,24 +415,27 @@ fn an_abort_while_queued_withdraws_the_request() {
         )
     );
     assert_eq!(r.phase(), Phase::Withdrawn);
-    assert!(r.granted(8).is_empty());
-    assert!(r.abort("late", 9).is_empty());
+    assert!(r.granted(ms(8)).is_empty());
+    assert!(r.abort("late", ms(9)).is_empty());
 }
 
 #[test]
 fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
     let mut r = run();
-    r.start(0).unwrap();
-    r.abort("its node closed", 5);
+    r.start(ms(0)).unwrap();
+    r.abort("its node closed", ms(5));
     assert_eq!(
-        r.granted(6),
+        r.granted(ms(6)),
         vec![RunEffect::Release {
             operation: "10".into()
         }]
     );
-    assert!(r.granted(7).is_empty());
-    assert!(r.withdrawn(7).is_empty(), "the release decides how it ends");
-    let effects = r.released(8);
+    assert!(r.granted(ms(7)).is_empty());
+    assert!(
+        r.withdrawn(ms(7)).is_empty(),
+        "the release decides how it ends"
+    );
+    let effects = r.released(ms(8));
     let (code, message, ..) = failed(&effects);
     assert_eq!(
         (code, message),
@@ -443,17 +450,17 @@ fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
 #[test]
 fn a_crossing_grant_that_cannot_be_released_faults_the_operation() {
     let mut r = run();
-    r.start(0).unwrap();
-    r.abort("its node closed", 5);
-    r.granted(6);
+    r.start(ms(0)).unwrap();
+    r.abort("its node closed", ms(5));
+    r.granted(ms(6));
     assert_eq!(
-        r.release_failed("NOT_HOLDING", "gone", 7),
+        r.release_failed("NOT_HOLDING", "gone", ms(7)),
         vec![RunEffect::Fault {
             operation: "10".into(),
             note: "its release: gone".into(),
         }]
     );
-    let effects = r.fault_applied(lines(), 8);
+    let effects = r.fault_applied(lines(), ms(8));
     assert_eq!(
         failed(&effects),
         (
@@ -473,7 +480,7 @@ fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
     assert_eq!(
         r.abort(
             "its operation node was stopped (redeploy or shutdown)",
-            4000
+            ms(4000)
         ),
         vec![
             RunEffect::CancelStep { index: 1 },
@@ -485,8 +492,10 @@ fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
     );
     assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
     // The cancelled step ends in error, late: ignored.
-    assert!(r.step_failed(1, "ABORTED", "cancelled", 4001).is_empty());
-    let effects = r.fault_applied(vec!["YEL".into()], 4002);
+    assert!(r
+        .step_failed(1, "ABORTED", "cancelled", ms(4001))
+        .is_empty());
+    let effects = r.fault_applied(vec!["YEL".into()], ms(4002));
     assert_eq!(
         failed(&effects),
         (
@@ -498,44 +507,46 @@ fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
             true
         )
     );
-    assert!(r.abort("again", 4003).is_empty());
+    assert!(r.abort("again", ms(4003)).is_empty());
 }
 
 #[test]
 fn a_clock_that_goes_back_gives_zero_durations() {
+    // The latest time whose whole milliseconds are all exact.
+    const LATEST: u64 = 1 << 53;
     let mut r = run();
-    r.start(u64::MAX).unwrap();
-    r.granted(10);
-    r.step_done(0, 5);
+    r.start(ms(LATEST)).unwrap();
+    r.granted(ms(10));
+    r.step_done(0, ms(5));
     let mut r2 = OperationRun::new(OperationPlan {
         steps: Vec::new(),
         ..plan()
     });
-    r2.start(100).unwrap();
-    r2.granted(50);
+    r2.start(ms(100)).unwrap();
+    r2.granted(ms(50));
     assert_eq!(
-        r2.released(0),
+        r2.released(ms(0)),
         vec![RunEffect::Finished {
             id: "10".into(),
-            queued_ms: 0,
-            run_ms: 0,
+            queued_ms: ms(0),
+            run_ms: ms(0),
             steps: Vec::new(),
         }]
     );
     for i in 1..4 {
-        r.step_done(i, u64::MAX);
+        r.step_done(i, ms(LATEST));
     }
-    match r.released(u64::MAX).as_slice() {
+    match r.released(ms(LATEST)).as_slice() {
         [RunEffect::Finished {
             queued_ms,
             run_ms,
             steps,
             ..
         }] => {
-            assert_eq!((*queued_ms, *run_ms), (0, u64::MAX - 10));
+            assert_eq!((*queued_ms, *run_ms), (ms(0), ms(LATEST - 10)));
             assert_eq!(
                 steps.iter().map(|s| s.ms).collect::<Vec<_>>(),
-                [0, u64::MAX - 5, 0, 0]
+                [ms(0), ms(LATEST - 5), ms(0), ms(0)]
             );
         }
         other => panic!("{other:?}"),
@@ -545,31 +556,31 @@ fn a_clock_that_goes_back_gives_zero_durations() {
 #[test]
 fn effects_serialize_as_js_reads_them() {
     let mut r = run();
-    let acquire = serde_json::to_value(r.start(0).unwrap()).unwrap();
+    let acquire = serde_json::to_value(r.start(ms(0)).unwrap()).unwrap();
     assert_eq!(
         acquire,
         json!([{ "kind": "acquire", "operation": "10", "priority": 20, "resources": ["YEL", "RED"] }])
     );
-    let start = serde_json::to_value(r.granted(1)).unwrap();
+    let start = serde_json::to_value(r.granted(ms(1))).unwrap();
     assert_eq!(
         start,
         json!([{ "kind": "startStep", "index": 0, "within": ["YEL", "RED"],
                  "step": { "kind": "command", "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000 } }])
     );
-    r.step_done(0, 2);
-    let wait = serde_json::to_value(r.step_done(1, 3)).unwrap();
+    r.step_done(0, ms(2));
+    let wait = serde_json::to_value(r.step_done(1, ms(3))).unwrap();
     assert_eq!(
         wait,
         json!([{ "kind": "startStep", "index": 2,
                  "step": { "kind": "wait", "condition": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 } }])
     );
-    let abort = serde_json::to_value(r.abort("closed", 4)).unwrap();
+    let abort = serde_json::to_value(r.abort("closed", ms(4))).unwrap();
     assert_eq!(
         abort,
         json!([{ "kind": "cancelStep", "index": 2 },
                { "kind": "fault", "operation": "10", "note": "interrupted: closed" }])
     );
-    let end = serde_json::to_value(r.fault_applied(vec!["YEL".into()], 5)).unwrap();
+    let end = serde_json::to_value(r.fault_applied(vec!["YEL".into()], ms(5))).unwrap();
     assert_eq!(
         end,
         json!([{ "kind": "failed", "id": "10", "code": "ABORTED",
@@ -579,22 +590,22 @@ fn effects_serialize_as_js_reads_them() {
 
     let mut r = granted();
     for i in 0..4 {
-        r.step_done(i, 1000);
+        r.step_done(i, ms(1000));
     }
     assert_eq!(
-        serde_json::to_value(r.released(1000)).unwrap(),
+        serde_json::to_value(r.released(ms(1000))).unwrap(),
         json!([{ "kind": "finished", "id": "10", "queuedMs": 1000, "runMs": 0,
                  "steps": [{ "kind": "command", "ms": 0 }, { "kind": "command", "ms": 0 },
                            { "kind": "wait", "ms": 0 }, { "kind": "returnToIdle", "ms": 0 }] }])
     );
     let mut r = run();
-    r.start(0).unwrap();
+    r.start(ms(0)).unwrap();
     assert_eq!(
-        serde_json::to_value(r.abort("closed", 0)).unwrap(),
+        serde_json::to_value(r.abort("closed", ms(0))).unwrap(),
         json!([{ "kind": "withdraw", "operation": "10" }])
     );
     assert_eq!(
-        serde_json::to_value(r.withdrawn(0)).unwrap()[0]["step"],
+        serde_json::to_value(r.withdrawn(ms(0))).unwrap()[0]["step"],
         json!(null)
     );
     assert_eq!(
@@ -621,9 +632,9 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
     let plant = Plant::new(plant).unwrap();
     let mut r = OperationRun::of(&plant, "10").unwrap();
     assert_eq!(r.plan(), &plant.operation_plan("10").unwrap());
-    r.start(0).unwrap();
-    r.granted(0);
-    match r.step_done(0, 1).as_slice() {
+    r.start(ms(0)).unwrap();
+    r.granted(ms(0));
+    match r.step_done(0, ms(1)).as_slice() {
         [RunEffect::StartStep {
             index: 1,
             step: PlanStep::ReturnToIdle { command, .. },

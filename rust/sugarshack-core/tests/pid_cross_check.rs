@@ -10,6 +10,12 @@ use proptest::prelude::*;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn};
 use sugarshack_core::control::pid_loop::PidLoopConfig;
 use sugarshack_core::control::station::{Change, Mode, Sample, Station, StationConfig};
+use sugarshack_core::time::Millis;
+
+/// A test's time in ms, known valid.
+fn millis(value: f64) -> Millis {
+    Millis::new(value).expect("a valid time")
+}
 
 /// simple-pid's PID(Kp, Ki, Kd, setpoint, output_limits) in this form; no limits is ±1e12.
 fn parallel(kp: f64, ki: f64, kd: f64) -> PidConfig {
@@ -216,7 +222,7 @@ fn auto_mode() {
             smith: None,
         },
         ts_s: 1.0,
-        stale_ms: 0.0,
+        stale: Millis::ZERO,
         setpoint: 10.0,
         mode: Mode::Auto,
         manual: None,
@@ -228,8 +234,8 @@ fn auto_mode() {
         station
             .measure(Sample {
                 measurement: Some(pv),
-                sample_ms: at,
-                now_ms: at,
+                sampled: millis(at),
+                now: millis(at),
                 track: None,
                 decision: None,
             })

@@ -3,6 +3,7 @@
 use serde_json::{json, Value};
 use sugarshack_core::actuator::Tracker;
 use sugarshack_core::plant::PlantModel;
+use sugarshack_core::time::ms;
 
 fn good() -> Value {
     json!({
@@ -49,7 +50,7 @@ fn problems(doc: Value) -> Vec<String> {
 fn a_sound_plant_validates_and_tracks() {
     assert_eq!(problems(good()), Vec::<String>::new());
     let plant: PlantModel = serde_json::from_value(good()).unwrap();
-    assert!(Tracker::new(plant, 0).is_ok());
+    assert!(Tracker::new(plant, ms(0)).is_ok());
 }
 
 #[test]
@@ -138,7 +139,7 @@ fn all_problems_are_reported_together() {
     doc["actuators"][0]["device"] = json!("nowhere");
     doc["actuators"][1]["idle"] = json!(0);
     let plant: PlantModel = serde_json::from_value(doc).unwrap();
-    let err = Tracker::new(plant, 0).unwrap_err();
+    let err = Tracker::new(plant, ms(0)).unwrap_err();
     let text = err.to_string();
     assert!(
         text.starts_with("invalid plant document (2 problems):"),
@@ -311,7 +312,7 @@ fn a_document_that_cannot_be_read_names_the_entry() {
         ),
         (
             |d| d["operations"][0]["steps"][0]["timeoutMs"] = json!("20 s"),
-            "operations[0].steps[0].timeoutMs: invalid type: string \"20 s\", expected u64",
+            "operations[0].steps[0].timeoutMs: invalid type: string \"20 s\", expected a non-negative number of milliseconds",
         ),
         (
             |d| d["operations"][1]["steps"][0]["timeout"] = json!(20000),

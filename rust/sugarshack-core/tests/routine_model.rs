@@ -7,6 +7,7 @@ use serde_json::json;
 use sugarshack_core::plant::{Plant, PlantModel};
 use sugarshack_core::routine::{RoutineMachine, RoutineSnapshot};
 use sugarshack_core::sensor::SensorStore;
+use sugarshack_core::time::ms;
 
 const STATES: [&str; 4] = ["a", "b", "c", "err"];
 const TOPICS: [&str; 3] = ["go", "back", "other"];
@@ -158,7 +159,7 @@ proptest! {
                             }
                         }
                     }
-                    let due = r.due(now);
+                    let due = r.due(ms(now));
                     prop_assert_eq!(&due, &expected);
                     for (k, t) in due.into_iter().enumerate() {
                         if !met[k % met.len()] { continue; }
@@ -234,7 +235,7 @@ proptest! {
         for (sensor, value, ts_offset, gap, read_both) in samples {
             now += gap;
             let sampled = now.saturating_add_signed(ts_offset);
-            let recorded = store.record(ids[sensor], value, sampled, now);
+            let recorded = store.record(ids[sensor], value, ms(sampled), ms(now));
             let plausible = sampled <= now + 1000;
             prop_assert_eq!(recorded.is_ok(), plausible, "{:?}", recorded);
             if let Err(err) = recorded { prop_assert_eq!(err.code(), "FUTURE_TIMESTAMP"); }
@@ -242,9 +243,9 @@ proptest! {
             let later = now + gap;
             let fresh = |k: usize| model[k].filter(|(_, at)| later - at < limits[k]).map(|(v, _)| v);
             for (k, &id) in ids.iter().enumerate() {
-                prop_assert_eq!(store.fresh(id, later).ok(), fresh(k));
+                prop_assert_eq!(store.fresh(id, ms(later)).ok(), fresh(k));
             }
-            let read = store.read(if read_both { &ids[..] } else { &ids[sensor..=sensor] }, later);
+            let read = store.read(if read_both { &ids[..] } else { &ids[sensor..=sensor] }, ms(later));
             let expected: Option<Vec<f64>> = if read_both { fresh(0).zip(fresh(1)).map(|(a, b)| vec![a, b]) } else { fresh(sensor).map(|v| vec![v]) };
             prop_assert_eq!(read.ok(), expected);
         }

@@ -8,6 +8,7 @@ use serde_json::json;
 use sugarshack_core::actuator::{ActuatorId, DeviceId};
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::sensor::SensorId;
+use sugarshack_core::time::ms;
 use sugarshack_core::topics::{Command, Contract, Incoming, Reading, Readings};
 
 const PROFILES: [&str; 5] = ["sugarshack", "esphome", "tasmota", "shelly-gen2", "custom"];
@@ -120,15 +121,15 @@ proptest! {
         let pump = if seed % 2 == 0 { 1.0 } else { 0.0 };
         let values = [(ActuatorId::from_index(0), v1), (ActuatorId::from_index(1), v2), (ActuatorId::from_index(2), pump)];
         let ts = (profile == "sugarshack").then_some(1_700_000_000_000 + seed % 1000);
-        let messages = contract.format_actuators(DeviceId::from_index(0), &values, ts);
+        let messages = contract.format_actuators(DeviceId::from_index(0), &values, ts.map(ms));
         prop_assert!(!messages.is_empty());
         let mut seen = Vec::new();
         let mut out = Readings::default();
         for m in &messages {
-            let incoming = contract.parse(&m.topic, m.payload.as_bytes(), 1_700_000_000_000, &mut out);
+            let incoming = contract.parse(&m.topic, m.payload.as_bytes(), ms(1_700_000_000_000), &mut out);
             prop_assert!(out.refusals.is_empty(), "{profile}: {} {:?} -> {:?}", m.topic, m.payload, out.refusals);
             if let Incoming::Samples { ts: got, .. } = incoming {
-                prop_assert_eq!(got, ts);
+                prop_assert_eq!(got, ts.map(ms));
             }
             seen.extend(out.samples.iter().copied());
         }
@@ -149,7 +150,7 @@ proptest! {
         let mut seen = Vec::new();
         let mut out = Readings::default();
         for m in contract.format_sensors(DeviceId::from_index(1), &values, None) {
-            contract.parse(&m.topic, m.payload.as_bytes(), 0, &mut out);
+            contract.parse(&m.topic, m.payload.as_bytes(), ms(0), &mut out);
             prop_assert!(out.refusals.is_empty(), "{profile}: {} {:?} -> {:?}", m.topic, m.payload, out.refusals);
             seen.extend(out.samples.iter().copied());
         }
@@ -184,7 +185,7 @@ proptest! {
         prop_assert!(contract.command_topics(DeviceId::from_index(0)).contains(&m.topic));
         // The palette's own commands, echoed back to a `#` subscriber, are the device's business.
         let mut out = Readings::default();
-        prop_assert_eq!(contract.parse(&m.topic, m.payload.as_bytes(), 0, &mut out), Incoming::Other { device: DeviceId::from_index(0) });
+        prop_assert_eq!(contract.parse(&m.topic, m.payload.as_bytes(), ms(0), &mut out), Incoming::Other { device: DeviceId::from_index(0) });
     }
 
     #[test]
@@ -194,7 +195,7 @@ proptest! {
         let m = contract.format_status(device, online).unwrap();
         prop_assert!(m.retain);
         let mut out = Readings::default();
-        prop_assert_eq!(contract.parse(&m.topic, m.payload.as_bytes(), 0, &mut out), Incoming::Status { device, online });
+        prop_assert_eq!(contract.parse(&m.topic, m.payload.as_bytes(), ms(0), &mut out), Incoming::Status { device, online });
     }
 
     #[test]
@@ -206,7 +207,7 @@ proptest! {
     ) {
         let (profile, contract) = &contracts()[which];
         let mut out = Readings::default();
-        match contract.parse(&topic, &payload, now, &mut out) {
+        match contract.parse(&topic, &payload, ms(now), &mut out) {
             Incoming::Refused { refusal, .. } => prop_assert!(!refusal.reason.is_empty() && !refusal.message.is_empty()),
             Incoming::Samples { .. } => prop_assert!(!out.samples.is_empty() || !out.refusals.is_empty(), "{profile}"),
             Incoming::UnknownDevice { name } => prop_assert!(!name.is_empty()),

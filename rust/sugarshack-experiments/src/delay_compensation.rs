@@ -6,6 +6,7 @@
 use crate::sim::{
     DelayDist, FirstOrderParams, FirstOrderProcess, Link, DS2_MAX_MS, DS2_MEAN_MS, DS2_SD_MS,
 };
+use sugarshack_core::control::delay::DelayEstimator;
 use sugarshack_core::control::pid::{Action, PidConfig, PidInput};
 use sugarshack_core::control::pid_loop::{PidLoop, PidLoopConfig};
 use sugarshack_core::control::smith::{DeadTime, FopdtModel, SmithConfig};
@@ -254,9 +255,9 @@ pub fn simulate(case: &DelayCase) -> Result<DelayRun, ControlError> {
             if let Some(sample) = to_controller.receive_latest(now_f) {
                 measured = Some(sample.value);
                 if let Some(sent) = sample.applied_sent_ms.filter(|&s| Some(s) != last_echo) {
-                    let round_trip = (now - sent) as f64;
+                    let round_trip = DelayEstimator::round_trip((now - sent) as f64)?;
                     controller.observe_round_trip(round_trip)?;
-                    run.round_trips_ms.push(round_trip);
+                    run.round_trips_ms.push(round_trip.as_f64());
                     last_echo = Some(sent);
                 }
             }

@@ -6,8 +6,11 @@
 use std::collections::VecDeque;
 
 use crate::sim::{DelayDist, Failure, FailureSchedule, FirstOrderParams, FirstOrderProcess, Link};
+use sugarshack_core::control::error::time;
 use sugarshack_core::control::pid::{Action, Pid, PidConfig};
-use sugarshack_core::control::rcc::{IoModule, IoState, RccConfig, RccController};
+use sugarshack_core::control::rcc::{
+    thresholds_from_ms, IoModule, IoState, RccConfig, RccController,
+};
 use sugarshack_core::control::ControlError;
 
 use crate::metrics::{max_difference, step_metrics, Step, StepMetrics, Trace};
@@ -229,12 +232,14 @@ impl Remote {
             Redundancy::Rcc { smooth_handover } => smooth_handover,
             Redundancy::PrimaryOnly => true,
         };
+        let (thresholds, ts) =
+            thresholds_from_ms(&ENGAGEMENT_THRESHOLDS_MS[..controllers], TS_MS as f64)?;
         let rcc = RccController::new(RccConfig {
             id,
-            thresholds_ms: ENGAGEMENT_THRESHOLDS_MS[..controllers].to_vec(),
-            ts_ms: TS_MS as f64,
+            thresholds,
+            ts,
             smooth_handover,
-            poll_timeout_ms: None,
+            poll_timeout: None,
         })?;
         Ok((rcc, pid))
     }
@@ -325,12 +330,12 @@ pub fn simulate(scenario: &FaultScenario) -> Result<FaultRun, ControlError> {
                         let reply = Reply {
                             poll_sent_ms: sent_ms,
                             measurement: process.output(),
-                            state: io.state(now_f),
+                            state: io.state(time(now_f, "time (ms)")?),
                         };
                         remote.to_controller.send(reply, now_f);
                     }
                     ToIo::Write { action } => {
-                        io.write(remote.id, action, now_f)?;
+                        io.write(remote.id, action, time(now_f, "time (ms)")?)?;
                         if let Some(from) = last_writer.filter(|&w| w != remote.id) {
                             run.handovers.push(Handover {
                                 at_s: t_s,

@@ -1,6 +1,7 @@
 use sugarshack_core::alarm::{AlarmError, AlarmsSnapshot, Condition, MAX_ALARMS};
 use sugarshack_core::clearance::Attribution;
 use sugarshack_core::code::Code;
+use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
@@ -196,6 +197,6 @@ impl Alarms {
     /// When the next shelf runs out (ms), or undefined.
     #[wasm_bindgen(js_name = nextExpiryMs)]
     pub fn next_expiry_ms(&self) -> Option<f64> {
-        self.core.next_expiry_ms().map(|t| t as f64)
+        self.core.next_expiry_ms().map(Millis::as_f64)
     }
 }

@@ -1,5 +1,7 @@
 use serde::Serialize;
 use sugarshack_core::code::Code;
+use sugarshack_core::control::delay::DelayEstimator;
+use sugarshack_core::control::error::time;
 use sugarshack_core::control::pid::{PidInput, PidStep};
 use sugarshack_core::control::pid_loop::{PidLoop as CoreLoop, PidLoopConfig};
 use sugarshack_core::control::rcc::{self, Decision, IoState, RccConfig, RccController};
@@ -10,6 +12,7 @@ use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, to_js, Bound};
 use sugarshack_core::text::quote;
+use sugarshack_core::time::Millis;
 
 /// The TypeScript shapes of what this module's calls return and take
 /// (`unchecked_return_type` / `unchecked_param_type` name them).
@@ -202,17 +205,9 @@ fn number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
     })
 }
 
-/// A number that must also be finite (where the core takes any f64 without a check).
-fn finite_number(value: &JsValue, what: &str) -> Result<f64, JsValue> {
-    let n = number(value, what)?;
-    if n.is_finite() {
-        Ok(n)
-    } else {
-        Err(js_error(
-            Code::InvalidInput,
-            &format!("{what} must be a finite number, got {}", quote(n)),
-        ))
-    }
+/// A time from JS: a number, finite and at least 0.
+fn control_time(value: &JsValue) -> Result<Millis, JsValue> {
+    time(number(value, "time (ms)")?, "time (ms)").map_err(control_error)
 }
 
 /// An optional number: undefined or null is absent; anything else must be a number.
@@ -247,8 +242,8 @@ fn estimate(smith: Option<&SmithPredictor>) -> Result<JsValue, JsValue> {
     let estimator = smith.estimator();
     to_js(&Estimate {
         dead_time_samples: smith.dead_time_samples(),
-        mean_ms: estimator.and_then(|e| e.mean_ms()),
-        std_ms: estimator.and_then(|e| e.std_ms()),
+        mean_ms: estimator.and_then(|e| e.mean()).map(Millis::as_f64),
+        std_ms: estimator.and_then(|e| e.std()).map(Millis::as_f64),
     })
 }
 
@@ -421,8 +416,9 @@ impl PidLoop {
         #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
     ) -> Result<(), JsValue> {
         let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
+        let round_trip = DelayEstimator::round_trip(round_trip_ms).map_err(control_error)?;
         self.core
-            .observe_round_trip(round_trip_ms)
+            .observe_round_trip(round_trip)
             .map_err(control_error)
     }
 
@@ -473,7 +469,10 @@ impl Rcc {
         let state: IoState =
             from_js_bounded(state, Code::InvalidInput, "I/O state", Bound::Control)?;
         let decision = match optional_number(&now_ms, "time (ms)")? {
-            Some(now_ms) => self.core.decide_at(&state, now_ms),
+            Some(now_ms) => {
+                let now = time(now_ms, "time (ms)").map_err(control_error)?;
+                self.core.decide_at(&state, now)
+            }
             None => self.core.decide(&state),
         };
         to_js(&decision.map_err(control_error)?)
@@ -485,8 +484,8 @@ impl Rcc {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
     ) -> Result<(), JsValue> {
-        let now_ms = number(&now_ms, "time (ms)")?;
-        self.core.watch_from(now_ms).map_err(control_error)
+        let now = control_time(&now_ms)?;
+        self.core.watch_from(now).map_err(control_error)
     }
 
     /// True once when no state came within the polling timeout.
@@ -494,14 +493,14 @@ impl Rcc {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
     ) -> Result<bool, JsValue> {
-        let now_ms = number(&now_ms, "time (ms)")?;
-        self.core.tick(now_ms).map_err(control_error)
+        let now = control_time(&now_ms)?;
+        self.core.tick(now).map_err(control_error)
     }
 
     /// When `tick` next has something to do (ms), or undefined.
     #[wasm_bindgen(js_name = nextTickMs)]
     pub fn next_tick_ms(&self) -> Option<f64> {
-        self.core.next_tick_ms()
+        self.core.next_tick().map(Millis::as_f64)
     }
 
     /// Decide and step `pid` in one call: `{ engaged, firstCycle, write, step }`.
@@ -580,7 +579,8 @@ impl IoModule {
         let id = whole(id).ok_or_else(|| {
             js_error(Code::UnknownController, &format!("controller id {} is not one of the {controllers} configured (ids run from 1 to {controllers})", quote(id)))
         })?;
-        self.core.write(id, action, now_ms).map_err(control_error)
+        let now = time(now_ms, "time (ms)").map_err(control_error)?;
+        self.core.write(id, action, now).map_err(control_error)
     }
 
     /// `{ lastAction, agesMs }`; an age is null for a controller that never acted.
@@ -589,7 +589,7 @@ impl IoModule {
         &self,
         #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
     ) -> Result<JsValue, JsValue> {
-        to_js(&self.core.state(finite_number(&now_ms, "time (ms)")?))
+        to_js(&self.core.state(control_time(&now_ms)?))
     }
 
     #[wasm_bindgen(getter, js_name = lastAction)]
@@ -605,7 +605,9 @@ pub fn validate_thresholds(
     #[wasm_bindgen(unchecked_param_type = "number")] ts_ms: JsValue,
 ) -> Result<(), JsValue> {
     let ts_ms = number(&ts_ms, "sampling period Ts (ms)")?;
-    rcc::validate_thresholds(&thresholds_ms, ts_ms).map_err(control_error)
+    rcc::thresholds_from_ms(&thresholds_ms, ts_ms)
+        .map(drop)
+        .map_err(control_error)
 }
 
 /// A PID loop with its set point, auto/manual mode, manual output and stale
@@ -646,12 +648,24 @@ impl PidStation {
         #[wasm_bindgen(unchecked_param_type = "number | null | undefined")] track: JsValue,
         #[wasm_bindgen(unchecked_param_type = "RccDecision | null | undefined")] decision: JsValue,
     ) -> Result<JsValue, JsValue> {
+        let measurement = optional_number(&measurement, "measurement")?;
+        let (sample_ms, now_ms) = (
+            number(&sample_ms, "sample time (ms)")?,
+            number(&now_ms, "time (ms)")?,
+        );
+        let (track, decision) = (
+            optional_number(&track, "tracked action")?,
+            optional_decision(decision)?,
+        );
+        // Checked in the order the station checked them.
+        let now = time(now_ms, "time (ms)").map_err(control_error)?;
+        let sampled = time(sample_ms, "sample time (ms)").map_err(control_error)?;
         let sample = Sample {
-            measurement: optional_number(&measurement, "measurement")?,
-            sample_ms: number(&sample_ms, "sample time (ms)")?,
-            now_ms: number(&now_ms, "time (ms)")?,
-            track: optional_number(&track, "tracked action")?,
-            decision: optional_decision(decision)?,
+            measurement,
+            sampled,
+            now,
+            track,
+            decision,
         };
         to_js(&self.core.measure(sample).map_err(control_error)?)
     }
@@ -662,8 +676,8 @@ impl PidStation {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
     ) -> Result<JsValue, JsValue> {
-        let now_ms = number(&now_ms, "time (ms)")?;
-        match self.core.tick(now_ms).map_err(control_error)? {
+        let now = control_time(&now_ms)?;
+        match self.core.tick(now).map_err(control_error)? {
             Some(stale) => to_js(&stale),
             None => Ok(JsValue::UNDEFINED),
         }
@@ -672,7 +686,7 @@ impl PidStation {
     /// When `tick` next has something to do (ms), or undefined.
     #[wasm_bindgen(js_name = nextTickMs)]
     pub fn next_tick_ms(&self) -> Option<f64> {
-        self.core.next_tick_ms()
+        self.core.next_tick().map(Millis::as_f64)
     }
 
     /// `{ setpoint, mode, manual, tunings: { kp, tiS, tdS }, limits: { min, max } }`, any part
@@ -708,8 +722,9 @@ impl PidStation {
         #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
     ) -> Result<(), JsValue> {
         let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
+        let round_trip = DelayEstimator::round_trip(round_trip_ms).map_err(control_error)?;
         self.core
-            .observe_round_trip(round_trip_ms)
+            .observe_round_trip(round_trip)
             .map_err(control_error)
     }
 

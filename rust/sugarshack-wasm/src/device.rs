@@ -7,6 +7,7 @@ use sugarshack_core::actuator::{ActuatorId, DeviceId};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::{Plant, PlantModel};
 use sugarshack_core::sensor::SensorId;
+use sugarshack_core::time::Millis;
 use sugarshack_core::topics::{Command, Message};
 use wasm_bindgen::prelude::*;
 
@@ -50,8 +51,9 @@ pub struct DeviceSide {
     plant: Plant,
 }
 
-fn ts_of(ts: Option<f64>) -> Option<u64> {
-    ts.filter(|t| t.is_finite() && *t >= 0.0).map(|t| t as u64)
+fn ts_of(ts: Option<f64>) -> Option<Millis> {
+    ts.filter(|t| t.is_finite() && *t >= 0.0)
+        .map(|t| Millis::from(t as u64))
 }
 
 impl DeviceSide {

@@ -28,6 +28,7 @@ use serde::Serialize;
 use sugarshack_core::code::Code;
 use sugarshack_core::json::{self, JsonError};
 use sugarshack_core::text::quote;
+use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
@@ -49,9 +50,10 @@ pub(crate) fn js_error(code: Code, message: &str) -> JsValue {
     error.into()
 }
 
-pub(crate) fn time(now_ms: f64) -> Result<u64, JsValue> {
+/// A time from JS in whole milliseconds (a fraction is dropped, as it always was).
+pub(crate) fn time(now_ms: f64) -> Result<Millis, JsValue> {
     if now_ms.is_finite() && now_ms >= 0.0 {
-        Ok(now_ms as u64)
+        Ok(Millis::from(now_ms as u64))
     } else {
         Err(js_error(
             Code::InvalidTime,

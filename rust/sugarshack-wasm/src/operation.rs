@@ -1,6 +1,7 @@
 use sugarshack_core::code::Code;
 use sugarshack_core::operation::{OperationRun as CoreRun, RunEffect, RunError};
 use sugarshack_core::plant::Plant;
+use sugarshack_core::time::{ms, Millis};
 use wasm_bindgen::prelude::*;
 
 use crate::{js_error, time, to_js};
@@ -44,7 +45,7 @@ export type RunEffect =
 "#;
 
 /// JS's `Number.MAX_SAFE_INTEGER`: durations up to it come back as exact numbers.
-const MAX_SAFE_MS: u64 = (1 << 53) - 1;
+const MAX_SAFE_MS: Millis = ms((1 << 53) - 1);
 
 fn run_error(err: RunError) -> JsValue {
     js_error(err.code(), &err.to_string())
@@ -64,7 +65,7 @@ fn step_index(index: f64) -> Result<usize, JsValue> {
 
 /// A time that keeps every duration of the run an exact JS number, checked
 /// before the input changes anything.
-fn run_time(now_ms: f64) -> Result<u64, JsValue> {
+fn run_time(now_ms: f64) -> Result<Millis, JsValue> {
     let now = time(now_ms)?;
     if now > MAX_SAFE_MS {
         return Err(js_error(

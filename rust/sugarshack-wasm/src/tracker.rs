@@ -12,6 +12,7 @@ use crate::operation::OperationRun;
 use crate::routine::Routine;
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 use sugarshack_core::text::quote;
+use sugarshack_core::time::Millis;
 
 /// The TypeScript shapes of what this module's calls return and take
 /// (`unchecked_return_type` / `unchecked_param_type` name them).
@@ -170,7 +171,7 @@ struct ActuatorView<'a> {
 struct SensorView {
     sensor: String,
     value: Option<f64>,
-    received_ms: Option<u64>,
+    received_ms: Option<Millis>,
     fresh: bool,
     why: Option<String>,
 }
@@ -240,7 +241,7 @@ impl Tracker {
     }
 
     /// Applies what a device message carried; refusals become `malformed` effects.
-    fn apply(&mut self, device: DeviceId, ts: Option<u64>, now: u64) {
+    fn apply(&mut self, device: DeviceId, ts: Option<Millis>, now: Millis) {
         let mut readings = std::mem::take(&mut self.readings);
         for refusal in readings.refusals.drain(..) {
             self.refused(device, refusal);
@@ -297,8 +298,9 @@ impl Tracker {
     }
 }
 
-fn device_ts(ts: Option<f64>) -> Option<u64> {
-    ts.filter(|t| t.is_finite() && *t >= 0.0).map(|t| t as u64)
+fn device_ts(ts: Option<f64>) -> Option<Millis> {
+    ts.filter(|t| t.is_finite() && *t >= 0.0)
+        .map(|t| Millis::from(t as u64))
 }
 
 #[wasm_bindgen]
@@ -553,7 +555,7 @@ impl Tracker {
             }
             Incoming::Samples { device, ts } => {
                 self.last_device = Some(device.index() as u32);
-                self.last_ts = ts.map(|t| t as f64);
+                self.last_ts = ts.map(Millis::as_f64);
                 self.apply(device, ts, now);
                 Ingest::Samples
             }

@@ -2,6 +2,7 @@ use std::fmt;
 
 use crate::code::Code;
 use crate::text::quote;
+use crate::time::Millis;
 
 /// Why a tracker call was refused. A refused command sends nothing.
 #[derive(Clone, Debug, PartialEq)]
@@ -78,9 +79,9 @@ pub enum TrackError {
         /// The actuator's id.
         actuator: String,
         /// How far ahead of its reception the sample is stamped.
-        ahead_ms: u64,
+        ahead_ms: Millis,
         /// The plant's allowed clock skew.
-        skew_ms: u64,
+        skew_ms: Millis,
     },
 }
 

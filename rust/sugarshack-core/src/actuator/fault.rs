@@ -5,6 +5,7 @@
 use super::FaultKind;
 use crate::code::Code;
 use crate::plant::{Actuator, ActuatorType, Signal};
+use crate::time::Millis;
 
 impl FaultKind {
     /// Every kind, for reading a name back.
@@ -44,8 +45,8 @@ impl FaultKind {
     }
 }
 
-fn seconds(ms: u64) -> String {
-    crate::text::seconds(ms as f64)
+fn seconds(ms: Millis) -> String {
+    crate::text::seconds(ms.as_f64())
 }
 
 /// What went wrong with `actuator` (of type `kind`), in plain words: "valve

@@ -7,6 +7,7 @@
 //! ```
 //! use sugarshack_core::actuator::{Effect, Tracker};
 //! use sugarshack_core::plant::PlantModel;
+//! use sugarshack_core::time::ms;
 //!
 //! let plant: PlantModel = serde_json::from_str(r#"{
 //!   "actuatorTypes": { "valve": { "signal": "analog", "tolerance": 2,
@@ -14,15 +15,16 @@
 //!   "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
 //!   "actuators": [{ "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 }]
 //! }"#).unwrap();
-//! let mut tracker = Tracker::new(plant, 0).unwrap();
+//! let mut tracker = Tracker::new(plant, ms(0)).unwrap();
 //! let v12 = tracker.actuator("V12").unwrap();
-//! tracker.feedback(v12, 0.0, None, 0).unwrap();
-//! let sent = tracker.command(&[(v12, 100.0)], 7, false, 10).unwrap();
+//! tracker.feedback(v12, 0.0, None, ms(0)).unwrap();
+//! let sent = tracker.command(&[(v12, 100.0)], 7, false, ms(10)).unwrap();
 //! assert!(matches!(&sent[0], Effect::Publish { topic, payload, retain: false, .. }
 //!     if topic == "ctrl-1/valve/12/command" && payload == "100"));
-//! tracker.feedback(v12, 40.0, None, 2010).unwrap();
-//! let done = tracker.feedback(v12, 99.0, None, 4010).unwrap();
-//! assert!(done.iter().any(|e| matches!(e, Effect::GroupCompleted { caller: 7, completion_ms: 4000, .. })));
+//! tracker.feedback(v12, 40.0, None, ms(2010)).unwrap();
+//! let done = tracker.feedback(v12, 99.0, None, ms(4010)).unwrap();
+//! assert!(done.iter().any(|e| matches!(e, Effect::GroupCompleted { caller: 7, completion_ms, .. }
+//!     if *completion_ms == ms(4000))));
 //! ```
 
 mod error;
@@ -39,6 +41,7 @@ use crate::clearance::ClearBlocker;
 use crate::plant::{
     state_value, Escalation, GroupError, Plant, PlantErrors, PlantModel, Range, Signal,
 };
+use crate::time::Millis;
 use crate::topics::Contract;
 
 /// An actuator of the plant, by its index in the plant document.
@@ -133,7 +136,7 @@ pub enum Effect {
         /// The caller's handle of the group command.
         caller: Caller,
         /// From the command to the first motion seen.
-        issue_to_motion_ms: u64,
+        issue_to_motion_ms: Millis,
     },
     /// One actuator of a group reached its target.
     #[serde(rename_all = "camelCase")]
@@ -145,9 +148,9 @@ pub enum Effect {
         /// The position commanded (0/1 for binary actuators).
         target: f64,
         /// From the command to the first motion seen.
-        issue_to_motion_ms: u64,
+        issue_to_motion_ms: Millis,
         /// From the command to its completion.
-        completion_ms: u64,
+        completion_ms: Millis,
         /// Retries made before this.
         retries: u32,
     },
@@ -157,7 +160,7 @@ pub enum Effect {
         /// The caller's handle of the group command.
         caller: Caller,
         /// From the command to the last actuator's completion.
-        completion_ms: u64,
+        completion_ms: Millis,
     },
     /// The group failed (fail-fast): answer the caller with an error.
     #[serde(rename_all = "camelCase")]
@@ -221,7 +224,7 @@ pub enum Effect {
         /// The actuator's handle.
         actuator: ActuatorId,
         /// Since the order was first issued.
-        after_ms: u64,
+        after_ms: Millis,
         /// How many times the lockout was published, the first included.
         sends: u32,
     },
@@ -256,7 +259,7 @@ pub struct PendingLockout {
     /// The position commanded (0/1 for binary actuators).
     pub target: f64,
     /// Since when, in ms.
-    pub since_ms: u64,
+    pub since_ms: Millis,
     /// How many times the lockout was published, the first included.
     pub sends: u32,
 }
@@ -264,9 +267,9 @@ pub struct PendingLockout {
 #[derive(Clone, Copy, Debug)]
 struct LockoutOrder {
     target: f64,
-    since_ms: u64,
+    since_ms: Millis,
     sends: u32,
-    last_send_ms: u64,
+    last_send_ms: Millis,
 }
 
 #[derive(Clone, Debug)]
@@ -275,9 +278,9 @@ struct Command {
     target: f64,
     /// Position when commanded (or first seen after), to tell motion from noise.
     start: Option<f64>,
-    issued_ms: u64,
-    attempt_ms: u64,
-    moving_ms: Option<u64>,
+    issued_ms: Millis,
+    attempt_ms: Millis,
+    moving_ms: Option<Millis>,
     retries: u32,
     /// Hang mode: failed every retry, left for the caller's own timeout.
     escalated: bool,
@@ -295,7 +298,7 @@ struct ActuatorState {
     idle: Option<f64>,
     lockout: f64,
     position: Option<f64>,
-    last_sample_ms: u64,
+    last_sample_ms: Millis,
     reported: Option<f64>,
     commanded: Option<f64>,
     /// Where it should stay while no command runs: the last target, or where it was first seen.
@@ -314,9 +317,9 @@ struct ActuatorState {
 
 #[derive(Clone, Debug)]
 struct Timing {
-    no_motion_ms: u64,
-    completion_ms: u64,
-    stale_ms: u64,
+    no_motion_ms: Millis,
+    completion_ms: Millis,
+    stale_ms: Millis,
     retries: u32,
     escalation: Escalation,
 }
@@ -330,7 +333,7 @@ struct DeviceState {
 
 #[derive(Clone, Debug)]
 struct Group {
-    issued_ms: u64,
+    issued_ms: Millis,
     remaining: usize,
 }
 
@@ -443,8 +446,8 @@ pub struct Tracker {
 }
 
 impl Tracker {
-    /// Validates the plant and starts tracking at `now_ms` (feedback is stale `staleMs` after it).
-    pub fn new(plant: PlantModel, now_ms: u64) -> Result<Self, PlantErrors> {
+    /// Validates the plant and starts tracking at `now` (feedback is stale `staleMs` after it).
+    pub fn new(plant: PlantModel, now: Millis) -> Result<Self, PlantErrors> {
         let plant = Plant::new(plant)?;
         let type_names: Vec<&String> = plant.actuator_types.keys().collect();
         let timings = plant
@@ -503,7 +506,7 @@ impl Tracker {
                     .position(t.signal, range)
                     .expect("validated lockout"),
                 position: None,
-                last_sample_ms: now_ms,
+                last_sample_ms: now,
                 reported: None,
                 commanded: None,
                 resting: None,
@@ -777,7 +780,7 @@ impl Tracker {
         targets: &[(ActuatorId, f64)],
         caller: Caller,
         lockout: bool,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
         self.check_group(targets, caller, lockout)?;
         let mut effects = Vec::with_capacity(targets.len() + 1);
@@ -812,14 +815,14 @@ impl Tracker {
                 let order = Some(match a.lockout_order {
                     Some(order) if order.target == target => LockoutOrder {
                         sends: order.sends.saturating_add(1),
-                        last_send_ms: now_ms,
+                        last_send_ms: now,
                         ..order
                     },
                     _ => LockoutOrder {
                         target,
-                        since_ms: now_ms,
+                        since_ms: now,
                         sends: 1,
-                        last_send_ms: now_ms,
+                        last_send_ms: now,
                     },
                 });
                 a.set_lockout_order(&mut self.tally, order);
@@ -831,7 +834,7 @@ impl Tracker {
                 if let Some(order) = a.take_lockout_order(&mut self.tally) {
                     effects.push(Effect::LockoutConfirmed {
                         actuator: id,
-                        after_ms: now_ms.saturating_sub(order.since_ms),
+                        after_ms: now.saturating_sub(order.since_ms),
                         sends: order.sends,
                     });
                 }
@@ -840,8 +843,8 @@ impl Tracker {
                     actuator: id,
                     caller,
                     target,
-                    issue_to_motion_ms: 0,
-                    completion_ms: 0,
+                    issue_to_motion_ms: Millis::ZERO,
+                    completion_ms: Millis::ZERO,
                     retries: 0,
                 });
                 continue;
@@ -850,8 +853,8 @@ impl Tracker {
                 caller,
                 target,
                 start: a.position,
-                issued_ms: now_ms,
-                attempt_ms: now_ms,
+                issued_ms: now,
+                attempt_ms: now,
                 moving_ms: None,
                 retries: 0,
                 escalated: false,
@@ -862,13 +865,13 @@ impl Tracker {
         if remaining == 0 {
             effects.push(Effect::GroupCompleted {
                 caller,
-                completion_ms: 0,
+                completion_ms: Millis::ZERO,
             });
         } else {
             self.groups.insert(
                 caller,
                 Group {
-                    issued_ms: now_ms,
+                    issued_ms: now,
                     remaining,
                 },
             );
@@ -954,19 +957,19 @@ impl Tracker {
     // ---- feedback --------------------------------------------------------------
 
     /// One feedback sample. `device_ts_ms` (the device's clock) gives the time of flight.
-    /// A timestamp more than the plant's `clockSkewMs` ahead of `now_ms` is
+    /// A timestamp more than the plant's `clockSkewMs` ahead of `now` is
     /// refused and nothing of the sample applied; older ones apply in arrival order.
     pub fn feedback(
         &mut self,
         id: ActuatorId,
         value: f64,
-        device_ts_ms: Option<u64>,
-        now_ms: u64,
+        device_ts_ms: Option<Millis>,
+        now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
         self.state(id)?;
-        self.check_timestamp(id, device_ts_ms, now_ms)?;
+        self.check_timestamp(id, device_ts_ms, now)?;
         let mut effects = Vec::new();
-        self.sample(id, value, device_ts_ms, now_ms, &mut effects)?;
+        self.sample(id, value, device_ts_ms, now, &mut effects)?;
         Ok(effects)
     }
 
@@ -976,16 +979,16 @@ impl Tracker {
     pub fn feedback_batch(
         &mut self,
         samples: &[(ActuatorId, f64)],
-        device_ts_ms: Option<u64>,
-        now_ms: u64,
+        device_ts_ms: Option<Millis>,
+        now: Millis,
         effects: &mut Vec<Effect>,
     ) -> Result<Vec<(ActuatorId, TrackError)>, TrackError> {
         if let Some(&(first, _)) = samples.first() {
-            self.check_timestamp(first, device_ts_ms, now_ms)?;
+            self.check_timestamp(first, device_ts_ms, now)?;
         }
         let mut rejected = Vec::new();
         for &(id, value) in samples {
-            if let Err(err) = self.sample(id, value, device_ts_ms, now_ms, effects) {
+            if let Err(err) = self.sample(id, value, device_ts_ms, now, effects) {
                 rejected.push((id, err));
             }
         }
@@ -997,21 +1000,21 @@ impl Tracker {
     fn check_timestamp(
         &self,
         id: ActuatorId,
-        device_ts_ms: Option<u64>,
-        now_ms: u64,
+        device_ts_ms: Option<Millis>,
+        now: Millis,
     ) -> Result<(), TrackError> {
         let Some(ts) = device_ts_ms else {
             return Ok(());
         };
         let skew_ms = self.plant.clock_skew_ms;
-        if ts <= now_ms.saturating_add(skew_ms) {
+        if ts <= now.saturating_add(skew_ms) {
             return Ok(());
         }
         Err(TrackError::FutureTimestamp {
             actuator: self
                 .actuator_name(id)
                 .map_or_else(|| format!("#{}", id.0), str::to_owned),
-            ahead_ms: ts - now_ms,
+            ahead_ms: ts.saturating_sub(now),
             skew_ms,
         })
     }
@@ -1020,8 +1023,8 @@ impl Tracker {
         &mut self,
         id: ActuatorId,
         value: f64,
-        device_ts_ms: Option<u64>,
-        now_ms: u64,
+        device_ts_ms: Option<Millis>,
+        now: Millis,
         effects: &mut Vec<Effect>,
     ) -> Result<(), TrackError> {
         let a = self.state(id)?;
@@ -1037,7 +1040,7 @@ impl Tracker {
         }
         let a = &mut self.actuators[id.index()];
         let tolerance = a.range.tolerance;
-        a.last_sample_ms = now_ms;
+        a.last_sample_ms = now;
         if a.stale {
             a.stale = false;
             effects.push(Effect::Recovered {
@@ -1055,7 +1058,7 @@ impl Tracker {
         }
         if a.reported.is_none_or(|r| (value - r).abs() > tolerance) {
             a.reported = Some(value);
-            let time_of_flight_ms = device_ts_ms.map(|ts| now_ms as i64 - ts as i64);
+            let time_of_flight_ms = device_ts_ms.map(|ts| (now.as_f64() - ts.as_f64()) as i64);
             effects.push(Effect::Changed {
                 actuator: id,
                 value,
@@ -1069,7 +1072,7 @@ impl Tracker {
                 a.set_lockout_order(&mut self.tally, None);
                 effects.push(Effect::LockoutConfirmed {
                     actuator: id,
-                    after_ms: now_ms.saturating_sub(order.since_ms),
+                    after_ms: now.saturating_sub(order.since_ms),
                     sends: order.sends,
                 });
             }
@@ -1098,27 +1101,30 @@ impl Tracker {
         let start = *command.start.get_or_insert(value);
         let arrived = (value - command.target).abs() <= tolerance;
         if command.moving_ms.is_none() && ((value - start).abs() > tolerance || arrived) {
-            command.moving_ms = Some(now_ms);
+            command.moving_ms = Some(now);
             effects.push(Effect::Moving {
                 actuator: id,
                 caller: command.caller,
-                issue_to_motion_ms: now_ms - command.issued_ms,
+                issue_to_motion_ms: now.saturating_sub(command.issued_ms),
             });
             a.set_phase(&mut self.tally, Phase::Moving);
         }
         if arrived {
             let command = a.command.take().expect("checked above");
             a.set_phase(&mut self.tally, Phase::Stopped);
-            let issue_to_motion_ms = command.moving_ms.unwrap_or(now_ms) - command.issued_ms;
+            let issue_to_motion_ms = command
+                .moving_ms
+                .unwrap_or(now)
+                .saturating_sub(command.issued_ms);
             effects.push(Effect::Completed {
                 actuator: id,
                 caller: command.caller,
                 target: command.target,
                 issue_to_motion_ms,
-                completion_ms: now_ms - command.issued_ms,
+                completion_ms: now.saturating_sub(command.issued_ms),
                 retries: command.retries,
             });
-            self.complete_one(command.caller, now_ms, effects);
+            self.complete_one(command.caller, now, effects);
         }
         Ok(())
     }
@@ -1133,7 +1139,7 @@ impl Tracker {
         &mut self,
         device: DeviceId,
         online: bool,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
         let d = self
             .devices
@@ -1151,13 +1157,13 @@ impl Tracker {
         effects.push(Effect::DeviceStatus { device, online });
         for id in members {
             if online {
-                self.republish(id, now_ms, &mut effects);
+                self.republish(id, now, &mut effects);
             }
             let a = &mut self.actuators[id.index()];
             if online {
-                a.last_sample_ms = now_ms;
+                a.last_sample_ms = now;
                 if let Some(command) = a.command.as_mut() {
-                    command.attempt_ms = now_ms;
+                    command.attempt_ms = now;
                     let phase = if command.moving_ms.is_some() {
                         Phase::Moving
                     } else {
@@ -1191,15 +1197,15 @@ impl Tracker {
     /// The MQTT path came back after an outage (publishes in between were
     /// lost): every commanded state is published again, and running commands
     /// and feedback staleness get a fresh window, since silence meant nothing.
-    pub fn path_restored(&mut self, now_ms: u64) -> Vec<Effect> {
+    pub fn path_restored(&mut self, now: Millis) -> Vec<Effect> {
         let mut effects = Vec::new();
         for index in 0..self.actuators.len() {
             let id = ActuatorId(index as u32);
-            self.republish(id, now_ms, &mut effects);
+            self.republish(id, now, &mut effects);
             let a = &mut self.actuators[index];
-            a.last_sample_ms = now_ms;
+            a.last_sample_ms = now;
             if let Some(command) = a.command.as_mut() {
-                command.attempt_ms = now_ms;
+                command.attempt_ms = now;
             }
         }
         effects
@@ -1212,7 +1218,7 @@ impl Tracker {
     /// change, see [`PlantModel::reports_on_change`]); re-sends an unconfirmed lockout
     /// `completionMs` after its last send. A threshold counts as crossed once
     /// `now - start >= T`. Nothing is checked for a device known offline.
-    pub fn tick(&mut self, now_ms: u64) -> Vec<Effect> {
+    pub fn tick(&mut self, now: Millis) -> Vec<Effect> {
         let mut effects = Vec::new();
         for index in 0..self.actuators.len() {
             let id = ActuatorId(index as u32);
@@ -1224,7 +1230,7 @@ impl Tracker {
             // A device that publishes on change is silent while nothing moves:
             // its liveness is its status topic (last will) and the broker path.
             let silent_too_long =
-                !a.on_change && now_ms.saturating_sub(a.last_sample_ms) >= timing.stale_ms;
+                !a.on_change && now.saturating_sub(a.last_sample_ms) >= timing.stale_ms;
             if !a.stale && silent_too_long {
                 let a = &mut self.actuators[index];
                 a.stale = true;
@@ -1235,29 +1241,29 @@ impl Tracker {
                 });
                 self.escalate(id, FaultKind::Stale, &mut effects);
             } else {
-                self.check_command(id, now_ms, &mut effects);
+                self.check_command(id, now, &mut effects);
             }
             // After the command's own retry, which counts as a send.
             let completion_ms = self.timings[self.actuators[index].type_index].completion_ms;
             let due = self.actuators[index]
                 .lockout_order
-                .is_some_and(|o| now_ms.saturating_sub(o.last_send_ms) >= completion_ms);
+                .is_some_and(|o| now.saturating_sub(o.last_send_ms) >= completion_ms);
             if due {
-                self.resend_lockout(id, now_ms, &mut effects);
+                self.resend_lockout(id, now, &mut effects);
             }
         }
         effects
     }
 
     /// No motion or target not reached: retried, then escalated.
-    fn check_command(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+    fn check_command(&mut self, id: ActuatorId, now: Millis, effects: &mut Vec<Effect>) {
         let a = &self.actuators[id.index()];
         let timing = &self.timings[a.type_index];
         let Some(command) = &a.command else { return };
         if command.escalated {
             return;
         }
-        let elapsed = now_ms.saturating_sub(command.attempt_ms);
+        let elapsed = now.saturating_sub(command.attempt_ms);
         let fault = if command.moving_ms.is_none() && elapsed >= timing.no_motion_ms {
             FaultKind::NoMotion
         } else if elapsed >= timing.completion_ms {
@@ -1272,7 +1278,7 @@ impl Tracker {
         };
         if command.retries < retries {
             command.retries += 1;
-            command.attempt_ms = now_ms;
+            command.attempt_ms = now;
             effects.push(Effect::Retry {
                 actuator: id,
                 caller: command.caller,
@@ -1289,7 +1295,7 @@ impl Tracker {
             if let Some(order) = a.lockout_order.as_mut() {
                 if order.target == command.target {
                     order.sends = order.sends.saturating_add(1);
-                    order.last_send_ms = now_ms;
+                    order.last_send_ms = now;
                 }
             }
         } else {
@@ -1306,10 +1312,10 @@ impl Tracker {
 
     /// Publishes the state the actuator should be in again: its unconfirmed
     /// lockout if it has one, else its last commanded state.
-    fn republish(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+    fn republish(&mut self, id: ActuatorId, now: Millis, effects: &mut Vec<Effect>) {
         let a = &self.actuators[id.index()];
         if a.lockout_order.is_some() {
-            self.resend_lockout(id, now_ms, effects);
+            self.resend_lockout(id, now, effects);
         } else if let Some(target) = a.commanded {
             effects.push(publish(
                 self.plant.contract(),
@@ -1321,13 +1327,13 @@ impl Tracker {
         }
     }
 
-    fn resend_lockout(&mut self, id: ActuatorId, now_ms: u64, effects: &mut Vec<Effect>) {
+    fn resend_lockout(&mut self, id: ActuatorId, now: Millis, effects: &mut Vec<Effect>) {
         let a = &mut self.actuators[id.index()];
         let Some(order) = a.lockout_order.as_mut() else {
             return;
         };
         order.sends = order.sends.saturating_add(1);
-        order.last_send_ms = now_ms;
+        order.last_send_ms = now;
         effects.push(Effect::LockoutResent {
             actuator: id,
             attempt: order.sends - 1,
@@ -1364,7 +1370,7 @@ impl Tracker {
         }
     }
 
-    fn complete_one(&mut self, caller: Caller, now_ms: u64, effects: &mut Vec<Effect>) {
+    fn complete_one(&mut self, caller: Caller, now: Millis, effects: &mut Vec<Effect>) {
         let Some(group) = self.groups.get_mut(&caller) else {
             return;
         };
@@ -1373,7 +1379,7 @@ impl Tracker {
             let group = self.groups.remove(&caller).expect("present");
             effects.push(Effect::GroupCompleted {
                 caller,
-                completion_ms: now_ms - group.issued_ms,
+                completion_ms: now.saturating_sub(group.issued_ms),
             });
         }
     }

@@ -1,6 +1,8 @@
 use super::*;
 use serde_json::json;
 
+use crate::time::ms;
+
 /// V1, V2 (valves, tolerance 2) and P1 (pump) on ctrl-1; V9 on ctrl-2.
 fn plant(escalation: &str) -> PlantModel {
     serde_json::from_value(json!({
@@ -21,10 +23,10 @@ fn plant(escalation: &str) -> PlantModel {
 }
 
 fn tracker() -> (Tracker, ActuatorId, ActuatorId, ActuatorId) {
-    let mut t = Tracker::new(plant("fail-fast"), 0).unwrap();
+    let mut t = Tracker::new(plant("fail-fast"), ms(0)).unwrap();
     let [v1, v2, p1] = ["V1", "V2", "P1"].map(|n| t.actuator(n).unwrap());
     for id in [v1, v2, p1] {
-        t.feedback(id, 0.0, None, 0).unwrap();
+        t.feedback(id, 0.0, None, ms(0)).unwrap();
     }
     (t, v1, v2, p1)
 }
@@ -51,43 +53,43 @@ fn has(effects: &[Effect], wanted: impl Fn(&Effect) -> bool) -> bool {
 #[test]
 fn a_command_goes_from_pending_to_moving_to_stopped() {
     let (mut t, v1, _, _) = tracker();
-    let sent = t.command(&[(v1, 100.0)], 1, false, 100).unwrap();
+    let sent = t.command(&[(v1, 100.0)], 1, false, ms(100)).unwrap();
     assert_eq!(
         publishes(&sent),
         vec![("ctrl-1/valve/1/command".into(), "100".into(), false)]
     );
     assert_eq!(t.phase(v1), Some(Phase::Pending));
-    let noise = t.feedback(v1, 1.5, None, 600).unwrap();
+    let noise = t.feedback(v1, 1.5, None, ms(600)).unwrap();
     assert!(
         !has(&noise, |e| matches!(e, Effect::Moving { .. })),
         "within tolerance of the start is not motion"
     );
-    let moving = t.feedback(v1, 30.0, None, 2100).unwrap();
+    let moving = t.feedback(v1, 30.0, None, ms(2100)).unwrap();
     assert!(has(&moving, |e| matches!(
         e,
         Effect::Moving {
-            issue_to_motion_ms: 2000,
+            issue_to_motion_ms,
             caller: 1,
             ..
-        }
+        } if *issue_to_motion_ms == ms(2000)
     )));
     assert_eq!(t.phase(v1), Some(Phase::Moving));
-    let done = t.feedback(v1, 98.5, None, 3100).unwrap();
+    let done = t.feedback(v1, 98.5, None, ms(3100)).unwrap();
     assert!(has(&done, |e| matches!(
         e,
         Effect::Completed {
-            issue_to_motion_ms: 2000,
-            completion_ms: 3000,
+            issue_to_motion_ms,
+            completion_ms,
             retries: 0,
             ..
-        }
+        } if *issue_to_motion_ms == ms(2000) && *completion_ms == ms(3000)
     )));
     assert!(has(&done, |e| matches!(
         e,
         Effect::GroupCompleted {
             caller: 1,
-            completion_ms: 3000
-        }
+            completion_ms
+        } if *completion_ms == ms(3000)
     )));
     assert_eq!(t.phase(v1), Some(Phase::Stopped));
 }
@@ -96,38 +98,38 @@ fn a_command_goes_from_pending_to_moving_to_stopped() {
 fn a_group_returns_once_every_actuator_is_done() {
     let (mut t, v1, v2, p1) = tracker();
     let sent = t
-        .command(&[(v1, 50.0), (v2, 100.0), (p1, 1.0)], 9, false, 0)
+        .command(&[(v1, 50.0), (v2, 100.0), (p1, 1.0)], 9, false, ms(0))
         .unwrap();
     assert_eq!(publishes(&sent).len(), 3);
     assert_eq!(
         publishes(&sent)[2],
         ("ctrl-1/pump/1/command".into(), "ON".into(), false)
     );
-    let pump = t.feedback(p1, 1.0, None, 500).unwrap();
+    let pump = t.feedback(p1, 1.0, None, ms(500)).unwrap();
     assert!(
         has(&pump, |e| matches!(e, Effect::Moving { .. }))
             && has(&pump, |e| matches!(e, Effect::Completed { .. }))
     );
-    t.feedback(v1, 50.0, None, 900).unwrap();
-    let before = t.feedback(v2, 60.0, None, 900).unwrap();
+    t.feedback(v1, 50.0, None, ms(900)).unwrap();
+    let before = t.feedback(v2, 60.0, None, ms(900)).unwrap();
     assert!(!has(&before, |e| matches!(
         e,
         Effect::GroupCompleted { .. }
     )));
-    let last = t.feedback(v2, 100.0, None, 1500).unwrap();
+    let last = t.feedback(v2, 100.0, None, ms(1500)).unwrap();
     assert!(has(&last, |e| matches!(
         e,
         Effect::GroupCompleted {
             caller: 9,
-            completion_ms: 1500
-        }
+            completion_ms
+        } if *completion_ms == ms(1500)
     )));
 }
 
 #[test]
 fn a_command_to_where_it_already_is_completes_at_once() {
     let (mut t, v1, _, _) = tracker();
-    let effects = t.command(&[(v1, 1.0)], 3, false, 50).unwrap();
+    let effects = t.command(&[(v1, 1.0)], 3, false, ms(50)).unwrap();
     assert_eq!(
         publishes(&effects).len(),
         1,
@@ -137,8 +139,8 @@ fn a_command_to_where_it_already_is_completes_at_once() {
         e,
         Effect::GroupCompleted {
             caller: 3,
-            completion_ms: 0
-        }
+            completion_ms
+        } if *completion_ms == ms(0)
     )));
     assert_eq!(t.counts().moving, 0);
 }
@@ -146,9 +148,9 @@ fn a_command_to_where_it_already_is_completes_at_once() {
 #[test]
 fn bad_commands_send_nothing_and_change_nothing() {
     let (mut t, v1, v2, p1) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
     let refused = |t: &mut Tracker, targets: &[(ActuatorId, f64)]| {
-        t.command(targets, 2, false, 10).unwrap_err().code()
+        t.command(targets, 2, false, ms(10)).unwrap_err().code()
     };
     assert_eq!(refused(&mut t, &[(v2, 100.0), (v1, 0.0)]), "STILL_MOVING");
     assert_eq!(refused(&mut t, &[(v2, 101.0)]), "INVALID_TARGET");
@@ -163,7 +165,9 @@ fn bad_commands_send_nothing_and_change_nothing() {
         "UNKNOWN_ACTUATOR"
     );
     assert_eq!(
-        t.command(&[(v2, 10.0)], 1, false, 10).unwrap_err().code(),
+        t.command(&[(v2, 10.0)], 1, false, ms(10))
+            .unwrap_err()
+            .code(),
         "CALLER_BUSY"
     );
     assert_eq!(
@@ -182,9 +186,9 @@ fn bad_commands_send_nothing_and_change_nothing() {
 #[test]
 fn no_motion_is_retried_at_the_threshold_then_fails_fast() {
     let (mut t, v1, _, _) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    assert!(t.tick(999).is_empty(), "just before T");
-    let retry = t.tick(1000);
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    assert!(t.tick(ms(999)).is_empty(), "just before T");
+    let retry = t.tick(ms(1000));
     assert!(
         has(&retry, |e| matches!(
             e,
@@ -200,8 +204,8 @@ fn no_motion_is_retried_at_the_threshold_then_fails_fast() {
         publishes(&retry),
         vec![("ctrl-1/valve/1/command".into(), "100".into(), false)]
     );
-    assert!(t.tick(1999).is_empty(), "a fresh window for the retry");
-    let failed = t.tick(2000);
+    assert!(t.tick(ms(1999)).is_empty(), "a fresh window for the retry");
+    let failed = t.tick(ms(2000));
     assert!(has(&failed, |e| matches!(
         e,
         Effect::Fault {
@@ -218,26 +222,26 @@ fn no_motion_is_retried_at_the_threshold_then_fails_fast() {
         }
     )));
     assert_eq!(t.phase(v1), Some(Phase::Faulted));
-    assert!(t.tick(2001).is_empty(), "escalates once");
+    assert!(t.tick(ms(2001)).is_empty(), "escalates once");
     // A faulted actuator can still be commanded (a lockout must always go through).
-    assert!(t.command(&[(v1, 0.0)], 2, false, 2100).is_ok());
+    assert!(t.command(&[(v1, 0.0)], 2, false, ms(2100)).is_ok());
 }
 
 #[test]
 fn target_not_reached_counts_from_the_attempt() {
     let (mut t, v1, _, _) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    t.feedback(v1, 20.0, None, 500).unwrap();
-    assert!(t.tick(2999).is_empty());
-    assert!(has(&t.tick(3000), |e| matches!(
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    t.feedback(v1, 20.0, None, ms(500)).unwrap();
+    assert!(t.tick(ms(2999)).is_empty());
+    assert!(has(&t.tick(ms(3000)), |e| matches!(
         e,
         Effect::Retry {
             fault: FaultKind::NotReached,
             ..
         }
     )));
-    t.feedback(v1, 40.0, None, 3500).unwrap();
-    let failed = t.tick(6000);
+    t.feedback(v1, 40.0, None, ms(3500)).unwrap();
+    let failed = t.tick(ms(6000));
     assert!(has(&failed, |e| matches!(
         e,
         Effect::GroupFailed {
@@ -249,12 +253,12 @@ fn target_not_reached_counts_from_the_attempt() {
 
 #[test]
 fn hang_escalation_reports_the_fault_and_leaves_the_command_to_the_callers_timeout() {
-    let mut t = Tracker::new(plant("hang"), 0).unwrap();
+    let mut t = Tracker::new(plant("hang"), ms(0)).unwrap();
     let v1 = t.actuator("V1").unwrap();
-    t.feedback(v1, 0.0, None, 0).unwrap();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    t.tick(1000);
-    let escalated = t.tick(2000);
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    t.tick(ms(1000));
+    let escalated = t.tick(ms(2000));
     assert!(has(&escalated, |e| matches!(
         e,
         Effect::Fault {
@@ -266,13 +270,13 @@ fn hang_escalation_reports_the_fault_and_leaves_the_command_to_the_callers_timeo
         e,
         Effect::GroupFailed { .. }
     )));
-    let late = t.feedback(v1, 100.0, None, 9000).unwrap();
+    let late = t.feedback(v1, 100.0, None, ms(9000)).unwrap();
     assert!(has(&late, |e| matches!(
         e,
         Effect::GroupCompleted {
             caller: 1,
-            completion_ms: 9000
-        }
+            completion_ms
+        } if *completion_ms == ms(9000)
     )));
     assert!(!t.withdraw(1), "already answered");
 }
@@ -281,11 +285,11 @@ fn hang_escalation_reports_the_fault_and_leaves_the_command_to_the_callers_timeo
 fn uncommanded_movement_while_idle_is_a_fault_once_per_excursion() {
     let (mut t, v1, _, _) = tracker();
     assert!(t
-        .feedback(v1, 1.9, None, 10)
+        .feedback(v1, 1.9, None, ms(10))
         .unwrap()
         .iter()
         .all(|e| !matches!(e, Effect::Fault { .. })));
-    let moved = t.feedback(v1, 2.1, None, 20).unwrap();
+    let moved = t.feedback(v1, 2.1, None, ms(20)).unwrap();
     assert!(has(&moved, |e| matches!(
         e,
         Effect::Fault {
@@ -294,10 +298,10 @@ fn uncommanded_movement_while_idle_is_a_fault_once_per_excursion() {
         }
     )));
     assert!(!has(
-        &t.feedback(v1, 40.0, None, 30).unwrap(),
+        &t.feedback(v1, 40.0, None, ms(30)).unwrap(),
         |e| matches!(e, Effect::Fault { .. })
     ));
-    let back = t.feedback(v1, 0.5, None, 40).unwrap();
+    let back = t.feedback(v1, 0.5, None, ms(40)).unwrap();
     assert!(has(&back, |e| matches!(
         e,
         Effect::Recovered {
@@ -310,15 +314,15 @@ fn uncommanded_movement_while_idle_is_a_fault_once_per_excursion() {
 #[test]
 fn feedback_goes_stale_at_the_threshold_and_fails_a_running_command() {
     let (mut t, v1, v2, _) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 4000).unwrap();
-    t.feedback(v1, 10.0, None, 4500).unwrap();
+    t.command(&[(v1, 100.0)], 1, false, ms(4000)).unwrap();
+    t.feedback(v1, 10.0, None, ms(4500)).unwrap();
     // V2 last reported at 0: stale at exactly 5000.
-    let at_4999 = t.tick(4999);
+    let at_4999 = t.tick(ms(4999));
     assert!(!has(
         &at_4999,
         |e| matches!(e, Effect::Fault { actuator, .. } if *actuator == v2)
     ));
-    let at_5000 = t.tick(5000);
+    let at_5000 = t.tick(ms(5000));
     assert!(has(
         &at_5000,
         |e| matches!(e, Effect::Fault { actuator, fault: FaultKind::Stale } if *actuator == v2)
@@ -327,7 +331,7 @@ fn feedback_goes_stale_at_the_threshold_and_fails_a_running_command() {
         !has(&at_5000, |e| matches!(e, Effect::GroupFailed { .. })),
         "V1 reported at 4500"
     );
-    let recovered = t.feedback(v2, 0.0, None, 6000).unwrap();
+    let recovered = t.feedback(v2, 0.0, None, ms(6000)).unwrap();
     assert!(has(&recovered, |e| matches!(
         e,
         Effect::Recovered {
@@ -340,7 +344,7 @@ fn feedback_goes_stale_at_the_threshold_and_fails_a_running_command() {
         Some(Phase::Idle),
         "no command ever: idle again"
     );
-    let stale_v1 = t.tick(9500);
+    let stale_v1 = t.tick(ms(9500));
     assert!(has(&stale_v1, |e| matches!(
         e,
         Effect::GroupFailed {
@@ -355,8 +359,8 @@ fn feedback_goes_stale_at_the_threshold_and_fails_a_running_command() {
 fn a_device_going_offline_fails_its_commands_and_refuses_new_ones() {
     let (mut t, v1, v2, _) = tracker();
     let ctrl1 = t.device("ctrl-1").unwrap();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    let offline = t.device_status(ctrl1, false, 100).unwrap();
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    let offline = t.device_status(ctrl1, false, ms(100)).unwrap();
     assert!(has(&offline, |e| matches!(
         e,
         Effect::DeviceStatus { online: false, .. }
@@ -370,10 +374,12 @@ fn a_device_going_offline_fails_its_commands_and_refuses_new_ones() {
         }
     )));
     assert_eq!(
-        t.command(&[(v2, 50.0)], 2, false, 200).unwrap_err().code(),
+        t.command(&[(v2, 50.0)], 2, false, ms(200))
+            .unwrap_err()
+            .code(),
         "DEVICE_OFFLINE"
     );
-    let later = t.tick(60_000);
+    let later = t.tick(ms(60_000));
     let on_ctrl1 = |id: &ActuatorId| [v1, v2].contains(id) || t.actuator_name(*id) == Some("P1");
     assert!(
         !has(
@@ -392,14 +398,14 @@ fn a_device_going_offline_fails_its_commands_and_refuses_new_ones() {
         )),
         "ctrl-2 is online and silent: stale"
     );
-    let online = t.device_status(ctrl1, true, 300).unwrap();
+    let online = t.device_status(ctrl1, true, ms(300)).unwrap();
     assert_eq!(
         publishes(&online),
         vec![("ctrl-1/valve/1/command".into(), "100".into(), false)],
         "commanded state re-sent"
     );
     assert!(
-        t.device_status(ctrl1, true, 301).unwrap().is_empty(),
+        t.device_status(ctrl1, true, ms(301)).unwrap().is_empty(),
         "no change, no effect"
     );
 }
@@ -407,8 +413,11 @@ fn a_device_going_offline_fails_its_commands_and_refuses_new_ones() {
 #[test]
 fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
     let (mut t, v1, _, p1) = tracker();
-    t.command(&[(v1, 100.0), (p1, 1.0)], 1, false, 0).unwrap();
-    let lockout = t.command(&[(v1, 0.0), (p1, 0.0)], 2, true, 100).unwrap();
+    t.command(&[(v1, 100.0), (p1, 1.0)], 1, false, ms(0))
+        .unwrap();
+    let lockout = t
+        .command(&[(v1, 0.0), (p1, 0.0)], 2, true, ms(100))
+        .unwrap();
     assert!(has(&lockout, |e| matches!(
         e,
         Effect::GroupFailed {
@@ -434,19 +443,18 @@ fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
     assert!(
         has(&lockout, |e| matches!(
             e,
-            Effect::LockoutConfirmed { actuator, after_ms: 0, sends: 1 } if *actuator == p1
-        )),
+            Effect::LockoutConfirmed { actuator, after_ms, sends: 1 } if *actuator == p1 && *after_ms == ms(0))),
         "the last sample already shows it there"
     );
     assert!(t.pending_lockouts().is_empty());
     let ctrl1 = t.device("ctrl-1").unwrap();
-    t.device_status(ctrl1, false, 200).unwrap();
-    let back = t.device_status(ctrl1, true, 300).unwrap();
+    t.device_status(ctrl1, false, ms(200)).unwrap();
+    let back = t.device_status(ctrl1, true, ms(300)).unwrap();
     assert!(
         publishes(&back).iter().all(|(_, _, retain)| *retain),
         "lockouts re-sent retained"
     );
-    let next = t.command(&[(p1, 1.0)], 3, false, 400).unwrap();
+    let next = t.command(&[(p1, 1.0)], 3, false, ms(400)).unwrap();
     assert_eq!(
         publishes(&next),
         vec![
@@ -460,17 +468,17 @@ fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
 #[test]
 fn changes_are_reported_by_exception_with_time_of_flight() {
     let (mut t, v1, _, _) = tracker();
-    let first = t.feedback(v1, 10.0, Some(900), 1000).unwrap();
+    let first = t.feedback(v1, 10.0, Some(ms(900)), ms(1000)).unwrap();
     assert!(has(
         &first,
         |e| matches!(e, Effect::Changed { value, time_of_flight_ms: Some(100), .. } if *value == 10.0)
     ));
     assert!(!has(
-        &t.feedback(v1, 11.9, Some(1900), 2000).unwrap(),
+        &t.feedback(v1, 11.9, Some(ms(1900)), ms(2000)).unwrap(),
         |e| matches!(e, Effect::Changed { .. })
     ));
     assert!(has(
-        &t.feedback(v1, 12.1, None, 3000).unwrap(),
+        &t.feedback(v1, 12.1, None, ms(3000)).unwrap(),
         |e| matches!(
             e,
             Effect::Changed {
@@ -488,8 +496,8 @@ fn a_bad_sample_in_a_batch_is_reported_and_the_rest_still_counts() {
     let rejected = t
         .feedback_batch(
             &[(v1, 50.0), (p1, 0.3), (v2, f64::NAN)],
-            Some(10),
-            20,
+            Some(ms(10)),
+            ms(20),
             &mut effects,
         )
         .unwrap();
@@ -515,7 +523,8 @@ fn a_bad_sample_in_a_batch_is_reported_and_the_rest_still_counts() {
 #[test]
 fn withdrawing_a_group_leaves_its_actuators_idle() {
     let (mut t, v1, v2, _) = tracker();
-    t.command(&[(v1, 100.0), (v2, 100.0)], 5, false, 0).unwrap();
+    t.command(&[(v1, 100.0), (v2, 100.0)], 5, false, ms(0))
+        .unwrap();
     assert!(t.withdraw(5));
     assert_eq!(
         t.counts(),
@@ -527,7 +536,7 @@ fn withdrawing_a_group_leaves_its_actuators_idle() {
             offline_devices: 0
         }
     );
-    assert!(t.tick(1500).is_empty(), "nothing left to time out");
+    assert!(t.tick(ms(1500)).is_empty(), "nothing left to time out");
 }
 
 #[test]
@@ -566,7 +575,7 @@ fn c2_refuses_a_command_outside_the_held_resources() {
         doc["actuators"][i]["resource"] = json!(line);
     }
     doc["actuators"][1]["resource"] = serde_json::Value::Null;
-    let t = Tracker::new(serde_json::from_value(doc).unwrap(), 0).unwrap();
+    let t = Tracker::new(serde_json::from_value(doc).unwrap(), ms(0)).unwrap();
     let yel = ["YEL".to_string()];
     let targets = t
         .parse_group(&json!({ "valves": { "V1": 100 }, "pumps": { "P1": true } }))
@@ -591,9 +600,9 @@ fn c2_refuses_a_command_outside_the_held_resources() {
 /// V1 at 99 (a normal command completed), then locked out at `at`: not there yet.
 fn locked_out_at_99(at: u64) -> (Tracker, ActuatorId) {
     let (mut t, v1, _, _) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    t.feedback(v1, 99.0, None, 500).unwrap();
-    let sent = t.command(&[(v1, 0.0)], 2, true, at).unwrap();
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    t.feedback(v1, 99.0, None, ms(500)).unwrap();
+    let sent = t.command(&[(v1, 0.0)], 2, true, ms(at)).unwrap();
     assert_eq!(
         publishes(&sent),
         vec![("ctrl-1/valve/1/command".into(), "0".into(), true)]
@@ -603,7 +612,7 @@ fn locked_out_at_99(at: u64) -> (Tracker, ActuatorId) {
         vec![PendingLockout {
             actuator: v1,
             target: 0.0,
-            since_ms: at,
+            since_ms: ms(at),
             sends: 1
         }]
     );
@@ -629,13 +638,13 @@ fn lockout_v1() -> Vec<(String, String, bool)> {
 #[test]
 fn an_unconfirmed_lockout_is_resent_every_completion_window_without_limit() {
     let (mut t, v1) = locked_out_at_99(1000);
-    let retry = t.tick(2000);
+    let retry = t.tick(ms(2000));
     assert!(has(&retry, |e| matches!(
         e,
         Effect::Retry { caller: 2, .. }
     )));
     assert_eq!(publishes(&retry), lockout_v1(), "the group's own retry");
-    let failed = t.tick(3000);
+    let failed = t.tick(ms(3000));
     assert!(
         has(&failed, |e| matches!(
             e,
@@ -652,12 +661,12 @@ fn an_unconfirmed_lockout_is_resent_every_completion_window_without_limit() {
     let mut last = 2000;
     for window in 1..=50u32 {
         let due = last + 3000;
-        t.feedback(v1, 99.0, None, due - 1).unwrap();
+        t.feedback(v1, 99.0, None, ms(due - 1)).unwrap();
         assert!(
-            publishes(&t.tick(due - 1)).is_empty(),
+            publishes(&t.tick(ms(due - 1))).is_empty(),
             "window {window}: not before completionMs"
         );
-        let sent = t.tick(due);
+        let sent = t.tick(ms(due));
         assert_eq!(
             resent(&sent),
             vec![window + 1],
@@ -673,7 +682,7 @@ fn an_unconfirmed_lockout_is_resent_every_completion_window_without_limit() {
 fn a_lockout_is_not_resent_while_offline_and_at_once_when_back_or_the_path_is_restored() {
     let (mut t, _) = locked_out_at_99(1000);
     let ctrl1 = t.device("ctrl-1").unwrap();
-    let offline = t.device_status(ctrl1, false, 1500).unwrap();
+    let offline = t.device_status(ctrl1, false, ms(1500)).unwrap();
     assert!(has(&offline, |e| matches!(
         e,
         Effect::GroupFailed {
@@ -683,18 +692,18 @@ fn a_lockout_is_not_resent_while_offline_and_at_once_when_back_or_the_path_is_re
         }
     )));
     for now in (2000..40_000).step_by(500) {
-        let ticked = t.tick(now);
+        let ticked = t.tick(ms(now));
         assert!(
             publishes(&ticked).is_empty() && resent(&ticked).is_empty(),
             "offline at {now}"
         );
     }
-    let back = t.device_status(ctrl1, true, 40_000).unwrap();
+    let back = t.device_status(ctrl1, true, ms(40_000)).unwrap();
     assert_eq!(resent(&back), vec![1]);
     assert_eq!(publishes(&back), lockout_v1(), "at once, retained");
-    assert!(publishes(&t.tick(42_999)).is_empty());
-    assert_eq!(publishes(&t.tick(43_000)), lockout_v1());
-    let restored = t.path_restored(44_000);
+    assert!(publishes(&t.tick(ms(42_999))).is_empty());
+    assert_eq!(publishes(&t.tick(ms(43_000))), lockout_v1());
+    let restored = t.path_restored(ms(44_000));
     assert_eq!(resent(&restored), vec![3]);
     assert_eq!(
         publishes(&restored),
@@ -702,25 +711,27 @@ fn a_lockout_is_not_resent_while_offline_and_at_once_when_back_or_the_path_is_re
         "V2 and P1 were never commanded"
     );
     assert!(
-        publishes(&t.tick(46_999)).is_empty(),
+        publishes(&t.tick(ms(46_999))).is_empty(),
         "the window starts again at the restore"
     );
-    assert_eq!(resent(&t.tick(47_000)), vec![4]);
+    assert_eq!(resent(&t.tick(ms(47_000))), vec![4]);
 }
 
 #[test]
 fn a_sample_at_the_target_from_an_online_device_confirms_the_lockout() {
     let (mut t, v1) = locked_out_at_99(1000);
     let ctrl1 = t.device("ctrl-1").unwrap();
-    t.device_status(ctrl1, false, 1200).unwrap();
-    let unheard = t.feedback(v1, 0.0, None, 1300).unwrap();
+    t.device_status(ctrl1, false, ms(1200)).unwrap();
+    let unheard = t.feedback(v1, 0.0, None, ms(1300)).unwrap();
     assert!(
         !has(&unheard, |e| matches!(e, Effect::LockoutConfirmed { .. })),
         "its device is offline"
     );
-    t.device_status(ctrl1, true, 1400).unwrap();
+    t.device_status(ctrl1, true, ms(1400)).unwrap();
     assert_eq!(
-        t.feedback(v1, 1.0, Some(9000), 1450).unwrap_err().code(),
+        t.feedback(v1, 1.0, Some(ms(9000)), ms(1450))
+            .unwrap_err()
+            .code(),
         "FUTURE_TIMESTAMP"
     );
     assert_eq!(
@@ -728,22 +739,21 @@ fn a_sample_at_the_target_from_an_online_device_confirms_the_lockout() {
         1,
         "a refused sample confirms nothing"
     );
-    let moving = t.feedback(v1, 40.0, None, 1500).unwrap();
+    let moving = t.feedback(v1, 40.0, None, ms(1500)).unwrap();
     assert!(!has(&moving, |e| matches!(
         e,
         Effect::LockoutConfirmed { .. }
     )));
-    let there = t.feedback(v1, 2.0, None, 1600).unwrap();
+    let there = t.feedback(v1, 2.0, None, ms(1600)).unwrap();
     assert!(has(&there, |e| matches!(
         e,
-        Effect::LockoutConfirmed { actuator, after_ms: 600, sends: 2 } if *actuator == v1
-    )));
+        Effect::LockoutConfirmed { actuator, after_ms, sends: 2 } if *actuator == v1 && *after_ms == ms(600))));
     assert!(t.pending_lockouts().is_empty());
     assert_eq!(t.counts().lockouts_pending, 0);
     for now in (2000..20_000).step_by(500) {
-        t.feedback(v1, 0.0, None, now).unwrap();
+        t.feedback(v1, 0.0, None, ms(now)).unwrap();
         assert!(
-            publishes(&t.tick(now)).is_empty(),
+            publishes(&t.tick(ms(now))).is_empty(),
             "confirmed: no re-send at {now}"
         );
     }
@@ -754,7 +764,7 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
     let (mut t, v1) = locked_out_at_99(1000);
     let v2 = t.actuator("V2").unwrap();
     let err = t
-        .command(&[(v2, 50.0), (v1, 50.0)], 3, false, 1100)
+        .command(&[(v2, 50.0), (v1, 50.0)], 3, false, ms(1100))
         .unwrap_err();
     assert_eq!(err.code(), "LOCKOUT_PENDING");
     assert_eq!(
@@ -766,7 +776,7 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
         Some(Phase::Idle),
         "V2 untouched by the refused group"
     );
-    let renewed = t.command(&[(v1, 0.0)], 4, true, 1200).unwrap();
+    let renewed = t.command(&[(v1, 0.0)], 4, true, ms(1200)).unwrap();
     assert!(
         has(&renewed, |e| matches!(
             e,
@@ -783,25 +793,25 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
         vec![PendingLockout {
             actuator: v1,
             target: 0.0,
-            since_ms: 1000,
+            since_ms: ms(1000),
             sends: 2
         }],
         "renewed: pending since the first"
     );
     assert!(
-        publishes(&t.tick(4199)).len() <= 1,
+        publishes(&t.tick(ms(4199))).len() <= 1,
         "the window restarts at the renewal (only the group's retry at 2200)"
     );
-    let confirmed = t.feedback(v1, 0.0, None, 4300).unwrap();
+    let confirmed = t.feedback(v1, 0.0, None, ms(4300)).unwrap();
     assert!(has(&confirmed, |e| matches!(
         e,
         Effect::LockoutConfirmed {
             sends: 3,
-            after_ms: 3300,
+            after_ms,
             ..
-        }
+        } if *after_ms == ms(3300)
     )));
-    let next = t.command(&[(v1, 50.0)], 5, false, 4400).unwrap();
+    let next = t.command(&[(v1, 50.0)], 5, false, ms(4400)).unwrap();
     assert_eq!(
         publishes(&next),
         vec![
@@ -815,18 +825,18 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
 #[test]
 fn a_lockout_to_another_state_replaces_the_order() {
     let (mut t, v1) = locked_out_at_99(1000);
-    t.command(&[(v1, 10.0)], 3, true, 1500).unwrap();
+    t.command(&[(v1, 10.0)], 3, true, ms(1500)).unwrap();
     assert_eq!(
         t.pending_lockouts(),
         vec![PendingLockout {
             actuator: v1,
             target: 10.0,
-            since_ms: 1500,
+            since_ms: ms(1500),
             sends: 1
         }]
     );
     assert!(!has(
-        &t.feedback(v1, 0.0, None, 1600).unwrap(),
+        &t.feedback(v1, 0.0, None, ms(1600)).unwrap(),
         |e| matches!(e, Effect::LockoutConfirmed { .. })
     ));
 }
@@ -838,10 +848,10 @@ fn withdrawing_the_lockouts_caller_does_not_end_the_order() {
     assert_eq!(t.phase(v1), Some(Phase::Idle));
     assert_eq!(t.counts().lockouts_pending, 1);
     assert!(
-        publishes(&t.tick(3999)).is_empty(),
+        publishes(&t.tick(ms(3999))).is_empty(),
         "no group retry: it is gone"
     );
-    let sent = t.tick(4000);
+    let sent = t.tick(ms(4000));
     assert_eq!(resent(&sent), vec![1]);
     assert_eq!(publishes(&sent), lockout_v1());
 }
@@ -849,9 +859,9 @@ fn withdrawing_the_lockouts_caller_does_not_end_the_order() {
 #[test]
 fn a_lockout_is_resent_while_feedback_is_stale() {
     let (mut t, _) = locked_out_at_99(1000);
-    t.tick(2000);
-    t.tick(3000);
-    let stale = t.tick(5000);
+    t.tick(ms(2000));
+    t.tick(ms(3000));
+    let stale = t.tick(ms(5000));
     assert!(has(&stale, |e| matches!(
         e,
         Effect::Fault {
@@ -869,11 +879,11 @@ fn a_lockout_is_resent_while_feedback_is_stale() {
 #[test]
 fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() {
     let (mut t, v1, v2, p1) = tracker();
-    t.command(&[(v1, 100.0)], 1, false, 0).unwrap();
-    t.command(&[(p1, 1.0)], 2, true, 0).unwrap();
-    t.feedback(v1, 30.0, None, 500).unwrap();
-    t.feedback(v2, 0.0, None, 500).unwrap();
-    let restored = t.path_restored(2500);
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    t.command(&[(p1, 1.0)], 2, true, ms(0)).unwrap();
+    t.feedback(v1, 30.0, None, ms(500)).unwrap();
+    t.feedback(v2, 0.0, None, ms(500)).unwrap();
+    let restored = t.path_restored(ms(2500));
     assert_eq!(
         publishes(&restored),
         vec![
@@ -882,7 +892,7 @@ fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() 
         ]
     );
     assert!(
-        !has(&t.tick(5499), |e| matches!(
+        !has(&t.tick(ms(5499)), |e| matches!(
             e,
             Effect::Retry { caller: 1, .. }
                 | Effect::Fault {
@@ -892,7 +902,7 @@ fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() 
         )),
         "fresh windows: no retry of V1, and no staleness counted over the outage"
     );
-    assert!(has(&t.tick(5500), |e| matches!(
+    assert!(has(&t.tick(ms(5500)), |e| matches!(
         e,
         Effect::Retry {
             caller: 1,
@@ -907,14 +917,14 @@ fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() 
 #[test]
 fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
     let (mut t, v1, _, _) = tracker();
-    assert_eq!(t.plant().clock_skew_ms, 5000);
-    let err = t.feedback(v1, 50.0, Some(9001), 4000).unwrap_err();
+    assert_eq!(t.plant().clock_skew_ms, ms(5000));
+    let err = t.feedback(v1, 50.0, Some(ms(9001)), ms(4000)).unwrap_err();
     assert_eq!(
         err,
         TrackError::FutureTimestamp {
             actuator: "V1".into(),
-            ahead_ms: 5001,
-            skew_ms: 5000
+            ahead_ms: ms(5001),
+            skew_ms: ms(5000)
         }
     );
     assert_eq!(err.code(), "FUTURE_TIMESTAMP");
@@ -924,13 +934,13 @@ fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
     );
     assert_eq!(t.position(v1), Some(0.0), "no position");
     assert!(
-        has(&t.tick(5000), |e| matches!(
+        has(&t.tick(ms(5000)), |e| matches!(
             e,
             Effect::Fault { actuator, fault: FaultKind::Stale } if *actuator == v1
         )),
         "no freshness"
     );
-    let at_limit = t.feedback(v1, 50.0, Some(11_000), 6000).unwrap();
+    let at_limit = t.feedback(v1, 50.0, Some(ms(11_000)), ms(6000)).unwrap();
     assert!(has(&at_limit, |e| matches!(
         e,
         Effect::Changed {
@@ -938,7 +948,7 @@ fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
             ..
         }
     )));
-    let later = t.feedback(v1, 60.0, Some(6900), 7000).unwrap();
+    let later = t.feedback(v1, 60.0, Some(ms(6900)), ms(7000)).unwrap();
     assert!(has(&later, |e| matches!(
         e,
         Effect::Changed {
@@ -947,7 +957,7 @@ fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
         }
     )));
     assert!(
-        t.feedback(v1, 0.0, Some(u64::MAX), 8000).is_err(),
+        t.feedback(v1, 0.0, Some(ms(u64::MAX)), ms(8000)).is_err(),
         "no overflow"
     );
 }
@@ -955,8 +965,8 @@ fn a_sample_stamped_beyond_the_clock_skew_is_refused_and_applies_nothing() {
 #[test]
 fn a_device_clock_that_jumps_back_is_still_heard_in_arrival_order() {
     let (mut t, v1, _, _) = tracker();
-    t.feedback(v1, 10.0, Some(9900), 10_000).unwrap();
-    let jumped = t.feedback(v1, 20.0, Some(2000), 10_100).unwrap();
+    t.feedback(v1, 10.0, Some(ms(9900)), ms(10_000)).unwrap();
+    let jumped = t.feedback(v1, 20.0, Some(ms(2000)), ms(10_100)).unwrap();
     assert!(has(&jumped, |e| matches!(
         e,
         Effect::Changed { value, time_of_flight_ms: Some(8100), .. } if *value == 20.0
@@ -971,8 +981,8 @@ fn a_batch_stamped_beyond_the_clock_skew_is_refused_whole() {
     let err = t
         .feedback_batch(
             &[(v1, 50.0), (p1, 0.3), (v2, 40.0)],
-            Some(20_000),
-            10_000,
+            Some(ms(20_000)),
+            ms(10_000),
             &mut effects,
         )
         .unwrap_err();
@@ -981,12 +991,17 @@ fn a_batch_stamped_beyond_the_clock_skew_is_refused_whole() {
     assert!(effects.is_empty(), "no per-sample rejection, no effect");
     assert_eq!((t.position(v1), t.position(v2)), (Some(0.0), Some(0.0)));
     let rejected = t
-        .feedback_batch(&[(v1, 50.0), (v2, 40.0)], Some(9000), 10_000, &mut effects)
+        .feedback_batch(
+            &[(v1, 50.0), (v2, 40.0)],
+            Some(ms(9000)),
+            ms(10_000),
+            &mut effects,
+        )
         .unwrap();
     assert!(rejected.is_empty());
     assert_eq!((t.position(v1), t.position(v2)), (Some(50.0), Some(40.0)));
     assert_eq!(
-        t.feedback_batch(&[], Some(u64::MAX), 10_000, &mut effects),
+        t.feedback_batch(&[], Some(ms(u64::MAX)), ms(10_000), &mut effects),
         Ok(Vec::new()),
         "an empty batch has nothing to refuse"
     );
@@ -1006,10 +1021,10 @@ fn esphome_tracker() -> (Tracker, ActuatorId, ActuatorId) {
         ]
     }))
     .unwrap();
-    let mut t = Tracker::new(plant, 0).unwrap();
+    let mut t = Tracker::new(plant, ms(0)).unwrap();
     let [v1, p1] = ["V1", "P1"].map(|n| t.actuator(n).unwrap());
-    t.feedback(v1, 0.0, None, 0).unwrap();
-    t.feedback(p1, 1.0, None, 0).unwrap();
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.feedback(p1, 1.0, None, ms(0)).unwrap();
     (t, v1, p1)
 }
 
@@ -1017,16 +1032,16 @@ fn esphome_tracker() -> (Tracker, ActuatorId, ActuatorId) {
 fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_completes_at_once() {
     let (mut t, v1, p1) = esphome_tracker();
     // An hour of silence: nothing moved, nothing to say.
-    assert!(t.tick(3_600_000).is_empty());
+    assert!(t.tick(ms(3_600_000)).is_empty());
     assert_eq!(t.phase(p1), Some(Phase::Idle));
     // The switch deduplicates: ON again publishes nothing back; the command is done at once.
-    let effects = t.command(&[(p1, 1.0)], 7, false, 3_600_000).unwrap();
+    let effects = t.command(&[(p1, 1.0)], 7, false, ms(3_600_000)).unwrap();
     assert!(effects.iter().any(|e| matches!(
         e,
         Effect::GroupCompleted {
             caller: 7,
-            completion_ms: 0
-        }
+            completion_ms
+        } if *completion_ms == ms(0)
     )));
     assert_eq!(
         publishes(&effects),
@@ -1037,7 +1052,7 @@ fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_comple
         )]
     );
     // A real move still has its no-motion threshold.
-    let effects = t.command(&[(v1, 100.0)], 8, false, 3_600_000).unwrap();
+    let effects = t.command(&[(v1, 100.0)], 8, false, ms(3_600_000)).unwrap();
     assert_eq!(
         publishes(&effects),
         vec![(
@@ -1046,7 +1061,7 @@ fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_comple
             false
         )]
     );
-    let faults = t.tick(3_601_000);
+    let faults = t.tick(ms(3_601_000));
     assert!(
         faults.iter().any(|e| matches!(
             e,
@@ -1068,9 +1083,9 @@ fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_comple
 #[test]
 fn an_on_change_device_going_offline_fails_its_commands_at_once() {
     let (mut t, v1, _) = esphome_tracker();
-    t.command(&[(v1, 100.0)], 9, false, 10).unwrap();
+    t.command(&[(v1, 100.0)], 9, false, ms(10)).unwrap();
     let device = t.device("ctrl-1").unwrap();
-    let effects = t.device_status(device, false, 20).unwrap();
+    let effects = t.device_status(device, false, ms(20)).unwrap();
     assert!(effects.iter().any(|e| matches!(
         e,
         Effect::GroupFailed {

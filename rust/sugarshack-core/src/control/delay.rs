@@ -4,10 +4,11 @@
 
 use super::error::{positive_duration, ControlError};
 use crate::text::quote;
+use crate::time::{ms, Millis};
 
 /// Longest round trip taken (a day): beyond it a sample is an error, and one
 /// absurd value could otherwise hold the variance at infinity for ever.
-pub const MAX_ROUND_TRIP_MS: f64 = 86_400_000.0;
+pub const MAX_ROUND_TRIP: Millis = ms(86_400_000);
 
 /// Estimates the network's round trip from observed samples: its mean and spread give the dead time the Smith predictor compensates.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,14 +43,21 @@ impl DelayEstimator {
         })
     }
 
-    /// Takes one measured round trip, in ms.
-    pub fn observe(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
-        if !(round_trip_ms.is_finite() && (0.0..=MAX_ROUND_TRIP_MS).contains(&round_trip_ms)) {
-            return Err(ControlError::input(format!(
-                "a round trip must be a number of milliseconds from 0 to {MAX_ROUND_TRIP_MS} (a day), got {round_trip_ms}",
-                round_trip_ms = quote(round_trip_ms)
-            )));
-        }
+    /// A measured round trip of `ms` milliseconds, refused unless from 0 to a day.
+    pub fn round_trip(ms: f64) -> Result<Millis, ControlError> {
+        Millis::new(ms)
+            .filter(|rt| *rt <= MAX_ROUND_TRIP)
+            .ok_or_else(|| {
+                ControlError::input(format!(
+                    "a round trip must be a number of milliseconds from 0 to {MAX_ROUND_TRIP} (a day), got {ms}",
+                    ms = quote(ms)
+                ))
+            })
+    }
+
+    /// Takes one measured round trip, refused beyond a day.
+    pub fn observe(&mut self, round_trip: Millis) -> Result<(), ControlError> {
+        let round_trip_ms = Self::round_trip(round_trip.as_f64())?.as_f64();
         let a = self.alpha;
         match self.mean_ms {
             None => self.mean_ms = Some(round_trip_ms),
@@ -63,19 +71,21 @@ impl DelayEstimator {
         Ok(())
     }
 
-    /// The mean round trip so far, in ms.
-    pub fn mean_ms(&self) -> Option<f64> {
+    /// The mean round trip so far.
+    pub fn mean(&self) -> Option<Millis> {
+        // A weighted mean of round trips from 0 to a day is one too.
+        self.mean_ms.and_then(Millis::new)
+    }
+
+    /// The standard deviation of the round trip so far.
+    pub fn std(&self) -> Option<Millis> {
         self.mean_ms
+            .and_then(|_| Millis::new(self.variance_ms2.sqrt()))
     }
 
-    /// The standard deviation of the round trip so far, in ms.
-    pub fn std_ms(&self) -> Option<f64> {
-        self.mean_ms.map(|_| self.variance_ms2.sqrt())
-    }
-
-    /// Dead time in whole samples of `ts_ms`; 0 before any round trip was seen.
-    pub fn dead_time_samples(&self, ts_ms: f64) -> Result<usize, ControlError> {
-        let ts_ms = positive_duration(ts_ms, "sampling period")?;
+    /// Dead time in whole samples of `ts`; 0 before any round trip was seen.
+    pub fn dead_time_samples(&self, ts: Millis) -> Result<usize, ControlError> {
+        let ts_ms = positive_duration(ts.as_f64(), "sampling period")?.as_f64();
         let Some(mean) = self.mean_ms else {
             return Ok(0);
         };
@@ -86,25 +96,29 @@ impl DelayEstimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::time::millis;
 
     #[test]
     fn follows_the_papers_recurrences() {
         let mut e = DelayEstimator::new(0.5, 3.0).unwrap();
-        e.observe(100.0).unwrap();
-        assert_eq!((e.mean_ms(), e.std_ms()), (Some(100.0), Some(0.0)));
-        e.observe(300.0).unwrap();
+        e.observe(millis(100.0)).unwrap();
+        assert_eq!(
+            (e.mean(), e.std()),
+            (Some(millis(100.0)), Some(millis(0.0)))
+        );
+        e.observe(millis(300.0)).unwrap();
         // D = 0.5·300 + 0.5·100 = 200; V = 0.5·(300-200)² + 0.5·0 = 5000
-        assert_eq!(e.mean_ms(), Some(200.0));
-        assert!((e.std_ms().unwrap() - 5000f64.sqrt()).abs() < 1e-9);
+        assert_eq!(e.mean(), Some(millis(200.0)));
+        assert!((e.std().unwrap().as_f64() - 5000f64.sqrt()).abs() < 1e-9);
         // floor((200 + 3·70.71) / 100) = floor(4.12) = 4
-        assert_eq!(e.dead_time_samples(100.0).unwrap(), 4);
+        assert_eq!(e.dead_time_samples(millis(100.0)).unwrap(), 4);
     }
 
     #[test]
     fn no_sample_means_no_dead_time() {
         let e = DelayEstimator::new(0.1, 3.0).unwrap();
-        assert_eq!(e.dead_time_samples(300.0).unwrap(), 0);
-        assert_eq!(e.std_ms(), None);
+        assert_eq!(e.dead_time_samples(millis(300.0)).unwrap(), 0);
+        assert_eq!(e.std(), None);
     }
 
     #[test]
@@ -122,15 +136,17 @@ mod tests {
             "INVALID_CONFIG"
         );
         let mut e = DelayEstimator::new(0.2, 3.0).unwrap();
-        assert_eq!(e.observe(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
-        assert_eq!(e.observe(-5.0).unwrap_err().code(), "INVALID_INPUT");
+        for bad in [f64::NAN, -5.0, 1e308] {
+            let refused = DelayEstimator::round_trip(bad).unwrap_err();
+            assert_eq!(refused.code(), "INVALID_INPUT");
+            assert!(refused.to_string().starts_with(
+                "a round trip must be a number of milliseconds from 0 to 86400000 (a day)"
+            ));
+        }
+        assert!(e.observe(millis(1e308)).is_err(), "longer than a day");
+        assert_eq!(e.mean(), None, "a refused sample leaves the estimate alone");
         assert_eq!(
-            e.mean_ms(),
-            None,
-            "a refused sample leaves the estimate alone"
-        );
-        assert_eq!(
-            e.dead_time_samples(0.0).unwrap_err().code(),
+            e.dead_time_samples(millis(0.0)).unwrap_err().code(),
             "INVALID_CONFIG"
         );
     }
@@ -138,14 +154,17 @@ mod tests {
     #[test]
     fn a_round_trip_beyond_a_day_is_refused_so_one_cannot_pin_the_dead_time() {
         let mut e = DelayEstimator::new(0.5, 3.0).unwrap();
-        e.observe(100.0).unwrap();
-        assert_eq!(e.observe(1e308).unwrap_err().code(), "INVALID_INPUT");
-        assert_eq!(e.mean_ms(), Some(100.0));
+        e.observe(millis(100.0)).unwrap();
+        assert_eq!(
+            e.observe(millis(1e308)).unwrap_err().code(),
+            "INVALID_INPUT"
+        );
+        assert_eq!(e.mean(), Some(millis(100.0)));
         // the longest accepted one decays away like any other spike
-        e.observe(MAX_ROUND_TRIP_MS).unwrap();
+        e.observe(MAX_ROUND_TRIP).unwrap();
         for _ in 0..200 {
-            e.observe(100.0).unwrap();
+            e.observe(millis(100.0)).unwrap();
         }
-        assert_eq!(e.dead_time_samples(100.0).unwrap(), 1);
+        assert_eq!(e.dead_time_samples(millis(100.0)).unwrap(), 1);
     }
 }

@@ -2,6 +2,7 @@ use std::fmt;
 
 use crate::code::Code;
 use crate::text::{quote, seconds};
+use crate::time::Millis;
 
 /// What a control call refused, with a message a process engineer can act on.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,16 +67,27 @@ pub fn finite(value: f64, what: &str) -> Result<f64, ControlError> {
     }
 }
 
-/// `ms` must be a finite duration > 0; `what` names it in the error, worded in seconds.
-pub fn positive_duration(ms: f64, what: &str) -> Result<f64, ControlError> {
-    if ms.is_finite() && ms > 0.0 {
-        Ok(ms)
-    } else {
-        Err(ControlError::config(format!(
-            "{what} must be greater than 0 s, got {}",
-            seconds(ms)
-        )))
-    }
+/// `ms` as a [`Millis`]: a step input, refused unless finite and at least 0.
+pub fn time(ms: f64, what: &str) -> Result<Millis, ControlError> {
+    let ms = finite(ms, what)?;
+    Millis::new(ms).ok_or_else(|| {
+        ControlError::input(format!(
+            "{what} must be at least 0 ms, got {value}",
+            value = quote(ms)
+        ))
+    })
+}
+
+/// `ms` as a duration > 0; `what` names it in the error, worded in seconds.
+pub fn positive_duration(ms: f64, what: &str) -> Result<Millis, ControlError> {
+    Millis::new(ms)
+        .filter(|d| *d > Millis::ZERO)
+        .ok_or_else(|| {
+            ControlError::config(format!(
+                "{what} must be greater than 0 s, got {}",
+                seconds(ms)
+            ))
+        })
 }
 
 /// `value` must be a finite number > 0; `what` names it in the error.
@@ -96,9 +108,14 @@ pub(crate) fn computed(value: f64, what: &str) -> Result<f64, ControlError> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(ControlError::input(format!(
-            "the {what} came out as {value}: the inputs are beyond what this loop can compute with; nothing was changed",
-            value = quote(value)
-        )))
+        Err(out_of_range(value, what))
     }
+}
+
+/// The error of [`computed`] for `value`.
+pub(crate) fn out_of_range(value: f64, what: &str) -> ControlError {
+    ControlError::input(format!(
+        "the {what} came out as {value}: the inputs are beyond what this loop can compute with; nothing was changed",
+        value = quote(value)
+    ))
 }

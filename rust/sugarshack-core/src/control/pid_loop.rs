@@ -7,6 +7,7 @@ use super::error::ControlError;
 use super::pid::{Pid, PidConfig, PidInput, PidStep};
 use super::rcc::Controller;
 use super::smith::{SmithConfig, SmithPredictor};
+use crate::time::Millis;
 
 /// A PID and, optionally, the Smith predictor in front of it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -59,10 +60,10 @@ impl PidLoop {
         self.seen
     }
 
-    /// A measured round trip, in ms, for the adaptive dead time.
-    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
+    /// A measured round trip, for the adaptive dead time.
+    pub fn observe_round_trip(&mut self, round_trip: Millis) -> Result<(), ControlError> {
         match &mut self.smith {
-            Some(smith) => smith.observe_round_trip(round_trip_ms),
+            Some(smith) => smith.observe_round_trip(round_trip),
             None => Ok(()),
         }
     }

@@ -5,15 +5,37 @@
 //! clock. Controller i acts when every lower id's age is at least its
 //! engagement threshold D_i, and D_i > D_j >= Ts for i > j keeps one in charge.
 
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
 
-use super::error::{computed, finite, positive_duration, ControlError};
+use super::error::{finite, out_of_range, positive_duration, ControlError};
 use super::pid::{Pid, PidInput, PidStep};
 use crate::text::{quote, seconds};
+use crate::time::Millis;
 
-/// D_1..D_n (ms) must rise strictly with the id and start at Ts or above.
-pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), ControlError> {
-    positive_duration(ts_ms, "sampling period Ts")?;
+/// D_1..D_n must rise strictly with the id and start at Ts or above.
+pub fn validate_thresholds(thresholds: &[Millis], ts: Millis) -> Result<(), ControlError> {
+    let raw: Vec<f64> = thresholds.iter().map(|t| t.as_f64()).collect();
+    check_thresholds(&raw, ts.as_f64()).map(drop)
+}
+
+/// D_1..D_n and Ts as given in ms, refused unless D_i > D_j >= Ts > 0: where
+/// numbers from outside become [`Millis`].
+pub fn thresholds_from_ms(
+    thresholds_ms: &[f64],
+    ts_ms: f64,
+) -> Result<(Vec<Millis>, Millis), ControlError> {
+    let ts = check_thresholds(thresholds_ms, ts_ms)?;
+    // Checked: every threshold is finite and at least Ts > 0.
+    let thresholds = thresholds_ms
+        .iter()
+        .filter_map(|&t| Millis::new(t))
+        .collect();
+    Ok((thresholds, ts))
+}
+
+fn check_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<Millis, ControlError> {
+    let ts = positive_duration(ts_ms, "sampling period Ts")?;
     if thresholds_ms.is_empty() {
         return Err(ControlError::config(
             "engagement thresholds: give one per controller, D_1..D_n",
@@ -37,7 +59,7 @@ pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), Cont
             )));
         }
     }
-    Ok(())
+    Ok(ts)
 }
 
 /// What a controller reads from the I/O side in its Polling step.
@@ -46,8 +68,9 @@ pub fn validate_thresholds(thresholds_ms: &[f64], ts_ms: f64) -> Result<(), Cont
 pub struct IoState {
     /// The last action written.
     pub last_action: f64,
-    /// Per controller id 1..n: ms since it last acted; `None` if it never has (∞).
-    pub ages_ms: Vec<Option<f64>>,
+    /// Per controller id 1..n: the time since it last acted; `None` if it never has (∞).
+    #[serde(rename = "agesMs", deserialize_with = "ages")]
+    pub ages: Vec<Option<Millis>>,
 }
 
 /// The I/O side's memory of the state tuple.
@@ -55,7 +78,7 @@ pub struct IoState {
 #[serde(rename_all = "camelCase")]
 pub struct IoModule {
     last_action: f64,
-    last_write_ms: Vec<Option<f64>>,
+    last_write_ms: Vec<Option<Millis>>,
 }
 
 impl IoModule {
@@ -85,48 +108,98 @@ impl IoModule {
     }
 
     /// Conditional Acting's write: the action and a zeroed age for `id` (1-based).
-    pub fn write(&mut self, id: usize, action: f64, now_ms: f64) -> Result<(), ControlError> {
+    pub fn write(&mut self, id: usize, action: f64, now: Millis) -> Result<(), ControlError> {
         let controllers = self.controllers();
         let slot = id
             .checked_sub(1)
             .and_then(|index| self.last_write_ms.get_mut(index))
             .ok_or(ControlError::UnknownController { id, controllers })?;
         let action = finite(action, "action")?;
-        let now_ms = finite(now_ms, "time (ms)")?;
-        *slot = Some(now_ms);
+        *slot = Some(now);
         self.last_action = action;
         Ok(())
     }
 
-    /// The state the controllers poll at `now_ms`.
-    pub fn state(&self, now_ms: f64) -> IoState {
+    /// The state the controllers poll at `now`.
+    pub fn state(&self, now: Millis) -> IoState {
         IoState {
             last_action: self.last_action,
-            ages_ms: self
+            ages: self
                 .last_write_ms
                 .iter()
-                .map(|w| w.map(|at| (now_ms - at).max(0.0)))
+                .map(|w| w.map(|at| now.saturating_sub(at)))
                 .collect(),
         }
     }
 }
 
+/// Ages as the I/O side wrote them, each refused unless a number of ms >= 0.
+fn ages<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Vec<Option<Millis>>, D::Error> {
+    let raw = Vec::<Option<f64>>::deserialize(deserializer)?;
+    raw.into_iter()
+        .map(|age| {
+            age.map(|age| {
+                Millis::new(age).ok_or_else(|| {
+                    D::Error::custom(format!(
+                        "a controller age must be a number of ms >= 0, got {age}",
+                        age = quote(age)
+                    ))
+                })
+            })
+            .transpose()
+        })
+        .collect()
+}
+
 /// One controller's place in the redundancy scheme.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "camelCase", deny_unknown_fields)]
+#[serde(rename_all = "camelCase", try_from = "RccSettings")]
 pub struct RccConfig {
     /// 1 for the primary, 2 for the secondary, ...
     pub id: usize,
-    /// D_1..D_n in ms, one per controller of the group.
-    pub thresholds_ms: Vec<f64>,
-    /// The sampling period, in ms.
-    pub ts_ms: f64,
+    /// D_1..D_n, one per controller of the group.
+    #[serde(rename = "thresholdsMs")]
+    pub thresholds: Vec<Millis>,
+    /// The sampling period.
+    #[serde(rename = "tsMs")]
+    pub ts: Millis,
     /// Bumpless handover (§5.3); off only to show what it prevents.
-    #[serde(default = "yes")]
     pub smooth_handover: bool,
-    /// No state polled for this long (ms) is a polling timeout (Fig. 7 line 11); 3·Ts when absent.
+    /// No state polled for this long is a polling timeout (Fig. 7 line 11); 3·Ts when absent.
+    #[serde(rename = "pollTimeoutMs")]
+    pub poll_timeout: Option<Millis>,
+}
+
+/// An [`RccConfig`] as written, in ms: its numbers are checked as they become [`Millis`].
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+struct RccSettings {
+    id: usize,
+    thresholds_ms: Vec<f64>,
+    ts_ms: f64,
+    #[serde(default = "yes")]
+    smooth_handover: bool,
     #[serde(default)]
-    pub poll_timeout_ms: Option<f64>,
+    poll_timeout_ms: Option<f64>,
+}
+
+impl TryFrom<RccSettings> for RccConfig {
+    type Error = ControlError;
+
+    fn try_from(s: RccSettings) -> Result<Self, ControlError> {
+        let (thresholds, ts) = thresholds_from_ms(&s.thresholds_ms, s.ts_ms)?;
+        let poll_timeout = s
+            .poll_timeout_ms
+            .map(|t| positive_duration(t, "poll timeout"))
+            .transpose()?;
+        Ok(Self {
+            id: s.id,
+            thresholds,
+            ts,
+            smooth_handover: s.smooth_handover,
+            poll_timeout,
+        })
+    }
 }
 
 fn yes() -> bool {
@@ -163,62 +236,68 @@ pub struct Scan {
 #[derive(Clone, Debug)]
 pub struct RccController {
     config: RccConfig,
-    poll_timeout_ms: f64,
+    poll_timeout: Millis,
     first_cycle: bool,
-    /// When the polling timeout falls due (ms), while one is being watched for.
-    poll_due_ms: Option<f64>,
+    /// When the polling timeout falls due, while one is being watched for.
+    poll_due: Option<Millis>,
 }
 
 impl RccController {
     /// A controller for `config`, refused if its thresholds break D_i > D_j >= Ts.
     pub fn new(config: RccConfig) -> Result<Self, ControlError> {
-        validate_thresholds(&config.thresholds_ms, config.ts_ms)?;
-        let controllers = config.thresholds_ms.len();
+        validate_thresholds(&config.thresholds, config.ts)?;
+        let controllers = config.thresholds.len();
         if config.id == 0 || config.id > controllers {
             return Err(ControlError::config(format!(
                 "controller id {} is outside 1..{controllers} (one engagement threshold per controller)",
                 config.id
             )));
         }
-        let poll_timeout_ms = config.poll_timeout_ms.unwrap_or(3.0 * config.ts_ms);
-        positive_duration(poll_timeout_ms, "poll timeout")?;
+        let poll_timeout_ms = config
+            .poll_timeout
+            .map_or(3.0 * config.ts.as_f64(), Millis::as_f64);
+        let poll_timeout = positive_duration(poll_timeout_ms, "poll timeout")?;
         Ok(Self {
             config,
-            poll_timeout_ms,
+            poll_timeout,
             first_cycle: true,
-            poll_due_ms: None,
+            poll_due: None,
         })
     }
 
-    /// Starts counting the polling timeout from `now_ms` (at deploy: no state yet).
-    pub fn watch_from(&mut self, now_ms: f64) -> Result<(), ControlError> {
-        let now_ms = finite(now_ms, "time (ms)")?;
-        self.poll_due_ms = Some(computed(now_ms + self.poll_timeout_ms, "polling deadline")?);
+    /// Starts counting the polling timeout from `now` (at deploy: no state yet).
+    pub fn watch_from(&mut self, now: Millis) -> Result<(), ControlError> {
+        self.poll_due = Some(self.deadline(now)?);
         Ok(())
     }
 
-    /// The Computing step for a state polled at `now_ms`; the polling timeout counts from it.
-    pub fn decide_at(&mut self, state: &IoState, now_ms: f64) -> Result<Decision, ControlError> {
-        let due = computed(
-            finite(now_ms, "time (ms)")? + self.poll_timeout_ms,
-            "polling deadline",
-        )?;
+    /// The Computing step for a state polled at `now`; the polling timeout counts from it.
+    pub fn decide_at(&mut self, state: &IoState, now: Millis) -> Result<Decision, ControlError> {
+        let due = self.deadline(now)?;
         let decision = self.decide(state)?;
-        self.poll_due_ms = Some(due);
+        self.poll_due = Some(due);
         Ok(decision)
     }
 
-    /// When `tick` next has something to do (ms), if ever.
-    pub fn next_tick_ms(&self) -> Option<f64> {
-        self.poll_due_ms
+    fn deadline(&self, now: Millis) -> Result<Millis, ControlError> {
+        now.checked_add(self.poll_timeout).ok_or_else(|| {
+            out_of_range(
+                now.as_f64() + self.poll_timeout.as_f64(),
+                "polling deadline",
+            )
+        })
+    }
+
+    /// When `tick` next has something to do, if ever.
+    pub fn next_tick(&self) -> Option<Millis> {
+        self.poll_due
     }
 
     /// True once when no state came within the polling timeout: the next scan re-seeds.
-    pub fn tick(&mut self, now_ms: f64) -> Result<bool, ControlError> {
-        let now_ms = finite(now_ms, "time (ms)")?;
-        match self.poll_due_ms {
-            Some(due) if now_ms >= due => {
-                self.poll_due_ms = None;
+    pub fn tick(&mut self, now: Millis) -> Result<bool, ControlError> {
+        match self.poll_due {
+            Some(due) if now >= due => {
+                self.poll_due = None;
                 self.poll_timed_out();
                 Ok(true)
             }
@@ -243,26 +322,15 @@ impl RccController {
 
     /// Engaged unless a lower id acted within my threshold.
     pub fn engaged(&self, state: &IoState) -> Result<bool, ControlError> {
-        let controllers = self.config.thresholds_ms.len();
-        if state.ages_ms.len() != controllers {
+        let controllers = self.config.thresholds.len();
+        if state.ages.len() != controllers {
             return Err(ControlError::input(format!(
                 "the I/O state lists {} controller ages, this group has {controllers}",
-                state.ages_ms.len()
+                state.ages.len()
             )));
         }
-        if let Some(age) = state
-            .ages_ms
-            .iter()
-            .flatten()
-            .find(|age| !(age.is_finite() && **age >= 0.0))
-        {
-            return Err(ControlError::input(format!(
-                "a controller age must be a number of ms >= 0, got {age}",
-                age = quote(age)
-            )));
-        }
-        let threshold = self.config.thresholds_ms[self.config.id - 1];
-        Ok(state.ages_ms[..self.config.id - 1]
+        let threshold = self.config.thresholds[self.config.id - 1];
+        Ok(state.ages[..self.config.id - 1]
             .iter()
             .all(|age| age.is_none_or(|age| age >= threshold)))
     }

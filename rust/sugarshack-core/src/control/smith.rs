@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::delay::DelayEstimator;
 use super::error::{computed, finite, positive, ControlError};
 use crate::text::quote;
+use crate::time::Millis;
 
 /// Upper bound on `max_samples`: 100 000 samples of f64 is 800 kB per loop.
 pub const MAX_DELAY_LINE: usize = 100_000;
@@ -140,9 +141,9 @@ impl SmithPredictor {
     }
 
     /// Feeds a measured round trip to the estimator; a fixed dead time ignores it.
-    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
+    pub fn observe_round_trip(&mut self, round_trip: Millis) -> Result<(), ControlError> {
         match &mut self.estimator {
-            Some(estimator) => estimator.observe(round_trip_ms),
+            Some(estimator) => estimator.observe(round_trip),
             None => Ok(()),
         }
     }
@@ -150,8 +151,8 @@ impl SmithPredictor {
     /// D_c in samples, capped at `max_samples`.
     pub fn dead_time_samples(&self) -> usize {
         let samples = match (&self.estimator, self.config.dead_time) {
-            (Some(estimator), _) => estimator
-                .dead_time_samples(self.config.ts_s * 1000.0)
+            (Some(estimator), _) => Millis::from_secs_f64(self.config.ts_s)
+                .and_then(|ts| estimator.dead_time_samples(ts).ok())
                 .unwrap_or(0),
             (None, DeadTime::Fixed { samples }) => samples,
             (None, DeadTime::Adaptive { .. }) => 0,
@@ -219,6 +220,7 @@ impl SmithPredictor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::time::millis;
 
     fn predictor(dead_time: DeadTime) -> SmithPredictor {
         SmithPredictor::new(SmithConfig {
@@ -267,10 +269,10 @@ mod tests {
         let mut s = predictor(DeadTime::Adaptive { alpha: 0.2, h: 3.0 });
         assert_eq!(s.dead_time_samples(), 0, "no round trip seen yet");
         for _ in 0..200 {
-            s.observe_round_trip(1500.0).unwrap();
+            s.observe_round_trip(millis(1500.0)).unwrap();
         }
         assert_eq!(s.dead_time_samples(), 5, "1.5 s / 0.3 s");
-        s.observe_round_trip(1e7).unwrap();
+        s.observe_round_trip(millis(1e7)).unwrap();
         assert_eq!(s.dead_time_samples(), 50, "capped at maxSamples");
     }
 

@@ -22,6 +22,7 @@ use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
 use crate::text::quote;
 use crate::text::seconds;
+use crate::time::Millis;
 
 /// Who sets the output.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -43,9 +44,9 @@ pub struct StationConfig {
     pub pid_loop: PidLoopConfig,
     /// Sample period in seconds: the dt of a first sample.
     pub ts_s: f64,
-    /// No valid measurement for this long (ms) sends the fallback; 0 turns it off.
-    #[serde(default)]
-    pub stale_ms: f64,
+    /// No valid measurement for this long sends the fallback; 0 turns it off.
+    #[serde(rename = "staleMs", default, deserialize_with = "stale_after")]
+    pub stale: Millis,
     /// The set point at start.
     pub setpoint: f64,
     /// The mode at start.
@@ -56,15 +57,26 @@ pub struct StationConfig {
     pub manual: Option<f64>,
 }
 
+/// The stale time as written, in ms: refused unless a number >= 0.
+fn stale_after<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Millis, D::Error> {
+    let ms = f64::deserialize(deserializer)?;
+    Millis::new(ms).ok_or_else(|| {
+        serde::de::Error::custom(format!(
+            "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
+            seconds(ms)
+        ))
+    })
+}
+
 /// One sample as it arrived.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
     /// `None` or not finite: a bad measurement, stepped as the fallback.
     pub measurement: Option<f64>,
-    /// When it was measured (ms): the elapsed time runs between these.
-    pub sample_ms: f64,
-    /// When it arrived (ms), by the clock `tick` is given: staleness counts from here.
-    pub now_ms: f64,
+    /// When it was measured: the elapsed time runs between these.
+    pub sampled: Millis,
+    /// When it arrived, by the clock `tick` is given: staleness counts from here.
+    pub now: Millis,
     /// An action someone else applied, for the integrator to track.
     pub track: Option<f64>,
     /// An RCC controller's decision for this scan.
@@ -228,15 +240,15 @@ pub struct StationState {
 pub struct Station {
     pid_loop: PidLoop,
     ts_s: f64,
-    stale_ms: f64,
+    stale: Millis,
     setpoint: f64,
     mode: Mode,
     manual: Option<f64>,
-    previous_sample_ms: Option<f64>,
+    previous_sample: Option<Millis>,
     /// The next step integrates over Ts: the first sample, or the first after going stale.
     over_ts: bool,
     via_rcc: bool,
-    stale_at_ms: Option<f64>,
+    stale_at: Option<Millis>,
 }
 
 fn manual_needed() -> ControlError {
@@ -255,12 +267,6 @@ impl Station {
                 quote(config.ts_s)
             )));
         }
-        if !(config.stale_ms.is_finite() && config.stale_ms >= 0.0) {
-            return Err(ControlError::config(format!(
-                "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
-                seconds(config.stale_ms)
-            )));
-        }
         let setpoint = config_number(config.setpoint, "set point")?;
         let manual = config
             .manual
@@ -274,14 +280,14 @@ impl Station {
         Ok(Self {
             pid_loop: PidLoop::new(config.pid_loop)?,
             ts_s: config.ts_s,
-            stale_ms: config.stale_ms,
+            stale: config.stale,
             setpoint,
             mode: config.mode,
             manual,
-            previous_sample_ms: None,
+            previous_sample: None,
             over_ts: true,
             via_rcc: false,
-            stale_at_ms: None,
+            stale_at: None,
         })
     }
 
@@ -301,9 +307,9 @@ impl Station {
         }
     }
 
-    /// A measured round trip, in ms, for the adaptive dead time.
-    pub fn observe_round_trip(&mut self, round_trip_ms: f64) -> Result<(), ControlError> {
-        self.pid_loop.observe_round_trip(round_trip_ms)
+    /// A measured round trip, for the adaptive dead time.
+    pub fn observe_round_trip(&mut self, round_trip: Millis) -> Result<(), ControlError> {
+        self.pid_loop.observe_round_trip(round_trip)
     }
 
     /// What a restart brings back, checked as a whole: a refused one changes nothing.
@@ -391,21 +397,21 @@ impl Station {
 
     /// One step for a sample that arrived.
     pub fn measure(&mut self, sample: Sample) -> Result<Outcome, ControlError> {
-        let now_ms = finite(sample.now_ms, "time (ms)")?;
-        let sample_ms = finite(sample.sample_ms, "sample time (ms)")?;
         let measurement = sample.measurement.filter(|m| m.is_finite());
-        let dt_s = match self.previous_sample_ms {
-            Some(previous) if !self.over_ts => {
-                computed((sample_ms - previous) / 1000.0, "elapsed time")?
-            }
+        let dt_s = match self.previous_sample {
+            // Signed: a sample older than the last one is refused by the PID (dt <= 0).
+            Some(previous) if !self.over_ts => computed(
+                (sample.sampled.as_f64() - previous.as_f64()) / 1000.0,
+                "elapsed time",
+            )?,
             _ => self.ts_s,
         };
         let (step, engaged) = self.step(measurement, dt_s, sample.track, sample.decision)?;
-        self.previous_sample_ms = Some(sample_ms);
+        self.previous_sample = Some(sample.sampled);
         self.over_ts = false;
         self.via_rcc = sample.decision.is_some();
-        if measurement.is_some() && self.stale_ms > 0.0 {
-            self.stale_at_ms = Some(later(now_ms, self.stale_ms));
+        if measurement.is_some() && self.stale > Millis::ZERO {
+            self.stale_at = Some(later(sample.now, self.stale));
         }
         Ok(Outcome {
             engaged,
@@ -413,25 +419,24 @@ impl Station {
         })
     }
 
-    /// When `tick` next has something to do (ms), if ever.
-    pub fn next_tick_ms(&self) -> Option<f64> {
-        self.stale_at_ms
+    /// When `tick` next has something to do, if ever.
+    pub fn next_tick(&self) -> Option<Millis> {
+        self.stale_at
     }
 
-    /// The stale-measurement rule, due at `next_tick_ms`: `None` when nothing is due.
-    pub fn tick(&mut self, now_ms: f64) -> Result<Option<Stale>, ControlError> {
-        let now_ms = finite(now_ms, "time (ms)")?;
-        match self.stale_at_ms {
-            Some(due) if now_ms >= due => {}
+    /// The stale-measurement rule, due at `next_tick`: `None` when nothing is due.
+    pub fn tick(&mut self, now: Millis) -> Result<Option<Stale>, ControlError> {
+        match self.stale_at {
+            Some(due) if now >= due => {}
             _ => return Ok(None),
         }
         if self.via_rcc {
-            self.stale_at_ms = None;
+            self.stale_at = None;
             return Ok(Some(Stale::NoIo));
         }
         // Re-armed first: a refused step must not leave a tick due at once, again and again.
-        self.stale_at_ms = Some(later(now_ms, self.stale_ms));
-        let dt_s = self.stale_ms / 1000.0;
+        self.stale_at = Some(later(now, self.stale));
+        let dt_s = self.stale.as_secs_f64();
         let (step, _) = self.step(None, dt_s, None, None)?;
         self.over_ts = true;
         Ok(Some(Stale::Fallback {
@@ -501,17 +506,15 @@ impl Station {
 }
 
 /// `period` after `now`, always later: at a time so large that adding the
-/// period changes nothing, the next float up (a tick is never due at once again).
-fn later(now_ms: f64, period_ms: f64) -> f64 {
-    let next = now_ms + period_ms;
-    if next > now_ms {
+/// period changes nothing, the next float up (a tick is never due at once
+/// again), up to the largest time there is.
+fn later(now: Millis, period: Millis) -> Millis {
+    let next = now.saturating_add(period);
+    if next > now {
         next
-    } else if now_ms == 0.0 {
-        f64::from_bits(1)
-    } else if now_ms > 0.0 {
-        f64::from_bits(now_ms.to_bits() + 1)
     } else {
-        f64::from_bits(now_ms.to_bits() - 1)
+        // Times are >= 0, so the next bit pattern up is the next float up.
+        Millis::new(f64::from_bits(now.as_f64().to_bits() + 1)).unwrap_or(Millis::MAX)
     }
 }
 

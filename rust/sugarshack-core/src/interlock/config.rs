@@ -2,6 +2,8 @@ use serde::{Deserialize, Serialize};
 
 use super::InterlockError;
 
+use crate::time::Millis;
+
 /// How queued requests are granted when resources become free.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -43,10 +45,10 @@ pub struct InterlockConfig {
     pub queue_bound: usize,
     /// Warn once when a request has waited this long.
     #[serde(default)]
-    pub warn_queued_ms: Option<u64>,
+    pub warn_queued_ms: Option<Millis>,
     /// Warn once when an operation has held its resources this long.
     #[serde(default)]
-    pub warn_held_ms: Option<u64>,
+    pub warn_held_ms: Option<Millis>,
     /// Keep an event log for `drain_events`; off spares the hot path.
     #[serde(default = "default_true")]
     pub record_events: bool,
@@ -102,7 +104,7 @@ impl InterlockConfig {
         if self.queue_bound == 0 {
             return invalid("queue bound must be at least 1".into());
         }
-        if self.warn_queued_ms == Some(0) || self.warn_held_ms == Some(0) {
+        if self.warn_queued_ms == Some(Millis::ZERO) || self.warn_held_ms == Some(Millis::ZERO) {
             return invalid("warning thresholds must be positive (leave empty to disable)".into());
         }
         Ok(())

@@ -2,6 +2,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{OpId, ResourceSet};
 use crate::clearance::Attribution;
+use crate::time::Millis;
 
 /// The name of an [`Event`]'s kind, as journalled and sent to JS
 /// (`"granted"`, `"resource-faulted"`, ...).
@@ -98,18 +99,18 @@ pub enum Event {
     /// An operation now holds `resources`, after waiting `waited_ms` (0 when granted at once).
     Granted {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who holds them now.
         request: Requester,
         /// What it holds.
         resources: ResourceSet,
         /// How long it waited in the queue.
-        waited_ms: u64,
+        waited_ms: Millis,
     },
     /// A request waits in the queue.
     Queued {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who waits.
         request: Requester,
         /// What it waits for.
@@ -118,35 +119,35 @@ pub enum Event {
     /// An operation freed what it held.
     Released {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who released.
         request: Requester,
         /// What it freed.
         resources: ResourceSet,
         /// How long it held them.
-        held_ms: u64,
+        held_ms: Millis,
     },
     /// A waiting request was withdrawn (its operation gave up waiting).
     Cancelled {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Whose request.
         request: Requester,
         /// What it waited for.
         resources: ResourceSet,
         /// How long it waited.
-        waited_ms: u64,
+        waited_ms: Millis,
     },
     /// An operation faulted: its held resources latch as faulted.
     Faulted {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who faulted.
         request: Requester,
         /// What latched.
         resources: ResourceSet,
         /// How long it had held them.
-        held_ms: u64,
+        held_ms: Millis,
         /// Why, as its error handler said.
         note: Option<String>,
     },
@@ -155,20 +156,20 @@ pub enum Event {
     /// `waited_ms` unknown).
     Dropped {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Whose request.
         request: Requester,
         /// What it waited for.
         resources: ResourceSet,
         /// How long it waited, when known.
-        waited_ms: Option<u64>,
+        waited_ms: Option<Millis>,
         /// Why.
         note: Option<String>,
     },
     /// A person faulted resources directly (emergency stop).
     ResourceFaulted {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// The lines stopped.
         resources: ResourceSet,
         /// Why, as given with the stop.
@@ -179,7 +180,7 @@ pub enum Event {
     /// A person cleared faulted lines.
     Cleared {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// The lines cleared.
         resources: ResourceSet,
         /// What a forced clear overrode.
@@ -191,7 +192,7 @@ pub enum Event {
     /// its lines now faulted), or a saved line no longer configured (`request` is none).
     Interrupted {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// The operation whose hold was interrupted, if any.
         request: Option<Requester>,
         /// The lines latched as faulted.
@@ -202,7 +203,7 @@ pub enum Event {
     /// Lines configured now but absent from the saved state: they start free.
     ResourceAdded {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// The new lines.
         resources: ResourceSet,
         /// What happened.
@@ -211,7 +212,7 @@ pub enum Event {
     /// No usable saved state: every line starts faulted until a person clears it.
     StateUnknown {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Every line.
         resources: ResourceSet,
         /// Why the state is unknown.
@@ -220,24 +221,24 @@ pub enum Event {
     /// A request has waited past the configured `warnQueuedMs`.
     WarnQueued {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who waits.
         request: Requester,
         /// What it waits for.
         resources: ResourceSet,
         /// How long it has waited.
-        waited_ms: u64,
+        waited_ms: Millis,
     },
     /// An operation has held its lines past the configured `warnHeldMs`.
     WarnHeld {
         /// When, in ms.
-        at_ms: u64,
+        at_ms: Millis,
         /// Who holds.
         request: Requester,
         /// What it holds.
         resources: ResourceSet,
         /// How long it has held them.
-        held_ms: u64,
+        held_ms: Millis,
     },
 }
 
@@ -262,7 +263,7 @@ impl Event {
     }
 
     /// When it happened, in ms.
-    pub fn at_ms(&self) -> u64 {
+    pub fn at_ms(&self) -> Millis {
         match self {
             Self::Granted { at_ms, .. }
             | Self::Queued { at_ms, .. }
@@ -325,7 +326,7 @@ impl Event {
     }
 
     /// How long the request waited, for kinds that know.
-    pub fn waited_ms(&self) -> Option<u64> {
+    pub fn waited_ms(&self) -> Option<Millis> {
         match self {
             Self::Granted { waited_ms, .. }
             | Self::Cancelled { waited_ms, .. }
@@ -336,7 +337,7 @@ impl Event {
     }
 
     /// How long the operation held its lines, for kinds that know.
-    pub fn held_ms(&self) -> Option<u64> {
+    pub fn held_ms(&self) -> Option<Millis> {
         match self {
             Self::Released { held_ms, .. }
             | Self::Faulted { held_ms, .. }
@@ -374,7 +375,7 @@ impl Event {
 #[serde(rename_all = "camelCase")]
 pub struct EventRecord {
     /// When, in ms.
-    pub at_ms: u64,
+    pub at_ms: Millis,
     /// What kind of change.
     pub kind: EventKind,
     /// The operation's id.
@@ -387,10 +388,10 @@ pub struct EventRecord {
     pub resources: Vec<String>,
     /// How long the request waited, for kinds that know.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub waited_ms: Option<u64>,
+    pub waited_ms: Option<Millis>,
     /// How long the operation held its lines, for kinds that know.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub held_ms: Option<u64>,
+    pub held_ms: Option<Millis>,
     /// Free text kept with it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,

@@ -5,6 +5,7 @@
 //!
 //! ```
 //! use sugarshack_core::interlock::{Acquisition, Interlock, InterlockConfig};
+//! use sugarshack_core::time::ms;
 //!
 //! let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL", "RED"])).unwrap();
 //! let load = lock.operation("load truck");
@@ -12,11 +13,11 @@
 //! let yel = lock.resource_set(&["YEL"]).unwrap();
 //! let yel_red = lock.resource_set(&["YEL", "RED"]).unwrap();
 //!
-//! assert_eq!(lock.acquire(load, 20, &yel, 0).unwrap(), Acquisition::Granted);
-//! assert_eq!(lock.acquire(flit, 92, &yel_red, 10).unwrap(), Acquisition::Queued);
-//! let grants = lock.release(load, 500).unwrap();
+//! assert_eq!(lock.acquire(load, 20, &yel, ms(0)).unwrap(), Acquisition::Granted);
+//! assert_eq!(lock.acquire(flit, 92, &yel_red, ms(10)).unwrap(), Acquisition::Queued);
+//! let grants = lock.release(load, ms(500)).unwrap();
 //! assert_eq!(grants[0].operation, flit);
-//! assert_eq!(grants[0].waited_ms, 490);
+//! assert_eq!(grants[0].waited_ms, ms(490));
 //! ```
 
 mod alarms;
@@ -30,6 +31,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 
 use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
+use crate::time::Millis;
 
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
@@ -163,7 +165,7 @@ pub struct Grant {
     /// The lines it holds.
     pub resources: ResourceSet,
     /// How long it waited.
-    pub waited_ms: u64,
+    pub waited_ms: Millis,
 }
 
 /// A lockout group command to send because a resource is faulted.
@@ -209,7 +211,7 @@ struct Fault {
     cause: FaultCause,
     operation: Option<OpId>,
     note: Option<String>,
-    since_ms: u64,
+    since_ms: Millis,
 }
 
 /// A waiting request's place in the queue: higher priority first, then first
@@ -240,7 +242,7 @@ impl PartialOrd for QueueKey {
 struct Waiting {
     key: QueueKey,
     resources: ResourceSet,
-    since_ms: u64,
+    since_ms: Millis,
     warned: bool,
 }
 
@@ -248,8 +250,8 @@ struct Waiting {
 struct Hold {
     priority: i32,
     resources: ResourceSet,
-    since_ms: u64,
-    waited_ms: u64,
+    since_ms: Millis,
+    waited_ms: Millis,
     warned: bool,
 }
 
@@ -517,7 +519,7 @@ impl Interlock {
         op: OpId,
         priority: i32,
         resources: &ResourceSet,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Acquisition, InterlockError> {
         self.check_set(resources)?;
         match &self.op(op)?.state {
@@ -540,7 +542,7 @@ impl Interlock {
         };
         self.next_seq += 1;
         if self.may_take(key, resources) {
-            self.grant(op, priority, resources.clone(), now_ms, 0);
+            self.grant(op, priority, resources.clone(), now, Millis::ZERO);
             return Ok(Acquisition::Granted);
         }
         if self.queue.len() >= self.config.queue_bound {
@@ -548,9 +550,9 @@ impl Interlock {
                 bound: self.config.queue_bound,
             });
         }
-        self.enqueue(key, resources.clone(), now_ms);
+        self.enqueue(key, resources.clone(), now);
         self.record(Event::Queued {
-            at_ms: now_ms,
+            at_ms: now,
             request: Requester { op, priority },
             resources: resources.clone(),
         });
@@ -560,7 +562,7 @@ impl Interlock {
     // ---- Algorithm 2 -------------------------------------------------------
 
     /// Frees what the operation holds and grants every waiter that may now go, in queue order.
-    pub fn release(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+    pub fn release(&mut self, op: OpId, now: Millis) -> Result<Vec<Grant>, InterlockError> {
         if !self.is_holding(op) {
             self.op(op)?;
             return Err(InterlockError::NotHolding {
@@ -582,21 +584,21 @@ impl Interlock {
             );
             self.vacate(r, &mut candidates);
         }
-        let held_ms = now_ms.saturating_sub(hold.since_ms);
+        let held_ms = now.saturating_sub(hold.since_ms);
         let priority = hold.priority;
         self.record(Event::Released {
-            at_ms: now_ms,
+            at_ms: now,
             request: Requester { op, priority },
             resources: hold.resources,
             held_ms,
         });
-        Ok(self.grant_candidates(candidates, now_ms))
+        Ok(self.grant_candidates(candidates, now))
     }
 
     // ---- cancel, fault, clear ----------------------------------------------
 
     /// Withdraws a waiting request (its operation timed out while queued).
-    pub fn cancel(&mut self, op: OpId, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+    pub fn cancel(&mut self, op: OpId, now: Millis) -> Result<Vec<Grant>, InterlockError> {
         let key = match &self.op(op)?.state {
             OpState::Queued(waiting) => waiting.key,
             _ => {
@@ -606,9 +608,9 @@ impl Interlock {
             }
         };
         let waiting = self.dequeue(key);
-        let waited = now_ms.saturating_sub(waiting.since_ms);
+        let waited = now.saturating_sub(waiting.since_ms);
         self.record(Event::Cancelled {
-            at_ms: now_ms,
+            at_ms: now,
             request: Requester {
                 op,
                 priority: key.priority,
@@ -616,15 +618,15 @@ impl Interlock {
             resources: waiting.resources.clone(),
             waited_ms: waited,
         });
-        Ok(self.after_withdrawal(&waiting.resources, now_ms))
+        Ok(self.after_withdrawal(&waiting.resources, now))
     }
 
     /// [`Self::release`] by name. An operation this interlock has never seen
     /// holds nothing; the name is not registered, so bad input cannot grow
     /// the operation table.
-    pub fn release_named(&mut self, name: &str, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+    pub fn release_named(&mut self, name: &str, now: Millis) -> Result<Vec<Grant>, InterlockError> {
         match self.operation_index.get(name) {
-            Some(&op) => self.release(op, now_ms),
+            Some(&op) => self.release(op, now),
             None => Err(InterlockError::NotHolding {
                 operation: cut(name, QUOTE_MAX_CHARS).into_owned(),
             }),
@@ -633,9 +635,9 @@ impl Interlock {
 
     /// [`Self::cancel`] by name. An operation this interlock has never seen
     /// waits for nothing; the name is not registered.
-    pub fn cancel_named(&mut self, name: &str, now_ms: u64) -> Result<Vec<Grant>, InterlockError> {
+    pub fn cancel_named(&mut self, name: &str, now: Millis) -> Result<Vec<Grant>, InterlockError> {
         match self.operation_index.get(name) {
-            Some(&op) => self.cancel(op, now_ms),
+            Some(&op) => self.cancel(op, now),
             None => Err(InterlockError::NotQueued {
                 operation: cut(name, QUOTE_MAX_CHARS).into_owned(),
             }),
@@ -651,7 +653,7 @@ impl Interlock {
         &mut self,
         op: OpId,
         note: Option<&str>,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<FaultOutcome, InterlockError> {
         let note = note.map(bound_note);
         let note = note.as_deref();
@@ -660,9 +662,9 @@ impl Interlock {
             OpState::Idle => {}
             OpState::Queued(waiting) => {
                 let waiting = self.dequeue(waiting.key);
-                let waited = now_ms.saturating_sub(waiting.since_ms);
+                let waited = now.saturating_sub(waiting.since_ms);
                 self.record(Event::Dropped {
-                    at_ms: now_ms,
+                    at_ms: now,
                     request: Requester {
                         op,
                         priority: waiting.key.priority,
@@ -672,9 +674,9 @@ impl Interlock {
                     note: note.map(str::to_owned),
                 });
                 outcome.dropped = true;
-                outcome.grants = self.after_withdrawal(&waiting.resources, now_ms);
+                outcome.grants = self.after_withdrawal(&waiting.resources, now);
             }
-            OpState::Holding(_) => self.fault_holder(op, FaultCause::Operation, note, now_ms),
+            OpState::Holding(_) => self.fault_holder(op, FaultCause::Operation, note, now),
         }
         outcome.lockouts = self.lockouts(&self.latched_under(op));
         Ok(outcome)
@@ -688,9 +690,9 @@ impl Interlock {
         &mut self,
         resources: &ResourceSet,
         note: Option<&str>,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<FaultOutcome, InterlockError> {
-        self.fault_resources_by(resources, note, &Attribution::unknown(), now_ms)
+        self.fault_resources_by(resources, note, &Attribution::unknown(), now)
     }
 
     /// [`Self::fault_resources`] by a person: its event says who and why.
@@ -699,7 +701,7 @@ impl Interlock {
         resources: &ResourceSet,
         note: Option<&str>,
         by: &Attribution,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<FaultOutcome, InterlockError> {
         self.check_set(resources)?;
         let note = note.map(bound_note);
@@ -710,13 +712,13 @@ impl Interlock {
                 Owner::Faulted(_) => {}
                 Owner::Held(holder) => {
                     latched.extend(self.latched_under_hold(holder));
-                    self.fault_holder(holder, FaultCause::Manual, note, now_ms);
+                    self.fault_holder(holder, FaultCause::Manual, note, now);
                 }
-                Owner::Free => self.latch(r, FaultCause::Manual, None, note, now_ms),
+                Owner::Free => self.latch(r, FaultCause::Manual, None, note, now),
             }
         }
         self.record(Event::ResourceFaulted {
-            at_ms: now_ms,
+            at_ms: now,
             resources: resources.clone(),
             note: note.map(str::to_owned),
             attribution: Box::new(by.clone()),
@@ -735,9 +737,9 @@ impl Interlock {
     pub fn clear(
         &mut self,
         resources: &ResourceSet,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Vec<Grant>, InterlockError> {
-        self.clear_checked(resources, &Attribution::unknown(), |_| Vec::new(), now_ms)
+        self.clear_checked(resources, &Attribution::unknown(), |_| Vec::new(), now)
     }
 
     /// A person clears faulted lines; the queue is re-evaluated. Refused
@@ -750,7 +752,7 @@ impl Interlock {
         resources: &ResourceSet,
         by: &Attribution,
         blockers: impl Fn(&str) -> Vec<ClearBlocker>,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Vec<Grant>, InterlockError> {
         self.check_set(resources)?;
         if let Some(&r) = resources.ids().iter().find(|r| !self.is_faulted(**r)) {
@@ -786,12 +788,12 @@ impl Interlock {
             self.vacate(r, &mut candidates);
         }
         self.record(Event::Cleared {
-            at_ms: now_ms,
+            at_ms: now,
             resources: resources.clone(),
             note,
             attribution: Box::new(by),
         });
-        Ok(self.grant_candidates(candidates, now_ms))
+        Ok(self.grant_candidates(candidates, now))
     }
 
     /// Every faulted resource, for an operator's "clear all".
@@ -806,18 +808,18 @@ impl Interlock {
 
     /// Warnings for requests queued, and operations holding, at or past their
     /// threshold; each wait or hold warns once.
-    pub fn tick(&mut self, now_ms: u64) -> Vec<Event> {
+    pub fn tick(&mut self, now: Millis) -> Vec<Event> {
         let mut warnings = Vec::new();
         if let Some(limit) = self.config.warn_queued_ms {
             for key in &self.queue {
                 let OpState::Queued(waiting) = &mut self.operations[key.op.index()].state else {
                     unreachable!("a queue key belongs to a waiting operation")
                 };
-                let waited = now_ms.saturating_sub(waiting.since_ms);
+                let waited = now.saturating_sub(waiting.since_ms);
                 if !waiting.warned && waited >= limit {
                     waiting.warned = true;
                     warnings.push(Event::WarnQueued {
-                        at_ms: now_ms,
+                        at_ms: now,
                         request: Requester {
                             op: key.op,
                             priority: key.priority,
@@ -831,11 +833,11 @@ impl Interlock {
         if let Some(limit) = self.config.warn_held_ms {
             for (index, op) in self.operations.iter_mut().enumerate() {
                 if let OpState::Holding(hold) = &mut op.state {
-                    let held = now_ms.saturating_sub(hold.since_ms);
+                    let held = now.saturating_sub(hold.since_ms);
                     if !hold.warned && held >= limit {
                         hold.warned = true;
                         warnings.push(Event::WarnHeld {
-                            at_ms: now_ms,
+                            at_ms: now,
                             request: Requester {
                                 op: OpId {
                                     index: index as u32,
@@ -954,15 +956,15 @@ impl Interlock {
         op: OpId,
         priority: i32,
         resources: ResourceSet,
-        now_ms: u64,
-        waited_ms: u64,
+        now: Millis,
+        waited_ms: Millis,
     ) {
         for &r in resources.ids() {
             self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
         self.record(Event::Granted {
-            at_ms: now_ms,
+            at_ms: now,
             request: Requester { op, priority },
             resources: resources.clone(),
             waited_ms,
@@ -970,13 +972,13 @@ impl Interlock {
         self.operations[op.index()].state = OpState::Holding(Hold {
             priority,
             resources,
-            since_ms: now_ms,
+            since_ms: now,
             waited_ms,
             warned: false,
         });
     }
 
-    fn enqueue(&mut self, key: QueueKey, resources: ResourceSet, since_ms: u64) {
+    fn enqueue(&mut self, key: QueueKey, resources: ResourceSet, since_ms: Millis) {
         let mut taken = 0;
         for r in resources.ids() {
             self.waiters[r.index()].insert(key);
@@ -1030,7 +1032,7 @@ impl Interlock {
     /// A waiting request left the queue. Under no-overtaking it may have been
     /// the one ahead that kept others with free resources waiting; under
     /// greedy its leaving unblocks nobody.
-    fn after_withdrawal(&mut self, resources: &ResourceSet, now_ms: u64) -> Vec<Grant> {
+    fn after_withdrawal(&mut self, resources: &ResourceSet, now: Millis) -> Vec<Grant> {
         if self.config.policy == Policy::Greedy {
             return Vec::new();
         }
@@ -1041,14 +1043,14 @@ impl Interlock {
                 .filter(|key| self.busy[key.op.index()] == 0);
             candidates.extend(behind);
         }
-        self.grant_candidates(candidates, now_ms)
+        self.grant_candidates(candidates, now)
     }
 
     /// Algorithm 2's pass over the queue, limited to requests whose resources
     /// just became all free (or whose way was just cleared): every other
     /// waiter was blocked before and still is, since a grant only takes
     /// resources. Candidates go in queue order, so the grants equal a full pass.
-    fn grant_candidates(&mut self, mut candidates: Vec<QueueKey>, now_ms: u64) -> Vec<Grant> {
+    fn grant_candidates(&mut self, mut candidates: Vec<QueueKey>, now: Millis) -> Vec<Grant> {
         candidates.sort_unstable();
         candidates.dedup();
         let mut grants = Vec::new();
@@ -1058,14 +1060,14 @@ impl Interlock {
                 continue;
             }
             let waiting = self.dequeue(key);
-            let waited_ms = now_ms.saturating_sub(waiting.since_ms);
+            let waited_ms = now.saturating_sub(waiting.since_ms);
             grants.push(Grant {
                 operation: key.op,
                 priority: key.priority,
                 resources: waiting.resources.clone(),
                 waited_ms,
             });
-            self.grant(key.op, key.priority, waiting.resources, now_ms, waited_ms);
+            self.grant(key.op, key.priority, waiting.resources, now, waited_ms);
         }
         candidates.clear();
         self.candidates = candidates;
@@ -1089,7 +1091,7 @@ impl Interlock {
     }
 
     /// Latches everything a holding operation holds and makes it idle.
-    fn fault_holder(&mut self, op: OpId, cause: FaultCause, note: Option<&str>, now_ms: u64) {
+    fn fault_holder(&mut self, op: OpId, cause: FaultCause, note: Option<&str>, now: Millis) {
         let OpState::Holding(hold) =
             std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
         else {
@@ -1097,11 +1099,11 @@ impl Interlock {
         };
         self.holding -= 1;
         for &r in hold.resources.ids() {
-            self.latch(r, cause, Some(op), note, now_ms);
+            self.latch(r, cause, Some(op), note, now);
         }
-        let held_ms = now_ms.saturating_sub(hold.since_ms);
+        let held_ms = now.saturating_sub(hold.since_ms);
         self.record(Event::Faulted {
-            at_ms: now_ms,
+            at_ms: now,
             request: Requester {
                 op,
                 priority: hold.priority,
@@ -1135,13 +1137,13 @@ impl Interlock {
         cause: FaultCause,
         operation: Option<OpId>,
         note: Option<&str>,
-        now_ms: u64,
+        now: Millis,
     ) {
         let fault = Owner::Faulted(Fault {
             cause,
             operation,
             note: note.map(str::to_owned),
-            since_ms: now_ms,
+            since_ms: now,
         });
         match self.owners[r.index()] {
             Owner::Free => {

@@ -7,6 +7,8 @@ use super::{
     Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
+use crate::time::Millis;
+
 /// The whole interlock state by name, for persistence across restarts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -14,7 +16,7 @@ pub struct Snapshot {
     /// The snapshot format's version.
     pub version: u32,
     /// When it was taken, in ms.
-    pub taken_at_ms: u64,
+    pub taken_at_ms: Millis,
     /// The lines configured when the state was saved, in configuration order.
     /// Absent from version 1, where the names in `resources` stand for it.
     #[serde(default)]
@@ -68,7 +70,7 @@ pub struct FaultSnapshot {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
     /// Since when, in ms.
-    pub since_ms: u64,
+    pub since_ms: Millis,
 }
 
 /// What faulted a line.
@@ -96,10 +98,10 @@ pub struct RequestSnapshot {
     /// The lines' names.
     pub resources: Vec<String>,
     /// Since when, in ms.
-    pub since_ms: u64,
+    pub since_ms: Millis,
     /// How long it waited before its grant (0 for a waiting request).
     #[serde(default)]
-    pub waited_ms: u64,
+    pub waited_ms: Millis,
 }
 
 /// How [`Interlock::restore`] takes a saved state back. The default is a restart.
@@ -304,8 +306,8 @@ fn check(snapshot: &Snapshot) -> Result<Vec<&str>, InterlockError> {
 }
 
 impl Interlock {
-    /// The whole state by name at `now_ms`, to save and restore.
-    pub fn snapshot(&self, now_ms: u64) -> Snapshot {
+    /// The whole state by name at `now`, to save and restore.
+    pub fn snapshot(&self, now: Millis) -> Snapshot {
         let resources = self
             .owners
             .iter()
@@ -335,7 +337,7 @@ impl Interlock {
                     priority: key.priority,
                     resources: self.names(&waiting.resources),
                     since_ms: waiting.since_ms,
-                    waited_ms: 0,
+                    waited_ms: Millis::ZERO,
                 }),
                 _ => None,
             })
@@ -356,7 +358,7 @@ impl Interlock {
             .collect();
         Snapshot {
             version: SNAPSHOT_VERSION,
-            taken_at_ms: now_ms,
+            taken_at_ms: now,
             configured: self
                 .config
                 .resources
@@ -386,7 +388,7 @@ impl Interlock {
         config: InterlockConfig,
         snapshot: &Snapshot,
         options: RestoreOptions,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<(Self, Vec<Grant>), InterlockError> {
         let saved_lines = check(snapshot)?;
         let mut lock = Interlock::new(config)?;
@@ -398,7 +400,7 @@ impl Interlock {
                     quoted(name)
                 );
                 lock.record(Event::Interrupted {
-                    at_ms: now_ms,
+                    at_ms: now,
                     request: None,
                     resources: ResourceSet::default(),
                     note,
@@ -414,7 +416,7 @@ impl Interlock {
             let added = ResourceSet(added.into());
             let note = "not in the saved state: new lines start free".to_owned();
             lock.record(Event::ResourceAdded {
-                at_ms: now_ms,
+                at_ms: now,
                 resources: added,
                 note,
             });
@@ -470,10 +472,10 @@ impl Interlock {
             };
             let note = bound_note(&note).into_owned();
             for &r in lines.ids() {
-                lock.latch(r, FaultCause::Interrupted, Some(op), Some(&note), now_ms);
+                lock.latch(r, FaultCause::Interrupted, Some(op), Some(&note), now);
             }
             lock.record(Event::Interrupted {
-                at_ms: now_ms,
+                at_ms: now,
                 request: Some(Requester {
                     op,
                     priority: hold.priority,
@@ -501,7 +503,7 @@ impl Interlock {
                 Err(why) => {
                     let note = format!("waiting request dropped on restore: {why}");
                     lock.record(Event::Dropped {
-                        at_ms: now_ms,
+                        at_ms: now,
                         request: Requester {
                             op,
                             priority: waiting.priority,
@@ -530,7 +532,7 @@ impl Interlock {
             .copied()
             .filter(|key| lock.busy[key.op.index()] == 0)
             .collect();
-        let grants = lock.grant_candidates(unblocked, now_ms);
+        let grants = lock.grant_candidates(unblocked, now);
         Ok((lock, grants))
     }
 
@@ -540,17 +542,17 @@ impl Interlock {
     pub fn unknown_state(
         config: InterlockConfig,
         note: &str,
-        now_ms: u64,
+        now: Millis,
     ) -> Result<Self, InterlockError> {
         let mut lock = Interlock::new(config)?;
         let note = (!note.trim().is_empty()).then(|| bound_note(note));
         let all = ResourceSet((0..lock.owners.len() as u32).map(ResourceId).collect());
         for &r in all.ids() {
-            lock.latch(r, FaultCause::Unknown, None, note.as_deref(), now_ms);
+            lock.latch(r, FaultCause::Unknown, None, note.as_deref(), now);
         }
         let note = note.map(|n| n.into_owned());
         lock.record(Event::StateUnknown {
-            at_ms: now_ms,
+            at_ms: now,
             resources: all,
             note,
         });

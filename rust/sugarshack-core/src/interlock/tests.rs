@@ -1,6 +1,8 @@
 use super::*;
 use serde_json::json;
 
+use crate::time::ms;
+
 fn plant(policy: Policy) -> Interlock {
     let mut config = InterlockConfig::with_resources(["YEL", "GRN", "BLU", "PUR", "RED"]);
     for r in &mut config.resources {
@@ -8,8 +10,8 @@ fn plant(policy: Policy) -> Interlock {
     }
     config.policy = policy;
     config.queue_bound = 4;
-    config.warn_queued_ms = Some(1000);
-    config.warn_held_ms = Some(5000);
+    config.warn_queued_ms = Some(ms(1000));
+    config.warn_held_ms = Some(ms(5000));
     Interlock::new(config).unwrap()
 }
 
@@ -37,8 +39,14 @@ fn grants_free_set_at_once_and_queues_conflicts() {
     let load = lock.operation("10");
     let unload = lock.operation("12");
     let yel = set(&lock, &["YEL"]);
-    assert_eq!(lock.acquire(load, 20, &yel, 0), Ok(Acquisition::Granted));
-    assert_eq!(lock.acquire(unload, 22, &yel, 5), Ok(Acquisition::Queued));
+    assert_eq!(
+        lock.acquire(load, 20, &yel, ms(0)),
+        Ok(Acquisition::Granted)
+    );
+    assert_eq!(
+        lock.acquire(unload, 22, &yel, ms(5)),
+        Ok(Acquisition::Queued)
+    );
     assert_eq!(lock.owner_of(yel.ids()[0]), Some(load));
     assert_eq!(
         lock.counts(),
@@ -58,16 +66,16 @@ fn release_grants_in_priority_then_arrival_order() {
         .map(|n| lock.operation(n))
         .collect();
     let yel = set(&lock, &["YEL"]);
-    lock.acquire(ops[0], 1, &yel, 0).unwrap();
-    lock.acquire(ops[1], 5, &yel, 1).unwrap();
-    lock.acquire(ops[2], 9, &yel, 2).unwrap();
-    lock.acquire(ops[3], 9, &yel, 3).unwrap();
-    let grants = lock.release(ops[0], 10).unwrap();
+    lock.acquire(ops[0], 1, &yel, ms(0)).unwrap();
+    lock.acquire(ops[1], 5, &yel, ms(1)).unwrap();
+    lock.acquire(ops[2], 9, &yel, ms(2)).unwrap();
+    lock.acquire(ops[3], 9, &yel, ms(3)).unwrap();
+    let grants = lock.release(ops[0], ms(10)).unwrap();
     assert_eq!(grants.len(), 1);
     assert_eq!(grants[0].operation, ops[2]);
-    assert_eq!(grants[0].waited_ms, 8);
-    assert_eq!(lock.release(ops[2], 20).unwrap()[0].operation, ops[3]);
-    assert_eq!(lock.release(ops[3], 30).unwrap()[0].operation, ops[1]);
+    assert_eq!(grants[0].waited_ms, ms(8));
+    assert_eq!(lock.release(ops[2], ms(20)).unwrap()[0].operation, ops[3]);
+    assert_eq!(lock.release(ops[3], ms(30)).unwrap()[0].operation, ops[1]);
 }
 
 #[test]
@@ -76,12 +84,12 @@ fn one_release_can_grant_several_requests() {
     let wide = lock.operation("wide");
     let a = lock.operation("a");
     let b = lock.operation("b");
-    lock.acquire(wide, 1, &set(&lock, &["YEL", "RED"]), 0)
+    lock.acquire(wide, 1, &set(&lock, &["YEL", "RED"]), ms(0))
         .unwrap();
-    lock.acquire(a, 5, &set(&lock, &["YEL"]), 1).unwrap();
-    lock.acquire(b, 4, &set(&lock, &["RED"]), 2).unwrap();
+    lock.acquire(a, 5, &set(&lock, &["YEL"]), ms(1)).unwrap();
+    lock.acquire(b, 4, &set(&lock, &["RED"]), ms(2)).unwrap();
     let granted: Vec<OpId> = lock
-        .release(wide, 3)
+        .release(wide, ms(3))
         .unwrap()
         .iter()
         .map(|g| g.operation)
@@ -95,9 +103,10 @@ fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() 
         let mut lock = plant(policy);
         let [holder, flit, load] =
             ["holder", "18 flit downstock", "10 load truck"].map(|n| lock.operation(n));
-        lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
+        lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
+            .unwrap();
         assert_eq!(
-            lock.acquire(flit, 92, &set(&lock, &["YEL", "RED"]), 1),
+            lock.acquire(flit, 92, &set(&lock, &["YEL", "RED"]), ms(1)),
             Ok(Acquisition::Queued)
         );
         let expected = if narrow_granted {
@@ -106,11 +115,11 @@ fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() 
             Acquisition::Queued
         };
         assert_eq!(
-            lock.acquire(load, 20, &set(&lock, &["YEL"]), 2),
+            lock.acquire(load, 20, &set(&lock, &["YEL"]), ms(2)),
             Ok(expected),
             "{policy:?}"
         );
-        let grants = lock.release(holder, 3).unwrap();
+        let grants = lock.release(holder, ms(3)).unwrap();
         let granted: Vec<OpId> = grants.iter().map(|g| g.operation).collect();
         if narrow_granted {
             assert!(granted.is_empty(), "YEL is held by the narrow request");
@@ -124,11 +133,12 @@ fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() 
 fn no_overtaking_still_lets_a_higher_priority_newcomer_in() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, low, urgent] = ["holder", "low", "urgent"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(low, 5, &set(&lock, &["YEL", "RED"]), 1)
+    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
+        .unwrap();
+    lock.acquire(low, 5, &set(&lock, &["YEL", "RED"]), ms(1))
         .unwrap();
     assert_eq!(
-        lock.acquire(urgent, 50, &set(&lock, &["YEL"]), 2),
+        lock.acquire(urgent, 50, &set(&lock, &["YEL"]), ms(2)),
         Ok(Acquisition::Granted)
     );
 }
@@ -138,9 +148,10 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
     let mut lock = plant(Policy::Greedy);
     let [op12, op10] = ["12", "10"].map(|n| lock.operation(n));
     let yel_red = set(&lock, &["YEL", "RED"]);
-    lock.acquire(op12, 22, &yel_red, 0).unwrap();
-    lock.acquire(op10, 20, &set(&lock, &["YEL"]), 1).unwrap();
-    let outcome = lock.fault(op12, Some("timeout"), 100).unwrap();
+    lock.acquire(op12, 22, &yel_red, ms(0)).unwrap();
+    lock.acquire(op10, 20, &set(&lock, &["YEL"]), ms(1))
+        .unwrap();
+    let outcome = lock.fault(op12, Some("timeout"), ms(100)).unwrap();
     let locked: Vec<&str> = outcome
         .lockouts
         .iter()
@@ -158,12 +169,12 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
     assert!(!lock.is_holding(op12));
     assert_eq!(lock.counts().faulted, 2);
     assert_eq!(
-        lock.acquire(op12, 22, &yel_red, 150),
+        lock.acquire(op12, 22, &yel_red, ms(150)),
         Ok(Acquisition::Queued),
         "faults block everyone"
     );
     assert_eq!(
-        lock.clear(&set(&lock, &["YEL"]), 200)
+        lock.clear(&set(&lock, &["YEL"]), ms(200))
             .unwrap()
             .iter()
             .map(|g| g.operation)
@@ -171,20 +182,22 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
         vec![op10]
     );
     assert_eq!(
-        lock.clear(&set(&lock, &["RED"]), 300).unwrap(),
+        lock.clear(&set(&lock, &["RED"]), ms(300)).unwrap(),
         vec![],
         "YEL is held by op 10 now"
     );
-    assert_eq!(lock.release(op10, 400).unwrap()[0].operation, op12);
+    assert_eq!(lock.release(op10, ms(400)).unwrap()[0].operation, op12);
 }
 
 #[test]
 fn fault_while_waiting_drops_the_request() {
     let mut lock = plant(Policy::Greedy);
     let [holder, waiter] = ["holder", "waiter"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["BLU"]), 0).unwrap();
-    lock.acquire(waiter, 2, &set(&lock, &["BLU"]), 0).unwrap();
-    let outcome = lock.fault(waiter, None, 5).unwrap();
+    lock.acquire(holder, 1, &set(&lock, &["BLU"]), ms(0))
+        .unwrap();
+    lock.acquire(waiter, 2, &set(&lock, &["BLU"]), ms(0))
+        .unwrap();
+    let outcome = lock.fault(waiter, None, ms(5)).unwrap();
     assert!(outcome.dropped && outcome.lockouts.is_empty());
     assert_eq!(
         lock.counts(),
@@ -194,7 +207,7 @@ fn fault_while_waiting_drops_the_request() {
             faulted: 0
         }
     );
-    let again = lock.fault(waiter, None, 6).unwrap();
+    let again = lock.fault(waiter, None, ms(6)).unwrap();
     assert!(
         !again.dropped && again.lockouts.is_empty(),
         "an idle operation has nothing to fault"
@@ -205,10 +218,10 @@ fn fault_while_waiting_drops_the_request() {
 fn repeated_fault_resends_the_same_lockouts() {
     let mut lock = plant(Policy::Greedy);
     let op = lock.operation("op");
-    lock.acquire(op, 1, &set(&lock, &["GRN", "RED"]), 0)
+    lock.acquire(op, 1, &set(&lock, &["GRN", "RED"]), ms(0))
         .unwrap();
-    let first = lock.fault(op, Some("timeout"), 1).unwrap();
-    let second = lock.fault(op, Some("timeout"), 2).unwrap();
+    let first = lock.fault(op, Some("timeout"), ms(1)).unwrap();
+    let second = lock.fault(op, Some("timeout"), ms(2)).unwrap();
     assert_eq!(first.lockouts.len(), 2);
     assert_eq!(second, first);
     assert_eq!(lock.counts().faulted, 2);
@@ -218,10 +231,10 @@ fn repeated_fault_resends_the_same_lockouts() {
 fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0)
+    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), ms(0))
         .unwrap();
     let outcome = lock
-        .fault_resources(&set(&lock, &["BLU", "RED"]), Some("e-stop"), 1)
+        .fault_resources(&set(&lock, &["BLU", "RED"]), Some("e-stop"), ms(1))
         .unwrap();
     let locked: Vec<&str> = outcome
         .lockouts
@@ -230,15 +243,15 @@ fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
         .collect();
     assert_eq!(locked, vec!["BLU", "PUR", "RED"]);
     assert!(!lock.is_holding(op));
-    assert_eq!(lock.release(op, 2).unwrap_err().code(), "NOT_HOLDING");
+    assert_eq!(lock.release(op, ms(2)).unwrap_err().code(), "NOT_HOLDING");
     assert_eq!(
-        lock.acquire(other, 9, &set(&lock, &["PUR"]), 3),
+        lock.acquire(other, 9, &set(&lock, &["PUR"]), ms(3)),
         Ok(Acquisition::Queued),
         "PUR is latched too"
     );
     // A second press re-sends the lockout of what it names.
     assert_eq!(
-        lock.fault_resources(&set(&lock, &["RED"]), None, 4)
+        lock.fault_resources(&set(&lock, &["RED"]), None, ms(4))
             .unwrap()
             .lockouts
             .len(),
@@ -250,13 +263,14 @@ fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
 fn fault_does_not_lock_out_a_resource_cleared_and_reused_meanwhile() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), 0)
+    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), ms(0))
         .unwrap();
-    lock.fault_resources(&set(&lock, &["RED"]), None, 1)
+    lock.fault_resources(&set(&lock, &["RED"]), None, ms(1))
         .unwrap();
-    lock.clear(&set(&lock, &["RED"]), 2).unwrap();
-    lock.acquire(other, 1, &set(&lock, &["RED"]), 3).unwrap();
-    let outcome = lock.fault(op, None, 4).unwrap();
+    lock.clear(&set(&lock, &["RED"]), ms(2)).unwrap();
+    lock.acquire(other, 1, &set(&lock, &["RED"]), ms(3))
+        .unwrap();
+    let outcome = lock.fault(op, None, ms(4)).unwrap();
     let locked: Vec<&str> = outcome
         .lockouts
         .iter()
@@ -270,18 +284,20 @@ fn fault_does_not_lock_out_a_resource_cleared_and_reused_meanwhile() {
 fn cancel_withdraws_a_waiting_request() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), 0)
+    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
         .unwrap();
-    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), 0).unwrap();
-    let grants = lock.cancel(wide, 10).unwrap();
+    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), ms(0))
+        .unwrap();
+    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), ms(0))
+        .unwrap();
+    let grants = lock.cancel(wide, ms(10)).unwrap();
     assert_eq!(
         grants.iter().map(|g| g.operation).collect::<Vec<_>>(),
         vec![narrow],
         "the reservation on GRN is lifted"
     );
     assert_eq!(
-        lock.cancel(wide, 11),
+        lock.cancel(wide, ms(11)),
         Err(InterlockError::NotQueued {
             operation: "wide".into()
         })
@@ -305,47 +321,47 @@ fn bad_calls_are_refused_without_changing_state() {
         lock.find_operation("ghost").unwrap_err().code(),
         "UNKNOWN_OPERATION"
     );
-    assert_eq!(lock.release(op, 0).unwrap_err().code(), "NOT_HOLDING");
-    assert_eq!(lock.clear(&yel, 0).unwrap_err().code(), "NOT_FAULTED");
+    assert_eq!(lock.release(op, ms(0)).unwrap_err().code(), "NOT_HOLDING");
+    assert_eq!(lock.clear(&yel, ms(0)).unwrap_err().code(), "NOT_FAULTED");
     assert_eq!(
-        lock.acquire(OpId::from_bits(99).unwrap(), 1, &yel, 0)
+        lock.acquire(OpId::from_bits(99).unwrap(), 1, &yel, ms(0))
             .unwrap_err()
             .code(),
         "UNKNOWN_OPERATION"
     );
     assert_eq!(
-        lock.acquire(op, 1, &ResourceSet::default(), 0)
+        lock.acquire(op, 1, &ResourceSet::default(), ms(0))
             .unwrap_err()
             .code(),
         "EMPTY_RESOURCE_SET"
     );
-    lock.acquire(op, 1, &yel, 0).unwrap();
+    lock.acquire(op, 1, &yel, ms(0)).unwrap();
     assert_eq!(
-        lock.acquire(op, 1, &yel, 0).unwrap_err().code(),
+        lock.acquire(op, 1, &yel, ms(0)).unwrap_err().code(),
         "ALREADY_HOLDING"
     );
-    let before = lock.snapshot(0);
+    let before = lock.snapshot(ms(0));
     for i in 0..4 {
         let waiter = lock.operation(&format!("w{i}"));
-        lock.acquire(waiter, 1, &yel, 0).unwrap();
+        lock.acquire(waiter, 1, &yel, ms(0)).unwrap();
     }
     let w0 = lock.find_operation("w0").unwrap();
     assert_eq!(
-        lock.acquire(w0, 1, &yel, 0).unwrap_err().code(),
+        lock.acquire(w0, 1, &yel, ms(0)).unwrap_err().code(),
         "ALREADY_QUEUED"
     );
     let extra = lock.operation("extra");
     assert_eq!(
-        lock.acquire(extra, 1, &yel, 0),
+        lock.acquire(extra, 1, &yel, ms(0)),
         Err(InterlockError::QueueFull { bound: 4 })
     );
     assert!(!lock.is_queued(extra));
-    assert_eq!(lock.snapshot(0).resources, before.resources);
+    assert_eq!(lock.snapshot(ms(0)).resources, before.resources);
     // Clearing two resources when one is not faulted clears neither.
-    lock.fault_resources(&set(&lock, &["GRN"]), None, 0)
+    lock.fault_resources(&set(&lock, &["GRN"]), None, ms(0))
         .unwrap();
     assert_eq!(
-        lock.clear(&set(&lock, &["GRN", "BLU"]), 0).unwrap_err(),
+        lock.clear(&set(&lock, &["GRN", "BLU"]), ms(0)).unwrap_err(),
         InterlockError::NotFaulted {
             resource: "BLU".into()
         }
@@ -385,7 +401,7 @@ fn invalid_configs_are_refused() {
         ),
         (
             InterlockConfig {
-                warn_held_ms: Some(0),
+                warn_held_ms: Some(ms(0)),
                 ..InterlockConfig::with_resources(["A"])
             },
             "positive",
@@ -408,7 +424,7 @@ fn config_reads_from_json_with_defaults() {
     .unwrap();
     assert_eq!(config.policy, Policy::NoOvertaking);
     assert_eq!(config.queue_bound, DEFAULT_QUEUE_BOUND);
-    assert_eq!(config.warn_queued_ms, Some(30000));
+    assert_eq!(config.warn_queued_ms, Some(ms(30000)));
     assert!(config.record_events);
     let typo =
         serde_json::from_value::<InterlockConfig>(json!({ "resources": [], "polcy": "greedy" }));
@@ -419,10 +435,12 @@ fn config_reads_from_json_with_defaults() {
 fn tick_warns_once_per_crossing_at_the_threshold() {
     let mut lock = plant(Policy::Greedy);
     let [holder, waiter] = ["holder", "waiter"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["YEL"]), 0).unwrap();
-    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), 0).unwrap();
-    assert!(lock.tick(999).is_empty());
-    let warnings = lock.tick(1000);
+    lock.acquire(holder, 1, &set(&lock, &["YEL"]), ms(0))
+        .unwrap();
+    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), ms(0))
+        .unwrap();
+    assert!(lock.tick(ms(999)).is_empty());
+    let warnings = lock.tick(ms(1000));
     assert_eq!(warnings.len(), 1);
     assert_eq!(
         (
@@ -430,19 +448,19 @@ fn tick_warns_once_per_crossing_at_the_threshold() {
             warnings[0].operation(),
             warnings[0].waited_ms()
         ),
-        (EventKind::WarnQueued, Some(waiter), Some(1000))
+        (EventKind::WarnQueued, Some(waiter), Some(ms(1000)))
     );
-    assert!(lock.tick(1500).is_empty(), "once per crossing");
-    let held = lock.tick(5000);
+    assert!(lock.tick(ms(1500)).is_empty(), "once per crossing");
+    let held = lock.tick(ms(5000));
     assert_eq!(
         held.iter().map(|w| w.kind()).collect::<Vec<_>>(),
         vec![EventKind::WarnHeld]
     );
-    lock.release(holder, 5001).unwrap();
-    lock.release(waiter, 5002).unwrap();
-    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), 6000)
+    lock.release(holder, ms(5001)).unwrap();
+    lock.release(waiter, ms(5002)).unwrap();
+    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), ms(6000))
         .unwrap();
-    assert_eq!(lock.tick(11000).len(), 1, "a new hold warns again");
+    assert_eq!(lock.tick(ms(11000)).len(), 1, "a new hold warns again");
 }
 
 #[test]
@@ -450,11 +468,11 @@ fn every_state_change_yields_an_event() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
     let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, 0).unwrap();
-    lock.acquire(b, 2, &yel, 10).unwrap();
-    lock.release(a, 50).unwrap();
-    lock.fault(b, Some("no flow"), 80).unwrap();
-    lock.clear(&yel, 90).unwrap();
+    lock.acquire(a, 1, &yel, ms(0)).unwrap();
+    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    lock.release(a, ms(50)).unwrap();
+    lock.fault(b, Some("no flow"), ms(80)).unwrap();
+    lock.clear(&yel, ms(90)).unwrap();
     let records: Vec<EventRecord> = lock
         .drain_events()
         .iter()
@@ -467,9 +485,9 @@ fn every_state_change_yields_an_event() {
         vec![Granted, Queued, Released, Granted, Faulted, Cleared]
     );
     assert_eq!(records[3].operation.as_deref(), Some("b"));
-    assert_eq!(records[3].waited_ms, Some(40));
-    assert_eq!(records[2].held_ms, Some(50));
-    assert_eq!(records[4].held_ms, Some(30));
+    assert_eq!(records[3].waited_ms, Some(ms(40)));
+    assert_eq!(records[2].held_ms, Some(ms(50)));
+    assert_eq!(records[4].held_ms, Some(ms(30)));
     assert_eq!(records[4].note.as_deref(), Some("no flow"));
     assert_eq!(records[5].resources, vec!["YEL".to_string()]);
     assert!(lock.drain_events().is_empty());
@@ -480,21 +498,21 @@ fn event_records_keep_their_json_shape() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
     let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, 0).unwrap();
-    lock.acquire(b, 2, &yel, 10).unwrap();
-    lock.cancel(b, 20).unwrap();
+    lock.acquire(a, 1, &yel, ms(0)).unwrap();
+    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    lock.cancel(b, ms(20)).unwrap();
     lock.fault_resources_by(
         &yel,
         Some("smoke"),
         &Attribution::new(Some("ann"), Some("drill"), false),
-        30,
+        ms(30),
     )
     .unwrap();
     lock.clear_checked(
         &yel,
         &Attribution::new(Some("bob"), None, true),
         |_| Vec::new(),
-        40,
+        ms(40),
     )
     .unwrap();
     let records: Vec<serde_json::Value> = lock
@@ -522,7 +540,7 @@ fn events_can_be_switched_off() {
     config.record_events = false;
     let mut lock = Interlock::new(config).unwrap();
     let op = lock.operation("op");
-    lock.acquire(op, 1, &lock.resource_set(&["A"]).unwrap(), 0)
+    lock.acquire(op, 1, &lock.resource_set(&["A"]).unwrap(), ms(0))
         .unwrap();
     assert!(!lock.has_events());
 }
@@ -531,15 +549,16 @@ fn events_can_be_switched_off() {
 fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL"]), 0).unwrap();
-    lock.acquire(b, 5, &set(&lock, &["YEL", "GRN"]), 1).unwrap();
-    lock.acquire(c, 2, &set(&lock, &["BLU"]), 2).unwrap();
-    lock.fault(c, Some("dry pump"), 3).unwrap();
-    let snapshot = lock.snapshot(10);
+    lock.acquire(a, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
+    lock.acquire(b, 5, &set(&lock, &["YEL", "GRN"]), ms(1))
+        .unwrap();
+    lock.acquire(c, 2, &set(&lock, &["BLU"]), ms(2)).unwrap();
+    lock.fault(c, Some("dry pump"), ms(3)).unwrap();
+    let snapshot = lock.snapshot(ms(10));
     let json = serde_json::to_string(&snapshot).unwrap();
     let parsed: Snapshot = serde_json::from_str(&json).unwrap();
     let (mut restored, grants) =
-        Interlock::restore(lock.config().clone(), &parsed, QUEUE_KEPT, 20).unwrap();
+        Interlock::restore(lock.config().clone(), &parsed, QUEUE_KEPT, ms(20)).unwrap();
     assert!(grants.is_empty());
     let yel = restored.resource("YEL").unwrap();
     assert!(restored.is_faulted(yel), "held when saved: interrupted");
@@ -550,7 +569,7 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let b2 = restored.find_operation("b").unwrap();
     assert!(restored.is_queued(b2));
     assert!(!restored.is_holding(restored.find_operation("a").unwrap()));
-    let after = restored.snapshot(20);
+    let after = restored.snapshot(ms(20));
     assert!(after.holds.is_empty());
     assert_eq!(after.queue, snapshot.queue);
     match &after.resources[0].state {
@@ -564,7 +583,7 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     assert_eq!(kinds, vec![EventKind::Interrupted]);
     // The interrupted line clears like any fault and the waiter goes through.
     let grants = restored
-        .clear(&restored.resource_set(&["YEL"]).unwrap(), 30)
+        .clear(&restored.resource_set(&["YEL"]).unwrap(), ms(30))
         .unwrap();
     assert_eq!(grants[0].operation, b2);
 }
@@ -573,14 +592,15 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
 fn restore_under_a_changed_config_drops_what_no_longer_exists() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["RED", "YEL"]), 0).unwrap();
-    let snapshot = lock.snapshot(1);
+    lock.acquire(a, 1, &set(&lock, &["RED"]), ms(0)).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["RED", "YEL"]), ms(0))
+        .unwrap();
+    let snapshot = lock.snapshot(ms(1));
     let (mut restored, _) = Interlock::restore(
         InterlockConfig::with_resources(["YEL", "GRN"]),
         &snapshot,
         QUEUE_KEPT,
-        2,
+        ms(2),
     )
     .unwrap();
     assert_eq!(restored.counts(), Counts::default());
@@ -595,7 +615,7 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
         ..snapshot
     };
     assert_eq!(
-        Interlock::restore(lock.config().clone(), &bad, QUEUE_KEPT, 0)
+        Interlock::restore(lock.config().clone(), &bad, QUEUE_KEPT, ms(0))
             .unwrap_err()
             .code(),
         "INVALID_SNAPSHOT"
@@ -606,10 +626,10 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
 fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["GRN"]), 0).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["GRN"]), 0).unwrap();
+    lock.acquire(a, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
     let (mut restored, grants) =
-        Interlock::restore(lock.config().clone(), &lock.snapshot(1), RESTART, 2).unwrap();
+        Interlock::restore(lock.config().clone(), &lock.snapshot(ms(1)), RESTART, ms(2)).unwrap();
     assert!(grants.is_empty());
     assert_eq!(
         restored.counts(),
@@ -627,11 +647,12 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
 fn saved_plant() -> (Interlock, Snapshot) {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL", "GRN"]), 0).unwrap();
-    lock.acquire(b, 5, &set(&lock, &["YEL"]), 1).unwrap();
-    lock.acquire(c, 2, &set(&lock, &["BLU"]), 2).unwrap();
-    lock.fault(c, Some("dry pump"), 3).unwrap();
-    let snapshot = lock.snapshot(10);
+    lock.acquire(a, 1, &set(&lock, &["YEL", "GRN"]), ms(0))
+        .unwrap();
+    lock.acquire(b, 5, &set(&lock, &["YEL"]), ms(1)).unwrap();
+    lock.acquire(c, 2, &set(&lock, &["BLU"]), ms(2)).unwrap();
+    lock.fault(c, Some("dry pump"), ms(3)).unwrap();
+    let snapshot = lock.snapshot(ms(10));
     (lock, snapshot)
 }
 
@@ -640,8 +661,8 @@ fn request(operation: &str, resources: &[&str]) -> RequestSnapshot {
         operation: operation.into(),
         priority: 1,
         resources: resources.iter().map(|r| r.to_string()).collect(),
-        since_ms: 0,
-        waited_ms: 0,
+        since_ms: ms(0),
+        waited_ms: ms(0),
     }
 }
 
@@ -828,7 +849,7 @@ fn restore_refuses_a_snapshot_that_contradicts_itself_and_names_the_entry() {
         let mut snapshot = valid.clone();
         mutate(&mut snapshot);
         for options in [RESTART, QUEUE_KEPT, HAND_OVER] {
-            let err = Interlock::restore(lock.config().clone(), &snapshot, options, 20)
+            let err = Interlock::restore(lock.config().clone(), &snapshot, options, ms(20))
                 .map(|_| ())
                 .unwrap_err();
             assert_eq!(err.code(), "INVALID_SNAPSHOT", "{what}");
@@ -848,7 +869,7 @@ fn a_refusal_quotes_little_of_a_long_name() {
         name: "X".repeat(5000),
         state: ResourceState::Free,
     });
-    let message = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 20)
+    let message = Interlock::restore(lock.config().clone(), &snapshot, RESTART, ms(20))
         .map(|_| ())
         .unwrap_err()
         .to_string();
@@ -874,23 +895,23 @@ fn a_legacy_v1_snapshot_restores_with_its_listed_lines_as_configured() {
     }))
     .unwrap();
     assert_eq!(v1, legacy, "a v1 document has no 'configured' key");
-    let (from_v1, _) = Interlock::restore(lock.config().clone(), &v1, QUEUE_KEPT, 20).unwrap();
+    let (from_v1, _) = Interlock::restore(lock.config().clone(), &v1, QUEUE_KEPT, ms(20)).unwrap();
     let (from_v2, _) =
-        Interlock::restore(lock.config().clone(), &snapshot, QUEUE_KEPT, 20).unwrap();
-    assert_eq!(from_v1.snapshot(30), from_v2.snapshot(30));
+        Interlock::restore(lock.config().clone(), &snapshot, QUEUE_KEPT, ms(20)).unwrap();
+    assert_eq!(from_v1.snapshot(ms(30)), from_v2.snapshot(ms(30)));
 }
 
 #[test]
 fn lines_new_since_the_save_start_free_with_an_event() {
     let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL", "GRN"])).unwrap();
     let a = lock.operation("a");
-    lock.acquire(a, 1, &set(&lock, &["GRN"]), 0).unwrap();
-    let snapshot = lock.snapshot(1);
+    lock.acquire(a, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
+    let snapshot = lock.snapshot(ms(1));
     let (mut restored, grants) = Interlock::restore(
         InterlockConfig::with_resources(["BLU", "YEL", "GRN"]),
         &snapshot,
         RESTART,
-        2,
+        ms(2),
     )
     .unwrap();
     assert!(grants.is_empty());
@@ -922,7 +943,7 @@ fn lines_no_longer_configured_are_dropped_with_an_event_each() {
         InterlockConfig::with_resources(["YEL", "GRN", "BLU"]),
         &snapshot,
         RESTART,
-        20,
+        ms(20),
     )
     .unwrap();
     let notes: Vec<String> = restored
@@ -942,32 +963,32 @@ fn lines_no_longer_configured_are_dropped_with_an_event_each() {
 fn a_hand_over_keeps_holds_with_their_start() {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(b, 1, &set(&lock, &["YEL"]), 0).unwrap();
-    lock.acquire(a, 3, &set(&lock, &["YEL", "GRN"]), 60)
+    lock.acquire(b, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
+    lock.acquire(a, 3, &set(&lock, &["YEL", "GRN"]), ms(60))
         .unwrap();
-    lock.release(b, 100).unwrap();
-    lock.acquire(c, 2, &set(&lock, &["RED"]), 120).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["RED"]), 130).unwrap();
-    let snapshot = lock.snapshot(200);
+    lock.release(b, ms(100)).unwrap();
+    lock.acquire(c, 2, &set(&lock, &["RED"]), ms(120)).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["RED"]), ms(130)).unwrap();
+    let snapshot = lock.snapshot(ms(200));
 
     let (mut same, grants) =
-        Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, 250).unwrap();
+        Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, ms(250)).unwrap();
     assert!(grants.is_empty());
     assert!(!same.has_events(), "nothing changed");
-    let after = same.snapshot(200);
+    let after = same.snapshot(ms(200));
     assert_eq!(after.resources, snapshot.resources);
     assert_eq!(after.queue, snapshot.queue);
     let mut holds = after.holds.clone();
     holds.sort_by(|x, y| x.operation.cmp(&y.operation));
     assert_eq!(holds, snapshot.holds);
-    assert_eq!((holds[0].since_ms, holds[0].waited_ms), (100, 40));
+    assert_eq!((holds[0].since_ms, holds[0].waited_ms), (ms(100), ms(40)));
     let a2 = same.find_operation("a").unwrap();
     assert!(same.is_holding(a2));
-    same.release(a2, 300).unwrap();
+    same.release(a2, ms(300)).unwrap();
     let released = same.drain_events().pop().unwrap();
     assert_eq!(
         released.held_ms(),
-        Some(200),
+        Some(ms(200)),
         "held since 100, not since the hand-over"
     );
 
@@ -976,7 +997,7 @@ fn a_hand_over_keeps_holds_with_their_start() {
         InterlockConfig::with_resources(["YEL", "BLU", "PUR", "RED"]),
         &snapshot,
         HAND_OVER,
-        250,
+        ms(250),
     )
     .unwrap();
     let yel = changed.resource("YEL").unwrap();
@@ -985,12 +1006,12 @@ fn a_hand_over_keeps_holds_with_their_start() {
     let c2 = changed.find_operation("c").unwrap();
     assert_eq!(changed.owner_of(changed.resource("RED").unwrap()), Some(c2));
     assert!(changed.is_queued(changed.find_operation("b").unwrap()));
-    match &changed.snapshot(250).resources[0].state {
+    match &changed.snapshot(ms(250)).resources[0].state {
         ResourceState::Faulted(f) => {
             assert_eq!(f.cause, FaultCause::Interrupted);
             assert_eq!(f.operation.as_deref(), Some("a"));
             assert!(f.note.as_deref().unwrap().contains("'GRN'"), "{f:?}");
-            assert_eq!(f.since_ms, 250);
+            assert_eq!(f.since_ms, ms(250));
         }
         other => panic!("YEL restored as {other:?}"),
     }
@@ -1006,7 +1027,8 @@ fn a_hand_over_keeps_holds_with_their_start() {
 #[test]
 fn a_restart_faults_every_held_line_whatever_the_hand_over_would_keep() {
     let (lock, snapshot) = saved_plant();
-    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 20).unwrap();
+    let (restored, _) =
+        Interlock::restore(lock.config().clone(), &snapshot, RESTART, ms(20)).unwrap();
     assert_eq!(
         restored.counts(),
         Counts {
@@ -1015,7 +1037,8 @@ fn a_restart_faults_every_held_line_whatever_the_hand_over_would_keep() {
             faulted: 3
         }
     );
-    let (kept, _) = Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, 20).unwrap();
+    let (kept, _) =
+        Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, ms(20)).unwrap();
     assert_eq!(
         kept.counts(),
         Counts {
@@ -1030,32 +1053,34 @@ fn a_restart_faults_every_held_line_whatever_the_hand_over_would_keep() {
 fn dropping_a_waiter_on_a_removed_line_lets_the_one_behind_it_go() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), 0).unwrap();
-    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), 1)
+    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
         .unwrap();
-    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), 2).unwrap();
+    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), ms(1))
+        .unwrap();
+    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), ms(2))
+        .unwrap();
     let (restored, grants) = Interlock::restore(
         InterlockConfig {
             policy: Policy::NoOvertaking,
             ..InterlockConfig::with_resources(["YEL", "GRN"])
         },
-        &lock.snapshot(3),
+        &lock.snapshot(ms(3)),
         HAND_OVER,
-        4,
+        ms(4),
     )
     .unwrap();
     assert_eq!(grants.len(), 1);
     assert_eq!(restored.operation_name(grants[0].operation), Some("narrow"));
-    assert_eq!(grants[0].waited_ms, 2);
+    assert_eq!(grants[0].waited_ms, ms(2));
 }
 
 #[test]
 fn unknown_state_faults_every_line_until_cleared() {
     let config = plant(Policy::Greedy).config().clone();
     let note = "state unknown after restart: the saved state file is empty";
-    let mut lock = Interlock::unknown_state(config, note, 5).unwrap();
+    let mut lock = Interlock::unknown_state(config, note, ms(5)).unwrap();
     assert_eq!(lock.counts().faulted, 5);
-    let snapshot = lock.snapshot(6);
+    let snapshot = lock.snapshot(ms(6));
     for entry in &snapshot.resources {
         assert_eq!(
             entry.state,
@@ -1063,7 +1088,7 @@ fn unknown_state_faults_every_line_until_cleared() {
                 cause: FaultCause::Unknown,
                 operation: None,
                 note: Some(note.into()),
-                since_ms: 5,
+                since_ms: ms(5),
             }),
             "{}",
             entry.name
@@ -1088,15 +1113,16 @@ fn unknown_state_faults_every_line_until_cleared() {
     );
 
     // Saved again, the unknown state survives a restart.
-    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 7).unwrap();
-    assert_eq!(restored.snapshot(6).resources, snapshot.resources);
+    let (restored, _) =
+        Interlock::restore(lock.config().clone(), &snapshot, RESTART, ms(7)).unwrap();
+    assert_eq!(restored.snapshot(ms(6)).resources, snapshot.resources);
 
     let op = lock.operation("op");
     let yel = set(&lock, &["YEL"]);
-    assert_eq!(lock.acquire(op, 1, &yel, 8), Ok(Acquisition::Queued));
-    let grants = lock.clear(&yel, 9).unwrap();
+    assert_eq!(lock.acquire(op, 1, &yel, ms(8)), Ok(Acquisition::Queued));
+    let grants = lock.clear(&yel, ms(9)).unwrap();
     assert_eq!(grants[0].operation, op);
-    lock.clear(&lock.faulted_resources(), 10).unwrap();
+    lock.clear(&lock.faulted_resources(), ms(10)).unwrap();
     assert_eq!(
         lock.counts(),
         Counts {
@@ -1105,15 +1131,15 @@ fn unknown_state_faults_every_line_until_cleared() {
             faulted: 0
         }
     );
-    let quiet = Interlock::unknown_state(lock.config().clone(), "  ", 0).unwrap();
+    let quiet = Interlock::unknown_state(lock.config().clone(), "  ", ms(0)).unwrap();
     assert!(matches!(
-        &quiet.snapshot(0).resources[0].state,
+        &quiet.snapshot(ms(0)).resources[0].state,
         ResourceState::Faulted(f) if f.note.is_none()
     ));
 }
 
 fn note_of(lock: &Interlock, line: &str) -> String {
-    let snapshot = lock.snapshot(0);
+    let snapshot = lock.snapshot(ms(0));
     let entry = snapshot.resources.iter().find(|r| r.name == line).unwrap();
     match &entry.state {
         ResourceState::Faulted(f) => f.note.clone().unwrap(),
@@ -1125,10 +1151,10 @@ fn note_of(lock: &Interlock, line: &str) -> String {
 fn fault_notes_are_kept_to_a_bounded_length() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL"]), 0).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["GRN"]), 0).unwrap();
+    lock.acquire(a, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
+    lock.acquire(b, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
     let stack = "é".repeat(3000);
-    lock.fault(a, Some(&stack), 1).unwrap();
+    lock.fault(a, Some(&stack), ms(1)).unwrap();
     let kept = note_of(&lock, "YEL");
     assert_eq!(kept.chars().count(), NOTE_MAX_CHARS);
     assert!(kept.ends_with('\u{2026}'));
@@ -1140,12 +1166,12 @@ fn fault_notes_are_kept_to_a_bounded_length() {
         .unwrap();
     assert_eq!(faulted.note(), Some(kept.as_str()));
 
-    lock.fault_resources(&set(&lock, &["GRN", "RED"]), Some(&"x".repeat(501)), 2)
+    lock.fault_resources(&set(&lock, &["GRN", "RED"]), Some(&"x".repeat(501)), ms(2))
         .unwrap();
     assert_eq!(note_of(&lock, "RED").chars().count(), NOTE_MAX_CHARS);
     assert_eq!(note_of(&lock, "GRN").chars().count(), NOTE_MAX_CHARS);
     let exact = "y".repeat(NOTE_MAX_CHARS);
-    lock.fault_resources(&set(&lock, &["BLU"]), Some(&exact), 3)
+    lock.fault_resources(&set(&lock, &["BLU"]), Some(&exact), ms(3))
         .unwrap();
     assert_eq!(
         note_of(&lock, "BLU"),
@@ -1153,16 +1179,17 @@ fn fault_notes_are_kept_to_a_bounded_length() {
         "a note at the bound is kept whole"
     );
 
-    let mut snapshot = lock.snapshot(4);
+    let mut snapshot = lock.snapshot(ms(4));
     assert_eq!(snapshot.resources[3].name, "PUR");
     assert_eq!(snapshot.resources[3].state, ResourceState::Free);
     snapshot.resources[3].state = ResourceState::Faulted(FaultSnapshot {
         cause: FaultCause::Manual,
         operation: None,
         note: Some("z".repeat(100_000)),
-        since_ms: 4,
+        since_ms: ms(4),
     });
-    let (restored, _) = Interlock::restore(lock.config().clone(), &snapshot, RESTART, 5).unwrap();
+    let (restored, _) =
+        Interlock::restore(lock.config().clone(), &snapshot, RESTART, ms(5)).unwrap();
     assert_eq!(note_of(&restored, "PUR").chars().count(), NOTE_MAX_CHARS);
     assert_eq!(note_of(&restored, "YEL"), kept);
 }
@@ -1171,36 +1198,42 @@ fn fault_notes_are_kept_to_a_bounded_length() {
 fn release_and_cancel_by_name_do_not_register_unknown_names() {
     let mut lock = plant(Policy::Greedy);
     assert_eq!(
-        lock.release_named("ghost", 0),
+        lock.release_named("ghost", ms(0)),
         Err(InterlockError::NotHolding {
             operation: "ghost".into()
         })
     );
     assert_eq!(
-        lock.cancel_named("ghost", 0),
+        lock.cancel_named("ghost", ms(0)),
         Err(InterlockError::NotQueued {
             operation: "ghost".into()
         })
     );
     assert!(lock.find_operation("ghost").is_err(), "not registered");
     let long = "g".repeat(10_000);
-    let message = lock.release_named(&long, 0).unwrap_err().to_string();
+    let message = lock.release_named(&long, ms(0)).unwrap_err().to_string();
     assert!(message.len() < 300, "{message}");
 
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
     let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, 0).unwrap();
-    lock.acquire(b, 1, &yel, 1).unwrap();
+    lock.acquire(a, 1, &yel, ms(0)).unwrap();
+    lock.acquire(b, 1, &yel, ms(1)).unwrap();
     assert_eq!(
-        lock.release_named("b", 2).unwrap_err().code(),
+        lock.release_named("b", ms(2)).unwrap_err().code(),
         "NOT_HOLDING"
     );
-    assert_eq!(lock.cancel_named("a", 2).unwrap_err().code(), "NOT_QUEUED");
-    assert_eq!(lock.release_named("a", 3).unwrap()[0].operation, b);
-    assert_eq!(lock.cancel_named("b", 4).unwrap_err().code(), "NOT_QUEUED");
+    assert_eq!(
+        lock.cancel_named("a", ms(2)).unwrap_err().code(),
+        "NOT_QUEUED"
+    );
+    assert_eq!(lock.release_named("a", ms(3)).unwrap()[0].operation, b);
+    assert_eq!(
+        lock.cancel_named("b", ms(4)).unwrap_err().code(),
+        "NOT_QUEUED"
+    );
     let c = lock.operation("c");
-    lock.acquire(c, 1, &yel, 5).unwrap();
-    assert_eq!(lock.cancel_named("c", 6), Ok(vec![]));
+    lock.acquire(c, 1, &yel, ms(5)).unwrap();
+    assert_eq!(lock.cancel_named("c", ms(6)), Ok(vec![]));
     assert!(!lock.is_queued(c));
 }
 
@@ -1221,10 +1254,10 @@ fn a_new_name_per_msg_does_not_grow_the_interlock() {
     for i in 0..3 * OPERATION_NAMES_KEPT {
         let op = lock.operation(&format!("batch-{i}"));
         assert_eq!(
-            lock.acquire(op, 1, &yel, i as u64),
+            lock.acquire(op, 1, &yel, ms(i as u64)),
             Ok(Acquisition::Granted)
         );
-        lock.release(op, i as u64).unwrap();
+        lock.release(op, ms(i as u64)).unwrap();
         lock.drain_events();
     }
     assert!(lock.known_operations() <= OPERATION_NAMES_KEPT);
@@ -1243,11 +1276,14 @@ fn a_forgotten_handle_is_refused_even_once_its_slot_is_reused() {
     assert_eq!(lock.forgettings(), 1);
     assert_eq!(lock.operation_name(old), None);
     assert_eq!(
-        lock.acquire(old, 1, &yel, 0).unwrap_err().code(),
+        lock.acquire(old, 1, &yel, ms(0)).unwrap_err().code(),
         "UNKNOWN_OPERATION"
     );
     assert!(!lock.is_holding(newer));
-    assert_eq!(lock.acquire(newer, 1, &yel, 0), Ok(Acquisition::Granted));
+    assert_eq!(
+        lock.acquire(newer, 1, &yel, ms(0)),
+        Ok(Acquisition::Granted)
+    );
     assert!(
         !lock.is_holding(old),
         "the old handle never stands for the new name"
@@ -1260,16 +1296,17 @@ fn busy_and_faulted_operations_and_undrained_events_keep_their_names() {
     let mut lock = keeping_names(plant(Policy::Greedy), 1);
     let (yel, grn) = (set(&lock, &["YEL"]), set(&lock, &["GRN"]));
     let holder = lock.operation("holder");
-    lock.acquire(holder, 1, &yel, 0).unwrap();
+    lock.acquire(holder, 1, &yel, ms(0)).unwrap();
     let waiter = lock.operation("waiter");
-    lock.acquire(waiter, 1, &yel, 0).unwrap();
+    lock.acquire(waiter, 1, &yel, ms(0)).unwrap();
     let faulted = lock.operation("faulted");
-    lock.acquire(faulted, 1, &grn, 0).unwrap();
-    lock.fault(faulted, Some("stuck"), 1).unwrap();
+    lock.acquire(faulted, 1, &grn, ms(0)).unwrap();
+    lock.fault(faulted, Some("stuck"), ms(1)).unwrap();
     lock.drain_events();
     let evented = lock.operation("evented");
-    lock.acquire(evented, 1, &set(&lock, &["BLU"]), 2).unwrap();
-    lock.release(evented, 3).unwrap(); // its events are not drained yet
+    lock.acquire(evented, 1, &set(&lock, &["BLU"]), ms(2))
+        .unwrap();
+    lock.release(evented, ms(3)).unwrap(); // its events are not drained yet
     for i in 0..10 {
         lock.operation(&format!("passer-{i}"));
     }
@@ -1291,13 +1328,13 @@ fn busy_and_faulted_operations_and_undrained_events_keep_their_names() {
     assert!(records
         .iter()
         .all(|r| r.operation.as_deref() == Some("evented")));
-    let snapshot = lock.snapshot(4);
+    let snapshot = lock.snapshot(ms(4));
     let grn_state = &snapshot.resources[1].state;
     assert!(
         matches!(grn_state, ResourceState::Faulted(f) if f.operation.as_deref() == Some("faulted"))
     );
     // Once cleared and drained, the faulted operation may be forgotten too.
-    lock.clear(&grn, 5).unwrap();
+    lock.clear(&grn, ms(5)).unwrap();
     lock.drain_events();
     for i in 10..40 {
         lock.operation(&format!("passer-{i}"));
@@ -1361,21 +1398,21 @@ mod forgetting_model {
                 let lines = lines(lock, *mask);
                 format!(
                     "{:?}",
-                    lock.acquire(id, *priority, &lines, now)
+                    lock.acquire(id, *priority, &lines, ms(now))
                         .map_err(|e| e.code())
                 )
             }
             Call::Release { op } => {
-                let out = lock.release_named(&format!("op{op}"), now);
+                let out = lock.release_named(&format!("op{op}"), ms(now));
                 format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
             }
             Call::Cancel { op } => {
-                let out = lock.cancel_named(&format!("op{op}"), now);
+                let out = lock.cancel_named(&format!("op{op}"), ms(now));
                 format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
             }
             // Faulting an idle operation and a forgotten one both latch nothing.
             Call::Fault { op } => match lock.find_operation(&format!("op{op}")) {
-                Ok(id) => match lock.fault(id, None, now).unwrap() {
+                Ok(id) => match lock.fault(id, None, ms(now)).unwrap() {
                     out if out == FaultOutcome::default() => "nothing to fault".to_owned(),
                     out => format!(
                         "{:?}",
@@ -1386,7 +1423,7 @@ mod forgetting_model {
             },
             Call::Clear { mask } => {
                 let lines = lines(lock, *mask);
-                let out = lock.clear(&lines, now);
+                let out = lock.clear(&lines, ms(now));
                 format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
             }
             Call::Drain => {
@@ -1417,7 +1454,7 @@ mod forgetting_model {
                     snapshot.holds.sort_by(|a, b| a.operation.cmp(&b.operation));
                     snapshot
                 };
-                prop_assert_eq!(by_name(forgetful.snapshot(now)), by_name(keeping.snapshot(now)));
+                prop_assert_eq!(by_name(forgetful.snapshot(ms(now))), by_name(keeping.snapshot(ms(now))));
                 let c = forgetful.counts();
                 // Names held by busy operations (a fault or an event names at most one).
                 peak_busy = peak_busy.max(c.holding + c.queued + c.faulted + forgetful.events.len());

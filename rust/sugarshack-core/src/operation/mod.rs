@@ -4,6 +4,7 @@
 
 mod run;
 
+use crate::time::Millis;
 pub use run::{OperationRun, Phase, RunEffect, RunError, Stage, StepKind, StepRecord};
 
 use serde::Serialize;
@@ -34,7 +35,7 @@ pub enum PlanStep {
         /// The group command.
         command: GroupCommand,
         /// How long it may take.
-        timeout_ms: u64,
+        timeout_ms: Millis,
     },
     /// Wait until a condition on sensors holds.
     #[serde(rename_all = "camelCase")]
@@ -44,7 +45,7 @@ pub enum PlanStep {
         /// The sensors it reads.
         sensors: Vec<String>,
         /// How long it may take.
-        timeout_ms: u64,
+        timeout_ms: Millis,
     },
     /// The C3 step the plan appends: every commanded actuator back to idle.
     #[serde(rename_all = "camelCase")]
@@ -52,7 +53,7 @@ pub enum PlanStep {
         /// Every commanded actuator to its idle state.
         command: GroupCommand,
         /// How long it may take.
-        timeout_ms: u64,
+        timeout_ms: Millis,
     },
 }
 
@@ -64,7 +65,7 @@ impl Plant {
         // Actuator ids in order of first command, grouped by type name (a
         // step may say "pump" and another "pumps").
         let mut idle = GroupCommand::default();
-        let mut idle_timeout_ms = 0;
+        let mut idle_timeout_ms = Millis::ZERO;
         for step in &op.steps {
             match step {
                 Step::Command {
@@ -115,6 +116,7 @@ impl Plant {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::time::ms;
     use serde_json::json;
 
     fn plant() -> Plant {
@@ -157,7 +159,7 @@ mod tests {
                     json!({ "valve": { "V2": 0, "V1": 0 }, "pump": { "P1": false } })
                 )
                 .unwrap(),
-                timeout_ms: 20000,
+                timeout_ms: ms(20000),
             }
         );
         assert_eq!(plan.resources, vec!["YEL".to_string()]);

@@ -27,6 +27,7 @@ use super::{OperationPlan, PlanStep};
 use crate::code::Code;
 use crate::plant::Plant;
 use crate::text::quote;
+use crate::time::Millis;
 
 /// Interlock refusals that mean the operation already runs (C1).
 const ALREADY_RUNNING: [Code; 2] = [Code::AlreadyHolding, Code::AlreadyQueued];
@@ -201,7 +202,7 @@ pub struct StepRecord {
     /// What the step did.
     pub kind: StepKind,
     /// How long it took.
-    pub ms: u64,
+    pub ms: Millis,
 }
 
 /// What the caller does next.
@@ -260,9 +261,9 @@ pub enum RunEffect {
         /// Its id in the plant document.
         id: String,
         /// How long it waited for its lines.
-        queued_ms: u64,
+        queued_ms: Millis,
         /// How long it ran once granted.
-        run_ms: u64,
+        run_ms: Millis,
         /// Each step's record.
         steps: Vec<StepRecord>,
     },
@@ -307,7 +308,7 @@ enum State {
     },
     Running {
         index: usize,
-        since_ms: u64,
+        since_ms: Millis,
     },
     Releasing,
     Faulting(Failure),
@@ -320,8 +321,8 @@ enum State {
 pub struct OperationRun {
     plan: OperationPlan,
     state: State,
-    started_ms: u64,
-    granted_ms: u64,
+    started_ms: Millis,
+    granted_ms: Millis,
     steps: Vec<StepRecord>,
 }
 
@@ -332,8 +333,8 @@ impl OperationRun {
             steps: Vec::with_capacity(plan.steps.len()),
             plan,
             state: State::New,
-            started_ms: 0,
-            granted_ms: 0,
+            started_ms: Millis::ZERO,
+            granted_ms: Millis::ZERO,
         }
     }
 
@@ -377,14 +378,14 @@ impl OperationRun {
     }
 
     /// Requests the operation's lines. Refused on a run already started.
-    pub fn start(&mut self, now_ms: u64) -> Result<Vec<RunEffect>, RunError> {
+    pub fn start(&mut self, now: Millis) -> Result<Vec<RunEffect>, RunError> {
         if !matches!(self.state, State::New) {
             return Err(RunError::AlreadyStarted {
                 operation: self.plan.id.clone(),
                 phase: self.phase(),
             });
         }
-        self.started_ms = now_ms;
+        self.started_ms = now;
         self.state = State::Queued;
         Ok(vec![RunEffect::Acquire {
             operation: self.plan.id.clone(),
@@ -395,11 +396,11 @@ impl OperationRun {
 
     /// The interlock granted the lines: the first step starts. A grant that
     /// crossed a withdrawal is handed back at once (nothing was commanded yet).
-    pub fn granted(&mut self, now_ms: u64) -> Vec<RunEffect> {
+    pub fn granted(&mut self, now: Millis) -> Vec<RunEffect> {
         match &mut self.state {
             State::Queued => {
-                self.granted_ms = now_ms;
-                self.begin(0, now_ms)
+                self.granted_ms = now;
+                self.begin(0, now)
             }
             State::Withdrawing { release_sent, .. } if !*release_sent => {
                 *release_sent = true;
@@ -410,27 +411,27 @@ impl OperationRun {
     }
 
     /// Step `index` completed: the next one starts, or the release after the last.
-    pub fn step_done(&mut self, index: usize, now_ms: u64) -> Vec<RunEffect> {
+    pub fn step_done(&mut self, index: usize, now: Millis) -> Vec<RunEffect> {
         let since_ms = match self.state {
             State::Running { index: i, since_ms } if i == index => since_ms,
             _ => return Vec::new(),
         };
         self.steps.push(StepRecord {
             kind: self.plan.steps[index].kind(),
-            ms: now_ms.saturating_sub(since_ms),
+            ms: now.saturating_sub(since_ms),
         });
-        self.begin(index + 1, now_ms)
+        self.begin(index + 1, now)
     }
 
     /// The interlock released the lines.
-    pub fn released(&mut self, now_ms: u64) -> Vec<RunEffect> {
+    pub fn released(&mut self, now: Millis) -> Vec<RunEffect> {
         match &self.state {
             State::Releasing => {
                 self.state = State::Ended(Phase::Done);
                 vec![RunEffect::Finished {
                     id: self.plan.id.clone(),
                     queued_ms: self.granted_ms.saturating_sub(self.started_ms),
-                    run_ms: now_ms.saturating_sub(self.granted_ms),
+                    run_ms: now.saturating_sub(self.granted_ms),
                     steps: std::mem::take(&mut self.steps),
                 }]
             }
@@ -452,7 +453,7 @@ impl OperationRun {
         index: usize,
         code: &str,
         message: &str,
-        _now_ms: u64,
+        _now: Millis,
     ) -> Vec<RunEffect> {
         if self.step() != Some(index) {
             return Vec::new();
@@ -474,7 +475,7 @@ impl OperationRun {
     }
 
     /// The interlock refused the release.
-    pub fn release_failed(&mut self, code: &str, message: &str, _now_ms: u64) -> Vec<RunEffect> {
+    pub fn release_failed(&mut self, code: &str, message: &str, _now: Millis) -> Vec<RunEffect> {
         let aborted = match self.state {
             State::Releasing => false,
             State::Withdrawing {
@@ -498,7 +499,7 @@ impl OperationRun {
     }
 
     /// The interlock faulted the operation; `locked_out` are the lines whose lockouts went out.
-    pub fn fault_applied(&mut self, locked_out: Vec<String>, _now_ms: u64) -> Vec<RunEffect> {
+    pub fn fault_applied(&mut self, locked_out: Vec<String>, _now: Millis) -> Vec<RunEffect> {
         let State::Faulting(failure) = &self.state else {
             return Vec::new();
         };
@@ -561,7 +562,7 @@ impl OperationRun {
     /// Whoever supervised the run is gone: a queued request is withdrawn; a
     /// running operation is faulted, since nobody watches its actuators any
     /// more. Nothing to stop in any other phase (a release under way goes on).
-    pub fn abort(&mut self, reason: &str, _now_ms: u64) -> Vec<RunEffect> {
+    pub fn abort(&mut self, reason: &str, _now: Millis) -> Vec<RunEffect> {
         match self.state {
             State::Queued => {
                 self.state = State::Withdrawing {
@@ -593,7 +594,7 @@ impl OperationRun {
     }
 
     /// The queued request is gone (withdrawn, or found no longer queued).
-    pub fn withdrawn(&mut self, _now_ms: u64) -> Vec<RunEffect> {
+    pub fn withdrawn(&mut self, _now: Millis) -> Vec<RunEffect> {
         match &self.state {
             State::Withdrawing {
                 reason,
@@ -607,7 +608,7 @@ impl OperationRun {
         }
     }
 
-    fn begin(&mut self, index: usize, now_ms: u64) -> Vec<RunEffect> {
+    fn begin(&mut self, index: usize, now: Millis) -> Vec<RunEffect> {
         let Some(step) = self.plan.steps.get(index) else {
             self.state = State::Releasing;
             return vec![self.release()];
@@ -625,7 +626,7 @@ impl OperationRun {
         };
         self.state = State::Running {
             index,
-            since_ms: now_ms,
+            since_ms: now,
         };
         vec![effect]
     }

@@ -22,6 +22,7 @@ use std::ops::Deref;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
+use crate::time::{ms, Millis};
 use crate::topics::Contract;
 
 /// The plant document: devices, actuators, sensors, lines, operations and routines.
@@ -73,16 +74,16 @@ pub struct PlantModel {
     /// How far ahead of the reception time a device's timestamp may be; a
     /// sample stamped further in the future is refused (its clock is wrong).
     #[serde(default = "default_clock_skew_ms")]
-    pub clock_skew_ms: u64,
+    pub clock_skew_ms: Millis,
     /// Read by the plant simulator only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<serde_json::Value>,
 }
 
 /// A device clock may run this far ahead of ours before its samples are refused.
-pub const DEFAULT_CLOCK_SKEW_MS: u64 = 5000;
+pub const DEFAULT_CLOCK_SKEW_MS: Millis = ms(5000);
 
-fn default_clock_skew_ms() -> u64 {
+fn default_clock_skew_ms() -> Millis {
     DEFAULT_CLOCK_SKEW_MS
 }
 
@@ -126,11 +127,11 @@ pub struct ActuatorType {
     #[serde(default)]
     pub tolerance: Option<f64>,
     /// A command must show motion within this long, else it is retried.
-    pub no_motion_ms: u64,
+    pub no_motion_ms: Millis,
     /// A command must reach its target within this long, else it is retried.
-    pub completion_ms: u64,
+    pub completion_ms: Millis,
     /// Feedback older than this is stale.
-    pub stale_ms: u64,
+    pub stale_ms: Millis,
     /// Retries before a failure escalates.
     #[serde(default)]
     pub retries: u32,
@@ -192,11 +193,11 @@ impl Profile {
 
     /// How often its sensors publish unless a sensor says otherwise: ESPHome's
     /// default `update_interval` (60 s), Tasmota's `TelePeriod` (300 s).
-    pub fn default_sensor_update_ms(self) -> u64 {
+    pub fn default_sensor_update_ms(self) -> Millis {
         match self {
-            Profile::Sugarshack | Profile::Custom => 1000,
-            Profile::Esphome | Profile::ShellyGen2 => 60_000,
-            Profile::Tasmota => 300_000,
+            Profile::Sugarshack | Profile::Custom => ms(1000),
+            Profile::Esphome | Profile::ShellyGen2 => ms(60_000),
+            Profile::Tasmota => ms(300_000),
         }
     }
 }
@@ -325,10 +326,10 @@ pub struct Sensor {
     pub unit: Option<String>,
     /// How often its device publishes it; `staleMs` defaults to five of these.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub update_ms: Option<u64>,
+    pub update_ms: Option<Millis>,
     /// How old a value may be before it is stale; the plant's default when unset.
     #[serde(default)]
-    pub stale_ms: Option<u64>,
+    pub stale_ms: Option<Millis>,
 }
 
 impl Sensor {
@@ -378,7 +379,7 @@ pub enum Step {
         /// The group command.
         command: GroupCommand,
         /// How long it may take.
-        timeout_ms: u64,
+        timeout_ms: Millis,
     },
     /// Wait until a JSONata condition over the listed sensors holds.
     #[serde(rename_all = "camelCase")]
@@ -388,7 +389,7 @@ pub enum Step {
         /// The sensors it reads.
         sensors: Vec<String>,
         /// How long it may take.
-        timeout_ms: u64,
+        timeout_ms: Millis,
     },
 }
 
@@ -407,7 +408,7 @@ struct StepFields {
     #[serde(default, deserialize_with = "present")]
     sensors: Option<Vec<String>>,
     #[serde(default, deserialize_with = "present")]
-    timeout_ms: Option<u64>,
+    timeout_ms: Option<Millis>,
 }
 
 /// A key given as `null` is present: `"command": null` is a bad command, and
@@ -503,7 +504,7 @@ pub enum Trigger {
         /// The sensors it reads.
         sensors: Vec<String>,
         /// How often it is checked, in ms.
-        every_ms: u64,
+        every_ms: Millis,
     },
 }
 
@@ -522,7 +523,7 @@ struct TriggerFields {
     #[serde(default, deserialize_with = "present")]
     sensors: Option<Vec<String>>,
     #[serde(default, deserialize_with = "present")]
-    every_ms: Option<u64>,
+    every_ms: Option<Millis>,
 }
 
 impl<'de> Deserialize<'de> for Trigger {
@@ -683,20 +684,22 @@ impl PlantModel {
 
 impl PlantModel {
     /// How often a sensor's device publishes it: its `updateMs`, else its profile's default.
-    pub fn sensor_update_ms(&self, sensor: &Sensor) -> u64 {
+    pub fn sensor_update_ms(&self, sensor: &Sensor) -> Millis {
         sensor.update_ms.unwrap_or_else(|| {
             self.devices
                 .iter()
                 .find(|d| d.id == sensor.device)
-                .map_or(1000, |d| d.profile.default_sensor_update_ms())
+                .map_or(ms(1000), |d| d.profile.default_sensor_update_ms())
         })
     }
 
     /// A sensor's value is stale after its `staleMs`, else five missed updates.
-    pub fn sensor_stale_ms(&self, sensor: &Sensor) -> u64 {
-        sensor
-            .stale_ms
-            .unwrap_or_else(|| self.sensor_update_ms(sensor).saturating_mul(5))
+    pub fn sensor_stale_ms(&self, sensor: &Sensor) -> Millis {
+        sensor.stale_ms.unwrap_or_else(|| {
+            self.sensor_update_ms(sensor)
+                .mul_f64(5.0)
+                .unwrap_or(Millis::MAX)
+        })
     }
 
     /// Whether an actuator's device publishes only on change: the device's

@@ -12,6 +12,7 @@ use super::{
 };
 use crate::routine::RESET_TOPIC;
 use crate::text::quote;
+use crate::time::Millis;
 use crate::topics::Contract;
 
 /// The problems found so far.
@@ -105,7 +106,7 @@ fn actuator_types(plant: &PlantModel, report: &mut Report) {
             ("completionMs", t.completion_ms),
             ("staleMs", t.stale_ms),
         ] {
-            if value == 0 {
+            if value == Millis::ZERO {
                 report.error(&path, format!("{field} must be positive"));
             }
         }
@@ -268,10 +269,10 @@ fn sensors<'a>(
                 "a datapoint name is a topic component: no spaces, '/', '+' or '#'",
             );
         }
-        if s.stale_ms == Some(0) {
+        if s.stale_ms == Some(Millis::ZERO) {
             report.error(&path, "staleMs must be positive");
         }
-        if s.update_ms == Some(0) {
+        if s.update_ms == Some(Millis::ZERO) {
             report.error(&path, "updateMs must be positive");
         }
     }
@@ -366,7 +367,7 @@ fn operations<'a>(
                     command,
                     timeout_ms,
                 } => {
-                    if *timeout_ms == 0 {
+                    if *timeout_ms == Millis::ZERO {
                         report.error(&path, "timeoutMs must be positive");
                     }
                     let targets = match targeting.resolve(plant, command) {
@@ -405,7 +406,7 @@ fn operations<'a>(
                     if wait.trim().is_empty() {
                         report.error(&path, "the condition is empty");
                     }
-                    if *timeout_ms == 0 {
+                    if *timeout_ms == Millis::ZERO {
                         report.error(&path, "timeoutMs must be positive");
                     }
                     unknown_sensors(plant, sensors, &path, report);
@@ -488,7 +489,7 @@ fn routines(plant: &PlantModel, operations: &HashSet<&str>, report: &mut Report)
                     if when.trim().is_empty() {
                         report.error(&path, "the condition is empty");
                     }
-                    if *every_ms == 0 {
+                    if *every_ms == Millis::ZERO {
                         report.error(&path, "everyMs must be positive");
                     }
                     unknown_sensors(plant, sensors, &path, report);

@@ -2,6 +2,7 @@ use serde_json::json;
 
 use super::*;
 use crate::plant::PlantModel;
+use crate::time::ms;
 
 fn plant(error_state: bool) -> Plant {
     let mut routine = json!({
@@ -74,19 +75,19 @@ fn a_msg_without_a_transition_from_the_state_is_refused() {
 fn conditions_fall_due_every_period_and_the_first_met_fires() {
     let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
     assert!(
-        r.due(0).is_empty(),
+        r.due(ms(0)).is_empty(),
         "no condition transition leaves 'empty'"
     );
     r.on_msg("load").unwrap();
     assert!(
-        r.due(0).is_empty(),
+        r.due(ms(0)).is_empty(),
         "nothing is due while an operation runs"
     );
     r.completed().unwrap();
-    assert_eq!(r.due(10_000), vec![1, 2]);
-    assert!(r.due(10_999).is_empty());
-    assert_eq!(r.due(11_000), vec![1]);
-    assert_eq!(r.due(13_000), vec![1, 2]);
+    assert_eq!(r.due(ms(10_000)), vec![1, 2]);
+    assert!(r.due(ms(10_999)).is_empty());
+    assert_eq!(r.due(ms(11_000)), vec![1]);
+    assert_eq!(r.due(ms(13_000)), vec![1, 2]);
     assert_eq!(
         r.condition(2),
         Some(("`LT-3` > 500", &["LT-3".to_string()][..]))

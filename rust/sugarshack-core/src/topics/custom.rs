@@ -30,6 +30,7 @@ use crate::actuator::DeviceId;
 use crate::plant::{Actuator, Sensor, Signal};
 use crate::sensor::SensorId;
 use crate::text::quote;
+use crate::time::Millis;
 
 /// A custom device's topic templates and value maps.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -341,7 +342,7 @@ pub(crate) fn format(
     words: Option<&(String, String)>,
     signal: Signal,
     value: f64,
-    ts: Option<u64>,
+    ts: Option<Millis>,
     out: &mut Vec<Message>,
 ) {
     let leaf = match (signal, words) {
@@ -372,6 +373,6 @@ pub(crate) fn format(
 }
 
 /// A sensor value on its own topic.
-pub(crate) fn format_value(value: f64, _ts: Option<u64>) -> String {
+pub(crate) fn format_value(value: f64, _ts: Option<Millis>) -> String {
     read::format_plain(value)
 }

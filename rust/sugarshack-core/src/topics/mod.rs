@@ -13,6 +13,7 @@
 //! ```
 //! use sugarshack_core::plant::PlantModel;
 //! use sugarshack_core::topics::{Contract, Incoming, Readings, Reading};
+//! use sugarshack_core::time::ms;
 //!
 //! let plant: PlantModel = serde_json::from_str(r#"{
 //!   "actuatorTypes": { "pump": { "signal": "binary",
@@ -22,7 +23,7 @@
 //! }"#).unwrap();
 //! let contract = Contract::new(&plant).unwrap();
 //! let mut readings = Readings::default();
-//! let seen = contract.parse("ctrl-1/switch/p1/state", b"ON", 0, &mut readings);
+//! let seen = contract.parse("ctrl-1/switch/p1/state", b"ON", ms(0), &mut readings);
 //! assert!(matches!(seen, Incoming::Samples { .. }));
 //! assert!(matches!(readings.samples[..], [Reading::Actuator(_, v)] if v == 1.0));
 //! let command = contract.command(sugarshack_core::actuator::ActuatorId::from_index(0), 0.0);
@@ -44,6 +45,7 @@ use crate::actuator::{ActuatorId, DeviceId};
 use crate::plant::{PlantError, PlantModel, Profile, Signal};
 use crate::sensor::SensorId;
 use crate::text::quote;
+use crate::time::Millis;
 
 pub(crate) use read::Read;
 
@@ -100,7 +102,7 @@ pub enum Incoming {
         /// The device.
         device: DeviceId,
         /// The device's time (epoch ms), when given.
-        ts: Option<u64>,
+        ts: Option<Millis>,
     },
     /// Nothing in it could be used.
     Refused {
@@ -651,9 +653,9 @@ impl Contract {
             .find_map(|(at, _)| self.prefixes.get(&topic[..at]).copied())
     }
 
-    /// Reads one incoming message. `now_ms` tells a timestamp in seconds
+    /// Reads one incoming message. `now` tells a timestamp in seconds
     /// from one in milliseconds. Never panics, whatever the bytes.
-    pub fn parse(&self, topic: &str, payload: &[u8], now_ms: u64, out: &mut Readings) -> Incoming {
+    pub fn parse(&self, topic: &str, payload: &[u8], now: Millis, out: &mut Readings) -> Incoming {
         out.clear();
         let Some(route) = self.routes.get(topic) else {
             return match self.device_of(topic) {
@@ -669,15 +671,10 @@ impl Contract {
         let device = route.device();
         let outcome = match route {
             Route::Status(device) => self.status(*device, payload),
-            Route::Batch(device) => sugarshack::batch(self, *device, payload, now_ms, out),
-            Route::Single(device, target) => sugarshack::single(
-                *device,
-                *target,
-                self.signal_of(*target),
-                payload,
-                now_ms,
-                out,
-            ),
+            Route::Batch(device) => sugarshack::batch(self, *device, payload, now, out),
+            Route::Single(device, target) => {
+                sugarshack::single(*device, *target, self.signal_of(*target), payload, now, out)
+            }
             Route::Text(device, target, read) => read::text(payload).map(|text| {
                 read::one(*target, read.decode(read::Raw::Text(text)), out);
                 self.samples_or_other(*device, None, out)
@@ -687,7 +684,7 @@ impl Contract {
                 fields,
                 stamp,
                 stamp_path,
-            } => read::json_fields(*device, fields, *stamp, stamp_path, payload, now_ms, out)
+            } => read::json_fields(*device, fields, *stamp, stamp_path, payload, now, out)
                 .map(|ts| self.samples_or_other(*device, ts, out)),
         };
         match outcome {
@@ -696,7 +693,7 @@ impl Contract {
         }
     }
 
-    fn samples_or_other(&self, device: DeviceId, ts: Option<u64>, out: &Readings) -> Incoming {
+    fn samples_or_other(&self, device: DeviceId, ts: Option<Millis>, out: &Readings) -> Incoming {
         if out.samples.is_empty() && out.refusals.is_empty() {
             Incoming::Other { device }
         } else {
@@ -802,7 +799,7 @@ impl Contract {
         &self,
         device: DeviceId,
         values: &[(ActuatorId, f64)],
-        ts: Option<u64>,
+        ts: Option<Millis>,
     ) -> Vec<Message> {
         let Some(d) = self.devices.get(device.index()) else {
             return Vec::new();
@@ -841,7 +838,7 @@ impl Contract {
     }
 
     /// A sugarshack device's per-actuator state message (`<p>/<type>/<io>/state`) instead of its batch.
-    pub fn format_single(&self, id: ActuatorId, value: f64, ts: Option<u64>) -> Option<Message> {
+    pub fn format_single(&self, id: ActuatorId, value: f64, ts: Option<Millis>) -> Option<Message> {
         sugarshack::format_single(self, id, value, ts)
     }
 
@@ -866,7 +863,7 @@ impl Contract {
         &self,
         device: DeviceId,
         values: &[(SensorId, f64)],
-        ts: Option<u64>,
+        ts: Option<Millis>,
     ) -> Vec<Message> {
         let Some(d) = self.devices.get(device.index()) else {
             return Vec::new();

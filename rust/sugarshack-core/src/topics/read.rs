@@ -9,11 +9,12 @@ use serde_json::Value;
 use super::{DeviceId, Field, Form, Reading, Readings, Refusal, Stamp, Target};
 use crate::plant::Profile;
 use crate::text::quote;
+use crate::time::{ms, Millis};
 
 /// Below this a "millisecond" timestamp is before 1973: it is in seconds.
 const MIN_EPOCH_MS: f64 = 1e11;
 /// Only a clock past this is an epoch clock (tests run clocks from zero).
-const EPOCH_CLOCK_MS: u64 = 1_000_000_000_000;
+const EPOCH_CLOCK_MS: Millis = ms(1_000_000_000_000);
 /// How far from now a stamp read as seconds may be and still be taken for seconds: a year.
 const SECONDS_SLACK_MS: f64 = 365.0 * 24.0 * 3600.0 * 1000.0;
 
@@ -225,8 +226,8 @@ pub(crate) fn at<'a>(document: &'a Value, path: &[String]) -> Option<&'a Value> 
 pub(crate) fn epoch_ms(
     value: Option<&Value>,
     stamp: Stamp,
-    now_ms: u64,
-) -> Result<Option<u64>, Refusal> {
+    now: Millis,
+) -> Result<Option<Millis>, Refusal> {
     let Some(ts) = value
         .and_then(Value::as_f64)
         .filter(|t| t.is_finite() && *t >= 0.0)
@@ -240,9 +241,9 @@ pub(crate) fn epoch_ms(
     };
     // A stamp that is now when read as seconds was written in seconds.
     let as_seconds_ms = ms * 1000.0;
-    if now_ms >= EPOCH_CLOCK_MS
+    if now >= EPOCH_CLOCK_MS
         && ms < MIN_EPOCH_MS
-        && (as_seconds_ms - now_ms as f64).abs() < SECONDS_SLACK_MS
+        && (as_seconds_ms - now.as_f64()).abs() < SECONDS_SLACK_MS
     {
         return Err(Refusal::new(
             "bad timestamp",
@@ -252,7 +253,7 @@ pub(crate) fn epoch_ms(
             ),
         ));
     }
-    Ok(Some(ms.min(u64::MAX as f64) as u64))
+    Ok(Millis::new(ms.min(f64::MAX)))
 }
 
 pub(crate) fn json_fields(
@@ -261,9 +262,9 @@ pub(crate) fn json_fields(
     stamp: Stamp,
     stamp_path: &[String],
     payload: &[u8],
-    now_ms: u64,
+    now: Millis,
     out: &mut Readings,
-) -> Result<Option<u64>, Refusal> {
+) -> Result<Option<Millis>, Refusal> {
     let document = json(payload)?;
     if !document.is_object() {
         return Err(Refusal::new(
@@ -271,7 +272,7 @@ pub(crate) fn json_fields(
             format!("payload must be a JSON object, got {}", quote(&document)),
         ));
     }
-    let ts = epoch_ms(at(&document, stamp_path), stamp, now_ms)?;
+    let ts = epoch_ms(at(&document, stamp_path), stamp, now)?;
     for field in fields {
         if let Some(value) = at(&document, &field.path) {
             one(field.target, field.read.decode(Raw::Json(value)), out);

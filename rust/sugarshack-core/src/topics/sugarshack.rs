@@ -21,6 +21,7 @@ use crate::actuator::{ActuatorId, DeviceId};
 use crate::plant::{Actuator, Sensor, Signal};
 use crate::sensor::SensorId;
 use crate::text::quote;
+use crate::time::Millis;
 
 /// Registers an actuator's state topic; returns its io (0 when missing, reported).
 pub(crate) fn actuator(
@@ -133,7 +134,7 @@ pub(crate) fn batch(
     contract: &Contract,
     device: DeviceId,
     payload: &[u8],
-    now_ms: u64,
+    now: Millis,
     out: &mut Readings,
 ) -> Result<Incoming, Refusal> {
     let document = read::json(payload)?;
@@ -146,7 +147,7 @@ pub(crate) fn batch(
             ),
         ));
     };
-    let ts = epoch_ms(groups.get("ts"), Stamp::EpochMs, now_ms)?;
+    let ts = epoch_ms(groups.get("ts"), Stamp::EpochMs, now)?;
     let mut known = 0;
     for (kind, members) in groups {
         if kind == "ts" || !contract.is_type(kind) {
@@ -205,14 +206,14 @@ pub(crate) fn single(
     target: Target,
     _signal: Option<Signal>,
     payload: &[u8],
-    now_ms: u64,
+    now: Millis,
     out: &mut Readings,
 ) -> Result<Incoming, Refusal> {
     let document = read::json(payload)?;
     let (value, ts) = match &document {
         Value::Object(fields) => (
             fields.get("value").unwrap_or(&Value::Null),
-            epoch_ms(fields.get("ts"), Stamp::EpochMs, now_ms)?,
+            epoch_ms(fields.get("ts"), Stamp::EpochMs, now)?,
         ),
         other => (other, None),
     };
@@ -241,11 +242,11 @@ pub(crate) fn format_batch(
     contract: &Contract,
     device: DeviceId,
     values: &[(ActuatorId, f64)],
-    ts: Option<u64>,
+    ts: Option<Millis>,
 ) -> Vec<Message> {
     let mut document = Map::new();
     if let Some(ts) = ts {
-        document.insert("ts".into(), Value::from(ts));
+        document.insert("ts".into(), ts.as_json());
     }
     for &(id, value) in values {
         let Some(f) = contract.actuator_feedback.get(id.index()) else {
@@ -280,7 +281,7 @@ pub(crate) fn format_single(
     contract: &Contract,
     id: ActuatorId,
     value: f64,
-    ts: Option<u64>,
+    ts: Option<Millis>,
 ) -> Option<Message> {
     let f = contract.actuator_feedback.get(id.index())?;
     let FeedbackKind::Sugarshack { kind, io } = &f.kind else {
@@ -288,7 +289,7 @@ pub(crate) fn format_single(
     };
     let mut document = Map::new();
     if let Some(ts) = ts {
-        document.insert("ts".into(), Value::from(ts));
+        document.insert("ts".into(), ts.as_json());
     }
     document.insert(
         "value".into(),
@@ -302,10 +303,10 @@ pub(crate) fn format_single(
 }
 
 /// A sensor's `{"ts", "value"}`.
-pub(crate) fn format_value(value: f64, ts: Option<u64>) -> String {
+pub(crate) fn format_value(value: f64, ts: Option<Millis>) -> String {
     let mut document = Map::new();
     if let Some(ts) = ts {
-        document.insert("ts".into(), Value::from(ts));
+        document.insert("ts".into(), ts.as_json());
     }
     document.insert("value".into(), read::json_number(value));
     Value::Object(document).to_string()

@@ -2,6 +2,7 @@ use serde_json::json;
 
 use super::*;
 use crate::plant::PlantModel;
+use crate::time::ms;
 
 fn plant(
     devices: serde_json::Value,
@@ -25,7 +26,7 @@ fn contract(p: &PlantModel) -> Contract {
 
 fn parse(c: &Contract, topic: &str, payload: &str) -> (Incoming, Readings) {
     let mut out = Readings::default();
-    let seen = c.parse(topic, payload.as_bytes(), 0, &mut out);
+    let seen = c.parse(topic, payload.as_bytes(), ms(0), &mut out);
     (seen, out)
 }
 
@@ -136,7 +137,7 @@ fn bad_payloads_are_refused_with_a_reason() {
     }
     let mut out = Readings::default();
     assert!(matches!(
-        c.parse("ctrl-1/switch/p1/state", &[0xff, 0xfe], 0, &mut out),
+        c.parse("ctrl-1/switch/p1/state", &[0xff, 0xfe], ms(0), &mut out),
         Incoming::Refused { .. }
     ));
 }
@@ -209,7 +210,7 @@ fn sugarshack_keeps_todays_format() {
         seen,
         Incoming::Samples {
             device: D0,
-            ts: Some(5)
+            ts: Some(ms(5))
         }
     );
     assert_eq!(
@@ -255,7 +256,7 @@ fn a_device_time_in_seconds_is_refused_once_the_clock_is_an_epoch_clock() {
     let seen = c.parse(
         "ctrl-1/valve/12/state",
         br#"{"ts": 1714564800, "value": 3}"#,
-        now,
+        ms(now),
         &mut out,
     );
     assert!(
@@ -274,14 +275,14 @@ fn a_device_time_in_seconds_is_refused_once_the_clock_is_an_epoch_clock() {
     let seen = c.parse(
         "ctrl-1/valve/12/state",
         br#"{"ts": 1714564800000, "value": 3}"#,
-        now,
+        ms(now),
         &mut out,
     );
     assert_eq!(
         seen,
         Incoming::Samples {
             device: D0,
-            ts: Some(now)
+            ts: Some(ms(now))
         }
     );
 }
@@ -388,7 +389,7 @@ fn shelly_reads_component_status_and_notifications() {
         seen,
         Incoming::Samples {
             device: D0,
-            ts: Some(1_661_517_432_850)
+            ts: Some(ms(1_661_517_432_850))
         }
     );
     assert_eq!(out.samples, vec![Reading::Actuator(P, 0.0)]);
@@ -435,7 +436,7 @@ fn a_custom_device_reads_by_template_path_and_map() {
         seen,
         Incoming::Samples {
             device: D0,
-            ts: Some(99)
+            ts: Some(ms(99))
         }
     );
     assert_eq!(out.samples, vec![Reading::Actuator(V, 30.0)]);

@@ -1,13 +1,14 @@
 use super::*;
 use crate::control::pid::{Action, PidConfig, StepMode};
+use crate::time::millis;
 
 fn controller(id: usize) -> RccController {
     RccController::new(RccConfig {
         id,
-        thresholds_ms: vec![200.0, 400.0, 600.0],
-        ts_ms: 200.0,
+        thresholds: vec![millis(200.0), millis(400.0), millis(600.0)],
+        ts: millis(200.0),
         smooth_handover: true,
-        poll_timeout_ms: None,
+        poll_timeout: None,
     })
     .unwrap()
 }
@@ -29,13 +30,19 @@ fn pid() -> Pid {
 fn state(last_action: f64, ages: [Option<f64>; 3]) -> IoState {
     IoState {
         last_action,
-        ages_ms: ages.to_vec(),
+        ages: ages.iter().map(|a| a.map(millis)).collect(),
     }
 }
 
 #[test]
 fn thresholds_must_rise_with_the_id_from_ts() {
-    assert!(validate_thresholds(&[200.0, 400.0, 600.0], 200.0).is_ok());
+    let valid = [millis(200.0), millis(400.0), millis(600.0)];
+    assert!(validate_thresholds(&valid, millis(200.0)).is_ok());
+    assert!(validate_thresholds(&valid, millis(300.0)).is_err());
+    assert_eq!(
+        thresholds_from_ms(&[200.0, 400.0, 600.0], 200.0).unwrap(),
+        (valid.to_vec(), millis(200.0))
+    );
     for (thresholds, ts) in [
         (vec![100.0, 400.0], 200.0),
         (vec![400.0, 400.0], 200.0),
@@ -45,30 +52,28 @@ fn thresholds_must_rise_with_the_id_from_ts() {
         (vec![200.0, 400.0], 0.0),
     ] {
         assert_eq!(
-            validate_thresholds(&thresholds, ts).unwrap_err().code(),
+            thresholds_from_ms(&thresholds, ts).unwrap_err().code(),
             "INVALID_CONFIG",
             "{thresholds:?} {ts}"
         );
     }
     // Worded in seconds, the unit of the node settings.
     assert_eq!(
-        validate_thresholds(&[1500.0, 1000.0], 500.0)
+        thresholds_from_ms(&[1500.0, 1000.0], 500.0)
             .unwrap_err()
             .to_string(),
         "engagement threshold D_2 = 1 s must be greater than D_1 = 1.5 s: a backup must wait longer than every controller above it"
     );
     assert_eq!(
-        validate_thresholds(&[400.0], 500.0)
-            .unwrap_err()
-            .to_string(),
+        thresholds_from_ms(&[400.0], 500.0).unwrap_err().to_string(),
         "engagement threshold D_1 = 0.4 s must be at least the sampling period Ts = 0.5 s"
     );
     let outside = RccConfig {
         id: 4,
-        thresholds_ms: vec![200.0, 400.0, 600.0],
-        ts_ms: 200.0,
+        thresholds: vec![millis(200.0), millis(400.0), millis(600.0)],
+        ts: millis(200.0),
         smooth_handover: true,
-        poll_timeout_ms: None,
+        poll_timeout: None,
     };
     assert_eq!(
         RccController::new(outside).unwrap_err().code(),
@@ -213,26 +218,26 @@ fn without_smooth_handover_the_standby_integrator_runs_free() {
 #[test]
 fn the_io_module_ages_writes_by_its_own_clock() {
     let mut io = IoModule::new(3, 1.5).unwrap();
-    assert_eq!(io.state(1000.0), state(1.5, [None, None, None]));
-    io.write(2, 4.0, 1000.0).unwrap();
-    io.write(1, 5.0, 1100.0).unwrap();
+    assert_eq!(io.state(millis(1000.0)), state(1.5, [None, None, None]));
+    io.write(2, 4.0, millis(1000.0)).unwrap();
+    io.write(1, 5.0, millis(1100.0)).unwrap();
     assert_eq!(
-        io.state(1300.0),
+        io.state(millis(1300.0)),
         state(5.0, [Some(200.0), Some(300.0), None])
     );
     assert_eq!(
-        io.write(4, 1.0, 1400.0).unwrap_err(),
+        io.write(4, 1.0, millis(1400.0)).unwrap_err(),
         ControlError::UnknownController {
             id: 4,
             controllers: 3
         }
     );
     assert_eq!(
-        io.write(0, 1.0, 1400.0).unwrap_err().code(),
+        io.write(0, 1.0, millis(1400.0)).unwrap_err().code(),
         "UNKNOWN_CONTROLLER"
     );
     assert_eq!(
-        io.write(1, f64::NAN, 1400.0).unwrap_err().code(),
+        io.write(1, f64::NAN, millis(1400.0)).unwrap_err().code(),
         "INVALID_INPUT"
     );
     assert_eq!(io.last_action(), 5.0, "refused writes change nothing");
@@ -243,18 +248,27 @@ fn a_malformed_state_is_refused() {
     let secondary = controller(2);
     let short = IoState {
         last_action: 0.0,
-        ages_ms: vec![Some(1.0)],
+        ages: vec![Some(millis(1.0))],
     };
     assert_eq!(
         secondary.engaged(&short).unwrap_err().code(),
         "INVALID_INPUT"
     );
+    // An age that is not one is refused as the state is read.
+    let negative = r#"{ "lastAction": 0, "agesMs": [-1, null, null] }"#;
+    let refused = serde_json::from_str::<IoState>(negative).unwrap_err();
+    assert!(
+        refused
+            .to_string()
+            .starts_with("a controller age must be a number of ms >= 0, got -1"),
+        "{refused}"
+    );
+    let read: IoState =
+        serde_json::from_str(r#"{ "lastAction": 0, "agesMs": [150, null, 0.5] }"#).unwrap();
+    assert_eq!(read, state(0.0, [Some(150.0), None, Some(0.5)]));
     assert_eq!(
-        secondary
-            .engaged(&state(0.0, [Some(-1.0), None, None]))
-            .unwrap_err()
-            .code(),
-        "INVALID_INPUT"
+        serde_json::to_string(&read).unwrap(),
+        r#"{"lastAction":0.0,"agesMs":[150,null,0.5]}"#
     );
     let mut secondary = controller(2);
     assert!(secondary
@@ -265,33 +279,39 @@ fn a_malformed_state_is_refused() {
 #[test]
 fn the_polling_timeout_is_a_tick_rule_counted_from_the_last_state() {
     let mut rcc = controller(1);
-    assert_eq!(rcc.next_tick_ms(), None);
-    rcc.watch_from(0.0).unwrap();
-    assert_eq!(rcc.next_tick_ms(), Some(600.0), "3·Ts by default");
-    rcc.decide_at(&state(1.0, [None, None, None]), 100.0)
+    assert_eq!(rcc.next_tick(), None);
+    rcc.watch_from(millis(0.0)).unwrap();
+    assert_eq!(rcc.next_tick(), Some(millis(600.0)), "3·Ts by default");
+    rcc.decide_at(&state(1.0, [None, None, None]), millis(100.0))
         .unwrap();
     assert!(!rcc.first_cycle());
-    assert!(!rcc.tick(699.0).unwrap());
-    assert!(rcc.tick(700.0).unwrap(), "600 ms after the last state");
-    assert!(rcc.first_cycle(), "the next scan re-seeds");
-    assert!(!rcc.tick(2000.0).unwrap(), "once per silence");
-    assert_eq!(rcc.next_tick_ms(), None);
+    assert!(!rcc.tick(millis(699.0)).unwrap());
     assert!(
-        rcc.decide_at(&state(1.0, [None, None, None]), 2000.0)
+        rcc.tick(millis(700.0)).unwrap(),
+        "600 ms after the last state"
+    );
+    assert!(rcc.first_cycle(), "the next scan re-seeds");
+    assert!(!rcc.tick(millis(2000.0)).unwrap(), "once per silence");
+    assert_eq!(rcc.next_tick(), None);
+    assert!(
+        rcc.decide_at(&state(1.0, [None, None, None]), millis(2000.0))
             .unwrap()
             .first_cycle
     );
-    assert_eq!(rcc.tick(f64::NAN).unwrap_err().code(), "INVALID_INPUT");
+    for bad in [f64::NAN, -1.0] {
+        let refused = crate::control::error::time(bad, "time (ms)").unwrap_err();
+        assert_eq!(refused.code(), "INVALID_INPUT");
+    }
     let custom = RccConfig {
-        poll_timeout_ms: Some(150.0),
+        poll_timeout: Some(millis(150.0)),
         ..rcc.config().clone()
     };
     let mut rcc = RccController::new(custom.clone()).unwrap();
-    rcc.watch_from(0.0).unwrap();
-    assert_eq!(rcc.next_tick_ms(), Some(150.0));
+    rcc.watch_from(millis(0.0)).unwrap();
+    assert_eq!(rcc.next_tick(), Some(millis(150.0)));
     assert_eq!(
         RccController::new(RccConfig {
-            poll_timeout_ms: Some(0.0),
+            poll_timeout: Some(millis(0.0)),
             ..custom
         })
         .unwrap_err()

@@ -1,5 +1,6 @@
 use super::*;
 use crate::control::pid::{Action, PidConfig};
+use crate::time::millis;
 
 fn config() -> StationConfig {
     StationConfig {
@@ -17,7 +18,7 @@ fn config() -> StationConfig {
             smith: None,
         },
         ts_s: 1.0,
-        stale_ms: 80.0,
+        stale: millis(80.0),
         setpoint: 50.0,
         mode: Mode::Auto,
         manual: None,
@@ -27,8 +28,8 @@ fn config() -> StationConfig {
 fn sample(measurement: f64, sample_ms: f64) -> Sample {
     Sample {
         measurement: Some(measurement),
-        sample_ms,
-        now_ms: sample_ms,
+        sampled: millis(sample_ms),
+        now: millis(sample_ms),
         track: None,
         decision: None,
     }
@@ -161,30 +162,30 @@ fn a_null_in_a_change_is_refused_not_taken_for_absent() {
 fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
     let mut s = Station::new(config()).unwrap();
     assert_eq!(
-        s.next_tick_ms(),
+        s.next_tick(),
         None,
         "the watch starts with the first measurement"
     );
     s.measure(sample(40.0, 1000.0)).unwrap();
-    assert_eq!(s.next_tick_ms(), Some(1080.0));
-    assert_eq!(s.tick(1079.0).unwrap(), None);
-    let Some(Stale::Fallback { pid }) = s.tick(1080.0).unwrap() else {
+    assert_eq!(s.next_tick(), Some(millis(1080.0)));
+    assert_eq!(s.tick(millis(1079.0)).unwrap(), None);
+    let Some(Stale::Fallback { pid }) = s.tick(millis(1080.0)).unwrap() else {
         panic!("stale at 1080")
     };
     assert_eq!(
         (pid.output, pid.mode, pid.dt_s, pid.measurement),
         (7.0, ReportMode::Fallback, 0.08, None)
     );
-    assert_eq!(s.next_tick_ms(), Some(1160.0));
+    assert_eq!(s.next_tick(), Some(millis(1160.0)));
     // a bad measurement does not restart the watch
     s.measure(Sample {
         measurement: None,
         ..sample(0.0, 1100.0)
     })
     .unwrap();
-    assert_eq!(s.next_tick_ms(), Some(1160.0));
+    assert_eq!(s.next_tick(), Some(millis(1160.0)));
     assert!(matches!(
-        s.tick(1160.0).unwrap(),
+        s.tick(millis(1160.0)).unwrap(),
         Some(Stale::Fallback { .. })
     ));
     let back = s.measure(sample(41.0, 1200.0)).unwrap().pid;
@@ -195,11 +196,11 @@ fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
     );
     assert_eq!(
         Station::new(StationConfig {
-            stale_ms: 0.0,
+            stale: Millis::ZERO,
             ..config()
         })
         .unwrap()
-        .next_tick_ms(),
+        .next_tick(),
         None
     );
 }
@@ -231,8 +232,8 @@ fn stale_behind_rcc_steps_nothing_and_says_so_once() {
         })
         .unwrap();
     assert!(!out.engaged);
-    assert_eq!(s.tick(1130.0).unwrap(), Some(Stale::NoIo));
-    assert_eq!(s.next_tick_ms(), None);
+    assert_eq!(s.tick(millis(1130.0)).unwrap(), Some(Stale::NoIo));
+    assert_eq!(s.next_tick(), None);
     assert_eq!(s.state().last_output, Some(12.0), "nothing stepped");
 }
 
@@ -299,18 +300,24 @@ fn a_restart_restores_what_was_saved_or_refuses_it_whole() {
 }
 
 #[test]
+fn a_stale_time_that_is_not_one_is_refused_as_it_is_read() {
+    for bad in [serde_json::json!(-1000.0), serde_json::json!(-1)] {
+        let mut written = serde_json::to_value(config()).unwrap();
+        assert_eq!(written["staleMs"], serde_json::json!(80));
+        written["staleMs"] = bad;
+        let refused = serde_json::from_value::<StationConfig>(written).unwrap_err();
+        assert!(
+            refused.to_string().contains("stale after must be"),
+            "{refused}"
+        );
+    }
+}
+
+#[test]
 fn refuses_configurations_that_cannot_run() {
     for broken in [
         StationConfig {
             ts_s: 0.0,
-            ..config()
-        },
-        StationConfig {
-            stale_ms: -1.0,
-            ..config()
-        },
-        StationConfig {
-            stale_ms: f64::NAN,
             ..config()
         },
         StationConfig {
