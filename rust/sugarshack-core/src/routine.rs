@@ -164,7 +164,7 @@ pub struct RoutineMachine {
     pending: Option<usize>,
     halted: bool,
     /// Per transition: when its condition was last handed out for evaluation.
-    checked_ms: Vec<Option<Millis>>,
+    checked: Vec<Option<Millis>>,
 }
 
 impl RoutineMachine {
@@ -175,7 +175,7 @@ impl RoutineMachine {
             .cloned()
             .ok_or_else(|| RoutineError::UnknownRoutine { name: id.into() })?;
         Ok(RoutineMachine {
-            checked_ms: vec![None; graph.edges().len()],
+            checked: vec![None; graph.edges().len()],
             state: graph.initial(),
             graph,
             pending: None,
@@ -336,8 +336,8 @@ impl RoutineMachine {
             if t.from != self.state {
                 continue;
             }
-            if self.checked_ms[i].is_none_or(|at| now.saturating_sub(at) >= every_ms) {
-                self.checked_ms[i] = Some(now);
+            if self.checked[i].is_none_or(|at| now.saturating_sub(at) >= every_ms) {
+                self.checked[i] = Some(now);
                 due.push(i);
             }
         }
@@ -371,7 +371,7 @@ impl RoutineMachine {
 
     fn enter(&mut self, state: StateId) {
         self.state = state;
-        self.checked_ms.iter_mut().for_each(|c| *c = None);
+        self.checked.iter_mut().for_each(|c| *c = None);
     }
 
     /// A move from `from` to where the routine is now.
