@@ -24,11 +24,10 @@ use serde_json::Value;
 use super::read::{self, Read};
 use super::{
     topic_prefix_ok, ActuatorSpec, Builder, CommandRoute, FeedbackKind, Field, Form, Message,
-    Route, SensorKind, Stamp, Target,
+    Route, SensorKind, SensorSpec, Stamp, Target,
 };
 use crate::actuator::DeviceId;
-use crate::plant::{Actuator, Sensor, Signal};
-use crate::sensor::SensorId;
+use crate::plant::{Actuator, Signal};
 use crate::text::quote;
 use crate::time::Millis;
 
@@ -303,15 +302,14 @@ pub(crate) fn actuator(
     )
 }
 
-pub(crate) fn sensor(
-    c: &CustomProfile,
-    id: SensorId,
-    device: DeviceId,
-    prefix: &str,
-    s: &Sensor,
-    path: &str,
-    b: &mut Builder,
-) -> SensorKind {
+pub(crate) fn sensor(c: &CustomProfile, spec: &SensorSpec, b: &mut Builder) -> SensorKind {
+    let SensorSpec {
+        id,
+        device,
+        prefix,
+        sensor: s,
+        path,
+    } = *spec;
     let Some(v) = &c.sensors else {
         b.error(
             path,

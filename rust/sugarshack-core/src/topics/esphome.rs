@@ -19,11 +19,10 @@
 
 use super::read::Read;
 use super::{
-    ActuatorSpec, Builder, CommandRoute, FeedbackKind, Form, Message, Route, SensorKind, Target,
+    ActuatorSpec, Builder, CommandRoute, FeedbackKind, Form, Message, Route, SensorKind,
+    SensorSpec, Target,
 };
-use crate::actuator::DeviceId;
-use crate::plant::{Actuator, Component, Sensor, Signal};
-use crate::sensor::SensorId;
+use crate::plant::{Actuator, Component, Signal};
 use crate::text::quote;
 
 /// ESPHome's object id of an entity name: snake case, then anything but
@@ -157,14 +156,14 @@ pub(crate) fn actuator(
     )
 }
 
-pub(crate) fn sensor(
-    id: SensorId,
-    device: DeviceId,
-    prefix: &str,
-    s: &Sensor,
-    path: &str,
-    b: &mut Builder,
-) -> SensorKind {
+pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
+    let SensorSpec {
+        id,
+        device,
+        prefix,
+        sensor: s,
+        path,
+    } = *spec;
     let entity = s.entity.clone().unwrap_or_else(|| object_id(&s.name));
     check_object_id(&entity, path, b);
     let topic = format!("{prefix}/sensor/{entity}/state");

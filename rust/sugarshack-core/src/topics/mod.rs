@@ -590,14 +590,20 @@ impl Contract {
                 continue;
             };
             let d = &plant.devices[device.index()];
-            let prefix = d.prefix();
+            let spec = SensorSpec {
+                id,
+                device,
+                prefix: d.prefix(),
+                sensor: s,
+                path: &path,
+            };
             let kind = match d.profile {
-                Profile::Sugarshack => sugarshack::sensor(id, device, prefix, s, &path, &mut b),
-                Profile::Esphome => esphome::sensor(id, device, prefix, s, &path, &mut b),
-                Profile::Tasmota => tasmota::sensor(id, device, prefix, s, &path, &mut b),
-                Profile::ShellyGen2 => shelly::sensor(id, device, prefix, s, &path, &mut b),
+                Profile::Sugarshack => sugarshack::sensor(&spec, &mut b),
+                Profile::Esphome => esphome::sensor(&spec, &mut b),
+                Profile::Tasmota => tasmota::sensor(&spec, &mut b),
+                Profile::ShellyGen2 => shelly::sensor(&spec, &mut b),
                 Profile::Custom => match &d.custom {
-                    Some(c) => custom::sensor(c, id, device, prefix, s, &path, &mut b),
+                    Some(c) => custom::sensor(c, &spec, &mut b),
                     None => SensorKind::Topic(String::new()),
                 },
             };
@@ -926,6 +932,16 @@ impl Contract {
     pub(crate) fn is_type(&self, kind: &str) -> bool {
         self.type_names.iter().any(|t| t == kind)
     }
+}
+
+/// What a profile's sensor builder needs to know of the sensor.
+#[derive(Clone, Copy)]
+pub(crate) struct SensorSpec<'a> {
+    pub id: SensorId,
+    pub device: DeviceId,
+    pub prefix: &'a str,
+    pub sensor: &'a crate::plant::Sensor,
+    pub path: &'a str,
 }
 
 /// What a profile's actuator builder needs to know of the actuator.

@@ -16,12 +16,11 @@ use serde_json::json;
 
 use super::read::{self, Read};
 use super::{
-    ActuatorSpec, Builder, CommandRoute, FeedbackKind, Field, Form, Message, SensorKind, Stamp,
-    Target,
+    ActuatorSpec, Builder, CommandRoute, FeedbackKind, Field, Form, Message, SensorKind,
+    SensorSpec, Stamp, Target,
 };
 use crate::actuator::DeviceId;
-use crate::plant::{Actuator, Sensor, Signal};
-use crate::sensor::SensorId;
+use crate::plant::{Actuator, Signal};
 use crate::text::quote;
 
 fn component(entity: &str, kind: &str) -> Option<u32> {
@@ -143,14 +142,14 @@ pub(crate) fn actuator(
     }
 }
 
-pub(crate) fn sensor(
-    id: SensorId,
-    device: DeviceId,
-    prefix: &str,
-    s: &Sensor,
-    path: &str,
-    b: &mut Builder,
-) -> SensorKind {
+pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
+    let SensorSpec {
+        id,
+        device,
+        prefix,
+        sensor: s,
+        path,
+    } = *spec;
     let entity = s.entity();
     let parsed = entity.split_once('.').and_then(|(key, field)| {
         let keys = read::dotted(field)?;

@@ -15,11 +15,10 @@ use serde_json::{Map, Value};
 use super::read::{self, epoch_ms};
 use super::{
     ActuatorSpec, Builder, CommandRoute, Contract, FeedbackKind, Form, Incoming, Message, Reading,
-    Readings, Refusal, Route, SensorKind, Stamp, Target,
+    Readings, Refusal, Route, SensorKind, SensorSpec, Stamp, Target,
 };
 use crate::actuator::{ActuatorId, DeviceId};
-use crate::plant::{Actuator, Sensor, Signal};
-use crate::sensor::SensorId;
+use crate::plant::{Actuator, Signal};
 use crate::text::quote;
 use crate::time::Millis;
 
@@ -75,14 +74,14 @@ pub(crate) fn command(spec: &ActuatorSpec, kind: &str, io: u32) -> CommandRoute 
     }
 }
 
-pub(crate) fn sensor(
-    id: SensorId,
-    device: DeviceId,
-    prefix: &str,
-    s: &Sensor,
-    path: &str,
-    b: &mut Builder,
-) -> SensorKind {
+pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
+    let SensorSpec {
+        id,
+        device,
+        prefix,
+        sensor: s,
+        path,
+    } = *spec;
     let topic = format!("{prefix}/sensor/{}/state", s.entity());
     b.route(
         topic.clone(),

@@ -19,11 +19,9 @@ use serde_json::{json, Value};
 use super::read::{self, Read};
 use super::{
     ActuatorSpec, Builder, CommandRoute, FeedbackKind, Field, Form, Message, Route, SensorKind,
-    Stamp, Target,
+    SensorSpec, Stamp, Target,
 };
-use crate::actuator::DeviceId;
-use crate::plant::{Actuator, Sensor, Signal};
-use crate::sensor::SensorId;
+use crate::plant::{Actuator, Signal};
 use crate::text::quote;
 
 fn numbered(entity: &str, word: &str) -> Option<u32> {
@@ -119,14 +117,14 @@ pub(crate) fn actuator(
     }
 }
 
-pub(crate) fn sensor(
-    id: SensorId,
-    device: DeviceId,
-    prefix: &str,
-    s: &Sensor,
-    path: &str,
-    b: &mut Builder,
-) -> SensorKind {
+pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
+    let SensorSpec {
+        id,
+        device,
+        prefix,
+        sensor: s,
+        path,
+    } = *spec;
     let Some(keys) = read::dotted(s.entity()) else {
         b.error(path, format!("entity '{}' must be a path into tele/<topic>/SENSOR such as \"DS18B20.Temperature\"", quote(s.entity())));
         return SensorKind::Topic(String::new());
