@@ -2,7 +2,7 @@
 // The Node-RED editor in headless Chromium, with a deployed flow holding every
 // node of the palette: node labels (with the interlock's and plant's plurals),
 // port labels (the tooltip drawn on hovering a port, and every port's text),
-// palette names, a dialog's placeholders and the plant's validation texts come
+// palette names, dialogs' placeholders, options and tips, and the plant's validation texts come
 // out in English, read from the catalogs (nodes/locales/en-US/*.json).
 const assert = require('node:assert/strict');
 const fs = require('fs');
@@ -208,13 +208,27 @@ describe('the editor\'s labels in headless Chromium', function () {
     assert.deepEqual(names, PALETTE_LABELS);
   });
 
-  it('fills a dialog\'s placeholders and checks a plant document\'s shape in English', async function () {
+  it('fills a dialog\'s placeholders, options and tips, and checks a plant document\'s shape in English', async function () {
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('acq10')));
     await page.waitForSelector('#node-input-operation', { visible: true, timeout: 10000 });
     const placeholders = await page.evaluate(() => ['operation', 'priority', 'resources', 'timeout']
       .map((f) => $(`#node-input-${f}`).attr('placeholder')));
+    const dialog = await page.evaluate(() => $('#dialog-form').text().replace(/\s+/g, ' ').trim());
     await page.evaluate(() => RED.tray.close());
     assert.deepEqual(placeholders, ['id, e.g. 12 (or msg.operation)', '0', 'YEL,RED (or msg.resources)', '0']);
+    assert.match(dialog, /^Interlock .* Operation Priority higher = more urgent Resources YELGRNRED Timeout s \(0 = wait forever\) Name$/);
+
+    // A tip with markup, from the catalog.
+    await page.evaluate(() => RED.editor.editConfig('', 'sugarshack-interlock', 'il1'));
+    await page.waitForSelector('#node-config-input-policy', { visible: true, timeout: 10000 });
+    const interlock = await page.evaluate(() => ({
+      policies: $('#node-config-input-policy option').toArray().map((o) => o.textContent),
+      tip: $('#node-config-dialog-edit-form .form-tips').last().html(),
+    }));
+    await page.evaluate(() => RED.tray.close());
+    assert.deepEqual(interlock.policies, ['greedy: grant every waiter that fits', 'no overtaking: never starve a waiter']);
+    assert.equal(interlock.tip, 'Persisted, the state is written to <code>sugarshack/</code> in the Node-RED user directory '
+      + 'before any grant, lockout or clear leaves the node, whatever context store is configured.');
 
     const checks = await page.evaluate(() => {
       const plant = RED.nodes.getType('sugarshack-plant').defaults.plant;
