@@ -274,4 +274,29 @@ describe('the editor\'s labels in headless Chromium', function () {
     const [, count] = /^(\d+) problems \(a deploy refuses the document\):\n/.exec(wrong) || [];
     assert.ok(Number(count) >= 2, wrong);
   });
+
+  it('reads the labels from the catalog of the editor\'s language', async function () {
+    // A German catalog for two sets, as the editor holds catalogs once Node-RED has served them ("_plural" is "_other" by then).
+    const german = await page.evaluate(async () => {
+      i18next.addResourceBundle('de', 'node-red-contrib-sugarshack/acquire', { 'sugarshack-acquire': {
+        nodeLabel: { operation: 'belegen __operation__' }, outputLabels: { granted: 'zugeteilt' } } }, true, true);
+      i18next.addResourceBundle('de', 'node-red-contrib-sugarshack/interlock', { 'sugarshack-interlock': {
+        nodeLabel: { resources: 'Verriegelung (__count__ Ressource)', resources_other: 'Verriegelung (__count__ Ressourcen)' } } }, true, true);
+      await i18next.changeLanguage('de');
+      const def = RED.nodes.getType('sugarshack-acquire');
+      const read = {
+        acq10: RED.utils.getNodeLabel(RED.nodes.node('acq10')),
+        granted: def.outputLabels.call(RED.nodes.node('acq10'), 0),
+        il1: RED.utils.getNodeLabel(RED.nodes.node('il1')),
+        il3: RED.utils.getNodeLabel(RED.nodes.node('il3')),
+        // Not in the German catalog: en-US.
+        acq: RED.utils.getNodeLabel(RED.nodes.node('acq')),
+      };
+      await i18next.changeLanguage('en-US');
+      return read;
+    });
+    assert.deepEqual(german, {
+      acq10: 'belegen 10', granted: 'zugeteilt', il1: 'Verriegelung (1 Ressource)', il3: 'Verriegelung (3 Ressourcen)', acq: 'acquire',
+    });
+  });
 });
