@@ -104,7 +104,7 @@ counted npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
 stage "MQTT integration tests (Mosquitto, simulator)"
 counted npx mocha --timeout 30000 --exit 'tests/integration/**/*.spec.js'
 
-stage "browser tests (the HMI at /dashboard in headless Chromium)"
+stage "browser tests (the HMI at /dashboard and the editor, in headless Chromium)"
 counted npx mocha --timeout 180000 --exit 'tests/browser/**/*.spec.js'
 
 stage "palette install: Node-RED 4.1 on Node $(node --version)"

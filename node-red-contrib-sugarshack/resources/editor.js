@@ -100,7 +100,7 @@
       '</div>',
       '<div class="form-row">',
       '  <label for="node-input-operation"><i class="fa fa-cog"></i> ' + text('label.operation') + '</label>',
-      '  <input type="text" id="node-input-operation" placeholder="msg.operation, else msg.interlock.operation">',
+      '  <input type="text" id="node-input-operation" data-i18n="[placeholder]' + type + '.placeholder.operation">',
       '</div>',
       '<div class="form-row">',
       '  <label for="node-input-name"><i class="fa fa-tag"></i> <span data-i18n="node-red:common.label.name"></span></label>',
@@ -120,7 +120,7 @@
         operation: { value: '' },
       },
       label: function () {
-        return this.name || (this.operation ? verb + ' ' + this.operation : verb);
+        return this.name || (this.operation ? this._(type + '.nodeLabel.operation', { operation: this.operation }) : this._(type + '.paletteLabel'));
       },
       labelStyle: function () { return this.name ? 'node_label_italic' : ''; },
     });

@@ -14,6 +14,24 @@ const catalogOf = (stem) => {
 };
 const textAt = (catalog, key) => key.split('.').reduce((v, part) => (v && typeof v === 'object' ? v[part] : undefined), catalog);
 const stems = (ext) => fs.readdirSync(NODES).filter((f) => f.endsWith(ext)).map((f) => f.slice(0, -ext.length));
+const readNode = (file) => fs.readFileSync(path.join(NODES, file), 'utf8');
+
+// A dialog's keys: data-i18n="key" or "[attribute]key", and the node's own this._('key'[, subs]) (node._ in its dialog functions).
+const DIALOG_KEY = /data-i18n="(?:\[[^\]]*\])?([^"]+)"|(?<![\w.$])(?:this|node)\._\('([^']+)'/g;
+const dialogKeys = (source) => [...source.matchAll(DIALOG_KEY)].map((m) => m[1] || m[2]);
+
+/** The scripts of a node's .html (its dialog template is not code). */
+const scriptsOf = (html) => [...html.matchAll(/<script type="text\/javascript">([\s\S]*?)<\/script>/g)].map((m) => m[1]).join('\n');
+
+/** The verbs whose types resources/editor.js's operationNode(verb) registers, by the .html that asks for them. */
+const operationVerbs = () => stems('.html').flatMap((stem) => [...readNode(`${stem}.html`).matchAll(/sugarshackEditor\.operationNode\('([\w-]+)'\)/g)].map((m) => m[1]));
+
+/** The keys operationNode reads for its type (`type + '.key'`), from resources/editor.js. */
+function operationNodeKeys() {
+  const editor = fs.readFileSync(path.join(PALETTE, 'resources', 'editor.js'), 'utf8');
+  const body = editor.slice(editor.indexOf('function operationNode('));
+  return [...new Set([...body.slice(0, body.indexOf('\n  }\n')).matchAll(/text\('([^']+)'\)|type \+ '\.([\w.]+)/g)].map((m) => m[1] || m[2]))];
+}
 
 describe('i18n catalogs', function () {
   it('hold every key a node file reads through RED._', function () {
@@ -36,12 +54,11 @@ describe('i18n catalogs', function () {
     const missing = [];
     let keys = 0;
     for (const stem of stems('.html')) {
-      const source = fs.readFileSync(path.join(NODES, `${stem}.html`), 'utf8');
+      const source = readNode(`${stem}.html`);
       // A node resources/editor.js registers with its dialog reads these for its type.
       const made = [...source.matchAll(/sugarshackEditor\.operationNode\('([\w-]+)'\)/g)]
-        .flatMap(([, verb]) => ['paletteLabel', 'label.interlock', 'label.operation'].map((key) => `sugarshack-${verb}.${key}`));
-      const read = [...source.matchAll(/data-i18n="([^"]+)"|this\._\('([^']+)'\)/g)].map((m) => m[1] || m[2]);
-      for (const key of [...made, ...read]) {
+        .flatMap(([, verb]) => operationNodeKeys().map((key) => `sugarshack-${verb}.${key}`));
+      for (const key of [...made, ...dialogKeys(source)]) {
         if (key.startsWith('node-red:')) continue;
         keys++;
         if (typeof textAt(catalogOf(stem), key) !== 'string') missing.push(`${stem}.html: ${key}`);
@@ -59,7 +76,7 @@ const LIB = path.join(PALETTE, 'lib');
 const MECHANISM = new Set(['i18n.js', 'errors.js']);
 const SHARED_CATALOG = catalogOf('interlock');
 
-/** Source files whose texts are checked: lib/*.js, lib/journal/*.js, nodes/*.js and the editor's resources/*.js. */
+/** Source files whose texts are checked: lib/*.js, lib/journal/*.js, nodes/*.js, and the editor's: the scripts of nodes/*.html and resources/*.js. */
 function sources() {
   const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
     .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
@@ -69,7 +86,12 @@ function sources() {
     ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
     ...fs.readdirSync(path.join(PALETTE, 'resources')).filter((f) => f.endsWith('.js'))
       .map((f) => ({ file: `resources/${f}`, full: path.join(PALETTE, 'resources', f) })),
-  ].map(({ file, full }) => ({ file, source: fs.readFileSync(full, 'utf8') }));
+  ].map(({ file, full }) => ({ file, source: fs.readFileSync(full, 'utf8') })).concat(editorScripts());
+}
+
+/** The scripts of nodes/*.html, as sources. */
+function editorScripts() {
+  return stems('.html').map((stem) => ({ file: `nodes/${stem}.html`, source: scriptsOf(readNode(`${stem}.html`)) }));
 }
 
 /** The arguments of the call whose "(" is at `open`, as source text, split at top-level commas. */
@@ -129,20 +151,36 @@ function lookups() {
     const own = tCatalog(file, source);
     // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
     const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('\.\.?\/i18n'\)/.test(source);
-    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of)\(/g;
+    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of|this\._|node\._)\(/g;
     for (const m of source.matchAll(calls)) {
       if (m[1] === 'text' && !importsText) continue;
       const args = callArgs(source, m.index + m[0].length - 1);
       const [keyArg, subsArg] = m[1] === 'SugarshackError.of' ? args.slice(1) : args;
       // The key, or each key a conditional may pick: a catalog key has a dot (SugarshackError.of's names the entry under errors).
-      const keys = [...keyArg.matchAll(m[1] === 'SugarshackError.of' ? /'(\w+)'/g : /'(\w+(?:\.\w+)+)'/g)].map((k) => k[1]);
+      const keyForm = { 'SugarshackError.of': /'(\w+)'/g, 'this._': /'([\w-]+(?:\.\w+)+)'/g, 'node._': /'([\w-]+(?:\.\w+)+)'/g }[m[1]] || /'(\w+(?:\.\w+)+)'/g;
+      const keys = [...keyArg.matchAll(keyForm)].map((k) => k[1]);
       const at = `${file}: ${m[0]}${args.join(', ')})`;
-      if (m[1] === 't') {
+      const subs = subsNames(subsArg);
+      // A count picks "<key>_plural" where there is one (i18next v3 form, which Node-RED migrates for i18next v4).
+      const withPlurals = (catalog, full) => (subs || []).includes('count')
+        ? full.flatMap((k) => (typeof textAt(catalog, `${k}_plural`) === 'string' ? [k, `${k}_plural`] : [k])) : full;
+      if (m[1] === 'this._' || m[1] === 'node._') {
+        // A node definition's own lookup: a full key in its set's catalog; operationNode's is its type's, for each verb.
+        const typed = /^type \+ '\.([\w.]+)'$/.exec(keyArg);
+        const owners = typed ? operationVerbs().map((verb) => ({ stem: verb, key: `sugarshack-${verb}.${typed[1]}` }))
+          : [{ stem: path.basename(file, '.html'), key: keys[0] }];
+        assert.ok(typed || file.endsWith('.html'), `${at}: this._() outside a node's .html or operationNode`);
+        for (const { stem, key } of owners) {
+          const catalog = catalogOf(stem);
+          found.push({ at, keys: key ? withPlurals(catalog, [key]) : [], subs, stem, catalog });
+        }
+      } else if (m[1] === 't') {
         assert.ok(own, `${at}: t() in a file without translator(RED, '<type>') or var NS`);
-        found.push({ at, keys: keys.map((k) => `${own.prefix}.${k}`), subs: subsNames(subsArg), stem: own.stem, catalog: catalogOf(own.stem) });
+        const catalog = catalogOf(own.stem);
+        found.push({ at, keys: withPlurals(catalog, keys.map((k) => `${own.prefix}.${k}`)), subs, stem: own.stem, catalog });
       } else {
         const prefix = m[1] === 'SugarshackError.of' ? 'sugarshack.errors.' : 'sugarshack.';
-        found.push({ at, keys: keys.map((k) => prefix + k), subs: subsNames(subsArg), stem: 'interlock', catalog: SHARED_CATALOG });
+        found.push({ at, keys: keys.map((k) => prefix + k), subs, stem: 'interlock', catalog: SHARED_CATALOG });
       }
     }
   }
@@ -195,25 +233,95 @@ describe('texts built in JS', function () {
   });
 
   it('every catalog key is read by some code or editor dialog', function () {
-    const editor = fs.readFileSync(path.join(PALETTE, 'resources', 'editor.js'), 'utf8');
-    const operationNode = editor.slice(editor.indexOf('function operationNode('));
-    const OPERATION_NODE_KEYS = [...operationNode.slice(0, operationNode.indexOf('\n  }\n')).matchAll(/text\('([^']+)'\)|this\._\(type \+ '\.([^']+)'\)/g)]
-      .map((m) => m[1] || m[2]);
-    assert.ok(OPERATION_NODE_KEYS.includes('paletteLabel'), `operationNode's keys read from resources/editor.js: ${OPERATION_NODE_KEYS}`);
+    const OPERATION_NODE_KEYS = operationNodeKeys();
+    assert.ok(OPERATION_NODE_KEYS.includes('paletteLabel') && OPERATION_NODE_KEYS.includes('placeholder.operation'),
+      `operationNode's keys read from resources/editor.js: ${OPERATION_NODE_KEYS}`);
     const read = new Set(lookups().flatMap(({ stem, keys }) => keys.map((k) => `${stem}|${k}`)));
     const readKey = (stem, key) => read.has(`${stem}|${key}`);
     const unused = [];
     for (const file of fs.readdirSync(path.join(NODES, 'locales', 'en-US')).filter((f) => f.endsWith('.json'))) {
       const stem = file.slice(0, -5);
-      const html = fs.existsSync(path.join(NODES, `${stem}.html`)) ? fs.readFileSync(path.join(NODES, `${stem}.html`), 'utf8') : '';
-      const dialogKeys = new Set([...html.matchAll(/data-i18n="(?:\[[^\]]*\])?([^"]+)"|this\._\('([^']+)'\)/g)].map((m) => m[1] || m[2]));
+      const html = fs.existsSync(path.join(NODES, `${stem}.html`)) ? readNode(`${stem}.html`) : '';
+      // The dialog's data-i18n keys (its this._ calls are lookups, with their plurals).
+      const inDialog = new Set(dialogKeys(html.replace(/<script type="text\/javascript">[\s\S]*?<\/script>/g, '')));
       // A dialog built by resources/editor.js's operationNode(verb) reads the keys it names there.
-      if (/sugarshackEditor\.operationNode\(/.test(html)) OPERATION_NODE_KEYS.forEach((key) => dialogKeys.add(`sugarshack-${stem}.${key}`));
+      if (/sugarshackEditor\.operationNode\(/.test(html)) OPERATION_NODE_KEYS.forEach((key) => inDialog.add(`sugarshack-${stem}.${key}`));
       for (const key of leaves(catalogOf(stem))) {
-        if (!readKey(stem, key) && !dialogKeys.has(key)) unused.push(`${file}: ${key}`);
+        if (!readKey(stem, key) && !inDialog.has(key)) unused.push(`${file}: ${key}`);
       }
     }
     assert.deepEqual(unused, []);
+  });
+});
+
+// ---- The editor's node and port labels: catalog texts, not English worded inline.
+
+/** Index of the bracket closing the one at `open` (strings skipped). */
+function closing(source, open) {
+  let depth = 0;
+  for (let i = open; i < source.length; i++) {
+    const c = source[i];
+    if (c === "'" || c === '"' || c === '`') {
+      for (i++; i < source.length && source[i] !== c; i++) if (source[i] === '\\') i++;
+    } else if ('([{'.includes(c)) depth++;
+    else if (')]}'.includes(c) && --depth === 0) return i;
+  }
+  throw new Error(`unclosed bracket at ${open}`);
+}
+
+const LABEL_PROPERTY = /(?<![\w$])(label|paletteLabel|inputLabels|outputLabels)\s*:\s*/g;
+
+/**
+ * The string literals with a letter in them that a label, paletteLabel, inputLabels or outputLabels
+ * of `source` gives: past its lookups (this._, node._, t, RED._), and the values it compares with
+ * (this.mode === 'all', typeof x === 'object'). A node's own name or ids are properties, not literals.
+ */
+function inlineLabelTexts(source) {
+  const found = [];
+  for (const m of source.matchAll(LABEL_PROPERTY)) {
+    let at = m.index + m[0].length;
+    if (source.startsWith('function', at)) at = source.indexOf('{', at);
+    const rest = source.slice(at);
+    let value = '([{'.includes(rest[0]) ? rest.slice(0, closing(rest, 0) + 1)
+      : /^(?:'(?:[^'\\]|\\.)*'|"(?:[^"\\]|\\.)*"|[^,\n}'"])*/.exec(rest)[0];
+    for (let call; (call = /(?<![\w.$])(this\._|node\._|t|RED\._)\(/.exec(value));) {
+      const open = call.index + call[0].length - 1;
+      value = value.slice(0, call.index) + value.slice(closing(value, open) + 1);
+    }
+    value = value.replace(/(===?|!==?)\s*(['"])[^'"]*\2|(['"])[^'"]*\3\s*(===?|!==?)/g, '');
+    for (const literal of value.matchAll(/'(?:[^'\\]|\\.)*'|"(?:[^"\\]|\\.)*"|`(?:[^`\\]|\\.)*`/g)) {
+      if (/[a-z]/i.test(literal[0])) found.push(`${m[1]}: ${literal[0]}`);
+    }
+  }
+  return found;
+}
+
+describe('the editor\'s labels', function () {
+  it('a node\'s label, palette name and port labels are read from its catalog, not worded inline', function () {
+    // The check itself: it finds the forms the labels had, and passes lookups, names, ids and comparisons.
+    assert.deepEqual(inlineLabelTexts(`{
+      outputLabels: ['granted'],
+      inputLabels: 'the rcc node\\'s msg',
+      label: function () { if (this.mode === 'all') return 'clear all faulted'; return this.name || 'rcc C' + this.controller; },
+    }`), ["outputLabels: 'granted'", "inputLabels: 'the rcc node\\'s msg'", "label: 'clear all faulted'", "label: 'rcc C'"]);
+    assert.deepEqual(inlineLabelTexts(`{
+      outputLabels: function (i) { return [this._('x.outputLabels.a'), this._('x.outputLabels.b')][i]; },
+      label: function () {
+        var plant = this.plant && typeof this.plant === 'object' ? this.plant : {};
+        if (this.mode === 'all') return this._('x.nodeLabel.all');
+        return this.name || plant.name || (this.target === 'http' ? this._('x.nodeLabel.db', { host: this.host || '?' }) : this.id);
+      },
+    }`), []);
+
+    const inline = [];
+    let labels = 0;
+    const editorSources = [...editorScripts(), ...sources().filter(({ file }) => file.startsWith('resources/'))];
+    for (const { file, source } of editorSources) {
+      labels += [...source.matchAll(LABEL_PROPERTY)].length;
+      inline.push(...inlineLabelTexts(source).map((text) => `${file}: ${text}`));
+    }
+    assert.ok(labels > 50, `${labels} label properties`);
+    assert.deepEqual(inline, []);
   });
 });
 
