@@ -77,7 +77,7 @@ describe('the HMI at /dashboard in headless Chromium', function () {
 
   after(async function () {
     if (browser) await browser.close();
-    if (red) await red.stop();
+    if (red) await red.finish(this.currentTest);
     if (sim) await sim.stop();
     if (broker) await broker.stop();
     if (profile) fs.rmSync(profile, { recursive: true, force: true });
