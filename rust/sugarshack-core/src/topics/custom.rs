@@ -303,13 +303,7 @@ pub(crate) fn actuator(
 }
 
 pub(crate) fn sensor(c: &CustomProfile, spec: &SensorSpec, b: &mut Builder) -> SensorKind {
-    let SensorSpec {
-        id,
-        device,
-        prefix,
-        sensor: s,
-        path,
-    } = *spec;
+    let (id, device, prefix, s, path) = spec.parts();
     let Some(v) = &c.sensors else {
         b.error(
             path,

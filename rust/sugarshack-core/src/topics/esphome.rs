@@ -157,13 +157,7 @@ pub(crate) fn actuator(
 }
 
 pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
-    let SensorSpec {
-        id,
-        device,
-        prefix,
-        sensor: s,
-        path,
-    } = *spec;
+    let (id, device, prefix, s, path) = spec.parts();
     let entity = s.entity.clone().unwrap_or_else(|| object_id(&s.name));
     check_object_id(&entity, path, b);
     let topic = format!("{prefix}/sensor/{entity}/state");

@@ -944,6 +944,21 @@ pub(crate) struct SensorSpec<'a> {
     pub path: &'a str,
 }
 
+impl<'a> SensorSpec<'a> {
+    /// Its fields, for a codec to name them.
+    pub fn parts(
+        &self,
+    ) -> (
+        SensorId,
+        DeviceId,
+        &'a str,
+        &'a crate::plant::Sensor,
+        &'a str,
+    ) {
+        (self.id, self.device, self.prefix, self.sensor, self.path)
+    }
+}
+
 /// What a profile's actuator builder needs to know of the actuator.
 pub(crate) struct ActuatorSpec<'a> {
     pub id: ActuatorId,

@@ -143,13 +143,7 @@ pub(crate) fn actuator(
 }
 
 pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
-    let SensorSpec {
-        id,
-        device,
-        prefix,
-        sensor: s,
-        path,
-    } = *spec;
+    let (id, device, prefix, s, path) = spec.parts();
     let entity = s.entity();
     let parsed = entity.split_once('.').and_then(|(key, field)| {
         let keys = read::dotted(field)?;

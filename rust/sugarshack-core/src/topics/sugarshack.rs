@@ -75,13 +75,7 @@ pub(crate) fn command(spec: &ActuatorSpec, kind: &str, io: u32) -> CommandRoute 
 }
 
 pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
-    let SensorSpec {
-        id,
-        device,
-        prefix,
-        sensor: s,
-        path,
-    } = *spec;
+    let (id, device, prefix, s, path) = spec.parts();
     let topic = format!("{prefix}/sensor/{}/state", s.entity());
     b.route(
         topic.clone(),

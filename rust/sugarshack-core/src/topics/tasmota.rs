@@ -118,13 +118,7 @@ pub(crate) fn actuator(
 }
 
 pub(crate) fn sensor(spec: &SensorSpec, b: &mut Builder) -> SensorKind {
-    let SensorSpec {
-        id,
-        device,
-        prefix,
-        sensor: s,
-        path,
-    } = *spec;
+    let (id, device, prefix, s, path) = spec.parts();
     let Some(keys) = read::dotted(s.entity()) else {
         b.error(path, format!("entity '{}' must be a path into tele/<topic>/SENSOR such as \"DS18B20.Temperature\"", quote(s.entity())));
         return SensorKind::Topic(String::new());
