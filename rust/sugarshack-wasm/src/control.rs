@@ -415,8 +415,7 @@ impl PidLoop {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
     ) -> Result<(), JsValue> {
-        let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
-        let round_trip = DelayEstimator::round_trip(round_trip_ms).map_err(control_error)?;
+        let round_trip = round_trip_of(&round_trip_ms)?;
         self.core
             .observe_round_trip(round_trip)
             .map_err(control_error)
@@ -433,6 +432,12 @@ impl PidLoop {
     pub fn config(&self) -> Result<JsValue, JsValue> {
         to_js(self.core.pid().config())
     }
+}
+
+/// A measured round trip from JS, checked as the delay estimator takes it.
+fn round_trip_of(value: &JsValue) -> Result<Millis, JsValue> {
+    let round_trip_ms = number(value, "round trip (ms)")?;
+    DelayEstimator::round_trip(round_trip_ms).map_err(control_error)
 }
 
 /// One controller of an RCC group: `new Rcc({ id, thresholdsMs, tsMs, smoothHandover })`.
@@ -721,8 +726,7 @@ impl PidStation {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "number")] round_trip_ms: JsValue,
     ) -> Result<(), JsValue> {
-        let round_trip_ms = number(&round_trip_ms, "round trip (ms)")?;
-        let round_trip = DelayEstimator::round_trip(round_trip_ms).map_err(control_error)?;
+        let round_trip = round_trip_of(&round_trip_ms)?;
         self.core
             .observe_round_trip(round_trip)
             .map_err(control_error)

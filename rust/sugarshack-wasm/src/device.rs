@@ -5,13 +5,13 @@
 use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId};
 use sugarshack_core::code::Code;
-use sugarshack_core::plant::{Plant, PlantModel};
+use sugarshack_core::plant::Plant;
 use sugarshack_core::sensor::SensorId;
 use sugarshack_core::time::Millis;
 use sugarshack_core::topics::{Command, Message};
 use wasm_bindgen::prelude::*;
 
-use crate::{from_js_bounded, js_error, to_js, Bound};
+use crate::{js_error, plant_document, to_js};
 
 /// The TypeScript shapes of what this module's calls return and take
 /// (`unchecked_return_type` / `unchecked_param_type` name them).
@@ -76,12 +76,7 @@ impl DeviceSide {
     pub fn new(
         #[wasm_bindgen(unchecked_param_type = "PlantDocument | string")] plant: JsValue,
     ) -> Result<DeviceSide, JsValue> {
-        let plant: PlantModel = from_js_bounded(
-            plant,
-            Code::InvalidPlant,
-            "invalid plant document",
-            Bound::PlantDocument,
-        )?;
+        let plant = plant_document(plant)?;
         let plant = Plant::new(plant)
             .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
         Ok(DeviceSide { plant })

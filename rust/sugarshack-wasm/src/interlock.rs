@@ -3,10 +3,12 @@ use std::collections::HashMap;
 use serde::Serialize;
 use sugarshack_core::clearance::{Attribution, LineBlockers};
 use sugarshack_core::code::Code;
+use sugarshack_core::interlock::Interlock as CoreInterlock;
 use sugarshack_core::interlock::{
     FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
     Snapshot,
 };
+use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
@@ -199,7 +201,7 @@ struct CountsView {
 /// The resource interlock, as JS sees it.
 #[wasm_bindgen]
 pub struct Interlock {
-    core: sugarshack_core::interlock::Interlock,
+    core: CoreInterlock,
     sets: Vec<ResourceSet>,
     set_index: HashMap<Vec<u32>, u32>,
     /// How many times the resource-set handles were dropped; part of each
@@ -213,7 +215,7 @@ pub struct Interlock {
 }
 
 impl Interlock {
-    fn wrap(core: sugarshack_core::interlock::Interlock) -> Self {
+    fn wrap(core: CoreInterlock) -> Self {
         Interlock {
             core,
             sets: Vec::new(),
@@ -246,6 +248,23 @@ impl Interlock {
 
     fn set_handle(&self, index: u32) -> f64 {
         (u64::from(self.set_generation) << 32 | u64::from(index)) as f64
+    }
+
+    /// A release or cancel by name; what it granted is kept for `granted(i)`.
+    fn by_name(
+        &mut self,
+        name: &str,
+        now_ms: f64,
+        call: fn(&mut CoreInterlock, &str, Millis) -> Result<Vec<Grant>, InterlockError>,
+    ) -> Result<u32, JsValue> {
+        if name.is_empty() {
+            return Err(js_error(
+                Code::MissingOperation,
+                "an operation id is required",
+            ));
+        }
+        let grants = call(&mut self.core, name, time(now_ms)?).map_err(core_error)?;
+        Ok(self.keep_granted(&grants))
     }
 
     fn keep_granted(&mut self, grants: &[Grant]) -> u32 {
@@ -281,7 +300,7 @@ impl Interlock {
         #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
     ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
-        sugarshack_core::interlock::Interlock::new(config)
+        CoreInterlock::new(config)
             .map(Interlock::wrap)
             .map_err(core_error)
     }
@@ -311,13 +330,8 @@ impl Interlock {
             keep_queue,
             keep_holds,
         };
-        let (core, grants) = sugarshack_core::interlock::Interlock::restore(
-            config,
-            &snapshot,
-            options,
-            time(now_ms)?,
-        )
-        .map_err(core_error)?;
+        let (core, grants) = CoreInterlock::restore(config, &snapshot, options, time(now_ms)?)
+            .map_err(core_error)?;
         let mut lock = Interlock::wrap(core);
         lock.keep_granted(&grants);
         Ok(lock)
@@ -333,13 +347,9 @@ impl Interlock {
     ) -> Result<Interlock, JsValue> {
         let config = parse_config(config)?;
         let now = time(now_ms)?;
-        sugarshack_core::interlock::Interlock::unknown_state(
-            config,
-            note.as_deref().unwrap_or_default(),
-            now,
-        )
-        .map(Interlock::wrap)
-        .map_err(core_error)
+        CoreInterlock::unknown_state(config, note.as_deref().unwrap_or_default(), now)
+            .map(Interlock::wrap)
+            .map_err(core_error)
     }
 
     /// The handle of an operation, registering the name on first use. Past
@@ -461,34 +471,14 @@ impl Interlock {
     /// and is not registered.
     #[wasm_bindgen(js_name = releaseNamed)]
     pub fn release_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
-        if name.is_empty() {
-            return Err(js_error(
-                Code::MissingOperation,
-                "an operation id is required",
-            ));
-        }
-        let grants = self
-            .core
-            .release_named(name, time(now_ms)?)
-            .map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
+        self.by_name(name, now_ms, CoreInterlock::release_named)
     }
 
     /// `cancel` by operation name; a name never seen waits for nothing (`NOT_QUEUED`)
     /// and is not registered.
     #[wasm_bindgen(js_name = cancelNamed)]
     pub fn cancel_named(&mut self, name: &str, now_ms: f64) -> Result<u32, JsValue> {
-        if name.is_empty() {
-            return Err(js_error(
-                Code::MissingOperation,
-                "an operation id is required",
-            ));
-        }
-        let grants = self
-            .core
-            .cancel_named(name, time(now_ms)?)
-            .map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
+        self.by_name(name, now_ms, CoreInterlock::cancel_named)
     }
 
     /// The handle of the i-th operation granted by the last release, cancel,

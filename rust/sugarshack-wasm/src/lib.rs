@@ -27,6 +27,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use sugarshack_core::code::Code;
 use sugarshack_core::json::{self, JsonError};
+use sugarshack_core::plant::PlantModel;
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -130,6 +131,17 @@ pub(crate) fn from_js<T: DeserializeOwned>(
     what: &str,
 ) -> Result<T, JsValue> {
     from_js_bounded(value, code, what, Bound::Unnamed)
+}
+
+/// A plant document from JS (an object, or its JSON text), read within its
+/// bound; a problem is refused as `INVALID_PLANT` with its path.
+pub(crate) fn plant_document(value: JsValue) -> Result<PlantModel, JsValue> {
+    from_js_bounded(
+        value,
+        Code::InvalidPlant,
+        "invalid plant document",
+        Bound::PlantDocument,
+    )
 }
 
 /// Reads a JS value as `T`: a string as JSON text, anything else through

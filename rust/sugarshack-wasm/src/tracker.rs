@@ -3,14 +3,14 @@ use sugarshack_core::actuator::{
     describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError,
 };
 use sugarshack_core::code::Code;
-use sugarshack_core::plant::{PlantModel, Signal};
+use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
 use wasm_bindgen::prelude::*;
 
 use crate::operation::OperationRun;
 use crate::routine::Routine;
-use crate::{from_js_bounded, js_error, time, to_js, Bound};
+use crate::{from_js_bounded, js_error, plant_document, time, to_js, Bound};
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
 
@@ -311,12 +311,7 @@ impl Tracker {
         #[wasm_bindgen(unchecked_param_type = "PlantDocument | string")] plant: JsValue,
         now_ms: f64,
     ) -> Result<Tracker, JsValue> {
-        let plant: PlantModel = from_js_bounded(
-            plant,
-            Code::InvalidPlant,
-            "invalid plant document",
-            Bound::PlantDocument,
-        )?;
+        let plant = plant_document(plant)?;
         let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
             .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
         Ok(Tracker {
