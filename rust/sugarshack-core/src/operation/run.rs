@@ -436,13 +436,8 @@ impl OperationRun {
                 }]
             }
             State::Withdrawing {
-                reason,
-                release_sent: true,
-            } => {
-                let failed = self.withdrawn_failure(reason);
-                self.state = State::Ended(Phase::Withdrawn);
-                vec![failed]
-            }
+                release_sent: true, ..
+            } => self.end_withdrawn(),
             _ => Vec::new(),
         }
     }
@@ -597,15 +592,21 @@ impl OperationRun {
     pub fn withdrawn(&mut self, _now: Millis) -> Vec<RunEffect> {
         match &self.state {
             State::Withdrawing {
-                reason,
                 release_sent: false,
-            } => {
-                let failed = self.withdrawn_failure(reason);
-                self.state = State::Ended(Phase::Withdrawn);
-                vec![failed]
-            }
+                ..
+            } => self.end_withdrawn(),
             _ => Vec::new(),
         }
+    }
+
+    /// A withdrawal is over: the run ends with its failure.
+    fn end_withdrawn(&mut self) -> Vec<RunEffect> {
+        let State::Withdrawing { reason, .. } = &self.state else {
+            return Vec::new();
+        };
+        let failed = self.withdrawn_failure(reason);
+        self.state = State::Ended(Phase::Withdrawn);
+        vec![failed]
     }
 
     fn begin(&mut self, index: usize, now: Millis) -> Vec<RunEffect> {
