@@ -208,10 +208,7 @@ pub(crate) fn actuator(
     let empty = (
         CommandRoute {
             topic: String::new(),
-            form: Form::Words {
-                on: String::new(),
-                off: String::new(),
-            },
+            form: Form::words("", ""),
         },
         FeedbackKind::Custom {
             topic: String::new(),

@@ -118,10 +118,7 @@ pub(crate) fn actuator(
             );
             CommandRoute {
                 topic: format!("{base}/command"),
-                form: Form::Words {
-                    on: "OPEN".into(),
-                    off: "CLOSE".into(),
-                },
+                form: Form::words("OPEN", "CLOSE"),
             }
         }
         (Component::Number, _) => {
@@ -139,10 +136,7 @@ pub(crate) fn actuator(
             b.route(format!("{base}/state"), own(Read::OnOff), spec.path);
             CommandRoute {
                 topic: format!("{base}/command"),
-                form: Form::Words {
-                    on: "ON".into(),
-                    off: "OFF".into(),
-                },
+                form: Form::words("ON", "OFF"),
             }
         }
     };

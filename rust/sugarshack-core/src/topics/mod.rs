@@ -220,6 +220,16 @@ pub(crate) enum Form {
     Words { on: String, off: String },
 }
 
+impl Form {
+    /// One word for on, one for off.
+    pub(crate) fn words(on: &str, off: &str) -> Form {
+        Form::Words {
+            on: on.into(),
+            off: off.into(),
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub(crate) struct CommandRoute {
     pub topic: String,
@@ -508,10 +518,7 @@ impl Contract {
                 // Reported by the plant's own checks; placeholders keep indices aligned.
                 commands.push(CommandRoute {
                     topic: String::new(),
-                    form: Form::Words {
-                        on: String::new(),
-                        off: String::new(),
-                    },
+                    form: Form::words("", ""),
                 });
                 signals.push(Signal::Binary);
                 actuator_feedback.push(ActuatorFormat {
@@ -558,10 +565,7 @@ impl Contract {
                     None => (
                         CommandRoute {
                             topic: String::new(),
-                            form: Form::Words {
-                                on: String::new(),
-                                off: String::new(),
-                            },
+                            form: Form::words("", ""),
                         },
                         FeedbackKind::Sugarshack {
                             kind: String::new(),

@@ -100,10 +100,7 @@ pub(crate) fn actuator(
             (
                 CommandRoute {
                     topic: format!("{p}/command/{entity}"),
-                    form: Form::Words {
-                        on: "on".into(),
-                        off: "off".into(),
-                    },
+                    form: Form::words("on", "off"),
                 },
                 FeedbackKind::ShellySwitch(entity),
             )

@@ -66,10 +66,7 @@ pub(crate) fn command(spec: &ActuatorSpec, kind: &str, io: u32) -> CommandRoute 
                 before: String::new(),
                 after: String::new(),
             },
-            Signal::Binary => Form::Words {
-                on: "ON".into(),
-                off: "OFF".into(),
-            },
+            Signal::Binary => Form::words("ON", "OFF"),
         },
     }
 }

@@ -70,10 +70,7 @@ pub(crate) fn actuator(
             (
                 CommandRoute {
                     topic: format!("cmnd/{t}/{entity}"),
-                    form: Form::Words {
-                        on: "ON".into(),
-                        off: "OFF".into(),
-                    },
+                    form: Form::words("ON", "OFF"),
                 },
                 FeedbackKind::TasmotaPower(entity),
             )
