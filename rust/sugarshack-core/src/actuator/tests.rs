@@ -31,6 +31,14 @@ fn tracker() -> (Tracker, ActuatorId, ActuatorId, ActuatorId) {
     (t, v1, v2, p1)
 }
 
+/// A command after a retained lockout: the lockout cleared (empty, retained), then the command.
+fn cleared_then(topic: &str, payload: &str) -> Vec<(String, String, bool)> {
+    vec![
+        (topic.into(), String::new(), true),
+        (topic.into(), payload.into(), false),
+    ]
+}
+
 fn publishes(effects: &[Effect]) -> Vec<(String, String, bool)> {
     effects
         .iter()
@@ -457,10 +465,7 @@ fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
     let next = t.command(&[(p1, 1.0)], 3, false, ms(400)).unwrap();
     assert_eq!(
         publishes(&next),
-        vec![
-            ("ctrl-1/pump/1/command".into(), String::new(), true),
-            ("ctrl-1/pump/1/command".into(), "ON".into(), false)
-        ],
+        cleared_then("ctrl-1/pump/1/command", "ON"),
         "the retained lockout is cleared before a normal command"
     );
 }
@@ -814,10 +819,7 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
     let next = t.command(&[(v1, 50.0)], 5, false, ms(4400)).unwrap();
     assert_eq!(
         publishes(&next),
-        vec![
-            ("ctrl-1/valve/1/command".into(), String::new(), true),
-            ("ctrl-1/valve/1/command".into(), "50".into(), false)
-        ],
+        cleared_then("ctrl-1/valve/1/command", "50"),
         "accepted once confirmed, clearing the retained lockout first"
     );
 }
