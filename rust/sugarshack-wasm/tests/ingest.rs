@@ -34,6 +34,12 @@ fn effects(t: &mut Tracker) -> Vec<JsValue> {
     Array::from(&t.take_effects().unwrap()).iter().collect()
 }
 
+/// Two text fields of an effect, in order.
+fn text_pair(effect: &JsValue, first: &str, second: &str) -> (String, String) {
+    let text = |key| get(effect, key).as_string().unwrap();
+    (text(first), text(second))
+}
+
 #[wasm_bindgen_test]
 fn esphome_states_complete_a_group_command() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
@@ -62,12 +68,7 @@ fn esphome_states_complete_a_group_command() {
     let published: Vec<(String, String)> = effects(&mut t)
         .iter()
         .filter(|e| get(e, "kind").as_string().as_deref() == Some("publish"))
-        .map(|e| {
-            (
-                get(e, "topic").as_string().unwrap(),
-                get(e, "payload").as_string().unwrap(),
-            )
-        })
+        .map(|e| text_pair(e, "topic", "payload"))
         .collect();
     assert_eq!(
         published,
@@ -123,12 +124,7 @@ fn bad_payloads_come_back_as_malformed_effects() {
     );
     let reasons: Vec<(String, String)> = effects(&mut t)
         .iter()
-        .map(|e| {
-            (
-                get(e, "device").as_string().unwrap(),
-                get(e, "reason").as_string().unwrap(),
-            )
-        })
+        .map(|e| text_pair(e, "device", "reason"))
         .collect();
     assert_eq!(
         reasons,
