@@ -58,6 +58,19 @@ fn has(effects: &[Effect], wanted: impl Fn(&Effect) -> bool) -> bool {
     effects.iter().any(wanted)
 }
 
+/// Whether the effects answer `caller`'s group command as completed at `at_ms`.
+fn completes_group(effects: &[Effect], caller: Caller, at_ms: u64) -> bool {
+    has(effects, |e| {
+        matches!(
+            e,
+            Effect::GroupCompleted {
+                caller: c,
+                completion_ms
+            } if *c == caller && *completion_ms == ms(at_ms)
+        )
+    })
+}
+
 #[test]
 fn a_command_goes_from_pending_to_moving_to_stopped() {
     let (mut t, v1, _, _) = tracker();
@@ -92,13 +105,7 @@ fn a_command_goes_from_pending_to_moving_to_stopped() {
             ..
         } if *issue_to_motion_ms == ms(2000) && *completion_ms == ms(3000)
     )));
-    assert!(has(&done, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 1,
-            completion_ms
-        } if *completion_ms == ms(3000)
-    )));
+    assert!(completes_group(&done, 1, 3000));
     assert_eq!(t.phase(v1), Some(Phase::Stopped));
 }
 
@@ -125,13 +132,7 @@ fn a_group_returns_once_every_actuator_is_done() {
         Effect::GroupCompleted { .. }
     )));
     let last = t.feedback(v2, 100.0, None, ms(1500)).unwrap();
-    assert!(has(&last, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 9,
-            completion_ms
-        } if *completion_ms == ms(1500)
-    )));
+    assert!(completes_group(&last, 9, 1500));
 }
 
 #[test]
@@ -143,13 +144,7 @@ fn a_command_to_where_it_already_is_completes_at_once() {
         1,
         "still sent, so the device holds the commanded state"
     );
-    assert!(has(&effects, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 3,
-            completion_ms
-        } if *completion_ms == ms(0)
-    )));
+    assert!(completes_group(&effects, 3, 0));
     assert_eq!(t.counts().moving, 0);
 }
 
@@ -279,13 +274,7 @@ fn hang_escalation_reports_the_fault_and_leaves_the_command_to_the_callers_timeo
         Effect::GroupFailed { .. }
     )));
     let late = t.feedback(v1, 100.0, None, ms(9000)).unwrap();
-    assert!(has(&late, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 1,
-            completion_ms
-        } if *completion_ms == ms(9000)
-    )));
+    assert!(completes_group(&late, 1, 9000));
     assert!(!t.withdraw(1), "already answered");
 }
 
@@ -1038,13 +1027,7 @@ fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_comple
     assert_eq!(t.phase(p1), Some(Phase::Idle));
     // The switch deduplicates: ON again publishes nothing back; the command is done at once.
     let effects = t.command(&[(p1, 1.0)], 7, false, ms(3_600_000)).unwrap();
-    assert!(effects.iter().any(|e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 7,
-            completion_ms
-        } if *completion_ms == ms(0)
-    )));
+    assert!(completes_group(&effects, 7, 0));
     assert_eq!(
         publishes(&effects),
         vec![(
