@@ -166,10 +166,7 @@ fn fault_returns_lockout_commands_as_plain_objects() {
     assert_eq!(lockouts.length(), 1);
     let first = lockouts.get(0);
     assert_eq!(get(&first, "resource").as_string().as_deref(), Some("YEL"));
-    let command = JSON::stringify(&get(&first, "command"))
-        .unwrap()
-        .as_string()
-        .unwrap();
+    let command = stringify(&get(&first, "command"));
     assert_eq!(
         command,
         r#"{"valves":{"V12":0,"V13":0},"pumps":{"P1":false}}"#
@@ -198,10 +195,7 @@ fn fault_returns_lockout_commands_as_plain_objects() {
 fn snapshot_survives_json_and_restores_held_lines_as_faulted() {
     let lock = holder_and_waiter(0.0);
     // What a context store keeps: a JSON string.
-    let stored = JSON::stringify(&lock.snapshot(10.0).unwrap())
-        .unwrap()
-        .as_string()
-        .unwrap();
+    let stored = stringify(&lock.snapshot(10.0).unwrap());
     let config = json(r#"{ "resources": [{ "name": "YEL" }, { "name": "RED" }] }"#);
 
     let kept = Interlock::restore(config.clone(), json(&stored), true, false, 20.0).unwrap();

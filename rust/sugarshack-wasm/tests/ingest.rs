@@ -40,21 +40,28 @@ fn text_pair(effect: &JsValue, first: &str, second: &str) -> (String, String) {
     (text(first), text(second))
 }
 
+/// Feeds each message at 0 ms, in order, and checks what it was read as.
+#[track_caller]
+fn assert_ingests(t: &mut Tracker, messages: &[(&str, &str, Ingest)]) {
+    for &(topic, payload, expected) in messages {
+        assert_eq!(
+            t.ingest(topic, payload, 0.0).unwrap(),
+            expected,
+            "{topic} {payload}"
+        );
+    }
+}
+
 #[wasm_bindgen_test]
 fn esphome_states_complete_a_group_command() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("ctrl-1/status", "online", 0.0).unwrap(),
-        Ingest::Status
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/valve/v101/position/state", "0", 0.0)
-            .unwrap(),
-        Ingest::Samples
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/switch/p1/state", "OFF", 0.0).unwrap(),
-        Ingest::Samples
+    assert_ingests(
+        &mut t,
+        &[
+            ("ctrl-1/status", "online", Ingest::Status),
+            ("ctrl-1/valve/v101/position/state", "0", Ingest::Samples),
+            ("ctrl-1/switch/p1/state", "OFF", Ingest::Samples),
+        ],
     );
     effects(&mut t);
     t.command(
@@ -92,14 +99,16 @@ fn esphome_states_complete_a_group_command() {
 #[wasm_bindgen_test]
 fn foreign_topics_are_told_from_device_topics() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("homeassistant/valve/ctrl-1/v101/config", "{}", 0.0)
-            .unwrap(),
-        Ingest::Foreign
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/debug", "[D][valve:1]", 0.0).unwrap(),
-        Ingest::Other
+    assert_ingests(
+        &mut t,
+        &[
+            (
+                "homeassistant/valve/ctrl-1/v101/config",
+                "{}",
+                Ingest::Foreign,
+            ),
+            ("ctrl-1/debug", "[D][valve:1]", Ingest::Other),
+        ],
     );
     assert_eq!(t.topic_device("ctrl-1/debug"), Some(0));
     assert_eq!(t.topic_device("plant/command"), None);
@@ -110,17 +119,13 @@ fn foreign_topics_are_told_from_device_topics() {
 #[wasm_bindgen_test]
 fn bad_payloads_come_back_as_malformed_effects() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("ctrl-1/switch/p1/state", "1", 0.0).unwrap(),
-        Ingest::Samples
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/status", "maybe", 0.0).unwrap(),
-        Ingest::Refused
-    );
-    assert_eq!(
-        t.ingest("ctrl-9/state", "{}", 0.0).unwrap(),
-        Ingest::Refused
+    assert_ingests(
+        &mut t,
+        &[
+            ("ctrl-1/switch/p1/state", "1", Ingest::Samples),
+            ("ctrl-1/status", "maybe", Ingest::Refused),
+            ("ctrl-9/state", "{}", Ingest::Refused),
+        ],
     );
     let reasons: Vec<(String, String)> = effects(&mut t)
         .iter()

@@ -39,6 +39,16 @@ fn take(lock: &mut Interlock, op: OpId, priority: i32, names: &[&str], at_ms: u6
     lock.acquire(op, priority, &resources, ms(at_ms)).unwrap()
 }
 
+/// 'a' granted YEL at 0 ms and 'b' queued for it at 10 ms.
+fn a_holds_yel_and_b_waits() -> (Interlock, [OpId; 2], ResourceSet) {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
+    let yel = set(&lock, &["YEL"]);
+    assert_eq!(lock.acquire(a, 1, &yel, ms(0)), Ok(Acquisition::Granted));
+    assert_eq!(lock.acquire(b, 2, &yel, ms(10)), Ok(Acquisition::Queued));
+    (lock, [a, b], yel)
+}
+
 fn counts(holding: usize, queued: usize, faulted: usize) -> Counts {
     Counts {
         holding,
@@ -448,11 +458,7 @@ fn tick_warns_once_per_crossing_at_the_threshold() {
 
 #[test]
 fn every_state_change_yields_an_event() {
-    let mut lock = plant(Policy::Greedy);
-    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, ms(0)).unwrap();
-    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    let (mut lock, [a, b], yel) = a_holds_yel_and_b_waits();
     lock.release(a, ms(50)).unwrap();
     lock.fault(b, Some("no flow"), ms(80)).unwrap();
     lock.clear(&yel, ms(90)).unwrap();
@@ -478,11 +484,7 @@ fn every_state_change_yields_an_event() {
 
 #[test]
 fn event_records_keep_their_json_shape() {
-    let mut lock = plant(Policy::Greedy);
-    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, ms(0)).unwrap();
-    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    let (mut lock, [_, b], yel) = a_holds_yel_and_b_waits();
     lock.cancel(b, ms(20)).unwrap();
     lock.fault_resources_by(
         &yel,
