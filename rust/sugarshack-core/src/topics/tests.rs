@@ -35,6 +35,14 @@ fn samples(c: &Contract, topic: &str, payload: &str) -> Vec<Reading> {
     parse(c, topic, payload).1.samples
 }
 
+/// Checks the samples each message yields, naming the message that differs.
+#[track_caller]
+fn assert_samples(c: &Contract, cases: &[(&str, &str, Vec<Reading>)]) {
+    for (topic, payload, expected) in cases {
+        assert_eq!(&samples(c, topic, payload), expected, "{topic} {payload}");
+    }
+}
+
 /// Asserts where the command driving `id` to `target` goes and what it says.
 #[track_caller]
 fn assert_command(c: &Contract, id: ActuatorId, target: f64, topic: &str, payload: &str) {
@@ -79,17 +87,24 @@ fn esphome_states_read_as_the_firmware_writes_them() {
         Incoming::Other { device: D0 }
     );
     assert_eq!(
-        parse(&c, "ctrl-1/switch/p1/state", "OFF").1.samples,
+        samples(&c, "ctrl-1/switch/p1/state", "OFF"),
         vec![Reading::Actuator(P, 0.0)]
     );
     assert_eq!(parse(&c, "ctrl-1/status", "offline").0, D0_OFFLINE);
-    assert_eq!(
-        samples(&c, "station-2/sensor/volume/state", "nan"),
-        vec![Reading::SensorUnavailable(SensorId::from_index(0))]
-    );
-    assert_eq!(
-        samples(&c, "station-2/sensor/volume/state", "-4.50"),
-        vec![Reading::Sensor(SensorId::from_index(0), -4.5)]
+    assert_samples(
+        &c,
+        &[
+            (
+                "station-2/sensor/volume/state",
+                "nan",
+                vec![Reading::SensorUnavailable(SensorId::from_index(0))],
+            ),
+            (
+                "station-2/sensor/volume/state",
+                "-4.50",
+                vec![Reading::Sensor(SensorId::from_index(0), -4.5)],
+            ),
+        ],
     );
 }
 
@@ -186,9 +201,7 @@ fn a_valve_range_maps_onto_esphome_percent() {
     let c = contract(&p);
     assert_eq!(c.command(V, 25.0).payload, "50");
     assert_eq!(
-        parse(&c, "ctrl-1/valve/v101/position/state", "100")
-            .1
-            .samples,
+        samples(&c, "ctrl-1/valve/v101/position/state", "100"),
         vec![Reading::Actuator(V, 50.0)]
     );
 }
@@ -218,17 +231,25 @@ fn sugarshack_keeps_todays_format() {
         out.samples,
         vec![Reading::Actuator(V, 40.0), Reading::Actuator(P, 1.0)]
     );
-    assert_eq!(
-        samples(&c, "ctrl-1/valve/12/state", r#"{"ts": 5, "value": 41}"#),
-        vec![Reading::Actuator(V, 41.0)]
-    );
-    assert_eq!(
-        parse(&c, "ctrl-1/valve/12/state", "42").1.samples,
-        vec![Reading::Actuator(V, 42.0)]
-    );
-    assert_eq!(
-        samples(&c, "station-2/sensor/volume/state", r#"{"value": 7}"#),
-        vec![Reading::Sensor(SensorId::from_index(0), 7.0)]
+    assert_samples(
+        &c,
+        &[
+            (
+                "ctrl-1/valve/12/state",
+                r#"{"ts": 5, "value": 41}"#,
+                vec![Reading::Actuator(V, 41.0)],
+            ),
+            (
+                "ctrl-1/valve/12/state",
+                "42",
+                vec![Reading::Actuator(V, 42.0)],
+            ),
+            (
+                "station-2/sensor/volume/state",
+                r#"{"value": 7}"#,
+                vec![Reading::Sensor(SensorId::from_index(0), 7.0)],
+            ),
+        ],
     );
     assert_eq!(
         parse(&c, "ctrl-1/telemetry", "{}").0,
@@ -296,23 +317,21 @@ fn tasmota_reads_power_shutters_and_sensor_telemetry() {
     );
     let c = contract(&p);
     assert_eq!(parse(&c, "tele/panel/LWT", "Offline").0, D0_OFFLINE);
-    assert_eq!(
-        parse(&c, "stat/panel/POWER1", "ON").1.samples,
-        vec![Reading::Actuator(P, 1.0)]
-    );
-    assert_eq!(
-        parse(&c, "stat/panel/RESULT", r#"{"POWER1":"OFF"}"#)
-            .1
-            .samples,
-        vec![Reading::Actuator(P, 0.0)]
-    );
-    assert_eq!(
-        samples(
-            &c,
-            "stat/panel/RESULT",
-            r#"{"Shutter1":{"Position":54,"Direction":1,"Target":100,"Tilt":0}}"#
-        ),
-        vec![Reading::Actuator(V, 54.0)]
+    assert_samples(
+        &c,
+        &[
+            ("stat/panel/POWER1", "ON", vec![Reading::Actuator(P, 1.0)]),
+            (
+                "stat/panel/RESULT",
+                r#"{"POWER1":"OFF"}"#,
+                vec![Reading::Actuator(P, 0.0)],
+            ),
+            (
+                "stat/panel/RESULT",
+                r#"{"Shutter1":{"Position":54,"Direction":1,"Target":100,"Tilt":0}}"#,
+                vec![Reading::Actuator(V, 54.0)],
+            ),
+        ],
     );
     assert_eq!(
         parse(&c, "stat/panel/RESULT", r#"{"Command":"Unknown"}"#).0,
@@ -345,21 +364,20 @@ fn shelly_reads_component_status_and_notifications() {
     );
     let c = contract(&p);
     assert_eq!(parse(&c, "ctrl-1/online", "false").0, D0_OFFLINE);
-    assert_eq!(
-        samples(
-            &c,
-            "ctrl-1/status/switch:0",
-            r#"{"id":0, "source":"init", "output":true, "apower":0.0}"#
-        ),
-        vec![Reading::Actuator(P, 1.0)]
-    );
-    assert_eq!(
-        samples(
-            &c,
-            "ctrl-1/status/cover:0",
-            r#"{"id":0,"state":"open","current_pos":100}"#
-        ),
-        vec![Reading::Actuator(V, 100.0)]
+    assert_samples(
+        &c,
+        &[
+            (
+                "ctrl-1/status/switch:0",
+                r#"{"id":0, "source":"init", "output":true, "apower":0.0}"#,
+                vec![Reading::Actuator(P, 1.0)],
+            ),
+            (
+                "ctrl-1/status/cover:0",
+                r#"{"id":0,"state":"open","current_pos":100}"#,
+                vec![Reading::Actuator(V, 100.0)],
+            ),
+        ],
     );
     let (_, out) = parse(
         &c,
@@ -423,7 +441,7 @@ fn a_custom_device_reads_by_template_path_and_map() {
     );
     assert_eq!(out.samples, vec![Reading::Actuator(V, 30.0)]);
     assert_eq!(
-        parse(&c, "z2m/P1/state", "RUN").1.samples,
+        samples(&c, "z2m/P1/state", "RUN"),
         vec![Reading::Actuator(P, 1.0)]
     );
     assert_eq!(parse(&c, "z2m/bridge/state", "offline").0, D0_OFFLINE);
