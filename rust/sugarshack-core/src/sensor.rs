@@ -317,10 +317,16 @@ mod tests {
         .unwrap()
     }
 
+    /// A store of the plant's sensors and its level sensor LT-2.
+    fn level_store() -> (SensorStore, SensorId) {
+        let s = SensorStore::new(&plant());
+        let lt = s.sensor("LT-2").unwrap();
+        (s, lt)
+    }
+
     #[test]
     fn a_value_is_fresh_until_its_limit_and_stale_from_it() {
-        let mut s = SensorStore::new(&plant());
-        let lt = s.sensor("LT-2").unwrap();
+        let (mut s, lt) = level_store();
         assert_eq!(
             s.fresh(lt, ms(0)),
             Err(SensorError::NoValue {
@@ -360,8 +366,7 @@ mod tests {
 
     #[test]
     fn non_finite_samples_are_not_kept() {
-        let mut s = SensorStore::new(&plant());
-        let lt = s.sensor("LT-2").unwrap();
+        let (mut s, lt) = level_store();
         s.record(lt, 5.0, ms(2000), ms(2000)).unwrap();
         assert_eq!(
             s.record(lt, f64::NAN, ms(3000), ms(3000))
@@ -374,8 +379,7 @@ mod tests {
 
     #[test]
     fn the_last_sample_received_wins_whatever_its_timestamp() {
-        let mut s = SensorStore::new(&plant());
-        let lt = s.sensor("LT-2").unwrap();
+        let (mut s, lt) = level_store();
         s.record(lt, 5.0, ms(2000), ms(2000)).unwrap();
         s.record(lt, 4.0, ms(1000), ms(2100)).unwrap();
         assert_eq!(s.sample(lt).unwrap().value, 4.0);
@@ -389,8 +393,7 @@ mod tests {
 
     #[test]
     fn a_sample_stamped_in_the_future_is_refused_and_the_next_real_one_kept() {
-        let mut s = SensorStore::new(&plant());
-        let lt = s.sensor("LT-2").unwrap();
+        let (mut s, lt) = level_store();
         s.record(lt, 5.0, ms(10_000), ms(10_000)).unwrap();
         let err = s
             .record(lt, 99.0, ms(9_000_000_000_000_000), ms(11_000))
@@ -418,8 +421,7 @@ mod tests {
 
     #[test]
     fn a_sample_exactly_at_the_allowed_skew_is_kept() {
-        let mut s = SensorStore::new(&plant());
-        let lt = s.sensor("LT-2").unwrap();
+        let (mut s, lt) = level_store();
         s.record(
             lt,
             1.0,

@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use serde_json::json;
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Tracker};
 use sugarshack_core::clearance::{Attribution, ClearBlocker};
-use sugarshack_core::interlock::{EventKind, Interlock, InterlockError};
+use sugarshack_core::interlock::{EventKind, Interlock, InterlockError, ResourceSet};
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::time::ms;
 
@@ -20,6 +20,22 @@ const MEMBERS: [(&str, &str, usize); 4] = [
 ];
 const LINES: [&str; 2] = ["YEL", "GRN"];
 const TOLERANCE: f64 = 2.0;
+
+/// A clear by no one in particular that the tracker's blockers must refuse.
+fn refused_clear(
+    lock: &mut Interlock,
+    tracker: &Tracker,
+    lines: &ResourceSet,
+    at_ms: u64,
+) -> InterlockError {
+    lock.clear_checked(
+        lines,
+        &Attribution::unknown(),
+        |l| tracker.clear_blockers(l),
+        ms(at_ms),
+    )
+    .unwrap_err()
+}
 
 fn plant() -> PlantModel {
     serde_json::from_value(json!({
@@ -182,14 +198,7 @@ fn a_refusal_lists_every_reason_of_every_line() {
     tracker
         .device_status(DeviceId::from_index(1), false, ms(2))
         .unwrap();
-    let err = lock
-        .clear_checked(
-            &both,
-            &Attribution::unknown(),
-            |l| tracker.clear_blockers(l),
-            ms(3),
-        )
-        .unwrap_err();
+    let err = refused_clear(&mut lock, &tracker, &both, 3);
     let InterlockError::ClearRefused { lines } = &err else {
         panic!("{err}")
     };
@@ -241,14 +250,7 @@ fn clearing_a_line_that_is_not_faulted_names_the_line() {
     let tracker = Tracker::new(plant(), ms(0)).unwrap();
     let mut lock = Interlock::new(tracker.plant().interlock_config()).unwrap();
     let yel = lock.resource_set(&["YEL"]).unwrap();
-    let err = lock
-        .clear_checked(
-            &yel,
-            &Attribution::unknown(),
-            |l| tracker.clear_blockers(l),
-            ms(0),
-        )
-        .unwrap_err();
+    let err = refused_clear(&mut lock, &tracker, &yel, 0);
     assert_eq!(
         err.to_string(),
         "line 'YEL' is not faulted; nothing to clear"

@@ -8,8 +8,8 @@ use sugarshack_core::time::ms;
 
 use proptest::prelude::*;
 use sugarshack_core::interlock::{
-    Acquisition, EventKind, FaultCause, Interlock, InterlockConfig, InterlockError, Policy,
-    RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions, Snapshot,
+    Acquisition, EventKind, FaultCause, FaultOutcome, Interlock, InterlockConfig, InterlockError,
+    Policy, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions, Snapshot,
 };
 
 const RESOURCES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
@@ -381,6 +381,15 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
             .map(|g| op_name(lock, g.operation))
             .collect::<Vec<_>>()
     };
+    let faulted = |lock: &Interlock, f: FaultOutcome| Outcome::Faulted {
+        lockouts: f
+            .lockouts
+            .iter()
+            .map(|l| RESOURCES[l.resource.index()])
+            .collect(),
+        dropped: f.dropped,
+        grants: grant_names(lock, &f.grants),
+    };
     match *call {
         Call::Acquire { op: i, mask } => {
             let id = op(lock, i);
@@ -407,30 +416,14 @@ fn apply(lock: &mut Interlock, priorities: &[i32], call: &Call, now: u64) -> Out
         Call::Fault { op: i } => {
             let id = op(lock, i);
             match lock.fault(id, Some("test"), ms(now)) {
-                Ok(f) => Outcome::Faulted {
-                    lockouts: f
-                        .lockouts
-                        .iter()
-                        .map(|l| RESOURCES[l.resource.index()])
-                        .collect(),
-                    dropped: f.dropped,
-                    grants: grant_names(lock, &f.grants),
-                },
+                Ok(f) => faulted(lock, f),
                 Err(e) => refused(e),
             }
         }
         Call::FaultResources { mask } => {
             let set = set(lock, mask);
             let f = lock.fault_resources(&set, None, ms(now)).unwrap();
-            Outcome::Faulted {
-                lockouts: f
-                    .lockouts
-                    .iter()
-                    .map(|l| RESOURCES[l.resource.index()])
-                    .collect(),
-                dropped: f.dropped,
-                grants: grant_names(lock, &f.grants),
-            }
+            faulted(lock, f)
         }
         Call::Clear { mask } => {
             let set = set(lock, mask);

@@ -7,7 +7,7 @@
 //! control::pid). Where the designs differ on purpose the test says so.
 
 use proptest::prelude::*;
-use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, ProportionalOn};
+use sugarshack_core::control::pid::{Action, Pid, PidConfig, PidInput, PidStep, ProportionalOn};
 use sugarshack_core::control::pid_loop::PidLoopConfig;
 use sugarshack_core::control::station::{Change, Mode, Sample, Station, StationConfig};
 use sugarshack_core::time::Millis;
@@ -31,7 +31,8 @@ fn parallel(kp: f64, ki: f64, kd: f64) -> PidConfig {
     }
 }
 
-fn call(pid: &mut Pid, setpoint: f64, measurement: f64, dt_s: f64) -> f64 {
+/// simple-pid's `pid(measurement, dt)` with every term of the step.
+fn step(pid: &mut Pid, setpoint: f64, measurement: f64, dt_s: f64) -> PidStep {
     pid.step(PidInput {
         setpoint,
         measurement: Some(measurement),
@@ -39,7 +40,10 @@ fn call(pid: &mut Pid, setpoint: f64, measurement: f64, dt_s: f64) -> f64 {
         track: None,
     })
     .unwrap()
-    .output
+}
+
+fn call(pid: &mut Pid, setpoint: f64, measurement: f64, dt_s: f64) -> f64 {
+    step(pid, setpoint, measurement, dt_s).output
 }
 
 /// test_zero, test_desired_state: no error, no output.
@@ -91,14 +95,7 @@ fn integral() {
         })
         .unwrap();
         for want in expected {
-            let step = pid
-                .step(PidInput {
-                    setpoint,
-                    measurement: Some(0.0),
-                    dt_s: 0.1,
-                    track: None,
-                })
-                .unwrap();
+            let step = step(&mut pid, setpoint, 0.0, 0.1);
             assert_eq!(step.i.round(), want);
         }
     }
@@ -108,42 +105,19 @@ fn integral() {
 /// sample. PID(0, 0, 0.1) is kp 1, td 0.1 here, and the D term is compared.
 #[test]
 fn derivative() {
-    let mut pid = Pid::new(PidConfig {
+    let derivative_only = PidConfig {
         kp: 1.0,
         td_s: 0.1,
         ..parallel(1.0, 0.0, 0.0)
-    })
-    .unwrap();
-    let mut d = |pv: f64| {
-        pid.step(PidInput {
-            setpoint: 10.0,
-            measurement: Some(pv),
-            dt_s: 0.1,
-            track: None,
-        })
-        .unwrap()
-        .d
     };
+    let mut pid = Pid::new(derivative_only.clone()).unwrap();
+    let mut d = |pv: f64| step(&mut pid, 10.0, pv, 0.1).d;
     assert_eq!(d(0.0), 0.0, "no previous input: no derivative");
     assert_eq!(d(0.0), 0.0);
     assert_eq!(d(5.0).round(), -5.0);
     assert_eq!(d(15.0).round(), -10.0);
-    let mut pid = Pid::new(PidConfig {
-        kp: 1.0,
-        td_s: 0.1,
-        ..parallel(1.0, 0.0, 0.0)
-    })
-    .unwrap();
-    let mut d = |pv: f64| {
-        pid.step(PidInput {
-            setpoint: -10.0,
-            measurement: Some(pv),
-            dt_s: 0.1,
-            track: None,
-        })
-        .unwrap()
-        .d
-    };
+    let mut pid = Pid::new(derivative_only).unwrap();
+    let mut d = |pv: f64| step(&mut pid, -10.0, pv, 0.1).d;
     for (pv, want) in [
         (0.0, 0.0),
         (0.0, 0.0),
@@ -159,26 +133,12 @@ fn derivative() {
 #[test]
 fn separate_components() {
     let mut pid = Pid::new(parallel(1.0, 0.0, 1.0)).unwrap();
-    let first = pid
-        .step(PidInput {
-            setpoint: 10.0,
-            measurement: Some(0.0),
-            dt_s: 0.1,
-            track: None,
-        })
-        .unwrap();
+    let first = step(&mut pid, 10.0, 0.0, 0.1);
     assert_eq!(
         (first.output, first.p, first.i, first.d),
         (10.0, 10.0, 0.0, 0.0)
     );
-    let second = pid
-        .step(PidInput {
-            setpoint: 10.0,
-            measurement: Some(5.0),
-            dt_s: 0.1,
-            track: None,
-        })
-        .unwrap();
+    let second = step(&mut pid, 10.0, 5.0, 0.1);
     assert_eq!((second.p, second.i, second.d.round()), (5.0, 0.0, -50.0));
     assert_eq!(second.output.round(), -45.0);
 }
@@ -277,14 +237,7 @@ fn auto_mode() {
 fn set_point_change_moves_no_derivative() {
     let mut pid = Pid::new(parallel(1.0, 0.0, 1.0)).unwrap();
     call(&mut pid, 10.0, 0.0, 0.1);
-    let step = pid
-        .step(PidInput {
-            setpoint: 20.0,
-            measurement: Some(0.0),
-            dt_s: 0.1,
-            track: None,
-        })
-        .unwrap();
+    let step = step(&mut pid, 20.0, 0.0, 0.1);
     assert_eq!((step.p, step.d, step.output), (20.0, 0.0, 20.0));
 }
 

@@ -27,6 +27,33 @@ fn code_of(error: &JsValue) -> String {
     get(error, "code").as_string().expect("error has a code")
 }
 
+/// Asserts the error's code, naming the case and showing the message when it differs.
+#[track_caller]
+fn assert_code(err: &JsValue, code: &str, case: &str) {
+    let message = message_of(err);
+    assert_eq!(code_of(err), code, "{case}: {message}");
+}
+
+/// Asserts the error's message holds `part`, showing the message when it does not.
+#[track_caller]
+fn assert_message_contains(err: &JsValue, part: &str) {
+    let message = message_of(err);
+    assert!(message.contains(part), "{message}");
+}
+
+#[track_caller]
+fn assert_message_starts_with(err: &JsValue, prefix: &str) {
+    let message = message_of(err);
+    assert!(message.starts_with(prefix), "{message}");
+}
+
+/// Asserts a message quotes what it refused short, whatever its size.
+#[track_caller]
+fn assert_message_short(err: &JsValue) {
+    let message = message_of(err);
+    assert!(message.chars().count() < 300, "{message:.400}");
+}
+
 const LEVELS: usize = 10_000;
 
 fn deep_array() -> JsValue {
@@ -99,17 +126,8 @@ fn deep_group_commands_are_refused_and_the_tracker_carries_on() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
     for (caller, (kind, deep)) in deep_values().into_iter().enumerate() {
         let err = t.command(deep, 1, false, 10.0, None).unwrap_err();
-        assert_eq!(
-            code_of(&err),
-            "INPUT_TOO_DEEP",
-            "{kind}: {}",
-            message_of(&err)
-        );
-        assert!(
-            message_of(&err).starts_with("invalid group command: nested deeper than"),
-            "{}",
-            message_of(&err)
-        );
+        assert_code(&err, "INPUT_TOO_DEEP", kind);
+        assert_message_starts_with(&err, "invalid group command: nested deeper than");
         still_commands(&mut t, 100 + caller as u32);
     }
 }
@@ -165,11 +183,7 @@ fn a_megabyte_group_command_is_refused_as_too_large() {
     ));
     let err = t.command(as_text, 1, false, 10.0, None).unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE", "{}", message_of(&err));
-    assert!(
-        message_of(&err).contains("80023 bytes of JSON"),
-        "{}",
-        message_of(&err)
-    );
+    assert_message_contains(&err, "80023 bytes of JSON");
     still_commands(&mut t, 2);
 }
 
@@ -197,11 +211,7 @@ fn group_commands_may_come_as_json_text() {
         )
         .unwrap_err();
     assert_eq!(code_of(&err), "INVALID_GROUP");
-    assert!(
-        message_of(&err).contains("(line 2, column"),
-        "{}",
-        message_of(&err)
-    );
+    assert_message_contains(&err, "(line 2, column");
 }
 
 #[wasm_bindgen_test]
@@ -246,15 +256,11 @@ fn a_huge_bad_target_or_name_is_quoted_short() {
             None,
         )
         .unwrap_err();
-    assert!(message_of(&err).chars().count() < 300);
+    assert_message_short(&err);
     let million = js("return { valves: { V12: 'x'.repeat(1000000) } };");
     let err = t.command(million, 1, false, 10.0, None).unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE");
-    assert!(
-        message_of(&err).chars().count() < 300,
-        "{}",
-        message_of(&err)
-    );
+    assert_message_short(&err);
 }
 
 #[wasm_bindgen_test]
@@ -264,22 +270,16 @@ fn a_million_character_plant_value_is_quoted_short() {
     Reflect::set(&get(&get(&doc, "actuators"), "0"), &"device".into(), &long).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
     assert_eq!(code_of(&err), "INVALID_PLANT");
-    assert!(
-        message_of(&err).chars().count() < 300,
-        "{:.400}",
-        message_of(&err)
-    );
+    assert_message_short(&err);
     doc = json(PLANT);
     Reflect::set(&get(&get(&doc, "actuators"), "0"), &"io".into(), &long).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
     assert_eq!(code_of(&err), "INVALID_PLANT");
-    assert!(message_of(&err)
-        .starts_with("invalid plant document: actuators[0].io: invalid type: string \"xxx"));
-    assert!(
-        message_of(&err).chars().count() < 300,
-        "{:.400}",
-        message_of(&err)
+    assert_message_starts_with(
+        &err,
+        "invalid plant document: actuators[0].io: invalid type: string \"xxx",
     );
+    assert_message_short(&err);
 }
 
 #[wasm_bindgen_test]
@@ -299,12 +299,9 @@ fn plant_document_errors_name_their_entry() {
         " }\n    ]",
     );
     let err = Tracker::new(JsValue::from_str(&text), 0.0).err().unwrap();
-    assert!(
-        message_of(&err).starts_with(
-            "invalid plant document: actuators[1]: missing field `lockout` (line 8, column"
-        ),
-        "{}",
-        message_of(&err)
+    assert_message_starts_with(
+        &err,
+        "invalid plant document: actuators[1]: missing field `lockout` (line 8, column",
     );
     for (kind, deep) in deep_values() {
         let err = Tracker::new(deep, 0.0).err().unwrap();
@@ -411,10 +408,9 @@ fn a_non_finite_number_is_refused_where_it_stands_not_taken_for_absent() {
         )
         .unwrap_err();
     assert_eq!(code_of(&err), "INVALID_INPUT");
-    assert!(
-        message_of(&err).starts_with("I/O state: agesMs[0]: invalid type: string \"Infinity\""),
-        "{}",
-        message_of(&err)
+    assert_message_starts_with(
+        &err,
+        "I/O state: agesMs[0]: invalid type: string \"Infinity\"",
     );
     assert!(PidLoop::new(json(pid)).is_ok());
 }
@@ -427,16 +423,8 @@ fn a_misspelt_option_is_still_refused_by_name() {
     .err()
     .unwrap();
     assert_eq!(code_of(&err), "INVALID_CONFIG");
-    assert!(
-        message_of(&err).starts_with("invalid interlock configuration: resources[0]"),
-        "{}",
-        message_of(&err)
-    );
-    assert!(
-        message_of(&err).contains("unknown field `lockot`"),
-        "{}",
-        message_of(&err)
-    );
+    assert_message_starts_with(&err, "invalid interlock configuration: resources[0]");
+    assert_message_contains(&err, "unknown field `lockot`");
 }
 
 #[wasm_bindgen_test]
@@ -448,12 +436,7 @@ fn deep_rcc_states_and_configs_are_refused_and_the_controller_carries_on() {
     let state = r#"{ "lastAction": 10, "agesMs": [100, null] }"#;
     for (kind, deep) in deep_values() {
         let err = rcc.decide(deep.clone(), JsValue::UNDEFINED).unwrap_err();
-        assert_eq!(
-            code_of(&err),
-            "INPUT_TOO_DEEP",
-            "{kind}: {}",
-            message_of(&err)
-        );
+        assert_code(&err, "INPUT_TOO_DEEP", kind);
         assert!(
             rcc.decide(json(state), JsValue::UNDEFINED).is_ok(),
             "a valid state after a refusal"
@@ -514,11 +497,7 @@ fn a_sample_stamped_in_the_future_is_refused_and_the_next_one_kept() {
     assert!(t.record_sensor(lt, 10.0, Some(1000.0), 1000.0).unwrap());
     let err = t.record_sensor(lt, 99.0, Some(9e15), 2000.0).unwrap_err();
     assert_eq!(code_of(&err), "FUTURE_TIMESTAMP");
-    assert!(
-        message_of(&err).contains("clock is 8999999999998000 ms ahead"),
-        "{}",
-        message_of(&err)
-    );
+    assert_message_contains(&err, "clock is 8999999999998000 ms ahead");
     assert_eq!(
         t.read_sensors(&[lt], 2000.0).unwrap(),
         vec![10.0],

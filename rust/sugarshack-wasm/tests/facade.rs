@@ -166,10 +166,7 @@ fn fault_returns_lockout_commands_as_plain_objects() {
     assert_eq!(lockouts.length(), 1);
     let first = lockouts.get(0);
     assert_eq!(get(&first, "resource").as_string().as_deref(), Some("YEL"));
-    let command = JSON::stringify(&get(&first, "command"))
-        .unwrap()
-        .as_string()
-        .unwrap();
+    let command = stringify(&get(&first, "command"));
     assert_eq!(
         command,
         r#"{"valves":{"V12":0,"V13":0},"pumps":{"P1":false}}"#
@@ -196,18 +193,9 @@ fn fault_returns_lockout_commands_as_plain_objects() {
 
 #[wasm_bindgen_test]
 fn snapshot_survives_json_and_restores_held_lines_as_faulted() {
-    let mut lock = plant();
-    let op = lock.operation("12").unwrap();
-    let waiter = lock.operation("18").unwrap();
-    let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
-    let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
-    lock.acquire(op, 22, yel, 0.0).unwrap();
-    lock.acquire(waiter, 92, both, 5.0).unwrap();
+    let lock = holder_and_waiter(0.0);
     // What a context store keeps: a JSON string.
-    let stored = JSON::stringify(&lock.snapshot(10.0).unwrap())
-        .unwrap()
-        .as_string()
-        .unwrap();
+    let stored = stringify(&lock.snapshot(10.0).unwrap());
     let config = json(r#"{ "resources": [{ "name": "YEL" }, { "name": "RED" }] }"#);
 
     let kept = Interlock::restore(config.clone(), json(&stored), true, false, 20.0).unwrap();
@@ -278,15 +266,21 @@ fn stringify(value: &JsValue) -> String {
     JSON::stringify(value).unwrap().as_string().unwrap()
 }
 
-/// The plant with '12' holding YEL and '18' waiting on YEL and RED, saved as JSON.
-fn saved_plant() -> (Interlock, String) {
+/// The plant with '12' holding YEL from `at` ms and '18' waiting on YEL and RED 5 ms later.
+fn holder_and_waiter(at: f64) -> Interlock {
     let mut lock = plant();
     let op = lock.operation("12").unwrap();
     let waiter = lock.operation("18").unwrap();
     let yel = lock.resource_set(vec!["YEL".into()]).unwrap();
     let both = lock.resource_set(vec!["YEL".into(), "RED".into()]).unwrap();
-    lock.acquire(op, 22, yel, 100.0).unwrap();
-    lock.acquire(waiter, 92, both, 105.0).unwrap();
+    lock.acquire(op, 22, yel, at).unwrap();
+    lock.acquire(waiter, 92, both, at + 5.0).unwrap();
+    lock
+}
+
+/// That plant from 100 ms, saved as JSON at 110 ms.
+fn saved_plant() -> (Interlock, String) {
+    let lock = holder_and_waiter(100.0);
     let stored = stringify(&lock.snapshot(110.0).unwrap());
     (lock, stored)
 }

@@ -34,21 +34,34 @@ fn effects(t: &mut Tracker) -> Vec<JsValue> {
     Array::from(&t.take_effects().unwrap()).iter().collect()
 }
 
+/// Two text fields of an effect, in order.
+fn text_pair(effect: &JsValue, first: &str, second: &str) -> (String, String) {
+    let text = |key| get(effect, key).as_string().unwrap();
+    (text(first), text(second))
+}
+
+/// Feeds each message at 0 ms, in order, and checks what it was read as.
+#[track_caller]
+fn assert_ingests(t: &mut Tracker, messages: &[(&str, &str, Ingest)]) {
+    for &(topic, payload, expected) in messages {
+        assert_eq!(
+            t.ingest(topic, payload, 0.0).unwrap(),
+            expected,
+            "{topic} {payload}"
+        );
+    }
+}
+
 #[wasm_bindgen_test]
 fn esphome_states_complete_a_group_command() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("ctrl-1/status", "online", 0.0).unwrap(),
-        Ingest::Status
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/valve/v101/position/state", "0", 0.0)
-            .unwrap(),
-        Ingest::Samples
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/switch/p1/state", "OFF", 0.0).unwrap(),
-        Ingest::Samples
+    assert_ingests(
+        &mut t,
+        &[
+            ("ctrl-1/status", "online", Ingest::Status),
+            ("ctrl-1/valve/v101/position/state", "0", Ingest::Samples),
+            ("ctrl-1/switch/p1/state", "OFF", Ingest::Samples),
+        ],
     );
     effects(&mut t);
     t.command(
@@ -62,12 +75,7 @@ fn esphome_states_complete_a_group_command() {
     let published: Vec<(String, String)> = effects(&mut t)
         .iter()
         .filter(|e| get(e, "kind").as_string().as_deref() == Some("publish"))
-        .map(|e| {
-            (
-                get(e, "topic").as_string().unwrap(),
-                get(e, "payload").as_string().unwrap(),
-            )
-        })
+        .map(|e| text_pair(e, "topic", "payload"))
         .collect();
     assert_eq!(
         published,
@@ -91,14 +99,16 @@ fn esphome_states_complete_a_group_command() {
 #[wasm_bindgen_test]
 fn foreign_topics_are_told_from_device_topics() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("homeassistant/valve/ctrl-1/v101/config", "{}", 0.0)
-            .unwrap(),
-        Ingest::Foreign
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/debug", "[D][valve:1]", 0.0).unwrap(),
-        Ingest::Other
+    assert_ingests(
+        &mut t,
+        &[
+            (
+                "homeassistant/valve/ctrl-1/v101/config",
+                "{}",
+                Ingest::Foreign,
+            ),
+            ("ctrl-1/debug", "[D][valve:1]", Ingest::Other),
+        ],
     );
     assert_eq!(t.topic_device("ctrl-1/debug"), Some(0));
     assert_eq!(t.topic_device("plant/command"), None);
@@ -109,26 +119,17 @@ fn foreign_topics_are_told_from_device_topics() {
 #[wasm_bindgen_test]
 fn bad_payloads_come_back_as_malformed_effects() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    assert_eq!(
-        t.ingest("ctrl-1/switch/p1/state", "1", 0.0).unwrap(),
-        Ingest::Samples
-    );
-    assert_eq!(
-        t.ingest("ctrl-1/status", "maybe", 0.0).unwrap(),
-        Ingest::Refused
-    );
-    assert_eq!(
-        t.ingest("ctrl-9/state", "{}", 0.0).unwrap(),
-        Ingest::Refused
+    assert_ingests(
+        &mut t,
+        &[
+            ("ctrl-1/switch/p1/state", "1", Ingest::Samples),
+            ("ctrl-1/status", "maybe", Ingest::Refused),
+            ("ctrl-9/state", "{}", Ingest::Refused),
+        ],
     );
     let reasons: Vec<(String, String)> = effects(&mut t)
         .iter()
-        .map(|e| {
-            (
-                get(e, "device").as_string().unwrap(),
-                get(e, "reason").as_string().unwrap(),
-            )
-        })
+        .map(|e| text_pair(e, "device", "reason"))
         .collect();
     assert_eq!(
         reasons,

@@ -120,23 +120,15 @@ fn refusals_throw_coded_errors_and_send_nothing() {
     let code = |t: &mut Tracker, payload: &str| {
         code_of(t.command(json(payload), 2, false, 10.0, None).unwrap_err())
     };
-    assert_eq!(
-        code(&mut t, r#"{ "valves": { "V12": 0 } }"#),
-        "STILL_MOVING"
-    );
-    assert_eq!(
-        code(&mut t, r#"{ "valves": { "V99": 0 } }"#),
-        "UNKNOWN_ACTUATOR"
-    );
-    assert_eq!(
-        code(&mut t, r#"{ "pumps": { "P1": 5 } }"#),
-        "INVALID_TARGET"
-    );
-    assert_eq!(
-        code(&mut t, r#"{ "valves": { "P1": 0 } }"#),
-        "INVALID_GROUP"
-    );
-    assert_eq!(code(&mut t, r#""open everything""#), "INVALID_GROUP");
+    for (payload, expected) in [
+        (r#"{ "valves": { "V12": 0 } }"#, "STILL_MOVING"),
+        (r#"{ "valves": { "V99": 0 } }"#, "UNKNOWN_ACTUATOR"),
+        (r#"{ "pumps": { "P1": 5 } }"#, "INVALID_TARGET"),
+        (r#"{ "valves": { "P1": 0 } }"#, "INVALID_GROUP"),
+        (r#""open everything""#, "INVALID_GROUP"),
+    ] {
+        assert_eq!(code(&mut t, payload), expected, "{payload}");
+    }
     assert_eq!(
         Array::from(&t.take_effects().unwrap()).length(),
         0,

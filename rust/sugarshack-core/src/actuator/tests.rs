@@ -31,6 +31,14 @@ fn tracker() -> (Tracker, ActuatorId, ActuatorId, ActuatorId) {
     (t, v1, v2, p1)
 }
 
+/// A command after a retained lockout: the lockout cleared (empty, retained), then the command.
+fn cleared_then(topic: &str, payload: &str) -> Vec<(String, String, bool)> {
+    vec![
+        (topic.into(), String::new(), true),
+        (topic.into(), payload.into(), false),
+    ]
+}
+
 fn publishes(effects: &[Effect]) -> Vec<(String, String, bool)> {
     effects
         .iter()
@@ -48,6 +56,19 @@ fn publishes(effects: &[Effect]) -> Vec<(String, String, bool)> {
 
 fn has(effects: &[Effect], wanted: impl Fn(&Effect) -> bool) -> bool {
     effects.iter().any(wanted)
+}
+
+/// Whether the effects answer `caller`'s group command as completed at `at_ms`.
+fn completes_group(effects: &[Effect], caller: Caller, at_ms: u64) -> bool {
+    has(effects, |e| {
+        matches!(
+            e,
+            Effect::GroupCompleted {
+                caller: c,
+                completion_ms
+            } if *c == caller && *completion_ms == ms(at_ms)
+        )
+    })
 }
 
 #[test]
@@ -84,13 +105,7 @@ fn a_command_goes_from_pending_to_moving_to_stopped() {
             ..
         } if *issue_to_motion_ms == ms(2000) && *completion_ms == ms(3000)
     )));
-    assert!(has(&done, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 1,
-            completion_ms
-        } if *completion_ms == ms(3000)
-    )));
+    assert!(completes_group(&done, 1, 3000));
     assert_eq!(t.phase(v1), Some(Phase::Stopped));
 }
 
@@ -117,13 +132,7 @@ fn a_group_returns_once_every_actuator_is_done() {
         Effect::GroupCompleted { .. }
     )));
     let last = t.feedback(v2, 100.0, None, ms(1500)).unwrap();
-    assert!(has(&last, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 9,
-            completion_ms
-        } if *completion_ms == ms(1500)
-    )));
+    assert!(completes_group(&last, 9, 1500));
 }
 
 #[test]
@@ -135,13 +144,7 @@ fn a_command_to_where_it_already_is_completes_at_once() {
         1,
         "still sent, so the device holds the commanded state"
     );
-    assert!(has(&effects, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 3,
-            completion_ms
-        } if *completion_ms == ms(0)
-    )));
+    assert!(completes_group(&effects, 3, 0));
     assert_eq!(t.counts().moving, 0);
 }
 
@@ -271,13 +274,7 @@ fn hang_escalation_reports_the_fault_and_leaves_the_command_to_the_callers_timeo
         Effect::GroupFailed { .. }
     )));
     let late = t.feedback(v1, 100.0, None, ms(9000)).unwrap();
-    assert!(has(&late, |e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 1,
-            completion_ms
-        } if *completion_ms == ms(9000)
-    )));
+    assert!(completes_group(&late, 1, 9000));
     assert!(!t.withdraw(1), "already answered");
 }
 
@@ -457,10 +454,7 @@ fn lockouts_are_retained_take_over_and_are_cleared_by_the_next_command() {
     let next = t.command(&[(p1, 1.0)], 3, false, ms(400)).unwrap();
     assert_eq!(
         publishes(&next),
-        vec![
-            ("ctrl-1/pump/1/command".into(), String::new(), true),
-            ("ctrl-1/pump/1/command".into(), "ON".into(), false)
-        ],
+        cleared_then("ctrl-1/pump/1/command", "ON"),
         "the retained lockout is cleared before a normal command"
     );
 }
@@ -814,10 +808,7 @@ fn a_normal_command_waits_for_the_lockout_to_be_confirmed() {
     let next = t.command(&[(v1, 50.0)], 5, false, ms(4400)).unwrap();
     assert_eq!(
         publishes(&next),
-        vec![
-            ("ctrl-1/valve/1/command".into(), String::new(), true),
-            ("ctrl-1/valve/1/command".into(), "50".into(), false)
-        ],
+        cleared_then("ctrl-1/valve/1/command", "50"),
         "accepted once confirmed, clearing the retained lockout first"
     );
 }
@@ -1036,13 +1027,7 @@ fn an_on_change_device_is_not_stale_while_idle_and_a_command_to_its_state_comple
     assert_eq!(t.phase(p1), Some(Phase::Idle));
     // The switch deduplicates: ON again publishes nothing back; the command is done at once.
     let effects = t.command(&[(p1, 1.0)], 7, false, ms(3_600_000)).unwrap();
-    assert!(effects.iter().any(|e| matches!(
-        e,
-        Effect::GroupCompleted {
-            caller: 7,
-            completion_ms
-        } if *completion_ms == ms(0)
-    )));
+    assert!(completes_group(&effects, 7, 0));
     assert_eq!(
         publishes(&effects),
         vec![(

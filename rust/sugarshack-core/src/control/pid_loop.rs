@@ -123,30 +123,38 @@ mod tests {
         }
     }
 
+    /// A predictor sampled every 0.3 s with `samples` of fixed dead time.
+    fn smith(gain: f64, tau_s: f64, samples: usize, max_samples: usize) -> SmithConfig {
+        SmithConfig {
+            model: FopdtModel { gain, tau_s },
+            ts_s: 0.3,
+            dead_time: DeadTime::Fixed { samples },
+            max_samples,
+        }
+    }
+
+    /// One untracked step, 0.3 s after the last.
+    fn untracked_step(
+        pid: &mut PidLoop,
+        setpoint: f64,
+        measurement: Option<f64>,
+    ) -> Result<PidStep, ControlError> {
+        pid.step(PidInput {
+            setpoint,
+            measurement,
+            dt_s: 0.3,
+            track: None,
+        })
+    }
+
     /// Closed loop on a first-order process with `dead` samples of dead time.
     fn overshoot(smith: bool, dead: usize) -> f64 {
-        let model = FopdtModel {
-            gain: 1.0,
-            tau_s: 3.0,
-        };
-        let smith = smith.then_some(SmithConfig {
-            model,
-            ts_s: 0.3,
-            dead_time: DeadTime::Fixed { samples: dead },
-            max_samples: 100,
-        });
+        let smith = smith.then(|| self::smith(1.0, 3.0, dead, 100));
         let mut pid = PidLoop::new(config(smith)).unwrap();
         let a = (-0.3f64 / 3.0).exp();
         let (mut y, mut actions, mut peak) = (0.0f64, vec![0.0; dead + 1], 0.0f64);
         for _ in 0..400 {
-            let step = pid
-                .step(PidInput {
-                    setpoint: 1.0,
-                    measurement: Some(y),
-                    dt_s: 0.3,
-                    track: None,
-                })
-                .unwrap();
+            let step = untracked_step(&mut pid, 1.0, Some(y)).unwrap();
             actions.push(step.output);
             let applied = actions[actions.len() - 1 - dead];
             y = a * y + (1.0 - a) * applied;
@@ -173,32 +181,9 @@ mod tests {
 
     #[test]
     fn a_missing_measurement_leaves_the_model_running_on_the_fallback() {
-        let model = FopdtModel {
-            gain: 1.0,
-            tau_s: 3.0,
-        };
-        let smith = SmithConfig {
-            model,
-            ts_s: 0.3,
-            dead_time: DeadTime::Fixed { samples: 2 },
-            max_samples: 10,
-        };
-        let mut pid = PidLoop::new(config(Some(smith))).unwrap();
-        pid.step(PidInput {
-            setpoint: 1.0,
-            measurement: Some(0.0),
-            dt_s: 0.3,
-            track: None,
-        })
-        .unwrap();
-        let step = pid
-            .step(PidInput {
-                setpoint: 1.0,
-                measurement: None,
-                dt_s: 0.3,
-                track: None,
-            })
-            .unwrap();
+        let mut pid = PidLoop::new(config(Some(smith(1.0, 3.0, 2, 10)))).unwrap();
+        untracked_step(&mut pid, 1.0, Some(0.0)).unwrap();
+        let step = untracked_step(&mut pid, 1.0, None).unwrap();
         assert!(step.output.is_finite());
         assert_eq!(pid.seen(), None);
     }
@@ -206,33 +191,10 @@ mod tests {
     #[test]
     fn a_refused_model_step_leaves_the_pid_as_it_was() {
         // gain·(1 - e^(-dt/τ))·action overflows once the action is 10
-        let model = FopdtModel {
-            gain: 1e308,
-            tau_s: 0.01,
-        };
-        let smith = SmithConfig {
-            model,
-            ts_s: 0.3,
-            dead_time: DeadTime::Fixed { samples: 2 },
-            max_samples: 10,
-        };
-        let mut pid = PidLoop::new(config(Some(smith))).unwrap();
-        pid.step(PidInput {
-            setpoint: 0.0,
-            measurement: Some(0.0),
-            dt_s: 0.3,
-            track: None,
-        })
-        .unwrap();
+        let mut pid = PidLoop::new(config(Some(smith(1e308, 0.01, 2, 10)))).unwrap();
+        untracked_step(&mut pid, 0.0, Some(0.0)).unwrap();
         let (integral, last) = (pid.pid().integral(), pid.pid().last_output());
-        let err = pid
-            .step(PidInput {
-                setpoint: 50.0,
-                measurement: Some(0.0),
-                dt_s: 0.3,
-                track: None,
-            })
-            .unwrap_err();
+        let err = untracked_step(&mut pid, 50.0, Some(0.0)).unwrap_err();
         assert_eq!(err.code(), "INVALID_INPUT");
         assert_eq!(
             (pid.pid().integral(), pid.pid().last_output()),

@@ -33,6 +33,30 @@ fn set(lock: &Interlock, names: &[&str]) -> ResourceSet {
     lock.resource_set(names).unwrap()
 }
 
+/// Asks for `names` on behalf of `op`; the call must be accepted (granted or queued).
+fn take(lock: &mut Interlock, op: OpId, priority: i32, names: &[&str], at_ms: u64) -> Acquisition {
+    let resources = set(lock, names);
+    lock.acquire(op, priority, &resources, ms(at_ms)).unwrap()
+}
+
+/// 'a' granted YEL at 0 ms and 'b' queued for it at 10 ms.
+fn a_holds_yel_and_b_waits() -> (Interlock, [OpId; 2], ResourceSet) {
+    let mut lock = plant(Policy::Greedy);
+    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
+    let yel = set(&lock, &["YEL"]);
+    assert_eq!(lock.acquire(a, 1, &yel, ms(0)), Ok(Acquisition::Granted));
+    assert_eq!(lock.acquire(b, 2, &yel, ms(10)), Ok(Acquisition::Queued));
+    (lock, [a, b], yel)
+}
+
+fn counts(holding: usize, queued: usize, faulted: usize) -> Counts {
+    Counts {
+        holding,
+        queued,
+        faulted,
+    }
+}
+
 #[test]
 fn grants_free_set_at_once_and_queues_conflicts() {
     let mut lock = plant(Policy::Greedy);
@@ -48,14 +72,7 @@ fn grants_free_set_at_once_and_queues_conflicts() {
         Ok(Acquisition::Queued)
     );
     assert_eq!(lock.owner_of(yel.ids()[0]), Some(load));
-    assert_eq!(
-        lock.counts(),
-        Counts {
-            holding: 1,
-            queued: 1,
-            faulted: 0
-        }
-    );
+    assert_eq!(lock.counts(), counts(1, 1, 0));
 }
 
 #[test]
@@ -84,10 +101,9 @@ fn one_release_can_grant_several_requests() {
     let wide = lock.operation("wide");
     let a = lock.operation("a");
     let b = lock.operation("b");
-    lock.acquire(wide, 1, &set(&lock, &["YEL", "RED"]), ms(0))
-        .unwrap();
-    lock.acquire(a, 5, &set(&lock, &["YEL"]), ms(1)).unwrap();
-    lock.acquire(b, 4, &set(&lock, &["RED"]), ms(2)).unwrap();
+    take(&mut lock, wide, 1, &["YEL", "RED"], 0);
+    take(&mut lock, a, 5, &["YEL"], 1);
+    take(&mut lock, b, 4, &["RED"], 2);
     let granted: Vec<OpId> = lock
         .release(wide, ms(3))
         .unwrap()
@@ -103,8 +119,7 @@ fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() 
         let mut lock = plant(policy);
         let [holder, flit, load] =
             ["holder", "18 flit downstock", "10 load truck"].map(|n| lock.operation(n));
-        lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
-            .unwrap();
+        take(&mut lock, holder, 1, &["RED"], 0);
         assert_eq!(
             lock.acquire(flit, 92, &set(&lock, &["YEL", "RED"]), ms(1)),
             Ok(Acquisition::Queued)
@@ -133,10 +148,8 @@ fn greedy_lets_narrow_requests_overtake_a_wide_one_and_no_overtaking_does_not() 
 fn no_overtaking_still_lets_a_higher_priority_newcomer_in() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, low, urgent] = ["holder", "low", "urgent"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
-        .unwrap();
-    lock.acquire(low, 5, &set(&lock, &["YEL", "RED"]), ms(1))
-        .unwrap();
+    take(&mut lock, holder, 1, &["RED"], 0);
+    take(&mut lock, low, 5, &["YEL", "RED"], 1);
     assert_eq!(
         lock.acquire(urgent, 50, &set(&lock, &["YEL"]), ms(2)),
         Ok(Acquisition::Granted)
@@ -149,8 +162,7 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
     let [op12, op10] = ["12", "10"].map(|n| lock.operation(n));
     let yel_red = set(&lock, &["YEL", "RED"]);
     lock.acquire(op12, 22, &yel_red, ms(0)).unwrap();
-    lock.acquire(op10, 20, &set(&lock, &["YEL"]), ms(1))
-        .unwrap();
+    take(&mut lock, op10, 20, &["YEL"], 1);
     let outcome = lock.fault(op12, Some("timeout"), ms(100)).unwrap();
     let locked: Vec<&str> = outcome
         .lockouts
@@ -193,20 +205,11 @@ fn fault_latches_resources_returns_lockouts_and_blocks_until_cleared() {
 fn fault_while_waiting_drops_the_request() {
     let mut lock = plant(Policy::Greedy);
     let [holder, waiter] = ["holder", "waiter"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["BLU"]), ms(0))
-        .unwrap();
-    lock.acquire(waiter, 2, &set(&lock, &["BLU"]), ms(0))
-        .unwrap();
+    take(&mut lock, holder, 1, &["BLU"], 0);
+    take(&mut lock, waiter, 2, &["BLU"], 0);
     let outcome = lock.fault(waiter, None, ms(5)).unwrap();
     assert!(outcome.dropped && outcome.lockouts.is_empty());
-    assert_eq!(
-        lock.counts(),
-        Counts {
-            holding: 1,
-            queued: 0,
-            faulted: 0
-        }
-    );
+    assert_eq!(lock.counts(), counts(1, 0, 0));
     let again = lock.fault(waiter, None, ms(6)).unwrap();
     assert!(
         !again.dropped && again.lockouts.is_empty(),
@@ -218,8 +221,7 @@ fn fault_while_waiting_drops_the_request() {
 fn repeated_fault_resends_the_same_lockouts() {
     let mut lock = plant(Policy::Greedy);
     let op = lock.operation("op");
-    lock.acquire(op, 1, &set(&lock, &["GRN", "RED"]), ms(0))
-        .unwrap();
+    take(&mut lock, op, 1, &["GRN", "RED"], 0);
     let first = lock.fault(op, Some("timeout"), ms(1)).unwrap();
     let second = lock.fault(op, Some("timeout"), ms(2)).unwrap();
     assert_eq!(first.lockouts.len(), 2);
@@ -231,8 +233,7 @@ fn repeated_fault_resends_the_same_lockouts() {
 fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), ms(0))
-        .unwrap();
+    take(&mut lock, op, 1, &["PUR", "RED"], 0);
     let outcome = lock
         .fault_resources(&set(&lock, &["BLU", "RED"]), Some("e-stop"), ms(1))
         .unwrap();
@@ -263,13 +264,11 @@ fn emergency_stop_on_a_held_resource_faults_its_whole_operation() {
 fn fault_does_not_lock_out_a_resource_cleared_and_reused_meanwhile() {
     let mut lock = plant(Policy::Greedy);
     let [op, other] = ["op", "other"].map(|n| lock.operation(n));
-    lock.acquire(op, 1, &set(&lock, &["PUR", "RED"]), ms(0))
-        .unwrap();
+    take(&mut lock, op, 1, &["PUR", "RED"], 0);
     lock.fault_resources(&set(&lock, &["RED"]), None, ms(1))
         .unwrap();
     lock.clear(&set(&lock, &["RED"]), ms(2)).unwrap();
-    lock.acquire(other, 1, &set(&lock, &["RED"]), ms(3))
-        .unwrap();
+    take(&mut lock, other, 1, &["RED"], 3);
     let outcome = lock.fault(op, None, ms(4)).unwrap();
     let locked: Vec<&str> = outcome
         .lockouts
@@ -284,12 +283,9 @@ fn fault_does_not_lock_out_a_resource_cleared_and_reused_meanwhile() {
 fn cancel_withdraws_a_waiting_request() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
-        .unwrap();
-    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), ms(0))
-        .unwrap();
-    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), ms(0))
-        .unwrap();
+    take(&mut lock, holder, 1, &["RED"], 0);
+    take(&mut lock, wide, 9, &["GRN", "RED"], 0);
+    take(&mut lock, narrow, 1, &["GRN"], 0);
     let grants = lock.cancel(wide, ms(10)).unwrap();
     assert_eq!(
         grants.iter().map(|g| g.operation).collect::<Vec<_>>(),
@@ -435,10 +431,8 @@ fn config_reads_from_json_with_defaults() {
 fn tick_warns_once_per_crossing_at_the_threshold() {
     let mut lock = plant(Policy::Greedy);
     let [holder, waiter] = ["holder", "waiter"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["YEL"]), ms(0))
-        .unwrap();
-    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), ms(0))
-        .unwrap();
+    take(&mut lock, holder, 1, &["YEL"], 0);
+    take(&mut lock, waiter, 1, &["YEL"], 0);
     assert!(lock.tick(ms(999)).is_empty());
     let warnings = lock.tick(ms(1000));
     assert_eq!(warnings.len(), 1);
@@ -458,18 +452,13 @@ fn tick_warns_once_per_crossing_at_the_threshold() {
     );
     lock.release(holder, ms(5001)).unwrap();
     lock.release(waiter, ms(5002)).unwrap();
-    lock.acquire(waiter, 1, &set(&lock, &["YEL"]), ms(6000))
-        .unwrap();
+    take(&mut lock, waiter, 1, &["YEL"], 6000);
     assert_eq!(lock.tick(ms(11000)).len(), 1, "a new hold warns again");
 }
 
 #[test]
 fn every_state_change_yields_an_event() {
-    let mut lock = plant(Policy::Greedy);
-    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, ms(0)).unwrap();
-    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    let (mut lock, [a, b], yel) = a_holds_yel_and_b_waits();
     lock.release(a, ms(50)).unwrap();
     lock.fault(b, Some("no flow"), ms(80)).unwrap();
     lock.clear(&yel, ms(90)).unwrap();
@@ -495,11 +484,7 @@ fn every_state_change_yields_an_event() {
 
 #[test]
 fn event_records_keep_their_json_shape() {
-    let mut lock = plant(Policy::Greedy);
-    let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    let yel = set(&lock, &["YEL"]);
-    lock.acquire(a, 1, &yel, ms(0)).unwrap();
-    lock.acquire(b, 2, &yel, ms(10)).unwrap();
+    let (mut lock, [_, b], yel) = a_holds_yel_and_b_waits();
     lock.cancel(b, ms(20)).unwrap();
     lock.fault_resources_by(
         &yel,
@@ -549,10 +534,9 @@ fn events_can_be_switched_off() {
 fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
-    lock.acquire(b, 5, &set(&lock, &["YEL", "GRN"]), ms(1))
-        .unwrap();
-    lock.acquire(c, 2, &set(&lock, &["BLU"]), ms(2)).unwrap();
+    take(&mut lock, a, 1, &["YEL"], 0);
+    take(&mut lock, b, 5, &["YEL", "GRN"], 1);
+    take(&mut lock, c, 2, &["BLU"], 2);
     lock.fault(c, Some("dry pump"), ms(3)).unwrap();
     let snapshot = lock.snapshot(ms(10));
     let json = serde_json::to_string(&snapshot).unwrap();
@@ -592,9 +576,8 @@ fn restore_faults_what_was_held_and_keeps_faults_and_queue() {
 fn restore_under_a_changed_config_drops_what_no_longer_exists() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["RED"]), ms(0)).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["RED", "YEL"]), ms(0))
-        .unwrap();
+    take(&mut lock, a, 1, &["RED"], 0);
+    take(&mut lock, b, 1, &["RED", "YEL"], 0);
     let snapshot = lock.snapshot(ms(1));
     let (mut restored, _) = Interlock::restore(
         InterlockConfig::with_resources(["YEL", "GRN"]),
@@ -626,19 +609,12 @@ fn restore_under_a_changed_config_drops_what_no_longer_exists() {
 fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
+    take(&mut lock, a, 1, &["GRN"], 0);
+    take(&mut lock, b, 1, &["GRN"], 0);
     let (mut restored, grants) =
         Interlock::restore(lock.config().clone(), &lock.snapshot(ms(1)), RESTART, ms(2)).unwrap();
     assert!(grants.is_empty());
-    assert_eq!(
-        restored.counts(),
-        Counts {
-            holding: 0,
-            queued: 0,
-            faulted: 1
-        }
-    );
+    assert_eq!(restored.counts(), counts(0, 0, 1));
     let kinds: Vec<EventKind> = restored.drain_events().iter().map(|e| e.kind()).collect();
     assert_eq!(kinds, vec![EventKind::Interrupted, EventKind::Dropped]);
 }
@@ -647,10 +623,9 @@ fn restore_without_queue_drops_waiters_whose_callers_are_gone() {
 fn saved_plant() -> (Interlock, Snapshot) {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL", "GRN"]), ms(0))
-        .unwrap();
-    lock.acquire(b, 5, &set(&lock, &["YEL"]), ms(1)).unwrap();
-    lock.acquire(c, 2, &set(&lock, &["BLU"]), ms(2)).unwrap();
+    take(&mut lock, a, 1, &["YEL", "GRN"], 0);
+    take(&mut lock, b, 5, &["YEL"], 1);
+    take(&mut lock, c, 2, &["BLU"], 2);
     lock.fault(c, Some("dry pump"), ms(3)).unwrap();
     let snapshot = lock.snapshot(ms(10));
     (lock, snapshot)
@@ -905,7 +880,7 @@ fn a_legacy_v1_snapshot_restores_with_its_listed_lines_as_configured() {
 fn lines_new_since_the_save_start_free_with_an_event() {
     let mut lock = Interlock::new(InterlockConfig::with_resources(["YEL", "GRN"])).unwrap();
     let a = lock.operation("a");
-    lock.acquire(a, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
+    take(&mut lock, a, 1, &["GRN"], 0);
     let snapshot = lock.snapshot(ms(1));
     let (mut restored, grants) = Interlock::restore(
         InterlockConfig::with_resources(["BLU", "YEL", "GRN"]),
@@ -963,12 +938,11 @@ fn lines_no_longer_configured_are_dropped_with_an_event_each() {
 fn a_hand_over_keeps_holds_with_their_start() {
     let mut lock = plant(Policy::Greedy);
     let [a, b, c] = ["a", "b", "c"].map(|n| lock.operation(n));
-    lock.acquire(b, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
-    lock.acquire(a, 3, &set(&lock, &["YEL", "GRN"]), ms(60))
-        .unwrap();
+    take(&mut lock, b, 1, &["YEL"], 0);
+    take(&mut lock, a, 3, &["YEL", "GRN"], 60);
     lock.release(b, ms(100)).unwrap();
-    lock.acquire(c, 2, &set(&lock, &["RED"]), ms(120)).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["RED"]), ms(130)).unwrap();
+    take(&mut lock, c, 2, &["RED"], 120);
+    take(&mut lock, b, 1, &["RED"], 130);
     let snapshot = lock.snapshot(ms(200));
 
     let (mut same, grants) =
@@ -1029,36 +1003,19 @@ fn a_restart_faults_every_held_line_whatever_the_hand_over_would_keep() {
     let (lock, snapshot) = saved_plant();
     let (restored, _) =
         Interlock::restore(lock.config().clone(), &snapshot, RESTART, ms(20)).unwrap();
-    assert_eq!(
-        restored.counts(),
-        Counts {
-            holding: 0,
-            queued: 0,
-            faulted: 3
-        }
-    );
+    assert_eq!(restored.counts(), counts(0, 0, 3));
     let (kept, _) =
         Interlock::restore(lock.config().clone(), &snapshot, HAND_OVER, ms(20)).unwrap();
-    assert_eq!(
-        kept.counts(),
-        Counts {
-            holding: 1,
-            queued: 1,
-            faulted: 1
-        }
-    );
+    assert_eq!(kept.counts(), counts(1, 1, 1));
 }
 
 #[test]
 fn dropping_a_waiter_on_a_removed_line_lets_the_one_behind_it_go() {
     let mut lock = plant(Policy::NoOvertaking);
     let [holder, wide, narrow] = ["holder", "wide", "narrow"].map(|n| lock.operation(n));
-    lock.acquire(holder, 1, &set(&lock, &["RED"]), ms(0))
-        .unwrap();
-    lock.acquire(wide, 9, &set(&lock, &["GRN", "RED"]), ms(1))
-        .unwrap();
-    lock.acquire(narrow, 1, &set(&lock, &["GRN"]), ms(2))
-        .unwrap();
+    take(&mut lock, holder, 1, &["RED"], 0);
+    take(&mut lock, wide, 9, &["GRN", "RED"], 1);
+    take(&mut lock, narrow, 1, &["GRN"], 2);
     let (restored, grants) = Interlock::restore(
         InterlockConfig {
             policy: Policy::NoOvertaking,
@@ -1123,14 +1080,7 @@ fn unknown_state_faults_every_line_until_cleared() {
     let grants = lock.clear(&yel, ms(9)).unwrap();
     assert_eq!(grants[0].operation, op);
     lock.clear(&lock.faulted_resources(), ms(10)).unwrap();
-    assert_eq!(
-        lock.counts(),
-        Counts {
-            holding: 1,
-            queued: 0,
-            faulted: 0
-        }
-    );
+    assert_eq!(lock.counts(), counts(1, 0, 0));
     let quiet = Interlock::unknown_state(lock.config().clone(), "  ", ms(0)).unwrap();
     assert!(matches!(
         &quiet.snapshot(ms(0)).resources[0].state,
@@ -1151,8 +1101,8 @@ fn note_of(lock: &Interlock, line: &str) -> String {
 fn fault_notes_are_kept_to_a_bounded_length() {
     let mut lock = plant(Policy::Greedy);
     let [a, b] = ["a", "b"].map(|n| lock.operation(n));
-    lock.acquire(a, 1, &set(&lock, &["YEL"]), ms(0)).unwrap();
-    lock.acquire(b, 1, &set(&lock, &["GRN"]), ms(0)).unwrap();
+    take(&mut lock, a, 1, &["YEL"], 0);
+    take(&mut lock, b, 1, &["GRN"], 0);
     let stack = "é".repeat(3000);
     lock.fault(a, Some(&stack), ms(1)).unwrap();
     let kept = note_of(&lock, "YEL");
@@ -1304,8 +1254,7 @@ fn busy_and_faulted_operations_and_undrained_events_keep_their_names() {
     lock.fault(faulted, Some("stuck"), ms(1)).unwrap();
     lock.drain_events();
     let evented = lock.operation("evented");
-    lock.acquire(evented, 1, &set(&lock, &["BLU"]), ms(2))
-        .unwrap();
+    take(&mut lock, evented, 1, &["BLU"], 2);
     lock.release(evented, ms(3)).unwrap(); // its events are not drained yet
     for i in 0..10 {
         lock.operation(&format!("passer-{i}"));

@@ -40,6 +40,13 @@ fn plant(error_state: bool) -> Plant {
     Plant::new(plant).unwrap()
 }
 
+/// The truck routine after its "load" message started operation 10.
+fn truck_after_load(error_state: bool) -> RoutineMachine {
+    let mut r = RoutineMachine::new(&plant(error_state), "truck").unwrap();
+    r.on_msg("load").unwrap();
+    r
+}
+
 #[test]
 fn a_msg_dispatches_one_operation_and_its_return_moves_the_state() {
     let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
@@ -110,8 +117,7 @@ fn conditions_fall_due_every_period_and_the_first_met_fires() {
 
 #[test]
 fn a_fault_moves_to_the_error_state() {
-    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
-    r.on_msg("load").unwrap();
+    let mut r = truck_after_load(true);
     let moved = r.faulted().unwrap();
     assert_eq!((moved.to.as_str(), moved.halted), ("fault", false));
     assert_eq!(r.on_msg("wash").unwrap().operation, "15");
@@ -119,8 +125,7 @@ fn a_fault_moves_to_the_error_state() {
 
 #[test]
 fn without_an_error_state_a_fault_halts_until_reset() {
-    let mut r = RoutineMachine::new(&plant(false), "truck").unwrap();
-    r.on_msg("load").unwrap();
+    let mut r = truck_after_load(false);
     let moved = r.faulted().unwrap();
     assert_eq!((moved.to.as_str(), moved.halted), ("empty", true));
     assert_eq!(r.on_msg("load").unwrap_err().code(), "ROUTINE_HALTED");
@@ -220,8 +225,7 @@ fn the_operations_of_a_routine_are_listed_once() {
 
 #[test]
 fn a_dispatch_refused_before_it_ran_leaves_the_state_unchanged() {
-    let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
-    r.on_msg("load").unwrap();
+    let mut r = truck_after_load(true);
     r.refused().unwrap();
     assert_eq!((r.state(), r.pending(), r.halted()), ("empty", None, false));
     assert_eq!(r.on_msg("load").unwrap().operation, "10");

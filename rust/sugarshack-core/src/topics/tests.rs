@@ -30,9 +30,34 @@ fn parse(c: &Contract, topic: &str, payload: &str) -> (Incoming, Readings) {
     (seen, out)
 }
 
+/// The samples one message yields.
+fn samples(c: &Contract, topic: &str, payload: &str) -> Vec<Reading> {
+    parse(c, topic, payload).1.samples
+}
+
+/// Checks the samples each message yields, naming the message that differs.
+#[track_caller]
+fn assert_samples(c: &Contract, cases: &[(&str, &str, Vec<Reading>)]) {
+    for (topic, payload, expected) in cases {
+        assert_eq!(&samples(c, topic, payload), expected, "{topic} {payload}");
+    }
+}
+
+/// Asserts where the command driving `id` to `target` goes and what it says.
+#[track_caller]
+fn assert_command(c: &Contract, id: ActuatorId, target: f64, topic: &str, payload: &str) {
+    let m = c.command(id, target);
+    assert_eq!((m.topic.as_str(), m.payload.as_str()), (topic, payload));
+}
+
 const V: ActuatorId = ActuatorId::from_index(0);
 const P: ActuatorId = ActuatorId::from_index(1);
 const D0: DeviceId = DeviceId::from_index(0);
+/// The first device reported offline.
+const D0_OFFLINE: Incoming = Incoming::Status {
+    device: D0,
+    online: false,
+};
 
 fn esphome() -> PlantModel {
     plant(
@@ -62,25 +87,24 @@ fn esphome_states_read_as_the_firmware_writes_them() {
         Incoming::Other { device: D0 }
     );
     assert_eq!(
-        parse(&c, "ctrl-1/switch/p1/state", "OFF").1.samples,
+        samples(&c, "ctrl-1/switch/p1/state", "OFF"),
         vec![Reading::Actuator(P, 0.0)]
     );
-    assert_eq!(
-        parse(&c, "ctrl-1/status", "offline").0,
-        Incoming::Status {
-            device: D0,
-            online: false
-        }
-    );
-    let (_, out) = parse(&c, "station-2/sensor/volume/state", "nan");
-    assert_eq!(
-        out.samples,
-        vec![Reading::SensorUnavailable(SensorId::from_index(0))]
-    );
-    let (_, out) = parse(&c, "station-2/sensor/volume/state", "-4.50");
-    assert_eq!(
-        out.samples,
-        vec![Reading::Sensor(SensorId::from_index(0), -4.5)]
+    assert_eq!(parse(&c, "ctrl-1/status", "offline").0, D0_OFFLINE);
+    assert_samples(
+        &c,
+        &[
+            (
+                "station-2/sensor/volume/state",
+                "nan",
+                vec![Reading::SensorUnavailable(SensorId::from_index(0))],
+            ),
+            (
+                "station-2/sensor/volume/state",
+                "-4.50",
+                vec![Reading::Sensor(SensorId::from_index(0), -4.5)],
+            ),
+        ],
     );
 }
 
@@ -145,16 +169,8 @@ fn bad_payloads_are_refused_with_a_reason() {
 #[test]
 fn esphome_commands_go_where_the_firmware_listens() {
     let c = contract(&esphome());
-    let m = c.command(V, 37.5);
-    assert_eq!(
-        (m.topic.as_str(), m.payload.as_str()),
-        ("ctrl-1/valve/v101/position/command", "37.5")
-    );
-    let m = c.command(P, 1.0);
-    assert_eq!(
-        (m.topic.as_str(), m.payload.as_str()),
-        ("ctrl-1/switch/p1/command", "ON")
-    );
+    assert_command(&c, V, 37.5, "ctrl-1/valve/v101/position/command", "37.5");
+    assert_command(&c, P, 1.0, "ctrl-1/switch/p1/command", "ON");
     assert_eq!(
         c.parse_command("ctrl-1/switch/p1/command", b"on"),
         Some(Ok(Command::Set(P, 1.0)))
@@ -185,9 +201,7 @@ fn a_valve_range_maps_onto_esphome_percent() {
     let c = contract(&p);
     assert_eq!(c.command(V, 25.0).payload, "50");
     assert_eq!(
-        parse(&c, "ctrl-1/valve/v101/position/state", "100")
-            .1
-            .samples,
+        samples(&c, "ctrl-1/valve/v101/position/state", "100"),
         vec![Reading::Actuator(V, 50.0)]
     );
 }
@@ -217,16 +231,25 @@ fn sugarshack_keeps_todays_format() {
         out.samples,
         vec![Reading::Actuator(V, 40.0), Reading::Actuator(P, 1.0)]
     );
-    let (_, out) = parse(&c, "ctrl-1/valve/12/state", r#"{"ts": 5, "value": 41}"#);
-    assert_eq!(out.samples, vec![Reading::Actuator(V, 41.0)]);
-    assert_eq!(
-        parse(&c, "ctrl-1/valve/12/state", "42").1.samples,
-        vec![Reading::Actuator(V, 42.0)]
-    );
-    let (_, out) = parse(&c, "station-2/sensor/volume/state", r#"{"value": 7}"#);
-    assert_eq!(
-        out.samples,
-        vec![Reading::Sensor(SensorId::from_index(0), 7.0)]
+    assert_samples(
+        &c,
+        &[
+            (
+                "ctrl-1/valve/12/state",
+                r#"{"ts": 5, "value": 41}"#,
+                vec![Reading::Actuator(V, 41.0)],
+            ),
+            (
+                "ctrl-1/valve/12/state",
+                "42",
+                vec![Reading::Actuator(V, 42.0)],
+            ),
+            (
+                "station-2/sensor/volume/state",
+                r#"{"value": 7}"#,
+                vec![Reading::Sensor(SensorId::from_index(0), 7.0)],
+            ),
+        ],
     );
     assert_eq!(
         parse(&c, "ctrl-1/telemetry", "{}").0,
@@ -236,11 +259,7 @@ fn sugarshack_keeps_todays_format() {
         Incoming::Refused { refusal, .. } => assert_eq!(refusal.reason, "no known type"),
         other => panic!("{other:?}"),
     }
-    let m = c.command(V, 100.0);
-    assert_eq!(
-        (m.topic.as_str(), m.payload.as_str()),
-        ("ctrl-1/valve/12/command", "100")
-    );
+    assert_command(&c, V, 100.0, "ctrl-1/valve/12/command", "100");
 }
 
 #[test]
@@ -297,29 +316,23 @@ fn tasmota_reads_power_shutters_and_sensor_telemetry() {
         json!([{ "id": "TT-2", "device": "station-2", "name": "t", "entity": "DS18B20.Temperature" }]),
     );
     let c = contract(&p);
-    assert_eq!(
-        parse(&c, "tele/panel/LWT", "Offline").0,
-        Incoming::Status {
-            device: D0,
-            online: false
-        }
-    );
-    assert_eq!(
-        parse(&c, "stat/panel/POWER1", "ON").1.samples,
-        vec![Reading::Actuator(P, 1.0)]
-    );
-    assert_eq!(
-        parse(&c, "stat/panel/RESULT", r#"{"POWER1":"OFF"}"#)
-            .1
-            .samples,
-        vec![Reading::Actuator(P, 0.0)]
-    );
-    let (_, out) = parse(
+    assert_eq!(parse(&c, "tele/panel/LWT", "Offline").0, D0_OFFLINE);
+    assert_samples(
         &c,
-        "stat/panel/RESULT",
-        r#"{"Shutter1":{"Position":54,"Direction":1,"Target":100,"Tilt":0}}"#,
+        &[
+            ("stat/panel/POWER1", "ON", vec![Reading::Actuator(P, 1.0)]),
+            (
+                "stat/panel/RESULT",
+                r#"{"POWER1":"OFF"}"#,
+                vec![Reading::Actuator(P, 0.0)],
+            ),
+            (
+                "stat/panel/RESULT",
+                r#"{"Shutter1":{"Position":54,"Direction":1,"Target":100,"Tilt":0}}"#,
+                vec![Reading::Actuator(V, 54.0)],
+            ),
+        ],
     );
-    assert_eq!(out.samples, vec![Reading::Actuator(V, 54.0)]);
     assert_eq!(
         parse(&c, "stat/panel/RESULT", r#"{"Command":"Unknown"}"#).0,
         Incoming::Other { device: D0 }
@@ -328,20 +341,15 @@ fn tasmota_reads_power_shutters_and_sensor_telemetry() {
         parse(&c, "cmnd/panel/POWER", "").0,
         Incoming::Other { device: D0 }
     );
-    let (_, out) = parse(
-        &c,
-        "tele/station-2/SENSOR",
-        r#"{"Time":"2024-05-01T12:00:00","DS18B20":{"Id":"01","Temperature":21.5},"TempUnit":"C"}"#,
-    );
     assert_eq!(
-        out.samples,
+        samples(
+            &c,
+            "tele/station-2/SENSOR",
+            r#"{"Time":"2024-05-01T12:00:00","DS18B20":{"Id":"01","Temperature":21.5},"TempUnit":"C"}"#
+        ),
         vec![Reading::Sensor(SensorId::from_index(0), 21.5)]
     );
-    let m = c.command(V, 50.0);
-    assert_eq!(
-        (m.topic.as_str(), m.payload.as_str()),
-        ("cmnd/panel/ShutterPosition1", "50")
-    );
+    assert_command(&c, V, 50.0, "cmnd/panel/ShutterPosition1", "50");
     assert_eq!(c.command(P, 0.0).topic, "cmnd/panel/POWER1");
 }
 
@@ -355,25 +363,22 @@ fn shelly_reads_component_status_and_notifications() {
         json!([{ "id": "TT-2", "device": "station-2", "name": "t", "entity": "temperature:0.tC" }]),
     );
     let c = contract(&p);
-    assert_eq!(
-        parse(&c, "ctrl-1/online", "false").0,
-        Incoming::Status {
-            device: D0,
-            online: false
-        }
-    );
-    let (_, out) = parse(
+    assert_eq!(parse(&c, "ctrl-1/online", "false").0, D0_OFFLINE);
+    assert_samples(
         &c,
-        "ctrl-1/status/switch:0",
-        r#"{"id":0, "source":"init", "output":true, "apower":0.0}"#,
+        &[
+            (
+                "ctrl-1/status/switch:0",
+                r#"{"id":0, "source":"init", "output":true, "apower":0.0}"#,
+                vec![Reading::Actuator(P, 1.0)],
+            ),
+            (
+                "ctrl-1/status/cover:0",
+                r#"{"id":0,"state":"open","current_pos":100}"#,
+                vec![Reading::Actuator(V, 100.0)],
+            ),
+        ],
     );
-    assert_eq!(out.samples, vec![Reading::Actuator(P, 1.0)]);
-    let (_, out) = parse(
-        &c,
-        "ctrl-1/status/cover:0",
-        r#"{"id":0,"state":"open","current_pos":100}"#,
-    );
-    assert_eq!(out.samples, vec![Reading::Actuator(V, 100.0)]);
     let (_, out) = parse(
         &c,
         "ctrl-1/status/cover:0",
@@ -393,20 +398,15 @@ fn shelly_reads_component_status_and_notifications() {
         }
     );
     assert_eq!(out.samples, vec![Reading::Actuator(P, 0.0)]);
-    let (_, out) = parse(
-        &c,
-        "station-2/status/temperature:0",
-        r#"{"id":0,"tC":21.5,"tF":70.7}"#,
-    );
     assert_eq!(
-        out.samples,
+        samples(
+            &c,
+            "station-2/status/temperature:0",
+            r#"{"id":0,"tC":21.5,"tF":70.7}"#
+        ),
         vec![Reading::Sensor(SensorId::from_index(0), 21.5)]
     );
-    let m = c.command(V, 50.0);
-    assert_eq!(
-        (m.topic.as_str(), m.payload.as_str()),
-        ("ctrl-1/command/cover:0", "pos,50")
-    );
+    assert_command(&c, V, 50.0, "ctrl-1/command/cover:0", "pos,50");
     assert_eq!(c.command(P, 1.0).payload, "on");
 }
 
@@ -441,16 +441,10 @@ fn a_custom_device_reads_by_template_path_and_map() {
     );
     assert_eq!(out.samples, vec![Reading::Actuator(V, 30.0)]);
     assert_eq!(
-        parse(&c, "z2m/P1/state", "RUN").1.samples,
+        samples(&c, "z2m/P1/state", "RUN"),
         vec![Reading::Actuator(P, 1.0)]
     );
-    assert_eq!(
-        parse(&c, "z2m/bridge/state", "offline").0,
-        Incoming::Status {
-            device: D0,
-            online: false
-        }
-    );
+    assert_eq!(parse(&c, "z2m/bridge/state", "offline").0, D0_OFFLINE);
     assert_eq!(c.command(V, 12.0).payload, r#"{"position":12}"#);
     assert_eq!(c.command(P, 0.0).payload, "STOP");
     assert_eq!(

@@ -22,6 +22,17 @@ fn auto(setpoint: f64, measurement: f64) -> PidInput {
     }
 }
 
+/// A PID with this fallback output, after one step at 40 for a set point of 50.
+fn stepped_once_with_fallback(fallback: f64) -> Pid {
+    let mut pid = Pid::new(PidConfig {
+        fallback: Some(fallback),
+        ..config()
+    })
+    .unwrap();
+    pid.step(auto(50.0, 40.0)).unwrap();
+    pid
+}
+
 #[test]
 fn terms_follow_the_standard_form() {
     let mut pid = Pid::new(config()).unwrap();
@@ -126,12 +137,7 @@ fn new_tunings_do_not_bump_the_output() {
 
 #[test]
 fn a_missing_or_nan_measurement_holds_the_integrator_and_outputs_the_fallback() {
-    let mut pid = Pid::new(PidConfig {
-        fallback: Some(10.0),
-        ..config()
-    })
-    .unwrap();
-    pid.step(auto(50.0, 40.0)).unwrap();
+    let mut pid = stepped_once_with_fallback(10.0);
     let integral = pid.integral();
     for measurement in [None, Some(f64::NAN), Some(f64::INFINITY)] {
         let step = pid
@@ -241,12 +247,7 @@ fn a_restored_integral_resumes_the_output() {
 
 #[test]
 fn tracking_without_a_measurement_follows_the_action_and_reseeds_from_it() {
-    let mut pid = Pid::new(PidConfig {
-        fallback: Some(0.0),
-        ..config()
-    })
-    .unwrap();
-    pid.step(auto(50.0, 40.0)).unwrap();
+    let mut pid = stepped_once_with_fallback(0.0);
     let blind = pid
         .step(PidInput {
             measurement: None,

@@ -34,6 +34,11 @@ fn state(last_action: f64, ages: [Option<f64>; 3]) -> IoState {
     }
 }
 
+/// One scan of the loop these tests drive: setpoint 5, measurement 4, every 0.2 s.
+fn run_scan(rcc: &mut RccController, pid: &mut Pid, io: IoState) -> Scan {
+    rcc.scan(pid, &io, 5.0, Some(4.0), 0.2).unwrap()
+}
+
 #[test]
 fn thresholds_must_rise_with_the_id_from_ts() {
     let valid = [millis(200.0), millis(400.0), millis(600.0)];
@@ -70,10 +75,7 @@ fn thresholds_must_rise_with_the_id_from_ts() {
     );
     let outside = RccConfig {
         id: 4,
-        thresholds: vec![millis(200.0), millis(400.0), millis(600.0)],
-        ts: millis(200.0),
-        smooth_handover: true,
-        poll_timeout: None,
+        ..controller(1).config().clone()
     };
     assert_eq!(
         RccController::new(outside).unwrap_err().code(),
@@ -118,15 +120,11 @@ fn a_backup_engages_only_when_every_lower_id_is_older_than_its_threshold() {
 fn standby_and_first_cycle_track_the_last_action() {
     let mut secondary = controller(2);
     let mut pid = pid();
-    let scan = secondary
-        .scan(
-            &mut pid,
-            &state(6.0, [Some(50.0), None, None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
+    let scan = run_scan(
+        &mut secondary,
+        &mut pid,
+        state(6.0, [Some(50.0), None, None]),
+    );
     assert_eq!(
         (scan.engaged, scan.first_cycle, scan.write),
         (false, true, None)
@@ -136,15 +134,11 @@ fn standby_and_first_cycle_track_the_last_action() {
         (StepMode::Tracking, 6.0)
     );
     // engaged after the primary's age passes D_2: first write continues from 6.0
-    let scan = secondary
-        .scan(
-            &mut pid,
-            &state(6.0, [Some(420.0), None, None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
+    let scan = run_scan(
+        &mut secondary,
+        &mut pid,
+        state(6.0, [Some(420.0), None, None]),
+    );
     assert!(scan.engaged && !scan.first_cycle);
     let written = scan.write.unwrap();
     assert!(
@@ -157,35 +151,15 @@ fn standby_and_first_cycle_track_the_last_action() {
 fn an_engaged_controller_after_a_timeout_tracks_once_then_runs_free() {
     let mut primary = controller(1);
     let mut pid = pid();
-    primary
-        .scan(
-            &mut pid,
-            &state(0.0, [None, None, None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
-    let free = primary
-        .scan(
-            &mut pid,
-            &state(3.0, [Some(0.0), None, None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
+    run_scan(&mut primary, &mut pid, state(0.0, [None, None, None]));
+    let free = run_scan(&mut primary, &mut pid, state(3.0, [Some(0.0), None, None]));
     assert_eq!(free.step.mode, StepMode::Auto);
     primary.poll_timed_out();
-    let back = primary
-        .scan(
-            &mut pid,
-            &state(7.5, [Some(900.0), Some(10.0), None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
+    let back = run_scan(
+        &mut primary,
+        &mut pid,
+        state(7.5, [Some(900.0), Some(10.0), None]),
+    );
     assert!(back.first_cycle && back.engaged);
     assert_eq!(
         (back.step.mode, back.write),
@@ -202,15 +176,11 @@ fn without_smooth_handover_the_standby_integrator_runs_free() {
     })
     .unwrap();
     let mut pid = pid();
-    let scan = secondary
-        .scan(
-            &mut pid,
-            &state(6.0, [Some(50.0), None, None]),
-            5.0,
-            Some(4.0),
-            0.2,
-        )
-        .unwrap();
+    let scan = run_scan(
+        &mut secondary,
+        &mut pid,
+        state(6.0, [Some(50.0), None, None]),
+    );
     assert_eq!(scan.step.mode, StepMode::Auto);
     assert!(scan.write.is_none());
 }

@@ -35,6 +35,24 @@ fn sample(measurement: f64, sample_ms: f64) -> Sample {
     }
 }
 
+/// A sample that carries the RCC's decision for this scan.
+fn decided(
+    engaged: bool,
+    first_cycle: bool,
+    track: Option<f64>,
+    measurement: f64,
+    sample_ms: f64,
+) -> Sample {
+    Sample {
+        decision: Some(Decision {
+            engaged,
+            first_cycle,
+            track,
+        }),
+        ..sample(measurement, sample_ms)
+    }
+}
+
 #[test]
 fn dt_runs_between_sample_times_and_the_first_sample_integrates_over_ts() {
     let mut s = Station::new(config()).unwrap();
@@ -208,28 +226,12 @@ fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
 #[test]
 fn stale_behind_rcc_steps_nothing_and_says_so_once() {
     let mut s = Station::new(config()).unwrap();
-    let decision = Decision {
-        engaged: true,
-        first_cycle: true,
-        track: Some(10.0),
-    };
     let first = s
-        .measure(Sample {
-            decision: Some(decision),
-            ..sample(40.0, 1000.0)
-        })
+        .measure(decided(true, true, Some(10.0), 40.0, 1000.0))
         .unwrap();
     assert_eq!((first.engaged, first.pid.output), (true, 10.0));
-    let standby = Decision {
-        engaged: false,
-        first_cycle: false,
-        track: Some(12.0),
-    };
     let out = s
-        .measure(Sample {
-            decision: Some(standby),
-            ..sample(40.0, 1050.0)
-        })
+        .measure(decided(false, false, Some(12.0), 40.0, 1050.0))
         .unwrap();
     assert!(!out.engaged);
     assert_eq!(s.tick(millis(1130.0)).unwrap(), Some(Stale::NoIo));
@@ -245,16 +247,8 @@ fn manual_overrides_what_an_rcc_decision_tracks() {
         ..config()
     })
     .unwrap();
-    let decision = Decision {
-        engaged: true,
-        first_cycle: false,
-        track: Some(10.0),
-    };
     let out = s
-        .measure(Sample {
-            decision: Some(decision),
-            ..sample(40.0, 1000.0)
-        })
+        .measure(decided(true, false, Some(10.0), 40.0, 1000.0))
         .unwrap();
     assert_eq!((out.pid.output, out.pid.mode), (33.0, ReportMode::Manual));
 }
