@@ -72,6 +72,9 @@ stage "clippy, native and wasm (warnings are errors)"
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy -p sugarshack-wasm --target wasm32-unknown-unknown --all-targets -- -D warnings
 
+stage "repetition (jscpd: no code written twice in the Rust and JS, tests included)"
+npx jscpd .
+
 stage "cargo test (sugarshack-core, control experiments)"
 counted cargo test -p sugarshack-core -p sugarshack-experiments
 

@@ -78,6 +78,12 @@ const events = (seen, kind) => seen.ev.filter((m) => m.topic.startsWith(`actuato
 /** Lets what the msgs given so far set off run to its end, without time passing. */
 const quiet = () => settled(helper, 'pl');
 
+// Two actuators with three problems: an unknown device, io 0, a lockout out of range.
+const BROKEN_ACTUATORS = [
+  { id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 },
+  { id: 'V13', type: 'valve', device: 'ctrl-1', io: 0, idle: 0, lockout: 200 },
+];
+
 describe('sugarshack actuator nodes', function () {
   beforeEach(startServer);
 
@@ -392,10 +398,7 @@ describe('sugarshack actuator nodes', function () {
     const completions = trackCompletions();
     const broken = {
       ...PLANT,
-      actuators: [
-        { id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 },
-        { id: 'V13', type: 'valve', device: 'ctrl-1', io: 0, idle: 0, lockout: 200 },
-      ],
+      actuators: BROKEN_ACTUATORS,
     };
     const seen = await start({ plant: broken });
     const logged = errors('pl');
@@ -448,10 +451,7 @@ describe('sugarshack actuator nodes', function () {
 
     res = await validate({
       ...PLANT,
-      actuators: [
-        { id: 'V12', type: 'valve', device: 'ctrl-9', io: 12, idle: 0, lockout: 0 },
-        { id: 'V13', type: 'valve', device: 'ctrl-1', io: 0, idle: 0, lockout: 200 },
-      ],
+      actuators: BROKEN_ACTUATORS,
     });
     assert.equal(res.status, 200);
     assert.equal(res.body.valid, false);

@@ -11,7 +11,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, TAB, sinkNode, collect, until, serverPerTest, completions,
-  settings, settled, clock, runFor, runUntil, userDir,
+  settings, settled, clock, runFor, runUntil, userDir, memoryStore,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -267,20 +267,7 @@ describe('sugarshack control: pid', function () {
   describe('persist: the loop state in a file of the user directory', function () {
     const data = {}; // the 'kept' context store's contents: scope -> key -> value
     // A context store that takes 20 ms (manual clock) to read, as earlier versions' flows may have used.
-    const slowStore = () => ({
-      open: () => Promise.resolve(),
-      close: () => Promise.resolve(),
-      get: (scope, key, cb) => clock().setTimeout(() => cb(null, (data[scope] || {})[key]), 20),
-      set: (scope, key, value, cb) => {
-        const values = (data[scope] = data[scope] || {});
-        if (value === undefined) delete values[key];
-        else values[key] = JSON.parse(JSON.stringify(value));
-        if (cb) cb();
-      },
-      keys: (scope, cb) => cb(null, Object.keys(data[scope] || {})),
-      delete: (scope) => { delete data[scope]; return Promise.resolve(); },
-      clean: () => Promise.resolve(),
-    });
+    const slowStore = memoryStore(data, (scope, key, cb) => clock().setTimeout(() => cb(null, (data[scope] || {})[key]), 20));
     const stateFile = () => path.join(userDir(), 'sugarshack', 'pid-pid.json');
     const markerFile = () => path.join(userDir(), 'sugarshack', 'pid-pid.ran');
     const savedState = () => JSON.parse(fs.readFileSync(stateFile(), 'utf8'));

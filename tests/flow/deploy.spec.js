@@ -12,25 +12,19 @@ const {
   paletteNodes, TAB, sinkNode, until, trackCompletions, trackDeliveries, untrackCompletions,
   startServer, stopServer, settled, clock, runFor, runUntil,
 } = require('./support');
-const { fakePanel, sensor, stopPanels } = require('./fake-panel');
+const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
-const valve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
 const command = (valves, timeoutMs = 3000) => ({ command: { valves }, timeoutMs });
 
 function plantDocument() {
   return {
-    actuatorTypes: {
-      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-      pump: { signal: 'binary', noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-    },
-    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
-    actuators: [
-      valve('V101', 1, 'YEL'), valve('V102', 2, 'YEL'), valve('V201', 3, 'GRN'), valve('V202', 4, 'GRN'),
-      valve('V501', 5, 'RED'), valve('V502', 6, 'RED'),
-      { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' },
-    ],
+    ...fakePlant([
+      fakeValve('V101', 1, 'YEL'), fakeValve('V102', 2, 'YEL'), fakeValve('V201', 3, 'GRN'), fakeValve('V202', 4, 'GRN'),
+      fakeValve('V501', 5, 'RED'), fakeValve('V502', 6, 'RED'),
+      fakePump('YEL'),
+    ]),
     sensors: [
       { id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 400 },
       { id: 'LT-7', device: 'station-3', name: 'level', staleMs: 400 },

@@ -11,7 +11,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, userDir, clock,
+  startServer, stopServer, settings, settled, userDir, clock, memoryStore,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -294,15 +294,7 @@ describe('sugarshack durable interlock state', function () {
       queue: [],
       holds: [],
     } } };
-    const slowStore = () => ({
-      open: () => Promise.resolve(),
-      close: () => Promise.resolve(),
-      get: (scope, key, cb) => { release150 = () => cb(null, (data[scope] || {})[key]); },
-      set: (scope, key, value, cb) => { (data[scope] = data[scope] || {})[key] = value; if (cb) cb(); },
-      keys: (scope, cb) => cb(null, Object.keys(data[scope] || {})),
-      delete: (scope) => { delete data[scope]; return Promise.resolve(); },
-      clean: () => Promise.resolve(),
-    });
+    const slowStore = memoryStore(data, (scope, key, cb) => { release150 = () => cb(null, (data[scope] || {})[key]); });
     settings({ contextStorage: { slow: { module: slowStore } } });
     await helper.load([...paletteNodes, () => contextModule.load()], flow([], { store: 'slow' }));
     const out = collect(helper, 'out');

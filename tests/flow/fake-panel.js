@@ -64,4 +64,32 @@ function sensor(helper, value, { station = 'station-3', name = 'volume', bus = '
   helper.getNode(bus).receive({ topic: `${station}/sensor/${name}/state`, payload: { ts: clock().now(), value } });
 }
 
-module.exports = { fakePanel, sensor, stopPanels };
+/**
+ * The start of a plant document the fake devices answer for: a valve type and a
+ * pump type with short timings, panel ctrl-1 and station-3, and `actuators`.
+ */
+function fakePlant(actuators) {
+  return {
+    actuatorTypes: {
+      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
+      pump: { signal: 'binary', noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
+    },
+    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
+    actuators,
+  };
+}
+
+/** A valve of panel ctrl-1 on `line`, idle and locked out closed. */
+const fakeValve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
+/** Pump P1 of panel ctrl-1 on `line`, idle and locked out off. */
+const fakePump = (line) => ({ id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: line });
+
+/** The truck routine of the tests' plants: empty, full and its error state fault; op 10 loads it on 'load', then `rest`. */
+function truckRoutine(...rest) {
+  return {
+    id: 'truck', states: ['empty', 'full', 'fault'], initial: 'empty', errorState: 'fault',
+    transitions: [{ from: 'empty', to: 'full', operation: '10', trigger: { msg: 'load' } }, ...rest],
+  };
+}
+
+module.exports = { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine };

@@ -19,8 +19,9 @@ const {
 const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
-const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
 const { hooks } = require('@node-red/util');
+
+const { truckRoutine } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -40,14 +41,10 @@ function plantDocument() {
         { wait: '`LT-3` >= 100', sensors: ['LT-3'], timeoutMs: 3000 },
       ] },
     ],
-    routines: [{
-      id: 'truck', states: ['empty', 'full', 'fault'], initial: 'empty', errorState: 'fault',
-      transitions: [
-        { from: 'empty', to: 'full', operation: '10', trigger: { msg: 'load' } },
-        { from: 'full', to: 'empty', operation: '18', trigger: { msg: 'unload' } },
-        { from: 'fault', to: 'empty', operation: '10', trigger: { when: '`LT-3` < 50', sensors: ['LT-3'], everyMs: 1000 } },
-      ],
-    }],
+    routines: [truckRoutine(
+      { from: 'full', to: 'empty', operation: '18', trigger: { msg: 'unload' } },
+      { from: 'fault', to: 'empty', operation: '10', trigger: { when: '`LT-3` < 50', sensors: ['LT-3'], everyMs: 1000 } },
+    )],
   });
 }
 

@@ -18,6 +18,8 @@ const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node')
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
 
+const { truckRoutine } = require('./fake-panel');
+
 helper.init(require.resolve('node-red'));
 
 // ---- the plant ------------------------------------------------------------------
@@ -28,13 +30,9 @@ function plantDocument() {
     operations: [
       { id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 10000 }] },
     ],
-    routines: [{
-      id: 'truck', states: ['empty', 'full', 'fault'], initial: 'empty', errorState: 'fault',
-      transitions: [
-        { from: 'empty', to: 'full', operation: '10', trigger: { msg: 'load' } },
-        { from: 'full', to: 'empty', operation: '10', trigger: { msg: 'unload' } },
-      ],
-    }],
+    routines: [truckRoutine(
+      { from: 'full', to: 'empty', operation: '10', trigger: { msg: 'unload' } },
+    )],
   });
 }
 

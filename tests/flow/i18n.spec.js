@@ -95,27 +95,29 @@ function editorScripts() {
 }
 
 /** The arguments of the call whose "(" is at `open`, as source text, split at top-level commas. */
-function callArgs(source, open) {
-  const args = [];
+/**
+ * Walks from the bracket at `open` to the one closing it, strings skipped, and
+ * returns its index; `atComma(i)` is told each comma at the first level.
+ */
+function walkBrackets(source, open, atComma = () => {}) {
   let depth = 0;
-  let start = open + 1;
   for (let i = open; i < source.length; i++) {
     const c = source[i];
     if (c === "'" || c === '"' || c === '`') {
       for (i++; i < source.length && source[i] !== c; i++) if (source[i] === '\\') i++;
     } else if ('([{'.includes(c)) depth++;
-    else if (')]}'.includes(c)) {
-      depth--;
-      if (depth === 0) {
-        args.push(source.slice(start, i).trim());
-        return args.filter((a) => a !== '');
-      }
-    } else if (c === ',' && depth === 1) {
-      args.push(source.slice(start, i).trim());
-      start = i + 1;
-    }
+    else if (')]}'.includes(c) && --depth === 0) return i;
+    else if (c === ',' && depth === 1) atComma(i);
   }
-  throw new Error(`unclosed call at ${open}`);
+  throw new Error(`unclosed bracket at ${open}`);
+}
+
+/** The arguments of the call whose parenthesis is at `open`, as source text. */
+function callArgs(source, open) {
+  const cuts = [open];
+  walkBrackets(source, open, (i) => cuts.push(i));
+  cuts.push(closing(source, open));
+  return cuts.slice(1).map((cut, k) => source.slice(cuts[k] + 1, cut).trim()).filter((arg) => arg !== '');
 }
 
 /** The names an object literal `{ a, b: x }` gives; null when the argument is not one. */
@@ -258,15 +260,7 @@ describe('texts built in JS', function () {
 
 /** Index of the bracket closing the one at `open` (strings skipped). */
 function closing(source, open) {
-  let depth = 0;
-  for (let i = open; i < source.length; i++) {
-    const c = source[i];
-    if (c === "'" || c === '"' || c === '`') {
-      for (i++; i < source.length && source[i] !== c; i++) if (source[i] === '\\') i++;
-    } else if ('([{'.includes(c)) depth++;
-    else if (')]}'.includes(c) && --depth === 0) return i;
-  }
-  throw new Error(`unclosed bracket at ${open}`);
+  return walkBrackets(source, open);
 }
 
 const LABEL_PROPERTY = /(?<![\w$])(label|paletteLabel|inputLabels|outputLabels)\s*:\s*/g;
@@ -357,17 +351,25 @@ describe('texts in the runtime language', function () {
   beforeEach(startServer);
   afterEach(stopServer);
 
-  it('a Catch node gets a lib/ error and a node error in the catalog language, with their codes', async function () {
-    await helper.load(inGerman, [
+  /** Loads acquire 'a', whose priority 'urgent' is refused, with `extra` nodes and a Catch node; resolves with what it caught once 'a' was refused. */
+  async function refusedAcquire(nodeSet, extra = []) {
+    await helper.load(nodeSet, [
       TAB, interlockConfig(),
       acquire('a', '10', 'urgent', 'YEL', 'out'),
-      { id: 'f', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', resources: 'GRN', after: 'fail', wires: [['out'], []] },
+      ...extra,
       { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
       sinkNode('out'), sinkNode('caught'),
     ]);
     const caught = collect(helper, 'caught');
     helper.getNode('a').receive({});
     await until(() => caught.length === 1, 'the refused acquire');
+    return caught;
+  }
+
+  it('a Catch node gets a lib/ error and a node error in the catalog language, with their codes', async function () {
+    const caught = await refusedAcquire(inGerman, [
+      { id: 'f', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', resources: 'GRN', after: 'fail', wires: [['out'], []] },
+    ]);
     assert.equal(caught[0].error.code, 'INVALID_PRIORITY');
     assert.equal(caught[0].error.message, 'SugarshackError: die eingestellte Priorität muss eine ganze Zahl sein, nicht "urgent"');
 
@@ -378,15 +380,7 @@ describe('texts in the runtime language', function () {
   });
 
   it('without a catalog for the language a text stays in English', async function () {
-    await helper.load(paletteNodes, [
-      TAB, interlockConfig(),
-      acquire('a', '10', 'urgent', 'YEL', 'out'),
-      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-      sinkNode('out'), sinkNode('caught'),
-    ]);
-    const caught = collect(helper, 'caught');
-    helper.getNode('a').receive({});
-    await until(() => caught.length === 1, 'the refused acquire');
+    const caught = await refusedAcquire(paletteNodes);
     assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be an integer (higher = more urgent), got "urgent"');
   });
 });

@@ -18,6 +18,23 @@ const lastStatus = (id) => {
   return calls.length ? calls[calls.length - 1].args[0] : undefined;
 };
 
+/**
+ * Loads `nodes` with sinks 'out' and 'caught' and a Catch node of `scope` (all
+ * nodes when null) wired to 'caught', then sends op 10's msg to node a10 and
+ * waits for its grant; resolves with what the sinks got.
+ */
+async function grantingTen(scope, nodes) {
+  await helper.load(paletteNodes, [
+    ...nodes,
+    { id: 'c1', z: 'f1', type: 'catch', scope, uncaught: false, wires: [['caught']] },
+    sinkNode('out'), sinkNode('caught'),
+  ]);
+  const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
+  helper.getNode('a10').receive({});
+  await until(() => out.length === 1, 'op 10 granted');
+  return { out, caught };
+}
+
 describe('sugarshack interlock nodes', function () {
   beforeEach(startServer);
 
@@ -230,19 +247,14 @@ describe('sugarshack interlock nodes', function () {
   });
 
   it('refuses bad input through a Catch node with the core code, red ring, nothing sent, state unchanged', async function () {
-    await helper.load(paletteNodes, [
+    const { out, caught } = await grantingTen(null, [
       TAB, interlockConfig(),
       acquire('a10', '10', 20, 'YEL', 'out'),
       acquire('aBad', '', 5, '', 'out'),
       release('rel', 'out'),
       { id: 'can', z: 'f1', type: 'sugarshack-cancel', interlock: 'il', operation: '', wires: [['out']] },
       { id: 'clr', z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources: '', wires: [['out']] },
-      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-      sinkNode('out'), sinkNode('caught'),
     ]);
-    const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
-    helper.getNode('a10').receive({});
-    await until(() => out.length === 1, 'op 10 granted');
     const before = snapshot();
 
     const cases = [
@@ -308,17 +320,12 @@ describe('sugarshack interlock nodes', function () {
   });
 
   it('an acquire timeout withdraws the request and reaches a Catch node', async function () {
-    await helper.load(paletteNodes, [
+    const { out, caught } = await grantingTen(['a12'], [
       TAB, interlockConfig(),
       acquire('a10', '10', 20, 'YEL', 'out'),
       acquire('a12', '12', 22, 'YEL', 'out', { timeout: 0.15 }),
       release('rel'),
-      { id: 'c1', z: 'f1', type: 'catch', scope: ['a12'], uncaught: false, wires: [['caught']] },
-      sinkNode('out'), sinkNode('caught'),
     ]);
-    const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
-    helper.getNode('a10').receive({});
-    await until(() => out.length === 1, 'op 10 granted');
     helper.getNode('a12').receive({ payload: 'unload' });
     await quiet();
     await clock().advance(149);

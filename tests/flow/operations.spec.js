@@ -12,23 +12,17 @@ const {
   paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, trackDeliveries, untrackCompletions,
   startServer, stopServer, settled, clock, userDir, runFor, runUntil,
 } = require('./support');
-const { fakePanel: panelOf, sensor: sensorOf, stopPanels } = require('./fake-panel');
+const { fakePanel: panelOf, sensor: sensorOf, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
-const valve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: line });
 
 function plantDocument() {
   return {
-    actuatorTypes: {
-      valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-      pump: { signal: 'binary', noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-    },
-    devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
-    actuators: [
-      valve('V101', 1, 'YEL'), valve('V102', 2, 'YEL'), valve('V501', 5, 'RED'),
-      { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' },
-    ],
+    ...fakePlant([
+      fakeValve('V101', 1, 'YEL'), fakeValve('V102', 2, 'YEL'), fakeValve('V501', 5, 'RED'),
+      fakePump('YEL'),
+    ]),
     sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 400 }],
     resources: [{ id: 'YEL' }, { id: 'RED' }],
     operations: [
@@ -43,13 +37,9 @@ function plantDocument() {
       { id: '12', description: 'unload truck', priority: 22, resources: ['YEL'], steps: [{ command: { valves: { V101: 50 } }, timeoutMs: 3000 }] },
       { id: '18', description: 'flit downstock', priority: 92, resources: ['YEL', 'RED'], steps: [{ command: { valves: { V102: 100, V501: 100 } }, timeoutMs: 3000 }] },
     ],
-    routines: [{
-      id: 'truck', states: ['empty', 'full', 'fault'], initial: 'empty', errorState: 'fault',
-      transitions: [
-        { from: 'empty', to: 'full', operation: '10', trigger: { msg: 'load' } },
-        { from: 'full', to: 'empty', operation: '12', trigger: { when: '`LT-3` >= 100', sensors: ['LT-3'], everyMs: 100 } },
-      ],
-    }],
+    routines: [truckRoutine(
+      { from: 'full', to: 'empty', operation: '12', trigger: { when: '`LT-3` >= 100', sensors: ['LT-3'], everyMs: 100 } },
+    )],
   };
 }
 

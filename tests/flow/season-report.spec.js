@@ -10,21 +10,15 @@ const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, startServer, stopServer, userDir, runFor, runUntil,
 } = require('./support');
-const { fakePanel, sensor, stopPanels } = require('./fake-panel');
+const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { stats } = require(path.join(PALETTE, 'lib', 'stats.js'));
 const { readJournal } = require(path.join(PALETTE, 'lib', 'journal', 'files.js'));
 const { main } = require('../../scripts/season-report');
 
 helper.init(require.resolve('node-red'));
 
-const valve = (id, io) => ({ id, type: 'valve', device: 'ctrl-1', io, idle: 0, lockout: 0, resource: 'YEL' });
 const PLANT = {
-  actuatorTypes: {
-    valve: { signal: 'analog', min: 0, max: 100, tolerance: 3, noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-    pump: { signal: 'binary', noMotionMs: 400, completionMs: 2000, staleMs: 60000 },
-  },
-  devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }, { id: 'station-3', kind: 'sensor-station' }],
-  actuators: [valve('V101', 1), valve('V102', 2), { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: 'YEL' }],
+  ...fakePlant([fakeValve('V101', 1, 'YEL'), fakeValve('V102', 2, 'YEL'), fakePump('YEL')]),
   sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 400 }],
   resources: [{ id: 'YEL' }],
   operations: [

@@ -217,7 +217,29 @@ async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs
   return passed;
 }
 
+/**
+ * A context store module (for `settings({ contextStorage })`) over `data`
+ * (scope -> key -> value), values kept as JSON as a store on disk keeps them.
+ * `get` answers; pass one that answers late to stand for a store on a slow disk.
+ */
+function memoryStore(data, get = (scope, key, cb) => cb(null, (data[scope] || {})[key])) {
+  return () => ({
+    open: () => Promise.resolve(),
+    close: () => Promise.resolve(),
+    get,
+    set: (scope, key, value, cb) => {
+      const values = (data[scope] = data[scope] || {});
+      if (value === undefined) delete values[key];
+      else values[key] = JSON.parse(JSON.stringify(value));
+      if (cb) cb();
+    },
+    keys: (scope, cb) => cb(null, Object.keys(data[scope] || {})),
+    delete: (scope) => { delete data[scope]; return Promise.resolve(); },
+    clean: () => Promise.resolve(),
+  });
+}
+
 module.exports = {
-  PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  memoryStore, PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

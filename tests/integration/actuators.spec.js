@@ -10,13 +10,13 @@ const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator, SMALL_PLANT } = require('./support/simulator');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
-  paletteNodes, TAB, sinkNode, startRealTimeServer, stopServer, settings, collect, sleep, until,
+  TAB, sinkNode, startRealTimeServer, settings, collect, sleep, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
+const { PALETTE_AND_MQTT, busNodes, actuatorEvents, stopAll } = require('./support/mqtt-nodes');
+const { mqttBroker } = require('./support/node-red');
 
-const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const mqttNodes = require(path.join(coreNodesDir, 'core/network/10-mqtt.js'));
 
 const PLANT = loadPlant(SMALL_PLANT);
 const { noMotionMs, staleMs } = PLANT.actuatorTypes.valve; // 4 s, 5 s
@@ -26,10 +26,7 @@ function flow(port) {
   return [
     TAB,
     { id: 'pl', type: 'sugarshack-plant', name: 'small plant', plant: PLANT },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-    },
+    mqttBroker('br', port),
     {
       id: 'min', z: 'f1', type: 'mqtt in', name: '', topic: 'ctrl-1/#', qos: '1', datatype: 'auto-detect', broker: 'br',
       nl: false, rap: true, rh: 0, inputs: 0, wires: [['bus']],
@@ -39,15 +36,13 @@ function flow(port) {
       id: 'min9', z: 'f1', type: 'mqtt in', name: '', topic: 'ctrl-9/#', qos: '1', datatype: 'auto-detect', broker: 'br',
       nl: false, rap: true, rh: 0, inputs: 0, wires: [['bus']],
     },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mout'], ['ret'], ['ev']] },
-    { id: 'mout', z: 'f1', type: 'mqtt out', name: '', topic: '', qos: '', retain: '', broker: 'br', wires: [] },
-    { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']] },
+    ...busNodes(),
     { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
     ...SINKS.map(sinkNode),
   ];
 }
 
-const events = (seen, kind, id) => seen.ev.filter((m) => m.topic === `actuator/${kind}/${id}`).map((m) => m.payload);
+const events = actuatorEvents;
 const warnings = (id) => helper.getNode(id).warn.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
 const command = (payload) => helper.getNode('gc').receive({ payload });
 const lastStatus = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).at(-1).args[0];
@@ -66,20 +61,15 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     probe = await connectProbe(broker.url, ['ctrl-1/+/+/command']);
     await new Promise((resolve) => startRealTimeServer(resolve));
     settings({ mqttReconnectTime: 300 });
-    await helper.load([...paletteNodes, mqttNodes], flow(broker.port));
+    await helper.load(PALETTE_AND_MQTT, flow(broker.port));
     seen = {};
     for (const id of SINKS) seen[id] = collect(helper, id);
     await until(() => events(seen, 'changed', 'V101').length > 0 && events(seen, 'changed', 'P1').length > 0, 'the first panel batch', 5000);
   }
 
   afterEach(async function () {
-    await stopServer().catch(() => {});
-    if (probe) await probe.end().catch(() => {});
-    if (sim) await sim.stop().catch(() => {});
-    if (broker) await broker.stop();
-    broker = null;
-    sim = null;
-    probe = null;
+    await stopAll({ probe, sim, broker });
+    [broker, sim, probe] = [null, null, null];
   });
 
   it('runs a group command end to end: command, motion, completion, return', async function () {

@@ -30,13 +30,13 @@ const { startEspHome } = require('./support/impersonators/esphome');
 const { startTasmota } = require('./support/impersonators/tasmota');
 const { startShellyGen2 } = require('./support/impersonators/shelly-gen2');
 const {
-  paletteNodes, TAB, sinkNode, startServer, stopServer, settings, settled, clock, collect, until,
+  TAB, sinkNode, startServer, stopServer, settings, settled, clock, collect, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
+const { PALETTE_AND_MQTT, busNodes, actuatorEvents } = require('./support/mqtt-nodes');
+const { mqttBroker } = require('./support/node-red');
 
-const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const mqttNodes = require(path.join(coreNodesDir, 'core/network/10-mqtt.js'));
 
 const NO_MOTION_MS = 4000;
 const STALE_MS = 5000;
@@ -196,14 +196,8 @@ function flow(port, plant) {
   return [
     TAB,
     { id: 'pl', type: 'sugarshack-plant', name: plant.name, plant },
-    {
-      id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy',
-      queueBound: '', warnQueued: '', warnHeld: '', persist: false, store: 'default',
-    },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '60', cleansession: true, autoUnsubscribe: true,
-    },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
+    mqttBroker('br', port),
     // Everything on the broker goes to the bus: device topics, discovery, its own commands, markers.
     {
       id: 'all', z: 'f1', type: 'mqtt in', name: '', topic: '#', qos: '1', datatype: 'auto-detect', broker: 'br',
@@ -213,16 +207,14 @@ function flow(port, plant) {
       id: 'marks', z: 'f1', type: 'mqtt in', name: '', topic: 'test/flush/#', qos: '1', datatype: 'utf8', broker: 'br',
       nl: false, rap: true, rh: 0, inputs: 0, wires: [['flushed']],
     },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', broker: 'br', wires: [['mout'], ['ret'], ['ev']] },
-    { id: 'mout', z: 'f1', type: 'mqtt out', name: '', topic: '', qos: '', retain: '', broker: 'br', wires: [] },
-    { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']] },
+    ...busNodes({ broker: 'br' }),
     { id: 'op', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: 'fill', wires: [['opdone']] },
     { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
     ...SINKS.map(sinkNode),
   ];
 }
 
-const events = (seen, kind, id) => seen.ev.filter((m) => m.topic === `actuator/${kind}/${id}`).map((m) => m.payload);
+const events = actuatorEvents;
 
 for (const [name, profile] of Object.entries(PROFILES)) {
   describe(`${name} devices on Mosquitto, the feedback mqtt in on '#'`, function () {
@@ -240,7 +232,7 @@ for (const [name, profile] of Object.entries(PROFILES)) {
       devices = await profile.start(broker.url);
       await new Promise((resolve) => startServer(resolve));
       settings({ mqttReconnectTime: 300 });
-      await helper.load([...paletteNodes, mqttNodes], flow(broker.port, profile.plant()));
+      await helper.load(PALETTE_AND_MQTT, flow(broker.port, profile.plant()));
       seen = {};
       for (const id of SINKS) seen[id] = collect(helper, id);
       sentByNodeRed = collect(helper, 'mout');

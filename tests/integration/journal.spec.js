@@ -15,7 +15,7 @@ const { startTestSimulator, SMALL_PLANT } = require('./support/simulator');
 const { startVictoriaMetrics } = require('./support/victoria-metrics');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
-  PALETTE, paletteNodes, TAB, sinkNode, startRealTimeServer, stopServer, settings, collect, until, sleep,
+  PALETTE, TAB, sinkNode, startRealTimeServer, settings, collect, until, sleep,
 } = require('../flow/support');
 
 const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
@@ -25,8 +25,8 @@ const { JournalBus } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
 const { writers } = require(path.join(PALETTE, 'nodes', 'journal.js'));
 
 helper.init(require.resolve('node-red'));
-const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const mqttNodes = require(path.join(coreNodesDir, 'core/network/10-mqtt.js'));
+const { PALETTE_AND_MQTT, stopAll } = require('./support/mqtt-nodes');
+const { mqttBroker } = require('./support/node-red');
 const PLANT = loadPlant(SMALL_PLANT);
 
 /** Rows in the server: one per `<table>_seq` sample, as { table, tags, seq, at }. */
@@ -154,13 +154,8 @@ describe('journal on VictoriaMetrics', function () {
     let probe;
 
     afterEach(async function () {
-      await stopServer().catch(() => {});
-      if (probe) await probe.end().catch(() => {});
-      if (sim) await sim.stop().catch(() => {});
-      if (broker) await broker.stop();
-      broker = null;
-      sim = null;
-      probe = null;
+      await stopAll({ probe, sim, broker });
+      [broker, sim, probe] = [null, null, null];
     });
 
     it('finds in the server every actuator event of the run and every datapoint the simulator published', async function () {
@@ -168,13 +163,10 @@ describe('journal on VictoriaMetrics', function () {
       probe = await connectProbe(broker.url, ['ctrl-1/state', 'station-2/sensor/+/state']);
       await new Promise((resolve) => startRealTimeServer(resolve));
       settings({ mqttReconnectTime: 300 });
-      await helper.load([...paletteNodes, mqttNodes], [
+      await helper.load(PALETTE_AND_MQTT, [
         TAB,
         { id: 'pl', type: 'sugarshack-plant', name: 'small plant', plant: PLANT },
-        {
-          id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(broker.port), clientid: '',
-          autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-        },
+        mqttBroker('br', broker.port),
         {
           id: 'min', z: 'f1', type: 'mqtt in', name: '', topic: '+/#', qos: '1', datatype: 'auto-detect', broker: 'br',
           nl: false, rap: true, rh: 0, inputs: 0, wires: [['bus']],

@@ -18,18 +18,16 @@ const helper = require('node-red-node-test-helper');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
-const { loadPlant } = require('../../scripts/simulator/plant');
+const { PLANT_FILE, PLANT } = require('./support/routines-flow');
 const {
-  paletteNodes, TAB, sinkNode, startRealTimeServer, stopServer, settings, sleep, until,
+  TAB, sinkNode, startRealTimeServer, stopServer, settings, sleep, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
+const { PALETTE_AND_MQTT } = require('./support/mqtt-nodes');
+const { mqttBroker } = require('./support/node-red');
 
-const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const mqttNodes = require(path.join(coreNodesDir, 'core/network/10-mqtt.js'));
 
-const PLANT_FILE = path.join(__dirname, 'fixtures', 'plant-routines.json');
-const PLANT = loadPlant(PLANT_FILE);
 // Simulated time runs 10x: a valve sweeps in 0.1 s, datapoints come at 10 Hz, a
 // 1,000 L tank fills in 0.5 s; the fixture's thresholds (noMotionMs 1 s,
 // completionMs 2 s, staleMs 1.5 s) are set for that.
@@ -52,14 +50,8 @@ function flow(port) {
     TAB,
     // The plant before the interlock: the interlock reads its lines from it.
     { id: 'pl', type: 'sugarshack-plant', name: 'routines plant', plant: PLANT },
-    {
-      id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy',
-      queueBound: '', warnQueued: '', warnHeld: '', persist: false, store: 'default',
-    },
-    {
-      id: 'br', type: 'mqtt-broker', name: 'mosquitto', broker: '127.0.0.1', port: String(port), clientid: '',
-      autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '5', cleansession: true, autoUnsubscribe: true,
-    },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
+    mqttBroker('br', port),
     // One mqtt in per device: panel batches and statuses, sensor datapoints.
     ...DEVICES.map((dev) => ({
       id: `in-${dev}`, z: 'f1', type: 'mqtt in', name: '', topic: `${dev}/#`, qos: '1', datatype: 'auto-detect', broker: 'br',
@@ -222,7 +214,7 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     probes = [];
     await new Promise((resolve) => startRealTimeServer(resolve));
     settings({ mqttReconnectTime: 300 });
-    await helper.load([...paletteNodes, mqttNodes], flow(broker.port));
+    await helper.load(PALETTE_AND_MQTT, flow(broker.port));
     seen = {};
     for (const id of ['ev', 'events', 'rt', 'cleared', 'caught']) {
       const got = [];

@@ -10,23 +10,19 @@
 // Run: npx mocha --timeout 30000 --exit tests/integration/outage.spec.js
 // (OUTAGE_LOG=1 prints how long after the broker's return the line was at its lockout state.)
 const assert = require('node:assert/strict');
-const path = require('path');
 const helper = require('node-red-node-test-helper');
 const { startMosquitto } = require('./support/mosquitto');
 const { startTestSimulator } = require('./support/simulator');
 const { mqttBroker } = require('./support/node-red');
-const { loadPlant } = require('../../scripts/simulator/plant');
+const { PLANT_FILE, PLANT } = require('./support/routines-flow');
 const {
-  paletteNodes, TAB, sinkNode, collect, until, startRealTimeServer, stopServer, settings,
+  TAB, sinkNode, collect, until, startRealTimeServer, stopServer, settings,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
+const { PALETTE_AND_MQTT } = require('./support/mqtt-nodes');
 
-const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
-const mqttNodes = require(path.join(coreNodesDir, 'core/network/10-mqtt.js'));
 
-const PLANT_FILE = path.join(__dirname, 'fixtures', 'plant-routines.json');
-const PLANT = loadPlant(PLANT_FILE);
 const YEL = PLANT.actuators.filter((a) => a.resource === 'YEL');
 // From the broker's return to every YEL actuator at its lockout state.
 const BOUND_MS = 10000;
@@ -60,7 +56,7 @@ describe('a lockout issued while the MQTT broker is away reaches the devices (Mo
     sim = await startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 1, pumpDelayMs: 200, reconnectMs: 200 });
     await new Promise((resolve) => startRealTimeServer(resolve));
     settings({ mqttReconnectTime: 300 });
-    await helper.load([...paletteNodes, mqttNodes], flow(broker.port));
+    await helper.load(PALETTE_AND_MQTT, flow(broker.port));
   });
 
   afterEach(async function () {

@@ -1,7 +1,7 @@
 use std::collections::HashMap;
 
 use serde::Serialize;
-use sugarshack_core::clearance::{Attribution, LineBlockers};
+use sugarshack_core::clearance::{Attribution, ClearBlocker, LineBlockers};
 use sugarshack_core::code::Code;
 use sugarshack_core::interlock::Interlock as CoreInterlock;
 use sugarshack_core::interlock::{
@@ -264,6 +264,24 @@ impl Interlock {
             ));
         }
         let grants = call(&mut self.core, name, time(now_ms)?).map_err(core_error)?;
+        Ok(self.keep_granted(&grants))
+    }
+
+    /// A clear of `set` by `who`, each line checked against `blockers`; what it granted is kept.
+    fn clear_with(
+        &mut self,
+        set: f64,
+        (by, reason, force): (Option<String>, Option<String>, bool),
+        now_ms: f64,
+        blockers: impl Fn(&str) -> Vec<ClearBlocker>,
+    ) -> Result<u32, JsValue> {
+        let who = &Attribution::new(by.as_deref(), reason.as_deref(), force);
+        let now = time(now_ms)?;
+        let set = self.set(set)?.clone();
+        let grants = self
+            .core
+            .clear_checked(&set, who, blockers, now)
+            .map_err(core_error)?;
         Ok(self.keep_granted(&grants))
     }
 
@@ -533,14 +551,7 @@ impl Interlock {
         force: bool,
         now_ms: f64,
     ) -> Result<u32, JsValue> {
-        let now = time(now_ms)?;
-        let set = self.set(set)?.clone();
-        let by = Attribution::new(by.as_deref(), reason.as_deref(), force);
-        let grants = self
-            .core
-            .clear_checked(&set, &by, |_| Vec::new(), now)
-            .map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
+        self.clear_with(set, (by, reason, force), now_ms, |_| Vec::new())
     }
 
     /// Clears faulted lines once `plant` shows them isolated (see the core's
@@ -556,14 +567,9 @@ impl Interlock {
         force: bool,
         now_ms: f64,
     ) -> Result<u32, JsValue> {
-        let now = time(now_ms)?;
-        let set = self.set(set)?.clone();
-        let by = Attribution::new(by.as_deref(), reason.as_deref(), force);
-        let grants = self
-            .core
-            .clear_checked(&set, &by, |line| plant.core.clear_blockers(line), now)
-            .map_err(core_error)?;
-        Ok(self.keep_granted(&grants))
+        self.clear_with(set, (by, reason, force), now_ms, |line| {
+            plant.core.clear_blockers(line)
+        })
     }
 
     /// Why each named line may not be cleared now (empty reasons: it may), against `plant`.

@@ -10,7 +10,7 @@ use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{get, json, message_of};
+use support::{get, json, message_of, valve_plant};
 
 /// The value a JS function body returns.
 fn js(body: &str) -> JsValue {
@@ -93,17 +93,16 @@ fn throwing_getter() -> JsValue {
     js("return { get valves() { throw new Error('the sensor bus is down'); } };")
 }
 
-const PLANT: &str = r#"{
-    "actuatorTypes": {
-        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 }
-    },
-    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+fn plant() -> String {
+    valve_plant(
+        r#"
     "actuators": [
         { "id": "V12", "type": "valve", "device": "ctrl-1", "io": 12, "idle": 0, "lockout": 0 },
         { "id": "V13", "type": "valve", "device": "ctrl-1", "io": 13, "idle": 0, "lockout": 0 }
-    ],
-    "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume", "staleMs": 2000 }]
-}"#;
+    ]
+"#,
+    )
+}
 
 /// A valid command for a fresh caller still goes through: the instance is healthy.
 fn still_commands(t: &mut Tracker, caller: u32) {
@@ -123,7 +122,7 @@ fn still_commands(t: &mut Tracker, caller: u32) {
 
 #[wasm_bindgen_test]
 fn deep_group_commands_are_refused_and_the_tracker_carries_on() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     for (caller, (kind, deep)) in deep_values().into_iter().enumerate() {
         let err = t.command(deep, 1, false, 10.0, None).unwrap_err();
         assert_code(&err, "INPUT_TOO_DEEP", kind);
@@ -134,7 +133,7 @@ fn deep_group_commands_are_refused_and_the_tracker_carries_on() {
 
 #[wasm_bindgen_test]
 fn values_that_are_not_data_are_refused_and_the_tracker_carries_on() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let cases = [
         (circular(), "INPUT_CIRCULAR", "circular"),
         (big_int(), "INVALID_INPUT", "BigInt"),
@@ -163,7 +162,7 @@ fn values_that_are_not_data_are_refused_and_the_tracker_carries_on() {
 
 #[wasm_bindgen_test]
 fn a_megabyte_group_command_is_refused_as_too_large() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let big = js("return { valves: { V12: 'x'.repeat(1 << 20) } };");
     let err = t.command(big, 1, false, 10.0, None).unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE");
@@ -189,7 +188,7 @@ fn a_megabyte_group_command_is_refused_as_too_large() {
 
 #[wasm_bindgen_test]
 fn group_commands_may_come_as_json_text() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     assert!(
         t.command(
             JsValue::from_str(r#"{ "valves": { "V12": 40 } }"#),
@@ -216,7 +215,7 @@ fn group_commands_may_come_as_json_text() {
 
 #[wasm_bindgen_test]
 fn a_huge_bad_target_or_name_is_quoted_short() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let long = "x".repeat(1_000_000);
     // Under the size limit: whatever a group command holds is echoed short.
     let long = &long[..60_000];
@@ -265,13 +264,13 @@ fn a_huge_bad_target_or_name_is_quoted_short() {
 
 #[wasm_bindgen_test]
 fn a_million_character_plant_value_is_quoted_short() {
-    let mut doc = json(PLANT);
+    let mut doc = json(&plant());
     let long = JsValue::from_str(&"x".repeat(1_000_000));
     Reflect::set(&get(&get(&doc, "actuators"), "0"), &"device".into(), &long).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
     assert_eq!(code_of(&err), "INVALID_PLANT");
     assert_message_short(&err);
-    doc = json(PLANT);
+    doc = json(&plant());
     Reflect::set(&get(&get(&doc, "actuators"), "0"), &"io".into(), &long).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
     assert_eq!(code_of(&err), "INVALID_PLANT");
@@ -284,7 +283,7 @@ fn a_million_character_plant_value_is_quoted_short() {
 
 #[wasm_bindgen_test]
 fn plant_document_errors_name_their_entry() {
-    let doc = json(PLANT);
+    let doc = json(&plant());
     let second: js_sys::Object = get(&get(&doc, "actuators"), "1").unchecked_into();
     Reflect::delete_property(&second, &"lockout".into()).unwrap();
     let err = Tracker::new(doc, 0.0).err().unwrap();
@@ -293,7 +292,7 @@ fn plant_document_errors_name_their_entry() {
         message_of(&err),
         "invalid plant document: actuators[1]: missing field `lockout`"
     );
-    let text = PLANT.replace(
+    let text = plant().replace(
         r#", "lockout": 0 }
     ]"#,
         " }\n    ]",
@@ -301,7 +300,7 @@ fn plant_document_errors_name_their_entry() {
     let err = Tracker::new(JsValue::from_str(&text), 0.0).err().unwrap();
     assert_message_starts_with(
         &err,
-        "invalid plant document: actuators[1]: missing field `lockout` (line 8, column",
+        "invalid plant document: actuators[1]: missing field `lockout` (line 10, column",
     );
     for (kind, deep) in deep_values() {
         let err = Tracker::new(deep, 0.0).err().unwrap();
@@ -311,7 +310,7 @@ fn plant_document_errors_name_their_entry() {
         code_of(&Tracker::new(circular(), 0.0).err().unwrap()),
         "INPUT_CIRCULAR"
     );
-    assert!(Tracker::new(json(PLANT), 0.0).is_ok());
+    assert!(Tracker::new(json(&plant()), 0.0).is_ok());
 }
 
 const CONFIG: &str =
@@ -492,7 +491,7 @@ fn deep_routine_snapshots_are_refused_and_the_routine_carries_on() {
 
 #[wasm_bindgen_test]
 fn a_sample_stamped_in_the_future_is_refused_and_the_next_one_kept() {
-    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let lt = t.sensor("LT-3").unwrap();
     assert!(t.record_sensor(lt, 10.0, Some(1000.0), 1000.0).unwrap());
     let err = t.record_sensor(lt, 99.0, Some(9e15), 2000.0).unwrap_err();

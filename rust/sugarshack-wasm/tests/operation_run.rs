@@ -9,7 +9,7 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{code_of, get, json};
+use support::{code_of, get, json, valve_plant};
 
 fn stringify(value: &JsValue) -> String {
     JSON::stringify(value).unwrap().into()
@@ -22,15 +22,12 @@ fn one(effects: Result<JsValue, JsValue>) -> JsValue {
     effects.get(0)
 }
 
-const PLANT: &str = r#"{
-    "actuatorTypes": {
-        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 }
-    },
-    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+fn plant() -> String {
+    valve_plant(
+        r#"
     "actuators": [
         { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" }
     ],
-    "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume", "staleMs": 2000 }],
     "resources": [{ "id": "YEL" }],
     "operations": [
         { "id": "10", "priority": 20, "resources": ["YEL"], "steps": [
@@ -38,10 +35,12 @@ const PLANT: &str = r#"{
             { "wait": "`LT-3` > 10", "sensors": ["LT-3"], "timeoutMs": 60000 }
         ] }
     ]
-}"#;
+"#,
+    )
+}
 
 fn tracker() -> Tracker {
-    Tracker::new(json(PLANT), 0.0).expect("plant is valid")
+    Tracker::new(json(&plant()), 0.0).expect("plant is valid")
 }
 
 #[wasm_bindgen_test]

@@ -9,22 +9,19 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{code_of, get, json};
+use support::{code_of, get, json, valve_plant};
 
 fn text(value: &JsValue, key: &str) -> String {
     get(value, key).as_string().unwrap_or_default()
 }
 
-const PLANT: &str = r#"{
-    "actuatorTypes": {
-        "valve": { "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 }
-    },
-    "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
+fn plant() -> String {
+    valve_plant(
+        r#"
     "actuators": [
         { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
         { "id": "V9", "type": "valve", "device": "ctrl-1", "io": 9, "idle": 0, "lockout": 0, "resource": "RED" }
     ],
-    "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume", "staleMs": 2000 }],
     "resources": [{ "id": "YEL" }, { "id": "RED" }],
     "operations": [
         { "id": "10", "priority": 20, "resources": ["YEL"], "steps": [
@@ -41,10 +38,12 @@ const PLANT: &str = r#"{
             { "from": "full", "to": "empty", "operation": "51",
               "trigger": { "when": "`LT-3` > 10", "sensors": ["LT-3"], "everyMs": 1000 } }
         ] }]
-}"#;
+"#,
+    )
+}
 
 fn tracker() -> Tracker {
-    Tracker::new(json(PLANT), 0.0).expect("plant is valid")
+    Tracker::new(json(&plant()), 0.0).expect("plant is valid")
 }
 
 #[wasm_bindgen_test]
@@ -158,7 +157,7 @@ fn the_plant_configures_an_interlock_with_derived_lockouts() {
 #[wasm_bindgen_test]
 fn plant_warnings_are_listed() {
     assert!(tracker().warnings().is_empty());
-    let doubled = PLANT.replace(
+    let doubled = plant().replace(
         r#""id": "51", "priority": 1"#,
         r#""id": "51", "priority": 20"#,
     );

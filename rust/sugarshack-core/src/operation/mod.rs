@@ -116,35 +116,21 @@ impl Plant {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plant::fixtures::{yel_plant, yel_pump, yel_valve};
     use crate::time::ms;
     use serde_json::json;
 
     fn plant() -> Plant {
-        Plant::new(serde_json::from_value(json!({
-            "actuatorTypes": {
-                "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
-                "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
-            },
-            "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
-            "actuators": [
-                { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
-                { "id": "V2", "type": "valve", "device": "ctrl-1", "io": 2, "idle": 0, "lockout": 0, "resource": "YEL" },
-                { "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false, "resource": "YEL" }
-            ],
-            "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume" }],
-            "resources": [{ "id": "YEL" }],
-            "operations": [{
-                "id": "10", "priority": 20, "resources": ["YEL"],
-                "steps": [
-                    { "command": { "valves": { "V2": 100, "V1": 100 } }, "timeoutMs": 20000 },
-                    { "command": { "pumps": { "P1": true } }, "timeoutMs": 5000 },
-                    { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 },
-                    { "command": { "pump": { "P1": false } }, "timeoutMs": 5000 }
-                ]
-            }]
-        }))
-        .unwrap())
-        .unwrap()
+        let doc = yel_plant(
+            json!([yel_valve("V1", 1), yel_valve("V2", 2), yel_pump("P1", 1)]),
+            json!([
+                { "command": { "valves": { "V2": 100, "V1": 100 } }, "timeoutMs": 20000 },
+                { "command": { "pumps": { "P1": true } }, "timeoutMs": 5000 },
+                { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 },
+                { "command": { "pump": { "P1": false } }, "timeoutMs": 5000 }
+            ]),
+        );
+        Plant::new(serde_json::from_value(doc).unwrap()).unwrap()
     }
 
     #[test]

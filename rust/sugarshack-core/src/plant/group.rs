@@ -345,14 +345,12 @@ impl Targeting {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plant::fixtures::actuator_types;
     use serde_json::json;
 
     fn plant() -> PlantModel {
         serde_json::from_value(json!({
-            "actuatorTypes": {
-                "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
-                "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
-            },
+            "actuatorTypes": actuator_types(),
             "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }],
             "actuators": [
                 { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0 },

@@ -5,6 +5,8 @@
 //! keeps its warnings. Every error names the entry at fault so an engineer
 //! can find it in the document.
 
+#[cfg(test)]
+pub(crate) mod fixtures;
 mod graph;
 mod group;
 mod setpoint;

@@ -27,3 +27,18 @@ pub fn code_of(error: JsValue) -> String {
 pub fn message_of(error: &JsValue) -> String {
     error.dyn_ref::<js_sys::Error>().unwrap().message().into()
 }
+
+/// A plant document: valves on panel ctrl-1 and the volume sensor LT-3 on
+/// station-3; `rest` is its other members (actuators, resources, operations...).
+pub fn valve_plant(rest: &str) -> String {
+    format!(
+        r#"{{
+    "actuatorTypes": {{
+        "valve": {{ "signal": "analog", "tolerance": 2, "noMotionMs": 1000, "completionMs": 5000, "staleMs": 5000 }}
+    }},
+    "devices": [{{ "id": "ctrl-1", "kind": "actuator-panel" }}, {{ "id": "station-3", "kind": "sensor-station" }}],
+    "sensors": [{{ "id": "LT-3", "device": "station-3", "name": "volume", "staleMs": 2000 }}],
+    {rest}
+}}"#
+    )
+}

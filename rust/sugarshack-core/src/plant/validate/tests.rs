@@ -4,32 +4,21 @@
 use serde_json::{json, Value};
 
 use super::*;
+use crate::plant::fixtures::{yel_plant, yel_pump, yel_valve};
 use crate::plant::Plant;
 
 fn sound() -> Value {
-    json!({
-        "actuatorTypes": {
-            "valve": { "signal": "analog", "noMotionMs": 1000, "completionMs": 6000, "staleMs": 3000 },
-            "pump": { "signal": "binary", "noMotionMs": 2000, "completionMs": 4000, "staleMs": 3000 }
-        },
-        "devices": [{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "station-3", "kind": "sensor-station" }],
-        "actuators": [
-            { "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "idle": 0, "lockout": 0, "resource": "YEL" },
-            { "id": "P1", "type": "pump", "device": "ctrl-1", "io": 1, "idle": false, "lockout": false, "resource": "YEL" }
-        ],
-        "sensors": [{ "id": "LT-3", "device": "station-3", "name": "volume" }],
-        "resources": [{ "id": "YEL" }],
-        "operations": [{
-            "id": "10", "priority": 20, "resources": ["YEL"],
-            "steps": [
-                { "command": { "valves": { "V1": 100 }, "pumps": { "P1": true } }, "timeoutMs": 20000 },
-                { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 }
-            ]
-        }],
-        "routines": [{ "id": "r", "states": ["a", "b"], "initial": "a", "transitions": [
-            { "from": "a", "to": "b", "operation": "10", "trigger": { "msg": "go" } }
-        ] }]
-    })
+    let mut doc = yel_plant(
+        json!([yel_valve("V1", 1), yel_pump("P1", 1)]),
+        json!([
+            { "command": { "valves": { "V1": 100 }, "pumps": { "P1": true } }, "timeoutMs": 20000 },
+            { "wait": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 }
+        ]),
+    );
+    doc["routines"] = json!([{ "id": "r", "states": ["a", "b"], "initial": "a", "transitions": [
+        { "from": "a", "to": "b", "operation": "10", "trigger": { "msg": "go" } }
+    ] }]);
+    doc
 }
 
 fn read(doc: Value) -> PlantModel {
