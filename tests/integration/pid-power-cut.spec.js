@@ -52,12 +52,18 @@ describe('a persisted pid node: SIGKILL of a real Node-RED process', function ()
     }
   };
   const outputs = () => probe.on('test/pid/out').map((m) => m.json);
-  /** One measurement; resolves with the step it made. */
+  /**
+   * A measurement; resolves with the step it made. Sent again every 0.5 s until
+   * a step comes out: just after a start, Node-RED may not have subscribed yet.
+   */
   async function measure(value) {
     const before = outputs().length;
-    timestamp += 1000;
-    await probe.publish('test/pid/in', { payload: value, timestamp });
-    await waitFor(() => outputs().length > before, 'the pid output');
+    for (let tries = 0; outputs().length === before; tries++) {
+      if (tries === 20) throw new Error(`no pid output for 10 s after measurement ${value}`);
+      timestamp += 1000;
+      await probe.publish('test/pid/in', { payload: value, timestamp });
+      await waitFor(() => outputs().length > before, 'the pid output', 500).catch(() => {});
+    }
     return outputs()[before];
   }
 
