@@ -42,7 +42,6 @@ function flow(port) {
   ];
 }
 
-const events = actuatorEvents;
 const warnings = (id) => helper.getNode(id).warn.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
 const command = (payload) => helper.getNode('gc').receive({ payload });
 const lastStatus = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).at(-1).args[0];
@@ -64,7 +63,7 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     await helper.load(PALETTE_AND_MQTT, flow(broker.port));
     seen = {};
     for (const id of SINKS) seen[id] = collect(helper, id);
-    await until(() => events(seen, 'changed', 'V101').length > 0 && events(seen, 'changed', 'P1').length > 0, 'the first panel batch', 5000);
+    await until(() => actuatorEvents(seen, 'changed', 'V101').length > 0 && actuatorEvents(seen, 'changed', 'P1').length > 0, 'the first panel batch', 5000);
   }
 
   afterEach(async function () {
@@ -91,11 +90,11 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     assert.equal(panel.pump.running, true);
 
     // Metrics: issuance to motion, completion, and time of flight from the device timestamps.
-    const [moving] = events(seen, 'moving', 'V101');
-    const [completed] = events(seen, 'completed', 'V101');
+    const [moving] = actuatorEvents(seen, 'moving', 'V101');
+    const [completed] = actuatorEvents(seen, 'completed', 'V101');
     assert.ok(moving.issueToMotionMs >= 0 && moving.issueToMotionMs <= noMotionMs);
     assert.ok(completed.completionMs >= moving.issueToMotionMs);
-    const flights = events(seen, 'changed', 'V101').map((c) => c.timeOfFlightMs);
+    const flights = actuatorEvents(seen, 'changed', 'V101').map((c) => c.timeOfFlightMs);
     assert.ok(flights.every((f) => typeof f === 'number' && f > -50 && f < 1000), `time of flight ${flights}`);
 
     command({ valves: { V101: 0, V102: 0 }, pumps: { P1: false } });
@@ -106,18 +105,18 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
   it('a broker restart during a command: the command fails on the wills or completes, and the plant works on', async function () {
     await start({ sweepS: 4 });
     command({ valves: { V101: 100 } });
-    await until(() => events(seen, 'moving', 'V101').length === 1, 'motion', 5000);
+    await until(() => actuatorEvents(seen, 'moving', 'V101').length === 1, 'motion', 5000);
     await broker.restart({ downMs: 1000 });
     await until(() => seen.out.length + seen.caught.length === 1, 'the command to end', 15000);
-    const wentOffline = events(seen, 'deviceStatus', 'ctrl-1').some((d) => d.online === false);
+    const wentOffline = actuatorEvents(seen, 'deviceStatus', 'ctrl-1').some((d) => d.online === false);
     if (wentOffline) {
       // Mosquitto sends its clients' wills as it shuts down: Node-RED hears ctrl-1 go
       // offline, and the core fails the command at once (fail-fast), naming the cause.
       assert.equal(seen.out.length, 0);
       assert.equal(seen.caught[0].error.code, 'COMMAND_FAILED');
       assert.match(seen.caught[0].error.message, /valve V101 cannot complete its command: its device ctrl-1 went offline/);
-      await until(() => events(seen, 'deviceStatus', 'ctrl-1').at(-1).online === true, 'ctrl-1 back online', 8000);
-      assert.ok(events(seen, 'recovered', 'V101').some((r) => r.fault === 'device-offline'));
+      await until(() => actuatorEvents(seen, 'deviceStatus', 'ctrl-1').at(-1).online === true, 'ctrl-1 back online', 8000);
+      assert.ok(actuatorEvents(seen, 'recovered', 'V101').some((r) => r.fault === 'device-offline'));
     } else {
       // Node-RED's own connection closed before the will reached it: feedback resumes
       // well within staleMs, so nothing failed and the command completes.
@@ -135,7 +134,7 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
   it('fails a command with a stale-feedback error when the panel\'s feedback stops', async function () {
     await start({ sweepS: 8 });
     command({ valves: { V101: 100 } });
-    await until(() => events(seen, 'moving', 'V101').length === 1, 'motion', 5000);
+    await until(() => actuatorEvents(seen, 'moving', 'V101').length === 1, 'motion', 5000);
     await sim.inject({ fault: 'drop', device: 'ctrl-1', ratio: 1 }); // every datapoint lost, the device still online
     const lost = Date.now();
     await until(() => seen.caught.length === 1, 'the error', staleMs + 3000);
@@ -146,19 +145,19 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     assert.equal(seen.caught[0].command.failed.fault, 'stale');
     assert.equal(seen.out.length, 0);
     await sim.inject({ fault: 'clear', device: 'ctrl-1' });
-    await until(() => events(seen, 'recovered', 'V101').some((r) => r.fault === 'stale'), 'recovery', 5000);
+    await until(() => actuatorEvents(seen, 'recovered', 'V101').some((r) => r.fault === 'stale'), 'recovery', 5000);
   });
 
   it('fails a command when its device dies (last will "offline"); the error reaches a Catch node', async function () {
     await start({ sweepS: 4 });
     command({ valves: { V101: 100, V102: 100 } });
-    await until(() => events(seen, 'moving', 'V101').length === 1, 'motion', 5000);
+    await until(() => actuatorEvents(seen, 'moving', 'V101').length === 1, 'motion', 5000);
     await sim.inject({ fault: 'dead', device: 'ctrl-1' });
     await until(() => seen.caught.length === 1, 'the error', 5000);
     const { error } = seen.caught[0];
     assert.equal(error.code, 'COMMAND_FAILED');
     assert.match(error.message, /valve V10[12] cannot complete its command: its device ctrl-1 went offline/);
-    assert.deepEqual(events(seen, 'deviceStatus', 'ctrl-1').at(-1), { kind: 'deviceStatus', device: 'ctrl-1', online: false });
+    assert.deepEqual(actuatorEvents(seen, 'deviceStatus', 'ctrl-1').at(-1), { kind: 'deviceStatus', device: 'ctrl-1', online: false });
     await until(() => lastStatus('bus').shape === 'ring', 'the offline ring', 2000);
 
     // A command while it is offline is refused outright.
@@ -167,7 +166,7 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     assert.equal(seen.caught[1].error.code, 'DEVICE_OFFLINE');
 
     await sim.inject({ fault: 'revive', device: 'ctrl-1' });
-    await until(() => events(seen, 'deviceStatus', 'ctrl-1').at(-1).online === true, 'back online', 5000);
+    await until(() => actuatorEvents(seen, 'deviceStatus', 'ctrl-1').at(-1).online === true, 'back online', 5000);
     command({ valves: { V103: 50 } });
     await until(() => seen.out.length === 1, 'a command after the revival completes', 8000);
   });
@@ -208,13 +207,13 @@ describe('actuator nodes on Mosquitto with the plant simulator', function () {
     await until(() => probe.on('ctrl-1/valve/3/command').length === 2, 'the retry publish', noMotionMs + 3000);
     assert.deepEqual(probe.on('ctrl-1/valve/3/command').map((m) => m.text), ['100', '100']);
     assert.equal(probe.on('ctrl-1/valve/4/command').length, 1, 'V104 moved: no retry');
-    assert.deepEqual(events(seen, 'retry', 'V103').map((r) => [r.attempt, r.fault]), [[1, 'no-motion']]);
+    assert.deepEqual(actuatorEvents(seen, 'retry', 'V103').map((r) => [r.attempt, r.fault]), [[1, 'no-motion']]);
     await until(() => seen.caught.length === 1, 'the escalated error', noMotionMs + 3000);
     assert.ok(Date.now() - started >= 2 * noMotionMs);
     const { error } = seen.caught[0];
     assert.equal(error.code, 'COMMAND_FAILED');
     assert.match(error.message, /valve V103 did not move within 4 s of its command \(after 1 retry\)/);
-    assert.deepEqual(events(seen, 'fault', 'V103').map((f) => f.fault), ['no-motion']);
+    assert.deepEqual(actuatorEvents(seen, 'fault', 'V103').map((f) => f.fault), ['no-motion']);
     assert.equal(seen.out.length, 0);
     await sleep(100);
     assert.equal(lastStatus('bus').fill, 'red');

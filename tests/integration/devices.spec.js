@@ -214,7 +214,6 @@ function flow(port, plant) {
   ];
 }
 
-const events = actuatorEvents;
 
 for (const [name, profile] of Object.entries(PROFILES)) {
   describe(`${name} devices on Mosquitto, the feedback mqtt in on '#'`, function () {
@@ -339,7 +338,7 @@ for (const [name, profile] of Object.entries(PROFILES)) {
       await tickUntil(() => seen.caught.length > 0, 'the operation\'s error');
       const { error } = seen.caught[0];
       assert.match(error.message, /V103/);
-      assert.deepEqual(events(seen, 'fault', 'V103').map((f) => f.fault), ['no-motion']);
+      assert.deepEqual(actuatorEvents(seen, 'fault', 'V103').map((f) => f.fault), ['no-motion']);
       assert.equal(seen.opdone.length, 0);
       // The lockout: every YEL actuator to its lockout state, in commands the firmware parses.
       await tickUntil(() => profile.at(devices, 'V101') === 0 && profile.at(devices, 'V102') === 0 && profile.at(devices, 'P1') === false,
@@ -352,7 +351,7 @@ for (const [name, profile] of Object.entries(PROFILES)) {
     it('a device that loses power fails its command at once (the broker publishes its will)', async function () {
       await start();
       command({ valves: { V101: 100 } });
-      await tickUntil(() => events(seen, 'moving', 'V101').length > 0, 'motion');
+      await tickUntil(() => actuatorEvents(seen, 'moving', 'V101').length > 0, 'motion');
       const at = clock().now();
       profile.offline(devices).crash();
       await until(() => seen.caught.length > 0, 'the failure', 5000);
@@ -361,7 +360,7 @@ for (const [name, profile] of Object.entries(PROFILES)) {
       assert.equal(error.code, 'COMMAND_FAILED');
       assert.match(error.message, /valve V101 cannot complete its command: its device .* went offline/);
       const device = profile.plant().actuators.find((a) => a.id === 'V101').device;
-      assert.equal(events(seen, 'deviceStatus', device).at(-1).online, false);
+      assert.equal(actuatorEvents(seen, 'deviceStatus', device).at(-1).online, false);
     });
   });
 }

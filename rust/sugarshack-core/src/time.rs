@@ -40,6 +40,12 @@ impl Millis {
         (value.is_finite() && value >= 0.0).then_some(Self(value + 0.0))
     }
 
+    /// `value` ms with its fraction dropped (a JS clock's time or a device's
+    /// stamp), or `None` if it is NaN, infinite or negative.
+    pub fn whole(value: f64) -> Option<Self> {
+        Self::new(value.trunc())
+    }
+
     /// `seconds` s in milliseconds, or `None` if that is not a valid [`Millis`].
     pub fn from_secs_f64(seconds: f64) -> Option<Self> {
         Self::new(seconds * 1000.0)
@@ -208,6 +214,15 @@ mod tests {
             Some(Millis::new(500.0).unwrap())
         );
         assert_eq!(Millis::from_secs_f64(f64::MAX), None);
+    }
+
+    #[test]
+    fn a_whole_time_drops_its_fraction_and_refuses_what_is_not_a_time() {
+        assert_eq!(Millis::whole(1500.9), Some(ms(1500)));
+        assert_eq!(Millis::whole(0.4), Some(Millis::ZERO));
+        for bad in [f64::NAN, f64::INFINITY, -1.0] {
+            assert_eq!(Millis::whole(bad), None, "{bad}");
+        }
     }
 
     #[test]

@@ -51,11 +51,6 @@ pub struct DeviceSide {
     plant: Plant,
 }
 
-fn ts_of(ts: Option<f64>) -> Option<Millis> {
-    ts.filter(|t| t.is_finite() && *t >= 0.0)
-        .map(|t| Millis::from(t as u64))
-}
-
 impl DeviceSide {
     fn device_id(&self, handle: u32) -> Result<DeviceId, JsValue> {
         if (handle as usize) < self.plant.devices.len() {
@@ -167,10 +162,11 @@ impl DeviceSide {
             .zip(values)
             .map(|(&a, &v)| (ActuatorId::from_index(a), v))
             .collect();
-        let messages: Vec<Message> =
-            self.plant
-                .contract()
-                .format_actuators(self.device_id(device)?, &values, ts_of(ts));
+        let messages: Vec<Message> = self.plant.contract().format_actuators(
+            self.device_id(device)?,
+            &values,
+            ts.and_then(Millis::whole),
+        );
         to_js(&messages)
     }
 
@@ -188,11 +184,10 @@ impl DeviceSide {
             .zip(values)
             .map(|(&s, &v)| (SensorId::from_index(s), v))
             .collect();
-        to_js(
-            &self
-                .plant
-                .contract()
-                .format_sensors(self.device_id(device)?, &values, ts_of(ts)),
-        )
+        to_js(&self.plant.contract().format_sensors(
+            self.device_id(device)?,
+            &values,
+            ts.and_then(Millis::whole),
+        ))
     }
 }

@@ -53,17 +53,15 @@ pub(crate) fn js_error(code: Code, message: &str) -> JsValue {
 
 /// A time from JS in whole milliseconds (a fraction is dropped, as it always was).
 pub(crate) fn time(now_ms: f64) -> Result<Millis, JsValue> {
-    if now_ms.is_finite() && now_ms >= 0.0 {
-        Ok(Millis::from(now_ms as u64))
-    } else {
-        Err(js_error(
+    Millis::whole(now_ms).ok_or_else(|| {
+        js_error(
             Code::InvalidTime,
             &format!(
                 "time must be a non-negative number of milliseconds, got {}",
                 quote(now_ms)
             ),
-        ))
-    }
+        )
+    })
 }
 
 const KIB: usize = 1024;

@@ -298,11 +298,6 @@ impl Tracker {
     }
 }
 
-fn device_ts(ts: Option<f64>) -> Option<Millis> {
-    ts.filter(|t| t.is_finite() && *t >= 0.0)
-        .map(|t| Millis::from(t as u64))
-}
-
 #[wasm_bindgen]
 impl Tracker {
     /// `plant`: the plant document. Refused with every problem listed (code `INVALID_PLANT`).
@@ -445,7 +440,7 @@ impl Tracker {
         let id = self.actuator_id(actuator)?;
         let effects = self
             .core
-            .feedback(id, value, device_ts(ts), time(now_ms)?)
+            .feedback(id, value, ts.and_then(Millis::whole), time(now_ms)?)
             .map_err(track_error)?;
         Ok(self.queue(effects))
     }
@@ -473,9 +468,9 @@ impl Tracker {
             self.batch.push((self.actuator_id(handle)?, value));
         }
         let mut effects = std::mem::take(&mut self.scratch);
-        let outcome = self
-            .core
-            .feedback_batch(&self.batch, device_ts(ts), now, &mut effects);
+        let outcome =
+            self.core
+                .feedback_batch(&self.batch, ts.and_then(Millis::whole), now, &mut effects);
         self.effects.extend(effects.drain(..).map(Output::Effect));
         self.scratch = effects;
         for (id, err) in outcome.map_err(track_error)? {
@@ -794,7 +789,7 @@ impl Tracker {
         let now = time(now_ms)?;
         let id = self.sensor_id(sensor)?;
         self.sensors
-            .record(id, value, device_ts(ts).unwrap_or(now), now)
+            .record(id, value, ts.and_then(Millis::whole).unwrap_or(now), now)
             .map_err(sensor_error)?;
         Ok(true)
     }

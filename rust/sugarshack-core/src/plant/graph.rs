@@ -34,7 +34,7 @@ impl RoutineGraph {
     /// The routine resolved, or `None` when it names a state it does not list
     /// (plant validation reports that with its path).
     pub(super) fn resolve(routine: &Routine) -> Option<RoutineGraph> {
-        let state = |name: &str| routine.states.iter().position(|s| s == name).map(StateId);
+        let state = |name: &str| position(&routine.states, name);
         let edges = routine
             .transitions
             .iter()
@@ -72,7 +72,7 @@ impl RoutineGraph {
 
     /// The state called `name`.
     pub fn state(&self, name: &str) -> Option<StateId> {
-        self.states.iter().position(|s| s == name).map(StateId)
+        position(&self.states, name)
     }
 
     /// The state it starts in, and returns to on a reset.
@@ -89,4 +89,8 @@ impl RoutineGraph {
     pub fn edges(&self) -> &[Edge] {
         &self.edges
     }
+}
+
+fn position(states: &[String], name: &str) -> Option<StateId> {
+    states.iter().position(|s| s == name).map(StateId)
 }
