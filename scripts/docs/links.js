@@ -43,13 +43,18 @@ function resolve(from, target) {
   return { file: path.posix.normalize(path.posix.join(path.posix.dirname(from), file)), fragment };
 }
 
-/** Every broken link: `{ file, line, target, why }`. */
-function brokenLinks() {
-  const anchorsOf = anchorIndex();
-  const sources = [
+/** The files whose links are checked: every markdown file and every node's help, with their links. */
+function repositorySources() {
+  return [
     ...markdownFiles().map((file) => ({ file, found: links(read(file)) })),
     ...walk(HELP_DIR, (f) => f.endsWith('.html')).map((file) => ({ file, found: htmlLinks(read(file)) })),
   ];
+}
+
+const onDisk = { exists: (rel) => fs.existsSync(path.join(ROOT, rel)), anchorsOf: anchorIndex() };
+
+/** Every broken link of `sources`: `{ file, line, target, why }`. */
+function brokenLinks(sources = repositorySources(), { exists, anchorsOf } = onDisk) {
   const broken = [];
   for (const { file, found } of sources) {
     for (const { line, target } of found) {
@@ -60,7 +65,7 @@ function brokenLinks() {
         bad('a link from the site root does not work on GitHub: write it relative to this file');
       } else if (to.file.startsWith('..')) {
         bad('leaves the repository');
-      } else if (!fs.existsSync(path.join(ROOT, to.file))) {
+      } else if (!exists(to.file)) {
         bad(`no file ${to.file}`);
       } else if (to.fragment && to.file.endsWith('.md') && !anchorsOf(to.file).has(to.fragment)) {
         bad(`no heading in ${to.file} has the anchor #${to.fragment}`);
@@ -79,4 +84,4 @@ if (require.main === module) {
   process.exit(broken.length ? 1 : 0);
 }
 
-module.exports = { brokenLinks, resolve };
+module.exports = { brokenLinks, resolve, htmlLinks };
