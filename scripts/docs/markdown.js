@@ -12,9 +12,9 @@ const REPO_URL = 'https://github.com/sugarshack/sugarshack';
 const BLOB_URL = `${REPO_URL}/blob/main/`;
 const SKIP_DIRS = new Set(['node_modules', 'target', '.git', '.run', 'report', 'wasm', 'screenshots-out']);
 
-/** The pages of the docs site: the README, CONTRIBUTING.md and docs/, as repository paths. */
+/** The pages of the docs site: the README, CONTRIBUTING.md, the palette's README and docs/, as repository paths. */
 function sitePages() {
-  return ['README.md', 'CONTRIBUTING.md', ...walk('docs', (f) => f.endsWith('.md'))];
+  return ['README.md', 'CONTRIBUTING.md', 'node-red-contrib-sugarshack/README.md', ...walk('docs', (f) => f.endsWith('.md'))];
 }
 
 /** Every markdown file of the repository (the site's pages and the READMEs beside code). */

@@ -1,8 +1,8 @@
 'use strict';
-// Builds the docs site with VitePress from the README, CONTRIBUTING.md and
-// docs/, then checks the built pages: VitePress fails the build on a link to
-// a page that does not exist, and every link with a #fragment must find that
-// id in its page. A link that leaves the site's pages (a source file, a flow)
+// Builds the docs site with VitePress from the README, CONTRIBUTING.md, the
+// palette's README and docs/, then checks the built pages: VitePress fails the
+// build on a link to a page that does not exist, and every link with a
+// #fragment must find that id in its page. A link that leaves the site's pages (a source file, a flow)
 // goes to the repository on GitHub.
 //   node scripts/docs/site.js [--out DIR]    (default .run/docs/site)
 const fs = require('fs');
@@ -19,7 +19,7 @@ function sidebar() {
     const head = /^## (.*)$/.exec(line);
     if (head) groups.push({ text: headingText(head[1]).replace(/:.*$/, ''), items: [] });
     const item = /^- \[([^\]]+)\]\(([^)#]+\.md)\)/.exec(line);
-    if (item && groups.length > 1) groups[groups.length - 1].items.push({ text: item[1], link: `/docs/${item[2].replace(/\.md$/, '')}` });
+    if (item && groups.length > 1) groups[groups.length - 1].items.push({ text: item[1], link: `/${path.posix.join('docs', item[2]).replace(/\.md$/, '')}` });
   }
   return groups;
 }
