@@ -11,6 +11,7 @@ const { ROOT, BLOB_URL, sitePages, walk, read, parse, headingText, slug } = requ
 
 const STAGE = path.join(ROOT, '.run', 'docs', 'src');
 const ASSETS = walk('docs', (f) => !f.endsWith('.md'));
+const DEFAULT_OUT = path.join(ROOT, '.run', 'docs', 'site');
 
 /** docs/index.md's sections and their links, in order: the sidebar. */
 function sidebar() {
@@ -70,7 +71,7 @@ export default {
   title: 'sugarshack',
   description: 'A Node-RED palette for event-driven industrial automation, after the Sugar Shack 4.0 architecture',
   rewrites: { 'README.md': 'index.md' },
-  outDir: process.env.SUGARSHACK_DOCS_OUT,
+  outDir: process.env.SUGARSHACK_DOCS_OUT || ${JSON.stringify(DEFAULT_OUT)},
   cacheDir: ${JSON.stringify(path.join(ROOT, '.run', 'docs', 'cache'))},
   ignoreDeadLinks: false,
   lastUpdated: false,
@@ -126,7 +127,7 @@ function walkAbs(dir) {
   });
 }
 
-async function buildSite(out = path.join(ROOT, '.run', 'docs', 'site')) {
+async function buildSite(out = DEFAULT_OUT) {
   const groups = sidebar();
   const lost = orphans(groups);
   if (lost.length) throw new Error(`docs pages not linked from docs/index.md (so not in the site's sidebar): ${lost.join(', ')}`);
