@@ -209,6 +209,11 @@ class Committer {
     this.writes = 0;
   }
 
+  /** How many effects wait for a write. */
+  get waiting() {
+    return this.effects.length;
+  }
+
   /** A state change happened; `effect` runs once it is durable. */
   change(effect, { evenUnsaved = false } = {}) {
     if (this.frozen) return;

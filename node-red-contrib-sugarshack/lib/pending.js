@@ -5,6 +5,7 @@
 // and actuators nodes until their group command completes, keyed by caller id.
 
 const { clock } = require('./clock');
+const { HeldMsg: HeldMsgOfNode } = require('./interlock/held');
 
 class PendingRegistry {
   constructor() {
@@ -95,16 +96,12 @@ class HeldMsg {
   }
 
   detach() {
-    if (this.done) this.done();
-    this.node = null;
-    this.send = null;
-    this.done = null;
+    HeldMsgOfNode.prototype.detach.call(this);
   }
 
   /** @param {NodeRed.Node} next */
   adopt(next) {
-    this.node = next;
-    this.send = (m) => next.send(m);
+    HeldMsgOfNode.prototype.adopt.call(this, next);
   }
 
   stopTimer() {

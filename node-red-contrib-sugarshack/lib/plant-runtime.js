@@ -60,6 +60,7 @@ class PlantRuntime extends RuntimeBase {
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
     this.refreshStatus();
+    this.conditionsChanged();
     this.replayParked();
   }
 
@@ -254,15 +255,18 @@ class PlantRuntime extends RuntimeBase {
   flush(source) {
     const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
     let counted = source === null;
+    let abnormal = false;
     try {
       for (const effect of effects) {
         this.route(effect, source);
         if (effect.kind !== 'changed') counted = true;
+        if (effect.kind === 'deviceStatus' || effect.kind === 'fault' || effect.kind === 'recovered') abnormal = true;
       }
     } catch (err) {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    if (abnormal) this.conditionsChanged();
     if (!counted) {
       if (this.palette) this.palette.changes.touch();
     } else if (source === null) {
@@ -299,6 +303,23 @@ class PlantRuntime extends RuntimeBase {
         else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
+  }
+
+  /** The plant's abnormal conditions (devices offline or stale, brokers lost), as the interlocks' alarms read them. */
+  alarmConditions() {
+    if (this.state !== 'ready') return [];
+    const conditions = this.t.alarmConditions();
+    for (const b of this.buses) {
+      if (b.connected === false) conditions.push({ kind: 'bus-disconnected', subject: (b.node && b.node.name) || b.nodeId });
+    }
+    return conditions;
+  }
+
+  /** The interlocks bound to this plant hear of a change of its conditions. */
+  conditionsChanged() {
+    if (!this.palette) return;
+    const conditions = this.alarmConditions();
+    for (const runtime of this.palette.runtimes.values()) if (runtime.plant === this && runtime.plantConditions) runtime.plantConditions(conditions);
   }
 
   // ---- state and status ----------------------------------------------------

@@ -10,7 +10,7 @@ const wasm = require('./wasm');
 const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
-/** @typedef {import('./pending').HeldMsg} HeldMsg */
+/** @typedef {{ node: NodeRed.Node | null, nodeId: string | null, detach(): void, adopt(node: NodeRed.Node): void }} HeldMsg */
 /** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
 
 class RuntimeBase {

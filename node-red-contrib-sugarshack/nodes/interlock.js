@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { coreConfig } = require('../lib/config');
-const { InterlockRuntime } = require('../lib/interlock-runtime');
+const { InterlockRuntime } = require('../lib/interlock/runtime');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 const { useRED } = require('../lib/i18n');

@@ -402,6 +402,38 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('SmithConfig', smith);
   });
 
+  it('the engine: options, nodes, msg fields, operator requests, its view', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const config = { resources: t.interlockResources() };
+    const options = { plantBound: true, wire: 'typed' };
+    shapes.expect('EngineOptions', options);
+    const e = keep(new facade.Engine(config, options));
+    const nodes = [
+      { kind: 'acquire', timeoutMs: 1000, operation: 'o', priority: 2, resources: 'A' },
+      { kind: 'release', operation: 'o' },
+      { kind: 'fault', byResources: true, failMsg: false, resources: 'B' },
+      { kind: 'clear', allFaulted: true, refusalsWired: false },
+    ];
+    nodes.forEach((node, i) => {
+      shapes.expect('EngineNode', node);
+      e.addNode(i + 1, node, 0);
+    });
+    e.start(null, undefined, 0);
+    e.acquire(1, 1, 1);
+    e.acquireNamed(1, 9, 'p', 1, undefined, 1);
+    const fields = { reason: 'leak', user: 'Ann', force: false };
+    shapes.expect('EngineFields', fields);
+    e.fault(3, 2, fields, 2);
+    for (const request of [{ kind: 'clear', lines: ['B'] }, { kind: 'ack' }, { kind: 'shelve', id: 'line-faulted:B', forMs: 1000 }]) {
+      shapes.expect('OperatorRequest', request);
+      e.operatorAgainst(3, request, fields, 3, t);
+    }
+    e.fault(3, 4, fields, 4);
+    shapes.expect('EngineView', e.viewAgainst(5, t));
+    shapes.expect('InterlockCounts', e.counts());
+    shapes.expect('InterlockSnapshot', e.snapshot(5));
+  });
+
   it('every declared shape was met by a real value', function () {
     const unmet = [...declarations().keys()].filter((name) => !shapes.met.has(name));
     assert.deepEqual(unmet, []);

@@ -378,6 +378,11 @@ impl Alarms {
         self.alarms.get(id)
     }
 
+    /// Whether a condition waits out its kind's on-delay.
+    pub fn has_delayed(&self) -> bool {
+        !self.delayed.is_empty()
+    }
+
     /// When the next shelf runs out, if any alarm is shelved.
     pub fn next_expiry_ms(&self) -> Option<Millis> {
         self.alarms

@@ -8,6 +8,7 @@ pub mod alarm;
 pub mod clearance;
 pub mod code;
 pub mod control;
+pub mod engine;
 pub mod interlock;
 pub mod json;
 pub mod operation;

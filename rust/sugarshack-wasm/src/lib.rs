@@ -9,15 +9,19 @@ mod alarm;
 mod contract;
 mod control;
 mod device;
+mod engine;
 mod interlock;
 pub mod operation;
 mod routine;
 mod tracker;
 
 pub use alarm::Alarms;
-pub use contract::{abnormal_event_kinds, codes, max_status_chars, routine_reset_topic};
+pub use contract::{
+    abnormal_event_kinds, catalog_texts, codes, max_status_chars, memory, routine_reset_topic,
+};
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use device::DeviceSide;
+pub use engine::Engine;
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
 pub use routine::Routine;
 pub use tracker::{Ingest, Tracker};

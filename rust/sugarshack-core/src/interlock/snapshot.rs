@@ -3,8 +3,8 @@ use std::collections::{HashMap, HashSet};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpState,
-    Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
+    bound_note, cut, Event, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner,
+    QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 use crate::time::Millis;
@@ -449,13 +449,7 @@ impl Interlock {
                     lock.occupy(r, Owner::Held(op));
                 }
                 lock.holding += 1;
-                lock.operations[op.index()].state = OpState::Holding(Hold {
-                    priority: hold.priority,
-                    resources: lines,
-                    since_ms: hold.since_ms,
-                    waited_ms: hold.waited_ms,
-                    warned: false,
-                });
+                lock.hold(op, hold.priority, lines, hold.since_ms, hold.waited_ms);
                 continue;
             }
             if lines.is_empty() {

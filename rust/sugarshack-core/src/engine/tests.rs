@@ -1,0 +1,691 @@
+use super::*;
+use crate::time::ms;
+
+const LINES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
+
+fn text(s: &str) -> Raw {
+    Raw::Text(s.to_owned())
+}
+
+/// An engine on the case study's lines, started, with nodes:
+/// 1-3 acquire (op 10 prio 20 YEL, op 12 prio 22 YEL, op 18 prio 92 YEL,RED),
+/// 4 acquire with a 5 s timeout (op 51 RED), 5 release, 6 cancel, 7 fault,
+/// 8 e-stop, 9 clear all, 10 clear (refusals wired).
+struct Bench {
+    engine: Engine,
+    now: u64,
+}
+
+impl Bench {
+    fn new() -> Self {
+        let mut config = InterlockConfig::with_resources(LINES);
+        for r in &mut config.resources {
+            r.lockout = serde_json::json!({ "valves": { format!("V-{}", r.name): 0 } });
+        }
+        Self::with(config)
+    }
+
+    fn with(config: InterlockConfig) -> Self {
+        let mut engine = Engine::new(config, false).unwrap();
+        let nodes = [
+            (
+                1,
+                NodeSpec::acquire(text("10"), Raw::Number(20.0), text("YEL"), ms(0)),
+            ),
+            (
+                2,
+                NodeSpec::acquire(text("12"), text("22"), text("YEL"), ms(0)),
+            ),
+            (
+                3,
+                NodeSpec::acquire(text("18"), Raw::Number(92.0), text("YEL, RED"), ms(0)),
+            ),
+            (
+                4,
+                NodeSpec::acquire(text("51"), Raw::Absent, text("RED"), ms(5000)),
+            ),
+            (5, NodeSpec::of(NodeKind::Release, Raw::Absent)),
+            (6, NodeSpec::of(NodeKind::Cancel, Raw::Absent)),
+            (
+                7,
+                NodeSpec::of(
+                    NodeKind::Fault {
+                        by_resources: false,
+                        fail_msg: false,
+                    },
+                    Raw::Absent,
+                ),
+            ),
+            (
+                8,
+                NodeSpec {
+                    kind: NodeKind::Fault {
+                        by_resources: true,
+                        fail_msg: true,
+                    },
+                    operation: Raw::Absent,
+                    priority: Raw::Absent,
+                    resources: text("RED"),
+                },
+            ),
+            (
+                9,
+                NodeSpec::of(
+                    NodeKind::Clear {
+                        all_faulted: true,
+                        refusals_wired: false,
+                    },
+                    Raw::Absent,
+                ),
+            ),
+            (
+                10,
+                NodeSpec::of(
+                    NodeKind::Clear {
+                        all_faulted: false,
+                        refusals_wired: true,
+                    },
+                    Raw::Absent,
+                ),
+            ),
+        ];
+        for (node, spec) in nodes {
+            engine.handle(
+                Input::AddNode {
+                    node: NodeId(node),
+                    spec,
+                },
+                ms(0),
+            );
+        }
+        engine.handle(Input::Start(Saved::First), ms(0));
+        engine.take_outputs();
+        Bench { engine, now: 0 }
+    }
+
+    fn at(&mut self, t: u64) -> &mut Self {
+        self.now = t;
+        self
+    }
+
+    fn run(&mut self, input: Input) -> Vec<Output> {
+        self.engine.handle(input, ms(self.now));
+        self.engine.take_outputs()
+    }
+
+    fn acquire(&mut self, node: u32, msg: u32) -> Vec<Output> {
+        self.run(Input::Acquire {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields: MsgFields::default(),
+        })
+    }
+
+    fn release(&mut self, msg: u32, operation: &str) -> Vec<Output> {
+        self.run(Input::Release {
+            node: NodeId(5),
+            msg: MsgId(msg),
+            fields: Fields {
+                follow: text(operation),
+                ..Fields::default()
+            }
+            .into(),
+        })
+    }
+
+    fn tick(&mut self, t: u64) -> Vec<Output> {
+        self.now = t;
+        self.engine.tick(ms(t));
+        self.engine.take_outputs()
+    }
+}
+
+/// The msgs sent (msg, port) and completed (msg, code) by a batch, in order.
+fn answers(out: &[Output]) -> Vec<String> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Send { msg, port, .. } => Some(format!("send {} on {port}", msg.0)),
+            Output::Complete { msg, refusal } => Some(match refusal {
+                Some(r) => format!("fail {} {}", msg.0, r.code.name()),
+                None => format!("done {}", msg.0),
+            }),
+            Output::Emit { msg, port, msgs } => {
+                Some(format!("emit {} on {port} x{}", msg.0, msgs.len()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+fn granted_interlock(out: &[Output], msg: u32) -> (String, i32, Vec<String>, u64) {
+    out.iter()
+        .find_map(|o| match o {
+            Output::Send {
+                msg: m,
+                set:
+                    Set::Interlock {
+                        operation,
+                        priority,
+                        resources,
+                        waited_ms,
+                    },
+                ..
+            } if m.0 == msg => Some((
+                operation.to_string(),
+                *priority,
+                resources.iter().map(|r| r.to_string()).collect(),
+                waited_ms.as_u64(),
+            )),
+            _ => None,
+        })
+        .expect("a grant")
+}
+
+/// Whether a batch logs the catalog text `key` at `level`.
+fn logged(out: &[Output], level: Level, key: &str) -> bool {
+    out.iter().any(|o| match o {
+        Output::Log { level: l, text } => {
+            *l == level && matches!(&**text, Text::Catalog { key: k, .. } if *k == key)
+        }
+        _ => false,
+    })
+}
+
+fn counts(out: &[Output]) -> Option<Counts> {
+    out.iter().rev().find_map(|o| match o {
+        Output::Counts(c) => Some(*c),
+        _ => None,
+    })
+}
+
+#[test]
+fn a_free_line_is_granted_at_once_after_the_commit() {
+    let mut b = Bench::new();
+    let out = b.at(5).acquire(1, 100);
+    assert!(matches!(out[0], Output::Commit { urgent: false }));
+    assert!(
+        matches!(out.last(), Some(Output::Counts(_))),
+        "the counts last (the host shows them at once)"
+    );
+    assert_eq!(answers(&out), ["send 100 on 0"]);
+    assert_eq!(
+        granted_interlock(&out, 100),
+        ("10".into(), 20, vec!["YEL".into()], 0)
+    );
+    assert_eq!(
+        counts(&out),
+        Some(Counts {
+            holding: 1,
+            ..Counts::default()
+        })
+    );
+}
+
+#[test]
+fn a_release_sends_its_msg_then_the_grants_in_priority_order() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.at(10).acquire(1, 2);
+    b.at(20).acquire(2, 3);
+    let waiting = b.at(30).acquire(4, 4);
+    assert_eq!(
+        answers(&waiting),
+        Vec::<String>::new(),
+        "op 51 waits for RED"
+    );
+    let out = b.at(100).release(9, "18");
+    assert_eq!(
+        answers(&out),
+        ["send 9 on 0", "send 3 on 0", "send 4 on 0"],
+        "the release's own msg first, then op 12 (22 > 20) and op 51"
+    );
+    assert_eq!(granted_interlock(&out, 3).3, 80, "op 12 waited 80 ms");
+    assert_eq!(
+        counts(&out),
+        Some(Counts {
+            holding: 2,
+            queued: 1,
+            ..Counts::default()
+        })
+    );
+}
+
+#[test]
+fn an_acquire_timeout_is_a_deadline_that_withdraws_the_request() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.at(1000).acquire(4, 2);
+    assert_eq!(b.engine.next_deadline(), Some(ms(6000)));
+    assert_eq!(answers(&b.tick(5999)), Vec::<String>::new());
+    let out = b.tick(6000);
+    assert_eq!(answers(&out), ["fail 2 ACQUIRE_TIMEOUT"]);
+    let refusal = out
+        .iter()
+        .find_map(|o| match o {
+            Output::Complete {
+                refusal: Some(r), ..
+            } => Some(r.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(refusal.key(), Some("errors.acquireTimeout"));
+    assert_eq!(
+        refusal.params(),
+        vec![
+            ("operation", Param::Text("51".into())),
+            ("resources", Param::Text("RED".into())),
+            ("seconds", Param::Text("5".into())),
+        ]
+    );
+    assert!(out.contains(&Output::NodeError {
+        node: NodeId(4),
+        code: Code::AcquireTimeout
+    }));
+    assert_eq!(b.engine.interlock().counts().queued, 0);
+    assert_eq!(b.engine.next_deadline(), None);
+    // A grant before the deadline clears it.
+    b.at(7000).acquire(4, 3);
+    b.release(4, "18");
+    assert_eq!(b.engine.next_deadline(), None);
+}
+
+#[test]
+fn a_grant_nobody_waits_for_is_released_at_once() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.at(10).acquire(1, 2);
+    // A hand-over from a state that knows the waiting request but not its msg.
+    let mut doc = b.engine.snapshot(ms(20));
+    doc.engine = None;
+    let mut standby = Engine::new(b.engine.config().clone(), false).unwrap();
+    standby.handle(
+        Input::AddNode {
+            node: NodeId(5),
+            spec: NodeSpec::of(NodeKind::Release, Raw::Absent),
+        },
+        ms(20),
+    );
+    standby.hand_over(&doc, ms(20)).unwrap();
+    standby.take_outputs();
+    standby.handle(
+        Input::Release {
+            node: NodeId(5),
+            msg: MsgId(9),
+            fields: Fields {
+                operation: text("18"),
+                ..Fields::default()
+            }
+            .into(),
+        },
+        ms(30),
+    );
+    let out = standby.take_outputs();
+    assert_eq!(answers(&out), ["send 9 on 0"]);
+    assert!(logged(&out, Level::Warn, "logs.grantedUnclaimed"));
+    assert_eq!(
+        standby.interlock().counts().holding,
+        0,
+        "op 10 was released again"
+    );
+}
+
+#[test]
+fn a_drain_holds_waiting_requests_back_and_queues_them_again_in_order() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.at(10).acquire(2, 2);
+    b.at(20).acquire(4, 3);
+    b.at(30).acquire(1, 4);
+    b.run(Input::Life(Step::DrainBegin));
+    assert_eq!(b.engine.stage(), Stage::Draining);
+    assert_eq!(b.engine.interlock().counts().queued, 0, "out of the queue");
+    assert_eq!(b.engine.counts().queued, 3, "still counted as waiting");
+    // A release while draining grants nobody; it is not held back itself.
+    let out = b.at(40).release(9, "18");
+    assert_eq!(answers(&out), ["send 9 on 0"]);
+    // The timeout runs on while held back.
+    assert_eq!(answers(&b.tick(5020)), ["fail 3 ACQUIRE_TIMEOUT"]);
+    let names: Vec<&str> = b.engine.held_back().map(|h| h.0).collect();
+    assert_eq!(names, ["12", "10"]);
+    // A new request while draining waits too.
+    b.run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(5),
+        fields: Fields {
+            operation: text("60"),
+            resources: text("GRN"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    let out = b.at(6000).run(Input::Life(Step::DrainEnd));
+    assert_eq!(answers(&out), ["send 2 on 0", "send 5 on 0"]);
+    assert_eq!(
+        granted_interlock(&out, 2).3,
+        5990,
+        "waited since it first came"
+    );
+    assert_eq!(b.engine.counts().queued, 1, "op 10 waits behind op 12");
+}
+
+#[test]
+fn priorities_default_to_zero_and_names_are_trimmed() {
+    let mut b = Bench::new();
+    let out = b.run(Input::Acquire {
+        node: NodeId(4),
+        msg: MsgId(1),
+        fields: Fields {
+            operation: text("  truck "),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    assert_eq!(
+        granted_interlock(&out, 1),
+        ("truck".into(), 0, vec!["RED".into()], 0)
+    );
+    let out = b.run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(2),
+        fields: Fields {
+            operation: text("x"),
+            priority: text("urgent"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    assert_eq!(answers(&out), ["fail 2 INVALID_PRIORITY"]);
+}
+
+#[test]
+fn a_clear_is_attributed_to_the_signed_in_user_over_msg_by() {
+    let mut b = Bench::new();
+    b.run(Input::Fault {
+        node: NodeId(8),
+        msg: MsgId(1),
+        fields: MsgFields::default(),
+    });
+    let out = b.run(Input::Clear {
+        node: NodeId(9),
+        msg: MsgId(2),
+        fields: Fields {
+            who: WhoFields {
+                user: text("ann"),
+                by: text("bob"),
+                reason: text("checked"),
+                force: false,
+            },
+            ..Fields::default()
+        }
+        .into(),
+        names_given: false,
+    });
+    assert!(out.iter().any(|o| matches!(o,
+        Output::Send { msg: MsgId(2), port: 0, set: Set::Cleared(c) }
+        if c.cleared == ["RED".to_owned()] && c.by == "ann" && c.reason.as_deref() == Some("checked") && !c.forced)));
+    assert!(out.iter().any(|o| matches!(o,
+        Output::Journal(j) if j.action == Action::Clear && j.by.as_deref() == Some("ann"))));
+    assert_eq!(b.engine.interlock().counts().faulted, 0);
+}
+
+#[test]
+fn a_fault_locks_out_first_even_unsaved_then_answers_the_queue() {
+    let mut b = Bench::new();
+    b.acquire(1, 1);
+    b.at(10).acquire(2, 2);
+    let out = b.at(20).run(Input::Fault {
+        node: NodeId(7),
+        msg: MsgId(3),
+        fields: Fields {
+            follow: text("10"),
+            error_message: text("pump P1 ran dry"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    assert!(matches!(out[0], Output::Commit { urgent: true }));
+    assert_eq!(answers(&out), ["emit 3 on 1 x1", "send 3 on 0"]);
+    let Output::Emit { msgs, .. } = &out[1] else {
+        panic!("{out:?}")
+    };
+    assert_eq!(msgs[0].topic, "lockout/YEL");
+    assert_eq!(msgs[0].operation.as_deref(), Some("10"));
+    assert_eq!(msgs[0].note.as_deref(), Some("pump P1 ran dry"));
+    assert_eq!(msgs[0].fault_at_ms, ms(20));
+    assert_eq!(
+        msgs[0].payload,
+        serde_json::json!({ "valves": { "V-YEL": 0 } })
+    );
+    // The waiter's fault drops it: its msg completes unsent.
+    let out = b.at(30).run(Input::Fault {
+        node: NodeId(7),
+        msg: MsgId(4),
+        fields: Fields {
+            operation: text("12"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    assert_eq!(answers(&out), ["emit 4 on 1 x0", "send 4 on 0", "done 2"]);
+}
+
+#[test]
+fn an_emergency_stop_that_fails_its_msg_says_what_it_stopped() {
+    let mut b = Bench::new();
+    let out = b.run(Input::Fault {
+        node: NodeId(8),
+        msg: MsgId(1),
+        fields: Fields {
+            who: WhoFields {
+                reason: text("leak"),
+                ..WhoFields::default()
+            },
+            ..Fields::default()
+        }
+        .into(),
+    });
+    assert_eq!(answers(&out), ["emit 1 on 1 x1", "fail 1 FAULTED"]);
+    assert!(out.iter().any(|o| matches!(o,
+        Output::Complete { refusal: Some(r), .. }
+        if matches!(&r.text, Text::Faulted { operation: None, lines, note: Some(note) }
+            if lines == &["RED".to_owned()] && note == "leak"))));
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Journal(j) if j.action == Action::EStop)));
+}
+
+#[test]
+fn a_lost_state_starts_all_faulted_until_cleared() {
+    let mut engine = Engine::new(InterlockConfig::with_resources(LINES), false).unwrap();
+    engine.handle(
+        Input::AddNode {
+            node: NodeId(9),
+            spec: NodeSpec::of(
+                NodeKind::Clear {
+                    all_faulted: true,
+                    refusals_wired: false,
+                },
+                Raw::Absent,
+            ),
+        },
+        ms(0),
+    );
+    engine.handle(
+        Input::Start(Saved::Lost("state.json is empty".into())),
+        ms(0),
+    );
+    let out = engine.take_outputs();
+    assert_eq!(
+        counts(&out),
+        Some(Counts {
+            faulted: 5,
+            lost: true,
+            ..Counts::default()
+        })
+    );
+    assert!(logged(&out, Level::Error, "logs.stateUnknown"));
+    assert_eq!(engine.lost(), Some("state.json is empty"));
+    engine.handle(
+        Input::Clear {
+            node: NodeId(9),
+            msg: MsgId(1),
+            fields: MsgFields::default(),
+            names_given: false,
+        },
+        ms(10),
+    );
+    assert_eq!(counts(&engine.take_outputs()), Some(Counts::default()));
+    assert_eq!(engine.lost(), None);
+}
+
+#[test]
+fn inputs_wait_while_starting_and_a_shutdown_completes_held_msgs_unsent() {
+    let mut engine = Engine::new(InterlockConfig::with_resources(LINES), false).unwrap();
+    engine.handle(
+        Input::AddNode {
+            node: NodeId(1),
+            spec: NodeSpec::acquire(text("10"), Raw::Absent, text("YEL"), ms(0)),
+        },
+        ms(0),
+    );
+    for msg in [1, 2] {
+        engine.handle(
+            Input::Acquire {
+                node: NodeId(1),
+                msg: MsgId(msg),
+                fields: MsgFields::default(),
+            },
+            ms(0),
+        );
+    }
+    assert!(engine.take_outputs().is_empty(), "nothing before the start");
+    engine.handle(Input::Start(Saved::First), ms(5));
+    let out = engine.take_outputs();
+    assert_eq!(answers(&out), ["send 1 on 0", "fail 2 ALREADY_HOLDING"]);
+    engine.handle(
+        Input::Acquire {
+            node: NodeId(1),
+            msg: MsgId(3),
+            fields: Fields {
+                operation: text("11"),
+                ..Fields::default()
+            }
+            .into(),
+        },
+        ms(6),
+    );
+    engine.take_outputs();
+    engine.handle(Input::Life(Step::Shutdown), ms(7));
+    let out = engine.take_outputs();
+    assert_eq!(answers(&out), ["done 3"]);
+    assert!(
+        !out.iter().any(|o| matches!(o, Output::Commit { .. })),
+        "a shutdown changes no state"
+    );
+    engine.handle(
+        Input::Acquire {
+            node: NodeId(1),
+            msg: MsgId(4),
+            fields: MsgFields::default(),
+        },
+        ms(8),
+    );
+    assert_eq!(answers(&engine.take_outputs()), ["done 4"]);
+    assert_eq!(engine.next_deadline(), None);
+}
+
+#[test]
+fn a_node_gone_for_good_withdraws_its_requests() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.acquire(1, 2);
+    b.acquire(2, 3);
+    // Restarted by a deploy: its msg waits for the next instance.
+    b.run(Input::Life(Step::DeployBegin));
+    b.run(Input::CloseNode {
+        node: NodeId(1),
+        removed: false,
+    });
+    b.run(Input::CloseNode {
+        node: NodeId(2),
+        removed: false,
+    });
+    b.run(Input::AddNode {
+        node: NodeId(2),
+        spec: NodeSpec::acquire(text("12"), text("22"), text("YEL"), ms(0)),
+    });
+    let out = b.run(Input::Life(Step::DeployEnd));
+    assert_eq!(answers(&out), ["done 2"], "node 1 did not come back");
+    assert_eq!(b.engine.counts().queued, 1);
+    let out = b.run(Input::CloseNode {
+        node: NodeId(2),
+        removed: true,
+    });
+    assert_eq!(answers(&out), ["done 3"]);
+}
+
+#[test]
+fn elapsed_time_warnings_and_their_alarms_are_deadlines() {
+    let mut config = InterlockConfig::with_resources(LINES);
+    config.warn_queued_ms = Some(ms(10_000));
+    let mut b = Bench::with(config);
+    b.acquire(3, 1);
+    b.at(1000).acquire(1, 2);
+    assert_eq!(b.engine.next_deadline(), Some(ms(11_000)));
+    b.at(1500).acquire(2, 3);
+    assert_eq!(
+        b.engine.next_deadline(),
+        Some(ms(11_000)),
+        "op 12's warning falls on the beat after 11.5 s: 12 s"
+    );
+    let out = b.tick(11_000);
+    assert!(logged(&out, Level::Warn, "events.waitedLong"));
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Alarm { change: c } if c.id == "waiting-long:10")));
+    // The alarm's text counts the seconds: looked at again every second while it holds.
+    assert_eq!(b.engine.next_deadline(), Some(ms(12_000)));
+    b.at(11_500).run(Input::Cancel {
+        node: NodeId(6),
+        msg: MsgId(9),
+        fields: Fields {
+            follow: text("10"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    let out = b.tick(12_000);
+    assert!(
+        out.iter()
+            .any(|o| matches!(o, Output::Alarm { change: c } if c.id == "waiting-long:10")),
+        "returned to normal"
+    );
+    assert!(
+        logged(&out, Level::Warn, "events.waitedLong"),
+        "op 12 warned at 12 s"
+    );
+}
+
+#[test]
+fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
+    let mut b = Bench::new();
+    b.acquire(3, 1);
+    b.at(100).acquire(4, 2);
+    let doc = b.engine.snapshot(ms(200));
+    let text = serde_json::to_string(&doc).unwrap();
+    let read: StateDoc = serde_json::from_str(&text).unwrap();
+    assert_eq!(read, doc);
+    assert_eq!(read.format, STATE_FORMAT);
+    let requests = &read.engine.as_ref().unwrap().requests;
+    assert_eq!(requests.len(), 1);
+    assert_eq!(requests[0].deadline_ms, Some(ms(5100)));
+
+    let mut standby = b.engine.clone();
+    standby.hand_over(&read, ms(200)).unwrap();
+    standby.take_outputs();
+    // Both go on alike.
+    for engine in [&mut b.engine, &mut standby] {
+        engine.tick(ms(5100));
+    }
+    assert_eq!(b.engine.take_outputs(), standby.take_outputs());
+}
