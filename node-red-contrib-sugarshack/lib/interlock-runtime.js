@@ -15,13 +15,14 @@ const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
-const { RuntimeBase, drainingStatus } = require('./runtime-base');
+const { RuntimeBase, drainingStatus, standbyStatus } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
 const { journal } = require('./journal/bus');
 const { StatusPacer } = require('./status-pacer');
+const { clusterOf, EtcdStore } = require('./cluster');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
@@ -50,7 +51,20 @@ class InterlockRuntime extends RuntimeBase {
     this.tickTimer = null;
     this.alarms = null; // AlarmBook, with the core
     this.alarmTimer = null;
-    this.store = settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore();
+    // In a hot-standby cluster the state is in etcd whatever `persist` says: a standby without it would start every line faulted.
+    this.stopFollowing = null;
+    /** @type {EtcdStore | null} */
+    this.etcdStore = null;
+    try {
+      this.cluster = clusterOf(RED);
+    } catch (err) {
+      // Never alone by mistake: a cluster misconfigured refuses every msg instead of acting as a single instance.
+      this.cluster = null;
+      this.configError = err;
+    }
+    if (this.cluster) this.etcdStore = new EtcdStore(this.cluster, id);
+    /** @type {FileStore | MemoryStore | EtcdStore} */
+    this.store = this.etcdStore || (settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore());
     this.committer = this.makeCommitter();
     // Counts on nodes change with every grant: shown paced, the last state always (after each window).
     this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready');
@@ -94,9 +108,13 @@ class InterlockRuntime extends RuntimeBase {
         const records = this.events.listened() ? this.core.drainEvents() : this.core.drainAbnormalEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
-        if (!this.events.listened()) return null;
-        return records.length ? () => this.events.publish(records) : null;
+        if (!this.events.listened() || !records.length) return null;
+        // In a cluster each event names the instance and the fencing token it was committed under.
+        const { cluster } = this;
+        const stamped = cluster ? records.map((r) => ({ ...r, instance: cluster.instance, token: cluster.token })) : records;
+        return () => this.events.publish(stamped);
       },
+      mayAct: () => !this.cluster || this.cluster.mayAct(),
       onError: (err) => {
         this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
         this.refreshStatus();
@@ -126,13 +144,14 @@ class InterlockRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
+    if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
     let saved;
     try {
       saved = this.store.read();
     } catch (err) {
       saved = { kind: 'lost', why: err.message };
     }
-    if (saved.kind === 'first' && this.persist) {
+    if (saved.kind === 'first' && this.persist && !this.cluster) {
       const legacy = await this.legacySnapshot();
       if (legacy) saved = { kind: 'saved', doc: { interlock: legacy, routines: {} } };
     }
@@ -156,6 +175,63 @@ class InterlockRuntime extends RuntimeBase {
     this.refreshStatus();
     this.resendLockouts(i18n.text('labels.resentAtStart'));
     this.replayParked();
+  }
+
+  // ---- hot standby (lib/cluster) ----------------------------------------------
+
+  /**
+   * In a cluster: true once the committed state is read under this instance's
+   * fencing token, as a restart reads its file; false (standby) when this
+   * instance is not the leader.
+   */
+  async loadCommitted(cluster, store) {
+    if (!this.stopFollowing) this.stopFollowing = cluster.follow(this);
+    if (cluster.active) {
+      try {
+        await store.unfollow();
+        await store.load();
+        if (!this.ended) return true;
+      } catch (err) {
+        this.log('warn', i18n.text('logs.standbyNotTaken', { message: err.message }));
+      }
+    }
+    if (!this.ended) this.becomeStandby();
+    return false;
+  }
+
+  /** Elected: the committed state is opened as after a restart (held lines faulted, lockouts sent again). */
+  activate() {
+    if (this.ended || this.state !== 'standby') return;
+    this.state = 'starting';
+    this.refreshStatus();
+    this.start();
+  }
+
+  /** Deposed: nothing more leaves, as at a shutdown; what waited here is completed unsent, and the state followed again. */
+  async standDown() {
+    if (this.ended || this.state === 'standby') return;
+    const wasReady = this.state === 'ready';
+    this.stopTimers();
+    await this.committer.freeze();
+    for (const handle of this.pending.handles()) this.pending.take(handle).abandon();
+    for (const entry of this.heldBack) entry.abandon();
+    this.heldBack = [];
+    for (const run of this.runs) run.shutdown();
+    this.runs.clear();
+    for (const host of this.routines.values()) host.shutdown();
+    this.routines.clear();
+    this.savedRoutines = {};
+    if (wasReady) this.freeCore();
+    this.lostState = null;
+    this.committer = this.makeCommitter();
+    this.becomeStandby();
+  }
+
+  becomeStandby() {
+    this.state = 'standby';
+    this.parked.completeAll();
+    this.refreshStatus();
+    if (this.etcdStore) this.etcdStore.follow().catch((err) => this.log('warn', i18n.text('logs.standbyNotFollowing', { message: err.message })));
   }
 
   /** The core interlock from what was saved: restored, all faulted when it was lost, or new. */
@@ -220,6 +296,7 @@ class InterlockRuntime extends RuntimeBase {
   async shutdown() {
     if (this.ended) return;
     const wasReady = this.state === 'ready';
+    this.leaveCluster();
     this.endCommon();
     this.stopTimers();
     await this.committer.freeze();
@@ -243,11 +320,18 @@ class InterlockRuntime extends RuntimeBase {
       await this.committer.drain();
     }
     const wasReady = this.state === 'ready';
+    this.leaveCluster();
     this.endCommon();
     this.stopTimers();
     for (const run of this.runs) run.shutdown();
     for (const host of this.routines.values()) host.shutdown();
     if (wasReady) this.freeCore();
+  }
+
+  leaveCluster() {
+    if (this.stopFollowing) this.stopFollowing();
+    this.stopFollowing = null;
+    if (this.etcdStore) this.etcdStore.unfollow();
   }
 
   /** Elapsed-time warnings are checked once a second when the configuration sets any. */
@@ -813,7 +897,8 @@ class InterlockRuntime extends RuntimeBase {
       if (!this.gateOpen) status = drainingStatus();
       else if (this.committer.failing) status = statusOf('error', i18n.text('status.stateNotSaved'));
       else status = this.countsStatus();
-    } else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
+    } else if (this.state === 'standby') status = standbyStatus();
+    else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
     else if (this.state === 'starting') status = statusOf('idle', i18n.text('status.starting'));
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);

@@ -1,0 +1,99 @@
+'use strict';
+// Hot standby with real processes: two Node-RED instances run the routines
+// flow against one real etcd cluster, a real Mosquitto and the simulator. One
+// is active, the other shows `standby` and acts on nothing (the msgs both get
+// are answered once, by the leader). The leader is killed with SIGKILL just
+// after a grant and an e-stop: the standby takes over from the committed
+// state as a restart would (the e-stopped line still faulted, the granted
+// lines faulted "interrupted"), sends every faulted line's lockout again,
+// stamps its events with a newer fencing token, and the old leader, started
+// again, stands by.
+//
+// Run: npx mocha --timeout 30000 --exit tests/integration/standby.spec.js
+const assert = require('node:assert/strict');
+const { startEtcd } = require('./support/etcd');
+const { startMosquitto } = require('./support/mosquitto');
+const { connectProbe } = require('./support/mqtt-probe');
+const { startTestSimulator } = require('./support/simulator');
+const { waitFor } = require('./support/node-red');
+const { StandbyPair } = require('./support/standby');
+const { PLANT_FILE, OPERATIONS, lockoutSeen: lockoutSeenAmong } = require('./support/routines-flow');
+
+const TTL_S = 2;
+
+describe('hot standby: two real Node-RED processes on a real etcd, the leader killed', function () {
+  this.timeout(240000);
+  let etcd;
+  let broker;
+  let sim;
+  let probe;
+  let pair;
+
+  before(async function () {
+    etcd = await startEtcd();
+    broker = await startMosquitto();
+    sim = await startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 1, pumpDelayMs: 200 });
+    probe = await connectProbe(broker.url, ['test/#', '+/+/+/command']);
+    pair = new StandbyPair({ etcd, broker, cluster: 'standby', ttlS: TTL_S });
+  });
+
+  after(async function () {
+    if (pair) await pair.finish(this.currentTest);
+    if (probe) await probe.end();
+    if (sim) await sim.stop();
+    if (broker) await broker.stop();
+    if (etcd) await etcd.stop();
+  });
+
+  const events = (since) => probe.on('test/events').filter((m) => m.at >= since).map((m) => m.json);
+  const lockoutSeen = (line, since) => lockoutSeenAmong(probe.on('+/+/+/command'), line, since);
+
+  it('stands by visibly, takes over from the committed state, re-sends lockouts, and the old leader stands by on return', async function () {
+    const leader = await pair.start();
+    const standby = pair.other(leader);
+    await waitFor(async () => {
+      const c = await pair.clusterOf(standby);
+      return c && c.role === 'standby' && c.leader && c.leader.instance === leader.instance;
+    }, 'the other instance standby, naming the leader');
+    const seenByStandby = await standby.get('/sugarshack/state');
+    const il = seenByStandby.interlocks.find((i) => i.id === 'il');
+    assert.equal(il.state, 'standby');
+    const leaderState = await leader.get('/sugarshack/state');
+    const token = leaderState.cluster.token;
+    assert.ok(Number(token) > 0);
+
+    // An e-stop and an operation, sent to both over MQTT, are done once, by the leader, stamped with its token.
+    const since = Date.now();
+    await probe.publish('test/estop/RED', 'e-stop');
+    await waitFor(() => lockoutSeen('RED', since), 'the lockout of RED');
+    const op = OPERATIONS.find((o) => !o.lines.includes('RED'));
+    await probe.publish(`test/op/${op.id}`, 'go');
+    await waitFor(() => events(since).some((e) => e.kind === 'granted' && e.operation === op.id), `op ${op.id} granted`);
+    const before = events(since);
+    assert.ok(before.every((e) => e.instance === leader.instance && e.token === token), `every event from ${leader.instance} under token ${token}: ${JSON.stringify(before)}`);
+    assert.equal(before.filter((e) => e.kind === 'granted' && e.operation === op.id).length, 1, 'granted once, not by both');
+
+    const killedAt = Date.now();
+    await leader.kill();
+    const next = await pair.leader(TTL_S * 1000 + 20000);
+    assert.equal(next, standby);
+    const failoverMs = Date.now() - killedAt;
+    const lines = await next.lines('il');
+    assert.equal(lines.RED, 'faulted:manual', 'the e-stop stays latched');
+    for (const line of op.lines) assert.ok(lines[line].startsWith('faulted'), `${line}, granted to ${op.id} before the kill, comes back faulted: ${lines[line]}`);
+    for (const line of ['RED', ...op.lines]) await waitFor(() => lockoutSeen(line, killedAt), `the lockout of ${line} sent again by the new leader`, 20000);
+    const after = events(killedAt);
+    const nextToken = (await pair.clusterOf(next)).token;
+    assert.ok(Number(nextToken) > Number(token), 'a newer fencing token');
+    assert.ok(after.every((e) => e.instance === next.instance && e.token === nextToken), 'only the new leader acts');
+    const cluster = await pair.clusterOf(next);
+    assert.equal(cluster.lastFailover.from, leader.instance);
+    assert.equal(cluster.lastFailover.to, next.instance);
+
+    // The old leader comes back as the standby; the new one keeps acting.
+    await leader.start({ waitForBroker: false });
+    await waitFor(async () => (await pair.clusterOf(leader) || {}).role === 'standby', 'the old leader standby');
+    assert.equal((await pair.clusterOf(next)).role, 'active');
+    if (process.env.STANDBY_LOG) console.log(`      failover observed in ${failoverMs} ms`);
+  });
+});
