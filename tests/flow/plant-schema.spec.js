@@ -7,12 +7,14 @@
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
+const os = require('os');
 const { execFileSync } = require('child_process');
 const Ajv = require('ajv');
 const helper = require('node-red-node-test-helper');
 const { PALETTE, paletteNodes, startServer, stopServer } = require('./support');
 
 const { validatePlant, PLANT_SCHEMA } = require(path.join(PALETTE, 'lib', 'plant.js'));
+const { plantReference } = require('../../scripts/docs/plant-reference');
 
 helper.init(require.resolve('node-red'));
 
@@ -293,5 +295,32 @@ describe('GET /sugarshack/plant/schema', function () {
     assert.equal(res.status, 200, res.text);
     assert.match(res.headers['content-type'], /^application\/schema\+json/);
     assert.deepEqual(JSON.parse(res.text), SCHEMA);
+  });
+});
+
+describe('the plant document\'s reference (scripts/docs/plant-reference.js)', function () {
+  it('writes every key of the schema with its meaning, each part a section its links reach', function () {
+    const out = path.join(fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-reference-')), 'docs', 'plant.md');
+    execFileSync(process.execPath, [path.join(ROOT, 'scripts', 'docs', 'plant-reference.js'), out], { encoding: 'utf8' });
+    const markdown = fs.readFileSync(out, 'utf8');
+    fs.rmSync(path.dirname(path.dirname(out)), { recursive: true });
+    assert.equal(markdown, plantReference(SCHEMA));
+
+    const missing = [];
+    const parts = [['The document', SCHEMA], ...Object.entries(SCHEMA.definitions)];
+    for (const [name, schema] of parts) {
+      if (!markdown.includes(`\n## ${name}\n`)) missing.push(`section ${name}`);
+      for (const form of schema.anyOf || [schema]) {
+        for (const [key, value] of Object.entries(form.properties || {})) {
+          const row = markdown.split('\n').find((line) => line.replace(/^ +/, '').startsWith(`| \`${key}\` |`) && line.includes(value.markdownDescription));
+          if (!row) missing.push(`${name}.${key}`);
+        }
+      }
+    }
+    assert.deepEqual(missing, []);
+    const headings = new Set([...markdown.matchAll(/^## (.+)$/gm)].map((m) => m[1].toLowerCase()));
+    const links = [...markdown.matchAll(/\]\(#([\w-]+)\)/g)].map((m) => m[1]);
+    assert.ok(links.length > 20, `${links.length} links`);
+    assert.deepEqual(links.filter((a) => !headings.has(a)), []);
   });
 });

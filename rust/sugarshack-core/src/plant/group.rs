@@ -160,10 +160,10 @@ impl schemars::JsonSchema for GroupCommand {
     fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
         let setpoint = generator.subschema_for::<Setpoint>();
         schemars::json_schema!({
-            "description": "Actuators to set at once, grouped by type: {\"valves\": {\"V101\": 100, \"V102\": 0}, \"pumps\": {\"P1\": true}}. Each key is an actuator type, by its name or its plural (its name and an s: `valves` for type `valve`); under it, each actuator's id and its target: true or false for a binary type, a position within the type's min..max for an analog one.",
+            "description": "Actuators to set at once, grouped by type: `{\"valves\": {\"V101\": 100, \"V102\": 0}, \"pumps\": {\"P1\": true}}`. Each key is an actuator type, by its name or its plural (its name and an s: `valves` for type `valve`); under it, each actuator's id and its target: `true` or `false` for a binary type, a position from the type's `min` to its `max` for an analog one.",
             "type": "object",
             "additionalProperties": {
-                "description": "The actuators of this type and their targets, such as {\"V101\": 100}.",
+                "description": "The actuators of this type and their targets, such as `{\"V101\": 100}`.",
                 "type": "object",
                 "additionalProperties": setpoint
             }

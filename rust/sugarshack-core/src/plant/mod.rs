@@ -165,7 +165,7 @@ pub struct ActuatorType {
     pub completion_ms: Millis,
     /// Feedback older than this many ms is stale: the actuator's position is no longer known.
     pub stale_ms: Millis,
-    /// How many times a command that did not move or finish is sent again before it fails (default 0).
+    /// How many times a command that did not move or finish is sent again before it fails.
     #[serde(default)]
     pub retries: u32,
     /// What a command that failed after its retries does: `fail-fast` (the
@@ -190,7 +190,7 @@ pub enum DeviceKind {
     SensorStation,
 }
 
-/// The MQTT dialect a device speaks (see the topics module for each one's topics).
+/// The MQTT dialect a device speaks: its topics and payloads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
@@ -540,7 +540,7 @@ pub struct Routine {
     pub states: Vec<String>,
     /// The state it starts in, and returns to on a `reset` msg.
     pub initial: String,
-    /// The state it goes to when one of its operations faults; without one it halts there.
+    /// The state it goes to when one of its operations faults; without one it halts until a `reset` msg.
     #[serde(default)]
     pub error_state: Option<String>,
     /// Its moves between states; of those that can fire, the first listed wins.

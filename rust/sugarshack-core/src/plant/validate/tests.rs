@@ -55,7 +55,10 @@ fn a_document_may_name_its_json_schema_which_the_checks_ignore() {
     let plant = Plant::new(read(doc.clone())).unwrap();
     assert!(plant.warnings().is_empty());
     assert_eq!(plant.schema.as_deref(), Some(schema));
-    assert_eq!(serde_json::to_value(plant.model()).unwrap()["$schema"], schema);
+    assert_eq!(
+        serde_json::to_value(plant.model()).unwrap()["$schema"],
+        schema
+    );
     doc["$schema"] = json!(5);
     assert!(serde_json::from_value::<PlantModel>(doc).is_err());
 }
