@@ -454,6 +454,8 @@ pub enum Step {
     /// ``{"wait": "`LT-3` >= 12000", "sensors": ["LT-3"], "timeoutMs": 600000}``.
     #[serde(rename_all = "camelCase")]
     Wait {
+        // Text in the document, whatever the core reads it into.
+        #[cfg_attr(feature = "schema", schemars(with = "String"))]
         /// The condition, a JSONata expression over the listed sensors' values
         /// that gives true or false: `` `LT-3` >= 12000 `` (a sensor id with a
         /// `-` goes in backticks).
@@ -579,6 +581,8 @@ pub enum Trigger {
     /// ``{"when": "`LT-3` >= 12000", "sensors": ["LT-3"], "everyMs": 1000}``.
     #[serde(rename_all = "camelCase")]
     When {
+        // Text in the document, whatever the core reads it into.
+        #[cfg_attr(feature = "schema", schemars(with = "String"))]
         /// The condition, a JSONata expression over the listed sensors' values
         /// that gives true or false: `` `LT-3` >= 12000 `` (a sensor id with a
         /// `-` goes in backticks).
