@@ -76,8 +76,8 @@ cargo clippy -p sugarshack-wasm --target wasm32-unknown-unknown --all-targets --
 stage "repetition (jscpd: no code written twice in the Rust and JS, tests included)"
 npx jscpd .
 
-stage "cargo test (sugarshack-core, control experiments)"
-counted cargo test -p sugarshack-core -p sugarshack-experiments
+stage "cargo test (sugarshack-core, plant schema, control experiments)"
+counted cargo test -p sugarshack-core -p sugarshack-schema -p sugarshack-experiments
 
 stage "doctests (the core's documented entry points)"
 counted cargo test --workspace --doc
