@@ -707,6 +707,7 @@ class InterlockRuntime extends RuntimeBase {
           : null;
         const conditions = conditionsOf({
           interlock: this.core.alarmConditions(now), saveFailing: this.committer.failing, store: this.store.where, plant,
+          cluster: this.cluster ? this.cluster.alarmConditions() : [],
         });
         return this.alarms.observe(conditions, now);
       });
@@ -839,6 +840,8 @@ class InterlockRuntime extends RuntimeBase {
    * the routines and their pending operations, whether it was lost at start.
    */
   describe() {
+    // A standby shows which committed state it follows (the etcd revision of its last write).
+    if (this.state === 'standby' && this.etcdStore) return { failure: null, following: { where: this.etcdStore.where, revision: this.etcdStore.held.revision } };
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
     const now = clock.now();
     const snapshot = this.core.snapshot(now);

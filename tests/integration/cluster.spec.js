@@ -163,6 +163,14 @@ describe('hot standby: election, fencing and state on a real etcd cluster', func
     assert.equal(JSON.parse(await admin.get(store.key).string()).n, 3);
   });
 
+  it('takes the settings.js section of docs/how-to/hot-standby.md as written', function () {
+    const page = require('fs').readFileSync(require('path').join(__dirname, '..', '..', 'docs/how-to/hot-standby.md'), 'utf8');
+    const block = /```js by=tests\/integration\/cluster\.spec\.js\n([\s\S]*?)```/.exec(page)[1];
+    const settings = new Function(`return {\n${block}\n};`)(); // eslint-disable-line no-new-func
+    const cluster = clusterSettings(settings);
+    assert.deepEqual([cluster.name, cluster.instance, cluster.hosts.length, cluster.ttlS, cluster.marginMs, cluster.mqtt.client], ['shack', 'edge-a', 3, 3, 1000, 'nodered-a']);
+  });
+
   it('refuses a cluster section it cannot use, naming the setting', function () {
     assert.equal(clusterSettings({}), null);
     assert.throws(() => clusterSettings({ sugarshack: { cluster: { name: 'x', etcd: { hosts: [] } } } }), /etcd\.hosts/);

@@ -58,6 +58,13 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     const seenByStandby = await standby.get('/sugarshack/state');
     const il = seenByStandby.interlocks.find((i) => i.id === 'il');
     assert.equal(il.state, 'standby');
+    assert.match(il.following.where, /^etcd:sugarshack\/standby\/state\/interlock\/il$/);
+    // What operators see: this instance, its role since when, the lease, the members and etcd's health.
+    const seen = seenByStandby.cluster;
+    assert.deepEqual([seen.name, seen.instance, seen.role], ['standby', standby.instance, 'standby']);
+    assert.ok(seen.sinceMs <= Date.now() && seen.lease.ttlS === TTL_S && seen.lease.validForMs > 0);
+    assert.deepEqual(seen.members.map((m) => `${m.instance}:${m.role}`).sort(), [`${leader.instance}:active`, `${standby.instance}:standby`].sort());
+    await waitFor(async () => ((await pair.clusterOf(standby)).etcd || []).filter((m) => m.healthy).length === 3, 'three etcd members answering');
     const leaderState = await leader.get('/sugarshack/state');
     const token = leaderState.cluster.token;
     assert.ok(Number(token) > 0);
@@ -89,6 +96,19 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     const cluster = await pair.clusterOf(next);
     assert.equal(cluster.lastFailover.from, leader.instance);
     assert.equal(cluster.lastFailover.to, next.instance);
+    // The failover is an alarm, acknowledged like the others.
+    const alarmId = `failover:${next.instance}`;
+    const alarmOf = async () => (await next.get('/sugarshack/state')).interlocks.find((i) => i.id === 'il').alarms.find((a) => a.id === alarmId);
+    await waitFor(async () => Boolean(await alarmOf()), 'the failover alarm');
+    assert.match((await alarmOf()).state, /unacknowledged$/);
+    await next.request('POST', '/sugarshack/alarms/ack', { interlock: 'il', ids: [alarmId] });
+    await waitFor(async () => { const a = await alarmOf(); return !a || a.state === 'active-acknowledged'; }, 'the failover alarm acknowledged');
+    // An etcd member that stops answering is seen by operators, and after its on-delay is an alarm.
+    await etcd.kill(2);
+    const memberDown = `etcd-member-down:${etcd.endpoints[2]}`;
+    await waitFor(async () => (await next.get('/sugarshack/state')).interlocks.find((i) => i.id === 'il').alarms.some((a) => a.id === memberDown), 'the etcd member alarm', 20000);
+    assert.equal((await pair.clusterOf(next)).etcd[2].healthy, false);
+    await etcd.restart(2);
 
     // The old leader comes back as the standby; the new one keeps acting.
     await leader.start({ waitForBroker: false });

@@ -25,6 +25,8 @@ const { Lease } = require('./lease');
 const { MqttFence } = require('./mqtt-fence');
 
 const CALL_MS = 2000;
+// A failover's alarm condition holds this long after the takeover, then the alarm waits for its acknowledgement.
+const FAILOVER_ACTIVE_MS = 10000;
 const RETRY_MS = 500;
 const HEALTH_MS = 2000;
 
@@ -113,6 +115,7 @@ class Cluster extends EventEmitter {
       dialTimeout: CALL_MS,
       defaultCallOptions: (ctx) => (ctx.isStream ? {} : { deadline: Date.now() + CALL_MS }),
     });
+    if (this.fence) this.fence.connect(); // ready before any election
     this.watchLeader();
     this.watchMembers();
     this.healthTimer = setInterval(() => this.checkHealth(), HEALTH_MS);
@@ -350,6 +353,16 @@ class Cluster extends EventEmitter {
       }
     }));
     this.emit('changed');
+  }
+
+  /** This instance's alarm conditions: a failover it just made, etcd members that do not answer. */
+  alarmConditions(nowMs = Date.now()) {
+    /** @type {{ kind: string, subject: string }[]} */
+    const conditions = [];
+    const f = this.lastFailover;
+    if (f && f.to === this.instance && nowMs - f.atMs < FAILOVER_ACTIVE_MS) conditions.push({ kind: 'failover', subject: this.instance });
+    for (const member of this.health) if (!member.healthy) conditions.push({ kind: 'etcd-member-down', subject: member.endpoint });
+    return conditions;
   }
 
   /** The cluster as GET /sugarshack/state shows it. */

@@ -23,15 +23,20 @@ class MqttFence extends EventEmitter {
     this.waiting = new Map(); // correlation -> { resolve, reject, timer }
     this.next = 1;
     this.disabled = new Set();
+    /** @type {Promise<void> | null} resolves once the broker's answers are subscribed to */
+    this.ready = null;
   }
 
+  /** Connects (once, and again after a loss); commands wait until the answers are subscribed to. */
   connect() {
     if (this.client) return;
     const mqtt = require(MQTT_MODULE);
     const { url, username, password } = this.settings;
     const client = mqtt.connect(url, { username, password, reconnectPeriod: 500, connectTimeout: 2000, clean: true });
     this.client = client;
-    client.on('connect', () => client.subscribe(`${CONTROL}/response`, { qos: 1 }));
+    let subscribed = () => {};
+    this.ready = new Promise((resolve) => { subscribed = resolve; });
+    client.on('connect', () => client.subscribe(`${CONTROL}/response`, { qos: 1 }, () => subscribed()));
     client.on('error', (err) => this.emit('problem', err));
     client.on('message', (topic, payload) => this.answer(payload));
   }
@@ -54,10 +59,11 @@ class MqttFence extends EventEmitter {
   }
 
   /** Sends one dynamic-security command; resolves once the broker answered it. */
-  command(command, username) {
+  async command(command, username) {
     this.connect();
     const { client } = this;
     const correlationData = `sugarshack-${process.pid}-${this.next++}`;
+    await Promise.race([this.ready, new Promise((resolve) => setTimeout(resolve, ANSWER_MS))]);
     return new Promise((resolve, reject) => {
       const timer = setTimeout(() => {
         this.waiting.delete(correlationData);
