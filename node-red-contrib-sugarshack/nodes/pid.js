@@ -8,6 +8,8 @@ const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revi
 const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
 const { FileStore, Committer, stateDir } = require('../lib/durable');
+const { quietOf } = require('../lib/cluster');
+const { standbyStatus } = require('../lib/runtime-base');
 
 // Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';
@@ -135,6 +137,7 @@ module.exports = function (RED) {
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function PidNode(props) {
     RED.nodes.createNode(this, props);
+    const quiet = quietOf(RED);
     const node = this;
     const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
@@ -226,7 +229,7 @@ module.exports = function (RED) {
         show(status('warning', t('status.staleNoIo')));
       } else if (stale) {
         save();
-        node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
+        if (!quiet()) node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
         show(status('warning', t(stale.pid.mode === 'manual' ? 'status.staleManual' : 'status.staleFallback')));
       }
       schedule();
@@ -412,7 +415,11 @@ module.exports = function (RED) {
 
     node.on('input', (msg, send, done) => {
       if (refusal) done(refusal);
-      else if (!ready) early.hold({ node, msg, send, done });
+      else if (quiet()) {
+        // A hot standby acts on nothing (the active instance got the same msg).
+        show(standbyStatus());
+        done();
+      } else if (!ready) early.hold({ node, msg, send, done });
       else safeHandle(msg, send, done);
     });
 

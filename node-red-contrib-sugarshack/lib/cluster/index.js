@@ -28,4 +28,20 @@ function clusterOf(RED) {
   return cluster;
 }
 
-module.exports = { clusterOf, EtcdStore };
+/**
+ * For the nodes outside the interlock and plant runtimes (pid, rcc, rcc-io):
+ * a test that is true while this instance may not act (a hot standby, a
+ * leader whose lease may have run out, a cluster section it cannot use).
+ * @returns {() => boolean}
+ */
+function quietOf(RED) {
+  let cluster;
+  try {
+    cluster = clusterOf(RED);
+  } catch {
+    return () => true;
+  }
+  return cluster ? () => !cluster.mayAct() : () => false;
+}
+
+module.exports = { clusterOf, quietOf, EtcdStore };

@@ -12,11 +12,23 @@ const { flow } = require('./routines-flow');
 
 const INSTANCES = ['a', 'b'];
 
-/** The routines flow with the broker's client id and account read from the environment. */
+/**
+ * The routines flow with the broker's client id and account read from the
+ * environment, and a pid loop (test/pid in, test/pid/out) to show that a
+ * standby's control nodes send nothing either.
+ */
 function clusterFlow(port) {
   return flow(port, 'standby').map((n) => (n.type === 'mqtt-broker'
     ? { ...n, clientid: '${MQTT_CLIENT_ID}', credentials: undefined }
-    : n));
+    : n)).concat([
+    {
+      id: 'in-pid', z: 'tab', type: 'mqtt in', topic: 'test/pid', qos: '1', datatype: 'auto-detect', broker: 'br', nl: false, rap: true, rh: 0, inputs: 0, wires: [['pid']],
+    },
+    {
+      id: 'pid', z: 'tab', type: 'sugarshack-pid', kp: '1', ti: '10', td: '0', outMin: '0', outMax: '100', action: 'reverse', ts: '1', setpoint: '50', smith: 'off', mode: 'auto', persist: false, wires: [['pidout']],
+    },
+    { id: 'pidout', z: 'tab', type: 'mqtt out', topic: 'test/pid/out', qos: '1', retain: 'false', broker: 'br', wires: [] },
+  ]);
 }
 
 class StandbyPair {
