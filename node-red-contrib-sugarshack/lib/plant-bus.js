@@ -176,9 +176,17 @@ class PlantBuses {
     for (const e of held) this.publish(e);
   }
 
-  /** Deposed: what waited is not this instance's to send any more. */
-  dropHeld() {
+  /**
+   * Deposed: what waited is not this instance's to send any more, and every
+   * broker connection is made anew. An MQTT client sends its unacknowledged
+   * QoS 1 publishes again when it reconnects: a leader paused mid-publish and
+   * kicked by the broker would otherwise replay its old commands once let in
+   * again as a standby. A new client starts with none.
+   */
+  async standDown() {
     this.held = [];
+    const brokers = new Set(this.list.map((b) => b.broker).filter((b) => b && typeof b.disconnect === 'function' && typeof b.connect === 'function'));
+    await Promise.all([...brokers].map((broker) => new Promise((resolve) => broker.disconnect(resolve)).then(() => broker.connect())));
   }
 
   sendUnsent() {

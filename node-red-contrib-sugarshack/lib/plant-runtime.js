@@ -46,7 +46,7 @@ class PlantRuntime extends RuntimeBase {
     }
     this.stopFollowing = this.cluster ? this.cluster.follow({
       activate: () => this.refreshStatus(),
-      standDown: () => this.bus.dropHeld(),
+      standDown: () => this.bus.standDown(),
       resumed: () => this.bus.sendHeld(),
     }) : null;
   }
