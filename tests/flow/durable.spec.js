@@ -6,13 +6,12 @@
 // line faulted instead of free; a shutdown never changes what was saved; a
 // deploy that keeps the interlock's settings hands it over untouched.
 const assert = require('node:assert/strict');
-const crypto = require('crypto');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, userDir, clock, memoryStore,
+  startServer, stopServer, settings, settled, userDir, clock, memoryStore, checksumOf, resealed,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -24,13 +23,7 @@ const quiet = () => settled(helper, 'il');
 const stateFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.json');
 const markerFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.ran');
 const saved = () => JSON.parse(fs.readFileSync(stateFile(), 'utf8'));
-/** The checksum the README gives: SHA-256 of the compact JSON without its checksum member. */
-const checksumOf = (doc) => {
-  const { checksum, ...rest } = doc;
-  return `sha256:${crypto.createHash('sha256').update(JSON.stringify(rest)).digest('hex')}`;
-};
-/** Writes `doc` with a checksum that matches it: damage the checksum alone would not catch. */
-const writeSealed = (doc) => fs.writeFileSync(stateFile(), JSON.stringify({ ...doc, checksum: checksumOf(doc) }));
+const writeSealed = (doc) => fs.writeFileSync(stateFile(), resealed(doc));
 const savedLines = () => Object.fromEntries(saved().state.interlock.resources.map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
 const liveLines = () => Object.fromEntries(runtimeOf().core.snapshot(0).resources.map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
 const lastStatus = (id) => {
