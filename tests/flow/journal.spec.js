@@ -207,7 +207,7 @@ describe('journal writer: store and forward', function () {
     const duplicates = got.length - 3000;
     assert.ok(duplicates > 0 && duplicates <= m.unacknowledged, `${duplicates} duplicates, ${m.unacknowledged} unacknowledged`);
     assert.ok(Math.max(...sizes) <= 64 * 1024, 'no request over 64 KB');
-    assert.ok(sizes[1] <= 2 * 1024 && sizes[2] <= 2 * 1024 && sizes[3] <= 2 * 1024, `after each failure a small chunk: ${sizes.slice(0, 6)}`);
+    assert.ok(sizes[1] <= 512 && sizes[2] <= 512 && sizes[3] <= 512, `after each failure a small chunk: ${sizes.slice(0, 6)}`);
     assert.ok(sizes[4] > sizes[3] && sizes[5] > sizes[4], 'then doubling');
     assert.ok(m.unacknowledged < sizes[0] / 100 + 3 * 30, `${m.unacknowledged} rows sent without an answer`);
     await writer.close();

@@ -13,8 +13,8 @@
 // restarts, so (writer, seq) names it: a database that deduplicates on it
 // (QuestDB's DEDUP UPSERT KEYS, set up by deploy/) keeps it once, and a reader
 // counts it once. Chunks are small (64 KB), and after a failure the next ones
-// start at 2 KB and double with each success, so a flaky server costs few
-// rows sent twice.
+// start at 512 bytes (a few rows) and double with each success, so a flaky
+// server costs few rows sent twice.
 
 const { clock } = require('../clock');
 const i18n = require('../i18n');
@@ -24,7 +24,7 @@ const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';
 const RETRY_MS = [500, 1000, 2000, 5000];
 // The largest request body, and the first after a failure (doubling back up).
 const CHUNK_BYTES = 64 * 1024;
-const FIRST_CHUNK_AFTER_FAILURE = 2 * 1024;
+const FIRST_CHUNK_AFTER_FAILURE = 512;
 // A request not answered in this long failed (its rows may still have been written).
 const DEFAULT_TIMEOUT_MS = 10000;
 
