@@ -77,8 +77,12 @@ function countsText(items, empty = i18n.text('status.idle'), within = (text) => 
   return within('?');
 }
 
-/** "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed, `within` as in countsText. */
-function statusText({ holding = 0, queued = 0, faulted = 0 }, within = undefined) {
+/**
+ * "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed, `within` as in countsText.
+ * @param {{ holding?: number, queued?: number, faulted?: number }} counts
+ * @param {(text: string) => string} [within]
+ */
+function statusText({ holding = 0, queued = 0, faulted = 0 }, within) {
   return countsText([
     [i18n.text('status.faulted'), i18n.text('status.faultedShort'), i18n.text('status.faultedLetter'), faulted],
     [i18n.text('status.held'), i18n.text('status.heldShort'), i18n.text('status.heldLetter'), holding],

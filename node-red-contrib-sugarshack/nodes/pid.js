@@ -145,8 +145,8 @@ module.exports = function (RED) {
     let station = /** @type {any} */ (null);
     let refusal = null;
     let kept = null; // the loop's own state, kept outside the core to rebuild it after a trap
-    /** @type {StationConfig | null} */
-    let config = null;
+    /** @type {StationConfig} */
+    let config = /** @type {any} */ (null); // set below unless the configuration is refused, and then never read
     try {
       config = readConfig(props, t);
       // Rebuilt on a fresh wasm instance after a trap, with the state it had.

@@ -293,7 +293,10 @@ mod tests {
     fn every_refusal_says_why() {
         let cases: Vec<(String, &str)> = vec![
             ("{\"format\":".into(), "not valid JSON"),
-            (format!("{}1{}", "[".repeat(200), "]".repeat(200)), "nested deeper"),
+            (
+                format!("{}1{}", "[".repeat(200), "]".repeat(200)),
+                "nested deeper",
+            ),
             ("[1]".into(), "not a sugarshack state document"),
             ("{\"version\":2}".into(), "not a sugarshack state document"),
             (

@@ -623,8 +623,12 @@ pub fn seal_pid_state(
     #[wasm_bindgen(unchecked_param_type = "StationSaved")] saved: JsValue,
     #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
 ) -> Result<String, JsValue> {
-    let config: StationConfig =
-        from_js_bounded(config, Code::InvalidConfig, "PID configuration", Bound::Control)?;
+    let config: StationConfig = from_js_bounded(
+        config,
+        Code::InvalidConfig,
+        "PID configuration",
+        Bound::Control,
+    )?;
     let saved: Saved =
         from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
     Ok(saved.seal(owner, &config, control_time(&now_ms)?))
@@ -637,7 +641,10 @@ pub fn open_pid_state(source: &str, text: &str, owner: &str) -> Result<JsValue, 
     if text.len() > Bound::Control.max_bytes() {
         return Err(js_error(
             Code::InputTooLarge,
-            &format!("{source}: {} bytes, more than a PID state can be", text.len()),
+            &format!(
+                "{source}: {} bytes, more than a PID state can be",
+                text.len()
+            ),
         ));
     }
     let saved = Saved::open(text, owner)

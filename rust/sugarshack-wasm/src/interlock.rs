@@ -420,7 +420,11 @@ impl Interlock {
             routines: &opened.routines,
             alarms: opened.alarms.as_ref(),
         })?;
-        Reflect::set(&view, &"interlock".into(), &Interlock::wrap(opened.interlock).into())?;
+        Reflect::set(
+            &view,
+            &"interlock".into(),
+            &Interlock::wrap(opened.interlock).into(),
+        )?;
         Ok(view)
     }
 

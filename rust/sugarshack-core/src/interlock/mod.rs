@@ -666,7 +666,9 @@ impl Interlock {
             // Nothing to fault: an id never used, or one that has released and is
             // named by no fault (as a restart or a forgetting would leave it).
             OpState::Idle if self.latched_under(op).is_empty() => {
-                return Err(InterlockError::UnknownOperation { name: self.name(op) });
+                return Err(InterlockError::UnknownOperation {
+                    name: self.name(op),
+                });
             }
             OpState::Idle => {}
             OpState::Queued(waiting) => {

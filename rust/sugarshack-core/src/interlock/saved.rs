@@ -166,8 +166,7 @@ impl Interlock {
             );
         }
         let lines: Vec<String> = config.resources.iter().map(|r| r.name.clone()).collect();
-        if document.saved_for == saved_for(&config, binding.plant) && snapshot.configured != lines
-        {
+        if document.saved_for == saved_for(&config, binding.plant) && snapshot.configured != lines {
             return lost(
                 config,
                 format!(
@@ -231,7 +230,8 @@ mod tests {
         let yel = lock.resource_set(&["YEL"]).unwrap();
         lock.acquire(op, 20, &yel, ms(1)).unwrap();
         let pur = lock.resource_set(&["PUR"]).unwrap();
-        lock.fault_resources(&pur, Some("washball leak"), ms(2)).unwrap();
+        lock.fault_resources(&pur, Some("washball leak"), ms(2))
+            .unwrap();
         lock.drain_events();
         lock
     }
@@ -275,7 +275,10 @@ mod tests {
     fn assert_lost(text: &str, why: &str) {
         let opened = Interlock::open(config(&LINES), IL, FILE, text, ms(9)).unwrap();
         let reason = lost_reason(&opened);
-        assert!(reason.starts_with(FILE) && reason.contains(why), "{reason:?} should say {why:?}");
+        assert!(
+            reason.starts_with(FILE) && reason.contains(why),
+            "{reason:?} should say {why:?}"
+        );
         assert_eq!(states(&opened.interlock), all_unknown(&LINES));
     }
 
@@ -339,10 +342,11 @@ mod tests {
         // Carried over from a context store, it must give every line's state.
         snapshot.resources.clear();
         snapshot.holds.clear();
-        let refused = Interlock::restore(config(&LINES), &snapshot, RestoreOptions::default(), ms(9));
-        assert!(
-            refused.unwrap_err().to_string().contains("line 'YEL' is configured but this version 1 snapshot does not say its state"),
-        );
+        let refused =
+            Interlock::restore(config(&LINES), &snapshot, RestoreOptions::default(), ms(9));
+        assert!(refused.unwrap_err().to_string().contains(
+            "line 'YEL' is configured but this version 1 snapshot does not say its state"
+        ),);
     }
 
     #[test]

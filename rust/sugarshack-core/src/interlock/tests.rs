@@ -225,12 +225,18 @@ fn an_operation_that_released_or_was_refused_is_unknown_to_a_fault_as_after_a_re
     take(&mut lock, done, 1, &["BLU"], 0);
     lock.release(done, ms(1)).unwrap();
     for op in [done, refused] {
-        assert_eq!(lock.fault(op, None, ms(2)).unwrap_err().code(), "UNKNOWN_OPERATION");
+        assert_eq!(
+            lock.fault(op, None, ms(2)).unwrap_err().code(),
+            "UNKNOWN_OPERATION"
+        );
     }
     let (mut restarted, _) =
         Interlock::restore(lock.config().clone(), &lock.snapshot(ms(3)), RESTART, ms(3)).unwrap();
     let again = restarted.operation("done");
-    assert_eq!(restarted.fault(again, None, ms(4)).unwrap_err().code(), "UNKNOWN_OPERATION");
+    assert_eq!(
+        restarted.fault(again, None, ms(4)).unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
     // Named by a faulted line, it is known: a second fault re-sends its lockouts.
     take(&mut lock, done, 1, &["BLU"], 5);
     lock.fault(done, None, ms(6)).unwrap();
