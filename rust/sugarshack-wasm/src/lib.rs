@@ -6,6 +6,7 @@
 //! is shared by every node of the process and must outlive any input.
 
 mod alarm;
+mod condition;
 mod contract;
 mod control;
 mod device;
