@@ -134,20 +134,14 @@ function buildModel(doc) {
   for (const id of kinds.keys()) if (kinds.get(id) === 'sensor-station') byStation.set(id, new Map());
   const addDatapoint = (station, name, unit, sensorId) => {
     const map = byStation.get(station);
-    if (!map) fail(`datapoint ${name}: device ${station} is not a sensor station`);
     if (!map.has(name)) map.set(name, { name, unit: unit || datapointDefaults(name).unit, sensorId });
-  };
-  // The simulation section's own datapoints: names the core has not seen.
-  const addSimulated = (station, name) => {
-    if (typeof name !== 'string' || !/^[^\s/+#]+$/.test(name)) fail(`station ${station}: datapoint name ${JSON.stringify(name)} is not a topic component (no spaces, '/', '+' or '#')`);
-    addDatapoint(station, name);
   };
   for (const s of doc.sensors || []) {
     addDatapoint(s.device, s.name, s.unit, s.id);
     sensors[s.id] = { device: s.device, name: s.name };
   }
 
-  const simulation = normalizeSimulation(doc.simulation || {}, { actuators, sensors, addDatapoint: addSimulated });
+  const simulation = normalizeSimulation(doc.simulation || {}, { actuators, sensors, addDatapoint });
 
   for (const [station, map] of byStation) {
     if (map.size === 0) for (const name of defaultDatapoints(station)) addDatapoint(station, name);
@@ -166,11 +160,10 @@ function buildModel(doc) {
   };
 }
 
-// A sensor reference is either {"sensor": "<plant sensor id>"} or {"station", "datapoint"}.
-function sensorRef(obj, where, ctx, datapointKey = 'datapoint') {
+// A datapoint reference is either {"sensor": "<plant sensor id>"} or {"station", "datapoint"}.
+function sensorRef(obj, ctx, datapointKey = 'datapoint') {
   if (obj.sensor !== undefined) {
     const s = ctx.sensors[obj.sensor];
-    if (!s) fail(`simulation ${where}: unknown sensor ${obj.sensor}`);
     return { station: s.device, datapoint: s.name };
   }
   if (obj.station === undefined && obj[datapointKey] === undefined) return null;
@@ -178,50 +171,27 @@ function sensorRef(obj, where, ctx, datapointKey = 'datapoint') {
   return { station: obj.station, datapoint: obj[datapointKey] };
 }
 
+// The section as the core checked it (src/plant/simulation.rs), built into tanks, transfers and baselines.
 function normalizeSimulation(sim, ctx) {
-  if (typeof sim !== 'object' || Array.isArray(sim)) fail('`simulation` must be an object');
   const tanks = {};
   for (const t of sim.tanks || []) {
-    if (!t || typeof t.id !== 'string') fail('simulation: every tank needs a string `id`');
-    if (tanks[t.id]) fail(`simulation: tank ${t.id} listed twice`);
-    const capacityL = Number(t.capacityL);
-    if (!(capacityL > 0)) fail(`simulation tank ${t.id}: capacityL must be > 0`);
-    const initialL = t.initialL === undefined ? 0 : Number(t.initialL);
-    if (!(initialL >= 0 && initialL <= capacityL)) fail(`simulation tank ${t.id}: initialL must be 0..capacityL`);
-    const volume = sensorRef(t, `tank ${t.id}`, ctx);
+    const volume = sensorRef(t, ctx);
     const level = t.level === undefined ? null
-      : typeof t.level === 'string' ? sensorRef({ station: t.station, datapoint: t.level }, `tank ${t.id}`, ctx)
-        : sensorRef(t.level, `tank ${t.id} level`, ctx);
-    tanks[t.id] = { id: t.id, capacityL, initialL, volume, level };
+      : typeof t.level === 'string' ? sensorRef({ station: t.station, datapoint: t.level }, ctx)
+        : sensorRef(t.level, ctx);
+    tanks[t.id] = { id: t.id, capacityL: t.capacityL, initialL: t.initialL ?? 0, volume, level };
   }
-  const transfers = [];
-  (sim.transfers || []).forEach((x, i) => {
-    const where = `transfer ${x && x.id ? x.id : i}`;
-    if (!x || typeof x !== 'object') fail(`simulation ${where}: must be an object`);
-    for (const end of ['from', 'to']) {
-      // null/absent = outside the plant (unlimited source or drain)
-      if (x[end] != null && !tanks[x[end]]) fail(`simulation ${where}: unknown tank ${x[end]}`);
-    }
-    let pump = null;
-    if (x.pump != null) {
-      pump = ctx.actuators[x.pump];
-      if (!pump || pump.family !== 'pump') fail(`simulation ${where}: ${x.pump} is not a pump (a binary actuator) in \`actuators\``);
-    }
-    const valves = (x.valves || []).map((v) => {
-      const a = ctx.actuators[v];
-      if (!a || a.family !== 'valve') fail(`simulation ${where}: ${v} is not a valve (an analog actuator) in \`actuators\``);
-      return a;
-    });
-    const rateLpm = Number(x.rateLpm);
-    if (!(rateLpm > 0)) fail(`simulation ${where}: rateLpm must be > 0`);
-    const flow = x.flow ? sensorRef(x.flow, where, ctx) : x.flowSensor ? sensorRef({ sensor: x.flowSensor }, where, ctx) : null;
-    transfers.push({ id: x.id || `${x.from || 'outside'}->${x.to || 'outside'}`, from: x.from ?? null, to: x.to ?? null, pump, valves, rateLpm, flow });
-  });
-  const signals = (sim.sensors || []).map((s, i) => {
-    const ref = sensorRef(s, `sensors[${i}]`, ctx);
-    if (!ref) fail(`simulation sensors[${i}]: give \`sensor\` or \`station\` + \`datapoint\``);
-    return { ...ref, base: s.base, span: s.span };
-  });
+  const transfers = (sim.transfers || []).map((x) => ({
+    id: x.id || `${x.from || 'outside'}->${x.to || 'outside'}`,
+    // null/absent = outside the plant (unlimited source or drain)
+    from: x.from ?? null,
+    to: x.to ?? null,
+    pump: x.pump != null ? ctx.actuators[x.pump] : null,
+    valves: (x.valves || []).map((v) => ctx.actuators[v]),
+    rateLpm: x.rateLpm,
+    flow: x.flow ? sensorRef(x.flow, ctx) : x.flowSensor ? sensorRef({ sensor: x.flowSensor }, ctx) : null,
+  }));
+  const signals = (sim.sensors || []).map((s) => ({ ...sensorRef(s, ctx), base: s.base, span: s.span }));
   return { tanks: Object.values(tanks), transfers, signals };
 }
 

@@ -450,7 +450,7 @@ describe('plant simulator: plant document and fault specs', function () {
 
   it('rejects simulation sections that name unknown valves, pumps or tanks', function () {
     const doc = loadPlant(SMALL_PLANT);
-    const bad = (simulation) => assert.throws(() => buildModel({ ...doc, simulation }), /plant: simulation/);
+    const bad = (simulation) => assert.throws(() => buildModel({ ...doc, simulation }), /plant: invalid plant document \(1 problem\):\n {2}simulation\.(tanks|transfers)\[0\]/);
     bad({ transfers: [{ from: 'T-nope', pump: 'P1', rateLpm: 1 }] });
     bad({ transfers: [{ pump: 'V101', rateLpm: 1 }] });
     bad({ transfers: [{ valves: ['P1'], rateLpm: 1 }] });

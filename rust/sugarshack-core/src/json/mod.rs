@@ -133,6 +133,15 @@ pub fn from_str<T: DeserializeOwned>(text: &str) -> Result<T, JsonError> {
     Ok(value)
 }
 
+/// Reads a JSON value already parsed as a `T`, with the path of the first
+/// problem, worded as [`from_str`] words it.
+pub fn from_value<T: DeserializeOwned>(value: &serde_json::Value) -> Result<T, JsonError> {
+    serde_path_to_error::deserialize(value).map_err(|err| {
+        let segments: Vec<Segment> = err.path().iter().cloned().collect();
+        invalid(&segments, err.into_inner())
+    })
+}
+
 fn invalid(segments: &[Segment], err: serde_json::Error) -> JsonError {
     let position = (err.line() > 0).then(|| (err.line(), err.column()));
     let text = err.to_string();

@@ -10,6 +10,7 @@ pub(crate) mod fixtures;
 mod graph;
 mod group;
 mod setpoint;
+mod simulation;
 mod validate;
 
 pub use graph::{Edge, RoutineGraph, StateId};

@@ -24,7 +24,7 @@ pub(super) struct Report {
 }
 
 impl Report {
-    fn error(&mut self, path: &str, message: impl Into<String>) {
+    pub(super) fn error(&mut self, path: &str, message: impl Into<String>) {
         self.errors.push(PlantError {
             path: path.to_owned(),
             message: message.into(),
@@ -61,6 +61,7 @@ pub(super) fn check(plant: &PlantModel) -> Result<Checked, PlantErrors> {
     resources(plant, &targeting, &mut report);
     let operations = operations(plant, &targeting, &mut report);
     routines(plant, &operations, &mut report);
+    super::simulation::check(plant, &mut report);
     let graphs: Option<Vec<RoutineGraph>> =
         plant.routines.iter().map(RoutineGraph::resolve).collect();
     match (contract, graphs) {
