@@ -12,6 +12,7 @@ const { paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, ru
 const { sensor: sensorOf, stopPanels, fakePlant, fakeValve } = require('./fake-panel');
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const jsonata = require('@node-red/util/lib/jsonata');
+const { mulberry32 } = require('../../scripts/simulator/random');
 
 helper.init(require.resolve('node-red'));
 
@@ -41,6 +42,18 @@ const MISTAKES = [
   ['`LT3` >= 50', "condition '`LT3` >= 50': '`LT3`' is not a sensor of the plant; the sensors listed are LT-3 (did you mean `LT-3`?)"],
   ['`LT-3` - 50', "condition '`LT-3` - 50': the condition gives a number, not true or false: compare it, as in `LT-3` - 50 >= 50"],
 ];
+
+/** The plant, its actuators node, a Catch into sink `caught`, sink `out`, and these wait nodes. */
+function loadWaits(...waits) {
+  return helper.load(paletteNodes, [
+    TAB,
+    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
+    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [[], [], []] },
+    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+    sinkNode('out'), sinkNode('caught'),
+    ...waits,
+  ]);
+}
 
 describe('conditions at deploy', function () {
   beforeEach(startServer);
@@ -86,15 +99,7 @@ describe('conditions at deploy', function () {
 
   it("a wait node's own condition is read at deploy: a mistake is a red status and every msg is refused with it", async function () {
     const waitNode = (id, condition, sensors = 'LT-3') => ({ id, z: 'f1', type: 'sugarshack-wait', plant: 'pl', condition, sensors, timeout: 5, wires: [['out']] });
-    await helper.load(paletteNodes, [
-      TAB,
-      { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
-      { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [[], [], []] },
-      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-      sinkNode('out'), sinkNode('caught'),
-      ...MISTAKES.map(([condition], i) => waitNode(`w${i}`, condition)),
-      waitNode('wUnknown', '`LT-3` > 1', 'LT-9'),
-    ]);
+    await loadWaits(...MISTAKES.map(([condition], i) => waitNode(`w${i}`, condition)), waitNode('wUnknown', '`LT-3` > 1', 'LT-9'));
     const caught = collect(helper, 'caught');
     for (const [i, [, message]] of MISTAKES.entries()) {
       const node = helper.getNode(`w${i}`);
@@ -111,14 +116,7 @@ describe('conditions at deploy', function () {
   });
 
   it('arithmetic that meets no number does not hold, and the timeout says where', async function () {
-    await helper.load(paletteNodes, [
-      TAB,
-      { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: plantDocument() },
-      { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [[], [], []] },
-      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-      sinkNode('out'), sinkNode('caught'),
-      { id: 'w', z: 'f1', type: 'sugarshack-wait', plant: 'pl', condition: '100 / `LT-3` * 2 > 1', sensors: 'LT-3', timeout: 1, wires: [['out']] },
-    ]);
+    await loadWaits({ id: 'w', z: 'f1', type: 'sugarshack-wait', plant: 'pl', condition: '100 / `LT-3` * 2 > 1', sensors: 'LT-3', timeout: 1, wires: [['out']] });
     const [out, caught] = [collect(helper, 'out'), collect(helper, 'caught')];
     sensorOf(helper, 0);
     helper.getNode('w').receive({ topic: 'a' });
@@ -135,16 +133,9 @@ describe('conditions at deploy', function () {
 
 // ---- the core against Node-RED's JSONata ---------------------------------------------
 
-/** A seeded generator (mulberry32): the same cases on every run. */
+/** A seeded generator: the same cases on every run. */
 function random(seed) {
-  let a = seed >>> 0;
-  const next = () => {
-    a = (a + 0x6D2B79F5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
+  const next = mulberry32(seed);
   const int = (n) => Math.floor(next() * n);
   return { next, int, pick: (list) => list[int(list.length)] };
 }

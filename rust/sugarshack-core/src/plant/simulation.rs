@@ -11,77 +11,125 @@ use super::validate::{topic_safe, Report};
 use super::{DeviceKind, PlantModel, Signal};
 use crate::text::quote;
 
+/// The plant simulator's tanks, the transfers between them, and the
+/// baselines of the datapoints they do not drive.
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
-struct Simulation {
+pub(super) struct Simulation {
+    /// Tanks whose volume the transfers change.
     #[serde(default)]
     tanks: Vec<Tank>,
+    /// Lines that move liquid between tanks (or in and out of the plant).
     #[serde(default)]
     transfers: Vec<Transfer>,
+    /// Baselines and noise of datapoints no transfer drives.
     #[serde(default)]
     sensors: Vec<Baseline>,
 }
 
 /// Where a value is published: a plant sensor, or a station's datapoint.
 #[derive(Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 struct Datapoint {
+    /// A sensor's id: its station and datapoint.
     #[serde(default)]
     sensor: Option<String>,
+    /// A sensor station's id (with `datapoint`).
     #[serde(default)]
     station: Option<String>,
+    /// The datapoint's name on that station (with `station`).
     #[serde(default)]
     datapoint: Option<String>,
 }
 
+/// A tank: its volume in L, published on a sensor or a station's datapoint.
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 struct Tank {
+    /// Its id, which transfers name.
     id: String,
+    /// How much it holds, in L.
     capacity_l: f64,
+    /// What it holds at the start, in L (0 by default).
     #[serde(default)]
     initial_l: f64,
-    #[serde(flatten)]
-    volume: Datapoint,
-    /// A datapoint name on the tank's station, or a datapoint of its own.
+    /// The sensor its volume is published on.
+    #[serde(default)]
+    sensor: Option<String>,
+    /// The sensor station its volume is published on (with `datapoint`).
+    #[serde(default)]
+    station: Option<String>,
+    /// The datapoint its volume is published as (with `station`).
+    #[serde(default)]
+    datapoint: Option<String>,
+    /// Where its fill level in % is published: a datapoint name on its
+    /// station, or a sensor or station and datapoint of its own.
     #[serde(default)]
     level: Option<Level>,
 }
 
+/// A datapoint name on the tank's station, or a datapoint of its own.
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(untagged)]
 enum Level {
+    /// A datapoint name on the tank's station.
     Name(String),
+    /// A sensor, or a station and datapoint.
     At(Datapoint),
 }
 
+/// A line that moves liquid while its pump runs and its valves are open.
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 struct Transfer {
+    /// Its id, for the simulator's snapshots.
     #[serde(default)]
     id: Option<String>,
+    /// The tank it draws from; none: from outside the plant.
     #[serde(default)]
     from: Option<String>,
+    /// The tank it fills; none: out of the plant.
     #[serde(default)]
     to: Option<String>,
+    /// The binary actuator that drives it; none: it flows by gravity.
     #[serde(default)]
     pump: Option<String>,
+    /// The analog actuators it runs through; the least open one sets the rate.
     #[serde(default)]
     valves: Vec<String>,
+    /// Its rate with every valve fully open, in L/min.
     rate_lpm: f64,
+    /// The sensor that reports its current rate.
     #[serde(default)]
     flow_sensor: Option<String>,
+    /// The datapoint that reports its current rate.
     #[serde(default)]
     flow: Option<Datapoint>,
 }
 
+/// The baseline and noise of a datapoint no transfer drives.
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 struct Baseline {
-    #[serde(flatten)]
-    at: Datapoint,
+    /// A sensor's id.
+    #[serde(default)]
+    sensor: Option<String>,
+    /// A sensor station's id (with `datapoint`).
+    #[serde(default)]
+    station: Option<String>,
+    /// The datapoint's name on that station (with `station`).
+    #[serde(default)]
+    datapoint: Option<String>,
+    /// The value it reads without noise.
     #[serde(default)]
     base: Option<f64>,
+    /// The span its noise is a share of.
     #[serde(default)]
     span: Option<f64>,
 }
@@ -120,11 +168,16 @@ pub(super) fn check(plant: &PlantModel, report: &mut Report) {
         } else if !(t.initial_l >= 0.0 && t.initial_l <= t.capacity_l) {
             report.error(&path, "initialL must be within 0..capacityL");
         }
-        sites.datapoint(&t.volume, &path, report);
+        let volume = Datapoint {
+            sensor: t.sensor.clone(),
+            station: t.station.clone(),
+            datapoint: t.datapoint.clone(),
+        };
+        sites.datapoint(&volume, &path, report);
         match &t.level {
             Some(Level::Name(name)) => sites.datapoint(
                 &Datapoint {
-                    station: Some(t.volume.station.clone().unwrap_or_default()),
+                    station: Some(t.station.clone().unwrap_or_default()),
                     datapoint: Some(name.clone()),
                     sensor: None,
                 },
@@ -175,13 +228,18 @@ pub(super) fn check(plant: &PlantModel, report: &mut Report) {
     }
     for (i, s) in sim.sensors.iter().enumerate() {
         let path = format!("simulation.sensors[{i}]");
-        if s.at.sensor.is_none() && s.at.station.is_none() {
+        if s.sensor.is_none() && s.station.is_none() {
             report.error(
                 &path,
                 "give 'sensor' (a sensor's id) or 'station' and 'datapoint'",
             );
         }
-        sites.datapoint(&s.at, &path, report);
+        let at = Datapoint {
+            sensor: s.sensor.clone(),
+            station: s.station.clone(),
+            datapoint: s.datapoint.clone(),
+        };
+        sites.datapoint(&at, &path, report);
         for (field, value) in [("base", s.base), ("span", s.span)] {
             if value.is_some_and(|v| !v.is_finite()) {
                 report.error(&path, format!("{field} must be a finite number"));
