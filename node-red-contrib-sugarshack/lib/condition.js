@@ -46,9 +46,9 @@ class Condition {
   }
 
   evaluate(now) {
-    if (this.core !== this.plant.t) this.read();
     let values;
     try {
+      if (this.core !== this.plant.t) this.read();
       values = this.plant.readSensors(this.handles, now);
     } catch (err) {
       return { met: false, values: null, reason: err.message };
