@@ -131,6 +131,27 @@ describe('conditions at deploy', function () {
   });
 });
 
+describe('conditions across a rebuilt core', function () {
+  beforeEach(startServer);
+  afterEach(stopServer);
+
+  it('a msg waiting when the plant\'s core is rebuilt (after a trap) goes on once the new core sees the condition hold', async function () {
+    await loadWaits({ id: 'w', z: 'f1', type: 'sugarshack-wait', plant: 'pl', condition: '`LT-3` >= 100', sensors: 'LT-3', timeout: 5, wires: [['out']] });
+    const [out, caught] = [collect(helper, 'out'), collect(helper, 'caught')];
+    sensorOf(helper, 10);
+    helper.getNode('w').receive({ topic: 'a' });
+    await runFor(helper, 100, { ids: ['pl'] });
+    const runtime = helper.getNode('pl').runtime;
+    const before = runtime.t;
+    runtime.rebuild();
+    assert.notEqual(runtime.t, before, 'a new core');
+    sensorOf(helper, 150);
+    await until(() => out.length === 1, 'the msg going on');
+    assert.deepEqual(out[0].condition.values, { 'LT-3': 150 });
+    assert.equal(caught.length, 0);
+  });
+});
+
 // ---- the core against Node-RED's JSONata ---------------------------------------------
 
 /** A seeded generator: the same cases on every run. */
