@@ -1,9 +1,10 @@
 // @ts-check
 'use strict';
 // An interlock's state in etcd, for a hot-standby cluster: the same document
-// a FileStore keeps in a file, judged the same way on reading (a marker key
-// says "this interlock ran here", so a missing or unreadable state is lost,
-// never a first start), at sugarshack/<cluster>/state/<kind>/<id>.
+// a FileStore keeps in a file (sealed by the core: owner, configuration
+// digest, checksum; the core opens it), read the same way (a marker key says
+// "this interlock ran here", so a missing or empty state is lost, never a
+// first start), at sugarshack/<cluster>/state/<kind>/<id>.
 //
 // Every write is a transaction guarded by the fencing token (the leader key
 // still has the revision this instance was elected at), so a deposed leader
@@ -12,7 +13,7 @@
 // through a watch, so it shows the committed state and takes it over at once;
 // on election it reads it again under the token (a linearizable read after
 // every write of the old leader).
-const { judgeSaved, safeName, INTERLOCK_STATE, MAX_STATE_BYTES } = require('../durable');
+const { safeName, INTERLOCK_STATE, MAX_STATE_BYTES } = require('../durable');
 const i18n = require('../i18n');
 
 // A commit takes about 5-10 ms on a healthy cluster; past this, isolation comes first.
@@ -22,7 +23,7 @@ class EtcdStore {
   /**
    * @param {import('./cluster').Cluster} cluster
    * @param {string} name the owning node's id
-   * @param {{ kind: string, format: string, note: string }} [of]
+   * @param {{ kind: string, note: string }} [of]
    */
   constructor(cluster, name, of = INTERLOCK_STATE) {
     this.cluster = cluster;
@@ -88,14 +89,16 @@ class EtcdStore {
     this.held = { text: kv ? kv.value.toString() : null, ran, revision: kv ? String(kv.mod_revision) : null };
   }
 
-  /** What was last loaded, judged as a file would be. */
+  /**
+   * What was last loaded, as a FileStore reads its file: { kind: 'first' },
+   * { kind: 'saved', text } (for the core to open) or { kind: 'lost', why }.
+   */
   read() {
     const { text, ran } = this.held;
-    let why = null;
-    if (text === null) why = i18n.text('labels.stateFileMissing', { file: this.where });
-    else if (text.length === 0) why = i18n.text('labels.stateFileEmpty', { file: this.where });
-    else if (text.length > MAX_STATE_BYTES) why = i18n.text('labels.stateFileTooLarge', { file: this.where, size: text.length, max: MAX_STATE_BYTES });
-    return judgeSaved({ text: why ? null : text, why, ran, of: this.of, where: this.where });
+    if (text === null) return ran ? { kind: 'lost', why: i18n.text('labels.stateFileMissing', { file: this.where }) } : { kind: 'first' };
+    if (text.length === 0) return { kind: 'lost', why: i18n.text('labels.stateFileEmpty', { file: this.where }) };
+    if (text.length > MAX_STATE_BYTES) return { kind: 'lost', why: i18n.text('labels.stateFileTooLarge', { file: this.where, size: text.length, max: MAX_STATE_BYTES }) };
+    return { kind: 'saved', text };
   }
 
   /** The marker goes with every write (one transaction), so nothing to do before. */
