@@ -191,7 +191,9 @@ class InterlockRuntime extends RuntimeBase {
       try {
         await store.unfollow();
         await store.load();
-        if (!this.ended) return true;
+        // Deposed while it read: standDown() has made it standby already.
+        if (this.ended || this.state === 'standby') return false;
+        if (cluster.active) return true;
       } catch (err) {
         this.log('warn', i18n.text('logs.standbyNotTaken', { message: err.message }));
       }
@@ -427,6 +429,8 @@ class InterlockRuntime extends RuntimeBase {
   /** New settings after the drain: the core is rebuilt from its own state, holds kept (the process did not stop). */
   swap(settings) {
     this.applySettings(settings);
+    // A standby has no state of its own: it takes the new settings when it is elected.
+    if (this.state === 'standby') return;
     try {
       this.config = this.resolveConfig();
     } catch (err) {
