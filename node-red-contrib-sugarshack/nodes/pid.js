@@ -9,8 +9,7 @@ const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
 const { FileStore, Committer, stateDir } = require('../lib/durable');
 const wasm = require('../lib/wasm');
-const { quietOf } = require('../lib/cluster');
-const { standbyStatus } = require('../lib/runtime-base');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 
 // Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';

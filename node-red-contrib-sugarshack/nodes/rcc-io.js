@@ -5,10 +5,9 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
-const { quietOf } = require('../lib/cluster');
-const { standbyStatus } = require('../lib/runtime-base');
 
 const board = new StatusBoard();
 

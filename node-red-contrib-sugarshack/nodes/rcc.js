@@ -7,8 +7,7 @@ const { translator, useRED } = require('../lib/i18n');
 const { configNumber, configDurationMs, configDurationListMs, describe, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
-const { quietOf } = require('../lib/cluster');
-const { standbyStatus } = require('../lib/runtime-base');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 
 const board = new StatusBoard();
 

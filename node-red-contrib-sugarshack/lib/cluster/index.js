@@ -6,6 +6,7 @@
 const { clusterSettings } = require('./settings');
 const { Cluster } = require('./cluster');
 const { EtcdStore } = require('./etcd-store');
+const { standbyStatus } = require('../runtime-base');
 
 const clusters = new WeakMap(); // RED.events -> Cluster | null
 
@@ -44,4 +45,4 @@ function quietOf(RED) {
   return cluster ? () => !cluster.mayAct() : () => false;
 }
 
-module.exports = { clusterOf, quietOf, EtcdStore };
+module.exports = { clusterOf, quietOf, standbyStatus, EtcdStore };
