@@ -76,8 +76,8 @@ cargo clippy -p sugarshack-wasm --target wasm32-unknown-unknown --all-targets --
 stage "repetition (jscpd: no code written twice in the Rust and JS, tests included)"
 npx jscpd .
 
-stage "cargo test (sugarshack-core, control experiments)"
-counted cargo test -p sugarshack-core -p sugarshack-experiments
+stage "cargo test (sugarshack-core, plant schema, control experiments)"
+counted cargo test -p sugarshack-core -p sugarshack-schema -p sugarshack-experiments
 
 stage "doctests (the core's documented entry points)"
 counted cargo test --workspace --doc
@@ -105,6 +105,7 @@ npx tsc -p tsconfig.json --noEmit
 stage "docs: links and anchors, the generated code table, the site (VitePress), every snippet"
 node scripts/docs/links.js
 node scripts/docs/codes.js --check
+node scripts/docs/plant-reference.js --check
 node scripts/docs/site.js
 counted npx mocha --timeout 10000 --exit 'tests/docs/**/*.spec.js'
 

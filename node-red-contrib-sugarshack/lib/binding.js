@@ -4,10 +4,9 @@
 // Runtimes outlive deploys: a node of a new deploy takes over what its previous
 // instance held there (same node id), and a closing node lets go of it in the
 // way the close asks for (restart, removal, or a shutdown that freezes all).
-const { SugarshackError, asSugarshackError } = require('./errors');
+const { SugarshackError } = require('./errors');
 const { errorStatus } = require('./status');
 const { paletteOf } = require('./lifecycle');
-const { readMsg } = require('./request');
 
 // What a node says when its config node is unset.
 const MISSING = {
@@ -57,9 +56,9 @@ function bindPlant(RED, node, configId, options) {
  * @param {any} runtime the interlock or plant runtime, null when unset
  * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done) => void} work
  * @param {'interlock' | 'plant'} [kind]
- * @param {{ urgent?: (msg: NodeRed.Message) => boolean }} [options]
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean }} [options] `passive`: the work runs on a standby too (device feedback keeps it warm)
  */
-function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
+function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
       done(MISSING[kind]());
@@ -71,57 +70,11 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
     } catch {
       now = false; // an unreadable msg waits like any other and is refused when read
     }
-    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now });
+    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now, passive });
   });
 }
 
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
 
-/**
- * The input handler of an interlock's msg nodes: `read(msg)` reads what the
- * msg carries and returns the engine call that hands it in (`(engine,
- * handle, now) => ...`); the interlock holds the msg under its handle and
- * performs what the engine answers. `ports`: the node's outputs.
- * @param {NodeRed.Node} node @param {any} runtime @param {number} ports
- * @param {(msg: NodeRed.Message) => (engine: any, handle: number, now: number) => void} read
- * @param {((text: any) => string) | null} [words] how the node words a fault it made
- */
-function onEngineInput(node, runtime, ports, read, words = null) {
-  node.on('input', (msg, send, done) => {
-    if (!runtime) {
-      done(MISSING.interlock());
-      return;
-    }
-    let call;
-    try {
-      call = readMsg(() => read(msg));
-    } catch (err) {
-      const e = asSugarshackError(err);
-      node.status(errorStatus(e.code));
-      done(e);
-      return;
-    }
-    runtime.input(node, msg, send, done, ports, call, words);
-  });
-}
-
-/** msg.interlock.operation: the acquire a release, cancel or fault follows. */
-function followed(msg) {
-  const { interlock } = msg;
-  return interlock && typeof interlock === 'object' ? interlock.operation : undefined;
-}
-
-/** Who asks (a clear, an emergency stop), as a msg says: the dashboard's signed-in user, msg.by, msg.reason, msg.force. */
-function askedBy(msg) {
-  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
-  const user = client && client.user && typeof client.user === 'object' ? client.user : null;
-  return {
-    user: user ? user.username || user.name || user.email || user.userId : undefined,
-    by: msg.by,
-    reason: msg.reason,
-    force: msg.force === true,
-  };
-}
-
-module.exports = { bindInterlock, bindPlant, onInput, always, onEngineInput, followed, askedBy };
+module.exports = { bindInterlock, bindPlant, onInput, always };

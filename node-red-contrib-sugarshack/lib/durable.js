@@ -7,6 +7,8 @@
 // of the directory). A marker file says "this interlock has run before", so a
 // state that is missing, empty or unreadable after a previous run is reported
 // as lost instead of being taken for a first start with every line free.
+// Only bytes go through here: what a document says, and whether it is this
+// node's, the core decides (it seals and opens them).
 //
 // Effects wait for their state: a runtime calls `committer.change(effect)`
 // after changing state, and the effect (a grant sent, a lockout published, an
@@ -16,11 +18,9 @@ const fs = require('fs');
 const path = require('path');
 const i18n = require('./i18n');
 
-const FORMAT = 'sugarshack-interlock-state';
-/** What a FileStore keeps: its files' prefix, the format its documents carry, the marker's text. */
+/** What a FileStore keeps: its files' prefix and the marker's text. */
 const INTERLOCK_STATE = {
   kind: 'interlock',
-  format: FORMAT,
   note: 'This interlock has run here: if its state file is missing, it starts with every line faulted.\n',
 };
 // A saved state is read whole at start; past this it is refused as corrupt.
@@ -48,7 +48,7 @@ class FileStore {
   /**
    * @param {string} dir the state directory
    * @param {string} name the owning node's id
-   * @param {{ kind: string, format: string, note: string }} [of] what is kept (an interlock's state unless told)
+   * @param {{ kind: string, note: string }} [of] what is kept (an interlock's state unless told)
    */
   constructor(dir, name, of = INTERLOCK_STATE) {
     this.dir = dir;
@@ -68,30 +68,21 @@ class FileStore {
   }
 
   /**
-   * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', doc }
-   * or { kind: 'lost', why } (ran before, state missing or unreadable).
+   * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', text }
+   * (the document, for the core to open) or { kind: 'lost', why } (ran before,
+   * state missing, empty or unreadable).
    */
   read() {
-    let text = null;
     let why = null;
     try {
       const size = fs.statSync(this.file).size;
       if (size === 0) why = i18n.text('labels.stateFileEmpty', { file: this.file });
       else if (size > MAX_STATE_BYTES) why = i18n.text('labels.stateFileTooLarge', { file: this.file, size, max: MAX_STATE_BYTES });
-      else text = fs.readFileSync(this.file, 'utf8');
+      else return { kind: 'saved', text: fs.readFileSync(this.file, 'utf8') };
     } catch (err) {
+      if (err.code === 'ENOENT' && !fs.existsSync(this.marker)) return { kind: 'first' };
       why = err.code === 'ENOENT' ? i18n.text('labels.stateFileMissing', { file: this.file }) : i18n.text('labels.stateFileUnreadable', { file: this.file, message: err.message });
     }
-    if (text !== null) {
-      try {
-        const doc = JSON.parse(text);
-        if (doc && doc.format === this.of.format) return { kind: 'saved', doc };
-        why = i18n.text('labels.stateFileForeign', { file: this.file, kind: this.of.kind });
-      } catch (err) {
-        why = i18n.text('labels.stateFileNotJson', { file: this.file, message: err.message.slice(0, 100) });
-      }
-    }
-    if (!fs.existsSync(this.marker)) return text === null ? { kind: 'first' } : { kind: 'lost', why };
     return { kind: 'lost', why };
   }
 
@@ -176,25 +167,29 @@ class MemoryStore {
  * durable, a change's effect runs at once (nothing to wait for) and only the
  * effects collected per turn (event records) wait for the end of the turn. `snapshot()` returns the text to
  * write. An effect marked `evenUnsaved` (a lockout: isolating the line matters
- * more than the record of it) also runs when the write fails; the others wait
- * for the next successful write, retried every second.
+ * more than the record of it) also runs when the write fails, or, with a store
+ * that says `urgentAfterMs` (etcd, whose write may hang while it has no
+ * quorum), once its write has taken that long; the others wait for the next
+ * successful write, retried every second. No effect runs while `mayAct()` says no.
  */
 class Committer {
   /**
    * `collect()`, called just before each write, may return one more effect for
    * that write (an interlock's event records, drained once per write).
    * @param {object} o
-   * @param {FileStore | MemoryStore} o.store
+   * @param {{ durable: boolean, where: string, write: (text: any) => Promise<void>, urgentAfterMs?: number }} o.store
    * @param {() => string} o.snapshot the text to write
    * @param {{ setTimeout: Function, clearTimeout: Function }} o.clock times the retries
    * @param {(err: any) => void} [o.onError] a snapshot, write or effect failed
    * @param {() => void} [o.onSaved] a write is on disk
    * @param {() => ((() => void) | null)} [o.collect]
+   * @param {() => boolean} [o.mayAct] false while effects may not leave at all (a standby, or a leader whose lease may have run out)
    */
-  constructor({ store, snapshot, clock, onError, onSaved, collect }) {
+  constructor({ store, snapshot, clock, onError, onSaved, collect, mayAct }) {
     this.store = store;
     this.snapshot = snapshot;
     this.collect = collect || (() => null);
+    this.mayAct = mayAct || (() => true);
     this.clock = clock;
     this.onError = onError || (() => {});
     this.onSaved = onSaved || (() => {});
@@ -209,11 +204,6 @@ class Committer {
     this.writes = 0;
   }
 
-  /** How many effects wait for a write. */
-  get waiting() {
-    return this.effects.length;
-  }
-
   /** A state change happened; `effect` runs once it is durable. */
   change(effect, { evenUnsaved = false } = {}) {
     if (this.frozen) return;
@@ -221,7 +211,7 @@ class Committer {
     if (effect) {
       // In order behind effects still waiting (an `after` queued behind an earlier change).
       if (!this.store.durable && this.effects.length === 0) this.run(effect);
-      else this.effects.push({ run: effect, evenUnsaved });
+      else this.effects.push({ run: effect, evenUnsaved, ran: false });
     }
     this.schedule();
   }
@@ -233,7 +223,7 @@ class Committer {
       effect();
       return;
     }
-    this.effects.push({ run: effect, evenUnsaved: false });
+    this.effects.push({ run: effect, evenUnsaved: false, ran: false });
     this.schedule();
   }
 
@@ -251,7 +241,7 @@ class Committer {
     if (this.dirty) {
       try {
         const extra = this.collect();
-        if (extra) this.effects.push({ run: extra, evenUnsaved: false });
+        if (extra) this.effects.push({ run: extra, evenUnsaved: false, ran: false });
       } catch (err) {
         this.onError(err);
       }
@@ -271,6 +261,7 @@ class Committer {
       }
       if (ok) {
         this.writing = this.store.write(text);
+        const early = this.urgentEarly(effects);
         try {
           await this.writing;
           this.writes++;
@@ -283,6 +274,7 @@ class Committer {
           this.onError(err);
         } finally {
           this.writing = null;
+          if (early) this.clock.clearTimeout(early);
         }
       }
     }
@@ -292,7 +284,8 @@ class Committer {
     }
     const waiting = [];
     for (const effect of effects) {
-      if (ok || effect.evenUnsaved) this.run(effect.run);
+      if (effect.ran) continue;
+      if (ok || (effect.evenUnsaved && this.mayAct())) this.run(effect.run);
       else waiting.push(effect);
     }
     if (!ok) {
@@ -305,6 +298,19 @@ class Committer {
     }
     if (this.dirty || this.effects.length > 0) this.schedule();
     else this.wake();
+  }
+
+  /** Urgent effects of a write that takes longer than the store's `urgentAfterMs` go out before it ends. */
+  urgentEarly(effects) {
+    const ms = this.store.urgentAfterMs;
+    if (typeof ms !== 'number' || !effects.some((e) => e.evenUnsaved)) return null;
+    return this.clock.setTimeout(() => {
+      for (const effect of effects) {
+        if (!effect.evenUnsaved || effect.ran || this.frozen || !this.mayAct()) continue;
+        effect.ran = true;
+        this.run(effect.run);
+      }
+    }, ms);
   }
 
   run(effect) {
@@ -360,4 +366,4 @@ class Committer {
   }
 }
 
-module.exports = { FileStore, MemoryStore, Committer, stateDir, FORMAT };
+module.exports = { FileStore, MemoryStore, Committer, stateDir, safeName, INTERLOCK_STATE, MAX_STATE_BYTES };

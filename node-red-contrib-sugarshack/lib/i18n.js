@@ -92,14 +92,4 @@ function text(key, subs) {
   return read;
 }
 
-/**
- * A text of lib/ whose key the core named (`errors.acquireTimeout`...): the
- * core lists every such key with its placeholders (the facade's
- * catalogTexts()), and the catalog tests check that list.
- * @param {string} key @param {Record<string, any>} [subs]
- */
-function textOf(key, subs) {
-  return text(key, subs);
-}
-
-module.exports = { translator, useRED, text, textOf, englishCatalog, SHARED_NAMESPACE };
+module.exports = { translator, useRED, text, englishCatalog, SHARED_NAMESPACE };

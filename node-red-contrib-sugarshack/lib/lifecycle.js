@@ -14,6 +14,7 @@
 // configuration object before a deploy's stop, not before a shutdown's.
 const { clock } = require('./clock');
 const { stateOf, ChangeNotices } = require('./state');
+const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
 
 const DRAIN_CHECK_MS = 250;
@@ -38,10 +39,7 @@ class Palette {
   flowsStarted(event) {
     this.started = true;
     this.startedConfig = event && event.config;
-    const deployed = this.phase === 'deploying';
     this.phase = 'running';
-    // The deploy's nodes are all there: those that did not come back are gone for good.
-    if (deployed) for (const runtime of this.runtimes.values()) if (runtime.deployEnds) runtime.deployEnds();
     // Runtimes whose config node did not come back in this deploy were removed.
     for (const runtime of [...this.runtimes.values()]) {
       if (!runtime.owner) this.retire(runtime);
@@ -54,7 +52,6 @@ class Palette {
     this.started = false;
     const deploying = Boolean(event && this.startedConfig && event.config !== this.startedConfig);
     this.phase = deploying ? 'deploying' : 'shutdown';
-    if (deploying) for (const runtime of this.runtimes.values()) if (runtime.deployBegins) runtime.deployBegins();
     if (!deploying) {
       // Frozen where they are: a drain in progress ends with the process.
       this.swaps.clear();
@@ -186,28 +183,72 @@ function serveState(RED, palette) {
   RED.httpAdmin.get('/sugarshack/state', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
     res.json(stateOf(palette));
   });
-  // An operator's action: the engine reads it, attributed to the signed-in editor user.
-  const operatorAction = (request) => (req, res) => {
+  const operatorAction = (act) => (req, res) => {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
     const runtime = palette.runtimes.get(String(body.interlock || ''));
     if (!runtime || runtime.kind === 'plant' || runtime.state !== 'ready') {
       res.status(404).json({ code: 'NO_INTERLOCK', message: text('errors.noRunningInterlock', { id: String(body.interlock).slice(0, 100) }) });
       return;
     }
-    const who = { user: req.user ? req.user.username : undefined, reason: body.reason, force: body.force === true };
-    const refused = (err) => res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
+    const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
+      ? body.lines : null;
+    const who = {
+      by: req.user && typeof req.user.username === 'string' ? req.user.username : null,
+      reason: typeof body.reason === 'string' ? body.reason.slice(0, 1000) : null,
+      force: body.force === true,
+    };
     try {
-      runtime.operator(request(body), who, (answer) => (answer instanceof Error ? refused(answer) : res.json(answer)));
+      runtime.guard(() => act(runtime, lines, who, (answer) => res.json(answer), body));
     } catch (err) {
-      refused(err);
+      res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
     }
   };
-  const post = (path, request) => RED.httpAdmin.post(path, RED.auth.needsPermission('sugarshack.write'), operatorAction(request));
-  post('/sugarshack/clear', (body) => ({ kind: 'clear', lines: body.lines }));
-  post('/sugarshack/estop', (body) => ({ kind: 'eStop', lines: body.lines }));
-  post('/sugarshack/alarms/ack', (body) => ({ kind: 'ack', ids: body.ids }));
-  post('/sugarshack/alarms/shelve', (body) => ({ kind: 'shelve', id: body.id, untilMs: body.untilMs, forMs: body.forMs }));
-  post('/sugarshack/alarms/unshelve', (body) => ({ kind: 'unshelve', id: body.id }));
+  RED.httpAdmin.post('/sugarshack/clear', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
+    rt.clear(lines, (cleared) => answer({ cleared, by: who.by || 'unknown' }), who);
+  }));
+  RED.httpAdmin.post('/sugarshack/estop', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
+    if (!lines || lines.length === 0) throw SugarshackError.of('INVALID_RESOURCES', 'noLinesToStop');
+    rt.faultResources(lines, who.reason || text('labels.editorEstop'), (lockouts) => {
+      if (rt.plant) rt.plant.issueLockouts(lockouts, null);
+      answer({ stopped: lockouts.map((l) => l.resource), by: who.by || 'unknown' });
+    }, who);
+  }));
+  const alarmAnswer = (who, answer) => (changes) => answer({ changes, by: who.by || 'unknown' });
+  RED.httpAdmin.post('/sugarshack/alarms/ack', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.acknowledgeAlarms(alarmIdsOf(body.ids), who, alarmAnswer(who, answer));
+  }));
+  RED.httpAdmin.post('/sugarshack/alarms/shelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.shelveAlarm(alarmIdOf(body.id), shelfEndOf(body, clock.now()), who, alarmAnswer(who, answer));
+  }));
+  RED.httpAdmin.post('/sugarshack/alarms/unshelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
+    rt.unshelveAlarm(alarmIdOf(body.id), who, alarmAnswer(who, answer));
+  }));
+}
+
+const MAX_ALARM_ID = 300;
+const MAX_ALARM_IDS = 20000;
+
+/** An alarm's id (`kind:subject`, as listed in the state). */
+function alarmIdOf(id) {
+  if (typeof id !== 'string' || id === '' || id.length > MAX_ALARM_ID) {
+    throw SugarshackError.of('INVALID_INPUT', 'alarmIdInvalid', { got: JSON.stringify(id === undefined ? null : id).slice(0, 100) });
+  }
+  return id;
+}
+
+/** Alarm ids to acknowledge; absent: every unacknowledged one. */
+function alarmIdsOf(ids) {
+  if (ids === undefined || ids === null) return null;
+  if (!Array.isArray(ids) || ids.length > MAX_ALARM_IDS) throw SugarshackError.of('INVALID_INPUT', 'alarmIdsInvalid', { max: MAX_ALARM_IDS });
+  return ids.map(alarmIdOf);
+}
+
+/** Until when a shelf lasts: `untilMs` (epoch ms) or `forMs` from now. */
+function shelfEndOf(body, now) {
+  const { untilMs, forMs } = body;
+  if (typeof untilMs === 'number' && Number.isFinite(untilMs)) return untilMs;
+  if (typeof forMs === 'number' && Number.isFinite(forMs) && forMs > 0) return now + forMs;
+  throw SugarshackError.of('INVALID_SHELF', 'shelfUnbounded');
 }
 
 /**
@@ -241,4 +282,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey, runtimeOfConfigNode };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, alarmIdOf, alarmIdsOf, shelfEndOf };

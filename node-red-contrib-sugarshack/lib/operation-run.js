@@ -11,6 +11,7 @@ const { clock } = require('./clock');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
 const { text } = require('./i18n');
+const { heldMsg } = require('./pending');
 const wasm = require('./wasm');
 
 /** @typedef {import('../wasm/sugarshack_wasm').OperationRun} OperationRun */
@@ -81,36 +82,33 @@ class RunHost {
       case 'startStep':
         this.startStep(e);
         break;
-      case 'release': {
-        const failed = (err) => this.feed((r) => r.releaseFailed(err.code, err.message, clock.now()));
-        this.attempt(() => this.interlock.request('release', { operation: e.operation }, {
-          answered: () => this.feed((r) => r.released(clock.now())),
-          refused: failed,
-        }), failed);
+      case 'release':
+        this.attempt(
+          () => this.interlock.release(e.operation, () => this.feed((r) => r.released(clock.now()))),
+          (err) => this.feed((r) => r.releaseFailed(err.code, err.message, clock.now())),
+        );
         break;
-      }
-      case 'fault': {
-        const failed = (err) => {
-          this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
-          this.feed((r) => r.faultApplied([], clock.now()));
-        };
-        this.attempt(() => this.interlock.request('fault', { operation: e.operation, errorMessage: e.note }, {
-          answered: (lockouts) => {
-            this.plant.issueLockouts(lockouts || [], e.operation);
-            this.feed((r) => r.faultApplied((lockouts || []).map((l) => l.resource), clock.now()));
+      case 'fault':
+        this.attempt(
+          () => this.interlock.fault(e.operation, e.note, (lockouts) => {
+            this.plant.issueLockouts(lockouts, e.operation);
+            this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
+          }),
+          (err) => {
+            this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
+            this.feed((r) => r.faultApplied([], clock.now()));
           },
-          refused: failed,
-        }), failed);
+        );
         break;
-      }
       case 'cancelStep':
         this.cancelStep();
         break;
-      case 'withdraw': {
-        const withdrawn = () => this.feed((r) => r.withdrawn(clock.now()));
-        this.attempt(() => this.interlock.request('cancel', { operation: e.operation }, { answered: withdrawn, refused: withdrawn }), withdrawn);
+      case 'withdraw':
+        this.attempt(
+          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now()))),
+          () => this.feed((r) => r.withdrawn(clock.now())),
+        );
         break;
-      }
       case 'finished':
         stats.add(`operation/run/${e.id}`, e.runMs);
         stats.add(`operation/queued/${e.id}`, e.queuedMs);
@@ -137,24 +135,26 @@ class RunHost {
   /** @param {EffectOf<'acquire'>} e */
   acquire(e) {
     this.port.progress('queued');
-    const refused = (err) => this.feed((r) => r.refused(err.code, err.message));
     // Held for the run, not for a node: no node takes it over in a deploy.
-    this.attempt(() => this.interlock.request('acquire', { operation: e.operation, priority: e.priority, resources: e.resources }, {
-      granted: () => {
-        this.granted = true;
-        this.feed((r) => r.granted(clock.now()));
-      },
-      refused,
-      // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
-      // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
-      dropped: () => {
-        if (this.interlock.ended) return;
-        this.feed((r) => [
-          ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
-          ...r.withdrawn(clock.now()),
-        ]);
-      },
-    }), refused);
+    const entry = heldMsg({
+      node: null, msg: null, send: null, done: null, sinceMs: clock.now(), run: this,
+      operation: e.operation, priority: e.priority, resources: e.resources, timeoutMs: 0,
+    });
+    entry.grant = () => {
+      this.granted = true;
+      this.feed((r) => r.granted(clock.now()));
+    };
+    entry.refuse = (err) => this.feed((r) => r.refused(err.code, err.message));
+    // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
+    // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
+    entry.abandon = () => {
+      if (this.interlock.ended) return;
+      this.feed((r) => [
+        ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
+        ...r.withdrawn(clock.now()),
+      ]);
+    };
+    this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }
 
   /** @param {EffectOf<'startStep'>} effect */

@@ -5,7 +5,6 @@
 // and actuators nodes until their group command completes, keyed by caller id.
 
 const { clock } = require('./clock');
-const { HeldMsg: HeldMsgOfNode } = require('./interlock/held');
 
 class PendingRegistry {
   constructor() {
@@ -96,12 +95,16 @@ class HeldMsg {
   }
 
   detach() {
-    HeldMsgOfNode.prototype.detach.call(this);
+    if (this.done) this.done();
+    this.node = null;
+    this.send = null;
+    this.done = null;
   }
 
   /** @param {NodeRed.Node} next */
   adopt(next) {
-    HeldMsgOfNode.prototype.adopt.call(this, next);
+    this.node = next;
+    this.send = (m) => next.send(m);
   }
 
   stopTimer() {

@@ -62,18 +62,18 @@ class GroupCommands {
   }
 
   /**
-   * Sends the lockout msgs of faulted lines ([{ topic, payload, resource, faultAtMs }], as the interlock makes them). The core
+   * Sends lockout commands ([{ resource, command }]) of faulted lines. The core
    * keeps each one as a standing order until feedback confirms it, re-sending it
    * whatever happens to this call; a refusal here is logged.
    */
   lockouts(lockouts, operation) {
     const { plant } = this;
-    for (const lockout of lockouts) {
-      const { resource, payload: command, faultAtMs } = lockout;
+    const faultAtMs = clock.now();
+    for (const { resource, command } of lockouts) {
       const onDone = (err) => {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
-      const carrier = { ...lockout, operation };
+      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
       try {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined));

@@ -18,14 +18,17 @@ const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
+const { clusterOf } = require('./cluster');
 
 const TICK_MS = 250;
 
 class PlantRuntime extends RuntimeBase {
-  /** settings: { plant (the document), error }; RED for JSONata conditions. */
-  constructor({ RED, id, settings }) {
+  /**
+   * settings: { plant (the document), error }; RED, for the hot-standby cluster of this Node-RED, if any.
+   * @param {{ id: string, settings: any, RED?: any }} o
+   */
+  constructor({ id, settings, RED = null }) {
     super('plant');
-    this.RED = RED;
     this.id = id;
     this.swapOrder = 0; // before the interlocks bound to it
     this.plant = settings.plant;
@@ -36,6 +39,29 @@ class PlantRuntime extends RuntimeBase {
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
+    // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
+    try {
+      this.cluster = clusterOf(RED);
+    } catch (err) {
+      this.cluster = null;
+      this.plantError = err;
+    }
+    this.stopFollowing = this.cluster ? this.cluster.follow({
+      activate: () => this.refreshStatus(),
+      standDown: () => this.bus.standDown(),
+      resumed: () => this.bus.sendHeld(),
+    }) : null;
+  }
+
+  /** A standby (not the elected leader) commands nothing; its feedback still goes in. */
+  get standby() {
+    return this.cluster !== null && !this.cluster.active;
+  }
+
+  /** Whether a publish may leave now: 'send', 'hold' (a leader whose lease awaits etcd's answer) or 'drop'. */
+  publishing() {
+    if (!this.cluster || this.cluster.mayAct()) return 'send';
+    return this.cluster.role === 'suspended' ? 'hold' : 'drop';
   }
 
   /** The actuators nodes serving this plant (read by the interlock's alarms). */
@@ -60,7 +86,6 @@ class PlantRuntime extends RuntimeBase {
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
     this.refreshStatus();
-    this.conditionsChanged();
     this.replayParked();
   }
 
@@ -87,6 +112,8 @@ class PlantRuntime extends RuntimeBase {
   async shutdown() {
     if (this.ended) return;
     const wasReady = this.state === 'ready';
+    if (this.stopFollowing) this.stopFollowing();
+    this.stopFollowing = null;
     this.endCommon();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
@@ -212,6 +239,16 @@ class PlantRuntime extends RuntimeBase {
     return this.t.readSensors(Uint32Array.from(handles), now);
   }
 
+  /** The core's handle of `text` over sensor ids `sensors`; throws INVALID_CONDITION / UNKNOWN_SENSOR. */
+  compileCondition(text, sensors) {
+    return this.t.condition(text, sensors);
+  }
+
+  /** Whether condition `handle` holds on `values`: true, false, or why it gives no answer. */
+  conditionHolds(handle, values) {
+    return this.t.conditionHolds(handle, values);
+  }
+
   /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */
   plan(id) {
     return this.t.operationPlan(id);
@@ -255,18 +292,15 @@ class PlantRuntime extends RuntimeBase {
   flush(source) {
     const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
     let counted = source === null;
-    let abnormal = false;
     try {
       for (const effect of effects) {
         this.route(effect, source);
         if (effect.kind !== 'changed') counted = true;
-        if (effect.kind === 'deviceStatus' || effect.kind === 'fault' || effect.kind === 'recovered') abnormal = true;
       }
     } catch (err) {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
-    if (abnormal) this.conditionsChanged();
     if (!counted) {
       if (this.palette) this.palette.changes.touch();
     } else if (source === null) {
@@ -303,23 +337,6 @@ class PlantRuntime extends RuntimeBase {
         else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
-  }
-
-  /** The plant's abnormal conditions (devices offline or stale, brokers lost), as the interlocks' alarms read them. */
-  alarmConditions() {
-    if (this.state !== 'ready') return [];
-    const conditions = this.t.alarmConditions();
-    for (const b of this.buses) {
-      if (b.connected === false) conditions.push({ kind: 'bus-disconnected', subject: (b.node && b.node.name) || b.nodeId });
-    }
-    return conditions;
-  }
-
-  /** The interlocks bound to this plant hear of a change of its conditions. */
-  conditionsChanged() {
-    if (!this.palette) return;
-    const conditions = this.alarmConditions();
-    for (const runtime of this.palette.runtimes.values()) if (runtime.plant === this && runtime.plantConditions) runtime.plantConditions(conditions);
   }
 
   // ---- state and status ----------------------------------------------------

@@ -147,67 +147,9 @@ const SAMPLE_PLANT = Object.freeze({
 });
 
 function prime(facade) {
-  primeEngine(facade);
   primeInterlock(facade);
   primeAlarms(facade);
   primeControl(facade);
-}
-
-/** An engine through every input: a grant, a wait, a release, a fault, a clear, a drain, alarms, a restart. */
-function primeEngine({ Engine, Tracker, wasmMemory }) {
-  wasmMemory();
-  const t = new Tracker(SAMPLE_PLANT, 0);
-  const config = { resources: t.interlockResources(), warnQueuedMs: 1, warnHeldMs: 1 };
-  const e = new Engine(config, { plantBound: true });
-  e.headerPtr();
-  e.addNode(1, { kind: 'acquire', timeoutMs: 5, operation: 'a', priority: 1, resources: 'A' }, 0);
-  e.addNode(2, { kind: 'release' }, 0);
-  e.addNode(3, { kind: 'cancel' }, 0);
-  e.addNode(4, { kind: 'fault', byResources: false, failMsg: false }, 0);
-  e.addNode(5, { kind: 'clear', allFaulted: true, refusalsWired: false }, 0);
-  e.listen(true, 0);
-  e.start(null, undefined, 0);
-  e.acquire(1, 1, 1);
-  e.findOperation('a');
-  e.acquireNamed(1, 2, 'b', 2, ['A', 'B'], 2);
-  e.tick(10);
-  e.release(2, 3, 'a', undefined, 11);
-  e.cancel(3, 4, { operation: 'b' }, 12);
-  e.acquireNamed(1, 5, 'c', undefined, 'A', 13);
-  e.fault(4, 6, { operation: 'c', errorMessage: 'primer' }, 14);
-  e.clear(5, 7, {}, false, 15);
-  e.fault(4, 8, { follow: 'c' }, 16);
-  e.clearAgainst(5, 9, { force: true }, false, 17, t);
-  e.operator(10, { kind: 'eStop', lines: ['B'] }, { user: 'primer' }, 18);
-  e.operatorAgainst(11, { kind: 'clear' }, { force: true }, 19, t);
-  e.operator(12, { kind: 'ack' }, {}, 20);
-  e.storeFailing('primer', 21);
-  e.plantConditions(t.alarmConditions(), 22);
-  e.resendLockouts('atStart', 23);
-  e.life('drain-begin', 24);
-  const next = new Engine(config, { plantBound: true, wire: 'json' });
-  next.life('drain-begin', 25);
-  next.handOver(e.stateText(25, {}), 25);
-  next.life('drain-end', 26);
-  next.free();
-  e.closeNode(1, true, 27);
-  e.view(28);
-  e.viewAgainst(28, t);
-  e.savedRoutines();
-  e.stage();
-  e.faultedResources();
-  e.counts();
-  e.lost();
-  e.alarmIds();
-  e.handleEpoch();
-  e.snapshot(29);
-  const text = e.stateText(30, {});
-  const restarted = new Engine(config, {});
-  restarted.startAgainst(JSON.parse(text), undefined, 31, t);
-  restarted.life('shutdown', 32);
-  restarted.free();
-  e.free();
-  t.free();
 }
 
 function primeInterlock({ Interlock, Tracker }) {
@@ -247,6 +189,8 @@ function primeInterlock({ Interlock, Tracker }) {
   checked.clearAgainst(checked.resourceSet(checked.faultedResources()), t, null, null, true, 12);
   checked.free();
   restored.drainEvents();
+  const opened = Interlock.open(config, 'primer', 'plant', 'primer', il.seal('primer', 'plant', {}, undefined, 11), 12);
+  opened.interlock.free();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
   unknown.free();
@@ -320,7 +264,7 @@ function primeInterlock({ Interlock, Tracker }) {
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
-  t.readSensors(Uint32Array.of(sensor), 1);
+  t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
   const r = t.routine('r');
   r.conditions();
   r.condition(1);
@@ -355,7 +299,7 @@ function primeAlarms({ Alarms }) {
 }
 
 // The control facade (pid, rcc and rcc-io nodes): every call once on throwaway loops.
-function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }) {
+function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds, sealPidState, openPidState }) {
   const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: null, proportionalOn: 'error' };
   const smith = { model: { gain: 1, tauS: 10 }, tsS: 1, deadTime: { mode: 'adaptive', alpha: 0.2, h: 3 }, maxSamples: 10 };
   const loop = new PidLoop({ pid, smith });
@@ -381,7 +325,9 @@ function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }
   rcc.tick(5000);
   rcc.pollTimedOut();
   rcc.firstCycle;
-  const station = new PidStation({ loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null });
+  const stationConfig = { loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null };
+  const station = new PidStation(stationConfig);
+  station.restore(openPidState('primer', sealPidState('primer', stationConfig, { integral: 0, setpoint: 50, mode: 'auto', manual: null }, 0), 'primer'));
   station.measure(40, 0, 0, undefined, undefined);
   station.measure(41, 1000, 1000, undefined, rcc.decide(io.state(1000), 1000));
   station.change({ setpoint: 55, tunings: { kp: 2 }, limits: { max: 90 } });

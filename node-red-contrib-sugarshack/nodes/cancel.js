@@ -1,6 +1,8 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onEngineInput, followed } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
+const { operationOf, readMsg } = require('../lib/request');
+const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -11,13 +13,15 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
-    const handle = runtime && runtime.addNode(node, { kind: 'cancel', operation: props.operation });
 
-    // The held msg of the withdrawn request is completed unsent; this one goes on (never waits for a drain).
-    onEngineInput(node, runtime, 1, (msg) => {
-      const fields = { operation: msg.operation, follow: followed(msg), by: msg.by, reason: msg.reason };
-      return (e, k, now) => e.cancel(handle, k, fields, now);
-    });
+    onInput(node, runtime, (rt, msg, send, done) => {
+      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      journal.action('cancel', msg, operation);
+      rt.cancel(operation, () => {
+        send(msg);
+        done();
+      });
+    }, 'interlock', { urgent: always }); // a withdrawal never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-cancel', CancelNode);

@@ -1,6 +1,8 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onEngineInput, askedBy } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
+const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
+const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -11,18 +13,33 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
+    const allFaulted = props.mode === 'all';
     // A refusal is an answer a dashboard shows: out of output 2 when it is wired, else to the Catch nodes.
     const refusalsWired = Array.isArray(props.wires) && Array.isArray(props.wires[1]) && props.wires[1].length > 0;
-    const handle = runtime && runtime.addNode(node, { kind: 'clear', allFaulted: props.mode === 'all', refusalsWired, resources: props.resources });
 
-    // An operator's clear never waits for a deploy's drain.
-    onEngineInput(node, runtime, 2, (msg) => {
-      const fields = { resources: msg.resources, ...askedBy(msg) };
-      const namesGiven = msg.resources !== undefined;
-      const tracker = runtime.tracker;
-      if (tracker) return (e, k, now) => e.clearAgainst(handle, k, fields, namesGiven, now, tracker);
-      return (e, k, now) => e.clear(handle, k, fields, namesGiven, now);
-    });
+    onInput(node, runtime, (rt, msg, send, done) => {
+      const request = readMsg(() => ({
+        names: allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources),
+        who: attributionOf(msg),
+      }));
+      const target = request.names === null ? 'all' : request.names;
+      try {
+        rt.clear(request.names, (cleared) => {
+          msg.cleared = cleared;
+          journal.action(request.who.force ? 'clear-forced' : 'clear', request.who, target);
+          msg.clearedBy = { by: request.who.by || 'unknown', reason: request.who.reason, forced: request.who.force };
+          send([msg, null]);
+          done();
+        }, request.who);
+      } catch (err) {
+        if (err.code === 'CLEAR_REFUSED') journal.action('clear-refused', request.who, target);
+        if (err.code !== 'CLEAR_REFUSED' || !refusalsWired) throw err;
+        msg.refused = { code: err.code, message: err.message, lines: err.lines || [] };
+        rt.showError(node, err.code);
+        send([null, msg]);
+        done();
+      }
+    }, 'interlock', { urgent: always }); // an operator's clear never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-clear', ClearNode);

@@ -1,7 +1,25 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onEngineInput, askedBy, followed } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
+const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
+const { clock } = require('../lib/clock');
+const { journal } = require('../lib/journal/bus');
+const { SugarshackError } = require('../lib/errors');
 const { translator, useRED } = require('../lib/i18n');
+
+/**
+ * The error a faulted msg ends with when the node is set to fail it: it names
+ * what was faulted and what locked out, and keeps the Catch's error as `cause`.
+ */
+function faultedError(t, msg, operation, lockouts, note) {
+  const lines = lockouts.map((l) => l.resource).join(', ');
+  const what = operation === null
+    ? t('errors.stopped', { lines: lines || t('errors.nothing') })
+    : t(lines ? 'errors.faultedLocked' : 'errors.faultedHeldNothing', { operation, lines });
+  const error = new SugarshackError('FAULTED', note ? t('errors.withNote', { what, note }) : what);
+  if (msg.error && typeof msg.error === 'object') error.cause = msg.error;
+  return error;
+}
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
@@ -12,31 +30,46 @@ module.exports = function (RED) {
     const node = this;
     const t = translator(RED, 'sugarshack-fault');
     const runtime = bindInterlock(RED, node, props.interlock);
+    const byResources = props.mode === 'resources';
     // Failing the msg lets the Catch of whoever called the operation see the fault (a subflow's caller).
-    const handle = runtime && runtime.addNode(node, {
-      kind: 'fault', byResources: props.mode === 'resources', failMsg: props.after === 'fail', operation: props.operation, resources: props.resources,
-    });
+    const failMsg = props.after === 'fail';
 
-    // Output 2 gets one lockout group command per latched line, once the fault is saved (an e-stop never waits for a drain).
-    onEngineInput(node, runtime, 2, (msg) => {
-      const error = msg.error;
-      const fields = {
-        operation: msg.operation,
-        follow: followed(msg),
-        resources: msg.resources,
-        errorMessage: error ? error.message : undefined,
-        payload: msg.payload,
-        ...askedBy(msg),
+    // Output 2 gets one lockout group command per latched line, once the fault is saved.
+    onInput(node, runtime, (rt, msg, send, done) => {
+      const request = readMsg(() => {
+        const who = byResources ? attributionOf(msg) : null;
+        return {
+          // The error a Catch node caught is the note; else an operator's stated reason (kept with the e-stop either way).
+          note: noteOf(msg, who && who.reason),
+          operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
+          resources: byResources ? resourcesOf(msg, props.resources) : null,
+          who,
+        };
+      });
+      const { note, operation } = request;
+      const out = (lockouts) => {
+        // faultAtMs lets the group command that applies the lockout report the fault lockout time.
+        const faultAtMs = clock.now();
+        const commands = lockouts.map(({ resource, command }) => ({
+          topic: `lockout/${resource}`,
+          payload: command,
+          resource,
+          operation,
+          note: note === undefined ? null : note,
+          faultAtMs,
+        }));
+        if (failMsg) {
+          send([null, commands]);
+          done(faultedError(t, msg, operation, lockouts, note));
+          return;
+        }
+        send([msg, commands]);
+        done();
       };
-      return (e, k, now) => e.fault(handle, k, fields, now);
-    }, ({ operation, lines, note }) => {
-      // The error a faulted msg ends with when the node is set to fail it: what was faulted and locked out.
-      const joined = lines.join(', ');
-      const what = operation === null
-        ? t('errors.stopped', { lines: joined || t('errors.nothing') })
-        : t(joined ? 'errors.faultedLocked' : 'errors.faultedHeldNothing', { operation, lines: joined });
-      return note ? t('errors.withNote', { what, note }) : what;
-    });
+      if (byResources) journal.action('e-stop', request.who, request.resources);
+      if (byResources) rt.faultResources(request.resources, note, out, request.who);
+      else rt.fault(operation, note, out);
+    }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-fault', FaultNode);

@@ -2,12 +2,13 @@
 'use strict';
 const path = require('path');
 const { journal } = require('../lib/journal/bus');
-const { JournalWriter, httpTarget } = require('../lib/journal/writer');
+const { JournalWriter, httpTarget, DEFAULT_TIMEOUT_MS } = require('../lib/journal/writer');
 const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
 const { compact, status } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { configDurationMs } = require('../lib/control');
+const { quietOf } = require('../lib/cluster');
 
 const MB = 1024 * 1024;
 const writers = new Map(); // node id (or 'default') -> JournalWriter
@@ -47,8 +48,11 @@ function writerFor(t, { props, credentials, userDir, id, onChange }) {
   if (!host) throw new Error(t('errors.noHost'));
   const port = bounded(t, props.port, 9000, 1, 65535, t('config.port'));
   const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(t, props.bufferMB, 64, 0.001, 1e6, t('config.bufferMB')) * MB) });
+  const timeoutMs = bounded(t, props.timeoutS, DEFAULT_TIMEOUT_MS / 1000, 0.1, 300, t('config.timeoutS')) * 1000;
   // HTTPS is the text 'true' when the flow file sets it from the environment (${NAME}).
-  const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token });
+  const target = httpTarget({
+    host, port, timeoutMs, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token,
+  });
   return new JournalWriter({ plant, flushMs, onChange, spool, target });
 }
 
@@ -62,7 +66,9 @@ module.exports = function (RED) {
   const embedded = RED.settings && RED.settings.sugarshackJournal;
   if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
     const writer = writerFor(t, { props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
-    writer.detach = journal.attach(writer);
+    // In a hot-standby cluster only the active instance keeps the journal (a standby hears the same plant).
+    const quiet = quietOf(RED);
+    writer.detach = journal.attach({ row: (row) => { if (!quiet()) writer.row(row); }, failed: (err) => writer.failed(err) });
     writers.set('default', writer);
     RED.log.info(t('log.localFiles', { where: writer.target.where }));
   }

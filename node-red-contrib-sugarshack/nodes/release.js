@@ -1,6 +1,7 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onEngineInput, followed } = require('../lib/binding');
+const { bindInterlock, onInput, always } = require('../lib/binding');
+const { operationOf, readMsg } = require('../lib/request');
 const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -11,14 +12,15 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
-    const handle = runtime && runtime.addNode(node, { kind: 'release', operation: props.operation });
 
-    // The msg goes on once the release is saved (a release never waits for a deploy's drain).
-    onEngineInput(node, runtime, 1, (msg) => {
-      const { operation } = msg;
-      const follow = followed(msg);
-      return (e, k, now) => e.release(handle, k, operation, follow, now);
-    });
+    // The msg goes on once the release is saved.
+    onInput(node, runtime, (rt, msg, send, done) => {
+      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      rt.release(operation, () => {
+        send(msg);
+        done();
+      });
+    }, 'interlock', { urgent: always }); // a release lets a drain end; it never waits for one
   }
 
   RED.nodes.registerType('sugarshack-release', ReleaseNode);

@@ -6,8 +6,8 @@
 // document as GET /sugarshack/stats (a dashboard needs no admin API access).
 // Topics 'ack', 'shelve' and 'unshelve' act on alarms as the dashboard user
 // (msg._client) or msg.by, then answer with the state.
-const { paletteOf } = require('../lib/lifecycle');
-const { askedBy } = require('../lib/binding');
+const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf } = require('../lib/lifecycle');
+const { attributionOf } = require('../lib/request');
 const { SugarshackError } = require('../lib/errors');
 const { errorStatus } = require('../lib/status');
 const { stateOf } = require('../lib/state');
@@ -35,27 +35,26 @@ function alarmTargets(t, palette, msg, id) {
     return found;
   }
   const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.hasAlarm(id));
-  if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', t('errors.noAlarm', { id: String(id).slice(0, 100) }));
+  if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', t('errors.noAlarm', { id: id.slice(0, 100) }));
   return targets;
 }
 
-/** Acts on alarms as msg asks, as the dashboard's user or msg.by; resolves with every change once saved. */
+/** Acts on alarms as msg asks; resolves with every change once saved. */
 function alarmRequest(t, palette, msg) {
-  const who = askedBy(msg);
-  const ack = msg.topic === 'ack';
-  const ids = ack ? (msg.ids !== undefined ? msg.ids : msg.id !== undefined ? [msg.id] : undefined) : undefined;
-  const one = !ack ? msg.id : Array.isArray(ids) && ids.length === 1 ? ids[0] : null;
-  const request = ack ? { kind: 'ack', ids } : { kind: msg.topic, id: msg.id, untilMs: msg.untilMs, forMs: msg.forMs };
-  const byInterlock = alarmTargets(t, palette, msg, typeof one === 'string' ? one : null);
-  return Promise.all(byInterlock.map((rt) => new Promise((resolve, reject) => {
-    // Named ids: each interlock takes those it lists.
-    const mine = ack && Array.isArray(ids) ? ids.filter((a) => typeof a !== 'string' || rt.hasAlarm(a)) : ids;
-    if (ack && Array.isArray(mine) && mine.length === 0) {
-      resolve([]);
-      return;
-    }
-    rt.operator(ack ? { kind: 'ack', ids: mine } : request, who, (answer) => (answer instanceof Error ? reject(answer) : resolve(answer.changes)));
-  }))).then((lists) => lists.flat());
+  const who = attributionOf(msg);
+  const ids = msg.topic === 'ack' ? alarmIdsOf(msg.ids !== undefined ? msg.ids : msg.id !== undefined ? [msg.id] : undefined) : null;
+  const id = msg.topic === 'ack' ? null : alarmIdOf(msg.id);
+  const untilMs = msg.topic === 'shelve' ? shelfEndOf(msg, clock.now()) : null;
+  const byInterlock = alarmTargets(t, palette, msg, id !== null ? id : ids && ids.length === 1 ? ids[0] : null);
+  return Promise.all(byInterlock.map((rt) => new Promise((resolve) => rt.guard(() => {
+    if (msg.topic === 'ack') {
+      // Named ids: each interlock takes those it lists.
+      const mine = ids === null ? null : ids.filter((a) => rt.hasAlarm(a));
+      if (mine !== null && mine.length === 0) resolve([]);
+      else rt.acknowledgeAlarms(mine, who, resolve);
+    } else if (msg.topic === 'shelve') rt.shelveAlarm(id, untilMs, who, resolve);
+    else rt.unshelveAlarm(id, who, resolve);
+  })))).then((lists) => lists.flat());
 }
 
 /** @param {NodeRed.RED} RED */
@@ -107,10 +106,7 @@ module.exports = function (RED) {
         asked.then((changes) => {
           send(Object.assign(msg, message('request'), { topic: msg.topic, alarmChanges: changes }));
           done();
-        }, (err) => {
-          node.status(errorStatus(err.code));
-          done(err);
-        });
+        }, done);
         return;
       }
       if (msg.topic === STATS_TOPIC) {

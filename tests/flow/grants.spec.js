@@ -1,84 +1,54 @@
 'use strict';
-// Grants as the engine hands them to the host (lib/wasm/wire.js reads them):
-// after the commit that saves them, each to its own held msg, in grant order;
-// and a grant nobody waits for is released at once, which may grant more.
 const assert = require('node:assert/strict');
 const path = require('path');
 const { PALETTE } = require('./support');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
-const { Wire } = require(path.join(PALETTE, 'lib', 'wasm', 'wire.js'));
-
-/** What a batch holds, in order, as short lines. */
-function read(wire) {
-  const log = [];
-  wire.read({
-    commit: (urgent) => log.push(urgent ? 'commit urgent' : 'commit'),
-    after: () => log.push('after'),
-    send: (msg, port, set) => log.push(set ? ['send', msg, port, set] : `send ${msg} on ${port}`),
-    emit: (msg, port, msgs) => log.push(`emit ${msgs.length} from ${msg} on ${port}`),
-    complete: (msg, refusal) => log.push(refusal ? `fail ${msg} ${refusal.code}` : `done ${msg}`),
-    counts: () => {},
-    other: (o) => log.push(o),
-  });
-  return log;
-}
-
-function engineOn(lines) {
-  const { Engine } = wasm.load();
-  const engine = new Engine({ resources: lines.map((name) => ({ name })) }, {});
-  engine.addNode(1, { kind: 'acquire', timeoutMs: 0, resources: 'YEL' }, 0);
-  engine.addNode(2, { kind: 'release' }, 0);
-  return { engine, wire: new Wire(engine) };
-}
+const { takeGrants } = require(path.join(PALETTE, 'lib', 'grants.js'));
+const { msgEntry } = require(path.join(PALETTE, 'lib', 'interlock-runtime.js'));
+const { PendingRegistry } = require(path.join(PALETTE, 'lib', 'pending.js'));
 
 describe('grant routing', function () {
-  it('answers each grant once its state is saved, each to its own msg, in grant order, with msg.interlock', function () {
-    const { engine, wire } = engineOn(['YEL']);
-    // Each call's outputs are read before the next call (names cross once, in the batch that first uses them).
-    for (const call of [
-      () => engine.start(null, undefined, 0),
-      () => engine.acquireNamed(1, 1, 'holder', 9, undefined, 0),
-      () => engine.acquireNamed(1, 4, 'a', 1, undefined, 100),
-      () => engine.acquireNamed(1, 7, 'b', 2, undefined, 250),
-    ]) {
-      call();
-      read(wire);
-    }
-    engine.release(2, 9, 'holder', undefined, 1000);
-    const log = read(wire);
-    assert.deepEqual(log.slice(0, 2), ['commit', 'send 9 on 0'], 'nothing is sent before the commit; the release first');
-    const grants = log.filter((o) => Array.isArray(o));
-    assert.deepEqual(grants.map(([, msg]) => msg), [7], 'b (priority 2) goes first; a waits for YEL');
-    assert.deepEqual(grants[0][3], { kind: 'interlock', operation: 'b', priority: 2, resources: ['YEL'], waitedMs: 750 });
-    engine.release(2, 10, 'b', undefined, 1100);
-    assert.deepEqual(read(wire).filter((o) => Array.isArray(o)).map(([, msg]) => msg), [4]);
-    engine.free();
+  function waiter(log, name, sinceMs) {
+    return msgEntry({
+      node: { id: name, status() {} },
+      msg: { payload: name },
+      operation: name,
+      priority: 1,
+      resources: ['YEL'],
+      sinceMs,
+      send: (msg) => log.push(['send', name, msg]),
+      done: (err) => log.push(['done', name, err]),
+    });
+  }
+
+  it('takes each granted entry at once and answers it later, with its own send then done, in grant order', function () {
+    const log = [];
+    const pending = new PendingRegistry();
+    pending.add(4, waiter(log, 'a', 100));
+    pending.add(7, waiter(log, 'b', 250));
+    const answers = takeGrants({}, pending, Uint32Array.from([7, 4]), { nowMs: 1000, warn: assert.fail });
+    assert.equal(pending.size, 0, 'taken from the waiting entries at once');
+    assert.deepEqual(log, [], 'nothing sent before the answers run (after the state is saved)');
+    answers.forEach((answer) => answer());
+    assert.deepEqual(log.map(([what, who]) => `${what} ${who}`), ['send b', 'done b', 'send a', 'done a']);
+    assert.deepEqual(log[0][2].interlock, { operation: 'b', priority: 1, resources: ['YEL'], waitedMs: 750 });
   });
 
   it('releases a grant that nothing waits for, and takes what that release grants', function () {
-    const { engine: first, wire: firstWire } = engineOn(['YEL']);
-    for (const call of [
-      () => first.start(null, undefined, 0),
-      () => first.acquireNamed(1, 1, 'holder', 9, undefined, 0),
-      () => first.acquireNamed(1, 2, 'orphan', 5, undefined, 5),
-    ]) {
-      call();
-      read(firstWire);
-    }
-    // The state a standby takes over knows the waiting request, not the msg that waited.
-    const doc = JSON.parse(first.stateText(10, {}));
-    delete doc.engine;
-    const { engine, wire } = engineOn(['YEL']);
-    engine.handOver(JSON.stringify(doc), 10);
-    read(wire);
-    engine.acquireNamed(1, 3, 'c', 1, undefined, 20);
-    read(wire);
-    engine.release(2, 4, 'holder', undefined, 30);
-    const log = read(wire);
-    const warnings = log.filter((o) => o && o.kind === 'log');
-    assert.deepEqual(warnings.map((w) => [w.level, w.text.key, w.text.params]), [['warn', 'logs.grantedUnclaimed', [['operation', { kind: 'text', value: 'orphan' }]]]]);
-    assert.deepEqual(log.filter((o) => Array.isArray(o)).map(([, msg, , set]) => [msg, set.operation]), [[3, 'c']], 'c granted once orphan let go');
-    first.free();
-    engine.free();
+    const log = [];
+    const warnings = [];
+    const pending = new PendingRegistry();
+    pending.add(9, waiter(log, 'c', 0));
+    const released = [];
+    const lastGranted = [];
+    const interlock = {
+      operationName: (h) => `op${h}`,
+      release: (h) => { released.push(h); lastGranted.splice(0, Infinity, 9); return lastGranted.length; },
+      granted: (i) => lastGranted[i],
+    };
+    const answers = takeGrants(interlock, pending, [3], { nowMs: 10, warn: (w) => warnings.push(w) });
+    assert.deepEqual(released, [3]);
+    assert.deepEqual(warnings, ["operation 'op3' was granted but nothing waits for it; releasing it"]);
+    answers.forEach((answer) => answer());
+    assert.deepEqual(log.map(([what, who]) => `${what} ${who}`), ['send c', 'done c']);
   });
 });

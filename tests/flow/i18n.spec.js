@@ -76,15 +76,13 @@ const LIB = path.join(PALETTE, 'lib');
 const MECHANISM = new Set(['i18n.js', 'errors.js']);
 const SHARED_CATALOG = catalogOf('interlock');
 
-/** Source files whose texts are checked: every .js file under lib/, nodes/*.js, and the editor's: the scripts of nodes/*.html and resources/*.js. */
+/** Source files whose texts are checked: lib/*.js and lib's folders, nodes/*.js, and the editor's: the scripts of nodes/*.html and resources/*.js. */
 function sources() {
-  const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir), { withFileTypes: true }).flatMap((f) => {
-    if (f.isDirectory()) return libFiles(path.posix.join(dir, f.name));
-    if (!f.name.endsWith('.js') || MECHANISM.has(f.name)) return [];
-    return [{ file: path.posix.join('lib', dir, f.name), full: path.join(LIB, dir, f.name) }];
-  });
+  const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
+    .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
   return [
     ...libFiles(''),
+    ...fs.readdirSync(LIB, { withFileTypes: true }).filter((d) => d.isDirectory()).flatMap((d) => libFiles(d.name)),
     ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
     ...fs.readdirSync(path.join(PALETTE, 'resources')).filter((f) => f.endsWith('.js'))
       .map((f) => ({ file: `resources/${f}`, full: path.join(PALETTE, 'resources', f) })),
@@ -148,14 +146,9 @@ function tCatalog(file, source) {
   return { stem: ns[2], prefix: ns[3] };
 }
 
-/**
- * Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog };
- * the texts the core names (lib/i18n.js textOf) come from the facade's list of them.
- */
+/** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
 function lookups() {
-  const { texts, labels } = require(path.join(LIB, 'wasm.js')).load().catalogTexts();
-  const found = texts.map(({ key, params }) => ({ at: `core: ${key}`, keys: [`sugarshack.${key}`], subs: params, stem: 'interlock', catalog: SHARED_CATALOG }))
-    .concat(labels.map((label) => ({ at: `core: label ${label}`, keys: [`sugarshack.labels.${label}`], subs: [], stem: 'interlock', catalog: SHARED_CATALOG })));
+  const found = [];
   for (const { file, source } of sources()) {
     const own = tCatalog(file, source);
     // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
@@ -388,6 +381,6 @@ describe('texts in the runtime language', function () {
 
   it('without a catalog for the language a text stays in English', async function () {
     const caught = await refusedAcquire(paletteNodes);
-    assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be an integer (higher = more urgent), got "urgent"');
+    assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be a whole number, like 5 (higher is more urgent); got "urgent"');
   });
 });
