@@ -148,7 +148,10 @@ function tCatalog(file, source) {
 
 /** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
 function lookups() {
-  const found = [];
+  // The texts the core's engine names (its catalogTexts()) are looked up like the JS's.
+  const { texts, labels } = require(path.join(LIB, 'wasm.js')).load().catalogTexts();
+  const found = texts.map(({ key, params }) => ({ at: `core: ${key}`, keys: [`sugarshack.${key}`], subs: params, stem: 'interlock', catalog: SHARED_CATALOG }))
+    .concat(labels.map((label) => ({ at: `core: label ${label}`, keys: [`sugarshack.labels.${label}`], subs: [], stem: 'interlock', catalog: SHARED_CATALOG })));
   for (const { file, source } of sources()) {
     const own = tCatalog(file, source);
     // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
