@@ -206,6 +206,13 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   restarted.startAgainst(JSON.parse(text), undefined, 31, t);
   restarted.life('shutdown', 32);
   restarted.free();
+  const sealed = e.seal('primer', undefined, {}, 33);
+  const opened = new Engine(config, {});
+  opened.startSealed('primer', undefined, 'primer', sealed, 34);
+  opened.free();
+  const reopened = new Engine(config, { plantBound: true });
+  reopened.startSealedAgainst('primer', undefined, 'primer', sealed, 35, t);
+  reopened.free();
   e.free();
   t.free();
 }

@@ -461,6 +461,28 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('InterlockSnapshot', e.snapshot(5));
   });
 
+  it('the engine\'s sealed document: the interlock reads it, a restart faults its held line, another owner\'s is lost', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const config = { resources: t.interlockResources() };
+    const e = keep(new facade.Engine(config, {}));
+    e.addNode(1, { kind: 'acquire', timeoutMs: 1000, operation: 'o', priority: 2, resources: 'A' }, 0);
+    e.start(null, undefined, 0);
+    e.acquire(1, 1, 1);
+    assert.equal(e.counts().faulted, 0);
+    const text = e.seal('il-1', 'plant-1', {}, 2);
+    const opened = facade.Interlock.open(config, 'il-1', 'plant-1', 'state.json', text, 3);
+    keep(opened.interlock);
+    shapes.expect('OpenedInterlock', opened);
+    assert.equal(opened.lost, null);
+    const restarted = keep(new facade.Engine(config, {}));
+    restarted.startSealed('il-1', 'plant-1', 'state.json', text, 3);
+    assert.deepEqual([restarted.counts().faulted, restarted.lost()], [1, undefined]);
+    const foreign = keep(new facade.Engine(config, {}));
+    foreign.startSealedAgainst('il-2', 'plant-1', 'state.json', text, 3, t);
+    assert.equal(foreign.counts().faulted, config.resources.length);
+    assert.match(foreign.lost(), /^state\.json: /);
+  });
+
   it('every declared shape was met by a real value', function () {
     // Classes are wasm's own; a class is checked only where a declared shape names it.
     const unmet = [...declarations()].filter(([name, decl]) => !ts.isClassDeclaration(decl) && !shapes.met.has(name)).map(([name]) => name);

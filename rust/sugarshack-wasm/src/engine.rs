@@ -1,11 +1,14 @@
+use std::collections::BTreeMap;
+
 use js_sys::{Reflect, JSON};
 use sugarshack_core::code::Code;
 use sugarshack_core::engine::wire::Wire;
 use sugarshack_core::engine::{
     self as core, AlarmAction, Fields, Input, MsgFields, MsgId, NodeId, NodeKind, NodeSpec,
-    OperatorAction, Raw, Resend, Saved, StateDoc, Step, WhoFields,
+    OperatorAction, Raw, Resend, Saved, SealedDoc, StateDoc, Step, WhoFields,
 };
 use sugarshack_core::interlock::InterlockConfig;
+use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -401,9 +404,65 @@ impl Engine {
     ) -> Result<(), JsValue> {
         self.start_with(doc, lost, now_ms, Some(plant))
     }
+
+    /// The saved state was read: `text` its sealed document from `source`,
+    /// opened as the interlock `owner` bound to `plant` by the one restart
+    /// rule (a line added since starts free; another interlock's, a damaged
+    /// or an unknown version's document starts every line faulted).
+    #[wasm_bindgen(js_name = startSealed)]
+    pub fn start_sealed(
+        &mut self,
+        owner: String,
+        plant: Option<String>,
+        source: String,
+        text: String,
+        now_ms: f64,
+    ) -> Result<(), JsValue> {
+        self.start_sealed_with(owner, plant, source, text, now_ms, None)
+    }
+
+    /// `startSealed` for an interlock bound to the plant `tracker` (a clear waiting for the start is checked against it).
+    #[wasm_bindgen(js_name = startSealedAgainst)]
+    pub fn start_sealed_against(
+        &mut self,
+        owner: String,
+        plant: Option<String>,
+        source: String,
+        text: String,
+        now_ms: f64,
+        tracker: &Tracker,
+    ) -> Result<(), JsValue> {
+        self.start_sealed_with(owner, plant, source, text, now_ms, Some(tracker))
+    }
 }
 
 impl Engine {
+    fn start_sealed_with(
+        &mut self,
+        owner: String,
+        plant: Option<String>,
+        source: String,
+        text: String,
+        now_ms: f64,
+        tracker: Option<&Tracker>,
+    ) -> Result<(), JsValue> {
+        let now = time(now_ms)?;
+        if text.len() > Bound::InterlockSnapshot.max_bytes() {
+            return Err(js_error(
+                Code::InputTooLarge,
+                &format!("{source}: {} bytes, more than a state can be", text.len()),
+            ));
+        }
+        let doc = SealedDoc {
+            text,
+            source,
+            owner,
+            plant,
+        };
+        self.input(Input::Start(Saved::Sealed(Box::new(doc))), now, tracker);
+        Ok(())
+    }
+
     fn start_with(
         &mut self,
         doc: JsValue,
@@ -777,6 +836,26 @@ impl Engine {
             doc.routines.extend(routines);
         }
         serde_json::to_string(&doc).map_err(|e| js_error(Code::Internal, &e.to_string()))
+    }
+
+    /// Its sealed state document at `nowMs`, with the running routines'
+    /// states (`routines`, by id) over those read at start and its alarms,
+    /// as the interlock `owner` bound to `plant`.
+    pub fn seal(
+        &self,
+        owner: &str,
+        plant: Option<String>,
+        #[wasm_bindgen(unchecked_param_type = "Record<string, RoutineSnapshot>")] routines: JsValue,
+        now_ms: f64,
+    ) -> Result<String, JsValue> {
+        let now = time(now_ms)?;
+        let routines: BTreeMap<String, RoutineSnapshot> = from_js_bounded(
+            routines,
+            Code::InvalidSnapshot,
+            "invalid routine snapshots",
+            Bound::InterlockSnapshot,
+        )?;
+        Ok(self.core.seal(owner, plant.as_deref(), routines, now))
     }
 
     /// The interlock as a person reads it.

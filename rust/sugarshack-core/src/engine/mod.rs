@@ -42,8 +42,8 @@ use crate::alarm::{AlarmChange, AlarmKind, Alarms, Condition};
 use crate::clearance::{Attribution, ClearBlocker};
 use crate::code::Code;
 use crate::interlock::{
-    EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError, OpId,
-    ResourceSet, RestoreOptions,
+    Binding, EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError,
+    OpId, ResourceSet, RestoreOptions, Start,
 };
 use crate::time::{ms, Millis};
 
@@ -213,6 +213,23 @@ pub enum Saved {
     Doc(Box<StateDoc>),
     /// It ran here before, and its state is missing or unreadable: every line starts faulted.
     Lost(String),
+    /// Its sealed state document, opened by the one restart rule of
+    /// [`crate::interlock::saved`] (another owner's, a damaged or an unknown
+    /// version's is a lost state).
+    Sealed(Box<SealedDoc>),
+}
+
+/// A sealed state document as read, and whose it must be.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SealedDoc {
+    /// The document's text.
+    pub text: String,
+    /// Where it was read (named in a lost state's reason).
+    pub source: String,
+    /// The interlock node that owns it.
+    pub owner: String,
+    /// The plant node the interlock is bound to, if any.
+    pub plant: Option<String>,
 }
 
 /// An alarm action by a person.
@@ -748,6 +765,7 @@ impl Engine {
         let why = match saved {
             Saved::First => return Ok((Interlock::new(config)?, None)),
             Saved::Lost(why) => why,
+            Saved::Sealed(doc) => return self.opened(*doc, config, now),
             Saved::Doc(doc) => {
                 let doc = *doc;
                 self.saved_routines = doc.routines;
@@ -782,6 +800,54 @@ impl Engine {
         };
         let note = format!("state unknown after restart: {why}");
         Ok((Interlock::unknown_state(config, &note, now)?, Some(why)))
+    }
+
+    /// The interlock opened from its sealed document, the routines and alarms
+    /// saved with it taken up, and why it was lost if it was.
+    fn opened(
+        &mut self,
+        doc: SealedDoc,
+        config: InterlockConfig,
+        now: Millis,
+    ) -> Result<(Interlock, Option<String>), InterlockError> {
+        let binding = Binding {
+            owner: &doc.owner,
+            plant: doc.plant.as_deref(),
+        };
+        let opened = Interlock::open(config, binding, &doc.source, &doc.text, now)?;
+        let (added, dropped) = match opened.start {
+            Start::Lost { reason } => return Ok((opened.interlock, Some(reason))),
+            Start::Restored { added, dropped } => (added, dropped),
+        };
+        for (key, lines) in [("logs.lineAdded", added), ("logs.lineDropped", dropped)] {
+            for line in lines {
+                self.log(
+                    Level::Warn,
+                    Text::Catalog {
+                        key,
+                        params: vec![("line", Param::Text(line))],
+                    },
+                );
+            }
+        }
+        self.saved_routines = opened
+            .routines
+            .into_iter()
+            .filter_map(|(id, routine)| Some((id, serde_json::to_value(routine).ok()?)))
+            .collect();
+        if let Some(alarms) = opened.alarms {
+            match Alarms::restore(alarms) {
+                Ok(alarms) => self.alarms = alarms,
+                Err(err) => self.log(
+                    Level::Warn,
+                    Text::Catalog {
+                        key: "logs.alarmsUnreadable",
+                        params: vec![("message", Param::Text(err.to_string()))],
+                    },
+                ),
+            }
+        }
+        Ok((opened.interlock, None))
     }
 
     fn life(&mut self, step: Step, now: Millis) {

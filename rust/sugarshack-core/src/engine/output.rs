@@ -79,6 +79,8 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("logs.alarmsNotUpdated", &["message"]),
     ("logs.alarmsUnreadable", &["message"]),
     ("logs.grantedUnclaimed", &["operation"]),
+    ("logs.lineAdded", &["line"]),
+    ("logs.lineDropped", &["line"]),
     ("logs.lockoutsNotResent", &["lines", "message"]),
     ("logs.stateUnknown", &["why"]),
     ("logs.timedOutNotQueued", &["operation", "message"]),

@@ -9,11 +9,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use super::{Due, Engine, MsgId, NodeId, Request, Stage};
 use crate::alarm::Alarms;
-use crate::interlock::{Interlock, InterlockError, RestoreOptions, Snapshot};
+use crate::interlock::{Binding, Interlock, InterlockError, RestoreOptions, Snapshot};
+use crate::routine::RoutineSnapshot;
 use crate::time::Millis;
 
 /// What the state file says it is.
@@ -212,6 +214,34 @@ impl Engine {
             }
         }
         Ok(())
+    }
+
+    /// Its sealed state document at `now` for the interlock node `owner`
+    /// bound to `plant`, with the `running` routines' states over those read
+    /// at start (the same document the interlock's [`Interlock::seal`]
+    /// writes: what a restart or a new leader opens through
+    /// [`super::Saved::Sealed`]). Waiting requests are not in it: a restart
+    /// drops them.
+    pub fn seal(
+        &self,
+        owner: &str,
+        plant: Option<&str>,
+        running: BTreeMap<String, RoutineSnapshot>,
+        now: Millis,
+    ) -> String {
+        // Those read at start were a routine's state when opened (the document's types say so).
+        let mut routines: BTreeMap<String, RoutineSnapshot> = self
+            .saved_routines
+            .iter()
+            .filter_map(|(id, v)| Some((id.clone(), serde_json::from_value(v.clone()).ok()?)))
+            .collect();
+        routines.extend(running);
+        self.interlock.seal(
+            Binding { owner, plant },
+            routines,
+            Some(self.alarms.snapshot()),
+            now,
+        )
     }
 
     /// The state file's text at `now`.

@@ -1,3 +1,5 @@
+use std::collections::BTreeMap;
+
 use super::*;
 use crate::time::ms;
 
@@ -688,4 +690,88 @@ fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
         engine.tick(ms(5100));
     }
     assert_eq!(b.engine.take_outputs(), standby.take_outputs());
+}
+
+/// An engine on `lines` with a clear-all node (9), started from `saved`.
+fn started(lines: &[&str], saved: Saved) -> (Engine, Vec<Output>) {
+    let mut engine = Engine::new(
+        InterlockConfig::with_resources(lines.iter().copied()),
+        false,
+    )
+    .unwrap();
+    engine.handle(
+        Input::AddNode {
+            node: NodeId(9),
+            spec: NodeSpec::of(
+                NodeKind::Clear {
+                    all_faulted: true,
+                    refusals_wired: false,
+                },
+                Raw::Absent,
+            ),
+        },
+        ms(0),
+    );
+    engine.handle(Input::Start(saved), ms(1000));
+    let out = engine.take_outputs();
+    (engine, out)
+}
+
+fn sealed(text: &str, owner: &str) -> Saved {
+    Saved::Sealed(Box::new(SealedDoc {
+        text: text.to_owned(),
+        source: "state.json".to_owned(),
+        owner: owner.to_owned(),
+        plant: None,
+    }))
+}
+
+#[test]
+fn a_sealed_document_restarts_by_the_one_rule_held_lines_faulted_added_lines_free() {
+    let mut b = Bench::new();
+    b.acquire(1, 1);
+    b.at(100).acquire(2, 2);
+    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(200));
+    // The interlock's own reader takes the engine's document.
+    let config = InterlockConfig::with_resources(LINES);
+    let binding = Binding {
+        owner: "il-1",
+        plant: None,
+    };
+    let opened = Interlock::open(config, binding, "state.json", &text, ms(300)).unwrap();
+    assert!(matches!(opened.start, Start::Restored { .. }));
+
+    let mut more = LINES.to_vec();
+    more.push("ORG");
+    let (engine, out) = started(&more, sealed(&text, "il-1"));
+    // YEL was held: faulted by the restart; the waiting request is dropped; ORG was added since: free.
+    let lock = engine.interlock();
+    assert_eq!(
+        lock.faulted_resources(),
+        lock.resource_set(&["YEL"]).unwrap()
+    );
+    assert_eq!(engine.lost(), None);
+    assert!(logged(&out, Level::Warn, "logs.lineAdded"));
+    assert_eq!(
+        counts(&out),
+        Some(Counts {
+            faulted: 1,
+            ..Counts::default()
+        })
+    );
+}
+
+#[test]
+fn another_interlocks_or_a_damaged_sealed_document_is_a_lost_state() {
+    let b = Bench::new();
+    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(0));
+    let damaged = text.replacen("YEL", "YEX", 1);
+    for (text, owner) in [(text.as_str(), "il-2"), (damaged.as_str(), "il-1")] {
+        let (engine, out) = started(&LINES, sealed(text, owner));
+        assert_eq!(engine.interlock().faulted_resources().len(), LINES.len());
+        assert!(engine
+            .lost()
+            .is_some_and(|why| why.starts_with("state.json: ")));
+        assert!(logged(&out, Level::Error, "logs.stateUnknown"));
+    }
 }
