@@ -11,14 +11,16 @@
 //! - nothing is granted while a drain holds the queue back;
 //! - an engine that takes the state over (its snapshot through JSON) at any
 //!   point gives the same outputs for the same inputs from then on
-//!   (determinism, the ground for a hot standby).
+//!   (determinism, the ground for a hot standby);
+//! - a restart from its sealed document keeps every held or faulted line
+//!   faulted and every free line free.
 
 use std::collections::{BTreeMap, BTreeSet};
 
 use proptest::prelude::*;
 use sugarshack_core::engine::{
-    Engine, Fields, Input, MsgFields, MsgId, NodeId, NodeKind, NodeSpec, Output, Raw, Saved, Set,
-    Stage, StateDoc, Step,
+    Engine, Fields, Input, MsgFields, MsgId, NodeId, NodeKind, NodeSpec, Output, Raw, Saved,
+    SealedDoc, Set, Stage, StateDoc, Step,
 };
 use sugarshack_core::interlock::InterlockConfig;
 use sugarshack_core::time::ms;
@@ -341,6 +343,7 @@ fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
         let out = live.take_outputs();
         check(&live, &mut host, &out, now, &mut Vec::new());
     }
+    restart_keeps_every_taken_line_locked_out(&live, &masks, now);
     live.handle(Input::Life(Step::Shutdown), ms(now));
     let out = live.take_outputs();
     check(&live, &mut host, &out, now, &mut Vec::new());
@@ -350,6 +353,33 @@ fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
         .filter(|m| !host.answered.contains(m))
         .collect();
     assert!(unanswered.is_empty(), "msgs never answered: {unanswered:?}");
+}
+
+/// A restart from the engine's sealed document: a line held or faulted
+/// before is faulted after, a free line is free, nothing is lost.
+fn restart_keeps_every_taken_line_locked_out(live: &Engine, masks: &[u8], now: u64) {
+    let text = live.seal("il", None, BTreeMap::new(), ms(now));
+    let mut restarted = engine(masks);
+    restarted.handle(
+        Input::Start(Saved::Sealed(Box::new(SealedDoc {
+            text,
+            source: "state.json".into(),
+            owner: "il".into(),
+            plant: None,
+        }))),
+        ms(now + 1),
+    );
+    restarted.take_outputs();
+    assert_eq!(restarted.lost(), None);
+    let (before, after) = (live.interlock(), restarted.interlock());
+    for name in LINES {
+        let [line] = before.resource_set(&[name]).unwrap().ids()[..] else {
+            unreachable!("one line")
+        };
+        let taken = before.owner_of(line).is_some() || before.is_faulted(line);
+        assert_eq!(after.is_faulted(line), taken, "{name} after a restart");
+        assert_eq!(after.owner_of(line), None, "{name} held after a restart");
+    }
 }
 
 proptest! {
