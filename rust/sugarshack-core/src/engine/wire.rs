@@ -99,21 +99,15 @@ impl Wire {
         self.words.clear();
         self.text.clear();
         self.text_units = 0;
-        // The counts first: the host shows them at once, before any effect.
-        let counts = outputs.iter().rposition(|o| matches!(o, Output::Counts(_)));
-        if let Some(at) = counts {
-            self.record(&outputs[at]);
-        }
-        for (i, output) in outputs.iter().enumerate() {
-            if Some(i) != counts {
-                self.record(output);
-            }
+        for output in in_wire_order(outputs) {
+            self.record(output);
         }
     }
 
-    /// The whole batch as one JSON text (the alternative to [`Wire::encode`]).
+    /// The whole batch as one JSON text (the alternative to [`Wire::encode`]),
+    /// in the same order.
     pub fn json(outputs: &[Output]) -> String {
-        serde_json::to_string(outputs).expect("plain data")
+        serde_json::to_string(&in_wire_order(outputs).collect::<Vec<_>>()).expect("plain data")
     }
 
     fn record(&mut self, output: &Output) {
@@ -229,6 +223,19 @@ impl Wire {
         let json = serde_json::to_string(value).expect("plain data");
         self.text_field(&json);
     }
+}
+
+/// A batch's outputs as either wire carries them: its last counts first (the
+/// host shows them at once, before any effect), then the rest in order.
+fn in_wire_order(outputs: &[Output]) -> impl Iterator<Item = &Output> {
+    let counts = outputs.iter().rposition(|o| matches!(o, Output::Counts(_)));
+    counts.map(|at| &outputs[at]).into_iter().chain(
+        outputs
+            .iter()
+            .enumerate()
+            .filter(move |(i, _)| Some(*i) != counts)
+            .map(|(_, o)| o),
+    )
 }
 
 #[cfg(test)]
@@ -352,6 +359,44 @@ mod tests {
         );
         assert_eq!(wire.text(), json);
         assert_eq!(Wire::json(std::slice::from_ref(&log)), format!("[{json}]"));
+    }
+
+    #[test]
+    fn both_wires_carry_the_last_counts_first_then_the_rest_in_order() {
+        let counts = |faulted| {
+            Output::Counts(Counts {
+                faulted,
+                ..Counts::default()
+            })
+        };
+        let batch = [
+            counts(1),
+            Output::Commit { urgent: true },
+            counts(2),
+            Output::After,
+        ];
+        let mut wire = Wire::new();
+        wire.encode(&batch);
+        assert_eq!(
+            wire.words(),
+            [
+                tag::COUNTS,
+                0.0,
+                0.0,
+                2.0,
+                0.0,
+                tag::COUNTS,
+                0.0,
+                0.0,
+                1.0,
+                0.0,
+                tag::COMMIT,
+                1.0,
+                tag::AFTER
+            ]
+        );
+        let order = [&batch[2], &batch[0], &batch[1], &batch[3]];
+        assert_eq!(Wire::json(&batch), serde_json::to_string(&order).unwrap());
     }
 
     #[test]
