@@ -498,25 +498,7 @@ fn an_emergency_stop_that_fails_its_msg_says_what_it_stopped() {
 
 #[test]
 fn a_lost_state_starts_all_faulted_until_cleared() {
-    let mut engine = Engine::new(InterlockConfig::with_resources(LINES), false).unwrap();
-    engine.handle(
-        Input::AddNode {
-            node: NodeId(9),
-            spec: NodeSpec::of(
-                NodeKind::Clear {
-                    all_faulted: true,
-                    refusals_wired: false,
-                },
-                Raw::Absent,
-            ),
-        },
-        ms(0),
-    );
-    engine.handle(
-        Input::Start(Saved::Lost("state.json is empty".into())),
-        ms(0),
-    );
-    let out = engine.take_outputs();
+    let (mut engine, out) = started(&LINES, Saved::Lost("state.json is empty".into()), 0);
     assert_eq!(
         counts(&out),
         Some(Counts {
@@ -692,8 +674,8 @@ fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
     assert_eq!(b.engine.take_outputs(), standby.take_outputs());
 }
 
-/// An engine on `lines` with a clear-all node (9), started from `saved`.
-fn started(lines: &[&str], saved: Saved) -> (Engine, Vec<Output>) {
+/// An engine on `lines` with a clear-all node (9), started from `saved` at `now`.
+fn started(lines: &[&str], saved: Saved, now: u64) -> (Engine, Vec<Output>) {
     let mut engine = Engine::new(
         InterlockConfig::with_resources(lines.iter().copied()),
         false,
@@ -712,7 +694,7 @@ fn started(lines: &[&str], saved: Saved) -> (Engine, Vec<Output>) {
         },
         ms(0),
     );
-    engine.handle(Input::Start(saved), ms(1000));
+    engine.handle(Input::Start(saved), ms(now));
     let out = engine.take_outputs();
     (engine, out)
 }
@@ -743,7 +725,7 @@ fn a_sealed_document_restarts_by_the_one_rule_held_lines_faulted_added_lines_fre
 
     let mut more = LINES.to_vec();
     more.push("ORG");
-    let (engine, out) = started(&more, sealed(&text, "il-1"));
+    let (engine, out) = started(&more, sealed(&text, "il-1"), 1000);
     // YEL was held: faulted by the restart; the waiting request is dropped; ORG was added since: free.
     let lock = engine.interlock();
     assert_eq!(
@@ -767,7 +749,7 @@ fn another_interlocks_or_a_damaged_sealed_document_is_a_lost_state() {
     let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(0));
     let damaged = text.replacen("YEL", "YEX", 1);
     for (text, owner) in [(text.as_str(), "il-2"), (damaged.as_str(), "il-1")] {
-        let (engine, out) = started(&LINES, sealed(text, owner));
+        let (engine, out) = started(&LINES, sealed(text, owner), 1000);
         assert_eq!(engine.interlock().faulted_resources().len(), LINES.len());
         assert!(engine
             .lost()
