@@ -171,6 +171,8 @@ pub enum Profile {
     ShellyGen2,
     /// Topic templates, a payload path and value maps given in the device's `custom`.
     Custom,
+    /// Registers polled over Modbus TCP or RTU, described in the device's `modbus` (no MQTT).
+    Modbus,
 }
 
 impl Profile {
@@ -182,13 +184,15 @@ impl Profile {
             Profile::Tasmota => "tasmota",
             Profile::ShellyGen2 => "shelly-gen2",
             Profile::Custom => "custom",
+            Profile::Modbus => "modbus",
         }
     }
 
     /// Stock firmware publishes on change; this palette's devices about once a second.
     pub fn default_reports(self) -> Reports {
         match self {
-            Profile::Sugarshack => Reports::Periodic,
+            // A polled device answers every poll: silence means trouble.
+            Profile::Sugarshack | Profile::Modbus => Reports::Periodic,
             _ => Reports::OnChange,
         }
     }
@@ -197,7 +201,7 @@ impl Profile {
     /// default `update_interval` (60 s), Tasmota's `TelePeriod` (300 s).
     pub fn default_sensor_update_ms(self) -> Millis {
         match self {
-            Profile::Sugarshack | Profile::Custom => ms(1000),
+            Profile::Sugarshack | Profile::Custom | Profile::Modbus => ms(1000),
             Profile::Esphome | Profile::ShellyGen2 => ms(60_000),
             Profile::Tasmota => ms(300_000),
         }
@@ -261,6 +265,9 @@ pub struct Device {
     /// The topics and payloads of a `custom` device.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub custom: Option<crate::topics::custom::CustomProfile>,
+    /// The endpoint, unit and polling of a `modbus` device.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusDevice>,
 }
 
 impl Device {
@@ -306,6 +313,9 @@ pub struct Actuator {
     pub idle: Option<Setpoint>,
     /// The state a fault lockout commands.
     pub lockout: Setpoint,
+    /// On a `modbus` device: the register it is commanded through and the one it reports on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusActuator>,
 }
 
 /// A sensor of the plant.
@@ -332,6 +342,9 @@ pub struct Sensor {
     /// How old a value may be before it is stale; the plant's default when unset.
     #[serde(default)]
     pub stale_ms: Option<Millis>,
+    /// On a `modbus` device: the register it is read from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusRegister>,
 }
 
 impl Sensor {
@@ -685,13 +698,19 @@ impl PlantModel {
 }
 
 impl PlantModel {
-    /// How often a sensor's device publishes it: its `updateMs`, else its profile's default.
+    /// How often a sensor's device publishes it: its `updateMs`, else its
+    /// Modbus device's polling period, else its profile's default.
     pub fn sensor_update_ms(&self, sensor: &Sensor) -> Millis {
         sensor.update_ms.unwrap_or_else(|| {
             self.devices
                 .iter()
                 .find(|d| d.id == sensor.device)
-                .map_or(ms(1000), |d| d.profile.default_sensor_update_ms())
+                .map_or(ms(1000), |d| {
+                    d.modbus
+                        .as_ref()
+                        .and_then(|m| m.poll_ms)
+                        .unwrap_or_else(|| d.profile.default_sensor_update_ms())
+                })
         })
     }
 
