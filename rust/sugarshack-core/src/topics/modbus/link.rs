@@ -163,6 +163,11 @@ impl Links {
         self.unit(device).map(|u| u.connection)
     }
 
+    /// Whether `connection` is up.
+    pub fn is_open(&self, connection: usize) -> bool {
+        self.conns.get(connection).is_some_and(|c| c.open)
+    }
+
     /// The device whose request is in flight on `connection`, if any.
     pub fn in_flight(&self, connection: usize) -> Option<DeviceId> {
         self.conns
