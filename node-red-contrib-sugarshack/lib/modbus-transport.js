@@ -124,7 +124,7 @@ class ModbusTransport {
     if (c.link !== link || !c.open) return;
     const { plant } = this;
     const now = clock.now();
-    if (!this.call(() => this.t.modbusReceive(c.handle, bytes, now))) return;
+    if (this.call(() => this.t.modbusReceive(c.handle, bytes, now)) === null) return;
     const device = this.t.lastDevice();
     if (device !== undefined) {
       const sensors = this.t.lastSensors();

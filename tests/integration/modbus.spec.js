@@ -318,3 +318,56 @@ describe('Modbus I/O modules (pymodbus server)', function () {
     }
   });
 });
+
+describe('example modbus-pid-loop: the cloud paper\'s flow loop over Modbus/TCP against the simulator\'s I/O module', function () {
+  this.timeout(90000);
+  const { FlowLoop } = require('../../scripts/simulator/loop');
+  const { freePort } = require('./support/mosquitto');
+  const { startRealTimeServer } = require('../flow/support');
+  const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
+  const coreNodes = ['common/20-inject.js', 'common/90-comment.js', 'function/10-switch.js', 'function/15-change.js']
+    .map((f) => require(path.join(coreNodesDir, 'core', f)));
+  let loop;
+
+  afterEach(async function () {
+    await stopServer().catch(() => {});
+    if (loop) await loop.stop();
+    loop = null;
+  });
+
+  it('from rest, the pid with the adaptive Smith predictor brings the flow to its set point without overshoot, its dead time learnt from the polls\' round trips', async function () {
+    const example = JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'examples', 'modbus-pid-loop.json'), 'utf8'));
+    const port = await freePort();
+    const flow = example.map((n) => {
+      if (n.type === 'sugarshack-plant') return { ...n, plant: { ...n.plant, devices: n.plant.devices.map((d) => ({ ...d, modbus: { ...d.modbus, port } })) } };
+      if (n.type === 'debug') return { id: n.id, z: n.z, type: 'helper', name: n.name };
+      return n;
+    });
+    const plant = flow.find((n) => n.type === 'sugarshack-plant').plant;
+    loop = new FlowLoop(plant, { seed: 7 });
+    await loop.start();
+    await new Promise((resolve) => startRealTimeServer(resolve));
+    await helper.load([...paletteNodes, ...coreNodes], flow);
+    const named = (name) => flow.find((n) => n.type === 'helper' && n.name === name).id;
+    const pidOut = collect(helper, named('flow and valve'));
+    const errors = collect(helper, named('errors'));
+    const events = collect(helper, named('I/O events'));
+    const setpoint = flow.find((n) => n.type === 'sugarshack-pid').setpoint;
+    // Each poll's flow, as the actuators node hands it to the pid.
+    const flows = () => events.filter((m) => m.topic === 'sensor/FT-101');
+    // Until the flow has stayed within 2 % of its set point for 3 s.
+    await until(() => {
+      const all = flows();
+      const recent = all.filter((m) => m.timestamp >= Date.now() - 3000);
+      return all.length > 0 && all[0].timestamp <= Date.now() - 3000 && recent.length >= 5
+        && recent.every((m) => Math.abs(m.payload - setpoint) < 0.02 * setpoint);
+    }, () => `the flow at ${setpoint} gal/min (now ${loop.y.toFixed(3)}, valve ${loop.u.toFixed(1)} %, ${flows().length} polls)`, 60000);
+    assert.deepEqual(errors.map((m) => m.error && m.error.message), []);
+    const peak = Math.max(...flows().map((m) => m.payload));
+    assert.ok(peak <= setpoint * 1.05, `peak flow ${peak} overshoots ${setpoint} by more than 5 %`);
+    const trips = flows().map((m) => m.roundTripMs);
+    assert.ok(trips.every((ms) => ms >= 150 - 10 && ms <= 650 + 100), `each poll's round trip within the module's 400 ± 250 ms: ${Math.min(...trips)}..${Math.max(...trips)}`);
+    const last = pidOut.at(-1);
+    assert.ok(last.pid.deadTimeSamples >= 1, `the predictor's dead time: ${last.pid.deadTimeSamples} samples`);
+  });
+});
