@@ -10,6 +10,8 @@ const net = require('net');
 const { clock } = require('./clock');
 const i18n = require('./i18n');
 
+const SERIALPORT_MISSING = 'SERIALPORT_MISSING';
+
 class ModbusTransport {
   /** plant: the PlantRuntime (its core `t`, buses, effects pump and sensors). */
   constructor(plant) {
@@ -102,9 +104,7 @@ class ModbusTransport {
       }
     }
     if (!this.serialport) {
-      const error = new Error(i18n.text('logs.modbusSerialMissing', { path: spec.endpoint.path }));
-      error.code = 'SERIALPORT_MISSING';
-      throw error;
+      throw Object.assign(new Error(i18n.text('logs.modbusSerialMissing', { path: spec.endpoint.path })), { code: SERIALPORT_MISSING });
     }
     const { path, baudRate, parity, dataBits, stopBits } = spec.endpoint;
     return new this.serialport.SerialPort({ path, baudRate, parity, dataBits, stopBits });
@@ -171,7 +171,7 @@ class ModbusTransport {
       const message = (err && (err.code || err.message)) || i18n.text('logs.modbusClosed');
       this.plant.log('warn', i18n.text('logs.modbusDown', { key: c.key, message, seconds: c.reconnectMs / 1000 }));
     }
-    if (err && err.code === 'SERIALPORT_MISSING') return; // no use trying again without the package
+    if (err && err.code === SERIALPORT_MISSING) return; // no use trying again without the package
     clock.clearTimeout(c.retry);
     c.retry = clock.setTimeout(() => {
       if (this.conns[c.handle] === c && !c.closing) this.open(c.handle);

@@ -26,10 +26,11 @@ const os = require('os');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  TAB, sinkNode, paletteNodes, startServer, stopServer, clock, collect, until, settled,
+  TAB, paletteNodes, startServer, stopServer, clock, collect, until, settled,
 } = require('../flow/support');
 const { startIoModule, pymodbusVersion } = require('./support/modbus/io-module');
 const { actuatorEvents } = require('./support/mqtt-nodes');
+const { stepper, operationAndSinks } = require('./support/stepped');
 
 helper.init(require.resolve('node-red'));
 
@@ -92,9 +93,7 @@ function flow(plant) {
     { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
     { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], ['ret'], ['ev']] },
     { id: 'gc', z: 'f1', type: 'sugarshack-group-command', plant: 'pl', timeout: 0, wires: [['out']] },
-    { id: 'op', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: 'fill', wires: [['opdone']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-    ...SINKS.map(sinkNode),
+    ...operationAndSinks(SINKS),
   ];
 }
 
@@ -147,23 +146,12 @@ describe('Modbus I/O modules (pymodbus server)', function () {
   }
 
   /** Moves the modules' valves and Node-RED's clock by `ms`, in slices, each slice's requests answered. */
-  async function tick(ms, slice = 100) {
-    for (let passed = 0; passed < ms; passed += slice) {
-      for (const m of modules) if (m.running) await m.advance(slice);
-      await clock().advance(slice);
-      await answered();
-    }
-  }
-
-  async function tickUntil(predicate, what, maxMs = 30000) {
-    let passed = 0;
-    while (!predicate()) {
-      if (passed >= maxMs) throw new Error(`${what} did not happen within ${maxMs} ms of clock time`);
-      await tick(100);
-      passed += 100;
-    }
-    return passed;
-  }
+  const { tick, tickUntil } = stepper({
+    advance: async (ms) => {
+      for (const m of modules) if (m.running) await m.advance(ms);
+    },
+    delivered: answered,
+  });
 
   afterEach(async function () {
     await stopServer().catch(() => {});

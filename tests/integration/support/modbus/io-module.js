@@ -5,7 +5,7 @@
 //
 //   const io = await startIoModule({ units: [1, 2] });   // a free port, Modbus TCP
 //   await io.advance(100); (await io.get(1)).holding[0]; io.kill(); await io.restart();
-const { spawn, execFileSync } = require('child_process');
+const { spawn, execFile, execFileSync } = require('child_process');
 const path = require('path');
 const readline = require('readline');
 const { freePort } = require('../mosquitto');
@@ -135,4 +135,18 @@ async function startIoModule({ units = [1], framing = 'socket', serial = null } 
   return new IoModule({ port, units, framing, serial }).start();
 }
 
-module.exports = { startIoModule, pymodbusVersion };
+
+/**
+ * pymodbus's client (support/modbus/client.py) against `port`: resolves with
+ * one answer per request ([method, address, countOrValue, unit]).
+ */
+function pymodbusClient(port, requests) {
+  return new Promise((resolve, reject) => {
+    execFile(PYTHON, [path.join(__dirname, 'client.py'), JSON.stringify({ port, requests })], { encoding: 'utf8', timeout: 20000 }, (err, out, errText) => {
+      if (err) reject(new Error(`client.py: ${err.message} ${errText}`));
+      else resolve(out.trim().split('\n').map((line) => JSON.parse(line)));
+    });
+  });
+}
+
+module.exports = { startIoModule, pymodbusVersion, pymodbusClient };
