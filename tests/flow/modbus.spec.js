@@ -118,7 +118,7 @@ describe('actuators node: Modbus outputs and sensors', function () {
     const runtime = helper.getNode('pl').runtime;
     await until(() => runtime.state === 'failed', 'the plant refused', 3000);
     assert.match(runtime.failure.message, /devices\[0\] \(io\)\.modbus\.outputs\[1\] \(FCV2\): an output is a coil or a holding register/);
-    assert.match(runtime.failure.message, /sensors\[0\] \(TT\)\.modbus: address 65535 is past 65535/);
+    assert.match(runtime.failure.message, /sensors\[0\] \(TT\)\.modbus: a 2-register value at 65535 runs past address 65535/);
     assert.deepEqual(transport().conns, [], 'no connection for a plant that does not run');
   });
 });

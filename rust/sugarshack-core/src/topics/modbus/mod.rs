@@ -53,6 +53,7 @@ pub const DEFAULT_OFFLINE_AFTER: u32 = 2;
 
 /// How requests are framed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Framing {
     /// Modbus TCP: the MBAP header (the default with a `host`).
@@ -73,6 +74,7 @@ impl Framing {
 
 /// Parity of a serial line.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Parity {
     /// No parity bit (the default: most devices ship 8N1).
@@ -86,6 +88,7 @@ pub enum Parity {
 
 /// An RS-485 (or RS-232) line the palette drives itself.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct SerialLine {
     /// The port: `/dev/ttyUSB0`, `COM3`.
@@ -116,6 +119,7 @@ fn default_stop_bits() -> u8 {
 
 /// A device's `modbus`: where it is and how it is polled.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ModbusDevice {
     /// Its address on the network (or its gateway's).
@@ -154,12 +158,13 @@ pub struct ModbusDevice {
 
 /// One value on a device: its kind and address, how its words read, and its scaling.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ModbusRegister {
     /// `coil`, `discrete`, `input` or `holding`.
     pub kind: RegisterKind,
     /// Its address, 0-65535 (the PDU address: register 40001 is holding 0).
-    pub address: u32,
+    pub address: u16,
     /// A register's number type (default `u16`); none for a bit.
     #[serde(default, rename = "type", skip_serializing_if = "Option::is_none")]
     pub value_type: Option<ValueType>,
@@ -173,6 +178,7 @@ pub struct ModbusRegister {
 
 /// An actuator's `modbus`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ModbusActuator {
     /// The coil or holding register it is commanded through.
@@ -184,6 +190,7 @@ pub struct ModbusActuator {
 
 /// A named output of a device, written untracked (a pid's action).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ModbusOutput {
     /// Its id, unique among the plant's outputs: `output/<id>` writes it.
@@ -191,7 +198,7 @@ pub struct ModbusOutput {
     /// `coil` or `holding`.
     pub kind: RegisterKind,
     /// Its address.
-    pub address: u32,
+    pub address: u16,
     /// A register's number type (default `u16`).
     #[serde(default, rename = "type", skip_serializing_if = "Option::is_none")]
     pub value_type: Option<ValueType>,
@@ -402,11 +409,11 @@ fn codec(
     } else {
         u32::from(value_type.words())
     };
-    if r.address + width > 0x1_0000 {
+    if u32::from(r.address) + width > 0x1_0000 {
         b.error(
             at,
             format!(
-                "address {} is past 65535 (addresses are 0-65535)",
+                "a {width}-register value at {} runs past address 65535",
                 r.address
             ),
         );
@@ -665,14 +672,14 @@ impl ModbusMap {
                 let target = Target::Output(map.outputs.len());
                 claims[i].push(claim(&r, &codec, &at, None));
                 served[i].push(Entry {
-                    offset: r.address as u16,
+                    offset: r.address,
                     target,
                     codec,
                 });
                 map.outputs.push(Output {
                     id: out.id.clone(),
                     device: DeviceId::from_index(i as u32),
-                    address: r.address as u16,
+                    address: r.address,
                     codec,
                 });
             }
@@ -758,15 +765,15 @@ impl ModbusMap {
                     Some(id),
                 ));
             }
-            map.commands[i] = Some((device, m.command.address as u16, command));
+            map.commands[i] = Some((device, m.command.address, command));
             served[device.index()].push(Entry {
-                offset: m.command.address as u16,
+                offset: m.command.address,
                 target: Target::Actuator(id),
                 codec: command,
             });
             reads[device.index()].push((
                 feedback.0.kind,
-                feedback.0.address as u16,
+                feedback.0.address,
                 Entry {
                     offset: 0,
                     target: Target::Actuator(id),
@@ -810,7 +817,7 @@ impl ModbusMap {
             let target = Target::Sensor(SensorId::from_index(i as u32));
             reads[device.index()].push((
                 r.kind,
-                r.address as u16,
+                r.address,
                 Entry {
                     offset: 0,
                     target,
@@ -1010,8 +1017,8 @@ impl ModbusMap {
 fn claim(r: &ModbusRegister, c: &Codec, path: &str, owner: Option<ActuatorId>) -> Claim {
     Claim {
         kind: r.kind,
-        start: r.address,
-        end: r.address + u32::from(c.width()),
+        start: u32::from(r.address),
+        end: u32::from(r.address) + u32::from(c.width()),
         path: path.to_owned(),
         owner,
     }

@@ -224,7 +224,7 @@ fn the_document_is_checked_with_path_named_errors() {
             json!({ "kind": "input", "address": 0 }),
         ),
         &format!("{at}.command"),
-        "past 65535",
+        "runs past address 65535",
     );
     // The valve's feedback on the flow sensor's registers.
     let overlap = document(

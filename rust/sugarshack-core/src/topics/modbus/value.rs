@@ -10,6 +10,7 @@ use crate::text::quote;
 
 /// Where a value lives on a Modbus device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum RegisterKind {
     /// A read-write bit (FC 1 read, FC 5/15 write): a relay, a pump's run command.
@@ -64,6 +65,7 @@ impl RegisterKind {
 
 /// How the words of a register are read as a number.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum ValueType {
     /// One register, unsigned (the default).
@@ -118,6 +120,7 @@ impl ValueType {
 
 /// Which word of a 32-bit value comes first (bytes within a word are always big-endian).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum WordOrder {
     /// The high word at the lower address (ABCD; Modicon's order, the default).
@@ -139,6 +142,7 @@ impl WordOrder {
 
 /// A linear map between the raw range the device holds and the engineering range.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Scale {
     /// Two raw numbers, e.g. `[4000, 20000]` (µA of a 4-20 mA loop).
