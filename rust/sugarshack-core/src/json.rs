@@ -117,13 +117,21 @@ pub fn from_str<T: DeserializeOwned>(text: &str) -> Result<T, JsonError> {
         return Err(JsonError::TooDeep { limit: MAX_DEPTH });
     }
     let mut deserializer = serde_json::Deserializer::from_str(text);
-    let value = serde_path_to_error::deserialize(&mut deserializer).map_err(|err| {
-        let path = err.path().to_string();
-        let path = (path != "." && path != "?").then(|| abridge(&path, QUOTE_CHARS));
-        invalid(path, err.into_inner())
-    })?;
+    let value = serde_path_to_error::deserialize(&mut deserializer).map_err(at_path)?;
     deserializer.end().map_err(|err| invalid(None, err))?;
     Ok(value)
+}
+
+/// Reads a JSON value already parsed (within the depth limit, by [`from_str`])
+/// as a `T`, with the path of the first problem.
+pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T, JsonError> {
+    serde_path_to_error::deserialize(value).map_err(at_path)
+}
+
+fn at_path(err: serde_path_to_error::Error<serde_json::Error>) -> JsonError {
+    let path = err.path().to_string();
+    let path = (path != "." && path != "?").then(|| abridge(&path, QUOTE_CHARS));
+    invalid(path, err.into_inner())
 }
 
 fn invalid(path: Option<String>, err: serde_json::Error) -> JsonError {

@@ -13,6 +13,7 @@ pub mod json;
 pub mod operation;
 pub mod plant;
 pub mod routine;
+pub mod sealed;
 pub mod sensor;
 pub mod text;
 pub mod time;

@@ -17,7 +17,9 @@ mod tracker;
 
 pub use alarm::Alarms;
 pub use contract::{abnormal_event_kinds, codes, max_status_chars, routine_reset_topic};
-pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
+pub use control::{
+    open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,
+};
 pub use device::DeviceSide;
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
 pub use routine::Routine;
