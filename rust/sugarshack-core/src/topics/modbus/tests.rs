@@ -504,6 +504,37 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    /// Any block a device answers, of any length: each of its values is read
+    /// (a finite value, or "no reading" for a sensor) or refused with a reason;
+    /// a block of the wrong length is refused whole.
+    #[test]
+    fn any_register_block_reads_or_is_refused(block in 0usize..2, words in prop::collection::vec(any::<u16>(), 0..6)) {
+        let map = map_of(module());
+        let expected = map.unit(D0).unwrap().blocks[block].count;
+        let mut out = Readings::default();
+        map.read(D0, block, &words, &mut out);
+        if words.len() != usize::from(expected) {
+            prop_assert!(out.samples.is_empty());
+            prop_assert_eq!(out.refusals.len(), 1);
+            prop_assert_eq!(out.refusals[0].reason, "short block");
+        } else {
+            let entries = if block == 0 { 1 } else { 2 };
+            prop_assert_eq!(out.samples.len() + out.refusals.len(), entries);
+            for sample in &out.samples {
+                let ok = match sample {
+                    Reading::Actuator(_, v) | Reading::Sensor(_, v) => v.is_finite(),
+                    Reading::SensorUnavailable(_) => true,
+                };
+                prop_assert!(ok, "{:?}", sample);
+            }
+            prop_assert!(out.refusals.iter().all(|r| !r.reason.is_empty() && !r.message.is_empty()));
+        }
+    }
+}
+
 // ---- frames ---------------------------------------------------------------
 
 #[test]
