@@ -272,7 +272,7 @@ function primeInterlock({ Interlock, Tracker }) {
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
-  t.readSensors(Uint32Array.of(sensor), 1);
+  t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
   const r = t.routine('r');
   r.conditions();
   r.condition(1);

@@ -15,8 +15,8 @@
 // document, or a flow holding one sugarshack-plant node with it, such as the
 // palette's modbus-pid-loop example).
 const fs = require('fs');
-const path = require('path');
 const { ModbusServer } = require('./modbus');
+const { checkedSide } = require('./plant');
 const { stream } = require('./random');
 
 const STEP_MS = 50;
@@ -34,15 +34,10 @@ class FlowLoop {
   constructor(doc, { seed = 1, log = () => {} } = {}) {
     const spec = (doc.simulation || {}).loop;
     if (!spec) throw new Error('loop: the plant document has no simulation.loop');
-    const { DeviceSide } = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'wasm', 'sugarshack_wasm.js'));
-    this.side = new DeviceSide(doc);
-    const owner = (doc.devices || []).findIndex((d) => d.modbus && (d.modbus.outputs || []).some((o) => o.id === spec.output));
-    if (owner < 0) throw new Error(`loop: no modbus device has output ${spec.output}`);
-    this.sensor = (doc.sensors || []).findIndex((s) => s.id === spec.sensor);
-    if (this.sensor < 0 || doc.sensors[this.sensor].device !== doc.devices[owner].id) {
-      throw new Error(`loop: sensor ${spec.sensor} must be on ${doc.devices[owner].id}, the device of ${spec.output}`);
-    }
-    for (const key of ['gain', 'tauS']) if (!(Number.isFinite(spec[key]) && spec[key] > 0)) throw new Error(`loop: ${key} must be > 0`);
+    // Checked by the core (src/plant/simulation.rs), as a deploy checks it.
+    this.side = checkedSide(doc);
+    const owner = doc.devices.findIndex((d) => d.modbus && (d.modbus.outputs || []).some((o) => o.id === spec.output));
+    this.sensor = doc.sensors.findIndex((s) => s.id === spec.sensor);
     this.spec = { initial: 0, delayMs: 0, jitterMs: 0, noise: 0, ...spec };
     this.device = owner;
     this.id = doc.devices[owner].id;

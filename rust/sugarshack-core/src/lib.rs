@@ -7,6 +7,7 @@ pub mod actuator;
 pub mod alarm;
 pub mod clearance;
 pub mod code;
+pub mod condition;
 pub mod control;
 pub mod interlock;
 pub mod json;

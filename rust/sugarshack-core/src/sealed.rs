@@ -239,7 +239,7 @@ pub fn open<T: DeserializeOwned>(
     if sha256(canonical.as_bytes()) != checksum {
         return Err(Refusal::ChecksumMismatch);
     }
-    let mut document: Document<T> = json::from_value(value).map_err(Refusal::Invalid)?;
+    let mut document: Document<T> = json::from_value(&value).map_err(Refusal::Invalid)?;
     if document.owner != owner {
         return Err(Refusal::NotOurs {
             owner: document.owner,

@@ -215,6 +215,7 @@ pub struct Tracker {
     pub(crate) send_queued: Vec<bool>,
     /// The round trip of the last Modbus poll read.
     pub(crate) last_round_trip: Option<f64>,
+    pub(crate) conditions: crate::condition::Conditions,
 }
 
 impl Tracker {
@@ -369,6 +370,7 @@ impl Tracker {
             last_ts: None,
             last_sensors: Vec::new(),
             last_samples: Vec::new(),
+            conditions: Default::default(),
         })
     }
 
