@@ -465,12 +465,18 @@ mod tests {
             let plant: PlantModel = serde_json::from_value(doc).unwrap();
             let mut report = Report::default();
             check(&plant, &mut report);
-            report.errors.iter().map(ToString::to_string).collect::<Vec<_>>()
+            report
+                .errors
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
         };
         let sound = json!({ "output": "FCV", "sensor": "FT", "gain": 0.02, "tauS": 2, "delayMs": 400, "jitterMs": 250 });
         assert_eq!(check_loop(sound), Vec::<String>::new());
         assert_eq!(
-            check_loop(json!({ "output": "FCV", "sensor": "TT", "gain": 0, "tauS": 2, "noise": -1 })),
+            check_loop(
+                json!({ "output": "FCV", "sensor": "TT", "gain": 0, "tauS": 2, "noise": -1 })
+            ),
             vec![
                 "simulation.loop: 'TT' is not a sensor of 'io', the device of FCV",
                 "simulation.loop: gain must be above 0",
