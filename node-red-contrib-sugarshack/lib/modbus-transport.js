@@ -5,7 +5,8 @@
 // and when, what the answers mean and when a device is offline are the core's
 // (its link, through the tracker: modbusNext / modbusReceive / modbusTimeout /
 // modbusClosed); this only moves the bytes. A connection is open while an
-// actuators node serves one of its devices.
+// actuators node serves one of its devices and this instance is not a hot
+// standby: a Modbus unit has no broker to fence a deposed writer.
 const net = require('net');
 const { clock } = require('./clock');
 const i18n = require('./i18n');
@@ -37,7 +38,7 @@ class ModbusTransport {
     }
     if (!t) return;
     this.plan.forEach((spec, handle) => {
-      const served = spec.devices.some((d) => plant.bus.serving(d));
+      const served = !plant.standby && spec.devices.some((d) => plant.bus.serving(d));
       if (served && !this.conns[handle]) this.open(handle);
       else if (!served && this.conns[handle]) this.close(handle);
     });

@@ -47,6 +47,11 @@ module.exports = function (RED) {
         done();
         return;
       }
+      // A hot standby follows the feedback (above) and commands nothing.
+      if (rt.standby) {
+        rt.standbyDone(node, done);
+        return;
+      }
       // "output/<id>": a Modbus output written as given (a pid's action), untracked.
       if (typeof seen.topic === 'string' && seen.topic.startsWith(OUTPUT_PREFIX)) {
         const id = seen.topic.slice(OUTPUT_PREFIX.length);
@@ -58,7 +63,7 @@ module.exports = function (RED) {
       const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
       if (rt.draining && !seen.lockout) rt.submit(node, done, issue);
       else issue();
-    }, 'plant', { urgent: always });
+    }, 'plant', { urgent: always, passive: true });
   }
 
   RED.nodes.registerType('sugarshack-actuators', ActuatorsNode);
