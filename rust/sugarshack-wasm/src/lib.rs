@@ -12,6 +12,7 @@ mod control;
 mod device;
 mod engine;
 mod interlock;
+mod modbus;
 pub mod operation;
 mod routine;
 mod tracker;
