@@ -6,7 +6,9 @@
 // instance may not act at all), what follows an `after` leaves behind the
 // writes before it, what comes before either leaves at once. Held msgs wait
 // here under the handle their node chose; the engine answers each once.
+// The one timer is here too: it calls `due` when the engine says it is next due.
 const { SugarshackError } = require('./errors');
+const { clock: systemClock } = require('./clock');
 const i18n = require('./i18n');
 
 /**
@@ -20,9 +22,16 @@ class EngineCarrier {
    * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void }} o.committer
    * @param {(output: any, effect: (action: () => void) => void) => void} [o.other] an output with no msg of its own (an event, an alarm, a log, a node's error); `effect` keeps an action in order
    * @param {(holding: number, queued: number, faulted: number, lost: boolean) => void} [o.counts]
+   * @param {() => void} [o.due] the engine is due: its owner calls its tick
+   * @param {{ now(): number, setTimeout: Function, clearTimeout: Function }} [o.clock]
    */
-  constructor({ committer, other, counts }) {
+  constructor({ committer, other, counts, due, clock = systemClock }) {
     this.committer = committer;
+    this.due = due || (() => {});
+    this.clock = clock;
+    /** @type {any} */
+    this.timer = null;
+    this.timerAt = -1;
     this.otherOutput = other || (() => {});
     this.countsChanged = counts || (() => {});
     /** @type {Map<number, Held>} */
@@ -45,12 +54,33 @@ class EngineCarrier {
     return entry;
   }
 
-  /** The last engine call's outputs, performed in order. @param {{ read(visitor: any): void }} wire */
+  /** The last engine call's outputs, performed in order, and its next deadline kept. @param {{ read(visitor: any): void, nextDeadline(): number }} wire */
   perform(wire) {
     this.group = null;
     this.extra = null;
     wire.read(this);
     this.closeGroup();
+    this.arm(wire.nextDeadline());
+  }
+
+  /** The one timer, set for `at` (-1: none). @param {number} at */
+  arm(at) {
+    if (at === this.timerAt) return;
+    this.stop();
+    this.timerAt = at;
+    if (at < 0) return;
+    this.timer = this.clock.setTimeout(() => {
+      this.timer = null;
+      this.timerAt = -1;
+      this.due();
+    }, Math.max(0, at - this.clock.now()));
+  }
+
+  /** No timer any more (a shutdown, a standby). */
+  stop() {
+    if (this.timer) this.clock.clearTimeout(this.timer);
+    this.timer = null;
+    this.timerAt = -1;
   }
 
   /** @param {boolean} urgent */

@@ -34,18 +34,20 @@ function bench(store, { mayAct = () => true } = {}) {
   const wire = new Wire(engine);
   const errors = [];
   const others = [];
+  const clock = new ManualClock(0);
   const committer = new Committer({
     store,
-    clock: new ManualClock(),
+    clock,
     snapshot: () => engine.seal('il-1', undefined, {}, 0),
     mayAct,
     onError: (err) => errors.push(err),
   });
-  const carrier = new EngineCarrier({ committer, other: (o, effect) => effect(() => others.push(o)) });
   const call = (fn) => {
     fn(engine);
     carrier.perform(wire);
   };
+  const due = () => call((e) => e.tick(clock.now()));
+  const carrier = new EngineCarrier({ committer, clock, due, other: (o, effect) => effect(() => others.push(o)) });
   call((e) => e.addNode(ACQUIRE, { kind: 'acquire', timeoutMs: 0, operation: 'boil', priority: 20, resources: 'A' }, 0));
   call((e) => e.addNode(RELEASE, { kind: 'release' }, 0));
   call((e) => e.addNode(FAULT, { kind: 'fault', byResources: false, failMsg: false }, 0));
@@ -62,7 +64,14 @@ function bench(store, { mayAct = () => true } = {}) {
     carrier.hold(k, entry);
     return { seen, entry };
   };
-  return { engine, committer, carrier, call, msg, errors, others, end: async () => { await committer.freeze(); engine.free(); } };
+  return {
+    engine, clock, committer, carrier, call, msg, errors, others,
+    end: async () => {
+      carrier.stop();
+      await committer.freeze();
+      engine.free();
+    },
+  };
 }
 
 /** A store whose writes fail, as a full disk or a fenced etcd write does. */
@@ -126,15 +135,19 @@ describe('the engine carrier', function () {
     }
   });
 
-  it('words a refusal the core names by its catalog key, once the state without the waiter is written', async function () {
+  it('refuses a waiter when its deadline comes, by the one timer, in words of the catalog, once the state without it is written', async function () {
     const b = bench(new FileStore(dir, 'il-1'));
     try {
       b.msg(1);
       b.call((e) => e.acquire(ACQUIRE, 1, 10));
       const waiter = b.msg(2);
-      b.call((e) => e.acquire(WAITER, 2, 20));
-      b.call((e) => e.tick(520));
+      await b.clock.advance(20);
+      b.call((e) => e.acquire(WAITER, 2, b.clock.now()));
+      // The one timer calls the engine's tick when the waiter's 500 ms are up, not before.
+      await b.clock.advance(499);
+      await b.committer.settled();
       assert.deepEqual(waiter.seen.done, []);
+      await b.clock.advance(1);
       await b.committer.settled();
       assert.equal(waiter.seen.done.length, 1);
       const err = waiter.seen.done[0];
