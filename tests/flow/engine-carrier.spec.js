@@ -160,6 +160,26 @@ describe('the engine carrier', function () {
     }
   });
 
+  it('completes a waiting msg unsent at a shutdown, and leaves no timer behind', async function () {
+    const b = bench(new FileStore(dir, 'il-1'));
+    try {
+      b.msg(1);
+      b.call((e) => e.acquire(ACQUIRE, 1, 10));
+      const waiter = b.msg(2);
+      b.call((e) => e.acquire(WAITER, 2, 20));
+      await b.committer.settled();
+      assert.equal(b.clock.timers.size, 1, 'the waiter\'s deadline');
+      await b.committer.freeze();
+      b.call((e) => e.life('shutdown', 30));
+      assert.deepEqual(waiter.seen.done, [null]);
+      assert.deepEqual(waiter.seen.sent, []);
+      assert.equal(b.clock.timers.size, 0);
+      assert.equal(b.carrier.held.size, 0);
+    } finally {
+      await b.end();
+    }
+  });
+
   it('sends a fault\'s msg and lockouts even when its write fails, and holds back a grant', async function () {
     const b = bench(failingStore());
     try {
