@@ -47,6 +47,16 @@ class EngineCarrier {
     this.held.set(k, entry);
   }
 
+  /** A node closes for a deploy: its held msgs are completed there, and wait for its next instance. @param {NodeRed.Node} node */
+  detach(node) {
+    for (const entry of this.held.values()) if (entry.node === node) entry.detach();
+  }
+
+  /** The next instance of a node restarted by a deploy sends its held msgs on. @param {NodeRed.Node} node */
+  adopt(node) {
+    for (const entry of this.held.values()) if (!entry.node && entry.nodeId === node.id) entry.adopt(node);
+  }
+
   /** @param {number} k */
   take(k) {
     const entry = this.held.get(k);

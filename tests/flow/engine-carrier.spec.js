@@ -22,6 +22,7 @@ const ACQUIRE = 1;
 const RELEASE = 3;
 const FAULT = 5;
 const WAITER = 7;
+const WAITER_SPEC = { kind: 'acquire', timeoutMs: 500, operation: 'rinse', priority: 5, resources: 'A' };
 
 const turns = async (n = 5) => {
   for (let i = 0; i < n; i++) await new Promise((resolve) => setImmediate(resolve));
@@ -51,13 +52,13 @@ function bench(store, { mayAct = () => true } = {}) {
   call((e) => e.addNode(ACQUIRE, { kind: 'acquire', timeoutMs: 0, operation: 'boil', priority: 20, resources: 'A' }, 0));
   call((e) => e.addNode(RELEASE, { kind: 'release' }, 0));
   call((e) => e.addNode(FAULT, { kind: 'fault', byResources: false, failMsg: false }, 0));
-  call((e) => e.addNode(WAITER, { kind: 'acquire', timeoutMs: 500, operation: 'rinse', priority: 5, resources: 'A' }, 0));
+  call((e) => e.addNode(WAITER, WAITER_SPEC, 0));
   call((e) => e.start(null, undefined, 0));
   /** A msg held under handle `k`; what its node sends and how it completes are recorded. */
-  const msg = (k, ports = 1) => {
+  const msg = (k, ports = 1, node = null) => {
     const seen = { sent: [], done: [] };
     const entry = heldMsg({
-      node: null, msg: { payload: k }, sinceMs: 0, ports,
+      node, msg: { payload: k }, sinceMs: 0, ports,
       send: (out) => seen.sent.push(out),
       done: (err) => seen.done.push(err || null),
     });
@@ -175,6 +176,34 @@ describe('the engine carrier', function () {
       assert.deepEqual(waiter.seen.sent, []);
       assert.equal(b.clock.timers.size, 0);
       assert.equal(b.carrier.held.size, 0);
+    } finally {
+      await b.end();
+    }
+  });
+
+  it('sends a held msg on from the next instance of a node a deploy restarted', async function () {
+    const b = bench(new FileStore(dir, 'il-1'));
+    try {
+      b.msg(1);
+      b.call((e) => e.acquire(ACQUIRE, 1, 10));
+      const first = { id: 'n-waiter', sent: [], send(m) { this.sent.push(m); } };
+      const waiter = b.msg(2, 1, first);
+      b.call((e) => e.acquire(WAITER, 2, 20));
+      // The deploy: the node closes (Node-RED wants its msg completed) and comes back.
+      b.call((e) => e.closeNode(WAITER, false, 30));
+      b.carrier.detach(first);
+      assert.deepEqual(waiter.seen.done, [null]);
+      const next = { id: 'n-waiter', sent: [], send(m) { this.sent.push(m); } };
+      b.call((e) => e.addNode(WAITER, WAITER_SPEC, 31));
+      b.carrier.adopt(next);
+      b.msg(3);
+      b.call((e) => e.release(RELEASE, 3, 'boil', undefined, 40));
+      await b.committer.settled();
+      assert.deepEqual(waiter.seen.sent, [], 'not through the closed instance');
+      assert.equal(next.sent.length, 1);
+      assert.equal(next.sent[0], waiter.entry.msg);
+      assert.equal(next.sent[0].interlock.operation, 'rinse');
+      assert.deepEqual(waiter.seen.done, [null], 'completed once, by the first instance');
     } finally {
       await b.end();
     }
