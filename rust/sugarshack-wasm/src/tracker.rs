@@ -710,7 +710,13 @@ impl Tracker {
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
-        let message = describe_fault(a, t, kind, retries, target);
+        let heard = self.core.heard(id).expect("checked handle");
+        let profile = plant
+            .devices
+            .iter()
+            .find(|d| d.id == a.device)
+            .map_or("sugarshack", |d| d.profile.name());
+        let message = describe_fault(a, t, kind, retries, target, (heard, profile));
         to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 

@@ -35,7 +35,7 @@ use std::collections::HashMap;
 use serde::Serialize;
 
 pub use error::TrackError;
-pub use fault::describe_fault;
+pub use fault::{describe_fault, Heard};
 
 use crate::clearance::ClearBlocker;
 use crate::plant::{
@@ -328,6 +328,8 @@ struct Timing {
 struct DeviceState {
     name: String,
     online: bool,
+    /// A status or a sample of its actuators has come from it since the start.
+    heard: bool,
     actuators: Vec<ActuatorId>,
 }
 
@@ -467,6 +469,7 @@ impl Tracker {
             .map(|d| DeviceState {
                 name: d.id.clone(),
                 online: true,
+                heard: false,
                 actuators: Vec::new(),
             })
             .collect();
@@ -590,6 +593,19 @@ impl Tracker {
     /// Where the actuator is in carrying out its command.
     pub fn phase(&self, id: ActuatorId) -> Option<Phase> {
         self.actuators.get(id.index()).map(|a| a.phase)
+    }
+
+    /// What has come from the actuator and its device since the start: a
+    /// command that fails with nothing ever heard is a wiring or profile problem.
+    pub fn heard(&self, id: ActuatorId) -> Option<Heard> {
+        let a = self.actuators.get(id.index())?;
+        Some(if a.position.is_some() {
+            Heard::Feedback
+        } else if self.devices[a.device.index()].heard {
+            Heard::DeviceOnly
+        } else {
+            Heard::Nothing
+        })
     }
 
     /// Its last feedback value, if any.
@@ -1066,6 +1082,7 @@ impl Tracker {
             });
         }
         a.position = Some(value);
+        self.devices[a.device.index()].heard = true;
         if let Some(order) = a.lockout_order {
             let online = self.devices[a.device.index()].online;
             if online && (value - order.target).abs() <= tolerance {
@@ -1148,6 +1165,8 @@ impl Tracker {
                 name: format!("#{}", device.0),
             })?;
         let mut effects = Vec::new();
+        self.devices[device.index()].heard = true;
+        let d = &self.devices[device.index()];
         if d.online == online {
             return Ok(effects);
         }
