@@ -1160,13 +1160,12 @@ impl Tracker {
     ) -> Result<Vec<Effect>, TrackError> {
         let d = self
             .devices
-            .get(device.index())
+            .get_mut(device.index())
             .ok_or_else(|| TrackError::UnknownDevice {
                 name: format!("#{}", device.0),
             })?;
+        d.heard = true;
         let mut effects = Vec::new();
-        self.devices[device.index()].heard = true;
-        let d = &self.devices[device.index()];
         if d.online == online {
             return Ok(effects);
         }
