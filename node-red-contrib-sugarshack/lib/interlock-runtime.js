@@ -777,6 +777,8 @@ class InterlockRuntime extends RuntimeBase {
     });
     return {
       atMs: now,
+      // Its plant's id in the same document (`plants[].id`): where its lines' actuators and operations' names are.
+      plant: this.plant ? this.plant.id : null,
       lines,
       holds: snapshot.holds,
       queue,

@@ -318,6 +318,9 @@ class PlantRuntime extends RuntimeBase {
       devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
       devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
       sensors: health.sensors,
+      actuators: health.actuators,
+      // The document's words for its operations, so that an operator reads "load truck", not "10".
+      operations: (this.plant.operations || []).map((o) => ({ id: o.id, description: o.description || '', resources: o.resources || [] })),
     };
   }
 
