@@ -20,6 +20,16 @@ echo "build-wasm: cargo build (wasm32-unknown-unknown, release)"
 cargo build -p sugarshack-wasm --target wasm32-unknown-unknown --release
 built="${CARGO_TARGET_DIR:-target}/wasm32-unknown-unknown/release/sugarshack_wasm.wasm"
 
+# Nothing to do when cargo's module is the one the bindings were last made from
+# (wasm-opt alone takes a minute on a busy machine: every npm start would wait for it).
+stamp="${CARGO_TARGET_DIR:-target}/wasm-bindings.sha"
+source_sha="$( (sha256sum "$built"; wasm-bindgen --version; command -v wasm-opt || true) | sha256sum | cut -d' ' -f1)"
+if [ -f "$out/sugarshack_wasm_bg.wasm" ] && [ -f "$out/sugarshack_wasm.js" ] && [ "$(cat "$stamp" 2>/dev/null)" = "$source_sha" ]; then
+  echo "build-wasm: $out/ is up to date"
+  exit 0
+fi
+rm -f "$stamp"
+
 # wasm-opt runs before wasm-bindgen: Debian's binaryen (108) rewrites the
 # export of the externref table wasm-bindgen adds onto the function table, and
 # the module then fails to load. -Oz: size first; names and producers only
@@ -41,4 +51,5 @@ fi
 echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
 wasm-bindgen --target nodejs --out-dir "$out" --out-name sugarshack_wasm "$built"
 wasm="$out/sugarshack_wasm_bg.wasm"
+echo "$source_sha" >"$stamp"
 echo "build-wasm: $(du -h "$wasm" | cut -f1) $wasm"
