@@ -7,11 +7,13 @@
 // operation there would queue for minutes or be refused (its routine runs it),
 // and an example's group command would move valves an operation holds.
 //
-// The rig's config nodes (plant, interlock, broker) are the same in every such
-// example, ids included: importing a second example reuses them (the editor's
-// "Import copy" keeps a config node whose id exists), so however many are
-// imported, one interlock guards the rig's valves. This script writes them
-// into each example from the one document.
+// The rig's config nodes (plant, interlock, broker) are in every such example,
+// the same, ids included, also where the example does not use them all: the
+// first example imported brings them with their ids, and any imported after it
+// reuses them (the editor's "Import copy" keeps a config node whose id exists
+// and gives a new id to one that does not), so however many are imported, in
+// whatever order, one interlock guards the rig's valves. This script writes
+// them into each example from the one document.
 // usage: node scripts/example-rig.js [--check]
 //   --check: exit 1 if an example's rig nodes are not what the document gives.
 'use strict';
@@ -46,12 +48,10 @@ function configNodes(rig) {
   };
 }
 
-/** The example with the rig's config nodes it uses (first, in this order) in place of what it had. */
+/** The example with the rig's config nodes first, in place of what it had. */
 function withRig(flow, rig) {
   const configs = configNodes(rig);
-  const kept = flow.filter((n) => !Object.values(IDS).includes(n.id));
-  const used = (key) => kept.some((n) => n[key] === IDS[key]) || (key === 'plant' && kept.some((n) => n.interlock === IDS.interlock));
-  return [...['plant', 'interlock', 'broker'].filter(used).map((key) => configs[key]), ...kept];
+  return [configs.plant, configs.interlock, configs.broker, ...flow.filter((n) => !Object.values(IDS).includes(n.id))];
 }
 
 const readJson = (file) => JSON.parse(fs.readFileSync(file, 'utf8'));

@@ -91,6 +91,7 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
   const waits = id(); const toPoint = id(); const chart = id();
   const tick = id(); const statsOf = id(); const tFigures = id();
   const sf = panels(id);
+  const plantOf = id();
   const group = (gid, name, page, width, order) => ({ id: gid, type: 'ui-group', name, page, width: String(width), height: '1', order, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' });
   const comment = (name, x, y) => ({ id: id(), type: 'comment', z: TAB, name, info: '', x, y, wires: [] });
   return [
@@ -118,8 +119,9 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
     { id: alarmsPanel, type: `subflow:${sf.alarms}`, z: TAB, name: 'alarms', env: [{ name: 'GROUP', type: 'conf-type', value: gAlarms }, { name: 'INTERLOCK', type: 'str', value: interlock }, { name: 'SHELVE_MINUTES', type: 'num', value: '60' }], x: 160, y: 180, wires: [] },
 
     comment('Tanks, sensors, device health and unconfirmed lockouts, from the plant state', 300, 240),
-    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalS: 1, x: 150, y: 280, wires: [[tPlant]] },
-    template({ id: tPlant, z: TAB, group: gPlant, name: 'plant', format: PLANT_VUE, order: 1, width: 12, x: 340, y: 280, wires: [[]] }),
+    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalS: 1, x: 150, y: 280, wires: [[plantOf]] },
+    { id: plantOf, type: 'change', z: TAB, name: 'which plant', rules: [{ t: 'set', p: 'panel', pt: 'msg', to: JSON.stringify({ plant }), tot: 'json' }], x: 330, y: 280, wires: [[tPlant]] },
+    template({ id: tPlant, z: TAB, group: gPlant, name: 'plant', format: PLANT_VUE, order: 1, width: 12, x: 510, y: 280, wires: [[]] }),
 
     comment('Timing page: a grant\'s queue wait per line set (Figs. 13-15), from the interlock events', 300, 340),
     { id: events, type: 'sugarshack-interlock-events', z: TAB, name: '', interlock, x: 170, y: 380, wires: [[waits]] },
