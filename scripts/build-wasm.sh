@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the wasm facade crate and writes Node.js bindings into
-# node-red-contrib-sugarshack/wasm/. Needs the tools from scripts/setup.sh.
+# node-red-contrib-sugarshack/wasm/, and the plant document's JSON Schema
+# (generated from the core's types) into node-red-contrib-sugarshack/schema/.
+# Needs the tools from scripts/setup.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -24,32 +26,38 @@ built="${CARGO_TARGET_DIR:-target}/wasm32-unknown-unknown/release/sugarshack_was
 # (wasm-opt alone takes a minute on a busy machine: every npm start would wait for it).
 stamp="${CARGO_TARGET_DIR:-target}/wasm-bindings.sha"
 source_sha="$( (sha256sum "$built"; wasm-bindgen --version; command -v wasm-opt || true) | sha256sum | cut -d' ' -f1)"
+bind() {
+  rm -f "$stamp"
+  # wasm-opt runs before wasm-bindgen: Debian's binaryen (108) rewrites the
+  # export of the externref table wasm-bindgen adds onto the function table, and
+  # the module then fails to load. -Oz: size first; names and producers only
+  # serve debuggers.
+  if command -v wasm-opt >/dev/null; then
+    # Recent rustc emits these post-MVP features by default; older binaryen rejects them unless enabled.
+    if wasm-opt -Oz --strip-debug --strip-producers --enable-bulk-memory --enable-nontrapping-float-to-int \
+         --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue \
+         "$built" -o "$built.opt"; then
+      built="$built.opt"
+      echo "build-wasm: wasm-opt -Oz applied"
+    else
+      echo "build-wasm: wasm-opt failed; keeping the unoptimised module" >&2
+    fi
+  else
+    echo "build-wasm: no wasm-opt on PATH (apt-get install -y binaryen, or bash scripts/setup.sh); module left unoptimised" >&2
+  fi
+  echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
+  wasm-bindgen --target nodejs --out-dir "$out" --out-name sugarshack_wasm "$built"
+  local wasm="$out/sugarshack_wasm_bg.wasm"
+  echo "$source_sha" >"$stamp"
+  echo "build-wasm: $(du -h "$wasm" | cut -f1) $wasm"
+}
 if [ -f "$out/sugarshack_wasm_bg.wasm" ] && [ -f "$out/sugarshack_wasm.js" ] && [ "$(cat "$stamp" 2>/dev/null)" = "$source_sha" ]; then
   echo "build-wasm: $out/ is up to date"
-  exit 0
-fi
-rm -f "$stamp"
-
-# wasm-opt runs before wasm-bindgen: Debian's binaryen (108) rewrites the
-# export of the externref table wasm-bindgen adds onto the function table, and
-# the module then fails to load. -Oz: size first; names and producers only
-# serve debuggers.
-if command -v wasm-opt >/dev/null; then
-  # Recent rustc emits these post-MVP features by default; older binaryen rejects them unless enabled.
-  if wasm-opt -Oz --strip-debug --strip-producers --enable-bulk-memory --enable-nontrapping-float-to-int \
-       --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue \
-       "$built" -o "$built.opt"; then
-    built="$built.opt"
-    echo "build-wasm: wasm-opt -Oz applied"
-  else
-    echo "build-wasm: wasm-opt failed; keeping the unoptimised module" >&2
-  fi
 else
-  echo "build-wasm: no wasm-opt on PATH (apt-get install -y binaryen, or bash scripts/setup.sh); module left unoptimised" >&2
+  bind
 fi
 
-echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
-wasm-bindgen --target nodejs --out-dir "$out" --out-name sugarshack_wasm "$built"
-wasm="$out/sugarshack_wasm_bg.wasm"
-echo "$source_sha" >"$stamp"
-echo "build-wasm: $(du -h "$wasm" | cut -f1) $wasm"
+# A native build of the core with its `schema` feature, which the wasm leaves out.
+schema=node-red-contrib-sugarshack/schema/plant.schema.json
+echo "build-wasm: plant document schema -> $schema"
+cargo run -q -p sugarshack-schema -- "$schema"

@@ -76,7 +76,7 @@ describe('season report', function () {
 
     const dir = path.join(userDir(), 'sugarshack-journal', 'files');
     const out = path.join(userDir(), 'season.html');
-    // SEASON_REPORT_SVG=dir also writes each figure as an SVG (how the README's pictures are made).
+    // SEASON_REPORT_SVG=dir also writes each figure as an SVG (how the docs' pictures are made).
     const report = await main(['--journal', dir, '--out', out, ...(process.env.SEASON_REPORT_SVG ? ['--svg', process.env.SEASON_REPORT_SVG] : [])]);
     const s = stats.report();
     const n = (name) => (s[name] ? s[name].n : 0);

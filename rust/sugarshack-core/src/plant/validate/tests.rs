@@ -48,6 +48,22 @@ fn a_sound_document_passes_every_check_once_and_keeps_no_warning() {
 }
 
 #[test]
+fn a_document_may_name_its_json_schema_which_the_checks_ignore() {
+    let schema = "./node_modules/node-red-contrib-sugarshack/schema/plant.schema.json";
+    let mut doc = sound();
+    doc["$schema"] = json!(schema);
+    let plant = Plant::new(read(doc.clone())).unwrap();
+    assert!(plant.warnings().is_empty());
+    assert_eq!(plant.schema.as_deref(), Some(schema));
+    assert_eq!(
+        serde_json::to_value(plant.model()).unwrap()["$schema"],
+        schema
+    );
+    doc["$schema"] = json!(5);
+    assert!(serde_json::from_value::<PlantModel>(doc).is_err());
+}
+
+#[test]
 fn actuator_types_need_positive_timings_and_a_range() {
     let plant = with(|d| {
         d["actuatorTypes"]["valve"]["staleMs"] = json!(0);
