@@ -144,6 +144,9 @@ function build(plant, options = CASE_STUDY) {
     add({ id, type: 'sugarshack-operation', z: f, name: `op ${faultOp.id} (moves ${valve})`, interlock: interlock.id, operation: faultOp.id, x: 560, y: 320, wires: [[nid('debug:fault-op')]] });
     inject(f, `fault-op:${faultOp.id}`, `run op ${faultOp.id} now`, {}, 250, 320, id);
     debug(f, 'fault-op', `op ${faultOp.id} done`, 780, 320, true, 'payload');
+    // Its fault (the point of running it) shows here, not as an uncaught error in the log.
+    add({ id: nid('catch:faults'), type: 'catch', z: f, name: '', scope: null, uncaught: false, x: 560, y: 360, wires: [[nid('debug:fault-op-faults')]] });
+    debug(f, 'fault-op-faults', 'faults and refusals', 790, 360, true, 'error.message');
   }
   add({ id: nid('sim-result'), type: 'mqtt in', z: f, name: '', topic: 'sim/control/result', qos: '1', datatype: 'auto-detect', broker: broker.id, nl: false, rap: true, rh: 0, inputs: 0, x: 210, y: 280, wires: [[nid('debug:sim-result')]] });
   debug(f, 'sim-result', 'simulator replies', 480, 280, true);
