@@ -60,7 +60,8 @@ function optionsFor(plant, name) {
   const title = plant.name || name;
   const faults = faultsOf(plant);
   return {
-    ns: `plant:${title}`,
+    // Ids from the file's name, which names its run directory: they stay when the document changes.
+    ns: `plant:${name}`,
     tabs: {
       plant: [title, `The plant ${title}: field bus, interlock, routines. Starter flows made from its plant document by npm start (scripts/starter-flows.js); yours to change.`],
       ops: ['Operations (manual)', 'Start any operation of the plant document by hand. An operation already running (for example under its routine) refuses a second start (C1).'],

@@ -254,6 +254,24 @@ describe('examples', function () {
     for (const type of types) assert.ok(used.has(type), `${type} appears in an example`);
   });
 
+  it('the examples that drive devices carry the example rig\'s plant, interlock and broker nodes, as scripts/example-rig.js writes them from flows/example-rig.json', function () {
+    const { FILES, IDS, RIG_FILE, withRig } = require('../../scripts/example-rig.js');
+    const rig = JSON.parse(fs.readFileSync(RIG_FILE, 'utf8'));
+    for (const file of FILES) {
+      const flow = readExample(path.basename(file));
+      assert.deepEqual(flow, withRig(flow, rig), `${path.basename(file)}: run node scripts/example-rig.js`);
+      assert.deepEqual(flow.slice(0, 3).map((n) => n.id), [IDS.plant, IDS.interlock, IDS.broker]);
+    }
+    // No other example binds to the rig's devices, and none to the case study's but the HMI (with npm start's ids).
+    const caseStudy = JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'flows', 'case-study.json'), 'utf8'));
+    const casePlant = caseStudy.find((n) => n.type === 'sugarshack-plant').id;
+    for (const file of exampleFiles()) {
+      const plants = readExample(file).filter((n) => n.type === 'sugarshack-plant').map((n) => n.id);
+      const expected = FILES.some((f) => path.basename(f) === file) ? [IDS.plant] : file === 'hmi-dashboard.json' ? [casePlant] : [];
+      assert.deepEqual(plants, expected, file);
+    }
+  });
+
   it('the HMI example and flows/hmi.json are what scripts/hmi-flow.js makes of scripts/hmi/*.vue (one source, no hand copy)', function () {
     const { npmStart, example } = require('../../scripts/hmi-flow.js');
     assert.deepEqual(readExample('hmi-dashboard.json'), example());
