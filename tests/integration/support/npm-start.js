@@ -8,12 +8,12 @@
 //   await stack.click(injectId);
 //   await stack.stop();
 const fs = require('fs');
-const http = require('http');
 const os = require('os');
 const path = require('path');
 const { spawn } = require('child_process');
 const WebSocket = require('ws');
 const { freePort } = require('./mosquitto');
+const { adminRequest } = require('./node-red');
 
 const ROOT = path.resolve(__dirname, '..', '..', '..');
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
@@ -107,24 +107,7 @@ class NpmStart {
   }
 
   request(method, urlPath, body, headers = {}) {
-    const text = body === undefined ? null : JSON.stringify(body);
-    return new Promise((resolve, reject) => {
-      const req = http.request({
-        host: '127.0.0.1', port: this.port, path: urlPath, method, timeout: 20000,
-        headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
-      }, (res) => {
-        let answer = '';
-        res.on('data', (d) => { answer += d; });
-        res.on('end', () => {
-          if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 300)}`));
-          else resolve(answer && /json/.test(res.headers['content-type'] || '') ? JSON.parse(answer) : answer);
-        });
-      });
-      req.on('error', reject);
-      req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 20 s`)));
-      if (text !== null) req.write(text);
-      req.end();
-    });
+    return adminRequest(this.port, method, urlPath, body, headers);
   }
 
   state() {
