@@ -55,6 +55,9 @@ describe(`the tutorial ${PAGE}, followed from the page`, function () {
     assert.equal(checked.status, 0, checked.stdout + checked.stderr);
     const shown = fences.find((f) => f.lang === 'text' && /^check: /.test(f.body)).body.trim();
     assert.ok(checked.stdout.includes(shown), `the check says "${shown}":\n${checked.stdout}`);
+    // The same plant named by the environment instead.
+    const byEnv = spawnSync('npm', ['--prefix', ROOT, 'start', '--', '--check'], { cwd: dir, encoding: 'utf8', timeout: 600000, env: { ...process.env, SUGARSHACK_PLANT: plantFile() } });
+    assert.ok(byEnv.status === 0 && byEnv.stdout.includes(shown), `SUGARSHACK_PLANT=${plantFile()}: ${byEnv.stdout}${byEnv.stderr}`);
 
     const [, actuator, device] = /give (\S+) the device\s+`([^`]+)`/.exec(text);
     const [, said] = /the check says `([^`]+)`/.exec(text);
