@@ -25,8 +25,8 @@ function seconds(ms) {
   return `${Number((ms / 1000).toFixed(3))} s`;
 }
 
-// "actuators[3] (V12): unknown device 'x'" -> the path before the first ": ".
-const PROBLEM = /^([A-Za-z_][\w.[\]-]*(?: \([^)]*\))?): ([\s\S]*)$/;
+// "operations[0] (fill).steps[2]: unknown sensor 'x'" -> the path before the first ": ".
+const PROBLEM = /^([A-Za-z_][\w.[\]-]*(?: \([^)]*\))?(?:[.[][\w.[\]-]*(?: \([^)]*\))?)*): ([\s\S]*)$/;
 
 function problem(text) {
   const m = PROBLEM.exec(text);

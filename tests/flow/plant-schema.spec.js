@@ -99,7 +99,7 @@ function sound() {
       ],
     }],
     clockSkewMs: 5000,
-    simulation: { anything: ['the palette ignores'] },
+    simulation: { tanks: [], transfers: [] },
   };
 }
 
@@ -169,9 +169,12 @@ const WRONG_SHAPES = {
   'an empty trigger': (d) => { d.routines[0].transitions[0].trigger = {}; },
   'a transition with an unknown key': (d) => { d.routines[0].transitions[0].when = 'x'; },
   'clockSkewMs as null': (d) => { d.clockSkewMs = null; },
+  'a simulation section that is not an object': (d) => { d.simulation = 42; },
+  'a simulation tank with its capacity as text': (d) => { d.simulation.tanks = [{ id: 'T', station: 'station-2', datapoint: 'volume', capacityL: 'big' }]; },
+  'a simulation tank with an unknown key': (d) => { d.simulation.tanks = [{ id: 'T', capacityL: 100, volume: 5 }]; },
 };
 
-// Documents both read: optional keys given as null or left out, fractions of a millisecond, what the palette ignores.
+// Documents both read: optional keys given as null or left out, fractions of a millisecond.
 const RIGHT_SHAPES = {
   'as it is': () => {},
   'optional keys as null': (d) => {
@@ -186,7 +189,8 @@ const RIGHT_SHAPES = {
   },
   'no optional lists': (d) => { for (const key of ['actuators', 'sensors', 'resources', 'operations', 'routines']) delete d[key]; },
   'fractions of a millisecond': (d) => { d.operations[0].steps[1].timeoutMs = 60000.5; d.clockSkewMs = 0.25; },
-  'any simulation section': (d) => { d.simulation = 42; },
+  'an empty simulation section': (d) => { d.simulation = {}; },
+  'a simulation tank on a station\'s datapoint': (d) => { d.simulation.tanks = [{ id: 'T', station: 'station-2', datapoint: 'volume', capacityL: 100 }]; },
   'an ESPHome device with its entities': (d) => {
     d.devices[0].profile = 'esphome';
     for (const a of d.actuators.filter((x) => x.device === 'ctrl-1')) { delete a.io; a.entity = a.id.toLowerCase(); }

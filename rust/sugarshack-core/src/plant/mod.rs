@@ -12,6 +12,7 @@ mod group;
 #[cfg(feature = "schema")]
 mod schema;
 mod setpoint;
+mod simulation;
 mod validate;
 
 pub use graph::{Edge, RoutineGraph, StateId};
@@ -101,8 +102,11 @@ pub struct PlantModel {
     /// device's clock is wrong.
     #[serde(default = "default_clock_skew_ms")]
     pub clock_skew_ms: Millis,
-    /// Settings of the plant simulator (`npm start`); the palette ignores them.
+    /// Settings of the plant simulator (`npm start`): its tanks, the
+    /// transfers between them, datapoint baselines. The palette runs
+    /// without them, but checks them as the simulator reads them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(with = "Option<simulation::Simulation>"))]
     pub simulation: Option<serde_json::Value>,
 }
 
