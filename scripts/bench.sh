@@ -15,6 +15,7 @@
 #   layers         per-layer overhead p99 on the case-study plant, GC pauses apart (scripts/measure.js)
 #   plant load     CPU and memory of Node-RED on the simulated case-study plant
 #   scaling        1x, 10x, 100x (and --full: 95,200 I/O) end to end on Mosquitto
+#   standby        hot standby on a real etcd: commit cost, grants/s through the nodes, failover times
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -63,6 +64,8 @@ else
   run "plant load" node tests/bench/plant-load.js --quick
   run scaling node tests/bench/scaling.js
 fi
+
+run standby node tests/bench/standby-bench.js "${quick[@]}"
 
 echo
 echo "== every target (load average $(cut -d' ' -f1-3 /proc/loadavg) at the end)"

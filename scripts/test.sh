@@ -105,6 +105,7 @@ npx tsc -p tsconfig.json --noEmit
 stage "docs: links and anchors, the generated code table, the site (VitePress), every snippet"
 node scripts/docs/links.js
 node scripts/docs/codes.js --check
+node scripts/docs/plant-reference.js --check
 node scripts/docs/site.js
 counted npx mocha --timeout 10000 --exit 'tests/docs/**/*.spec.js'
 
