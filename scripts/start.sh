@@ -12,7 +12,7 @@ the editor at http://127.0.0.1:1880/, the HMI at http://127.0.0.1:1880/dashboard
 Which plant:
   (none)              the case study: the simulator plays flows/plant.json, Node-RED
                       runs the flows of flows/*.json and the control examples
-                      (pid-loop, rcc-failover); its run directory is .run/
+                      (pid-loop, rcc-failover, modbus-pid-loop); its run directory is .run/
   --plant FILE        your own plant, FILE its plant document (JSON): checked first (as a
                       deploy would; nothing starts while it has a problem), the simulator
                       plays its devices, Node-RED runs its flows; its run directory is
@@ -33,7 +33,8 @@ Flows and state (in the run directory):
                       (faulted lines, routines) and context removed
 
 Beside either plant the simulator also plays the example rig (flows/example-rig.json),
-the devices the palette's examples drive: import an example, it works.
+the devices the palette's examples drive, and the Modbus/TCP flow loop of the
+modbus-pid-loop example (127.0.0.1:5502): import an example, it works.
 
 A run directory holds userdir/ (Node-RED's: flows.json, settings.js, context, saved
 interlock state), logs/ (broker.log, simulator.log, simulator-rig.log) and journal/.
@@ -45,6 +46,9 @@ Environment:
   MQTT_URL            a broker of your own instead of the embedded one
   SIM=0               no simulator (real devices on the broker)
   SIM_ARGS            extra simulator flags, e.g. "--sweep-s 1 --fault stuck:V101"
+  PROFILE             the case study's devices and its plant node all speak this profile:
+                      esphome, tasmota, shelly-gen2, sugarshack or modbus (default: each
+                      device's own in flows/plant.json, ESPHome); not with --plant
   JOURNAL=0           no journal; SUGARSHACK_JOURNAL_DIR to put it elsewhere
   SUGARSHACK_PLANT    the plant document, as --plant
   SUGARSHACK_RUN_DIR  where run directories go (default .run)
@@ -188,8 +192,9 @@ seed_flows() {
     if [ "$(head -c 1 "$file")" = "[" ]; then sources+=("$file"); fi
   done
   if [ ${#sources[@]} -gt 0 ]; then
-    # The control examples stand beside the plant: a PID loop, and RCC over the same broker.
-    sources+=("$PALETTE"/examples/pid-loop.json "$PALETTE"/examples/rcc-failover.json)
+    # The control examples stand beside the plant: a PID loop, RCC over the same broker,
+    # and the PID over Modbus/TCP against the simulator's flow loop.
+    sources+=("$PALETTE"/examples/pid-loop.json "$PALETTE"/examples/rcc-failover.json "$PALETTE"/examples/modbus-pid-loop.json)
   else
     sources=("$PALETTE"/examples/*.json)
   fi
@@ -199,6 +204,12 @@ seed_flows() {
     return
   fi
   node scripts/merge-flows.js --broker "$MQTT_URL" "$target" "${sources[@]}"
+}
+
+# PROFILE: the case-study plant node gets the document the simulator's devices speak.
+profile_flows() {
+  [ -n "${PROFILE:-}" ] && [ -z "$PLANT_NAME" ] && [ -f "$USERDIR/flows.json" ] && [ -f "$PLANT_FILE" ] || return 0
+  node scripts/profile-flows.js "$USERDIR/flows.json" "$PLANT_FILE" "$PROFILE"
 }
 
 # Extra services (each started in the background with its pid appended to PIDS):
@@ -228,13 +239,16 @@ start_services() {
     say "plant simulator: off (SIM=0)"
     return
   fi
+  local profile=()
+  [ -z "${PROFILE:-}" ] || [ -n "$PLANT_NAME" ] || profile=(--profile "$PROFILE")
   # shellcheck disable=SC2086  # SIM_ARGS is a list of flags
-  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$PLANT_FILE" ${SIM_ARGS:-} >"$LOGS/simulator.log" 2>&1 &
+  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$PLANT_FILE" "${profile[@]}" ${SIM_ARGS:-} >"$LOGS/simulator.log" 2>&1 &
   PIDS+=($!)
-  say "plant simulator: ${PLANT_FILE#"$ROOT"/} on $MQTT_URL (log ${LOGS#"$ROOT"/}/simulator.log; faults via sim/control)"
-  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant flows/example-rig.json --control-topic sim/rig/control --quiet >"$LOGS/simulator-rig.log" 2>&1 &
+  say "plant simulator: ${PLANT_FILE#"$ROOT"/} on $MQTT_URL${profile[1]:+, profile ${profile[1]}} (log ${LOGS#"$ROOT"/}/simulator.log; faults via sim/control)"
+  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant flows/example-rig.json --control-topic sim/rig/control \
+    --loop "$PALETTE/examples/modbus-pid-loop.json" --quiet >"$LOGS/simulator-rig.log" 2>&1 &
   PIDS+=($!)
-  say "example rig: flows/example-rig.json on $MQTT_URL, for the palette's examples (faults via sim/rig/control)"
+  say "example rig: flows/example-rig.json and the Modbus flow loop on $MQTT_URL, for the palette's examples (faults via sim/rig/control)"
 }
 
 run_node_red() {
@@ -265,5 +279,6 @@ write_settings
 clean_state
 choose_broker
 seed_flows
+profile_flows
 start_services
 run_node_red

@@ -23,7 +23,7 @@ const { startMosquitto } = require('./support/mosquitto');
 const EXAMPLES = path.join(ROOT, 'node-red-contrib-sugarshack', 'examples');
 const readExample = (file) => JSON.parse(fs.readFileSync(path.join(EXAMPLES, file), 'utf8'));
 /** npm start deploys these itself (scripts/start.sh: the control examples beside the plant). */
-const DEPLOYED_BY_NPM_START = ['pid-loop.json', 'rcc-failover.json'];
+const DEPLOYED_BY_NPM_START = ['pid-loop.json', 'rcc-failover.json', 'modbus-pid-loop.json'];
 
 /**
  * What each example's comments tell the user to do and to watch. `run(ex)`
@@ -151,6 +151,28 @@ const SCENARIOS = {
       await until(() => /^auto /.test(pid().text || ''), 'the pid back in auto', 10000);
       await ex.click('set point 60');
       await until(() => /^auto /.test(pid().text || ''), 'the pid in auto on its new set point', 10000);
+    },
+  },
+  'modbus-pid-loop.json': {
+    faults: [],
+    async run(ex) {
+      // The flow settles at each set point without overshoot, the predictor's dead time learnt from the polls.
+      const settledAt = async (name, setpoint) => {
+        const from = ex.debugOf('flow and valve').length;
+        if (name) await ex.click(name);
+        return until(() => {
+          const recent = ex.debugOf('flow and valve').slice(from).filter((p) => p.setpoint === setpoint).slice(-10);
+          return recent.length === 10 && recent.every((p) => Math.abs(p.measurement - setpoint) < 0.03 * setpoint) && recent;
+        }, `the flow settled at ${setpoint} gal/min`, 60000);
+      };
+      await settledAt(null, 1.04);
+      const low = await settledAt('set point 0.69 gal/min', 0.69);
+      assert.ok(low.at(-1).deadTimeSamples >= 1, `the predictor's dead time: ${low.at(-1).deadTimeSamples} samples`);
+      const from = ex.debugOf('flow and valve').length;
+      await settledAt('set point 1.04 gal/min', 1.04);
+      const peak = Math.max(...ex.debugOf('flow and valve').slice(from).map((p) => p.measurement));
+      assert.ok(peak <= 1.04 * 1.05, `stepping up to 1.04 gal/min, the flow peaked at ${peak}`);
+      assert.deepEqual(ex.debugOf('errors'), []);
     },
   },
   'rcc-failover.json': {
