@@ -262,12 +262,14 @@ describe('examples', function () {
       assert.deepEqual(flow, withRig(flow, rig), `${path.basename(file)}: run node scripts/example-rig.js`);
       assert.deepEqual(flow.slice(0, 3).map((n) => n.id), [IDS.plant, IDS.interlock, IDS.broker]);
     }
-    // No other example binds to the rig's devices, and none to the case study's but the HMI (with npm start's ids).
+    // No other example binds to the rig's devices, and none to the case study's but the HMI (with npm start's ids);
+    // modbus-pid-loop's plant is its own Modbus I/O module (the simulator's flow loop), shared with no other plant.
+    const ownPlant = { 'modbus-pid-loop.json': readExample('modbus-pid-loop.json').filter((n) => n.type === 'sugarshack-plant' && n.plant.simulation && n.plant.simulation.loop).map((n) => n.id) };
     const caseStudy = JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'flows', 'case-study.json'), 'utf8'));
     const casePlant = caseStudy.find((n) => n.type === 'sugarshack-plant').id;
     for (const file of exampleFiles()) {
       const plants = readExample(file).filter((n) => n.type === 'sugarshack-plant').map((n) => n.id);
-      const expected = FILES.some((f) => path.basename(f) === file) ? [IDS.plant] : file === 'hmi-dashboard.json' ? [casePlant] : [];
+      const expected = FILES.some((f) => path.basename(f) === file) ? [IDS.plant] : file === 'hmi-dashboard.json' ? [casePlant] : ownPlant[file] || [];
       assert.deepEqual(plants, expected, file);
     }
   });
