@@ -92,6 +92,25 @@ describe('actuators node: Modbus outputs and sensors', function () {
     assert.ok(seen.ev.some((m) => m.topic === 'actuator/modbus' && m.payload.connected === false));
   });
 
+  it('opens no Modbus connection while a hot standby, and opens it again on becoming active', async function () {
+    await start(plantDocument(await freePort()));
+    const plant = helper.getNode('pl').runtime;
+    // The cluster as the plant sees it (tests/integration/standby.spec.js runs the real one on etcd).
+    plant.cluster = { active: false, role: 'standby', mayAct: () => false };
+    transport().sync();
+    await until(() => server.sockets.size === 0, 'the module no longer connected', 3000);
+    assert.ok(transport().conns.every((c) => c === null), 'no connection kept');
+    helper.getNode('bus').receive({ topic: 'output/FCV', payload: 25 });
+    await settled(helper, 'pl');
+    assert.notEqual(server.memory.holding[10], 8000, 'a standby writes nothing');
+    plant.cluster = { active: true, role: 'active', mayAct: () => true };
+    transport().sync();
+    await until(() => transport().connected() && server.sockets.size === 1, 'connected again', 3000);
+    helper.getNode('bus').receive({ topic: 'output/FCV', payload: 25 });
+    await until(() => server.memory.holding[10] === 8000, 'the leader\'s write at the module', 3000);
+    plant.cluster = null;
+  });
+
   it('hands each poll\'s sensor values on as sensor/<id> with the poll\'s round trip, NaN as null', async function () {
     const plant = plantDocument(await freePort());
     await start(plant);
