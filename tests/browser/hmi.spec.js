@@ -88,6 +88,8 @@ describe('the HMI at /dashboard in headless Chromium', function () {
 
   const shot = (name) => page.screenshot({ path: path.join(SHOTS, `${name}.png`), fullPage: true });
   const lineRow = (name) => `tr[data-line="${name}"]`;
+  // A line's button, found and clicked in one step: rows above it change height as their lines change state.
+  const press = (line, button) => page.$eval(`${lineRow(line)} .ss-${button}`, (el) => el.click());
   const textOf = (selector) => page.$eval(selector, (el) => el.innerText).catch(() => '');
   async function waitText(selector, re, what, timeoutMs = 30000) {
     const deadline = Date.now() + timeoutMs;
@@ -165,7 +167,7 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await new Promise((resolve) => client.on('connect', resolve));
     client.subscribe('ctrl-1/#');
     client.on('message', (topic, payload) => { if (/command/.test(topic)) lockoutsSent.push([topic, String(payload)]); });
-    await page.click(`${lineRow('YEL')} .ss-estop`);
+    await press('YEL', 'estop');
     await waitText(lineRow('YEL'), /faulted/, 'YEL faulted');
     await waitText('.ss-alarms', /e-stop YEL/, 'the alarm of the e-stop');
     const deadline = Date.now() + 15000;
@@ -210,14 +212,14 @@ describe('the HMI at /dashboard in headless Chromium', function () {
   it('CLEAR is refused while a YEL device is offline, the reason shown, then accepted', async function () {
     await sim.inject({ fault: 'dead', device: 'ctrl-1' });
     await waitText(lineRow('YEL'), /device ctrl-1 offline/, 'the reason not to clear', 30000);
-    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await press('YEL', 'clear');
     await waitText(`${lineRow('YEL')} .ss-refused`, /refused: device ctrl-1 offline/, 'the refusal');
     await shot('3-clear-refused');
     assert.match(await textOf(lineRow('YEL')), /faulted/);
     await sim.inject({ fault: 'revive', device: 'ctrl-1' });
     await waitText(lineRow('YEL'), /^(?![\s\S]*not clearable)[\s\S]*$/, 'YEL clearable again', 60000);
     await page.type('.ss-reason', 'ctrl-1 restarted, valves checked');
-    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await press('YEL', 'clear');
     await waitText(lineRow('YEL'), /YEL\s+(free|held)/, 'YEL cleared', 30000);
     await waitText('.ss-alarms', new RegExp(`cleared YEL by ${DASHBOARD_USER}: ctrl-1 restarted, valves checked`), 'the clear in the event list, with who and why');
     await shot('4-cleared');
@@ -226,13 +228,13 @@ describe('the HMI at /dashboard in headless Chromium', function () {
   // BLU: free early on (only a late step of the evaporator's cycle takes it), so the routines keep
   // running operations for the timing page.
   it('CLEAR with force and a reason goes through over a refusal and is recorded as forced, with that reason', async function () {
-    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await press('BLU', 'estop');
     await waitText(lineRow('BLU'), /BLU\s+faulted/, 'BLU faulted');
     await sim.inject({ fault: 'dead', device: 'ctrl-3' });
     await waitText(lineRow('BLU'), /device ctrl-3 offline/, 'the reason not to clear BLU', 30000);
     await page.type('.ss-reason', 'ctrl-3 being replaced; BLU valves closed by hand');
     await page.click('.ss-force');
-    await page.click(`${lineRow('BLU')} .ss-clear`);
+    await press('BLU', 'clear');
     await waitText(lineRow('BLU'), /BLU\s+(free|held)/, 'BLU cleared over its reasons', 30000);
     const forced = await waitText('.ss-event.ss-forced', /FORCED/, 'the forced clear marked in the event list');
     assert.match(forced, new RegExp(`cleared BLU by ${DASHBOARD_USER} \\(forced\\): ctrl-3 being replaced; BLU valves closed by hand`));
@@ -253,7 +255,7 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await waitText('.ss-alarms', /^(?![\s\S]*YEL faulted)/, 'the acknowledged, normal alarm leaves the list');
     // An active one stays, acknowledged.
     await page.type('.ss-reason', 'dye test on BLU');
-    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await press('BLU', 'estop');
     await waitText(alarm('line-faulted:BLU'), /BLU faulted, manual: dye test on BLU[\s\S]*active · unacknowledged/, 'the BLU alarm');
     await ack('line-faulted:BLU');
     const acked = new RegExp(`active · acknowledged by ${DASHBOARD_USER} at \\d`);
