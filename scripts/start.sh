@@ -240,7 +240,10 @@ start_services() {
     return
   fi
   local profile=()
-  [ -z "${PROFILE:-}" ] || [ -n "$PLANT_NAME" ] || profile=(--profile "$PROFILE")
+  if [ -n "${PROFILE:-}" ]; then
+    if [ -n "$PLANT_NAME" ]; then say "PROFILE=$PROFILE left out: with --plant, each device speaks the profile its plant document gives"
+    else profile=(--profile "$PROFILE"); fi
+  fi
   # shellcheck disable=SC2086  # SIM_ARGS is a list of flags
   node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$PLANT_FILE" "${profile[@]}" ${SIM_ARGS:-} >"$LOGS/simulator.log" 2>&1 &
   PIDS+=($!)
