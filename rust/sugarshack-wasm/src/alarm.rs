@@ -40,12 +40,13 @@ export interface AlarmStamp {
     reason?: string;
 }
 
-/** Who shelved an alarm, when, and until when. */
+/** Who shelved an alarm, when, and until when (and, one-shot, until its condition ends). */
 export interface AlarmShelf {
     by: string;
     atMs: number;
     untilMs: number;
     reason?: string;
+    oneShot?: boolean;
 }
 
 /** One listed alarm. */
@@ -168,6 +169,27 @@ impl Alarms {
         let until = time(until_ms)?;
         let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
         to_js(&self.core.shelve(id, until, &who, now).map_err(core_error)?)
+    }
+
+    /// Shelves as `shelve` does, and until the alarm's condition next ends.
+    #[wasm_bindgen(js_name = shelveOneShot, unchecked_return_type = "AlarmChange[]")]
+    pub fn shelve_one_shot(
+        &mut self,
+        id: &str,
+        until_ms: f64,
+        by: Option<String>,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let until = time(until_ms)?;
+        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
+        to_js(
+            &self
+                .core
+                .shelve_one_shot(id, until, &who, now)
+                .map_err(core_error)?,
+        )
     }
 
     #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]

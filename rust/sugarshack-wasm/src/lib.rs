@@ -15,7 +15,9 @@ mod routine;
 mod tracker;
 
 pub use alarm::Alarms;
-pub use contract::{abnormal_event_kinds, codes, max_status_chars, routine_reset_topic};
+pub use contract::{
+    abnormal_event_kinds, codes, max_shelve_ms, max_status_chars, routine_reset_topic,
+};
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use device::DeviceSide;
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};

@@ -332,6 +332,12 @@ pub struct Sensor {
     /// How old a value may be before it is stale; the plant's default when unset.
     #[serde(default)]
     pub stale_ms: Option<Millis>,
+    /// The lowest value it reads, with `max` (a SCADA's engineering range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<f64>,
+    /// The highest value it reads, with `min`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
 }
 
 impl Sensor {
