@@ -633,7 +633,7 @@ class InterlockRuntime extends RuntimeBase {
     if (changes.length === 0) return;
     if (!inWrite) this.committer.change();
     // No node's status shows alarms: only the state's readers hear of it.
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   /** Acknowledges alarms (`ids`, or every unacknowledged one when null) by `who`; `then(changes)` once saved. */
@@ -641,9 +641,9 @@ class InterlockRuntime extends RuntimeBase {
     this.alarmAction('alarm-ack', who, () => this.alarms.acknowledge(ids, who, clock.now()), then);
   }
 
-  /** Shelves alarm `id` until `untilMs` by `who`; `then(changes)` once saved. */
-  shelveAlarm(id, untilMs, who, then) {
-    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now()), then);
+  /** Shelves alarm `id` until `untilMs` (and, `oneShot`, until its condition ends) by `who`; `then(changes)` once saved. */
+  shelveAlarm(id, untilMs, who, then, { oneShot = false } = {}) {
+    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now(), oneShot), then);
   }
 
   unshelveAlarm(id, who, then) {
@@ -657,7 +657,7 @@ class InterlockRuntime extends RuntimeBase {
     const done = changes.filter((c) => c.action !== 'shelf-expired');
     if (done.length) journal.action(action, who, [...new Set(done.map((c) => c.id))]);
     this.committer.change(() => then(changes));
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   hasAlarm(id) {
@@ -702,7 +702,7 @@ class InterlockRuntime extends RuntimeBase {
 
   /** A state change: status now; `effect` once the change is on disk (at once without persistence: after the status, which it may override). */
   changed(effect) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     this.statusPacer.request();
     this.committer.change(effect);
   }
@@ -807,7 +807,7 @@ class InterlockRuntime extends RuntimeBase {
   }
 
   refreshStatus(only) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = drainingStatus();

@@ -16,6 +16,7 @@ const { PlantBuses } = require('./plant-bus');
 const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
+const { PlantChanges } = require('./plant-changes');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
 
@@ -36,6 +37,7 @@ class PlantRuntime extends RuntimeBase {
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
+    this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
   }
 
   /** The actuators nodes serving this plant (read by the interlock's alarms). */
@@ -59,6 +61,7 @@ class PlantRuntime extends RuntimeBase {
     }
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.changes.rebuilt();
     this.refreshStatus();
     this.replayParked();
   }
@@ -142,6 +145,7 @@ class PlantRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
+    this.changes.rebuilt();
     this.refreshStatus();
   }
 
@@ -263,8 +267,9 @@ class PlantRuntime extends RuntimeBase {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    this.changes.effects(effects);
     if (!counted) {
-      if (this.palette) this.palette.changes.touch();
+      if (this.palette) this.palette.changes.touch(this);
     } else if (source === null) {
       this.refreshStatus();
     } else {
