@@ -165,10 +165,7 @@ impl Alarms {
         reason: Option<String>,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let now = time(now_ms)?;
-        let until = time(until_ms)?;
-        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
-        to_js(&self.core.shelve(id, until, &who, now).map_err(core_error)?)
+        self.put_on_shelf(id, until_ms, (by, reason), now_ms, false)
     }
 
     /// Shelves as `shelve` does, and until the alarm's condition next ends.
@@ -181,15 +178,7 @@ impl Alarms {
         reason: Option<String>,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let now = time(now_ms)?;
-        let until = time(until_ms)?;
-        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
-        to_js(
-            &self
-                .core
-                .shelve_one_shot(id, until, &who, now)
-                .map_err(core_error)?,
-        )
+        self.put_on_shelf(id, until_ms, (by, reason), now_ms, true)
     }
 
     #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
@@ -220,5 +209,26 @@ impl Alarms {
     #[wasm_bindgen(js_name = nextExpiryMs)]
     pub fn next_expiry_ms(&self) -> Option<f64> {
         self.core.next_expiry_ms().map(Millis::as_f64)
+    }
+}
+
+impl Alarms {
+    fn put_on_shelf(
+        &mut self,
+        id: &str,
+        until_ms: f64,
+        (by, reason): (Option<String>, Option<String>),
+        now_ms: f64,
+        one_shot: bool,
+    ) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let until = time(until_ms)?;
+        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
+        let changes = if one_shot {
+            self.core.shelve_one_shot(id, until, &who, now)
+        } else {
+            self.core.shelve(id, until, &who, now)
+        };
+        to_js(&changes.map_err(core_error)?)
     }
 }
