@@ -44,6 +44,9 @@ function paletteApi(RED) {
     /** The longest shelf, in ms. */
     maxShelveMs: wasm.load().maxShelveMs(),
 
+    /** Each alarm kind's priority as OPC UA's Severity (1 to 1000), the core's: { 'line-faulted': 800, ... }. */
+    alarmSeverities: wasm.load().alarmSeverities(),
+
     /** Interlock `id` as GET /sugarshack/state lists it ({ id, name, lines, queue, routines, runs, alarms, ... }), or null when it does not run. */
     interlock(id) {
       const il = readyInterlock(palette, id);

@@ -72,6 +72,30 @@ impl AlarmKind {
         }
     }
 
+    /// Every kind.
+    pub const ALL: [AlarmKind; 7] = [
+        Self::LineFaulted,
+        Self::DeviceOffline,
+        Self::DeviceStale,
+        Self::BusDisconnected,
+        Self::StateNotSaved,
+        Self::WaitingLong,
+        Self::HeldLong,
+    ];
+
+    /// Its priority as OPC UA's Severity (1 to 1000, most urgent highest):
+    /// the safety state not saved first, then a line locked out, a device or
+    /// the broker lost, stale feedback, and operations waiting or holding long.
+    pub fn severity(self) -> u16 {
+        match self {
+            Self::StateNotSaved => 900,
+            Self::LineFaulted => 800,
+            Self::DeviceOffline | Self::BusDisconnected => 700,
+            Self::DeviceStale => 500,
+            Self::WaitingLong | Self::HeldLong => 300,
+        }
+    }
+
     /// Its name in alarm ids and JSON, e.g. `"line-faulted"`.
     pub fn name(self) -> &'static str {
         match self {
@@ -840,6 +864,19 @@ mod tests {
             alarms.unshelve("nope", &bo, ms(1001)).unwrap_err().code(),
             "UNKNOWN_ALARM"
         );
+    }
+
+    #[test]
+    fn every_kind_has_a_severity_in_opc_ua_range_and_is_listed_once() {
+        let names: std::collections::BTreeSet<&str> =
+            AlarmKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), AlarmKind::ALL.len());
+        for kind in AlarmKind::ALL {
+            assert!((1..=1000).contains(&kind.severity()), "{kind:?}");
+            let back: AlarmKind = serde_json::from_value(serde_json::json!(kind.name())).unwrap();
+            assert_eq!(back, kind);
+        }
+        assert!(AlarmKind::StateNotSaved.severity() > AlarmKind::WaitingLong.severity());
     }
 
     #[test]

@@ -16,7 +16,8 @@ mod tracker;
 
 pub use alarm::Alarms;
 pub use contract::{
-    abnormal_event_kinds, codes, max_shelve_ms, max_status_chars, routine_reset_topic,
+    abnormal_event_kinds, alarm_severities, codes, max_shelve_ms, max_status_chars,
+    routine_reset_topic,
 };
 pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 pub use device::DeviceSide;
