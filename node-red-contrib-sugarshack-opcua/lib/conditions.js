@@ -108,6 +108,8 @@ class Conditions {
       optionals: ['ShelvingState'],
       maxTimeShelved: this.api.maxShelveMs,
     });
+    // What the alarm is about, by name (node-opcua would write the source's browse name with its namespace).
+    node.sourceName.setValueFromSource({ dataType: DataType.String, value: alarm.subject });
     node.acknowledge.bindMethod(this.acknowledge.bind(this));
     const shelving = node.shelvingState;
     shelving.timedShelve.bindMethod(this.timedShelve.bind(this));

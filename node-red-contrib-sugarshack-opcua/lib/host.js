@@ -67,6 +67,8 @@ class ServerHost {
     await this.server.initialize();
     if (!exceptionBased(NAMESPACE_URI)) this.log('warn', t('logs.sampled'));
     const addressSpace = this.server.engine.addressSpace;
+    // A&C's methods on the types (ConditionRefresh among them); conditions.js then rebinds the ones the core answers.
+    addressSpace.installAlarmsAndConditionsService();
     const common = { api, interlockId: settings.interlock };
     this.model = new PlantModel({ addressSpace, ...common, actuatorLimit: settings.actuatorLimit, name: settings.name });
     const onError = (err) => this.log('error', t('logs.failed', { message: err.message }));

@@ -237,7 +237,7 @@ class PlantModel {
     this.set(`${path}/FaultCause`, DataType.String, fault ? String(fault.cause) : '');
     this.set(`${path}/FaultNote`, DataType.String, fault && fault.note ? fault.note : '');
     this.set(`${path}/QueueLength`, DataType.UInt32, (line.waiting || []).length);
-    this.set(`${path}/ClearBlockers`, DataType.String, (line.clearBlockers || []).map((b) => b.text || b.kind));
+    this.set(`${path}/ClearBlockers`, DataType.String, (line.clearBlockers || []).map((b) => b.text));
   }
 
   /** Each operation of the document: running (granted), queued, or idle. */

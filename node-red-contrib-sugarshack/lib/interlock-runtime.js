@@ -761,7 +761,8 @@ class InterlockRuntime extends RuntimeBase {
     const queue = snapshot.queue
       .concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs })))
       .map((q) => ({ ...q, waitedMs: Math.max(0, now - q.sinceMs) }));
-    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons]));
+    // Each reason with the core's words for it (`text`).
+    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons.map((r, i) => ({ ...r, text: b.texts[i] }))]));
     const lines = snapshot.resources.map(({ name, state }) => {
       const hold = state.state === 'held' ? snapshot.holds.find((h) => h.operation === state.operation) : null;
       return {

@@ -12,88 +12,26 @@
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
-const bcrypt = require(require.resolve('bcryptjs', { paths: [require.resolve('@node-red/editor-api')] }));
-const { NodeRedProcess, waitFor } = require('./support/node-red');
-const { startMosquitto, freePort } = require('./support/mosquitto');
-const { startUaClient } = require('./support/opcua');
-const { startSimulator } = require('../../scripts/simulator');
-const { settingsFile } = require('../../scripts/lib/node-red-process');
-
-const ROOT = path.resolve(__dirname, '..', '..');
-const OPCUA_PACKAGE = path.join(ROOT, 'node-red-contrib-sugarshack-opcua');
-const PASSWORD = 'maple-syrup-2026';
-const NS_URI = 'https://github.com/sugarshack/sugarshack/UA/';
-const TAB = '0pc0a0000000f001';
-const SECURE = '0pc0a00000000101';
-const TRYOUT = '0pc0a00000000102';
-const PROBE_IL = '0pc0a00000000201';
-
-/** The case-study flows on `mqttPort`, two OPC UA servers on the plant's interlock, and a probe of grant times. */
-function flows(mqttPort, securePort, tryoutPort) {
-  const caseStudy = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8'))
-    .map((n) => (n.type === 'mqtt-broker' ? { ...n, port: String(mqttPort) } : n));
-  const interlock = caseStudy.find((n) => n.type === 'sugarshack-interlock').id;
-  const server = (id, name, port, extra) => ({
-    id, type: 'sugarshack-opcua-server', z: TAB, name, interlock, host: '127.0.0.1', port,
-    none: false, sign: true, encrypt: true, anonymous: false, trustClients: false, maxSessions: 20, actuatorLimit: 5000, conditionLimit: 500, ...extra,
-  });
-  return [
-    ...caseStudy,
-    { id: TAB, type: 'tab', label: 'OPC UA' },
-    server(SECURE, 'scada', securePort, {}),
-    server(TRYOUT, 'try it', tryoutPort, { none: true, anonymous: true, maxSessions: 40 }),
-    // The interlock's grant time, asked over HTTP: acquire a line of a second interlock, release it, answer.
-    { id: PROBE_IL, type: 'sugarshack-interlock', name: 'probe', resources: [{ name: 'PROBE' }], policy: 'greedy', queueBound: '1024', warnQueued: '', warnHeld: '', persist: false },
-    { id: '0pc0a00000000202', type: 'http in', z: TAB, url: '/probe', method: 'post', wires: [['0pc0a00000000203']] },
-    { id: '0pc0a00000000203', type: 'sugarshack-acquire', z: TAB, interlock: PROBE_IL, operation: 'probe', priority: '1', resources: 'PROBE', timeout: 0, wires: [['0pc0a00000000204']] },
-    { id: '0pc0a00000000204', type: 'sugarshack-release', z: TAB, interlock: PROBE_IL, operation: 'probe', wires: [['0pc0a00000000205']] },
-    { id: '0pc0a00000000205', type: 'http response', z: TAB, statusCode: '200', wires: [] },
-  ];
-}
+const { waitFor } = require('./support/node-red');
+const { PASSWORD, NS_URI, ROOT, startOpcuaPlant } = require('./support/opcua');
 
 describe('the OPC UA server, with an independent client (asyncua), on the case-study plant', function () {
   this.timeout(120000);
-  let broker; let sim; let red; let ua; let ns;
+  let plant; let sim; let red; let ua; let ns;
   let urls;
   let token;
   let clientCert;
 
   before(async function () {
-    broker = await startMosquitto();
-    sim = await startSimulator({ broker: broker.url, plant: path.join(ROOT, 'flows', 'plant.json'), seed: 7, reconnectMs: 200, log: () => {} });
-    const [securePort, tryoutPort] = [await freePort(), await freePort()];
-    urls = { secure: `opc.tcp://127.0.0.1:${securePort}`, tryout: `opc.tcp://127.0.0.1:${tryoutPort}` };
-    red = new NodeRedProcess({ flows: flows(new URL(broker.url).port, securePort, tryoutPort), tag: 'opcua' });
-    fs.symlinkSync(OPCUA_PACKAGE, path.join(red.dir, 'node_modules', 'node-red-contrib-sugarshack-opcua'), 'dir');
-    const hash = bcrypt.hashSync(PASSWORD, 8);
-    fs.writeFileSync(path.join(red.dir, 'settings.js'), settingsFile(red.dir, { context: 'localfilesystem', extra: `
-  mqttReconnectTime: 300,
-  adminAuth: { type: 'credentials', users: [
-    { username: 'ana', password: ${JSON.stringify(hash)}, permissions: '*' },
-    { username: 'viewer', password: ${JSON.stringify(hash)}, permissions: 'read' },
-  ] },` }));
-    ua = await startUaClient();
-    // The test client's certificate, trusted by hand as an administrator would (pki/trusted/certs).
-    clientCert = await ua.ask('cert', { dir: red.dir });
-    const trusted = path.join(red.dir, 'sugarshack-opcua', 'pki', 'trusted', 'certs');
-    fs.mkdirSync(trusted, { recursive: true });
-    fs.copyFileSync(clientCert.cert, path.join(trusted, 'sugarshack-tests.der'));
-    await red.start();
+    plant = await startOpcuaPlant({ tag: 'opcua' });
+    ({ sim, red, ua, urls, clientCert } = plant);
     token = await tokenOf('ana');
-    try {
-      await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= 2, 'both OPC UA servers listening', 60000);
-    } catch (err) {
-      throw new Error(`${err.message}:\n${red.log().slice(-4000)}`);
-    }
     await ua.ask('connect', { name: 'ana', url: urls.tryout, user: 'ana', password: PASSWORD });
     ns = await ua.ask('namespace', { name: 'ana', uri: NS_URI });
   });
 
   after(async function () {
-    if (ua) await ua.stop();
-    if (red) await red.finish(this.currentTest);
-    if (sim) await sim.stop();
-    if (broker) await broker.stop();
+    if (plant) await plant.stop(this.currentTest);
   });
 
   const id = (p) => `ns=${ns};s=${p}`;
@@ -125,5 +63,181 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
     assert.equal(actuators.length, plant.actuators.length, 'an object per actuator');
     const sensor = nodes.find((n) => n.path === 'Plant/Sensors/LT-3');
     assert.equal(sensor.type, 'i=2368', 'a sensor is an AnalogItemType');
+  });
+
+  const LINES = ['YEL', 'GRN', 'BLU', 'PUR', 'RED'];
+  const lineVars = ['State', 'Holder', 'Priority', 'Since', 'FaultCause', 'FaultNote', 'QueueLength', 'ClearBlockers'];
+  const interlockOf = async () => (await state()).interlocks[0];
+  const alarmOf = async (alarm) => (await interlockOf()).alarms.find((a) => a.id === alarm);
+  const strings = (value) => ({ type: 'StringArray', value });
+  const call = (name, method, args) => ua.ask('call', { name, objectId: id('Plant'), methodId: id(method), args });
+  const estop = (name, lines, reason) => call(name, 'EStop', [strings(lines), { type: 'String', value: reason }]);
+  const clear = (name, lines, reason, force = false) => call(name, 'Clear', [strings(lines), { type: 'String', value: reason }, { type: 'Boolean', value: force }]);
+  /** Polls the events received by session `name` until one satisfies `match`; returns it. */
+  async function eventWhere(name, match, what) {
+    let found = null;
+    let all = [];
+    try {
+      await waitFor(async () => {
+        all = await ua.ask('events', { name });
+        found = all.find(match) || null;
+        return found !== null;
+      }, what, 20000);
+    } catch (err) {
+      throw new Error(`${err.message}; received: ${JSON.stringify(all.slice(-3)).slice(0, 3000)}`);
+    }
+    return found;
+  }
+  const condition = (alarm) => id(`Alarms/${alarm}`);
+
+  it('reads every line: the values the state API gives', async function () {
+    const nodeIds = LINES.flatMap((l) => lineVars.map((v) => id(`Lines/${l}/${v}`)));
+    let read = null;
+    let api = null;
+    // The plant runs meanwhile: read both until they agree on every line's state and holder.
+    await waitFor(async () => {
+      read = await ua.ask('read', { name: 'ana', nodeIds });
+      api = (await interlockOf()).lines;
+      return LINES.every((l, i) => {
+        const line = api.find((x) => x.name === l);
+        const [st, holder] = [read[i * lineVars.length], read[i * lineVars.length + 1]];
+        return st.value === line.state.state && holder.value === (line.holder ? line.holder.operation : '');
+      });
+    }, 'the OPC UA lines to agree with the state API', 20000);
+    for (const r of read) assert.equal(r.status, 'Good', `${r.nodeId} reads Good`);
+    for (let i = 0; i < LINES.length; i++) {
+      const [st, , priority, , , , queued, blockers] = read.slice(i * lineVars.length, (i + 1) * lineVars.length);
+      assert.ok(['free', 'held', 'faulted'].includes(st.value), `${LINES[i]}: ${st.value}`);
+      assert.equal(typeof priority.value, 'number');
+      assert.equal(typeof queued.value, 'number');
+      assert.ok(Array.isArray(blockers.value), 'ClearBlockers is an array');
+    }
+  });
+
+  it('a subscription sees a line go held, then free, as an operation runs', async function () {
+    await ua.ask('subscribe', { name: 'ana', nodeIds: LINES.map((l) => id(`Lines/${l}/State`)), interval: 100 });
+    // The routines run operations by themselves: some line is taken and given back.
+    await waitFor(async () => {
+      const changes = (await ua.ask('changes', { name: 'ana' })).filter((c) => c.nodeId.endsWith('/State'));
+      return LINES.some((l) => {
+        const seq = changes.filter((c) => c.nodeId === id(`Lines/${l}/State`)).map((c) => c.value);
+        const held = seq.indexOf('held');
+        return held >= 0 && seq.indexOf('free', held) > held;
+      });
+    }, 'a line held then free', 110000);
+  });
+
+  it('EStop by method faults a line as the signed-in user, and the alarm comes as an event', async function () {
+    await ua.ask('subscribe_events', { name: 'ana' });
+    const answer = await estop('ana', ['BLU'], 'sap leak at the evaporator');
+    assert.equal(answer.status, 'Good', JSON.stringify(answer));
+    assert.deepEqual(answer.outputs[0], ['BLU']);
+    const event = await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['ActiveState/Id'] === true, 'the active line-faulted:BLU event');
+    assert.equal(event.Retain, true);
+    assert.equal(event.Severity, 800, 'the core\'s severity of a faulted line');
+    assert.equal(event['AckedState/Id'], false);
+    const line = (await interlockOf()).lines.find((l) => l.name === 'BLU');
+    assert.equal(line.state.state, 'faulted');
+    assert.equal(line.fault.note, 'sap leak at the evaporator');
+    const stopped = (await interlockOf()).recentEvents.find((e) => e.kind === 'resource-faulted' && e.resources.includes('BLU'));
+    assert.equal(stopped.by, 'ana', 'the e-stop is recorded as the OPC UA session\'s user');
+  });
+
+  it('Acknowledge with a comment: the state API reads it acknowledged, by the session\'s user, with the comment', async function () {
+    const before = await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['ActiveState/Id'] === true, 'the BLU alarm');
+    const latest = (await ua.ask('events', { name: 'ana' })).filter((e) => e.SourceName === 'BLU').pop();
+    const answer = await ua.ask('ack', { name: 'ana', conditionId: condition('line-faulted:BLU'), eventId: latest.EventId, comment: 'seen from the SCADA, crew sent' });
+    assert.equal(answer.status, 'Good', JSON.stringify(answer));
+    const alarm = await alarmOf('line-faulted:BLU');
+    assert.equal(alarm.state, 'active-acknowledged');
+    assert.deepEqual([alarm.acked.by, alarm.acked.reason], ['ana', 'seen from the SCADA, crew sent']);
+    const acked = await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['AckedState/Id'] === true, 'the acknowledged BLU event');
+    assert.deepEqual([acked.Comment, acked.ClientUserId], ['seen from the SCADA, crew sent', 'ana']);
+    assert.notEqual(acked.EventId, before.EventId);
+    // Acknowledging what is acknowledged: the core changes nothing, OPC UA says so.
+    const again = await ua.ask('ack', { name: 'ana', conditionId: condition('line-faulted:BLU'), eventId: acked.EventId, comment: 'twice' });
+    assert.equal(again.status, 'BadConditionBranchAlreadyAcked');
+    const stale = await ua.ask('ack', { name: 'ana', conditionId: condition('line-faulted:BLU'), eventId: before.EventId, comment: 'old event' });
+    assert.equal(stale.status, 'BadEventIdUnknown');
+  });
+
+  it('TimedShelve, Unshelve and OneShotShelve go through the core', async function () {
+    const shelved = await ua.ask('shelve', { name: 'ana', conditionId: condition('line-faulted:BLU'), how: 'timed', ms: 3600000 });
+    assert.equal(shelved.status, 'Good', JSON.stringify(shelved));
+    const alarm = await alarmOf('line-faulted:BLU');
+    assert.equal(alarm.shelved.by, 'ana');
+    assert.ok(Math.abs(alarm.shelved.untilMs - alarm.shelved.atMs - 3600000) < 1000, 'shelved for an hour');
+    await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['ShelvingState/CurrentState'] === 'TimedShelved' && e.SuppressedOrShelved === true, 'a TimedShelved event');
+    assert.equal((await ua.ask('shelve', { name: 'ana', conditionId: condition('line-faulted:BLU'), how: 'timed', ms: 8 * 24 * 3600000 })).status,
+      'BadShelvingTimeOutOfRange', 'the core refuses a shelf of more than a week');
+    assert.equal((await ua.ask('shelve', { name: 'ana', conditionId: condition('line-faulted:BLU'), how: 'unshelve' })).status, 'Good');
+    assert.equal((await alarmOf('line-faulted:BLU')).shelved, undefined, 'off the shelf');
+    await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['ShelvingState/CurrentState'] === 'Unshelved' && e['AckedState/Id'] === true, 'an Unshelved event');
+    assert.equal((await ua.ask('shelve', { name: 'ana', conditionId: condition('line-faulted:BLU'), how: 'unshelve' })).status, 'BadConditionNotShelved');
+    assert.equal((await ua.ask('shelve', { name: 'ana', conditionId: condition('line-faulted:BLU'), how: 'oneshot' })).status, 'Good');
+    assert.equal((await alarmOf('line-faulted:BLU')).shelved.oneShot, true);
+  });
+
+  it('Clear is refused while a device of the line is offline (a Bad status and the reasons), then accepted; a one-shot shelf ends with it', async function () {
+    await sim.inject({ fault: 'dead', device: 'ctrl-3' });
+    await waitFor(async () => (await readOne(id('Devices/ctrl-3/Online'))).value === false, 'ctrl-3 offline over OPC UA', 20000);
+    const refused = await clear('ana', ['BLU'], 'looks fine from here');
+    assert.equal(refused.status, 'BadInvalidState', JSON.stringify(refused));
+    assert.deepEqual(refused.outputs[0], [], 'nothing cleared');
+    assert.ok(refused.outputs[1].some((r) => r.startsWith('BLU: ') && r.includes('ctrl-3') && r.includes('offline')), JSON.stringify(refused.outputs[1]));
+    assert.ok((await readOne(id('Lines/BLU/ClearBlockers'))).value.some((r) => r.includes('ctrl-3')), 'the line shows why');
+    assert.equal((await interlockOf()).lines.find((l) => l.name === 'BLU').state.state, 'faulted');
+    await sim.inject({ fault: 'revive', device: 'ctrl-3' });
+    await waitFor(async () => (await readOne(id('Lines/BLU/ClearBlockers'))).value.length === 0, 'BLU clearable (lockout confirmed, ctrl-3 back)', 30000);
+    const cleared = await clear('ana', ['BLU'], 'crew checked the pan');
+    assert.equal(cleared.status, 'Good', JSON.stringify(cleared));
+    assert.deepEqual(cleared.outputs, [['BLU'], []]);
+    const event = (await interlockOf()).recentEvents.find((e) => e.kind === 'cleared' && e.resources.includes('BLU'));
+    assert.deepEqual([event.by, event.reason], ['ana', 'crew checked the pan']);
+    // Its condition ended, and with it the one-shot shelf (acknowledged and normal: off the list).
+    await waitFor(async () => (await alarmOf('line-faulted:BLU')) === undefined, 'the BLU alarm off the list', 10000);
+    await eventWhere('ana', (e) => e.SourceName === 'BLU' && e['ActiveState/Id'] === false && e.Retain === false, 'the BLU condition back to normal');
+  });
+
+  it('ConditionRefresh after reconnecting returns the active alarms', async function () {
+    assert.equal((await estop('ana', ['PUR'], 'drill: refresh')).status, 'Good');
+    await eventWhere('ana', (e) => e.SourceName === 'PUR' && e['ActiveState/Id'] === true, 'the PUR alarm');
+    await ua.ask('disconnect', { name: 'ana' });
+    await ua.ask('connect', { name: 'ana2', url: urls.tryout, user: 'ana', password: PASSWORD });
+    await ua.ask('subscribe_events', { name: 'ana2' });
+    const refreshed = await ua.ask('condition_refresh', { name: 'ana2' });
+    assert.equal(refreshed.status, 'Good', JSON.stringify(refreshed));
+    const pur = await eventWhere('ana2', (e) => e.SourceName === 'PUR' && e['ActiveState/Id'] === true, 'the PUR alarm again, refreshed');
+    assert.equal(pur.Retain, true);
+    const active = (await interlockOf()).alarms.filter((a) => a.state.startsWith('active') && a.id.startsWith('line-faulted:'));
+    const got = new Set((await ua.ask('events', { name: 'ana2' })).filter((e) => e['ActiveState/Id'] === true).map((e) => e.ConditionName));
+    for (const a of active) assert.ok(got.has(a.id), `${a.id} refreshed`);
+  });
+
+  it('an anonymous, read-only or wrong-password session cannot call a method', async function () {
+    await assert.rejects(ua.ask('connect', { name: 'anon-secure', url: urls.secure, security: 'SignAndEncrypt', cert: clientCert.cert, key: clientCert.key }),
+      'anonymous is off by default');
+    await assert.rejects(ua.ask('connect', { name: 'wrong', url: urls.tryout, user: 'ana', password: 'not her password' }), 'a wrong password signs nobody in');
+    await ua.ask('connect', { name: 'anon', url: urls.tryout });
+    assert.equal((await readOne(id('Lines/RED/State'), 'anon')).status, 'Good', 'anonymous may read here');
+    assert.equal((await estop('anon', ['RED'], 'anonymous')).status, 'BadUserAccessDenied');
+    await ua.ask('connect', { name: 'viewer', url: urls.tryout, user: 'viewer', password: PASSWORD });
+    assert.equal((await estop('viewer', ['RED'], 'read only')).status, 'BadUserAccessDenied');
+    assert.equal((await clear('viewer', ['PUR'], 'read only')).status, 'BadUserAccessDenied');
+    const pur = (await ua.ask('events', { name: 'ana2' })).filter((e) => e.SourceName === 'PUR').pop();
+    assert.equal((await ua.ask('ack', { name: 'viewer', conditionId: condition('line-faulted:PUR'), eventId: pur.EventId, comment: 'no' })).status, 'BadUserAccessDenied');
+    const stops = (await interlockOf()).recentEvents.filter((e) => e.kind === 'resource-faulted' && ['anonymous', 'read only'].includes(e.reason));
+    assert.deepEqual(stops, [], 'nothing was stopped by them');
+    await ua.ask('disconnect', { name: 'anon' });
+    await ua.ask('disconnect', { name: 'viewer' });
+  });
+
+  it('a SignAndEncrypt session signs in and reads; the server made its certificate in the user directory', async function () {
+    await ua.ask('connect', { name: 'scada', url: urls.secure, security: 'SignAndEncrypt', cert: clientCert.cert, key: clientCert.key, user: 'ana', password: PASSWORD });
+    const [st] = await ua.ask('read', { name: 'scada', nodeIds: [id('Lines/PUR/State')] });
+    assert.deepEqual([st.status, st.value], ['Good', 'faulted']);
+    assert.equal((await clear('scada', ['PUR'], 'refresh drill over', true)).status, 'Good', 'a forced clear over SignAndEncrypt');
+    assert.ok(fs.existsSync(path.join(red.dir, 'sugarshack-opcua', 'pki', 'own', 'certs', 'certificate.pem')), 'the server certificate');
+    await ua.ask('disconnect', { name: 'scada' });
   });
 });

@@ -7,10 +7,25 @@
 //   await ua.ask('connect', { name: 'ana', url, user: 'ana', password });
 //   const nodes = await ua.ask('browse', { name: 'ana' });
 //   await ua.stop();
+//
+// startOpcuaPlant() runs the case-study plant with two OPC UA servers for a
+// suite (or a benchmark): Mosquitto, the simulator, Node-RED with adminAuth
+// (ana may write, viewer may only read) and the OPC UA package, and this client.
+const fs = require('fs');
 const path = require('path');
 const { spawn, execFileSync } = require('child_process');
+const { NodeRedProcess, waitFor } = require('./node-red');
+const { startMosquitto, freePort } = require('./mosquitto');
+const { startSimulator } = require('../../../scripts/simulator');
+const { settingsFile } = require('../../../scripts/lib/node-red-process');
 
 const PYTHON = process.env.PYTHON || 'python3';
+const ROOT = path.resolve(__dirname, '..', '..', '..');
+const OPCUA_PACKAGE = path.join(ROOT, 'node-red-contrib-sugarshack-opcua');
+const PASSWORD = 'maple-syrup-2026';
+const NS_URI = 'https://github.com/sugarshack/sugarshack/UA/';
+const TAB = '0pc0a0000000f001';
+const PROBE_IL = '0pc0a00000000201';
 
 function asyncuaMissing() {
   try {
@@ -79,4 +94,79 @@ function startUaClient() {
   return started.then(() => client);
 }
 
-module.exports = { startUaClient, asyncuaMissing };
+
+/**
+ * The case-study flows on `mqttPort`, two OPC UA servers on the plant's
+ * interlock (`secure`: Basic256Sha256 only, anonymous off, as a SCADA reaches
+ * it; `tryout`: on loopback with None and anonymous reading, for trying it),
+ * and POST /probe, which acquires and releases a line of a second interlock:
+ * the interlock's grant time as seen from outside.
+ */
+function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, servers = true } = {}) {
+  const base = (plantFlows || JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8')))
+    .map((n) => (n.type === 'mqtt-broker' ? { ...n, port: String(mqttPort) } : n));
+  const interlock = base.find((n) => n.type === 'sugarshack-interlock').id;
+  const server = (id, name, port, extra) => ({
+    id, type: 'sugarshack-opcua-server', z: TAB, name, interlock, host: '127.0.0.1', port,
+    none: false, sign: true, encrypt: true, anonymous: false, trustClients: false, maxSessions: 20, actuatorLimit: 5000, conditionLimit: 500, ...extra,
+  });
+  return [
+    ...base,
+    { id: TAB, type: 'tab', label: 'OPC UA' },
+    ...(servers ? [
+      server('0pc0a00000000101', 'scada', securePort, {}),
+      server('0pc0a00000000102', 'try it', tryoutPort, { none: true, anonymous: true, maxSessions: 40 }),
+    ] : []),
+    { id: PROBE_IL, type: 'sugarshack-interlock', name: 'probe', resources: [{ name: 'PROBE' }], policy: 'greedy', queueBound: '1024', warnQueued: '', warnHeld: '', persist: false },
+    { id: '0pc0a00000000202', type: 'http in', z: TAB, url: '/probe', method: 'post', wires: [['0pc0a00000000203']] },
+    { id: '0pc0a00000000203', type: 'sugarshack-acquire', z: TAB, interlock: PROBE_IL, operation: 'probe', priority: '1', resources: 'PROBE', timeout: 0, wires: [['0pc0a00000000204']] },
+    { id: '0pc0a00000000204', type: 'sugarshack-release', z: TAB, interlock: PROBE_IL, operation: 'probe', wires: [['0pc0a00000000205']] },
+    { id: '0pc0a00000000205', type: 'http response', z: TAB, statusCode: '200', wires: [] },
+  ];
+}
+
+/**
+ * Mosquitto, the simulator on the case-study plant (`speed` times the wall
+ * clock), Node-RED with adminAuth and the OPC UA package on opcuaFlows(), and
+ * the asyncua client with a certificate trusted by hand (pki/trusted/certs),
+ * as an administrator trusts a SCADA's. Resolves once both servers listen.
+ */
+async function startOpcuaPlant({ tag = 'opcua', speed = 4, plantFlows = null, simPlant = path.join(ROOT, 'flows', 'plant.json'), servers = true, extraSettings = '' } = {}) {
+  const broker = await startMosquitto();
+  const sim = simPlant ? await startSimulator({ broker: broker.url, plant: simPlant, seed: 7, reconnectMs: 200, speed, log: () => {} }) : null;
+  const [securePort, tryoutPort] = [await freePort(), await freePort()];
+  const urls = { secure: `opc.tcp://127.0.0.1:${securePort}`, tryout: `opc.tcp://127.0.0.1:${tryoutPort}` };
+  const red = new NodeRedProcess({ flows: opcuaFlows(new URL(broker.url).port, securePort, tryoutPort, { plantFlows, servers }), tag });
+  fs.symlinkSync(OPCUA_PACKAGE, path.join(red.dir, 'node_modules', 'node-red-contrib-sugarshack-opcua'), 'dir');
+  // Node-RED's own bcrypt, as its `node-red admin hash-pw` uses.
+  const bcrypt = require(require.resolve('bcryptjs', { paths: [require.resolve('@node-red/editor-api')] }));
+  const hash = bcrypt.hashSync(PASSWORD, 8);
+  fs.writeFileSync(path.join(red.dir, 'settings.js'), settingsFile(red.dir, { context: 'localfilesystem', extra: `
+  mqttReconnectTime: 300,
+  adminAuth: { type: 'credentials', users: [
+    { username: 'ana', password: ${JSON.stringify(hash)}, permissions: '*' },
+    { username: 'viewer', password: ${JSON.stringify(hash)}, permissions: 'read' },
+  ] },${extraSettings}` }));
+  const ua = await startUaClient();
+  const clientCert = await ua.ask('cert', { dir: red.dir });
+  const trusted = path.join(red.dir, 'sugarshack-opcua', 'pki', 'trusted', 'certs');
+  fs.mkdirSync(trusted, { recursive: true });
+  fs.copyFileSync(clientCert.cert, path.join(trusted, 'sugarshack-tests.der'));
+  const stop = async (test) => {
+    await ua.stop();
+    await red.finish(test);
+    if (sim) await sim.stop();
+    await broker.stop();
+  };
+  try {
+    await red.start();
+    if (servers) await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= 2, 'both OPC UA servers listening', 90000);
+  } catch (err) {
+    const log = red.log().slice(-4000);
+    await stop();
+    throw new Error(`${err.message}:\n${log}`);
+  }
+  return { broker, sim, red, ua, urls, clientCert, stop };
+}
+
+module.exports = { startUaClient, asyncuaMissing, startOpcuaPlant, opcuaFlows, PASSWORD, NS_URI, ROOT };
