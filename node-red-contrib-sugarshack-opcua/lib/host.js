@@ -65,6 +65,12 @@ class ServerHost {
       isAuditing: false,
     });
     await this.server.initialize();
+    // node-opcua makes each session's diagnostics objects in the address space, about 100 ms of the
+    // event loop each: a client opening sessions by the hundred would hold the interlock up for seconds.
+    // They are not made (the Server object's diagnostics summary stays).
+    this.server.on('create_session', (session) => {
+      if (typeof session._createSessionObjectInAddressSpace === 'function') session._createSessionObjectInAddressSpace = () => false;
+    });
     if (!exceptionBased(NAMESPACE_URI)) this.log('warn', t('logs.sampled'));
     const addressSpace = this.server.engine.addressSpace;
     // A&C's methods on the types (ConditionRefresh among them); conditions.js then rebinds the ones the core answers.

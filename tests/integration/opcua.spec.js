@@ -240,4 +240,48 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
     assert.ok(fs.existsSync(path.join(red.dir, 'sugarshack-opcua', 'pki', 'own', 'certs', 'certificate.pem')), 'the server certificate');
     await ua.ask('disconnect', { name: 'scada' });
   });
+
+  it('a client browsing in a tight loop, 100 sessions and a subscription to everything at 10 ms do not stop the plant: the interlock grants in its usual time', async function () {
+    this.timeout(240000);
+    /** POST /probe: a grant and a release on an interlock of the same process, answered over HTTP (ms). */
+    const probe = async () => {
+      const t0 = performance.now();
+      const res = await fetch(`http://127.0.0.1:${red.port}/probe`, { method: 'POST', signal: AbortSignal.timeout(10000) });
+      assert.equal(res.status, 200, 'the probe was granted');
+      await res.text();
+      return performance.now() - t0;
+    };
+    const summary = (ms) => {
+      const sorted = [...ms].sort((a, b) => a - b);
+      const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+      return { n: sorted.length, median: at(0.5), p99: at(0.99), max: sorted[sorted.length - 1] };
+    };
+    const quiet = [];
+    for (let i = 0; i < 50; i++) quiet.push(await probe());
+    await ua.ask('connect', { name: 'hostile', url: urls.tryout });
+    const everything = await ua.ask('subscribe_all', { name: 'hostile', interval: 10 });
+    await ua.ask('connect', { name: 'browser', url: urls.tryout });
+    await ua.ask('browse_loop', { name: 'browser', seconds: 20 });
+    await ua.ask('sessions', { url: urls.tryout, count: 100, hold_seconds: 10 });
+    const loaded = [];
+    const hostile = ua.ask('stop_hostile');
+    let done = false;
+    hostile.then(() => { done = true; }, () => { done = true; });
+    while (!done) loaded.push(await probe());
+    const results = await hostile;
+    const [browsing, sessions] = results;
+    assert.ok(results.every((r) => !r.error), JSON.stringify(results));
+    const notifications = (await ua.ask('changes', { name: 'hostile' })).length;
+    const [q, l] = [summary(quiet), summary(loaded)];
+    const f = (x) => x.toFixed(1);
+    console.log(`      grant round trip (POST /probe: acquire, release, answer), quiet:  n ${q.n}, median ${f(q.median)} ms, p99 ${f(q.p99)} ms, max ${f(q.max)} ms`);
+    console.log(`      under the hostile clients:                                       n ${l.n}, median ${f(l.median)} ms, p99 ${f(l.p99)} ms, max ${f(l.max)} ms (median x${f(l.median / q.median)})`);
+    console.log(`      hostile: ${browsing.rounds} full browses, ${sessions.opened} sessions opened and ${sessions.refused} refused of 100, ${everything.count} variables subscribed at 10 ms (${notifications} notifications received)`);
+    assert.ok(browsing.rounds > 0 && everything.count > 300, 'the hostile clients ran');
+    // Sessions created at once are counted as they activate: a few more than 40 may get through the burst.
+    assert.ok(sessions.refused >= 40, `the server refuses sessions past its 40 (${sessions.opened} opened)`);
+    assert.ok(l.n >= 10, 'the interlock kept granting all along');
+    await ua.ask('disconnect', { name: 'hostile' });
+    await ua.ask('disconnect', { name: 'browser' });
+  });
 });

@@ -56,7 +56,13 @@ function startUaClient() {
     while ((nl = buffer.indexOf('\n')) >= 0) {
       const line = buffer.slice(0, nl);
       buffer = buffer.slice(nl + 1);
-      const answer = JSON.parse(line);
+      let answer;
+      try {
+        answer = JSON.parse(line);
+      } catch {
+        stderr += `\nnot JSON from the client: ${line.slice(0, 300)}`;
+        continue;
+      }
       if (answer.ready) {
         ready();
         continue;

@@ -30,6 +30,8 @@ def status_name(code):
 
 def plain(value):
     """A value as JSON can carry it."""
+    if isinstance(value, float) and value != value:
+        return None  # NaN: an actuator never reported (JSON has no NaN)
     if isinstance(value, (str, int, float, bool)) or value is None:
         return value
     if isinstance(value, (bytes, bytearray)):
@@ -225,16 +227,20 @@ class Bridge:
 
     # ---- hostile clients -------------------------------------------------------------
 
-    async def browse_loop(self, name, seconds):
-        """Browses the whole plant again and again for `seconds` (in the background); answers at once."""
+    async def browse_loop(self, name, seconds, parallel=4):
+        """Browses the whole plant again and again for `seconds`, `parallel` crawls at once (in the background); answers at once."""
         async def loop():
             end = time.time() + seconds
             rounds = 0
             while time.time() < end:
                 await self.browse(name, "ns=0;i=85", 4)
                 rounds += 1
-            return {"rounds": rounds}
-        task = asyncio.ensure_future(loop())
+            return rounds
+
+        async def run():
+            counts = await asyncio.gather(*[loop() for _ in range(parallel)])
+            return {"rounds": sum(counts)}
+        task = asyncio.ensure_future(run())
         self.hostile.append(task)
         return {}
 
