@@ -46,12 +46,26 @@ class Conditions {
     this.waiting = new Map(); // alarm id -> alarm, waiting for its condition to be made
     this.making = false;
     this.alarms = new Map(); // the core's list, last seen
+    this.prepared = new Map(); // alarm id -> { id, kind, subject }: made ahead, before any occurrence
     this.stopped = false;
     this.bindTypeMethods();
   }
 
   stop() {
     this.stopped = true;
+  }
+
+  /**
+   * Conditions made ahead for alarms that may come (each line's fault), so
+   * that their first event does not wait for node-opcua to make them.
+   */
+  prepare(alarms) {
+    for (const a of alarms) {
+      if (this.byId.has(a.id) || this.waiting.has(a.id) || this.byId.size + this.waiting.size >= this.limit) continue;
+      this.prepared.set(a.id, a);
+      this.waiting.set(a.id, a);
+    }
+    this.makeNext();
   }
 
   /** The core's alarm list now (api.interlock().alarms). */
@@ -82,11 +96,14 @@ class Conditions {
       const [id] = this.waiting.keys();
       this.waiting.delete(id);
       const alarm = this.alarms.get(id);
-      if (alarm) {
+      const prepared = this.prepared.get(id);
+      this.prepared.delete(id);
+      if (alarm || prepared) {
         try {
-          const entry = { node: this.make(alarm), seen: '' };
+          // Made ahead and not listed: it starts as a condition back to normal, with no event.
+          const entry = { node: this.make(alarm || prepared), seen: alarm ? '' : 'gone' };
           this.byId.set(id, entry);
-          this.mirror(entry, alarm);
+          if (alarm) this.mirror(entry, alarm);
         } catch (err) {
           this.onError(err);
         }

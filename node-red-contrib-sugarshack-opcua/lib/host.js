@@ -122,6 +122,8 @@ class ServerHost {
     if (!il) return;
     this.anyFaulted = (il.lines || []).some((l) => l.fault);
     this.conditions.sync(il.alarms || []);
+    // Each line's fault alarm made ahead: an e-stop's event goes out at once.
+    this.conditions.prepare((il.lines || []).map((l) => ({ id: this.api.alarmId('line-faulted', l.name), kind: 'line-faulted', subject: l.name })));
   }
 
   showStatus() {

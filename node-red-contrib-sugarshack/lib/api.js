@@ -44,6 +44,9 @@ function paletteApi(RED) {
     /** The longest shelf, in ms. */
     maxShelveMs: wasm.load().maxShelveMs(),
 
+    /** An alarm's id, as the state API lists it: `kind:subject` (`line-faulted:YEL`). */
+    alarmId: (kind, subject) => `${kind}:${subject}`,
+
     /** Each alarm kind's priority as OPC UA's Severity (1 to 1000), the core's: { 'line-faulted': 800, ... }. */
     alarmSeverities: wasm.load().alarmSeverities(),
 

@@ -31,6 +31,11 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
   });
 
   after(async function () {
+    // Any failure: Node-RED's errors and warnings, for the reader of the failure.
+    if (red && this.test.parent.tests.some((t) => t.state === 'failed')) {
+      console.log(red.log().split('\n').filter((l) => /error|warn/i.test(l) && !/variant|pcks/.test(l)).slice(-40).join('\n'));
+      console.log(`asyncua's stderr:\n${ua.stderr().slice(-3000)}`);
+    }
     if (plant) await plant.stop(this.currentTest);
   });
 
@@ -82,7 +87,7 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
         all = await ua.ask('events', { name });
         found = all.find(match) || null;
         return found !== null;
-      }, what, 20000);
+      }, what, 60000);
     } catch (err) {
       throw new Error(`${err.message}; received: ${JSON.stringify(all.slice(-3)).slice(0, 3000)}`);
     }

@@ -108,7 +108,7 @@ function startUaClient() {
  * and POST /probe, which acquires and releases a line of a second interlock:
  * the interlock's grant time as seen from outside.
  */
-function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, servers = true } = {}) {
+function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, servers = ['secure', 'tryout'] } = {}) {
   const base = (plantFlows || JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8')))
     .map((n) => (n.type === 'mqtt-broker' ? { ...n, port: String(mqttPort) } : n));
   const interlock = base.find((n) => n.type === 'sugarshack-interlock').id;
@@ -119,10 +119,8 @@ function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, serve
   return [
     ...base,
     { id: TAB, type: 'tab', label: 'OPC UA' },
-    ...(servers ? [
-      server('0pc0a00000000101', 'scada', securePort, {}),
-      server('0pc0a00000000102', 'try it', tryoutPort, { none: true, anonymous: true, maxSessions: 40 }),
-    ] : []),
+    ...(servers.includes('secure') ? [server('0pc0a00000000101', 'scada', securePort, {})] : []),
+    ...(servers.includes('tryout') ? [server('0pc0a00000000102', 'try it', tryoutPort, { none: true, anonymous: true, maxSessions: 40 })] : []),
     { id: PROBE_IL, type: 'sugarshack-interlock', name: 'probe', resources: [{ name: 'PROBE' }], policy: 'greedy', queueBound: '1024', warnQueued: '', warnHeld: '', persist: false },
     { id: '0pc0a00000000202', type: 'http in', z: TAB, url: '/probe', method: 'post', wires: [['0pc0a00000000203']] },
     { id: '0pc0a00000000203', type: 'sugarshack-acquire', z: TAB, interlock: PROBE_IL, operation: 'probe', priority: '1', resources: 'PROBE', timeout: 0, wires: [['0pc0a00000000204']] },
@@ -133,26 +131,30 @@ function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, serve
 
 /**
  * Mosquitto, the simulator on the case-study plant (`speed` times the wall
- * clock), Node-RED with adminAuth and the OPC UA package on opcuaFlows(), and
+ * clock; none when `simPlant` is null), Node-RED with adminAuth and the OPC
+ * UA package (unless not `installed`) on opcuaFlows() (`servers`: which of
+ * the two; `preamble`: code for the top of settings.js), and
  * the asyncua client with a certificate trusted by hand (pki/trusted/certs),
  * as an administrator trusts a SCADA's. Resolves once both servers listen.
  */
-async function startOpcuaPlant({ tag = 'opcua', speed = 4, plantFlows = null, simPlant = path.join(ROOT, 'flows', 'plant.json'), servers = true, extraSettings = '' } = {}) {
+async function startOpcuaPlant({
+  tag = 'opcua', speed = 4, plantFlows = null, simPlant = path.join(ROOT, 'flows', 'plant.json'), servers = ['secure', 'tryout'], installed = true, preamble = '',
+} = {}) {
   const broker = await startMosquitto();
   const sim = simPlant ? await startSimulator({ broker: broker.url, plant: simPlant, seed: 7, reconnectMs: 200, speed, log: () => {} }) : null;
   const [securePort, tryoutPort] = [await freePort(), await freePort()];
   const urls = { secure: `opc.tcp://127.0.0.1:${securePort}`, tryout: `opc.tcp://127.0.0.1:${tryoutPort}` };
   const red = new NodeRedProcess({ flows: opcuaFlows(new URL(broker.url).port, securePort, tryoutPort, { plantFlows, servers }), tag });
-  fs.symlinkSync(OPCUA_PACKAGE, path.join(red.dir, 'node_modules', 'node-red-contrib-sugarshack-opcua'), 'dir');
+  if (installed) fs.symlinkSync(OPCUA_PACKAGE, path.join(red.dir, 'node_modules', 'node-red-contrib-sugarshack-opcua'), 'dir');
   // Node-RED's own bcrypt, as its `node-red admin hash-pw` uses.
   const bcrypt = require(require.resolve('bcryptjs', { paths: [require.resolve('@node-red/editor-api')] }));
   const hash = bcrypt.hashSync(PASSWORD, 8);
-  fs.writeFileSync(path.join(red.dir, 'settings.js'), settingsFile(red.dir, { context: 'localfilesystem', extra: `
+  fs.writeFileSync(path.join(red.dir, 'settings.js'), preamble + settingsFile(red.dir, { context: 'localfilesystem', extra: `
   mqttReconnectTime: 300,
   adminAuth: { type: 'credentials', users: [
     { username: 'ana', password: ${JSON.stringify(hash)}, permissions: '*' },
     { username: 'viewer', password: ${JSON.stringify(hash)}, permissions: 'read' },
-  ] },${extraSettings}` }));
+  ] },` }));
   const ua = await startUaClient();
   const clientCert = await ua.ask('cert', { dir: red.dir });
   const trusted = path.join(red.dir, 'sugarshack-opcua', 'pki', 'trusted', 'certs');
@@ -166,7 +168,7 @@ async function startOpcuaPlant({ tag = 'opcua', speed = 4, plantFlows = null, si
   };
   try {
     await red.start();
-    if (servers) await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= 2, 'both OPC UA servers listening', 90000);
+    await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= servers.length, 'the OPC UA servers listening', 300000);
   } catch (err) {
     const log = red.log().slice(-4000);
     await stop();

@@ -56,13 +56,18 @@ def plain(value):
 
 
 class Recorder:
-    """Receives a subscription's data changes and events."""
+    """Receives a subscription's data changes and events (only counts them when `count_only`)."""
 
-    def __init__(self):
+    def __init__(self, count_only=False):
         self.changes = []
         self.events = []
+        self.count_only = count_only
+        self.count = 0
 
     def datachange_notification(self, node, val, data):
+        self.count += 1
+        if self.count_only:
+            return
         dv = data.monitored_item.Value
         self.changes.append({
             "nodeId": node.nodeid.to_string(), "value": plain(val),
@@ -89,7 +94,7 @@ class Bridge:
 
     # ---- sessions -----------------------------------------------------------------
 
-    async def connect(self, name, url, user=None, password=None, security=None, cert=None, key=None, timeout=10):
+    async def connect(self, name, url, user=None, password=None, security=None, cert=None, key=None, timeout=10, count_only=False):
         client = Client(url, timeout=timeout)
         client.application_uri = "urn:sugarshack:tests:asyncua"
         if security and security != "None":
@@ -100,7 +105,7 @@ class Bridge:
             client.set_password(password)
         await client.connect()
         self.clients[name] = client
-        self.recorders[name] = Recorder()
+        self.recorders[name] = Recorder(count_only)
         return {"endpoint": client.security_policy.URI if client.security_policy else "None"}
 
     async def disconnect(self, name):
@@ -164,11 +169,22 @@ class Bridge:
     async def changes(self, name):
         return self.recorders[name].changes
 
+    async def count(self, name):
+        """How many data changes session `name` received."""
+        return self.recorders[name].count
+
+    async def subscribe_ids(self, name, ns, paths, interval=100, sampling=250, chunk=5000):
+        """Subscribes to our nodes by path (`s=<path>` in namespace `ns`), in calls of `chunk` items."""
+        for i in range(0, len(paths), chunk):
+            await self.subscribe(name, [f"ns={ns};s={p}" for p in paths[i:i + chunk]], interval, sampling)
+        return {"count": len(paths)}
+
     async def subscribe_events(self, name, interval=100):
         sub = await self.subscription(name, interval)
         client = self.client(name)
         alarm_type = client.get_node(ua.NodeId(ua.ObjectIds.AlarmConditionType))
-        await sub.subscribe_alarms_and_conditions(client.nodes.server, alarm_type)
+        # A queue for a burst of events (a refresh, an e-stop of several lines): 0 would keep only the newest.
+        await sub.subscribe_alarms_and_conditions(client.nodes.server, alarm_type, queuesize=1000)
         return {}
 
     async def events(self, name):
