@@ -58,10 +58,10 @@ async function measure(red, lagFile) {
 }
 
 /** A run: Node-RED on `plantFlows` (case study when null) with `servers`; `client(ua, ns)` subscribes. */
-async function run(label, { servers = [], installed = true, plantFlows = null, simPlant, client = null, publisher = false }) {
+async function run(label, { servers = [], installed = true, plantFlows = null, simPlant, client = null, publisher = false, startTimeoutMs }) {
   const lagFile = path.join(os.tmpdir(), `sugarshack-opcua-lag-${process.pid}-${label.replace(/\W+/g, '-')}.jsonl`);
   const plant = await startOpcuaPlant({
-    tag: 'opcua-bench', speed: 1, servers, installed, plantFlows, ...(simPlant === undefined ? {} : { simPlant }), preamble: lagMonitor(lagFile),
+    tag: 'opcua-bench', speed: 1, servers, installed, plantFlows, ...(simPlant === undefined ? {} : { simPlant }), preamble: lagMonitor(lagFile), startTimeoutMs,
   });
   let pub = null;
   let subscribed = 0;
@@ -126,7 +126,7 @@ async function main() {
     ]) console.log(row(await run(label, options), bare));
   }
   if (args.includes('--skip-large')) return;
-  const large = { plantFlows: largeFlows(), simPlant: null, publisher: true };
+  const large = { plantFlows: largeFlows(), simPlant: null, publisher: true, startTimeoutMs: 900000 };
   const bigBare = await run(`${PANELS * IO_PER_PANEL} I/O, palette alone`, { ...large, installed: false });
   console.log(row(bigBare));
   console.log(row(await run(`${PANELS * IO_PER_PANEL} I/O, a server, every value subscribed`, { ...large, servers: ['tryout'], client: everyDevice }), bigBare));

@@ -139,6 +139,7 @@ function opcuaFlows(mqttPort, securePort, tryoutPort, { plantFlows = null, serve
  */
 async function startOpcuaPlant({
   tag = 'opcua', speed = 4, plantFlows = null, simPlant = path.join(ROOT, 'flows', 'plant.json'), servers = ['secure', 'tryout'], installed = true, preamble = '',
+  startTimeoutMs = 90000,
 } = {}) {
   const broker = await startMosquitto();
   const sim = simPlant ? await startSimulator({ broker: broker.url, plant: simPlant, seed: 7, reconnectMs: 200, speed, log: () => {} }) : null;
@@ -167,8 +168,8 @@ async function startOpcuaPlant({
     await broker.stop();
   };
   try {
-    await red.start();
-    await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= servers.length, 'the OPC UA servers listening', 300000);
+    await red.start({ timeoutMs: startTimeoutMs });
+    await waitFor(() => (red.log().match(/OPC UA server on/g) || []).length >= servers.length, 'the OPC UA servers listening', startTimeoutMs);
   } catch (err) {
     const log = red.log().slice(-4000);
     await stop();
