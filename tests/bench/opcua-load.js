@@ -99,9 +99,15 @@ const everyDevice = async (ua, ns) => {
   return ua.ask('subscribe_ids', { name: 'scada', ns, paths, interval: SAMPLING_MS, sampling: SAMPLING_MS });
 };
 
-/** The scaling plant's flow with an interlock bound to its plant (the server serves an interlock). */
+/**
+ * The scaling plant's flow with an interlock bound to its plant (the server
+ * serves an interlock), whose one line is panel 1 (an interlock needs a line).
+ */
 function largeFlows() {
-  const flow = flowOf(PANELS, 1883);
+  const flow = flowOf(PANELS, 1883).map((n) => (n.type !== 'sugarshack-plant' ? n : {
+    ...n,
+    plant: { ...n.plant, resources: [{ id: 'L1' }], actuators: n.plant.actuators.map((a) => (a.device === 'ctrl-1' ? { ...a, resource: 'L1' } : a)) },
+  }));
   return [...flow, { id: 'il', type: 'sugarshack-interlock', name: '95,200 I/O', plant: 'pl', resources: [], policy: 'greedy', queueBound: '1024', warnQueued: '', warnHeld: '', persist: false }];
 }
 

@@ -50,6 +50,8 @@ function startUaClient() {
     child.once('exit', (code) => reject(new Error(`the asyncua client exited (${code}): ${stderr.slice(-2000)}`)));
   });
   child.stderr.on('data', (d) => { stderr = (stderr + d).slice(-20000); });
+  // It died: what it was asked fails with its last words (the exit handler), not the test process.
+  child.stdin.on('error', () => {});
   child.stdout.on('data', (d) => {
     buffer += d;
     let nl;

@@ -95,7 +95,9 @@ class Bridge:
     # ---- sessions -----------------------------------------------------------------
 
     async def connect(self, name, url, user=None, password=None, security=None, cert=None, key=None, timeout=10, count_only=False):
-        client = Client(url, timeout=timeout)
+        # The watchdog's read of the server state waits as long as any request: on a loaded machine
+        # a large plant's server answers late, which is not a lost connection.
+        client = Client(url, timeout=timeout, watchdog_intervall=max(1.0, timeout / 4))
         client.application_uri = "urn:sugarshack:tests:asyncua"
         if security and security != "None":
             mode = ua.MessageSecurityMode.SignAndEncrypt if security == "SignAndEncrypt" else ua.MessageSecurityMode.Sign
