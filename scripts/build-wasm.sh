@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the wasm facade crate and writes Node.js bindings into
-# node-red-contrib-sugarshack/wasm/. Needs the tools from scripts/setup.sh.
+# node-red-contrib-sugarshack/wasm/, and the plant document's JSON Schema
+# (generated from the core's types) into node-red-contrib-sugarshack/schema/.
+# Needs the tools from scripts/setup.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -42,3 +44,8 @@ echo "build-wasm: wasm-bindgen --target nodejs -> $out/"
 wasm-bindgen --target nodejs --out-dir "$out" --out-name sugarshack_wasm "$built"
 wasm="$out/sugarshack_wasm_bg.wasm"
 echo "build-wasm: $(du -h "$wasm" | cut -f1) $wasm"
+
+# A native build of the core with its `schema` feature, which the wasm leaves out.
+schema=node-red-contrib-sugarshack/schema/plant.schema.json
+echo "build-wasm: plant document schema -> $schema"
+cargo run -q -p sugarshack-schema -- "$schema"

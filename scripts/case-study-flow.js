@@ -47,7 +47,10 @@ function build(plant) {
     autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '15', cleansession: true, autoUnsubscribe: true,
     birthTopic: '', closeTopic: '', willTopic: '',
   });
-  const plantNode = add({ id: nid('plant'), type: 'sugarshack-plant', name: plant.name || 'sugar shack', plant });
+  // `$schema` points a file's editor at the schema from where the file lies; the node's copy lies nowhere.
+  const document = { ...plant };
+  delete document.$schema;
+  const plantNode = add({ id: nid('plant'), type: 'sugarshack-plant', name: plant.name || 'sugar shack', plant: document });
   const interlock = add({
     id: nid('interlock'), type: 'sugarshack-interlock', name: 'lines', plant: plantNode.id, resources: [],
     policy: 'greedy', queueBound: 1024, warnQueued: 900, warnHeld: 1800, persist: true,

@@ -2,9 +2,11 @@
 // Writes the Node-RED flows of the container recipe (deploy/node-red/flows.json
 // and flows_cred.json) from flows/case-study.json: the same plant, its broker
 // and a journal to the database, every address and secret a `${ENV}` reference
-// that Node-RED fills in from the container's environment when it starts.
+// that Node-RED fills in from the container's environment when it starts; and
+// QuestDB's statements for the journal's tables (deploy/questdb/schema.sql)
+// from the journal's schema (lib/journal/schema.js).
 // usage: node scripts/deploy-flows.js [--check]
-//   --check: exit 1 if the committed files are not what flows/case-study.json gives.
+//   --check: exit 1 if the committed files are not what their sources give.
 'use strict';
 const crypto = require('crypto');
 const fs = require('fs');
@@ -12,7 +14,17 @@ const path = require('path');
 
 const ROOT = path.resolve(__dirname, '..');
 const SOURCE = path.join(ROOT, 'flows', 'case-study.json');
-const OUT = { flows: path.join(ROOT, 'deploy', 'node-red', 'flows.json'), credentials: path.join(ROOT, 'deploy', 'node-red', 'flows_cred.json') };
+const OUT = {
+  flows: path.join(ROOT, 'deploy', 'node-red', 'flows.json'),
+  credentials: path.join(ROOT, 'deploy', 'node-red', 'flows_cred.json'),
+  schema: path.join(ROOT, 'deploy', 'questdb', 'schema.sql'),
+};
+
+/** deploy/questdb/schema.sql: one statement per line, as deploy/questdb/schema.sh reads them. */
+function schemaSql() {
+  const { questdbStatements } = require('../node-red-contrib-sugarshack/lib/journal/schema');
+  return `-- Written by scripts/deploy-flows.js from lib/journal/schema.js; run by schema.sh, one statement per line.\n${questdbStatements().join('\n')}\n`;
+}
 
 const nid = (name) => crypto.createHash('sha1').update(`deploy:${name}`).digest('hex').slice(0, 16);
 
@@ -51,20 +63,20 @@ function build(caseStudy) {
 
 function main() {
   const built = build(JSON.parse(fs.readFileSync(SOURCE, 'utf8')));
-  const texts = { flows: `${JSON.stringify(built.flows, null, 2)}\n`, credentials: `${JSON.stringify(built.credentials, null, 2)}\n` };
+  const texts = { flows: `${JSON.stringify(built.flows, null, 2)}\n`, credentials: `${JSON.stringify(built.credentials, null, 2)}\n`, schema: schemaSql() };
   if (process.argv.includes('--check')) {
     const stale = Object.keys(OUT).filter((k) => !fs.existsSync(OUT[k]) || fs.readFileSync(OUT[k], 'utf8') !== texts[k]);
     if (stale.length) {
-      console.error(`${stale.map((k) => path.relative(ROOT, OUT[k])).join(', ')} out of date with flows/case-study.json: run node scripts/deploy-flows.js`);
+      console.error(`${stale.map((k) => path.relative(ROOT, OUT[k])).join(', ')} out of date with flows/case-study.json or the journal's schema: run node scripts/deploy-flows.js`);
       process.exit(1);
     }
-    console.log('deploy/node-red flows match flows/case-study.json');
+    console.log('deploy/node-red flows match flows/case-study.json, deploy/questdb/schema.sql the journal\'s schema');
     return;
   }
   for (const k of Object.keys(OUT)) fs.writeFileSync(OUT[k], texts[k]);
-  console.log(`deploy-flows: ${built.flows.length} nodes -> ${path.relative(ROOT, OUT.flows)}, credentials -> ${path.relative(ROOT, OUT.credentials)}`);
+  console.log(`deploy-flows: ${built.flows.length} nodes -> ${path.relative(ROOT, OUT.flows)}, credentials -> ${path.relative(ROOT, OUT.credentials)}, tables -> ${path.relative(ROOT, OUT.schema)}`);
 }
 
 if (require.main === module) main();
 
-module.exports = { build, OUT };
+module.exports = { build, schemaSql, OUT };

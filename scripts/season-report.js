@@ -5,6 +5,9 @@
 // file with the paper's Figs. 11-15 drawn by Apache ECharts (its build is
 // copied into the page, so the file opens offline), the counts behind each
 // figure, faults, warnings, operator actions, and who held each line when.
+// The journal delivers at least once: a row a retry sent twice is in a
+// database that does not deduplicate twice. Rows are counted once per
+// (writer, seq), the row's name; how many copies were set aside is reported.
 //
 // usage: npm run season-report -- [--from 2026-03-01] [--to 2026-05-01]
 //          [--journal .run/journal | --url http://host:8428] [--out report/season.html]
@@ -43,14 +46,19 @@ function timeOf(text, what) {
   return ms;
 }
 
-/** Rows from a server's export API (VictoriaMetrics): one row per `<table>_seq` sample, its fields gathered back. */
+/**
+ * Rows from a server's export API (VictoriaMetrics): one row per `<table>_seq`
+ * sample (a row sent twice is two samples there), its other fields gathered back
+ * from the samples of the same series and time.
+ */
 async function readServer(url, { fromMs, toMs }) {
   const params = new URLSearchParams({ 'match[]': '{__name__=~"sugarshack_.*"}', start: String(Math.floor((Number.isFinite(fromMs) ? fromMs : 0) / 1000)) });
   if (Number.isFinite(toMs)) params.set('end', String(Math.ceil(toMs / 1000)));
   const res = await fetch(`${url.replace(/\/$/, '')}/api/v1/export`, { method: 'POST', body: params });
   if (!res.ok) throw new Error(`${url}: ${res.status} ${await res.text()}`);
   const tables = Object.values(TABLES).map((t) => t.name);
-  const rows = new Map();
+  const rows = [];
+  const fields = new Map(); // table, tags and time -> the fields written there
   for (const line of (await res.text()).split('\n').filter(Boolean)) {
     const { metric, values, timestamps } = JSON.parse(line);
     const { __name__: name, ...tags } = metric;
@@ -59,11 +67,37 @@ async function readServer(url, { fromMs, toMs }) {
     const field = name.slice(table.length + 1);
     values.forEach((v, i) => {
       const key = `${table}\u0000${JSON.stringify(tags)}\u0000${timestamps[i]}`;
-      if (!rows.has(key)) rows.set(key, { table, tags, fields: {}, at: timestamps[i] });
-      rows.get(key).fields[field] = v;
+      if (!fields.has(key)) fields.set(key, {});
+      fields.get(key)[field] = v;
+      if (field === 'seq') rows.push({ table, tags, fields: { seq: v }, at: timestamps[i], key });
     });
   }
-  return [...rows.values()].filter((r) => r.at >= fromMs && r.at < toMs).sort((a, b) => a.at - b.at || a.fields.seq - b.fields.seq);
+  return rows
+    .map(({ key, ...row }) => ({ ...row, fields: { ...fields.get(key), seq: row.fields.seq } }))
+    .filter((r) => r.at >= fromMs && r.at < toMs)
+    .sort((a, b) => a.at - b.at || a.fields.seq - b.fields.seq);
+}
+
+/**
+ * Each row once: a row is named by its writer and seq, and copies of it (sent
+ * again after an unanswered request) are set aside and counted. Rows without a
+ * writer (journals of earlier versions, whose seq began again at each start)
+ * cannot be told apart and are all kept.
+ */
+function uniqueRows(rows) {
+  const seen = new Set();
+  const kept = [];
+  let duplicates = 0;
+  for (const row of rows) {
+    const key = row.tags.writer ? `${row.tags.writer}\u0000${row.fields.seq}` : null;
+    if (key !== null && seen.has(key)) {
+      duplicates++;
+      continue;
+    }
+    if (key !== null) seen.add(key);
+    kept.push(row);
+  }
+  return { rows: kept, duplicates };
 }
 
 // ---- figures ------------------------------------------------------------------
@@ -171,8 +205,9 @@ const RENDER_SPAN = `function (params, api) {
   return { type: 'rect', shape: { x: start, y: y - h / 2, width: Math.max(1, end - start), height: h }, style: api.style() };
 }`;
 
-/** The report's numbers and the figures' options, from journal rows. */
-function analyse(rows, { fromMs = -Infinity, toMs = Infinity } = {}) {
+/** The report's numbers and the figures' options, from journal rows (each counted once per writer and seq). */
+function analyse(allRows, { fromMs = -Infinity, toMs = Infinity } = {}) {
+  const { rows, duplicates } = uniqueRows(allRows);
   const timing = (series) => rows.filter((r) => r.table === TABLES.timing.name && r.tags.series === series);
   const events = rows.filter((r) => r.table === TABLES.event.name);
   const tof = bySubject(timing('tof'));
@@ -201,6 +236,7 @@ function analyse(rows, { fromMs = -Infinity, toMs = Infinity } = {}) {
     from: Number.isFinite(fromMs) ? fromMs : (rows[0] ? rows[0].at : null),
     to: Number.isFinite(toMs) ? toMs : end,
     rows: rows.length,
+    duplicates,
     datapoints,
     events: events.length,
     figures,
@@ -223,7 +259,7 @@ function table(headers, rows) {
 function html(report, echartsSource) {
   const figs = Object.entries(report.figures);
   const summary = {
-    from: report.from, to: report.to, rows: report.rows, datapoints: report.datapoints, events: report.events,
+    from: report.from, to: report.to, rows: report.rows, duplicates: report.duplicates, datapoints: report.datapoints, events: report.events,
     figures: Object.fromEntries(figs.map(([k, f]) => [k, f.n])), faults: report.faults.length, warnings: report.warnings.length, actions: report.actions.length,
   };
   const options = Object.fromEntries(figs.map(([k, f]) => [k, f.option]));
@@ -233,7 +269,7 @@ function html(report, echartsSource) {
 <style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}.fig{height:420px;margin:1em 0}table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #ccc;padding:2px 6px;text-align:left}.none{color:#777}</style>
 </head><body>
 <h1>Season report</h1>
-<p>${esc(iso(report.from))} to ${esc(iso(report.to))}: ${report.rows} journal rows, ${report.datapoints} datapoints, ${report.events} events.</p>
+<p>${esc(iso(report.from))} to ${esc(iso(report.to))}: ${report.rows} journal rows, ${report.datapoints} datapoints, ${report.events} events${report.duplicates ? ` (and ${report.duplicates} copies of rows sent twice, each counted once)` : ''}.</p>
 <h2>Counts behind each figure</h2>
 ${table(['figure', 'n', 'by subject'], figs.map(([, f]) => [f.title, total(f.n), typeof f.n === 'number' ? '' : Object.entries(f.n).map(([k, v]) => `${k}: ${v}`).join(', ')]))}
 ${figs.map(([k]) => `<div class="fig" id="${k}"></div>`).join('\n')}
@@ -287,7 +323,7 @@ async function main(argv) {
     fs.mkdirSync(o.svg, { recursive: true });
     for (const [k, svg] of Object.entries(svgs(report))) fs.writeFileSync(path.join(o.svg, `${k}.svg`), svg);
   }
-  console.log(`season report: ${o.out} (${report.rows} rows from ${o.url || o.journal}; figures: ${Object.entries(report.figures).map(([k, f]) => `${k} n=${total(f.n)}`).join(', ')})`);
+  console.log(`season report: ${o.out} (${report.rows} rows from ${o.url || o.journal}, ${report.duplicates} duplicates set aside; figures: ${Object.entries(report.figures).map(([k, f]) => `${k} n=${total(f.n)}`).join(', ')})`);
   return report;
 }
 
@@ -298,4 +334,4 @@ if (require.main === module) {
   });
 }
 
-module.exports = { analyse, html, svgs, main, parseArgs, occupancy };
+module.exports = { analyse, html, svgs, main, parseArgs, occupancy, uniqueRows, readServer };

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Full test run: setup, rustfmt and clippy gates, Rust tests (native, doctests
 # and wasm under Node), the control report, wasm build, the JS type check,
-# Node-RED flow tests, integration tests against a real Mosquitto (and the OPC
-# UA server against asyncua), then the install tests of the palette and of the
-# OPC UA package on Node-RED 4.1 and 5.0.
+# the docs (links, site, snippets), Node-RED flow tests, integration tests
+# against a real Mosquitto (and the OPC UA server against asyncua), then the
+# install tests of the palette and of the OPC UA package on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -96,8 +96,8 @@ cargo clippy -p sugarshack-wasm --target wasm32-unknown-unknown --all-targets --
 stage "repetition (jscpd: no code written twice in the Rust and JS, tests included)"
 npx jscpd .
 
-stage "cargo test (sugarshack-core, control experiments)"
-counted cargo test -p sugarshack-core -p sugarshack-experiments
+stage "cargo test (sugarshack-core, plant schema, control experiments)"
+counted cargo test -p sugarshack-core -p sugarshack-schema -p sugarshack-experiments
 
 stage "doctests (the core's documented entry points)"
 counted cargo test --workspace --doc
@@ -120,6 +120,14 @@ bash scripts/build-wasm.sh
 # After the build: the palette's JS is checked against the facade's generated .d.ts.
 stage "typecheck (tsc --noEmit)"
 npx tsc -p tsconfig.json --noEmit
+
+# After the build: the code table is compared with the facade's, and plant snippets go through its check.
+stage "docs: links and anchors, the generated code table, the site (VitePress), every snippet"
+node scripts/docs/links.js
+node scripts/docs/codes.js --check
+node scripts/docs/plant-reference.js --check
+node scripts/docs/site.js
+counted npx mocha --timeout 10000 --exit 'tests/docs/**/*.spec.js'
 
 stage "Node-RED flow tests (mocha)"
 [ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }

@@ -1,9 +1,10 @@
 // @ts-check
 'use strict';
-// A condition over live sensor values, written in JSONata against an object of
-// the listed sensors by id: `LT-3` >= 12000. It passes only on fresh values: the
-// core refuses a read with a stale or missing sensor, and the condition then
-// does not hold (it never passes on old data).
+// A condition over live sensor values (`LT-3` >= 12000), in the core's
+// condition language: the core reads it once (refusing a mistake at deploy)
+// and says whether it holds on the values read. It passes only on fresh
+// values: the core refuses a read with a stale or missing sensor, and the
+// condition then does not hold (it never passes on old data).
 const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
 const { performance } = require('perf_hooks');
@@ -12,33 +13,30 @@ const { clock } = require('./clock');
 
 class Condition {
   /**
-   * Compiles `expression` now, so a typo is refused at deploy; `sensors` are ids of
-   * the plant; `layer` names whose overhead its evaluations count as (lib/stats.js).
+   * Reads `expression` over `sensors` (ids of the plant) in the plant's core now,
+   * so that a mistake is refused at deploy (the core's INVALID_CONDITION or
+   * UNKNOWN_SENSOR); `layer` names whose overhead its evaluations count as (lib/stats.js).
    */
-  constructor(RED, node, expression, sensors, plant, layer) {
+  constructor(expression, sensors, plant, layer) {
     this.layer = layer;
     this.text = expression;
     this.sensors = sensors;
-    this.handles = sensors.map((id) => plant.sensorHandle(id));
-    try {
-      this.expression = RED.util.prepareJSONataExpression(expression, node);
-    } catch (err) {
-      throw SugarshackError.of('INVALID_CONDITION', 'conditionNotJsonata', { condition: expression, message: err.message });
-    }
-    this.RED = RED;
     this.plant = plant;
+    this.read();
+  }
+
+  /** Its handles in the plant's current core (a new one after a trap knows nothing of the old one's). */
+  read() {
+    this.core = this.plant.t;
+    this.handles = this.sensors.map((id) => this.plant.sensorHandle(id));
+    this.handle = this.plant.compileCondition(this.text, this.sensors);
   }
 
   /**
-   * Evaluates at `now`: resolves { met, values, reason } where reason says why
-   * it did not hold (a stale sensor, or the values). Rejects on a result that
-   * is not true or false.
+   * Evaluates at `now`: { met, values, reason } where reason says why it did
+   * not hold (a stale sensor, arithmetic with no number, or the values).
    */
   check(now) {
-    // The overhead sample is the synchronous part only (the sensors read from
-    // the core, the input, JSONata started): JSONata goes on in promise jobs,
-    // between which any other work of the event loop may run, and a span to
-    // the answer timed that work as ours.
     const started = performance.now();
     try {
       return this.evaluate(now);
@@ -50,23 +48,17 @@ class Condition {
   evaluate(now) {
     let values;
     try {
+      if (this.core !== this.plant.t) this.read();
       values = this.plant.readSensors(this.handles, now);
     } catch (err) {
-      return Promise.resolve({ met: false, values: null, reason: err.message });
+      return { met: false, values: null, reason: err.message };
     }
     const input = {};
     this.sensors.forEach((id, i) => { input[id] = values[i]; });
-    return new Promise((resolve, reject) => {
-      this.RED.util.evaluateJSONataExpression(this.expression, input, (err, result) => {
-        if (err) {
-          reject(SugarshackError.of('INVALID_CONDITION', 'conditionFailed', { condition: this.text, message: err.message }));
-        } else if (typeof result !== 'boolean') {
-          reject(SugarshackError.of('INVALID_CONDITION', 'conditionNotBoolean', { condition: this.text, got: JSON.stringify(result) }));
-        } else {
-          resolve({ met: result, values: input, reason: result ? null : text('labels.values', { values: JSON.stringify(input) }) });
-        }
-      });
-    });
+    const holds = this.plant.conditionHolds(this.handle, values);
+    if (holds === true) return { met: true, values: input, reason: null };
+    const reason = typeof holds === 'string' ? holds : text('labels.values', { values: JSON.stringify(input) });
+    return { met: false, values: input, reason };
   }
 
   /**
@@ -76,8 +68,6 @@ class Condition {
    */
   waitUntil(timeoutMs, signal = {}) {
     return new Promise((resolve, reject) => {
-      let busy = false;
-      let again = false;
       let lastReason = text('labels.neverChecked');
       let finished = false;
       const finish = (fn, value) => {
@@ -90,22 +80,15 @@ class Condition {
       };
       const evaluate = () => {
         if (finished) return;
-        if (busy) {
-          again = true;
+        let outcome;
+        try {
+          outcome = this.check(clock.now());
+        } catch (err) {
+          finish(reject, err);
           return;
         }
-        busy = true;
-        this.check(clock.now()).then((outcome) => {
-          busy = false;
-          if (outcome.met) finish(resolve, outcome.values);
-          else {
-            lastReason = outcome.reason;
-            if (again) {
-              again = false;
-              evaluate();
-            }
-          }
-        }, (err) => finish(reject, err));
+        if (outcome.met) finish(resolve, outcome.values);
+        else lastReason = outcome.reason;
       };
       const timer = clock.setTimeout(() => finish(reject, SugarshackError.of(
         'CONDITION_TIMEOUT',

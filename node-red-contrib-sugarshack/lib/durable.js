@@ -7,6 +7,8 @@
 // of the directory). A marker file says "this interlock has run before", so a
 // state that is missing, empty or unreadable after a previous run is reported
 // as lost instead of being taken for a first start with every line free.
+// Only bytes go through here: what a document says, and whether it is this
+// node's, the core decides (it seals and opens them).
 //
 // Effects wait for their state: a runtime calls `committer.change(effect)`
 // after changing state, and the effect (a grant sent, a lockout published, an
@@ -16,11 +18,9 @@ const fs = require('fs');
 const path = require('path');
 const i18n = require('./i18n');
 
-const FORMAT = 'sugarshack-interlock-state';
-/** What a FileStore keeps: its files' prefix, the format its documents carry, the marker's text. */
+/** What a FileStore keeps: its files' prefix and the marker's text. */
 const INTERLOCK_STATE = {
   kind: 'interlock',
-  format: FORMAT,
   note: 'This interlock has run here: if its state file is missing, it starts with every line faulted.\n',
 };
 // A saved state is read whole at start; past this it is refused as corrupt.
@@ -48,7 +48,7 @@ class FileStore {
   /**
    * @param {string} dir the state directory
    * @param {string} name the owning node's id
-   * @param {{ kind: string, format: string, note: string }} [of] what is kept (an interlock's state unless told)
+   * @param {{ kind: string, note: string }} [of] what is kept (an interlock's state unless told)
    */
   constructor(dir, name, of = INTERLOCK_STATE) {
     this.dir = dir;
@@ -68,30 +68,21 @@ class FileStore {
   }
 
   /**
-   * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', doc }
-   * or { kind: 'lost', why } (ran before, state missing or unreadable).
+   * What is on disk: { kind: 'first' } (never ran here), { kind: 'saved', text }
+   * (the document, for the core to open) or { kind: 'lost', why } (ran before,
+   * state missing, empty or unreadable).
    */
   read() {
-    let text = null;
     let why = null;
     try {
       const size = fs.statSync(this.file).size;
       if (size === 0) why = i18n.text('labels.stateFileEmpty', { file: this.file });
       else if (size > MAX_STATE_BYTES) why = i18n.text('labels.stateFileTooLarge', { file: this.file, size, max: MAX_STATE_BYTES });
-      else text = fs.readFileSync(this.file, 'utf8');
+      else return { kind: 'saved', text: fs.readFileSync(this.file, 'utf8') };
     } catch (err) {
+      if (err.code === 'ENOENT' && !fs.existsSync(this.marker)) return { kind: 'first' };
       why = err.code === 'ENOENT' ? i18n.text('labels.stateFileMissing', { file: this.file }) : i18n.text('labels.stateFileUnreadable', { file: this.file, message: err.message });
     }
-    if (text !== null) {
-      try {
-        const doc = JSON.parse(text);
-        if (doc && doc.format === this.of.format) return { kind: 'saved', doc };
-        why = i18n.text('labels.stateFileForeign', { file: this.file, kind: this.of.kind });
-      } catch (err) {
-        why = i18n.text('labels.stateFileNotJson', { file: this.file, message: err.message.slice(0, 100) });
-      }
-    }
-    if (!fs.existsSync(this.marker)) return text === null ? { kind: 'first' } : { kind: 'lost', why };
     return { kind: 'lost', why };
   }
 
@@ -355,4 +346,4 @@ class Committer {
   }
 }
 
-module.exports = { FileStore, MemoryStore, Committer, stateDir, FORMAT };
+module.exports = { FileStore, MemoryStore, Committer, stateDir };

@@ -14,7 +14,7 @@ const { AlarmBook, conditionsOf } = require('./alarms');
 const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
-const { FileStore, MemoryStore, Committer, stateDir, FORMAT } = require('./durable');
+const { FileStore, MemoryStore, Committer, stateDir } = require('./durable');
 const { RuntimeBase, drainingStatus } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
@@ -45,8 +45,10 @@ class InterlockRuntime extends RuntimeBase {
     this.runs = new Set();
     this.routines = new Map(); // routine id -> RoutineHost
     this.savedRoutines = {}; // routine snapshots not yet taken up by a host
+    this.savedAlarms = undefined; // the alarms saved with the state, for the next AlarmBook
     this.heldBack = []; // waiting requests taken out of the queue while a deploy drains
     this.lostState = null; // why the state was unknown at start, until those lines are cleared
+    this.started = null; // how it last started: { outcome: 'new' | 'restored' | 'lost', reason, added, dropped }
     this.tickTimer = null;
     this.alarms = null; // AlarmBook, with the core
     this.alarmTimer = null;
@@ -105,16 +107,15 @@ class InterlockRuntime extends RuntimeBase {
     });
   }
 
-  /** The durable document: the interlock's snapshot and its routines' states, written as one. */
+  /** The durable document: the interlock's snapshot, its routines' states and its alarms, sealed as one by the core. */
   document() {
-    const now = clock.now();
     const routines = { ...this.savedRoutines };
     for (const [id, host] of this.routines) {
       const snapshot = host.snapshot();
       if (snapshot) routines[id] = snapshot;
     }
     const alarms = this.alarms ? this.alarms.snapshot() : undefined;
-    return JSON.stringify({ format: FORMAT, version: 1, savedAtMs: now, interlock: this.core.snapshot(now), routines, alarms });
+    return this.core.seal(this.id, this.settings.plantId || undefined, routines, alarms, clock.now());
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -134,12 +135,12 @@ class InterlockRuntime extends RuntimeBase {
     }
     if (saved.kind === 'first' && this.persist) {
       const legacy = await this.legacySnapshot();
-      if (legacy) saved = { kind: 'saved', doc: { interlock: legacy, routines: {} } };
+      if (legacy) saved = { kind: 'carried-over', snapshot: legacy };
     }
     if (this.ended) return;
     try {
       this.core = this.guard(() => this.build(saved, clock.now()));
-      this.alarms = this.guard(() => this.alarmBook(saved));
+      this.alarms = this.guard(() => this.alarmBook());
     } catch (err) {
       this.fail(err);
       return;
@@ -158,13 +159,28 @@ class InterlockRuntime extends RuntimeBase {
     this.replayParked();
   }
 
-  /** The core interlock from what was saved: restored, all faulted when it was lost, or new. */
+  /**
+   * The core interlock from what was saved: opened from its document by the
+   * core (restored, or all faulted when it is not this interlock's usable
+   * state), carried over from a context store, all faulted when the file was
+   * lost, or new. Notes how it started, the routines' and alarms' states saved
+   * with it.
+   */
   build(saved, now) {
     const { Interlock } = wasm.load();
+    this.savedRoutines = {};
+    this.savedAlarms = undefined;
+    this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
     if (saved.kind === 'saved') {
+      const opened = Interlock.open(this.config, this.id, this.settings.plantId || undefined, this.store.where, saved.text, now);
+      if (opened.lost) this.startedLost(opened.lost);
+      else this.startedRestored(opened);
+      return opened.interlock;
+    }
+    if (saved.kind === 'carried-over') {
       try {
-        const core = Interlock.restore(this.config, saved.doc.interlock, false, false, now);
-        this.savedRoutines = isPlainObject(saved.doc.routines) ? saved.doc.routines : {};
+        const core = Interlock.restore(this.config, saved.snapshot, false, false, now);
+        this.started.outcome = 'restored';
         return core;
       } catch (err) {
         if (wasm.isTrap(err)) throw err;
@@ -172,16 +188,29 @@ class InterlockRuntime extends RuntimeBase {
       }
     }
     if (saved.kind === 'lost') {
-      this.lostState = saved.why;
-      this.log('error', i18n.text('logs.stateUnknown', { why: saved.why }));
+      this.startedLost(saved.why);
       return Interlock.unknownState(this.config, i18n.text('labels.stateUnknown', { why: saved.why }), now);
     }
     return new Interlock(this.config);
   }
 
+  startedLost(why) {
+    this.lostState = why;
+    this.started = { outcome: 'lost', reason: why, added: [], dropped: [] };
+    this.log('error', i18n.text('logs.stateUnknown', { why }));
+  }
+
+  startedRestored({ added, dropped, routines, alarms }) {
+    this.started = { outcome: 'restored', reason: null, added, dropped };
+    this.savedRoutines = routines;
+    this.savedAlarms = alarms || undefined;
+    for (const line of added) this.log('warn', i18n.text('logs.lineAdded', { line }));
+    for (const line of dropped) this.log('warn', i18n.text('logs.lineDropped', { line }));
+  }
+
   /** The alarms as saved with the state (acknowledgements and shelves survive a restart), or none yet. */
-  alarmBook(saved) {
-    return new AlarmBook(saved.kind === 'saved' ? saved.doc.alarms : undefined, (text) => this.log('warn', text));
+  alarmBook() {
+    return new AlarmBook(this.savedAlarms, (text) => this.log('warn', text));
   }
 
   /** An interlock saved by an earlier version, in the global context store: read once, then the file takes over. */
@@ -368,7 +397,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     try {
       this.core = this.build(saved, clock.now());
-      this.alarms = this.alarmBook(saved);
+      this.alarms = this.alarmBook();
     } catch (err) {
       this.state = 'starting';
       this.fail(err);
@@ -409,15 +438,18 @@ class InterlockRuntime extends RuntimeBase {
   withdrawOrphans(nodeId) {
     const now = clock.now();
     const answers = [];
+    let withdrawn = 0;
     for (const handle of Array.from(this.core.queuedOperations()).reverse()) {
       const entry = this.pending.get(handle);
       if (!entry || entry.nodeId !== nodeId || entry.node) continue;
       this.pending.take(handle);
       const count = this.guard(() => this.core.cancel(handle, now));
       answers.push(...this.grantsOf(count, now));
+      withdrawn++;
     }
     this.heldBack = this.heldBack.filter((entry) => entry.nodeId !== nodeId || entry.node);
-    if (answers.length) this.changed(() => answers.forEach((answer) => answer()));
+    // A withdrawal is a change: saved, and its `cancelled` event sent, now.
+    if (withdrawn) this.changed(() => answers.forEach((answer) => answer()));
     else this.refreshStatus();
   }
 
@@ -783,6 +815,7 @@ class InterlockRuntime extends RuntimeBase {
       queue,
       routines: [...this.routines.values()].map((host) => host.describe()),
       lostState: this.lostState,
+      started: this.started,
       alarms: this.alarms ? this.alarms.list() : [],
       alarmChanges: this.alarms ? this.alarms.changes : [],
       recentEvents: this.alarms ? this.alarms.events : [],
@@ -827,10 +860,6 @@ timeLayer(InterlockRuntime, 'interlock', ['acquire', 'release', 'cancel', 'fault
 function requireName(name) {
   if (!name) throw SugarshackError.of('MISSING_OPERATION', 'operationRequired');
   return name;
-}
-
-function isPlainObject(value) {
-  return value !== null && typeof value === 'object' && !Array.isArray(value);
 }
 
 

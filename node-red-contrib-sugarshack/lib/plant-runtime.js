@@ -23,10 +23,9 @@ const i18n = require('./i18n');
 const TICK_MS = 250;
 
 class PlantRuntime extends RuntimeBase {
-  /** settings: { plant (the document), error }; RED for JSONata conditions. */
-  constructor({ RED, id, settings }) {
+  /** settings: { plant (the document), error }. */
+  constructor({ id, settings }) {
     super('plant');
-    this.RED = RED;
     this.id = id;
     this.swapOrder = 0; // before the interlocks bound to it
     this.plant = settings.plant;
@@ -213,6 +212,16 @@ class PlantRuntime extends RuntimeBase {
   /** Fresh values of `handles` at `now`; throws SENSOR_STALE / SENSOR_NO_VALUE. */
   readSensors(handles, now) {
     return this.t.readSensors(Uint32Array.from(handles), now);
+  }
+
+  /** The core's handle of `text` over sensor ids `sensors`; throws INVALID_CONDITION / UNKNOWN_SENSOR. */
+  compileCondition(text, sensors) {
+    return this.t.condition(text, sensors);
+  }
+
+  /** Whether condition `handle` holds on `values`: true, false, or why it gives no answer. */
+  conditionHolds(handle, values) {
+    return this.t.conditionHolds(handle, values);
   }
 
   /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */

@@ -3,13 +3,13 @@
 // What a plant does with the samples each device msg brings: the conditions
 // (wait steps, routine transitions, wait nodes) watching its sensors are
 // evaluated again, the values go to the journal, the device's time of flight
-// to the stats. Conditions over the same text and sensors are compiled once.
+// to the stats. Conditions over the same text and sensors are read once.
 const { Condition } = require('./condition');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
 
 class SensorWatch {
-  /** plant: the PlantRuntime (its core `t`, ids by handle, and RED for JSONata). */
+  /** plant: the PlantRuntime (its core `t` and ids by handle). */
   constructor(plant) {
     this.plant = plant;
     this.watchers = new Map(); // sensor handle -> Set of functions called on each new sample
@@ -27,13 +27,13 @@ class SensorWatch {
     };
   }
 
-  /** A compiled condition over sensors of this plant, shared by everything waiting on the same text. */
+  /** A condition over sensors of this plant, read by the core once and shared by everything waiting on the same text. */
   condition(text, sensors) {
     const key = `${text}\u0000${sensors.join('\u0000')}`;
     let condition = this.conditions.get(key);
     if (!condition) {
       const { plant } = this;
-      condition = new Condition(plant.RED, plant.owner, text, sensors, plant, 'operation');
+      condition = new Condition(text, sensors, plant, 'operation');
       this.conditions.set(key, condition);
     }
     return condition;
@@ -45,7 +45,7 @@ class SensorWatch {
     return false;
   }
 
-  /** A new tracker: compiled conditions hold its handles; with a new document, so do the watchers. */
+  /** A new tracker: conditions read by the old one are read again; with a new document, the watchers go too. */
   forget({ watchers }) {
     this.conditions.clear();
     if (watchers) this.watchers.clear();

@@ -1,6 +1,8 @@
 // @ts-check
 'use strict';
-// The plant config node's document, and its validation for the editor.
+// The plant config node's document, and its validation and schema for the editor.
+const fs = require('fs');
+const path = require('path');
 const { SugarshackError } = require('./errors');
 const wasm = require('./wasm');
 
@@ -23,8 +25,8 @@ function seconds(ms) {
   return `${Number((ms / 1000).toFixed(3))} s`;
 }
 
-// "actuators[3] (V12): unknown device 'x'" -> the path before the first ": ".
-const PROBLEM = /^([A-Za-z_][\w.[\]-]*(?: \([^)]*\))?): ([\s\S]*)$/;
+// "operations[0] (fill).steps[2]: unknown sensor 'x'" -> the path before the first ": ".
+const PROBLEM = /^([A-Za-z_][\w.[\]-]*(?: \([^)]*\))?(?:[.[][\w.[\]-]*(?: \([^)]*\))?)*): ([\s\S]*)$/;
 
 function problem(text) {
   const m = PROBLEM.exec(text);
@@ -68,16 +70,22 @@ function validatePlant(value) {
   }
 }
 
+/** The plant document's JSON Schema, generated from the core's types by the build; shipped in the package. */
+const PLANT_SCHEMA = path.join(__dirname, '..', 'schema', 'plant.schema.json');
+
 const served = new WeakSet();
 
 /**
  * POST /sugarshack/plant/validate { plant: JSON text or object }: what the
  * editor's plant dialog shows before a deploy (see validatePlant).
+ * GET /sugarshack/plant/schema: the plant document's JSON Schema, for the
+ * dialog's editor, from the package that runs (so it always matches the core).
  */
 function servePlantValidation(RED) {
   if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
   served.add(RED.httpAdmin);
-  RED.httpAdmin.post('/sugarshack/plant/validate', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
+  const canRead = RED.auth.needsPermission('sugarshack.read');
+  RED.httpAdmin.post('/sugarshack/plant/validate', canRead, (req, res) => {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
     try {
       res.json(validatePlant(body.plant));
@@ -85,6 +93,16 @@ function servePlantValidation(RED) {
       res.status(500).json({ code: err.code || 'INTERNAL', message: err.message });
     }
   });
+  RED.httpAdmin.get('/sugarshack/plant/schema', canRead, (req, res) => {
+    fs.readFile(PLANT_SCHEMA, 'utf8', (err, text) => {
+      if (err) {
+        const missing = SugarshackError.of('INTERNAL', 'noPlantSchema', { path: PLANT_SCHEMA });
+        res.status(404).json({ code: missing.code, message: missing.message });
+        return;
+      }
+      res.type('application/schema+json').send(text);
+    });
+  });
 }
 
-module.exports = { plantDocument, seconds, validatePlant, servePlantValidation };
+module.exports = { plantDocument, seconds, validatePlant, servePlantValidation, PLANT_SCHEMA };

@@ -102,17 +102,18 @@ function resourcesOf(msg, configured) {
 }
 
 /**
- * A fault note: a Catch node's msg.error.message, else a string payload. A
- * msg.error.message that is not text is refused like any malformed field.
+ * A fault note: a Catch node's msg.error.message, else `reason` (an
+ * operator's, for an e-stop), else a string payload. A msg.error.message that
+ * is not text is kept as a note saying so: isolating the line comes first.
  */
 // The interlock keeps 500 characters of a note; no more than a little above that crosses into it.
 const MAX_NOTE = 1000;
 
-function noteOf(msg) {
+function noteOf(msg, reason = null) {
   const message = msg.error ? msg.error.message : undefined;
   // A note that is not text never stops a fault: isolating the line comes first.
   if (message !== undefined && message !== null && typeof message !== 'string') return i18n.text('labels.noteNotText', { got: quote(message) });
-  const text = message || (typeof msg.payload === 'string' && msg.payload) || undefined;
+  const text = message || reason || (typeof msg.payload === 'string' && msg.payload) || undefined;
   return text === undefined ? undefined : text.slice(0, MAX_NOTE);
 }
 

@@ -191,16 +191,18 @@ class RoutineHost {
     for (const t of due) {
       const condition = this.conditions.get(t);
       if (!condition) continue;
-      condition.check(now).then((outcome) => {
-        const current = this.machine;
-        if (!outcome.met || this.ended || !current || this.run || !this.interlock.gateOpen) return;
-        const d = stats.time('routine', () => current.conditionMet(t));
-        if (d) this.dispatch(d);
-      }, (err) => {
-        if (this.warned.has(t)) return;
+      let outcome;
+      try {
+        outcome = condition.check(now);
+      } catch (err) {
+        if (!this.warned.has(t)) this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
         this.warned.add(t);
-        this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
-      });
+        continue;
+      }
+      const current = this.machine;
+      if (!outcome.met || this.ended || !current || this.run || !this.interlock.gateOpen) continue;
+      const d = stats.time('routine', () => current.conditionMet(t));
+      if (d) this.dispatch(d);
     }
   }
 

@@ -56,39 +56,48 @@ function fits(text) {
 /**
  * Counts as text that fits: `items` are [long, short, letter, n], most important
  * first; zero counts are left out. "held 2 · queued 3", then shorter forms, and
- * as a last resort the least important items are dropped.
+ * as a last resort the least important items are dropped. `within(text)` is
+ * the whole status around the counts (a "lost · " before them): it must fit.
  */
-function countsText(items, empty = i18n.text('status.idle')) {
+function countsText(items, empty = i18n.text('status.idle'), within = (text) => text) {
   const shown = items.filter((item) => item[3] > 0);
-  if (shown.length === 0) return empty;
+  if (shown.length === 0) return within(empty);
   const candidates = [
     shown.map(([long, , , n]) => `${long} ${n}`).join(' · '),
     shown.map(([, short, , n]) => `${short} ${n}`).join(' · '),
     shown.map(([, short, , n]) => `${short} ${compact(n)}`).join('·'),
-  ];
+  ].map(within);
   const text = candidates.find(fits);
   if (text) return text;
   // Each letter form is at most 1 + 4 characters: three items and two spaces always fit.
   for (let count = shown.length; count > 0; count--) {
-    const letters = shown.slice(0, count).map(([, , letter, n]) => `${letter}${compact(n)}`).join(' ');
+    const letters = within(shown.slice(0, count).map(([, , letter, n]) => `${letter}${compact(n)}`).join(' '));
     if (fits(letters)) return letters;
   }
-  return '?';
+  return within('?');
 }
 
-/** "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed. */
-function statusText({ holding = 0, queued = 0, faulted = 0 }) {
+/**
+ * "held 2 · queued 3", "faulted 1 · held 2", "idle"; shorter forms when needed, `within` as in countsText.
+ * @param {{ holding?: number, queued?: number, faulted?: number }} counts
+ * @param {(text: string) => string} [within]
+ */
+function statusText({ holding = 0, queued = 0, faulted = 0 }, within) {
   return countsText([
     [i18n.text('status.faulted'), i18n.text('status.faultedShort'), i18n.text('status.faultedLetter'), faulted],
     [i18n.text('status.held'), i18n.text('status.heldShort'), i18n.text('status.heldLetter'), holding],
     [i18n.text('status.queued'), i18n.text('status.queuedShort'), i18n.text('status.queuedLetter'), queued],
-  ]);
+  ], undefined, within);
 }
 
-/** The interlock's counts; `lost`: its state was unknown at start and lines it faulted for that are not cleared yet. */
+/**
+ * The interlock's counts; `lost`: its state was unknown at start and lines it
+ * faulted for that are not cleared yet ("lost · faulted 3", the counts taking
+ * their short forms, then letters, to fit beside it).
+ */
 function countsStatus(counts) {
-  const text = statusText(counts);
-  return status(counts.faulted > 0 ? 'fault' : 'ok', counts.lost ? i18n.text('status.lost', { counts: text }) : text);
+  const within = counts.lost ? (text) => i18n.text('status.lost', { counts: text }) : undefined;
+  return status(counts.faulted > 0 ? 'fault' : 'ok', statusText(counts, within));
 }
 
 /**

@@ -189,6 +189,8 @@ function primeInterlock({ Interlock, Tracker }) {
   checked.clearAgainst(checked.resourceSet(checked.faultedResources()), t, null, null, true, 12);
   checked.free();
   restored.drainEvents();
+  const opened = Interlock.open(config, 'primer', 'plant', 'primer', il.seal('primer', 'plant', {}, undefined, 11), 12);
+  opened.interlock.free();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
   unknown.free();
@@ -264,7 +266,7 @@ function primeInterlock({ Interlock, Tracker }) {
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
-  t.readSensors(Uint32Array.of(sensor), 1);
+  t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
   const r = t.routine('r');
   r.conditions();
   r.condition(1);
@@ -300,7 +302,7 @@ function primeAlarms({ Alarms }) {
 }
 
 // The control facade (pid, rcc and rcc-io nodes): every call once on throwaway loops.
-function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }) {
+function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds, sealPidState, openPidState }) {
   const pid = { kp: 1, tiS: 10, tdS: 1, outMin: 0, outMax: 100, action: 'reverse', fallback: null, proportionalOn: 'error' };
   const smith = { model: { gain: 1, tauS: 10 }, tsS: 1, deadTime: { mode: 'adaptive', alpha: 0.2, h: 3 }, maxSamples: 10 };
   const loop = new PidLoop({ pid, smith });
@@ -326,7 +328,9 @@ function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds }
   rcc.tick(5000);
   rcc.pollTimedOut();
   rcc.firstCycle;
-  const station = new PidStation({ loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null });
+  const stationConfig = { loop: { pid, smith }, tsS: 1, staleMs: 100, setpoint: 50, mode: 'auto', manual: null };
+  const station = new PidStation(stationConfig);
+  station.restore(openPidState('primer', sealPidState('primer', stationConfig, { integral: 0, setpoint: 50, mode: 'auto', manual: null }, 0), 'primer'));
   station.measure(40, 0, 0, undefined, undefined);
   station.measure(41, 1000, 1000, undefined, rcc.decide(io.state(1000), 1000));
   station.change({ setpoint: 55, tunings: { kp: 2 }, limits: { max: 90 } });

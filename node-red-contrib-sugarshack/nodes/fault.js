@@ -39,8 +39,8 @@ module.exports = function (RED) {
       const request = readMsg(() => {
         const who = byResources ? attributionOf(msg) : null;
         return {
-          // An operator's stated reason is the line's fault note.
-          note: (who && who.reason) || noteOf(msg),
+          // The error a Catch node caught is the note; else an operator's stated reason (kept with the e-stop either way).
+          note: noteOf(msg, who && who.reason),
           operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
           resources: byResources ? resourcesOf(msg, props.resources) : null,
           who,

@@ -22,8 +22,10 @@ module.exports = function (RED) {
     const plantNode = props.plant ? RED.nodes.getNode(props.plant) : null;
     const plant = plantNode ? plantNode.runtime || null : null;
     const persist = props.persist === true || props.persist === 'true';
-    /** @type {{ config: object | null, persist: boolean, plantBound: boolean, legacyStore: string | undefined, error: Error | null }} */
-    const settings = { config: null, persist, plantBound: Boolean(props.plant), legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null };
+    /** @type {{ config: object | null, persist: boolean, plantBound: boolean, plantId: string | null, legacyStore: string | undefined, error: Error | null }} */
+    const settings = {
+      config: null, persist, plantBound: Boolean(props.plant), plantId: props.plant || null, legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null,
+    };
     try {
       settings.config = coreConfig(props);
       if (props.plant && !plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');

@@ -2,7 +2,7 @@
 'use strict';
 const path = require('path');
 const { journal } = require('../lib/journal/bus');
-const { JournalWriter, httpTarget } = require('../lib/journal/writer');
+const { JournalWriter, httpTarget, DEFAULT_TIMEOUT_MS } = require('../lib/journal/writer');
 const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
 const { compact, status } = require('../lib/status');
@@ -47,8 +47,11 @@ function writerFor(t, { props, credentials, userDir, id, onChange }) {
   if (!host) throw new Error(t('errors.noHost'));
   const port = bounded(t, props.port, 9000, 1, 65535, t('config.port'));
   const spool = new Spool({ dir: path.join(base, `spool-${id.replace(/[^\w.-]/g, '_')}`), maxBytes: Math.floor(bounded(t, props.bufferMB, 64, 0.001, 1e6, t('config.bufferMB')) * MB) });
+  const timeoutMs = bounded(t, props.timeoutS, DEFAULT_TIMEOUT_MS / 1000, 0.1, 300, t('config.timeoutS')) * 1000;
   // HTTPS is the text 'true' when the flow file sets it from the environment (${NAME}).
-  const target = httpTarget({ host, port, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token });
+  const target = httpTarget({
+    host, port, timeoutMs, tls: props.tls === true || props.tls === 'true', username: credentials.username, password: credentials.password, token: credentials.token,
+  });
   return new JournalWriter({ plant, flushMs, onChange, spool, target });
 }
 

@@ -8,12 +8,12 @@ const { isNumber, configNumber, configDurationMs, msgNumber, describe, fmt, revi
 const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
 const { FileStore, Committer, stateDir } = require('../lib/durable');
+const wasm = require('../lib/wasm');
 
 // Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';
 const PID_STATE = {
   kind: 'pid',
-  format: 'sugarshack-pid-state',
   note: 'This pid node has run here: if its state file is missing, it starts from its configuration.\n',
 };
 // A msg with one of these (or topic "setpoint") changes the loop and is not a measurement.
@@ -145,8 +145,10 @@ module.exports = function (RED) {
     let station = /** @type {any} */ (null);
     let refusal = null;
     let kept = null; // the loop's own state, kept outside the core to rebuild it after a trap
+    /** @type {StationConfig} */
+    let config = /** @type {any} */ (null); // set below unless the configuration is refused, and then never read
     try {
-      const config = readConfig(props, t);
+      config = readConfig(props, t);
       // Rebuilt on a fresh wasm instance after a trap, with the state it had.
       station = revivable(({ PidStation }) => {
         const fresh = new PidStation(config);
@@ -172,7 +174,8 @@ module.exports = function (RED) {
       const committer = new Committer({
         store,
         clock,
-        snapshot: () => JSON.stringify({ format: PID_STATE.format, version: 1, savedAtMs: clock.now(), state: kept }),
+        // Sealed by the core as this node's, for this configuration.
+        snapshot: () => wasm.load().sealPidState(node.id, config, kept, clock.now()),
         onError: (err) => {
           if (!saveFailing) node.warn(t('errors.notSaved', { where: store.where, message: err.message || err }));
           saveFailing = true;
@@ -334,15 +337,20 @@ module.exports = function (RED) {
       for (const { msg, send, done } of early.take()) safeHandle(msg, send, done);
     }
 
-    /** The loop from a saved state; one that cannot be used is reported and the configuration used. */
-    function restoreFrom(saved) {
+    /** The loop from a saved state (read by `open`); one that cannot be used is reported and the configuration used. */
+    function restoreFrom(open) {
       try {
-        if (!saved || typeof saved !== 'object' || Array.isArray(saved)) throw new Error(`it is ${describe(saved)}, not { integral, setpoint, mode, manual }`);
-        station.restore(readSaved(saved));
+        station.restore(open());
       } catch (e) {
         lostWhy = e.message;
         node.warn(t('errors.unusable', { message: e.message }));
       }
+    }
+
+    /** A state an earlier version kept in the context store, field by field: what is unusable is left out. */
+    function legacyState(saved) {
+      if (!saved || typeof saved !== 'object' || Array.isArray(saved)) throw new Error(`it is ${describe(saved)}, not { integral, setpoint, mode, manual }`);
+      return readSaved(saved);
     }
 
     /**
@@ -371,7 +379,8 @@ module.exports = function (RED) {
         start();
       };
       if (saved.kind === 'saved') {
-        restoreFrom(saved.doc.state);
+        // The core opens it: another node's, a damaged one or one of an unknown version is refused.
+        restoreFrom(() => wasm.load().openPidState(store.where, saved.text, node.id));
         begin();
       } else if (saved.kind === 'lost') {
         lostWhy = saved.why;
@@ -384,7 +393,7 @@ module.exports = function (RED) {
             begin();
             return;
           }
-          restoreFrom(value);
+          restoreFrom(() => legacyState(value));
           begin(() => node.context().set(CONTEXT_KEY, undefined, legacyStore, (err) => {
             if (err) node.warn(t('errors.legacyNotDeleted', { message: err.message || err }));
           }));

@@ -3,7 +3,6 @@
 const { bindPlant } = require('../lib/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
-const { Condition } = require('../lib/condition');
 const { splitNames } = require('../lib/request');
 const { errorStatus, status } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
@@ -21,14 +20,14 @@ module.exports = function (RED) {
     const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
     let condition = null;
     let refusal = plant ? null : new SugarshackError('NO_PLANT', t('errors.noPlant'));
-    // Compiled against the document in force (after a deploy's drain, the new one).
+    // Read by the core against the document in force (after a deploy's drain, the new one).
     if (plant) {
       plant.whenOpen(() => {
         try {
           if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
           const text = String(props.sensors || '').trim();
-          condition = new Condition(RED, node, String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : [], plant, 'operation');
+          condition = plant.condition(String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : []);
           refusal = null;
           node.status({});
         } catch (err) {

@@ -19,15 +19,52 @@
     return config.resources.map(function (r) { return r.name; }).filter(Boolean);
   }
 
-  /** The device ids of a plant config node (its document is an object, or text while it does not parse). */
-  function deviceNames(configId) {
+  /** The document of a plant config node: an object, or text as typed (null while it does not parse). */
+  function plantOf(configId) {
     var config = configNode(configId);
     var plant = config && config.plant;
     if (typeof plant === 'string') {
-      try { plant = JSON.parse(plant); } catch (e) { return []; }
+      try { plant = JSON.parse(plant); } catch (e) { return null; }
     }
-    if (!plant || !Array.isArray(plant.devices)) return [];
-    return plant.devices.map(function (d) { return d && d.id; }).filter(Boolean);
+    return plant && typeof plant === 'object' ? plant : null;
+  }
+
+  /** The entries of a plant document's list (`devices`, `sensors`, `operations`...) that have an id. */
+  function entriesOf(plant, list) {
+    var entries = plant && Array.isArray(plant[list]) ? plant[list] : [];
+    return entries.filter(function (e) { return e && typeof e.id === 'string' && e.id; });
+  }
+
+  function idsOf(plant, list) {
+    return entriesOf(plant, list).map(function (e) { return e.id; });
+  }
+
+  /** The device ids of a plant config node. */
+  function deviceNames(configId) {
+    return idsOf(plantOf(configId), 'devices');
+  }
+
+  /** The sensor ids of a plant config node. */
+  function sensorNames(configId) {
+    return idsOf(plantOf(configId), 'sensors');
+  }
+
+  /** The document of the plant an interlock config node is bound to. */
+  function plantOfInterlock(configId) {
+    var config = configNode(configId);
+    return config ? plantOf(config.plant) : null;
+  }
+
+  /** The operations of an interlock's plant, each shown with its description. */
+  function operationChoices(configId) {
+    return entriesOf(plantOfInterlock(configId), 'operations').map(function (op) {
+      return { value: op.id, label: typeof op.description === 'string' && op.description ? op.id + ': ' + op.description : op.id };
+    });
+  }
+
+  /** The routines of an interlock's plant. */
+  function routineChoices(configId) {
+    return idsOf(plantOfInterlock(configId), 'routines').map(function (id) { return { value: id, label: id }; });
   }
 
   /** Toggle buttons for the names `namesOf(configId)` gives, kept in step with a comma-separated input. */
@@ -64,6 +101,49 @@
   /** Toggle buttons for the chosen plant's devices. */
   function devicePicker(inputSelector, configSelector, boxSelector) {
     namePicker(inputSelector, configSelector, boxSelector, deviceNames);
+  }
+
+  /** Toggle buttons for the chosen plant's sensors. */
+  function sensorPicker(inputSelector, configSelector, boxSelector) {
+    namePicker(inputSelector, configSelector, boxSelector, sensorNames);
+  }
+
+  /**
+   * A typedInput on a text input naming one entry of the plant document: type `listed` ({ value,
+   * label, icon }) lists the entries `choicesOf(configId)` gives ({ value, label }) for the config
+   * node chosen in `configSelector`; type `str` takes any id typed (the plant not chosen or not
+   * saved yet). A value the list has, or none, opens on the list; another opens typed.
+   */
+  function plantChoice(inputSelector, configSelector, choicesOf, listed) {
+    var input = $(inputSelector);
+    var choices = [];
+    function read() {
+      choices = choicesOf($(configSelector).val());
+      return choices.length ? [$.extend({ options: choices }, listed), 'str'] : ['str'];
+    }
+    function typeOf(value) {
+      var inList = choices.some(function (c) { return c.value === value; });
+      return choices.length && (inList || !value) ? listed.value : 'str';
+    }
+    var value = input.val();
+    var types = read();
+    input.typedInput({ types: types, default: typeOf(value) });
+    $(configSelector).on('change', function () {
+      var before = input.typedInput('value');
+      input.typedInput('types', read());
+      input.typedInput('type', typeOf(before));
+      if (typeOf(before) === 'str' || before) input.typedInput('value', before);
+    });
+  }
+
+  /** The chosen interlock's plant's operations, or any id typed. */
+  function operationChoice(inputSelector, configSelector, listed) {
+    plantChoice(inputSelector, configSelector, operationChoices, listed);
+  }
+
+  /** The chosen interlock's plant's routines, or any id typed. */
+  function routineChoice(inputSelector, configSelector, listed) {
+    plantChoice(inputSelector, configSelector, routineChoices, listed);
   }
 
   function blank(v) { return v === undefined || v === null || String(v).trim() === ''; }
@@ -127,6 +207,7 @@
   }
 
   window.sugarshackEditor = {
-    resourcePicker: resourcePicker, devicePicker: devicePicker, parseNames: parseNames, migrateMs: migrateMs, operationNode: operationNode, color: COLOR,
+    resourcePicker: resourcePicker, devicePicker: devicePicker, sensorPicker: sensorPicker,
+    operationChoice: operationChoice, routineChoice: routineChoice, parseNames: parseNames, migrateMs: migrateMs, operationNode: operationNode, color: COLOR,
   };
 })();

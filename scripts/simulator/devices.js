@@ -135,13 +135,16 @@ class Device {
       if (!read || read.kind === 'cleared') return;
       if (read.kind === 'refused') return this.malformed(`${topic}: ${read.message}`);
       const a = this.sim.actuatorList[read.actuator];
-      const text = a.type === 'pump' ? (read.value >= 0.5 ? 'ON' : 'OFF') : String(read.value);
-      return this.onCommand(a.type, String(a.io), text, packet.retain);
+      const text = a.family === 'pump' ? (read.value >= 0.5 ? 'ON' : 'OFF') : String(read.value);
+      return this.onCommand(a.family, String(a.slot), text, packet.retain, a.range);
     }
     const rest = topic.startsWith(`${this.id}/`) ? topic.slice(this.id.length + 1) : null;
-    const m = rest && /^(valve|pump)\/([^/]+)\/command$/.exec(rest);
+    const m = rest && /^([^/]+)\/([^/]+)\/command$/.exec(rest);
     if (!m) return;
-    this.onCommand(m[1], m[2], payload.toString(), packet.retain);
+    // A named actuator by its type and io; else one of the panel's unnamed valves and pump.
+    const a = this.sim.nativeActuators.get(`${this.id}/${m[1]}/${m[2]}`);
+    if (a) this.onCommand(a.family, String(a.slot), payload.toString(), packet.retain, a.range);
+    else if (m[1] === 'valve' || m[1] === 'pump') this.onCommand(m[1], m[2], payload.toString(), packet.retain);
   }
 
   malformed(what) {
@@ -293,104 +296,122 @@ class Device {
 }
 
 class ActuatorPanel extends Device {
-  constructor(sim, id, idle) {
+  /** `slots`: its outputs ({ valves: [slot], pumps: [slot] }); `idle`: slot -> starting valve position, %. */
+  constructor(sim, id, slots, idle) {
     super(sim, id, 'actuator-panel');
-    this.valves = [];
-    for (let io = 1; io <= PANEL_VALVES; io++) {
-      const start = idle.valve.get(io) ?? 0;
-      this.valves[io] = { io, position: start, target: start, commanded: start, moveAt: 0, stuck: false, slowFactor: 1 };
+    this.valves = {};
+    for (const slot of slots.valves) {
+      const start = idle.get(slot) ?? 0;
+      this.valves[slot] = { io: slot, position: start, target: start, commanded: start, moveAt: 0, stuck: false, slowFactor: 1 };
     }
-    this.pump = { io: 1, running: false, commanded: false, pendingValue: null, pendingAt: 0, paused: true, stuck: false };
+    this.pumps = {};
+    for (const slot of slots.pumps) {
+      this.pumps[slot] = { io: slot, running: false, commanded: false, pendingValue: null, pendingAt: 0, paused: true, stuck: false };
+    }
+    this.pump = this.pumps[1];
+    this.named = sim.actuatorList.filter((a) => a.device === id);
   }
 
   commandTopics() {
     if (!this.native) return this.sim.side.commandTopics(this.handle);
-    return [`${this.id}/valve/+/command`, `${this.id}/pump/+/command`];
+    return [`${this.id}/+/+/command`];
+  }
+
+  /** An actuator's value in its own units: a pump's 0/1, a valve's position scaled to its type's range. */
+  valueOf(a, position = this.valves[a.slot] && this.valves[a.slot].position) {
+    if (a.family === 'pump') return this.pumps[a.slot].running ? 1 : 0;
+    const [min, max] = a.range;
+    return min + (clamp(position, 0, 100) / 100) * (max - min);
   }
 
   /** On change, as stock firmware: whole percent positions without noise, the pump's relay. */
   messages() {
-    const named = this.sim.actuatorList.filter((a) => a.device === this.id);
-    const values = named.map((a) => [a.handle, a.type === 'pump'
-      ? (this.pump.running ? 1 : 0)
-      : Math.round(clamp(this.valves[a.io].position, 0, 100))]);
+    const values = this.named.map((a) => [a.handle, this.valueOf(a, Math.round(clamp(this.valves[a.slot]?.position ?? 0, 0, 100)))]);
     const changed = this.changed(values);
     if (changed.length === 0) return [];
     return this.sim.side.actuatorMessages(this.handle, Uint32Array.from(changed.map(([h]) => h)), Float64Array.from(changed.map(([, v]) => v)), undefined);
   }
 
-  onCommand(type, ioText, text, retained) {
+  /** A command for output `ioText` of `family` (`valve`: a position in `range`, `pump`: ON/OFF). */
+  onCommand(family, ioText, text, retained, range = [0, 100]) {
     const io = Number(ioText);
     const tag = retained ? ' (retained)' : '';
-    if (type === 'valve') {
+    if (family === 'valve') {
       const trimmed = text.trim();
       const value = Number(trimmed);
-      if (!Number.isInteger(io) || io < 1 || io > PANEL_VALVES) return this.malformed(`valve/${ioText}: no such valve`);
-      if (trimmed === '' || !Number.isFinite(value) || value < 0 || value > 100) {
-        return this.malformed(`valve/${io}: ${JSON.stringify(text.slice(0, 40))} is not 0..100`);
-      }
       const v = this.valves[io];
-      v.commanded = value;
-      v.target = value;
+      if (!v) return this.malformed(`valve/${ioText}: no such valve`);
+      const [min, max] = range;
+      if (trimmed === '' || !Number.isFinite(value) || value < min || value > max) {
+        return this.malformed(`valve/${io}: ${JSON.stringify(text.slice(0, 40))} is not ${min}..${max}`);
+      }
+      const percent = ((value - min) / (max - min)) * 100;
+      v.commanded = percent;
+      v.target = percent;
       v.moveAt = this.sim.simNow() + this.sim.deadTimeMs;
       this.log(`valve ${io} -> ${value}${tag}${v.stuck ? ' (stuck: will not move)' : ''}`);
       return undefined;
     }
-    if (io !== 1) return this.malformed(`pump/${ioText}: no such pump`);
+    const pump = this.pumps[io];
+    if (!pump) return this.malformed(`pump/${ioText}: no such pump`);
     const word = text.trim().toUpperCase();
     if (word !== 'ON' && word !== 'OFF') return this.malformed(`pump/${io}: ${JSON.stringify(text.slice(0, 40))} is not ON/OFF`);
-    this.pump.commanded = word === 'ON';
-    this.schedulePump(this.pump.commanded);
-    this.log(`pump ${io} -> ${word}${tag}${this.pump.stuck ? ' (stuck: will not change)' : ''}`);
+    pump.commanded = word === 'ON';
+    this.schedulePump(pump, pump.commanded);
+    this.log(`pump ${io} -> ${word}${tag}${pump.stuck ? ' (stuck: will not change)' : ''}`);
     return undefined;
   }
 
-  schedulePump(value) {
-    this.pump.pendingValue = value;
-    this.pump.pendingAt = this.sim.simNow() + this.sim.pumpDelayMs;
+  schedulePump(pump, value) {
+    pump.pendingValue = value;
+    pump.pendingAt = this.sim.simNow() + this.sim.pumpDelayMs;
   }
 
-  // Connected again: the pump resumes what it was told, after its spin-up;
+  // Connected again: each pump resumes what it was told, after its spin-up;
   // a retained (lockout) command arriving on subscribe replaces that first.
   // At least 100 ms (wall clock) even without spin-up: retained messages may
   // follow the SUBACK.
   resumed() {
-    const p = this.pump;
-    p.paused = false;
-    if (p.commanded && !p.running && p.pendingValue === null) {
-      p.pendingValue = true;
-      p.pendingAt = this.sim.simNow() + Math.max(this.sim.pumpDelayMs, 100 * this.sim.speed);
+    for (const p of Object.values(this.pumps)) {
+      p.paused = false;
+      if (p.commanded && !p.running && p.pendingValue === null) {
+        p.pendingValue = true;
+        p.pendingAt = this.sim.simNow() + Math.max(this.sim.pumpDelayMs, 100 * this.sim.speed);
+      }
     }
   }
 
-  // Broker lost: the pump pauses until the connection is back.
+  // Broker lost: the pumps pause until the connection is back.
   paused() {
-    const p = this.pump;
-    if (!p.stuck && p.running && !this.stopped) this.log('pump 1 paused (no broker)');
-    p.paused = true;
-    p.pendingValue = null;
-    if (!p.stuck) p.running = false;
+    for (const p of Object.values(this.pumps)) {
+      if (!p.stuck && p.running && !this.stopped) this.log(`pump ${p.io} paused (no broker)`);
+      p.paused = true;
+      p.pendingValue = null;
+      if (!p.stuck) p.running = false;
+    }
   }
 
-  // A revived panel has rebooted: the relay starts off, nothing commanded.
+  // A revived panel has rebooted: the relays start off, nothing commanded.
   rebooted() {
-    this.pump.commanded = false;
-    this.pump.pendingValue = null;
+    for (const p of Object.values(this.pumps)) {
+      p.commanded = false;
+      p.pendingValue = null;
+    }
   }
 
   step(simNowMs, dtS) {
     const fullRate = 100 / this.sim.sweepS; // % per simulated second
-    for (let io = 1; io <= PANEL_VALVES; io++) {
-      const v = this.valves[io];
+    for (const v of Object.values(this.valves)) {
       if (v.stuck || simNowMs < v.moveAt || v.position === v.target) continue;
       const stepPct = (fullRate / v.slowFactor) * dtS;
       const delta = v.target - v.position;
       v.position = Math.abs(delta) <= stepPct ? v.target : v.position + Math.sign(delta) * stepPct;
     }
-    const p = this.pump;
-    if (!p.paused && !p.stuck && p.pendingValue !== null && simNowMs >= p.pendingAt) {
-      p.running = p.pendingValue;
-      p.pendingValue = null;
+    for (const p of Object.values(this.pumps)) {
+      if (!p.paused && !p.stuck && p.pendingValue !== null && simNowMs >= p.pendingAt) {
+        p.running = p.pendingValue;
+        p.pendingValue = null;
+      }
     }
   }
 
@@ -400,14 +421,22 @@ class ActuatorPanel extends Device {
     return round(clamp(v.position + this.rng.symmetric(amplitude), 0, 100), 1);
   }
 
+  /** Its own format: the 16 valves and the pump under `valve` and `pump`, named actuators of other types under theirs. */
   datapoints() {
-    const valve = {};
-    for (let io = 1; io <= PANEL_VALVES; io++) valve[io] = this.feedback(io);
-    const running = this.pump.running;
-    if (!this.sim.single) return [[`${this.id}/state`, { valve, pump: { 1: running } }]];
+    const state = { valve: {}, pump: {} };
+    for (let io = 1; io <= PANEL_VALVES; io++) state.valve[io] = this.feedback(io);
+    state.pump[1] = this.pump.running;
+    for (const a of this.named) {
+      if (!state[a.type]) state[a.type] = {};
+      const already = a.type === a.family && a.slot === a.io && (a.family === 'pump' || (a.range[0] === 0 && a.range[1] === 100));
+      if (already && state[a.type][a.io] !== undefined) continue;
+      state[a.type][a.io] = a.family === 'pump' ? this.pumps[a.slot].running : round(this.valueOf(a, this.feedback(a.slot)), 1);
+    }
+    if (!this.sim.single) return [[`${this.id}/state`, state]];
     const out = [];
-    for (let io = 1; io <= PANEL_VALVES; io++) out.push([`${this.id}/valve/${io}/state`, { value: valve[io] }]);
-    out.push([`${this.id}/pump/1/state`, { value: running }]);
+    for (const [type, outputs] of Object.entries(state)) {
+      for (const [io, value] of Object.entries(outputs)) out.push([`${this.id}/${type}/${io}/state`, { value }]);
+    }
     return out;
   }
 }

@@ -59,8 +59,8 @@ function normalizeFault(input, model) {
     const a = model.actuators[input.actuator];
     if (!a) throw new Error(`unknown actuator ${input.actuator}`);
     device = a.device;
-    if (a.type === 'valve') valve = a.io;
-    else pump = a.io;
+    if (a.family === 'valve') valve = a.slot;
+    else pump = a.slot;
   }
   if (f.fault === 'clear' && device === undefined) return f;
   if (typeof device !== 'string' || !model.deviceKinds.has(device)) throw new Error(`unknown device ${JSON.stringify(device)}`);
@@ -69,11 +69,15 @@ function normalizeFault(input, model) {
   const needsActuator = ['stuck', 'slow', 'drift'].includes(f.fault);
   if (needsActuator) {
     if (kind !== 'actuator-panel') throw new Error(`${f.fault}: ${device} is not an actuator panel`);
+    const slots = model.panelSlots[device];
     if (pump !== undefined && f.fault === 'stuck') {
-      f.pump = num(pump, 'pump', 1, 1);
+      f.pump = Number(pump);
+      if (!slots.pumps.includes(f.pump)) throw new Error(`pump must be one of ${device}'s pumps (${slots.pumps.join(', ')})`);
     } else {
-      f.valve = num(valve, 'valve', 1, 16);
-      if (!Number.isInteger(f.valve)) throw new Error('valve must be an integer io');
+      f.valve = Number(valve);
+      if (valve === undefined || valve === null || valve === '' || !slots.valves.includes(f.valve)) {
+        throw new Error(`valve must be one of ${device}'s valve outputs (1..16${slots.valves.length > 16 ? `, ${slots.valves.slice(16).join(', ')}` : ''})`);
+      }
     }
   }
   if (f.fault === 'slow') f.factor = num(input.factor ?? 10, 'factor', 1, 1e6);

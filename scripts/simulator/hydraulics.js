@@ -10,13 +10,13 @@ class Hydraulics {
     this.transfers = simulation.transfers.map((x) => ({ ...x, rateLpm: x.rateLpm, currentLpm: 0 }));
   }
 
-  // readValve(device, io) -> position %, readPump(device, io) -> running
+  // readValve(device, slot) -> position %, readPump(device, slot) -> running
   step(dtS, readValve, readPump) {
     if (!(dtS > 0)) return;
     for (const x of this.transfers) {
       let opening = 1;
-      for (const v of x.valves) opening = Math.min(opening, Math.max(0, readValve(v.device, v.io)) / 100);
-      const driven = x.pump ? readPump(x.pump.device, x.pump.io) : true;
+      for (const v of x.valves) opening = Math.min(opening, Math.max(0, readValve(v.device, v.slot)) / 100);
+      const driven = x.pump ? readPump(x.pump.device, x.pump.slot) : true;
       let litres = driven ? (x.rateLpm * opening * dtS) / 60 : 0;
       const from = x.from && this.tanks.get(x.from);
       const to = x.to && this.tanks.get(x.to);

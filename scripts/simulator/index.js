@@ -7,7 +7,6 @@
 //   await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 3 });
 //   await sim.stop();
 const mqtt = require('mqtt');
-const path = require('path');
 const { loadPlant, buildModel, withProfile } = require('./plant');
 const { ActuatorPanel, SensorStation } = require('./devices');
 const { Hydraulics } = require('./hydraulics');
@@ -77,22 +76,24 @@ class Simulator {
     this.realStart = performance.now();
     const loaded = loadPlant(o.plant);
     const doc = o.profile ? withProfile(loaded, o.profile) : loaded;
-    this.model = buildModel(doc, (w) => this.log(`warning: ${w}`));
-    // The device side of the palette's own MQTT contract (its wasm core).
-    const { DeviceSide } = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'wasm', 'sugarshack_wasm.js'));
-    this.side = new DeviceSide(doc);
-    this.actuatorList = (doc.actuators || []).map((a, handle) => ({ handle, id: a.id, type: a.type, device: a.device, io: a.io }));
+    // Checked by the core, as a deploy checks it; its device side speaks the palette's own MQTT contract.
+    this.model = buildModel(doc);
+    this.side = this.model.side;
+    this.actuatorList = (doc.actuators || []).map((a, handle) => ({ handle, ...this.model.actuators[a.id] }));
+    // A sugarshack device's named actuators by `<device>/<type>/<io>`, as its command topics name them.
+    this.nativeActuators = new Map(this.actuatorList.map((a) => [`${a.device}/${a.type}/${a.io}`, a]));
     this.sensorHandles = new Map((doc.sensors || []).map((x, handle) => [`${x.device}/${x.name}`, handle]));
     this.hydraulics = new Hydraulics(this.model.simulation);
     this.readings = this.hydraulics.readings();
 
-    const idle = new Map(this.model.panels.map((id) => [id, { valve: new Map() }]));
-    // Named valves start at their idle position.
-    for (const a of doc.actuators || []) {
-      if (a.type === 'valve' && typeof a.idle === 'number') idle.get(a.device).valve.set(a.io, a.idle);
+    const idle = new Map(this.model.panels.map((id) => [id, new Map()]));
+    // Named valves start at their idle position (in % of their range).
+    for (const [i, a] of (doc.actuators || []).entries()) {
+      const { family, slot, range: [min, max] } = this.actuatorList[i];
+      if (family === 'valve' && typeof a.idle === 'number') idle.get(a.device).set(slot, ((a.idle - min) / (max - min)) * 100);
     }
     this.devices = {};
-    for (const id of this.model.panels) this.devices[id] = new ActuatorPanel(this, id, idle.get(id));
+    for (const id of this.model.panels) this.devices[id] = new ActuatorPanel(this, id, this.model.panelSlots[id], idle.get(id));
     for (const st of this.model.stations) {
       this.devices[st.id] = new SensorStation(this, st.id, st.datapoints, this.model.simulation.signals.filter((s) => s.station === st.id));
     }
@@ -150,8 +151,8 @@ class Simulator {
     for (const p of panels) p.step(now, dtS);
     this.hydraulics.step(
       dtS,
-      (dev, io) => this.devices[dev].valves[io].position,
-      (dev, io) => this.devices[dev].pump.running,
+      (dev, slot) => this.devices[dev].valves[slot].position,
+      (dev, slot) => this.devices[dev].pumps[slot].running,
     );
     this.readings = this.hydraulics.readings();
   }
@@ -215,8 +216,8 @@ class Simulator {
         for (const d of targets) {
           d.faults = { noisy: null, drop: 0 };
           if (d.valves) {
-            for (const v of d.valves.slice(1)) Object.assign(v, { stuck: false, slowFactor: 1 });
-            d.pump.stuck = false;
+            for (const v of Object.values(d.valves)) Object.assign(v, { stuck: false, slowFactor: 1 });
+            for (const p of Object.values(d.pumps)) p.stuck = false;
           }
         }
         for (const d of targets) d.comeBack();
@@ -224,7 +225,7 @@ class Simulator {
         break;
       }
       case 'stuck':
-        if (f.pump !== undefined) dev.pump.stuck = true;
+        if (f.pump !== undefined) dev.pumps[f.pump].stuck = true;
         else dev.valves[f.valve].stuck = true;
         break;
       case 'slow':
@@ -274,8 +275,9 @@ class Simulator {
     for (const [id, d] of Object.entries(this.devices)) {
       const s = { connected: d.connected, dead: d.dead, faults: { ...d.faults }, counters: { ...d.counters } };
       if (d.valves) {
-        s.valves = Object.fromEntries(d.valves.slice(1).map((v) => [v.io, { position: v.position, target: v.target, commanded: v.commanded, stuck: v.stuck, slowFactor: v.slowFactor }]));
+        s.valves = Object.fromEntries(Object.values(d.valves).map((v) => [v.io, { position: v.position, target: v.target, commanded: v.commanded, stuck: v.stuck, slowFactor: v.slowFactor }]));
         s.pump = { ...d.pump };
+        s.pumps = Object.fromEntries(Object.values(d.pumps).map((p) => [p.io, { ...p }]));
       }
       out.devices[id] = s;
     }

@@ -1,8 +1,13 @@
 'use strict';
 // Reads the plant document into what the simulator needs: the devices to run,
-// the actuator id -> device/io map, each station's datapoints and the
-// optional `simulation` section (validated here so typos fail at start).
+// each actuator's output on its simulated panel, each station's datapoints and
+// the optional `simulation` section. The document is first checked by the
+// palette's core, as a deploy and the plant dialog check it: the simulator
+// accepts and refuses the same documents, with the same words.
 const fs = require('fs');
+const path = require('path');
+
+const { DeviceSide } = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'wasm', 'sugarshack_wasm.js'));
 
 const PANEL_VALVES = 16;
 const PANEL_PUMPS = 1;
@@ -56,43 +61,82 @@ function loadPlant(source) {
   return null;
 }
 
-// -> { name, deviceKinds: Map(id -> kind), panels: [id], stations: [{id, datapoints: [{name, unit, sensorId}]}],
-//      actuators: {id: {type, device, io}}, sensors: {id: {device, name}}, simulation }
-function buildModel(doc, warn = () => {}) {
-  if (!doc || typeof doc !== 'object') fail('document must be a JSON object');
-  const devices = Array.isArray(doc.devices) ? doc.devices : fail('`devices` must be an array');
-  const kinds = new Map();
-  for (const d of devices) {
-    if (!d || typeof d.id !== 'string' || !d.id) fail('every device needs a string `id`');
-    if (kinds.has(d.id)) fail(`device ${d.id} listed twice`);
-    if (d.kind !== 'actuator-panel' && d.kind !== 'sensor-station') {
-      warn(`device ${d.id}: kind ${JSON.stringify(d.kind)} is not simulated`);
-      continue;
-    }
-    kinds.set(d.id, d.kind);
+/** The core's check of the document: its device side, or the core's refusal (every problem with its path). */
+function checkedSide(doc) {
+  try {
+    return new DeviceSide(doc);
+  } catch (err) {
+    return fail(err.message);
   }
+}
 
+/**
+ * Each actuator's output on its simulated panel: analog types move like
+ * valves, binary ones switch like pumps. An actuator keeps its `io` when it
+ * has one free on its panel; one without (ESPHome, Tasmota, Shelly and custom
+ * devices are addressed by entity, not io) or with one taken gets the next
+ * output above the panel's 16 valves / 1 pump. -> Map(id -> {family, slot})
+ */
+function assignSlots(doc) {
+  const types = doc.actuatorTypes || {};
+  const familyOf = (a) => (types[a.type] && types[a.type].signal === 'binary' ? 'pump' : 'valve');
+  const used = new Map();
+  const taken = (device, family) => {
+    const key = `${device}/${family}`;
+    if (!used.has(key)) used.set(key, new Set());
+    return used.get(key);
+  };
+  const slots = new Map();
+  const later = [];
+  for (const a of doc.actuators || []) {
+    const family = familyOf(a);
+    const set = taken(a.device, family);
+    if (Number.isInteger(a.io) && a.io >= 1 && !set.has(a.io)) {
+      set.add(a.io);
+      slots.set(a.id, { family, slot: a.io });
+    } else {
+      later.push([a, family]);
+    }
+  }
+  for (const [a, family] of later) {
+    const set = taken(a.device, family);
+    const slot = Math.max(family === 'valve' ? PANEL_VALVES : PANEL_PUMPS, ...set) + 1;
+    set.add(slot);
+    slots.set(a.id, { family, slot });
+  }
+  return slots;
+}
+
+// -> { name, side (the core's DeviceSide), deviceKinds: Map(id -> kind), panels: [id],
+//      panelSlots: {id: {valves: [slot], pumps: [slot]}}, stations: [{id, datapoints: [{name, unit, sensorId}]}],
+//      actuators: {id: {id, type, family, device, io, slot, range: [min, max]}}, sensors: {id: {device, name}}, simulation }
+function buildModel(doc) {
+  const side = checkedSide(doc);
+  const kinds = new Map(doc.devices.map((d) => [d.id, d.kind]));
+  const slots = assignSlots(doc);
+  const panelSlots = {};
+  for (const [id, kind] of kinds) {
+    if (kind === 'actuator-panel') panelSlots[id] = { valves: [...Array(PANEL_VALVES).keys()].map((i) => i + 1), pumps: [1] };
+  }
   const actuators = {};
   for (const a of doc.actuators || []) {
-    if (!a || typeof a.id !== 'string') fail('every actuator needs a string `id`');
-    if (kinds.get(a.device) !== 'actuator-panel') fail(`actuator ${a.id}: device ${a.device} is not an actuator panel`);
-    const max = a.type === 'valve' ? PANEL_VALVES : a.type === 'pump' ? PANEL_PUMPS : 0;
-    if (!max) fail(`actuator ${a.id}: type ${JSON.stringify(a.type)} is neither valve nor pump`);
-    if (!Number.isInteger(a.io) || a.io < 1 || a.io > max) fail(`actuator ${a.id}: io must be 1..${max}`);
-    actuators[a.id] = { id: a.id, type: a.type, device: a.device, io: a.io };
+    const { family, slot } = slots.get(a.id);
+    const t = doc.actuatorTypes[a.type];
+    const range = family === 'valve' ? [t.min ?? 0, t.max ?? 100] : [0, 1];
+    actuators[a.id] = { id: a.id, type: a.type, family, device: a.device, io: a.io, slot, range };
+    const list = panelSlots[a.device][family === 'valve' ? 'valves' : 'pumps'];
+    if (!list.includes(slot)) list.push(slot);
   }
+  for (const slots of Object.values(panelSlots)) for (const list of Object.values(slots)) list.sort((x, y) => x - y);
 
   const sensors = {};
   const byStation = new Map();
   for (const id of kinds.keys()) if (kinds.get(id) === 'sensor-station') byStation.set(id, new Map());
   const addDatapoint = (station, name, unit, sensorId) => {
     const map = byStation.get(station);
-    if (!map) fail(`datapoint ${name}: device ${station} is not a sensor station`);
-    if (typeof name !== 'string' || !/^[A-Za-z0-9_-]+$/.test(name)) fail(`station ${station}: datapoint name ${JSON.stringify(name)} must be [A-Za-z0-9_-]`);
     if (!map.has(name)) map.set(name, { name, unit: unit || datapointDefaults(name).unit, sensorId });
   };
   for (const s of doc.sensors || []) {
-    if (!s || typeof s.id !== 'string') fail('every sensor needs a string `id`');
     addDatapoint(s.device, s.name, s.unit, s.id);
     sensors[s.id] = { device: s.device, name: s.name };
   }
@@ -105,8 +149,10 @@ function buildModel(doc, warn = () => {}) {
 
   return {
     name: doc.name || '',
+    side,
     deviceKinds: kinds,
     panels: [...kinds].filter(([, k]) => k === 'actuator-panel').map(([id]) => id),
+    panelSlots,
     stations: [...byStation].map(([id, map]) => ({ id, datapoints: [...map.values()] })),
     actuators,
     sensors,
@@ -114,11 +160,10 @@ function buildModel(doc, warn = () => {}) {
   };
 }
 
-// A sensor reference is either {"sensor": "<plant sensor id>"} or {"station", "datapoint"}.
-function sensorRef(obj, where, ctx, datapointKey = 'datapoint') {
+// A datapoint reference is either {"sensor": "<plant sensor id>"} or {"station", "datapoint"}.
+function sensorRef(obj, ctx, datapointKey = 'datapoint') {
   if (obj.sensor !== undefined) {
     const s = ctx.sensors[obj.sensor];
-    if (!s) fail(`simulation ${where}: unknown sensor ${obj.sensor}`);
     return { station: s.device, datapoint: s.name };
   }
   if (obj.station === undefined && obj[datapointKey] === undefined) return null;
@@ -126,50 +171,27 @@ function sensorRef(obj, where, ctx, datapointKey = 'datapoint') {
   return { station: obj.station, datapoint: obj[datapointKey] };
 }
 
+// The section as the core checked it (src/plant/simulation.rs), built into tanks, transfers and baselines.
 function normalizeSimulation(sim, ctx) {
-  if (typeof sim !== 'object' || Array.isArray(sim)) fail('`simulation` must be an object');
   const tanks = {};
   for (const t of sim.tanks || []) {
-    if (!t || typeof t.id !== 'string') fail('simulation: every tank needs a string `id`');
-    if (tanks[t.id]) fail(`simulation: tank ${t.id} listed twice`);
-    const capacityL = Number(t.capacityL);
-    if (!(capacityL > 0)) fail(`simulation tank ${t.id}: capacityL must be > 0`);
-    const initialL = t.initialL === undefined ? 0 : Number(t.initialL);
-    if (!(initialL >= 0 && initialL <= capacityL)) fail(`simulation tank ${t.id}: initialL must be 0..capacityL`);
-    const volume = sensorRef(t, `tank ${t.id}`, ctx);
+    const volume = sensorRef(t, ctx);
     const level = t.level === undefined ? null
-      : typeof t.level === 'string' ? sensorRef({ station: t.station, datapoint: t.level }, `tank ${t.id}`, ctx)
-        : sensorRef(t.level, `tank ${t.id} level`, ctx);
-    tanks[t.id] = { id: t.id, capacityL, initialL, volume, level };
+      : typeof t.level === 'string' ? sensorRef({ station: t.station, datapoint: t.level }, ctx)
+        : sensorRef(t.level, ctx);
+    tanks[t.id] = { id: t.id, capacityL: t.capacityL, initialL: t.initialL ?? 0, volume, level };
   }
-  const transfers = [];
-  (sim.transfers || []).forEach((x, i) => {
-    const where = `transfer ${x && x.id ? x.id : i}`;
-    if (!x || typeof x !== 'object') fail(`simulation ${where}: must be an object`);
-    for (const end of ['from', 'to']) {
-      // null/absent = outside the plant (unlimited source or drain)
-      if (x[end] != null && !tanks[x[end]]) fail(`simulation ${where}: unknown tank ${x[end]}`);
-    }
-    let pump = null;
-    if (x.pump != null) {
-      pump = ctx.actuators[x.pump];
-      if (!pump || pump.type !== 'pump') fail(`simulation ${where}: ${x.pump} is not a pump in \`actuators\``);
-    }
-    const valves = (x.valves || []).map((v) => {
-      const a = ctx.actuators[v];
-      if (!a || a.type !== 'valve') fail(`simulation ${where}: ${v} is not a valve in \`actuators\``);
-      return a;
-    });
-    const rateLpm = Number(x.rateLpm);
-    if (!(rateLpm > 0)) fail(`simulation ${where}: rateLpm must be > 0`);
-    const flow = x.flow ? sensorRef(x.flow, where, ctx) : x.flowSensor ? sensorRef({ sensor: x.flowSensor }, where, ctx) : null;
-    transfers.push({ id: x.id || `${x.from || 'outside'}->${x.to || 'outside'}`, from: x.from ?? null, to: x.to ?? null, pump, valves, rateLpm, flow });
-  });
-  const signals = (sim.sensors || []).map((s, i) => {
-    const ref = sensorRef(s, `sensors[${i}]`, ctx);
-    if (!ref) fail(`simulation sensors[${i}]: give \`sensor\` or \`station\` + \`datapoint\``);
-    return { ...ref, base: s.base, span: s.span };
-  });
+  const transfers = (sim.transfers || []).map((x) => ({
+    id: x.id || `${x.from || 'outside'}->${x.to || 'outside'}`,
+    // null/absent = outside the plant (unlimited source or drain)
+    from: x.from ?? null,
+    to: x.to ?? null,
+    pump: x.pump != null ? ctx.actuators[x.pump] : null,
+    valves: (x.valves || []).map((v) => ctx.actuators[v]),
+    rateLpm: x.rateLpm,
+    flow: x.flow ? sensorRef(x.flow, ctx) : x.flowSensor ? sensorRef({ sensor: x.flowSensor }, ctx) : null,
+  }));
+  const signals = (sim.sensors || []).map((s) => ({ ...sensorRef(s, ctx), base: s.base, span: s.span }));
   return { tanks: Object.values(tanks), transfers, signals };
 }
 
@@ -177,13 +199,14 @@ const PROFILES = ['sugarshack', 'esphome', 'tasmota', 'shelly-gen2'];
 
 /**
  * The document with every device speaking `profile`, entities named from each
- * actuator's io (Tasmota `Shutter3` / `POWER1`, Shelly `cover:2` / `switch:0`;
+ * actuator's output (Tasmota `Shutter3` / `POWER1`, Shelly `cover:2` / `switch:0`;
  * ESPHome's object ids come from the actuator ids) and sensors' from their
  * names. The palette must be given the same document.
  */
 function withProfile(doc, profile) {
   if (!PROFILES.includes(profile)) fail(`profile ${JSON.stringify(profile)} is not one of ${PROFILES.join(', ')}`);
   const out = JSON.parse(JSON.stringify(doc));
+  const slots = assignSlots(out);
   for (const d of out.devices || []) {
     delete d.prefix;
     delete d.custom;
@@ -193,8 +216,9 @@ function withProfile(doc, profile) {
   for (const a of out.actuators || []) {
     delete a.entity;
     delete a.component;
-    if (profile === 'tasmota') a.entity = a.type === 'pump' ? `POWER${a.io}` : `Shutter${a.io}`;
-    if (profile === 'shelly-gen2') a.entity = a.type === 'pump' ? `switch:${a.io - 1}` : `cover:${a.io - 1}`;
+    const { family, slot } = slots.get(a.id);
+    if (profile === 'tasmota') a.entity = family === 'pump' ? `POWER${slot}` : `Shutter${slot}`;
+    if (profile === 'shelly-gen2') a.entity = family === 'pump' ? `switch:${slot - 1}` : `cover:${slot - 1}`;
   }
   for (const s of out.sensors || []) {
     delete s.entity;
@@ -203,4 +227,4 @@ function withProfile(doc, profile) {
   return out;
 }
 
-module.exports = { loadPlant, buildModel, withProfile, datapointDefaults, PANEL_VALVES, PANEL_PUMPS, PROFILES };
+module.exports = { loadPlant, buildModel, withProfile, assignSlots, datapointDefaults, PANEL_VALVES, PANEL_PUMPS, PROFILES };

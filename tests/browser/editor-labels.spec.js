@@ -5,13 +5,7 @@
 // palette names, dialogs' placeholders, options and tips, and the plant's validation texts come
 // out in English, read from the catalogs (nodes/locales/en-US/*.json).
 const assert = require('node:assert/strict');
-const fs = require('fs');
-const os = require('os');
-const path = require('path');
-const puppeteer = require('puppeteer-core');
-const { NodeRedProcess } = require('../integration/support/node-red');
-
-const CHROMIUM = process.env.CHROMIUM_BIN || '/usr/bin/chromium';
+const { openEditor } = require('./editor');
 
 const resources = (names) => names.map((name) => ({ name, lockout: { valves: { [`${name}-V1`]: 0 } } }));
 const plantDocument = (actuators) => ({
@@ -138,31 +132,15 @@ const PALETTE_LABELS = {
 
 describe('the editor\'s labels in headless Chromium', function () {
   this.timeout(180000);
-  let red; let browser; let page; let profile;
+  let editor; let page;
 
   before(async function () {
-    red = new NodeRedProcess({ flows: FLOW, tag: 'editor-labels' });
-    await red.start({ waitForBroker: false });
-    profile = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-chromium-'));
-    browser = await puppeteer.launch({
-      executablePath: CHROMIUM,
-      headless: true,
-      args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking',
-        '--disable-component-update', '--disable-sync', `--user-data-dir=${profile}`],
-    });
-    page = await browser.newPage();
-    await page.setViewport({ width: 1400, height: 1000 });
-    // The editor in English whatever the machine's locale.
-    await page.evaluateOnNewDocument(() => localStorage.setItem('editor-language', 'en-US'));
-    await page.goto(`http://127.0.0.1:${red.port}/`, { waitUntil: 'domcontentloaded' });
-    await page.waitForFunction(() => window.RED && RED.nodes && RED.nodes.node('acq10') && $('.red-ui-header-toolbar').is(':visible')
-      && !$('#red-ui-loading-progress').is(':visible'), { timeout: 90000 });
+    editor = await openEditor({ flows: FLOW, tag: 'editor-labels', readyNode: 'acq10' });
+    page = editor.page;
   });
 
   after(async function () {
-    if (browser) await browser.close();
-    if (profile) fs.rmSync(profile, { recursive: true, force: true });
-    if (red) await red.finish(this.currentTest);
+    if (editor) await editor.close(this.currentTest);
   });
 
   it('labels every node and config node as before, with the plural of the interlock\'s resources and the plant\'s actuators', async function () {

@@ -11,7 +11,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, TAB, sinkNode, collect, until, serverPerTest, completions,
-  settings, settled, clock, runFor, runUntil, userDir, memoryStore,
+  settings, settled, clock, runFor, runUntil, userDir, memoryStore, resealed,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -341,12 +341,15 @@ describe('sugarshack control: pid', function () {
       assert.deepEqual(warnings(), []);
     });
 
-    for (const [what, damage] of [
-      ['not JSON', () => fs.writeFileSync(stateFile(), '{"format":"sugarshack-pid-st')],
-      ['empty', () => fs.writeFileSync(stateFile(), '')],
-      ['missing though the node ran here', () => fs.rmSync(stateFile())],
-      ['not a pid state', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-interlock-state' }))],
-      ['holding no state object', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-pid-state', state: 'x' }))],
+    for (const [what, damage, why] of [
+      ['not JSON', () => fs.writeFileSync(stateFile(), '{"format":"sugarshack-pid-st'), /not valid JSON/],
+      ['empty', () => fs.writeFileSync(stateFile(), ''), /is empty/],
+      ['missing though the node ran here', () => fs.rmSync(stateFile()), /is missing/],
+      ['not a pid state', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-interlock-state' })), /the state of an interlock/],
+      ['holding no state object', () => fs.writeFileSync(stateFile(), JSON.stringify({ format: 'sugarshack-pid-state', state: 'x' })), /document version \(none\)/],
+      ['of another pid node', () => fs.writeFileSync(stateFile(), resealed({ ...savedState(), owner: 'pid-2' })), /the state of node 'pid-2', not of this one/],
+      ['with one byte changed', () => fs.writeFileSync(stateFile(), fs.readFileSync(stateFile(), 'utf8').replace('"setpoint":65', '"setpoint":66')), /does not match its checksum/],
+      ['of an unknown version', () => fs.writeFileSync(stateFile(), resealed({ ...savedState(), version: 3 })), /document version 3; this version reads version 2 only/],
     ]) {
       it(`a state file ${what}: a warning that says so, "saved state lost", the configured set point and mode with a zero integrator`, async function () {
         await load();
@@ -365,7 +368,8 @@ describe('sugarshack control: pid', function () {
         const [warning, ...others] = warnings();
         assert.deepEqual(others, []);
         assert.match(warning, /saved PID state (is lost|cannot be used)/);
-        assert.match(warning, /pid-pid\.json|not \{ integral/);
+        assert.match(warning, /pid-pid\.json/);
+        assert.match(warning, why);
         assert.match(warning, /starting from the config/);
         await deliver('pid', { payload: 40, timestamp: 1000 });
         const first = seen.out[0].pid;

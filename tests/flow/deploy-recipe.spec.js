@@ -8,15 +8,20 @@
 // (b) every SQL query of the Grafana dashboards names only tables and columns
 //     of the journal (lib/journal/schema.js columns());
 // (c) the committed mosquitto.conf run by the real mosquitto: anonymous
-//     clients refused, the password file's user accepted.
+//     clients refused, the password file's user accepted;
+// (d) QuestDB's tables deduplicate on (timestamp, writer, seq): the committed
+//     statements are the journal's schema's, and deploy/questdb/schema.sh, run
+//     by the real sh and curl against a stand-in for QuestDB's /exec, sends
+//     every one of them once QuestDB answers.
 const assert = require('assert');
 const fs = require('fs');
 const path = require('path');
-const { execFileSync } = require('child_process');
+const http = require('http');
+const { execFile, execFileSync } = require('child_process');
 const YAML = require('yaml');
 const Ajv2019 = require('ajv/dist/2019').default;
 const mqtt = require('mqtt');
-const { columns } = require('../../node-red-contrib-sugarshack/lib/journal/schema');
+const { columns, TABLES } = require('../../node-red-contrib-sugarshack/lib/journal/schema');
 const deployFlows = require('../../scripts/deploy-flows');
 const { startMosquitto, findMosquitto } = require('../integration/support/mosquitto');
 
@@ -304,7 +309,7 @@ describe('deployment recipe (deploy/)', function () {
       assert.ok(!edge.doc.services.questdb, 'the edge runs no database');
       assert.throws(() => interpolate(edge.text, { ...edge.env, SUGARSHACK_PLANT_ID: '' }), /SUGARSHACK_PLANT_ID is required/);
       const cloud = loadCompose(COMPOSE_FILES[2]).doc.services;
-      assert.deepStrictEqual(Object.keys(cloud).sort(), ['grafana', 'questdb']);
+      assert.deepStrictEqual(Object.keys(cloud).sort(), ['grafana', 'questdb', 'questdb-schema']);
     });
 
     it('the container flows are the case study with a journal to ${SUGARSHACK_DB_HOST}, tagged ${SUGARSHACK_PLANT_ID}', function () {
@@ -359,6 +364,83 @@ describe('deployment recipe (deploy/)', function () {
         assert.deepStrictEqual(problems, []);
       });
     }
+  });
+
+  describe('(d) QuestDB\'s tables deduplicate on (timestamp, writer, seq)', function () {
+    const SCHEMA_SH = path.join(DEPLOY, 'questdb', 'schema.sh');
+    const statements = () => fs.readFileSync(deployFlows.OUT.schema, 'utf8').split('\n').filter((l) => l && !l.startsWith('--'));
+
+    it('the committed statements are the journal\'s schema\'s: every table with every column, deduplicated', function () {
+      assert.strictEqual(fs.readFileSync(deployFlows.OUT.schema, 'utf8'), deployFlows.schemaSql(), 'run node scripts/deploy-flows.js');
+      const all = statements();
+      for (const table of Object.values(TABLES)) {
+        const create = all.find((st) => st.startsWith(`CREATE TABLE IF NOT EXISTS ${table.name} (`));
+        assert.ok(create, table.name);
+        const cols = /\((.*)\) TIMESTAMP\(timestamp\)/.exec(create)[1].split(', ').map((c) => c.split(' ')[0]);
+        assert.deepStrictEqual(cols.sort(), [...columns()[table.name]].sort());
+        assert.match(create, / WAL DEDUP UPSERT KEYS\(timestamp, writer, seq\);$/);
+        // A table the line protocol created before (no writer column, no deduplication) is brought up to it.
+        assert.ok(all.includes(`ALTER TABLE ${table.name} ADD COLUMN IF NOT EXISTS writer SYMBOL;`));
+        assert.ok(all.includes(`ALTER TABLE ${table.name} DEDUP ENABLE UPSERT KEYS(timestamp, writer, seq);`));
+      }
+    });
+
+    it('every Compose file with QuestDB runs schema.sh with what it reads, and the single host\'s journal starts after it', function () {
+      // What it reads without a default must come from the service's environment.
+      const needed = [...fs.readFileSync(SCHEMA_SH, 'utf8').matchAll(/\$\{([A-Z_][A-Z0-9_]*)\}/g)].map((m) => m[1]);
+      assert.deepStrictEqual([...new Set(needed)], ['QUESTDB_HOST']);
+      for (const file of [COMPOSE_FILES[0], COMPOSE_FILES[2]]) {
+        const svc = loadCompose(file).doc.services['questdb-schema'];
+        assert.ok(svc, rel(file));
+        assert.strictEqual(svc.environment.QUESTDB_HOST, 'questdb');
+        assert.ok(svc.environment.QDB_HTTP_USER && svc.environment.QDB_HTTP_PASSWORD, 'QuestDB\'s HTTP login');
+        assert.deepStrictEqual(svc.entrypoint, ['/bin/sh', '/schema/schema.sh']);
+      }
+      assert.deepStrictEqual(loadCompose(COMPOSE_FILES[0]).doc.services['node-red'].depends_on['questdb-schema'], { condition: 'service_completed_successfully' });
+    });
+
+    /** Runs schema.sh against a stand-in for QuestDB's /exec that answers 503 `downFor` times, then as `answer(query)` says. */
+    async function runSchema({ downFor, answer = () => 200 }) {
+      const seen = [];
+      let calls = 0;
+      const server = http.createServer((req, res) => {
+        calls += 1;
+        const query = new URL(req.url, 'http://x').searchParams.get('query');
+        if (calls <= downFor) {
+          res.writeHead(503).end();
+          return;
+        }
+        seen.push({ path: new URL(req.url, 'http://x').pathname, query, auth: Buffer.from((req.headers.authorization || '').replace(/^Basic /, ''), 'base64').toString() });
+        res.writeHead(answer(query), { 'Content-Type': 'application/json' }).end('{}');
+      });
+      await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
+      const env = {
+        PATH: process.env.PATH, QUESTDB_HOST: '127.0.0.1', QUESTDB_PORT: String(server.address().port), QDB_HTTP_USER: 'journal', QDB_HTTP_PASSWORD: 'pw', QUESTDB_WAIT_S: '0',
+      };
+      try {
+        return await new Promise((resolve) => {
+          execFile('sh', [SCHEMA_SH], { env, timeout: 20000 }, (err, stdout, stderr) => resolve({ code: err ? err.code : 0, stdout, stderr, seen }));
+        });
+      } finally {
+        server.close();
+      }
+    }
+
+    it('schema.sh waits for QuestDB, then sends every statement in order as the HTTP user', async function () {
+      this.timeout(30000);
+      const run = await runSchema({ downFor: 2 });
+      assert.strictEqual(run.code, 0, run.stderr);
+      assert.deepStrictEqual(run.seen.map((q) => q.query), ['SELECT 1', ...statements()]);
+      assert.ok(run.seen.every((q) => q.path === '/exec' && q.auth === 'journal:pw'));
+      assert.match(run.stdout, /deduplicate on \(timestamp, writer, seq\)/);
+    });
+
+    it('schema.sh fails, naming the statement, when QuestDB refuses one', async function () {
+      this.timeout(30000);
+      const run = await runSchema({ downFor: 0, answer: (q) => (q.startsWith('ALTER TABLE sugarshack_event DEDUP') ? 400 : 200) });
+      assert.notStrictEqual(run.code, 0);
+      assert.match(run.stderr, /refused: ALTER TABLE sugarshack_event DEDUP ENABLE/);
+    });
   });
 
   describe('(c) mosquitto.conf run by the real mosquitto', function () {

@@ -11,7 +11,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, userDir, clock, memoryStore,
+  startServer, stopServer, settings, settled, userDir, clock, memoryStore, checksumOf, resealed,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -23,7 +23,8 @@ const quiet = () => settled(helper, 'il');
 const stateFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.json');
 const markerFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.ran');
 const saved = () => JSON.parse(fs.readFileSync(stateFile(), 'utf8'));
-const savedLines = () => Object.fromEntries(saved().interlock.resources.map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
+const writeSealed = (doc) => fs.writeFileSync(stateFile(), resealed(doc));
+const savedLines = () => Object.fromEntries(saved().state.interlock.resources.map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
 const liveLines = () => Object.fromEntries(runtimeOf().core.snapshot(0).resources.map((r) => [r.name, r.state.state === 'faulted' ? `faulted:${r.state.cause}` : r.state.state]));
 const lastStatus = (id) => {
   const calls = helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id);
@@ -75,8 +76,12 @@ describe('sugarshack durable interlock state', function () {
     assert.deepEqual(liveLines(), Object.fromEntries(LINES.map((l) => [l, 'free'])));
     assert.ok(fs.existsSync(markerFile()), 'the "has run before" marker');
     assert.deepEqual(savedLines(), liveLines());
-    assert.equal(saved().interlock.version, 2);
-    assert.deepEqual(saved().interlock.configured, LINES);
+    const doc = saved();
+    assert.deepEqual([doc.format, doc.version, doc.owner], ['sugarshack-interlock-state', 2, 'il']);
+    assert.match(doc.savedFor, /^sha256:[0-9a-f]{64}$/);
+    assert.equal(doc.checksum, checksumOf(doc), 'the checksum, computed as documented by another implementation');
+    assert.equal(doc.state.interlock.version, 2);
+    assert.deepEqual(doc.state.interlock.configured, LINES);
   });
 
   it('a grant, a lockout and a clear leave only once the state holding them is on disk', async function () {
@@ -125,7 +130,7 @@ describe('sugarshack durable interlock state', function () {
     await quiet();
     assert.deepEqual(caught.map((m) => m.error.message), []);
     assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
-    assert.equal(saved().interlock.holds.length, 1);
+    assert.equal(saved().state.interlock.holds.length, 1);
     assert.ok(fs.statSync(stateFile()).size < 4000, `saved state ${fs.statSync(stateFile()).size} bytes`);
   });
 
@@ -237,30 +242,36 @@ describe('sugarshack durable interlock state', function () {
       ['the state file is not JSON', () => fs.writeFileSync(stateFile(), '{"format": "sugarshack-interlock-state", "interl'), /not valid JSON/],
       ['the snapshot no longer lists a line', () => {
         const doc = saved();
-        doc.interlock.resources = doc.interlock.resources.filter((r) => r.name !== 'RED');
-        fs.writeFileSync(stateFile(), JSON.stringify(doc));
-      }, /RED/],
+        doc.state.interlock.resources = doc.state.interlock.resources.filter((r) => r.name !== 'RED');
+        writeSealed(doc);
+      }, /line 'RED' was configured but 'resources' does not say its state/],
       ['a hold contradicts the lines', () => {
         const doc = saved();
-        doc.interlock.holds[0].resources = ['GRN'];
-        fs.writeFileSync(stateFile(), JSON.stringify(doc));
+        doc.state.interlock.holds[0].resources = ['GRN'];
+        writeSealed(doc);
       }, /GRN|YEL/],
       ['a line is listed twice', () => {
         const doc = saved();
-        doc.interlock.resources.push({ ...doc.interlock.resources[1] });
-        fs.writeFileSync(stateFile(), JSON.stringify(doc));
+        doc.state.interlock.resources.push({ ...doc.state.interlock.resources[1] });
+        writeSealed(doc);
       }, /GRN.*twice|twice.*GRN/],
       ['an unknown line is listed', () => {
         const doc = saved();
-        doc.interlock.resources.push({ name: 'BLK', state: { state: 'free' } });
-        fs.writeFileSync(stateFile(), JSON.stringify(doc));
+        doc.state.interlock.resources.push({ name: 'BLK', state: { state: 'free' } });
+        writeSealed(doc);
       }, /BLK/],
       ['a note is nested 10,000 levels deep', () => {
         const doc = saved();
-        doc.interlock.resources[0].state = { state: 'faulted', cause: 'manual', note: 'DEEP', sinceMs: 0 };
+        doc.state.interlock.resources[0].state = { state: 'faulted', cause: 'manual', note: 'DEEP', sinceMs: 0 };
         // Written as text: JSON.stringify itself cannot go that deep.
         fs.writeFileSync(stateFile(), JSON.stringify(doc).replace('"DEEP"', `${'['.repeat(10000)}"x"${']'.repeat(10000)}`));
       }, /nested/],
+      ['its checksum no longer matches (the file edited by hand)', () => {
+        const doc = saved();
+        doc.state.interlock.holds = [];
+        doc.state.interlock.resources[0].state = { state: 'free' };
+        fs.writeFileSync(stateFile(), JSON.stringify(doc));
+      }, /does not match its checksum/],
     ];
 
     for (const [what, breakIt, why] of breakages) {
@@ -282,6 +293,108 @@ describe('sugarshack durable interlock state', function () {
         assert.equal(runtimeOf().lostState, null);
       });
     }
+  });
+
+  describe('a state file that is not this interlock\'s, or that cannot show a line is new, is lost state', function () {
+    const stateApi = async () => (await helper.request().get('/sugarshack/state').expect(200)).body.interlocks.find((i) => i.id === 'il');
+    const warningsOf = (id) => helper.getNode(id).warn.getCalls().filter((c) => c.thisValue.id === id).map((c) => String(c.args[0]));
+
+    /** Runs the interlock once (op 10 holds YEL, PUR e-stopped with a note), changes its file, starts it again. */
+    async function restartAfter(change, config = {}) {
+      await helper.load(paletteNodes, flow());
+      const out = collect(helper, 'out');
+      helper.getNode('a10').receive({});
+      helper.getNode('stopPUR').receive({ payload: 'washball leak' });
+      await until(() => out.length === 1, 'held');
+      await quiet();
+      await helper.unload();
+      await change();
+      await helper.load(paletteNodes, flow([], config));
+      const events = collect(helper, 'events');
+      await quiet();
+      return events;
+    }
+
+    /** Every line faulted "unknown", the reason logged, on the nodes and in the state API; nothing granted until cleared. */
+    async function assertLost(why) {
+      assert.deepEqual(liveLines(), Object.fromEntries(LINES.map((l) => [l, 'faulted:unknown'])));
+      const logged = errorsOf('il');
+      assert.ok(logged.some((m) => /state unknown after restart/.test(m) && why.test(m)), logged.join('\n'));
+      assert.equal(lastStatus('a10').fill, 'red');
+      assert.equal(lastStatus('a10').text, 'lost · faulted 5');
+      const api = await stateApi();
+      assert.match(api.lostState, why);
+      assert.deepEqual({ ...api.started, reason: undefined }, { outcome: 'lost', reason: undefined, added: [], dropped: [] });
+      assert.ok(api.lines.every((l) => l.fault.cause === 'unknown' && why.test(l.fault.note)), JSON.stringify(api.lines[0]));
+      const out = collect(helper, 'out');
+      helper.getNode('a51').receive({});
+      await quiet();
+      assert.equal(out.length, 0, 'nothing is granted before a person clears');
+    }
+
+    it('another interlock\'s state file, with the same lines, copied over this one\'s', async function () {
+      await restartAfter(async () => {
+        // Interlock "il-2" runs here with every line free; its file then replaces this one's.
+        await helper.load(paletteNodes, [TAB, interlockConfig({ id: 'il-2', persist: true })]);
+        await settled(helper, 'il-2');
+        await helper.unload();
+        fs.copyFileSync(path.join(userDir(), 'sugarshack', 'interlock-il-2.json'), stateFile());
+      });
+      await assertLost(/state of node 'il-2', not of this one/);
+    });
+
+    it('a checksum mismatch: one byte changed inside a note', async function () {
+      await restartAfter(() => {
+        const text = fs.readFileSync(stateFile(), 'utf8');
+        assert.ok(text.includes('washball leak'));
+        fs.writeFileSync(stateFile(), text.replace('washball leak', 'washball leek'));
+      });
+      await assertLost(/does not match its checksum/);
+    });
+
+    it('an outer document version it does not know', async function () {
+      await restartAfter(() => writeSealed({ ...saved(), version: 99 }));
+      await assertLost(/document version 99; this version reads version 2 only/);
+    });
+
+    it('a version 1 snapshot listing no lines', async function () {
+      await restartAfter(() => {
+        const doc = saved();
+        doc.state.interlock = { version: 1, takenAtMs: 0, resources: [], queue: [], holds: [] };
+        writeSealed(doc);
+      });
+      await assertLost(/snapshot is version 1; a state file holds version 2 only/);
+    });
+
+    it('a line removed from both lists of the snapshot, resealed', async function () {
+      await restartAfter(() => {
+        const doc = saved();
+        doc.state.interlock.configured = doc.state.interlock.configured.filter((l) => l !== 'RED');
+        doc.state.interlock.resources = doc.state.interlock.resources.filter((r) => r.name !== 'RED');
+        writeSealed(doc);
+      });
+      await assertLost(/saved for this very configuration, yet it lists the lines YEL, GRN, BLU, PUR where the configuration has YEL, GRN, BLU, PUR, RED/);
+    });
+
+    it('a line really added to the configuration after the save starts free, logged and evented', async function () {
+      const withBlk = [...interlockConfig().resources, { name: 'BLK', lockout: null }];
+      const restartEvents = await restartAfter(() => {}, { resources: withBlk });
+      assert.deepEqual(liveLines(), { YEL: 'faulted:interrupted', GRN: 'free', BLU: 'free', PUR: 'faulted:manual', RED: 'free', BLK: 'free' });
+      assert.deepEqual(warningsOf('il').filter((m) => /BLK/.test(m)), ['line BLK was added to the configuration after the state was saved: it starts free']);
+      assert.deepEqual(errorsOf('il'), []);
+      const api = await stateApi();
+      assert.equal(api.lostState, null);
+      assert.deepEqual(api.started, { outcome: 'restored', reason: null, added: ['BLK'], dropped: [] });
+      assert.equal(lastStatus('a10').text, 'faulted 2');
+      await until(() => restartEvents.length >= 2, 'the restart\'s events');
+      assert.deepEqual(restartEvents.map((e) => [e.payload.kind, e.payload.resources.join(), e.summary]), [
+        ['resource-added', 'BLK', 'line BLK added, starts free'],
+        ['interrupted', 'YEL', 'interrupted 10: YEL held at the restart, now faulted'],
+      ]);
+      helper.getNode('a10').receive({ operation: 'blk', resources: 'BLK' });
+      const out = collect(helper, 'out');
+      await until(() => out.length === 1, 'BLK granted');
+    });
   });
 
   it('a state saved by an earlier version in a context store is carried over, msgs waiting meanwhile', async function () {

@@ -678,7 +678,7 @@ describe('example: subflows-op12', function () {
     // The acknowledgement is saved with the interlock's state: a restart keeps it.
     await settled(helper, ids[0]);
     const saved = JSON.parse(fs.readFileSync(runtime().store.where, 'utf8'));
-    assert.deepEqual(saved.alarms.alarms.map((a) => [a.id, a.state, a.acked && a.acked.by]), [['line-faulted:RED', 'active-acknowledged', 'unknown']]);
+    assert.deepEqual(saved.state.alarms.alarms.map((a) => [a.id, a.state, a.acked && a.acked.by]), [['line-faulted:RED', 'active-acknowledged', 'unknown']]);
     await helper.unload();
     await helper.load(NODE_MODULES, flow);
     await started(flow);

@@ -381,6 +381,6 @@ describe('texts in the runtime language', function () {
 
   it('without a catalog for the language a text stays in English', async function () {
     const caught = await refusedAcquire(paletteNodes);
-    assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be an integer (higher = more urgent), got "urgent"');
+    assert.equal(caught[0].error.message, 'SugarshackError: the configured priority must be a whole number, like 5 (higher is more urgent); got "urgent"');
   });
 });

@@ -15,7 +15,7 @@ const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clo
 const { Spool } = require(path.join(PALETTE, 'lib', 'journal', 'spool.js'));
 const { JournalWriter, Encoder } = require(path.join(PALETTE, 'lib', 'journal', 'writer.js'));
 const { journal, JournalBus } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
-const { filesTarget, readJournal, parseLine } = require(path.join(PALETTE, 'lib', 'journal', 'files.js'));
+const { filesTarget, readJournal, parseLine, writerId } = require(path.join(PALETTE, 'lib', 'journal', 'files.js'));
 const { stats } = require(path.join(PALETTE, 'lib', 'stats.js'));
 
 helper.init(require.resolve('node-red'));
@@ -56,6 +56,7 @@ describe('journal spool', function () {
   afterEach(() => fs.rmSync(dir, { recursive: true, force: true }));
 
   it('follows a reference queue over random appends, sends, acks and restarts: order kept, drops exact', function () {
+    this.timeout(60000); // 4,500 steps, each ack a file write
     for (let seed = 1; seed <= 15; seed++) {
       fs.rmSync(dir, { recursive: true, force: true });
       const rand = rng(seed);
@@ -145,12 +146,81 @@ describe('journal writer: store and forward', function () {
     await writer.close();
   });
 
+  it('a restart keeps the writer id and goes on with seq, from the spool\'s rows or, once all are sent, from its cursor', async function () {
+    const target = fakeTarget();
+    const spoolDir = path.join(dir, 'spool');
+    const run = async (rows, up) => {
+      target.down = !up;
+      const writer = new JournalWriter({ plant: 'p1', spool: new Spool({ dir: spoolDir, maxBytes: 1 << 20 }), target, flushMs: 100 });
+      for (let i = 0; i < rows; i++) writer.row(rowOf(i));
+      await manual.advance(100);
+      await settle();
+      const { writer: id, seq } = writer.metrics();
+      await writer.close();
+      return [id, seq];
+    };
+    const [first, seq1] = await run(5, true);
+    // All sent: its segments may go (as full ones do), and the cursor alone tells the seq.
+    for (const f of fs.readdirSync(spoolDir).filter((name) => name.endsWith('.lp'))) fs.rmSync(path.join(spoolDir, f));
+    const [second, seq2] = await run(3, false);
+    // The rows wait in the spool; the cursor, written at acknowledgements only, still says 5: the rows tell 8.
+    assert.equal(JSON.parse(fs.readFileSync(path.join(spoolDir, 'cursor.json'), 'utf8')).seq, 5);
+    const [third, seq3] = await run(2, true);
+    assert.deepEqual([seq1, seq2, seq3], [5, 8, 10]);
+    assert.equal(new Set([first, second, third]).size, 1, 'one writer id across restarts');
+    assert.deepEqual(target.received(), Array.from({ length: 10 }, (_, i) => i + 1), 'every seq once, on from the last run\'s');
+    // The local files do the same.
+    const filesDir = path.join(dir, 'files');
+    const filesWriter = () => new JournalWriter({ plant: 'p1', target: filesTarget({ dir: filesDir }) });
+    const a = filesWriter();
+    [1, 2, 3].forEach((i) => a.row(rowOf(i)));
+    await a.close();
+    const b = filesWriter();
+    b.row(rowOf(4));
+    await b.close();
+    assert.equal(b.writerId, a.writerId);
+    assert.deepEqual(readJournal(filesDir).map((r) => [r.tags.writer, r.fields.seq]), [1, 2, 3, 4].map((n) => [a.writerId, n]));
+  });
+
+  it('a server that writes but does not acknowledge: only the unacknowledged rows come again, in chunks that start small after a failure', async function () {
+    const target = fakeTarget();
+    let failNext = 0;
+    const send = target.send;
+    target.send = (body) => {
+      send(body); // written...
+      if (failNext === 0) return Promise.resolve(true);
+      failNext -= 1;
+      return Promise.reject(new Error('socket hang up')); // ...but the answer is lost
+    };
+    const writer = new JournalWriter({ plant: 'p1', spool: new Spool({ dir, maxBytes: 1 << 24 }), target, flushMs: 100 });
+    for (let i = 1; i <= 3000; i++) writer.row(rowOf(i));
+    failNext = 3;
+    for (let t = 0; t < 20 && (writer.metrics().backlog > 0 || writer.metrics().pending > 0); t++) {
+      await manual.advance(1000);
+      await settle();
+    }
+    const got = target.received();
+    const sizes = target.bodies.map((b) => b.length);
+    const m = writer.metrics();
+    assert.equal(m.backlog, 0);
+    assert.deepEqual([...new Set(got)].sort((x, y) => x - y), Array.from({ length: 3000 }, (_, i) => i + 1), 'every row arrived');
+    const duplicates = got.length - 3000;
+    assert.ok(duplicates > 0 && duplicates <= m.unacknowledged, `${duplicates} duplicates, ${m.unacknowledged} unacknowledged`);
+    assert.ok(Math.max(...sizes) <= 64 * 1024, 'no request over 64 KB');
+    assert.ok(sizes[1] <= 512 && sizes[2] <= 512 && sizes[3] <= 512, `after each failure a small chunk: ${sizes.slice(0, 6)}`);
+    assert.ok(sizes[4] > sizes[3] && sizes[5] > sizes[4], 'then doubling');
+    assert.ok(m.unacknowledged < sizes[0] / 100 + 3 * 30, `${m.unacknowledged} rows sent without an answer`);
+    await writer.close();
+  });
+
   it('past the bound drops exactly the rows that do not fit, counts them, and says so after a restart', async function () {
     const target = fakeTarget();
     target.down = true;
-    const sizeOf = (i) => new Encoder('p1').encode(rowOf(i), i).length;
-    const size = sizeOf(1);
     const spoolDir = path.join(dir, 'spool');
+    fs.mkdirSync(spoolDir);
+    const encoder = new Encoder('p1', writerId(spoolDir)); // the id the spool's writer will have
+    const sizeOf = (i) => encoder.encode(rowOf(i), i).length;
+    const size = sizeOf(1);
     // Room for 250 rows of the first row's size; later rows are longer (their seq and values grow), so count bytes.
     const writer = new JournalWriter({ plant: 'p1', spool: new Spool({ dir: spoolDir, maxBytes: size * 250 }), target, flushMs: 100 });
     const sizes = [];
@@ -197,14 +267,16 @@ describe('journal bus and local files', function () {
     rows.forEach((r) => writer.row(r));
     writer.flush();
     const back = readJournal(dir);
+    const writer0 = writer.writerId;
+    assert.match(writer0, /^[0-9a-f]{12}$/);
     assert.deepEqual(back.map((r) => r.table), ['sugarshack_datapoint', 'sugarshack_event', 'sugarshack_action', 'sugarshack_timing']);
-    assert.deepEqual(back[0].tags, { plant: 'sugar shack', device: 'ctrl-1', entity: 'valve/3' });
+    assert.deepEqual(back[0].tags, { plant: 'sugar shack', writer: writer0, device: 'ctrl-1', entity: 'valve/3' });
     assert.deepEqual(back[0].fields, { value: 1, device_ts: 1000, seq: 1 });
     assert.equal(back[0].at, 1040);
-    assert.deepEqual(back[1].tags, { plant: 'sugar shack', layer: 'interlock', kind: 'granted', subject: 'op 1', resources: 'YEL GRN', note: 'a, b=c' });
+    assert.deepEqual(back[1].tags, { plant: 'sugar shack', writer: writer0, layer: 'interlock', kind: 'granted', subject: 'op 1', resources: 'YEL GRN', note: 'a, b=c' });
     assert.equal(back[1].fields.waited_ms, 12);
-    assert.deepEqual(back[2].tags, { plant: 'sugar shack', action: 'clear', who: 'Ann', why: 'checked the pump', target: 'YEL' });
-    assert.deepEqual(back[3].tags, { plant: 'sugar shack', series: 'tof', subject: 'ctrl-1' });
+    assert.deepEqual(back[2].tags, { plant: 'sugar shack', writer: writer0, action: 'clear', who: 'Ann', why: 'checked the pump', target: 'YEL' });
+    assert.deepEqual(back[3].tags, { plant: 'sugar shack', writer: writer0, series: 'tof', subject: 'ctrl-1' });
     assert.deepEqual(readJournal(dir, { fromMs: 1041, toMs: 2001 }).map((r) => r.table), ['sugarshack_event']);
     writer.close();
   });
@@ -226,7 +298,7 @@ describe('journal bus and local files', function () {
   it('rotates the local files and keeps at most maxFiles of them', function () {
     const target = filesTarget({ dir, fileBytes: 100, maxFiles: 3 });
     for (let i = 1; i <= 20; i++) target.append([row(i, 20)]);
-    const files = fs.readdirSync(dir).sort();
+    const files = fs.readdirSync(dir).filter((f) => f.endsWith('.lp'));
     assert.equal(files.length, 3);
     const kept = readJournal(dir).map((r) => r.fields.n);
     assert.deepEqual(kept, Array.from({ length: kept.length }, (_, i) => 21 - kept.length + i), 'the newest rows, in order');

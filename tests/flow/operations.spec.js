@@ -84,7 +84,7 @@ const quiet = () => settled(helper, 'il');
 const run = (ms) => runFor(helper, ms);
 const runTill = (predicate, what) => runUntil(helper, predicate, what);
 const stateFile = () => path.join(userDir(), 'sugarshack', 'interlock-il.json');
-const savedRoutine = (id) => JSON.parse(fs.readFileSync(stateFile(), 'utf8')).routines[id];
+const savedRoutine = (id) => JSON.parse(fs.readFileSync(stateFile(), 'utf8')).state.routines[id];
 
 const operationNode = (id, operation, wire = 'out') => ({ id, z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation, wires: [[wire]] });
 const routineNode = { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'truck', wires: [['rt']] };

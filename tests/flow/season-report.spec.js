@@ -76,7 +76,7 @@ describe('season report', function () {
 
     const dir = path.join(userDir(), 'sugarshack-journal', 'files');
     const out = path.join(userDir(), 'season.html');
-    // SEASON_REPORT_SVG=dir also writes each figure as an SVG (how the README's pictures are made).
+    // SEASON_REPORT_SVG=dir also writes each figure as an SVG (how the docs' pictures are made).
     const report = await main(['--journal', dir, '--out', out, ...(process.env.SEASON_REPORT_SVG ? ['--svg', process.env.SEASON_REPORT_SVG] : [])]);
     const s = stats.report();
     const n = (name) => (s[name] ? s[name].n : 0);
@@ -103,6 +103,22 @@ describe('season report', function () {
     assert.equal(summary.figures.fig13, report.figures.fig13.n);
     assert.equal(summary.datapoints, readJournal(dir).filter((r) => r.table === 'sugarshack_datapoint').length);
     assert.ok(summary.datapoints > 0);
+    // A journal in which retries left copies of rows, as a database without deduplication keeps them
+    // (chunks whose answer was lost, sent again): the same report, every count the same, the copies counted apart.
+    const copied = path.join(userDir(), 'with-copies');
+    fs.mkdirSync(copied);
+    let copies = 0;
+    for (const f of fs.readdirSync(dir).filter((name) => name.endsWith('.lp'))) {
+      const lines = fs.readFileSync(path.join(dir, f), 'utf8').split('\n').filter(Boolean);
+      const resent = [...lines.slice(0, 40), ...lines.slice(10, 40), ...lines.slice(10, 40), ...lines.slice(40), ...lines.slice(-7)];
+      copies += resent.length - lines.length;
+      fs.writeFileSync(path.join(copied, f), `${resent.join('\n')}\n`);
+    }
+    const withCopies = await main(['--journal', copied, '--out', out]);
+    const counts = (r) => ({ ...r, figures: Object.fromEntries(Object.entries(r.figures).map(([k, f]) => [k, f.n])), duplicates: undefined });
+    assert.deepEqual(counts(withCopies), counts(report));
+    assert.deepEqual([report.duplicates, withCopies.duplicates], [0, copies]);
+    assert.ok(copies > 10, `${copies} copies`);
     // --from/--to select by time: a range after the run has nothing.
     const later = await main(['--journal', dir, '--out', out, '--from', String(Date.UTC(2100, 0, 1))]);
     assert.equal(later.rows, 0);

@@ -40,10 +40,11 @@ describe('status text', function () {
   it('shows faults in red and short refusal reasons', function () {
     assert.equal(countsStatus({ holding: 1, queued: 0, faulted: 1 }).fill, 'red');
     assert.equal(countsStatus({ holding: 1, queued: 4, faulted: 0 }).fill, 'green');
-    // A state lost at start leads, and a long count is cut as every status is, with its mark.
+    // A state lost at start leads; the counts beside it take their short forms, then letters, then the least important go: never cut.
     assert.equal(countsStatus({ holding: 0, queued: 0, faulted: 3, lost: true }).text, 'lost · faulted 3');
-    const lostLong = countsStatus({ holding: 1234, queued: 12345, faulted: 5, lost: true }).text;
-    assert.ok(lostLong.startsWith('lost · ') && lostLong.length < 20 && lostLong.endsWith('…'), lostLong);
+    assert.equal(countsStatus({ holding: 1, queued: 0, faulted: 3, lost: true }).text, 'lost · flt 3·hld 1');
+    assert.equal(countsStatus({ holding: 1, queued: 2, faulted: 3, lost: true }).text, 'lost · F3 H1 Q2');
+    assert.equal(countsStatus({ holding: 1234, queued: 12345, faulted: 5, lost: true }).text, 'lost · F5 H1.2k');
     assert.equal(shortReason('UNKNOWN_RESOURCE'), 'unknown resource');
     const long = shortReason('SOME_VERY_LONG_FUTURE_ERROR_CODE');
     assert.ok(long.length < 20 && long.endsWith('…'), long);

@@ -222,6 +222,18 @@ async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs
  * (scope -> key -> value), values kept as JSON as a store on disk keeps them.
  * `get` answers; pass one that answers late to stand for a store on a slow disk.
  */
+/**
+ * The checksum of a sealed state document, as the README gives it: SHA-256 of
+ * its compact JSON without the checksum member (computed here, apart from the core).
+ */
+function checksumOf(doc) {
+  const { checksum, ...rest } = doc; // eslint-disable-line no-unused-vars
+  return `sha256:${require('crypto').createHash('sha256').update(JSON.stringify(rest)).digest('hex')}`;
+}
+
+/** `doc` as text with a checksum that matches it: damage a checksum alone would not catch. */
+const resealed = (doc) => JSON.stringify({ ...doc, checksum: checksumOf(doc) });
+
 function memoryStore(data, get = (scope, key, cb) => cb(null, (data[scope] || {})[key])) {
   return () => ({
     open: () => Promise.resolve(),
@@ -240,6 +252,6 @@ function memoryStore(data, get = (scope, key, cb) => cb(null, (data[scope] || {}
 }
 
 module.exports = {
-  memoryStore, PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  checksumOf, resealed, memoryStore, PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

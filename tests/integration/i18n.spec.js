@@ -13,7 +13,7 @@ const { settingsFile } = require('../../scripts/lib/node-red-process');
 const { SHARED_NAMESPACE } = require('../../node-red-contrib-sugarshack/lib/i18n');
 
 const PALETTE = path.resolve(__dirname, '..', '..', 'node-red-contrib-sugarshack');
-const ENGLISH = 'the configured priority must be an integer (higher = more urgent), got "urgent"';
+const ENGLISH = 'the configured priority must be a whole number, like 5 (higher is more urgent); got "urgent"';
 const GERMAN = 'die eingestellte Priorität muss eine ganze Zahl sein, nicht "urgent"';
 
 const flows = [

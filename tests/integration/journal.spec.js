@@ -3,16 +3,25 @@
 // Debian): a plant run journalled over HTTP and found in the server; the
 // server killed for 20 s of plant time and started again (the journal's
 // retries follow the manual clock, so the outage costs no wall-clock wait);
-// and the spool filled past its bound, with the exact drop count.
+// the spool filled past its bound, with the exact drop count; and a real
+// Node-RED journalling through a hostile proxy (connections cut after the
+// body, 500s, answers too late, gone a while) and killed with SIGKILL while
+// it is gone: every (writer, seq) arrives, seq goes on across the restart,
+// the copies retries leave are counted and bounded, and the season report
+// counts the same with them as without.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const os = require('os');
 const path = require('path');
+const http = require('http');
 const helper = require('node-red-node-test-helper');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator, SMALL_PLANT } = require('./support/simulator');
 const { startVictoriaMetrics } = require('./support/victoria-metrics');
+const { NodeRedProcess, waitFor } = require('./support/node-red');
+const { freePort } = require('./support/mosquitto');
+const { main: seasonReport, analyse } = require('../../scripts/season-report');
 const { loadPlant } = require('../../scripts/simulator/plant');
 const {
   PALETTE, TAB, sinkNode, startRealTimeServer, settings, collect, until, sleep,
@@ -36,6 +45,104 @@ async function rowsIn(vm, table = 'sugarshack_.*') {
     const { __name__: name, ...tags } = metric;
     return { table: name.replace(/_seq$/, ''), tags, seq: value, at };
   }).sort((a, b) => a.seq - b.seq);
+}
+
+/** A flow that journals an operator note every 10 ms through the journal node, to a database at `port`. */
+function noteEvery10ms(port) {
+  return [
+    { id: 'tab', type: 'tab', label: 'journal' },
+    {
+      id: 'tick', z: 'tab', type: 'inject', name: '', props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }], repeat: '0.01', crontab: '',
+      once: true, onceDelay: '0.1', topic: 'note', payload: '', payloadType: 'date', wires: [['j']],
+    },
+    {
+      id: 'j', z: 'tab', type: 'sugarshack-journal', target: 'http', host: '127.0.0.1', port, plantId: 'shack', flushS: 0.1,
+      timeoutS: 1, bufferMB: 64, wires: [[]],
+    },
+  ];
+}
+
+const LATE_MS = 2500; // past the journal's 1 s answer time
+
+/**
+ * Between the journal and the server: `mode` says what it does to each request.
+ * pass: forwards it and answers as the server did; cut: forwards the body, then
+ * drops the connection without an answer; error: forwards it, answers 500;
+ * late: forwards it, answers 204 after LATE_MS; gone()/back(): nothing listens,
+ * then it listens again on the same port. `unackedRows` counts the rows of the
+ * requests the server took but whose 204 never reached the journal: the only
+ * rows that can be in the server twice.
+ */
+async function hostileProxy(serverPort) {
+  const port = await freePort();
+  const p = { port, mode: 'pass', counts: { pass: 0, cut: 0, error: 0, late: 0 }, ackedRows: 0, unackedRows: 0, server: null, sockets: new Set() };
+  const forward = (body, url) => new Promise((resolve, reject) => {
+    const req = http.request({ host: '127.0.0.1', port: serverPort, method: 'POST', path: url, headers: { 'Content-Length': body.length } }, (res) => {
+      res.resume();
+      res.on('end', () => resolve(res.statusCode));
+    });
+    req.on('error', reject);
+    req.end(body);
+  });
+  const handle = (req, res) => {
+    const chunks = [];
+    req.on('data', (c) => chunks.push(c));
+    req.on('end', async () => {
+      const body = Buffer.concat(chunks);
+      const rows = body.toString().split('\n').filter(Boolean).length;
+      const mode = p.mode;
+      let status;
+      try {
+        status = await forward(body, req.url);
+      } catch {
+        req.socket.destroy();
+        return;
+      }
+      const answered = (code) => {
+        if (res.destroyed || req.socket.destroyed) {
+          p.unackedRows += rows; // the journal gave up or the proxy went away: the rows are in, unacknowledged
+          return;
+        }
+        res.writeHead(code).end();
+        if (code === 204) p.ackedRows += rows;
+        else p.unackedRows += rows;
+      };
+      if (status !== 204) answered(status);
+      else if (mode === 'cut') {
+        p.counts.cut += 1;
+        p.unackedRows += rows;
+        req.socket.destroy();
+      } else if (mode === 'error') {
+        p.counts.error += 1;
+        answered(500);
+      } else if (mode === 'late') {
+        p.counts.late += 1;
+        setTimeout(() => answered(204), LATE_MS);
+      } else {
+        p.counts.pass += 1;
+        answered(204);
+      }
+    });
+  };
+  p.listen = () => new Promise((resolve, reject) => {
+    p.server = http.createServer(handle);
+    p.server.on('connection', (socket) => {
+      p.sockets.add(socket);
+      socket.on('close', () => p.sockets.delete(socket));
+    });
+    p.server.once('error', reject);
+    p.server.listen(port, '127.0.0.1', resolve);
+  });
+  p.gone = () => {
+    p.server.close();
+    for (const socket of p.sockets) socket.destroy();
+  };
+  p.back = () => p.listen();
+  p.close = async () => {
+    p.gone();
+  };
+  await p.listen();
+  return p;
 }
 
 /** A plant's worth of rows each second of clock time: 5 datapoints, and every 5 s an event and a figure. */
@@ -124,7 +231,7 @@ describe('journal on VictoriaMetrics', function () {
       const maxBytes = 16 * 1024;
       start(maxBytes);
       // What the spool must keep: rows in order while their bytes fit under the bound.
-      const encoder = new Encoder('shack-1');
+      const encoder = new Encoder('shack-1', writer.writerId);
       const probeBus = new JournalBus();
       const sizes = [];
       probeBus.attach({ row: (r) => sizes.push(encoder.encode(r, sizes.length + 1).length) });
@@ -145,6 +252,93 @@ describe('journal on VictoriaMetrics', function () {
       // Rows made after the server came back were sent too: only those of the outage count here.
       const rows = (await rowsIn(vm)).filter((r) => r.seq <= sizes.length);
       assert.deepEqual(rows.map((r) => r.seq), kept);
+    });
+  });
+
+  describe('a real Node-RED behind a hostile proxy, killed while the server is gone', function () {
+    this.timeout(5 * 60 * 1000);
+    let proxy;
+    let red;
+
+    afterEach(async function () {
+      if (red) await red.finish(this.currentTest);
+      if (proxy) await proxy.close();
+      [red, proxy] = [null, null];
+    });
+
+    it('every (writer, seq) arrives, seq goes on across the SIGKILL, copies are counted and bounded, the season report counts them once', async function () {
+      proxy = await hostileProxy(vm.port);
+      red = new NodeRedProcess({ tag: 'journal', flows: noteEvery10ms(proxy.port) });
+      await red.start({ waitForBroker: false });
+      const journalNow = async () => (await red.get('/sugarshack/journal')).j;
+      /** The proxy in `mode` until it has done it `times` times, then passing until the spool is drained again. */
+      const hostile = async (mode, times) => {
+        const before = proxy.counts[mode];
+        proxy.mode = mode;
+        await waitFor(() => proxy.counts[mode] >= before + times, `${times} × ${mode}`, 30000);
+        proxy.mode = 'pass';
+        const acked = proxy.ackedRows;
+        await waitFor(async () => proxy.ackedRows > acked + 200 && (await journalNow()).backlog < 10, 'the spool drained after it', 30000);
+      };
+
+      await waitFor(() => proxy.ackedRows >= 300, 'the first rows in the server', 30000);
+      await hostile('cut', 3);
+      await hostile('error', 3);
+      await hostile('late', 3);
+
+      // Gone: nothing listens. Rows wait in the spool; then a power cut.
+      proxy.gone();
+      const down = await journalNow();
+      await waitFor(async () => (await journalNow()).backlog >= 60, 'rows waiting in the spool', 30000);
+      const killedAt = Date.now();
+      await red.kill();
+      await red.start({ waitForBroker: false });
+      const restartedAt = Date.now();
+      await waitFor(async () => { const m = await journalNow(); return m.state === 'down' && m.rows > 20; }, 'new rows after the restart, the server still gone', 30000);
+      const afterRestart = await journalNow();
+      assert.equal(afterRestart.writer, down.writer, 'the same writer after the restart');
+      proxy.back();
+      let last;
+      await waitFor(async () => {
+        last = await journalNow();
+        return last.backlog === 0 && last.pending === 0 && last.seq > afterRestart.seq + 50;
+      }, 'the spool drained after the outage', 60000);
+      await red.stop(); // no more rows: the server's content stays as it is for what follows
+
+      // In the server: one writer, every seq up to the last acknowledged one, each at least once.
+      // (VictoriaMetrics answers a write before the rows can be searched: they are looked for until they are.)
+      let rows = [];
+      await waitFor(async () => {
+        rows = (await rowsIn(vm)).filter((r) => r.seq <= last.seq);
+        return new Set(rows.map((r) => r.seq)).size >= last.seq;
+      }, `every seq up to ${last.seq} searchable in the server`, 20000).catch(() => {});
+      assert.deepEqual([...new Set(rows.map((r) => r.tags.writer))], [down.writer]);
+      const distinct = new Set(rows.map((r) => r.seq));
+      assert.deepEqual([...distinct].sort((a, b) => a - b), Array.from({ length: last.seq }, (_, i) => i + 1), 'every (writer, seq) present');
+      const before = rows.filter((r) => r.at < killedAt);
+      const after = rows.filter((r) => r.at >= restartedAt);
+      assert.ok(Math.min(...after.map((r) => r.seq)) > Math.max(...before.map((r) => r.seq)), 'seq went on across the restart, never from 1');
+      const duplicates = rows.length - distinct.size;
+      const ratio = duplicates / distinct.size;
+      console.log(`      ${distinct.size} rows, ${duplicates} copies (ratio ${ratio.toFixed(3)}); the proxy took ${proxy.unackedRows} rows in requests it did not acknowledge`
+        + ` (${proxy.counts.cut} cut, ${proxy.counts.error} × 500, ${proxy.counts.late} late); ${after[0].seq - 1} rows before the restart`);
+      const unanswered = proxy.counts.cut + proxy.counts.error + proxy.counts.late;
+      assert.ok(duplicates > 0, 'the hostile answers left copies (a server without deduplication keeps them)');
+      assert.ok(duplicates <= proxy.unackedRows, 'a copy only of a row in a request that was not acknowledged');
+      assert.ok(proxy.unackedRows <= 16 * unanswered, `a few rows per unanswered request: ${proxy.unackedRows} in ${unanswered}`);
+      assert.ok(ratio < 0.1, `copies bounded: ${ratio.toFixed(3)} per row`);
+
+      // The season report over the server's rows, copies and all, counts as over each row once.
+      const out = path.join(dir, 'season.html');
+      const report = await seasonReport(['--url', vm.url, '--out', out, '--to', String(Date.now() + 60000)]);
+      // Each row once, by the test's own count: the first sample of each (writer, seq).
+      const firsts = new Map();
+      for (const r of await rowsIn(vm)) if (!firsts.has(`${r.tags.writer} ${r.seq}`)) firsts.set(`${r.tags.writer} ${r.seq}`, r);
+      const once = analyse([...firsts.values()].map((r) => ({ table: r.table, tags: r.tags, fields: { seq: r.seq }, at: r.at })));
+      assert.equal(once.duplicates, 0);
+      const counts = (r) => ({ rows: r.rows, actions: r.actions.length, events: r.events, datapoints: r.datapoints, figures: Object.values(r.figures).map((f) => f.n) });
+      assert.deepEqual(counts(report), counts(once));
+      assert.ok(report.duplicates >= duplicates, `${report.duplicates} copies set aside`);
     });
   });
 

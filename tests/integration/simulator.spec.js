@@ -321,6 +321,44 @@ describe('plant simulator on Mosquitto', function () {
     });
   });
 
+  describe('devices addressed by entity', function () {
+    it('an ESPHome actuator without io gets an output of its own and obeys its entity\'s commands', async function () {
+      const doc = loadPlant(SMALL_PLANT);
+      doc.devices[0].profile = 'esphome';
+      for (const a of doc.actuators) delete a.io;
+      doc.actuatorTypes.damper = { ...doc.actuatorTypes.valve, min: 0, max: 90 };
+      doc.actuators.push({ id: 'D1', type: 'damper', device: 'ctrl-1', idle: 0, lockout: 0 });
+      sim = await startTestSimulator(broker.url, { plant: doc });
+      const panel = sim.devices['ctrl-1'];
+      assert.deepStrictEqual(['V101', 'V102', 'V103', 'V104', 'P1', 'D1'].map((id) => sim.model.actuators[id].slot), [17, 18, 19, 20, 2, 21]);
+      probe = await connectProbe(broker.url, ['ctrl-1/#']);
+      await probe.publish('ctrl-1/valve/v102/position/command', '100');
+      await probe.publish('ctrl-1/valve/d1/position/command', '45');
+      await probe.publish('ctrl-1/switch/p1/command', 'ON');
+      await probe.waitFor('ctrl-1/valve/v102/position/state', (m) => m.text === '100', 3000);
+      await probe.waitFor('ctrl-1/valve/d1/position/state', (m) => m.text === '45', 3000, { fromHistory: true });
+      await probe.waitFor('ctrl-1/switch/p1/state', (m) => m.text === 'ON', 3000, { fromHistory: true });
+      assert.strictEqual(panel.valves[18].position, 100);
+      assert.strictEqual(panel.valves[21].position, 45, 'ESPHome carries a position in % of the damper\'s 0..90 travel');
+      assert.strictEqual(panel.pumps[2].running, true);
+      assert.strictEqual(panel.valves[2].position, 0, 'the unnamed output 2 is not V102');
+    });
+  });
+
+  describe('types other than valve and pump', function () {
+    it('a sugarshack panel drives an analog type on its io, in the type\'s range, and reports it under its type', async function () {
+      const doc = loadPlant(SMALL_PLANT);
+      doc.actuatorTypes.damper = { ...doc.actuatorTypes.valve, min: 0, max: 90 };
+      doc.actuators.push({ id: 'D1', type: 'damper', device: 'ctrl-1', io: 7, idle: 0, lockout: 0 });
+      sim = await startTestSimulator(broker.url, { plant: doc });
+      probe = await connectProbe(broker.url, ['ctrl-1/state']);
+      await probe.publish('ctrl-1/damper/7/command', '45');
+      const batch = await probe.waitFor('ctrl-1/state', (m) => m.json.damper && Math.abs(m.json.damper['7'] - 45) <= 3, 3000);
+      assert.ok(Math.abs(batch.json.valve['7'] - 50) <= 3, 'output 7 at half its travel');
+      assert.strictEqual(sim.devices['ctrl-1'].valves[7].position, 50);
+    });
+  });
+
   describe('command line', function () {
     it('runs from the CLI with a start-up fault and stops cleanly on SIGTERM', async function () {
       probe = await connectProbe(broker.url, ['ctrl-1/state', 'ctrl-1/status']);
@@ -401,22 +439,84 @@ describe('plant simulator: plant document and fault specs', function () {
     assert.deepStrictEqual(model.panels, ['ctrl-1']);
     assert.deepStrictEqual(model.stations.map((s) => s.id), ['station-2']);
     assert.deepStrictEqual(model.stations[0].datapoints.map((d) => d.name), ['volume', 'flow']);
-    assert.deepStrictEqual(model.actuators.P1, { id: 'P1', type: 'pump', device: 'ctrl-1', io: 1 });
+    assert.deepStrictEqual(model.actuators.P1, { id: 'P1', type: 'pump', family: 'pump', device: 'ctrl-1', io: 1, slot: 1, range: [0, 1] });
     assert.strictEqual(model.simulation.transfers[0].valves.length, 2);
   });
 
   it('gives stations without sensors a few default datapoints', function () {
-    const m = buildModel({ devices: [{ id: 'station-4', kind: 'sensor-station' }] });
+    const m = buildModel({ actuatorTypes: {}, devices: [{ id: 'station-4', kind: 'sensor-station' }] });
     assert.deepStrictEqual(m.stations[0].datapoints.map((d) => d.name), ['volume', 'flow', 'temperature', 'brix']);
   });
 
   it('rejects simulation sections that name unknown valves, pumps or tanks', function () {
     const doc = loadPlant(SMALL_PLANT);
-    const bad = (simulation) => assert.throws(() => buildModel({ ...doc, simulation }), /plant: simulation/);
+    const bad = (simulation) => assert.throws(() => buildModel({ ...doc, simulation }), /plant: invalid plant document \(1 problem\):\n {2}simulation\.(tanks|transfers)\[0\]/);
     bad({ transfers: [{ from: 'T-nope', pump: 'P1', rateLpm: 1 }] });
     bad({ transfers: [{ pump: 'V101', rateLpm: 1 }] });
     bad({ transfers: [{ valves: ['P1'], rateLpm: 1 }] });
     bad({ tanks: [{ id: 'T', capacityL: 10, initialL: 11 }] });
+  });
+
+  it('accepts and refuses the same documents as the plant check, in the same words', function () {
+    const { Tracker } = require('../../node-red-contrib-sugarshack/wasm/sugarshack_wasm.js');
+    const checkSays = (doc) => {
+      try {
+        new Tracker(doc, 0).free();
+        return null;
+      } catch (err) {
+        return err.message;
+      }
+    };
+    const small = () => loadPlant(SMALL_PLANT);
+    const cases = {
+      'the small plant': small(),
+      'an ESPHome panel whose actuators have no io': (() => {
+        const d = small();
+        d.devices[0].profile = 'esphome';
+        for (const a of d.actuators) delete a.io;
+        return d;
+      })(),
+      'a type that is neither valve nor pump, a 17th valve and a second pump': (() => {
+        const d = small();
+        d.actuatorTypes.heater = { signal: 'binary', noMotionMs: 1000, completionMs: 2000, staleMs: 5000 };
+        d.actuators.push({ id: 'V117', type: 'valve', device: 'ctrl-1', io: 17, idle: 0, lockout: 0 });
+        d.actuators.push({ id: 'H1', type: 'heater', device: 'ctrl-1', io: 1, idle: false, lockout: false });
+        d.actuators.push({ id: 'P2', type: 'pump', device: 'ctrl-1', io: 2, idle: false, lockout: false });
+        return d;
+      })(),
+      'a sensor datapoint with a dot': (() => {
+        const d = small();
+        d.sensors.push({ id: 'TT-2', device: 'station-2', name: 'temp.1' });
+        return d;
+      })(),
+      'a sugarshack actuator without io': (() => {
+        const d = small();
+        delete d.actuators[0].io;
+        return d;
+      })(),
+      'an actuator on a sensor station': (() => {
+        const d = small();
+        d.actuators[1].device = 'station-2';
+        return d;
+      })(),
+      'no actuatorTypes': { devices: [{ id: 'ctrl-1', kind: 'actuator-panel' }] },
+    };
+    const refused = [];
+    for (const [name, doc] of Object.entries(cases)) {
+      const check = checkSays(doc);
+      let simulator = null;
+      try {
+        buildModel(doc);
+      } catch (err) {
+        simulator = err.message;
+      }
+      assert.strictEqual(simulator, check === null ? null : `plant: ${check}`, name);
+      if (check) refused.push(name);
+    }
+    assert.deepStrictEqual(refused, ['a sugarshack actuator without io', 'an actuator on a sensor station', 'no actuatorTypes']);
+    const m = buildModel(cases['a type that is neither valve nor pump, a 17th valve and a second pump']);
+    assert.deepStrictEqual([m.actuators.V117.slot, m.actuators.H1.slot, m.actuators.P2.slot], [17, 3, 2], 'a taken output goes to the next free one');
+    assert.deepStrictEqual(m.panelSlots['ctrl-1'].pumps, [1, 2, 3]);
   });
 
   it('parses CLI fault specs into the JSON form', function () {

@@ -3,7 +3,7 @@
 // simulated plant: started with V101 jammed, the truck routine's op 10 faults
 // YEL within the time the README states (derived from the plant document by
 // scripts/walkthrough-times.js), its lockout completes within a sweep; then,
-// cleared, with the truck routine halted, "stuck V101" and "run op 10 now"
+// cleared, with the truck routine in its fault state, "stuck V101" and "run op 10 now"
 // fault it again within the stated time after the click. The README must
 // state those figures.
 const assert = require('node:assert/strict');
@@ -71,7 +71,7 @@ describe('the README\'s fault walkthrough, as written', function () {
       await sim.inject({ fault: 'clear' });
       await waitFor(async () => (await yel()).clearBlockers.length === 0, 'YEL clearable', 20000);
       await red.request('POST', '/sugarshack/clear', { interlock: (await red.get('/sugarshack/state')).interlocks[0].id, lines: ['YEL'] });
-      assert.equal((await yel()).state.state, 'free', 'nothing queued for YEL took it: the truck routine is halted');
+      assert.equal((await yel()).state.state, 'free', 'nothing queued for YEL took it: the truck routine is in its fault state');
       const flows = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8'));
       // What the inject's button does (it answers "OK", not JSON).
       const click = async (name) => {

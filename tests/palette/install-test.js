@@ -188,6 +188,14 @@ async function main() {
       'the palette\'s node sets need no dashboard (no dependency on it, no dashboard node in a subflow module)', `${declared.join(', ')} ${dashboardInside.join(', ')}`);
     await validateOffline(pkg, sets, types, base, nrVersion, nodeVersion);
 
+    // The plant document's schema ships: where VS Code users point "$schema", and served to the plant dialog.
+    const schemaFile = path.join(args.userdir, 'node_modules', moduleName, 'schema', 'plant.schema.json');
+    check(fs.existsSync(schemaFile), `the package ships the plant document's JSON Schema (node_modules/${moduleName}/schema/plant.schema.json)`);
+    const served = await fetch(`${base}/sugarshack/plant/schema`);
+    const schema = served.ok ? await served.json() : null;
+    check(Boolean(schema && schema.title && schema.definitions && schema.definitions.Actuator),
+      'GET /sugarshack/plant/schema serves it to the plant dialog', `HTTP ${served.status}`);
+
     const examples = fs.existsSync(examplesDir)
       ? fs.readdirSync(examplesDir).filter((f) => f.endsWith('.json')).sort() : [];
     if (examples.length === 0) console.log(`  note [${label}] no example flows in ${examplesDir}`);

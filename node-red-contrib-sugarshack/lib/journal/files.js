@@ -7,11 +7,67 @@
 // The reader here parses the rows the writer produces (the season report's
 // input).
 
+const crypto = require('crypto');
 const fs = require('fs');
 const path = require('path');
 
 const FILE_RE = /^journal-(\d{12})\.lp$/;
 const fileName = (n) => `journal-${String(n).padStart(12, '0')}.lp`;
+const IDENTITY_FILE = 'writer.json';
+const WRITER_RE = /^[0-9a-f]{12}$/;
+// A row is a few hundred bytes (each text is cut at 200 characters): its end is in this much of a file's tail.
+const TAIL_BYTES = 64 * 1024;
+
+/**
+ * The id of the writer whose rows are kept in `dir`: made at random the first
+ * time, then read from `writer.json` there, so it survives restarts. Each row
+ * carries it with its `seq`: (writer, seq) names a row in any database.
+ */
+function writerId(dir) {
+  const file = path.join(dir, IDENTITY_FILE);
+  try {
+    const { writer } = JSON.parse(fs.readFileSync(file, 'utf8'));
+    if (typeof writer === 'string' && WRITER_RE.test(writer)) return writer;
+  } catch {
+    // none yet, or unreadable: a new writer
+  }
+  const writer = crypto.randomBytes(6).toString('hex');
+  const tmp = `${file}.tmp`;
+  const fd = fs.openSync(tmp, 'w');
+  try {
+    fs.writeSync(fd, JSON.stringify({ writer }));
+    fs.fsyncSync(fd);
+  } finally {
+    fs.closeSync(fd);
+  }
+  fs.renameSync(tmp, file);
+  return writer;
+}
+
+/** The `seq` of the last whole row of `file` (0 when it has none): where a restarted writer goes on from. */
+function lastSeqIn(file) {
+  let data;
+  try {
+    const size = fs.statSync(file).size;
+    const from = Math.max(0, size - TAIL_BYTES);
+    data = Buffer.alloc(size - from);
+    const fd = fs.openSync(file, 'r');
+    try {
+      fs.readSync(fd, data, 0, data.length, from);
+    } finally {
+      fs.closeSync(fd);
+    }
+  } catch {
+    return 0;
+  }
+  const lines = data.toString('utf8').split('\n');
+  lines.pop(); // after the last newline: nothing, or a row cut short
+  for (let i = lines.length - 1; i >= 0; i--) {
+    const row = parseLine(lines[i]);
+    if (row && Number.isSafeInteger(row.fields.seq)) return row.fields.seq;
+  }
+  return 0;
+}
 
 function listFiles(dir) {
   let names = [];
@@ -30,6 +86,7 @@ function filesTarget({ dir, fileBytes = 16 * 1024 * 1024, maxFiles = 32 }) {
   let size = fs.existsSync(current.file) ? fs.statSync(current.file).size : 0;
   return {
     where: dir,
+    identity: { writer: writerId(dir), seq: lastSeqIn(current.file) },
     append(rows) {
       const body = Buffer.concat(rows);
       if (size > 0 && size + body.length > fileBytes) {
@@ -105,4 +162,4 @@ function readJournal(dir, { fromMs = -Infinity, toMs = Infinity } = {}) {
   return rows;
 }
 
-module.exports = { filesTarget, readJournal, parseLine, listFiles };
+module.exports = { filesTarget, readJournal, parseLine, listFiles, writerId, lastSeqIn };

@@ -4,16 +4,20 @@
 // tags (QuestDB symbols) and numbers in fields, because that is what every
 // line-protocol server keeps: VictoriaMetrics and InfluxDB index tags, and
 // VictoriaMetrics drops string fields. Every row carries `plant` (which plant
-// wrote it, for several plants in one database) and `seq` (the writer's row
-// number, so a reader can tell that no row is missing and that order held).
+// wrote it, for several plants in one database), `writer` (the journal that
+// wrote it, an id kept across restarts) and `seq` (that writer's row number,
+// going on across restarts): (writer, seq) names a row, so a reader can tell
+// that none is missing, that order held, and which rows a retry sent twice.
 // Times are milliseconds since the epoch; a row's own timestamp is when the
 // palette saw it happen.
+
+const WRITER = 'the journal writer\'s id (12 hex digits, kept with its spool or files)';
 
 const TABLES = {
   datapoint: {
     name: 'sugarshack_datapoint',
     doc: 'every datapoint a device published, as received',
-    tags: { plant: 'plant id', device: 'device name', entity: 'actuator or sensor id in the plant document' },
+    tags: { plant: 'plant id', writer: WRITER, device: 'device name', entity: 'actuator or sensor id in the plant document' },
     fields: { value: 'float: the value', device_ts: 'float: the device timestamp (ms), when it sent one', seq: 'int' },
     time: 'reception time',
   },
@@ -22,6 +26,7 @@ const TABLES = {
     doc: 'interlock, actuator, operation and routine events',
     tags: {
       plant: 'plant id',
+      writer: WRITER,
       layer: '`interlock`, `actuator`, `operation` or `routine`',
       kind: 'the event: `granted`, `queued`, `released`, `faulted`, `cleared`, `completed`, `finished`, `dispatched`...',
       subject: 'the operation, actuator or routine',
@@ -37,7 +42,7 @@ const TABLES = {
   action: {
     name: 'sugarshack_action',
     doc: 'operator actions: faults raised, lines cleared, operations cancelled, notes',
-    tags: { plant: 'plant id', action: '`fault`, `clear`, `cancel` or `note`', who: 'msg.who (or msg.user)', why: 'msg.why (or msg.note)', target: 'operation or lines acted on' },
+    tags: { plant: 'plant id', writer: WRITER, action: '`fault`, `clear`, `cancel` or `note`', who: 'msg.who (or msg.user)', why: 'msg.why (or msg.note)', target: 'operation or lines acted on' },
     fields: { seq: 'int' },
     time: 'action time',
   },
@@ -46,6 +51,7 @@ const TABLES = {
     doc: "the paper's timing series (Figs. 11-15)",
     tags: {
       plant: 'plant id',
+      writer: WRITER,
       series: '`tof`, `command/issueToMotion`, `command/completion`, `fault/lockout`, `lockout/confirm`, `operation/run`, `operation/queued`',
       subject: 'the device (`tof`) or operation (`operation/*`); empty otherwise',
     },
@@ -65,6 +71,9 @@ const SERIES_WITH_SUBJECT = ['tof', 'operation/run', 'operation/queued'];
 
 const INT_FIELDS = new Set(['seq']);
 
+// A row is the same row when these match: a database that deduplicates on them keeps a resent row once.
+const ROW_KEY = ['timestamp', 'writer', 'seq'];
+
 /** Every column a query may name, per table name: the check the Grafana dashboards are tested with. */
 function columns() {
   const out = {};
@@ -72,4 +81,26 @@ function columns() {
   return out;
 }
 
-module.exports = { TABLES, EVENT_FIELDS, SERIES_WITH_SUBJECT, INT_FIELDS, columns };
+/**
+ * QuestDB's statements for the tables, one per line: each created with its
+ * columns, WAL and deduplication on ROW_KEY; one that the line protocol created
+ * earlier gets the writer column and the deduplication. Run by deploy/ before
+ * the journal writes (deploy/questdb/schema.sql, written by scripts/deploy-flows.js).
+ */
+function questdbStatements() {
+  const keys = ROW_KEY.join(', ');
+  return Object.values(TABLES).flatMap((t) => {
+    const cols = [
+      ...Object.keys(t.tags).map((c) => `${c} SYMBOL`),
+      ...Object.keys(t.fields).map((c) => `${c} ${INT_FIELDS.has(c) ? 'LONG' : 'DOUBLE'}`),
+      'timestamp TIMESTAMP',
+    ];
+    return [
+      `CREATE TABLE IF NOT EXISTS ${t.name} (${cols.join(', ')}) TIMESTAMP(timestamp) PARTITION BY DAY WAL DEDUP UPSERT KEYS(${keys});`,
+      `ALTER TABLE ${t.name} ADD COLUMN IF NOT EXISTS writer SYMBOL;`,
+      `ALTER TABLE ${t.name} DEDUP ENABLE UPSERT KEYS(${keys});`,
+    ];
+  });
+}
+
+module.exports = { TABLES, EVENT_FIELDS, SERIES_WITH_SUBJECT, INT_FIELDS, ROW_KEY, columns, questdbStatements };

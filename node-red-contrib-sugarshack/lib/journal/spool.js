@@ -6,10 +6,13 @@
 // acknowledged never take more than `maxBytes`: a row that would pass that
 // bound is dropped (the newest go, so what is kept stays in order and the
 // files stay append-only) and counted, and the count is kept on disk with the
-// cursor so a restart does not forget it.
+// cursor so a restart does not forget it. The spool also keeps its writer's
+// identity: the writer id (writer.json) and the last `seq` given to a row (in
+// the cursor, and in the last row kept), so a restarted writer goes on from it.
 
 const fs = require('fs');
 const path = require('path');
+const { writerId, lastSeqIn } = require('./files');
 
 const SEGMENT_RE = /^(\d{12})\.lp$/;
 const STATE_FILE = 'cursor.json';
@@ -43,7 +46,10 @@ class Spool {
     this.dropped = 0;
     /** @type {number | null} */
     this.droppedSince = null;
+    /** The last seq given to a row appended (or dropped at the bound). */
+    this.lastSeq = 0;
     fs.mkdirSync(dir, { recursive: true });
+    this.writer = writerId(dir);
     this.load();
   }
 
@@ -66,6 +72,14 @@ class Spool {
     this.segments.forEach((s, i) => {
       this.rows += countRows(fs.readFileSync(this.file(s.n)), i === 0 ? this.offset : 0);
     });
+    // The cursor is saved at acknowledgements; rows appended since are on disk with their seq.
+    const last = this.segments.filter((s) => s.size > 0).pop();
+    this.lastSeq = Math.max(saved.seq, last ? lastSeqIn(this.file(last.n)) : 0);
+  }
+
+  /** Who writes these rows, and the seq the next row follows: { writer, seq }. */
+  identity() {
+    return { writer: this.writer, seq: this.lastSeq };
   }
 
   readState() {
@@ -76,9 +90,10 @@ class Spool {
         offset: Number.isSafeInteger(s.offset) && s.offset >= 0 ? s.offset : 0,
         dropped: Number.isSafeInteger(s.dropped) && s.dropped >= 0 ? s.dropped : 0,
         droppedSince: Number.isFinite(s.droppedSince) ? s.droppedSince : null,
+        seq: Number.isSafeInteger(s.seq) && s.seq >= 0 ? s.seq : 0,
       };
     } catch {
-      return { segment: 0, offset: 0, dropped: 0, droppedSince: null };
+      return { segment: 0, offset: 0, dropped: 0, droppedSince: null, seq: 0 };
     }
   }
 
@@ -104,6 +119,7 @@ class Spool {
       offset: this.offset,
       dropped: this.dropped,
       droppedSince: this.droppedSince,
+      seq: this.lastSeq,
     };
     const tmp = path.join(this.dir, `${STATE_FILE}.tmp`);
     fs.writeFileSync(tmp, JSON.stringify(state));
@@ -112,9 +128,11 @@ class Spool {
 
   /**
    * Appends rows (each a Buffer ending in a newline) in order; the ones that
-   * would pass the bound are dropped. Returns { kept, dropped } for this call.
+   * would pass the bound are dropped. `lastSeq` is the seq of the last of
+   * them. Returns { kept, dropped } for this call.
    */
-  append(rows, now = Date.now()) {
+  append(rows, now = Date.now(), lastSeq = this.lastSeq + rows.length) {
+    this.lastSeq = lastSeq;
     const parts = [];
     let size = 0;
     let dropped = 0;

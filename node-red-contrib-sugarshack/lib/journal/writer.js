@@ -6,6 +6,15 @@
 // the database over HTTP, acknowledging each chunk only when the server said
 // 204. While the server is unreachable rows wait in the spool; retries follow
 // the palette clock, so tests drive them instead of waiting.
+//
+// Delivery is at least once: a request that fails (a 500, a cut connection,
+// no answer in time) may still have been written, and its rows are sent
+// again. Each row carries its writer's id and a `seq` that goes on across
+// restarts, so (writer, seq) names it: a database that deduplicates on it
+// (QuestDB's DEDUP UPSERT KEYS, set up by deploy/) keeps it once, and a reader
+// counts it once. Chunks are small (64 KB), and after a failure the next ones
+// start at 512 bytes (a few rows) and double with each success, so a flaky
+// server costs few rows sent twice.
 
 const { clock } = require('../clock');
 const i18n = require('../i18n');
@@ -13,6 +22,11 @@ const { INT_FIELDS } = require('./schema');
 
 const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';
 const RETRY_MS = [500, 1000, 2000, 5000];
+// The largest request body, and the first after a failure (doubling back up).
+const CHUNK_BYTES = 64 * 1024;
+const FIRST_CHUNK_AFTER_FAILURE = 512;
+// A request not answered in this long failed (its rows may still have been written).
+const DEFAULT_TIMEOUT_MS = 10000;
 
 // QuestDB's client (and the HTTP stack it brings) takes about 20 MB and 0.4 s
 // to load: only a journal node that writes needs it, so it loads then.
@@ -27,8 +41,10 @@ const MAX_SERIES = 100000;
 
 /** Line-protocol rows (Buffers, one row each, newline-terminated) from journal rows. */
 class Encoder {
-  constructor(plant) {
+  /** `plant` and `writer` tag every row. */
+  constructor(plant, writer = '') {
     this.plant = plant;
+    this.writer = writer;
     this.buffer = questdb().createBuffer(new (questdb().SenderOptions)(ENCODER_OPTIONS));
     // Last ms stamped per series: a time-series server keeps one value per series and
     // millisecond (VictoriaMetrics does), so a second row in the same ms goes 1 ms later.
@@ -52,6 +68,7 @@ class Encoder {
     try {
       b.table(row.table);
       if (this.plant) b.symbol('plant', this.plant);
+      if (this.writer) b.symbol('writer', this.writer);
       // Line protocol has no empty tag value: an empty tag is left out.
       for (const [k, v] of Object.entries(row.tags)) if (v !== '') b.symbol(k, v);
       for (const [k, v] of Object.entries(row.fields)) {
@@ -70,7 +87,7 @@ class Encoder {
 }
 
 /** The database over HTTP line protocol (QuestDB's /write; VictoriaMetrics and InfluxDB take the same). */
-function httpTarget({ host, port, username, password, token, tls, timeoutMs = 10000 }) {
+function httpTarget({ host, port, username, password, token, tls, timeoutMs = DEFAULT_TIMEOUT_MS }) {
   const parts = [`addr=${host}:${port}`, 'protocol_version=1', 'retry_timeout=0', 'stdlib_http=on', `request_timeout=${timeoutMs}`];
   if (token) parts.push(`token=${token}`);
   else if (username) parts.push(`username=${username}`, `password=${password || ''}`);
@@ -95,18 +112,24 @@ class JournalWriter {
    * @param {number} [o.maxPending] rows held in memory before a flush is forced
    * @param {function} [o.onChange] called when the state or the backlog changed
    */
-  constructor({ plant, spool, target, flushMs = 1000, chunkBytes = 512 * 1024, maxPending = 10000, onChange }) {
+  constructor({ plant, spool, target, flushMs = 1000, chunkBytes = CHUNK_BYTES, maxPending = 10000, onChange }) {
     /** Detaches it from the journal bus; the node that attaches it sets this. */
     this.detach = () => {};
-    this.encoder = new Encoder(plant);
     this.spool = spool || null;
+    // Who writes, and the seq the last run ended at: kept with the rows (the spool, the local files).
+    const identity = this.spool ? this.spool.identity() : target.identity || { writer: '', seq: 0 };
+    this.writerId = identity.writer;
+    this.encoder = new Encoder(plant, this.writerId);
     this.target = target;
     this.flushMs = flushMs;
     this.chunkBytes = chunkBytes;
+    this.chunkLimit = chunkBytes;
     this.maxPending = maxPending;
     this.onChange = onChange || (() => {});
     this.pending = [];
-    this.seq = 0;
+    this.seq = identity.seq;
+    this.rows = 0; // rows of this run
+    this.unacknowledged = 0; // rows sent in requests that failed: each may be in the database twice
     this.sent = 0;
     this.refused = 0;
     this.state = 'idle'; // idle | sending | down
@@ -122,6 +145,7 @@ class JournalWriter {
   row(row) {
     if (this.closed) return;
     this.seq += 1;
+    this.rows += 1;
     this.pending.push(this.encoder.encode(row, this.seq));
     if (this.pending.length >= this.maxPending) this.flush();
   }
@@ -143,14 +167,14 @@ class JournalWriter {
       this.onChange();
       return;
     }
-    this.spool.append(rows, clock.now());
+    this.spool.append(rows, clock.now(), this.seq);
     this.onChange();
     this.drain();
   }
 
   drain() {
     if (this.closed || !this.spool || this.state === 'sending' || this.retryTimer) return;
-    const chunk = this.spool.peek(this.chunkBytes);
+    const chunk = this.spool.peek(this.chunkLimit);
     if (!chunk) {
       if (this.state !== 'idle') {
         this.state = 'idle';
@@ -163,6 +187,7 @@ class JournalWriter {
       () => {
         this.spool.ack(chunk);
         this.sent += chunk.rows;
+        this.chunkLimit = Math.min(this.chunkBytes, this.chunkLimit * 2);
         this.attempt = 0;
         this.lastError = null;
         this.state = 'idle';
@@ -172,6 +197,8 @@ class JournalWriter {
       (err) => {
         if (this.closed) return;
         this.state = 'down';
+        this.unacknowledged += chunk.rows;
+        this.chunkLimit = Math.min(this.chunkBytes, FIRST_CHUNK_AFTER_FAILURE);
         this.lastError = String((err && err.message) || err).slice(0, 300);
         const delay = RETRY_MS[Math.min(this.attempt, RETRY_MS.length - 1)];
         this.attempt += 1;
@@ -189,8 +216,11 @@ class JournalWriter {
     return {
       where: this.target.where,
       state: this.state,
-      rows: this.seq,
+      writer: this.writerId,
+      seq: this.seq,
+      rows: this.rows,
       sent: this.sent,
+      unacknowledged: this.unacknowledged,
       pending: this.pending.length,
       backlog: backlog.rows,
       backlogBytes: backlog.bytes,
@@ -213,4 +243,4 @@ class JournalWriter {
   }
 }
 
-module.exports = { JournalWriter, Encoder, httpTarget };
+module.exports = { JournalWriter, Encoder, httpTarget, DEFAULT_TIMEOUT_MS };

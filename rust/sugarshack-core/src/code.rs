@@ -80,7 +80,7 @@ codes! {
     UnknownResource = "UNKNOWN_RESOURCE", "unknown resource", "the resource is not configured";
     /// A resource set handle the interlock never made.
     UnknownResourceSet = "UNKNOWN_RESOURCE_SET", "unknown resources", "the resource set is unknown";
-    /// An operation the interlock has never seen.
+    /// A fault of an operation that neither holds, waits, nor faulted lines (never seen, released, or refused at its acquire).
     UnknownOperation = "UNKNOWN_OPERATION", "unknown operation", "the operation is unknown";
     /// A msg without an operation id.
     MissingOperation = "MISSING_OPERATION", "no operation id", "the msg names no operation";

@@ -192,6 +192,22 @@ impl de::Visitor<'_> for MillisVisitor {
     }
 }
 
+/// What the visitor above accepts: any JSON number of at least 0 (JSON has no NaN or infinity).
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for Millis {
+    fn inline_schema() -> bool {
+        true
+    }
+
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Millis".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({ "type": "number", "minimum": 0 })
+    }
+}
+
 /// A test's time in ms, known valid.
 #[cfg(test)]
 pub(crate) fn millis(value: f64) -> Millis {

@@ -245,6 +245,10 @@ impl Model {
                 Outcome::Grants(self.pass(now))
             }
             Call::Fault { op } => {
+                let named = self.owners.contains(&Owner::Faulted(Some(op)));
+                if self.holds[op].is_none() && !self.queue.iter().any(|w| w.op == op) && !named {
+                    return Outcome::Refused("UNKNOWN_OPERATION");
+                }
                 let mut dropped = false;
                 let mut grants = vec![];
                 if let Some(held) = self.holds[op].take() {

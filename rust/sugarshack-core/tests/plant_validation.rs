@@ -312,7 +312,7 @@ fn a_document_that_cannot_be_read_names_the_entry() {
         ),
         (
             |d| d["operations"][0]["steps"][0]["timeoutMs"] = json!("20 s"),
-            "operations[0].steps[0].timeoutMs: invalid type: string \"20 s\", expected a non-negative number of milliseconds",
+            "operations[0].steps[0]: timeoutMs must be a non-negative number of milliseconds; got '20 s'",
         ),
         (
             |d| d["operations"][1]["steps"][0]["timeout"] = json!(20000),
@@ -332,11 +332,11 @@ fn a_document_that_cannot_be_read_names_the_entry() {
         ),
         (
             |d| d["operations"][0]["steps"][1]["wait"] = json!(null),
-            "operations[0].steps[1].wait: invalid type: null, expected a string",
+            "operations[0].steps[1]: wait must be text in quotes; got null",
         ),
         (
             |d| d["operations"][0]["steps"][0] = json!("open V12"),
-            "operations[0].steps[0]: invalid type: string \"open V12\", expected a step:",
+            "operations[0]: steps[0] must be a step: {",
         ),
         (
             |d| d["routines"][0]["transitions"][0]["trigger"] = json!({ "mgs": "load" }),
@@ -395,7 +395,7 @@ fn a_null_command_is_a_bad_command_not_a_missing_one() {
     doc["operations"][1]["steps"][0]["command"] = json!(null);
     assert_eq!(
         read_error(doc),
-        "operations[1].steps[0].command: invalid type: null, expected a group command such as {\"valves\": {\"V12\": 100}}"
+        "operations[1].steps[0]: command must be a group command such as {\"valves\": {\"V12\": 100}}; got null"
     );
 }
 
@@ -423,7 +423,7 @@ fn problems_quote_at_most_a_hundred_characters_of_what_they_were_given() {
     let error = read_error(doc);
     assert!(error.chars().count() < 320, "{error:.320}");
     assert!(
-        error.starts_with("operations[0].steps[0].command.valves.V12: invalid type: string \"xxx"),
+        error.starts_with("operations[0].steps[0].command.valves: V12 must be a setpoint: true or false for a binary actuator, a finite number for an analog one; got 'xxx"),
         "{error:.320}"
     );
 
@@ -524,7 +524,7 @@ fn an_unknown_profile_is_refused_by_path() {
     doc["devices"][0]["profile"] = json!("zigbee");
     let error = read_error(doc);
     assert!(
-        error.starts_with("devices[0].profile: unknown variant `zigbee`"),
+        error.starts_with("devices[0]: profile must be one of 'sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'custom'; got 'zigbee'"),
         "{error}"
     );
 }
@@ -553,17 +553,17 @@ fn a_setpoint_that_is_not_true_false_or_a_finite_number_cannot_be_read() {
     doc["actuators"][1]["idle"] = json!("off");
     assert_eq!(
         read_error(doc),
-        "actuators[1].idle: invalid type: string \"off\", expected a setpoint: true or false for a binary actuator, a finite number for an analog one"
+        "actuators[1]: idle must be a setpoint: true or false for a binary actuator, a finite number for an analog one; got 'off'"
     );
     let mut doc = with_operations();
     doc["operations"][0]["steps"][0]["command"]["valves"]["V12"] = json!(null);
     assert!(read_error(doc).starts_with(
-        "operations[0].steps[0].command.valves.V12: invalid type: null, expected a setpoint"
+        "operations[0].steps[0].command.valves: V12 must be a setpoint: true or false for a binary actuator, a finite number for an analog one; got null"
     ));
     let mut doc = with_operations();
     doc["resources"][1]["lockout"] = json!({ "pumps": ["P1"] });
     assert!(read_error(doc).starts_with(
-        "resources[1].lockout.pumps: invalid type: sequence, expected an object of actuator ids and setpoints"
+        "resources[1].lockout: pumps must be an object of actuator ids and setpoints"
     ));
     // JSON text cannot hold NaN; a number too large for an f64 is refused where it stands.
     let text = with_operations()

@@ -615,6 +615,43 @@ pub fn validate_thresholds(
         .map_err(control_error)
 }
 
+/// The state document of pid node `owner`: `saved` sealed for `config` at `nowMs`.
+#[wasm_bindgen(js_name = sealPidState)]
+pub fn seal_pid_state(
+    owner: &str,
+    #[wasm_bindgen(unchecked_param_type = "StationConfig")] config: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "StationSaved")] saved: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
+) -> Result<String, JsValue> {
+    let config: StationConfig = from_js_bounded(
+        config,
+        Code::InvalidConfig,
+        "PID configuration",
+        Bound::Control,
+    )?;
+    let saved: Saved =
+        from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
+    Ok(saved.seal(owner, &config, control_time(&now_ms)?))
+}
+
+/// The state pid node `owner` sealed in `text` (read from `source`); refused
+/// with `INVALID_SNAPSHOT` and the reason when it is not usable.
+#[wasm_bindgen(js_name = openPidState, unchecked_return_type = "StationSaved")]
+pub fn open_pid_state(source: &str, text: &str, owner: &str) -> Result<JsValue, JsValue> {
+    if text.len() > Bound::Control.max_bytes() {
+        return Err(js_error(
+            Code::InputTooLarge,
+            &format!(
+                "{source}: {} bytes, more than a PID state can be",
+                text.len()
+            ),
+        ));
+    }
+    let saved = Saved::open(text, owner)
+        .map_err(|refusal| js_error(Code::InvalidSnapshot, &format!("{source}: {refusal}")))?;
+    to_js(&saved)
+}
+
 /// A PID loop with its set point, auto/manual mode, manual output and stale
 /// watch: `new PidStation({ loop: { pid, smith }, tsS, staleMs, setpoint, mode, manual })`.
 /// Steps come back as `{ engaged, pid: { p, i, d, output, mode, saturated, setpoint,

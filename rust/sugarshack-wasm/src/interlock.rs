@@ -1,13 +1,16 @@
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
+use js_sys::Reflect;
 use serde::Serialize;
+use sugarshack_core::alarm::AlarmsSnapshot;
 use sugarshack_core::clearance::{Attribution, ClearBlocker, LineBlockers};
 use sugarshack_core::code::Code;
 use sugarshack_core::interlock::Interlock as CoreInterlock;
 use sugarshack_core::interlock::{
-    FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet, RestoreOptions,
-    Snapshot,
+    Binding, FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet,
+    RestoreOptions, Snapshot, Start,
 };
+use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 
@@ -108,7 +111,21 @@ export interface ResourceSnapshot {
     state:
         | { state: "free" }
         | { state: "held"; operation: string }
-        | { state: "faulted"; cause: "operation" | "manual" | "interrupted"; operation?: string; note?: string; sinceMs: number };
+        | { state: "faulted"; cause: "operation" | "manual" | "interrupted" | "unknown"; operation?: string; note?: string; sinceMs: number };
+}
+
+/** `Interlock.open()`: the interlock and how it started. */
+export interface OpenedInterlock {
+    interlock: Interlock;
+    /** Why the saved state was not usable (every line faulted), or null. */
+    lost: string | null;
+    /** Lines configured after the save: they start free. */
+    added: string[];
+    /** Lines saved but no longer configured. */
+    dropped: string[];
+    /** The routines' states saved with it, by routine id. */
+    routines: Record<string, RoutineSnapshot>;
+    alarms: AlarmsSnapshot | null;
 }
 
 /** `Interlock.snapshot()`: the whole state by name, for persistence. */
@@ -209,6 +226,16 @@ struct FaultView<'a> {
     lockouts: Vec<LockoutView<'a>>,
     dropped: bool,
     grants: Vec<f64>,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct OpenedView<'a> {
+    lost: Option<String>,
+    added: Vec<String>,
+    dropped: Vec<String>,
+    routines: &'a BTreeMap<String, RoutineSnapshot>,
+    alarms: Option<&'a AlarmsSnapshot>,
 }
 
 #[derive(Serialize)]
@@ -374,6 +401,87 @@ impl Interlock {
         let mut lock = Interlock::wrap(core);
         lock.keep_granted(&grants);
         Ok(lock)
+    }
+
+    /// A restart from the state document `text` read from `source` (named in
+    /// a refusal), as the interlock `owner` bound to `plant`: restored (a line
+    /// added to the configuration since the save starts free, in `added`), or,
+    /// when it is not this interlock's usable state, every line faulted with
+    /// the reason in `lost`. Refused only for a configuration that cannot run.
+    #[wasm_bindgen(unchecked_return_type = "OpenedInterlock")]
+    pub fn open(
+        #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
+        owner: &str,
+        plant: Option<String>,
+        source: &str,
+        text: &str,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let config = parse_config(config)?;
+        let now = time(now_ms)?;
+        if text.len() > Bound::InterlockSnapshot.max_bytes() {
+            return Err(js_error(
+                Code::InputTooLarge,
+                &format!("{source}: {} bytes, more than a state can be", text.len()),
+            ));
+        }
+        let binding = Binding {
+            owner,
+            plant: plant.as_deref(),
+        };
+        let opened = CoreInterlock::open(config, binding, source, text, now).map_err(core_error)?;
+        let (lost, added, dropped) = match opened.start {
+            Start::Restored { added, dropped } => (None, added, dropped),
+            Start::Lost { reason } => (Some(reason), Vec::new(), Vec::new()),
+        };
+        let view = to_js(&OpenedView {
+            lost,
+            added,
+            dropped,
+            routines: &opened.routines,
+            alarms: opened.alarms.as_ref(),
+        })?;
+        Reflect::set(
+            &view,
+            &"interlock".into(),
+            &Interlock::wrap(opened.interlock).into(),
+        )?;
+        Ok(view)
+    }
+
+    /// Its state document at `nowMs`, with the routines' states (by routine
+    /// id) and the alarms saved beside it, sealed as the interlock `owner`
+    /// bound to `plant`.
+    pub fn seal(
+        &self,
+        owner: &str,
+        plant: Option<String>,
+        #[wasm_bindgen(unchecked_param_type = "Record<string, RoutineSnapshot>")] routines: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "AlarmsSnapshot | undefined")] alarms: JsValue,
+        now_ms: f64,
+    ) -> Result<String, JsValue> {
+        let now = time(now_ms)?;
+        let routines: BTreeMap<String, RoutineSnapshot> = from_js_bounded(
+            routines,
+            Code::InvalidSnapshot,
+            "invalid routine snapshots",
+            Bound::InterlockSnapshot,
+        )?;
+        let alarms: Option<AlarmsSnapshot> = if alarms.is_undefined() || alarms.is_null() {
+            None
+        } else {
+            Some(from_js_bounded(
+                alarms,
+                Code::InvalidSnapshot,
+                "invalid alarms",
+                Bound::Alarms,
+            )?)
+        };
+        let binding = Binding {
+            owner,
+            plant: plant.as_deref(),
+        };
+        Ok(self.core.seal(binding, routines, alarms, now))
     }
 
     /// A start without a usable saved state: every line faulted (cause

@@ -6,6 +6,7 @@
 //! is shared by every node of the process and must outlive any input.
 
 mod alarm;
+mod condition;
 mod contract;
 mod control;
 mod device;
@@ -19,7 +20,9 @@ pub use contract::{
     abnormal_event_kinds, alarm_severities, codes, max_shelve_ms, max_status_chars,
     routine_reset_topic,
 };
-pub use control::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
+pub use control::{
+    open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,
+};
 pub use device::DeviceSide;
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
 pub use routine::Routine;
@@ -176,6 +179,48 @@ thread_local! {
     );
 }
 
+thread_local! {
+    /// Where in a value JSON.stringify stopped at a BigInt, walked in its own
+    /// order: `[path, digits]` (`valves.V101`, `100`), or null.
+    static BIGINT_AT: js_sys::Function = js_sys::Function::new_with_args(
+        "value",
+        "const seen = new Set(); let budget = 100000;\n\
+         const walk = (v, path, depth) => {\n\
+           if (typeof v === 'bigint') return [path, String(v)];\n\
+           if (v === null || typeof v !== 'object' || depth > 128 || seen.has(v) || --budget < 0) return null;\n\
+           seen.add(v);\n\
+           if (typeof v.toJSON === 'function') return null;\n\
+           const array = Array.isArray(v);\n\
+           for (const k of array ? v.keys() : Object.keys(v)) {\n\
+             let item; try { item = v[k]; } catch { return null; }\n\
+             const found = walk(item, array ? `${path}[${k}]` : path ? `${path}.${k}` : k, depth + 1);\n\
+             if (found) return found;\n\
+           }\n\
+           return null;\n\
+         };\n\
+         return walk(value, '', 0);",
+    );
+}
+
+/// The refusal of a value holding a BigInt, naming where it is (or None when it cannot be found).
+fn bigint_refusal(value: &JsValue, what: &str) -> Option<JsValue> {
+    let found = BIGINT_AT.with(|at| at.call1(&JsValue::NULL, value)).ok()?;
+    let found: js_sys::Array = found.dyn_into().ok()?;
+    let (path, digits) = (found.get(0).as_string()?, found.get(1).as_string()?);
+    let field = if path.is_empty() {
+        "the value".to_owned()
+    } else {
+        quote(&path)
+    };
+    Some(js_error(
+        Code::InvalidInput,
+        &format!(
+            "{what}: {field} is a BigInt ({}n), which JSON cannot carry: send it as a plain number",
+            quote(digits)
+        ),
+    ))
+}
+
 /// The JSON text of `value`, within `bound`; true when it was given as text.
 fn json_text(value: &JsValue, what: &str, bound: Bound) -> Result<(String, bool), JsValue> {
     let given_as_text = value.is_string();
@@ -184,7 +229,9 @@ fn json_text(value: &JsValue, what: &str, bound: Bound) -> Result<(String, bool)
     } else {
         NON_FINITE_AS_TEXT
             .with(|replacer| JSON::stringify_with_replacer(value, replacer))
-            .map_err(|thrown| unconvertible(&thrown, what, bound))?
+            .map_err(|thrown| {
+                bigint_refusal(value, what).unwrap_or_else(|| unconvertible(&thrown, what, bound))
+            })?
     };
     // JSON.stringify gives undefined for undefined, a function or a symbol.
     if !text.is_string() {

@@ -201,6 +201,7 @@ pub struct Tracker {
     last_sensors: Vec<u32>,
     /// The last `ingest`'s readings as (0 actuator | 1 sensor, index, value) triples, for a journal.
     last_samples: Vec<f64>,
+    pub(crate) conditions: crate::condition::Conditions,
 }
 
 impl Tracker {
@@ -320,6 +321,7 @@ impl Tracker {
             last_ts: None,
             last_sensors: Vec::new(),
             last_samples: Vec::new(),
+            conditions: Default::default(),
         })
     }
 

@@ -136,7 +136,17 @@ fn values_that_are_not_data_are_refused_and_the_tracker_carries_on() {
     let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let cases = [
         (circular(), "INPUT_CIRCULAR", "circular"),
-        (big_int(), "INVALID_INPUT", "BigInt"),
+        (
+            big_int(),
+            "INVALID_INPUT",
+            "invalid group command: valves.V12 is a BigInt (10n), which JSON cannot carry: send it as a plain number",
+        ),
+        (
+            js("return { valves: { V12: 1 }, pumps: [{ P1: 0 }, { P2: 7n }] };"),
+            "INVALID_INPUT",
+            "pumps[1].P2 is a BigInt (7n)",
+        ),
+        (js("return 5n;"), "INVALID_INPUT", "the value is a BigInt (5n)"),
         (throwing_getter(), "INVALID_INPUT", "the sensor bus is down"),
         (
             js("return { get valves() { throw 42; } };"),
@@ -276,7 +286,7 @@ fn a_million_character_plant_value_is_quoted_short() {
     assert_eq!(code_of(&err), "INVALID_PLANT");
     assert_message_starts_with(
         &err,
-        "invalid plant document: actuators[0].io: invalid type: string \"xxx",
+        "invalid plant document: actuators[0]: io must be a whole number from 0 up, like 5; got 'xxx",
     );
     assert_message_short(&err);
 }
@@ -394,7 +404,7 @@ fn a_non_finite_number_is_refused_where_it_stands_not_taken_for_absent() {
     assert_eq!(code_of(&err), "INVALID_CONFIG");
     assert_eq!(
         message_of(&err),
-        "PID configuration: pid.fallback: invalid type: string \"NaN\", expected f64"
+        "PID configuration: pid: fallback must be a number, like 2.5; got NaN"
     );
     let mut rcc = Rcc::new(json(
         r#"{ "id": 2, "thresholdsMs": [200, 500], "tsMs": 200 }"#,
@@ -409,7 +419,7 @@ fn a_non_finite_number_is_refused_where_it_stands_not_taken_for_absent() {
     assert_eq!(code_of(&err), "INVALID_INPUT");
     assert_message_starts_with(
         &err,
-        "I/O state: agesMs[0]: invalid type: string \"Infinity\"",
+        "I/O state: agesMs[0] must be a number, like 2.5; got Infinity",
     );
     assert!(PidLoop::new(json(pid)).is_ok());
 }

@@ -385,3 +385,22 @@ fn the_rcc_polling_timeout_is_ticked() {
         "INVALID_INPUT"
     );
 }
+
+#[wasm_bindgen_test]
+fn a_pid_state_is_sealed_for_its_node_and_refused_for_another() {
+    let saved = json(r#"{ "integral": 3.5, "setpoint": 55, "mode": "manual", "manual": 12 }"#);
+    let text = sugarshack_wasm::seal_pid_state("pid-1", json(STATION), saved, n(9.0)).unwrap();
+    let back = sugarshack_wasm::open_pid_state("file", &text, "pid-1").unwrap();
+    assert_eq!(
+        (number(&back, "integral"), number(&back, "setpoint")),
+        (3.5, 55.0)
+    );
+    let mut station = PidStation::new(json(STATION)).unwrap();
+    station.restore(back).unwrap();
+    let other = sugarshack_wasm::open_pid_state("file", &text, "pid-2").unwrap_err();
+    assert_eq!(code_of(other.clone()), "INVALID_SNAPSHOT");
+    assert!(support::message_of(&other).starts_with("file: it is the state of node 'pid-1'"));
+    let damaged =
+        sugarshack_wasm::open_pid_state("file", &text.replace("3.5", "4.5"), "pid-1").unwrap_err();
+    assert!(support::message_of(&damaged).contains("does not match its checksum"));
+}

@@ -11,8 +11,8 @@ use wasm_bindgen_test::wasm_bindgen_test;
 mod support;
 use support::{get, json, message_of};
 
-fn plant() -> Interlock {
-    Interlock::new(json(
+fn plant_config() -> JsValue {
+    json(
         r#"{
             "resources": [
                 { "name": "YEL", "lockout": { "valves": { "V12": 0, "V13": 0 }, "pumps": { "P1": false } } },
@@ -21,8 +21,11 @@ fn plant() -> Interlock {
             "policy": "greedy",
             "queueBound": 8
         }"#,
-    ))
-    .expect("valid config")
+    )
+}
+
+fn plant() -> Interlock {
+    Interlock::new(plant_config()).expect("valid config")
 }
 
 /// The operations granted by the last release, cancel or clear.
@@ -600,4 +603,78 @@ fn resource_set_handles_are_dropped_past_the_bound_and_old_ones_refused() {
     );
     let again = lock.resource_set(vec!["L0".into()]).unwrap();
     assert!(lock.acquire(op, 1, again, 0.0).unwrap());
+}
+
+#[wasm_bindgen_test]
+fn a_sealed_state_opens_for_its_interlock_and_any_other_text_opens_lost() {
+    let lock = holder_and_waiter(100.0);
+    let routines =
+        json(r#"{ "r": { "routine": "r", "state": "idle", "pending": null, "halted": false } }"#);
+    let text = lock
+        .seal("il", Some("pl".into()), routines, JsValue::UNDEFINED, 110.0)
+        .unwrap();
+    let opened = Interlock::open(
+        plant_config(),
+        "il",
+        Some("pl".into()),
+        "file",
+        &text,
+        120.0,
+    )
+    .unwrap();
+    assert!(get(&opened, "lost").is_null());
+    assert_eq!(stringify(&get(&opened, "added")), "[]");
+    assert_eq!(
+        stringify(&get(&get(&opened, "routines"), "r")),
+        r#"{"routine":"r","state":"idle","pending":null,"halted":false}"#
+    );
+    // The interlock comes back inside the plain object: its held line faulted "interrupted".
+    let restored = get(&opened, "interlock");
+    let counts = get(&restored, "counts")
+        .dyn_into::<js_sys::Function>()
+        .unwrap();
+    assert_eq!(
+        stringify(&counts.call0(&restored).unwrap()),
+        r#"{"holding":0,"queued":0,"faulted":1}"#
+    );
+    for (text, why) in [
+        (
+            text.replace("\"owner\":\"il\"", "\"owner\":\"il2\""),
+            "does not match its checksum",
+        ),
+        ("{".to_owned(), "not valid JSON"),
+        (String::new(), "not valid JSON"),
+    ] {
+        let lost = Interlock::open(
+            plant_config(),
+            "il",
+            Some("pl".into()),
+            "file",
+            &text,
+            120.0,
+        )
+        .unwrap();
+        let reason = get(&lost, "lost").as_string().unwrap();
+        assert!(
+            reason.starts_with("file: ") && reason.contains(why),
+            "{reason}"
+        );
+    }
+    let other = Interlock::open(
+        plant_config(),
+        "il2",
+        Some("pl".into()),
+        "file",
+        &text,
+        120.0,
+    )
+    .unwrap();
+    assert!(get(&other, "lost")
+        .as_string()
+        .unwrap()
+        .contains("the state of node 'il'"));
+    assert_eq!(
+        code_of(Interlock::open(json("{}"), "il", None, "file", &text, 120.0).unwrap_err()),
+        "INVALID_CONFIG"
+    );
 }

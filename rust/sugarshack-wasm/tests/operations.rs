@@ -9,7 +9,7 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{code_of, get, json, valve_plant};
+use support::{code_of, get, json, message_of, valve_plant};
 
 fn text(value: &JsValue, key: &str) -> String {
     get(value, key).as_string().unwrap_or_default()
@@ -104,6 +104,48 @@ fn sensors_are_read_only_while_fresh() {
     );
     assert_eq!(
         code_of(t.read_sensors(&[7], 0.0).unwrap_err()),
+        "UNKNOWN_SENSOR"
+    );
+}
+
+#[wasm_bindgen_test]
+fn a_condition_is_read_once_and_holds_on_the_values_given() {
+    let mut t = tracker();
+    let lt = vec!["LT-3".to_string()];
+    let c = t.condition("`LT-3` / 2 > 10", lt.clone()).unwrap();
+    assert_eq!(
+        t.condition("`LT-3` / 2 > 10", lt.clone()).unwrap(),
+        c,
+        "read once"
+    );
+    assert_eq!(t.condition_holds(c, &[30.0]).unwrap().as_bool(), Some(true));
+    assert_eq!(t.condition_holds(c, &[3.0]).unwrap().as_bool(), Some(false));
+    let zero = t.condition("1 / (`LT-3` - 3) + 1 > 0", lt.clone()).unwrap();
+    let why = t
+        .condition_holds(zero, &[3.0])
+        .unwrap()
+        .as_string()
+        .unwrap();
+    assert!(
+        why.contains("'1 / (`LT-3` - 3)' gives no finite number"),
+        "{why}"
+    );
+    assert_eq!(
+        code_of(t.condition_holds(c, &[]).unwrap_err()),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        code_of(t.condition_holds(99, &[1.0]).unwrap_err()),
+        "INVALID_CONDITION"
+    );
+    let err = t.condition("LT-3 > 10", lt.clone()).unwrap_err();
+    assert_eq!(
+        message_of(&err),
+        "condition 'LT-3 > 10': 'LT-3' reads as LT minus 3: write a sensor id that has a dash in backticks, `LT-3` (to subtract, put spaces around the minus)"
+    );
+    assert_eq!(code_of(err), "INVALID_CONDITION");
+    assert_eq!(
+        code_of(t.condition("`LT-9` > 1", vec!["LT-9".into()]).unwrap_err()),
         "UNKNOWN_SENSOR"
     );
 }

@@ -20,6 +20,7 @@ use super::error::{computed, finite, ControlError};
 use super::pid::{PidInput, PidStep, StepMode};
 use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
+use crate::sealed::{self, Kind, Refusal};
 use crate::text::quote;
 use crate::text::seconds;
 use crate::time::Millis;
@@ -152,6 +153,23 @@ pub struct Saved {
     /// The manual output.
     #[serde(default)]
     pub manual: Option<f64>,
+}
+
+impl Saved {
+    /// This state of pid node `owner`, sealed for `config` at `now` (see
+    /// [`crate::sealed`]): the document a restart opens with [`Saved::open`].
+    pub fn seal(&self, owner: &str, config: &StationConfig, now: Millis) -> String {
+        // Plain data always serializes.
+        sealed::seal(Kind::Pid, owner, &sealed::digest(config), now, self).unwrap_or_default()
+    }
+
+    /// The state pid node `owner` sealed in `text`, or why it is not usable
+    /// (another node's, damaged, of an unknown version): then the node starts
+    /// from its configuration. A changed configuration does not refuse it: the
+    /// set point, mode and integral carry over, bumpless, as after a msg.
+    pub fn open(text: &str, owner: &str) -> Result<Saved, Refusal> {
+        sealed::open::<Saved>(text, Kind::Pid, owner).map(|document| document.state)
+    }
 }
 
 /// How the reported output was computed.

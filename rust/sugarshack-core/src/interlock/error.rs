@@ -18,7 +18,8 @@ pub enum InterlockError {
         /// The name as given.
         name: String,
     },
-    /// An operation the interlock has never seen.
+    /// An operation that neither holds, waits, nor is named by a faulted line
+    /// (never seen, released, or forgotten): there is nothing to fault.
     UnknownOperation {
         /// The name as given.
         name: String,
@@ -94,7 +95,7 @@ impl fmt::Display for InterlockError {
                 write!(f, "unknown resource '{}': it is not configured in the interlock", quote(name))
             }
             Self::UnknownOperation { name } => {
-                write!(f, "unknown operation '{}': it neither holds nor waits for lines of this interlock", quote(name))
+                write!(f, "unknown operation '{}': it neither holds, waits for, nor faulted lines of this interlock", quote(name))
             }
             Self::AlreadyHolding { operation } => write!(
                 f,

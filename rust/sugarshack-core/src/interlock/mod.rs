@@ -24,6 +24,7 @@ mod alarms;
 mod config;
 mod error;
 mod event;
+mod saved;
 mod snapshot;
 
 use std::borrow::Cow;
@@ -36,6 +37,7 @@ use crate::time::Millis;
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
 pub use event::{Event, EventKind, EventRecord, Requester};
+pub use saved::{saved_for, Binding, Opened, SavedState, Start};
 pub use snapshot::{
     FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions,
     Snapshot, SNAPSHOT_VERSION,
@@ -647,8 +649,10 @@ impl Interlock {
     /// The operation faulted: what it holds latches as faulted; a waiting
     /// request is dropped instead. Returns the lockout of every resource
     /// latched under this operation, so a repeated fault (an error handler
-    /// called twice) re-sends the same lockouts instead of failing. The note
-    /// is kept to [`NOTE_MAX_CHARS`].
+    /// called twice) re-sends the same lockouts instead of failing. An
+    /// operation that neither holds, waits, nor is named by a faulted line is
+    /// refused (`UnknownOperation`): whether it was seen before, in this run or
+    /// the last, never changes the answer. The note is kept to [`NOTE_MAX_CHARS`].
     pub fn fault(
         &mut self,
         op: OpId,
@@ -659,6 +663,13 @@ impl Interlock {
         let note = note.as_deref();
         let mut outcome = FaultOutcome::default();
         match self.op(op)?.state.clone() {
+            // Nothing to fault: an id never used, or one that has released and is
+            // named by no fault (as a restart or a forgetting would leave it).
+            OpState::Idle if self.latched_under(op).is_empty() => {
+                return Err(InterlockError::UnknownOperation {
+                    name: self.name(op),
+                });
+            }
             OpState::Idle => {}
             OpState::Queued(waiting) => {
                 let waiting = self.dequeue(waiting.key);

@@ -381,9 +381,12 @@ impl Interlock {
     ///
     /// Faults stay faulted. Held lines come back faulted ("interrupted")
     /// unless `options.keep_holds`; waiting requests are dropped unless
-    /// `options.keep_queue`. Lines configured now but not when the state was
-    /// saved start free; lines saved but no longer configured are left out,
-    /// and so are waiting requests that name them. Each of those gets an event.
+    /// `options.keep_queue`. Lines configured now but not in the snapshot's
+    /// `configured` list (version 2) were added since and start free, one
+    /// event each; a version 1 snapshot, which has no such list, must give
+    /// every configured line's state. Lines saved but no longer configured
+    /// are left out, and so are waiting requests that name them, each with
+    /// an event.
     pub fn restore(
         config: InterlockConfig,
         snapshot: &Snapshot,
@@ -412,15 +415,15 @@ impl Interlock {
             .map(ResourceId)
             .filter(|&r| !saved.contains(lock.config.resources[r.index()].name.as_str()))
             .collect();
-        if !added.is_empty() {
-            let added = ResourceSet(added.into());
-            let note = "not in the saved state: new lines start free".to_owned();
-            lock.record(Event::ResourceAdded {
-                at_ms: now,
-                resources: added,
-                note,
-            });
+        if let (1, Some(&line)) = (snapshot.version, added.first()) {
+            // Version 1 lists the lines it knew, nothing more: a line it does not
+            // list may have been added since or lost from it, so it proves nothing.
+            return Err(invalid(format!(
+                "line {} is configured but this version 1 snapshot does not say its state, and a version 1 snapshot cannot show a line was added after it was saved",
+                quoted(&lock.config.resources[line.index()].name)
+            )));
         }
+        lock.record_added(&added, now);
 
         for entry in &snapshot.resources {
             let (ResourceState::Faulted(fault), Ok(r)) = (&entry.state, lock.resource(&entry.name))

@@ -210,11 +210,37 @@ fn fault_while_waiting_drops_the_request() {
     let outcome = lock.fault(waiter, None, ms(5)).unwrap();
     assert!(outcome.dropped && outcome.lockouts.is_empty());
     assert_eq!(lock.counts(), counts(1, 0, 0));
-    let again = lock.fault(waiter, None, ms(6)).unwrap();
-    assert!(
-        !again.dropped && again.lockouts.is_empty(),
-        "an idle operation has nothing to fault"
+    assert_eq!(
+        lock.fault(waiter, None, ms(6)).unwrap_err().code(),
+        "UNKNOWN_OPERATION",
+        "an operation that neither holds, waits nor faulted a line has nothing to fault"
     );
+}
+
+#[test]
+fn an_operation_that_released_or_was_refused_is_unknown_to_a_fault_as_after_a_restart() {
+    let mut lock = plant(Policy::Greedy);
+    // A refused acquire registers its name and leaves the operation idle.
+    let [done, refused] = ["done", "refused"].map(|n| lock.operation(n));
+    take(&mut lock, done, 1, &["BLU"], 0);
+    lock.release(done, ms(1)).unwrap();
+    for op in [done, refused] {
+        assert_eq!(
+            lock.fault(op, None, ms(2)).unwrap_err().code(),
+            "UNKNOWN_OPERATION"
+        );
+    }
+    let (mut restarted, _) =
+        Interlock::restore(lock.config().clone(), &lock.snapshot(ms(3)), RESTART, ms(3)).unwrap();
+    let again = restarted.operation("done");
+    assert_eq!(
+        restarted.fault(again, None, ms(4)).unwrap_err().code(),
+        "UNKNOWN_OPERATION"
+    );
+    // Named by a faulted line, it is known: a second fault re-sends its lockouts.
+    take(&mut lock, done, 1, &["BLU"], 5);
+    lock.fault(done, None, ms(6)).unwrap();
+    assert_eq!(lock.fault(done, None, ms(7)).unwrap().lockouts.len(), 1);
 }
 
 #[test]
@@ -904,7 +930,7 @@ fn lines_new_since_the_save_start_free_with_an_event() {
         .collect();
     assert_eq!(added.len(), 1, "{records:?}");
     assert_eq!(added[0].resources, ["BLU"]);
-    assert!(added[0].note.as_deref().unwrap().contains("start free"));
+    assert!(added[0].note.as_deref().unwrap().contains("starts free"));
     assert_eq!(
         serde_json::to_value(EventKind::ResourceAdded).unwrap(),
         json!("resource-added")
@@ -1359,17 +1385,14 @@ mod forgetting_model {
                 let out = lock.cancel_named(&format!("op{op}"), ms(now));
                 format!("{:?}", out.map(|g| names(lock, g)).map_err(|e| e.code()))
             }
-            // Faulting an idle operation and a forgotten one both latch nothing.
-            Call::Fault { op } => match lock.find_operation(&format!("op{op}")) {
-                Ok(id) => match lock.fault(id, None, ms(now)).unwrap() {
-                    out if out == FaultOutcome::default() => "nothing to fault".to_owned(),
-                    out => format!(
-                        "{:?}",
-                        (out.lockouts.len(), out.dropped, names(lock, out.grants))
-                    ),
-                },
-                Err(_) => "nothing to fault".to_owned(),
-            },
+            // An idle operation and a forgotten one are both unknown to a fault.
+            Call::Fault { op } => {
+                let out = lock
+                    .find_operation(&format!("op{op}"))
+                    .and_then(|id| lock.fault(id, None, ms(now)));
+                let out = out.map(|o| (o.lockouts.len(), o.dropped, names(lock, o.grants)));
+                format!("{:?}", out.map_err(|e| e.code()))
+            }
             Call::Clear { mask } => {
                 let lines = lines(lock, *mask);
                 let out = lock.clear(&lines, ms(now));

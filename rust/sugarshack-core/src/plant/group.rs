@@ -149,6 +149,28 @@ impl<'de> Deserialize<'de> for GroupCommand {
     }
 }
 
+/// What the visitors above accept: an object of objects of setpoints, any
+/// keys (which types and actuators they name is the plant check's to say).
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for GroupCommand {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "GroupCommand".into()
+    }
+
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let setpoint = generator.subschema_for::<Setpoint>();
+        schemars::json_schema!({
+            "description": "Actuators to set at once, grouped by type: `{\"valves\": {\"V101\": 100, \"V102\": 0}, \"pumps\": {\"P1\": true}}`. Each key is an actuator type, by its name or its plural (its name and an s: `valves` for type `valve`); under it, each actuator's id and its target: `true` or `false` for a binary type, a position from the type's `min` to its `max` for an analog one.",
+            "type": "object",
+            "additionalProperties": {
+                "description": "The actuators of this type and their targets, such as `{\"V101\": 100}`.",
+                "type": "object",
+                "additionalProperties": setpoint
+            }
+        })
+    }
+}
+
 /// Which actuator type each group command key names: every type by its
 /// name, and by its plural (its name and an `s`), which wins should another
 /// type be called so (`valves` is the plural of `valve`).

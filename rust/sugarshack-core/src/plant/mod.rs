@@ -9,12 +9,17 @@
 pub(crate) mod fixtures;
 mod graph;
 mod group;
+#[cfg(feature = "schema")]
+mod schema;
 mod setpoint;
+mod simulation;
 mod validate;
 
 pub use graph::{Edge, RoutineGraph, StateId};
 use group::Targeting;
 pub use group::{Group, GroupCommand, GroupError, GroupKeys};
+#[cfg(feature = "schema")]
+pub use schema::schema;
 pub use setpoint::Setpoint;
 
 use std::collections::BTreeMap;
@@ -49,36 +54,59 @@ use crate::topics::Contract;
 /// assert!(problems.0[0].message.contains("ctrl-9"));
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(
+    feature = "schema",
+    schemars(
+        title = "sugarshack plant document",
+        description = "One plant, as the palette runs it: the field devices on the MQTT bus, the actuators and sensors they carry, the lines (resources) the interlock hands out, the operations that run on them and the routines that chain operations. The plant config node holds it; the plant check names every problem with its path before a deploy."
+    )
+)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct PlantModel {
-    /// A name for people; the core does not use it.
+    /// Where an editor finds this document's JSON Schema, for completion and
+    /// checks as you type: the palette ships it as
+    /// `node_modules/node-red-contrib-sugarshack/schema/plant.schema.json`.
+    /// The plant check ignores it.
+    #[serde(rename = "$schema", default, skip_serializing_if = "Option::is_none")]
+    pub schema: Option<String>,
+    /// A name for people (the plant node's label); the palette does not use it otherwise.
     #[serde(default)]
     pub name: Option<String>,
-    /// Keyed by type name, which is also the MQTT topic component (`<device>/<type>/<io>/command`).
+    /// The kinds of actuator, by name (`valve`, `pump`): what a kind of
+    /// actuator accepts and how long it may take to move. The name is also
+    /// the group-command key (`valves` or `valve`) and, on this palette's own
+    /// devices, a topic level (`<device>/<type>/<io>/command`).
     pub actuator_types: BTreeMap<String, ActuatorType>,
-    /// The devices on the bus.
+    /// The devices on the MQTT bus: actuator panels and sensor stations.
     pub devices: Vec<Device>,
-    /// The actuators.
+    /// Every valve, pump or other actuator the palette commands and tracks.
     #[serde(default)]
     pub actuators: Vec<Actuator>,
-    /// The sensors.
+    /// Every measurement operations and routines may wait on (levels, volumes, temperatures).
     #[serde(default)]
     pub sensors: Vec<Sensor>,
-    /// The shared resources (lines of piping) operations acquire at the interlock.
+    /// The lines of piping (or any equipment) the interlock hands to one
+    /// operation at a time; a fault locks its line out until a person clears it.
     #[serde(default)]
     pub resources: Vec<Resource>,
-    /// The operations.
+    /// The operations: each acquires its lines, runs its steps, returns its
+    /// actuators to idle and releases the lines.
     #[serde(default)]
     pub operations: Vec<Operation>,
-    /// The routines.
+    /// The routines: state machines that start one operation at a time (a truck unloading, a wash cycle).
     #[serde(default)]
     pub routines: Vec<Routine>,
-    /// How far ahead of the reception time a device's timestamp may be; a
-    /// sample stamped further in the future is refused (its clock is wrong).
+    /// How far ahead of the palette's clock a device's timestamp may be, in
+    /// ms; a sample stamped further in the future is refused, since its
+    /// device's clock is wrong.
     #[serde(default = "default_clock_skew_ms")]
     pub clock_skew_ms: Millis,
-    /// Read by the plant simulator only.
+    /// Settings of the plant simulator (`npm start`): its tanks, the
+    /// transfers between them, datapoint baselines. The palette runs
+    /// without them, but checks them as the simulator reads them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(with = "Option<simulation::Simulation>"))]
     pub simulation: Option<serde_json::Value>,
 }
 
@@ -89,87 +117,101 @@ fn default_clock_skew_ms() -> Millis {
     DEFAULT_CLOCK_SKEW_MS
 }
 
-/// How an actuator is commanded.
+/// How an actuator is commanded: to a position, or on and off.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Signal {
-    /// A position in `min..=max` (a valve in %).
+    /// Set to a position between `min` and `max` (a modulating valve, 0 to 100 %).
     Analog,
-    /// On or off (a pump).
+    /// Switched on or off, `true` or `false` (a pump, a solenoid valve).
     Binary,
 }
 
-/// What to do with a command whose actuator failed after every retry.
+/// What happens when an actuator still has not moved after its retries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Escalation {
-    /// Fail the command at once, so the operation faults and its line locks out now.
+    /// The command fails at once: the operation faults and its line locks out now (the default).
     #[default]
     FailFast,
-    /// Leave the command pending until the caller's own timeout (the paper's behaviour).
+    /// The command stays pending until the step's own timeout runs out (the paper's behaviour).
     Hang,
 }
 
-/// What actuators of one type share: signal, range and timing.
+/// What every actuator of one kind shares: how it is commanded, its range,
+/// and how long it may take to move before it counts as failed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct ActuatorType {
-    /// Binary or analog.
+    /// `analog` (a position between `min` and `max`) or `binary` (on or off).
     pub signal: Signal,
-    /// The unit of its positions, for people.
+    /// The unit of its positions, for people (`%`).
     #[serde(default)]
     pub unit: Option<String>,
-    /// The lowest position.
+    /// Analog only: the lowest position (default 0).
     #[serde(default)]
     pub min: Option<f64>,
-    /// The highest position.
+    /// Analog only: the highest position (default 100).
     #[serde(default)]
     pub max: Option<f64>,
-    /// Feedback within this of a position counts as at that position.
+    /// Analog only: how close the feedback must come to the target to count
+    /// as there (default 0); less than half the range. An actuator may set its own.
     #[serde(default)]
     pub tolerance: Option<f64>,
-    /// A command must show motion within this long, else it is retried.
+    /// Within this many ms of a command the feedback must start moving
+    /// toward the target, else the command is retried (or fails).
     pub no_motion_ms: Millis,
-    /// A command must reach its target within this long, else it is retried.
+    /// Within this many ms of a command the feedback must reach the target,
+    /// else the command is retried (or fails); at least `noMotionMs`.
     pub completion_ms: Millis,
-    /// Feedback older than this is stale.
+    /// Feedback older than this many ms is stale: the actuator's position is no longer known.
     pub stale_ms: Millis,
-    /// Retries before a failure escalates.
+    /// How many times a command that did not move or finish is sent again before it fails.
     #[serde(default)]
     pub retries: u32,
-    /// What a failure after its retries does.
+    /// What a command that failed after its retries does: `fail-fast` (the
+    /// default) faults the operation at once, `hang` waits for the step's timeout.
     #[serde(default)]
     pub escalation: Escalation,
-    /// How its devices publish feedback; a device's own setting wins.
+    /// Whether its devices re-publish their states (`periodic`) or only on
+    /// change (`on-change`); a device's own `reports` wins, and without
+    /// either the device profile decides.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reports: Option<Reports>,
 }
 
 /// What a device carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum DeviceKind {
-    /// Actuators.
+    /// A controller that drives actuators (valves, pumps) and reports their positions.
     ActuatorPanel,
-    /// Sensors.
+    /// A controller that publishes sensor readings.
     SensorStation,
 }
 
-/// The MQTT dialect a device speaks (see the topics module for each one's topics).
+/// The MQTT dialect a device speaks: its topics and payloads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Profile {
-    /// This palette's own format (`<prefix>/<type>/<io>/state`, `<prefix>/state` batches).
+    /// This palette's own devices (the default): `<prefix>/<type>/<io>/state`
+    /// and `<prefix>/state` batches; actuators are addressed by `io`.
     #[default]
     Sugarshack,
-    /// ESPHome's MQTT format.
+    /// ESPHome's stock MQTT: actuators and sensors are addressed by `entity`
+    /// (the object id), components by `component`.
     Esphome,
-    /// Tasmota's MQTT format.
+    /// Tasmota's stock MQTT: `POWER1`, `Shutter1`, sensor paths in `tele/<topic>/SENSOR`.
     Tasmota,
-    /// Shelly's second-generation MQTT format.
+    /// Shelly's second-generation MQTT: `switch:0`, `cover:0`, `temperature:0.tC`.
     #[serde(rename = "shelly-gen2")]
     ShellyGen2,
-    /// Topic templates, a payload path and value maps given in the device's `custom`.
+    /// Any other firmware: topic templates, a payload path and value maps, given in the device's `custom`.
     Custom,
 }
 
@@ -206,25 +248,27 @@ impl Profile {
 
 /// Whether a device re-publishes its states (so silence means trouble) or only on change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Reports {
-    /// It re-publishes its states: silence means trouble.
+    /// It re-publishes its states about once a second: feedback older than `staleMs` means trouble.
     Periodic,
-    /// It publishes only on change.
+    /// It publishes only when a state changes: silence is normal.
     OnChange,
 }
 
 /// The ESPHome component that drives an actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 pub enum Component {
-    /// An ESPHome valve.
+    /// An ESPHome `valve` with a position (the default for an analog actuator).
     Valve,
-    /// An ESPHome cover.
+    /// An ESPHome `cover` with a position.
     Cover,
-    /// An ESPHome number.
+    /// An ESPHome `number`.
     Number,
-    /// An ESPHome switch.
+    /// An ESPHome `switch` (the default for a binary actuator).
     Switch,
 }
 
@@ -240,25 +284,29 @@ impl Component {
     }
 }
 
-/// A device on the bus.
+/// A controller on the MQTT bus.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Device {
-    /// Its id in the plant document.
+    /// Its id, which actuators and sensors name as their `device`; also its
+    /// topic prefix unless `prefix` is given.
     pub id: String,
-    /// What it carries.
+    /// `actuator-panel` (drives actuators) or `sensor-station` (publishes readings).
     pub kind: DeviceKind,
-    /// The MQTT format it speaks.
+    /// The MQTT dialect it speaks: `sugarshack` (the default), `esphome`,
+    /// `tasmota`, `shelly-gen2` or `custom`.
     #[serde(default, skip_serializing_if = "is_default")]
     pub profile: Profile,
-    /// Its MQTT topic prefix (ESPHome `topic_prefix`, Tasmota `%topic%`,
-    /// Shelly `topic_prefix`); the device id when absent.
+    /// Its MQTT topic prefix when not its id (ESPHome `topic_prefix`,
+    /// Tasmota `%topic%`, Shelly `topic_prefix`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prefix: Option<String>,
-    /// Overrides its actuator types' `reports` and the profile's default.
+    /// Whether it re-publishes its states (`periodic`) or only on change
+    /// (`on-change`); wins over its actuator types' `reports` and its profile's default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reports: Option<Reports>,
-    /// The topics and payloads of a `custom` device.
+    /// With profile `custom`: its topics and payloads.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub custom: Option<crate::topics::custom::CustomProfile>,
 }
@@ -274,62 +322,75 @@ fn is_default<T: Default + PartialEq>(value: &T) -> bool {
     *value == T::default()
 }
 
-/// An actuator of the plant.
+/// A valve, pump or other actuator the palette commands and tracks.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Actuator {
-    /// Its id in the plant document.
+    /// Its tag (`V101`, `P1`): unique among actuators and sensors, and the
+    /// name group commands and the HMI use.
     pub id: String,
-    /// Its type, a key of `actuatorTypes`.
+    /// Its kind: a name in `actuatorTypes` (`valve`, `pump`).
     #[serde(rename = "type")]
     pub kind: String,
-    /// The device's id.
+    /// The id of the actuator panel that drives it.
     pub device: String,
-    /// Its output number on a `sugarshack` device (`<device>/<type>/<io>/command`).
+    /// On a `sugarshack` device: its output number, from 1
+    /// (`<device>/<type>/<io>/command`); no two actuators of one type share it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub io: Option<u32>,
-    /// Its entity on the device: ESPHome object id (`v101`, default: the id in
-    /// ESPHome's form), Tasmota `POWER1` / `Shutter1`, Shelly `switch:0` / `cover:0`.
+    /// Its entity on a stock-firmware device: ESPHome object id (`v101`; by
+    /// default the id in ESPHome's form), Tasmota `POWER1` or `Shutter1`,
+    /// Shelly `switch:0` or `cover:0`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub entity: Option<String>,
-    /// ESPHome only: `valve` (analog default), `cover`, `number`, `switch` (binary default).
+    /// ESPHome only: the component that drives it, `valve` (the default when
+    /// analog), `cover`, `number` or `switch` (the default when binary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub component: Option<Component>,
-    /// Overrides the type's tolerance.
+    /// Analog only: its own tolerance, in place of its type's.
     #[serde(default)]
     pub tolerance: Option<f64>,
-    /// The resource (line) it belongs to; only operations holding it may command it (C2).
+    /// The line (a resource id) it belongs to: only an operation holding that
+    /// line may command it, and a fault on the line locks it out (C2).
     #[serde(default)]
     pub resource: Option<String>,
-    /// The state every operation returns it to (the paper's C3); required to command it in an operation.
+    /// Where every operation leaves it when done (`0`, `false`): true or
+    /// false when binary, a position when analog. An operation may command it
+    /// only if it has one (C3).
     #[serde(default)]
     pub idle: Option<Setpoint>,
-    /// The state a fault lockout commands.
+    /// Where a fault lockout of its line sends it, the safe state (`0`, `false`):
+    /// true or false when binary, a position when analog.
     pub lockout: Setpoint,
 }
 
-/// A sensor of the plant.
+/// A measurement conditions can read (a level, a volume, a temperature).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Sensor {
-    /// Its id in the plant document.
+    /// Its tag (`LT-3`): unique among actuators and sensors, and the name
+    /// conditions read it by (in backticks when it has a `-`: `` `LT-3` >= 12000 ``).
     pub id: String,
-    /// The device's id.
+    /// The id of the device that publishes it.
     pub device: String,
-    /// The datapoint name in `<device>/sensor/<name>/state`.
+    /// Its datapoint on the device (`volume`), as in `<device>/sensor/<name>/state`.
     pub name: String,
     /// Where the device publishes it, when not `name`: ESPHome object id,
     /// Tasmota path in `tele/<topic>/SENSOR` (`DS18B20.Temperature`), Shelly
     /// component and field (`temperature:0.tC`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub entity: Option<String>,
-    /// The unit of its values, for people.
+    /// The unit of its values, for people (`L`, `°C`).
     #[serde(default)]
     pub unit: Option<String>,
-    /// How often its device publishes it; `staleMs` defaults to five of these.
+    /// How often its device publishes it, in ms (default: the profile's,
+    /// 1 s for this palette's devices, 60 s for ESPHome and Shelly, 300 s for Tasmota).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub update_ms: Option<Millis>,
-    /// How old a value may be before it is stale; the plant's default when unset.
+    /// How old its value may be, in ms, before conditions stop trusting it
+    /// (default: five times `updateMs`).
     #[serde(default)]
     pub stale_ms: Option<Millis>,
     /// The lowest value it reads, with `max` (a SCADA's engineering range).
@@ -347,56 +408,71 @@ impl Sensor {
     }
 }
 
-/// A line the interlock arbitrates.
+/// A line of piping (or any equipment) the interlock hands to one operation at a time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Resource {
-    /// Its id in the plant document.
+    /// Its name (`YEL`), which actuators name as their `resource` and operations in their `resources`.
     pub id: String,
-    /// The group command that isolates the line on a fault. By default every
-    /// member actuator goes to its own lockout state.
+    /// The group command that makes the line safe on a fault, such as
+    /// `{"valves": {"V101": 0}}`. Without it, every actuator of the line goes
+    /// to its own `lockout` state.
     #[serde(default)]
     pub lockout: Option<GroupCommand>,
 }
 
-/// A singular operation (the paper's §III-D): acquire, steps, return to idle, release.
+/// An operation (the paper's §III-D): it acquires its lines, runs its steps
+/// in order, returns its actuators to idle and releases the lines.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Operation {
-    /// Its id in the plant document.
+    /// Its id (`10`, `fill`): operation nodes and routines start it by this.
     pub id: String,
-    /// What it does, for people.
+    /// What it does, for people (`fill the reverse-osmosis tank`).
     #[serde(default)]
     pub description: Option<String>,
-    /// Higher is more urgent.
+    /// A whole number, higher is more urgent: when operations wait for the
+    /// same line, the most urgent is granted first.
     pub priority: i32,
-    /// The lines' names.
+    /// The lines (resource ids) it holds while it runs; its commands may set
+    /// only actuators of these lines.
     pub resources: Vec<String>,
-    /// Its steps, in order.
+    /// Its steps, run in order: each sets actuators (`command`) or waits for a condition (`wait`).
     pub steps: Vec<Step>,
 }
 
-/// Read by its key (`command` or `wait`), so that a broken step says what is
-/// wrong with it rather than that it matches no kind of step.
+/// One step of an operation: set actuators, or wait for a condition.
+// Read by its key (`command` or `wait`), so that a broken step says what is
+// wrong with it rather than that it matches no kind of step.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "schema", schemars(deny_unknown_fields))]
 #[serde(untagged)]
 pub enum Step {
-    /// A group command, e.g. `{"valves": {"V101": 100}, "pumps": {"P1": true}}`.
+    /// Set actuators and wait until their feedback confirms it, e.g.
+    /// `{"command": {"valves": {"V101": 100}, "pumps": {"P1": true}}, "timeoutMs": 20000}`.
     #[serde(rename_all = "camelCase")]
     Command {
-        /// The group command.
+        /// The actuators to set and their targets, grouped by type: `{"valves": {"V101": 100}, "pumps": {"P1": true}}`.
         command: GroupCommand,
-        /// How long it may take.
+        /// How long, in ms, the actuators may take to get there before the operation faults.
         timeout_ms: Millis,
     },
-    /// Wait until a JSONata condition over the listed sensors holds.
+    /// Wait until a condition on sensor values holds, e.g.
+    /// ``{"wait": "`LT-3` >= 12000", "sensors": ["LT-3"], "timeoutMs": 600000}``.
     #[serde(rename_all = "camelCase")]
     Wait {
-        /// The condition (JSONata).
+        // Text in the document, whatever the core reads it into.
+        #[cfg_attr(feature = "schema", schemars(with = "String"))]
+        /// The condition, a JSONata expression over the listed sensors' values
+        /// that gives true or false: `` `LT-3` >= 12000 `` (a sensor id with a
+        /// `-` goes in backticks).
         wait: String,
-        /// The sensors it reads.
+        /// The ids of the sensors the condition reads.
         sensors: Vec<String>,
-        /// How long it may take.
+        /// How long, in ms, the condition may take to hold before the operation faults.
         timeout_ms: Millis,
     },
 }
@@ -464,54 +540,66 @@ impl<'de> Deserialize<'de> for Step {
     }
 }
 
-/// A routine (the paper's §III-E): a state machine that dispatches one operation at a time.
+/// A routine (the paper's §III-E): a state machine that starts one
+/// operation at a time, moving from state to state as its operations complete.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Routine {
-    /// Its id in the plant document.
+    /// Its id (`truck`): the routine node runs it by this.
     pub id: String,
-    /// Its states.
+    /// The names of its states (`idle`, `unloading`, `washing`).
     pub states: Vec<String>,
-    /// The state it starts in.
+    /// The state it starts in, and returns to on a `reset` msg.
     pub initial: String,
-    /// Where the routine goes when its operation faults.
+    /// The state it goes to when one of its operations faults; without one it halts until a `reset` msg.
     #[serde(default)]
     pub error_state: Option<String>,
-    /// Its transitions.
+    /// Its moves between states; of those that can fire, the first listed wins.
     pub transitions: Vec<Transition>,
 }
 
-/// A move between two states of a routine, running one operation.
+/// A move between two states of a routine: when its trigger fires in state
+/// `from`, the routine runs the operation and, once it completes, enters `to`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct Transition {
     /// The state it leaves.
     pub from: String,
-    /// The state it enters.
+    /// The state it enters once its operation completes.
     pub to: String,
-    /// The operation's id.
+    /// The id of the operation it runs; an operation belongs to one routine only (C1).
     pub operation: String,
-    /// What fires it.
+    /// What fires it: a msg topic (`{"msg": "truck-arrived"}`) or a condition on sensors (`when`).
     pub trigger: Trigger,
 }
 
-/// Read by its key (`msg` or `when`), as a step is.
+/// What fires a transition: a msg topic, or a condition on sensor values.
+// Read by its key (`msg` or `when`), as a step is.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "schema", schemars(deny_unknown_fields))]
 #[serde(untagged)]
 pub enum Trigger {
-    /// A msg with this topic.
+    /// A msg with this topic sent to the routine node, e.g. `{"msg": "truck-arrived"}`.
     Msg {
-        /// The msg topic.
+        /// The msg topic that fires it (any but `reset`, which sends the routine back to its initial state).
         msg: String,
     },
-    /// A JSONata condition over the listed sensors, evaluated every `everyMs`.
+    /// A condition on sensor values, checked every `everyMs`, e.g.
+    /// ``{"when": "`LT-3` >= 12000", "sensors": ["LT-3"], "everyMs": 1000}``.
     #[serde(rename_all = "camelCase")]
     When {
-        /// The condition (JSONata).
+        // Text in the document, whatever the core reads it into.
+        #[cfg_attr(feature = "schema", schemars(with = "String"))]
+        /// The condition, a JSONata expression over the listed sensors' values
+        /// that gives true or false: `` `LT-3` >= 12000 `` (a sensor id with a
+        /// `-` goes in backticks).
         when: String,
-        /// The sensors it reads.
+        /// The ids of the sensors the condition reads.
         sensors: Vec<String>,
-        /// How often it is checked, in ms.
+        /// How often the condition is checked, in ms.
         every_ms: Millis,
     },
 }

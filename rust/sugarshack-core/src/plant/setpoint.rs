@@ -128,6 +128,22 @@ impl<'de> Deserialize<'de> for Setpoint {
     }
 }
 
+/// What the visitor above accepts: a boolean, or any JSON number.
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for Setpoint {
+    fn inline_schema() -> bool {
+        true
+    }
+
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Setpoint".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({ "type": ["boolean", "number"] })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,6 +10,7 @@ use super::group::{GroupCommand, GroupError, GroupKeys, Targeting};
 use super::{
     DeviceKind, PlantError, PlantErrors, PlantModel, PlantWarning, Profile, Signal, Step, Trigger,
 };
+use crate::condition::Condition;
 use crate::routine::RESET_TOPIC;
 use crate::text::quote;
 use crate::time::Millis;
@@ -23,7 +24,7 @@ pub(super) struct Report {
 }
 
 impl Report {
-    fn error(&mut self, path: &str, message: impl Into<String>) {
+    pub(super) fn error(&mut self, path: &str, message: impl Into<String>) {
         self.errors.push(PlantError {
             path: path.to_owned(),
             message: message.into(),
@@ -60,6 +61,7 @@ pub(super) fn check(plant: &PlantModel) -> Result<Checked, PlantErrors> {
     resources(plant, &targeting, &mut report);
     let operations = operations(plant, &targeting, &mut report);
     routines(plant, &operations, &mut report);
+    super::simulation::check(plant, &mut report);
     let graphs: Option<Vec<RoutineGraph>> =
         plant.routines.iter().map(RoutineGraph::resolve).collect();
     match (contract, graphs) {
@@ -408,13 +410,11 @@ fn operations<'a>(
                     sensors,
                     timeout_ms,
                 } => {
-                    if wait.trim().is_empty() {
-                        report.error(&path, "the condition is empty");
-                    }
                     if *timeout_ms == Millis::ZERO {
                         report.error(&path, "timeoutMs must be positive");
                     }
                     unknown_sensors(plant, sensors, &path, report);
+                    condition(plant, wait, sensors, &path, report);
                 }
             }
         }
@@ -427,6 +427,26 @@ fn unknown_sensors(plant: &PlantModel, names: &[String], path: &str, report: &mu
         if !plant.sensors.iter().any(|s| &s.id == name) {
             report.error(path, format!("unknown sensor '{}'", quote(name)));
         }
+    }
+}
+
+/// A condition reads only sensors listed with it and gives true or false
+/// (see [`Condition`]); a listed sensor it does not read is a warning.
+fn condition(plant: &PlantModel, text: &str, sensors: &[String], path: &str, report: &mut Report) {
+    let ids: Vec<&str> = plant.sensors.iter().map(|s| s.id.as_str()).collect();
+    match Condition::compile(text, sensors, &ids) {
+        Ok(c) => {
+            for unread in c.unread() {
+                report.warn(
+                    path,
+                    format!(
+                        "lists sensor '{}', which the condition does not read: the condition holds only while it is fresh too",
+                        quote(unread)
+                    ),
+                );
+            }
+        }
+        Err(err) => report.error(path, format!("condition '{}': {err}", quote(text))),
     }
 }
 
@@ -491,13 +511,11 @@ fn routines(plant: &PlantModel, operations: &HashSet<&str>, report: &mut Report)
                     sensors,
                     every_ms,
                 } => {
-                    if when.trim().is_empty() {
-                        report.error(&path, "the condition is empty");
-                    }
                     if *every_ms == Millis::ZERO {
                         report.error(&path, "everyMs must be positive");
                     }
                     unknown_sensors(plant, sensors, &path, report);
+                    condition(plant, when, sensors, &path, report);
                 }
             }
         }

@@ -31,14 +31,16 @@ use crate::plant::{Actuator, Signal};
 use crate::text::quote;
 use crate::time::Millis;
 
-/// A custom device's topic templates and value maps.
+/// A custom device's topics and payloads: topic templates with `{prefix}`
+/// (the device's prefix) and `{entity}` (the actuator's or sensor's entity).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomProfile {
-    /// Its availability topic; without one only the broker path tells liveness.
+    /// Its availability topic and payloads; without one, only the broker connection tells whether it is alive.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub status: Option<CustomStatus>,
-    /// Per actuator type name.
+    /// How each type of actuator it drives is commanded and read, by actuator type name (`valve`, `pump`).
     #[serde(default)]
     pub actuators: BTreeMap<String, CustomActuator>,
     /// How its sensor values are read.
@@ -48,49 +50,53 @@ pub struct CustomProfile {
 
 /// How a custom device reports its availability.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomStatus {
-    /// The availability topic.
+    /// The availability topic template (`{prefix}/availability`).
     pub topic: String,
-    /// The payload that means online.
+    /// The payload that means online (`up`).
     pub online: String,
-    /// The payload that means offline.
+    /// The payload that means offline (`down`).
     pub offline: String,
 }
 
 /// Where a value is published and how it reads.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomValue {
-    /// Topic template.
+    /// The topic template it is published on (`{prefix}/{entity}`).
     pub state: String,
-    /// Dotted path to the value in a JSON payload; the whole payload when absent.
+    /// The dotted path to the value in a JSON payload (`state.position`); without it, the whole payload is the value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<String>,
-    /// Payload words (or JSON strings) and the values they mean.
+    /// Payload words (or JSON strings) and the numbers they mean: `{"ON": 1, "OFF": 0}`.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub map: BTreeMap<String, f64>,
-    /// Dotted path to the device time (epoch ms) in a JSON payload.
+    /// The dotted path to the device's time (epoch ms) in a JSON payload.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ts: Option<String>,
 }
 
-/// How a custom device's actuator is commanded and read.
+/// How a custom device's actuators of one type are commanded and read: where
+/// their state is published (`state`, `value`, `map`, `ts`) and how they are commanded.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct CustomActuator {
     /// How its state is read.
     #[serde(flatten)]
     pub state: CustomValue,
-    /// Command topic template.
+    /// The command topic template (`{prefix}/{entity}/set`).
     pub command: String,
-    /// Analog command payload template with `{value}` (default: the number).
+    /// Analog: the command payload template, `{value}` standing for the target (default: the number alone).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub payload: Option<String>,
-    /// Binary command payloads (default `ON` / `OFF`).
+    /// Binary: the payload that switches it on (default `ON`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub on: Option<String>,
-    /// The payload that means off.
+    /// Binary: the payload that switches it off (default `OFF`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub off: Option<String>,
 }

@@ -540,9 +540,6 @@ impl Contract {
                 range: (range.min, range.max),
                 path: &path,
             };
-            if d.profile != Profile::Sugarshack && a.io.is_some() && d.profile != Profile::Custom {
-                // io stays meaningful to a simulator; the topics use the entity.
-            }
             if d.profile != Profile::Esphome && a.component.is_some() {
                 b.error(&path, "'component' is for esphome devices");
             }

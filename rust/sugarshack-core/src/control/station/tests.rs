@@ -326,3 +326,35 @@ fn refuses_configurations_that_cannot_run() {
         );
     }
 }
+
+#[test]
+fn a_sealed_state_opens_for_its_own_node_only_and_unchanged() {
+    let saved = Saved {
+        integral: Some(7.5),
+        setpoint: Some(55.0),
+        mode: Some(Mode::Manual),
+        manual: Some(33.0),
+    };
+    let text = saved.seal("pid-1", &config(), millis(9.0));
+    assert_eq!(Saved::open(&text, "pid-1"), Ok(saved));
+    let mut edited = config();
+    edited.setpoint = 80.0;
+    assert_ne!(
+        text,
+        saved.seal("pid-1", &edited, millis(9.0)),
+        "saved for its configuration"
+    );
+    assert!(matches!(
+        Saved::open(&text, "pid-2"),
+        Err(Refusal::NotOurs { .. })
+    ));
+    assert_eq!(
+        Saved::open(&text.replace("55", "56"), "pid-1"),
+        Err(Refusal::ChecksumMismatch)
+    );
+    let interlock = text.replace("sugarshack-pid-state", "sugarshack-interlock-state");
+    assert_eq!(
+        Saved::open(&interlock, "pid-1").unwrap_err().to_string(),
+        "it is the state of an interlock"
+    );
+}

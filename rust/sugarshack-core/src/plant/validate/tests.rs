@@ -48,6 +48,22 @@ fn a_sound_document_passes_every_check_once_and_keeps_no_warning() {
 }
 
 #[test]
+fn a_document_may_name_its_json_schema_which_the_checks_ignore() {
+    let schema = "./node_modules/node-red-contrib-sugarshack/schema/plant.schema.json";
+    let mut doc = sound();
+    doc["$schema"] = json!(schema);
+    let plant = Plant::new(read(doc.clone())).unwrap();
+    assert!(plant.warnings().is_empty());
+    assert_eq!(plant.schema.as_deref(), Some(schema));
+    assert_eq!(
+        serde_json::to_value(plant.model()).unwrap()["$schema"],
+        schema
+    );
+    doc["$schema"] = json!(5);
+    assert!(serde_json::from_value::<PlantModel>(doc).is_err());
+}
+
+#[test]
 fn actuator_types_need_positive_timings_and_a_range() {
     let plant = with(|d| {
         d["actuatorTypes"]["valve"]["staleMs"] = json!(0);
@@ -272,7 +288,65 @@ fn an_empty_command_or_unknown_sensor_is_refused() {
         vec![
             "operations[0] (10).steps[0]: the group command names no actuator",
             "operations[0] (10).steps[1]: unknown sensor 'LT-9'",
+            "operations[0] (10).steps[1]: condition '`LT-3` > 100': reads sensor 'LT-3', which is not listed with the condition (the sensors listed are LT-9): add it to the sensors, so that it is read fresh",
         ]
+    );
+}
+
+/// The errors of the operations' checks with the wait step's condition `text`.
+fn wait_errors(text: &str) -> Vec<String> {
+    let plant = with(|d| d["operations"][0]["steps"][1]["wait"] = json!(text));
+    operation_report(&plant).0
+}
+
+#[test]
+fn a_wait_that_could_never_hold_is_refused_at_the_check() {
+    assert_eq!(
+        wait_errors("LT-3 >= 50"),
+        vec!["operations[0] (10).steps[1]: condition 'LT-3 >= 50': 'LT-3' reads as LT minus 3: write a sensor id that has a dash in backticks, `LT-3` (to subtract, put spaces around the minus)"]
+    );
+    assert_eq!(
+        wait_errors("`LT3` >= 50"),
+        vec!["operations[0] (10).steps[1]: condition '`LT3` >= 50': '`LT3`' is not a sensor of the plant; the sensors listed are LT-3 (did you mean `LT-3`?)"]
+    );
+    assert_eq!(
+        wait_errors("`LT-3` + 50"),
+        vec!["operations[0] (10).steps[1]: condition '`LT-3` + 50': the condition gives a number, not true or false: compare it, as in `LT-3` + 50 >= 50"]
+    );
+    assert_eq!(
+        wait_errors("  "),
+        vec!["operations[0] (10).steps[1]: condition '  ': the condition is empty"]
+    );
+    assert!(wait_errors("`LT-3` & 'x'")[0]
+        .contains("'&' (joining text) is not supported in a condition"));
+}
+
+#[test]
+fn a_routine_condition_is_checked_as_a_wait_is() {
+    let plant = with(|d| {
+        d["routines"][0]["transitions"][0]["trigger"] =
+            json!({ "when": "LT-3 < 10", "sensors": ["LT-3"], "everyMs": 1000 });
+    });
+    assert_eq!(
+        routine_errors(&plant),
+        vec!["routines[0] (r).transitions[0]: condition 'LT-3 < 10': 'LT-3' reads as LT minus 3: write a sensor id that has a dash in backticks, `LT-3` (to subtract, put spaces around the minus)"]
+    );
+}
+
+#[test]
+fn a_listed_sensor_the_condition_does_not_read_is_a_warning() {
+    let plant = with(|d| {
+        d["sensors"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "id": "FT-3", "device": "station-3", "name": "flow" }));
+        d["operations"][0]["steps"][1]["sensors"] = json!(["LT-3", "FT-3"]);
+    });
+    let (errors, warnings) = operation_report(&plant);
+    assert!(errors.is_empty(), "{errors:?}");
+    assert_eq!(
+        warnings,
+        vec!["operations[0] (10).steps[1]: lists sensor 'FT-3', which the condition does not read: the condition holds only while it is fresh too"]
     );
 }
 

@@ -5,8 +5,11 @@
 use std::fmt;
 
 use serde::de::DeserializeOwned;
+use serde_path_to_error::Segment;
 
 use crate::text::{abridge, QUOTE_CHARS};
+
+mod words;
 
 /// The deepest nesting read: serde_json refuses its 128th level.
 pub const MAX_DEPTH: usize = 127;
@@ -111,6 +114,11 @@ pub fn nesting_depth(text: &str, limit: usize) -> usize {
 /// let err = from_str::<Vec<Device>>(r#"[{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "ctrl-2" }]"#)
 ///     .unwrap_err();
 /// assert_eq!(err.without_position().to_string(), "[1]: missing field `kind`");
+/// let err = from_str::<Vec<Device>>(r#"[{ "id": "ctrl-1", "kind": "relay" }]"#).unwrap_err();
+/// assert_eq!(
+///     err.without_position().to_string(),
+///     "[0]: kind must be one of 'actuator-panel', 'sensor-station'; got 'relay'"
+/// );
 /// ```
 pub fn from_str<T: DeserializeOwned>(text: &str) -> Result<T, JsonError> {
     if nesting_depth(text, MAX_DEPTH) > MAX_DEPTH {
@@ -118,15 +126,23 @@ pub fn from_str<T: DeserializeOwned>(text: &str) -> Result<T, JsonError> {
     }
     let mut deserializer = serde_json::Deserializer::from_str(text);
     let value = serde_path_to_error::deserialize(&mut deserializer).map_err(|err| {
-        let path = err.path().to_string();
-        let path = (path != "." && path != "?").then(|| abridge(&path, QUOTE_CHARS));
-        invalid(path, err.into_inner())
+        let segments: Vec<Segment> = err.path().iter().cloned().collect();
+        invalid(&segments, err.into_inner())
     })?;
-    deserializer.end().map_err(|err| invalid(None, err))?;
+    deserializer.end().map_err(|err| invalid(&[], err))?;
     Ok(value)
 }
 
-fn invalid(path: Option<String>, err: serde_json::Error) -> JsonError {
+/// Reads a JSON value already parsed as a `T`, with the path of the first
+/// problem, worded as [`from_str`] words it.
+pub fn from_value<T: DeserializeOwned>(value: &serde_json::Value) -> Result<T, JsonError> {
+    serde_path_to_error::deserialize(value).map_err(|err| {
+        let segments: Vec<Segment> = err.path().iter().cloned().collect();
+        invalid(&segments, err.into_inner())
+    })
+}
+
+fn invalid(segments: &[Segment], err: serde_json::Error) -> JsonError {
     let position = (err.line() > 0).then(|| (err.line(), err.column()));
     let text = err.to_string();
     let message = match position {
@@ -135,11 +151,43 @@ fn invalid(path: Option<String>, err: serde_json::Error) -> JsonError {
             .unwrap_or(&text),
         None => &text,
     };
+    let (path, message) = match words::wrong_value(message) {
+        // A value of the wrong kind: named by its field, under its parent's
+        // path; what was given comes last, already cut to a quote.
+        Some(wrong) => {
+            let (parent, field) = words::field_of(segments);
+            (parent, wrong.message(field.as_deref()))
+        }
+        None => (path_text(segments), abridge(message, MESSAGE_CHARS)),
+    };
     JsonError::Invalid {
-        path,
-        message: abridge(message, MESSAGE_CHARS),
+        path: path.map(|p| abridge(&p, QUOTE_CHARS)),
+        message,
         position,
     }
+}
+
+/// `operations[2].steps[1]`, or None at the top.
+fn path_text(segments: &[Segment]) -> Option<String> {
+    let mut out = String::new();
+    for segment in segments {
+        match segment {
+            Segment::Seq { index } => out.push_str(&format!("[{index}]")),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Unknown => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push('?');
+            }
+        }
+    }
+    (!out.is_empty() && out != "?").then_some(out)
 }
 
 #[cfg(test)]
@@ -194,11 +242,11 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             err.to_string(),
-            "[1].valves[1]: invalid type: string \"two\", expected u32 (line 2, column 36)"
+            "[1]: valves[1] must be a whole number from 0 up, like 5; got 'two' (line 2, column 36)"
         );
         assert_eq!(
             err.without_position().to_string(),
-            "[1].valves[1]: invalid type: string \"two\", expected u32"
+            "[1]: valves[1] must be a whole number from 0 up, like 5; got 'two'"
         );
         let typo = from_str::<Line>(r#"{"name": "YEL", "valvs": []}"#).unwrap_err();
         assert!(
@@ -208,7 +256,7 @@ mod tests {
         let top = from_str::<Line>("12").unwrap_err().without_position();
         assert_eq!(
             top.to_string(),
-            "invalid type: integer `12`, expected struct Line"
+            "it must be an object in braces, {...}; got 12"
         );
     }
 
@@ -234,10 +282,10 @@ mod tests {
             .to_string();
         assert!(err.len() < 300, "{} characters", err.len());
         assert!(
-            err.starts_with("valves[0]: invalid type: string \"xxx"),
+            err.starts_with("valves[0] must be a whole number from 0 up, like 5; got 'xxx"),
             "{err}"
         );
-        assert!(err.ends_with("expected u32"), "{err}");
+        assert!(err.ends_with("x…'"), "{err}");
         let key = format!(r#"{{"{}": 1}}"#, "k".repeat(1_000_000));
         let err = from_str::<Line>(&key)
             .unwrap_err()
