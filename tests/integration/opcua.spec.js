@@ -12,7 +12,9 @@
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
+const { execFileSync } = require('child_process');
 const { waitFor } = require('./support/node-red');
+const { read, parse } = require('../../scripts/docs/markdown');
 const { PASSWORD, NS_URI, ROOT, startOpcuaPlant } = require('./support/opcua');
 
 describe('the OPC UA server, with an independent client (asyncua), on the case-study plant', function () {
@@ -244,6 +246,18 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
     assert.equal((await clear('scada', ['PUR'], 'refresh drill over', true)).status, 'Good', 'a forced clear over SignAndEncrypt');
     assert.ok(fs.existsSync(path.join(red.dir, 'sugarshack-opcua', 'pki', 'own', 'certs', 'certificate.pem')), 'the server certificate');
     await ua.ask('disconnect', { name: 'scada' });
+  });
+
+  it('the how-to\'s Python client (docs/how-to/opcua.md) signs in, reads a line and stops it', async function () {
+    const [block] = parse(read('docs/how-to/opcua.md')).fences.filter((f) => f.tags.by === 'tests/integration/opcua.spec.js');
+    assert.ok(block, 'the page\'s Python block');
+    const script = block.body.replace('opc.tcp://127.0.0.1:4840', urls.tryout).replace('her adminAuth password', PASSWORD);
+    const out = execFileSync(process.env.PYTHON || 'python3', ['-c', script], { encoding: 'utf8', timeout: 60000 });
+    assert.match(out, /^GRN is (free|held|faulted)$/m);
+    assert.match(out, /^stopped \['GRN'(, '[A-Z]+')*\]$/m);
+    const grn = (await interlockOf()).lines.find((l) => l.name === 'GRN');
+    assert.deepEqual([grn.state.state, grn.fault.note], ['faulted', 'drill from Python']);
+    assert.equal((await clear('ana2', ['GRN'], 'drill over', true)).status, 'Good');
   });
 
   it('a client browsing in a tight loop, 100 sessions and a subscription to everything at 10 ms do not stop the plant: the interlock grants in its usual time', async function () {
