@@ -16,6 +16,7 @@
 #   plant load     CPU and memory of Node-RED on the simulated case-study plant
 #   scaling        1x, 10x, 100x (and --full: 95,200 I/O) end to end on Mosquitto
 #   OPC UA         the OPC UA server's CPU and memory, every value subscribed (--full: and at 95,200 I/O)
+#   standby        hot standby on a real etcd: commit cost, grants/s through the nodes, failover times
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -66,6 +67,8 @@ else
   run scaling node tests/bench/scaling.js
   run "OPC UA" node tests/bench/opcua-load.js --quick --skip-large
 fi
+
+run standby node tests/bench/standby-bench.js "${quick[@]}"
 
 echo
 echo "== every target (load average $(cut -d' ' -f1-3 /proc/loadavg) at the end)"

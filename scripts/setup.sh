@@ -105,10 +105,11 @@ _sugarshack_setup() (
     # npm runs under whichever `node` is first on PATH: use Node 22 for Node-RED 5.
     (cd "$NR5_DIR" && PATH="$(dirname "$NODE22"):$PATH" npm install --no-audit --no-fund)
   fi
-  # Test servers and tools from Debian, each skipped when present: Mosquitto and
-  # VictoriaMetrics (the integration tests run their own; only the binaries are
-  # needed), binaryen's wasm-opt (scripts/build-wasm.sh) and chromium (tests/browser).
-  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium)
+  # Test servers and tools from Debian, each skipped when present: Mosquitto,
+  # VictoriaMetrics and etcd (the integration tests run their own; only the
+  # binaries are needed), binaryen's wasm-opt (scripts/build-wasm.sh) and
+  # chromium (tests/browser).
+  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium etcd:etcd-server etcdctl:etcd-client)
   have() { command -v "$1" >/dev/null || [ -x "/usr/sbin/$1" ] || [ -x "/usr/bin/$1" ] || { [ "$1" = chromium ] && [ -n "${CHROMIUM_BIN:-}" ]; }; }
   local missing=() entry
   for entry in "${needed[@]}"; do

@@ -96,12 +96,14 @@ class AlarmBook {
 
 /**
  * The abnormal conditions of an interlock (what its core reports: faulted
- * lines, waits and holds past the warning times), of its store, and of its
- * plant's devices and buses, as the core's alarm conditions. The core words
+ * lines, waits and holds past the warning times), of its store, of its
+ * plant's devices and buses, and of its hot-standby cluster (a failover just
+ * made, etcd members down), as the core's alarm conditions. The core words
  * them all: a store or a bus is named only by its subject.
+ * @param {{ interlock: any[], saveFailing: boolean, store: string, plant: any, cluster?: { kind: string, subject: string }[] }} o
  */
-function conditionsOf({ interlock, saveFailing, store, plant }) {
-  const conditions = [...interlock];
+function conditionsOf({ interlock, saveFailing, store, plant, cluster = [] }) {
+  const conditions = [...interlock, ...cluster];
   if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: store });
   if (plant) {
     conditions.push(...plant.devices);

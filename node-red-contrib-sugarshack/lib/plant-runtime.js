@@ -19,12 +19,16 @@ const { PlantStatus } = require('./plant-status');
 const { PlantChanges } = require('./plant-changes');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
+const { clusterOf } = require('./cluster');
 
 const TICK_MS = 250;
 
 class PlantRuntime extends RuntimeBase {
-  /** settings: { plant (the document), error }. */
-  constructor({ id, settings }) {
+  /**
+   * settings: { plant (the document), error }; RED, for the hot-standby cluster of this Node-RED, if any.
+   * @param {{ id: string, settings: any, RED?: any }} o
+   */
+  constructor({ id, settings, RED = null }) {
     super('plant');
     this.id = id;
     this.swapOrder = 0; // before the interlocks bound to it
@@ -37,6 +41,29 @@ class PlantRuntime extends RuntimeBase {
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
     this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
+    // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
+    try {
+      this.cluster = clusterOf(RED);
+    } catch (err) {
+      this.cluster = null;
+      this.plantError = err;
+    }
+    this.stopFollowing = this.cluster ? this.cluster.follow({
+      activate: () => this.refreshStatus(),
+      standDown: () => this.bus.standDown(),
+      resumed: () => this.bus.sendHeld(),
+    }) : null;
+  }
+
+  /** A standby (not the elected leader) commands nothing; its feedback still goes in. */
+  get standby() {
+    return this.cluster !== null && !this.cluster.active;
+  }
+
+  /** Whether a publish may leave now: 'send', 'hold' (a leader whose lease awaits etcd's answer) or 'drop'. */
+  publishing() {
+    if (!this.cluster || this.cluster.mayAct()) return 'send';
+    return this.cluster.role === 'suspended' ? 'hold' : 'drop';
   }
 
   /** The actuators nodes serving this plant (read by the interlock's alarms). */
@@ -88,6 +115,8 @@ class PlantRuntime extends RuntimeBase {
   async shutdown() {
     if (this.ended) return;
     const wasReady = this.state === 'ready';
+    if (this.stopFollowing) this.stopFollowing();
+    this.stopFollowing = null;
     this.endCommon();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;

@@ -8,8 +8,9 @@
 // throttle further as they like.
 const { EventEmitter } = require('events');
 const { clock } = require('./clock');
+const { clusterOf } = require('./cluster');
 
-/** { atMs, interlocks: [...], plants: [...] } of every runtime of `palette`. */
+/** { atMs, interlocks: [...], plants: [...], cluster? } of every runtime of `palette`; `cluster` in a hot-standby cluster. */
 function stateOf(palette) {
   const interlocks = [];
   const plants = [];
@@ -17,7 +18,13 @@ function stateOf(palette) {
     const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
     (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
   }
-  return { atMs: clock.now(), interlocks, plants };
+  let cluster = null;
+  try {
+    cluster = clusterOf(palette.RED);
+  } catch {
+    cluster = null; // misconfigured: every runtime reports the error
+  }
+  return cluster ? { atMs: clock.now(), interlocks, plants, cluster: cluster.describe() } : { atMs: clock.now(), interlocks, plants };
 }
 
 /** Announces 'changed' (with the Set of runtimes that changed) at most once per turn of the event loop. */

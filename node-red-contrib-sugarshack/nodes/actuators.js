@@ -36,11 +36,16 @@ module.exports = function (RED) {
         done();
         return;
       }
+      // A hot standby follows the feedback (above) and commands nothing.
+      if (rt.standby) {
+        rt.standbyDone(node, done);
+        return;
+      }
       const within = readMsg(() => (seen.lockout ? undefined : heldResources(msg)));
       const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
       if (rt.draining && !seen.lockout) rt.submit(node, done, issue);
       else issue();
-    }, 'plant', { urgent: always });
+    }, 'plant', { urgent: always, passive: true });
   }
 
   RED.nodes.registerType('sugarshack-actuators', ActuatorsNode);

@@ -8,6 +8,7 @@ const { filesTarget } = require('../lib/journal/files');
 const { compact, status } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { configDurationMs } = require('../lib/control');
+const { quietOf } = require('../lib/cluster');
 
 const MB = 1024 * 1024;
 const writers = new Map(); // node id (or 'default') -> JournalWriter
@@ -65,7 +66,9 @@ module.exports = function (RED) {
   const embedded = RED.settings && RED.settings.sugarshackJournal;
   if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
     const writer = writerFor(t, { props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
-    writer.detach = journal.attach(writer);
+    // In a hot-standby cluster only the active instance keeps the journal (a standby hears the same plant).
+    const quiet = quietOf(RED);
+    writer.detach = journal.attach({ row: (row) => { if (!quiet()) writer.row(row); }, failed: (err) => writer.failed(err) });
     writers.set('default', writer);
     RED.log.info(t('log.localFiles', { where: writer.target.where }));
   }

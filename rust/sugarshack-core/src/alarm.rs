@@ -58,16 +58,23 @@ pub enum AlarmKind {
     WaitingLong,
     /// An operation has held its lines longer than the interlock's warning time.
     HeldLong,
+    /// A hot standby took over: its subject is the instance now active.
+    Failover,
+    /// A member of the hot standby's etcd cluster does not answer.
+    EtcdMemberDown,
 }
 
 /// How long a lost broker must stay lost before it is an alarm: Node-RED connects after the flows start.
 pub const BUS_ON_DELAY_MS: Millis = ms(10_000);
+/// How long an etcd member must stay silent before it is an alarm: one health check missed is none.
+pub const ETCD_MEMBER_ON_DELAY_MS: Millis = ms(5_000);
 
 impl AlarmKind {
     /// How long its condition must hold before it is an alarm.
     pub fn on_delay_ms(self) -> Millis {
         match self {
             Self::BusDisconnected => BUS_ON_DELAY_MS,
+            Self::EtcdMemberDown => ETCD_MEMBER_ON_DELAY_MS,
             _ => Millis::ZERO,
         }
     }
@@ -106,6 +113,8 @@ impl AlarmKind {
             Self::StateNotSaved => "state-not-saved",
             Self::WaitingLong => "waiting-long",
             Self::HeldLong => "held-long",
+            Self::Failover => "failover",
+            Self::EtcdMemberDown => "etcd-member-down",
         }
     }
 }
@@ -180,6 +189,8 @@ impl Condition {
             }
             AlarmKind::WaitingLong => format!("operation {subject} waits long"),
             AlarmKind::HeldLong => format!("operation {subject} holds its lines long"),
+            AlarmKind::Failover => format!("failover: instance {subject} took over"),
+            AlarmKind::EtcdMemberDown => format!("etcd member {subject} does not answer"),
         }
     }
 
@@ -1026,5 +1037,44 @@ mod tests {
             Condition::new(AlarmKind::BusDisconnected, "plant bus").text,
             "actuators node plant bus has lost its broker"
         );
+    }
+
+    #[test]
+    fn a_failover_seen_once_stays_listed_until_a_person_acknowledges_it() {
+        let mut alarms = Alarms::new();
+        let took_over = Condition::new(AlarmKind::Failover, "edge-b");
+        assert_eq!(took_over.text, "failover: instance edge-b took over");
+        alarms.observe(&[took_over], ms(0)).unwrap();
+        alarms.observe(&[], ms(1_000)).unwrap();
+        let a = alarms.get("failover:edge-b").unwrap();
+        assert_eq!(
+            a.state,
+            AlarmState::ReturnedUnacked,
+            "the takeover is over, nobody has seen it"
+        );
+        let bo = Attribution::new(Some("bo"), None, false);
+        alarms
+            .acknowledge(Some(&["failover:edge-b".to_owned()]), &bo, ms(2_000))
+            .unwrap();
+        assert_eq!(alarms.list().count(), 0);
+    }
+
+    #[test]
+    fn an_etcd_member_is_down_only_once_silent_for_its_on_delay() {
+        let mut alarms = Alarms::new();
+        let down = Condition::new(AlarmKind::EtcdMemberDown, "http://10.0.0.5:2379");
+        alarms.observe(std::slice::from_ref(&down), ms(0)).unwrap();
+        alarms
+            .observe(
+                std::slice::from_ref(&down),
+                ETCD_MEMBER_ON_DELAY_MS.saturating_sub(ms(1)),
+            )
+            .unwrap();
+        assert_eq!(alarms.list().count(), 0, "one health check missed");
+        alarms
+            .observe(std::slice::from_ref(&down), ETCD_MEMBER_ON_DELAY_MS)
+            .unwrap();
+        let a = alarms.get("etcd-member-down:http://10.0.0.5:2379").unwrap();
+        assert_eq!(a.text, "etcd member http://10.0.0.5:2379 does not answer");
     }
 }

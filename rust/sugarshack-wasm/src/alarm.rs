@@ -12,7 +12,7 @@ use crate::{from_js_bounded, js_error, time, to_js, Bound};
 const TS_SHAPES: &str = r#"
 export type AlarmKind =
     | "line-faulted" | "device-offline" | "device-stale" | "bus-disconnected"
-    | "state-not-saved" | "waiting-long" | "held-long";
+    | "state-not-saved" | "waiting-long" | "held-long" | "failover" | "etcd-member-down";
 
 export type AlarmState =
     | "normal" | "active-unacknowledged" | "active-acknowledged" | "returned-unacknowledged";
