@@ -80,7 +80,7 @@ impl AlarmKind {
     }
 
     /// Every kind.
-    pub const ALL: [AlarmKind; 7] = [
+    pub const ALL: [AlarmKind; 9] = [
         Self::LineFaulted,
         Self::DeviceOffline,
         Self::DeviceStale,
@@ -88,17 +88,22 @@ impl AlarmKind {
         Self::StateNotSaved,
         Self::WaitingLong,
         Self::HeldLong,
+        Self::Failover,
+        Self::EtcdMemberDown,
     ];
 
     /// Its priority as OPC UA's Severity (1 to 1000, most urgent highest):
     /// the safety state not saved first, then a line locked out, a device or
-    /// the broker lost, stale feedback, and operations waiting or holding long.
+    /// the broker lost, the standby's etcd short of a member, stale feedback,
+    /// a failover done, and operations waiting or holding long.
     pub fn severity(self) -> u16 {
         match self {
             Self::StateNotSaved => 900,
             Self::LineFaulted => 800,
             Self::DeviceOffline | Self::BusDisconnected => 700,
+            Self::EtcdMemberDown => 600,
             Self::DeviceStale => 500,
+            Self::Failover => 400,
             Self::WaitingLong | Self::HeldLong => 300,
         }
     }
