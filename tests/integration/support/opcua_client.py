@@ -320,7 +320,7 @@ def variant(arg):
 async def main():
     bridge = Bridge()
     loop = asyncio.get_event_loop()
-    reader = asyncio.StreamReader()
+    reader = asyncio.StreamReader(limit=64 * 1024 * 1024)  # a request may name every node of a large plant
     await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
 
     async def handle(request):
