@@ -188,9 +188,10 @@ async function main() {
       'the palette\'s node sets need no dashboard (no dependency on it, no dashboard node in a subflow module)', `${declared.join(', ')} ${dashboardInside.join(', ')}`);
     await validateOffline(pkg, sets, types, base, nrVersion, nodeVersion);
 
-    // The plant document's schema ships: where VS Code users point "$schema", and served to the plant dialog.
-    const schemaFile = path.join(args.userdir, 'node_modules', moduleName, 'schema', 'plant.schema.json');
-    check(fs.existsSync(schemaFile), `the package ships the plant document's JSON Schema (node_modules/${moduleName}/schema/plant.schema.json)`);
+    // The plant document's schema ships with the palette (installed beside the OPC UA package too):
+    // where VS Code users point "$schema", and served to the plant dialog.
+    const schemaFile = path.join(args.userdir, 'node_modules', 'node-red-contrib-sugarshack', 'schema', 'plant.schema.json');
+    check(fs.existsSync(schemaFile), 'the palette ships the plant document\'s JSON Schema (node_modules/node-red-contrib-sugarshack/schema/plant.schema.json)');
     const served = await fetch(`${base}/sugarshack/plant/schema`);
     const schema = served.ok ? await served.json() : null;
     check(Boolean(schema && schema.title && schema.definitions && schema.definitions.Actuator),
