@@ -107,9 +107,9 @@ _sugarshack_setup() (
   fi
   # Test servers and tools from Debian, each skipped when present: Mosquitto,
   # VictoriaMetrics and etcd (the integration tests run their own; only the
-  # binaries are needed), binaryen's wasm-opt (scripts/build-wasm.sh) and
-  # chromium (tests/browser).
-  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium etcd:etcd-server etcdctl:etcd-client)
+  # binaries are needed), binaryen's wasm-opt (scripts/build-wasm.sh), chromium
+  # (tests/browser) and socat (a pty pair stands for a Modbus RTU serial line).
+  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium etcd:etcd-server etcdctl:etcd-client socat:socat)
   have() { command -v "$1" >/dev/null || [ -x "/usr/sbin/$1" ] || [ -x "/usr/bin/$1" ] || { [ "$1" = chromium ] && [ -n "${CHROMIUM_BIN:-}" ]; }; }
   local missing=() entry
   for entry in "${needed[@]}"; do
@@ -124,6 +124,15 @@ _sugarshack_setup() (
     for entry in "${needed[@]}"; do
       have "${entry%%:*}" || { say "${entry#*:} install failed"; exit 1; }
     done
+  fi
+  # pymodbus from PyPI (with pyserial): the independent Modbus device of tests/integration/modbus.spec.js.
+  if python3 -c 'import pymodbus, serial' 2>/dev/null; then
+    say "pymodbus: present ($(python3 -c 'import pymodbus; print(pymodbus.__version__)'))"
+  else
+    command -v python3 >/dev/null || { say "python3 not found (the Modbus tests need it)"; exit 1; }
+    say "pymodbus: pip install 'pymodbus[serial]~=3.16.1'"
+    python3 -m pip install --quiet 'pymodbus[serial]~=3.16.1' ||
+      python3 -m pip install --quiet --user --break-system-packages 'pymodbus[serial]~=3.16.1'
   fi
   say "done"
 )

@@ -8,7 +8,9 @@
 #   --fresh        start from a clean state: flows reset, and the saved
 #                  interlock state (faulted lines, routines) and context removed
 # The HMI (FlowFuse Dashboard 2) is at http://HOST:PORT/dashboard.
-# env:   PORT (default 1880), HOST (default 127.0.0.1; 0.0.0.0 to listen on all interfaces)
+# env:   PORT (default 1880), HOST (default 127.0.0.1; 0.0.0.0 to listen on all interfaces),
+#        PROFILE (every simulated device and the case-study plant node speak it: esphome,
+#        tasmota, shelly-gen2, sugarshack or modbus; default: flows/plant.json's own, ESPHome)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT="$PWD"
@@ -93,8 +95,9 @@ seed_flows() {
     [ "$(basename "$file")" = plant.json ] || sources+=("$file")
   done
   if [ ${#sources[@]} -gt 0 ]; then
-    # The control examples stand beside the plant: a PID loop, and RCC over the same broker.
-    sources+=("$PALETTE"/examples/pid-loop.json "$PALETTE"/examples/rcc-failover.json)
+    # The control examples stand beside the plant: a PID loop, RCC over the same broker,
+    # and the PID over Modbus/TCP against the simulator's flow loop.
+    sources+=("$PALETTE"/examples/pid-loop.json "$PALETTE"/examples/rcc-failover.json "$PALETTE"/examples/modbus-pid-loop.json)
   else
     sources=("$PALETTE"/examples/*.json)
   fi
@@ -104,6 +107,12 @@ seed_flows() {
     return
   fi
   node scripts/merge-flows.js "$target" "${sources[@]}"
+}
+
+# PROFILE: the case-study plant node gets the document the simulator's devices speak.
+profile_flows() {
+  [ -n "${PROFILE:-}" ] && [ -f "$USERDIR/flows.json" ] && [ -f "$ROOT/flows/plant.json" ] || return 0
+  node scripts/profile-flows.js "$USERDIR/flows.json" "$ROOT/flows/plant.json" "$PROFILE"
 }
 
 # Extra services (each started in the background with its pid appended to PIDS):
@@ -144,10 +153,12 @@ start_services() {
   fi
   plant="$ROOT/flows/plant.json"
   [ -f "$plant" ] || plant="$ROOT/tests/integration/fixtures/plant-small.json"
+  local extra=(--loop "$PALETTE/examples/modbus-pid-loop.json")
+  [ -z "${PROFILE:-}" ] || extra+=(--profile "$PROFILE")
   # shellcheck disable=SC2086  # SIM_ARGS is a list of flags
-  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$plant" ${SIM_ARGS:-} >"$logs/simulator.log" 2>&1 &
+  node scripts/simulator/cli.js --broker "$MQTT_URL" --plant "$plant" "${extra[@]}" ${SIM_ARGS:-} >"$logs/simulator.log" 2>&1 &
   PIDS+=($!)
-  say "plant simulator: ${plant#"$ROOT"/} on $MQTT_URL (log .run/logs/simulator.log; faults via sim/control)"
+  say "plant simulator: ${plant#"$ROOT"/} on $MQTT_URL${PROFILE:+, profile $PROFILE}, and the Modbus flow loop (log .run/logs/simulator.log; faults via sim/control)"
 }
 
 run_node_red() {
@@ -174,5 +185,6 @@ install_palette
 write_settings
 clean_state
 seed_flows
+profile_flows
 start_services
 run_node_red

@@ -213,7 +213,12 @@ class PlantBuses {
   }
 
   emit(bus, topic, payload) {
-    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, { topic, payload }]);
+    this.emitMsg(bus, { topic, payload });
+  }
+
+  /** A msg on the events output (the third) of an actuators node, if it is wired. */
+  emitMsg(bus, msg) {
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, msg]);
   }
 
   /**

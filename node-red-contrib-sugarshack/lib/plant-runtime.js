@@ -5,8 +5,8 @@
 // operations and routines) and its lifecycle (start, deploys, rebuild after a
 // trap, shutdown). What Node-RED owns around the core lives in the parts it
 // composes: the actuators nodes and MQTT path (plant-bus.js), the group
-// commands in flight (plant-commands.js), the sensor watchers (plant-sensors.js)
-// and the nodes' status (plant-status.js). Every rule is the core's; this
+// commands in flight (plant-commands.js), the sensor watchers (plant-sensors.js),
+// the Modbus connections (modbus-transport.js) and the nodes' status (plant-status.js). Every rule is the core's; this
 // calls it and hands the effects it returns to the part they concern.
 const { SugarshackError } = require('./errors');
 const { stats, timeLayer } = require('./stats');
@@ -17,6 +17,7 @@ const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
 const { PlantChanges } = require('./plant-changes');
+const { ModbusTransport } = require('./modbus-transport');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
 const { clusterOf } = require('./cluster');
@@ -41,6 +42,7 @@ class PlantRuntime extends RuntimeBase {
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
     this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
+    this.modbus = new ModbusTransport(this);
     // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
     try {
       this.cluster = clusterOf(RED);
@@ -49,8 +51,14 @@ class PlantRuntime extends RuntimeBase {
       this.plantError = err;
     }
     this.stopFollowing = this.cluster ? this.cluster.follow({
-      activate: () => this.refreshStatus(),
-      standDown: () => this.bus.standDown(),
+      activate: () => {
+        this.modbus.sync();
+        this.refreshStatus();
+      },
+      standDown: () => {
+        this.modbus.sync();
+        return this.bus.standDown();
+      },
       resumed: () => this.bus.sendHeld(),
     }) : null;
   }
@@ -88,6 +96,7 @@ class PlantRuntime extends RuntimeBase {
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
     this.changes.rebuilt();
+    this.modbus.sync();
     this.refreshStatus();
     this.replayParked();
   }
@@ -131,6 +140,7 @@ class PlantRuntime extends RuntimeBase {
   }
 
   freeTracker() {
+    this.modbus.closeAll();
     wasm.release(this.t);
     this.t = null;
   }
@@ -164,6 +174,7 @@ class PlantRuntime extends RuntimeBase {
   rebuild() {
     if (this.state !== 'ready') return;
     this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
+    this.modbus.closeAll();
     wasm.forget(this.t);
     this.t = null;
     this.sensors.forget({ watchers: false });
@@ -174,6 +185,7 @@ class PlantRuntime extends RuntimeBase {
       return;
     }
     this.changes.rebuilt();
+    this.modbus.sync();
     this.refreshStatus();
   }
 
@@ -187,6 +199,7 @@ class PlantRuntime extends RuntimeBase {
   /** An actuators node (see PlantBuses.add). */
   addBus(node, names, broker) {
     this.bus.add(node, names, broker, this.state === 'ready');
+    this.modbus.sync();
     this.refreshStatus(node);
   }
 
@@ -196,6 +209,7 @@ class PlantRuntime extends RuntimeBase {
 
   closing(node) {
     this.bus.remove(node);
+    this.modbus.sync();
   }
 
   withdrawOrphans(nodeId) {
@@ -223,6 +237,12 @@ class PlantRuntime extends RuntimeBase {
 
   feedback(node, topic, payload, fromMqtt = false) {
     return this.bus.feedback(node, topic, payload, fromMqtt);
+  }
+
+  /** Writes a Modbus output (`output/<id>`), untracked; throws UNKNOWN_OUTPUT, INVALID_TARGET, DEVICE_OFFLINE. */
+  output(id, value) {
+    this.guard(() => this.t.output(id, value, clock.now()));
+    this.flush(null);
   }
 
   watchSensors(handles, fn) {
@@ -320,6 +340,9 @@ class PlantRuntime extends RuntimeBase {
     switch (e.kind) {
       case 'publish':
         this.bus.publish(e);
+        break;
+      case 'modbusSend':
+        this.modbus.pump(e.connection);
         break;
       case 'groupCompleted':
         this.commands.complete(e);

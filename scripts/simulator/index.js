@@ -7,7 +7,8 @@
 //   await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 3 });
 //   await sim.stop();
 const mqtt = require('mqtt');
-const { loadPlant, buildModel, withProfile } = require('./plant');
+const { loadPlant, buildModel, withProfile, MODBUS_PORT } = require('./plant');
+const { FlowLoop, loopPlant } = require('./loop');
 const { ActuatorPanel, SensorStation } = require('./devices');
 const { Hydraulics } = require('./hydraulics');
 const { normalizeFault, parseFaultArg } = require('./faults');
@@ -26,7 +27,9 @@ const DEFAULTS = {
   drop: 0, // share of outgoing data messages lost, all devices
   speed: 1, // simulated time runs this many times faster than the wall clock
   single: false, // per-actuator state topics instead of the panel batch
-  profile: null, // every device speaks this profile (esphome, tasmota, ...); else each its document's
+  profile: null, // every device speaks this profile (esphome, tasmota, modbus...); else each its document's
+  modbusPort: MODBUS_PORT, // --profile modbus: the first device's Modbus TCP port, the next ones after it
+  loop: null, // a file with a plant document whose simulation.loop is run as a Modbus/TCP I/O module
   seed: 1,
   pumpDelayMs: 1000, // pump spin-up / run-down before the feedback changes
   deadTimeMs: 0, // valve command-to-motion delay
@@ -75,7 +78,7 @@ class Simulator {
 
     this.realStart = performance.now();
     const loaded = loadPlant(o.plant);
-    const doc = o.profile ? withProfile(loaded, o.profile) : loaded;
+    const doc = o.profile ? withProfile(loaded, o.profile, { modbusPort: Number(o.modbusPort) }) : loaded;
     // Checked by the core, as a deploy checks it; its device side speaks the palette's own MQTT contract.
     this.model = buildModel(doc);
     this.side = this.model.side;
@@ -99,6 +102,7 @@ class Simulator {
     }
     this.control = null;
     this.controlChain = Promise.resolve();
+    this.loops = o.loop ? [new FlowLoop(loopPlant(o.loop), { seed: o.seed, log: this.log })] : [];
   }
 
   // Simulated milliseconds since start (the plant's clock; timestamps use the wall clock).
@@ -116,6 +120,7 @@ class Simulator {
     this.lastStep = this.simNow();
     this.physics = setInterval(() => this.step(), 50);
     for (const d of Object.values(this.devices)) d.start();
+    for (const loop of this.loops) await loop.start();
     if (this.options.control) this.startControl();
     if (this.options.wait) await this.waitReady(this.options.readyTimeoutMs);
     for (const f of initial.filter((x) => x.fault !== 'dead')) await this.inject(f);
@@ -264,6 +269,7 @@ class Simulator {
     this.stopping = (async () => {
       clearInterval(this.physics);
       await Promise.all(Object.values(this.devices).map((d) => d.stop()));
+      await Promise.all(this.loops.map((loop) => loop.stop()));
       if (this.control) await new Promise((resolve) => this.control.end(true, {}, () => resolve()));
       this.log('stopped');
     })();

@@ -199,15 +199,17 @@ describe('the HMI at /dashboard in headless Chromium', function () {
 
   it('an alarm acknowledged on the page stays acknowledged after a reload, showing who acknowledged it and when', async function () {
     const alarm = (id) => `.ss-alarm[data-alarm="${id}"]`;
+    // Found and clicked in one step: new alarms arrive at the top and move the rest down.
+    const ack = (id) => page.$eval(`${alarm(id)} .ss-ack`, (button) => button.click());
     // YEL's alarm returned to normal with its clear; acknowledged, it leaves the list.
     await waitText(alarm('line-faulted:YEL'), /returned to normal · unacknowledged/, 'YEL back to normal, not yet acknowledged');
-    await page.click(`${alarm('line-faulted:YEL')} .ss-ack`);
+    await ack('line-faulted:YEL');
     await waitText('.ss-alarms', /^(?![\s\S]*YEL faulted)/, 'the acknowledged, normal alarm leaves the list');
     // An active one stays, acknowledged.
     await page.type('.ss-reason', 'dye test on BLU');
     await page.click(`${lineRow('BLU')} .ss-estop`);
     await waitText(alarm('line-faulted:BLU'), /BLU faulted, manual: dye test on BLU[\s\S]*active · unacknowledged/, 'the BLU alarm');
-    await page.click(`${alarm('line-faulted:BLU')} .ss-ack`);
+    await ack('line-faulted:BLU');
     const acked = new RegExp(`active · acknowledged by ${DASHBOARD_USER} at \\d`);
     await waitText(alarm('line-faulted:BLU'), acked, 'the acknowledgement with who');
     await page.reload({ waitUntil: 'domcontentloaded' });

@@ -159,8 +159,10 @@ describe('the plant document in the editor (headless Chromium)', function () {
 
   /** The items of the typedInput option menu shown for `input`, once its trigger is clicked. */
   async function optionsOf(input) {
-    await page.click(`${input} + .red-ui-typedInput-container .red-ui-typedInput-option-trigger`);
-    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 5000 });
+    const trigger = `${input} + .red-ui-typedInput-container .red-ui-typedInput-option-trigger`;
+    await page.waitForSelector(trigger, { visible: true, timeout: 10000 });
+    await page.click(trigger);
+    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 10000 });
     return page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
   }
 

@@ -11,6 +11,7 @@ mod contract;
 mod control;
 mod device;
 mod interlock;
+mod modbus;
 pub mod operation;
 mod routine;
 mod tracker;

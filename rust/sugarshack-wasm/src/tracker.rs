@@ -5,6 +5,7 @@ use sugarshack_core::actuator::{
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
+use sugarshack_core::topics::modbus::link::Links;
 use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
 use wasm_bindgen::prelude::*;
 
@@ -76,7 +77,8 @@ export type TrackerEffect =
     | { kind: "lockoutConfirmed"; actuator: number; afterMs: number; sends: number }
     | { kind: "lockoutResent"; actuator: number; attempt: number }
     | { kind: "rejected"; actuator: number; code: string; message: string }
-    | { kind: "malformed"; device: string; reason: string; message: string };
+    | { kind: "malformed"; device: string; reason: string; message: string }
+    | { kind: "modbusSend"; connection: number };
 
 /** A device as an operator sees it. */
 export interface DeviceHealth {
@@ -121,6 +123,12 @@ enum Output {
         actuator: u32,
         code: &'static str,
         message: String,
+    },
+    /// A Modbus connection has a write waiting: call `modbusNext` for it.
+    #[serde(rename_all = "camelCase")]
+    ModbusSend {
+        kind: &'static str,
+        connection: u32,
     },
     /// A device message (or part of one) that could not be used.
     #[serde(rename_all = "camelCase")]
@@ -194,13 +202,19 @@ pub struct Tracker {
     effects: Vec<Output>,
     scratch: Vec<Effect>,
     batch: Vec<(ActuatorId, f64)>,
-    readings: Readings,
+    pub(crate) readings: Readings,
     /// Of the last `ingest`: its device, device time and the sensors it updated.
-    last_device: Option<u32>,
+    pub(crate) last_device: Option<u32>,
     last_ts: Option<f64>,
     last_sensors: Vec<u32>,
     /// The last `ingest`'s readings as (0 actuator | 1 sensor, index, value) triples, for a journal.
     last_samples: Vec<f64>,
+    /// Its Modbus connections (see `modbus.rs`).
+    pub(crate) links: Links,
+    /// Per connection: a `modbusSend` is queued since the last `takeEffects`.
+    pub(crate) send_queued: Vec<bool>,
+    /// The round trip of the last Modbus poll read.
+    pub(crate) last_round_trip: Option<f64>,
     pub(crate) conditions: crate::condition::Conditions,
 }
 
@@ -223,7 +237,12 @@ impl Tracker {
         })
     }
 
-    fn malformed(&mut self, device: DeviceId, reason: impl Into<String>, message: String) {
+    pub(crate) fn malformed(
+        &mut self,
+        device: DeviceId,
+        reason: impl Into<String>,
+        message: String,
+    ) {
         let name = self.core.device_name(device).unwrap_or_default().to_owned();
         self.malformed_named(name, reason, message);
     }
@@ -237,12 +256,12 @@ impl Tracker {
         });
     }
 
-    fn refused(&mut self, device: DeviceId, refusal: Refusal) {
+    pub(crate) fn refused(&mut self, device: DeviceId, refusal: Refusal) {
         self.malformed(device, refusal.reason, refusal.message);
     }
 
     /// Applies what a device message carried; refusals become `malformed` effects.
-    fn apply(&mut self, device: DeviceId, ts: Option<Millis>, now: Millis) {
+    pub(crate) fn apply(&mut self, device: DeviceId, ts: Option<Millis>, now: Millis) {
         let mut readings = std::mem::take(&mut self.readings);
         for refusal in readings.refusals.drain(..) {
             self.refused(device, refusal);
@@ -276,7 +295,7 @@ impl Tracker {
         }
         let mut effects = std::mem::take(&mut self.scratch);
         let outcome = self.core.feedback_batch(&self.batch, ts, now, &mut effects);
-        self.effects.extend(effects.drain(..).map(Output::Effect));
+        self.queue(effects.drain(..));
         self.scratch = effects;
         match outcome {
             Ok(rejected) => {
@@ -293,8 +312,33 @@ impl Tracker {
         }
     }
 
-    fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
-        self.effects.extend(effects.into_iter().map(Output::Effect));
+    /// Before a call that reads device traffic: what the last one read is gone.
+    pub(crate) fn forget_last(&mut self) {
+        self.last_device = None;
+        self.last_ts = None;
+        self.last_round_trip = None;
+        self.last_sensors.clear();
+        self.last_samples.clear();
+    }
+
+    /// Queues the core's effects; a Modbus write goes to its connection's
+    /// queue instead, and JS is told once that the connection has one.
+    pub(crate) fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
+        for effect in effects {
+            let Effect::Write { device, request } = effect else {
+                self.effects.push(Output::Effect(effect));
+                continue;
+            };
+            let Some(connection) = self.links.enqueue(device, request) else {
+                continue; // closed: written again when the device is back
+            };
+            if !std::mem::replace(&mut self.send_queued[connection], true) {
+                self.effects.push(Output::ModbusSend {
+                    kind: "modbusSend",
+                    connection: connection as u32,
+                });
+            }
+        }
         self.effects.len() as u32
     }
 }
@@ -308,9 +352,14 @@ impl Tracker {
         now_ms: f64,
     ) -> Result<Tracker, JsValue> {
         let plant = plant_document(plant)?;
-        let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
+        let now = time(now_ms)?;
+        let core = sugarshack_core::actuator::Tracker::new(plant, now)
             .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
+        let links = Links::new(core.contract().modbus(), now);
         Ok(Tracker {
+            send_queued: vec![false; links.len()],
+            links,
+            last_round_trip: None,
             sensors: SensorStore::new(core.plant()),
             core,
             effects: Vec::new(),
@@ -473,7 +522,7 @@ impl Tracker {
         let outcome =
             self.core
                 .feedback_batch(&self.batch, ts.and_then(Millis::whole), now, &mut effects);
-        self.effects.extend(effects.drain(..).map(Output::Effect));
+        self.queue(effects.drain(..));
         self.scratch = effects;
         for (id, err) in outcome.map_err(track_error)? {
             self.effects.push(Output::Rejected {
@@ -504,10 +553,7 @@ impl Tracker {
         now_ms: f64,
     ) -> Result<Ingest, JsValue> {
         let now = time(now_ms)?;
-        self.last_device = None;
-        self.last_ts = None;
-        self.last_sensors.clear();
-        self.last_samples.clear();
+        self.forget_last();
         let contract = self.core.contract();
         if payload.len() > MAX_PAYLOAD_BYTES {
             return Ok(match contract.device_of(topic) {
@@ -645,6 +691,7 @@ impl Tracker {
     pub fn take_effects(&mut self) -> Result<JsValue, JsValue> {
         let out = to_js(&self.effects);
         self.effects.clear();
+        self.send_queued.fill(false);
         out
     }
 

@@ -128,6 +128,14 @@ pub enum Effect {
         /// Whether the broker keeps it for later subscribers.
         retain: bool,
     },
+    /// Write this request to a Modbus device (queued on its connection, see `topics::modbus::link`).
+    Write {
+        /// The device to write to.
+        device: DeviceId,
+        /// The write.
+        #[serde(skip)]
+        request: crate::topics::modbus::frame::Request,
+    },
     /// First sample that departed from the start position.
     #[serde(rename_all = "camelCase")]
     Moving {
@@ -802,7 +810,8 @@ impl Tracker {
                 self.fail_group(old.caller, id, FaultKind::LockedOut, &mut effects);
             }
             let a = &mut self.actuators[id.index()];
-            if a.retained && !lockout {
+            // A register holds its last write: nothing is retained to clear.
+            if a.retained && !lockout && !self.plant.contract().modbus().is_modbus(a.device) {
                 effects.push(Effect::Publish {
                     device: a.device,
                     topic: self.plant.contract().command_topic(id).to_owned(),
@@ -1422,7 +1431,7 @@ impl Tracker {
     }
 }
 
-/// The command of `id` to `target`, in its device's dialect.
+/// The command of `id` to `target`, in its device's dialect: a message, or a register write.
 fn publish(
     contract: &Contract,
     id: ActuatorId,
@@ -1430,6 +1439,9 @@ fn publish(
     target: f64,
     retain: bool,
 ) -> Effect {
+    if let Some((device, request)) = contract.modbus().command(id, target) {
+        return Effect::Write { device, request };
+    }
     let message = contract.command(id, target);
     Effect::Publish {
         device,
