@@ -551,12 +551,12 @@ describe('example: subflows-op12', function () {
     bus.receive({ topic: 'rig/ctrl-5/status', payload: 'offline', retain: true });
     await runTill(() => state().plants[0].devices.find((d) => d.device === 'rig-ctrl-5').state === 'offline', 'rig-ctrl-5 offline');
     red = state().interlocks[0].lines.find((l) => l.name === 'RED');
-    assert.deepEqual(red.clearBlockers, [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }]);
+    assert.deepEqual(red.clearBlockers, [{ kind: 'deviceOffline', device: 'rig-ctrl-5', text: 'device rig-ctrl-5 offline' }]);
     panel.receive({ payload: 'clear', by: 'ana' });
     await runTill(() => seen['clear refused'].length === 1, 'the refusal');
     const refused = seen['clear refused'][0].refused;
     assert.equal(refused.code, 'CLEAR_REFUSED');
-    assert.deepEqual(refused.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }] }]);
+    assert.deepEqual(refused.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }], texts: ['device rig-ctrl-5 offline'] }]);
     assert.match(refused.message, /device rig-ctrl-5 offline/);
     assert.equal(state().interlocks[0].lines.find((l) => l.name === 'RED').state.state, 'faulted', 'refused whole');
     bus.receive({ topic: 'rig/ctrl-5/status', payload: 'online', retain: true });
@@ -598,7 +598,7 @@ describe('example: subflows-op12', function () {
     res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'] });
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'CLEAR_REFUSED');
-    assert.deepEqual(res.body.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }] }]);
+    assert.deepEqual(res.body.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }], texts: ['device rig-ctrl-5 offline'] }]);
     assert.equal(red().state.state, 'faulted');
 
     bus.receive({ topic: 'rig/ctrl-5/status', payload: 'online', retain: true });

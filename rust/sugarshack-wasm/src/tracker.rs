@@ -765,6 +765,26 @@ impl Tracker {
         self.core.position(ActuatorId::from_index(actuator))
     }
 
+    /// Where it was last commanded to (0/1 for binary), if ever.
+    pub fn target(&self, actuator: u32) -> Option<f64> {
+        self.core.commanded(ActuatorId::from_index(actuator))
+    }
+
+    /// One device as an operator sees it (`health()`'s entry for it).
+    #[wasm_bindgen(js_name = deviceHealth, unchecked_return_type = "DeviceHealth")]
+    pub fn device_health(&self, device: u32) -> Result<JsValue, JsValue> {
+        let health = self
+            .core
+            .device_health_of(DeviceId::from_index(device))
+            .ok_or_else(|| {
+                js_error(
+                    Code::UnknownDevice,
+                    &format!("no device with handle {device}"),
+                )
+            })?;
+        to_js(&health)
+    }
+
     /// Why a group command failed on `actuator`: `{ code, message }`, worded
     /// by the core from the plant document. `fault` is the effect's fault name;
     /// `target` what the command asked for (a number or a boolean), if known.

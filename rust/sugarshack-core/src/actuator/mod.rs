@@ -626,6 +626,11 @@ impl Tracker {
         self.actuators.get(id.index()).and_then(|a| a.position)
     }
 
+    /// The position it was last commanded to (0/1 for binary), if any.
+    pub fn commanded(&self, id: ActuatorId) -> Option<f64> {
+        self.actuators.get(id.index()).and_then(|a| a.commanded)
+    }
+
     /// Its idle state as a number (0/1 for binary), if it has one.
     pub fn idle_state(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).and_then(|a| a.idle)
@@ -681,19 +686,25 @@ impl Tracker {
 
     /// Every device: online or not, and its actuators whose feedback is stale.
     pub fn device_health(&self) -> Vec<DeviceHealth> {
-        self.devices
-            .iter()
-            .map(|d| DeviceHealth {
-                device: d.name.clone(),
-                online: d.online,
-                stale: d
-                    .actuators
-                    .iter()
-                    .filter(|a| self.actuators[a.index()].stale)
-                    .map(|a| self.actuators[a.index()].name.clone())
-                    .collect(),
-            })
-            .collect()
+        self.devices.iter().map(|d| self.health_of(d)).collect()
+    }
+
+    /// One device's health ([`Tracker::device_health`]), if the handle is known.
+    pub fn device_health_of(&self, id: DeviceId) -> Option<DeviceHealth> {
+        self.devices.get(id.index()).map(|d| self.health_of(d))
+    }
+
+    fn health_of(&self, d: &DeviceState) -> DeviceHealth {
+        DeviceHealth {
+            device: d.name.clone(),
+            online: d.online,
+            stale: d
+                .actuators
+                .iter()
+                .filter(|a| self.actuators[a.index()].stale)
+                .map(|a| self.actuators[a.index()].name.clone())
+                .collect(),
+        }
     }
 
     /// Why line `resource` may not be cleared now, per member actuator in
