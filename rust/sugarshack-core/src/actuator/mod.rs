@@ -616,11 +616,6 @@ impl Tracker {
         })
     }
 
-    /// Its last commanded target, if it has had one.
-    pub fn commanded(&self, id: ActuatorId) -> Option<f64> {
-        self.actuators.get(id.index()).and_then(|a| a.commanded)
-    }
-
     /// Its last feedback value, if any.
     pub fn position(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).and_then(|a| a.position)
