@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what the build, tests and demo need; skips whatever is already there.
+# Installs what the build, tests and demo need; skips whatever is already there
+# (the OPC UA package's node-opcua and Python's asyncua, its tests' client, among them).
 # Run it (`bash scripts/setup.sh`) or source it (`. scripts/setup.sh`); when
 # sourced it also leaves these variables in the caller's shell:
 #   SUGARSHACK_CACHE  cache dir for the tools below (default ~/.cache/sugarshack)
@@ -57,6 +58,29 @@ _sugarshack_setup() (
   fi
   # npm install may have written the lockfile: stamp what is on disk now.
   lockhash >"$stamp"
+
+  # The OPC UA package's own node_modules (node-opcua), from its lockfile. Its peer, the palette,
+  # is this repository's: npm would look for it in the registry, so peers are left out.
+  local opcua=node-red-contrib-sugarshack-opcua ostamp ohave=""
+  ostamp="$opcua/node_modules/.sugarshack-install.sha"
+  want="$(sha256sum "$opcua/package-lock.json" | cut -d' ' -f1)"
+  [ -f "$ostamp" ] && ohave="$(cat "$ostamp")"
+  if [ -d "$opcua/node_modules" ] && [ "$want" = "$ohave" ]; then
+    say "$opcua node_modules: up to date"
+  else
+    say "$opcua node_modules: npm ci"
+    (cd "$opcua" && npm ci --no-audit --no-fund --legacy-peer-deps)
+    echo "$want" >"$ostamp"
+  fi
+
+  # Python's asyncua: the independent client of the OPC UA tests.
+  if python3 -c 'import asyncua' 2>/dev/null; then
+    say "python asyncua: present"
+  else
+    say "python asyncua: pip install"
+    python3 -m pip install --quiet asyncua 2>/dev/null || python3 -m pip install --quiet --break-system-packages asyncua
+    python3 -c 'import asyncua' || { say "asyncua install failed"; exit 1; }
+  fi
 
   if [[ "$("$NODE22" --version 2>/dev/null)" == v22.* ]]; then
     say "node 22: present ($("$NODE22" --version))"

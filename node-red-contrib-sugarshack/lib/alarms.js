@@ -52,8 +52,10 @@ class AlarmBook {
     return this.keep(this.core.acknowledge(ids, who.by || null, who.reason || null, now));
   }
 
-  shelve(id, untilMs, who, now) {
-    return this.keep(this.core.shelve(id, untilMs, who.by || null, who.reason || null, now));
+  /** `oneShot`: the shelf also ends when the alarm's condition next ends. */
+  shelve(id, untilMs, who, now, oneShot = false) {
+    const shelf = oneShot ? this.core.shelveOneShot : this.core.shelve;
+    return this.keep(shelf.call(this.core, id, untilMs, who.by || null, who.reason || null, now));
   }
 
   unshelve(id, who, now) {

@@ -754,7 +754,7 @@ class InterlockRuntime extends RuntimeBase {
     if (changes.length === 0) return;
     if (!inWrite) this.committer.change();
     // No node's status shows alarms: only the state's readers hear of it.
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   /** Acknowledges alarms (`ids`, or every unacknowledged one when null) by `who`; `then(changes)` once saved. */
@@ -762,9 +762,9 @@ class InterlockRuntime extends RuntimeBase {
     this.alarmAction('alarm-ack', who, () => this.alarms.acknowledge(ids, who, clock.now()), then);
   }
 
-  /** Shelves alarm `id` until `untilMs` by `who`; `then(changes)` once saved. */
-  shelveAlarm(id, untilMs, who, then) {
-    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now()), then);
+  /** Shelves alarm `id` until `untilMs` (and, `oneShot`, until its condition ends) by `who`; `then(changes)` once saved. */
+  shelveAlarm(id, untilMs, who, then, { oneShot = false } = {}) {
+    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now(), oneShot), then);
   }
 
   unshelveAlarm(id, who, then) {
@@ -778,7 +778,7 @@ class InterlockRuntime extends RuntimeBase {
     const done = changes.filter((c) => c.action !== 'shelf-expired');
     if (done.length) journal.action(action, who, [...new Set(done.map((c) => c.id))]);
     this.committer.change(() => then(changes));
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   hasAlarm(id) {
@@ -823,7 +823,7 @@ class InterlockRuntime extends RuntimeBase {
 
   /** A state change: status now; `effect` once the change is on disk (at once without persistence: after the status, which it may override). */
   changed(effect) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     this.statusPacer.request();
     this.committer.change(effect);
   }
@@ -884,7 +884,8 @@ class InterlockRuntime extends RuntimeBase {
     const queue = snapshot.queue
       .concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs })))
       .map((q) => ({ ...q, waitedMs: Math.max(0, now - q.sinceMs) }));
-    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons]));
+    // Each reason with the core's words for it (`text`).
+    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons.map((r, i) => ({ ...r, text: b.texts[i] }))]));
     const lines = snapshot.resources.map(({ name, state }) => {
       const hold = state.state === 'held' ? snapshot.holds.find((h) => h.operation === state.operation) : null;
       return {
@@ -900,6 +901,8 @@ class InterlockRuntime extends RuntimeBase {
     });
     return {
       atMs: now,
+      // Its plant's id in the same document (`plants[].id`): where its lines' actuators and operations' names are.
+      plant: this.plant ? this.plant.id : null,
       lines,
       holds: snapshot.holds,
       queue,
@@ -931,7 +934,7 @@ class InterlockRuntime extends RuntimeBase {
   }
 
   refreshStatus(only) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = drainingStatus();

@@ -16,6 +16,7 @@ const { PlantBuses } = require('./plant-bus');
 const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
+const { PlantChanges } = require('./plant-changes');
 const { ModbusTransport } = require('./modbus-transport');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
@@ -40,6 +41,7 @@ class PlantRuntime extends RuntimeBase {
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
+    this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
     this.modbus = new ModbusTransport(this);
     // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
     try {
@@ -93,6 +95,7 @@ class PlantRuntime extends RuntimeBase {
     }
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.changes.rebuilt();
     this.modbus.sync();
     this.refreshStatus();
     this.replayParked();
@@ -181,6 +184,7 @@ class PlantRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
+    this.changes.rebuilt();
     this.modbus.sync();
     this.refreshStatus();
   }
@@ -321,8 +325,9 @@ class PlantRuntime extends RuntimeBase {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    this.changes.effects(effects);
     if (!counted) {
-      if (this.palette) this.palette.changes.touch();
+      if (this.palette) this.palette.changes.touch(this);
     } else if (source === null) {
       this.refreshStatus();
     } else {
@@ -379,6 +384,9 @@ class PlantRuntime extends RuntimeBase {
       devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
       devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
       sensors: health.sensors,
+      actuators: health.actuators,
+      // The document's words for its operations, so that an operator reads "load truck", not "10".
+      operations: (this.plant.operations || []).map((o) => ({ id: o.id, description: o.description || '', resources: o.resources || [] })),
     };
   }
 

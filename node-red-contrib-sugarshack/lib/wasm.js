@@ -334,6 +334,8 @@ function primeInterlock({ Interlock, Tracker }) {
   aborted.granted(1);
   aborted.abort('primer', 2);
   aborted.free();
+  t.target(0);
+  t.deviceHealth(0);
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
@@ -384,6 +386,7 @@ function primeAlarms({ Alarms }) {
   const [first] = alarms.list();
   alarms.acknowledge(null, 'primer', null, 2);
   alarms.shelve(first.id, 10, 'primer', null, 3);
+  alarms.shelveOneShot(first.id, 10, 'primer', null, 3);
   alarms.nextExpiryMs();
   alarms.unshelve(first.id, 'primer', null, 4);
   Alarms.restore(alarms.snapshot()).free();

@@ -28,7 +28,8 @@ const USAGE = `usage: node scripts/simulator/cli.js --plant <plant.json> [option
                          dead:station-4, disconnect:ctrl-1:3000, noisy:ctrl-2:8,
                          drop:ctrl-3:0.3, drift:ctrl-1:5:40,
                          or an actuator id as target: stuck:V103, stuck:P1
-  --no-control           do not listen on sim/control
+  --control-topic T      take faults on T, answer on T/result (default ${DEFAULTS.controlTopic})
+  --no-control           do not listen for faults
   --quiet                log only errors and faults
   -h, --help`;
 
@@ -46,6 +47,7 @@ const VALUE_FLAGS = {
   '--pump-delay-ms': 'pumpDelayMs',
   '--dead-time-ms': 'deadTimeMs',
   '--profile': 'profile',
+  '--control-topic': 'controlTopic',
   '--modbus-port': 'modbusPort',
   '--loop': 'loop',
 };

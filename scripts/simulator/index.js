@@ -14,7 +14,6 @@ const { Hydraulics } = require('./hydraulics');
 const { normalizeFault, parseFaultArg } = require('./faults');
 
 const CONTROL_TOPIC = 'sim/control';
-const RESULT_TOPIC = 'sim/control/result';
 
 const DEFAULTS = {
   broker: 'mqtt://127.0.0.1:1883',
@@ -38,7 +37,8 @@ const DEFAULTS = {
   reconnectMs: 1000,
   keepaliveS: 15,
   faults: [], // applied at start: objects or CLI strings ("stuck:ctrl-1:3")
-  control: true, // listen on sim/control
+  control: true, // listen on the control topic
+  controlTopic: CONTROL_TOPIC, // its results go to <controlTopic>/result
   wait: true, // resolve once every device (not dead) has connected
   readyTimeoutMs: 10000,
   log: (line) => console.log(`sim: ${line}`),
@@ -169,12 +169,12 @@ class Simulator {
       resubscribe: true,
     });
     this.controlReady = new Promise((resolve) => {
-      client.once('connect', () => client.subscribe(CONTROL_TOPIC, { qos: 1 }, () => resolve()));
+      client.once('connect', () => client.subscribe(this.options.controlTopic, { qos: 1 }, () => resolve()));
     });
     client.on('error', () => {}); // the devices already log broker errors
     client.on('message', (topic, payload, packet) => {
       if (packet.retain) {
-        this.log(`ignored a retained ${CONTROL_TOPIC} message (clear it with an empty retained publish)`);
+        this.log(`ignored a retained ${this.options.controlTopic} message (clear it with an empty retained publish)`);
         return;
       }
       // One request at a time, so results come back in the order asked.
@@ -189,7 +189,7 @@ class Simulator {
       const parsed = JSON.parse(text);
       faults = Array.isArray(parsed) ? parsed : [parsed];
     } catch (err) {
-      this.log(`${CONTROL_TOPIC}: not JSON: ${text.slice(0, 80)}`);
+      this.log(`${this.options.controlTopic}: not JSON: ${text.slice(0, 80)}`);
       this.reply({ ok: false, error: `not JSON: ${err.message}`, request: text.slice(0, 200) });
       return;
     }
@@ -198,14 +198,14 @@ class Simulator {
         const applied = await this.inject(f);
         this.reply({ ok: true, fault: applied });
       } catch (err) {
-        this.log(`${CONTROL_TOPIC}: ${err.message}`);
+        this.log(`${this.options.controlTopic}: ${err.message}`);
         this.reply({ ok: false, error: err.message, request: f });
       }
     }
   }
 
   reply(obj) {
-    if (this.control && this.control.connected) this.control.publish(RESULT_TOPIC, JSON.stringify(obj), { qos: 1 });
+    if (this.control && this.control.connected) this.control.publish(`${this.options.controlTopic}/result`, JSON.stringify(obj), { qos: 1 });
   }
 
   // fault: object (see README) or CLI string. Resolves with the normalized fault once applied.
@@ -312,4 +312,4 @@ async function startSimulator(options = {}) {
   };
 }
 
-module.exports = { startSimulator, Simulator, DEFAULTS, CONTROL_TOPIC, RESULT_TOPIC };
+module.exports = { startSimulator, Simulator, DEFAULTS, CONTROL_TOPIC };

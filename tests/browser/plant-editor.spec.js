@@ -99,7 +99,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     const line = await page.evaluate(() => RED.nodes.node('pl').editor.getPosition().lineNumber);
     const typed = await page.evaluate((n) => RED.nodes.node('pl').editor.getModel().getLineContent(n).trim(), line);
     assert.equal(typed, '{"io": "one"}');
-    const markers = await markersWhen((messages) => messages.some((m) => /Incorrect type/.test(m)));
+    // Waits for this text's markers: until Monaco validates it again, the markers are the last text's.
+    const markers = await markersWhen((messages) => messages.some((m) => m === 'Incorrect type. Expected one of integer, null.'));
     assert.deepEqual(markers.filter((m) => /Incorrect type/.test(m.message)), [{ message: 'Incorrect type. Expected one of integer, null.', line }]);
     // Drawn inline, under the value.
     await page.waitForSelector('#node-config-input-plant-editor .squiggly-warning, #node-config-input-plant-editor .squiggly-error', { timeout: 10000 });
@@ -127,7 +128,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
     const doc = { $schema: '../node_modules/node-red-contrib-sugarshack/schema/plant.schema.json', ...PLANT };
     doc.operations = [{ ...PLANT.operations[0], priority: 'high' }, PLANT.operations[1]];
     await typeAt(JSON.stringify(doc, null, 2), '"high"', 0);
-    const markers = await markersWhen((messages) => messages.length > 0);
+    const markers = await markersWhen((messages) => messages.includes('Incorrect type. Expected "integer".'));
     const line = await page.evaluate(() => RED.nodes.node('pl').editor.getPosition().lineNumber);
     assert.deepEqual(markers, [{ message: 'Incorrect type. Expected "integer".', line }]);
   });
@@ -184,6 +185,9 @@ describe('the plant document in the editor (headless Chromium)', function () {
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
     await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', { visible: true, timeout: 10000 });
     await page.click('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select');
+    // The value menu may still be fading out: wait for the type menu itself.
+    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1
+      && $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').length === 1, { timeout: 10000 });
     const types = await page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
     assert.deepEqual(types, [catalog('operation')['sugarshack-operation'].label.fromPlant, 'string']);
     await page.evaluate(() => $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').trigger('click'));

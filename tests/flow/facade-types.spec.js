@@ -305,7 +305,9 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('AlarmsSnapshot', saved);
     assert.ok(saved.alarms.some((x) => x.acked) && saved.alarms.some((x) => x.shelved), 'an acknowledged and a shelved alarm');
     shapes.expect('AlarmChange[]', alarms.unshelve('device-offline:p', 'Ann', null, 13));
-    shapes.expect('AlarmChange[]', alarms.observe([], 14));
+    shapes.expect('AlarmChange[]', alarms.shelveOneShot('line-faulted:A', 14 + facade.maxShelveMs(), 'Ann', null, 14));
+    assert.ok(alarms.list().find((x) => x.id === 'line-faulted:A').shelved.oneShot, 'a one-shot shelf');
+    shapes.expect('AlarmChange[]', alarms.observe([], 15));
   });
 
   it('the tracker: views, counts, effects, health, plans', function () {
@@ -337,6 +339,8 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('FaultDescription', t.describeFault(v, 'no-motion', 1, 100));
     t.recordSensor(t.sensor('L'), 2, null, 5500);
     shapes.expect('PlantHealth', t.health(5600));
+    shapes.expect('DeviceHealth', t.deviceHealth(t.device('p')));
+    assert.equal(t.target(v), 100, 'the last commanded position');
     t.ingest('p/status', 'offline', 5700);
     const offline = t.alarmConditions();
     assert.equal(offline.length, 1, 'device p offline');

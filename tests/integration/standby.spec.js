@@ -64,7 +64,9 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     const seen = seenByStandby.cluster;
     assert.deepEqual([seen.name, seen.instance, seen.role], ['standby', standby.instance, 'standby']);
     assert.ok(seen.sinceMs <= Date.now() && seen.lease.ttlS === TTL_S && seen.lease.validForMs > 0);
-    assert.deepEqual(seen.members.map((m) => `${m.instance}:${m.role}`).sort(), [`${leader.instance}:active`, `${standby.instance}:standby`].sort());
+    // Each instance records its own role in etcd: the standby may have read before the leader wrote.
+    const members = [`${leader.instance}:active`, `${standby.instance}:standby`].sort();
+    await waitFor(async () => JSON.stringify(((await pair.clusterOf(standby)).members || []).map((m) => `${m.instance}:${m.role}`).sort()) === JSON.stringify(members), 'both members seen by the standby', 10000);
     await waitFor(async () => ((await pair.clusterOf(standby)).etcd || []).filter((m) => m.healthy).length === 3, 'three etcd members answering');
     const leaderState = await leader.get('/sugarshack/state');
     const token = leaderState.cluster.token;

@@ -260,9 +260,15 @@ class Cluster extends EventEmitter {
   }
 
   async watchMembers() {
-    const seed = await this.client.getAll().prefix(this.keys.members).strings().catch(() => ({}));
-    for (const [key, value] of Object.entries(seed)) this.memberSeen(key, value);
-    const watcher = await this.client.watch().prefix(this.keys.members).create();
+    let seed = null;
+    while (!seed && !this.stopping) {
+      seed = await this.client.getAll().prefix(this.keys.members).exec().catch(() => null);
+      if (!seed) await sleep(RETRY_MS);
+    }
+    if (!seed) return;
+    for (const kv of seed.kvs) this.memberSeen(kv.key.toString(), kv.value.toString());
+    // From just after the read: a member recorded in between is not missed.
+    const watcher = await this.client.watch().prefix(this.keys.members).startRevision(String(BigInt(seed.header.revision) + 1n)).create();
     this.watchers.push(watcher);
     watcher.on('put', (kv) => this.memberSeen(kv.key.toString(), kv.value.toString()));
     watcher.on('delete', (kv) => this.memberSeen(kv.key.toString(), null));

@@ -19,7 +19,8 @@ mod tracker;
 
 pub use alarm::Alarms;
 pub use contract::{
-    abnormal_event_kinds, catalog_texts, codes, max_status_chars, memory, routine_reset_topic,
+    abnormal_event_kinds, alarm_severities, catalog_texts, codes, max_shelve_ms, max_status_chars,
+    memory, routine_reset_topic,
 };
 pub use control::{
     open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,

@@ -91,16 +91,32 @@ export interface DeviceHealth {
 /** A sensor as an operator sees it (`value` null before the first sample or with no reading). */
 export interface SensorHealth {
     sensor: string;
+    /** The plant document's unit for it. */
+    unit: string | null;
     value: number | null;
     receivedMs: number | null;
     fresh: boolean;
     why: string | null;
 }
 
+/** An actuator on its line: its last commanded and reported positions (0/1 when binary). */
+export interface ActuatorPosition {
+    actuator: string;
+    type: string;
+    device: string;
+    resource: string | null;
+    unit: string | null;
+    binary: boolean;
+    commanded: number | null;
+    reported: number | null;
+    phase: "idle" | "pending" | "moving" | "stopped" | "faulted";
+}
+
 /** `Tracker.health()`. */
 export interface PlantHealth {
     devices: DeviceHealth[];
     sensors: SensorHealth[];
+    actuators: ActuatorPosition[];
 }
 "#;
 
@@ -176,8 +192,9 @@ struct ActuatorView<'a> {
 
 #[derive(serde::Serialize)]
 #[serde(rename_all = "camelCase")]
-struct SensorView {
+struct SensorView<'a> {
     sensor: String,
+    unit: Option<&'a str>,
     value: Option<f64>,
     received_ms: Option<Millis>,
     fresh: bool,
@@ -186,9 +203,26 @@ struct SensorView {
 
 #[derive(serde::Serialize)]
 #[serde(rename_all = "camelCase")]
-struct HealthView {
+struct HealthView<'a> {
     devices: Vec<sugarshack_core::actuator::DeviceHealth>,
-    sensors: Vec<SensorView>,
+    sensors: Vec<SensorView<'a>>,
+    actuators: Vec<PositionView<'a>>,
+}
+
+/// An actuator as an operator sees it on its line: where it was told to be and where it is.
+#[derive(serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+struct PositionView<'a> {
+    actuator: &'a str,
+    #[serde(rename = "type")]
+    kind: &'a str,
+    device: &'a str,
+    resource: Option<&'a str>,
+    unit: Option<&'a str>,
+    binary: bool,
+    commanded: Option<f64>,
+    reported: Option<f64>,
+    phase: sugarshack_core::actuator::Phase,
 }
 
 /// The plant as JS sees it: actuator tracking, live sensor values, and the
@@ -731,6 +765,26 @@ impl Tracker {
         self.core.position(ActuatorId::from_index(actuator))
     }
 
+    /// Where it was last commanded to (0/1 for binary), if ever.
+    pub fn target(&self, actuator: u32) -> Option<f64> {
+        self.core.commanded(ActuatorId::from_index(actuator))
+    }
+
+    /// One device as an operator sees it (`health()`'s entry for it).
+    #[wasm_bindgen(js_name = deviceHealth, unchecked_return_type = "DeviceHealth")]
+    pub fn device_health(&self, device: u32) -> Result<JsValue, JsValue> {
+        let health = self
+            .core
+            .device_health_of(DeviceId::from_index(device))
+            .ok_or_else(|| {
+                js_error(
+                    Code::UnknownDevice,
+                    &format!("no device with handle {device}"),
+                )
+            })?;
+        to_js(&health)
+    }
+
     /// Why a group command failed on `actuator`: `{ code, message }`, worded
     /// by the core from the plant document. `fault` is the effect's fault name;
     /// `target` what the command asked for (a number or a boolean), if known.
@@ -759,7 +813,13 @@ impl Tracker {
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
-        let message = describe_fault(a, t, kind, retries, target);
+        let heard = self.core.heard(id).expect("checked handle");
+        let profile = plant
+            .devices
+            .iter()
+            .find(|d| d.id == a.device)
+            .map_or("sugarshack", |d| d.profile.name());
+        let message = describe_fault(a, t, kind, retries, target, (heard, profile));
         to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 
@@ -844,11 +904,14 @@ impl Tracker {
     }
 
     /// What an operator reads of the plant now: `{ devices: [{ device, online,
-    /// stale: [actuator] }], sensors: [{ sensor, value, receivedMs, fresh, why }] }`
-    /// (`value` null before the first sample or when the device reports none).
+    /// stale: [actuator] }], sensors: [{ sensor, unit, value, receivedMs, fresh,
+    /// why }], actuators: [{ actuator, type, device, resource, unit, binary,
+    /// commanded, reported, phase }] }` (`value` null before the first sample
+    /// or when the device reports none).
     #[wasm_bindgen(unchecked_return_type = "PlantHealth")]
     pub fn health(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
+        let plant = self.core.plant();
         let sensors: Vec<SensorView> = (0..self.sensors.len() as u32)
             .map(|i| {
                 let id = sugarshack_core::sensor::SensorId::from_index(i);
@@ -856,6 +919,7 @@ impl Tracker {
                 let fresh = self.sensors.fresh(id, now);
                 SensorView {
                     sensor: self.sensors.name(id).to_owned(),
+                    unit: plant.sensors[i as usize].unit.as_deref(),
                     value: sample.map(|s| s.value).filter(|v| v.is_finite()),
                     received_ms: sample.map(|s| s.received_ms),
                     fresh: fresh.is_ok(),
@@ -863,9 +927,32 @@ impl Tracker {
                 }
             })
             .collect();
+        let actuators = plant
+            .actuators
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let id = ActuatorId::from_index(i as u32);
+                PositionView {
+                    actuator: &a.id,
+                    kind: &a.kind,
+                    device: &a.device,
+                    resource: a.resource.as_deref(),
+                    unit: plant
+                        .actuator_types
+                        .get(&a.kind)
+                        .and_then(|t| t.unit.as_deref()),
+                    binary: self.core.signal(id) == Some(Signal::Binary),
+                    commanded: self.core.commanded(id),
+                    reported: self.core.position(id),
+                    phase: self.core.phase(id).expect("an actuator of the plant"),
+                }
+            })
+            .collect();
         to_js(&HealthView {
             devices: self.core.device_health(),
             sensors,
+            actuators,
         })
     }
 

@@ -148,28 +148,7 @@ class NodeRedProcess {
   }
 
   request(method, urlPath, body, headers = {}) {
-    const text = body === undefined ? null : JSON.stringify(body);
-    return new Promise((resolve, reject) => {
-      const req = http.request({
-        host: '127.0.0.1',
-        port: this.port,
-        path: urlPath,
-        method,
-        timeout: 10000,
-        headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
-      }, (res) => {
-        let answer = '';
-        res.on('data', (d) => { answer += d; });
-        res.on('end', () => {
-          if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 200)}`));
-          else resolve(answer ? JSON.parse(answer) : null);
-        });
-      });
-      req.on('error', reject);
-      req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 10 s`)));
-      if (text !== null) req.write(text);
-      req.end();
-    });
+    return adminRequest(this.port, method, urlPath, body, headers);
   }
 
   /** The interlock's lines as `GET /sugarshack/state` gives them: { name: 'free' | 'held:<op>' | 'faulted:<cause>' }. */
@@ -179,6 +158,32 @@ class NodeRedProcess {
     if (!il || !il.lines) throw new Error(`interlock ${interlockId} is not running: ${JSON.stringify(il)}`);
     return Object.fromEntries(il.lines.map((l) => [l.name, lineState(l.state)]));
   }
+}
+
+/** A request to Node-RED on `port`: resolves with the body (parsed when JSON), rejects on a status outside 2xx. */
+function adminRequest(port, method, urlPath, body, headers = {}) {
+  const text = body === undefined ? null : JSON.stringify(body);
+  return new Promise((resolve, reject) => {
+    const req = http.request({
+      host: '127.0.0.1',
+      port,
+      path: urlPath,
+      method,
+      timeout: 10000,
+      headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
+    }, (res) => {
+      let answer = '';
+      res.on('data', (d) => { answer += d; });
+      res.on('end', () => {
+        if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 200)}`));
+        else resolve(answer && /json/.test(res.headers['content-type'] || '') ? JSON.parse(answer) : answer || null);
+      });
+    });
+    req.on('error', reject);
+    req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 10 s`)));
+    if (text !== null) req.write(text);
+    req.end();
+  });
 }
 
 function lineState(s) {
@@ -211,4 +216,4 @@ async function waitWhileMoving(predicate, progress, what, stallMs = 15000) {
   }
 }
 
-module.exports = { NodeRedProcess, mqttBroker, lineState, sleep, waitFor, waitWhileMoving };
+module.exports = { NodeRedProcess, mqttBroker, adminRequest, lineState, sleep, waitFor, waitWhileMoving };

@@ -403,6 +403,12 @@ pub struct Sensor {
     /// (default: five times `updateMs`).
     #[serde(default)]
     pub stale_ms: Option<Millis>,
+    /// The lowest value it reads, with `max` (a SCADA's engineering range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<f64>,
+    /// The highest value it reads, with `min`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
     /// On a `modbus` device: the register it is read from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub modbus: Option<crate::topics::modbus::ModbusRegister>,
