@@ -74,7 +74,20 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
   });
 }
 
+/**
+ * The input of an interlock node (acquire, release, cancel, fault, clear).
+ * On an interlock run by an engine, the node is bound under `spec` and each
+ * msg is one engine input; on one bound to a plant, `work` does its part.
+ * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
+ * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done) => void} work
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean }} [options]
+ */
+function onInterlockInput(node, runtime, spec, work, options) {
+  if (runtime && runtime.addNodeSpec) runtime.addNodeSpec(node, spec);
+  onInput(node, runtime, (rt, msg, send, done) => (rt.addNodeSpec ? rt.input(node, msg, send, done) : work(rt, msg, send, done)), 'interlock', options);
+}
+
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
 
-module.exports = { bindInterlock, bindPlant, onInput, always };
+module.exports = { bindInterlock, bindPlant, onInput, onInterlockInput, always };

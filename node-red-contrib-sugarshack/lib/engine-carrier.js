@@ -174,8 +174,11 @@ function answer(entry, port, extra, err) {
       entry.send(out);
     }
   }
-  if (err) entry.reject(err);
-  else entry.abandon();
+  if (err) {
+    // A failed fault msg keeps the Catch's error it carried as the cause.
+    if (entry.cause) /** @type {any} */ (err).cause = entry.cause;
+    entry.reject(err);
+  } else entry.abandon();
 }
 
 /** What the engine sets on a msg it sends on. @param {any} msg @param {any} set */
@@ -201,11 +204,21 @@ function refusalError(refusal) {
 /** Words the engine chose, from the catalogs (the keys it may name are its catalogTexts()). @param {any} t */
 function render(t) {
   if (t.kind === 'plain') return t.text;
-  if (t.kind === 'faulted') return t.lines.join(', ');
+  if (t.kind === 'faulted') return faultedText(t);
   /** @type {Record<string, any>} */
   const subs = {};
   for (const [name, p] of t.params) subs[name] = p.kind === 'label' ? i18n.textOf(`labels.${p.value}`) : p.value;
   return i18n.textOf(t.key, subs);
+}
+
+/** What a failed fault msg says: what was faulted and what locked out, with the fault's note. @param {any} t */
+function faultedText(t) {
+  const say = (key, subs) => i18n.typeText('sugarshack-fault', `errors.${key}`, subs);
+  const lines = t.lines.join(', ');
+  const what = t.operation === null || t.operation === undefined
+    ? say('stopped', { lines: lines || say('nothing') })
+    : say(lines ? 'faultedLocked' : 'faultedHeldNothing', { operation: t.operation, lines });
+  return t.note ? say('withNote', { what, note: t.note }) : what;
 }
 
 module.exports = { EngineCarrier, refusalError, render };

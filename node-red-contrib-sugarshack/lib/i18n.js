@@ -102,4 +102,9 @@ function textOf(key, subs) {
   return text(key, subs);
 }
 
-module.exports = { translator, useRED, text, textOf, englishCatalog, SHARED_NAMESPACE };
+/** A text of node type `type`'s catalog, in the runtime's language. @param {string} type @param {string} key @param {Record<string, any>} [subs] */
+function typeText(type, key, subs) {
+  return translator(sharedRED, type)(key, subs);
+}
+
+module.exports = { typeText, translator, useRED, text, textOf, englishCatalog, SHARED_NAMESPACE };

@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
+const { bindInterlock, onInterlockInput } = require('../lib/binding');
 const { operationOf, priorityOf, resourcesOf, readMsg } = require('../lib/request');
 const { useRED } = require('../lib/i18n');
 
@@ -15,7 +15,8 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
 
     // Holds the msg until granted; the same msg object then goes on (link call returns stay intact).
-    onInput(node, runtime, (rt, msg, send, done) => {
+    const spec = { kind: 'acquire', timeoutMs, operation: props.operation, priority: props.priority, resources: props.resources };
+    onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
       const request = readMsg(() => ({
         operation: operationOf(msg, props.operation),
         priority: priorityOf(msg, props.priority),

@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput, always } = require('../lib/binding');
+const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
 const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 const { journal } = require('../lib/journal/bus');
@@ -35,7 +35,8 @@ module.exports = function (RED) {
     const failMsg = props.after === 'fail';
 
     // Output 2 gets one lockout group command per latched line, once the fault is saved.
-    onInput(node, runtime, (rt, msg, send, done) => {
+    const spec = { kind: 'fault', byResources, failMsg, operation: props.operation, resources: props.resources };
+    onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
       const request = readMsg(() => {
         const who = byResources ? attributionOf(msg) : null;
         return {
@@ -69,7 +70,7 @@ module.exports = function (RED) {
       if (byResources) journal.action('e-stop', request.who, request.resources);
       if (byResources) rt.faultResources(request.resources, note, out, request.who);
       else rt.fault(operation, note, out);
-    }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
+    }, { urgent: always }); // an e-stop never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-fault', FaultNode);

@@ -51,7 +51,7 @@ export type OperatorRequest =
     | { kind: "clear"; lines?: unknown }
     | { kind: "eStop"; lines?: unknown }
     | { kind: "ack"; ids?: unknown }
-    | { kind: "shelve"; id?: unknown; untilMs?: unknown; forMs?: unknown }
+    | { kind: "shelve"; id?: unknown; untilMs?: unknown; forMs?: unknown; oneShot?: boolean }
     | { kind: "unshelve"; id?: unknown };
 
 /** A line's state, as the engine's view shows it. */
@@ -269,6 +269,7 @@ fn operator_action(request: &JsValue, now: Millis) -> Result<OperatorAction, cor
                 &raw(&field(request, "forMs")),
                 now,
             )?,
+            one_shot: field(request, "oneShot").as_bool() == Some(true),
         }),
         "unshelve" => OperatorAction::Alarm(AlarmAction::Unshelve {
             id: core::alarm_id_of(&raw(&field(request, "id")))?,

@@ -248,6 +248,9 @@ pub enum AlarmAction {
         id: String,
         /// Until when.
         until_ms: Millis,
+        /// Also until its condition next ends.
+        #[serde(default)]
+        one_shot: bool,
     },
     /// Takes an alarm off its shelf.
     Unshelve {
@@ -608,6 +611,9 @@ impl Engine {
             Gate::Park if !matches!(input, Input::Start(_) | Input::Life(_)) => {
                 if let Input::AddNode { .. } | Input::CloseNode { .. } = input {
                     self.configure(input);
+                } else if let Input::Listen(on) = input {
+                    // Who listens decides which events of the start itself go out.
+                    self.listening = on;
                 } else {
                     self.parked.push(input);
                 }
@@ -1353,11 +1359,10 @@ impl Engine {
             } else {
                 None
             };
-            // An operator's stated reason is the line's fault note.
-            let note = who
-                .as_ref()
-                .and_then(|w| w.reason.clone())
-                .or_else(|| note_of(&fields.error_message, &fields.payload));
+            // A Catch node's error is the fault note, else an operator's stated reason, else a text payload.
+            let note = note_of(&fields.error_message, &Raw::Absent)
+                .or_else(|| who.as_ref().and_then(|w| w.reason.clone()))
+                .or_else(|| note_of(&Raw::Absent, &fields.payload));
             let target = if by_resources {
                 let n = self.node(node).expect("checked");
                 Err(resources_of(&fields.resources, &n.spec.resources)?)
@@ -1743,9 +1748,17 @@ impl Engine {
                 Action::AlarmAck,
                 self.alarms.acknowledge(ids.as_deref(), &by, now),
             ),
-            AlarmAction::Shelve { id, until_ms } => (
+            AlarmAction::Shelve {
+                id,
+                until_ms,
+                one_shot,
+            } => (
                 Action::AlarmShelve,
-                self.alarms.shelve(id, *until_ms, &by, now),
+                if *one_shot {
+                    self.alarms.shelve_one_shot(id, *until_ms, &by, now)
+                } else {
+                    self.alarms.shelve(id, *until_ms, &by, now)
+                },
             ),
             AlarmAction::Unshelve { id } => {
                 (Action::AlarmUnshelve, self.alarms.unshelve(id, &by, now))

@@ -1,0 +1,495 @@
+// @ts-check
+'use strict';
+// The interlock behind a config node bound to no plant, run by one core
+// Engine: a node's msg becomes one engine input under a handle, and the
+// engine's outputs are performed by the carrier (grants, refusals and
+// timeouts, lockouts, events, journal lines, alarms, the one timer). What
+// is left here is I/O: reading a msg's fields, the state file, the status,
+// the events nodes and the editor's requests.
+const { SugarshackError } = require('../errors');
+const { heldMsg } = require('../pending');
+const { describeEvent } = require('../events');
+const { countsStatus } = require('../status');
+const { clock } = require('../clock');
+const { Committer } = require('../durable');
+const { InterlockRuntime } = require('../interlock-runtime');
+const { EngineCarrier, refusalError, render } = require('../engine-carrier');
+const { Wire } = require('../wasm/wire');
+const { readMsg } = require('../request');
+const { journal } = require('../journal/bus');
+const wasm = require('../wasm');
+const i18n = require('../i18n');
+
+// A msg handle is a u32 the engine keeps; it wraps long after any msg of its range ended.
+const HANDLES = 2 ** 32;
+
+/** The signed-in dashboard user's name, as a msg carries it (msg._client.user). */
+function userOf(msg) {
+  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
+  const user = client && client.user && typeof client.user === 'object' ? client.user : null;
+  return user ? [user.username, user.name, user.email, user.userId].find((v) => typeof v === 'string' && v.trim() !== '') : undefined;
+}
+
+/** What a clear, fault or cancel msg carries, as read off it (the engine decides what it means). */
+function fieldsOf(msg) {
+  const error = msg.error;
+  return {
+    operation: msg.operation,
+    follow: msg.interlock ? msg.interlock.operation : undefined,
+    resources: msg.resources,
+    errorMessage: error ? error.message : undefined,
+    payload: msg.payload,
+    user: userOf(msg),
+    by: msg.by,
+    reason: msg.reason,
+    force: msg.force === true,
+  };
+}
+
+/** Each node kind's input: its outputs, and the engine call a msg makes (read first, so a throwing getter refuses the msg). */
+const KINDS = {
+  acquire: {
+    ports: 1,
+    read: (msg) => [msg.operation, msg.priority, msg.resources],
+    call: (e, h, k, [operation, priority, resources], now) => (operation === undefined && priority === undefined && resources === undefined
+      ? e.acquire(h, k, now) : e.acquireNamed(h, k, operation, priority, resources, now)),
+  },
+  release: {
+    ports: 1,
+    read: (msg) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined],
+    call: (e, h, k, [operation, follow], now) => e.release(h, k, operation, follow, now),
+  },
+  cancel: { ports: 1, read: fieldsOf, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
+  fault: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.fault(h, k, fields, now) },
+  clear: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
+};
+
+class EngineRuntime extends InterlockRuntime {
+  constructor(args) {
+    super(args);
+    /** @type {any} the core Engine (tests and the state page read it as the interlock) */
+    this.core = null;
+    /** @type {Wire | null} */
+    this.wire = null;
+    this.carrier = this.makeCarrier();
+    /** @type {Map<string, number>} node id -> its handle, the same for each deploy of it */
+    this.nodeHandles = new Map();
+    /** @type {Map<number, { node: NodeRed.Node, spec: object }>} handle -> the instance bound now */
+    this.nodes = new Map();
+    this.nextMsg = 0;
+    /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
+    this.replies = new Map();
+    this.shown = { holding: 0, queued: 0, faulted: 0, lost: false, status: countsStatus({ holding: 0, queued: 0, faulted: 0, lost: false }) };
+  }
+
+  makeCommitter() {
+    return new Committer({
+      store: this.store,
+      clock,
+      snapshot: () => this.core.seal(this.id, this.settings.plantId || undefined, {}, clock.now()),
+      mayAct: () => true,
+      onError: (err) => {
+        this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
+        this.storeFailing(true);
+      },
+      onSaved: () => {
+        this.storeFailing(false);
+        this.statusPacer.request();
+      },
+    });
+  }
+
+  makeCarrier() {
+    return new EngineCarrier({
+      committer: this.committer,
+      other: (output, effect) => this.other(output, effect),
+      counts: (holding, queued, faulted, lost) => this.countsChanged(holding, queued, faulted, lost),
+      due: () => this.tick(),
+    });
+  }
+
+  /** One engine call; its outputs performed. @param {(engine: any, now: number) => void} fn */
+  call(fn) {
+    if (!this.core) return;
+    this.guard(() => fn(this.core, clock.now()));
+    /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
+  }
+
+  // ---- lifecycle -----------------------------------------------------------
+
+  async start() {
+    try {
+      this.config = this.resolveConfig();
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    let saved;
+    try {
+      saved = this.store.read();
+    } catch (err) {
+      saved = { kind: 'lost', why: err.message };
+    }
+    if (saved.kind === 'first' && this.persist) {
+      const legacy = await this.legacySnapshot();
+      if (legacy) saved = { kind: 'carried-over', snapshot: legacy };
+    }
+    if (this.ended) return;
+    try {
+      this.guard(() => this.open(saved));
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    try {
+      this.store.markRan();
+    } catch (err) {
+      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
+    }
+    this.state = 'ready';
+    this.refreshStatus();
+    this.replayParked();
+  }
+
+  /** A new engine for the settings in force, its nodes added, started from what was saved. */
+  open(saved) {
+    this.newEngine();
+    const now = clock.now();
+    this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
+    this.call((e) => {
+      if (saved.kind === 'saved') e.startSealed(this.id, this.settings.plantId || undefined, this.store.where, saved.text, now);
+      else if (saved.kind === 'lost') e.start(null, saved.why, now);
+      else if (saved.kind === 'carried-over') e.start({ interlock: saved.snapshot }, undefined, now);
+      else e.start(null, undefined, now);
+    });
+    const lost = this.core.lost();
+    this.lostState = lost === undefined ? null : lost;
+    if (this.lostState !== null) this.started = { outcome: 'lost', reason: this.lostState, added: [], dropped: [] };
+    else if (saved.kind !== 'first') this.started.outcome = 'restored';
+  }
+
+  newEngine() {
+    const { Engine } = wasm.load();
+    const engine = new Engine(this.config, {});
+    if (this.core) wasm.release(this.core);
+    this.core = engine;
+    this.wire = new Wire(engine);
+    const now = clock.now();
+    this.call((e) => {
+      for (const [handle, { spec }] of this.nodes) e.addNode(handle, spec, now);
+      // Until the flows run, events nodes may still come: the events of a start go to them.
+      if (this.events.listened() || !this.flowsRunning()) e.listen(true, now);
+    });
+    if (!this.flowsRunning()) this.palette.whenStarted(() => this.listenChanged());
+  }
+
+  flowsRunning() {
+    return !this.palette || this.palette.started;
+  }
+
+  /** Nothing more leaves: a write in flight completes, held msgs are completed unsent. */
+  async shutdown() {
+    if (this.ended) return;
+    this.endCommon();
+    this.statusPacer.stop();
+    await this.committer.freeze();
+    this.lifeStep('shutdown');
+    this.carrier.stop();
+    this.freeCore();
+  }
+
+  /** Its config node left the flows: waiting requests are withdrawn and the state written. */
+  async retire() {
+    if (this.ended) return;
+    const ready = this.state === 'ready';
+    this.endCommon();
+    this.statusPacer.stop();
+    if (ready) {
+      this.lifeStep('retire');
+      await this.committer.drain();
+    }
+    this.carrier.stop();
+    this.freeCore();
+  }
+
+  lifeStep(step) {
+    try {
+      this.call((e, now) => e.life(step, now));
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
+  freeCore() {
+    wasm.release(this.core);
+    this.core = null;
+    this.wire = null;
+  }
+
+  // ---- deploys -------------------------------------------------------------
+
+  /** A drain begins: the engine holds waiting requests back until the new settings apply. */
+  onGateClosed() {
+    if (this.state === 'ready') this.lifeStep('drain-begin');
+  }
+
+  onGateOpened() {
+    if (this.state === 'ready') this.lifeStep('drain-end');
+  }
+
+  quiescent() {
+    return true;
+  }
+
+  /** New settings after the drain: a new engine takes the old one's state over (holds, waiting msgs, their deadlines). */
+  swap(settings) {
+    this.applySettings(settings);
+    try {
+      this.config = this.resolveConfig();
+    } catch (err) {
+      if (this.core) this.freeCore();
+      this.state = 'starting';
+      this.fail(err);
+      return;
+    }
+    const old = this.core;
+    try {
+      this.guard(() => {
+        const text = old ? old.stateText(clock.now(), {}) : null;
+        this.core = null; // kept by newEngine() below from freeing it before it is read
+        this.newEngine();
+        this.call((e, now) => {
+          if (text) e.handOver(text, now);
+          else e.start(null, undefined, now);
+          e.life('drain-begin', now);
+        });
+      });
+      if (old) wasm.release(old);
+      this.state = 'ready';
+      this.failure = null;
+    } catch (err) {
+      this.fail(err);
+      return;
+    }
+    this.refreshStatus();
+  }
+
+  /** After a wasm trap: back to the last saved state, as after a restart; what waited is refused. */
+  rebuild() {
+    if (this.state !== 'ready') return;
+    this.committer.discard();
+    this.carrier.stop();
+    const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
+    for (const k of [...this.carrier.held.keys()]) this.carrier.take(k).reject(error);
+    for (const { reject } of this.replies.values()) reject(error);
+    this.replies.clear();
+    wasm.forget(this.core);
+    this.core = null;
+    let saved;
+    try {
+      saved = this.store.read();
+    } catch (err) {
+      saved = { kind: 'lost', why: err.message };
+    }
+    try {
+      this.open(saved);
+    } catch (err) {
+      this.state = 'starting';
+      this.fail(err);
+      return;
+    }
+    this.refreshStatus();
+  }
+
+  // ---- nodes -----------------------------------------------------------------
+
+  /** A node of a deploy binds to the engine under its handle (the same for its next instances). */
+  addNodeSpec(node, spec) {
+    let handle = this.nodeHandles.get(node.id);
+    if (handle === undefined) {
+      handle = this.nodeHandles.size + 1;
+      this.nodeHandles.set(node.id, handle);
+    }
+    this.nodes.set(handle, { node, spec });
+    this.call((e, now) => e.addNode(handle, spec, now));
+  }
+
+  heldEntries() {
+    return [...this.carrier.held.values()];
+  }
+
+  closing(node) {
+    const handle = this.nodeHandles.get(node.id);
+    if (handle === undefined || !this.nodes.has(handle) || this.nodes.get(handle).node !== node) return;
+    this.nodes.delete(handle);
+    if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, false, now));
+  }
+
+  /** A node restarted by a deploy that did not come back: the engine withdraws what it waited for. */
+  withdrawOrphans(nodeId) {
+    const handle = this.nodeHandles.get(nodeId);
+    if (handle === undefined || this.nodes.has(handle)) return;
+    this.call((e, now) => e.closeNode(handle, true, now));
+    for (const [k, entry] of this.carrier.held) if (entry.nodeId === nodeId && !entry.node) this.carrier.take(k);
+  }
+
+  addEventsNode(node) {
+    super.addEventsNode(node);
+    this.listenChanged();
+  }
+
+  removeUser(node) {
+    super.removeUser(node);
+    this.listenChanged();
+  }
+
+  listenChanged() {
+    if (this.state === 'ready') this.call((e, now) => e.listen(this.events.listened(), now));
+  }
+
+  /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
+  input(node, msg, send, done) {
+    const handle = /** @type {number} */ (this.nodeHandles.get(node.id));
+    const spec = /** @type {{ kind: keyof typeof KINDS }} */ (this.nodes.get(handle).spec);
+    const kind = KINDS[spec.kind];
+    const read = readMsg(() => kind.read(msg));
+    const k = this.nextMsg;
+    this.nextMsg = (this.nextMsg + 1) % HANDLES;
+    const entry = heldMsg({ node, msg, send, done, sinceMs: 0, ports: kind.ports });
+    // A Catch node's error stays the cause of the error a failed fault msg ends with.
+    if (spec.kind === 'fault' && msg.error && typeof msg.error === 'object') entry.cause = msg.error;
+    this.carrier.hold(k, entry);
+    try {
+      this.call((e, now) => kind.call(e, handle, k, read, now));
+    } catch (err) {
+      this.carrier.take(k);
+      throw err;
+    }
+  }
+
+  // ---- outputs with no msg of their own ----------------------------------------
+
+  other(o, effect) {
+    switch (o.kind) {
+      case 'event':
+        effect(() => this.events.publish([o.event]));
+        break;
+      case 'journal':
+        effect(() => journal.action(o.action, { by: o.by, reason: o.reason }, o.target));
+        break;
+      case 'nodeError': {
+        const bound = this.nodes.get(o.node);
+        if (bound) this.showError(bound.node, o.code);
+        break;
+      }
+      case 'alarm':
+        if (this.palette) this.palette.changes.touch(this);
+        break;
+      case 'log':
+        this.noteStart(o.text);
+        effect(() => this.log(o.level, render(o.text)));
+        break;
+      case 'reply':
+        effect(() => this.reply(o.msg, o.answer));
+        break;
+      default:
+        break;
+    }
+  }
+
+  /** A line added or dropped since the state was saved, as the engine logs it at start, for describe(). */
+  noteStart(text) {
+    if (!this.started) return;
+    const list = text.key === 'logs.lineAdded' ? this.started.added : text.key === 'logs.lineDropped' ? this.started.dropped : null;
+    if (list) list.push(text.params[0][1].value);
+  }
+
+  countsChanged(holding, queued, faulted, lost) {
+    if (!lost) this.lostState = null;
+    if (this.palette) this.palette.changes.touch(this);
+    const status = countsStatus({ holding, queued, faulted, lost });
+    this.shown = { holding, queued, faulted, lost, status };
+    this.statusPacer.request();
+  }
+
+  countsStatus() {
+    return this.shown.status;
+  }
+
+  /** The engine is due: its deadlines (acquire timeouts, warnings, alarms). */
+  tick() {
+    if (this.state !== 'ready') return;
+    try {
+      this.call((e, now) => e.tick(now));
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
+  storeFailing(failing) {
+    if (this.state !== 'ready' || this.ended || this.failingShown === failing) return;
+    this.failingShown = failing;
+    this.call((e, now) => e.storeFailing(failing ? this.store.where : null, now));
+    this.refreshStatus();
+  }
+
+  // ---- a person's requests (operator.js) -----------------------------------------
+
+  /** An operator's action; resolves with the engine's reply once its state is written. */
+  operate(action, who) {
+    return new Promise((resolve, reject) => {
+      const k = this.nextMsg;
+      this.nextMsg = (this.nextMsg + 1) % HANDLES;
+      this.replies.set(k, { resolve, reject });
+      try {
+        this.call((e, now) => e.operator(k, action, who, now));
+      } catch (err) {
+        this.replies.delete(k);
+        reject(err);
+      }
+    });
+  }
+
+  reply(k, answer) {
+    const waiting = this.replies.get(k);
+    if (!waiting) return;
+    this.replies.delete(k);
+    if ('Ok' in answer) waiting.resolve(answer.Ok);
+    else waiting.reject(refusalError(answer.Err));
+  }
+
+  faultedResources() {
+    return this.core.faultedResources();
+  }
+
+  hasAlarm(id) {
+    return Boolean(this.core) && this.core.alarmIds().includes(id);
+  }
+
+  /** The state as a person reads it: the engine's view, with what the host knows (its store, how it started). */
+  describe() {
+    if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
+    const view = this.core.view(clock.now());
+    delete view.stage;
+    return {
+      ...view,
+      // Each event with its one readable line, as the events nodes send it.
+      recentEvents: view.recentEvents.map((e) => ({ ...e, summary: describeEvent(e) })),
+      plant: null,
+      routines: [],
+      started: this.started,
+      saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
+      runs: [],
+    };
+  }
+
+  startRun() {
+    throw SugarshackError.of('NO_PLANT', 'noPlantForOperations');
+  }
+
+  routineHost() {
+    throw SugarshackError.of('NO_PLANT', 'noPlantForRoutines');
+  }
+}
+
+module.exports = { EngineRuntime };
