@@ -757,3 +757,89 @@ fn another_interlocks_or_a_damaged_sealed_document_is_a_lost_state() {
         assert!(logged(&out, Level::Error, "logs.stateUnknown"));
     }
 }
+
+#[test]
+fn an_emergency_stops_note_is_the_caught_error_over_the_stated_reason_over_the_payload() {
+    let cases = [
+        (text("PS-4 tripped"), text("foam"), text("payload"), "PS-4 tripped"),
+        (Raw::Absent, text("foam"), text("payload"), "foam"),
+        (Raw::Absent, Raw::Absent, text("payload"), "payload"),
+    ];
+    for (error_message, reason, payload, note) in cases {
+        let mut b = Bench::new();
+        let out = b.run(Input::Fault {
+            node: NodeId(8),
+            msg: MsgId(1),
+            fields: Fields {
+                error_message,
+                payload,
+                who: WhoFields {
+                    reason,
+                    ..WhoFields::default()
+                },
+                ..Fields::default()
+            }
+            .into(),
+        });
+        assert!(
+            out.iter().any(|o| matches!(o,
+                Output::Emit { msgs, .. } if msgs[0].note.as_deref() == Some(note))),
+            "{note}"
+        );
+    }
+}
+
+#[test]
+fn who_listens_before_the_start_hears_every_event_of_the_start() {
+    let b = Bench::new();
+    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(0));
+    let mut more = LINES.to_vec();
+    more.push("ORG");
+    let kinds = |listen: bool| {
+        let mut engine =
+            Engine::new(InterlockConfig::with_resources(more.iter().copied()), false).unwrap();
+        engine.handle(Input::Listen(listen), ms(0));
+        engine.handle(Input::Start(sealed(&text, "il-1")), ms(10));
+        engine
+            .take_outputs()
+            .into_iter()
+            .filter_map(|o| match o {
+                Output::Event { event } => Some(event.kind),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    assert!(kinds(true).contains(&EventKind::ResourceAdded));
+    assert!(
+        !kinds(false).contains(&EventKind::ResourceAdded),
+        "a normal event, and nobody listens"
+    );
+}
+
+#[test]
+fn a_one_shot_shelf_ends_when_its_condition_ends() {
+    let mut config = InterlockConfig::with_resources(LINES);
+    config.warn_queued_ms = Some(ms(1000));
+    let mut b = Bench::with(config);
+    b.acquire(3, 1);
+    b.acquire(1, 2);
+    b.tick(1000);
+    let shelve = |one_shot| Input::Operator {
+        msg: MsgId(7),
+        action: OperatorAction::Alarm(AlarmAction::Shelve {
+            id: "waiting-long:10".to_owned(),
+            until_ms: ms(3_600_000),
+            one_shot,
+        }),
+        who: WhoFields::default(),
+    };
+    let out = b.at(1500).run(shelve(true));
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Reply { answer: Ok(_), .. })));
+    assert!(b
+        .engine
+        .alarms()
+        .list()
+        .any(|a| a.id == "waiting-long:10" && a.shelved.as_ref().is_some_and(|s| s.one_shot)));
+}
