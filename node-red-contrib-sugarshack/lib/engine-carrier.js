@@ -12,7 +12,7 @@ const { clock: systemClock } = require('./clock');
 const i18n = require('./i18n');
 
 /**
- * @typedef {import('./pending').HeldMsg & { ports?: number }} Held a held msg; `ports`: its node's outputs (1 unless told)
+ * @typedef {import('./pending').HeldMsg & { ports?: number, cause?: any }} Held a held msg; `ports`: its node's outputs (1 unless told); `cause`: the error a failed msg's error keeps as its cause
  * @typedef {{ urgent: boolean, after: boolean, actions: (() => void)[] }} Group
  */
 

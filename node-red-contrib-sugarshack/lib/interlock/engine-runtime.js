@@ -79,6 +79,7 @@ class EngineRuntime extends InterlockRuntime {
     this.nextMsg = 0;
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
     this.replies = new Map();
+    this.failingShown = false;
     this.shown = { holding: 0, queued: 0, faulted: 0, lost: false, status: countsStatus({ holding: 0, queued: 0, faulted: 0, lost: false }) };
   }
 
@@ -280,7 +281,10 @@ class EngineRuntime extends InterlockRuntime {
     this.committer.discard();
     this.carrier.stop();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
-    for (const k of [...this.carrier.held.keys()]) this.carrier.take(k).reject(error);
+    for (const [k, entry] of [...this.carrier.held]) {
+      this.carrier.take(k);
+      entry.reject(error);
+    }
     for (const { reject } of this.replies.values()) reject(error);
     this.replies.clear();
     wasm.forget(this.core);
@@ -320,7 +324,8 @@ class EngineRuntime extends InterlockRuntime {
 
   closing(node) {
     const handle = this.nodeHandles.get(node.id);
-    if (handle === undefined || !this.nodes.has(handle) || this.nodes.get(handle).node !== node) return;
+    const bound = handle === undefined ? undefined : this.nodes.get(handle);
+    if (handle === undefined || !bound || bound.node !== node) return;
     this.nodes.delete(handle);
     if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, false, now));
   }
@@ -330,7 +335,6 @@ class EngineRuntime extends InterlockRuntime {
     const handle = this.nodeHandles.get(nodeId);
     if (handle === undefined || this.nodes.has(handle)) return;
     this.call((e, now) => e.closeNode(handle, true, now));
-    for (const [k, entry] of this.carrier.held) if (entry.nodeId === nodeId && !entry.node) this.carrier.take(k);
   }
 
   addEventsNode(node) {
@@ -350,7 +354,8 @@ class EngineRuntime extends InterlockRuntime {
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
   input(node, msg, send, done) {
     const handle = /** @type {number} */ (this.nodeHandles.get(node.id));
-    const spec = /** @type {{ kind: keyof typeof KINDS }} */ (this.nodes.get(handle).spec);
+    const bound = /** @type {{ spec: any }} */ (this.nodes.get(handle));
+    const spec = /** @type {{ kind: keyof typeof KINDS }} */ (bound.spec);
     const kind = KINDS[spec.kind];
     const read = readMsg(() => kind.read(msg));
     const k = this.nextMsg;
@@ -481,14 +486,6 @@ class EngineRuntime extends InterlockRuntime {
       saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
       runs: [],
     };
-  }
-
-  startRun() {
-    throw SugarshackError.of('NO_PLANT', 'noPlantForOperations');
-  }
-
-  routineHost() {
-    throw SugarshackError.of('NO_PLANT', 'noPlantForRoutines');
   }
 }
 

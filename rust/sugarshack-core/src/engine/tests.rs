@@ -761,7 +761,12 @@ fn another_interlocks_or_a_damaged_sealed_document_is_a_lost_state() {
 #[test]
 fn an_emergency_stops_note_is_the_caught_error_over_the_stated_reason_over_the_payload() {
     let cases = [
-        (text("PS-4 tripped"), text("foam"), text("payload"), "PS-4 tripped"),
+        (
+            text("PS-4 tripped"),
+            text("foam"),
+            text("payload"),
+            "PS-4 tripped",
+        ),
         (Raw::Absent, text("foam"), text("payload"), "foam"),
         (Raw::Absent, Raw::Absent, text("payload"), "payload"),
     ];
