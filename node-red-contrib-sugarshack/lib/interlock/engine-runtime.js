@@ -80,6 +80,7 @@ class EngineRuntime extends InterlockRuntime {
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
     this.replies = new Map();
     this.failingShown = false;
+    this.counts = { holding: 0, queued: 0, faulted: 0, lost: false };
     this.shown = { holding: 0, queued: 0, faulted: 0, lost: false, status: countsStatus({ holding: 0, queued: 0, faulted: 0, lost: false }) };
   }
 
@@ -412,12 +413,17 @@ class EngineRuntime extends InterlockRuntime {
   countsChanged(holding, queued, faulted, lost) {
     if (!lost) this.lostState = null;
     if (this.palette) this.palette.changes.touch(this);
-    const status = countsStatus({ holding, queued, faulted, lost });
-    this.shown = { holding, queued, faulted, lost, status };
+    this.counts = { holding, queued, faulted, lost };
     this.statusPacer.request();
   }
 
+  /** The counts as a status, made when shown (paced), the same object while they do not change. */
   countsStatus() {
+    const c = this.counts;
+    const seen = this.shown;
+    if (seen.holding !== c.holding || seen.queued !== c.queued || seen.faulted !== c.faulted || seen.lost !== c.lost) {
+      this.shown = { ...c, status: countsStatus(c) };
+    }
     return this.shown.status;
   }
 
