@@ -17,6 +17,7 @@ const { EngineCarrier, refusalError, render } = require('../engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { readMsg } = require('../request');
 const { journal } = require('../journal/bus');
+const { timeLayer } = require('../stats');
 const wasm = require('../wasm');
 const i18n = require('../i18n');
 
@@ -494,5 +495,8 @@ class EngineRuntime extends InterlockRuntime {
     };
   }
 }
+
+// The interlock layer's own time per msg, for the overhead figures.
+timeLayer(EngineRuntime, 'interlock', ['input', 'operate']);
 
 module.exports = { EngineRuntime };
