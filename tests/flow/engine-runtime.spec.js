@@ -1,7 +1,8 @@
 'use strict';
 // An interlock bound to no plant runs on the core's engine
 // (lib/interlock/engine-runtime.js). What the other suites do not reach
-// there: a wasm instance that really traps in a msg is replaced, and the
+// there: a journal attached once the flows run hears the grants of normal
+// work too (not only the abnormal events the alarms keep); a wasm instance that really traps in a msg is replaced, and the
 // interlock comes back from its last saved state on the new one, the msg
 // ending INTERNAL and no exception escaping.
 const assert = require('node:assert/strict');
@@ -16,6 +17,7 @@ helper.init(require.resolve('node-red'));
 
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { EngineRuntime } = require(path.join(PALETTE, 'lib', 'interlock', 'engine-runtime.js'));
+const { journal } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
 
 const runtimeOf = () => helper.getNode('il').runtime;
 const quiet = () => settled(helper, 'il');
@@ -88,5 +90,26 @@ describe('an interlock run by the engine', function () {
     await until(() => out.length === 3, 'the waiter granted once YEL is cleared');
     assert.equal(out[2].interlock.operation, 'yel');
     assert.deepEqual(uncaught, [], 'no uncaught exception');
+  });
+
+  it('a journal attached while it runs hears every event, and one detached stops the normal ones', async function () {
+    await helper.load(paletteNodes, flow());
+    const out = collect(helper, 'out');
+    await until(() => runtimeOf().state === 'ready', 'the interlock');
+    await quiet();
+    const rows = [];
+    const detach = journal.attach({ row: (row) => rows.push(row) });
+    try {
+      helper.getNode('acq').receive({ operation: 'a', resources: 'YEL' });
+      await until(() => out.length === 1, 'the grant');
+      await quiet();
+      assert.deepEqual(rows.filter((r) => r.tags.layer === 'interlock').map((r) => r.tags.kind), ['granted']);
+    } finally {
+      detach();
+    }
+    helper.getNode('acq').receive({ operation: 'b', resources: 'RED' });
+    await until(() => out.length === 2, 'the second grant');
+    await quiet();
+    assert.equal(rows.filter((r) => r.tags.layer === 'interlock').length, 1, 'nothing more once detached');
   });
 });

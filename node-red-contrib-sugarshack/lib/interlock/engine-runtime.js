@@ -81,6 +81,8 @@ class EngineRuntime extends InterlockRuntime {
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
     this.replies = new Map();
     this.failingShown = false;
+    // A journal attached later hears every event too.
+    this.stopJournalWatch = journal.watch(() => this.listenChanged());
     this.counts = { holding: 0, queued: 0, faulted: 0, lost: false };
     this.shown = { holding: 0, queued: 0, faulted: 0, lost: false, status: countsStatus({ holding: 0, queued: 0, faulted: 0, lost: false }) };
   }
@@ -213,6 +215,11 @@ class EngineRuntime extends InterlockRuntime {
     }
     this.carrier.stop();
     this.freeCore();
+  }
+
+  endCommon() {
+    super.endCommon();
+    this.stopJournalWatch();
   }
 
   lifeStep(step) {
@@ -349,8 +356,14 @@ class EngineRuntime extends InterlockRuntime {
     this.listenChanged();
   }
 
+  /** Tells the engine whether its events go anywhere (until the flows run, events nodes may still come). */
   listenChanged() {
-    if (this.state === 'ready') this.call((e, now) => e.listen(this.events.listened(), now));
+    if (this.state !== 'ready') return;
+    try {
+      this.call((e, now) => e.listen(this.events.listened() || !this.flowsRunning(), now));
+    } catch (err) {
+      this.log('error', err.message);
+    }
   }
 
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
