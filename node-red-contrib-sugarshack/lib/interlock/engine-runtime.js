@@ -152,6 +152,7 @@ class EngineRuntime extends InterlockRuntime {
       this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
     }
     this.state = 'ready';
+    this.listenChanged();
     this.refreshStatus();
     this.replayParked();
   }
@@ -185,7 +186,6 @@ class EngineRuntime extends InterlockRuntime {
       // Until the flows run, events nodes may still come: the events of a start go to them.
       if (this.events.listened() || !this.flowsRunning()) e.listen(true, now);
     });
-    if (!this.flowsRunning()) this.palette.whenStarted(() => this.listenChanged());
   }
 
   flowsRunning() {
@@ -281,6 +281,7 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
+    this.listenChanged();
     this.refreshStatus();
   }
 
@@ -311,6 +312,7 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
+    this.listenChanged();
     this.refreshStatus();
   }
 
@@ -359,8 +361,16 @@ class EngineRuntime extends InterlockRuntime {
   /** Tells the engine whether its events go anywhere (until the flows run, events nodes may still come). */
   listenChanged() {
     if (this.state !== 'ready') return;
+    const running = this.flowsRunning();
+    if (!running && !this.listenAgain) {
+      this.listenAgain = true;
+      this.palette.whenStarted(() => {
+        this.listenAgain = false;
+        this.listenChanged();
+      });
+    }
     try {
-      this.call((e, now) => e.listen(this.events.listened() || !this.flowsRunning(), now));
+      this.call((e, now) => e.listen(this.events.listened() || !running, now));
     } catch (err) {
       this.log('error', err.message);
     }
