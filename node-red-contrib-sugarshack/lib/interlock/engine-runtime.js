@@ -129,16 +129,7 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
-    let saved;
-    try {
-      saved = this.store.read();
-    } catch (err) {
-      saved = { kind: 'lost', why: err.message };
-    }
-    if (saved.kind === 'first' && this.persist) {
-      const legacy = await this.legacySnapshot();
-      if (legacy) saved = { kind: 'carried-over', snapshot: legacy };
-    }
+    const saved = await this.readSaved();
     if (this.ended) return;
     try {
       this.guard(() => this.open(saved));
@@ -146,11 +137,7 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
-    try {
-      this.store.markRan();
-    } catch (err) {
-      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
-    }
+    this.markRan();
     this.state = 'ready';
     this.listenChanged();
     this.refreshStatus();
@@ -254,14 +241,7 @@ class EngineRuntime extends InterlockRuntime {
   /** New settings after the drain: a new engine takes the old one's state over (holds, waiting msgs, their deadlines). */
   swap(settings) {
     this.applySettings(settings);
-    try {
-      this.config = this.resolveConfig();
-    } catch (err) {
-      if (this.core) this.freeCore();
-      this.state = 'starting';
-      this.fail(err);
-      return;
-    }
+    if (!this.takeConfig()) return;
     const old = this.core;
     try {
       this.guard(() => {
@@ -299,14 +279,8 @@ class EngineRuntime extends InterlockRuntime {
     this.replies.clear();
     wasm.forget(this.core);
     this.core = null;
-    let saved;
     try {
-      saved = this.store.read();
-    } catch (err) {
-      saved = { kind: 'lost', why: err.message };
-    }
-    try {
-      this.open(saved);
+      this.open(this.readStore());
     } catch (err) {
       this.state = 'starting';
       this.fail(err);
