@@ -444,7 +444,7 @@ pub struct Engine {
     listening: bool,
     shown: Counts,
     saved_routines: serde_json::Map<String, serde_json::Value>,
-    /// When it started: its checks beat on whole seconds from then.
+    /// When it started (or took a state over): its checks beat on whole seconds from then.
     beat: Millis,
     out: Vec<Output>,
 }

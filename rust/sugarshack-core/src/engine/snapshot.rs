@@ -148,6 +148,8 @@ impl Engine {
             Interlock::restore(super::recording(&self.config), &doc.interlock, options, now)?;
         self.interlock = interlock;
         self.update_recording();
+        // Its checks beat from the hand-over, as from a start: a standby and the engine it replaces agree.
+        self.beat = now;
         self.requests.clear();
         self.by_op.clear();
         self.held_back.clear();

@@ -651,6 +651,29 @@ fn elapsed_time_warnings_and_their_alarms_are_deadlines() {
 }
 
 #[test]
+fn a_hand_over_beats_its_checks_from_then() {
+    let mut config = InterlockConfig::with_resources(LINES);
+    config.warn_queued_ms = Some(ms(10_000));
+    let mut b = Bench::with(config);
+    b.acquire(3, 1);
+    b.at(1000).acquire(1, 2);
+    let doc = b.engine.snapshot(ms(2500));
+    let mut standby = Engine::new(b.engine.config().clone(), false).unwrap();
+    standby.hand_over(&doc, ms(2500)).unwrap();
+    b.engine.hand_over(&doc, ms(2500)).unwrap();
+    for engine in [&mut b.engine, &mut standby] {
+        engine.take_outputs();
+        assert_eq!(
+            engine.next_deadline(),
+            Some(ms(11_500)),
+            "op 10 waits long at 11 s: the beat after it counted from 2.5 s"
+        );
+        engine.tick(ms(11_500));
+        assert!(logged(&engine.take_outputs(), Level::Warn, "events.waitedLong"));
+    }
+}
+
+#[test]
 fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
     let mut b = Bench::new();
     b.acquire(3, 1);
