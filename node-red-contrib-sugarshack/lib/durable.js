@@ -205,6 +205,11 @@ class Committer {
     this.writes = 0;
   }
 
+  /** Nothing is written and nothing waits: a change's effects would run at once (`change` and `after` alike). */
+  get idle() {
+    return !this.frozen && !this.store.durable && !this.collects && !this.dirty && !this.writing && this.effects.length === 0;
+  }
+
   /** A state change happened; `effect` runs once it is durable. */
   change(effect, { evenUnsaved = false } = {}) {
     if (this.frozen) return;

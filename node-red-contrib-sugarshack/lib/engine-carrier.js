@@ -19,7 +19,7 @@ const i18n = require('./i18n');
 class EngineCarrier {
   /**
    * @param {object} o
-   * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void }} o.committer
+   * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void, run(effect: () => void): void, readonly idle: boolean }} o.committer
    * @param {(output: any, effect: (action: () => void) => void) => void} [o.other] an output with no msg of its own (an event, an alarm, a log, a node's error); `effect` keeps an action in order
    * @param {(holding: number, queued: number, faulted: number, lost: boolean) => void} [o.counts]
    * @param {() => void} [o.due] the engine is due: its owner calls its tick
@@ -38,6 +38,8 @@ class EngineCarrier {
     this.held = new Map();
     /** @type {Group | null} */
     this.group = null;
+    /** what follows a commit or an after runs as the committer runs effects (an error in it is reported, not thrown) */
+    this.guarded = false;
     /** @type {{ port: number, msgs: any[] } | null} msgs a node sends beside the msg answered next */
     this.extra = null;
   }
@@ -67,6 +69,7 @@ class EngineCarrier {
   /** The last engine call's outputs, performed in order, and its next deadline kept. @param {{ read(visitor: any): void, nextDeadline(): number }} wire */
   perform(wire) {
     this.group = null;
+    this.guarded = false;
     this.extra = null;
     wire.read(this);
     this.closeGroup();
@@ -96,12 +99,15 @@ class EngineCarrier {
   /** @param {boolean} urgent */
   commit(urgent) {
     this.closeGroup();
-    this.group = { urgent, after: false, actions: [] };
+    // Nothing to write and nothing waiting: what follows runs as it comes, with no group to keep.
+    this.group = this.committer.idle ? null : { urgent, after: false, actions: [] };
+    this.guarded = this.group === null;
   }
 
   after() {
     this.closeGroup();
-    this.group = { urgent: false, after: true, actions: [] };
+    this.group = this.committer.idle ? null : { urgent: false, after: true, actions: [] };
+    this.guarded = this.group === null;
   }
 
   closeGroup() {
@@ -117,6 +123,7 @@ class EngineCarrier {
   /** `action` now, or once the state it follows is written. @param {() => void} action */
   effect(action) {
     if (this.group) this.group.actions.push(action);
+    else if (this.guarded) this.committer.run(action);
     else action();
   }
 

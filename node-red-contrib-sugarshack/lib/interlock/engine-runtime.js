@@ -52,13 +52,19 @@ const KINDS = {
   acquire: {
     ports: 1,
     read: (msg) => [msg.operation, msg.priority, msg.resources],
-    call: (e, h, k, [operation, priority, resources], now) => (operation === undefined && priority === undefined && resources === undefined
-      ? e.acquire(h, k, now) : e.acquireNamed(h, k, operation, priority, resources, now)),
+    // The same input three ways: with nothing, with only an operation's text (one string crosses), with anything.
+    call: (e, h, k, [operation, priority, resources], now) => {
+      if (priority !== undefined || resources !== undefined) e.acquireNamed(h, k, operation, priority, resources, now);
+      else if (operation === undefined) e.acquire(h, k, now);
+      else if (typeof operation === 'string') e.acquireOperation(h, k, operation, now);
+      else e.acquireNamed(h, k, operation, priority, resources, now);
+    },
   },
   release: {
     ports: 1,
     read: (msg) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined],
-    call: (e, h, k, [operation, follow], now) => e.release(h, k, operation, follow, now),
+    call: (e, h, k, [operation, follow], now) => (typeof operation === 'string' && follow === undefined
+      ? e.releaseOperation(h, k, operation, now) : e.release(h, k, operation, follow, now)),
   },
   cancel: { ports: 1, read: fieldsOf, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
   fault: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.fault(h, k, fields, now) },

@@ -8,7 +8,7 @@
 // that the visitor does not keep.
 const wasm = require('../wasm');
 
-const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUNTS: 7, NAME: 8, NAMES_RESET: 9 };
+const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUNTS: 7, NAME: 8, NAMES_RESET: 9, ALARM: 10 };
 const SET = { NOTHING: 0, INTERLOCK: 1, OTHER: 2 };
 const decoder = new TextDecoder('utf-8', { ignoreBOM: true });
 
@@ -114,6 +114,22 @@ class Wire {
         case TAG.OTHER: visitor.other(JSON.parse(str(i + 1))); i += 3; break;
         case TAG.NAME: names[w[i + 1]] = str(i + 2); i += 4; break;
         case TAG.NAMES_RESET: names.length = 0; i += 1; break;
+        case TAG.ALARM: {
+          /** @type {any} the change as serde writes it */
+          const change = { id: str(i + 2), action: str(i + 4), from: str(i + 6), to: str(i + 8), atMs: w[i + 1] };
+          let at = i + 10;
+          if (w[at] === 1) {
+            change.by = str(at + 1);
+            at += 3;
+          } else at += 1;
+          if (w[at] === 1) {
+            change.reason = str(at + 1);
+            at += 3;
+          } else at += 1;
+          visitor.other({ kind: 'alarm', change });
+          i = at;
+          break;
+        }
         default: throw new Error(`engine wire: unknown record ${w[i]} at word ${i - at}`);
       }
     }

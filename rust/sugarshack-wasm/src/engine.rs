@@ -176,12 +176,29 @@ fn quoted(value: &JsValue) -> String {
     }
 }
 
+thread_local! {
+    /// Property names as JS strings, each made once: a fault or clear msg reads ten of them.
+    static KEYS: std::cell::RefCell<Vec<(&'static str, JsValue)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// A property of a plain object handed in by the host (read safely).
-fn field(object: &JsValue, key: &str) -> JsValue {
+fn field(object: &JsValue, key: &'static str) -> JsValue {
     if !object.is_object() {
         return JsValue::UNDEFINED;
     }
-    Reflect::get(object, &JsValue::from_str(key)).unwrap_or(JsValue::UNDEFINED)
+    // Not borrowed while a getter runs: it may call into wasm again.
+    let key = KEYS.with(|keys| {
+        let mut keys = keys.borrow_mut();
+        match keys.iter().find(|(name, _)| *name == key) {
+            Some((_, js)) => js.clone(),
+            None => {
+                let js = JsValue::from_str(key);
+                keys.push((key, js.clone()));
+                js
+            }
+        }
+    });
+    Reflect::get(object, &key).unwrap_or(JsValue::UNDEFINED)
 }
 
 fn who_fields(object: &JsValue) -> WhoFields {
@@ -645,6 +662,38 @@ impl Engine {
         }
         .into();
         let input = Input::Acquire {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
+    /// `acquireNamed` for a msg that names only its operation, as text: one string crosses, nothing else.
+    #[wasm_bindgen(js_name = acquireOperation)]
+    pub fn acquire_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
+        let fields = Fields {
+            operation: Raw::Text(operation),
+            ..Fields::default()
+        }
+        .into();
+        let input = Input::Acquire {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
+    /// `release` for a msg that names only its operation, as text (no msg.interlock).
+    #[wasm_bindgen(js_name = releaseOperation)]
+    pub fn release_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
+        let fields = Fields {
+            operation: Raw::Text(operation),
+            ..Fields::default()
+        }
+        .into();
+        let input = Input::Release {
             node: NodeId(node),
             msg: MsgId(msg),
             fields,

@@ -608,13 +608,19 @@ fn a_node_gone_for_good_withdraws_its_requests() {
     assert_eq!(answers(&out), ["done 3"]);
 }
 
-#[test]
-fn elapsed_time_warnings_and_their_alarms_are_deadlines() {
+/// Warnings after 10 s of waiting; op 18 holds YEL, op 10 waits for it from 1 s.
+fn op_10_waiting() -> Bench {
     let mut config = InterlockConfig::with_resources(LINES);
     config.warn_queued_ms = Some(ms(10_000));
     let mut b = Bench::with(config);
     b.acquire(3, 1);
     b.at(1000).acquire(1, 2);
+    b
+}
+
+#[test]
+fn elapsed_time_warnings_and_their_alarms_are_deadlines() {
+    let mut b = op_10_waiting();
     assert_eq!(b.engine.next_deadline(), Some(ms(11_000)));
     b.at(1500).acquire(2, 3);
     assert_eq!(
@@ -652,11 +658,7 @@ fn elapsed_time_warnings_and_their_alarms_are_deadlines() {
 
 #[test]
 fn a_hand_over_beats_its_checks_from_then() {
-    let mut config = InterlockConfig::with_resources(LINES);
-    config.warn_queued_ms = Some(ms(10_000));
-    let mut b = Bench::with(config);
-    b.acquire(3, 1);
-    b.at(1000).acquire(1, 2);
+    let mut b = op_10_waiting();
     let doc = b.engine.snapshot(ms(2500));
     let mut standby = Engine::new(b.engine.config().clone(), false).unwrap();
     standby.hand_over(&doc, ms(2500)).unwrap();
@@ -669,7 +671,11 @@ fn a_hand_over_beats_its_checks_from_then() {
             "op 10 waits long at 11 s: the beat after it counted from 2.5 s"
         );
         engine.tick(ms(11_500));
-        assert!(logged(&engine.take_outputs(), Level::Warn, "events.waitedLong"));
+        assert!(logged(
+            &engine.take_outputs(),
+            Level::Warn,
+            "events.waitedLong"
+        ));
     }
 }
 

@@ -16,6 +16,7 @@
 //! | 7 | counts | holding, queued, faulted, lost (0/1); first in its batch |
 //! | 8 | name | id, text (the string table's entry `id` from now on) |
 //! | 9 | names reset | (every entry is forgotten) |
+//! | 10 | alarm | at ms, id text, action, from and to texts, by and reason (each 0, or 1 and text) |
 //!
 //! A text field is two words: its start and length in UTF-16 units of the
 //! batch's text (which the host decodes once). The alternative, the whole
@@ -51,6 +52,8 @@ pub mod tag {
     pub const NAME: f64 = 8.0;
     /// The string table starts again.
     pub const NAMES_RESET: f64 = 9.0;
+    /// `Output::Alarm` (its change in words: the host reads no JSON for it).
+    pub const ALARM: f64 = 10.0;
 }
 
 /// What is set on a sent msg.
@@ -76,6 +79,8 @@ pub struct Wire {
     /// an address is never another text's): a name the engine keeps crosses
     /// once; the same text from another msg may get an entry of its own.
     names: FxMap<usize, (Arc<str>, u32)>,
+    /// Where a JSON field is written before it joins the text (kept: no allocation per field).
+    scratch: Vec<u8>,
 }
 
 impl Wire {
@@ -177,6 +182,15 @@ impl Wire {
                     }
                 }
             }
+            Output::Alarm { change } => {
+                self.push(&[tag::ALARM, change.at_ms.as_f64()]);
+                self.text_field(&change.id);
+                self.enum_field(&change.action);
+                self.enum_field(&change.from);
+                self.enum_field(&change.to);
+                self.optional_text(change.by.as_deref());
+                self.optional_text(change.reason.as_deref());
+            }
             Output::Counts(c) => self.push(&[
                 tag::COUNTS,
                 c.holding as f64,
@@ -212,16 +226,44 @@ impl Wire {
     }
 
     fn text_field(&mut self, text: &str) {
-        let units = text.encode_utf16().count();
+        // Most text is ASCII (names, JSON of plain fields): one unit a byte, counted at once.
+        let units = if text.is_ascii() {
+            text.len()
+        } else {
+            text.encode_utf16().count()
+        };
         self.words.push(self.text_units as f64);
         self.words.push(units as f64);
         self.text.push_str(text);
         self.text_units += units;
     }
 
+    fn optional_text(&mut self, text: Option<&str>) {
+        match text {
+            None => self.words.push(0.0),
+            Some(text) => {
+                self.words.push(1.0);
+                self.text_field(text);
+            }
+        }
+    }
+
+    /// A unit variant's name as serde writes it (a JSON string, without its quotes).
+    fn enum_field<T: serde::Serialize>(&mut self, value: &T) {
+        let mut json = std::mem::take(&mut self.scratch);
+        json.clear();
+        serde_json::to_writer(&mut json, value).expect("plain data");
+        let text = std::str::from_utf8(&json).expect("serde_json writes UTF-8");
+        self.text_field(text.trim_matches('"'));
+        self.scratch = json;
+    }
+
     fn json_field<T: serde::Serialize + ?Sized>(&mut self, value: &T) {
-        let json = serde_json::to_string(value).expect("plain data");
-        self.text_field(&json);
+        let mut json = std::mem::take(&mut self.scratch);
+        json.clear();
+        serde_json::to_writer(&mut json, value).expect("plain data");
+        self.text_field(std::str::from_utf8(&json).expect("serde_json writes UTF-8"));
+        self.scratch = json;
     }
 }
 
@@ -359,6 +401,45 @@ mod tests {
         );
         assert_eq!(wire.text(), json);
         assert_eq!(Wire::json(std::slice::from_ref(&log)), format!("[{json}]"));
+    }
+
+    #[test]
+    fn an_alarm_change_crosses_in_words_and_its_texts() {
+        use crate::alarm::{AlarmAction, AlarmChange, AlarmState};
+        let change = |by: Option<&str>| Output::Alarm {
+            change: Box::new(AlarmChange {
+                id: "line-faulted:RÉD".into(),
+                action: AlarmAction::ShelfExpired,
+                from: AlarmState::ActiveUnacked,
+                to: AlarmState::Normal,
+                at_ms: ms(1500),
+                by: by.map(str::to_owned),
+                reason: None,
+            }),
+        };
+        let mut wire = Wire::new();
+        wire.encode(&[change(None)]);
+        let id = "line-faulted:RÉD".encode_utf16().count() as f64;
+        let words = [
+            tag::ALARM,
+            1500.0,
+            0.0,
+            id,
+            id,
+            13.0,
+            id + 13.0,
+            21.0,
+            id + 34.0,
+            6.0,
+        ];
+        assert_eq!(wire.words(), [&words[..], &[0.0, 0.0]].concat());
+        assert_eq!(
+            wire.text(),
+            "line-faulted:RÉDshelf-expiredactive-unacknowledgednormal"
+        );
+        wire.encode(&[change(Some("ann"))]);
+        assert_eq!(wire.words()[10..], [1.0, id + 40.0, 3.0, 0.0]);
+        assert!(wire.text().ends_with("normalann"));
     }
 
     #[test]
