@@ -13,7 +13,8 @@
 const path = require('path');
 const { median } = require('./verdict');
 
-const PALETTE = path.resolve(__dirname, '../../node-red-contrib-sugarshack');
+// SUGARSHACK_PALETTE: another build of the palette, to compare two in one sitting.
+const PALETTE = process.env.SUGARSHACK_PALETTE || path.resolve(__dirname, '../../node-red-contrib-sugarshack');
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { Wire } = require(path.join(PALETTE, 'lib', 'wasm', 'wire.js'));
 
