@@ -12,6 +12,18 @@ const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUN
 const SET = { NOTHING: 0, INTERLOCK: 1, OTHER: 2 };
 const decoder = new TextDecoder('utf-8', { ignoreBOM: true });
 
+/** UTF-8 bytes as text; a short ASCII run (a name) is read byte by byte, cheaper than a decoder call. @param {Uint8Array} bytes @param {number} at @param {number} length */
+function textAt(bytes, at, length) {
+  if (length > 32) return decoder.decode(bytes.subarray(at, at + length));
+  let text = '';
+  for (let i = at; i < at + length; i++) {
+    const b = bytes[i];
+    if (b >= 0x80) return decoder.decode(bytes.subarray(at, at + length));
+    text += String.fromCharCode(b);
+  }
+  return text;
+}
+
 /**
  * What a batch's outputs go to, in order.
  * @typedef {{
@@ -63,7 +75,7 @@ class Wire {
     if (this.buffer.byteLength === 0) this.refresh(); // detached: memory grew
     const h = /** @type {Float64Array} */ (this.header);
     const textLen = h[3];
-    const text = textLen > 0 ? decoder.decode(this.bytes.subarray(h[2], h[2] + textLen)) : '';
+    const text = textLen > 0 ? textAt(this.bytes, h[2], textLen) : '';
     const words = h[1];
     // Read once: a batch read again would repeat its sends.
     h[1] = 0;

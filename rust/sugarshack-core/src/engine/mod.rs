@@ -1060,8 +1060,12 @@ impl Engine {
         let follow_value = if follow { &fields.follow } else { &Raw::Absent };
         let name = operation_of(&fields.operation, &n.spec.operation, follow_value)?;
         let configured = !fields.operation.present() && n.spec.operation.present();
-        let name: Arc<str> = name.into();
         let op = self.interlock.operation(&name);
+        // The interlock's text: the same name from every msg is one text, which the wire sends once.
+        let name: Arc<str> = self
+            .interlock
+            .shared_operation_name(op)
+            .unwrap_or_else(|| name.into());
         if configured {
             let epoch = self.interlock.forgettings();
             if let Some(n) = self.nodes.get_mut(&node) {
@@ -1087,7 +1091,14 @@ impl Engine {
         }
         let names = resources_of(&fields.resources, &n.spec.resources)?;
         let set = self.interlock.resource_set(&names)?;
-        let names: Names = names.into_iter().map(Arc::from).collect();
+        let names: Names = names
+            .into_iter()
+            .map(|n| {
+                self.interlock
+                    .shared_line_name(&n)
+                    .unwrap_or_else(|| Arc::from(n))
+            })
+            .collect();
         if !fields.resources.present() {
             if let Some(n) = self.nodes.get_mut(&node) {
                 n.set = Some((set.clone(), names.clone()));

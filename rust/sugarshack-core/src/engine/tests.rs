@@ -877,3 +877,37 @@ fn a_one_shot_shelf_ends_when_its_condition_ends() {
         .list()
         .any(|a| a.id == "waiting-long:10" && a.shelved.as_ref().is_some_and(|s| s.one_shot)));
 }
+
+#[test]
+fn a_name_msgs_repeat_crosses_the_wire_once() {
+    let mut b = Bench::new();
+    let mut wire = wire::Wire::new();
+    let named = |msg| Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(msg),
+        fields: Fields {
+            operation: text("boil"),
+            resources: text("YEL, RED"),
+            ..Fields::default()
+        }
+        .into(),
+    };
+    let out = b.run(named(1));
+    wire.encode(&out);
+    let announced = |wire: &wire::Wire| {
+        wire.words()
+            .iter()
+            .filter(|w| **w == wire::tag::NAME)
+            .count()
+    };
+    assert_eq!(announced(&wire), 3, "boil, YEL and RED");
+    b.release(2, "boil");
+    let out = b.run(named(3));
+    assert_eq!(granted_interlock(&out, 3).0, "boil");
+    wire.encode(&out);
+    assert_eq!(
+        announced(&wire),
+        0,
+        "the second msg's names are numbers only"
+    );
+}

@@ -266,7 +266,8 @@ enum OpState {
 
 #[derive(Clone, Debug)]
 struct Operation {
-    name: String,
+    /// Shared with whoever names the operation (the engine's requests, its wire's table).
+    name: Arc<str>,
     state: OpState,
     generation: u32,
     /// False once forgotten, until the slot is reused.
@@ -278,6 +279,8 @@ struct Operation {
 pub struct Interlock {
     config: InterlockConfig,
     resource_index: HashMap<String, ResourceId>,
+    /// Each line's name, shared with whoever names it (the engine's requests, its wire's table).
+    line_names: Vec<Arc<str>>,
     owners: Vec<Owner>,
     /// Per resource, the requests that need it, in grant order.
     waiters: Vec<BTreeSet<QueueKey>>,
@@ -321,9 +324,15 @@ impl Interlock {
             .enumerate()
             .map(|(i, r)| (r.name.clone(), ResourceId(i as u32)))
             .collect();
+        let line_names = config
+            .resources
+            .iter()
+            .map(|r| Arc::from(r.name.as_str()))
+            .collect();
         Ok(Interlock {
             config,
             resource_index,
+            line_names,
             owners: vec![Owner::Free; count],
             waiters: vec![BTreeSet::new(); count],
             queue: BTreeSet::new(),
@@ -365,7 +374,7 @@ impl Interlock {
         let id = match self.free_slots.pop() {
             Some(index) => {
                 let slot = &mut self.operations[index as usize];
-                slot.name = name.to_owned();
+                slot.name = Arc::from(name);
                 slot.known = true;
                 OpId {
                     index,
@@ -374,7 +383,7 @@ impl Interlock {
             }
             None => {
                 self.operations.push(Operation {
-                    name: name.to_owned(),
+                    name: Arc::from(name),
                     state: OpState::Idle,
                     generation: 0,
                     known: true,
@@ -423,8 +432,8 @@ impl Interlock {
             if !slot.known || !matches!(slot.state, OpState::Idle) || named.contains(&id) {
                 continue;
             }
-            self.operation_index.remove(&slot.name);
-            slot.name = String::new();
+            self.operation_index.remove(&*slot.name);
+            slot.name = Arc::from("");
             slot.known = false;
             slot.generation = (slot.generation + 1) & GENERATION_MASK;
             self.free_slots.push(index as u32);
@@ -447,7 +456,18 @@ impl Interlock {
 
     /// The name of the operation with handle `id`.
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
-        self.slot(id).map(|op| op.name.as_str())
+        self.slot(id).map(|op| &*op.name)
+    }
+
+    /// [`Interlock::operation_name`], shared: one text however many requests name it.
+    pub fn shared_operation_name(&self, id: OpId) -> Option<Arc<str>> {
+        self.slot(id).map(|op| op.name.clone())
+    }
+
+    /// The line `name`'s name as the interlock keeps it, shared.
+    pub fn shared_line_name(&self, name: &str) -> Option<Arc<str>> {
+        let id = self.resource_index.get(name)?;
+        self.line_names.get(id.index()).cloned()
     }
 
     /// The handle of the line `name`.

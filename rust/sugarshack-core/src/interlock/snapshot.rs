@@ -347,7 +347,7 @@ impl Interlock {
             .iter()
             .filter_map(|op| match &op.state {
                 OpState::Holding(hold) => Some(RequestSnapshot {
-                    operation: op.name.clone(),
+                    operation: op.name.to_string(),
                     priority: hold.priority,
                     resources: self.names(&hold.resources),
                     since_ms: hold.since_ms,
