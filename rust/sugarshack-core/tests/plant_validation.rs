@@ -320,7 +320,7 @@ fn a_document_that_cannot_be_read_names_the_entry() {
         ),
         (
             |d| d["operations"][0]["steps"][0]["sensors"] = json!(["LT-2"]),
-            "operations[0].steps[0]: unknown field `sensors`, expected `command` or `timeoutMs`",
+            "operations[0].steps[0]: unknown field `sensors`, expected one of `command`, `timeoutMs`, `restart`",
         ),
         (
             |d| d["operations"][0]["steps"][1] = json!({ "timeoutMs": 1000 }),

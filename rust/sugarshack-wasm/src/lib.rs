@@ -16,7 +16,9 @@ mod routine;
 mod tracker;
 
 pub use alarm::Alarms;
-pub use contract::{abnormal_event_kinds, codes, max_status_chars, routine_reset_topic};
+pub use contract::{
+    abnormal_event_kinds, codes, max_status_chars, operator_commands, routine_reset_topic,
+};
 pub use control::{
     open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,
 };
