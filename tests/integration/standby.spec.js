@@ -11,7 +11,9 @@
 //
 // Run: npx mocha --timeout 30000 --exit tests/integration/standby.spec.js
 const assert = require('node:assert/strict');
+const path = require('path');
 const { Etcd3 } = require('etcd3');
+const { readJournal } = require('../../node-red-contrib-sugarshack/lib/journal/files');
 const { startEtcd } = require('./support/etcd');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
@@ -21,6 +23,7 @@ const { StandbyPair } = require('./support/standby');
 const { PLANT_FILE, OPERATIONS, lockoutSeen: lockoutSeenAmong } = require('./support/routines-flow');
 
 const TTL_S = 2;
+const journalOf = (red) => readJournal(path.join(red.dir, 'journal'));
 
 describe('hot standby: two real Node-RED processes on a real etcd, the leader killed', function () {
   this.timeout(240000);
@@ -86,6 +89,10 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     const before = events(since);
     assert.ok(before.every((e) => e.instance === leader.instance && e.token === token), `every event from ${leader.instance} under token ${token}: ${JSON.stringify(before)}`);
     assert.equal(before.filter((e) => e.kind === 'granted' && e.operation === op.id).length, 1, 'granted once, not by both');
+
+    // Only the leader keeps the journal: the standby hears the same feedback and writes none of it.
+    await waitFor(() => journalOf(leader).some((r) => r.table === 'sugarshack_event' && r.tags.kind === 'granted'), 'the grant in the leader\'s journal');
+    assert.deepEqual(journalOf(standby), [], 'the standby journals nothing');
 
     // Before the pid's stale watch (3 s) could send again, a standby's copy of the step would have come long ago.
     const steps = probe.on('test/pid/out').filter((m) => m.at - firstStep.at < 2500);
