@@ -31,10 +31,18 @@ function paletteApi(RED) {
     const il = readyInterlock(palette, interlockId);
     return il && il.plant && il.plant.state === 'ready' ? il.plant : null;
   };
+  /** Why interlock `id` does not run here: on a hot standby, which instance acts instead. */
+  const noInterlock = (id) => {
+    const shown = String(id).slice(0, 100);
+    const runtime = palette.runtimes.get(String(id || ''));
+    const cluster = runtime && runtime.state === 'standby' ? runtime.cluster : null;
+    if (cluster) return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: shown, active: cluster.leader ? cluster.leader.instance : '?' });
+    return SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: shown });
+  };
   /** The running interlock, or a refusal as the admin endpoints give it. */
   const interlock = (id) => {
     const il = readyInterlock(palette, id);
-    if (!il) return Promise.reject(SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: String(id).slice(0, 100) }));
+    if (!il) return Promise.reject(noInterlock(id));
     return Promise.resolve(il);
   };
 
