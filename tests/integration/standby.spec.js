@@ -106,9 +106,10 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     assert.equal(lines.RED, 'faulted:manual', 'the e-stop stays latched');
     for (const line of op.lines) assert.ok(lines[line].startsWith('faulted'), `${line}, granted to ${op.id} before the kill, comes back faulted: ${lines[line]}`);
     for (const line of ['RED', ...op.lines]) await waitFor(() => lockoutSeen(line, killedAt), `the lockout of ${line} sent again by the new leader`, 20000);
-    const after = events(killedAt);
     const nextToken = (await pair.clusterOf(next)).token;
     assert.ok(Number(nextToken) > Number(token), 'a newer fencing token');
+    await waitFor(() => events(killedAt).some((e) => e.token === nextToken), 'the new leader\'s first event');
+    const after = events(killedAt);
     // What the old leader published just before its kill may arrive just after; from the new leader's first event on, only it acts.
     const fromNew = after.slice(after.findIndex((e) => e.token === nextToken));
     assert.ok(fromNew.length > 0 && fromNew.every((e) => e.instance === next.instance && e.token === nextToken), `only the new leader acts: ${JSON.stringify(after.map((e) => [e.instance, e.token, e.kind]))}`);
