@@ -13,12 +13,11 @@
 // Everything is named by the interlock config node's id; its plant is the one
 // it is bound to. Handles (actuators, devices, sensors) are positions in the
 // plant's lists, valid until a change says `rebuilt`.
-const { paletteOf, readyInterlock } = require('./lifecycle');
+const { paletteOf, readyInterlock, notRunningInterlock } = require('./lifecycle');
 const { clock } = require('./clock');
 const operator = require('./operator');
 const wasm = require('./wasm');
 const { SignIn } = require('./sign-in');
-const { SugarshackError } = require('./errors');
 
 const VERSION = 1;
 
@@ -31,18 +30,10 @@ function paletteApi(RED) {
     const il = readyInterlock(palette, interlockId);
     return il && il.plant && il.plant.state === 'ready' ? il.plant : null;
   };
-  /** Why interlock `id` does not run here: on a hot standby, which instance acts instead. */
-  const noInterlock = (id) => {
-    const shown = String(id).slice(0, 100);
-    const runtime = palette.runtimes.get(String(id || ''));
-    const cluster = runtime && runtime.state === 'standby' ? runtime.cluster : null;
-    if (cluster) return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: shown, active: cluster.leader ? cluster.leader.instance : '?' });
-    return SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: shown });
-  };
   /** The running interlock, or a refusal as the admin endpoints give it. */
   const interlock = (id) => {
     const il = readyInterlock(palette, id);
-    if (!il) return Promise.reject(noInterlock(id));
+    if (!il) return Promise.reject(notRunningInterlock(palette, id));
     return Promise.resolve(il);
   };
 

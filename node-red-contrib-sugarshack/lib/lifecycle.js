@@ -197,7 +197,8 @@ function serveState(RED, palette) {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
     const runtime = readyInterlock(palette, body.interlock);
     if (!runtime) {
-      res.status(404).json({ code: 'NO_INTERLOCK', message: text('errors.noRunningInterlock', { id: String(body.interlock).slice(0, 100) }) });
+      const err = notRunningInterlock(palette, body.interlock);
+      res.status(404).json({ code: err.code, message: err.message });
       return;
     }
     const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
@@ -230,6 +231,15 @@ function serveState(RED, palette) {
 function readyInterlock(palette, id) {
   const runtime = palette.runtimes.get(String(id || ''));
   return runtime && runtime.kind !== 'plant' && runtime.state === 'ready' ? runtime : null;
+}
+
+/** Why interlock `id` does not run here (readyInterlock gave null): on a hot standby, which instance acts instead. */
+function notRunningInterlock(palette, id) {
+  const shown = String(id).slice(0, 100);
+  const runtime = palette.runtimes.get(String(id || ''));
+  const cluster = runtime && runtime.state === 'standby' ? runtime.cluster : null;
+  if (cluster) return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: shown, active: cluster.leader ? cluster.leader.instance : '?' });
+  return SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: shown });
 }
 
 const MAX_ALARM_ID = 300;
@@ -293,4 +303,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, readyInterlock, alarmIdOf, alarmIdsOf, shelfEndOf };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, readyInterlock, notRunningInterlock, alarmIdOf, alarmIdsOf, shelfEndOf };
