@@ -15,6 +15,8 @@
 #   layers         per-layer overhead p99 on the case-study plant, GC pauses apart (scripts/measure.js)
 #   plant load     CPU and memory of Node-RED on the simulated case-study plant
 #   scaling        1x, 10x, 100x (and --full: 95,200 I/O) end to end on Mosquitto
+#   OPC UA         the OPC UA server's CPU and memory, every value subscribed (--full: and at 95,200 I/O)
+#   standby        hot standby on a real etcd: commit cost, grants/s through the nodes, failover times
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -58,11 +60,15 @@ if [ "$full" = 1 ]; then
   run layers node scripts/measure.js --minutes 10
   run "plant load" node tests/bench/plant-load.js
   run scaling node tests/bench/scaling.js --full
+  run "OPC UA" node tests/bench/opcua-load.js
 else
   run layers node scripts/measure.js --minutes 1 --speed 4 --warmup-s 10 --fault-every-min 0.5
   run "plant load" node tests/bench/plant-load.js --quick
   run scaling node tests/bench/scaling.js
+  run "OPC UA" node tests/bench/opcua-load.js --quick --skip-large
 fi
+
+run standby node tests/bench/standby-bench.js "${quick[@]}"
 
 echo
 echo "== every target (load average $(cut -d' ' -f1-3 /proc/loadavg) at the end)"

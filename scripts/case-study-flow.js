@@ -14,10 +14,37 @@ const ROOT = path.resolve(__dirname, '..');
 const PLANT_FILE = path.join(ROOT, 'flows', 'plant.json');
 const OUT_FILE = path.join(ROOT, 'flows', 'case-study.json');
 
-/** A stable 16-hex node id per name, so regenerating changes only what changed. */
-const nid = (name) => crypto.createHash('sha1').update(`case-study:${name}`).digest('hex').slice(0, 16);
+/** A stable 16-hex node id per name in namespace `ns`, so regenerating changes only what changed. */
+const idsIn = (ns) => (name) => crypto.createHash('sha1').update(`${ns}:${name}`).digest('hex').slice(0, 16);
+const nid = idsIn('case-study');
 
-function build(plant) {
+/** What the case study's flows say and do beyond what the plant document gives (`build`'s options). */
+const CASE_STUDY = {
+  ns: 'case-study',
+  tabs: {
+    plant: ['Sugar shack', 'The case-study plant: field bus, interlock, routines. Built from flows/plant.json by scripts/case-study-flow.js.'],
+    ops: ['Operations (manual)', 'Start any of the 16 operations by hand. An operation already running (for example under its routine) refuses a second start (C1).'],
+    faults: ['Faults and clearing', 'Inject faults into the simulator, watch the line lock out, clear it.'],
+  },
+  faults: [
+    ['stuck V101 (YEL)', { fault: 'stuck', actuator: 'V101' }],
+    ['stuck V501 (RED)', { fault: 'stuck', actuator: 'V501' }],
+    ['station-3 dead (sensors stale)', { fault: 'dead', device: 'station-3' }],
+    ['clear simulator faults', { fault: 'clear' }],
+  ],
+  opsComment: 'Start an operation by hand (priority and lines as in Fig. 8)',
+  // The truck routine runs op 10 at start-up: the walkthrough runs it again by hand once its line is cleared.
+  faultOp: '10',
+  busTopics: null,
+};
+
+/**
+ * The flows of `plant`: `options` as CASE_STUDY (ids in `ns`, tab labels and
+ * infos, the title over the manual operations, the simulator faults offered, the operation run by hand on the faults
+ * tab, the field bus's mqtt in topics: null for the case study's ESPHome ones).
+ */
+function build(plant, options = CASE_STUDY) {
+  const nid = idsIn(options.ns);
   const nodes = [];
   const TABS = { plant: nid('tab:plant'), ops: nid('tab:operations'), faults: nid('tab:faults') };
   const add = (node) => {
@@ -36,11 +63,10 @@ function build(plant) {
     payloadType: props.payloadType || 'str', x, y, wires: [[wire]],
   });
 
-  nodes.push(
-    { id: TABS.plant, type: 'tab', label: 'Sugar shack', disabled: false, info: 'The case-study plant: field bus, interlock, routines. Built from flows/plant.json by scripts/case-study-flow.js.' },
-    { id: TABS.ops, type: 'tab', label: 'Operations (manual)', disabled: false, info: 'Start any of the 16 operations by hand. An operation already running (for example under its routine) refuses a second start (C1).' },
-    { id: TABS.faults, type: 'tab', label: 'Faults and clearing', disabled: false, info: 'Inject faults into the simulator, watch the line lock out, clear it.' },
-  );
+  for (const key of ['plant', 'ops', 'faults']) {
+    const [label, info] = options.tabs[key];
+    nodes.push({ id: TABS[key], type: 'tab', label, disabled: false, info });
+  }
 
   const broker = add({
     id: nid('broker'), type: 'mqtt-broker', name: 'plant broker', broker: '127.0.0.1', port: '1883', clientid: '',
@@ -59,11 +85,14 @@ function build(plant) {
   // ---- field bus -------------------------------------------------------------
   const z = TABS.plant;
   const esphome = plant.devices.some((d) => d.profile === 'esphome');
-  comment(z, 'Field bus: every device topic into the actuators node, its commands out', esphome
-    ? 'ESPHome devices (stock MQTT): valves publish `<dev>/valve/<id>/position/state`, pumps `<dev>/switch/<id>/state`, stations `<dev>/sensor/<name>/state`, on change, without a timestamp; availability on `<dev>/status`. The actuators node reads them by the plant document\'s device profiles, tracks every actuator and keeps the live sensor values for conditions.'
-    : 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
+  comment(z, 'Field bus: every device topic into the actuators node, its commands out', options.busTopics
+    ? 'Each device\'s topics (under its prefix, the device id unless the plant document gives one) into the actuators node, which reads them by the device\'s profile in the plant document, tracks every actuator and keeps the live sensor values for conditions; its first output carries the device commands to *mqtt out*.'
+    : esphome
+      ? 'ESPHome devices (stock MQTT): valves publish `<dev>/valve/<id>/position/state`, pumps `<dev>/switch/<id>/state`, stations `<dev>/sensor/<name>/state`, on change, without a timestamp; availability on `<dev>/status`. The actuators node reads them by the plant document\'s device profiles, tracks every actuator and keeps the live sensor values for conditions.'
+      : 'Panels publish `<dev>/state` batches, stations `<dev>/sensor/<name>/state`; both carry the device timestamp. The actuators node tracks every actuator and keeps the live sensor values for conditions.', 230, 40);
   const bus = add({ id: nid('actuators'), type: 'sugarshack-actuators', z, name: 'all devices', plant: plantNode.id, devices: '', broker: nid('broker'), x: 520, y: 120, wires: [[nid('mqtt-out')], [], [nid('debug:actuator-events')]] });
-  const topics = esphome ? ['+/status', '+/valve/+/position/state', '+/switch/+/state', '+/sensor/+/state'] : ['+/state', '+/status', '+/sensor/+/state'];
+  const topics = options.busTopics
+    || (esphome ? ['+/status', '+/valve/+/position/state', '+/switch/+/state', '+/sensor/+/state'] : ['+/state', '+/status', '+/sensor/+/state']);
   topics.forEach((topic, i) => add({
     id: nid(`mqtt-in:${topic}`), type: 'mqtt in', z, name: '', topic, qos: '1', datatype: 'auto-detect', broker: broker.id,
     nl: false, rap: true, rh: 0, inputs: 0, x: 170, y: 80 + 40 * i, wires: [[bus.id]],
@@ -92,7 +121,7 @@ function build(plant) {
 
   // ---- manual operations ------------------------------------------------------
   const o = TABS.ops;
-  comment(o, 'Start an operation by hand (priority and lines as in Fig. 8)', '', 250, 40);
+  comment(o, options.opsComment, '', 250, 40);
   (plant.operations || []).forEach((op, i) => {
     const oy = 100 + i * 50;
     const node = add({ id: nid(`operation:${op.id}`), type: 'sugarshack-operation', z: o, name: '', interlock: interlock.id, operation: op.id, x: 520, y: oy, wires: [[nid('debug:manual-ops')]] });
@@ -106,19 +135,18 @@ function build(plant) {
   const f = TABS.faults;
   comment(f, '1. Inject a fault into the simulator', 'The simulator listens on sim/control (scripts/simulator/README.md). A stuck valve makes the next command to it fail: the operation faults, its lines lock out, the other lines go on.', 230, 40);
   const sim = add({ id: nid('sim-control'), type: 'mqtt out', z: f, name: 'sim/control', topic: 'sim/control', qos: '1', retain: 'false', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker: broker.id, x: 560, y: 140, wires: [] });
-  const faults = [
-    ['stuck V101 (YEL)', { fault: 'stuck', actuator: 'V101' }],
-    ['stuck V501 (RED)', { fault: 'stuck', actuator: 'V501' }],
-    ['station-3 dead (sensors stale)', { fault: 'dead', device: 'station-3' }],
-    ['clear simulator faults', { fault: 'clear' }],
-  ];
-  faults.forEach(([name, payload], i) => inject(f, `fault:${name}`, name, { payload: JSON.stringify(payload), payloadType: 'json' }, 250, 100 + i * 40, sim.id));
-  // Op 10 (load truck) moves V101 first: run it now rather than wait for the truck routine to.
-  const op10 = (plant.operations || []).find((op) => op.id === '10');
-  if (op10) {
-    add({ id: nid('fault-op:10'), type: 'sugarshack-operation', z: f, name: 'op 10 (moves V101)', interlock: interlock.id, operation: '10', x: 560, y: 320, wires: [[nid('debug:fault-op')]] });
-    inject(f, 'fault-op:10', 'run op 10 now', {}, 250, 320, nid('fault-op:10'));
-    debug(f, 'fault-op', 'op 10 done', 780, 320, true, 'payload');
+  options.faults.forEach(([name, payload], i) => inject(f, `fault:${name}`, name, { payload: JSON.stringify(payload), payloadType: 'json' }, 250, 100 + i * 40, sim.id));
+  // The operation that moves the first stuck valve, to run now rather than wait for its routine to.
+  const faultOp = (plant.operations || []).find((op) => op.id === options.faultOp);
+  if (faultOp) {
+    const valve = options.faults[0][1].actuator;
+    const id = nid(`fault-op:${faultOp.id}`);
+    add({ id, type: 'sugarshack-operation', z: f, name: `op ${faultOp.id} (moves ${valve})`, interlock: interlock.id, operation: faultOp.id, x: 560, y: 320, wires: [[nid('debug:fault-op')]] });
+    inject(f, `fault-op:${faultOp.id}`, `run op ${faultOp.id} now`, {}, 250, 320, id);
+    debug(f, 'fault-op', `op ${faultOp.id} done`, 780, 320, true, 'payload');
+    // Its fault (the point of running it) shows here, not as an uncaught error in the log.
+    add({ id: nid('catch:faults'), type: 'catch', z: f, name: '', scope: null, uncaught: false, x: 560, y: 360, wires: [[nid('debug:fault-op-faults')]] });
+    debug(f, 'fault-op-faults', 'faults and refusals', 790, 360, true, 'error.message');
   }
   add({ id: nid('sim-result'), type: 'mqtt in', z: f, name: '', topic: 'sim/control/result', qos: '1', datatype: 'auto-detect', broker: broker.id, nl: false, rap: true, rh: 0, inputs: 0, x: 210, y: 280, wires: [[nid('debug:sim-result')]] });
   debug(f, 'sim-result', 'simulator replies', 480, 280, true);
@@ -149,4 +177,4 @@ function main() {
 
 if (require.main === module) main();
 
-module.exports = { build, nid };
+module.exports = { build, nid, idsIn, CASE_STUDY };

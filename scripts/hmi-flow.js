@@ -3,7 +3,8 @@
 // - flows/hmi.json: npm start's HMI at /dashboard, on flows/case-study.json's
 //   interlock and plant;
 // - node-red-contrib-sugarshack/examples/hmi-dashboard.json: the same HMI with
-//   its own plant, interlock and broker, for users to import.
+//   the case study's plant, interlock and broker nodes and a field bus, for
+//   users to import (into npm start's flows, or alone).
 // Both are built only from the palette's plant state node, interlock events,
 // fault, clear and group command nodes. The line table and the alarm list are
 // two subflows ("sugarshack lines panel", "sugarshack alarms panel") a user can
@@ -90,6 +91,7 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
   const waits = id(); const toPoint = id(); const chart = id();
   const tick = id(); const statsOf = id(); const tFigures = id();
   const sf = panels(id);
+  const plantOf = id();
   const group = (gid, name, page, width, order) => ({ id: gid, type: 'ui-group', name, page, width: String(width), height: '1', order, showTitle: true, className: '', visible: 'true', disabled: 'false', groupType: 'default' });
   const comment = (name, x, y) => ({ id: id(), type: 'comment', z: TAB, name, info: '', x, y, wires: [] });
   return [
@@ -117,8 +119,9 @@ function hmi({ prefix, interlock, plant, tabLabel, info, extra = () => [] }) {
     { id: alarmsPanel, type: `subflow:${sf.alarms}`, z: TAB, name: 'alarms', env: [{ name: 'GROUP', type: 'conf-type', value: gAlarms }, { name: 'INTERLOCK', type: 'str', value: interlock }, { name: 'SHELVE_MINUTES', type: 'num', value: '60' }], x: 160, y: 180, wires: [] },
 
     comment('Tanks, sensors, device health and unconfirmed lockouts, from the plant state', 300, 240),
-    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalS: 1, x: 150, y: 280, wires: [[tPlant]] },
-    template({ id: tPlant, z: TAB, group: gPlant, name: 'plant', format: PLANT_VUE, order: 1, width: 12, x: 340, y: 280, wires: [[]] }),
+    { id: state, type: 'sugarshack-state', z: TAB, name: 'plant state', onChange: true, intervalS: 1, x: 150, y: 280, wires: [[plantOf]] },
+    { id: plantOf, type: 'change', z: TAB, name: 'which plant', rules: [{ t: 'set', p: 'panel', pt: 'msg', to: JSON.stringify({ plant }), tot: 'json' }], x: 330, y: 280, wires: [[tPlant]] },
+    template({ id: tPlant, z: TAB, group: gPlant, name: 'plant', format: PLANT_VUE, order: 1, width: 12, x: 510, y: 280, wires: [[]] }),
 
     comment('Timing page: a grant\'s queue wait per line set (Figs. 13-15), from the interlock events', 300, 340),
     { id: events, type: 'sugarshack-interlock-events', z: TAB, name: '', interlock, x: 170, y: 380, wires: [[waits]] },
@@ -144,28 +147,31 @@ const HMI_INFO = 'The operator\'s window at /dashboard: the plant page (lines by
 
 const npmStart = () => hmi({ prefix: 'd5a0b0a00000', interlock: CASE_INTERLOCK, plant: CASE_PLANT, tabLabel: 'HMI (dashboard)', info: HMI_INFO });
 
-/** The example: the same HMI on a plant, interlock and broker of its own (the case-study plant on a local broker). */
+/**
+ * The example: npm start's HMI, ids and all, with the case study's plant,
+ * interlock and broker nodes as flows/case-study.json has them (same ids) and a
+ * field bus of its own. Imported into npm start's flows, the editor reuses
+ * those config nodes (its "Import copy" keeps a config node whose id exists),
+ * so it draws the plant npm start runs and adds no second interlock over its
+ * valves; alone, it brings them.
+ */
 function example() {
-  const casePlant = CASE_STUDY.find((n) => n.id === CASE_PLANT);
-  const caseInterlock = CASE_STUDY.find((n) => n.id === CASE_INTERLOCK);
-  const plant = 'e5a0b0a00000f001';
-  const interlock = 'e5a0b0a00000f002';
+  const configs = CASE_STUDY.filter((n) => !n.z && n.type !== 'tab');
+  const broker = configs.find((n) => n.type === 'mqtt-broker').id;
   return hmi({
-    prefix: 'e5a0b0a00000', tabLabel: 'sugarshack HMI (dashboard)',
-    info: `${HMI_INFO}\n\nNeeds @flowfuse/node-red-dashboard. The plant, its interlock and an MQTT broker on localhost:1883 come with it; \`node scripts/simulator\` of the sugarshack repository plays its devices. In your own dashboard, use the two panel subflows: set their Group (and Interlock), and wire the lines panel as here.`,
-    interlock,
-    plant,
+    prefix: 'd5a0b0a00000', tabLabel: 'sugarshack HMI (dashboard)',
+    info: `${HMI_INFO}\n\nNeeds @flowfuse/node-red-dashboard. It is the HMI of the sugarshack repository's \`npm start\`, on the case-study plant: its plant, interlock and MQTT broker (127.0.0.1:1883) nodes come with it, with the ids they have in npm start's flows, so imported there (choose *Import copy* when the editor says some nodes exist) it draws the plant npm start runs; on its own, \`node scripts/simulator/cli.js --plant flows/plant.json\` of the repository plays its devices. In your own dashboard, use the two panel subflows: set their Group (and Interlock), and wire the lines panel as here.`,
+    interlock: CASE_INTERLOCK,
+    plant: CASE_PLANT,
     extra: (TAB, id) => {
-      const broker = id(); const actuators = id(); const commands = id();
+      const actuators = id(); const commands = id();
       const topics = ['+/status', '+/valve/+/position/state', '+/switch/+/state', '+/sensor/+/state'];
       const ins = topics.map(() => id());
       return [
-        { id: broker, type: 'mqtt-broker', name: 'local broker', broker: 'localhost', port: '1883', clientid: '', autoConnect: true, usetls: false, protocolVersion: '4', keepalive: '15', cleansession: true, autoUnsubscribe: true, birthTopic: '', closeTopic: '', willTopic: '' },
-        { id: plant, type: 'sugarshack-plant', name: casePlant.name, plant: casePlant.plant },
-        { ...caseInterlock, id: interlock, plant },
+        ...configs,
         { id: id(), type: 'comment', z: TAB, name: 'The plant\'s devices over MQTT', info: '', x: 300, y: 560, wires: [] },
         ...topics.map((topic, i) => ({ id: ins[i], type: 'mqtt in', z: TAB, name: '', topic, qos: '1', datatype: 'auto-detect', broker, nl: false, rap: true, rh: 0, inputs: 0, x: 170, y: 600 + i * 40, wires: [[actuators]] })),
-        { id: actuators, type: 'sugarshack-actuators', z: TAB, name: 'all devices', plant, devices: '', broker, x: 420, y: 640, wires: [[commands], [], []] },
+        { id: actuators, type: 'sugarshack-actuators', z: TAB, name: 'all devices', plant: CASE_PLANT, devices: '', broker, x: 420, y: 640, wires: [[commands], [], []] },
         { id: commands, type: 'mqtt out', z: TAB, name: 'device commands', topic: '', qos: '', retain: '', respTopic: '', contentType: '', userProps: '', correl: '', expiry: '', broker, x: 640, y: 640, wires: [] },
       ];
     },
@@ -194,4 +200,4 @@ if (require.main === module) {
   process.exit(stale ? 1 : 0);
 }
 
-module.exports = { npmStart, example };
+module.exports = { npmStart, example, hmi, HMI_INFO };

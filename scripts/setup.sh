@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what the build, tests and demo need; skips whatever is already there.
+# Installs what the build, tests and demo need; skips whatever is already there
+# (the OPC UA package's node-opcua and Python's asyncua, its tests' client, among them).
 # Run it (`bash scripts/setup.sh`) or source it (`. scripts/setup.sh`); when
 # sourced it also leaves these variables in the caller's shell:
 #   SUGARSHACK_CACHE  cache dir for the tools below (default ~/.cache/sugarshack)
@@ -58,6 +59,29 @@ _sugarshack_setup() (
   # npm install may have written the lockfile: stamp what is on disk now.
   lockhash >"$stamp"
 
+  # The OPC UA package's own node_modules (node-opcua), from its lockfile. Its peer, the palette,
+  # is this repository's: npm would look for it in the registry, so peers are left out.
+  local opcua=node-red-contrib-sugarshack-opcua ostamp ohave=""
+  ostamp="$opcua/node_modules/.sugarshack-install.sha"
+  want="$(sha256sum "$opcua/package-lock.json" | cut -d' ' -f1)"
+  [ -f "$ostamp" ] && ohave="$(cat "$ostamp")"
+  if [ -d "$opcua/node_modules" ] && [ "$want" = "$ohave" ]; then
+    say "$opcua node_modules: up to date"
+  else
+    say "$opcua node_modules: npm ci"
+    (cd "$opcua" && npm ci --no-audit --no-fund --legacy-peer-deps)
+    echo "$want" >"$ostamp"
+  fi
+
+  # Python's asyncua: the independent client of the OPC UA tests.
+  if python3 -c 'import asyncua' 2>/dev/null; then
+    say "python asyncua: present"
+  else
+    say "python asyncua: pip install"
+    python3 -m pip install --quiet asyncua 2>/dev/null || python3 -m pip install --quiet --break-system-packages asyncua
+    python3 -c 'import asyncua' || { say "asyncua install failed"; exit 1; }
+  fi
+
   if [[ "$("$NODE22" --version 2>/dev/null)" == v22.* ]]; then
     say "node 22: present ($("$NODE22" --version))"
   else
@@ -81,10 +105,11 @@ _sugarshack_setup() (
     # npm runs under whichever `node` is first on PATH: use Node 22 for Node-RED 5.
     (cd "$NR5_DIR" && PATH="$(dirname "$NODE22"):$PATH" npm install --no-audit --no-fund)
   fi
-  # Test servers and tools from Debian, each skipped when present: Mosquitto and
-  # VictoriaMetrics (the integration tests run their own; only the binaries are
-  # needed), binaryen's wasm-opt (scripts/build-wasm.sh) and chromium (tests/browser).
-  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium)
+  # Test servers and tools from Debian, each skipped when present: Mosquitto,
+  # VictoriaMetrics and etcd (the integration tests run their own; only the
+  # binaries are needed), binaryen's wasm-opt (scripts/build-wasm.sh), chromium
+  # (tests/browser) and socat (a pty pair stands for a Modbus RTU serial line).
+  local needed=(mosquitto:mosquitto wasm-opt:binaryen victoria-metrics:victoria-metrics chromium:chromium etcd:etcd-server etcdctl:etcd-client socat:socat)
   have() { command -v "$1" >/dev/null || [ -x "/usr/sbin/$1" ] || [ -x "/usr/bin/$1" ] || { [ "$1" = chromium ] && [ -n "${CHROMIUM_BIN:-}" ]; }; }
   local missing=() entry
   for entry in "${needed[@]}"; do
@@ -99,6 +124,15 @@ _sugarshack_setup() (
     for entry in "${needed[@]}"; do
       have "${entry%%:*}" || { say "${entry#*:} install failed"; exit 1; }
     done
+  fi
+  # pymodbus from PyPI (with pyserial): the independent Modbus device of tests/integration/modbus.spec.js.
+  if python3 -c 'import pymodbus, serial' 2>/dev/null; then
+    say "pymodbus: present ($(python3 -c 'import pymodbus; print(pymodbus.__version__)'))"
+  else
+    command -v python3 >/dev/null || { say "python3 not found (the Modbus tests need it)"; exit 1; }
+    say "pymodbus: pip install 'pymodbus[serial]~=3.16.1'"
+    python3 -m pip install --quiet 'pymodbus[serial]~=3.16.1' ||
+      python3 -m pip install --quiet --user --break-system-packages 'pymodbus[serial]~=3.16.1'
   fi
   say "done"
 )

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Full test run: setup, rustfmt and clippy gates, Rust tests (native, doctests
 # and wasm under Node), the control report, wasm build, the JS type check,
-# the docs (links, site, snippets), Node-RED flow tests, MQTT integration
-# tests against a real Mosquitto, then the palette install test on Node-RED
-# 4.1 and 5.0.
+# the docs (links, site, snippets), Node-RED flow tests, integration tests
+# against a real Mosquitto (and the OPC UA server against asyncua), then the
+# install tests of the palette and of the OPC UA package on Node-RED 4.1 and 5.0.
 # Stops at the first failing stage and prints a summary either way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -41,15 +41,18 @@ finish() {
 }
 trap finish EXIT
 
-# Packs the palette once, then installs the tarball into a fresh user dir per Node-RED version.
+# Packs the palette (and the OPC UA package) once, then installs the tarballs into a fresh user dir per Node-RED version.
+pack() { # <package dir>: prints the tarball's path
+  local dir="$1" tarball
+  [ -f "$dir/package.json" ] || { echo "no $dir/package.json" >&2; return 1; }
+  tarball="$TMP/$(cd "$TMP" && npm pack --loglevel=error "$dir" | tail -n1)"
+  echo "packed $(basename "$tarball") ($(tar tzf "$tarball" | wc -l) files)" >&2
+  echo "$tarball"
+}
 palette_test() { # <label> <node binary> <node-red dir>
   local label="$1" node="$2" nrdir="$3" userdir
-  if [ -z "${TARBALL:-}" ]; then
-    [ -f "$PALETTE/package.json" ] || { echo "no $PALETTE/package.json" >&2; return 1; }
-    TMP="$(mktemp -d)"
-    TARBALL="$TMP/$(cd "$TMP" && npm pack --loglevel=error "$PALETTE" | tail -n1)"
-    echo "packed $(basename "$TARBALL") ($(tar tzf "$TARBALL" | wc -l) files)"
-  fi
+  [ -n "$TMP" ] || TMP="$(mktemp -d)"
+  [ -n "${TARBALL:-}" ] || TARBALL="$(pack "$PALETTE")"
   userdir="$TMP/userdir-$label"
   mkdir -p "$userdir"
   echo '{"name":"node-red-project","private":true}' >"$userdir/package.json"
@@ -60,6 +63,23 @@ palette_test() { # <label> <node binary> <node-red dir>
   ln -s "$ROOT/node_modules/@flowfuse/node-red-dashboard" "$userdir/node_modules/@flowfuse/node-red-dashboard"
   counted node tests/palette/install-test.js --label "$label" --node "$node" \
     --red "$nrdir/red.js" --userdir "$userdir" --pkg "$PALETTE/package.json" --examples "$PALETTE/examples"
+}
+
+# The OPC UA package beside the palette, from its own tarball (node-opcua comes from the registry),
+# as a user installs both from the palette manager; its example's server must start.
+OPCUA="$ROOT/node-red-contrib-sugarshack-opcua"
+opcua_test() { # <label> <node binary> <node-red dir>
+  local label="$1" node="$2" nrdir="$3" userdir
+  [ -n "$TMP" ] || TMP="$(mktemp -d)"
+  [ -n "${TARBALL:-}" ] || TARBALL="$(pack "$PALETTE")"
+  [ -n "${OPCUA_TARBALL:-}" ] || OPCUA_TARBALL="$(pack "$OPCUA")"
+  userdir="$TMP/userdir-$label"
+  mkdir -p "$userdir"
+  echo '{"name":"node-red-project","private":true}' >"$userdir/package.json"
+  (cd "$userdir" && npm install --no-audit --no-fund --loglevel=error "$TARBALL" "$OPCUA_TARBALL")
+  counted node tests/palette/install-test.js --label "$label" --node "$node" \
+    --red "$nrdir/red.js" --userdir "$userdir" --pkg "$OPCUA/package.json" --examples "$OPCUA/examples" \
+    --subflows no --config-nodes no --expect-log "OPC UA server on"
 }
 
 stage "setup"
@@ -105,6 +125,7 @@ npx tsc -p tsconfig.json --noEmit
 stage "docs: links and anchors, the generated code table, the site (VitePress), every snippet"
 node scripts/docs/links.js
 node scripts/docs/codes.js --check
+node scripts/docs/plant-reference.js --check
 node scripts/docs/site.js
 counted npx mocha --timeout 10000 --exit 'tests/docs/**/*.spec.js'
 
@@ -112,7 +133,7 @@ stage "Node-RED flow tests (mocha)"
 [ -n "$(find tests/flow -name '*.spec.js' 2>/dev/null | head -n1)" ] || { echo "no tests/flow/*.spec.js found" >&2; exit 1; }
 counted npx mocha --timeout 10000 --exit 'tests/flow/**/*.spec.js'
 
-stage "MQTT integration tests (Mosquitto, simulator)"
+stage "integration tests (Mosquitto, simulator, the OPC UA server with Python's asyncua)"
 counted npx mocha --timeout 30000 --exit 'tests/integration/**/*.spec.js'
 
 stage "browser tests (the HMI at /dashboard and the editor, in headless Chromium)"
@@ -123,3 +144,9 @@ palette_test nr4 "$(command -v node)" "$ROOT/node_modules/node-red"
 
 stage "palette install: Node-RED 5.0 on Node $("$NODE22" --version)"
 palette_test nr5 "$NODE22" "$NR5_DIR/node_modules/node-red"
+
+stage "OPC UA package install: Node-RED 4.1 on Node $(node --version)"
+opcua_test opcua-nr4 "$(command -v node)" "$ROOT/node_modules/node-red"
+
+stage "OPC UA package install: Node-RED 5.0 on Node $("$NODE22" --version)"
+opcua_test opcua-nr5 "$NODE22" "$NR5_DIR/node_modules/node-red"

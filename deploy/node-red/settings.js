@@ -20,4 +20,19 @@ module.exports = {
   logging: { console: { level: 'info', metrics: false, audit: false } },
   telemetry: { enabled: false },
   // No embedded journal: the flows' journal node writes to the database (SUGARSHACK_DB_*).
+  // A hot standby (deploy/standby/): the cluster from the environment; without SUGARSHACK_ETCD_HOSTS, one instance alone.
+  sugarshack: process.env.SUGARSHACK_ETCD_HOSTS ? {
+    cluster: {
+      name: process.env.SUGARSHACK_CLUSTER || 'sugarshack',
+      instance: process.env.SUGARSHACK_INSTANCE,
+      etcd: { hosts: process.env.SUGARSHACK_ETCD_HOSTS.split(',') },
+      leaseTtlS: Number(process.env.SUGARSHACK_LEASE_TTL_S) || 3,
+      mqtt: process.env.SUGARSHACK_FENCE_USER ? {
+        url: `mqtt://${process.env.MQTT_HOST}:${process.env.MQTT_PORT}`,
+        username: process.env.SUGARSHACK_FENCE_USER,
+        password: process.env.SUGARSHACK_FENCE_PASSWORD,
+        client: process.env.MQTT_USER,
+      } : undefined,
+    },
+  } : undefined,
 };

@@ -52,8 +52,10 @@ class AlarmBook {
     return this.keep(this.core.acknowledge(ids, who.by || null, who.reason || null, now));
   }
 
-  shelve(id, untilMs, who, now) {
-    return this.keep(this.core.shelve(id, untilMs, who.by || null, who.reason || null, now));
+  /** `oneShot`: the shelf also ends when the alarm's condition next ends. */
+  shelve(id, untilMs, who, now, oneShot = false) {
+    const shelf = oneShot ? this.core.shelveOneShot : this.core.shelve;
+    return this.keep(shelf.call(this.core, id, untilMs, who.by || null, who.reason || null, now));
   }
 
   unshelve(id, who, now) {
@@ -94,12 +96,14 @@ class AlarmBook {
 
 /**
  * The abnormal conditions of an interlock (what its core reports: faulted
- * lines, waits and holds past the warning times), of its store, and of its
- * plant's devices and buses, as the core's alarm conditions. The core words
+ * lines, waits and holds past the warning times), of its store, of its
+ * plant's devices and buses, and of its hot-standby cluster (a failover just
+ * made, etcd members down), as the core's alarm conditions. The core words
  * them all: a store or a bus is named only by its subject.
+ * @param {{ interlock: any[], saveFailing: boolean, store: string, plant: any, cluster?: { kind: string, subject: string }[] }} o
  */
-function conditionsOf({ interlock, saveFailing, store, plant }) {
-  const conditions = [...interlock];
+function conditionsOf({ interlock, saveFailing, store, plant, cluster = [] }) {
+  const conditions = [...interlock, ...cluster];
   if (saveFailing) conditions.push({ kind: 'state-not-saved', subject: store });
   if (plant) {
     conditions.push(...plant.devices);

@@ -56,9 +56,9 @@ function bindPlant(RED, node, configId, options) {
  * @param {any} runtime the interlock or plant runtime, null when unset
  * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done) => void} work
  * @param {'interlock' | 'plant'} [kind]
- * @param {{ urgent?: (msg: NodeRed.Message) => boolean }} [options]
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean }} [options] `passive`: the work runs on a standby too (device feedback keeps it warm)
  */
-function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false } = {}) {
+function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
       done(MISSING[kind]());
@@ -70,7 +70,7 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
     } catch {
       now = false; // an unreadable msg waits like any other and is refused when read
     }
-    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now });
+    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now, passive });
   });
 }
 

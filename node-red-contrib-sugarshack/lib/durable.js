@@ -167,25 +167,29 @@ class MemoryStore {
  * durable, a change's effect runs at once (nothing to wait for) and only the
  * effects collected per turn (event records) wait for the end of the turn. `snapshot()` returns the text to
  * write. An effect marked `evenUnsaved` (a lockout: isolating the line matters
- * more than the record of it) also runs when the write fails; the others wait
- * for the next successful write, retried every second.
+ * more than the record of it) also runs when the write fails, or, with a store
+ * that says `urgentAfterMs` (etcd, whose write may hang while it has no
+ * quorum), once its write has taken that long; the others wait for the next
+ * successful write, retried every second. No effect runs while `mayAct()` says no.
  */
 class Committer {
   /**
    * `collect()`, called just before each write, may return one more effect for
    * that write (an interlock's event records, drained once per write).
    * @param {object} o
-   * @param {FileStore | MemoryStore} o.store
+   * @param {{ durable: boolean, where: string, write: (text: any) => Promise<void>, urgentAfterMs?: number }} o.store
    * @param {() => string} o.snapshot the text to write
    * @param {{ setTimeout: Function, clearTimeout: Function }} o.clock times the retries
    * @param {(err: any) => void} [o.onError] a snapshot, write or effect failed
    * @param {() => void} [o.onSaved] a write is on disk
    * @param {() => ((() => void) | null)} [o.collect]
+   * @param {() => boolean} [o.mayAct] false while effects may not leave at all (a standby, or a leader whose lease may have run out)
    */
-  constructor({ store, snapshot, clock, onError, onSaved, collect }) {
+  constructor({ store, snapshot, clock, onError, onSaved, collect, mayAct }) {
     this.store = store;
     this.snapshot = snapshot;
     this.collect = collect || (() => null);
+    this.mayAct = mayAct || (() => true);
     this.clock = clock;
     this.onError = onError || (() => {});
     this.onSaved = onSaved || (() => {});
@@ -207,7 +211,7 @@ class Committer {
     if (effect) {
       // In order behind effects still waiting (an `after` queued behind an earlier change).
       if (!this.store.durable && this.effects.length === 0) this.run(effect);
-      else this.effects.push({ run: effect, evenUnsaved });
+      else this.effects.push({ run: effect, evenUnsaved, ran: false });
     }
     this.schedule();
   }
@@ -219,7 +223,7 @@ class Committer {
       effect();
       return;
     }
-    this.effects.push({ run: effect, evenUnsaved: false });
+    this.effects.push({ run: effect, evenUnsaved: false, ran: false });
     this.schedule();
   }
 
@@ -237,7 +241,7 @@ class Committer {
     if (this.dirty) {
       try {
         const extra = this.collect();
-        if (extra) this.effects.push({ run: extra, evenUnsaved: false });
+        if (extra) this.effects.push({ run: extra, evenUnsaved: false, ran: false });
       } catch (err) {
         this.onError(err);
       }
@@ -257,6 +261,7 @@ class Committer {
       }
       if (ok) {
         this.writing = this.store.write(text);
+        const early = this.urgentEarly(effects);
         try {
           await this.writing;
           this.writes++;
@@ -269,6 +274,7 @@ class Committer {
           this.onError(err);
         } finally {
           this.writing = null;
+          if (early) this.clock.clearTimeout(early);
         }
       }
     }
@@ -278,7 +284,8 @@ class Committer {
     }
     const waiting = [];
     for (const effect of effects) {
-      if (ok || effect.evenUnsaved) this.run(effect.run);
+      if (effect.ran) continue;
+      if (ok || (effect.evenUnsaved && this.mayAct())) this.run(effect.run);
       else waiting.push(effect);
     }
     if (!ok) {
@@ -291,6 +298,19 @@ class Committer {
     }
     if (this.dirty || this.effects.length > 0) this.schedule();
     else this.wake();
+  }
+
+  /** Urgent effects of a write that takes longer than the store's `urgentAfterMs` go out before it ends. */
+  urgentEarly(effects) {
+    const ms = this.store.urgentAfterMs;
+    if (typeof ms !== 'number' || !effects.some((e) => e.evenUnsaved)) return null;
+    return this.clock.setTimeout(() => {
+      for (const effect of effects) {
+        if (!effect.evenUnsaved || effect.ran || this.frozen || !this.mayAct()) continue;
+        effect.ran = true;
+        this.run(effect.run);
+      }
+    }, ms);
   }
 
   run(effect) {
@@ -346,4 +366,4 @@ class Committer {
   }
 }
 
-module.exports = { FileStore, MemoryStore, Committer, stateDir };
+module.exports = { FileStore, MemoryStore, Committer, stateDir, safeName, INTERLOCK_STATE, MAX_STATE_BYTES };

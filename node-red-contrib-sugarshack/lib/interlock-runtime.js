@@ -15,13 +15,14 @@ const { countsStatus, errorStatus, status: statusOf } = require('./status');
 const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir } = require('./durable');
-const { RuntimeBase, drainingStatus } = require('./runtime-base');
+const { RuntimeBase, drainingStatus, standbyStatus } = require('./runtime-base');
 const { RunHost } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
 const { journal } = require('./journal/bus');
 const { StatusPacer } = require('./status-pacer');
+const { clusterOf, EtcdStore } = require('./cluster');
 
 const TICK_MS = 1000;
 const ALARM_CHECK_MS = 1000;
@@ -52,7 +53,20 @@ class InterlockRuntime extends RuntimeBase {
     this.tickTimer = null;
     this.alarms = null; // AlarmBook, with the core
     this.alarmTimer = null;
-    this.store = settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore();
+    // In a hot-standby cluster the state is in etcd whatever `persist` says: a standby without it would start every line faulted.
+    this.stopFollowing = null;
+    /** @type {EtcdStore | null} */
+    this.etcdStore = null;
+    try {
+      this.cluster = clusterOf(RED);
+    } catch (err) {
+      // Never alone by mistake: a cluster misconfigured refuses every msg instead of acting as a single instance.
+      this.cluster = null;
+      this.configError = err;
+    }
+    if (this.cluster) this.etcdStore = new EtcdStore(this.cluster, id);
+    /** @type {FileStore | MemoryStore | EtcdStore} */
+    this.store = this.etcdStore || (settings.persist ? new FileStore(stateDir(RED), id) : new MemoryStore());
     this.committer = this.makeCommitter();
     // Counts on nodes change with every grant: shown paced, the last state always (after each window).
     this.statusPacer = new StatusPacer(() => this.refreshStatus(), () => this.state === 'ready');
@@ -96,9 +110,13 @@ class InterlockRuntime extends RuntimeBase {
         const records = this.events.listened() ? this.core.drainEvents() : this.core.drainAbnormalEvents();
         // The alarms a fault or a clear raises or ends go into this same write.
         if (records.length && this.alarms && this.alarms.noteEvents(records, describeEvent)) this.observeAlarms({ inWrite: true });
-        if (!this.events.listened()) return null;
-        return records.length ? () => this.events.publish(records) : null;
+        if (!this.events.listened() || !records.length) return null;
+        // In a cluster each event names the instance and the fencing token it was committed under.
+        const { cluster } = this;
+        const stamped = cluster ? records.map((r) => ({ ...r, instance: cluster.instance, token: cluster.token })) : records;
+        return () => this.events.publish(stamped);
       },
+      mayAct: () => !this.cluster || this.cluster.mayAct(),
       onError: (err) => {
         this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
         this.refreshStatus();
@@ -127,13 +145,14 @@ class InterlockRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
+    if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
     let saved;
     try {
       saved = this.store.read();
     } catch (err) {
       saved = { kind: 'lost', why: err.message };
     }
-    if (saved.kind === 'first' && this.persist) {
+    if (saved.kind === 'first' && this.persist && !this.cluster) {
       const legacy = await this.legacySnapshot();
       if (legacy) saved = { kind: 'carried-over', snapshot: legacy };
     }
@@ -157,6 +176,65 @@ class InterlockRuntime extends RuntimeBase {
     this.refreshStatus();
     this.resendLockouts(i18n.text('labels.resentAtStart'));
     this.replayParked();
+  }
+
+  // ---- hot standby (lib/cluster) ----------------------------------------------
+
+  /**
+   * In a cluster: true once the committed state is read under this instance's
+   * fencing token, as a restart reads its file; false (standby) when this
+   * instance is not the leader.
+   */
+  async loadCommitted(cluster, store) {
+    if (!this.stopFollowing) this.stopFollowing = cluster.follow(this);
+    if (cluster.active) {
+      try {
+        await store.unfollow();
+        await store.load();
+        // Deposed while it read: standDown() has made it standby already.
+        if (this.ended || this.state === 'standby') return false;
+        if (cluster.active) return true;
+      } catch (err) {
+        this.log('warn', i18n.text('logs.standbyNotTaken', { message: err.message }));
+      }
+    }
+    if (!this.ended) this.becomeStandby();
+    return false;
+  }
+
+  /** Elected: the committed state is opened as after a restart (held lines faulted, lockouts sent again). */
+  activate() {
+    if (this.ended || this.state !== 'standby') return;
+    this.state = 'starting';
+    this.refreshStatus();
+    this.start();
+  }
+
+  /** Deposed: nothing more leaves, as at a shutdown; what waited here is completed unsent, and the state followed again. */
+  async standDown() {
+    if (this.ended || this.state === 'standby') return;
+    const wasReady = this.state === 'ready';
+    this.stopTimers();
+    await this.committer.freeze();
+    for (const handle of this.pending.handles()) this.pending.take(handle).abandon();
+    for (const entry of this.heldBack) entry.abandon();
+    this.heldBack = [];
+    for (const run of this.runs) run.shutdown();
+    this.runs.clear();
+    for (const host of this.routines.values()) host.shutdown();
+    this.routines.clear();
+    this.savedRoutines = {};
+    if (wasReady) this.freeCore();
+    this.lostState = null;
+    this.committer = this.makeCommitter();
+    this.becomeStandby();
+  }
+
+  becomeStandby() {
+    this.state = 'standby';
+    this.parked.completeAll();
+    this.refreshStatus();
+    if (this.etcdStore) this.etcdStore.follow().catch((err) => this.log('warn', i18n.text('logs.standbyNotFollowing', { message: err.message })));
   }
 
   /**
@@ -249,6 +327,7 @@ class InterlockRuntime extends RuntimeBase {
   async shutdown() {
     if (this.ended) return;
     const wasReady = this.state === 'ready';
+    this.leaveCluster();
     this.endCommon();
     this.stopTimers();
     await this.committer.freeze();
@@ -272,11 +351,18 @@ class InterlockRuntime extends RuntimeBase {
       await this.committer.drain();
     }
     const wasReady = this.state === 'ready';
+    this.leaveCluster();
     this.endCommon();
     this.stopTimers();
     for (const run of this.runs) run.shutdown();
     for (const host of this.routines.values()) host.shutdown();
     if (wasReady) this.freeCore();
+  }
+
+  leaveCluster() {
+    if (this.stopFollowing) this.stopFollowing();
+    this.stopFollowing = null;
+    if (this.etcdStore) this.etcdStore.unfollow();
   }
 
   /** Elapsed-time warnings are checked once a second when the configuration sets any. */
@@ -343,6 +429,8 @@ class InterlockRuntime extends RuntimeBase {
   /** New settings after the drain: the core is rebuilt from its own state, holds kept (the process did not stop). */
   swap(settings) {
     this.applySettings(settings);
+    // A standby has no state of its own: it takes the new settings when it is elected.
+    if (this.state === 'standby') return;
     try {
       this.config = this.resolveConfig();
     } catch (err) {
@@ -655,6 +743,7 @@ class InterlockRuntime extends RuntimeBase {
           : null;
         const conditions = conditionsOf({
           interlock: this.core.alarmConditions(now), saveFailing: this.committer.failing, store: this.store.where, plant,
+          cluster: this.cluster ? this.cluster.alarmConditions() : [],
         });
         return this.alarms.observe(conditions, now);
       });
@@ -665,7 +754,7 @@ class InterlockRuntime extends RuntimeBase {
     if (changes.length === 0) return;
     if (!inWrite) this.committer.change();
     // No node's status shows alarms: only the state's readers hear of it.
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   /** Acknowledges alarms (`ids`, or every unacknowledged one when null) by `who`; `then(changes)` once saved. */
@@ -673,9 +762,9 @@ class InterlockRuntime extends RuntimeBase {
     this.alarmAction('alarm-ack', who, () => this.alarms.acknowledge(ids, who, clock.now()), then);
   }
 
-  /** Shelves alarm `id` until `untilMs` by `who`; `then(changes)` once saved. */
-  shelveAlarm(id, untilMs, who, then) {
-    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now()), then);
+  /** Shelves alarm `id` until `untilMs` (and, `oneShot`, until its condition ends) by `who`; `then(changes)` once saved. */
+  shelveAlarm(id, untilMs, who, then, { oneShot = false } = {}) {
+    this.alarmAction('alarm-shelve', who, () => this.alarms.shelve(id, untilMs, who, clock.now(), oneShot), then);
   }
 
   unshelveAlarm(id, who, then) {
@@ -689,7 +778,7 @@ class InterlockRuntime extends RuntimeBase {
     const done = changes.filter((c) => c.action !== 'shelf-expired');
     if (done.length) journal.action(action, who, [...new Set(done.map((c) => c.id))]);
     this.committer.change(() => then(changes));
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
   }
 
   hasAlarm(id) {
@@ -734,7 +823,7 @@ class InterlockRuntime extends RuntimeBase {
 
   /** A state change: status now; `effect` once the change is on disk (at once without persistence: after the status, which it may override). */
   changed(effect) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     this.statusPacer.request();
     this.committer.change(effect);
   }
@@ -787,13 +876,16 @@ class InterlockRuntime extends RuntimeBase {
    * the routines and their pending operations, whether it was lost at start.
    */
   describe() {
+    // A standby shows which committed state it follows (the etcd revision of its last write).
+    if (this.state === 'standby' && this.etcdStore) return { failure: null, following: { where: this.etcdStore.where, revision: this.etcdStore.held.revision } };
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
     const now = clock.now();
     const snapshot = this.core.snapshot(now);
     const queue = snapshot.queue
       .concat(this.heldBack.map((e) => ({ operation: e.operation, priority: e.priority, resources: e.resources, sinceMs: e.sinceMs })))
       .map((q) => ({ ...q, waitedMs: Math.max(0, now - q.sinceMs) }));
-    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons]));
+    // Each reason with the core's words for it (`text`).
+    const blockers = new Map(this.clearBlockers().map((b) => [b.line, b.reasons.map((r, i) => ({ ...r, text: b.texts[i] }))]));
     const lines = snapshot.resources.map(({ name, state }) => {
       const hold = state.state === 'held' ? snapshot.holds.find((h) => h.operation === state.operation) : null;
       return {
@@ -809,6 +901,8 @@ class InterlockRuntime extends RuntimeBase {
     });
     return {
       atMs: now,
+      // Its plant's id in the same document (`plants[].id`): where its lines' actuators and operations' names are.
+      plant: this.plant ? this.plant.id : null,
       lines,
       holds: snapshot.holds,
       queue,
@@ -840,13 +934,14 @@ class InterlockRuntime extends RuntimeBase {
   }
 
   refreshStatus(only) {
-    if (this.palette) this.palette.changes.touch();
+    if (this.palette) this.palette.changes.touch(this);
     let status;
     if (this.state === 'ready') {
       if (!this.gateOpen) status = drainingStatus();
       else if (this.committer.failing) status = statusOf('error', i18n.text('status.stateNotSaved'));
       else status = this.countsStatus();
-    } else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
+    } else if (this.state === 'standby') status = standbyStatus();
+    else if (this.state === 'failed') status = errorStatus(this.failure ? this.failure.code : 'INTERNAL');
     else if (this.state === 'starting') status = statusOf('idle', i18n.text('status.starting'));
     else return;
     for (const node of only ? [only] : this.users) this.setStatus(node, status);

@@ -16,6 +16,8 @@ const { clock } = require('./clock');
 const { stateOf, ChangeNotices } = require('./state');
 const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
+const operator = require('./operator');
+const wasm = require('./wasm');
 
 const DRAIN_CHECK_MS = 250;
 
@@ -176,6 +178,8 @@ const served = new WeakSet();
  * POST /sugarshack/clear and /sugarshack/estop: an operator's clear and
  * emergency stop from the editor, attributed to the signed-in editor user.
  * POST /sugarshack/alarms/ack, /shelve and /unshelve: the same for alarms.
+ * GET /sugarshack/access: what the caller may do here (read, write), as the
+ * endpoints above decide it.
  */
 function serveState(RED, palette) {
   if (!RED.httpAdmin || served.has(RED.httpAdmin)) return;
@@ -183,11 +187,18 @@ function serveState(RED, palette) {
   RED.httpAdmin.get('/sugarshack/state', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
     res.json(stateOf(palette));
   });
+  const mayWrite = RED.auth.needsPermission('sugarshack.write');
+  RED.httpAdmin.get('/sugarshack/access', RED.auth.needsPermission('sugarshack.read'), (req, res) => {
+    // The write check of the endpoints above, on this same request: it calls on, or answers 401.
+    const refused = { statusCode: 200, setHeader() {}, status() { return refused; }, end() { res.json({ read: true, write: false }); } };
+    mayWrite(req, refused, () => res.json({ read: true, write: true }));
+  });
   const operatorAction = (act) => (req, res) => {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
-    const runtime = palette.runtimes.get(String(body.interlock || ''));
-    if (!runtime || runtime.kind === 'plant' || runtime.state !== 'ready') {
-      res.status(404).json({ code: 'NO_INTERLOCK', message: text('errors.noRunningInterlock', { id: String(body.interlock).slice(0, 100) }) });
+    const runtime = readyInterlock(palette, body.interlock);
+    if (!runtime) {
+      const err = notRunningInterlock(palette, body.interlock);
+      res.status(404).json({ code: err.code, message: err.message });
       return;
     }
     const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
@@ -197,32 +208,38 @@ function serveState(RED, palette) {
       reason: typeof body.reason === 'string' ? body.reason.slice(0, 1000) : null,
       force: body.force === true,
     };
+    let asked;
     try {
-      runtime.guard(() => act(runtime, lines, who, (answer) => res.json(answer), body));
+      asked = act(runtime, lines, who, body);
     } catch (err) {
-      res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
+      asked = Promise.reject(err);
     }
+    asked.then((answer) => res.json(answer), (err) => {
+      res.status(409).json({ code: err.code || 'INTERNAL', message: err.message, lines: err.lines || [] });
+    });
   };
-  RED.httpAdmin.post('/sugarshack/clear', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
-    rt.clear(lines, (cleared) => answer({ cleared, by: who.by || 'unknown' }), who);
+  RED.httpAdmin.post('/sugarshack/clear', mayWrite, operatorAction((rt, lines, who) => operator.clear(rt, lines, who)));
+  RED.httpAdmin.post('/sugarshack/estop', mayWrite, operatorAction((rt, lines, who) => operator.estop(rt, lines, who, text('labels.editorEstop'))));
+  RED.httpAdmin.post('/sugarshack/alarms/ack', mayWrite, operatorAction((rt, lines, who, body) => operator.acknowledge(rt, alarmIdsOf(body.ids), who)));
+  RED.httpAdmin.post('/sugarshack/alarms/shelve', mayWrite, operatorAction((rt, lines, who, body) => {
+    return operator.shelve(rt, alarmIdOf(body.id), { untilMs: shelfEndOf(body, clock.now()), oneShot: body.oneShot === true }, who);
   }));
-  RED.httpAdmin.post('/sugarshack/estop', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer) => {
-    if (!lines || lines.length === 0) throw SugarshackError.of('INVALID_RESOURCES', 'noLinesToStop');
-    rt.faultResources(lines, who.reason || text('labels.editorEstop'), (lockouts) => {
-      if (rt.plant) rt.plant.issueLockouts(lockouts, null);
-      answer({ stopped: lockouts.map((l) => l.resource), by: who.by || 'unknown' });
-    }, who);
-  }));
-  const alarmAnswer = (who, answer) => (changes) => answer({ changes, by: who.by || 'unknown' });
-  RED.httpAdmin.post('/sugarshack/alarms/ack', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
-    rt.acknowledgeAlarms(alarmIdsOf(body.ids), who, alarmAnswer(who, answer));
-  }));
-  RED.httpAdmin.post('/sugarshack/alarms/shelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
-    rt.shelveAlarm(alarmIdOf(body.id), shelfEndOf(body, clock.now()), who, alarmAnswer(who, answer));
-  }));
-  RED.httpAdmin.post('/sugarshack/alarms/unshelve', RED.auth.needsPermission('sugarshack.write'), operatorAction((rt, lines, who, answer, body) => {
-    rt.unshelveAlarm(alarmIdOf(body.id), who, alarmAnswer(who, answer));
-  }));
+  RED.httpAdmin.post('/sugarshack/alarms/unshelve', mayWrite, operatorAction((rt, lines, who, body) => operator.unshelve(rt, alarmIdOf(body.id), who)));
+}
+
+/** The interlock runtime of config node `id` when it runs, else null. */
+function readyInterlock(palette, id) {
+  const runtime = palette.runtimes.get(String(id || ''));
+  return runtime && runtime.kind !== 'plant' && runtime.state === 'ready' ? runtime : null;
+}
+
+/** Why interlock `id` does not run here (readyInterlock gave null): on a hot standby, which instance acts instead. */
+function notRunningInterlock(palette, id) {
+  const shown = String(id).slice(0, 100);
+  const runtime = palette.runtimes.get(String(id || ''));
+  const cluster = runtime && runtime.state === 'standby' ? runtime.cluster : null;
+  if (cluster) return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: shown, active: cluster.leader ? cluster.leader.instance : '?' });
+  return SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: shown });
 }
 
 const MAX_ALARM_ID = 300;
@@ -243,11 +260,15 @@ function alarmIdsOf(ids) {
   return ids.map(alarmIdOf);
 }
 
-/** Until when a shelf lasts: `untilMs` (epoch ms) or `forMs` from now. */
+/**
+ * Until when a shelf lasts: `untilMs` (epoch ms) or `forMs` from now; a
+ * one-shot shelf (`oneShot: true`) may leave both out: then the longest shelf.
+ */
 function shelfEndOf(body, now) {
   const { untilMs, forMs } = body;
   if (typeof untilMs === 'number' && Number.isFinite(untilMs)) return untilMs;
   if (typeof forMs === 'number' && Number.isFinite(forMs) && forMs > 0) return now + forMs;
+  if (body.oneShot === true && untilMs === undefined && forMs === undefined) return now + wasm.load().maxShelveMs();
   throw SugarshackError.of('INVALID_SHELF', 'shelfUnbounded');
 }
 
@@ -282,4 +303,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, alarmIdOf, alarmIdsOf, shelfEndOf };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, readyInterlock, notRunningInterlock, alarmIdOf, alarmIdsOf, shelfEndOf };

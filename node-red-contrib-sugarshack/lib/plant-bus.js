@@ -24,6 +24,7 @@ class PlantBuses {
     this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
     this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
+    this.held = []; // publishes of a leader waiting for etcd to renew its lease
   }
 
   /**
@@ -146,6 +147,11 @@ class PlantBuses {
 
   publish(e) {
     const { plant } = this;
+    const may = plant.publishing();
+    if (may !== 'send') {
+      if (may === 'hold' && this.held.length < MAX_UNSENT) this.held.push(e);
+      return;
+    }
     const name = plant.devices[e.device];
     const bus = this.serving(e.device);
     if (!bus) {
@@ -161,6 +167,26 @@ class PlantBuses {
       return;
     }
     bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
+  }
+
+  /** The lease was renewed: what waited for it goes out, in order. */
+  sendHeld() {
+    const held = this.held;
+    this.held = [];
+    for (const e of held) this.publish(e);
+  }
+
+  /**
+   * Deposed: what waited is not this instance's to send any more, and every
+   * broker connection is made anew. An MQTT client sends its unacknowledged
+   * QoS 1 publishes again when it reconnects: a leader paused mid-publish and
+   * kicked by the broker would otherwise replay its old commands once let in
+   * again as a standby. A new client starts with none.
+   */
+  async standDown() {
+    this.held = [];
+    const brokers = new Set(this.list.map((b) => b.broker).filter((b) => b && typeof b.disconnect === 'function' && typeof b.connect === 'function'));
+    await Promise.all([...brokers].map((broker) => new Promise((resolve) => broker.disconnect(resolve)).then(() => broker.connect())));
   }
 
   sendUnsent() {
@@ -187,7 +213,12 @@ class PlantBuses {
   }
 
   emit(bus, topic, payload) {
-    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, { topic, payload }]);
+    this.emitMsg(bus, { topic, payload });
+  }
+
+  /** A msg on the events output (the third) of an actuators node, if it is wired. */
+  emitMsg(bus, msg) {
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, msg]);
   }
 
   /**

@@ -5,8 +5,8 @@
 // operations and routines) and its lifecycle (start, deploys, rebuild after a
 // trap, shutdown). What Node-RED owns around the core lives in the parts it
 // composes: the actuators nodes and MQTT path (plant-bus.js), the group
-// commands in flight (plant-commands.js), the sensor watchers (plant-sensors.js)
-// and the nodes' status (plant-status.js). Every rule is the core's; this
+// commands in flight (plant-commands.js), the sensor watchers (plant-sensors.js),
+// the Modbus connections (modbus-transport.js) and the nodes' status (plant-status.js). Every rule is the core's; this
 // calls it and hands the effects it returns to the part they concern.
 const { SugarshackError } = require('./errors');
 const { stats, timeLayer } = require('./stats');
@@ -16,14 +16,20 @@ const { PlantBuses } = require('./plant-bus');
 const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
+const { PlantChanges } = require('./plant-changes');
+const { ModbusTransport } = require('./modbus-transport');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
+const { clusterOf } = require('./cluster');
 
 const TICK_MS = 250;
 
 class PlantRuntime extends RuntimeBase {
-  /** settings: { plant (the document), error }. */
-  constructor({ id, settings }) {
+  /**
+   * settings: { plant (the document), error }; RED, for the hot-standby cluster of this Node-RED, if any.
+   * @param {{ id: string, settings: any, RED?: any }} o
+   */
+  constructor({ id, settings, RED = null }) {
     super('plant');
     this.id = id;
     this.swapOrder = 0; // before the interlocks bound to it
@@ -35,6 +41,37 @@ class PlantRuntime extends RuntimeBase {
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
     this.statusView = new PlantStatus(this);
+    this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
+    this.modbus = new ModbusTransport(this);
+    // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
+    try {
+      this.cluster = clusterOf(RED);
+    } catch (err) {
+      this.cluster = null;
+      this.plantError = err;
+    }
+    this.stopFollowing = this.cluster ? this.cluster.follow({
+      activate: () => {
+        this.modbus.sync();
+        this.refreshStatus();
+      },
+      standDown: () => {
+        this.modbus.sync();
+        return this.bus.standDown();
+      },
+      resumed: () => this.bus.sendHeld(),
+    }) : null;
+  }
+
+  /** A standby (not the elected leader) commands nothing; its feedback still goes in. */
+  get standby() {
+    return this.cluster !== null && !this.cluster.active;
+  }
+
+  /** Whether a publish may leave now: 'send', 'hold' (a leader whose lease awaits etcd's answer) or 'drop'. */
+  publishing() {
+    if (!this.cluster || this.cluster.mayAct()) return 'send';
+    return this.cluster.role === 'suspended' ? 'hold' : 'drop';
   }
 
   /** The actuators nodes serving this plant (read by the interlock's alarms). */
@@ -58,6 +95,8 @@ class PlantRuntime extends RuntimeBase {
     }
     this.state = 'ready';
     this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.changes.rebuilt();
+    this.modbus.sync();
     this.refreshStatus();
     this.replayParked();
   }
@@ -85,6 +124,8 @@ class PlantRuntime extends RuntimeBase {
   async shutdown() {
     if (this.ended) return;
     const wasReady = this.state === 'ready';
+    if (this.stopFollowing) this.stopFollowing();
+    this.stopFollowing = null;
     this.endCommon();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
@@ -99,6 +140,7 @@ class PlantRuntime extends RuntimeBase {
   }
 
   freeTracker() {
+    this.modbus.closeAll();
     wasm.release(this.t);
     this.t = null;
   }
@@ -132,6 +174,7 @@ class PlantRuntime extends RuntimeBase {
   rebuild() {
     if (this.state !== 'ready') return;
     this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
+    this.modbus.closeAll();
     wasm.forget(this.t);
     this.t = null;
     this.sensors.forget({ watchers: false });
@@ -141,6 +184,8 @@ class PlantRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
+    this.changes.rebuilt();
+    this.modbus.sync();
     this.refreshStatus();
   }
 
@@ -154,6 +199,7 @@ class PlantRuntime extends RuntimeBase {
   /** An actuators node (see PlantBuses.add). */
   addBus(node, names, broker) {
     this.bus.add(node, names, broker, this.state === 'ready');
+    this.modbus.sync();
     this.refreshStatus(node);
   }
 
@@ -163,6 +209,7 @@ class PlantRuntime extends RuntimeBase {
 
   closing(node) {
     this.bus.remove(node);
+    this.modbus.sync();
   }
 
   withdrawOrphans(nodeId) {
@@ -190,6 +237,12 @@ class PlantRuntime extends RuntimeBase {
 
   feedback(node, topic, payload, fromMqtt = false) {
     return this.bus.feedback(node, topic, payload, fromMqtt);
+  }
+
+  /** Writes a Modbus output (`output/<id>`), untracked; throws UNKNOWN_OUTPUT, INVALID_TARGET, DEVICE_OFFLINE. */
+  output(id, value) {
+    this.guard(() => this.t.output(id, value, clock.now()));
+    this.flush(null);
   }
 
   watchSensors(handles, fn) {
@@ -272,8 +325,9 @@ class PlantRuntime extends RuntimeBase {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    this.changes.effects(effects);
     if (!counted) {
-      if (this.palette) this.palette.changes.touch();
+      if (this.palette) this.palette.changes.touch(this);
     } else if (source === null) {
       this.refreshStatus();
     } else {
@@ -286,6 +340,9 @@ class PlantRuntime extends RuntimeBase {
     switch (e.kind) {
       case 'publish':
         this.bus.publish(e);
+        break;
+      case 'modbusSend':
+        this.modbus.pump(e.connection);
         break;
       case 'groupCompleted':
         this.commands.complete(e);
@@ -327,6 +384,9 @@ class PlantRuntime extends RuntimeBase {
       devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
       devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
       sensors: health.sensors,
+      actuators: health.actuators,
+      // The document's words for its operations, so that an operator reads "load truck", not "10".
+      operations: (this.plant.operations || []).map((o) => ({ id: o.id, description: o.description || '', resources: o.resources || [] })),
     };
   }
 

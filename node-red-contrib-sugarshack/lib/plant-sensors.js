@@ -57,6 +57,7 @@ class SensorWatch {
     const ts = t.lastTs();
     if (journal.active) this.journalSamples(ts, now);
     if (ts !== undefined) stats.add(`tof/${devices[t.lastDevice()]}`, now - ts);
+    if (this.plant.changes.active) this.plant.changes.sensors(t.lastSensors());
     if (this.watchers.size === 0) return;
     for (const handle of t.lastSensors()) {
       const watching = this.watchers.get(handle);

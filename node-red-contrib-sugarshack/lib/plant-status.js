@@ -51,7 +51,7 @@ class PlantStatus {
   refresh(only) {
     const { plant } = this;
     const board = plant.statusBoard;
-    if (plant.palette) plant.palette.changes.touch();
+    if (plant.palette) plant.palette.changes.touch(plant);
     const nodes = only ? [only] : plant.users;
     if (plant.state === 'failed') {
       for (const node of nodes) board.set(node, errorStatus(plant.failure.code));

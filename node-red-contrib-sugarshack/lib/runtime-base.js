@@ -115,9 +115,10 @@ class RuntimeBase {
    * drain: the drain itself may wait for it. A refusal thrown by `work`
    * completes the msg with the error, so a Catch node gets it.
    */
-  submit(node, done, work, { urgent = false } = {}) {
+  submit(node, done, work, { urgent = false, passive = false } = {}) {
     if (this.ended) done();
     else if (this.state === 'failed') done(this.failure);
+    else if (this.standby && !passive) this.standbyDone(node, done);
     else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.hold({ node, done, work });
     else this.perform(node, done, work);
   }
@@ -130,6 +131,20 @@ class RuntimeBase {
       if (node) this.showError(node, e.code);
       done(e);
     }
+  }
+
+  /**
+   * A hot standby acts on nothing: a msg is completed without an error (the
+   * active instance got the same msg and answers it; an error here would fire
+   * every Catch node of the standby), and the node shows `standby`.
+   */
+  get standby() {
+    return this.state === 'standby';
+  }
+
+  standbyDone(node, done) {
+    if (node) this.setStatus(node, standbyStatus());
+    done();
   }
 
   /** Runs `fn`; a wasm trap in it starts the rebuild and surfaces as INTERNAL. */
@@ -232,5 +247,6 @@ class RuntimeBase {
 }
 
 const drainingStatus = () => status('warning', i18n.text('status.draining'));
+const standbyStatus = () => status('idle', i18n.text('status.standby'));
 
-module.exports = { RuntimeBase, drainingStatus };
+module.exports = { RuntimeBase, drainingStatus, standbyStatus };

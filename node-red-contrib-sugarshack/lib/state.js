@@ -4,11 +4,13 @@
 // dashboard and the editor's sidebar: every interlock (lines, holders, queue,
 // routines) and every plant (devices, sensors, lockouts), as now. A change
 // anywhere is announced once per turn of the event loop, so a burst of
-// feedback is one notice; listeners throttle further as they like.
+// feedback is one notice, naming the runtimes that changed; listeners
+// throttle further as they like.
 const { EventEmitter } = require('events');
 const { clock } = require('./clock');
+const { clusterOf } = require('./cluster');
 
-/** { atMs, interlocks: [...], plants: [...] } of every runtime of `palette`. */
+/** { atMs, interlocks: [...], plants: [...], cluster? } of every runtime of `palette`; `cluster` in a hot-standby cluster. */
 function stateOf(palette) {
   const interlocks = [];
   const plants = [];
@@ -16,23 +18,35 @@ function stateOf(palette) {
     const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
     (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
   }
-  return { atMs: clock.now(), interlocks, plants };
+  let cluster = null;
+  try {
+    cluster = clusterOf(palette.RED);
+  } catch {
+    cluster = null; // misconfigured: every runtime reports the error
+  }
+  return cluster ? { atMs: clock.now(), interlocks, plants, cluster: cluster.describe() } : { atMs: clock.now(), interlocks, plants };
 }
 
-/** Announces 'changed' at most once per turn of the event loop. */
+/** Announces 'changed' (with the Set of runtimes that changed) at most once per turn of the event loop. */
 class ChangeNotices extends EventEmitter {
   constructor() {
     super();
     this.setMaxListeners(0); // one per state node and editor session
     this.due = false;
+    this.sources = new Set();
   }
 
-  touch() {
-    if (this.due || this.listenerCount('changed') === 0) return;
+  /** `source`: the runtime that changed. */
+  touch(source = null) {
+    if (this.listenerCount('changed') === 0) return;
+    if (source) this.sources.add(source);
+    if (this.due) return;
     this.due = true;
     setImmediate(() => {
+      const sources = this.sources;
       this.due = false;
-      this.emit('changed');
+      this.sources = new Set();
+      this.emit('changed', sources);
     });
   }
 }

@@ -146,8 +146,16 @@ const SAMPLE_PLANT = Object.freeze({
   ] }],
 });
 
+/** A Modbus I/O module with one output and one input register. */
+const SAMPLE_MODBUS = Object.freeze({
+  actuatorTypes: {},
+  devices: [{ id: 'm', kind: 'sensor-station', profile: 'modbus', modbus: { host: '127.0.0.1', unit: 1, outputs: [{ id: 'O', kind: 'holding', address: 0 }] } }],
+  sensors: [{ id: 'T', device: 'm', name: 't', modbus: { kind: 'input', address: 0 } }],
+});
+
 function prime(facade) {
   primeInterlock(facade);
+  primeModbus(facade);
   primeAlarms(facade);
   primeControl(facade);
 }
@@ -261,6 +269,8 @@ function primeInterlock({ Interlock, Tracker }) {
   aborted.granted(1);
   aborted.abort('primer', 2);
   aborted.free();
+  t.target(0);
+  t.deviceHealth(0);
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
@@ -285,6 +295,25 @@ function primeInterlock({ Interlock, Tracker }) {
   t.free();
 }
 
+/** A Modbus connection: opened, a poll and its reply, an output, a timeout, closed. */
+function primeModbus({ Tracker }) {
+  const t = new Tracker(SAMPLE_MODBUS, 0);
+  t.modbusConnections();
+  t.modbusOpened(0, 0);
+  const poll = t.modbusNext(0, 0);
+  // Its reply: the MBAP header with the poll's transaction id, unit 1, FC 4, one register.
+  t.modbusReceive(0, Uint8Array.of(poll[0], poll[1], 0, 0, 0, 5, 1, 4, 2, 0, 7), 1);
+  t.lastRoundTripMs();
+  t.output('O', 1, 2);
+  t.modbusNext(0, 2);
+  t.modbusInFlight(0);
+  t.modbusWake(0);
+  t.modbusTimeout(0, 5000);
+  t.modbusClosed(0, 5001);
+  t.takeEffects();
+  t.free();
+}
+
 /** The alarm list of an interlock, through a raise, an acknowledgement, a shelving and a restore. */
 function primeAlarms({ Alarms }) {
   const alarms = new Alarms();
@@ -292,6 +321,7 @@ function primeAlarms({ Alarms }) {
   const [first] = alarms.list();
   alarms.acknowledge(null, 'primer', null, 2);
   alarms.shelve(first.id, 10, 'primer', null, 3);
+  alarms.shelveOneShot(first.id, 10, 'primer', null, 3);
   alarms.nextExpiryMs();
   alarms.unshelve(first.id, 'primer', null, 4);
   Alarms.restore(alarms.snapshot()).free();

@@ -4,6 +4,17 @@ const { bindPlant, onInput, always } = require('../lib/binding');
 const { heldResources, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
 const { translator, useRED } = require('../lib/i18n');
+const { SugarshackError } = require('../lib/errors');
+const { describe } = require('../lib/control');
+
+const OUTPUT_PREFIX = 'output/';
+
+/** An output's value from msg.payload: a finite number, or true/false (1/0) for a coil. */
+function outputValue(id, payload) {
+  if (typeof payload === 'boolean') return payload ? 1 : 0;
+  if (typeof payload === 'number' && Number.isFinite(payload)) return payload;
+  throw SugarshackError.of('INVALID_INPUT', 'outputValue', { id, got: describe(payload) });
+}
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
@@ -36,11 +47,23 @@ module.exports = function (RED) {
         done();
         return;
       }
+      // A hot standby follows the feedback (above) and commands nothing.
+      if (rt.standby) {
+        rt.standbyDone(node, done);
+        return;
+      }
+      // "output/<id>": a Modbus output written as given (a pid's action), untracked.
+      if (typeof seen.topic === 'string' && seen.topic.startsWith(OUTPUT_PREFIX)) {
+        const id = seen.topic.slice(OUTPUT_PREFIX.length);
+        rt.output(id, outputValue(id, seen.payload));
+        done();
+        return;
+      }
       const within = readMsg(() => (seen.lockout ? undefined : heldResources(msg)));
       const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
       if (rt.draining && !seen.lockout) rt.submit(node, done, issue);
       else issue();
-    }, 'plant', { urgent: always });
+    }, 'plant', { urgent: always, passive: true });
   }
 
   RED.nodes.registerType('sugarshack-actuators', ActuatorsNode);

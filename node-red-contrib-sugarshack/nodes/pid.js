@@ -9,6 +9,7 @@ const { clock } = require('../lib/clock');
 const { UntilReady } = require('../lib/until-ready');
 const { FileStore, Committer, stateDir } = require('../lib/durable');
 const wasm = require('../lib/wasm');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 
 // Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';
@@ -135,6 +136,7 @@ module.exports = function (RED) {
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function PidNode(props) {
     RED.nodes.createNode(this, props);
+    const quiet = quietOf(RED);
     const node = this;
     const t = translator(RED, 'sugarshack-pid');
     const persist = props.persist === true || props.persist === 'true';
@@ -229,7 +231,7 @@ module.exports = function (RED) {
         show(status('warning', t('status.staleNoIo')));
       } else if (stale) {
         save();
-        node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
+        if (!quiet()) node.send({ topic: lastTopic, payload: stale.pid.output, pid: stale.pid });
         show(status('warning', t(stale.pid.mode === 'manual' ? 'status.staleManual' : 'status.staleFallback')));
       }
       schedule();
@@ -421,7 +423,11 @@ module.exports = function (RED) {
 
     node.on('input', (msg, send, done) => {
       if (refusal) done(refusal);
-      else if (!ready) early.hold({ node, msg, send, done });
+      else if (quiet()) {
+        // A hot standby acts on nothing (the active instance got the same msg).
+        show(standbyStatus());
+        done();
+      } else if (!ready) early.hold({ node, msg, send, done });
       else safeHandle(msg, send, done);
     });
 

@@ -27,7 +27,7 @@ module.exports = function (RED) {
       settings.error = err;
     }
     const key = settingsKey({ plant: settings.plant, error: settings.error ? settings.error.message : null });
-    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new PlantRuntime({ id: node.id, settings }));
+    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new PlantRuntime({ id: node.id, settings, RED }));
   }
 
   RED.nodes.registerType('sugarshack-plant', PlantNode);

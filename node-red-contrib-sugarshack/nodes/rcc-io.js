@@ -5,6 +5,7 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
 
@@ -23,6 +24,7 @@ module.exports = function (RED) {
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccIoNode(props) {
     RED.nodes.createNode(this, props);
+    const quiet = quietOf(RED);
     const node = this;
     const t = translator(RED, 'sugarshack-rcc-io');
     /** @type {import('../wasm/sugarshack_wasm').IoModule | null} */
@@ -42,7 +44,7 @@ module.exports = function (RED) {
 
     // Output 1, every period: the state tuple (a, u_1..u_n) and the measurement, for the controllers.
     function publish() {
-      if (!io) return;
+      if (!io || quiet()) return;
       const now = clock.now();
       const { lastAction, agesMs } = io.state(now);
       node.send([{ payload: { procVar, lastAction, agesMs }, timestamp: now }, null]);
@@ -56,6 +58,11 @@ module.exports = function (RED) {
     node.on('input', (msg, send, done) => {
       if (refusal || !settings || !io) {
         done(refusal ?? undefined); // the settings and the core object exist whenever nothing was refused
+        return;
+      }
+      if (quiet()) {
+        show(standbyStatus());
+        done();
         return;
       }
       // Read once, as plain values: a getter or proxy that throws is INVALID_INPUT.

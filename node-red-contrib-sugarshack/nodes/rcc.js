@@ -7,6 +7,7 @@ const { translator, useRED } = require('../lib/i18n');
 const { configNumber, configDurationMs, configDurationListMs, describe, revivable } = require('../lib/control');
 const { clock } = require('../lib/clock');
 const { readMsg } = require('../lib/request');
+const { quietOf, standbyStatus } = require('../lib/cluster');
 
 const board = new StatusBoard();
 
@@ -29,6 +30,7 @@ module.exports = function (RED) {
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function RccNode(props) {
     RED.nodes.createNode(this, props);
+    const quiet = quietOf(RED);
     const node = this;
     const t = translator(RED, 'sugarshack-rcc');
     /** @type {import('../wasm/sugarshack_wasm').Rcc | null} */
@@ -77,6 +79,11 @@ module.exports = function (RED) {
     node.on('input', (msg, send, done) => {
       if (refusal || !settings || !rcc) {
         done(refusal ?? undefined); // the settings and the core object exist whenever nothing was refused
+        return;
+      }
+      if (quiet()) {
+        show(standbyStatus());
+        done();
         return;
       }
       let state;

@@ -52,7 +52,7 @@ function alarmRequest(t, palette, msg) {
       const mine = ids === null ? null : ids.filter((a) => rt.hasAlarm(a));
       if (mine !== null && mine.length === 0) resolve([]);
       else rt.acknowledgeAlarms(mine, who, resolve);
-    } else if (msg.topic === 'shelve') rt.shelveAlarm(id, untilMs, who, resolve);
+    } else if (msg.topic === 'shelve') rt.shelveAlarm(id, untilMs, who, resolve, { oneShot: msg.oneShot === true });
     else rt.unshelveAlarm(id, who, resolve);
   })))).then((lists) => lists.flat());
 }

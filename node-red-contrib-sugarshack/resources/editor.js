@@ -129,8 +129,12 @@
     var types = read();
     input.typedInput({ types: types, default: typeOf(value) });
     $(configSelector).on('change', function () {
+      // The editor fires this once it fills the config list; an unchanged list keeps an open menu.
+      var shown = JSON.stringify(choices);
+      var next = read();
+      if (JSON.stringify(choices) === shown) return;
       var before = input.typedInput('value');
-      input.typedInput('types', read());
+      input.typedInput('types', next);
       input.typedInput('type', typeOf(before));
       if (typeOf(before) === 'str' || before) input.typedInput('value', before);
     });

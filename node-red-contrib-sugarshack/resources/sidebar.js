@@ -99,8 +99,32 @@
     return row;
   }
 
+  /** Which instance acts, since when, its lease, etcd's members and the failovers (a hot-standby cluster only). */
+  function clusterRows(c) {
+    var box = $('<div class="ss-sb-cluster" style="margin-bottom: 8px; padding: 4px 6px; border-left: 4px solid;"></div>').attr('data-role', c.role).appendTo(body);
+    box.css('border-color', c.role === 'active' ? COLORS.free : c.role === 'standby' ? '#777' : COLORS.faulted);
+    var since = clockText(c.sinceMs);
+    var head;
+    if (c.role === 'active' && c.lease) {
+      head = t('sidebar.clusterActive', {
+        cluster: c.name, instance: c.instance, time: since, token: c.token, ttl: c.lease.ttlS, left: (c.lease.validForMs / 1000).toFixed(1),
+      });
+    } else if (c.role === 'standby') {
+      head = t('sidebar.clusterStandby', { cluster: c.name, instance: c.instance, time: since, leader: c.leader ? c.leader.instance : '?' });
+    } else {
+      head = t('sidebar.clusterOther', { cluster: c.name, instance: c.instance, role: c.role, time: since });
+    }
+    $('<div class="ss-sb-cluster-role"></div>').text(head).appendTo(box);
+    var down = c.etcd.filter(function (m) { return !m.healthy; }).map(function (m) { return m.endpoint; });
+    var last = c.lastFailover ? t('sidebar.clusterLast', { from: c.lastFailover.from, to: c.lastFailover.to, time: clockText(c.lastFailover.atMs) }) : '';
+    $('<div class="ss-sb-cluster-health"></div>').text(t('sidebar.clusterHealth', {
+      healthy: c.etcd.length - down.length, total: c.etcd.length, down: down.length ? t('sidebar.clusterDown', { members: down.join(', ') }) : '', failovers: c.failovers, last: last,
+    })).appendTo(box);
+  }
+
   function render(state) {
     body.empty();
+    if (state.cluster) clusterRows(state.cluster);
     if (!state.interlocks.length) body.text(t('sidebar.noInterlock'));
     state.interlocks.forEach(function (il) {
       var section = $('<div class="ss-sb-interlock" style="margin-bottom: 12px;"></div>').attr('data-interlock', il.id).appendTo(body);

@@ -14,9 +14,13 @@ const USAGE = `usage: node scripts/simulator/cli.js --plant <plant.json> [option
   --drop R               share 0..1 of outgoing data messages lost (default 0)
   --speed N              simulated time runs N times faster (default 1)
   --single               per-actuator state topics instead of the <dev>/state batch
-  --profile P            every device speaks P: esphome, tasmota, shelly-gen2 or sugarshack
-                         (default: each device's profile in the document; the palette
+  --profile P            every device speaks P: esphome, tasmota, shelly-gen2, sugarshack or
+                         modbus (default: each device's profile in the document; the palette
                          must be given the same document, see withProfile in plant.js)
+  --modbus-port N        --profile modbus: the first device's Modbus TCP port, the next ones
+                         after it in document order (default ${DEFAULTS.modbusPort})
+  --loop FILE            also run the flow loop of FILE's simulation.loop as a Modbus/TCP
+                         I/O module (a plant document, or a flow holding one plant node)
   --seed S               random seed (default ${DEFAULTS.seed})
   --pump-delay-ms N      pump spin-up/run-down (default ${DEFAULTS.pumpDelayMs})
   --dead-time-ms N       valve command-to-motion delay (default 0)
@@ -24,7 +28,8 @@ const USAGE = `usage: node scripts/simulator/cli.js --plant <plant.json> [option
                          dead:station-4, disconnect:ctrl-1:3000, noisy:ctrl-2:8,
                          drop:ctrl-3:0.3, drift:ctrl-1:5:40,
                          or an actuator id as target: stuck:V103, stuck:P1
-  --no-control           do not listen on sim/control
+  --control-topic T      take faults on T, answer on T/result (default ${DEFAULTS.controlTopic})
+  --no-control           do not listen for faults
   --quiet                log only errors and faults
   -h, --help`;
 
@@ -42,8 +47,11 @@ const VALUE_FLAGS = {
   '--pump-delay-ms': 'pumpDelayMs',
   '--dead-time-ms': 'deadTimeMs',
   '--profile': 'profile',
+  '--control-topic': 'controlTopic',
+  '--modbus-port': 'modbusPort',
+  '--loop': 'loop',
 };
-const NUMERIC = new Set(['sweepS', 'noise', 'sensorNoise', 'delayMs', 'delayJitterMs', 'drop', 'speed', 'pumpDelayMs', 'deadTimeMs']);
+const NUMERIC = new Set(['sweepS', 'noise', 'sensorNoise', 'delayMs', 'delayJitterMs', 'drop', 'speed', 'pumpDelayMs', 'deadTimeMs', 'modbusPort']);
 
 function parseArgs(argv) {
   const opts = { faults: [], broker: process.env.MQTT_URL || DEFAULTS.broker };

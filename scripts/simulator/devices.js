@@ -5,6 +5,7 @@
 // once a minute. ActuatorPanel and SensorStation add their own datapoints.
 const mqtt = require('mqtt');
 const { stream } = require('./random');
+const { ModbusServer } = require('./modbus');
 const { datapointDefaults, PANEL_VALVES } = require('./plant');
 
 const round = (value, decimals) => {
@@ -35,6 +36,15 @@ class Device {
     this.handle = sim.side.device(id);
     this.profile = sim.side.profile(this.handle);
     this.native = this.profile === 'sugarshack';
+    // A modbus device is a server the palette polls, not an MQTT client.
+    this.modbus = this.profile === 'modbus' ? new ModbusServer({
+      side: sim.side,
+      device: this.handle,
+      endpoint: sim.side.modbusEndpoint(this.handle),
+      network: { delay: () => this.drawDelay(), drop: () => this.netRng.chance(Math.max(this.sim.dropRatio, this.faults.drop)) },
+      onWrite: (written) => this.written(written),
+      log: (line) => this.log(line),
+    }) : null;
     this.boot();
   }
 
@@ -67,6 +77,15 @@ class Device {
   }
 
   connect() {
+    if (this.modbus) {
+      this.ready = this.modbus.listen().then(() => {
+        this.connected = true;
+        this.log(`modbus server on ${this.modbus.host}:${this.modbus.port} (unit ${this.modbus.unit})`);
+        this.resumed();
+        this.sample();
+      }, (err) => this.log(`modbus server not started: ${err.message}`));
+      return;
+    }
     this.ready = new Promise((resolve) => { this.markReady = resolve; });
     const client = mqtt.connect(this.sim.broker, {
       clientId: this.id,
@@ -120,6 +139,16 @@ class Device {
     this.paused();
   }
 
+  /** A Modbus client's write: each actuator it commands, as an MQTT command would. */
+  written(written) {
+    for (const w of written) {
+      if (w.actuator === null) continue;
+      const a = this.sim.actuatorList[w.actuator];
+      const text = a.family === 'pump' ? (w.value >= 0.5 ? 'ON' : 'OFF') : String(w.value);
+      this.onCommand(a.family, String(a.slot), text, false, a.range);
+    }
+  }
+
   // Hooks for subclasses.
   commandTopics() { return []; }
   onCommand() {}
@@ -155,6 +184,10 @@ class Device {
   sample() {
     if (this.dead || this.stopped) return;
     const ts = Date.now(); // the device's clock, read when the sample is taken
+    if (this.modbus) {
+      if (this.connected) this.modbus.hold(this.registers());
+      return;
+    }
     // One sample goes out as one burst: its messages share one network delay.
     const delay = this.drawDelay();
     if (!this.native) {
@@ -166,6 +199,9 @@ class Device {
 
   /** The firmware's own messages (profiles other than sugarshack). */
   messages() { return []; }
+
+  /** A modbus device's registers now (DeviceSide.modbusImage). */
+  registers() { return []; }
 
   /** Of `values` (handle -> value), those that changed since last sent (all after a connect). */
   changed(values) {
@@ -179,7 +215,7 @@ class Device {
   }
 
   telemetry() {
-    if (this.dead || this.stopped || !this.connected) return;
+    if (this.dead || this.stopped || !this.connected || this.modbus) return;
     this.publishData(`${this.id}/telemetry`, {
       ts: Date.now(),
       uptimeS: Math.floor((this.sim.simNow() - this.bootSimMs) / 1000),
@@ -233,6 +269,7 @@ class Device {
     this.dead = true;
     clearTimeout(this.netTimer);
     this.away = false;
+    if (this.modbus) return this.modbusDown('dead (power cut)');
     const client = this.client;
     if (!client) return Promise.resolve();
     this.onDisconnect(client);
@@ -243,6 +280,13 @@ class Device {
   // the connection drop and sends the last will; the device keeps its state
   // and reconnects after `ms`.
   async disconnectFor(ms) {
+    if (this.modbus && !this.dead) {
+      await this.modbusDown('unreachable');
+      this.away = true;
+      clearTimeout(this.netTimer);
+      this.netTimer = setTimeout(() => this.comeBack(), ms);
+      return;
+    }
     if (this.dead || !this.client) return;
     const client = this.client;
     this.onDisconnect(client);
@@ -265,12 +309,23 @@ class Device {
     this.everConnected = false;
     this.rebooted();
     this.boot();
+    if (this.modbus) this.modbus.reset();
     this.log('revived (rebooting)');
     this.connect();
     return this.ready;
   }
 
   rebooted() {}
+
+  /** A modbus device gone from the network: its connections drop, nothing answers. */
+  async modbusDown(why) {
+    await this.modbus.close();
+    if (this.connected) {
+      this.connected = false;
+      if (!this.stopped) this.log(why);
+      this.paused();
+    }
+  }
 
   // Orderly shutdown: says "offline" itself, then disconnects (no will).
   async stop() {
@@ -279,6 +334,10 @@ class Device {
     for (const t of this.timers) clearTimeout(t), clearInterval(t);
     for (const t of this.pending) clearTimeout(t);
     this.pending.clear();
+    if (this.modbus) {
+      await this.modbus.close();
+      return;
+    }
     const client = this.client;
     if (!client || this.dead || this.away) return; // its client is already closed
     if (client.connected) {
@@ -322,6 +381,12 @@ class ActuatorPanel extends Device {
     if (a.family === 'pump') return this.pumps[a.slot].running ? 1 : 0;
     const [min, max] = a.range;
     return min + (clamp(position, 0, 100) / 100) * (max - min);
+  }
+
+  /** An I/O module's inputs: each valve's position (with its noise), the pump's run feedback. */
+  registers() {
+    const values = this.named.map((a) => this.valueOf(a, a.family === 'valve' ? this.feedback(a.slot) : undefined));
+    return this.sim.side.modbusImage(this.handle, Uint32Array.from(this.named.map((a) => a.handle)), Float64Array.from(values), new Uint32Array(0), new Float64Array(0));
   }
 
   /** On change, as stock firmware: whole percent positions without noise, the pump's relay. */
@@ -451,8 +516,14 @@ class SensorStation extends Device {
     });
   }
 
-  /** Every sample (sensors publish each update, as ESPHome's do); only the plant's named sensors. */
-  messages() {
+  /** The plant's named sensors in their input registers. */
+  registers() {
+    const { handles, values } = this.named();
+    return this.sim.side.modbusImage(this.handle, new Uint32Array(0), new Float64Array(0), Uint32Array.from(handles), Float64Array.from(values));
+  }
+
+  /** The values of the plant's named sensors on this station. */
+  named() {
     const handles = [];
     const values = [];
     for (const [name, value] of this.datapoints()) {
@@ -461,6 +532,12 @@ class SensorStation extends Device {
       handles.push(handle);
       values.push(value.value);
     }
+    return { handles, values };
+  }
+
+  /** Every sample (sensors publish each update, as ESPHome's do); only the plant's named sensors. */
+  messages() {
+    const { handles, values } = this.named();
     if (handles.length === 0) return [];
     return this.sim.side.sensorMessages(this.handle, Uint32Array.from(handles), Float64Array.from(values), undefined);
   }

@@ -7,13 +7,13 @@
 //   await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 3 });
 //   await sim.stop();
 const mqtt = require('mqtt');
-const { loadPlant, buildModel, withProfile } = require('./plant');
+const { loadPlant, buildModel, withProfile, MODBUS_PORT } = require('./plant');
+const { FlowLoop, loopPlant } = require('./loop');
 const { ActuatorPanel, SensorStation } = require('./devices');
 const { Hydraulics } = require('./hydraulics');
 const { normalizeFault, parseFaultArg } = require('./faults');
 
 const CONTROL_TOPIC = 'sim/control';
-const RESULT_TOPIC = 'sim/control/result';
 
 const DEFAULTS = {
   broker: 'mqtt://127.0.0.1:1883',
@@ -26,7 +26,9 @@ const DEFAULTS = {
   drop: 0, // share of outgoing data messages lost, all devices
   speed: 1, // simulated time runs this many times faster than the wall clock
   single: false, // per-actuator state topics instead of the panel batch
-  profile: null, // every device speaks this profile (esphome, tasmota, ...); else each its document's
+  profile: null, // every device speaks this profile (esphome, tasmota, modbus...); else each its document's
+  modbusPort: MODBUS_PORT, // --profile modbus: the first device's Modbus TCP port, the next ones after it
+  loop: null, // a file with a plant document whose simulation.loop is run as a Modbus/TCP I/O module
   seed: 1,
   pumpDelayMs: 1000, // pump spin-up / run-down before the feedback changes
   deadTimeMs: 0, // valve command-to-motion delay
@@ -35,7 +37,8 @@ const DEFAULTS = {
   reconnectMs: 1000,
   keepaliveS: 15,
   faults: [], // applied at start: objects or CLI strings ("stuck:ctrl-1:3")
-  control: true, // listen on sim/control
+  control: true, // listen on the control topic
+  controlTopic: CONTROL_TOPIC, // its results go to <controlTopic>/result
   wait: true, // resolve once every device (not dead) has connected
   readyTimeoutMs: 10000,
   log: (line) => console.log(`sim: ${line}`),
@@ -75,7 +78,7 @@ class Simulator {
 
     this.realStart = performance.now();
     const loaded = loadPlant(o.plant);
-    const doc = o.profile ? withProfile(loaded, o.profile) : loaded;
+    const doc = o.profile ? withProfile(loaded, o.profile, { modbusPort: Number(o.modbusPort) }) : loaded;
     // Checked by the core, as a deploy checks it; its device side speaks the palette's own MQTT contract.
     this.model = buildModel(doc);
     this.side = this.model.side;
@@ -99,6 +102,7 @@ class Simulator {
     }
     this.control = null;
     this.controlChain = Promise.resolve();
+    this.loops = o.loop ? [new FlowLoop(loopPlant(o.loop), { seed: o.seed, log: this.log })] : [];
   }
 
   // Simulated milliseconds since start (the plant's clock; timestamps use the wall clock).
@@ -116,6 +120,7 @@ class Simulator {
     this.lastStep = this.simNow();
     this.physics = setInterval(() => this.step(), 50);
     for (const d of Object.values(this.devices)) d.start();
+    for (const loop of this.loops) await loop.start();
     if (this.options.control) this.startControl();
     if (this.options.wait) await this.waitReady(this.options.readyTimeoutMs);
     for (const f of initial.filter((x) => x.fault !== 'dead')) await this.inject(f);
@@ -164,12 +169,12 @@ class Simulator {
       resubscribe: true,
     });
     this.controlReady = new Promise((resolve) => {
-      client.once('connect', () => client.subscribe(CONTROL_TOPIC, { qos: 1 }, () => resolve()));
+      client.once('connect', () => client.subscribe(this.options.controlTopic, { qos: 1 }, () => resolve()));
     });
     client.on('error', () => {}); // the devices already log broker errors
     client.on('message', (topic, payload, packet) => {
       if (packet.retain) {
-        this.log(`ignored a retained ${CONTROL_TOPIC} message (clear it with an empty retained publish)`);
+        this.log(`ignored a retained ${this.options.controlTopic} message (clear it with an empty retained publish)`);
         return;
       }
       // One request at a time, so results come back in the order asked.
@@ -184,7 +189,7 @@ class Simulator {
       const parsed = JSON.parse(text);
       faults = Array.isArray(parsed) ? parsed : [parsed];
     } catch (err) {
-      this.log(`${CONTROL_TOPIC}: not JSON: ${text.slice(0, 80)}`);
+      this.log(`${this.options.controlTopic}: not JSON: ${text.slice(0, 80)}`);
       this.reply({ ok: false, error: `not JSON: ${err.message}`, request: text.slice(0, 200) });
       return;
     }
@@ -193,14 +198,14 @@ class Simulator {
         const applied = await this.inject(f);
         this.reply({ ok: true, fault: applied });
       } catch (err) {
-        this.log(`${CONTROL_TOPIC}: ${err.message}`);
+        this.log(`${this.options.controlTopic}: ${err.message}`);
         this.reply({ ok: false, error: err.message, request: f });
       }
     }
   }
 
   reply(obj) {
-    if (this.control && this.control.connected) this.control.publish(RESULT_TOPIC, JSON.stringify(obj), { qos: 1 });
+    if (this.control && this.control.connected) this.control.publish(`${this.options.controlTopic}/result`, JSON.stringify(obj), { qos: 1 });
   }
 
   // fault: object (see README) or CLI string. Resolves with the normalized fault once applied.
@@ -264,6 +269,7 @@ class Simulator {
     this.stopping = (async () => {
       clearInterval(this.physics);
       await Promise.all(Object.values(this.devices).map((d) => d.stop()));
+      await Promise.all(this.loops.map((loop) => loop.stop()));
       if (this.control) await new Promise((resolve) => this.control.end(true, {}, () => resolve()));
       this.log('stopped');
     })();
@@ -306,4 +312,4 @@ async function startSimulator(options = {}) {
   };
 }
 
-module.exports = { startSimulator, Simulator, DEFAULTS, CONTROL_TOPIC, RESULT_TOPIC };
+module.exports = { startSimulator, Simulator, DEFAULTS, CONTROL_TOPIC };

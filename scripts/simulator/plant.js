@@ -195,36 +195,67 @@ function normalizeSimulation(sim, ctx) {
   return { tanks: Object.values(tanks), transfers, signals };
 }
 
-const PROFILES = ['sugarshack', 'esphome', 'tasmota', 'shelly-gen2'];
+const PROFILES = ['sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'modbus'];
+// The first Modbus server's port; the devices listen on consecutive ports, in document order.
+const MODBUS_PORT = 5020;
+// A 4-20 mA signal in µA, as an I/O module's analog channels hold it.
+const FOUR_TO_TWENTY = [4000, 20000];
+
+/**
+ * Where a modbus panel keeps an actuator on output `slot`: an analog one on a
+ * 4-20 mA output and input spanning its type's range, a binary one on a coil
+ * and a discrete input.
+ */
+function modbusActuator(family, slot, type) {
+  const address = slot - 1;
+  if (family === 'pump') return { command: { kind: 'coil', address }, feedback: { kind: 'discrete', address } };
+  const scale = { raw: FOUR_TO_TWENTY, value: [type.min ?? 0, type.max ?? 100] };
+  return { command: { kind: 'holding', address, scale }, feedback: { kind: 'input', address, scale } };
+}
 
 /**
  * The document with every device speaking `profile`, entities named from each
  * actuator's output (Tasmota `Shutter3` / `POWER1`, Shelly `cover:2` / `switch:0`;
  * ESPHome's object ids come from the actuator ids) and sensors' from their
- * names. The palette must be given the same document.
+ * names. `modbus`: a Modbus TCP server per device on 127.0.0.1, from
+ * `modbusPort` on in document order; each sensor a float in input registers
+ * 100, 102... of its station. The palette must be given the same document.
  */
-function withProfile(doc, profile) {
+function withProfile(doc, profile, { modbusPort = MODBUS_PORT } = {}) {
   if (!PROFILES.includes(profile)) fail(`profile ${JSON.stringify(profile)} is not one of ${PROFILES.join(', ')}`);
   const out = JSON.parse(JSON.stringify(doc));
   const slots = assignSlots(out);
-  for (const d of out.devices || []) {
+  (out.devices || []).forEach((d, i) => {
     delete d.prefix;
     delete d.custom;
+    delete d.modbus;
     if (profile === 'sugarshack') delete d.profile;
     else d.profile = profile;
-  }
+    if (profile === 'modbus') d.modbus = { host: '127.0.0.1', port: modbusPort + i, unit: 1, pollMs: 500, timeoutMs: 500 };
+  });
   for (const a of out.actuators || []) {
     delete a.entity;
     delete a.component;
+    delete a.modbus;
     const { family, slot } = slots.get(a.id);
     if (profile === 'tasmota') a.entity = family === 'pump' ? `POWER${slot}` : `Shutter${slot}`;
     if (profile === 'shelly-gen2') a.entity = family === 'pump' ? `switch:${slot - 1}` : `cover:${slot - 1}`;
+    if (profile === 'modbus') a.modbus = modbusActuator(family, slot, (out.actuatorTypes || {})[a.type] || {});
   }
+  const perStation = new Map();
   for (const s of out.sensors || []) {
     delete s.entity;
+    delete s.modbus;
     if (profile === 'shelly-gen2') s.entity = `${s.name}:0.value`;
+    if (profile === 'modbus') {
+      const n = perStation.get(s.device) || 0;
+      perStation.set(s.device, n + 1);
+      s.modbus = { kind: 'input', address: 100 + 2 * n, type: 'f32' };
+    }
   }
   return out;
 }
 
-module.exports = { loadPlant, buildModel, withProfile, assignSlots, datapointDefaults, PANEL_VALVES, PANEL_PUMPS, PROFILES };
+module.exports = {
+  loadPlant, checkedSide, buildModel, withProfile, assignSlots, datapointDefaults, PANEL_VALVES, PANEL_PUMPS, PROFILES, MODBUS_PORT,
+};

@@ -30,12 +30,12 @@ const BURSTS = [1, 10, 100, 1000];
 const CASE_LINES = ['YEL', 'GRN', 'BLU', 'PUR', 'RED'];
 const LINES = Array.from({ length: 1024 }, (_, i) => `L${i}`);
 
-function fakeRuntime(persist, userDir, lines) {
+/** An interlock runtime outside Node-RED; `RED` may bring settings of its own (a cluster: tests/bench/standby-bench.js). */
+function fakeRuntime(persist, userDir, lines, RED = { settings: { userDir } }, id = `bench-${persist ? 'file' : 'memory'}-${lines.length}`) {
   const quiet = { error() {}, warn() {}, log() {}, context: () => ({ global: { get: (k, s, cb) => cb(null, undefined) } }) };
-  const RED = { settings: { userDir }, util: { generateId: () => Math.random().toString(16).slice(2) } };
   const rt = new InterlockRuntime({
-    RED,
-    id: `bench-${persist ? 'file' : 'memory'}-${lines.length}`,
+    RED: { util: { generateId: () => Math.random().toString(16).slice(2) }, ...RED },
+    id,
     settings: { config: { resources: lines.map((name) => ({ name, lockout: null })), policy: 'greedy', recordEvents: true }, persist, plantBound: false },
   });
   rt.palette = { whenStarted() {}, draining: false, started: true, pokeDrain() {}, changes: { touch() {} } };
@@ -58,9 +58,9 @@ function summary(values) {
 }
 
 /** One grant at a time: acquire, wait for the msg to leave, release. */
-async function latency(rt) {
+async function latency(rt, samples = SAMPLES) {
   const times = [];
-  for (let i = 0; i < SAMPLES; i++) {
+  for (let i = 0; i < samples; i++) {
     const started = process.hrtime.bigint();
     await new Promise((resolve) => rt.request(entry(`op${i}`, ['YEL'], resolve)));
     times.push(ms(process.hrtime.bigint() - started));
@@ -112,7 +112,11 @@ async function main() {
   if (!dirArg) fs.rmSync(dir, { recursive: true, force: true });
 }
 
-main().catch((err) => {
-  console.error(err);
-  process.exit(1);
-});
+if (require.main === module) {
+  main().catch((err) => {
+    console.error(err);
+    process.exit(1);
+  });
+}
+
+module.exports = { fakeRuntime, latency, CASE_LINES };

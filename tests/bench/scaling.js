@@ -275,7 +275,11 @@ async function main() {
   if (PROFILE) console.log(`  profiles: ${PROF_DIR}`);
 }
 
-main().catch((err) => {
-  console.error(`scaling: ${err.stack || err}`);
-  process.exit(1);
-});
+if (require.main === module) {
+  main().catch((err) => {
+    console.error(`scaling: ${err.stack || err}`);
+    process.exit(1);
+  });
+}
+
+module.exports = { plantOf, flowOf, cpuTicks, rssMB, lagMonitor, CLK_TCK, IO_PER_PANEL };

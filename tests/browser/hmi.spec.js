@@ -6,7 +6,9 @@
 // accepted once it is back, a forced CLEAR with a reason is recorded as forced,
 // an alarm's acknowledgement survives a reload and shows who acknowledged
 // (the dashboard user, from a Dashboard 2 plugin as FlowFuse's user add-on
-// supplies it); the editor's interlock sidebar tab shows the same lines, the
+// supplies it); the page speaks the plant document's words: operations by their
+// descriptions, sensor values with their units, every line drawn through its
+// valves and pumps, each with its commanded and reported position; the editor's interlock sidebar tab shows the same lines, the
 // timing page draws the paper's figures from GET /sugarshack/stats, and the
 // palette's HMI example, deployed alone, draws its lines.
 // Screenshots go to tests/browser/screenshots-out/.
@@ -20,6 +22,7 @@ const { startMosquitto } = require('../integration/support/mosquitto');
 const { startSimulator } = require('../../scripts/simulator');
 
 const ROOT = path.resolve(__dirname, '..', '..');
+const PLANT = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'plant.json'), 'utf8'));
 const SHOTS = path.join(__dirname, 'screenshots-out');
 const CHROMIUM = process.env.CHROMIUM_BIN || '/usr/bin/chromium';
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
@@ -85,6 +88,8 @@ describe('the HMI at /dashboard in headless Chromium', function () {
 
   const shot = (name) => page.screenshot({ path: path.join(SHOTS, `${name}.png`), fullPage: true });
   const lineRow = (name) => `tr[data-line="${name}"]`;
+  // A line's button, found and clicked in one step: rows above it change height as their lines change state.
+  const press = (line, button) => page.$eval(`${lineRow(line)} .ss-${button}`, (el) => el.click());
   const textOf = (selector) => page.$eval(selector, (el) => el.innerText).catch(() => '');
   async function waitText(selector, re, what, timeoutMs = 30000) {
     const deadline = Date.now() + timeoutMs;
@@ -99,18 +104,61 @@ describe('the HMI at /dashboard in headless Chromium', function () {
   }
   const lockoutsSent = [];
 
-  it('shows the five lines and their holders within seconds', async function () {
+  it('shows the five lines and their holders within seconds, each operation by its name in the plant document', async function () {
     const started = Date.now();
     await page.goto(`http://127.0.0.1:${red.port}/dashboard/plant`, { waitUntil: 'domcontentloaded' });
     for (const line of ['YEL', 'GRN', 'BLU', 'PUR', 'RED']) await waitText(lineRow(line), new RegExp(`${line}\\s+(free|held|faulted)`), `line ${line}`, 20000);
     assert.ok(Date.now() - started < 20000);
-    const state = await red.get('/sugarshack/state');
-    const held = state.interlocks[0].lines.filter((l) => l.holder);
-    for (const l of held) {
-      const row = await textOf(lineRow(l.name));
-      if (/held/.test(row)) assert.match(row, /op \d+/, `${l.name} shows its holder`);
+    // The routines start operations at once: wait for a holder on the page, then read it against the document.
+    const named = (id) => `${PLANT.operations.find((o) => o.id === id).description} (${id})`;
+    const deadline = Date.now() + 30000;
+    let checked = 0;
+    while (checked === 0 && Date.now() < deadline) {
+      const state = await red.get('/sugarshack/state');
+      for (const l of state.interlocks[0].lines.filter((x) => x.holder)) {
+        const row = await textOf(lineRow(l.name));
+        if (!row.includes(`prio ${l.holder.priority}`)) continue; // the page is a moment behind
+        assert.ok(row.includes(named(l.holder.operation)), `${l.name} shows its holder by name: ${row}`);
+        assert.doesNotMatch(row, /\bop \d+/, 'no bare operation numbers');
+        checked++;
+      }
+      if (checked === 0) await sleep(500);
     }
+    assert.ok(checked > 0, 'a held line was seen on the page');
     await shot('1-plant');
+  });
+
+  it('draws each line with the valves and pumps it runs through, each with its commanded and reported position', async function () {
+    const lineOf = (line) => PLANT.actuators.filter((a) => a.resource === line).map((a) => a.id);
+    for (const line of ['YEL', 'GRN', 'BLU', 'PUR', 'RED']) {
+      const drawn = await page.$$eval(`tr[data-diagram="${line}"] [data-actuator]`, (els) => els.map((el) => el.dataset.actuator));
+      assert.deepEqual(drawn, lineOf(line), `line ${line} is drawn through its actuators, in the document's order`);
+    }
+    const labels = await page.$$eval('tr.ss-diagram [data-actuator] .ss-act-pos', (els) => els.map((el) => el.textContent));
+    for (const label of labels) assert.match(label, /^(–|\d+|on|off) \/ (–|\d+|on|off)( %)?$/, 'commanded / reported, valves in %');
+    // An actuator an operation opened: its label says so, and its symbol is filled once feedback shows it open.
+    const deadline = Date.now() + 60000;
+    let opened = null;
+    while (!opened && Date.now() < deadline) {
+      opened = await page.$$eval('tr.ss-diagram [data-actuator][data-commanded="100"][data-open="true"]', (els) => els.map((el) => ({
+        id: el.dataset.actuator, reported: Number(el.dataset.reported), label: el.querySelector('.ss-act-pos').textContent, fill: getComputedStyle(el.querySelector('polygon, circle')).fill,
+      }))[0] || null);
+      if (!opened) await sleep(500);
+    }
+    assert.ok(opened, 'an open actuator on some line');
+    assert.match(opened.label, new RegExp(`^100 / ${Math.round(opened.reported)} %$`), `${opened.id}: ${opened.label}`);
+    assert.equal(opened.fill, 'rgb(46, 125, 50)', 'drawn filled: open');
+    await shot('1b-lines-drawn');
+  });
+
+  it('shows the sensors with their units from the plant document', async function () {
+    const units = Object.fromEntries(PLANT.sensors.map((s) => [s.id, s.unit]));
+    await waitText('.ss-sensors tr[data-sensor="LT-2"] .ss-value', /^\d+(\.\d)? L$/, 'LT-2 in litres');
+    const shown = await page.$$eval('.ss-sensors tr[data-sensor]', (rows) => rows.map((r) => [r.dataset.sensor, r.querySelector('.ss-value').textContent.trim()]));
+    assert.ok(shown.length > 0);
+    for (const [sensor, text] of shown) {
+      if (text !== '-') assert.ok(text.endsWith(` ${units[sensor]}`), `${sensor}: ${text} ends with its unit ${units[sensor]}`);
+    }
   });
 
   it('E-STOP on YEL turns YEL faulted on the page and sends its lockout', async function () {
@@ -119,7 +167,7 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     await new Promise((resolve) => client.on('connect', resolve));
     client.subscribe('ctrl-1/#');
     client.on('message', (topic, payload) => { if (/command/.test(topic)) lockoutsSent.push([topic, String(payload)]); });
-    await page.click(`${lineRow('YEL')} .ss-estop`);
+    await press('YEL', 'estop');
     await waitText(lineRow('YEL'), /faulted/, 'YEL faulted');
     await waitText('.ss-alarms', /e-stop YEL/, 'the alarm of the e-stop');
     const deadline = Date.now() + 15000;
@@ -164,14 +212,15 @@ describe('the HMI at /dashboard in headless Chromium', function () {
   it('CLEAR is refused while a YEL device is offline, the reason shown, then accepted', async function () {
     await sim.inject({ fault: 'dead', device: 'ctrl-1' });
     await waitText(lineRow('YEL'), /device ctrl-1 offline/, 'the reason not to clear', 30000);
-    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await press('YEL', 'clear');
     await waitText(`${lineRow('YEL')} .ss-refused`, /refused: device ctrl-1 offline/, 'the refusal');
     await shot('3-clear-refused');
     assert.match(await textOf(lineRow('YEL')), /faulted/);
     await sim.inject({ fault: 'revive', device: 'ctrl-1' });
-    await waitText(lineRow('YEL'), /^(?![\s\S]*not clearable)[\s\S]*$/, 'YEL clearable again', 60000);
+    // Still faulted, no longer "not clearable" (an empty text, a row not drawn yet, matches neither).
+    await waitText(lineRow('YEL'), /^(?![\s\S]*not clearable)[\s\S]*YEL\s+faulted/, 'YEL clearable again', 60000);
     await page.type('.ss-reason', 'ctrl-1 restarted, valves checked');
-    await page.click(`${lineRow('YEL')} .ss-clear`);
+    await press('YEL', 'clear');
     await waitText(lineRow('YEL'), /YEL\s+(free|held)/, 'YEL cleared', 30000);
     await waitText('.ss-alarms', new RegExp(`cleared YEL by ${DASHBOARD_USER}: ctrl-1 restarted, valves checked`), 'the clear in the event list, with who and why');
     await shot('4-cleared');
@@ -180,13 +229,14 @@ describe('the HMI at /dashboard in headless Chromium', function () {
   // BLU: free early on (only a late step of the evaporator's cycle takes it), so the routines keep
   // running operations for the timing page.
   it('CLEAR with force and a reason goes through over a refusal and is recorded as forced, with that reason', async function () {
-    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await press('BLU', 'estop');
     await waitText(lineRow('BLU'), /BLU\s+faulted/, 'BLU faulted');
     await sim.inject({ fault: 'dead', device: 'ctrl-3' });
     await waitText(lineRow('BLU'), /device ctrl-3 offline/, 'the reason not to clear BLU', 30000);
     await page.type('.ss-reason', 'ctrl-3 being replaced; BLU valves closed by hand');
-    await page.click('.ss-force');
-    await page.click(`${lineRow('BLU')} .ss-clear`);
+    // Set where it is at that moment: the dashboard re-renders as the plant changes.
+    await page.$eval('.ss-force', (el) => { if (!el.checked) el.click(); });
+    await press('BLU', 'clear');
     await waitText(lineRow('BLU'), /BLU\s+(free|held)/, 'BLU cleared over its reasons', 30000);
     const forced = await waitText('.ss-event.ss-forced', /FORCED/, 'the forced clear marked in the event list');
     assert.match(forced, new RegExp(`cleared BLU by ${DASHBOARD_USER} \\(forced\\): ctrl-3 being replaced; BLU valves closed by hand`));
@@ -199,15 +249,17 @@ describe('the HMI at /dashboard in headless Chromium', function () {
 
   it('an alarm acknowledged on the page stays acknowledged after a reload, showing who acknowledged it and when', async function () {
     const alarm = (id) => `.ss-alarm[data-alarm="${id}"]`;
+    // Found and clicked in one step: new alarms arrive at the top and move the rest down.
+    const ack = (id) => page.$eval(`${alarm(id)} .ss-ack`, (button) => button.click());
     // YEL's alarm returned to normal with its clear; acknowledged, it leaves the list.
     await waitText(alarm('line-faulted:YEL'), /returned to normal · unacknowledged/, 'YEL back to normal, not yet acknowledged');
-    await page.click(`${alarm('line-faulted:YEL')} .ss-ack`);
+    await ack('line-faulted:YEL');
     await waitText('.ss-alarms', /^(?![\s\S]*YEL faulted)/, 'the acknowledged, normal alarm leaves the list');
     // An active one stays, acknowledged.
     await page.type('.ss-reason', 'dye test on BLU');
-    await page.click(`${lineRow('BLU')} .ss-estop`);
+    await press('BLU', 'estop');
     await waitText(alarm('line-faulted:BLU'), /BLU faulted, manual: dye test on BLU[\s\S]*active · unacknowledged/, 'the BLU alarm');
-    await page.click(`${alarm('line-faulted:BLU')} .ss-ack`);
+    await ack('line-faulted:BLU');
     const acked = new RegExp(`active · acknowledged by ${DASHBOARD_USER} at \\d`);
     await waitText(alarm('line-faulted:BLU'), acked, 'the acknowledgement with who');
     await page.reload({ waitUntil: 'domcontentloaded' });

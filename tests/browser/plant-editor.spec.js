@@ -99,7 +99,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     const line = await page.evaluate(() => RED.nodes.node('pl').editor.getPosition().lineNumber);
     const typed = await page.evaluate((n) => RED.nodes.node('pl').editor.getModel().getLineContent(n).trim(), line);
     assert.equal(typed, '{"io": "one"}');
-    const markers = await markersWhen((messages) => messages.some((m) => /Incorrect type/.test(m)));
+    // Waits for this text's markers: until Monaco validates it again, the markers are the last text's.
+    const markers = await markersWhen((messages) => messages.some((m) => m === 'Incorrect type. Expected one of integer, null.'));
     assert.deepEqual(markers.filter((m) => /Incorrect type/.test(m.message)), [{ message: 'Incorrect type. Expected one of integer, null.', line }]);
     // Drawn inline, under the value.
     await page.waitForSelector('#node-config-input-plant-editor .squiggly-warning, #node-config-input-plant-editor .squiggly-error', { timeout: 10000 });
@@ -115,7 +116,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     await openPlant();
     await typeAt(JSON.stringify(PLANT, null, 2), '"lockout"', 3);
     await page.evaluate(() => RED.nodes.node('pl').editor.trigger('test', 'editor.action.showHover', {}));
-    await page.waitForFunction(() => $('.monaco-hover-content').text().trim() !== '', { timeout: 15000 });
+    // Not Monaco's "Loading..." while its JSON worker starts: the description itself.
+    await page.waitForFunction(() => /safe state/.test($('.monaco-hover-content').text()), { timeout: 15000 });
     const hover = await page.$eval('.monaco-hover-content', (el) => el.innerText.trim());
     // Markdown: its `code` is drawn as code.
     assert.equal(hover, SCHEMA.definitions.Actuator.properties.lockout.markdownDescription.replace(/`/g, ''));
@@ -127,7 +129,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
     const doc = { $schema: '../node_modules/node-red-contrib-sugarshack/schema/plant.schema.json', ...PLANT };
     doc.operations = [{ ...PLANT.operations[0], priority: 'high' }, PLANT.operations[1]];
     await typeAt(JSON.stringify(doc, null, 2), '"high"', 0);
-    const markers = await markersWhen((messages) => messages.length > 0);
+    const markers = await markersWhen((messages) => messages.includes('Incorrect type. Expected "integer".'));
     const line = await page.evaluate(() => RED.nodes.node('pl').editor.getPosition().lineNumber);
     assert.deepEqual(markers, [{ message: 'Incorrect type. Expected "integer".', line }]);
   });
@@ -159,8 +161,11 @@ describe('the plant document in the editor (headless Chromium)', function () {
 
   /** The items of the typedInput option menu shown for `input`, once its trigger is clicked. */
   async function optionsOf(input) {
-    await page.click(`${input} + .red-ui-typedInput-container .red-ui-typedInput-option-trigger`);
-    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 5000 });
+    const trigger = `${input} + .red-ui-typedInput-container .red-ui-typedInput-option-trigger`;
+    await page.waitForSelector(trigger, { visible: true, timeout: 10000 });
+    // Clicked where it is at that moment: the tray may still be sliding in.
+    await page.$eval(trigger, (el) => el.click());
+    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 10000 });
     return page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
   }
 
@@ -181,7 +186,10 @@ describe('the plant document in the editor (headless Chromium)', function () {
     // An id the plant does not have yet: typed.
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
     await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', { visible: true, timeout: 10000 });
-    await page.click('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select');
+    await page.$eval('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', (el) => el.click());
+    // The value menu may still be fading out: wait for the type menu itself.
+    await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1
+      && $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').length === 1, { timeout: 10000 });
     const types = await page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
     assert.deepEqual(types, [catalog('operation')['sugarshack-operation'].label.fromPlant, 'string']);
     await page.evaluate(() => $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').trigger('click'));

@@ -241,6 +241,24 @@ describe('sugarshack actuator nodes', function () {
     assert.deepEqual([seen.mqtt[1].topic, seen.mqtt[1].payload, seen.mqtt[1].retain], ['ctrl-1/pump/1/command', 'OFF', true]);
   });
 
+  it('a command to a device that speaks another profile fails saying so, not that the valve did not move', async function () {
+    const seen = await start();
+    // ctrl-1 is ESPHome firmware while the document says sugarshack: its status reads, its states do not.
+    const esphome = (topic, payload) => helper.getNode('bus').receive({ topic: `ctrl-1/${topic}`, payload, qos: 0, retain: false });
+    esphome('status', 'online');
+    esphome('valve/v12/position/state', '0');
+    command({ valves: { V12: 100 } });
+    await clock().advance(1000);
+    await until(() => seen.caught.length === 1, 'the escalated error');
+    assert.equal(seen.caught[0].error.code, 'COMMAND_FAILED');
+    assert.ok(seen.caught[0].error.message.endsWith("valve V12 never reported a position within 0.3 s of its command (after 1 retry): its device ctrl-1 is online but nothing it sent reads as V12's position: does ctrl-1 speak profile 'sugarshack', as the plant document says?"), seen.caught[0].error.message);
+    // ctrl-2 never said a word.
+    command({ valves: { V21: 100 } });
+    await clock().advance(1000);
+    await until(() => seen.caught.length === 2, 'the second error');
+    assert.match(seen.caught[1].error.message, /valve V21 never reported a position .*: nothing has come from its device ctrl-2 since the start: is ctrl-2 connected to this broker/);
+  });
+
   it('retries a command without motion, then escalates: the error reaches a Catch node', async function () {
     const seen = await start();
     atRest();

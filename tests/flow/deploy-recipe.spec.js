@@ -27,7 +27,7 @@ const { startMosquitto, findMosquitto } = require('../integration/support/mosqui
 
 const ROOT = path.resolve(__dirname, '..', '..');
 const DEPLOY = path.join(ROOT, 'deploy');
-const COMPOSE_FILES = ['compose.yaml', 'edge/compose.yaml', 'cloud/compose.yaml'].map((f) => path.join(DEPLOY, f));
+const COMPOSE_FILES = ['compose.yaml', 'edge/compose.yaml', 'cloud/compose.yaml', 'standby/compose.yaml'].map((f) => path.join(DEPLOY, f));
 const rel = (p) => path.relative(ROOT, p);
 
 // ---- Compose interpolation (${VAR}, ${VAR:-default}, ${VAR:?error}, $VAR, $$) ----
@@ -139,12 +139,16 @@ function portClashes(doc) {
   return problems;
 }
 
-/** Every ${VAR} that files read inside the container must be in that service's environment. */
+/** Every ${VAR} that files read inside the container must be in that service's environment (a script's own variables apart). */
 function unsetInContainer(svc, files) {
   const env = svc.environment || {};
   const names = Array.isArray(env) ? env.map((e) => e.split('=')[0]) : Object.keys(env);
   const missing = new Set();
-  for (const file of files) for (const v of varsIn(fs.readFileSync(file, 'utf8'))) if (!names.includes(v)) missing.add(`${v} (${rel(file)})`);
+  for (const file of files) {
+    const text = fs.readFileSync(file, 'utf8');
+    const own = new Set([...text.matchAll(/(?:^|[\s;])(?:for\s+)?([A-Za-z_][A-Za-z0-9_]*)(?:=|\s+in\s)/gm)].map((m) => m[1]));
+    for (const v of varsIn(text)) if (!names.includes(v) && !own.has(v)) missing.add(`${v} (${rel(file)})`);
+  }
   return [...missing];
 }
 
@@ -256,7 +260,9 @@ describe('deployment recipe (deploy/)', function () {
         });
 
         it('keeps its data in named volumes (the broker, the database, Node-RED\'s user dir, Grafana)', function () {
-          const wants = { 'node-red': '/data', mosquitto: '/mosquitto/data', questdb: '/var/lib/questdb', grafana: '/var/lib/grafana' };
+          const wants = {
+            'node-red': '/data', 'node-red-a': '/data', 'node-red-b': '/data', mosquitto: '/mosquitto/data', questdb: '/var/lib/questdb', grafana: '/var/lib/grafana',
+          };
           for (const [svc, target] of Object.entries(wants)) {
             if (!doc.services[svc]) continue;
             const vol = doc.services[svc].volumes.find((v) => v.split(':')[1] === target);
@@ -266,15 +272,16 @@ describe('deployment recipe (deploy/)', function () {
 
         it('sets in each container every ${VAR} its flows and provisioning files read', function () {
           const s = doc.services;
-          if (s['node-red']) {
-            assert.deepStrictEqual(unsetInContainer(s['node-red'], [deployFlows.OUT.flows, deployFlows.OUT.credentials]), []);
+          for (const name of ['node-red', 'node-red-a', 'node-red-b'].filter((n) => s[n])) {
+            assert.deepStrictEqual(unsetInContainer(s[name], [deployFlows.OUT.flows, deployFlows.OUT.credentials]), []);
           }
           if (s.grafana) {
             const prov = path.join(DEPLOY, 'grafana', 'provisioning');
             const files = fs.readdirSync(prov, { recursive: true }).map((f) => path.join(prov, f)).filter((f) => f.endsWith('.yaml'));
             assert.deepStrictEqual(unsetInContainer(s.grafana, files), []);
           }
-          if (s.mosquitto) assert.deepStrictEqual(unsetInContainer(s.mosquitto, [path.join(DEPLOY, 'mosquitto', 'entrypoint.sh')]).filter((v) => !v.startsWith('passwd')), []);
+          const entrypoint = fs.existsSync(path.join(path.dirname(file), 'mosquitto-entrypoint.sh')) ? path.join(path.dirname(file), 'mosquitto-entrypoint.sh') : path.join(DEPLOY, 'mosquitto', 'entrypoint.sh');
+          if (s.mosquitto) assert.deepStrictEqual(unsetInContainer(s.mosquitto, [entrypoint]).filter((v) => !v.startsWith('passwd')), []);
         });
       });
     }

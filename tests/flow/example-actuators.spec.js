@@ -38,16 +38,21 @@ describe('example: actuators-group-command', function () {
     const seen = { 'device commands': [], completed: [], errors: [], 'actuator events': [] };
     for (const name of Object.keys(seen)) helper.getNode(byName(flow, 'helper', name)).on('input', (m) => seen[name].push(m));
     const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
-    const state = (valve, pump) => bus.receive({ topic: 'ctrl-1/state', payload: { ts: clock().now(), valve, pump: { 1: pump } } });
+    // The rig's panel speaks ESPHome: each valve's position in whole percent and the pump's relay, on change.
+    const feedback = (topic, payload) => bus.receive({ topic: `rig/ctrl-1/${topic}`, payload, qos: 0, retain: false });
+    const state = (valves, pump) => {
+      for (const [valve, position] of Object.entries(valves)) feedback(`valve/v10${valve}/position/state`, String(position));
+      feedback('switch/p1/state', pump ? 'ON' : 'OFF');
+    };
 
-    bus.receive({ topic: 'ctrl-1/status', payload: 'online', retain: true });
+    bus.receive({ topic: 'rig/ctrl-1/status', payload: 'online', retain: true });
     state({ 1: 0, 2: 0, 3: 0, 4: 0, 5: 0 }, false);
     helper.getNode(byName(flow, 'inject', 'open line 1')).receive({});
     await until(() => seen['device commands'].length === 3, 'three device commands');
     assert.deepEqual(seen['device commands'].map((m) => [m.topic, m.payload, m.retain, m.qos]), [
-      ['ctrl-1/valve/1/command', '100', false, 1],
-      ['ctrl-1/valve/2/command', '100', false, 1],
-      ['ctrl-1/pump/1/command', 'ON', false, 1],
+      ['rig/ctrl-1/valve/v101/position/command', '100', false, 1],
+      ['rig/ctrl-1/valve/v102/position/command', '100', false, 1],
+      ['rig/ctrl-1/switch/p1/command', 'ON', false, 1],
     ]);
     await clock().advance(1000);
     state({ 1: 50, 2: 50, 3: 0, 4: 0 }, true);
@@ -57,7 +62,8 @@ describe('example: actuators-group-command', function () {
     assert.deepEqual(seen.completed[0].command.actuators.map((a) => [a.actuator, a.issueToMotionMs, a.completionMs]).sort(),
       [['P1', 1000, 1000], ['V101', 1000, 2000], ['V102', 1000, 2000]]);
     assert.equal(seen.completed[0].command.completionMs, 2000);
-    assert.ok(seen['actuator events'].some((m) => m.topic === 'actuator/changed/V101' && m.payload.timeOfFlightMs === 0));
+    // ESPHome states carry no device time: no time of flight.
+    assert.ok(seen['actuator events'].some((m) => m.topic === 'actuator/changed/V101' && m.payload.timeOfFlightMs === null));
 
     helper.getNode(byName(flow, 'inject', 'bad command')).receive({});
     await until(() => seen.errors.length === 1, 'the refusal');

@@ -6,6 +6,7 @@ const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 const {
   PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, catchOnce, startServer, stopServer, linkNodes, until, settled, clock, runFor, runUntil,
 } = require('./support');
@@ -92,54 +93,57 @@ function errorLogs() {
 
 /**
  * The field devices of an example's plant, without a broker, on the manual
- * clock: each panel obeys the commands the actuators node publishes (a valve
- * reaches its target `delayMs` later) and reports its state batch; each sensor
- * reports the value set with `sensor(id, value)`. Everything is re-sent every
- * 200 ms, so nothing goes stale.
+ * clock, each speaking its profile through the core's device side (what the
+ * simulator uses): each panel obeys the commands the actuators node publishes
+ * (a valve reaches its target `delayMs` later) and reports its actuators; each
+ * sensor reports the value set with `sensor(id, value)`. Everything is re-sent
+ * every 200 ms, so nothing goes stale.
  */
 function fakeField(flow, { delayMs = 20 } = {}) {
   const plant = flow.find((n) => n.type === 'sugarshack-plant').plant;
+  const side = new (wasm.load().DeviceSide)(plant);
   const bus = () => helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
-  const panels = {};
-  for (const a of plant.actuators) {
-    panels[a.device] = panels[a.device] || {};
-    panels[a.device][a.type] = panels[a.device][a.type] || {};
-    panels[a.device][a.type][a.io] = a.idle;
-  }
-  const sensors = Object.fromEntries((plant.sensors || []).map((s) => [s.id, { ...s, value: undefined }]));
-  const timers = new Set();
-  const report = (device) => bus()?.receive({ topic: `${device}/state`, payload: { ts: clock().now(), ...panels[device] } });
-  const publishSensor = (s) => {
-    if (s.value !== undefined) bus()?.receive({ topic: `${s.device}/sensor/${s.name}/state`, payload: { ts: clock().now(), value: s.value } });
+  const give = (messages) => {
+    for (const m of messages) bus()?.receive({ topic: m.topic, payload: m.payload, retain: m.retain, qos: 0 });
   };
+  const positions = plant.actuators.map((a) => (a.type === 'pump' ? 0 : a.idle));
+  const values = (plant.sensors || []).map(() => undefined);
+  const handles = (list, keep) => list.map((x, i) => (keep(x, i) ? i : -1)).filter((i) => i >= 0);
+  const report = (device) => {
+    const mine = handles(plant.actuators, (a) => a.device === device);
+    if (mine.length) give(side.actuatorMessages(side.device(device), mine, mine.map((i) => positions[i]), clock().now()));
+    const sensed = handles(plant.sensors || [], (s, i) => s.device === device && values[i] !== undefined);
+    if (sensed.length) give(side.sensorMessages(side.device(device), sensed, sensed.map((i) => values[i]), clock().now()));
+  };
+  const timers = new Set();
   const commands = helper.getNode(byName(flow, 'helper', 'device commands'));
   commands.on('input', (msg) => {
-    const [device, type, io] = msg.topic.split('/');
-    if (msg.payload === '') return; // a retained lockout being cleared
-    const value = type === 'pump' ? msg.payload === 'ON' : Number(msg.payload);
+    const read = side.parseCommand(msg.topic, Buffer.from(String(msg.payload)));
+    if (!read || read.kind !== 'set') return; // another topic, or a retained lockout being cleared
     const t = clock().setTimeout(() => {
       timers.delete(t);
-      panels[device][type][io] = value;
-      report(device);
+      positions[read.actuator] = read.value;
+      report(plant.actuators[read.actuator].device);
     }, delayMs);
     timers.add(t);
   });
-  const devices = [...new Set(plant.devices.map((d) => d.id))];
-  for (const d of devices) bus().receive({ topic: `${d}/status`, payload: 'online', retain: true });
+  const devices = plant.devices.map((d) => d.id);
+  for (const d of devices) give([side.status(side.device(d), true)]);
   const tick = () => {
-    for (const d of Object.keys(panels)) report(d);
-    for (const s of Object.values(sensors)) publishSensor(s);
+    for (const d of devices) report(d);
   };
   tick();
   const interval = clock().setInterval(tick, 200);
   return {
     sensor(id, value) {
-      sensors[id].value = value;
-      publishSensor(sensors[id]);
+      const i = plant.sensors.findIndex((s) => s.id === id);
+      values[i] = value;
+      report(plant.sensors[i].device);
     },
     stop() {
       clock().clearInterval(interval);
       for (const t of timers) clock().clearTimeout(t);
+      side.free();
     },
   };
 }
@@ -148,6 +152,10 @@ function fakeField(flow, { delayMs = 20 } = {}) {
 const statusOf = (id) => helper.getNode(id).status.getCalls().filter((c) => c.thisValue.id === id).map((c) => c.args[0]).at(-1);
 
 const commandsOf = (msgs) => msgs.map((m) => [m.topic, m.payload]);
+
+/** The command topics of a rig panel's line lockout, sorted: its ten valves from `first` on, and its pump. */
+const lockoutTopics = (panel, first, pump) => [
+  ...Array.from({ length: 10 }, (_, i) => `rig/${panel}/valve/v${first + i}/position/command`), `rig/${panel}/switch/${pump}/command`].sort();
 
 /**
  * Op 12 of the examples that run it (unload truck: YEL's two valves open, the
@@ -164,10 +172,10 @@ async function unloadTruck({ flow, seen, field }, runTill) {
   assert.deepEqual(back.interlock.resources, ['YEL']);
   assert.equal(back.interlock.operation, '12');
   assert.deepEqual(commandsOf(seen['device commands'].slice(sent)).filter(([, p]) => p !== ''), [
-    ['ctrl-1/valve/3/command', '100'], ['ctrl-1/valve/4/command', '100'],
-    ['ctrl-1/pump/1/command', 'ON'],
-    ['ctrl-1/pump/1/command', 'OFF'],
-    ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'], ['ctrl-1/pump/1/command', 'OFF'],
+    ['rig/ctrl-1/valve/v103/position/command', '100'], ['rig/ctrl-1/valve/v104/position/command', '100'],
+    ['rig/ctrl-1/switch/p1/command', 'ON'],
+    ['rig/ctrl-1/switch/p1/command', 'OFF'],
+    ['rig/ctrl-1/valve/v103/position/command', '0'], ['rig/ctrl-1/valve/v104/position/command', '0'], ['rig/ctrl-1/switch/p1/command', 'OFF'],
   ]);
   return back;
 }
@@ -219,8 +227,9 @@ describe('examples', function () {
       for (const n of flow) {
         used.add(n.type);
         assert.match(n.id, /^[0-9a-f]{16}$/, `${file}: node id ${n.id} is 16 hex digits, as Node-RED exports them`);
-        assert.ok(!ids.has(n.id), `${file}: node id ${n.id} is also used in ${ids.get(n.id)}`);
-        ids.set(n.id, file);
+        // The only ids two examples share are the example rig's config nodes, the same in each (an import of both reuses them).
+        if (ids.has(n.id)) assert.deepEqual(n, ids.get(n.id).node, `${file}: node id ${n.id} is also used in ${ids.get(n.id).file} for another node`);
+        else ids.set(n.id, { file, node: n });
         if (n.type.startsWith('sugarshack-') && !CONFIG_TYPES[n.type] && !STANDALONE_TYPES[n.type]) {
           const property = n.interlock !== undefined ? 'interlock' : 'plant';
           assert.equal(configs.get(n[property]), `sugarshack-${property}`, `${file}: ${n.type} ${n.id} has its ${property} in the file`);
@@ -243,6 +252,26 @@ describe('examples', function () {
     }
     const types = Object.keys(pkg['node-red'].nodes).map((set) => `sugarshack-${set}`);
     for (const type of types) assert.ok(used.has(type), `${type} appears in an example`);
+  });
+
+  it('the examples that drive devices carry the example rig\'s plant, interlock and broker nodes, as scripts/example-rig.js writes them from flows/example-rig.json', function () {
+    const { FILES, IDS, RIG_FILE, withRig } = require('../../scripts/example-rig.js');
+    const rig = JSON.parse(fs.readFileSync(RIG_FILE, 'utf8'));
+    for (const file of FILES) {
+      const flow = readExample(path.basename(file));
+      assert.deepEqual(flow, withRig(flow, rig), `${path.basename(file)}: run node scripts/example-rig.js`);
+      assert.deepEqual(flow.slice(0, 3).map((n) => n.id), [IDS.plant, IDS.interlock, IDS.broker]);
+    }
+    // No other example binds to the rig's devices, and none to the case study's but the HMI (with npm start's ids);
+    // modbus-pid-loop's plant is its own Modbus I/O module (the simulator's flow loop), shared with no other plant.
+    const ownPlant = { 'modbus-pid-loop.json': readExample('modbus-pid-loop.json').filter((n) => n.type === 'sugarshack-plant' && n.plant.simulation && n.plant.simulation.loop).map((n) => n.id) };
+    const caseStudy = JSON.parse(fs.readFileSync(path.join(__dirname, '..', '..', 'flows', 'case-study.json'), 'utf8'));
+    const casePlant = caseStudy.find((n) => n.type === 'sugarshack-plant').id;
+    for (const file of exampleFiles()) {
+      const plants = readExample(file).filter((n) => n.type === 'sugarshack-plant').map((n) => n.id);
+      const expected = FILES.some((f) => path.basename(f) === file) ? [IDS.plant] : file === 'hmi-dashboard.json' ? [casePlant] : ownPlant[file] || [];
+      assert.deepEqual(plants, expected, file);
+    }
   });
 
   it('the HMI example and flows/hmi.json are what scripts/hmi-flow.js makes of scripts/hmi/*.vue (one source, no hand copy)', function () {
@@ -355,8 +384,7 @@ describe('example: operation-subflow', function () {
     await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
     assert.equal(seen['lockout done'][0].topic, 'lockout/RED');
     const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
-    assert.deepEqual(retained.map((m) => m.topic).sort(), [
-      'ctrl-5/pump/1/command', 'ctrl-5/valve/1/command', 'ctrl-5/valve/2/command', 'ctrl-5/valve/3/command']);
+    assert.deepEqual(retained.map((m) => m.topic).sort(), lockoutTopics('ctrl-5', 501, 'p3'));
   });
 
   it('a condition that does not hold in time faults op 12 through the Catch: YEL locks out, blocks op 12 until cleared', async function () {
@@ -371,10 +399,7 @@ describe('example: operation-subflow', function () {
     assert.equal(lockout.topic, 'lockout/YEL');
     assert.equal(lockout.command.faultLockoutMs, 20, 'from the fault to every YEL actuator at its lockout state');
     const retained = seen['device commands'].filter((m) => m.retain && m.payload !== '');
-    assert.deepEqual(retained.map((m) => [m.topic, m.payload]).sort(), [
-      ['ctrl-1/pump/1/command', 'OFF'], ['ctrl-1/valve/1/command', '0'], ['ctrl-1/valve/2/command', '0'],
-      ['ctrl-1/valve/3/command', '0'], ['ctrl-1/valve/4/command', '0'],
-    ]);
+    assert.deepEqual(retained.map((m) => [m.topic, m.payload]).sort(), lockoutTopics('ctrl-1', 101, 'p1').map((t) => [t, t.endsWith('p1/command') ? 'OFF' : '0']));
 
     // YEL stays faulted: the next call waits at the acquire node until a person clears it.
     field.sensor('LT-3', 0);
@@ -416,7 +441,7 @@ describe('example: operations-and-routines', function () {
     field.sensor('LT-7', 1000);
     field.sensor('LT-2', 20000);
     inject(flow, 'start op 18 (flit downstock)');
-    await runTill(() => seen['device commands'].some((m) => m.topic === 'ctrl-5/pump/1/command' && m.payload === 'ON'), 'P3 on');
+    await runTill(() => seen['device commands'].some((m) => m.topic === 'rig/ctrl-5/switch/p3/command' && m.payload === 'ON'), 'P3 on');
     inject(flow, 'start op 18 (flit downstock)');
     await runTill(() => seen.errors.length === 1, 'the refused second start');
     assert.equal(seen.errors[0].error.code, 'OPERATION_RUNNING');
@@ -523,18 +548,18 @@ describe('example: subflows-op12', function () {
     assert.equal(red.fault.cause, 'manual');
     assert.equal(red.fault.note, 'leak at the RED pump');
     assert.deepEqual(red.clearBlockers, []);
-    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
-    await runTill(() => state().plants[0].devices.find((d) => d.device === 'ctrl-5').state === 'offline', 'ctrl-5 offline');
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => state().plants[0].devices.find((d) => d.device === 'rig-ctrl-5').state === 'offline', 'rig-ctrl-5 offline');
     red = state().interlocks[0].lines.find((l) => l.name === 'RED');
-    assert.deepEqual(red.clearBlockers, [{ kind: 'deviceOffline', device: 'ctrl-5' }]);
+    assert.deepEqual(red.clearBlockers, [{ kind: 'deviceOffline', device: 'rig-ctrl-5', text: 'device rig-ctrl-5 offline' }]);
     panel.receive({ payload: 'clear', by: 'ana' });
     await runTill(() => seen['clear refused'].length === 1, 'the refusal');
     const refused = seen['clear refused'][0].refused;
     assert.equal(refused.code, 'CLEAR_REFUSED');
-    assert.deepEqual(refused.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'ctrl-5' }] }]);
-    assert.match(refused.message, /device ctrl-5 offline/);
+    assert.deepEqual(refused.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }], texts: ['device rig-ctrl-5 offline'] }]);
+    assert.match(refused.message, /device rig-ctrl-5 offline/);
     assert.equal(state().interlocks[0].lines.find((l) => l.name === 'RED').state.state, 'faulted', 'refused whole');
-    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'online', retain: true });
     await runTill(() => state().interlocks[0].lines.find((l) => l.name === 'RED').clearBlockers.length === 0, 'RED isolated again on fresh feedback');
     panel.receive({ payload: 'clear', by: 'ana', reason: 'pump fixed' });
     await runTill(() => seen.panel.length === 2, 'the clear');
@@ -548,7 +573,7 @@ describe('example: subflows-op12', function () {
       name: 'RED', state: { state: 'free' }, holder: null, fault: null, waiting: [], clearBlockers: [],
     });
     assert.ok(after.payload.plants[0].sensors.some((s) => s.sensor === 'LT-3'), 'sensors listed');
-    assert.deepEqual(after.payload.plants[0].devices.map((d) => [d.device, d.state]), [['ctrl-1', 'online'], ['ctrl-5', 'online'], ['station-3', 'online']]);
+    assert.deepEqual(after.payload.plants[0].devices.map((d) => [d.device, d.state]), [['rig-ctrl-1', 'online'], ['rig-ctrl-5', 'online'], ['rig-station-2', 'online'], ['rig-station-3', 'online'], ['rig-station-7', 'online']]);
   });
 
   it('the editor\'s POST /sugarshack/estop and /sugarshack/clear: lockout sent, clear refused with its reasons, then cleared, each recorded by "unknown" without adminAuth', async function () {
@@ -566,17 +591,17 @@ describe('example: subflows-op12', function () {
     assert.deepEqual(res.body, { stopped: ['RED'], by: 'unknown' });
     assert.equal(red().fault.note, 'leak under P5');
     await runTill(() => red().clearBlockers.length === 0 && runtime.plant.describe().lockoutsPending.length === 0, 'RED locked out');
-    assert.ok(commandsOf(seen['device commands'].slice(sent)).some(([topic]) => topic.startsWith('ctrl-5/')), 'the lockout went to ctrl-5');
+    assert.ok(commandsOf(seen['device commands'].slice(sent)).some(([topic]) => topic.startsWith('rig/ctrl-5/')), 'the lockout went to rig-ctrl-5');
 
-    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
-    await runTill(() => red().clearBlockers.length === 1, 'ctrl-5 offline');
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => red().clearBlockers.length === 1, 'rig-ctrl-5 offline');
     res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'] });
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'CLEAR_REFUSED');
-    assert.deepEqual(res.body.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'ctrl-5' }] }]);
+    assert.deepEqual(res.body.lines, [{ line: 'RED', reasons: [{ kind: 'deviceOffline', device: 'rig-ctrl-5' }], texts: ['device rig-ctrl-5 offline'] }]);
     assert.equal(red().state.state, 'faulted');
 
-    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'online', retain: true });
     await runTill(() => red().clearBlockers.length === 0, 'RED isolated again on fresh feedback');
     res = await post('/sugarshack/clear', { interlock: ids[0], lines: ['RED'], reason: 'pipe fixed' });
     assert.equal(res.status, 200, res.text);
@@ -621,9 +646,9 @@ describe('example: subflows-op12', function () {
     assert.equal(alarm('line-faulted:RED').state, 'active-unacknowledged');
     assert.match(alarm('line-faulted:RED').text, /RED faulted, manual: leak at the RED pump/);
     assert.equal(runtime().describe().recentEvents.at(-1).summary, 'e-stop RED by ana: leak at the RED pump');
-    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
-    await runTill(() => alarm('device-offline:ctrl-5'), 'the device-offline alarm');
-    assert.equal(alarm('device-offline:ctrl-5').text, 'device ctrl-5 offline', 'worded by the core');
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'offline', retain: true });
+    await runTill(() => alarm('device-offline:rig-ctrl-5'), 'the device-offline alarm');
+    assert.equal(alarm('device-offline:rig-ctrl-5').text, 'device rig-ctrl-5 offline', 'worded by the core');
 
     // The editor acknowledges one; without adminAuth it is "unknown" who did. The journal gets it as an operator action.
     const ackedAt = clock().now();
@@ -644,33 +669,33 @@ describe('example: subflows-op12', function () {
     res = await post('/sugarshack/alarms/ack', { interlock: ids[0], ids: ['line-faulted:PINK'] });
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'UNKNOWN_ALARM');
-    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5' });
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:rig-ctrl-5' });
     assert.equal(res.status, 409);
     assert.equal(res.body.code, 'INVALID_SHELF');
-    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:ctrl-5', forMs: NaN });
+    res = await post('/sugarshack/alarms/shelve', { interlock: ids[0], id: 'device-offline:rig-ctrl-5', forMs: NaN });
     assert.equal(res.status, 409, 'NaN is no duration');
 
     // The dashboard shelves through the state node, as its signed-in user.
     const state = helper.getNode(byName(flow, 'sugarshack-state', 'plant state'));
-    state.receive({ topic: 'shelve', id: 'device-offline:ctrl-5', forMs: 2000, reason: 'ctrl-5 on the bench', _client: { user: { username: 'bo' } } });
+    state.receive({ topic: 'shelve', id: 'device-offline:rig-ctrl-5', forMs: 2000, reason: 'rig-ctrl-5 on the bench', _client: { user: { username: 'bo' } } });
     await runTill(() => seen.state.length === 1, 'the answer of the state node');
     assert.equal(seen.state[0].alarmChanges[0].action, 'shelve');
-    const shelved = seen.state[0].payload.interlocks[0].alarms.find((a) => a.id === 'device-offline:ctrl-5');
+    const shelved = seen.state[0].payload.interlocks[0].alarms.find((a) => a.id === 'device-offline:rig-ctrl-5');
     assert.equal(shelved.shelved.by, 'bo');
-    assert.equal(shelved.shelved.reason, 'ctrl-5 on the bench');
+    assert.equal(shelved.shelved.reason, 'rig-ctrl-5 on the bench');
     assert.equal(shelved.shelved.untilMs, shelved.shelved.atMs + 2000);
-    await runTill(() => !alarm('device-offline:ctrl-5').shelved, 'the shelf to run out', { maxMs: 3000 });
-    assert.equal(alarm('device-offline:ctrl-5').state, 'active-unacknowledged', 'back from the shelf in its true state');
+    await runTill(() => !alarm('device-offline:rig-ctrl-5').shelved, 'the shelf to run out', { maxMs: 3000 });
+    assert.equal(alarm('device-offline:rig-ctrl-5').state, 'active-unacknowledged', 'back from the shelf in its true state');
 
     // Acknowledged by the state node: the device comes back online, the alarm leaves the list.
-    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5', by: 'cy' });
+    state.receive({ topic: 'ack', id: 'device-offline:rig-ctrl-5', by: 'cy' });
     await runTill(() => seen.state.length === 2, 'the ack');
-    assert.equal(alarm('device-offline:ctrl-5').acked.by, 'cy');
-    bus.receive({ topic: 'ctrl-5/status', payload: 'online', retain: true });
-    await runTill(() => !alarm('device-offline:ctrl-5'), 'the acknowledged alarm to go once normal');
+    assert.equal(alarm('device-offline:rig-ctrl-5').acked.by, 'cy');
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'online', retain: true });
+    await runTill(() => !alarm('device-offline:rig-ctrl-5'), 'the acknowledged alarm to go once normal');
     const refusals = [];
     state.on('call:error', (call) => refusals.push(call.args[0]));
-    state.receive({ topic: 'ack', id: 'device-offline:ctrl-5' });
+    state.receive({ topic: 'ack', id: 'device-offline:rig-ctrl-5' });
     await runTill(() => refusals.length === 1, 'the refusal of an alarm not listed');
     assert.equal(refusals[0].code, 'UNKNOWN_ALARM');
     assert.equal(seen.state.length, 2, 'nothing sent for it');
@@ -693,10 +718,10 @@ describe('example: subflows-op12', function () {
     const bus = helper.getNode(flow.find((n) => n.type === 'sugarshack-actuators').id);
     panel.receive({ payload: 'e-stop' });
     await runTill(() => seen['lockout done'].length === 1, 'the RED lockout to complete');
-    bus.receive({ topic: 'ctrl-5/status', payload: 'offline', retain: true });
-    panel.receive({ payload: 'clear', force: true, by: 'ana', reason: 'ctrl-5 is being replaced; valves closed by hand' });
+    bus.receive({ topic: 'rig/ctrl-5/status', payload: 'offline', retain: true });
+    panel.receive({ payload: 'clear', force: true, by: 'ana', reason: 'rig-ctrl-5 is being replaced; valves closed by hand' });
     await runTill(() => seen.panel.length === 2, 'the forced clear');
-    assert.deepEqual(seen.panel[1].clearedBy, { by: 'ana', reason: 'ctrl-5 is being replaced; valves closed by hand', forced: true });
+    assert.deepEqual(seen.panel[1].clearedBy, { by: 'ana', reason: 'rig-ctrl-5 is being replaced; valves closed by hand', forced: true });
     assert.deepEqual(seen['clear refused'], []);
   });
 });

@@ -305,7 +305,9 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('AlarmsSnapshot', saved);
     assert.ok(saved.alarms.some((x) => x.acked) && saved.alarms.some((x) => x.shelved), 'an acknowledged and a shelved alarm');
     shapes.expect('AlarmChange[]', alarms.unshelve('device-offline:p', 'Ann', null, 13));
-    shapes.expect('AlarmChange[]', alarms.observe([], 14));
+    shapes.expect('AlarmChange[]', alarms.shelveOneShot('line-faulted:A', 14 + facade.maxShelveMs(), 'Ann', null, 14));
+    assert.ok(alarms.list().find((x) => x.id === 'line-faulted:A').shelved.oneShot, 'a one-shot shelf');
+    shapes.expect('AlarmChange[]', alarms.observe([], 15));
   });
 
   it('the tracker: views, counts, effects, health, plans', function () {
@@ -337,6 +339,8 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('FaultDescription', t.describeFault(v, 'no-motion', 1, 100));
     t.recordSensor(t.sensor('L'), 2, null, 5500);
     shapes.expect('PlantHealth', t.health(5600));
+    shapes.expect('DeviceHealth', t.deviceHealth(t.device('p')));
+    assert.equal(t.target(v), 100, 'the last commanded position');
     t.ingest('p/status', 'offline', 5700);
     const offline = t.alarmConditions();
     assert.equal(offline.length, 1, 'device p offline');
@@ -386,6 +390,36 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
       shapes.expect('DeviceCommand | undefined', d.parseCommand(topic, Buffer.from('nonsense')));
       shapes.expect('DeviceCommand | undefined', d.parseCommand(topic, Buffer.alloc(0)));
     }
+  });
+
+  it('Modbus: connections, the device side, a modbusSend effect', function () {
+    const scale = { raw: [4000, 20000], value: [0, 100] };
+    const doc = {
+      actuatorTypes: { valve: { signal: 'analog', tolerance: 2, noMotionMs: 1000, completionMs: 5000, staleMs: 5000 } },
+      devices: [
+        { id: 'io', kind: 'actuator-panel', profile: 'modbus', modbus: { host: '127.0.0.1', port: 5020, unit: 1 } },
+        { id: 'rs', kind: 'sensor-station', profile: 'modbus', modbus: { serial: { path: '/dev/ttyUSB0' }, unit: 2 } },
+      ],
+      actuators: [{ id: 'V', type: 'valve', device: 'io', lockout: 0, modbus: { command: { kind: 'holding', address: 0, scale } } }],
+      sensors: [{ id: 'T', device: 'rs', name: 't', modbus: { kind: 'input', address: 0, type: 'f32' } }],
+    };
+    const t = keep(new facade.Tracker(doc, 0));
+    const connections = t.modbusConnections();
+    shapes.expect('ModbusConnection[]', connections);
+    assert.deepEqual(connections.map((c) => c.endpoint.kind), ['tcp', 'serial']);
+    shapes.expect('ModbusEndpoint', connections[1].endpoint);
+    t.modbusOpened(0, 0);
+    t.command({ valves: { V: 50 } }, 1, false, 0);
+    const effects = t.takeEffects();
+    shapes.expect('TrackerEffect[]', effects);
+    assert.deepEqual(effects, [{ kind: 'modbusSend', connection: 0 }]);
+    const d = keep(new facade.DeviceSide(doc));
+    shapes.expect('ModbusDeviceEndpoint | null', d.modbusEndpoint(0));
+    const frame = t.modbusNext(0, 1);
+    const request = d.modbusRequest('tcp', frame);
+    shapes.expect('ModbusServedRequest', request);
+    shapes.expect('ModbusWritten[]', d.modbusWritten(0, request.kind, request.address, Uint16Array.from(request.write)));
+    shapes.expect('ModbusImage[]', d.modbusImage(1, new Uint32Array(0), new Float64Array(0), Uint32Array.of(0), Float64Array.of(21.5)));
   });
 
   it('the control facade: steps, decisions, states, configurations', function () {

@@ -76,13 +76,13 @@ const LIB = path.join(PALETTE, 'lib');
 const MECHANISM = new Set(['i18n.js', 'errors.js']);
 const SHARED_CATALOG = catalogOf('interlock');
 
-/** Source files whose texts are checked: lib/*.js, lib/journal/*.js, nodes/*.js, and the editor's: the scripts of nodes/*.html and resources/*.js. */
+/** Source files whose texts are checked: lib/*.js and lib's folders, nodes/*.js, and the editor's: the scripts of nodes/*.html and resources/*.js. */
 function sources() {
   const libFiles = (dir) => fs.readdirSync(path.join(LIB, dir)).filter((f) => f.endsWith('.js') && !MECHANISM.has(f))
     .map((f) => ({ file: path.posix.join('lib', dir, f), full: path.join(LIB, dir, f) }));
   return [
     ...libFiles(''),
-    ...libFiles('journal'),
+    ...fs.readdirSync(LIB, { withFileTypes: true }).filter((d) => d.isDirectory()).flatMap((d) => libFiles(d.name)),
     ...stems('.js').map((s) => ({ file: `nodes/${s}.js`, full: path.join(NODES, `${s}.js`) })),
     ...fs.readdirSync(path.join(PALETTE, 'resources')).filter((f) => f.endsWith('.js'))
       .map((f) => ({ file: `resources/${f}`, full: path.join(PALETTE, 'resources', f) })),

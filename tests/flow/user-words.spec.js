@@ -27,7 +27,7 @@ describe('errors in the user\'s words', function () {
     const cases = [
       [(d) => { d.operations[0].priority = 'high'; }, { path: 'operations[0]', message: "priority must be a whole number, like 5; got 'high'" }],
       [(d) => { d.actuators[0].io = -1; }, { path: 'actuators[0]', message: 'io must be a whole number from 0 to 4294967295; got -1' }],
-      [(d) => { d.devices[0].profile = 'zigbee'; }, { path: 'devices[0]', message: "profile must be one of 'sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'custom'; got 'zigbee'" }],
+      [(d) => { d.devices[0].profile = 'zigbee'; }, { path: 'devices[0]', message: "profile must be one of 'sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'custom', 'modbus'; got 'zigbee'" }],
       [(d) => { d.operations[0].steps[0].timeoutMs = '3 s'; }, { path: 'operations[0].steps[0]', message: "timeoutMs must be a non-negative number of milliseconds; got '3 s'" }],
       [(d) => { d.operations[0].resources = 'YEL'; }, { path: 'operations[0]', message: "resources must be a list in brackets, [...]; got 'YEL'" }],
     ];

@@ -89,6 +89,12 @@ describe('the editor\'s e-stop and clear under adminAuth (a real Node-RED proces
     assert.equal((await lineOf(viewer, 'YEL')).state.state, 'free', 'nothing stopped');
   });
 
+  it('GET /sugarshack/access says what the caller may do, as the endpoints decide it', async function () {
+    assert.equal((await call('GET', '/sugarshack/access')).status, 401);
+    assert.deepEqual((await call('GET', '/sugarshack/access', await tokenOf('viewer', 'read'))).body, { read: true, write: false });
+    assert.deepEqual((await call('GET', '/sugarshack/access', await tokenOf('ana'))).body, { read: true, write: true });
+  });
+
   it('an e-stop and a clear by the signed-in editor user are recorded as hers, with her reasons', async function () {
     const ana = await tokenOf('ana');
     let res = await call('POST', '/sugarshack/estop', ana, { interlock: INTERLOCK, lines: ['YEL'], reason: 'smell of burning at the evaporator' });

@@ -23,8 +23,9 @@ const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
 const { NodeRedProcess, sleep, waitFor } = require('./support/node-red');
 const {
-  PLANT_FILE, PLANT, LINES, OPERATIONS, ROUTINES, flow,
+  PLANT_FILE, LINES, OPERATIONS, ROUTINES, flow, lockoutSeen: lockoutSeenAmong, randomStep,
 } = require('./support/routines-flow');
+const { LineModel } = require('./support/line-model');
 
 const KILLS = 24;
 const SEED = 20261123;
@@ -33,59 +34,6 @@ const SEED = 20261123;
 const JUST_GRANTED_MS = 40;
 
 const log = (...args) => { if (process.env.CRASH_LOG) console.log('      ', ...args); };
-
-/**
- * The lines as the interlock's events tell them, across runs: replaying them
- * finds every grant of a line held by another operation or faulted.
- */
-class LineModel {
-  constructor() {
-    this.lines = Object.fromEntries(LINES.map((l) => [l, { holder: null, faulted: false, faultSeenAt: 0, grantSeenAt: 0 }]));
-    this.violations = [];
-  }
-
-  /** After a restart: the state the interlock reports. */
-  reset(lines) {
-    for (const [name, state] of Object.entries(lines)) {
-      const line = this.lines[name];
-      line.holder = state.startsWith('held:') ? state.slice(5) : null;
-      line.faulted = state.startsWith('faulted');
-    }
-  }
-
-  apply(e, at) {
-    const names = (e.resources || []).filter((r) => this.lines[r]);
-    switch (e.kind) {
-      case 'granted':
-        for (const r of names) {
-          const line = this.lines[r];
-          if (line.faulted || (line.holder && line.holder !== e.operation)) {
-            this.violations.push(`${e.operation} granted ${r} while ${line.faulted ? 'faulted' : `held by ${line.holder}`}`);
-          }
-          line.holder = e.operation;
-          line.grantSeenAt = at;
-        }
-        break;
-      case 'released':
-        for (const r of names) this.lines[r].holder = null;
-        break;
-      case 'faulted':
-      case 'resource-faulted':
-      case 'interrupted':
-        for (const r of names) {
-          Object.assign(this.lines[r], { holder: null, faulted: true, faultSeenAt: at });
-        }
-        break;
-      case 'state-unknown':
-        for (const line of Object.values(this.lines)) Object.assign(line, { holder: null, faulted: true, faultSeenAt: at });
-        break;
-      case 'cleared':
-        for (const r of names) this.lines[r].faulted = false;
-        break;
-      default:
-    }
-  }
-}
 
 describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same user directory', function () {
   this.timeout(15 * 60 * 1000);
@@ -109,14 +57,7 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
   });
 
   const events = (since) => probe.on('test/events').filter((m) => m.at >= since).map((m) => ({ ...m.json, seenAt: m.at }));
-  const lockoutSeen = (line, since) => {
-    const members = PLANT.actuators.filter((a) => a.resource === line);
-    const sent = probe.on('+/+/+/command').filter((m) => m.at >= since);
-    return members.every((a) => {
-      const want = a.type === 'pump' ? (a.lockout ? 'ON' : 'OFF') : String(a.lockout);
-      return sent.some((m) => m.topic === `${a.device}/${a.type}/${a.io}/command` && m.text === want);
-    });
-  };
+  const lockoutSeen = (line, since) => lockoutSeenAmong(probe.on('+/+/+/command'), line, since);
   // A clear is refused until the line's lockout is confirmed by fresh feedback; an operator asks again.
   async function clearLines(lines, what = 'the lines cleared') {
     const deadline = Date.now() + 20000;
@@ -142,8 +83,9 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
     };
 
     for (let kill = 0; kill <= KILLS; kill++) {
-      await red.start();
+      // Before the start: its lockouts may go out before start() sees the log say so.
       const restartedAt = Date.now();
+      await red.start();
       const lines = await red.lines('il');
       replay();
       log(`run ${kill}: restarted with ${JSON.stringify(lines)}`);
@@ -194,19 +136,7 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
         const endAt = Date.now() + 300 + Math.floor(rnd() * 2700);
         const clearsSent = {};
         while (Date.now() < endAt) {
-          const r = rnd();
-          if (r < 0.45) await probe.publish(`test/op/${pick(OPERATIONS).id}`, 'go');
-          else if (r < 0.6) await probe.publish(`test/estop/${pick(LINES)}`, 'e-stop');
-          else if (r < 0.75) {
-            const line = pick(LINES);
-            clearsSent[line] = Date.now();
-            await probe.publish(`test/clear/${line}`, 'operator');
-          } else if (r < 0.9) {
-            const routine = pick(ROUTINES);
-            await probe.publish(`test/routine/${routine.id}`, routine.start);
-          } else {
-            await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 1 + Math.floor(rnd() * 5) });
-          }
+          await randomStep({ probe, sim, rnd, clearsSent });
           await sleep(Math.floor(rnd() * 250));
         }
         replay();

@@ -30,12 +30,13 @@ const { startEspHome } = require('./support/impersonators/esphome');
 const { startTasmota } = require('./support/impersonators/tasmota');
 const { startShellyGen2 } = require('./support/impersonators/shelly-gen2');
 const {
-  TAB, sinkNode, startServer, stopServer, settings, settled, clock, collect, until,
+  TAB, startServer, stopServer, settings, settled, clock, collect, until,
 } = require('../flow/support');
 
 helper.init(require.resolve('node-red'));
 const { PALETTE_AND_MQTT, busNodes, actuatorEvents } = require('./support/mqtt-nodes');
 const { mqttBroker } = require('./support/node-red');
+const { stepper, operationAndSinks } = require('./support/stepped');
 
 
 const NO_MOTION_MS = 4000;
@@ -208,9 +209,7 @@ function flow(port, plant) {
       nl: false, rap: true, rh: 0, inputs: 0, wires: [['flushed']],
     },
     ...busNodes({ broker: 'br' }),
-    { id: 'op', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: 'fill', wires: [['opdone']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-    ...SINKS.map(sinkNode),
+    ...operationAndSinks(SINKS),
   ];
 }
 
@@ -259,24 +258,12 @@ for (const [name, profile] of Object.entries(PROFILES)) {
     }
 
     /** Moves devices and Node-RED by `ms`, in slices, the messages of each slice delivered. */
-    async function tick(ms, slice = 100) {
-      for (let passed = 0; passed < ms; passed += slice) {
-        for (const d of devices.all) if (d.client) await d.advance(slice);
-        await delivered();
-        await clock().advance(slice);
-        await delivered();
-      }
-    }
-
-    async function tickUntil(predicate, what, maxMs = 30000) {
-      let passed = 0;
-      while (!predicate()) {
-        if (passed >= maxMs) throw new Error(`${what} did not happen within ${maxMs} ms of clock time`);
-        await tick(100);
-        passed += 100;
-      }
-      return passed;
-    }
+    const { tick, tickUntil } = stepper({
+      advance: async (ms) => {
+        for (const d of devices.all) if (d.client) await d.advance(ms);
+      },
+      delivered,
+    });
 
     const command = (payload) => helper.getNode('gc').receive({ payload });
     const warnings = () => devices.all.flatMap((d) => d.warnings);

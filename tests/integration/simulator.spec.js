@@ -10,6 +10,15 @@ const { startTestSimulator, SMALL_PLANT } = require('./support/simulator');
 const { parseFaultArg } = require('../../scripts/simulator/faults');
 const { buildModel, loadPlant } = require('../../scripts/simulator/plant');
 const { parseArgs } = require('../../scripts/simulator/cli');
+const { pymodbusClient } = require('./support/modbus/io-module');
+
+/** Until `predicate` (which may be async) holds, polled; fails after `ms`. */
+async function until(predicate, what, ms) {
+  for (const start = Date.now(); !(await predicate());) {
+    if (Date.now() - start > ms) throw new Error(`timed out waiting for ${what}`);
+    await new Promise((r) => setTimeout(r, 20));
+  }
+}
 
 const TOLERANCE = loadPlant(SMALL_PLANT).actuatorTypes.valve.tolerance; // 3 %
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -321,6 +330,40 @@ describe('plant simulator on Mosquitto', function () {
     });
   });
 
+  describe('--profile modbus', function () {
+    it('each device is a Modbus TCP server pymodbus\'s client reads and commands: a valve on 4-20 mA registers, the pump on a coil, sensors as floats', async function () {
+      const modbusPort = await freePort();
+      sim = await startTestSimulator(broker.url, { profile: 'modbus', modbusPort });
+      const ctrl = modbusPort; // ctrl-1 is the first device, station-2 the next
+      const [before, written, pump] = await pymodbusClient(ctrl, [
+        ['read_input_registers', 0, 1, 1], ['write_register', 0, 20000, 1], ['write_coil', 0, true, 1],
+      ]);
+      assert.ok(Math.abs(before.registers[0] - 4000) <= 160 * TOLERANCE, `valve 1 closed (4 mA): ${before.registers[0]}`);
+      assert.deepStrictEqual([written, pump], [{ ok: true }, { ok: true }]);
+      const valve = sim.devices['ctrl-1'].valves[1];
+      await until(() => valve.commanded === 100 && sim.devices['ctrl-1'].pump.running, 'the valve and pump commanded', 5000);
+      await until(() => valve.position === 100, 'the valve open', 5000);
+      let open = null;
+      await until(async () => {
+        [open] = await pymodbusClient(ctrl, [['read_input_registers', 0, 1, 1]]);
+        return open.registers[0] >= 20000 - 160 * TOLERANCE;
+      }, 'its feedback at 20 mA', 10000);
+      const [running] = await pymodbusClient(ctrl, [['read_discrete_inputs', 0, 1, 1]]);
+      assert.deepStrictEqual(running.bits, [true]);
+      // The station's sensors: float32 in input registers 100, 102, ... (high word first).
+      const [sensors] = await pymodbusClient(ctrl + 1, [['read_input_registers', 100, 4, 1]]);
+      const volume = Buffer.from(sensors.registers.slice(0, 2).flatMap((w) => [w >> 8, w & 0xff])).readFloatBE(0);
+      assert.ok(volume > 1000, `LT-2 reads as a volume: ${volume}`);
+      // Dead: connections refused; revived: it answers again (registers at power-on until sampled).
+      await sim.inject({ fault: 'dead', device: 'ctrl-1' });
+      const [refused] = await pymodbusClient(ctrl, [['read_input_registers', 0, 1, 1]]);
+      assert.match(refused.error, /Connection|connect|No response|Modbus/i);
+      await sim.inject({ fault: 'revive', device: 'ctrl-1' });
+      const [back] = await pymodbusClient(ctrl, [['read_coils', 0, 1, 1]]);
+      assert.deepStrictEqual(back.bits, [false], 'a rebooted module starts with its coil off');
+    });
+  });
+
   describe('devices addressed by entity', function () {
     it('an ESPHome actuator without io gets an output of its own and obeys its entity\'s commands', async function () {
       const doc = loadPlant(SMALL_PLANT);
@@ -541,6 +584,8 @@ describe('plant simulator: plant document and fault specs', function () {
     assert.strictEqual(o.delayMs, 100);
     assert.strictEqual(o.single, true);
     assert.deepStrictEqual(o.faults, ['dead:station-2', 'clear']);
+    const modbus = parseArgs(['--profile', 'modbus', '--modbus-port', '6000', '--loop', 'loop.json']);
+    assert.deepStrictEqual([modbus.profile, modbus.modbusPort, modbus.loop], ['modbus', 6000, 'loop.json']);
     assert.throws(() => parseArgs(['--speed', 'fast']), /not a number/);
     assert.throws(() => parseArgs(['--bogus']), /unknown option/);
   });

@@ -65,6 +65,11 @@ describe('the README\'s fault walkthrough, as written', function () {
       assert.equal(fault.fault.operation, '10');
       assert.ok(tookMs <= times.firstFaultS * 1000 + SLACK_MS, `YEL faulted ${tookMs} ms after the flows started; the README says at most ${times.firstFaultS} s`);
       await waitFor(lockoutDone, `YEL's lockout within a sweep (${times.sweepS} s)`, times.sweepS * 1000 + SLACK_MS);
+      // Step 2's words: the truck routine in its error state, not halted.
+      const truck = await waitFor(async () => (await red.get('/sugarshack/state')).interlocks[0].routines.find((r) => r.id === 'truck' && r.state === 'fault'), 'the truck routine in its fault state', 10000);
+      assert.equal(truck.halted, false);
+      const readme = fs.readFileSync(path.join(ROOT, 'README.md'), 'utf8');
+      assert.ok(readme.includes('`"state": "fault"`') && readme.includes('`"halted": false`'), 'the README says so');
     });
 
     it('3. once the valve is repaired and YEL cleared, "stuck V101" then "run op 10 now" fault it again within the stated time after the click', async function () {

@@ -6,6 +6,9 @@
 // usage: node install-test.js --red <node-red/red.js> --userdir <dir>
 //          [--node <node binary>] [--pkg <palette package.json>]
 //          [--examples <dir>] [--label <text>] [--types a,b,c]
+//          [--subflows no] [--config-nodes no] [--expect-log <text>]
+// --subflows no / --config-nodes no: the package has none (the OPC UA package);
+// --expect-log: a line its examples must log (within 90 s of their deploy).
 // Expected type names may also come from SUGARSHACK_EXPECTED_TYPES (comma-separated).
 // Subflow modules (a set whose file has its subflow in subflows/<set>.json) are
 // checked to be registered as their meta.type. It also runs the checks of
@@ -101,7 +104,8 @@ async function validateOffline(pkg, sets, types, base, nrVersion, nodeVersion) {
     } catch { /* reported when the example is deployed */ }
   }
   const missing = types.filter((t) => !configTypes.has(t) && !used.has(t));
-  check(configTypes.size > 0 && missing.length === 0, v(`N02 an example for every node (config nodes ${[...configTypes].join(', ')} aside)`), `none for ${missing.join(', ')}`);
+  const configExpected = args['config-nodes'] !== 'no';
+  check((configTypes.size > 0 || !configExpected) && missing.length === 0, v(`N02 an example for every node (config nodes ${[...configTypes].join(', ') || 'none'} aside)`), `none for ${missing.join(', ')}`);
   check(new Set(types).size === types.length, v('N01 (offline part) no node type registered twice'));
 }
 
@@ -159,7 +163,7 @@ async function main() {
     check(types.length > 0, `registers node types: ${types.join(', ') || '(none)'}`);
     for (const t of expectedTypes) check(types.includes(t), `type ${t} registered`, 'missing');
     const subflows = subflowModules(pkg);
-    check(subflows.length > 0, `package has subflow modules: ${subflows.map((s) => s.set).join(', ') || '(none)'}`);
+    if (args.subflows !== 'no') check(subflows.length > 0, `package has subflow modules: ${subflows.map((s) => s.set).join(', ') || '(none)'}`);
     for (const { set, def, error } of subflows) {
       if (error) { fail(`subflow module ${set} parses: ${error}`); continue; }
       const type = def.meta && def.meta.type;
@@ -184,9 +188,10 @@ async function main() {
       'the palette\'s node sets need no dashboard (no dependency on it, no dashboard node in a subflow module)', `${declared.join(', ')} ${dashboardInside.join(', ')}`);
     await validateOffline(pkg, sets, types, base, nrVersion, nodeVersion);
 
-    // The plant document's schema ships: where VS Code users point "$schema", and served to the plant dialog.
-    const schemaFile = path.join(args.userdir, 'node_modules', moduleName, 'schema', 'plant.schema.json');
-    check(fs.existsSync(schemaFile), `the package ships the plant document's JSON Schema (node_modules/${moduleName}/schema/plant.schema.json)`);
+    // The plant document's schema ships with the palette (installed beside the OPC UA package too):
+    // where VS Code users point "$schema", and served to the plant dialog.
+    const schemaFile = path.join(args.userdir, 'node_modules', 'node-red-contrib-sugarshack', 'schema', 'plant.schema.json');
+    check(fs.existsSync(schemaFile), 'the palette ships the plant document\'s JSON Schema (node_modules/node-red-contrib-sugarshack/schema/plant.schema.json)');
     const served = await fetch(`${base}/sugarshack/plant/schema`);
     const schema = served.ok ? await served.json() : null;
     check(Boolean(schema && schema.title && schema.definitions && schema.definitions.Actuator),
@@ -218,6 +223,10 @@ async function main() {
       check(lost.length === 0, `example ${file}: GET /flows returns all ${flow.length} nodes`, `missing ${lost.join(', ')}`);
     }
 
+    if (args['expect-log']) {
+      for (let t = Date.now(); Date.now() - t < 90000 && !log.includes(args['expect-log']) && exited === null;) await sleep(250);
+      check(log.includes(args['expect-log']), `the examples log "${args['expect-log']}"`);
+    }
     // Load-time problems (e.g. a node file throwing on require) show up as warnings naming the module.
     const bad = log.split('\n').filter((l) => /\[error\]/.test(l) || (l.includes(moduleName) && /Error/.test(l)));
     check(bad.length === 0, 'Node-RED log has no [error] lines or module load errors', indent(bad));

@@ -12,6 +12,8 @@
 //! A person may shelve a listed alarm until a time they choose: it stays on
 //! the shelf (kept even when normal) until that time or until unshelved, and
 //! follows its condition meanwhile; taken off the shelf, it shows its true state.
+//! A one-shot shelf also ends when the alarm's condition ends (ISA-18.2's
+//! one-shot shelving, OPC UA's OneShotShelve).
 //! Who acknowledged or shelved, and when, is recorded. Time is an argument.
 //! A kind may have an on-delay: its condition must hold that long before it
 //! is an alarm (a broker still connecting at start-up is none).
@@ -56,17 +58,53 @@ pub enum AlarmKind {
     WaitingLong,
     /// An operation has held its lines longer than the interlock's warning time.
     HeldLong,
+    /// A hot standby took over: its subject is the instance now active.
+    Failover,
+    /// A member of the hot standby's etcd cluster does not answer.
+    EtcdMemberDown,
 }
 
 /// How long a lost broker must stay lost before it is an alarm: Node-RED connects after the flows start.
 pub const BUS_ON_DELAY_MS: Millis = ms(10_000);
+/// How long an etcd member must stay silent before it is an alarm: one health check missed is none.
+pub const ETCD_MEMBER_ON_DELAY_MS: Millis = ms(5_000);
 
 impl AlarmKind {
     /// How long its condition must hold before it is an alarm.
     pub fn on_delay_ms(self) -> Millis {
         match self {
             Self::BusDisconnected => BUS_ON_DELAY_MS,
+            Self::EtcdMemberDown => ETCD_MEMBER_ON_DELAY_MS,
             _ => Millis::ZERO,
+        }
+    }
+
+    /// Every kind.
+    pub const ALL: [AlarmKind; 9] = [
+        Self::LineFaulted,
+        Self::DeviceOffline,
+        Self::DeviceStale,
+        Self::BusDisconnected,
+        Self::StateNotSaved,
+        Self::WaitingLong,
+        Self::HeldLong,
+        Self::Failover,
+        Self::EtcdMemberDown,
+    ];
+
+    /// Its priority as OPC UA's Severity (1 to 1000, most urgent highest):
+    /// the safety state not saved first, then a line locked out, a device or
+    /// the broker lost, the standby's etcd short of a member, stale feedback,
+    /// a failover done, and operations waiting or holding long.
+    pub fn severity(self) -> u16 {
+        match self {
+            Self::StateNotSaved => 900,
+            Self::LineFaulted => 800,
+            Self::DeviceOffline | Self::BusDisconnected => 700,
+            Self::EtcdMemberDown => 600,
+            Self::DeviceStale => 500,
+            Self::Failover => 400,
+            Self::WaitingLong | Self::HeldLong => 300,
         }
     }
 
@@ -80,6 +118,8 @@ impl AlarmKind {
             Self::StateNotSaved => "state-not-saved",
             Self::WaitingLong => "waiting-long",
             Self::HeldLong => "held-long",
+            Self::Failover => "failover",
+            Self::EtcdMemberDown => "etcd-member-down",
         }
     }
 }
@@ -154,6 +194,8 @@ impl Condition {
             }
             AlarmKind::WaitingLong => format!("operation {subject} waits long"),
             AlarmKind::HeldLong => format!("operation {subject} holds its lines long"),
+            AlarmKind::Failover => format!("failover: instance {subject} took over"),
+            AlarmKind::EtcdMemberDown => format!("etcd member {subject} does not answer"),
         }
     }
 
@@ -217,6 +259,9 @@ pub struct Shelf {
     /// Why, when they said.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// It also ends when the alarm's condition ends.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub one_shot: bool,
 }
 
 /// One listed alarm.
@@ -428,7 +473,11 @@ impl Alarms {
                 AlarmState::ActiveAcked => AlarmState::Normal,
                 _ => continue,
             };
+            let one_shot = alarm.shelved.as_ref().is_some_and(|s| s.one_shot);
             changes.push(self.shift(&id, to, AlarmAction::Condition, None, now));
+            if one_shot {
+                changes.extend(self.take_off_shelf(&id, AlarmAction::ShelfExpired, None, now));
+            }
         }
         self.delayed.retain(|id, _| holding.contains_key(id));
         for (id, c) in holding {
@@ -533,6 +582,29 @@ impl Alarms {
         who: &Attribution,
         now: Millis,
     ) -> Result<Vec<AlarmChange>, AlarmError> {
+        self.put_on_shelf(id, until_ms, false, who, now)
+    }
+
+    /// Shelves a listed alarm as [`Alarms::shelve`] does, and until its
+    /// condition next ends (one-shot shelving), whichever comes first.
+    pub fn shelve_one_shot(
+        &mut self,
+        id: &str,
+        until_ms: Millis,
+        who: &Attribution,
+        now: Millis,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
+        self.put_on_shelf(id, until_ms, true, who, now)
+    }
+
+    fn put_on_shelf(
+        &mut self,
+        id: &str,
+        until_ms: Millis,
+        one_shot: bool,
+        who: &Attribution,
+        now: Millis,
+    ) -> Result<Vec<AlarmChange>, AlarmError> {
         self.require(&[id.to_owned()])?;
         if until_ms <= now {
             return Err(AlarmError::InvalidShelf {
@@ -558,6 +630,7 @@ impl Alarms {
             at_ms: now,
             until_ms,
             reason: who.reason.clone(),
+            one_shot,
         });
         let state = alarm.state;
         changes.push(AlarmChange {
@@ -810,6 +883,67 @@ mod tests {
     }
 
     #[test]
+    fn every_kind_has_a_severity_in_opc_ua_range_and_is_listed_once() {
+        let names: std::collections::BTreeSet<&str> =
+            AlarmKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), AlarmKind::ALL.len());
+        for kind in AlarmKind::ALL {
+            assert!((1..=1000).contains(&kind.severity()), "{kind:?}");
+            let back: AlarmKind = serde_json::from_value(serde_json::json!(kind.name())).unwrap();
+            assert_eq!(back, kind);
+        }
+        assert!(AlarmKind::StateNotSaved.severity() > AlarmKind::WaitingLong.severity());
+    }
+
+    #[test]
+    fn a_one_shot_shelf_ends_with_the_condition_or_its_time() {
+        let mut alarms = Alarms::new();
+        let bo = Attribution::new(Some("bo"), None, false);
+        let id = "line-faulted:RED";
+        alarms.observe(&[faulted("RED")], ms(0)).unwrap();
+        alarms.shelve_one_shot(id, ms(1000), &bo, ms(10)).unwrap();
+        assert!(alarms.get(id).unwrap().shelved.as_ref().unwrap().one_shot);
+        alarms.observe(&[faulted("RED")], ms(20)).unwrap();
+        assert!(
+            alarms.get(id).unwrap().shelved.is_some(),
+            "still active: still shelved"
+        );
+        let changes = alarms.observe(&[], ms(30)).unwrap();
+        let actions: Vec<AlarmAction> = changes.iter().map(|c| c.action).collect();
+        assert_eq!(actions, [AlarmAction::Condition, AlarmAction::ShelfExpired]);
+        let a = alarms.get(id).unwrap();
+        assert_eq!(
+            (a.state, a.shelved.is_none()),
+            (AlarmState::ReturnedUnacked, true)
+        );
+        // Shelved while returned: it waits for the next end of its condition.
+        alarms.shelve_one_shot(id, ms(1000), &bo, ms(40)).unwrap();
+        alarms.observe(&[faulted("RED")], ms(50)).unwrap();
+        assert!(alarms.get(id).unwrap().shelved.is_some());
+        let changes = alarms.observe(&[faulted("RED")], ms(1000)).unwrap();
+        assert_eq!(
+            changes[0].action,
+            AlarmAction::ShelfExpired,
+            "its time ran out first"
+        );
+    }
+
+    /// `condition` observed from 0 until just before `on_delay`: no alarm yet.
+    fn quiet_until_on_delay(
+        alarms: &mut Alarms,
+        condition: &Condition,
+        on_delay: Millis,
+        why: &str,
+    ) {
+        let held = std::slice::from_ref(condition);
+        alarms.observe(held, ms(0)).unwrap();
+        alarms
+            .observe(held, on_delay.saturating_sub(ms(1)))
+            .unwrap();
+        assert_eq!(alarms.list().count(), 0, "{why}");
+    }
+
+    #[test]
     fn a_lost_broker_is_an_alarm_only_once_lost_for_its_on_delay() {
         let mut alarms = Alarms::new();
         let lost = Condition {
@@ -818,14 +952,7 @@ mod tests {
             text: "lost".into(),
             since_ms: None,
         };
-        alarms.observe(std::slice::from_ref(&lost), ms(0)).unwrap();
-        alarms
-            .observe(
-                std::slice::from_ref(&lost),
-                BUS_ON_DELAY_MS.saturating_sub(ms(1)),
-            )
-            .unwrap();
-        assert_eq!(alarms.list().count(), 0, "still connecting");
+        quiet_until_on_delay(&mut alarms, &lost, BUS_ON_DELAY_MS, "still connecting");
         alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
         alarms
             .observe(
@@ -923,5 +1050,42 @@ mod tests {
             Condition::new(AlarmKind::BusDisconnected, "plant bus").text,
             "actuators node plant bus has lost its broker"
         );
+    }
+
+    #[test]
+    fn a_failover_seen_once_stays_listed_until_a_person_acknowledges_it() {
+        let mut alarms = Alarms::new();
+        let took_over = Condition::new(AlarmKind::Failover, "edge-b");
+        assert_eq!(took_over.text, "failover: instance edge-b took over");
+        alarms.observe(&[took_over], ms(0)).unwrap();
+        alarms.observe(&[], ms(1_000)).unwrap();
+        let a = alarms.get("failover:edge-b").unwrap();
+        assert_eq!(
+            a.state,
+            AlarmState::ReturnedUnacked,
+            "the takeover is over, nobody has seen it"
+        );
+        let bo = Attribution::new(Some("bo"), None, false);
+        alarms
+            .acknowledge(Some(&["failover:edge-b".to_owned()]), &bo, ms(2_000))
+            .unwrap();
+        assert_eq!(alarms.list().count(), 0);
+    }
+
+    #[test]
+    fn an_etcd_member_is_down_only_once_silent_for_its_on_delay() {
+        let mut alarms = Alarms::new();
+        let down = Condition::new(AlarmKind::EtcdMemberDown, "http://10.0.0.5:2379");
+        quiet_until_on_delay(
+            &mut alarms,
+            &down,
+            ETCD_MEMBER_ON_DELAY_MS,
+            "one health check missed",
+        );
+        alarms
+            .observe(std::slice::from_ref(&down), ETCD_MEMBER_ON_DELAY_MS)
+            .unwrap();
+        let a = alarms.get("etcd-member-down:http://10.0.0.5:2379").unwrap();
+        assert_eq!(a.text, "etcd member http://10.0.0.5:2379 does not answer");
     }
 }

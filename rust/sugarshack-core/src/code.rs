@@ -130,6 +130,8 @@ codes! {
     DuplicateActuator = "DUPLICATE_ACTUATOR", "duplicate actuator", "an actuator is named twice";
     /// A target an actuator cannot take.
     InvalidTarget = "INVALID_TARGET", "bad target", "the target is not valid";
+    /// An output (`output/<id>`) the plant's Modbus devices do not have.
+    UnknownOutput = "UNKNOWN_OUTPUT", "unknown output", "the output is not in the plant";
     /// An actuator still carrying out a command.
     StillMoving = "STILL_MOVING", "still moving", "the actuator is still moving";
     /// An actuator whose device is offline.

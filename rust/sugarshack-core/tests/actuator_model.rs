@@ -478,7 +478,8 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 sends,
             }),
             Effect::LockoutResent { attempt, .. } => Some(Seen::LockoutResent { attempt }),
-            Effect::DeviceStatus { .. } => None,
+            // The model's plant has no Modbus device.
+            Effect::DeviceStatus { .. } | Effect::Write { .. } => None,
         })
         .collect()
 }

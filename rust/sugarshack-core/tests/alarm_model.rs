@@ -1,7 +1,8 @@
 //! ISA-18.2 alarm states against a simple reference model: each alarm is
 //! (condition holds, acknowledgement owed, shelf until), listed while any of
-//! the three is set; its state is read off the first two. Acknowledgements
-//! and shelves record who and when; snapshots restore the same alarms.
+//! the three is set; its state is read off the first two. A one-shot shelf
+//! also ends when the condition does. Acknowledgements and shelves record
+//! who and when; snapshots restore the same alarms.
 
 use std::collections::BTreeMap;
 use sugarshack_core::time::ms;
@@ -19,6 +20,10 @@ const SUBJECTS: [(AlarmKind, &str); 5] = [
     (AlarmKind::BusDisconnected, "bus"),
 ];
 const PEOPLE: [&str; 2] = ["ana", "bo"];
+/// Time between steps: far enough apart for an on-delay to run out now and then.
+fn step_ms() -> u64 {
+    BUS_ON_DELAY_MS.as_u64() / 4
+}
 
 /// An alarm as compared: id, state, shelf end, who acknowledged and when.
 type Seen = (String, AlarmState, Option<u64>, Option<(String, u64)>);
@@ -35,6 +40,7 @@ enum Step {
         alarm: usize,
         for_ms: u64,
         person: usize,
+        one_shot: bool,
     },
     Unshelve {
         alarm: usize,
@@ -49,8 +55,8 @@ fn step() -> impl Strategy<Value = Step> {
         4 => (0u8..32).prop_map(Step::Observe),
         3 => (prop::option::weighted(0.7, 0..SUBJECTS.len()), 0..PEOPLE.len())
             .prop_map(|(alarm, person)| Step::Ack { alarm, person }),
-        1 => (0..SUBJECTS.len(), prop_oneof![Just(1u64), Just(25), Just(200)], 0..PEOPLE.len())
-            .prop_map(|(alarm, for_ms, person)| Step::Shelve { alarm, for_ms, person }),
+        1 => (0..SUBJECTS.len(), prop_oneof![Just(1u64), Just(200), Just(step_ms() * 3), Just(step_ms() * 20)], 0..PEOPLE.len(), any::<bool>())
+            .prop_map(|(alarm, for_ms, person, one_shot)| Step::Shelve { alarm, for_ms, person, one_shot }),
         1 => (0..SUBJECTS.len(), 0..PEOPLE.len()).prop_map(|(alarm, person)| Step::Unshelve { alarm, person }),
         1 => Just(Step::Restart),
     ]
@@ -61,6 +67,7 @@ struct Entry {
     holds: bool,
     owed: bool,
     shelf_until: Option<u64>,
+    one_shot: bool,
     acked_by: Option<(String, u64)>,
 }
 
@@ -104,8 +111,7 @@ proptest! {
         let mut alarms = Alarms::new();
         let mut model = Model::default();
         for (t, step) in steps.into_iter().enumerate() {
-            // Steps far enough apart for an on-delay to run out now and then.
-            let now = t as u64 * (BUS_ON_DELAY_MS.as_u64() / 4);
+            let now = t as u64 * step_ms();
             match step {
                 Step::Observe(bits) => {
                     let conditions: Vec<Condition> = (0..SUBJECTS.len()).filter(|i| bits & (1 << i) != 0).map(|i| Condition {
@@ -130,6 +136,9 @@ proptest! {
                             entry.owed = true;
                             entry.acked_by = None;
                         }
+                        if !holds && entry.holds && entry.one_shot {
+                            entry.shelf_until = None;
+                        }
                         entry.holds = holds;
                     }
                     model.tidy(now);
@@ -153,9 +162,13 @@ proptest! {
                     }
                     model.tidy(now);
                 }
-                Step::Shelve { alarm, for_ms, person } => {
+                Step::Shelve { alarm, for_ms, person, one_shot } => {
                     let who = Attribution::new(Some(PEOPLE[person]), None, false);
-                    let result = alarms.shelve(&id(alarm), ms(now + for_ms), &who, ms(now));
+                    let result = if one_shot {
+                        alarms.shelve_one_shot(&id(alarm), ms(now + for_ms), &who, ms(now))
+                    } else {
+                        alarms.shelve(&id(alarm), ms(now + for_ms), &who, ms(now))
+                    };
                     if !model.alarms.contains_key(&alarm) {
                         prop_assert_eq!(result.unwrap_err().code(), "UNKNOWN_ALARM");
                         continue;
@@ -165,6 +178,7 @@ proptest! {
                         Some(e) => {
                             result.unwrap();
                             e.shelf_until = Some(now + for_ms);
+                            e.one_shot = one_shot;
                             let shelf = alarms.get(&id(alarm)).unwrap().shelved.clone().unwrap();
                             prop_assert_eq!((shelf.by.as_str(), shelf.at_ms), (PEOPLE[person], ms(now)));
                         }

@@ -524,7 +524,7 @@ fn an_unknown_profile_is_refused_by_path() {
     doc["devices"][0]["profile"] = json!("zigbee");
     let error = read_error(doc);
     assert!(
-        error.starts_with("devices[0]: profile must be one of 'sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'custom'; got 'zigbee'"),
+        error.starts_with("devices[0]: profile must be one of 'sugarshack', 'esphome', 'tasmota', 'shelly-gen2', 'custom', 'modbus'; got 'zigbee'"),
         "{error}"
     );
 }

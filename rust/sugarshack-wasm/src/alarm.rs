@@ -12,7 +12,7 @@ use crate::{from_js_bounded, js_error, time, to_js, Bound};
 const TS_SHAPES: &str = r#"
 export type AlarmKind =
     | "line-faulted" | "device-offline" | "device-stale" | "bus-disconnected"
-    | "state-not-saved" | "waiting-long" | "held-long";
+    | "state-not-saved" | "waiting-long" | "held-long" | "failover" | "etcd-member-down";
 
 export type AlarmState =
     | "normal" | "active-unacknowledged" | "active-acknowledged" | "returned-unacknowledged";
@@ -40,12 +40,13 @@ export interface AlarmStamp {
     reason?: string;
 }
 
-/** Who shelved an alarm, when, and until when. */
+/** Who shelved an alarm, when, and until when (and, one-shot, until its condition ends). */
 export interface AlarmShelf {
     by: string;
     atMs: number;
     untilMs: number;
     reason?: string;
+    oneShot?: boolean;
 }
 
 /** One listed alarm. */
@@ -164,10 +165,20 @@ impl Alarms {
         reason: Option<String>,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let now = time(now_ms)?;
-        let until = time(until_ms)?;
-        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
-        to_js(&self.core.shelve(id, until, &who, now).map_err(core_error)?)
+        self.put_on_shelf(id, until_ms, (by, reason), now_ms, false)
+    }
+
+    /// Shelves as `shelve` does, and until the alarm's condition next ends.
+    #[wasm_bindgen(js_name = shelveOneShot, unchecked_return_type = "AlarmChange[]")]
+    pub fn shelve_one_shot(
+        &mut self,
+        id: &str,
+        until_ms: f64,
+        by: Option<String>,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        self.put_on_shelf(id, until_ms, (by, reason), now_ms, true)
     }
 
     #[wasm_bindgen(unchecked_return_type = "AlarmChange[]")]
@@ -198,5 +209,26 @@ impl Alarms {
     #[wasm_bindgen(js_name = nextExpiryMs)]
     pub fn next_expiry_ms(&self) -> Option<f64> {
         self.core.next_expiry_ms().map(Millis::as_f64)
+    }
+}
+
+impl Alarms {
+    fn put_on_shelf(
+        &mut self,
+        id: &str,
+        until_ms: f64,
+        (by, reason): (Option<String>, Option<String>),
+        now_ms: f64,
+        one_shot: bool,
+    ) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let until = time(until_ms)?;
+        let who = Attribution::new(by.as_deref(), reason.as_deref(), false);
+        let changes = if one_shot {
+            self.core.shelve_one_shot(id, until, &who, now)
+        } else {
+            self.core.shelve(id, until, &who, now)
+        };
+        to_js(&changes.map_err(core_error)?)
     }
 }

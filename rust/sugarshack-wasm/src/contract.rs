@@ -1,6 +1,7 @@
 //! What the nodes read from the core instead of copying it: the table of
 //! codes with their status texts, and the reserved names.
 
+use sugarshack_core::alarm::{AlarmKind, MAX_SHELVE_MS};
 use sugarshack_core::code::{self, MAX_STATUS_CHARS};
 use sugarshack_core::interlock::EventKind;
 use sugarshack_core::procedure::Command;
@@ -42,6 +43,22 @@ pub fn codes() -> Result<JsValue, JsValue> {
 #[wasm_bindgen(js_name = maxStatusChars)]
 pub fn max_status_chars() -> u32 {
     MAX_STATUS_CHARS as u32
+}
+
+/// The longest an alarm may stay shelved, in ms (OPC UA's MaxTimeShelved).
+#[wasm_bindgen(js_name = maxShelveMs)]
+pub fn max_shelve_ms() -> f64 {
+    MAX_SHELVE_MS.as_f64()
+}
+
+/// Each alarm kind's priority as OPC UA's Severity: `{ "line-faulted": 800, ... }`.
+#[wasm_bindgen(js_name = alarmSeverities, unchecked_return_type = "Record<AlarmKind, number>")]
+pub fn alarm_severities() -> Result<JsValue, JsValue> {
+    let table: std::collections::BTreeMap<&str, u16> = AlarmKind::ALL
+        .into_iter()
+        .map(|k| (k.name(), k.severity()))
+        .collect();
+    to_js(&table)
 }
 
 /// The msg topic that sends a routine back to its initial state.

@@ -7,7 +7,10 @@ use sugarshack_core::actuator::{ActuatorId, DeviceId};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Plant;
 use sugarshack_core::sensor::SensorId;
+use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
+use sugarshack_core::topics::modbus::frame::{self, Pdu, Reply, Scan, Side};
+use sugarshack_core::topics::modbus::{Endpoint, Framing, RegisterKind, Target};
 use sugarshack_core::topics::{Command, Message};
 use wasm_bindgen::prelude::*;
 
@@ -189,5 +192,260 @@ impl DeviceSide {
             &values,
             ts.and_then(Millis::whole),
         ))
+    }
+}
+
+// ---- Modbus devices ---------------------------------------------------------
+
+/// The TypeScript shapes of the Modbus device side.
+#[wasm_bindgen(typescript_custom_section)]
+const TS_MODBUS_SHAPES: &str = r#"
+/** Where a Modbus device of the plant answers, and as which unit. */
+export interface ModbusDeviceEndpoint {
+    unit: number;
+    framing: "tcp" | "rtu";
+    endpoint: ModbusEndpoint;
+}
+
+/** A request a Modbus device received (`write`: the values written, bits as 0/1). */
+export interface ModbusServedRequest {
+    txid: number;
+    unit: number;
+    kind: "coil" | "discrete" | "input" | "holding";
+    address: number;
+    count: number;
+    write: number[] | null;
+}
+
+/** What a write means to a device: an actuator commanded or an output set. */
+export interface ModbusWritten {
+    actuator: number | null;
+    output: string | null;
+    value: number;
+}
+
+/** Registers a device holds: `words` from `address` on, bits as 0/1. */
+export interface ModbusImage {
+    kind: "coil" | "discrete" | "input" | "holding";
+    address: number;
+    words: number[];
+}
+"#;
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct DeviceEndpoint<'a> {
+    unit: u8,
+    framing: Framing,
+    endpoint: &'a Endpoint,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Served {
+    txid: u16,
+    unit: u8,
+    kind: RegisterKind,
+    address: u16,
+    count: u16,
+    write: Option<Vec<u16>>,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Written {
+    actuator: Option<u32>,
+    output: Option<String>,
+    value: f64,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Image {
+    kind: RegisterKind,
+    address: u16,
+    words: Vec<u16>,
+}
+
+fn framing(name: &str) -> Result<Framing, JsValue> {
+    match name {
+        "tcp" => Ok(Framing::Tcp),
+        "rtu" => Ok(Framing::Rtu),
+        other => Err(js_error(
+            Code::InvalidInput,
+            &format!("framing must be \"tcp\" or \"rtu\", got '{}'", quote(other)),
+        )),
+    }
+}
+
+fn kind(name: &str) -> Result<RegisterKind, JsValue> {
+    RegisterKind::ALL
+        .into_iter()
+        .find(|k| k.name() == name)
+        .ok_or_else(|| {
+            js_error(
+                Code::InvalidInput,
+                &format!("no register kind '{}'", quote(name)),
+            )
+        })
+}
+
+fn refusal(r: sugarshack_core::topics::Refusal) -> JsValue {
+    js_error(Code::InvalidInput, &format!("{}: {}", r.reason, r.message))
+}
+
+#[wasm_bindgen]
+impl DeviceSide {
+    /// `{ unit, framing, endpoint }` of a Modbus device, or null for another profile.
+    #[wasm_bindgen(js_name = modbusEndpoint, unchecked_return_type = "ModbusDeviceEndpoint | null")]
+    pub fn modbus_endpoint(&self, device: u32) -> Result<JsValue, JsValue> {
+        let map = self.plant.contract().modbus();
+        let d = self.device_id(device)?;
+        let found = map.unit(d).map(|u| DeviceEndpoint {
+            unit: u.unit,
+            framing: map.connections[u.connection].framing,
+            endpoint: &map.connections[u.connection].endpoint,
+        });
+        to_js(&found)
+    }
+
+    /// Where the first request in `bytes` ends: its length, 0 while it is
+    /// incomplete, or -n when its first n bytes cannot start one.
+    #[wasm_bindgen(js_name = modbusScan)]
+    pub fn modbus_scan(&self, framing_name: &str, bytes: &[u8]) -> Result<i32, JsValue> {
+        Ok(
+            match frame::scan(framing(framing_name)?, Side::Requests, bytes) {
+                Scan::Need => 0,
+                Scan::Frame(n) => n as i32,
+                Scan::Skip(n) => -(n as i32),
+            },
+        )
+    }
+
+    /// A request frame as the device reads it; throws `INVALID_INPUT` with the reason it cannot be.
+    #[wasm_bindgen(js_name = modbusRequest, unchecked_return_type = "ModbusServedRequest")]
+    pub fn modbus_request(&self, framing_name: &str, bytes: &[u8]) -> Result<JsValue, JsValue> {
+        let (txid, request) =
+            frame::decode_request(framing(framing_name)?, bytes).map_err(refusal)?;
+        let kind_of = |f: u8| match f {
+            1 | 5 | 15 => RegisterKind::Coil,
+            2 => RegisterKind::Discrete,
+            4 => RegisterKind::Input,
+            _ => RegisterKind::Holding,
+        };
+        let write = match &request.pdu {
+            Pdu::Read { .. } => None,
+            Pdu::WriteCoil { on, .. } => Some(vec![u16::from(*on)]),
+            Pdu::WriteRegister { value, .. } => Some(vec![*value]),
+            Pdu::WriteCoils { bits, .. } => Some(bits.iter().map(|&b| u16::from(b)).collect()),
+            Pdu::WriteRegisters { values, .. } => Some(values.clone()),
+        };
+        to_js(&Served {
+            txid,
+            unit: request.unit,
+            kind: kind_of(request.pdu.function()),
+            address: request.pdu.address(),
+            count: frame::extent(&request.pdu),
+            write,
+        })
+    }
+
+    /// The device's reply to the request `bytes`: `words` read (bits as 0/1),
+    /// the write's echo when neither is given, or `exception`.
+    #[wasm_bindgen(js_name = modbusReply)]
+    pub fn modbus_reply(
+        &self,
+        framing_name: &str,
+        bytes: &[u8],
+        words: Option<Vec<u16>>,
+        exception: Option<u8>,
+    ) -> Result<Vec<u8>, JsValue> {
+        let f = framing(framing_name)?;
+        let (txid, request) = frame::decode_request(f, bytes).map_err(refusal)?;
+        let reply = match (exception, words, &request.pdu) {
+            (Some(code), _, _) => Reply::Exception(code),
+            (
+                None,
+                Some(words),
+                Pdu::Read {
+                    function: 1 | 2, ..
+                },
+            ) => Reply::Bits(words.iter().map(|&w| w != 0).collect()),
+            (None, Some(words), Pdu::Read { .. }) => Reply::Registers(words),
+            _ => Reply::Written,
+        };
+        Ok(frame::encode_reply(f, txid, &request, &reply))
+    }
+
+    /// What a write of `words` from `address` means to device `device`:
+    /// `[{ actuator, output, value }]`, one per actuator commanded or output set.
+    #[wasm_bindgen(js_name = modbusWritten, unchecked_return_type = "ModbusWritten[]")]
+    pub fn modbus_written(
+        &self,
+        device: u32,
+        kind_name: &str,
+        address: u16,
+        words: &[u16],
+    ) -> Result<JsValue, JsValue> {
+        let map = self.plant.contract().modbus();
+        let read: Vec<Written> = map
+            .written(self.device_id(device)?, kind(kind_name)?, address, words)
+            .into_iter()
+            .map(|(target, value)| match target {
+                Target::Output(o) => Written {
+                    actuator: None,
+                    output: Some(map.outputs[o].id.clone()),
+                    value,
+                },
+                Target::Actuator(a) => Written {
+                    actuator: Some(a.index() as u32),
+                    output: None,
+                    value,
+                },
+                Target::Sensor(_) => Written {
+                    actuator: None,
+                    output: None,
+                    value,
+                },
+            })
+            .collect();
+        to_js(&read)
+    }
+
+    /// The registers device `device` holds for its actuators at `values` and
+    /// its sensors at `sensorValues` (NaN: no reading): `[{ kind, address, words }]`.
+    #[wasm_bindgen(js_name = modbusImage, unchecked_return_type = "ModbusImage[]")]
+    pub fn modbus_image(
+        &self,
+        device: u32,
+        actuators: &[u32],
+        values: &[f64],
+        sensors: &[u32],
+        sensor_values: &[f64],
+    ) -> Result<JsValue, JsValue> {
+        let targets: Vec<(Target, f64)> = actuators
+            .iter()
+            .zip(values)
+            .map(|(&a, &v)| (Target::Actuator(ActuatorId::from_index(a)), v))
+            .chain(
+                sensors
+                    .iter()
+                    .zip(sensor_values)
+                    .map(|(&s, &v)| (Target::Sensor(SensorId::from_index(s)), v)),
+            )
+            .collect();
+        let image: Vec<Image> = self
+            .plant
+            .contract()
+            .modbus()
+            .image(self.device_id(device)?, &targets)
+            .into_iter()
+            .map(|(kind, address, words)| Image {
+                kind,
+                address,
+                words,
+            })
+            .collect();
+        to_js(&image)
     }
 }

@@ -93,6 +93,8 @@ export type ClearBlocker =
 export interface LineBlockers {
     line: string;
     reasons: ClearBlocker[];
+    /** The core's words for each reason, in order. */
+    texts: string[];
 }
 
 /** A request (waiting) or hold, by name, in a snapshot. */
@@ -152,11 +154,30 @@ export interface InterlockSnapshot {
 }
 "#;
 
+/// A line's reasons with the core's words for each, as JS gets them.
+#[derive(Serialize)]
+struct WordedBlockers<'a> {
+    line: &'a str,
+    reasons: &'a [ClearBlocker],
+    texts: Vec<String>,
+}
+
+fn worded(lines: &[LineBlockers]) -> Vec<WordedBlockers<'_>> {
+    lines
+        .iter()
+        .map(|l| WordedBlockers {
+            line: &l.line,
+            reasons: &l.reasons,
+            texts: l.reasons.iter().map(ToString::to_string).collect(),
+        })
+        .collect()
+}
+
 fn core_error(err: InterlockError) -> JsValue {
     let error = js_error(err.code(), &err.to_string());
     if let InterlockError::ClearRefused { lines } = &err {
         // Every reason, per line, for a dashboard to list.
-        if let Ok(lines) = to_js(lines) {
+        if let Ok(lines) = to_js(&worded(lines)) {
             let _ = js_sys::Reflect::set(&error, &"lines".into(), &lines);
         }
     }
@@ -715,7 +736,7 @@ impl Interlock {
                 reasons: plant.core.clear_blockers(line),
             })
             .collect();
-        to_js(&lines)
+        to_js(&worded(&lines))
     }
 
     #[wasm_bindgen(js_name = faultedResources)]

@@ -11,13 +11,15 @@ mod contract;
 mod control;
 mod device;
 mod interlock;
+mod modbus;
 pub mod operation;
 mod routine;
 mod tracker;
 
 pub use alarm::Alarms;
 pub use contract::{
-    abnormal_event_kinds, codes, max_status_chars, operator_commands, routine_reset_topic,
+    abnormal_event_kinds, alarm_severities, codes, max_shelve_ms, max_status_chars,
+    operator_commands, routine_reset_topic,
 };
 pub use control::{
     open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,

@@ -5,6 +5,7 @@ use sugarshack_core::actuator::{
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
+use sugarshack_core::topics::modbus::link::Links;
 use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
 use wasm_bindgen::prelude::*;
 
@@ -76,7 +77,8 @@ export type TrackerEffect =
     | { kind: "lockoutConfirmed"; actuator: number; afterMs: number; sends: number }
     | { kind: "lockoutResent"; actuator: number; attempt: number }
     | { kind: "rejected"; actuator: number; code: string; message: string }
-    | { kind: "malformed"; device: string; reason: string; message: string };
+    | { kind: "malformed"; device: string; reason: string; message: string }
+    | { kind: "modbusSend"; connection: number };
 
 /** A device as an operator sees it. */
 export interface DeviceHealth {
@@ -89,16 +91,32 @@ export interface DeviceHealth {
 /** A sensor as an operator sees it (`value` null before the first sample or with no reading). */
 export interface SensorHealth {
     sensor: string;
+    /** The plant document's unit for it. */
+    unit: string | null;
     value: number | null;
     receivedMs: number | null;
     fresh: boolean;
     why: string | null;
 }
 
+/** An actuator on its line: its last commanded and reported positions (0/1 when binary). */
+export interface ActuatorPosition {
+    actuator: string;
+    type: string;
+    device: string;
+    resource: string | null;
+    unit: string | null;
+    binary: boolean;
+    commanded: number | null;
+    reported: number | null;
+    phase: "idle" | "pending" | "moving" | "stopped" | "faulted";
+}
+
 /** `Tracker.health()`. */
 export interface PlantHealth {
     devices: DeviceHealth[];
     sensors: SensorHealth[];
+    actuators: ActuatorPosition[];
 }
 "#;
 
@@ -121,6 +139,12 @@ enum Output {
         actuator: u32,
         code: &'static str,
         message: String,
+    },
+    /// A Modbus connection has a write waiting: call `modbusNext` for it.
+    #[serde(rename_all = "camelCase")]
+    ModbusSend {
+        kind: &'static str,
+        connection: u32,
     },
     /// A device message (or part of one) that could not be used.
     #[serde(rename_all = "camelCase")]
@@ -168,8 +192,9 @@ struct ActuatorView<'a> {
 
 #[derive(serde::Serialize)]
 #[serde(rename_all = "camelCase")]
-struct SensorView {
+struct SensorView<'a> {
     sensor: String,
+    unit: Option<&'a str>,
     value: Option<f64>,
     received_ms: Option<Millis>,
     fresh: bool,
@@ -178,9 +203,26 @@ struct SensorView {
 
 #[derive(serde::Serialize)]
 #[serde(rename_all = "camelCase")]
-struct HealthView {
+struct HealthView<'a> {
     devices: Vec<sugarshack_core::actuator::DeviceHealth>,
-    sensors: Vec<SensorView>,
+    sensors: Vec<SensorView<'a>>,
+    actuators: Vec<PositionView<'a>>,
+}
+
+/// An actuator as an operator sees it on its line: where it was told to be and where it is.
+#[derive(serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+struct PositionView<'a> {
+    actuator: &'a str,
+    #[serde(rename = "type")]
+    kind: &'a str,
+    device: &'a str,
+    resource: Option<&'a str>,
+    unit: Option<&'a str>,
+    binary: bool,
+    commanded: Option<f64>,
+    reported: Option<f64>,
+    phase: sugarshack_core::actuator::Phase,
 }
 
 /// The plant as JS sees it: actuator tracking, live sensor values, and the
@@ -194,13 +236,19 @@ pub struct Tracker {
     effects: Vec<Output>,
     scratch: Vec<Effect>,
     batch: Vec<(ActuatorId, f64)>,
-    readings: Readings,
+    pub(crate) readings: Readings,
     /// Of the last `ingest`: its device, device time and the sensors it updated.
-    last_device: Option<u32>,
+    pub(crate) last_device: Option<u32>,
     last_ts: Option<f64>,
     last_sensors: Vec<u32>,
     /// The last `ingest`'s readings as (0 actuator | 1 sensor, index, value) triples, for a journal.
     last_samples: Vec<f64>,
+    /// Its Modbus connections (see `modbus.rs`).
+    pub(crate) links: Links,
+    /// Per connection: a `modbusSend` is queued since the last `takeEffects`.
+    pub(crate) send_queued: Vec<bool>,
+    /// The round trip of the last Modbus poll read.
+    pub(crate) last_round_trip: Option<f64>,
     pub(crate) conditions: crate::condition::Conditions,
 }
 
@@ -223,7 +271,12 @@ impl Tracker {
         })
     }
 
-    fn malformed(&mut self, device: DeviceId, reason: impl Into<String>, message: String) {
+    pub(crate) fn malformed(
+        &mut self,
+        device: DeviceId,
+        reason: impl Into<String>,
+        message: String,
+    ) {
         let name = self.core.device_name(device).unwrap_or_default().to_owned();
         self.malformed_named(name, reason, message);
     }
@@ -237,12 +290,12 @@ impl Tracker {
         });
     }
 
-    fn refused(&mut self, device: DeviceId, refusal: Refusal) {
+    pub(crate) fn refused(&mut self, device: DeviceId, refusal: Refusal) {
         self.malformed(device, refusal.reason, refusal.message);
     }
 
     /// Applies what a device message carried; refusals become `malformed` effects.
-    fn apply(&mut self, device: DeviceId, ts: Option<Millis>, now: Millis) {
+    pub(crate) fn apply(&mut self, device: DeviceId, ts: Option<Millis>, now: Millis) {
         let mut readings = std::mem::take(&mut self.readings);
         for refusal in readings.refusals.drain(..) {
             self.refused(device, refusal);
@@ -276,7 +329,7 @@ impl Tracker {
         }
         let mut effects = std::mem::take(&mut self.scratch);
         let outcome = self.core.feedback_batch(&self.batch, ts, now, &mut effects);
-        self.effects.extend(effects.drain(..).map(Output::Effect));
+        self.queue(effects.drain(..));
         self.scratch = effects;
         match outcome {
             Ok(rejected) => {
@@ -293,8 +346,33 @@ impl Tracker {
         }
     }
 
-    fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
-        self.effects.extend(effects.into_iter().map(Output::Effect));
+    /// Before a call that reads device traffic: what the last one read is gone.
+    pub(crate) fn forget_last(&mut self) {
+        self.last_device = None;
+        self.last_ts = None;
+        self.last_round_trip = None;
+        self.last_sensors.clear();
+        self.last_samples.clear();
+    }
+
+    /// Queues the core's effects; a Modbus write goes to its connection's
+    /// queue instead, and JS is told once that the connection has one.
+    pub(crate) fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
+        for effect in effects {
+            let Effect::Write { device, request } = effect else {
+                self.effects.push(Output::Effect(effect));
+                continue;
+            };
+            let Some(connection) = self.links.enqueue(device, request) else {
+                continue; // closed: written again when the device is back
+            };
+            if !std::mem::replace(&mut self.send_queued[connection], true) {
+                self.effects.push(Output::ModbusSend {
+                    kind: "modbusSend",
+                    connection: connection as u32,
+                });
+            }
+        }
         self.effects.len() as u32
     }
 }
@@ -308,9 +386,14 @@ impl Tracker {
         now_ms: f64,
     ) -> Result<Tracker, JsValue> {
         let plant = plant_document(plant)?;
-        let core = sugarshack_core::actuator::Tracker::new(plant, time(now_ms)?)
+        let now = time(now_ms)?;
+        let core = sugarshack_core::actuator::Tracker::new(plant, now)
             .map_err(|errors| js_error(Code::InvalidPlant, &errors.to_string()))?;
+        let links = Links::new(core.contract().modbus(), now);
         Ok(Tracker {
+            send_queued: vec![false; links.len()],
+            links,
+            last_round_trip: None,
             sensors: SensorStore::new(core.plant()),
             core,
             effects: Vec::new(),
@@ -473,7 +556,7 @@ impl Tracker {
         let outcome =
             self.core
                 .feedback_batch(&self.batch, ts.and_then(Millis::whole), now, &mut effects);
-        self.effects.extend(effects.drain(..).map(Output::Effect));
+        self.queue(effects.drain(..));
         self.scratch = effects;
         for (id, err) in outcome.map_err(track_error)? {
             self.effects.push(Output::Rejected {
@@ -504,10 +587,7 @@ impl Tracker {
         now_ms: f64,
     ) -> Result<Ingest, JsValue> {
         let now = time(now_ms)?;
-        self.last_device = None;
-        self.last_ts = None;
-        self.last_sensors.clear();
-        self.last_samples.clear();
+        self.forget_last();
         let contract = self.core.contract();
         if payload.len() > MAX_PAYLOAD_BYTES {
             return Ok(match contract.device_of(topic) {
@@ -645,6 +725,7 @@ impl Tracker {
     pub fn take_effects(&mut self) -> Result<JsValue, JsValue> {
         let out = to_js(&self.effects);
         self.effects.clear();
+        self.send_queued.fill(false);
         out
     }
 
@@ -684,6 +765,26 @@ impl Tracker {
         self.core.position(ActuatorId::from_index(actuator))
     }
 
+    /// Where it was last commanded to (0/1 for binary), if ever.
+    pub fn target(&self, actuator: u32) -> Option<f64> {
+        self.core.commanded(ActuatorId::from_index(actuator))
+    }
+
+    /// One device as an operator sees it (`health()`'s entry for it).
+    #[wasm_bindgen(js_name = deviceHealth, unchecked_return_type = "DeviceHealth")]
+    pub fn device_health(&self, device: u32) -> Result<JsValue, JsValue> {
+        let health = self
+            .core
+            .device_health_of(DeviceId::from_index(device))
+            .ok_or_else(|| {
+                js_error(
+                    Code::UnknownDevice,
+                    &format!("no device with handle {device}"),
+                )
+            })?;
+        to_js(&health)
+    }
+
     /// Why a group command failed on `actuator`: `{ code, message }`, worded
     /// by the core from the plant document. `fault` is the effect's fault name;
     /// `target` what the command asked for (a number or a boolean), if known.
@@ -712,7 +813,13 @@ impl Tracker {
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
-        let message = describe_fault(a, t, kind, retries, target);
+        let heard = self.core.heard(id).expect("checked handle");
+        let profile = plant
+            .devices
+            .iter()
+            .find(|d| d.id == a.device)
+            .map_or("sugarshack", |d| d.profile.name());
+        let message = describe_fault(a, t, kind, retries, target, (heard, profile));
         to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 
@@ -807,11 +914,14 @@ impl Tracker {
     }
 
     /// What an operator reads of the plant now: `{ devices: [{ device, online,
-    /// stale: [actuator] }], sensors: [{ sensor, value, receivedMs, fresh, why }] }`
-    /// (`value` null before the first sample or when the device reports none).
+    /// stale: [actuator] }], sensors: [{ sensor, unit, value, receivedMs, fresh,
+    /// why }], actuators: [{ actuator, type, device, resource, unit, binary,
+    /// commanded, reported, phase }] }` (`value` null before the first sample
+    /// or when the device reports none).
     #[wasm_bindgen(unchecked_return_type = "PlantHealth")]
     pub fn health(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
+        let plant = self.core.plant();
         let sensors: Vec<SensorView> = (0..self.sensors.len() as u32)
             .map(|i| {
                 let id = sugarshack_core::sensor::SensorId::from_index(i);
@@ -819,6 +929,7 @@ impl Tracker {
                 let fresh = self.sensors.fresh(id, now);
                 SensorView {
                     sensor: self.sensors.name(id).to_owned(),
+                    unit: plant.sensors[i as usize].unit.as_deref(),
                     value: sample.map(|s| s.value).filter(|v| v.is_finite()),
                     received_ms: sample.map(|s| s.received_ms),
                     fresh: fresh.is_ok(),
@@ -826,9 +937,32 @@ impl Tracker {
                 }
             })
             .collect();
+        let actuators = plant
+            .actuators
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let id = ActuatorId::from_index(i as u32);
+                PositionView {
+                    actuator: &a.id,
+                    kind: &a.kind,
+                    device: &a.device,
+                    resource: a.resource.as_deref(),
+                    unit: plant
+                        .actuator_types
+                        .get(&a.kind)
+                        .and_then(|t| t.unit.as_deref()),
+                    binary: self.core.signal(id) == Some(Signal::Binary),
+                    commanded: self.core.commanded(id),
+                    reported: self.core.position(id),
+                    phase: self.core.phase(id).expect("an actuator of the plant"),
+                }
+            })
+            .collect();
         to_js(&HealthView {
             devices: self.core.device_health(),
             sensors,
+            actuators,
         })
     }
 

@@ -49,13 +49,15 @@ process.on('exit', () => {
   for (const child of running) child.kill('SIGKILL');
 });
 
-// `config(port, dir)` gives a config of one's own (its listener on `port`, files under `dir`).
-async function startMosquitto({ port, timeoutMs = 5000, config } = {}) {
+// `config(port, dir)` gives a config of one's own (its listener on `port`, files under `dir`);
+// `prepare(dir)` runs before the first start; `onLine(line, atMs)` sees each log line as it arrives.
+async function startMosquitto({ port, timeoutMs = 5000, config, prepare, onLine } = {}) {
   const bin = findMosquitto();
   if (!bin) throw new Error('mosquitto not found (bash scripts/setup.sh installs it; or set MOSQUITTO_BIN)');
   port = port || (await freePort());
   const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'sugarshack-mosquitto-'));
   const conf = path.join(dir, 'mosquitto.conf');
+  if (prepare) prepare(dir);
   fs.writeFileSync(conf, config ? config(port, dir) : [
     `listener ${port} 127.0.0.1`,
     'allow_anonymous true',
@@ -76,8 +78,17 @@ async function startMosquitto({ port, timeoutMs = 5000, config } = {}) {
     const proc = spawn(bin, ['-c', conf], { stdio: ['ignore', 'pipe', 'pipe'] });
     child = proc;
     running.add(proc);
-    proc.stdout.on('data', (d) => { output += d; });
-    proc.stderr.on('data', (d) => { output += d; });
+    let partial = '';
+    const take = (d) => {
+      output += d;
+      if (!onLine) return;
+      const at = Date.now();
+      const lines = (partial + d).split('\n');
+      partial = lines.pop();
+      for (const line of lines) onLine(line, at);
+    };
+    proc.stdout.on('data', take);
+    proc.stderr.on('data', take);
     let exited = null;
     proc.once('exit', (code, signal) => {
       exited = { code, signal };

@@ -31,7 +31,7 @@ process.on('exit', () => {
 });
 
 // What npm start and most users have: on disk, with the store's default cache.
-const settingsOf = (dir) => settingsFile(dir, { context: 'localfilesystem', extra: '\n  mqttReconnectTime: 300,' });
+const settingsOf = (dir, extra = '') => settingsFile(dir, { context: 'localfilesystem', extra: `\n  mqttReconnectTime: 300,${extra}` });
 
 /** An mqtt-broker config node for a flow, on a local broker's port. */
 function mqttBroker(id, port) {
@@ -42,10 +42,12 @@ function mqttBroker(id, port) {
 }
 
 class NodeRedProcess {
-  constructor({ flows, tag = 'red' }) {
+  /** `settings`: more of settings.js (text inside its object); `env`: the process's environment on top of this one's. */
+  constructor({ flows, tag = 'red', settings = '', env = {} }) {
     this.dir = fs.mkdtempSync(path.join(os.tmpdir(), `sugarshack-${tag}-`));
     this.logFile = path.join(this.dir, 'node-red.log');
-    fs.writeFileSync(path.join(this.dir, 'settings.js'), settingsOf(this.dir));
+    this.env = env;
+    fs.writeFileSync(path.join(this.dir, 'settings.js'), settingsOf(this.dir, settings));
     fs.writeFileSync(path.join(this.dir, 'flows.json'), JSON.stringify(flows, null, 2));
     fs.mkdirSync(path.join(this.dir, 'node_modules'));
     fs.symlinkSync(PALETTE, path.join(this.dir, 'node_modules', 'node-red-contrib-sugarshack'), 'dir');
@@ -67,6 +69,11 @@ class NodeRedProcess {
     return Boolean(this.child && this.child.exitCode === null && this.child.signalCode === null);
   }
 
+  /** Running and not stopped by SIGSTOP: it can answer. */
+  get answering() {
+    return this.alive && !this.paused;
+  }
+
   /**
    * Starts Node-RED; resolves once its flows run (`started` is the log's line for it,
    * in the runtime's language) and its MQTT client is connected.
@@ -76,7 +83,7 @@ class NodeRedProcess {
     this.logStart = this.log().length;
     const out = fs.openSync(this.logFile, 'a');
     const child = spawn(process.execPath, [RED_JS, '-u', this.dir, '-p', String(this.port), '-s', path.join(this.dir, 'settings.js')], {
-      cwd: this.dir, stdio: ['ignore', out, out],
+      cwd: this.dir, stdio: ['ignore', out, out], env: { ...process.env, ...this.env },
     });
     fs.closeSync(out);
     this.child = child;
@@ -91,6 +98,13 @@ class NodeRedProcess {
       if (Date.now() > deadline) throw new Error(`Node-RED not started after ${timeoutMs} ms:\n${text.slice(-3000)}`);
       await sleep(50);
     }
+  }
+
+  /** SIGSTOP (a process paused, as by a long GC or a hung VM) or SIGCONT. */
+  signal(name) {
+    if (!this.alive) return;
+    this.child.kill(name);
+    this.paused = name === 'SIGSTOP';
   }
 
   /** A power cut: SIGKILL, no chance to save anything. */
@@ -134,28 +148,7 @@ class NodeRedProcess {
   }
 
   request(method, urlPath, body, headers = {}) {
-    const text = body === undefined ? null : JSON.stringify(body);
-    return new Promise((resolve, reject) => {
-      const req = http.request({
-        host: '127.0.0.1',
-        port: this.port,
-        path: urlPath,
-        method,
-        timeout: 10000,
-        headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
-      }, (res) => {
-        let answer = '';
-        res.on('data', (d) => { answer += d; });
-        res.on('end', () => {
-          if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 200)}`));
-          else resolve(answer ? JSON.parse(answer) : null);
-        });
-      });
-      req.on('error', reject);
-      req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 10 s`)));
-      if (text !== null) req.write(text);
-      req.end();
-    });
+    return adminRequest(this.port, method, urlPath, body, headers);
   }
 
   /** The interlock's lines as `GET /sugarshack/state` gives them: { name: 'free' | 'held:<op>' | 'faulted:<cause>' }. */
@@ -165,6 +158,32 @@ class NodeRedProcess {
     if (!il || !il.lines) throw new Error(`interlock ${interlockId} is not running: ${JSON.stringify(il)}`);
     return Object.fromEntries(il.lines.map((l) => [l.name, lineState(l.state)]));
   }
+}
+
+/** A request to Node-RED on `port`: resolves with the body (parsed when JSON), rejects on a status outside 2xx. */
+function adminRequest(port, method, urlPath, body, headers = {}) {
+  const text = body === undefined ? null : JSON.stringify(body);
+  return new Promise((resolve, reject) => {
+    const req = http.request({
+      host: '127.0.0.1',
+      port,
+      path: urlPath,
+      method,
+      timeout: 10000,
+      headers: text === null ? headers : { ...headers, 'Content-Type': 'application/json', 'Content-Length': Buffer.byteLength(text) },
+    }, (res) => {
+      let answer = '';
+      res.on('data', (d) => { answer += d; });
+      res.on('end', () => {
+        if (res.statusCode < 200 || res.statusCode > 299) reject(new Error(`${method} ${urlPath}: ${res.statusCode} ${answer.slice(0, 200)}`));
+        else resolve(answer && /json/.test(res.headers['content-type'] || '') ? JSON.parse(answer) : answer || null);
+      });
+    });
+    req.on('error', reject);
+    req.on('timeout', () => req.destroy(new Error(`${method} ${urlPath}: no answer in 10 s`)));
+    if (text !== null) req.write(text);
+    req.end();
+  });
 }
 
 function lineState(s) {
@@ -197,4 +216,4 @@ async function waitWhileMoving(predicate, progress, what, stallMs = 15000) {
   }
 }
 
-module.exports = { NodeRedProcess, mqttBroker, lineState, sleep, waitFor, waitWhileMoving };
+module.exports = { NodeRedProcess, mqttBroker, adminRequest, lineState, sleep, waitFor, waitWhileMoving };

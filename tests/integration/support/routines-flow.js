@@ -66,6 +66,36 @@ function flow(port, label = 'routines') {
   return nodes;
 }
 
+/** Whether every actuator of `line` was sent its lockout among `commands` (probe msgs on +/+/+/command) since `since`. */
+function lockoutSeen(commands, line, since) {
+  return PLANT.actuators.filter((a) => a.resource === line).every((a) => {
+    const want = a.type === 'pump' ? (a.lockout ? 'ON' : 'OFF') : String(a.lockout);
+    return commands.some((m) => m.at >= since && m.topic === `${a.device}/${a.type}/${a.io}/command` && m.text === want);
+  });
+}
+
+/**
+ * One random piece of work over MQTT: an operation started (45 %), a line
+ * e-stopped (15 %) or cleared (15 %, noted in `clearsSent`), a routine
+ * triggered (15 %), a valve stuck in the simulator (10 %).
+ */
+async function randomStep({ probe, sim, rnd, clearsSent }) {
+  const pick = (list) => list[Math.floor(rnd() * list.length)];
+  const r = rnd();
+  if (r < 0.45) await probe.publish(`test/op/${pick(OPERATIONS).id}`, 'go');
+  else if (r < 0.6) await probe.publish(`test/estop/${pick(LINES)}`, 'e-stop');
+  else if (r < 0.75) {
+    const line = pick(LINES);
+    clearsSent[line] = Date.now();
+    await probe.publish(`test/clear/${line}`, 'operator');
+  } else if (r < 0.9) {
+    const routine = pick(ROUTINES);
+    await probe.publish(`test/routine/${routine.id}`, routine.start);
+  } else {
+    await sim.inject({ fault: 'stuck', device: 'ctrl-1', valve: 1 + Math.floor(rnd() * 5) });
+  }
+}
+
 module.exports = {
-  PLANT_FILE, PLANT, LINES, OPERATIONS, ROUTINES, flow,
+  PLANT_FILE, PLANT, LINES, OPERATIONS, ROUTINES, flow, lockoutSeen, randomStep,
 };

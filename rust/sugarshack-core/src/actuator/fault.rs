@@ -45,21 +45,68 @@ impl FaultKind {
     }
 }
 
+/// What has come from an actuator and its device since the plant started.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Heard {
+    /// The actuator has reported a position.
+    Feedback,
+    /// Its device has (a status, another actuator), the actuator never.
+    DeviceOnly,
+    /// Nothing from its device at all.
+    Nothing,
+}
+
 fn seconds(ms: Millis) -> String {
     crate::text::seconds(ms.as_f64())
 }
 
 /// What went wrong with `actuator` (of type `kind`), in plain words: "valve
 /// V12 did not move within 4 s of its command (after 1 retry)". `target` is
-/// what the failed command asked for, when known.
+/// what the failed command asked for, when known. An actuator that never
+/// reported a position did not fail to move: its device is not connected or
+/// does not speak `profile`, the plant document's profile for it, and the
+/// words say so (`heard`).
 pub fn describe_fault(
     actuator: &Actuator,
     kind: &ActuatorType,
     fault: FaultKind,
     retries: u32,
     target: Option<f64>,
+    (heard, profile): (Heard, &str),
 ) -> String {
     let who = format!("{} {}", actuator.kind, actuator.id);
+    let retried = match retries {
+        0 => String::new(),
+        1 => " (after 1 retry)".to_owned(),
+        n => format!(" (after {n} retries)"),
+    };
+    let unheard = matches!(
+        fault,
+        FaultKind::NoMotion | FaultKind::NotReached | FaultKind::Stale
+    ) && heard != Heard::Feedback;
+    if unheard {
+        let device = &actuator.device;
+        let when = match fault {
+            FaultKind::Stale => format!("in the {} it is given", seconds(kind.stale_ms)),
+            FaultKind::NoMotion => format!(
+                "within {} of its command{retried}",
+                seconds(kind.no_motion_ms)
+            ),
+            _ => format!(
+                "within {} of its command{retried}",
+                seconds(kind.completion_ms)
+            ),
+        };
+        let why = if heard == Heard::Nothing {
+            format!("nothing has come from its device {device} since the start: is {device} connected to this broker, speaking profile '{profile}' as the plant document says?")
+        } else {
+            format!(
+                "its device {device} is online but nothing it sent reads as {}'s position: does {device} speak profile '{profile}', as the plant document says?",
+                actuator.id
+            )
+        };
+        return format!("{who} never reported a position {when}: {why}");
+    }
     let binary = kind.signal == Signal::Binary;
     let wanted = match (target, binary) {
         (None, _) => "its target".to_owned(),
@@ -69,7 +116,7 @@ pub fn describe_fault(
             None => t.to_string(),
         },
     };
-    let mut text = match fault {
+    let text = match fault {
         FaultKind::NoMotion => format!(
             "{who} did not {} within {} of its command",
             if binary { "respond" } else { "move" },
@@ -94,13 +141,7 @@ pub fn describe_fault(
         }
         FaultKind::Uncommanded => format!("{who} moved without a command"),
     };
-    if retries > 0 {
-        text.push_str(&format!(
-            " (after {retries} {})",
-            if retries == 1 { "retry" } else { "retries" }
-        ));
-    }
-    text
+    format!("{text}{retried}")
 }
 
 #[cfg(test)]
@@ -124,15 +165,15 @@ mod tests {
     fn faults_are_worded_from_the_plant_document() {
         let (v, t) = valve();
         assert_eq!(
-            describe_fault(&v, &t, FaultKind::NoMotion, 1, Some(50.0)),
+            describe_fault(&v, &t, FaultKind::NoMotion, 1, Some(50.0), HEARD),
             "valve V12 did not move within 0.3 s of its command (after 1 retry)"
         );
         assert_eq!(
-            describe_fault(&v, &t, FaultKind::NotReached, 2, Some(12.5)),
+            describe_fault(&v, &t, FaultKind::NotReached, 2, Some(12.5), HEARD),
             "valve V12 did not reach 12.5 % within 4 s of its command (after 2 retries)"
         );
         assert_eq!(
-            describe_fault(&v, &t, FaultKind::Stale, 0, None),
+            describe_fault(&v, &t, FaultKind::Stale, 0, None, HEARD),
             "valve V12 sent no feedback for 5 s (device ctrl-1)"
         );
         let pump = ActuatorType {
@@ -145,12 +186,43 @@ mod tests {
             ..v
         };
         assert_eq!(
-            describe_fault(&p, &pump, FaultKind::NotReached, 0, Some(1.0)),
+            describe_fault(&p, &pump, FaultKind::NotReached, 0, Some(1.0), HEARD),
             "pump P1 did not turn on within 4 s of its command"
         );
         assert_eq!(
-            describe_fault(&p, &pump, FaultKind::NoMotion, 0, None),
+            describe_fault(&p, &pump, FaultKind::NoMotion, 0, None, HEARD),
             "pump P1 did not respond within 0.3 s of its command"
+        );
+    }
+
+    const HEARD: (Heard, &str) = (Heard::Feedback, "sugarshack");
+
+    #[test]
+    fn a_fault_with_nothing_ever_heard_names_the_device_and_its_profile_not_the_valve() {
+        let (v, t) = valve();
+        assert_eq!(
+            describe_fault(&v, &t, FaultKind::NoMotion, 1, Some(100.0), (Heard::DeviceOnly, "sugarshack")),
+            "valve V12 never reported a position within 0.3 s of its command (after 1 retry): its device ctrl-1 is online but nothing it sent reads as V12's position: does ctrl-1 speak profile 'sugarshack', as the plant document says?"
+        );
+        assert_eq!(
+            describe_fault(&v, &t, FaultKind::NotReached, 0, None, (Heard::Nothing, "esphome")),
+            "valve V12 never reported a position within 4 s of its command: nothing has come from its device ctrl-1 since the start: is ctrl-1 connected to this broker, speaking profile 'esphome' as the plant document says?"
+        );
+        assert_eq!(
+            describe_fault(&v, &t, FaultKind::Stale, 0, None, (Heard::Nothing, "esphome")),
+            "valve V12 never reported a position in the 5 s it is given: nothing has come from its device ctrl-1 since the start: is ctrl-1 connected to this broker, speaking profile 'esphome' as the plant document says?"
+        );
+        // An offline device or a lockout says what it is, heard or not.
+        assert_eq!(
+            describe_fault(
+                &v,
+                &t,
+                FaultKind::DeviceOffline,
+                0,
+                None,
+                (Heard::Nothing, "esphome")
+            ),
+            "valve V12 cannot complete its command: its device ctrl-1 went offline"
         );
     }
 

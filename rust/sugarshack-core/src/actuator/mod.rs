@@ -35,7 +35,7 @@ use std::collections::HashMap;
 use serde::Serialize;
 
 pub use error::TrackError;
-pub use fault::describe_fault;
+pub use fault::{describe_fault, Heard};
 
 use crate::clearance::ClearBlocker;
 use crate::plant::{
@@ -127,6 +127,14 @@ pub enum Effect {
         payload: String,
         /// Whether the broker keeps it for later subscribers.
         retain: bool,
+    },
+    /// Write this request to a Modbus device (queued on its connection, see `topics::modbus::link`).
+    Write {
+        /// The device to write to.
+        device: DeviceId,
+        /// The write.
+        #[serde(skip)]
+        request: crate::topics::modbus::frame::Request,
     },
     /// First sample that departed from the start position.
     #[serde(rename_all = "camelCase")]
@@ -328,6 +336,8 @@ struct Timing {
 struct DeviceState {
     name: String,
     online: bool,
+    /// A status or a sample of its actuators has come from it since the start.
+    heard: bool,
     actuators: Vec<ActuatorId>,
 }
 
@@ -467,6 +477,7 @@ impl Tracker {
             .map(|d| DeviceState {
                 name: d.id.clone(),
                 online: true,
+                heard: false,
                 actuators: Vec::new(),
             })
             .collect();
@@ -592,9 +603,27 @@ impl Tracker {
         self.actuators.get(id.index()).map(|a| a.phase)
     }
 
+    /// What has come from the actuator and its device since the start: a
+    /// command that fails with nothing ever heard is a wiring or profile problem.
+    pub fn heard(&self, id: ActuatorId) -> Option<Heard> {
+        let a = self.actuators.get(id.index())?;
+        Some(if a.position.is_some() {
+            Heard::Feedback
+        } else if self.devices[a.device.index()].heard {
+            Heard::DeviceOnly
+        } else {
+            Heard::Nothing
+        })
+    }
+
     /// Its last feedback value, if any.
     pub fn position(&self, id: ActuatorId) -> Option<f64> {
         self.actuators.get(id.index()).and_then(|a| a.position)
+    }
+
+    /// The position it was last commanded to (0/1 for binary), if any.
+    pub fn commanded(&self, id: ActuatorId) -> Option<f64> {
+        self.actuators.get(id.index()).and_then(|a| a.commanded)
     }
 
     /// Its idle state as a number (0/1 for binary), if it has one.
@@ -652,19 +681,25 @@ impl Tracker {
 
     /// Every device: online or not, and its actuators whose feedback is stale.
     pub fn device_health(&self) -> Vec<DeviceHealth> {
-        self.devices
-            .iter()
-            .map(|d| DeviceHealth {
-                device: d.name.clone(),
-                online: d.online,
-                stale: d
-                    .actuators
-                    .iter()
-                    .filter(|a| self.actuators[a.index()].stale)
-                    .map(|a| self.actuators[a.index()].name.clone())
-                    .collect(),
-            })
-            .collect()
+        self.devices.iter().map(|d| self.health_of(d)).collect()
+    }
+
+    /// One device's health ([`Tracker::device_health`]), if the handle is known.
+    pub fn device_health_of(&self, id: DeviceId) -> Option<DeviceHealth> {
+        self.devices.get(id.index()).map(|d| self.health_of(d))
+    }
+
+    fn health_of(&self, d: &DeviceState) -> DeviceHealth {
+        DeviceHealth {
+            device: d.name.clone(),
+            online: d.online,
+            stale: d
+                .actuators
+                .iter()
+                .filter(|a| self.actuators[a.index()].stale)
+                .map(|a| self.actuators[a.index()].name.clone())
+                .collect(),
+        }
     }
 
     /// Why line `resource` may not be cleared now, per member actuator in
@@ -791,7 +826,8 @@ impl Tracker {
                 self.fail_group(old.caller, id, FaultKind::LockedOut, &mut effects);
             }
             let a = &mut self.actuators[id.index()];
-            if a.retained && !lockout {
+            // A register holds its last write: nothing is retained to clear.
+            if a.retained && !lockout && !self.plant.contract().modbus().is_modbus(a.device) {
                 effects.push(Effect::Publish {
                     device: a.device,
                     topic: self.plant.contract().command_topic(id).to_owned(),
@@ -1066,6 +1102,7 @@ impl Tracker {
             });
         }
         a.position = Some(value);
+        self.devices[a.device.index()].heard = true;
         if let Some(order) = a.lockout_order {
             let online = self.devices[a.device.index()].online;
             if online && (value - order.target).abs() <= tolerance {
@@ -1143,10 +1180,11 @@ impl Tracker {
     ) -> Result<Vec<Effect>, TrackError> {
         let d = self
             .devices
-            .get(device.index())
+            .get_mut(device.index())
             .ok_or_else(|| TrackError::UnknownDevice {
                 name: format!("#{}", device.0),
             })?;
+        d.heard = true;
         let mut effects = Vec::new();
         if d.online == online {
             return Ok(effects);
@@ -1411,7 +1449,7 @@ impl Tracker {
     }
 }
 
-/// The command of `id` to `target`, in its device's dialect.
+/// The command of `id` to `target`, in its device's dialect: a message, or a register write.
 fn publish(
     contract: &Contract,
     id: ActuatorId,
@@ -1419,6 +1457,9 @@ fn publish(
     target: f64,
     retain: bool,
 ) -> Effect {
+    if let Some((device, request)) = contract.modbus().command(id, target) {
+        return Effect::Write { device, request };
+    }
     let message = contract.command(id, target);
     Effect::Publish {
         device,

@@ -1080,3 +1080,37 @@ fn an_on_change_device_going_offline_fails_its_commands_at_once() {
         }
     )));
 }
+
+#[test]
+fn what_was_heard_goes_from_nothing_to_the_device_to_the_actuator() {
+    let mut t = Tracker::new(plant("fail-fast"), ms(0)).unwrap();
+    let [v1, v2, v9] = ["V1", "V2", "V9"].map(|n| t.actuator(n).unwrap());
+    assert_eq!(
+        t.heard(v1),
+        Some(Heard::Nothing),
+        "a new plant has heard nothing"
+    );
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    // Its status alone (a device speaking another profile is still seen online).
+    t.device_status(ctrl1, true, ms(10)).unwrap();
+    assert_eq!(t.heard(v1), Some(Heard::DeviceOnly));
+    t.feedback(v2, 0.0, None, ms(20)).unwrap();
+    assert_eq!(
+        t.heard(v1),
+        Some(Heard::DeviceOnly),
+        "another actuator's feedback is not V1's"
+    );
+    assert_eq!(t.heard(v2), Some(Heard::Feedback));
+    assert_eq!(
+        t.heard(v9),
+        Some(Heard::Nothing),
+        "ctrl-2 is another device"
+    );
+    t.feedback(v9, 0.0, None, ms(30)).unwrap();
+    assert_eq!(
+        t.heard(v9),
+        Some(Heard::Feedback),
+        "a sample is heard without a status"
+    );
+    assert_eq!(t.heard(ActuatorId(99)), None);
+}

@@ -218,6 +218,8 @@ pub enum Profile {
     ShellyGen2,
     /// Any other firmware: topic templates, a payload path and value maps, given in the device's `custom`.
     Custom,
+    /// Registers polled over Modbus TCP or RTU, described in the device's `modbus` (no MQTT).
+    Modbus,
 }
 
 impl Profile {
@@ -229,13 +231,15 @@ impl Profile {
             Profile::Tasmota => "tasmota",
             Profile::ShellyGen2 => "shelly-gen2",
             Profile::Custom => "custom",
+            Profile::Modbus => "modbus",
         }
     }
 
     /// Stock firmware publishes on change; this palette's devices about once a second.
     pub fn default_reports(self) -> Reports {
         match self {
-            Profile::Sugarshack => Reports::Periodic,
+            // A polled device answers every poll: silence means trouble.
+            Profile::Sugarshack | Profile::Modbus => Reports::Periodic,
             _ => Reports::OnChange,
         }
     }
@@ -244,7 +248,7 @@ impl Profile {
     /// default `update_interval` (60 s), Tasmota's `TelePeriod` (300 s).
     pub fn default_sensor_update_ms(self) -> Millis {
         match self {
-            Profile::Sugarshack | Profile::Custom => ms(1000),
+            Profile::Sugarshack | Profile::Custom | Profile::Modbus => ms(1000),
             Profile::Esphome | Profile::ShellyGen2 => ms(60_000),
             Profile::Tasmota => ms(300_000),
         }
@@ -314,6 +318,9 @@ pub struct Device {
     /// With profile `custom`: its topics and payloads.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub custom: Option<crate::topics::custom::CustomProfile>,
+    /// The endpoint, unit and polling of a `modbus` device.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusDevice>,
 }
 
 impl Device {
@@ -368,6 +375,9 @@ pub struct Actuator {
     /// Where a fault lockout of its line sends it, the safe state (`0`, `false`):
     /// true or false when binary, a position when analog.
     pub lockout: Setpoint,
+    /// On a `modbus` device: the register it is commanded through and the one it reports on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusActuator>,
 }
 
 /// A measurement conditions can read (a level, a volume, a temperature).
@@ -398,6 +408,15 @@ pub struct Sensor {
     /// (default: five times `updateMs`).
     #[serde(default)]
     pub stale_ms: Option<Millis>,
+    /// The lowest value it reads, with `max` (a SCADA's engineering range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<f64>,
+    /// The highest value it reads, with `min`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
+    /// On a `modbus` device: the register it is read from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modbus: Option<crate::topics::modbus::ModbusRegister>,
 }
 
 impl Sensor {
@@ -864,13 +883,19 @@ impl PlantModel {
 }
 
 impl PlantModel {
-    /// How often a sensor's device publishes it: its `updateMs`, else its profile's default.
+    /// How often a sensor's device publishes it: its `updateMs`, else its
+    /// Modbus device's polling period, else its profile's default.
     pub fn sensor_update_ms(&self, sensor: &Sensor) -> Millis {
         sensor.update_ms.unwrap_or_else(|| {
             self.devices
                 .iter()
                 .find(|d| d.id == sensor.device)
-                .map_or(ms(1000), |d| d.profile.default_sensor_update_ms())
+                .map_or(ms(1000), |d| {
+                    d.modbus
+                        .as_ref()
+                        .and_then(|m| m.poll_ms)
+                        .unwrap_or_else(|| d.profile.default_sensor_update_ms())
+                })
         })
     }
 

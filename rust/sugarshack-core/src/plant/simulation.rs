@@ -26,6 +26,38 @@ pub(super) struct Simulation {
     /// Baselines and noise of datapoints no transfer drives.
     #[serde(default)]
     sensors: Vec<Baseline>,
+    /// The cloud paper's flow loop, run as a Modbus/TCP I/O module (`--loop`).
+    #[serde(default, rename = "loop")]
+    flow_loop: Option<FlowLoop>,
+}
+
+/// A first-order flow process, y' = (K·u − y)/τ, behind a Modbus device's
+/// output (the valve, u) and sensor (the flow, y), and the network delay
+/// between that device and the palette.
+#[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+struct FlowLoop {
+    /// The output (an id of a device's `modbus.outputs`) that drives the valve.
+    output: String,
+    /// The sensor that reads the flow, on the output's device.
+    sensor: String,
+    /// The process gain K: flow per unit of output.
+    gain: f64,
+    /// The process time constant τ, in s.
+    tau_s: f64,
+    /// The flow at the start; the output starts where it holds it (0 by default).
+    #[serde(default)]
+    initial: f64,
+    /// The mean round trip the network adds to each request and its reply, in ms.
+    #[serde(default)]
+    delay_ms: f64,
+    /// The uniform ± jitter around it, in ms.
+    #[serde(default)]
+    jitter_ms: f64,
+    /// The flow reading's noise, ± in the flow's units.
+    #[serde(default)]
+    noise: f64,
 }
 
 /// Where a value is published: a plant sensor, or a station's datapoint.
@@ -226,6 +258,9 @@ pub(super) fn check(plant: &PlantModel, report: &mut Report) {
             sites.datapoint(flow, &format!("{path}.flow"), report);
         }
     }
+    if let Some(l) = &sim.flow_loop {
+        flow_loop(plant, l, report);
+    }
     for (i, s) in sim.sensors.iter().enumerate() {
         let path = format!("simulation.sensors[{i}]");
         if s.sensor.is_none() && s.station.is_none() {
@@ -244,6 +279,56 @@ pub(super) fn check(plant: &PlantModel, report: &mut Report) {
             if value.is_some_and(|v| !v.is_finite()) {
                 report.error(&path, format!("{field} must be a finite number"));
             }
+        }
+    }
+}
+
+/// The loop's output and sensor on one Modbus device; a process that settles.
+fn flow_loop(plant: &PlantModel, l: &FlowLoop, report: &mut Report) {
+    let path = "simulation.loop";
+    let device = plant.devices.iter().find(|d| {
+        d.modbus
+            .as_ref()
+            .is_some_and(|m| m.outputs.iter().any(|o| o.id == l.output))
+    });
+    let Some(device) = device else {
+        report.error(
+            path,
+            format!(
+                "'{}' is not an output of the plant's modbus devices",
+                quote(&l.output)
+            ),
+        );
+        return;
+    };
+    if !plant
+        .sensors
+        .iter()
+        .any(|s| s.id == l.sensor && s.device == device.id)
+    {
+        report.error(
+            path,
+            format!(
+                "'{}' is not a sensor of '{}', the device of {}",
+                quote(&l.sensor),
+                quote(&device.id),
+                quote(&l.output)
+            ),
+        );
+    }
+    for (field, value) in [("gain", l.gain), ("tauS", l.tau_s)] {
+        if !(value.is_finite() && value > 0.0) {
+            report.error(path, format!("{field} must be above 0"));
+        }
+    }
+    for (field, value) in [
+        ("initial", l.initial),
+        ("delayMs", l.delay_ms),
+        ("jitterMs", l.jitter_ms),
+        ("noise", l.noise),
+    ] {
+        if !(value.is_finite() && (field == "initial" || value >= 0.0)) {
+            report.error(path, format!("{field} must be a finite number, at least 0"));
         }
     }
 }
@@ -360,6 +445,47 @@ mod tests {
                 "simulation.sensors[1]: 'ctrl-1' is not a sensor station of the plant",
                 "simulation.sensors[1]: datapoint 'a b' is a topic component: no spaces, '/', '+' or '#'",
             ]
+        );
+    }
+
+    #[test]
+    fn a_flow_loop_runs_behind_a_modbus_device_s_output_and_sensor() {
+        let pct = json!({ "raw": [4000, 20000], "value": [0, 100] });
+        let doc = json!({
+            "actuatorTypes": {},
+            "devices": [{ "id": "io", "kind": "sensor-station", "profile": "modbus", "modbus": {
+                "host": "127.0.0.1", "unit": 1, "outputs": [{ "id": "FCV", "kind": "holding", "address": 0, "scale": pct }] } },
+                { "id": "other", "kind": "sensor-station" }],
+            "sensors": [{ "id": "FT", "device": "io", "name": "flow", "modbus": { "kind": "input", "address": 0 } },
+                        { "id": "TT", "device": "other", "name": "temperature" }]
+        });
+        let check_loop = |l: Value| {
+            let mut doc = doc.clone();
+            doc["simulation"] = json!({ "loop": l });
+            let plant: PlantModel = serde_json::from_value(doc).unwrap();
+            let mut report = Report::default();
+            check(&plant, &mut report);
+            report
+                .errors
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+        };
+        let sound = json!({ "output": "FCV", "sensor": "FT", "gain": 0.02, "tauS": 2, "delayMs": 400, "jitterMs": 250 });
+        assert_eq!(check_loop(sound), Vec::<String>::new());
+        assert_eq!(
+            check_loop(
+                json!({ "output": "FCV", "sensor": "TT", "gain": 0, "tauS": 2, "noise": -1 })
+            ),
+            vec![
+                "simulation.loop: 'TT' is not a sensor of 'io', the device of FCV",
+                "simulation.loop: gain must be above 0",
+                "simulation.loop: noise must be a finite number, at least 0",
+            ]
+        );
+        assert_eq!(
+            check_loop(json!({ "output": "nope", "sensor": "FT", "gain": 1, "tauS": 1 })),
+            vec!["simulation.loop: 'nope' is not an output of the plant's modbus devices"]
         );
     }
 

@@ -278,6 +278,11 @@ fn sensors<'a>(
         if s.update_ms == Some(Millis::ZERO) {
             report.error(&path, "updateMs must be positive");
         }
+        match (s.min, s.max) {
+            (None, None) => {}
+            (Some(min), Some(max)) if min.is_finite() && max.is_finite() && min < max => {}
+            _ => report.error(&path, "min and max go together, finite, min below max"),
+        }
     }
 }
 

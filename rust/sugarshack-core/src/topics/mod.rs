@@ -32,6 +32,7 @@
 
 pub mod custom;
 mod esphome;
+pub mod modbus;
 mod read;
 mod shelly;
 mod sugarshack;
@@ -263,6 +264,8 @@ pub struct Contract {
     /// Per sensor: the device-side route, to format a value.
     sensor_routes: Vec<SensorFormat>,
     actuator_feedback: Vec<ActuatorFormat>,
+    /// The registers of its Modbus devices and how they are polled.
+    modbus: modbus::ModbusMap,
 }
 
 /// What a device publishes for one actuator (device side).
@@ -292,6 +295,8 @@ pub(crate) enum FeedbackKind {
         path: Vec<String>,
         words: Option<(String, String)>,
     },
+    /// Registers, not messages (see [`modbus::ModbusMap::image`]).
+    Modbus,
 }
 
 #[derive(Clone, Debug)]
@@ -306,6 +311,8 @@ pub(crate) enum SensorKind {
     Topic(String),
     /// A path inside a document shared by the device's sensors (Tasmota SENSOR, Shelly status).
     Shared { topic: String, path: Vec<String> },
+    /// A register of a Modbus device, not a message.
+    Modbus,
 }
 
 /// What building the routes of one device needs.
@@ -473,12 +480,15 @@ impl Contract {
                     }
                     Some(c) => custom::status(c, prefix, &d.id, &path, &mut b),
                 },
+                // Polled: its liveness is its answers (see modbus::link).
+                Profile::Modbus => (String::new(), String::new(), None),
             };
             let owned: Vec<String> = match d.profile {
                 Profile::Tasmota => ["cmnd", "stat", "tele"]
                     .iter()
                     .map(|p| format!("{p}/{prefix}"))
                     .collect(),
+                Profile::Modbus => Vec::new(),
                 _ => vec![prefix.to_owned()],
             };
             for p in owned {
@@ -570,6 +580,14 @@ impl Contract {
                         },
                     ),
                 },
+                // Written through its register (see `modbus`), not on a topic.
+                Profile::Modbus => (
+                    CommandRoute {
+                        topic: String::new(),
+                        form: Form::words("", ""),
+                    },
+                    FeedbackKind::Modbus,
+                ),
             };
             commands.push(command);
             signals.push(t.signal);
@@ -607,6 +625,7 @@ impl Contract {
                     Some(c) => custom::sensor(c, &spec, &mut b),
                     None => SensorKind::Topic(String::new()),
                 },
+                Profile::Modbus => SensorKind::Modbus,
             };
             sensor_routes.push(SensorFormat { device, kind });
         }
@@ -622,12 +641,15 @@ impl Contract {
             }
         }
 
+        let modbus = modbus::ModbusMap::new(plant, &device_index, &mut b);
+
         if !b.errors.is_empty() {
             return Err(b.errors);
         }
         let command_topics = commands
             .iter()
             .enumerate()
+            .filter(|(_, c)| !c.topic.is_empty())
             .map(|(i, c)| (c.topic.clone(), ActuatorId::from_index(i as u32)))
             .collect();
         Ok(Contract {
@@ -645,6 +667,7 @@ impl Contract {
             signals,
             sensor_routes,
             actuator_feedback,
+            modbus,
         })
     }
 
@@ -762,6 +785,11 @@ impl Contract {
         self.devices.get(device.index()).map(|d| d.profile)
     }
 
+    /// Its Modbus devices' registers, polling plans and connections.
+    pub fn modbus(&self) -> &modbus::ModbusMap {
+        &self.modbus
+    }
+
     // ---- the device's side ---------------------------------------------------
 
     /// The topics a device subscribes to for its commands.
@@ -769,7 +797,7 @@ impl Contract {
         self.actuator_feedback
             .iter()
             .zip(&self.commands)
-            .filter(|(f, _)| f.device == device)
+            .filter(|(f, c)| f.device == device && !c.topic.is_empty())
             .map(|(_, c)| c.topic.clone())
             .collect()
     }
@@ -824,7 +852,7 @@ impl Contract {
             }
             let signal = self.signals[id.index()];
             match &f.kind {
-                FeedbackKind::Sugarshack { .. } => {}
+                FeedbackKind::Sugarshack { .. } | FeedbackKind::Modbus => {}
                 FeedbackKind::Esphome {
                     component,
                     topic,
@@ -904,6 +932,7 @@ impl Contract {
                     };
                     read::put(&mut shared[at].1, path, read::json_number(value));
                 }
+                SensorKind::Modbus => {}
             }
         }
         for (topic, document) in shared {

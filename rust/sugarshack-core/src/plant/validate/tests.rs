@@ -177,6 +177,7 @@ fn sensors_share_ids_with_actuators_and_need_positive_periods() {
     let plant = with(|d| {
         d["sensors"][0]["id"] = json!("V1");
         d["sensors"][0]["updateMs"] = json!(0);
+        d["sensors"][0]["min"] = json!(10);
     });
     let mut report = Report::default();
     let devices = devices(&plant, &mut report);
@@ -188,6 +189,7 @@ fn sensors_share_ids_with_actuators_and_need_positive_periods() {
         vec![
             "sensors[0] (V1): id 'V1' is used twice",
             "sensors[0] (V1): updateMs must be positive",
+            "sensors[0] (V1): min and max go together, finite, min below max",
         ]
     );
 }

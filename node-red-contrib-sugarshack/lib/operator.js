@@ -1,0 +1,76 @@
+// @ts-check
+'use strict';
+// A person's actions on an interlock, the same whoever carries them (the
+// editor's admin endpoints, another package through the palette's API):
+// attributed to `who` ({ by, reason, force }), journalled like the clear and
+// fault nodes journal theirs, and answered once the state is saved. Every rule
+// is the core's: a refusal (CLEAR_REFUSED with every reason in `err.lines`,
+// NOT_FAULTED, UNKNOWN_ALARM, INVALID_SHELF, ...) rejects unchanged.
+const { SugarshackError } = require('./errors');
+const { journal } = require('./journal/bus');
+
+/**
+ * Runs `work(resolve)` on the runtime (a wasm trap becomes INTERNAL and a
+ * rebuild); a refusal it throws rejects.
+ * @template T
+ * @param {any} runtime
+ * @param {(resolve: (value: T) => void) => void} work
+ * @returns {Promise<T>}
+ */
+function act(runtime, work) {
+  return new Promise((resolve, reject) => {
+    try {
+      runtime.guard(() => work(resolve));
+    } catch (err) {
+      reject(err);
+    }
+  });
+}
+
+const byOf = (who) => who.by || 'unknown';
+
+/** An emergency stop of `lines`; their lockouts go out. `note`: the fault's note when `who` gives no reason. */
+function estop(runtime, lines, who, note) {
+  return act(runtime, (resolve) => {
+    if (!lines || lines.length === 0) throw SugarshackError.of('INVALID_RESOURCES', 'noLinesToStop');
+    journal.action('e-stop', who, lines);
+    runtime.faultResources(lines, who.reason || note, (lockouts) => {
+      if (runtime.plant) runtime.plant.issueLockouts(lockouts, null);
+      resolve({ stopped: lockouts.map((l) => l.resource), by: byOf(who) });
+    }, who);
+  });
+}
+
+/** Clears `lines` (every faulted one when null), by the core's clear rule, forced when `who.force`. */
+function clear(runtime, lines, who) {
+  const target = lines === null ? 'all' : lines;
+  return act(runtime, (resolve) => {
+    try {
+      runtime.clear(lines, (cleared) => {
+        journal.action(who.force ? 'clear-forced' : 'clear', who, target);
+        resolve({ cleared, by: byOf(who) });
+      }, who);
+    } catch (err) {
+      if (err.code === 'CLEAR_REFUSED') journal.action('clear-refused', who, target);
+      throw err;
+    }
+  });
+}
+
+const alarmAnswer = (who, resolve) => (changes) => resolve({ changes, by: byOf(who) });
+
+/** Acknowledges alarms `ids` (every unacknowledged one when null). */
+function acknowledge(runtime, ids, who) {
+  return act(runtime, (resolve) => runtime.acknowledgeAlarms(ids, who, alarmAnswer(who, resolve)));
+}
+
+/** Shelves alarm `id` until `untilMs`; `oneShot`: also until its condition next ends. */
+function shelve(runtime, id, { untilMs, oneShot = false }, who) {
+  return act(runtime, (resolve) => runtime.shelveAlarm(id, untilMs, who, alarmAnswer(who, resolve), { oneShot }));
+}
+
+function unshelve(runtime, id, who) {
+  return act(runtime, (resolve) => runtime.unshelveAlarm(id, who, alarmAnswer(who, resolve)));
+}
+
+module.exports = { estop, clear, acknowledge, shelve, unshelve };
