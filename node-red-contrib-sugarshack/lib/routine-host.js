@@ -85,6 +85,7 @@ class RoutineHost {
 
   /** The run of its operation that came back held after a restart, if any: this routine supervises it again. */
   takeHeldRun() {
+    if (this.run && this.run.ended) this.run = null; // suspended by a trap: it comes back held, or not at all
     const run = this.interlock.heldRunOf({ kind: 'routine', id: this.id });
     if (!run) return;
     this.run = run;

@@ -20,6 +20,7 @@ const {
   fakePanel: panelOf, sensor: sensorOf, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine, loadTruck, unloadTruck, boundPlant,
 } = require('./fake-panel');
 const operator = require('../../node-red-contrib-sugarshack/lib/operator');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));
 
@@ -346,6 +347,28 @@ describe('ISA-88 commands: hold, restart, stop, abort, reset', function () {
     sensor(150);
     await runTill(() => seen.rt.some((m) => m.payload.event === 'completed'), 'its operation completes');
     assert.equal(seen.rt.find((m) => m.payload.event === 'completed').payload.state, 'full');
+  });
+
+  it('a wasm trap while a run is held: the interlock rebuilds from its saved state and the run comes back held to its node and msg', async function () {
+    await start({ persist: true });
+    const msg = await inWait();
+    await command('op10', 'hold');
+    await runTill(() => runOf('10').state === 'held', 'held');
+    await quiet();
+    const generation = wasm.currentGeneration();
+    runtime().core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+    await assert.rejects(operator.clear(runtime(), null, { by: 'ana' }), { code: 'INTERNAL' });
+    await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
+    await quiet();
+    assert.deepEqual(lineState('YEL'), { state: 'held', operation: '10' }, 'held, not faulted');
+    assert.equal(runOf('10').state, 'held');
+    assert.deepEqual(statusOf('op10'), { fill: 'yellow', shape: 'ring', text: 'held 3/5' });
+    assert.equal(seen.caught.length, 0, 'the held msg did not fail');
+    await command('op10', 'restart');
+    await runTill(() => statusOf('op10').text === '3/5 wait', 'the wait again');
+    sensor(150);
+    await runTill(() => seen.out.length === 1, 'the return');
+    assert.equal(seen.out[0], msg, 'the start msg goes on');
   });
 
   it('a deploy that changes the plant does not wait for a held run: it is handed over held, and restarts on the new nodes', async function () {
