@@ -67,7 +67,7 @@ fn a_run_goes_from_its_request_to_its_release() {
     let command = one(run.granted(1500.0));
     assert_eq!(
         stringify(&command),
-        r#"{"kind":"startStep","index":0,"step":{"kind":"command","command":{"valves":{"V1":100}},"timeoutMs":9000},"within":["YEL"]}"#
+        r#"{"kind":"startStep","index":0,"step":{"kind":"command","command":{"valves":{"V1":100}},"timeoutMs":9000,"restart":"reissue"},"within":["YEL"],"timeoutMs":9000}"#
     );
     assert_eq!((run.state(), run.step()), ("running".to_string(), Some(0)));
     // The step and its `within` go to the tracker as they are (C2 checked there).
@@ -90,7 +90,7 @@ fn a_run_goes_from_its_request_to_its_release() {
     let wait = one(run.step_done(0.0, 2500.0));
     assert_eq!(
         stringify(&wait),
-        r#"{"kind":"startStep","index":1,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000}}"#
+        r#"{"kind":"startStep","index":1,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000,"restart":"reissue"},"timeoutMs":60000}"#
     );
     assert_eq!(
         Array::from(&run.step_done(0.0, 2600.0).unwrap()).length(),
@@ -109,7 +109,7 @@ fn a_run_goes_from_its_request_to_its_release() {
     assert_eq!(run.state(), "completing");
     assert_eq!(
         stringify(&one(run.released(5100.0))),
-        r#"{"kind":"finished","id":"10","queuedMs":500,"runMs":3600,"steps":[{"kind":"command","ms":1000},{"kind":"wait","ms":2000},{"kind":"returnToIdle","ms":500}]}"#
+        r#"{"kind":"finished","id":"10","queuedMs":500,"runMs":3600,"heldMs":0,"steps":[{"kind":"command","ms":1000},{"kind":"wait","ms":2000},{"kind":"returnToIdle","ms":500}]}"#
     );
     assert_eq!((run.state(), run.step()), ("complete".to_string(), None));
     assert_eq!(code_of(run.start(6000.0).unwrap_err()), "ALREADY_STARTED");
@@ -136,7 +136,7 @@ fn a_failed_step_faults_the_run_and_reports_its_lockouts() {
     let failed = one(run.fault_applied(vec!["YEL".into()], 60200.0));
     assert_eq!(
         stringify(&failed),
-        r#"{"kind":"failed","id":"10","code":"CONDITION_TIMEOUT","message":"operation '10' faulted at step 2 (wait): condition `LT-3` > 10 did not hold within 60 s; YEL locked out until cleared","step":1,"stage":"wait","lockedOut":["YEL"],"aborted":false}"#
+        r#"{"kind":"failed","id":"10","code":"CONDITION_TIMEOUT","message":"operation '10' faulted at step 2 (wait): condition `LT-3` > 10 did not hold within 60 s; YEL locked out until cleared","step":1,"stage":"wait","lockedOut":["YEL"],"aborted":false,"state":"faulted"}"#
     );
     assert_eq!(run.state(), "faulted");
     assert_eq!(
