@@ -19,7 +19,8 @@ const operator = require('./operator');
 const wasm = require('./wasm');
 const { SignIn } = require('./sign-in');
 
-const VERSION = 1;
+// Raised when something is added (2: command); nothing is taken away.
+const VERSION = 2;
 
 /** @param {NodeRed.RED} RED */
 function paletteApi(RED) {
