@@ -255,6 +255,8 @@ const MAX_RUN_ID = 200;
  * What a person asks of a run, from `{ operation | routine, command }`:
  * `{ target: { operation } | { routine }, command }`. Only the shape is checked
  * here; whether the run's state allows the command is the core's to say.
+ * @param {Record<string, any>} body
+ * @returns {{ target: { operation?: string, routine?: string }, command: string }}
  */
 function runCommandOf(body) {
   const { command } = body;

@@ -63,7 +63,10 @@ function runRequest(t, palette, msg) {
   return operator.command((listing || ready[0])[1], target, command, { by: who.by, reason: who.reason });
 }
 
-/** Whether an interlock's description lists the run `target` names. */
+/**
+ * Whether an interlock's description lists the run `target` names.
+ * @param {any} described @param {{ operation?: string, routine?: string }} target
+ */
 function listsRun(described, { operation, routine }) {
   if (routine !== undefined) return (described.routines || []).some((r) => r.id === routine);
   return [...(described.runs || []), ...(described.aborted || [])].some((r) => r.operation === operation);

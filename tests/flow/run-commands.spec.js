@@ -16,21 +16,18 @@ helper.init(require.resolve('node-red'));
 let RED = null;
 const keepRED = (red) => { RED = red; };
 
-// Operation 10 fills: valves open, the pump runs until LT-3 reads 100, then stops.
+// Operation 10 fills: the valve opens and the pump runs until LT-3 reads 100, then the pump stops.
 const DOC = {
-  ...fakePlant([fakeValve('V101', 1, 'YEL'), fakeValve('V102', 2, 'YEL'), fakeValve('V501', 5, 'RED'), fakePump('YEL')]),
-  sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume' }],
+  ...fakePlant([fakeValve('V101', 1, 'YEL'), fakeValve('V501', 5, 'RED'), fakePump('YEL')]),
   resources: [{ id: 'YEL' }, { id: 'RED' }],
-  operations: [
-    {
-      id: '10', description: 'load truck', priority: 20, resources: ['YEL'], steps: [
-        { command: { valves: { V101: 100, V102: 100 } }, timeoutMs: 3000 },
-        { command: { pumps: { P1: true } }, timeoutMs: 3000 },
-        { wait: '`LT-3` >= 100', sensors: ['LT-3'], timeoutMs: 60000 },
-        { command: { pumps: { P1: false } }, timeoutMs: 3000 },
-      ],
-    },
-  ],
+  sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume' }],
+  operations: [{
+    id: '10', description: 'fill the truck', priority: 20, resources: ['YEL'], steps: [
+      { command: { pumps: { P1: true }, valves: { V101: 100 } }, timeoutMs: 3000 },
+      { wait: '`LT-3` >= 100', sensors: ['LT-3'], timeoutMs: 60000 },
+      { command: { pumps: { P1: false } }, timeoutMs: 3000 },
+    ],
+  }],
 };
 
 const SINKS = ['mqtt', 'out', 'caught', 'state'];
@@ -38,12 +35,13 @@ const SINKS = ['mqtt', 'out', 'caught', 'state'];
 async function start() {
   await helper.load([...paletteNodes, keepRED], [
     TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
+    // The surfaces under test: the operation node that starts 10, the plant state node, a Catch for refusals.
     { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
     { id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, wires: [['state']] },
     { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
+    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
     ...SINKS.map(sinkNode),
   ]);
   const seen = Object.fromEntries(SINKS.map((id) => [id, collect(helper, id)]));
