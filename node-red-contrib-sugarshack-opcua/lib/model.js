@@ -7,7 +7,7 @@
 //     Lines/<line>                   State, Holder, Priority, Since, FaultCause, FaultNote, QueueLength, ClearBlockers
 //     Queue                          Length, Operations, Priorities, Lines, Since
 //     Operations/<id>                State (ISA-88), Commands, Priority, Lines, Description; Hold, Restart, Stop, Abort, Reset
-//     Routines/<id>                  State, Halted, PendingOperation, PendingPhase, Commands; the same methods
+//     Routines/<id>                  State, RunState (ISA-88), Halted, PendingOperation, PendingPhase, Commands; the same methods
 //     Devices/<id>                   Online, Stale, Actuators, Positions, Targets, Phases
 //     Actuators/<id>                 Position, Target, Phase (plants of up to `actuatorLimit` actuators)
 //     Sensors/<id>                   AnalogItemType (BaseAnalogType when the document gives no range)
@@ -154,6 +154,7 @@ class PlantModel {
     for (const r of doc.routines || []) {
       const path = this.runObject('Routines', r.id, { routine: r.id });
       for (const [v, type] of [['State', DataType.String], ['Halted', DataType.Boolean], ['PendingOperation', DataType.String], ['PendingPhase', DataType.String]]) this.variable(path, v, type);
+      this.variable(path, 'RunState', DataType.String);
       this.variable(path, 'Commands', DataType.String, { array: true });
     }
     for (const device of plant.devices) {
@@ -233,6 +234,7 @@ class PlantModel {
       this.set(`${path}/Halted`, DataType.Boolean, Boolean(r.halted));
       this.set(`${path}/PendingOperation`, DataType.String, r.pending ? String(r.pending.operation) : '');
       this.set(`${path}/PendingPhase`, DataType.String, r.pending ? String(r.pending.phase) : '');
+      this.set(`${path}/RunState`, DataType.String, r.runState || '');
       this.set(`${path}/Commands`, DataType.String, r.commands || []);
     }
     return il;

@@ -63,7 +63,7 @@ describe('the OPC UA server, with an independent client (asyncua), on the case-s
     for (const p of ['Plant', 'Plant/Lines/YEL/State', 'Plant/Lines/RED/ClearBlockers', 'Plant/Queue/Length', 'Plant/Operations/10/State',
       'Plant/Routines/truck/State', 'Plant/Devices/ctrl-1/Online', 'Plant/Devices/ctrl-1/Positions', 'Plant/Actuators/V101/Position',
       'Plant/Sensors/LT-3', 'Plant/Alarms/Count', 'Plant/EStop', 'Plant/Clear', 'Plant/Operations/10/Commands', 'Plant/Operations/10/Hold',
-      'Plant/Operations/10/Reset', 'Plant/Routines/truck/Commands', 'Plant/Routines/truck/Abort']) {
+      'Plant/Operations/10/Reset', 'Plant/Routines/truck/Commands', 'Plant/Routines/truck/RunState', 'Plant/Routines/truck/Abort']) {
       assert.ok(paths.has(p), `${p} is in the address space (${nodes.length} nodes browsed)`);
     }
     const plant = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'plant.json'), 'utf8'));
