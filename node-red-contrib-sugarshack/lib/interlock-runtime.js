@@ -133,7 +133,7 @@ class InterlockRuntime extends RuntimeBase {
       if (snapshot) routines[id] = snapshot;
     }
     const alarms = this.alarms ? this.alarms.snapshot() : undefined;
-    return this.core.seal(this.id, this.settings.plantId || undefined, routines, alarms, clock.now());
+    return this.core.seal(this.id, this.settings.plantId || undefined, { routines, alarms }, clock.now());
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -250,7 +250,9 @@ class InterlockRuntime extends RuntimeBase {
     this.savedAlarms = undefined;
     this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
     if (saved.kind === 'saved') {
-      const opened = Interlock.open(this.config, this.id, this.settings.plantId || undefined, this.store.where, saved.text, now);
+      const tracker = this.plant && this.plant.state === 'ready' ? this.plant.t : null;
+      const args = [this.config, this.id, this.settings.plantId || undefined, this.store.where, saved.text, now];
+      const opened = tracker ? Interlock.openBound(...args, tracker) : Interlock.open(...args);
       if (opened.lost) this.startedLost(opened.lost);
       else this.startedRestored(opened);
       return opened.interlock;
@@ -341,7 +343,7 @@ class InterlockRuntime extends RuntimeBase {
   async retire() {
     if (this.ended) return;
     if (this.state === 'ready') {
-      for (const run of [...this.runs]) run.abort('its interlock was removed from the flows');
+      for (const run of [...this.runs]) run.interrupt('its interlock was removed from the flows');
       for (const handle of this.pending.handles()) {
         const entry = this.pending.take(handle);
         this.guard(() => this.core.cancel(handle, clock.now()));

@@ -224,8 +224,8 @@ class RunHost {
   }
 
   /** Stopped by its interlock (removed from the flows): a granted run faults, a waiting one withdraws. */
-  abort(reason) {
-    this.feed((r) => r.abort(reason, clock.now()));
+  interrupt(reason) {
+    this.feed((r) => r.interrupt(reason, clock.now()));
   }
 
   /** Shutdown: everything stays as it is (the saved state decides the restart); the msg is completed unsent. */

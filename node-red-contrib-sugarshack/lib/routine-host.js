@@ -57,7 +57,7 @@ class RoutineHost {
     this.conditions = conditions;
     if (!saved) return;
     try {
-      const moved = machine.restore(saved);
+      const moved = machine.restore(saved, []);
       if (moved) {
         // Its operation was pending at the save and never returned: it counts as faulted.
         this.lastFault = true;
