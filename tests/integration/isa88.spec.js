@@ -56,7 +56,8 @@ function flows(port) {
     { id: 'test-result', z, type: 'change', rules: [{ t: 'set', p: 'payload', pt: 'msg', to: 'operation', tot: 'msg' }], wires: [['test-done']] },
     { id: 'test-done', z, type: 'mqtt out', topic: TEST_DONE, qos: '1', retain: 'false', broker: nid('broker'), wires: [] },
     ...ADDED.map(([command, op]) => ({
-      id: buttonId(command, op), z, type: 'inject', name: `${command} op ${op}`, props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }],
+      id: buttonId(command, op), z, type: 'inject', name: `${command} op ${op}`,
+      props: [{ p: 'payload' }, { p: 'topic', vt: 'str' }, { p: 'by', v: 'ana', vt: 'str' }, { p: 'reason', v: 'the ISA-88 test', vt: 'str' }],
       topic: command, payload: '', payloadType: 'str', repeat: '', once: false, wires: [[nid(`operation:${op}`)]],
     })),
   );
@@ -69,17 +70,19 @@ describe('ISA-88 hold, restart and abort on the real stack (Mosquitto, simulator
 
   before(async function () {
     broker = await startMosquitto();
-    sim = await startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 4, pumpDelayMs: 200 });
-    probe = await connectProbe(broker.url, [...COMMAND_TOPICS, TEST_DONE, 'sugarshack/events/interlock']);
+    [sim, probe] = await Promise.all([
+      startTestSimulator(broker.url, { plant: PLANT_FILE, speed: 10, sweepS: 4, pumpDelayMs: 200 }),
+      connectProbe(broker.url, [...COMMAND_TOPICS, TEST_DONE]),
+    ]);
     red = new NodeRedProcess({ flows: flows(new URL(broker.url).port), tag: 'isa88' });
     await red.start();
   });
 
+  // Node-RED first (the tail of its log when a test failed), then what it talks to.
   after(async function () {
-    if (red) await red.finish(this.currentTest);
-    if (probe) await probe.end();
-    if (sim) await sim.stop();
-    if (broker) await broker.stop();
+    await red?.finish(this.currentTest);
+    await Promise.all([probe?.end(), sim?.stop()]);
+    await broker?.stop();
   });
 
   const click = async (id) => {
@@ -138,6 +141,7 @@ describe('ISA-88 hold, restart and abort on the real stack (Mosquitto, simulator
     const result = (await done).json;
     assert.equal(result.id, '10');
     assert.ok(!result.error && !result.fault, `op 10 completed: ${JSON.stringify(result)}`);
+    assert.ok(result.heldMs >= 3000, `its time held (${result.heldMs} ms) is counted apart, not against its wait's timeout`);
     assert.ok(volume('T-truck') >= 6000 - 100, `the truck is loaded (${volume('T-truck')} L)`);
     await waitFor(async () => (await line('YEL')).state === 'free', 'YEL released', 10000);
     assert.ok(!pumpRunning('P1') && valveAt('V101') < 3 && valveAt('V102') < 3, 'op 10 left its actuators idle');
