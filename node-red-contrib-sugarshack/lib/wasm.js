@@ -341,6 +341,8 @@ function primeCommands(t, AbortedOperations) {
   aborted.state('o');
   aborted.list();
   aborted.reset('o');
+  aborted.ended('o', 'aborted', null, null, 10);
+  aborted.command('o', 'reset');
   aborted.snapshot();
   aborted.free();
 }

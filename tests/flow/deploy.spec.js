@@ -310,7 +310,10 @@ describe('sugarshack deploys while operations run', function () {
     helper.getNode('r').receive({ topic: 'drain' });
     await quiet();
     assert.equal(statusOf('r').text, 'full › wait 51');
-    assert.deepEqual(runtime().describe().runs, [{ operation: '52', granted: true }, { operation: '51', granted: false }]);
+    const brief = (runs) => runs.map(({ operation, granted, state, routine }) => ({ operation, granted, state, routine }));
+    assert.deepEqual(brief(runtime().describe().runs), [
+      { operation: '52', granted: true, state: 'running', routine: null }, { operation: '51', granted: false, state: 'queued', routine: 'silo' },
+    ]);
 
     await helper.setFlows(flowOf(changedDocument(), { operations: ['52'] }), 'full');
     await quiet();
@@ -340,7 +343,8 @@ describe('sugarshack deploys while operations run', function () {
     await helper.setFlows(flow.filter((n) => n.id !== 'op10'), 'nodes');
     await quiet();
     assert.equal(helper.getNode('op10'), null);
-    assert.deepEqual(runtime().describe().runs, [{ operation: '10', granted: true }], 'the run goes on without its node');
+    assert.deepEqual(runtime().describe().runs.map(({ operation, granted, state }) => ({ operation, granted, state })),
+      [{ operation: '10', granted: true, state: 'running' }], 'the run goes on without its node');
     assert.deepEqual(lines(), { YEL: 'held', GRN: 'free', RED: 'free' });
     assert.equal(completions.filter((c) => c.msgid === msgid && c.error === undefined).length, 1, 'the removed node completed its msg');
 

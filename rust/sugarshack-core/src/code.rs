@@ -168,6 +168,8 @@ codes! {
     OperationAborted = "OPERATION_ABORTED", "aborted: reset it", "the operation was aborted and waits for a reset";
     /// A run an operator stopped before it completed.
     OperationStopped = "OPERATION_STOPPED", "stopped", "an operator stopped the operation";
+    /// An operator's command to an operation or routine that neither runs nor waits for a reset on the interlock.
+    UnknownRun = "UNKNOWN_RUN", "not running", "nothing of that id runs here";
     /// A condition that did not hold within its timeout.
     ConditionTimeout = "CONDITION_TIMEOUT", "condition timeout", "the condition did not hold in time";
     /// A condition that cannot be compiled or evaluated.

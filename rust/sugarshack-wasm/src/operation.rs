@@ -278,6 +278,18 @@ impl AbortedOperations {
         self.core.reset(operation).map(|_| ()).map_err(run_error)
     }
 
+    /// A person's command to `operation` while no run of it exists: a reset
+    /// of an aborted one is taken; anything else is refused
+    /// (`COMMAND_REFUSED`, with the state and what it allows). Its state after.
+    #[wasm_bindgen(unchecked_return_type = "RunState")]
+    pub fn command(&mut self, operation: &str, command: &str) -> Result<String, JsValue> {
+        let command = command_of(command)?;
+        self.core
+            .command(operation, command)
+            .map(|state| state.name().into())
+            .map_err(run_error)
+    }
+
     /// `[{ operation, sinceMs, by }]`.
     #[wasm_bindgen(unchecked_return_type = "AbortedOperation[]")]
     pub fn list(&self) -> Result<JsValue, JsValue> {

@@ -71,6 +71,17 @@ impl AbortedOperations {
         OPERATION.check(id, self.state(id), Command::Reset)?;
         Ok(self.0.remove(id).expect("checked aborted"))
     }
+
+    /// A person's `command` to `id` while no run of it exists: a reset of
+    /// an aborted one is taken (its state after: idle); any other command is
+    /// refused with the table's words.
+    pub fn command(&mut self, id: &str, command: Command) -> Result<State, RunError> {
+        let next = OPERATION.check(id, self.state(id), command)?;
+        if command == Command::Reset {
+            self.0.remove(id);
+        }
+        Ok(next)
+    }
 }
 
 #[cfg(test)]
@@ -97,7 +108,16 @@ mod tests {
             refused.to_string(),
             "start refused: operation '10' is aborted; an aborted operation starts again only after a reset"
         );
+        let hold = aborted.command("10", Command::Hold).unwrap_err();
+        assert_eq!(hold.code(), Code::CommandRefused);
+        assert_eq!(
+            hold.to_string(),
+            "hold refused: operation '10' is aborted; it was aborted: only a reset applies"
+        );
         assert_eq!(aborted.reset("10").unwrap().by.by, "ana");
+        aborted.ended("10", State::Aborted, &who, ms(3));
+        assert_eq!(aborted.command("10", Command::Reset), Ok(State::Idle));
+        assert!(aborted.is_empty());
         assert!(aborted.check_start("10").is_ok());
         let json = serde_json::to_value(&aborted).unwrap();
         assert_eq!(json, serde_json::json!({}));
