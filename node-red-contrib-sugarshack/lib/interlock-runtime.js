@@ -545,7 +545,12 @@ class InterlockRuntime extends RuntimeBase {
     for (const host of this.routines.values()) host.suspend();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
     for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
-    for (const run of [...this.runs]) run.abandon(error);
+    // A held run comes back held from the saved state: its owner's port waits for it.
+    const heldPorts = [];
+    for (const run of [...this.runs]) {
+      if (run.heldBeforeTrap) heldPorts.push(run.suspend());
+      else run.abandon(error);
+    }
     for (const entry of this.heldBack) entry.refuse(error);
     this.heldBack = [];
     wasm.forget(this.core);
@@ -569,6 +574,12 @@ class InterlockRuntime extends RuntimeBase {
       return;
     }
     this.restoreHeldRuns();
+    // A routine's is taken by the routine as it rebuilds (below).
+    for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) {
+      const run = this.heldRunOf(port.owner);
+      if (run) run.takePort(port);
+      else port.fail(error);
+    }
     for (const [id, host] of this.routines) {
       host.rebuild(this.savedRoutines[id]);
       delete this.savedRoutines[id];

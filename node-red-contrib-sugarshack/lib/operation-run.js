@@ -52,6 +52,8 @@ class RunHost {
     this.endState = null;
     /** @type {{ index: number, cancel: (reason: string) => void } | null} the step, hold or restore in progress */
     this.current = null;
+    /** @type {RunState | null} the operator's state it last entered, as known without asking its core */
+    this.entered = null;
   }
 
   start() {
@@ -75,6 +77,7 @@ class RunHost {
   restored({ run, effects }) {
     this.run = run;
     this.granted = true;
+    this.entered = /** @type {RunState} */ (run.state());
     this.apply(effects);
   }
 
@@ -184,6 +187,7 @@ class RunHost {
           (r, err) => (err ? r.restartFailed(err.code, err.message, clock.now()) : r.restartDone(clock.now())));
         break;
       case 'entered':
+        this.entered = e.state;
         this.port.progress('entered', e.step, e.state);
         break;
       case 'release':
@@ -374,6 +378,26 @@ class RunHost {
     if (token) token.cancel(text('labels.nodeRedStopping'));
     this.free();
     if (this.port.abandon) this.port.abandon();
+  }
+
+  /** Held (or holding) when last heard of: it comes back held from the saved state. */
+  get heldBeforeTrap() {
+    return this.entered === 'held' || this.entered === 'holding';
+  }
+
+  /**
+   * Its core is gone (a wasm trap) while it was held: it ends quietly and
+   * its port waits for the run that comes back held from the saved state.
+   */
+  suspend() {
+    this.ended = true;
+    const token = this.current;
+    this.current = null;
+    if (token) token.cancel(text('labels.coreFailed'));
+    wasm.forget(this.run);
+    this.run = null;
+    this.interlock.runEnded(this);
+    return this.port;
   }
 
   /** Its core is gone (a wasm trap): the run ends with the error, touching nothing. */

@@ -92,7 +92,7 @@ function command(runtime, target, name, who) {
   return act(runtime, (resolve) => {
     runtime.command(target, name, who, (state) => {
       const [kind, id] = target.routine !== undefined ? ['routine', target.routine] : ['operation', target.operation];
-      journal.action(name, who, `${kind} ${id}`);
+      journal.action(name, who, id);
       resolve({ [kind]: id, command: name, state, by: byOf(who) });
     });
   });

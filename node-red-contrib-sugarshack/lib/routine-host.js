@@ -41,6 +41,8 @@ class RoutineHost {
     this.node = null; // the routine node of the current deploy
     this.run = null;
     this.rebuildAfterRun = false; // a deploy's swap came while its operation was still queued
+    /** @type {(() => void)[] | null} events of its operation held back while a command is forwarded to it */
+    this.commanding = null;
     this.lastFault = false;
     this.warned = new Set();
     this.timer = null;
@@ -65,11 +67,12 @@ class RoutineHost {
     }
     this.machine = machine;
     this.conditions = conditions;
+    // Its operation, saved held, came back held: still pending (see InterlockRuntime.restoreHeldRuns).
+    const held = this.interlock.heldOperationsOf(this.id);
     this.takeHeldRun();
     if (!saved) return;
     try {
-      // Its operation, saved held, came back held: still pending (see InterlockRuntime.restoreHeldRuns).
-      const moved = machine.restore(saved, this.interlock.heldOperationsOf(this.id));
+      const moved = machine.restore(saved, held);
       if (moved) {
         // Its operation was pending at the save and never returned: it counts as faulted.
         this.lastFault = true;
@@ -82,6 +85,7 @@ class RoutineHost {
 
   /** The run of its operation that came back held after a restart, if any: this routine supervises it again. */
   takeHeldRun() {
+    if (this.run && this.run.ended) this.run = null; // suspended by a trap: it comes back held, or not at all
     const run = this.interlock.heldRunOf({ kind: 'routine', id: this.id });
     if (!run) return;
     this.run = run;
@@ -166,20 +170,36 @@ class RoutineHost {
   command(command, who) {
     const machine = this.machine;
     if (!machine) throw SugarshackError.of('UNKNOWN_ROUTINE', 'routineNotRunning', { id: this.id });
+    const pending = machine.pending() || null;
     const { forward, moved } = machine.command(command, this.operationState());
-    if (forward && this.run) this.run.command(forward, who);
-    if (moved) {
-      this.lastFault = false;
-      const aborted = this.interlock.abortedOperations();
-      for (const operation of machine.operations()) {
-        if (aborted.state(operation) === 'aborted') aborted.command(operation, 'reset');
+    // What its operation reports meanwhile (an abort may end it at once) goes out after the command's own event.
+    this.commanding = [];
+    try {
+      if (forward && this.run) this.run.command(forward, who);
+    } finally {
+      const after = this.commanding;
+      this.commanding = null;
+      if (moved) {
+        this.lastFault = false;
+        const aborted = this.interlock.abortedOperations();
+        for (const operation of machine.operations()) {
+          if (aborted.state(operation) === 'aborted') aborted.command(operation, 'reset');
+        }
+        this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to, by: who.by || null }));
+      } else {
+        const runState = this.runState();
+        this.interlock.changed(() => this.emit(command, { operation: pending, by: who.by || null, runState }));
       }
-      this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to, by: who.by || null }));
-    } else {
-      this.interlock.changed(() => this.emit(command, { operation: machine.pending() || null, by: who.by || null }));
+      for (const event of after) this.interlock.changed(event);
     }
     this.refresh();
     return this.runState();
+  }
+
+  /** An event of its operation's end, once saved; held back while a command is being forwarded to it. */
+  announce(event) {
+    if (this.commanding) this.commanding.push(event);
+    else this.interlock.changed(event);
   }
 
   dispatch(d) {
@@ -203,7 +223,7 @@ class RoutineHost {
         if (this.ended || !machine) return;
         const moved = stats.time('routine', () => machine.completed());
         this.lastFault = false;
-        this.interlock.changed(() => this.emit('completed', {
+        this.announce(() => this.emit('completed', {
           operation, from: moved.from, to: moved.to, queuedMs: result.queuedMs, runMs: result.runMs,
         }));
         this.afterRun();
@@ -214,7 +234,7 @@ class RoutineHost {
         const machine = this.machine;
         if (this.ended || !machine) return;
         const moved = machine.operationStopped();
-        this.interlock.changed(() => this.emit('stopped', { operation, from: moved.from, to: moved.to, runMs: result.runMs, step: result.step }));
+        this.announce(() => this.emit('stopped', { operation, from: moved.from, to: moved.to, runMs: result.runMs, step: result.step }));
         this.afterRun();
       },
       fail: (err) => {
@@ -224,15 +244,15 @@ class RoutineHost {
         if (e.operation && e.operation.state === 'aborted') {
           // Aborted (by an operator, or while queued): the routine stays where it was, aborted until a reset.
           const moved = this.machine.operationAborted();
-          this.interlock.changed(() => this.report(e, 'aborted', { operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message } }));
+          this.announce(() => this.report(e, 'aborted', { operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message } }));
         } else if (!e.operation || e.operation.kind === 'acquire') {
           // Refused before the grant (already running, queue full...): nothing ran, nothing locked out.
           this.machine.refused();
-          this.interlock.changed(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
+          this.announce(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
         } else {
           const moved = this.machine.faulted();
           this.lastFault = true;
-          this.interlock.changed(() => this.report(e, 'faulted', {
+          this.announce(() => this.report(e, 'faulted', {
             operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message },
           }));
         }

@@ -69,12 +69,13 @@ function nodePort(t, node, msg, send, done, total, id) {
     fail(err) {
       const e = asSugarshackError(err);
       if (!port.node) return;
-      if (e.code === 'OPERATION_RUNNING' || (e.operation && e.operation.state === 'aborted')) {
+      if (e.code === 'OPERATION_RUNNING') {
         port.node.status(errorStatus(e.code));
       } else {
         const failed = e.operation;
         msg.operation = failed || { id };
-        const kind = failed ? failed.kind : 'acquire';
+        // Aborted by an operator: the status says so, not where (it waits for a reset).
+        const kind = failed ? (failed.state === 'aborted' ? 'acquire' : failed.kind) : 'acquire';
         const where = !failed || kind === 'acquire' ? null : kind === 'release' ? 'release' : `${(failed.step ?? 0) + 1}/${total}`;
         port.node.status(where ? status('fault', t('status.faultAt', { where })) : errorStatus(e.code));
       }

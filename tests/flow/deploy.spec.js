@@ -12,7 +12,7 @@ const {
   paletteNodes, TAB, sinkNode, until, trackCompletions, trackDeliveries, untrackCompletions,
   startServer, stopServer, settled, clock, runFor, runUntil,
 } = require('./support');
-const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
+const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, boundPlant } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -74,11 +74,7 @@ const SINKS = ['mqtt', 'ev', 'out', 'caught', 'events', 'rt'];
 function flowOf(doc = plantDocument(), { operations = OPERATIONS } = {}) {
   return [
     TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], ['ev']] },
-    { id: 'ilev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+    ...boundPlant(doc, { persist: true }),
     { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'silo', wires: [['rt']] },
     ...operations.map((op) => ({ id: `op${op}`, z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: op, wires: [['out']] })),
     ...SINKS.map(sinkNode),
