@@ -24,7 +24,7 @@ const CASE_STUDY = {
   tabs: {
     plant: ['Sugar shack', 'The case-study plant: field bus, interlock, routines. Built from flows/plant.json by scripts/case-study-flow.js.'],
     ops: ['Operations (manual)', 'Start any of the 16 operations by hand. An operation already running (for example under its routine) refuses a second start (C1).'],
-    faults: ['Faults and clearing', 'Inject faults into the simulator, watch the line lock out, clear it.'],
+    faults: ['Faults and clearing', 'Inject faults into the simulator, watch the line lock out, clear it; hold and restart a running operation.'],
   },
   faults: [
     ['stuck V101 (YEL)', { fault: 'stuck', actuator: 'V101' }],
@@ -143,6 +143,10 @@ function build(plant, options = CASE_STUDY) {
     const id = nid(`fault-op:${faultOp.id}`);
     add({ id, type: 'sugarshack-operation', z: f, name: `op ${faultOp.id} (moves ${valve})`, interlock: interlock.id, operation: faultOp.id, x: 560, y: 320, wires: [[nid('debug:fault-op')]] });
     inject(f, `fault-op:${faultOp.id}`, `run op ${faultOp.id} now`, {}, 250, 320, id);
+    // An operator's hold and restart of its run (ISA-88): what the hold does is the document's `hold`.
+    for (const [i, command] of ['hold', 'restart'].entries()) {
+      inject(f, `fault-op:${faultOp.id}:${command}`, `${command} op ${faultOp.id}`, { topic: command }, 250, 360 + i * 40, id);
+    }
     debug(f, 'fault-op', `op ${faultOp.id} done`, 780, 320, true, 'payload');
     // Its fault (the point of running it) shows here, not as an uncaught error in the log.
     add({ id: nid('catch:faults'), type: 'catch', z: f, name: '', scope: null, uncaught: false, x: 560, y: 360, wires: [[nid('debug:fault-op-faults')]] });
@@ -151,11 +155,11 @@ function build(plant, options = CASE_STUDY) {
   add({ id: nid('sim-result'), type: 'mqtt in', z: f, name: '', topic: 'sim/control/result', qos: '1', datatype: 'auto-detect', broker: broker.id, nl: false, rap: true, rh: 0, inputs: 0, x: 210, y: 280, wires: [[nid('debug:sim-result')]] });
   debug(f, 'sim-result', 'simulator replies', 480, 280, true);
 
-  comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 380);
-  const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 460, wires: [[nid('debug:cleared')]] });
+  comment(f, '2. Clear a line once the cause is fixed (manual intervention), then reset its routine', '', 300, 460);
+  const clear = add({ id: nid('clear'), type: 'sugarshack-clear', z: f, name: '', interlock: interlock.id, mode: 'resources', resources: '', x: 520, y: 540, wires: [[nid('debug:cleared')]] });
   (plant.resources || []).forEach((r, i) => inject(f, `clear:${r.id}`, `clear ${r.id}`,
-    { topic: 'clear', extra: [{ p: 'resources', v: r.id, vt: 'str' }] }, 220, 440 + i * 40, clear.id));
-  debug(f, 'cleared', 'cleared', 760, 460, true);
+    { topic: 'clear', extra: [{ p: 'resources', v: r.id, vt: 'str' }] }, 220, 520 + i * 40, clear.id));
+  debug(f, 'cleared', 'cleared', 760, 540, true);
   return nodes;
 }
 

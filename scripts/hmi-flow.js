@@ -55,11 +55,12 @@ function panels(id) {
   const sfLines = id(); const sfAlarms = id();
   const lState = id(); const lPanel = id(); const lTemplate = id(); const lRoute = id();
   const aState = id(); const aPanel = id(); const aTemplate = id();
+  const lRefused = id();
   return {
     lines: sfLines,
     alarms: sfAlarms,
     nodes: [
-      { id: sfLines, type: 'subflow', name: 'sugarshack lines panel', info: 'The plant\'s lines on a Dashboard 2 group: state by colour, holder or fault cause, since when, waiting operations, why a faulted line may not be cleared yet; the queue and the routines; E-STOP per line and for the plant, CLEAR per line with a reason and a force box. Drawn from the plant state node inside (GET /sugarshack/state).\n\n**Properties**: *Group*, the ui-group to draw in; *Interlock*, the interlock (id or name) when there are several.\n\n**Output 1**: e-stop requests (`msg.resources`, `msg.reason`): wire to a fault node (mode: lines from msg) and its lockouts to a group command node. **Output 2**: clear requests (`msg.resources`, `msg.reason`, `msg.force`): wire to a clear node. **Input**: a clear node\'s refusals (its output 2, with `msg.topic` "refused" and `msg.payload` its `msg.refused`), shown on the line.',
+      { id: sfLines, type: 'subflow', name: 'sugarshack lines panel', info: 'The plant\'s lines on a Dashboard 2 group: state by colour, holder or fault cause, since when, waiting operations, why a faulted line may not be cleared yet; the running operations with their ISA-88 state (held, holding, ...), the queue and the routines; E-STOP per line and for the plant, CLEAR per line with a reason and a force box; HOLD, RESTART, STOP, ABORT and RESET on each operation and routine, shown when the core allows them (sent to the plant state node inside, a refusal shown under the operations). Drawn from the plant state node inside (GET /sugarshack/state).\n\n**Properties**: *Group*, the ui-group to draw in; *Interlock*, the interlock (id or name) when there are several.\n\n**Output 1**: e-stop requests (`msg.resources`, `msg.reason`): wire to a fault node (mode: lines from msg) and its lockouts to a group command node. **Output 2**: clear requests (`msg.resources`, `msg.reason`, `msg.force`): wire to a clear node. **Input**: a clear node\'s refusals (its output 2, with `msg.topic` "refused" and `msg.payload` its `msg.refused`), shown on the line.',
         category: 'sugarshack', in: [{ x: 60, y: 80, wires: [{ id: lTemplate }] }],
         out: [{ x: 760, y: 60, wires: [{ id: lRoute, port: 0 }] }, { x: 760, y: 100, wires: [{ id: lRoute, port: 1 }] }],
         env: [groupEnv, interlockEnv], meta: {}, color: '#D9A55B', inputLabels: ['clear refusals'], outputLabels: ['e-stop requests', 'clear requests'], icon: 'font-awesome/fa-th-list' },
@@ -67,8 +68,11 @@ function panels(id) {
       panelOf(lPanel, sfLines, 340, 160, [lTemplate]),
       template({ id: lTemplate, z: sfLines, group: '${GROUP}', name: 'lines', format: LINES_VUE, x: 400, y: 80, wires: [[lRoute]] }),
       { id: lRoute, type: 'switch', z: sfLines, name: 'request', property: 'topic', propertyType: 'msg',
-        rules: [{ t: 'eq', v: 'e-stop', vt: 'str' }, { t: 'eq', v: 'clear', vt: 'str' }, { t: 'eq', v: 'state', vt: 'str' }], checkall: 'false', repair: false, outputs: 3,
+        // Anything else (a state request, an operator's command to a run) is the plant state node's.
+        rules: [{ t: 'eq', v: 'e-stop', vt: 'str' }, { t: 'eq', v: 'clear', vt: 'str' }, { t: 'else' }], checkall: 'false', repair: false, outputs: 3,
         x: 590, y: 80, wires: [[], [], [lState]] },
+      // A command the core refused comes back to the panel with its msg.error.
+      { id: lRefused, type: 'catch', z: sfLines, name: 'refused command', scope: [lState], uncaught: false, x: 170, y: 220, wires: [[lTemplate]] },
       { id: sfAlarms, type: 'subflow', name: 'sugarshack alarms panel', info: 'The plant\'s alarms on a Dashboard 2 group, ISA-18.2 style: active or returned to normal, acknowledged or not (by whom, when), ACK, ACK ALL, SHELVE for a while and UNSHELVE; below, the latest faults, e-stops and clears with who and why, forced clears marked. The core keeps the alarm states (acknowledgements survive a reload, and a restart when the interlock persists its state); this panel only draws them and sends requests to the plant state node inside.\n\n**Properties**: *Group*, the ui-group to draw in; *Interlock*, the interlock (id or name) when there are several; *Shelve minutes*, how long SHELVE shelves an alarm.',
         category: 'sugarshack', in: [], out: [],
         env: [groupEnv, interlockEnv, { name: 'SHELVE_MINUTES', type: 'num', value: '60', ui: { label: { 'en-US': 'Shelve minutes' }, type: 'input', opts: { types: ['num'] } } }],

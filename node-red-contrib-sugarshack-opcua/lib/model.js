@@ -6,8 +6,8 @@
 //   Objects/Plant                    EStop, Clear (methods.js); the alarms' events
 //     Lines/<line>                   State, Holder, Priority, Since, FaultCause, FaultNote, QueueLength, ClearBlockers
 //     Queue                          Length, Operations, Priorities, Lines, Since
-//     Operations/<id>                State, Priority, Lines, Description
-//     Routines/<id>                  State, Halted, PendingOperation, PendingPhase
+//     Operations/<id>                State (ISA-88), Commands, Priority, Lines, Description; Hold, Restart, Stop, Abort, Reset
+//     Routines/<id>                  State, RunState (ISA-88), Halted, PendingOperation, PendingPhase, Commands; the same methods
 //     Devices/<id>                   Online, Stale, Actuators, Positions, Targets, Phases
 //     Actuators/<id>                 Position, Target, Phase (plants of up to `actuatorLimit` actuators)
 //     Sensors/<id>                   AnalogItemType (BaseAnalogType when the document gives no range)
@@ -62,6 +62,8 @@ class PlantModel {
     this.variable('Alarms', 'Count', DataType.UInt32);
     this.variable('Alarms', 'NotExposed', DataType.UInt32);
     this.plant = null; // api.plant(): ids and handles
+    /** Called once per operation or routine object made: (path, { operation } or { routine }) (methods.js adds the commands). */
+    this.onRunObject = null;
   }
 
   // ---- nodes ----------------------------------------------------------------
@@ -139,9 +141,9 @@ class PlantModel {
   buildPlant(plant) {
     const doc = plant.document;
     for (const op of doc.operations || []) {
-      const path = `Operations/${segment(op.id)}`;
-      this.object('Operations', op.id);
+      const path = this.runObject('Operations', op.id, { operation: op.id });
       this.variable(path, 'State', DataType.String);
+      this.variable(path, 'Commands', DataType.String, { array: true });
       this.variable(path, 'Priority', DataType.Int32);
       this.variable(path, 'Lines', DataType.String, { array: true });
       this.variable(path, 'Description', DataType.String);
@@ -150,9 +152,10 @@ class PlantModel {
       this.set(`${path}/Description`, DataType.String, op.description || '');
     }
     for (const r of doc.routines || []) {
-      const path = `Routines/${segment(r.id)}`;
-      this.object('Routines', r.id);
+      const path = this.runObject('Routines', r.id, { routine: r.id });
       for (const [v, type] of [['State', DataType.String], ['Halted', DataType.Boolean], ['PendingOperation', DataType.String], ['PendingPhase', DataType.String]]) this.variable(path, v, type);
+      this.variable(path, 'RunState', DataType.String);
+      this.variable(path, 'Commands', DataType.String, { array: true });
     }
     for (const device of plant.devices) {
       const path = `Devices/${segment(device)}`;
@@ -175,6 +178,15 @@ class PlantModel {
       }
     }
     for (const s of plant.sensors) this.sensor(s);
+  }
+
+  /** An operation's or routine's object in `folder`, made once; its path. */
+  runObject(folder, id, target) {
+    const path = `${folder}/${segment(id)}`;
+    const made = this.nodes.has(path);
+    this.object(folder, id);
+    if (!made && this.onRunObject) this.onRunObject(path, target);
+    return path;
   }
 
   /** A sensor as an AnalogItem: its unit as EngineeringUnits, its min and max as EURange (a BaseAnalogType without them). */
@@ -222,6 +234,8 @@ class PlantModel {
       this.set(`${path}/Halted`, DataType.Boolean, Boolean(r.halted));
       this.set(`${path}/PendingOperation`, DataType.String, r.pending ? String(r.pending.operation) : '');
       this.set(`${path}/PendingPhase`, DataType.String, r.pending ? String(r.pending.phase) : '');
+      this.set(`${path}/RunState`, DataType.String, r.runState || '');
+      this.set(`${path}/Commands`, DataType.String, r.commands || []);
     }
     return il;
   }
@@ -240,14 +254,20 @@ class PlantModel {
     this.set(`${path}/ClearBlockers`, DataType.String, (line.clearBlockers || []).map((b) => b.text));
   }
 
-  /** Each operation of the document: running (granted), queued, or idle. */
+  /**
+   * Each operation of the document: its run's ISA-88 state (running, held,
+   * ...) and the commands it allows, aborted until reset, else queued or idle.
+   */
   setOperations(il, queue) {
-    const running = new Set((il.runs || []).filter((r) => r.granted).map((r) => r.operation));
-    for (const h of il.holds || []) running.add(h.operation);
+    const runs = new Map([...(il.aborted || []).map((a) => ({ ...a, state: 'aborted' })), ...(il.runs || [])].map((r) => [r.operation, r]));
+    const holding = new Set((il.holds || []).map((h) => h.operation));
     const queued = new Set(queue.map((q) => q.operation));
     for (const op of this.plant.document.operations || []) {
-      const state = running.has(op.id) ? 'running' : queued.has(op.id) ? 'queued' : 'idle';
-      this.set(`Operations/${segment(op.id)}/State`, DataType.String, state);
+      const run = runs.get(op.id);
+      const fallback = holding.has(op.id) ? 'running' : queued.has(op.id) ? 'queued' : 'idle';
+      const path = `Operations/${segment(op.id)}`;
+      this.set(`${path}/State`, DataType.String, run && run.state ? run.state : fallback);
+      this.set(`${path}/Commands`, DataType.String, run ? run.commands || [] : []);
     }
   }
 

@@ -9,7 +9,8 @@ const os = require('os');
 const path = require('path');
 
 const API_PLUGIN = 'sugarshack-api';
-const API_VERSION = 1;
+// The palette's API this node needs at least (2: commands to runs); a later one keeps what it had.
+const API_VERSION = 2;
 // How long a server waits for the next instance of its node after a deploy's close.
 const HANDOVER_MS = 30000;
 
@@ -44,7 +45,7 @@ module.exports = function (RED) {
     const key = JSON.stringify(settings);
     const plugin = RED.plugins.get(API_PLUGIN);
     const api = plugin && plugin.api;
-    if (!api || api.version !== API_VERSION) {
+    if (!api || !(api.version >= API_VERSION)) {
       node.status({ fill: 'red', shape: 'ring', text: t('status.noPalette') });
       node.error(t('errors.noApi', { version: API_VERSION }));
       return;

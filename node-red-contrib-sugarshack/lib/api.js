@@ -4,7 +4,7 @@
 // node-red-contrib-sugarshack-opcua is the first), in one place: what they may
 // read of an interlock and its plant, how they hear of changes (by exception,
 // once per turn of the event loop), and what they may do as a person (e-stop,
-// clear, acknowledge, shelve), by the same paths as the editor's admin
+// clear, acknowledge, shelve, command a run), by the same paths as the editor's admin
 // endpoints. Nothing else of the runtimes is theirs to touch. Node-RED hands
 // it over as the plugin 'sugarshack-api' (plugins/api.js):
 //
@@ -13,14 +13,14 @@
 // Everything is named by the interlock config node's id; its plant is the one
 // it is bound to. Handles (actuators, devices, sensors) are positions in the
 // plant's lists, valid until a change says `rebuilt`.
-const { paletteOf, readyInterlock } = require('./lifecycle');
+const { paletteOf, readyInterlock, notRunningInterlock, runCommandOf } = require('./lifecycle');
 const { clock } = require('./clock');
 const operator = require('./operator');
 const wasm = require('./wasm');
 const { SignIn } = require('./sign-in');
-const { SugarshackError } = require('./errors');
 
-const VERSION = 1;
+// Raised when something is added (2: command); nothing is taken away.
+const VERSION = 2;
 
 /** @param {NodeRed.RED} RED */
 function paletteApi(RED) {
@@ -34,7 +34,7 @@ function paletteApi(RED) {
   /** The running interlock, or a refusal as the admin endpoints give it. */
   const interlock = (id) => {
     const il = readyInterlock(palette, id);
-    if (!il) return Promise.reject(SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: String(id).slice(0, 100) }));
+    if (!il) return Promise.reject(notRunningInterlock(palette, id));
     return Promise.resolve(il);
   };
 
@@ -127,6 +127,18 @@ function paletteApi(RED) {
     /** `shelf`: { untilMs, oneShot }. */
     shelve: (id, alarm, shelf, who) => interlock(id).then((il) => operator.shelve(il, alarm, shelf, who)),
     unshelve: (id, alarm, who) => interlock(id).then((il) => operator.unshelve(il, alarm, who)),
+    /**
+     * An ISA-88 command (`hold`, `restart`, `stop`, `abort`, `reset`) to
+     * `target` ({ operation } or { routine }) by `who` ({ by, reason });
+     * resolves { operation | routine, command, state, by } once saved, refused
+     * with COMMAND_REFUSED (the state does not allow it), UNKNOWN_RUN or INVALID_INPUT.
+     */
+    command: (id, target, command, who) => interlock(id).then((il) => {
+      const asked = runCommandOf({ ...target, command });
+      return operator.command(il, asked.target, asked.command, who);
+    }),
+    /** The commands a run may be given, the core's list. */
+    commands: wasm.load().operatorCommands(),
 
     /** What `username` with `password` may do under Node-RED's adminAuth ({ by, read, write }), or null. */
     signIn: (username, password) => signIn.check(username, password),

@@ -12,7 +12,7 @@ class SugarshackError extends Error {
     this.code = code;
     /**
      * Set on an operation's failure after its grant (see lib/operation-run.js).
-     * @type {{ id: string, step: number | null, kind: string, lockedOut: string[], aborted: boolean } | undefined}
+     * @type {{ id: string, step: number | null, kind: string, lockedOut: string[], aborted: boolean, state?: string } | undefined}
      */
     this.operation; // declared for the type checker; not set here
   }

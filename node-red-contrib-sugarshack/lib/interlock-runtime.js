@@ -16,7 +16,7 @@ const { stats, timeLayer } = require('./stats');
 const { clock } = require('./clock');
 const { FileStore, MemoryStore, Committer, stateDir } = require('./durable');
 const { RuntimeBase, drainingStatus, standbyStatus } = require('./runtime-base');
-const { RunHost } = require('./operation-run');
+const { RunHost, waitingPort } = require('./operation-run');
 const { RoutineHost } = require('./routine-host');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
@@ -47,6 +47,10 @@ class InterlockRuntime extends RuntimeBase {
     this.routines = new Map(); // routine id -> RoutineHost
     this.savedRoutines = {}; // routine snapshots not yet taken up by a host
     this.savedAlarms = undefined; // the alarms saved with the state, for the next AlarmBook
+    /** @type {import('../wasm/sugarshack_wasm').RunSnapshot[]} held runs saved with the state, restored once it runs */
+    this.savedRuns = [];
+    /** @type {import('../wasm/sugarshack_wasm').AbortedOperations | null} operations aborted and not reset, with the core */
+    this.aborted = null;
     this.heldBack = []; // waiting requests taken out of the queue while a deploy drains
     this.lostState = null; // why the state was unknown at start, until those lines are cleared
     this.started = null; // how it last started: { outcome: 'new' | 'restored' | 'lost', reason, added, dropped }
@@ -125,7 +129,11 @@ class InterlockRuntime extends RuntimeBase {
     });
   }
 
-  /** The durable document: the interlock's snapshot, its routines' states and its alarms, sealed as one by the core. */
+  /**
+   * The durable document, sealed as one by the core: the interlock's
+   * snapshot, its routines' states, its alarms, the runs an operator held
+   * (each with its owner) and the operations aborted and not reset.
+   */
   document() {
     const routines = { ...this.savedRoutines };
     for (const [id, host] of this.routines) {
@@ -133,7 +141,13 @@ class InterlockRuntime extends RuntimeBase {
       if (snapshot) routines[id] = snapshot;
     }
     const alarms = this.alarms ? this.alarms.snapshot() : undefined;
-    return this.core.seal(this.id, this.settings.plantId || undefined, routines, alarms, clock.now());
+    const runs = [];
+    for (const run of this.runs) {
+      const held = run.snapshot();
+      if (held) runs.push(held);
+    }
+    const aborted = this.aborted ? this.aborted.snapshot() : undefined;
+    return this.core.seal(this.id, this.settings.plantId || undefined, { routines, alarms, runs, aborted }, clock.now());
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -157,6 +171,7 @@ class InterlockRuntime extends RuntimeBase {
     }
     this.markRan();
     this.state = 'ready';
+    this.restoreHeldRuns();
     this.committer.change(); // the state as started is the first one on disk
     this.startTicking();
     this.refreshStatus();
@@ -260,12 +275,23 @@ class InterlockRuntime extends RuntimeBase {
    * with it.
    */
   build(saved, now) {
-    const { Interlock } = wasm.load();
+    const { Interlock, AbortedOperations } = wasm.load();
     this.savedRoutines = {};
     this.savedAlarms = undefined;
+    this.savedRuns = [];
+    if (this.aborted) wasm.release(this.aborted);
+    this.aborted = new AbortedOperations(undefined);
     this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
     if (saved.kind === 'saved') {
-      const opened = Interlock.open(this.config, this.id, this.settings.plantId || undefined, this.store.where, saved.text, now);
+      // Bound to its plant, a run saved held comes back held when the plant still has its plan.
+      const tracker = this.plant && this.plant.state === 'ready' ? this.plant.t : null;
+      const plantId = this.settings.plantId || undefined;
+      const opened = tracker
+        ? Interlock.openBound(this.config, this.id, plantId, this.store.where, saved.text, now, tracker)
+        : Interlock.open(this.config, this.id, plantId, this.store.where, saved.text, now);
+      // An abort stands until a person resets it, even when the rest of the state was lost.
+      wasm.release(this.aborted);
+      this.aborted = new AbortedOperations(opened.aborted);
       if (opened.lost) this.startedLost(opened.lost);
       else this.startedRestored(opened);
       return opened.interlock;
@@ -293,12 +319,55 @@ class InterlockRuntime extends RuntimeBase {
     this.log('error', i18n.text('logs.stateUnknown', { why }));
   }
 
-  startedRestored({ added, dropped, routines, alarms }) {
+  startedRestored({ added, dropped, routines, alarms, runs, runsInterrupted }) {
     this.started = { outcome: 'restored', reason: null, added, dropped };
     this.savedRoutines = routines;
     this.savedAlarms = alarms || undefined;
+    this.savedRuns = runs;
     for (const line of added) this.log('warn', i18n.text('logs.lineAdded', { line }));
     for (const line of dropped) this.log('warn', i18n.text('logs.lineDropped', { line }));
+    for (const why of runsInterrupted) this.log('warn', i18n.text('logs.heldRunNotRestored', { why }));
+  }
+
+  /**
+   * The runs saved held come back held, their lines kept and nothing
+   * commanded, each waiting for its owner (its operation node, or its
+   * routine) to take it over; an operator restarts or aborts it.
+   */
+  restoreHeldRuns() {
+    const saved = this.savedRuns;
+    this.savedRuns = [];
+    for (const snapshot of saved) {
+      const owner = snapshot.owner || { kind: 'node', id: '' };
+      try {
+        const restored = this.guard(() => this.plant.t.restoreRun(snapshot));
+        const run = new RunHost({ interlock: this, plant: this.plant, operation: snapshot.operation, msg: null, port: waitingPort(this, owner) });
+        this.runs.add(run);
+        run.restored(restored);
+      } catch (err) {
+        // The core kept its lines for it: with no run to supervise them, they lock out.
+        const why = asSugarshackError(err).message;
+        this.log('error', i18n.text('logs.heldRunNotRestored', { why }));
+        this.fault(snapshot.operation, why, (lockouts) => this.plant.issueLockouts(lockouts, snapshot.operation));
+      }
+    }
+  }
+
+  /**
+   * The run restored held that `owner` left, for it to take over with its
+   * own port; null when there is none.
+   * @param {import('../wasm/sugarshack_wasm').RunOwner} owner
+   */
+  heldRunOf(owner) {
+    for (const run of this.runs) {
+      if (run.port.waiting && run.port.owner.kind === owner.kind && run.port.owner.id === owner.id) return run;
+    }
+    return null;
+  }
+
+  /** The operations of runs restored held for routine `id` (its saved state takes them as still pending). */
+  heldOperationsOf(id) {
+    return [...this.runs].filter((run) => run.port.waiting && run.port.owner.kind === 'routine' && run.port.owner.id === id).map((run) => run.operation);
   }
 
   /** The alarms as saved with the state (acknowledgements and shelves survive a restart), or none yet. */
@@ -356,7 +425,7 @@ class InterlockRuntime extends RuntimeBase {
   async retire() {
     if (this.ended) return;
     if (this.state === 'ready') {
-      for (const run of [...this.runs]) run.abort('its interlock was removed from the flows');
+      for (const run of [...this.runs]) run.interrupt('its interlock was removed from the flows');
       for (const handle of this.pending.handles()) {
         const entry = this.pending.take(handle);
         this.guard(() => this.core.cancel(handle, clock.now()));
@@ -398,6 +467,8 @@ class InterlockRuntime extends RuntimeBase {
   freeCore() {
     wasm.release(this.core);
     this.core = null;
+    wasm.release(this.aborted);
+    this.aborted = null;
     if (this.alarms) this.alarms.free();
     this.alarms = null;
   }
@@ -435,9 +506,13 @@ class InterlockRuntime extends RuntimeBase {
     }
   }
 
-  /** Drained when no operation holds a grant through a run of ours (waiting ones are held back). */
+  /**
+   * Drained when no operation holds a grant through a run of ours that is
+   * doing something (waiting ones are held back; a held one commands
+   * nothing and is handed over as it is).
+   */
   quiescent() {
-    for (const run of this.runs) if (run.granted) return false;
+    for (const run of this.runs) if (run.granted && run.state() !== 'held') return false;
     return true;
   }
 
@@ -491,11 +566,18 @@ class InterlockRuntime extends RuntimeBase {
     for (const host of this.routines.values()) host.suspend();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
     for (const handle of this.pending.handles()) this.pending.take(handle).refuse(error);
-    for (const run of [...this.runs]) run.abandon(error);
+    // A held run comes back held from the saved state: its owner's port waits for it.
+    const heldPorts = [];
+    for (const run of [...this.runs]) {
+      if (run.heldBeforeTrap) heldPorts.push(run.suspend());
+      else run.abandon(error);
+    }
     for (const entry of this.heldBack) entry.refuse(error);
     this.heldBack = [];
     wasm.forget(this.core);
     this.core = null;
+    wasm.forget(this.aborted);
+    this.aborted = null;
     if (this.alarms) wasm.forget(this.alarms.core);
     this.alarms = null;
     const saved = this.readStore();
@@ -506,6 +588,13 @@ class InterlockRuntime extends RuntimeBase {
       this.state = 'starting';
       this.fail(err);
       return;
+    }
+    this.restoreHeldRuns();
+    // A routine's is taken by the routine as it rebuilds (below).
+    for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) {
+      const run = this.heldRunOf(port.owner);
+      if (run) run.takePort(port);
+      else port.fail(error);
     }
     for (const [id, host] of this.routines) {
       host.rebuild(this.savedRoutines[id]);
@@ -819,6 +908,75 @@ class InterlockRuntime extends RuntimeBase {
     if (this.palette && this.palette.draining) this.palette.pokeDrain();
   }
 
+  /** An operator aborted `operation` at `now`: it refuses every start until a person resets it (saved with the state). */
+  operationAborted(operation, who, now) {
+    this.abortedOperations().ended(operation, 'aborted', who.by || undefined, who.reason || undefined, now);
+  }
+
+  /** The aborted operations, made with the core (so there while it is ready). */
+  abortedOperations() {
+    if (!this.aborted) throw SugarshackError.of('INTERNAL', 'interlockRebuilt');
+    return this.aborted;
+  }
+
+  /**
+   * An operator's ISA-88 command (`hold`, `restart`, `stop`, `abort`,
+   * `reset`) to the run of an operation (`target.operation`, also an
+   * operation waiting for a reset) or to a routine (`target.routine`), by
+   * `who` ({ by, reason }); `then(state)` once the state it entered is
+   * saved. Throws, changing nothing, the core's refusal (COMMAND_REFUSED
+   * naming the state and what it allows, ROUTINE_BUSY...), UNKNOWN_RUN when
+   * nothing of that id runs or waits for a reset here, INVALID_INPUT for
+   * what is not a command.
+   * @param {{ operation?: string, routine?: string }} target
+   * @param {string} command
+   * @param {{ by?: string, reason?: string }} who
+   * @param {(state: string | null) => void} then
+   */
+  command(target, command, who, then) {
+    const commands = wasm.load().operatorCommands();
+    if (typeof command !== 'string' || !commands.includes(/** @type {any} */ (command))) {
+      throw SugarshackError.of('INVALID_INPUT', 'notACommand', { command: String(command), commands: commands.join(', ') });
+    }
+    let state;
+    if (target && typeof target.routine === 'string') {
+      const host = this.routines.get(target.routine);
+      if (!host || !host.machine) throw SugarshackError.of('UNKNOWN_RUN', 'noSuchRoutineRun', { id: target.routine });
+      state = host.command(command, who);
+    } else if (target && typeof target.operation === 'string') {
+      const id = target.operation;
+      const run = [...this.runs].find((r) => r.operation === id && !r.ended);
+      if (run) state = run.command(command, who);
+      else if (this.abortedOperations().state(id) === 'aborted') state = this.abortedOperations().command(id, command);
+      else throw SugarshackError.of('UNKNOWN_RUN', 'noSuchOperationRun', { id });
+    } else {
+      throw SugarshackError.of('INVALID_INPUT', 'commandTarget');
+    }
+    this.changed(() => then(state));
+  }
+
+  /** The runs as an operator reads them: state, step, the commands allowed now, who drives each. */
+  describeRuns(now) {
+    return [...this.runs].map((run) => {
+      const step = run.run && !run.ended ? run.run.step() : undefined;
+      return {
+        operation: run.operation,
+        granted: run.granted,
+        state: run.state(),
+        step: step ?? null,
+        commands: run.commands(),
+        heldMs: run.heldMs(now),
+        routine: run.port.owner.kind === 'routine' ? run.port.owner.id : null,
+      };
+    });
+  }
+
+  /** The operations aborted and not reset: each refuses a start until a person resets it. */
+  describeAborted() {
+    if (!this.aborted) return [];
+    return this.aborted.list().map((a) => ({ operation: a.operation, sinceMs: a.sinceMs, by: a.by.by, reason: a.by.reason ?? null, commands: ['reset'] }));
+  }
+
   /** The host of routine `id`, made (and restored from the saved state) on first use. */
   routineHost(id) {
     let host = this.routines.get(id);
@@ -929,7 +1087,8 @@ class InterlockRuntime extends RuntimeBase {
       alarmChanges: this.alarms ? this.alarms.changes : [],
       recentEvents: this.alarms ? this.alarms.events : [],
       saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
-      runs: [...this.runs].map((run) => ({ operation: run.operation, granted: run.granted })),
+      runs: this.describeRuns(now),
+      aborted: this.describeAborted(),
     };
   }
 

@@ -16,6 +16,7 @@ const { clock } = require('./clock');
 const { stateOf, ChangeNotices } = require('./state');
 const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
+const { quote } = require('./request');
 const operator = require('./operator');
 const wasm = require('./wasm');
 
@@ -178,6 +179,8 @@ const served = new WeakSet();
  * POST /sugarshack/clear and /sugarshack/estop: an operator's clear and
  * emergency stop from the editor, attributed to the signed-in editor user.
  * POST /sugarshack/alarms/ack, /shelve and /unshelve: the same for alarms.
+ * POST /sugarshack/runs/command: an ISA-88 command (hold, restart, stop, abort,
+ * reset) to a running operation or routine, the same way.
  * GET /sugarshack/access: what the caller may do here (read, write), as the
  * endpoints above decide it.
  */
@@ -197,7 +200,8 @@ function serveState(RED, palette) {
     const body = req.body && typeof req.body === 'object' ? req.body : {};
     const runtime = readyInterlock(palette, body.interlock);
     if (!runtime) {
-      res.status(404).json({ code: 'NO_INTERLOCK', message: text('errors.noRunningInterlock', { id: String(body.interlock).slice(0, 100) }) });
+      const err = notRunningInterlock(palette, body.interlock);
+      res.status(404).json({ code: err.code, message: err.message });
       return;
     }
     const lines = Array.isArray(body.lines) && body.lines.length <= 4096 && body.lines.every((l) => typeof l === 'string' && l.length <= 200)
@@ -224,12 +228,48 @@ function serveState(RED, palette) {
     return operator.shelve(rt, alarmIdOf(body.id), { untilMs: shelfEndOf(body, clock.now()), oneShot: body.oneShot === true }, who);
   }));
   RED.httpAdmin.post('/sugarshack/alarms/unshelve', mayWrite, operatorAction((rt, lines, who, body) => operator.unshelve(rt, alarmIdOf(body.id), who)));
+  RED.httpAdmin.post('/sugarshack/runs/command', mayWrite, operatorAction((rt, lines, who, body) => {
+    const { target, command } = runCommandOf(body);
+    return operator.command(rt, target, command, { by: who.by, reason: who.reason });
+  }));
 }
 
 /** The interlock runtime of config node `id` when it runs, else null. */
 function readyInterlock(palette, id) {
   const runtime = palette.runtimes.get(String(id || ''));
   return runtime && runtime.kind !== 'plant' && runtime.state === 'ready' ? runtime : null;
+}
+
+/** Why interlock `id` does not run here (readyInterlock gave null): on a hot standby, which instance acts instead. */
+function notRunningInterlock(palette, id) {
+  const shown = String(id).slice(0, 100);
+  const runtime = palette.runtimes.get(String(id || ''));
+  const cluster = runtime && runtime.state === 'standby' ? runtime.cluster : null;
+  if (cluster) return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: shown, active: cluster.leader ? cluster.leader.instance : '?' });
+  return SugarshackError.of('NO_INTERLOCK', 'noRunningInterlock', { id: shown });
+}
+
+const MAX_RUN_ID = 200;
+
+/**
+ * What a person asks of a run, from `{ operation | routine, command }`:
+ * `{ target: { operation } | { routine }, command }`. Only the shape is checked
+ * here; whether the run's state allows the command is the core's to say.
+ * @param {Record<string, any>} body
+ * @returns {{ target: { operation?: string, routine?: string }, command: string }}
+ */
+function runCommandOf(body) {
+  const { command } = body;
+  const commands = wasm.load().operatorCommands();
+  if (typeof command !== 'string' || !commands.includes(/** @type {any} */ (command))) {
+    throw SugarshackError.of('INVALID_INPUT', 'runCommandInvalid', { got: quote(command), commands: commands.join(', ') });
+  }
+  const named = ['operation', 'routine'].filter((key) => body[key] !== undefined && body[key] !== null && body[key] !== '');
+  const id = named.length === 1 ? body[named[0]] : undefined;
+  if (!(typeof id === 'string' && id.length <= MAX_RUN_ID) && !(typeof id === 'number' && Number.isFinite(id))) {
+    throw SugarshackError.of('INVALID_INPUT', 'runTargetInvalid', { got: quote(named.length === 1 ? id : named) });
+  }
+  return { target: { [named[0]]: String(id) }, command };
 }
 
 const MAX_ALARM_ID = 300;
@@ -293,4 +333,4 @@ function settingsKey(value) {
     : v));
 }
 
-module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, readyInterlock, alarmIdOf, alarmIdsOf, shelfEndOf };
+module.exports = { paletteOf, settingsKey, runtimeOfConfigNode, readyInterlock, notRunningInterlock, alarmIdOf, alarmIdsOf, shelfEndOf, runCommandOf };

@@ -2,10 +2,13 @@
 'use strict';
 // Hosts one run of a singular operation (the paper's §III-D). The sequence
 // (acquire, steps, return to idle, release; fault and lockout on any failure
-// after the grant) is the core's OperationRun; this turns its effects into
+// after the grant) and the operator's ISA-88 commands (hold, restart, stop,
+// abort, reset) are the core's OperationRun; this turns its effects into
 // interlock calls, group commands, condition waits and timers, and reports
 // what happened back to it. A run belongs to its interlock's runtime, not to
-// a node: a deploy hands its msg over to the node's next instance.
+// a node: a deploy hands its msg over to the node's next instance, and a run
+// held by an operator is saved with the interlock's state and comes back held
+// after a restart.
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { clock } = require('./clock');
 const { stats } = require('./stats');
@@ -16,13 +19,25 @@ const wasm = require('./wasm');
 
 /** @typedef {import('../wasm/sugarshack_wasm').OperationRun} OperationRun */
 /** @typedef {import('../wasm/sugarshack_wasm').RunEffect} RunEffect */
+/** @typedef {import('../wasm/sugarshack_wasm').RunOwner} RunOwner */
+/** @typedef {import('../wasm/sugarshack_wasm').RunState} RunState */
 /**
  * @template {RunEffect['kind']} K
  * @typedef {Extract<RunEffect, { kind: K }>} EffectOf
  */
+/**
+ * Where a run reports. `owner` is kept with a held run's save; `waiting`
+ * marks the port of a run restored held whose owner has not taken it yet.
+ * @typedef {{
+ *   owner: RunOwner, waiting?: boolean,
+ *   progress: (what: 'queued' | 'step' | 'entered', index?: number | null, detail?: any) => void,
+ *   finish: (result: object) => void, stop: (result: object) => void, fail: (err: SugarshackError) => void,
+ *   abandon?: () => void, adopt?: (node: any) => void, detachNode?: (node: any) => void, nodeId?: string,
+ * }} RunPort
+ */
 
 class RunHost {
-  /** port: where progress, the result and the error go ({ progress, finish, fail, abandon, adopt, detachNode }). */
+  /** @param {{ interlock: any, plant: any, operation: string, msg: any, port: RunPort }} fields */
   constructor({ interlock, plant, operation, msg, port }) {
     this.interlock = interlock;
     this.plant = plant;
@@ -33,17 +48,45 @@ class RunHost {
     this.run = null;
     this.granted = false;
     this.ended = false;
-    this.current = null; // the step in progress: { index, cancel() }
+    /** @type {RunState | null} where it ended, once it did */
+    this.endState = null;
+    /** @type {{ index: number, cancel: (reason: string) => void } | null} the step, hold or restore in progress */
+    this.current = null;
+    /** @type {RunState | null} the operator's state it last entered, as known without asking its core */
+    this.entered = null;
   }
 
   start() {
     try {
       this.run = this.plant.guard(() => this.plant.operationRun(this.operation));
+      // An aborted operation starts again only after a person's reset (the core's rule).
+      this.interlock.guard(() => this.interlock.abortedOperations().checkStart(this.operation));
     } catch (err) {
       this.finishWith(() => this.port.fail(asSugarshackError(err)));
       return;
     }
     this.feed((r) => r.start(clock.now()));
+  }
+
+  /**
+   * A run saved held, back after a restart: its lines kept by the interlock,
+   * nothing commanded (the hold command goes out again if it was not
+   * confirmed at the save). Its owner takes it over with `takePort`.
+   * @param {{ run: OperationRun, effects: RunEffect[] }} restored
+   */
+  restored({ run, effects }) {
+    this.run = run;
+    this.granted = true;
+    this.entered = /** @type {RunState} */ (run.state());
+    this.apply(effects);
+  }
+
+  /** The owner of a run restored held takes it over: its status shows where it is. */
+  /** @param {RunPort} port */
+  takePort(port) {
+    this.port = port;
+    const state = this.state();
+    if (state) port.progress('entered', this.run ? this.run.step() ?? null : null, state);
   }
 
   /**
@@ -54,6 +97,45 @@ class RunHost {
     if (this.ended || this.granted) return;
     this.free();
     this.start();
+  }
+
+  /** Its ISA-88 state (where it ended, once it did). @returns {RunState | null} */
+  state() {
+    if (this.run && !this.ended) return /** @type {RunState} */ (this.run.state());
+    return this.endState;
+  }
+
+  /** The commands an operator may give it now. */
+  commands() {
+    return this.run && !this.ended ? this.run.commands() : [];
+  }
+
+  /** Held or holding: what is saved with the interlock's state so that it comes back held. */
+  snapshot() {
+    if (!this.run || this.ended) return undefined;
+    return this.run.snapshot(this.port.owner);
+  }
+
+  /** How long the current hold has lasted (0 unless holding or held). */
+  heldMs(now) {
+    const saved = this.snapshot();
+    return saved ? Math.max(0, now - saved.heldSinceMs) : 0;
+  }
+
+  /**
+   * An operator's command by `who` ({ by, reason }): the core's refusal
+   * (COMMAND_REFUSED...) throws and changes nothing; else its effects are
+   * carried out and the state it entered is returned.
+   * @param {string} command @param {{ by?: string, reason?: string }} who
+   */
+  command(command, who) {
+    const run = /** @type {OperationRun} */ (this.run);
+    const now = clock.now();
+    const effects = this.interlock.guard(() => run.command(command, who.by || undefined, who.reason || undefined, now));
+    // An accepted abort always ends aborted: recorded in the same write as its lockouts.
+    if (command === 'abort') this.interlock.operationAborted(this.operation, who, now);
+    this.apply(effects);
+    return this.state();
   }
 
   /**
@@ -69,18 +151,44 @@ class RunHost {
       this.abandon(asSugarshackError(err));
       return;
     }
-    for (const effect of effects) this.effect(effect);
+    this.apply(effects);
   }
 
-  /** @param {RunEffect} e */
-  effect(e) {
-    journal.event('operation', e.kind, this.operation, e);
+  /**
+   * Acts on effects in order. When the run entered an operator's state, that
+   * state is saved before the step, hold or restore it sets off leaves: a
+   * restart must never find a run saved held whose equipment was already
+   * commanded on, nor lose one that was holding.
+   * @param {RunEffect[]} effects
+   */
+  apply(effects) {
+    const saveFirst = effects.some((e) => e.kind === 'entered');
+    if (saveFirst) this.interlock.changed();
+    for (const effect of effects) this.effect(effect, saveFirst);
+  }
+
+  /** @param {RunEffect} e @param {boolean} saveFirst */
+  effect(e, saveFirst) {
+    journal.event('operation', e.kind, this.operation, e.kind === 'entered' ? { ...e, note: e.state } : e);
     switch (e.kind) {
       case 'acquire':
         this.acquire(e);
         break;
       case 'startStep':
-        this.startStep(e);
+        this.startStep(e, saveFirst);
+        break;
+      case 'hold':
+        // Like a lockout, the hold makes equipment safe: it leaves even if the state cannot be saved.
+        this.launch(this.stepIndex(), saveFirst ? 'unsaved' : 'now', (settle) => this.groupCommand(e, settle),
+          (r, err) => (err ? r.holdFailed(err.code, err.message, clock.now()) : r.holdDone(clock.now())));
+        break;
+      case 'restore':
+        this.launch(this.stepIndex(), saveFirst ? 'saved' : 'now', (settle) => this.groupCommand(e, settle),
+          (r, err) => (err ? r.restartFailed(err.code, err.message, clock.now()) : r.restartDone(clock.now())));
+        break;
+      case 'entered':
+        this.entered = e.state;
+        this.port.progress('entered', e.step, e.state);
         break;
       case 'release':
         this.attempt(
@@ -112,10 +220,16 @@ class RunHost {
       case 'finished':
         stats.add(`operation/run/${e.id}`, e.runMs);
         stats.add(`operation/queued/${e.id}`, e.queuedMs);
-        this.finishWith(() => this.port.finish({ id: e.id, queuedMs: e.queuedMs, runMs: e.runMs, steps: e.steps }));
+        this.finishWith(() => this.port.finish({ id: e.id, queuedMs: e.queuedMs, runMs: e.runMs, heldMs: e.heldMs, steps: e.steps }), 'complete');
+        break;
+      case 'stopped':
+        // An orderly end an operator asked for: the msg goes on, marked stopped, not an error.
+        this.finishWith(() => this.port.stop({
+          id: e.id, queuedMs: e.queuedMs, runMs: e.runMs, heldMs: e.heldMs, steps: e.steps, stopped: true, step: e.step,
+        }), 'stopped');
         break;
       case 'failed':
-        this.finishWith(() => this.port.fail(failure(e, this.operation)));
+        this.finishWith(() => this.port.fail(failure(e, this.operation)), e.state);
         break;
       default: {
         const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added
@@ -130,6 +244,11 @@ class RunHost {
     } catch (err) {
       onRefusal(asSugarshackError(err));
     }
+  }
+
+  stepIndex() {
+    const step = this.run ? this.run.step() : undefined;
+    return step ?? -1;
   }
 
   /** @param {EffectOf<'acquire'>} e */
@@ -157,40 +276,60 @@ class RunHost {
     this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }
 
-  /** @param {EffectOf<'startStep'>} effect */
-  startStep({ index, step, within }) {
+  /**
+   * A step with the time the core gives it (after a hold, what was left).
+   * @param {EffectOf<'startStep'>} effect @param {boolean} saveFirst
+   */
+  startStep({ index, step, within, timeoutMs }, saveFirst) {
     this.port.progress('step', index, step);
-    const done = (err) => {
-      if (this.current !== token) return; // a late answer for a step already left
-      this.current = null;
-      if (err) {
-        const e = asSugarshackError(err);
-        this.feed((r) => r.stepFailed(index, e.code, e.message, clock.now()));
-      } else {
-        this.feed((r) => r.stepDone(index, clock.now()));
+    this.launch(index, saveFirst ? 'saved' : 'now', (settle) => {
+      if (step.kind === 'wait') {
+        const signal = {};
+        this.plant.condition(step.condition, step.sensors)
+          .waitUntil(timeoutMs, signal)
+          .then(() => settle(null), (err) => settle(err));
+        return (reason) => signal.cancel && signal.cancel(reason);
       }
-    };
+      return this.plant.runCommand({ payload: step.command, timeoutMs, within, onDone: settle });
+    }, (r, err) => (err ? r.stepFailed(index, err.code, err.message, clock.now()) : r.stepDone(index, clock.now())));
+  }
+
+  /** A hold or restore group command within the run's lines. @param {EffectOf<'hold' | 'restore'>} e */
+  groupCommand(e, settle) {
+    return this.plant.runCommand({ payload: e.command, timeoutMs: e.timeoutMs, within: e.within, onDone: settle });
+  }
+
+  /**
+   * Makes an action (a step, a hold or restore command) the one in progress,
+   * and starts it: `now`, once the state is saved (`saved`), or once saved
+   * or the save failed (`unsaved`). Cancelled before it started, it never
+   * does; its outcome is fed to the core only while it is still the one in
+   * progress (a late answer for an action already left is dropped).
+   * @param {number} index
+   * @param {'now' | 'saved' | 'unsaved'} when
+   * @param {(settle: (err: any) => void) => ((reason: string) => void)} begin returns its cancel
+   * @param {(run: OperationRun, err: SugarshackError | null) => RunEffect[]} outcome
+   */
+  launch(index, when, begin, outcome) {
     /** @type {{ index: number, cancel: (reason: string) => void }} */
     const token = { index, cancel: () => {} };
     this.current = token;
-    try {
-      if (step.kind === 'wait') {
-        const signal = {};
-        token.cancel = (reason) => signal.cancel && signal.cancel(reason);
-        this.plant.condition(step.condition, step.sensors)
-          .waitUntil(step.timeoutMs, signal)
-          .then(() => done(null), (err) => done(err));
-      } else {
-        token.cancel = this.plant.runCommand({
-          payload: step.command,
-          timeoutMs: step.timeoutMs,
-          within,
-          onDone: done,
-        });
+    const settle = (err) => {
+      if (this.current !== token) return;
+      this.current = null;
+      const e = err ? asSugarshackError(err) : null;
+      this.feed((r) => outcome(r, e));
+    };
+    const go = () => {
+      if (this.current !== token || this.ended) return;
+      try {
+        token.cancel = begin(settle);
+      } catch (err) {
+        settle(err);
       }
-    } catch (err) {
-      done(err);
-    }
+    };
+    if (when === 'now') go();
+    else this.interlock.committer.change(go, { evenUnsaved: when === 'unsaved' });
   }
 
   cancelStep() {
@@ -199,9 +338,11 @@ class RunHost {
     if (token) token.cancel(text('labels.operationStopped'));
   }
 
-  finishWith(report) {
+  /** @param {() => void} report @param {RunState} [state] */
+  finishWith(report, state) {
     if (this.ended) return;
     this.ended = true;
+    if (state) this.endState = state;
     this.free();
     this.interlock.runEnded(this);
     report();
@@ -223,9 +364,9 @@ class RunHost {
     if (this.port.detachNode) this.port.detachNode(node);
   }
 
-  /** Stopped by its interlock (removed from the flows): a granted run faults, a waiting one withdraws. */
-  abort(reason) {
-    this.feed((r) => r.abort(reason, clock.now()));
+  /** Its supervisor is gone (its interlock removed from the flows): a granted run faults, a waiting one withdraws. */
+  interrupt(reason) {
+    this.feed((r) => r.interrupt(reason, clock.now()));
   }
 
   /** Shutdown: everything stays as it is (the saved state decides the restart); the msg is completed unsent. */
@@ -239,6 +380,26 @@ class RunHost {
     if (this.port.abandon) this.port.abandon();
   }
 
+  /** Held (or holding) when last heard of: it comes back held from the saved state. */
+  get heldBeforeTrap() {
+    return this.entered === 'held' || this.entered === 'holding';
+  }
+
+  /**
+   * Its core is gone (a wasm trap) while it was held: it ends quietly and
+   * its port waits for the run that comes back held from the saved state.
+   */
+  suspend() {
+    this.ended = true;
+    const token = this.current;
+    this.current = null;
+    if (token) token.cancel(text('labels.coreFailed'));
+    wasm.forget(this.run);
+    this.run = null;
+    this.interlock.runEnded(this);
+    return this.port;
+  }
+
   /** Its core is gone (a wasm trap): the run ends with the error, touching nothing. */
   abandon(err) {
     if (this.ended) return;
@@ -250,9 +411,26 @@ class RunHost {
 }
 
 /**
+ * The port of a run restored held until its owner takes it: it shows nothing,
+ * and how the run ends, should an operator end it first, goes to the log.
+ * @param {any} interlock @param {RunOwner} owner @returns {RunPort}
+ */
+function waitingPort(interlock, owner) {
+  const log = (err) => interlock.log('warn', text('logs.heldRunEnded', { owner: owner.id, message: err.message }));
+  return {
+    owner,
+    waiting: true,
+    progress: () => {},
+    finish: () => {},
+    stop: () => {},
+    fail: log,
+  };
+}
+
+/**
  * The core's `failed` effect as the error a Catch node gets. A run that failed
  * after its grant (a step, its release, or stopped while running) carries
- * msg.operation-style details: { id, step, kind, lockedOut, aborted }.
+ * msg.operation-style details: { id, step, kind, lockedOut, aborted, state }.
  */
 /**
  * @param {EffectOf<'failed'>} e
@@ -261,11 +439,11 @@ class RunHost {
 function failure(e, operation) {
   const error = new SugarshackError(e.code, e.message);
   if (e.stage !== 'acquire') {
-    error.operation = { id: e.id || operation, step: e.step, kind: e.stage, lockedOut: e.lockedOut || [], aborted: Boolean(e.aborted) };
+    error.operation = { id: e.id || operation, step: e.step, kind: e.stage, lockedOut: e.lockedOut || [], aborted: Boolean(e.aborted), state: e.state };
   } else if (e.aborted) {
-    error.operation = { id: e.id || operation, step: null, kind: 'acquire', lockedOut: [], aborted: true };
+    error.operation = { id: e.id || operation, step: null, kind: 'acquire', lockedOut: [], aborted: true, state: e.state };
   }
   return error;
 }
 
-module.exports = { RunHost };
+module.exports = { RunHost, waitingPort };

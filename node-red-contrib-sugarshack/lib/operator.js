@@ -1,7 +1,8 @@
 // @ts-check
 'use strict';
 // A person's actions on an interlock, the same whoever carries them (the
-// editor's admin endpoints, another package through the palette's API):
+// editor's admin endpoints, another package through the palette's API, the
+// operation and routine nodes' command msgs):
 // attributed to `who` ({ by, reason, force }), journalled like the clear and
 // fault nodes journal theirs, and answered once the state is saved. Every rule
 // is the core's: a refusal (CLEAR_REFUSED with every reason in `err.lines`,
@@ -78,4 +79,28 @@ function unshelve(runtime, id, who) {
   return act(runtime, (resolve) => runtime.unshelveAlarm(id, who, alarmAnswer(who, resolve)));
 }
 
-module.exports = { estop, clear, acknowledge, shelve, unshelve };
+/**
+ * An operator's ISA-88 command (`hold`, `restart`, `stop`, `abort`, `reset`)
+ * to the run of an operation (`target` `{ operation: id }`, also one waiting
+ * for a reset after an abort) or to a routine (`{ routine: id }`), by `who`
+ * ({ by, reason }). Resolves `{ operation | routine, command, state, by }`
+ * once the state it entered is saved; rejects unchanged with the core's
+ * refusal (COMMAND_REFUSED, naming the state and what it allows), UNKNOWN_RUN
+ * (nothing of that id runs or waits for a reset here), INVALID_INPUT (not a command).
+ * @param {any} runtime
+ * @param {{ operation?: string, routine?: string }} target
+ * @param {string} name
+ * @param {{ by?: string, reason?: string }} who
+ * @returns {Promise<{ operation?: string, routine?: string, command: string, state: string | null, by: string }>}
+ */
+function command(runtime, target, name, who) {
+  return act(runtime, (resolve) => {
+    runtime.command(target, name, who, (state) => {
+      const [kind, id] = target.routine !== undefined ? ['routine', target.routine] : ['operation', target.operation];
+      journal.action(name, who, id);
+      resolve({ [kind]: id, command: name, state, by: byOf(who) });
+    });
+  });
+}
+
+module.exports = { estop, clear, acknowledge, shelve, unshelve, command };

@@ -5,7 +5,9 @@
 // run of the operation it dispatched. Its state is saved in the interlock's
 // durable state, in the same write as the interlock's, so a restart never sees
 // a routine and its lines disagree. A routine node is only its port: msgs in,
-// events out; a deploy hands the routine to the node's next instance.
+// events out; a deploy hands the routine to the node's next instance. An
+// operator's ISA-88 command to the routine goes through its core machine,
+// which says what its pending operation gets.
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status } = require('./status');
 const { clock } = require('./clock');
@@ -17,8 +19,16 @@ const i18n = require('./i18n');
 // How often due conditions are looked for; each transition's own everyMs decides when it is checked.
 const TICK_MS = 250;
 
-// The msg topic that resets a routine: reserved by the core, which refuses a transition on it.
-const RESET_TOPIC = wasm.load().routineResetTopic();
+// The operator's states a routine's status shows: how each looks, and its text (`state`: the routine's state).
+const OPERATOR_STATES = Object.freeze({
+  holding: ['warning', (state) => i18n.text('runStatus.holding', { state })],
+  held: ['warning', (state) => i18n.text('runStatus.held', { state })],
+  restarting: ['running', (state) => i18n.text('runStatus.restarting', { state })],
+  stopping: ['warning', (state) => i18n.text('runStatus.stopping', { state })],
+  stopped: ['idle', (state) => i18n.text('runStatus.stopped', { state })],
+  aborting: ['fault', (state) => i18n.text('runStatus.aborting', { state })],
+  aborted: ['fault', (state) => i18n.text('runStatus.aborted', { state })],
+});
 
 class RoutineHost {
   constructor({ interlock, plant, id }) {
@@ -31,6 +41,8 @@ class RoutineHost {
     this.node = null; // the routine node of the current deploy
     this.run = null;
     this.rebuildAfterRun = false; // a deploy's swap came while its operation was still queued
+    /** @type {(() => void)[] | null} events of its operation held back while a command is forwarded to it */
+    this.commanding = null;
     this.lastFault = false;
     this.warned = new Set();
     this.timer = null;
@@ -55,9 +67,12 @@ class RoutineHost {
     }
     this.machine = machine;
     this.conditions = conditions;
+    // Its operation, saved held, came back held: still pending (see InterlockRuntime.restoreHeldRuns).
+    const held = this.interlock.heldOperationsOf(this.id);
+    this.takeHeldRun();
     if (!saved) return;
     try {
-      const moved = machine.restore(saved);
+      const moved = machine.restore(saved, held);
       if (moved) {
         // Its operation was pending at the save and never returned: it counts as faulted.
         this.lastFault = true;
@@ -66,6 +81,15 @@ class RoutineHost {
     } catch (e) {
       this.interlock.log('warn', i18n.text('logs.routineStateUnfit', { id: this.id, message: e.message }));
     }
+  }
+
+  /** The run of its operation that came back held after a restart, if any: this routine supervises it again. */
+  takeHeldRun() {
+    if (this.run && this.run.ended) this.run = null; // suspended by a trap: it comes back held, or not at all
+    const run = this.interlock.heldRunOf({ kind: 'routine', id: this.id });
+    if (!run) return;
+    this.run = run;
+    run.takePort(this.runPort(run.operation));
   }
 
   /** Its core died (a wasm trap): the machine is dropped, never called again, until `rebuild`. */
@@ -117,64 +141,130 @@ class RoutineHost {
     if (this.node === node) this.node = null;
   }
 
-  /** A msg's topic is its trigger (RESET_TOPIC goes back to the initial state). Throws the core's refusal. */
+  /** A msg's topic is its trigger. Throws the core's refusal. */
   onMsg(topic) {
     const machine = this.machine;
     if (!machine) throw SugarshackError.of('UNKNOWN_ROUTINE', 'routineNotRunning', { id: this.id });
-    if (topic === RESET_TOPIC) {
-      const moved = machine.reset();
-      this.lastFault = false;
-      this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to }));
-      this.refresh();
-      return;
-    }
     const d = stats.time('routine', () => machine.onMsg(topic));
     this.dispatch(d);
+  }
+
+  /** Its pending operation's ISA-88 state, if one is pending. */
+  operationState() {
+    return this.run ? this.run.state() ?? undefined : undefined;
+  }
+
+  /** Its ISA-88 state (its pending operation's hold, stop or abort shows here). */
+  runState() {
+    return this.machine ? this.machine.runState(this.operationState()) : null;
+  }
+
+  /**
+   * An operator's command by `who`: the core's machine says whether it is
+   * allowed (else its refusal throws, nothing changed) and what its pending
+   * operation gets; a reset sends it back to its initial state and resets
+   * the operations of it that wait for a reset after an abort. Returns its
+   * state after.
+   * @param {string} command @param {{ by?: string, reason?: string }} who
+   */
+  command(command, who) {
+    const machine = this.machine;
+    if (!machine) throw SugarshackError.of('UNKNOWN_ROUTINE', 'routineNotRunning', { id: this.id });
+    const pending = machine.pending() || null;
+    const { forward, moved } = machine.command(command, this.operationState());
+    // What its operation reports meanwhile (an abort may end it at once) goes out after the command's own event.
+    this.commanding = [];
+    try {
+      if (forward && this.run) this.run.command(forward, who);
+    } finally {
+      const after = this.commanding;
+      this.commanding = null;
+      if (moved) {
+        this.lastFault = false;
+        const aborted = this.interlock.abortedOperations();
+        for (const operation of machine.operations()) {
+          if (aborted.state(operation) === 'aborted') aborted.command(operation, 'reset');
+        }
+        this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to, by: who.by || null }));
+      } else {
+        const runState = this.runState();
+        this.interlock.changed(() => this.emit(command, { operation: pending, by: who.by || null, runState }));
+      }
+      for (const event of after) this.interlock.changed(event);
+    }
+    this.refresh();
+    return this.runState();
+  }
+
+  /** An event of its operation's end, once saved; held back while a command is being forwarded to it. */
+  announce(event) {
+    if (this.commanding) this.commanding.push(event);
+    else this.interlock.changed(event);
   }
 
   dispatch(d) {
     // Saved with the operation pending: a restart meanwhile counts it as faulted.
     this.interlock.changed(() => this.emit('dispatched', { operation: d.operation, from: d.from, to: d.to }));
     const carrier = { _msgid: this.interlock.RED.util.generateId(), topic: `routine/${this.id}`, routine: this.id };
-    this.run = this.interlock.startRun(d.operation, carrier, this.runPort(d.operation));
+    const run = this.interlock.startRun(d.operation, carrier, this.runPort(d.operation));
+    // Refused at once (an aborted operation waiting for its reset): it has reported already.
+    if (!run.ended) this.run = run;
     this.refresh();
   }
 
+  /** @returns {import('./operation-run').RunPort} */
   runPort(operation) {
     return {
-      progress: () => this.refresh(), // queued, then its first step: the status tells which
+      owner: { kind: 'routine', id: this.id },
+      progress: () => this.refresh(), // queued, then its steps and operator's states: the status tells which
       finish: (result) => {
         this.run = null;
         const machine = this.machine;
         if (this.ended || !machine) return;
         const moved = stats.time('routine', () => machine.completed());
         this.lastFault = false;
-        this.interlock.changed(() => this.emit('completed', {
+        this.announce(() => this.emit('completed', {
           operation, from: moved.from, to: moved.to, queuedMs: result.queuedMs, runMs: result.runMs,
         }));
-        this.refresh();
-        if (this.rebuildAfterRun) this.rebuild(this.snapshot());
+        this.afterRun();
+      },
+      // Stopped by an operator: the routine stays where it was, stopped until a reset.
+      stop: (result) => {
+        this.run = null;
+        const machine = this.machine;
+        if (this.ended || !machine) return;
+        const moved = machine.operationStopped();
+        this.announce(() => this.emit('stopped', { operation, from: moved.from, to: moved.to, runMs: result.runMs, step: result.step }));
+        this.afterRun();
       },
       fail: (err) => {
         this.run = null;
         if (this.ended || !this.machine) return;
         const e = asSugarshackError(err);
-        if (!e.operation || e.operation.kind === 'acquire') {
+        if (e.operation && e.operation.state === 'aborted') {
+          // Aborted (by an operator, or while queued): the routine stays where it was, aborted until a reset.
+          const moved = this.machine.operationAborted();
+          this.announce(() => this.report(e, 'aborted', { operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message } }));
+        } else if (!e.operation || e.operation.kind === 'acquire') {
           // Refused before the grant (already running, queue full...): nothing ran, nothing locked out.
           this.machine.refused();
-          this.interlock.changed(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
+          this.announce(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
         } else {
           const moved = this.machine.faulted();
           this.lastFault = true;
-          this.interlock.changed(() => this.report(e, 'faulted', {
+          this.announce(() => this.report(e, 'faulted', {
             operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message },
           }));
         }
-        this.refresh();
-        if (this.rebuildAfterRun) this.rebuild(this.snapshot());
+        this.afterRun();
       },
       abandon: () => {},
     };
+  }
+
+  afterRun() {
+    this.refresh();
+    if (this.rebuildAfterRun) this.rebuild(this.snapshot());
   }
 
   checkConditions() {
@@ -219,6 +309,7 @@ class RoutineHost {
         state: this.machine.state(),
         pending: this.machine.pending() || null,
         halted: this.machine.halted(),
+        runState: this.runState(),
         ...details,
       },
     };
@@ -239,7 +330,10 @@ class RoutineHost {
     if (!this.node || !this.machine || this.ended) return;
     const state = this.machine.state();
     const pending = this.machine.pending();
+    const runState = this.runState();
+    const shown = runState ? OPERATOR_STATES[runState] : undefined;
     if (this.machine.halted()) this.node.status(status('error', i18n.text('status.halted', { state })));
+    else if (shown) this.node.status(status(shown[0], shown[1](state)));
     else if (pending) {
       const running = Boolean(this.run && this.run.granted);
       this.node.status(status(running ? 'running' : 'waiting', i18n.text(running ? 'status.running' : 'status.waiting', { state, operation: pending })));
@@ -247,15 +341,22 @@ class RoutineHost {
     else this.node.status(status(this.lastFault ? 'fault' : 'ok', state));
   }
 
-  /** The routine as an operator reads it: its state and the operation it waits for or runs. */
+  /**
+   * The routine as an operator reads it: its state in its plant document
+   * (`state`), its ISA-88 state (`runState`) and the commands it takes now,
+   * and the operation it waits for or runs, with that operation's ISA-88 state.
+   */
   describe() {
-    if (!this.machine) return { id: this.id, state: null, halted: false, pending: null };
+    if (!this.machine) return { id: this.id, state: null, halted: false, pending: null, runState: null, commands: [] };
     const pending = this.machine.pending();
+    const operation = this.operationState();
     return {
       id: this.id,
       state: this.machine.state(),
       halted: this.machine.halted(),
-      pending: pending ? { operation: pending, phase: this.run && this.run.granted ? 'running' : 'queued' } : null,
+      pending: pending ? { operation: pending, phase: this.run && this.run.granted ? 'running' : 'queued', state: operation ?? null } : null,
+      runState: this.runState(),
+      commands: this.machine.commands(operation),
     };
   }
 

@@ -139,7 +139,10 @@ const SAMPLE_PLANT = Object.freeze({
   ],
   sensors: [{ id: 'L', device: 's', name: 'level' }],
   resources: [{ id: 'A', lockout: { valves: { V: 0 } } }, { id: 'B', lockout: { pumps: { P: false } } }],
-  operations: [{ id: 'o', priority: 1, resources: ['A'], steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'L > 1', sensors: ['L'], timeoutMs: 1000 }] }],
+  operations: [{
+    id: 'o', priority: 1, resources: ['A'], hold: { command: { valves: { V: 0 } }, timeoutMs: 1000 },
+    steps: [{ command: { valves: { V: 100 } }, timeoutMs: 1000 }, { wait: 'L > 1', sensors: ['L'], timeoutMs: 1000 }],
+  }],
   routines: [{ id: 'r', states: ['x', 'y', 'e'], initial: 'x', errorState: 'e', transitions: [
     { from: 'x', to: 'y', operation: 'o', trigger: { msg: 'go' } },
     { from: 'y', to: 'x', operation: 'o', trigger: { when: 'L > 1', sensors: ['L'], everyMs: 1 } },
@@ -225,7 +228,7 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   t.free();
 }
 
-function primeInterlock({ Interlock, Tracker }) {
+function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   const t = new Tracker(SAMPLE_PLANT, 0);
   t.alarmConditions();
   const config = { resources: t.interlockResources(), policy: 'greedy', recordEvents: true, warnQueuedMs: 1, warnHeldMs: 1 };
@@ -262,8 +265,9 @@ function primeInterlock({ Interlock, Tracker }) {
   checked.clearAgainst(checked.resourceSet(checked.faultedResources()), t, null, null, true, 12);
   checked.free();
   restored.drainEvents();
-  const opened = Interlock.open(config, 'primer', 'plant', 'primer', il.seal('primer', 'plant', {}, undefined, 11), 12);
-  opened.interlock.free();
+  const sealed = il.seal('primer', 'plant', { routines: {} }, 11);
+  Interlock.open(config, 'primer', 'plant', 'primer', sealed, 12).interlock.free();
+  Interlock.openBound(config, 'primer', 'plant', 'primer', sealed, 12, t).interlock.free();
   const unknown = Interlock.unknownState(config, 'primer', 12);
   unknown.snapshot(12);
   unknown.free();
@@ -311,7 +315,8 @@ function primeInterlock({ Interlock, Tracker }) {
   run.stepDone(0, 2);
   run.stepFailed(1, 'X', 'primer', 3);
   run.faultApplied(['A'], 4);
-  run.phase();
+  run.state();
+  run.commands();
   run.free();
   const ended = t.operationRun('o');
   ended.start(0);
@@ -329,11 +334,12 @@ function primeInterlock({ Interlock, Tracker }) {
   stopped.start(0);
   stopped.withdrawn(1);
   stopped.free();
-  const aborted = t.operationRun('o');
-  aborted.start(0);
-  aborted.granted(1);
-  aborted.abort('primer', 2);
-  aborted.free();
+  const interrupted = t.operationRun('o');
+  interrupted.start(0);
+  interrupted.granted(1);
+  interrupted.interrupt('primer', 2);
+  interrupted.free();
+  primeCommands(t, AbortedOperations);
   t.target(0);
   t.deviceHealth(0);
   const sensor = t.sensor('L');
@@ -355,9 +361,55 @@ function primeInterlock({ Interlock, Tracker }) {
   r.reset();
   r.onMsg('go');
   r.refused();
-  r.restore(r.snapshot());
+  r.runState(undefined);
+  r.commands('held');
+  r.onMsg('go');
+  r.command('hold', 'running');
+  r.command('restart', 'held');
+  r.operationStopped();
+  r.command('reset', undefined);
+  r.onMsg('go');
+  r.operationAborted();
+  r.restore(r.snapshot(), []);
   r.free();
   t.free();
+}
+
+/** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded. */
+function primeCommands(t, AbortedOperations) {
+  const run = t.operationRun('o');
+  run.start(0);
+  run.granted(1);
+  run.command('hold', 'primer', 'primer', 2);
+  run.holdFailed('X', 'primer', 3);
+  run.free();
+  const held = t.operationRun('o');
+  held.start(0);
+  held.granted(1);
+  held.command('hold', 'primer', null, 2);
+  held.holdDone(3);
+  const { run: back, effects } = t.restoreRun(held.snapshot({ kind: 'node', id: 'primer' }));
+  effects.length;
+  back.command('restart', 'primer', null, 4);
+  back.restartFailed('X', 'primer', 5);
+  back.free();
+  held.command('restart', 'primer', null, 4);
+  held.restartDone(5);
+  held.command('stop', 'primer', null, 6);
+  held.command('abort', 'primer', null, 7);
+  held.faultApplied(['A'], 8);
+  held.command('reset', 'primer', null, 9);
+  held.free();
+  const aborted = new AbortedOperations(undefined);
+  aborted.ended('o', 'aborted', 'primer', null, 9);
+  aborted.checkStart('p');
+  aborted.state('o');
+  aborted.list();
+  aborted.reset('o');
+  aborted.ended('o', 'aborted', null, null, 10);
+  aborted.command('o', 'reset');
+  aborted.snapshot();
+  aborted.free();
 }
 
 /** A Modbus connection: opened, a poll and its reply, an output, a timeout, closed. */

@@ -62,13 +62,15 @@ module.exports = function (RED) {
   const t = translator(RED, 'sugarshack-journal');
   const userDir = (RED.settings && RED.settings.userDir) || process.cwd();
 
+  // In a hot-standby cluster only the active instance keeps the journal (a standby hears the same plant).
+  const quiet = quietOf(RED);
+  const attachWhileActive = (writer) => journal.attach({ row: (row) => { if (!quiet()) writer.row(row); }, failed: (err) => writer.failed(err) });
+
   // `npm start` sets sugarshackJournal.dir: with no database, the plant still keeps its journal in files.
   const embedded = RED.settings && RED.settings.sugarshackJournal;
   if (embedded && typeof embedded.dir === 'string' && !writers.has('default')) {
     const writer = writerFor(t, { props: { target: 'files', dir: embedded.dir, plantId: embedded.plant, filesMB: embedded.maxMB }, credentials: {}, userDir, id: 'default' });
-    // In a hot-standby cluster only the active instance keeps the journal (a standby hears the same plant).
-    const quiet = quietOf(RED);
-    writer.detach = journal.attach({ row: (row) => { if (!quiet()) writer.row(row); }, failed: (err) => writer.failed(err) });
+    writer.detach = attachWhileActive(writer);
     writers.set('default', writer);
     RED.log.info(t('log.localFiles', { where: writer.target.where }));
   }
@@ -101,7 +103,7 @@ module.exports = function (RED) {
       node.status(status('error', t('status.badSettings')));
       return;
     }
-    writer.detach = journal.attach(writer);
+    writer.detach = attachWhileActive(writer);
     writers.set(node.id, writer);
     refresh();
 

@@ -6,29 +6,63 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus, status } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { seconds } = require('../lib/plant');
+const { readMsg, attributionOf } = require('../lib/request');
+const operator = require('../lib/operator');
+const wasm = require('../lib/wasm');
+
+// The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to this operation's run.
+const COMMANDS = new Set(/** @type {string[]} */ (wasm.load().operatorCommands()));
 
 /**
- * Where a run started by an operation node reports: the node's status, and its
- * msg sent on (or failed) by the instance of the node that is current then.
+ * The status of a run that entered an operator's state (`step`: its index, if in one).
+ * @param {(key: string, subs?: object) => string} t @param {string} state @param {number | null | undefined} step @param {number} total
  */
+function enteredStatus(t, state, step, total) {
+  const n = (step ?? 0) + 1;
+  switch (state) {
+    case 'holding': return status('warning', t('status.holding', { step: n, total }));
+    case 'held': return status('warning', t('status.held', { step: n, total }));
+    case 'restarting': return status('running', t('status.restarting', { step: n, total }));
+    case 'stopping': return status('warning', t('status.stopping', { step: n, total }));
+    case 'aborting': return status('fault', t('status.aborting'));
+    default: return null; // running again: its step shows next
+  }
+}
+
+/** @returns {import('../lib/operation-run').RunPort & Record<string, any>} */
 function nodePort(t, node, msg, send, done, total, id) {
   const port = {
+    owner: /** @type {{ kind: 'node', id: string }} */ ({ kind: 'node', id: node.id }),
     nodeId: node.id,
     node,
     send,
     done,
     /** @type {NodeRed.NodeStatus | null} the run's progress, shown again by the node's next instance */
     shown: null,
-    progress(phase, index, step) {
-      port.shown = phase === 'queued'
-        ? status('warning', t('status.queued'))
-        : status('running', t('status.step', { step: index + 1, total, kind: step.kind === 'returnToIdle' ? t('status.toIdle') : step.kind }));
+    progress(what, index, detail) {
+      if (what === 'entered') {
+        const entered = enteredStatus(t, detail, index, total);
+        if (!entered) return;
+        port.shown = entered;
+      } else {
+        port.shown = what === 'queued'
+          ? status('warning', t('status.queued'))
+          : status('running', t('status.step', { step: (index ?? 0) + 1, total, kind: detail.kind === 'returnToIdle' ? t('status.toIdle') : detail.kind }));
+      }
       if (port.node) port.node.status(port.shown);
     },
     finish(result) {
       msg.operation = result;
       if (!port.node) return;
       port.node.status(status('ok', t('status.done', { time: seconds(result.runMs) })));
+      port.send(msg);
+      if (port.done) port.done();
+    },
+    // An operator's stop: the msg goes on with msg.operation.stopped = true (an orderly end, not an error).
+    stop(result) {
+      msg.operation = result;
+      if (!port.node) return;
+      port.node.status(status('idle', t('status.stopped', { time: seconds(result.runMs) })));
       port.send(msg);
       if (port.done) port.done();
     },
@@ -40,7 +74,8 @@ function nodePort(t, node, msg, send, done, total, id) {
       } else {
         const failed = e.operation;
         msg.operation = failed || { id };
-        const kind = failed ? failed.kind : 'acquire';
+        // Aborted by an operator: the status says so, not where (it waits for a reset).
+        const kind = failed ? (failed.state === 'aborted' ? 'acquire' : failed.kind) : 'acquire';
         const where = !failed || kind === 'acquire' ? null : kind === 'release' ? 'release' : `${(failed.step ?? 0) + 1}/${total}`;
         port.node.status(where ? status('fault', t('status.faultAt', { where })) : errorStatus(e.code));
       }
@@ -89,6 +124,12 @@ module.exports = function (RED) {
           const plan = interlock.plant.plan(id);
           total = plan.steps.length;
           for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.condition(step.condition, step.sensors);
+          // A run of this node saved held came back held after a restart: this node supervises it again.
+          const held = interlock.heldRunOf({ kind: 'node', id: node.id });
+          if (held) {
+            const carrier = { _msgid: RED.util.generateId(), topic: `operation/${id}` };
+            held.takePort(nodePort(t, node, carrier, (m) => node.send(m), null, total, id));
+          }
           if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status(status('idle', t('status.idle')));
         } catch (err) {
           refuseDeploy(node, err);
@@ -96,10 +137,26 @@ module.exports = function (RED) {
       });
     }
 
-    // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, steps }.
+    // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, heldMs, steps }.
+    // A msg whose topic is an operator's command (hold, restart, stop, abort, reset) commands its run instead,
+    // and is completed once the state it entered is saved (or with the refusal).
     node.on('input', (msg, send, done) => {
       if (!interlock) {
         done(new SugarshackError('NO_INTERLOCK', t('errors.noInterlock')));
+        return;
+      }
+      let topic;
+      try {
+        topic = readMsg(() => msg.topic);
+      } catch {
+        topic = undefined; // read again as a start, where the refusal shows
+      }
+      if (typeof topic === 'string' && COMMANDS.has(topic)) {
+        const command = topic;
+        interlock.submit(node, done, (rt) => {
+          const who = readMsg(() => attributionOf(msg));
+          operator.command(rt, { operation: id }, command, who).then(() => done(), (err) => done(err));
+        }, { urgent: true }); // an operator's command never waits for a deploy's drain
         return;
       }
       interlock.submit(node, done, (rt) => rt.startRun(id, msg, nodePort(t, node, msg, send, done, total, id)));

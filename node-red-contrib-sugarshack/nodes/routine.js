@@ -5,8 +5,13 @@ const { SugarshackError, asSugarshackError } = require('../lib/errors');
 const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
-const { readMsg } = require('../lib/request');
+const { readMsg, attributionOf } = require('../lib/request');
 const { clock } = require('../lib/clock');
+const operator = require('../lib/operator');
+const wasm = require('../lib/wasm');
+
+// The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to the routine.
+const COMMANDS = new Set(/** @type {string[]} */ (wasm.load().operatorCommands()));
 
 // Longer than any transition's trigger a plant document names.
 const MAX_TOPIC = 1024;
@@ -40,29 +45,48 @@ module.exports = function (RED) {
       });
     }
 
-    // A msg's topic is its trigger (the core's reset topic goes back to the initial state); the msg is completed at once.
+    /** A refusal shows on the node a while, then its state again; the msg completes with it. */
+    const refused = (err) => {
+      const e = asSugarshackError(err);
+      node.status(errorStatus(e.code));
+      clock.setTimeout(() => host && host.refresh(), 5000);
+      return e;
+    };
+
+    // A msg's topic is its trigger, completed at once; an operator's command (hold, restart, stop, abort,
+    // reset) goes to the routine as the core allows, completed once the state it entered is saved.
     node.on('input', (msg, send, done) => {
       if (!interlock) {
         done(refusal ?? undefined); // set whenever the config node is missing
         return;
       }
-      interlock.submit(node, done, () => {
+      let topic = '';
+      let unreadable = null;
+      try {
+        topic = readMsg(() => String(msg.topic ?? ''));
+      } catch (err) {
+        unreadable = err;
+      }
+      const command = COMMANDS.has(topic);
+      interlock.submit(node, done, (rt) => {
         if (refusal) throw refusal;
         if (!host) throw new SugarshackError('UNKNOWN_ROUTINE', t('errors.notRunning', { id }));
         try {
-          const topic = readMsg(() => String(msg.topic ?? ''));
+          if (unreadable) throw unreadable;
           if (topic.length > MAX_TOPIC) {
             throw new SugarshackError('INVALID_INPUT', t('errors.topicTooLong', { max: MAX_TOPIC, length: topic.length }));
           }
-          host.onMsg(topic);
+          if (!command) {
+            host.onMsg(topic);
+            done();
+            return;
+          }
+          const who = readMsg(() => attributionOf(msg));
+          operator.command(rt, { routine: id }, topic, who).then(() => done(), (err) => done(refused(err)));
         } catch (err) {
-          const e = asSugarshackError(err);
-          node.status(errorStatus(e.code));
-          clock.setTimeout(() => host && host.refresh(), 5000);
-          throw e;
+          throw refused(err);
         }
-        done();
-      });
+      }, { urgent: command }); // an operator's command never waits for a deploy's drain
     });
 
     node.on('close', (removed, done) => {

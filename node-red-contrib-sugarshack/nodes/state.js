@@ -4,9 +4,13 @@
 // change (at most once per interval). The same document as GET /sugarshack/state;
 // a msg with topic 'sugarshack/stats' gets the timing figures instead, the same
 // document as GET /sugarshack/stats (a dashboard needs no admin API access).
-// Topics 'ack', 'shelve' and 'unshelve' act on alarms as the dashboard user
-// (msg._client) or msg.by, then answer with the state.
-const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf } = require('../lib/lifecycle');
+// Topics 'ack', 'shelve' and 'unshelve' act on alarms, and the operator's
+// commands ('hold', 'restart', 'stop', 'abort', 'reset') on msg.operation or
+// msg.routine, as the dashboard user (msg._client) or msg.by, then answer with
+// the state.
+const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf, runCommandOf } = require('../lib/lifecycle');
+const operator = require('../lib/operator');
+const wasm = require('../lib/wasm');
 const { attributionOf } = require('../lib/request');
 const { SugarshackError } = require('../lib/errors');
 const { errorStatus } = require('../lib/status');
@@ -22,13 +26,15 @@ const STATS_TOPIC = 'sugarshack/stats';
 const MIN_INTERVAL_MS = 100;
 /** @type {Set<string | undefined>} */
 const ALARM_TOPICS = new Set(['ack', 'shelve', 'unshelve']);
+/** Whether msg.topic is an operator's command to a run (the core's list). */
+const isRunTopic = (topic) => /** @type {(string | undefined)[]} */ (wasm.load().operatorCommands()).includes(topic);
 
 /**
  * The interlocks an alarm request goes to: msg.interlock when given, else
  * those listing the alarm (every one, to acknowledge all).
  */
 function alarmTargets(t, palette, msg, id) {
-  const ready = [...palette.runtimes].filter(([, rt]) => rt.kind !== 'plant' && rt.state === 'ready');
+  const ready = readyInterlocks(palette);
   if (msg.interlock !== undefined) {
     const found = ready.filter(([rid]) => rid === msg.interlock).map(([, rt]) => rt);
     if (found.length === 0) throw new SugarshackError('NO_INTERLOCK', t('errors.noInterlock', { id: String(msg.interlock).slice(0, 100) }));
@@ -37,6 +43,33 @@ function alarmTargets(t, palette, msg, id) {
   const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.hasAlarm(id));
   if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', t('errors.noAlarm', { id: id.slice(0, 100) }));
   return targets;
+}
+
+/** The ready interlocks, by config node id. */
+const readyInterlocks = (palette) => [...palette.runtimes].filter(([, rt]) => rt.kind !== 'plant' && rt.state === 'ready');
+
+/**
+ * Gives the run msg names the command msg.topic as msg asks; resolves with the
+ * core's answer once saved. Without msg.interlock, the interlock that lists the
+ * run (the only one, when just one runs).
+ */
+function runRequest(t, palette, msg) {
+  const { target, command } = runCommandOf({ operation: msg.operation, routine: msg.routine, command: msg.topic });
+  const who = attributionOf(msg);
+  let ready = readyInterlocks(palette);
+  if (msg.interlock !== undefined) ready = ready.filter(([rid]) => rid === msg.interlock);
+  if (ready.length === 0) throw new SugarshackError('NO_INTERLOCK', t('errors.noInterlock', { id: String(msg.interlock).slice(0, 100) }));
+  const listing = ready.find(([, rt]) => listsRun(rt.describe(), target));
+  return operator.command((listing || ready[0])[1], target, command, { by: who.by, reason: who.reason });
+}
+
+/**
+ * Whether an interlock's description lists the run `target` names.
+ * @param {any} described @param {{ operation?: string, routine?: string }} target
+ */
+function listsRun(described, { operation, routine }) {
+  if (routine !== undefined) return (described.routines || []).some((r) => r.id === routine);
+  return [...(described.runs || []), ...(described.aborted || [])].some((r) => r.operation === operation);
 }
 
 /** Acts on alarms as msg asks; resolves with every change once saved. */
@@ -93,20 +126,30 @@ module.exports = function (RED) {
       }, wait);
     };
 
+    /** A person's request: answered with the state and what it changed (`field`), or done(err) with a red status. */
+    const act = (msg, send, done, request, field) => {
+      let asked;
+      try {
+        asked = request(t, palette, msg);
+      } catch (err) {
+        asked = Promise.reject(err);
+      }
+      asked.then((answer) => {
+        send(Object.assign(msg, message('request'), { topic: msg.topic, [field]: answer }));
+        done();
+      }, (err) => {
+        node.status(errorStatus(err.code));
+        done(err);
+      });
+    };
+
     node.on('input', (msg, send, done) => {
       if (ALARM_TOPICS.has(msg.topic)) {
-        let asked;
-        try {
-          asked = alarmRequest(t, palette, msg);
-        } catch (err) {
-          node.status(errorStatus(err.code));
-          done(err);
-          return;
-        }
-        asked.then((changes) => {
-          send(Object.assign(msg, message('request'), { topic: msg.topic, alarmChanges: changes }));
-          done();
-        }, done);
+        act(msg, send, done, alarmRequest, 'alarmChanges');
+        return;
+      }
+      if (isRunTopic(msg.topic)) {
+        act(msg, send, done, runRequest, 'commanded');
         return;
       }
       if (msg.topic === STATS_TOPIC) {

@@ -116,7 +116,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     await openPlant();
     await typeAt(JSON.stringify(PLANT, null, 2), '"lockout"', 3);
     await page.evaluate(() => RED.nodes.node('pl').editor.trigger('test', 'editor.action.showHover', {}));
-    await page.waitForFunction(() => $('.monaco-hover-content').text().trim() !== '', { timeout: 15000 });
+    // Not Monaco's "Loading..." while its JSON worker starts: the description itself.
+    await page.waitForFunction(() => /safe state/.test($('.monaco-hover-content').text()), { timeout: 15000 });
     const hover = await page.$eval('.monaco-hover-content', (el) => el.innerText.trim());
     // Markdown: its `code` is drawn as code.
     assert.equal(hover, SCHEMA.definitions.Actuator.properties.lockout.markdownDescription.replace(/`/g, ''));
@@ -162,7 +163,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
   async function optionsOf(input) {
     const trigger = `${input} + .red-ui-typedInput-container .red-ui-typedInput-option-trigger`;
     await page.waitForSelector(trigger, { visible: true, timeout: 10000 });
-    await page.click(trigger);
+    // Clicked where it is at that moment: the tray may still be sliding in.
+    await page.$eval(trigger, (el) => el.click());
     await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 10000 });
     return page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
   }
@@ -184,7 +186,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
     // An id the plant does not have yet: typed.
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
     await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', { visible: true, timeout: 10000 });
-    await page.click('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select');
+    await page.$eval('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', (el) => el.click());
     // The value menu may still be fading out: wait for the type menu itself.
     await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1
       && $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').length === 1, { timeout: 10000 });

@@ -11,6 +11,7 @@ const helper = require('node-red-node-test-helper');
 const { PALETTE, paletteNodes, TAB, sinkNode, serverPerTest, clock, runFor, runUntil } = require('./support');
 const { fakePanel, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { paletteApi, VERSION } = require('../../node-red-contrib-sugarshack/lib/api');
+const { paletteOf } = require('../../node-red-contrib-sugarshack/lib/lifecycle');
 
 helper.init(require.resolve('node-red'));
 
@@ -101,6 +102,15 @@ describe('the palette API for other packages (lib/api.js)', function () {
     const cleared = clearEvent();
     assert.deepEqual([cleared.by, cleared.reason, cleared.forced], ['bo', 'valve checked by hand', true]);
     await assert.rejects(api.clear('nope', null, {}), (err) => err.code === 'NO_INTERLOCK');
+    // On a hot standby the refusal names the instance that acts (tests/integration/standby.spec.js runs a real one).
+    const runtime = paletteOf(RED).runtimes.get('il');
+    const [state, cluster] = [runtime.state, runtime.cluster];
+    Object.assign(runtime, { state: 'standby', cluster: { leader: { instance: 'edge-b' } } });
+    try {
+      await assert.rejects(api.clear('il', ['YEL'], {}), (err) => err.code === 'NO_INTERLOCK' && err.message === "interlock 'il' is on standby here: instance edge-b acts");
+    } finally {
+      Object.assign(runtime, { state, cluster });
+    }
   });
 
   it('acknowledges and shelves alarms as the given person; a one-shot shelf ends with its condition', async function () {

@@ -12,7 +12,7 @@ const {
   paletteNodes, TAB, sinkNode, until, trackCompletions, trackDeliveries, untrackCompletions,
   startServer, stopServer, settled, clock, runFor, runUntil,
 } = require('./support');
-const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
+const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, boundPlant } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -74,11 +74,7 @@ const SINKS = ['mqtt', 'ev', 'out', 'caught', 'events', 'rt'];
 function flowOf(doc = plantDocument(), { operations = OPERATIONS } = {}) {
   return [
     TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], ['ev']] },
-    { id: 'ilev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+    ...boundPlant(doc, { persist: true }),
     { id: 'r', z: 'f1', type: 'sugarshack-routine', interlock: 'il', routine: 'silo', wires: [['rt']] },
     ...operations.map((op) => ({ id: `op${op}`, z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: op, wires: [['out']] })),
     ...SINKS.map(sinkNode),
@@ -310,7 +306,10 @@ describe('sugarshack deploys while operations run', function () {
     helper.getNode('r').receive({ topic: 'drain' });
     await quiet();
     assert.equal(statusOf('r').text, 'full › wait 51');
-    assert.deepEqual(runtime().describe().runs, [{ operation: '52', granted: true }, { operation: '51', granted: false }]);
+    const brief = (runs) => runs.map(({ operation, granted, state, routine }) => ({ operation, granted, state, routine }));
+    assert.deepEqual(brief(runtime().describe().runs), [
+      { operation: '52', granted: true, state: 'running', routine: null }, { operation: '51', granted: false, state: 'queued', routine: 'silo' },
+    ]);
 
     await helper.setFlows(flowOf(changedDocument(), { operations: ['52'] }), 'full');
     await quiet();
@@ -340,7 +339,8 @@ describe('sugarshack deploys while operations run', function () {
     await helper.setFlows(flow.filter((n) => n.id !== 'op10'), 'nodes');
     await quiet();
     assert.equal(helper.getNode('op10'), null);
-    assert.deepEqual(runtime().describe().runs, [{ operation: '10', granted: true }], 'the run goes on without its node');
+    assert.deepEqual(runtime().describe().runs.map(({ operation, granted, state }) => ({ operation, granted, state })),
+      [{ operation: '10', granted: true, state: 'running' }], 'the run goes on without its node');
     assert.deepEqual(lines(), { YEL: 'held', GRN: 'free', RED: 'free' });
     assert.equal(completions.filter((c) => c.msgid === msgid && c.error === undefined).length, 1, 'the removed node completed its msg');
 

@@ -11,7 +11,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, trackCompletions, untrackCompletions,
-  startServer, stopServer, settings, settled, userDir, clock, memoryStore, checksumOf, resealed,
+  startServer, stopServer, settings, settled, userDir, clock, memoryStore, checksumOf, resealed, crashCopy,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -47,18 +47,6 @@ function flow(extra = [], config = {}) {
     ...['out', 'relout', 'back', 'lockout', 'cleared', 'events'].map(sinkNode),
     ...extra,
   ];
-}
-
-/** The files a crash (kill -9, a power cut) would leave: copied now, put back after a shutdown. */
-function crashCopy() {
-  const dir = path.join(userDir(), 'sugarshack');
-  const copy = fs.mkdtempSync(path.join(userDir(), 'crash-'));
-  for (const f of fs.readdirSync(dir)) fs.copyFileSync(path.join(dir, f), path.join(copy, f));
-  return () => {
-    fs.rmSync(dir, { recursive: true, force: true });
-    fs.mkdirSync(dir);
-    for (const f of fs.readdirSync(copy)) fs.copyFileSync(path.join(copy, f), path.join(dir, f));
-  };
 }
 
 describe('sugarshack durable interlock state', function () {

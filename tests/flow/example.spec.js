@@ -282,7 +282,7 @@ describe('examples', function () {
     const panels = (flow) => flow.filter((n) => n.type === 'subflow').map((n) => n.name);
     assert.deepEqual(panels(example()), ['sugarshack lines panel', 'sugarshack alarms panel']);
     const inside = example().filter((n) => n.z && example().some((sf) => sf.type === 'subflow' && sf.id === n.z)).map((n) => n.type);
-    assert.deepEqual([...new Set(inside)].sort(), ['change', 'sugarshack-state', 'switch', 'ui-template']);
+    assert.deepEqual([...new Set(inside)].sort(), ['catch', 'change', 'sugarshack-state', 'switch', 'ui-template']);
   });
 
   for (const file of exampleFiles()) {

@@ -247,21 +247,42 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('ResourceConfig[]', config.resources);
   });
 
-  it('the state document: sealed with routines and alarms, opened restored or lost', function () {
+  it('the state document: sealed with routines, alarms, held runs and aborted operations, opened restored or lost', function () {
     const plant = keep(new facade.Tracker(PLANT, 0));
     const config = { resources: plant.interlockResources() };
     const il = keep(new facade.Interlock(config));
-    il.acquire(il.operation('a'), 1, il.resourceSet(['A']), 1);
+    il.acquire(il.operation('o'), 1, il.resourceSet(['A']), 1);
     const routine = keep(plant.routine('r'));
     shapes.expect('RoutineSnapshot', routine.snapshot());
     const alarms = keep(new facade.Alarms());
     alarms.observe([{ kind: 'line-faulted', subject: 'A', text: 'faulted', sinceMs: 1 }], 2);
-    const text = il.seal('il', 'pl', { r: routine.snapshot() }, alarms.snapshot(), 3);
-    const restored = facade.Interlock.open(config, 'il', 'pl', 'test', text, 4);
+    const run = keep(plant.operationRun('o'));
+    run.start(1);
+    run.granted(1);
+    run.command('hold', 'Ann', 'gasket', 2);
+    run.holdDone(2);
+    const held = run.snapshot({ kind: 'node', id: 'op' });
+    shapes.expect('RunSnapshot', held);
+    shapes.expect('RunOwner', held.owner);
+    const aborted = keep(new facade.AbortedOperations(undefined));
+    aborted.ended('x', 'aborted', 'Ann', 'leak', 2);
+    shapes.expect('AbortedOperation[]', aborted.list());
+    const beside = { routines: { r: routine.snapshot() }, alarms: alarms.snapshot(), runs: [held], aborted: aborted.snapshot() };
+    shapes.expect('SavedBeside', beside);
+    const text = il.seal('il', 'pl', beside, 3);
+    const restored = facade.Interlock.openBound(config, 'il', 'pl', 'test', text, 4, plant);
     keep(restored.interlock);
     shapes.expect('OpenedInterlock', restored);
     assert.equal(restored.lost, null);
     assert.deepEqual(Object.keys(restored.routines), ['r']);
+    assert.deepEqual(restored.runs.map((r) => r.operation), ['o'], 'the held run came back held');
+    const back = plant.restoreRun(restored.runs[0]);
+    shapes.expect('RestoredRun', back);
+    keep(back.run);
+    assert.equal(back.run.state(), 'held');
+    const unbound = facade.Interlock.open(config, 'il', 'pl', 'test', text, 4);
+    keep(unbound.interlock);
+    assert.equal(unbound.runsInterrupted.length, 1, 'without a plant no run comes back held');
     const lost = facade.Interlock.open(config, 'other', 'pl', 'test', text, 4);
     keep(lost.interlock);
     shapes.expect('OpenedInterlock', lost);
@@ -356,10 +377,18 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     const failing = keep(t.operationRun('o'));
     effects.push(...failing.start(10), ...failing.granted(11), ...failing.stepFailed(0, 'STEP_TIMEOUT', 'no', 12), ...failing.faultApplied(['A'], 13));
     const withdrawn = keep(t.operationRun('o'));
-    effects.push(...withdrawn.start(20), ...withdrawn.abort('stop', 21), ...withdrawn.withdrawn(22));
+    effects.push(...withdrawn.start(20), ...withdrawn.interrupt('stop', 21), ...withdrawn.withdrawn(22));
+    const commanded = keep(t.operationRun('o'));
+    shapes.expect('RunCommand[]', commanded.commands());
+    effects.push(...commanded.start(30), ...commanded.granted(31), ...commanded.command('hold', 'Ann', null, 32), ...commanded.holdDone(33));
+    shapes.expect('RunState', commanded.state());
+    effects.push(...commanded.command('restart', 'Ann', null, 34), ...commanded.restartDone(35), ...commanded.command('stop', 'Ann', null, 36));
+    effects.push(...commanded.stepDone(0, 37), ...commanded.stepDone(2, 38), ...commanded.released(39));
     shapes.expect('RunEffect[]', effects);
     const kinds = new Set(effects.map((e) => e.kind));
-    for (const kind of ['acquire', 'startStep', 'release', 'finished', 'fault', 'failed']) assert.ok(kinds.has(kind), `an effect of kind ${kind} (got ${[...kinds]})`);
+    for (const kind of ['acquire', 'startStep', 'release', 'finished', 'fault', 'failed', 'hold', 'restore', 'entered', 'cancelStep', 'stopped']) {
+      assert.ok(kinds.has(kind), `an effect of kind ${kind} (got ${[...kinds]})`);
+    }
   });
 
   it('a routine: dispatches, moves, conditions, snapshot', function () {
@@ -374,9 +403,12 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('RoutineMove', r.faulted());
     shapes.expect('RoutineMove', r.reset());
     r.onMsg('go');
+    shapes.expect('RoutineCommanded', r.command('hold', 'running'));
+    shapes.expect('RunState', r.runState('held'));
     const saved = r.snapshot();
     shapes.expect('RoutineSnapshot', saved);
-    shapes.expect('RoutineMove | null', r.restore(saved));
+    shapes.expect('RoutineMove | null', r.restore(saved, ['o']));
+    shapes.expect('RoutineMove', r.operationStopped());
   });
 
   it('the device side: messages and commands', function () {

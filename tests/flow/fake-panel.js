@@ -84,6 +84,36 @@ const fakeValve = (id, io, line) => ({ id, type: 'valve', device: 'ctrl-1', io, 
 /** Pump P1 of panel ctrl-1 on `line`, idle and locked out off. */
 const fakePump = (line) => ({ id: 'P1', type: 'pump', device: 'ctrl-1', io: 1, idle: false, lockout: false, resource: line });
 
+/** Op 10 of the tests' plants: it loads a truck on YEL (valves open, pump on, wait for LT-3, pump off); `extra` adds to it. */
+function loadTruck(extra = {}) {
+  return {
+    id: '10', description: 'load truck', priority: 20, resources: ['YEL'], ...extra, steps: [
+      { command: { valves: { V101: 100, V102: 100 } }, timeoutMs: 3000 },
+      { command: { pumps: { P1: true } }, timeoutMs: 3000 },
+      { wait: '`LT-3` >= 100', sensors: ['LT-3'], timeoutMs: 600 },
+      { command: { pumps: { P1: false } }, timeoutMs: 3000 },
+    ],
+  };
+}
+
+/** Op 12 of the tests' plants: it unloads a truck on YEL. */
+const unloadTruck = () => ({ id: '12', description: 'unload truck', priority: 22, resources: ['YEL'], steps: [{ command: { valves: { V101: 50 } }, timeoutMs: 3000 }] });
+
+/**
+ * The plant node of document `doc`, interlock `il` bound to it, its actuators
+ * node (commands to helper `mqtt`, events to `ev`), the interlock's events
+ * node (to `events`) and a Catch node (to `caught`).
+ */
+function boundPlant(doc, { persist = false } = {}) {
+  return [
+    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
+    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist },
+    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], ['ev']] },
+    { id: 'ilev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
+    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+  ];
+}
+
 /** The truck routine of the tests' plants: empty, full and its error state fault; op 10 loads it on 'load', then `rest`. */
 function truckRoutine(...rest) {
   return {
@@ -92,4 +122,4 @@ function truckRoutine(...rest) {
   };
 }
 
-module.exports = { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine };
+module.exports = { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine, loadTruck, unloadTruck, boundPlant };

@@ -473,7 +473,7 @@ describe('sugarshack fuzz', function () {
       if (!done.some((c) => c.error)) problems.push(`${id}: node.error without a failed completion (an exception?): ${call.args[0]}`);
     }
     if (open().length > 0) {
-      const runs = [...il().runs].map((r) => ({ operation: r.operation, granted: r.granted, ended: r.ended, step: r.current && r.current.index, phase: r.run && r.run.phase() }));
+      const runs = [...il().runs].map((r) => ({ operation: r.operation, granted: r.granted, ended: r.ended, step: r.current && r.current.index, state: r.run && r.run.state() }));
       problems.push(`still open: runs ${JSON.stringify(runs)}, interlock ${JSON.stringify(il().describe()).slice(0, 600)}`);
     }
     assert.deepEqual(problems.slice(0, 20), [], `${problems.length} problems`);

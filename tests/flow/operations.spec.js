@@ -12,7 +12,9 @@ const {
   paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, trackDeliveries, untrackCompletions,
   startServer, stopServer, settled, clock, userDir, runFor, runUntil,
 } = require('./support');
-const { fakePanel: panelOf, sensor: sensorOf, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine } = require('./fake-panel');
+const {
+  fakePanel: panelOf, sensor: sensorOf, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine, loadTruck, unloadTruck, boundPlant,
+} = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -26,15 +28,8 @@ function plantDocument() {
     sensors: [{ id: 'LT-3', device: 'station-3', name: 'volume', staleMs: 400 }],
     resources: [{ id: 'YEL' }, { id: 'RED' }],
     operations: [
-      {
-        id: '10', description: 'load truck', priority: 20, resources: ['YEL'], steps: [
-          { command: { valves: { V101: 100, V102: 100 } }, timeoutMs: 3000 },
-          { command: { pumps: { P1: true } }, timeoutMs: 3000 },
-          { wait: '`LT-3` >= 100', sensors: ['LT-3'], timeoutMs: 600 },
-          { command: { pumps: { P1: false } }, timeoutMs: 3000 },
-        ],
-      },
-      { id: '12', description: 'unload truck', priority: 22, resources: ['YEL'], steps: [{ command: { valves: { V101: 50 } }, timeoutMs: 3000 }] },
+      loadTruck(),
+      unloadTruck(),
       { id: '18', description: 'flit downstock', priority: 92, resources: ['YEL', 'RED'], steps: [{ command: { valves: { V102: 100, V501: 100 } }, timeoutMs: 3000 }] },
     ],
     routines: [truckRoutine(
@@ -48,11 +43,7 @@ const SINKS = ['mqtt', 'ev', 'out', 'caught', 'events', 'rt', 'w'];
 function flowOf(extra, doc, { persist = false } = {}) {
   return [
     TAB,
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], ['ev']] },
-    { id: 'ilev', z: 'f1', type: 'sugarshack-interlock-events', interlock: 'il', wires: [['events']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+    ...boundPlant(doc, { persist }),
     ...SINKS.map(sinkNode),
     ...extra,
   ];

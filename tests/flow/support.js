@@ -217,6 +217,29 @@ async function runUntil(helper, predicate, what, { ids = ['il'], step = 5, maxMs
   return passed;
 }
 
+/** Shorthands of a flow test on interlock `id`: its runtime, settling, running the clock (until), a node's last status. */
+function onInterlock(helper, id = 'il') {
+  return {
+    runtime: () => helper.getNode(id).runtime,
+    quiet: () => settled(helper, id),
+    run: (ms) => runFor(helper, ms, { ids: [id] }),
+    runTill: (predicate, what) => runUntil(helper, predicate, what, { ids: [id] }),
+    statusOf: (node) => helper.getNode(node).status.getCalls().filter((c) => c.thisValue.id === node).map((c) => c.args[0]).at(-1),
+  };
+}
+
+/** The interlocks' state files a crash (kill -9, a power cut) would leave: copied now; the function returned puts them back after a shutdown. */
+function crashCopy() {
+  const dir = path.join(current.userDir, 'sugarshack');
+  const copy = fs.mkdtempSync(path.join(current.userDir, 'crash-'));
+  for (const f of fs.readdirSync(dir)) fs.copyFileSync(path.join(dir, f), path.join(copy, f));
+  return () => {
+    fs.rmSync(dir, { recursive: true, force: true });
+    fs.mkdirSync(dir);
+    for (const f of fs.readdirSync(copy)) fs.copyFileSync(path.join(copy, f), path.join(dir, f));
+  };
+}
+
 /**
  * A context store module (for `settings({ contextStorage })`) over `data`
  * (scope -> key -> value), values kept as JSON as a store on disk keeps them.
@@ -252,6 +275,6 @@ function memoryStore(data, get = (scope, key, cb) => cb(null, (data[scope] || {}
 }
 
 module.exports = {
-  checksumOf, resealed, memoryStore, PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
+  checksumOf, resealed, crashCopy, onInterlock, memoryStore, PALETTE, paletteNodes, subflowNodes, subflowCoreNodes, SUBFLOW_FILES, catchNode, catchOnce, startServer, startRealTimeServer, stopServer, serverPerTest, completions, settings, settled, clock, userDir, linkNodes, LINES, lockoutOf, TAB,
   interlockConfig, acquire, release, sinkNode, collect, sleep, until, runFor, runUntil, trackCompletions, trackDeliveries, untrackCompletions,
 };

@@ -198,12 +198,15 @@ describe('hot standby chaos: leaders killed and paused, etcd members killed, two
         await checkTakeover(next, faultedBefore, at);
         await bothUp();
       } else if (step === 'etcd-one') {
+        const tokenBefore = (await pair.clusterOf(leader)).token;
         await etcd.kill(Math.floor(rnd() * 3));
         const since = Date.now();
         const op = pick(OPERATIONS);
         await probe.publish(`test/estop/${op.lines[0]}`, 'e-stop');
         await waitFor(() => lockoutSeen(commands(), op.lines[0], since), 'a lockout with one etcd member down', 10000);
-        assert.equal((await pair.clusterOf(leader)).role, 'active', 'one member down: nothing changes');
+        // Keep-alives on the killed member may suspend the leader for a moment (its 2 s lease): it comes back under the same token.
+        await waitFor(async () => (await pair.clusterOf(leader) || {}).role === 'active', 'the leader active with one member down', 10000);
+        assert.equal((await pair.clusterOf(leader)).token, tokenBefore, 'one member down: nothing changes');
         checks.push('one etcd member down: the leader acts');
         for (let i = 0; i < 3; i++) if (!etcd.alive(i)) await etcd.restart(i);
       } else {
@@ -221,7 +224,8 @@ describe('hot standby chaos: leaders killed and paused, etcd members killed, two
         checks.push('quorum lost: the lockout went out');
         await probe.publish(`test/op/${op.id}`, 'go');
         await waitFor(async () => (await pair.clusterOf(leader) || {}).role === 'suspended', 'the leader suspended', TTL_S * 1000 + 5000);
-        assert.equal(events(since).filter((e) => e.kind === 'granted').length, 0, 'nothing granted without quorum');
+        // By the event's own time: a grant committed before the kills may arrive after them.
+        assert.equal(events(since).filter((e) => e.kind === 'granted' && e.atMs >= since).length, 0, 'nothing granted without quorum');
         assert.equal((await pair.clusterOf(standby)).role, 'standby', 'nobody took over');
         for (const v of victims) await etcd.restart(v);
         await waitFor(async () => (await pair.clusterOf(leader) || {}).role === 'active', 'the leader active again by itself', 30000);

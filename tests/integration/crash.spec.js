@@ -83,8 +83,9 @@ describe('power cuts: SIGKILL of a real Node-RED process, restarted on the same 
     };
 
     for (let kill = 0; kill <= KILLS; kill++) {
-      await red.start();
+      // Before the start: its lockouts may go out before start() sees the log say so.
       const restartedAt = Date.now();
+      await red.start();
       const lines = await red.lines('il');
       replay();
       log(`run ${kill}: restarted with ${JSON.stringify(lines)}`);

@@ -39,6 +39,16 @@ const { mqttBroker } = require('./support/node-red');
 const PLANT = loadPlant(SMALL_PLANT);
 
 /** Rows in the server: one per `<table>_seq` sample, as { table, tags, seq, at }. */
+/** The rows in the server once `count` of those `kept` can be searched (VictoriaMetrics answers a write before). */
+async function rowsOnceSearchable(vm, count, kept = () => true) {
+  let rows = [];
+  await waitFor(async () => {
+    rows = (await rowsIn(vm)).filter(kept);
+    return rows.length >= count;
+  }, `${count} rows searchable in the server`, 20000).catch(() => {});
+  return rows;
+}
+
 async function rowsIn(vm, table = 'sugarshack_.*') {
   const samples = await vm.export(`{__name__=~"${table}_seq"}`);
   return samples.map(({ metric, value, at }) => {
@@ -216,8 +226,8 @@ describe('journal on VictoriaMetrics', function () {
         waited += 1;
         assert.ok(waited <= 10, 'the backlog drains within the longest retry delay');
       }
-      const rows = await rowsIn(vm);
       const total = writer.metrics().rows;
+      const rows = await rowsOnceSearchable(vm, total);
       assert.deepEqual(rows.map((r) => r.seq), Array.from({ length: total }, (_, i) => i + 1), 'no row missing, none twice');
       assert.ok(rows.every((r, i) => i === 0 || r.at >= rows[i - 1].at), 'in the order they happened');
       assert.equal(rows.filter((r) => r.table === 'sugarshack_datapoint').length, s * 5);
@@ -250,7 +260,7 @@ describe('journal on VictoriaMetrics', function () {
       await vm.start();
       for (let i = 0; i < 10 && writer.metrics().backlog > 0; i++) await run(1, 1000 + i);
       // Rows made after the server came back were sent too: only those of the outage count here.
-      const rows = (await rowsIn(vm)).filter((r) => r.seq <= sizes.length);
+      const rows = await rowsOnceSearchable(vm, kept.length, (r) => r.seq <= sizes.length);
       assert.deepEqual(rows.map((r) => r.seq), kept);
     });
   });

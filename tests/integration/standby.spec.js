@@ -11,7 +11,9 @@
 //
 // Run: npx mocha --timeout 30000 --exit tests/integration/standby.spec.js
 const assert = require('node:assert/strict');
+const path = require('path');
 const { Etcd3 } = require('etcd3');
+const { readJournal } = require('../../node-red-contrib-sugarshack/lib/journal/files');
 const { startEtcd } = require('./support/etcd');
 const { startMosquitto } = require('./support/mosquitto');
 const { connectProbe } = require('./support/mqtt-probe');
@@ -21,6 +23,7 @@ const { StandbyPair } = require('./support/standby');
 const { PLANT_FILE, OPERATIONS, lockoutSeen: lockoutSeenAmong } = require('./support/routines-flow');
 
 const TTL_S = 2;
+const journalOf = (red) => readJournal(path.join(red.dir, 'journal'));
 
 describe('hot standby: two real Node-RED processes on a real etcd, the leader killed', function () {
   this.timeout(240000);
@@ -87,6 +90,10 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     assert.ok(before.every((e) => e.instance === leader.instance && e.token === token), `every event from ${leader.instance} under token ${token}: ${JSON.stringify(before)}`);
     assert.equal(before.filter((e) => e.kind === 'granted' && e.operation === op.id).length, 1, 'granted once, not by both');
 
+    // Only the leader keeps the journal: the standby hears the same feedback and writes none of it.
+    await waitFor(() => journalOf(leader).some((r) => r.table === 'sugarshack_event' && r.tags.kind === 'granted'), 'the grant in the leader\'s journal');
+    assert.deepEqual(journalOf(standby), [], 'the standby journals nothing');
+
     // Before the pid's stale watch (3 s) could send again, a standby's copy of the step would have come long ago.
     const steps = probe.on('test/pid/out').filter((m) => m.at - firstStep.at < 2500);
     assert.equal(steps.length, 1, 'one pid output for one measurement: the standby\'s pid sent nothing');
@@ -99,9 +106,10 @@ describe('hot standby: two real Node-RED processes on a real etcd, the leader ki
     assert.equal(lines.RED, 'faulted:manual', 'the e-stop stays latched');
     for (const line of op.lines) assert.ok(lines[line].startsWith('faulted'), `${line}, granted to ${op.id} before the kill, comes back faulted: ${lines[line]}`);
     for (const line of ['RED', ...op.lines]) await waitFor(() => lockoutSeen(line, killedAt), `the lockout of ${line} sent again by the new leader`, 20000);
-    const after = events(killedAt);
     const nextToken = (await pair.clusterOf(next)).token;
     assert.ok(Number(nextToken) > Number(token), 'a newer fencing token');
+    await waitFor(() => events(killedAt).some((e) => e.token === nextToken), 'the new leader\'s first event');
+    const after = events(killedAt);
     // What the old leader published just before its kill may arrive just after; from the new leader's first event on, only it acts.
     const fromNew = after.slice(after.findIndex((e) => e.token === nextToken));
     assert.ok(fromNew.length > 0 && fromNew.every((e) => e.instance === next.instance && e.token === nextToken), `only the new leader acts: ${JSON.stringify(after.map((e) => [e.instance, e.token, e.kind]))}`);

@@ -4,8 +4,9 @@
 // YEL within the time the README states (derived from the plant document by
 // scripts/walkthrough-times.js), its lockout completes within a sweep; then,
 // cleared, with the truck routine in its fault state, "stuck V101" and "run op 10 now"
-// fault it again within the stated time after the click. The README must
-// state those figures.
+// fault it again within the stated time after the click; then, cleared, "run
+// op 10 now", "hold op 10" and "restart op 10" hold and restart its fill.
+// The README must state those figures.
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
@@ -55,6 +56,12 @@ describe('the README\'s fault walkthrough, as written', function () {
       }
       throw new Error(`${what} did not happen within ${ms} ms`);
     }
+    // What an inject's button does (it answers "OK", not JSON).
+    const click = async (name) => {
+      const flows = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8'));
+      const res = await fetch(`http://127.0.0.1:${red.port}/inject/${flows.find((n) => n.type === 'inject' && n.name === name).id}`, { method: 'POST' });
+      assert.equal(res.status, 200, `the button of '${name}'`);
+    };
     const lockoutDone = async () => (await red.get('/sugarshack/state')).plants[0].lockoutsPending.length === 0;
 
     it('1-2. started with V101 jammed, op 10 faults YEL within the stated time and its lockout completes within a sweep', async function () {
@@ -77,12 +84,6 @@ describe('the README\'s fault walkthrough, as written', function () {
       await waitFor(async () => (await yel()).clearBlockers.length === 0, 'YEL clearable', 20000);
       await red.request('POST', '/sugarshack/clear', { interlock: (await red.get('/sugarshack/state')).interlocks[0].id, lines: ['YEL'] });
       assert.equal((await yel()).state.state, 'free', 'nothing queued for YEL took it: the truck routine is in its fault state');
-      const flows = JSON.parse(fs.readFileSync(path.join(ROOT, 'flows', 'case-study.json'), 'utf8'));
-      // What the inject's button does (it answers "OK", not JSON).
-      const click = async (name) => {
-        const res = await fetch(`http://127.0.0.1:${red.port}/inject/${flows.find((n) => n.type === 'inject' && n.name === name).id}`, { method: 'POST' });
-        assert.equal(res.status, 200, `the button of '${name}'`);
-      };
       await click('stuck V101 (YEL)');
       await sleep(1000); // the simulator takes it over MQTT
       const clicked = Date.now();
@@ -92,6 +93,33 @@ describe('the README\'s fault walkthrough, as written', function () {
       assert.equal(fault.fault.operation, '10');
       assert.ok(tookMs <= times.faultS * 1000 + SLACK_MS, `YEL faulted ${tookMs} ms after the click; the README says about ${times.faultS} s`);
       assert.ok(tookMs >= times.faultS * 1000 - SLACK_MS, `YEL faulted ${tookMs} ms after the click, sooner than the ${times.faultS} s the valve is given`);
+    });
+
+    it('4. with YEL cleared, "run op 10 now", then "hold op 10" while the truck fills: P1 off and V101 closed, YEL held by op 10; "restart op 10": it fills again', async function () {
+      await sim.inject({ fault: 'clear' });
+      await waitFor(async () => (await yel()).clearBlockers.length === 0, 'YEL clearable', 20000);
+      await red.request('POST', '/sugarshack/clear', { interlock: (await red.get('/sugarshack/state')).interlocks[0].id, lines: ['YEL'] });
+      const panel = sim.devices['ctrl-1'];
+      const truckL = () => sim.hydraulics.tanks.get('T-truck').volumeL;
+      const opRun = async () => {
+        const s = await red.get('/sugarshack/state');
+        return [...(s.runs || []), ...s.interlocks.flatMap((i) => i.runs || [])].find((r) => r.operation === '10') || {};
+      };
+      await click('run op 10 now');
+      await waitFor(() => panel.pumps[1].running && truckL() > 0, 'op 10 filling the truck', 60000);
+      await click('hold op 10');
+      await waitFor(async () => (await opRun()).state === 'held', 'op 10 held', 30000);
+      await waitFor(() => !panel.pumps[1].running && panel.valves[1].position < 3, 'P1 off and V101 closed (op 10\'s hold command)', 15000);
+      const yelHeld = await yel();
+      assert.deepEqual([yelHeld.state.state, yelHeld.state.operation], ['held', '10'], 'YEL stays held by op 10');
+      const heldL = truckL();
+      await sleep(2000);
+      assert.ok(Math.abs(truckL() - heldL) < 1, 'the truck stopped filling');
+      await click('restart op 10');
+      await waitFor(() => panel.pumps[1].running && panel.valves[1].position > 97 && truckL() > heldL + 10, 'V101 open, P1 on and the truck filling again', 30000);
+      assert.equal((await opRun()).state, 'running');
+      const readme = fs.readFileSync(path.join(ROOT, 'README.md'), 'utf8');
+      for (const words of ['*hold op 10*', '*restart op 10*', '`held 3/5`', '(P1 off, V101 closed)']) assert.ok(readme.includes(words), `the README says ${words}`);
     });
   });
 });

@@ -933,6 +933,21 @@ mod tests {
         );
     }
 
+    /// `condition` observed from 0 until just before `on_delay`: no alarm yet.
+    fn quiet_until_on_delay(
+        alarms: &mut Alarms,
+        condition: &Condition,
+        on_delay: Millis,
+        why: &str,
+    ) {
+        let held = std::slice::from_ref(condition);
+        alarms.observe(held, ms(0)).unwrap();
+        alarms
+            .observe(held, on_delay.saturating_sub(ms(1)))
+            .unwrap();
+        assert_eq!(alarms.list().count(), 0, "{why}");
+    }
+
     #[test]
     fn a_lost_broker_is_an_alarm_only_once_lost_for_its_on_delay() {
         let mut alarms = Alarms::new();
@@ -942,14 +957,7 @@ mod tests {
             text: "lost".into(),
             since_ms: None,
         };
-        alarms.observe(std::slice::from_ref(&lost), ms(0)).unwrap();
-        alarms
-            .observe(
-                std::slice::from_ref(&lost),
-                BUS_ON_DELAY_MS.saturating_sub(ms(1)),
-            )
-            .unwrap();
-        assert_eq!(alarms.list().count(), 0, "still connecting");
+        quiet_until_on_delay(&mut alarms, &lost, BUS_ON_DELAY_MS, "still connecting");
         alarms.observe(&[], BUS_ON_DELAY_MS).unwrap();
         alarms
             .observe(
@@ -1073,14 +1081,12 @@ mod tests {
     fn an_etcd_member_is_down_only_once_silent_for_its_on_delay() {
         let mut alarms = Alarms::new();
         let down = Condition::new(AlarmKind::EtcdMemberDown, "http://10.0.0.5:2379");
-        alarms.observe(std::slice::from_ref(&down), ms(0)).unwrap();
-        alarms
-            .observe(
-                std::slice::from_ref(&down),
-                ETCD_MEMBER_ON_DELAY_MS.saturating_sub(ms(1)),
-            )
-            .unwrap();
-        assert_eq!(alarms.list().count(), 0, "one health check missed");
+        quiet_until_on_delay(
+            &mut alarms,
+            &down,
+            ETCD_MEMBER_ON_DELAY_MS,
+            "one health check missed",
+        );
         alarms
             .observe(std::slice::from_ref(&down), ETCD_MEMBER_ON_DELAY_MS)
             .unwrap();

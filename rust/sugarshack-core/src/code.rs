@@ -160,8 +160,16 @@ codes! {
     AlreadyStarted = "ALREADY_STARTED", "already started", "the run has already started";
     /// A step index or step outcome that does not fit the run.
     InvalidStep = "INVALID_STEP", "invalid step", "the step does not fit the run";
-    /// A run stopped because its supervisor went away.
-    Aborted = "ABORTED", "stopped", "the run was stopped";
+    /// A run aborted: by an operator's abort, or because its supervisor went away.
+    Aborted = "ABORTED", "aborted", "the run was aborted";
+    /// A command the state of an operation or routine does not allow (a restart of a running operation).
+    CommandRefused = "COMMAND_REFUSED", "command refused", "the state does not allow the command";
+    /// A start of an operation that was aborted and not reset since.
+    OperationAborted = "OPERATION_ABORTED", "aborted: reset it", "the operation was aborted and waits for a reset";
+    /// A run an operator stopped before it completed.
+    OperationStopped = "OPERATION_STOPPED", "stopped", "an operator stopped the operation";
+    /// An operator's command to an operation or routine that neither runs nor waits for a reset on the interlock.
+    UnknownRun = "UNKNOWN_RUN", "not running", "nothing of that id runs here";
     /// A condition that did not hold within its timeout.
     ConditionTimeout = "CONDITION_TIMEOUT", "condition timeout", "the condition did not hold in time";
     /// A condition that cannot be compiled or evaluated.
@@ -190,6 +198,8 @@ codes! {
     NoTransition = "NO_TRANSITION", "no transition", "no transition fits the trigger";
     /// A routine halted after a fault, waiting for a reset.
     RoutineHalted = "ROUTINE_HALTED", "halted", "the routine halted after a fault";
+    /// A trigger of a held routine.
+    RoutineHeld = "ROUTINE_HELD", "held", "the routine is held";
     /// An operation's return while none is pending.
     NotPending = "NOT_PENDING", "nothing pending", "no operation is pending";
 

@@ -14,6 +14,7 @@ pub mod interlock;
 pub mod json;
 pub mod operation;
 pub mod plant;
+pub mod procedure;
 pub mod routine;
 pub mod sealed;
 pub mod sensor;

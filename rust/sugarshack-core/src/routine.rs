@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::code::Code;
 use crate::plant::{Edge, Plant, RoutineGraph, StateId, Trigger};
+use crate::procedure::{self, Command, CommandRefused, State};
 use crate::text::quote;
 use crate::time::Millis;
 
@@ -57,6 +58,14 @@ pub enum RoutineError {
         /// Why, in words a person acts on.
         reason: String,
     },
+    /// A command (or a trigger) its state, or its operation's, does not allow.
+    Refused(CommandRefused),
+}
+
+impl From<CommandRefused> for RoutineError {
+    fn from(refusal: CommandRefused) -> Self {
+        RoutineError::Refused(refusal)
+    }
 }
 
 impl RoutineError {
@@ -69,6 +78,7 @@ impl RoutineError {
             Self::Halted { .. } => Code::RoutineHalted,
             Self::NotPending { .. } => Code::NotPending,
             Self::InvalidSnapshot { .. } => Code::InvalidSnapshot,
+            Self::Refused(refusal) => refusal.code,
         }
     }
 }
@@ -106,6 +116,7 @@ impl fmt::Display for RoutineError {
                 write!(f, "routine '{}' has no operation pending", quote(routine))
             }
             Self::InvalidSnapshot { reason } => write!(f, "invalid routine snapshot: {reason}"),
+            Self::Refused(refusal) => refusal.fmt(f),
         }
     }
 }
@@ -141,7 +152,7 @@ pub struct Moved {
 }
 
 /// What survives a restart: the state, and the operation that was pending (if any).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
 pub struct RoutineSnapshot {
     /// The routine's id.
@@ -154,6 +165,15 @@ pub struct RoutineSnapshot {
     /// Whether it was halted.
     #[serde(default)]
     pub halted: bool,
+    /// Whether an operator held it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub held: bool,
+    /// Whether an operator stopped it (it waits for a reset).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub stopped: bool,
+    /// Whether an operator aborted it (it waits for a reset).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub aborted: bool,
 }
 
 /// One routine's state machine.
@@ -163,6 +183,12 @@ pub struct RoutineMachine {
     state: StateId,
     pending: Option<usize>,
     halted: bool,
+    /// An operator's hold: it fires no trigger until a restart.
+    held: bool,
+    /// An operator's stop: it fires no trigger until a reset.
+    stopped: bool,
+    /// An operator's abort: it fires no trigger until a reset.
+    aborted: bool,
     /// Per transition: when its condition was last handed out for evaluation.
     checked: Vec<Option<Millis>>,
 }
@@ -180,14 +206,23 @@ impl RoutineMachine {
             graph,
             pending: None,
             halted: false,
+            held: false,
+            stopped: false,
+            aborted: false,
         })
     }
 
-    /// Back to a saved state (on a machine just made). An operation that was pending
-    /// at the save did not return (the restart interrupted it, and the interlock
-    /// faulted it), so it counts as faulted: the move that caused is returned.
-    /// A refused snapshot changes nothing.
-    pub fn restore(&mut self, snapshot: &RoutineSnapshot) -> Result<Option<Moved>, RoutineError> {
+    /// Back to a saved state (on a machine just made). An operation that was
+    /// pending at the save came back held if it is in `held` (its run survived
+    /// the restart held, and goes on when restarted); any other did not return
+    /// (the restart interrupted it, and the interlock faulted it), so it
+    /// counts as faulted: the move that caused is returned. A refused snapshot
+    /// changes nothing.
+    pub fn restore(
+        &mut self,
+        snapshot: &RoutineSnapshot,
+        held: &[&str],
+    ) -> Result<Option<Moved>, RoutineError> {
         let id = self.graph.id();
         if snapshot.routine != id {
             return Err(RoutineError::InvalidSnapshot {
@@ -227,11 +262,16 @@ impl RoutineMachine {
         };
         self.enter(state);
         self.halted = snapshot.halted;
+        self.held = snapshot.held;
+        self.stopped = snapshot.stopped;
+        self.aborted = snapshot.aborted;
         self.pending = pending;
-        if pending.is_none() {
-            return Ok(None);
+        match snapshot.pending.as_deref() {
+            None => Ok(None),
+            Some(operation) if held.contains(&operation) => Ok(None),
+            Some(_) if self.aborted => self.operation_aborted().map(Some),
+            Some(_) => self.faulted().map(Some),
         }
-        self.faulted().map(Some)
     }
 
     /// What survives a restart.
@@ -241,6 +281,9 @@ impl RoutineMachine {
             state: self.state().into(),
             pending: self.pending().map(Into::into),
             halted: self.halted,
+            held: self.held,
+            stopped: self.stopped,
+            aborted: self.aborted,
         }
     }
 
@@ -276,6 +319,96 @@ impl RoutineMachine {
         ops
     }
 
+    /// Its ISA-88 state, `operation` being its pending operation's (if any):
+    /// an operation held, restarted, stopped or aborted on its own shows in
+    /// its routine.
+    pub fn run_state(&self, operation: Option<State>) -> State {
+        let pending = self.pending.is_some();
+        let operation = operation.filter(|_| pending);
+        if self.aborted {
+            return if pending {
+                State::Aborting
+            } else {
+                State::Aborted
+            };
+        }
+        if self.halted {
+            return State::Faulted;
+        }
+        if self.stopped {
+            return if pending {
+                State::Stopping
+            } else {
+                State::Stopped
+            };
+        }
+        match operation {
+            Some(
+                state @ (State::Holding
+                | State::Held
+                | State::Restarting
+                | State::Stopping
+                | State::Aborting),
+            ) => state,
+            _ if self.held => State::Held,
+            _ if pending || self.state != self.graph.initial() => State::Running,
+            _ => State::Idle,
+        }
+    }
+
+    /// The operator's commands allowed now (`operation`: its pending operation's state).
+    pub fn commands(&self, operation: Option<State>) -> Vec<Command> {
+        let state = self.run_state(operation);
+        procedure::ROUTINE
+            .commands(state)
+            .into_iter()
+            .filter(|&c| self.clone().command(c, operation).is_ok())
+            .collect()
+    }
+
+    /// The command its pending operation gets for `command`, if any; refused
+    /// when the operation's state does not take it.
+    fn forwarded(
+        &self,
+        command: Command,
+        operation: Option<State>,
+    ) -> Result<Option<Command>, CommandRefused> {
+        let (Some(id), Some(state)) = (self.pending(), operation) else {
+            return Ok(None);
+        };
+        match command {
+            Command::Restart if state != State::Held => Ok(None),
+            Command::Hold | Command::Restart | Command::Stop | Command::Abort => {
+                procedure::OPERATION.check(id, state, command)?;
+                Ok(Some(command))
+            }
+            Command::Start | Command::Reset => Ok(None),
+        }
+    }
+
+    /// An operator's command, `operation` being its pending operation's state:
+    /// the command for that operation, if it gets one. Refused (nothing
+    /// changed) when its table or its operation's does not allow it.
+    pub fn command(
+        &mut self,
+        command: Command,
+        operation: Option<State>,
+    ) -> Result<(Option<Command>, Option<Moved>), RoutineError> {
+        let state = self.run_state(operation);
+        procedure::ROUTINE.check(self.id(), state, command)?;
+        let forward = self.forwarded(command, operation)?;
+        match command {
+            // With an operation pending, the hold is the operation's (its state shows here).
+            Command::Hold => self.held = forward.is_none(),
+            Command::Restart => self.held = false,
+            Command::Stop => self.stopped = true,
+            Command::Abort => self.aborted = true,
+            Command::Reset => return self.reset().map(|moved| (None, Some(moved))),
+            Command::Start => {}
+        }
+        Ok((forward, None))
+    }
+
     fn ready(&self) -> Result<(), RoutineError> {
         if let Some(operation) = self.pending() {
             return Err(RoutineError::Busy {
@@ -289,6 +422,7 @@ impl RoutineMachine {
                 state: self.state().into(),
             });
         }
+        procedure::ROUTINE.check(self.id(), self.run_state(None), Command::Start)?;
         Ok(())
     }
 
@@ -416,6 +550,22 @@ impl RoutineMachine {
         Ok(self.moved(from, Some(operation), halted))
     }
 
+    /// The pending operation was stopped: the routine stays where it was, stopped until a reset.
+    pub fn operation_stopped(&mut self) -> Result<Moved, RoutineError> {
+        let t = self.take_pending()?;
+        let (from, operation) = (t.from, t.operation.clone());
+        self.stopped = true;
+        Ok(self.moved(from, Some(operation), false))
+    }
+
+    /// The pending operation was aborted: the routine stays where it was, aborted until a reset.
+    pub fn operation_aborted(&mut self) -> Result<Moved, RoutineError> {
+        let t = self.take_pending()?;
+        let (from, operation) = (t.from, t.operation.clone());
+        self.aborted = true;
+        Ok(self.moved(from, Some(operation), false))
+    }
+
     fn take_pending(&mut self) -> Result<&Edge, RoutineError> {
         let t = self
             .pending
@@ -426,7 +576,8 @@ impl RoutineMachine {
         Ok(&self.graph.edges()[t])
     }
 
-    /// Back to the initial state (an operator's reset); refused while an operation runs.
+    /// Back to the initial state (an operator's reset, which also ends a
+    /// hold, a stop or an abort); refused while an operation runs.
     pub fn reset(&mut self) -> Result<Moved, RoutineError> {
         if let Some(operation) = self.pending() {
             return Err(RoutineError::Busy {
@@ -436,6 +587,9 @@ impl RoutineMachine {
         }
         let from = self.state;
         self.halted = false;
+        self.held = false;
+        self.stopped = false;
+        self.aborted = false;
         self.enter(self.graph.initial());
         Ok(self.moved(from, None, false))
     }

@@ -3,9 +3,10 @@
 
 use serde_json::json;
 use sugarshack_core::operation::{
-    OperationPlan, OperationRun, Phase, PlanStep, RunEffect, Stage, StepKind, StepRecord,
+    OperationPlan, OperationRun, PlanStep, RunEffect, Stage, StepKind, StepRecord,
 };
-use sugarshack_core::plant::{GroupCommand, Plant, PlantModel};
+use sugarshack_core::plant::{GroupCommand, Plant, PlantModel, RestartRule, StopRule};
+use sugarshack_core::procedure::State;
 use sugarshack_core::time::ms;
 
 /// A group command as a plant document writes it.
@@ -27,21 +28,26 @@ fn plan() -> OperationPlan {
             PlanStep::Command {
                 command: group(json!({ "valves": { "V1": 100 } })),
                 timeout_ms: ms(9000),
+                restart: RestartRule::Reissue,
             },
             PlanStep::Command {
                 command: group(json!({ "valves": { "V9": 100 } })),
                 timeout_ms: ms(9000),
+                restart: RestartRule::Reissue,
             },
             PlanStep::Wait {
                 condition: "`LT-3` > 100".into(),
                 sensors: vec!["LT-3".into()],
                 timeout_ms: ms(60000),
+                restart: RestartRule::Rerun,
             },
             PlanStep::ReturnToIdle {
                 command: group(json!({ "valve": { "V1": 0, "V9": 0 } })),
                 timeout_ms: ms(9000),
             },
         ],
+        hold: None,
+        stop: StopRule::FinishStep,
     }
 }
 
@@ -85,7 +91,7 @@ fn failed(effects: &[RunEffect]) -> (&str, &str, Option<usize>, Stage, &[String]
 #[test]
 fn start_requests_the_lines_at_the_operations_priority() {
     let mut r = run();
-    assert_eq!(r.phase(), Phase::New);
+    assert_eq!(r.state(), State::Idle);
     assert_eq!(r.id(), "10");
     assert_eq!(
         r.start(ms(5)).unwrap(),
@@ -95,7 +101,7 @@ fn start_requests_the_lines_at_the_operations_priority() {
             resources: lines(),
         }]
     );
-    assert_eq!(r.phase(), Phase::Queued);
+    assert_eq!(r.state(), State::Queued);
     assert_eq!(r.step(), None);
 }
 
@@ -111,7 +117,7 @@ fn a_second_start_is_refused_in_every_phase() {
     );
     r.granted(ms(2));
     assert_eq!(r.start(ms(3)).unwrap_err().code(), "ALREADY_STARTED");
-    assert_eq!(r.phase(), Phase::Running);
+    assert_eq!(r.state(), State::Running);
     assert_eq!(r.step(), Some(0));
 }
 
@@ -125,9 +131,10 @@ fn the_grant_starts_step_0_with_the_lines_as_within() {
             index: 0,
             step: plan().steps[0].clone(),
             within: Some(lines()),
+            timeout_ms: ms(9000),
         }]
     );
-    assert_eq!((r.phase(), r.step()), (Phase::Running, Some(0)));
+    assert_eq!((r.state(), r.step()), (State::Running, Some(0)));
     assert!(r.granted(ms(1001)).is_empty(), "a second grant is ignored");
     assert_eq!(r.step(), Some(0));
 }
@@ -141,6 +148,7 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
             index: 2,
             step: plan().steps[2].clone(),
             within: None,
+            timeout_ms: ms(60000),
         }]
     );
     assert_eq!(
@@ -149,6 +157,7 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
             index: 3,
             step: plan().steps[3].clone(),
             within: Some(lines()),
+            timeout_ms: ms(9000),
         }]
     );
 }
@@ -165,13 +174,14 @@ fn after_the_last_step_the_lines_are_released_and_the_run_finishes() {
             operation: "10".into()
         }]
     );
-    assert_eq!((r.phase(), r.step()), (Phase::Releasing, None));
+    assert_eq!((r.state(), r.step()), (State::Completing, None));
     assert_eq!(
         r.released(ms(7200)),
         vec![RunEffect::Finished {
             id: "10".into(),
             queued_ms: ms(1000),
             run_ms: ms(6200),
+            held_ms: ms(0),
             steps: vec![
                 StepRecord {
                     kind: StepKind::Command,
@@ -192,8 +202,8 @@ fn after_the_last_step_the_lines_are_released_and_the_run_finishes() {
             ],
         }]
     );
-    assert_eq!(r.phase(), Phase::Done);
-    assert!(r.phase().is_ended());
+    assert_eq!(r.state(), State::Complete);
+    assert!(r.state().is_final());
 }
 
 #[test]
@@ -215,6 +225,7 @@ fn a_plan_without_steps_releases_on_the_grant() {
             id: "10".into(),
             queued_ms: ms(10),
             run_ms: ms(5),
+            held_ms: ms(0),
             steps: Vec::new(),
         }]
     );
@@ -236,7 +247,7 @@ fn late_duplicated_and_out_of_order_inputs_are_ignored() {
     assert!(r.fault_applied(lines(), ms(9000)).is_empty());
     assert!(r.refused("QUEUE_FULL", "x").is_empty());
     assert!(r.withdrawn(ms(9000)).is_empty());
-    assert_eq!((r.phase(), r.step()), (Phase::Running, Some(2)));
+    assert_eq!((r.state(), r.step()), (State::Running, Some(2)));
     // The run goes on exactly as before.
     assert_eq!(r.step_done(2, ms(9000)).len(), 1);
     assert_eq!(r.step(), Some(3));
@@ -247,9 +258,9 @@ fn inputs_before_the_start_are_ignored() {
     let mut r = run();
     assert!(r.granted(ms(0)).is_empty());
     assert!(r.refused("ALREADY_HOLDING", "x").is_empty());
-    assert!(r.abort("closed", ms(0)).is_empty());
+    assert!(r.interrupt("closed", ms(0)).is_empty());
     assert!(r.step_done(0, ms(0)).is_empty());
-    assert_eq!(r.phase(), Phase::New);
+    assert_eq!(r.state(), State::Idle);
     assert_eq!(r.start(ms(0)).unwrap().len(), 1);
 }
 
@@ -264,9 +275,12 @@ fn a_failed_step_faults_the_operation_then_reports_the_lines_locked_out() {
             note: format!("step 3 (wait): {cause}"),
         }]
     );
-    assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
+    assert_eq!((r.state(), r.step()), (State::Faulting, None));
     assert!(r.step_done(2, ms(70001)).is_empty(), "the step's late done");
-    assert!(r.abort("closed", ms(70001)).is_empty(), "already faulting");
+    assert!(
+        r.interrupt("closed", ms(70001)).is_empty(),
+        "already faulting"
+    );
     let effects = r.fault_applied(lines(), ms(70002));
     assert_eq!(
         failed(&effects),
@@ -279,7 +293,7 @@ fn a_failed_step_faults_the_operation_then_reports_the_lines_locked_out() {
             false
         )
     );
-    assert_eq!(r.phase(), Phase::Faulted);
+    assert_eq!(r.state(), State::Faulted);
     assert!(
         r.fault_applied(lines(), ms(70003)).is_empty(),
         "reported once"
@@ -330,7 +344,7 @@ fn a_failed_release_faults_the_operation_at_its_release() {
     let mut r = at_step(3);
     assert_eq!(r.step_done(3, ms(8000)).len(), 1);
     assert!(
-        r.abort("closed", ms(8000)).is_empty(),
+        r.interrupt("closed", ms(8000)).is_empty(),
         "a release under way goes on"
     );
     assert_eq!(
@@ -372,7 +386,7 @@ fn c1_refusals_become_operation_running() {
                 false
             )
         );
-        assert_eq!(r.phase(), Phase::Refused);
+        assert_eq!(r.state(), State::Refused);
         assert!(r.granted(ms(1)).is_empty(), "nothing after the end");
     }
 }
@@ -390,17 +404,17 @@ fn other_refusals_keep_the_interlocks_words() {
 }
 
 #[test]
-fn an_abort_while_queued_withdraws_the_request() {
+fn an_interrupt_while_queued_withdraws_the_request() {
     let mut r = run();
     r.start(ms(0)).unwrap();
     assert_eq!(
-        r.abort("its node closed", ms(5)),
+        r.interrupt("its node closed", ms(5)),
         vec![RunEffect::Withdraw {
             operation: "10".into()
         }]
     );
-    assert_eq!(r.phase(), Phase::Withdrawing);
-    assert!(r.abort("again", ms(6)).is_empty());
+    assert_eq!(r.state(), State::Withdrawing);
+    assert!(r.interrupt("again", ms(6)).is_empty());
     assert!(r.refused("QUEUE_FULL", "x").is_empty());
     let effects = r.withdrawn(ms(7));
     assert_eq!(
@@ -414,16 +428,16 @@ fn an_abort_while_queued_withdraws_the_request() {
             true
         )
     );
-    assert_eq!(r.phase(), Phase::Withdrawn);
+    assert_eq!(r.state(), State::Withdrawn);
     assert!(r.granted(ms(8)).is_empty());
-    assert!(r.abort("late", ms(9)).is_empty());
+    assert!(r.interrupt("late", ms(9)).is_empty());
 }
 
 #[test]
 fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
     let mut r = run();
     r.start(ms(0)).unwrap();
-    r.abort("its node closed", ms(5));
+    r.interrupt("its node closed", ms(5));
     assert_eq!(
         r.granted(ms(6)),
         vec![RunEffect::Release {
@@ -444,14 +458,14 @@ fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
             "operation '10' was withdrawn from the queue (its node closed)"
         )
     );
-    assert_eq!(r.phase(), Phase::Withdrawn);
+    assert_eq!(r.state(), State::Withdrawn);
 }
 
 #[test]
 fn a_crossing_grant_that_cannot_be_released_faults_the_operation() {
     let mut r = run();
     r.start(ms(0)).unwrap();
-    r.abort("its node closed", ms(5));
+    r.interrupt("its node closed", ms(5));
     r.granted(ms(6));
     assert_eq!(
         r.release_failed("NOT_HOLDING", "gone", ms(7)),
@@ -475,10 +489,10 @@ fn a_crossing_grant_that_cannot_be_released_faults_the_operation() {
 }
 
 #[test]
-fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
+fn an_interrupt_while_running_cancels_the_step_and_faults_the_operation() {
     let mut r = at_step(1);
     assert_eq!(
-        r.abort(
+        r.interrupt(
             "its operation node was stopped (redeploy or shutdown)",
             ms(4000)
         ),
@@ -490,7 +504,7 @@ fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
             }
         ]
     );
-    assert_eq!((r.phase(), r.step()), (Phase::Faulting, None));
+    assert_eq!((r.state(), r.step()), (State::Aborting, None));
     // The cancelled step ends in error, late: ignored.
     assert!(r
         .step_failed(1, "ABORTED", "cancelled", ms(4001))
@@ -507,7 +521,7 @@ fn an_abort_while_running_cancels_the_step_and_faults_the_operation() {
             true
         )
     );
-    assert!(r.abort("again", ms(4003)).is_empty());
+    assert!(r.interrupt("again", ms(4003)).is_empty());
 }
 
 #[test]
@@ -530,6 +544,7 @@ fn a_clock_that_goes_back_gives_zero_durations() {
             id: "10".into(),
             queued_ms: ms(0),
             run_ms: ms(0),
+            held_ms: ms(0),
             steps: Vec::new(),
         }]
     );
@@ -565,16 +580,18 @@ fn effects_serialize_as_js_reads_them() {
     assert_eq!(
         start,
         json!([{ "kind": "startStep", "index": 0, "within": ["YEL", "RED"],
-                 "step": { "kind": "command", "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000 } }])
+                 "timeoutMs": 9000,
+                 "step": { "kind": "command", "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000, "restart": "reissue" } }])
     );
     r.step_done(0, ms(2));
     let wait = serde_json::to_value(r.step_done(1, ms(3))).unwrap();
     assert_eq!(
         wait,
         json!([{ "kind": "startStep", "index": 2,
-                 "step": { "kind": "wait", "condition": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000 } }])
+                 "timeoutMs": 60000,
+                 "step": { "kind": "wait", "condition": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000, "restart": "rerun" } }])
     );
-    let abort = serde_json::to_value(r.abort("closed", ms(4))).unwrap();
+    let abort = serde_json::to_value(r.interrupt("closed", ms(4))).unwrap();
     assert_eq!(
         abort,
         json!([{ "kind": "cancelStep", "index": 2 },
@@ -585,7 +602,7 @@ fn effects_serialize_as_js_reads_them() {
         end,
         json!([{ "kind": "failed", "id": "10", "code": "ABORTED",
                  "message": "operation '10' faulted at step 3 (wait): interrupted: closed; YEL locked out until cleared",
-                 "step": 2, "stage": "wait", "lockedOut": ["YEL"], "aborted": true }])
+                 "step": 2, "stage": "wait", "lockedOut": ["YEL"], "aborted": true, "state": "aborted" }])
     );
 
     let mut r = granted();
@@ -594,14 +611,14 @@ fn effects_serialize_as_js_reads_them() {
     }
     assert_eq!(
         serde_json::to_value(r.released(ms(1000))).unwrap(),
-        json!([{ "kind": "finished", "id": "10", "queuedMs": 1000, "runMs": 0,
+        json!([{ "kind": "finished", "id": "10", "queuedMs": 1000, "runMs": 0, "heldMs": 0,
                  "steps": [{ "kind": "command", "ms": 0 }, { "kind": "command", "ms": 0 },
                            { "kind": "wait", "ms": 0 }, { "kind": "returnToIdle", "ms": 0 }] }])
     );
     let mut r = run();
     r.start(ms(0)).unwrap();
     assert_eq!(
-        serde_json::to_value(r.abort("closed", ms(0))).unwrap(),
+        serde_json::to_value(r.interrupt("closed", ms(0))).unwrap(),
         json!([{ "kind": "withdraw", "operation": "10" }])
     );
     assert_eq!(
@@ -609,7 +626,7 @@ fn effects_serialize_as_js_reads_them() {
         json!(null)
     );
     assert_eq!(
-        serde_json::to_value(Phase::Withdrawing).unwrap(),
+        serde_json::to_value(State::Withdrawing).unwrap(),
         "withdrawing"
     );
 }
@@ -639,6 +656,7 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
             index: 1,
             step: PlanStep::ReturnToIdle { command, .. },
             within: Some(within),
+            ..
         }] => {
             assert_eq!(command, &group(json!({ "valve": { "V1": 0 } })));
             assert_eq!(within, &["YEL".to_string()]);

@@ -8,7 +8,8 @@ use serde_json::json;
 use sugarshack_core::operation::{
     OperationPlan, OperationRun, PlanStep, RunEffect, Stage, StepKind, StepRecord,
 };
-use sugarshack_core::plant::GroupCommand;
+use sugarshack_core::plant::{GroupCommand, RestartRule, StopRule};
+use sugarshack_core::procedure::State;
 use sugarshack_core::time::{ms, Millis};
 
 /// A group command as a plant document writes it.
@@ -30,12 +31,14 @@ fn plan(commands: &[bool]) -> OperationPlan {
                 PlanStep::Command {
                     command: group(json!({ "valves": { format!("V{i}"): 100 } })),
                     timeout_ms: ms(1000 + i as u64),
+                    restart: RestartRule::Reissue,
                 }
             } else {
                 PlanStep::Wait {
                     condition: "`S` > 1".into(),
                     sensors: vec!["S".into()],
                     timeout_ms: ms(2000 + i as u64),
+                    restart: RestartRule::Rerun,
                 }
             }
         })
@@ -51,6 +54,8 @@ fn plan(commands: &[bool]) -> OperationPlan {
         priority: 7,
         resources: LINES.iter().map(|l| l.to_string()).collect(),
         steps,
+        hold: None,
+        stop: StopRule::FinishStep,
     }
 }
 
@@ -167,6 +172,7 @@ fn failed(
     stage: Stage,
     locked_out: Vec<String>,
     aborted: bool,
+    state: State,
 ) -> RunEffect {
     RunEffect::Failed {
         id: ID.into(),
@@ -176,6 +182,7 @@ fn failed(
         stage,
         locked_out,
         aborted,
+        state,
     }
 }
 
@@ -192,10 +199,12 @@ impl Model {
         let step = self.steps[index].clone();
         let within = (!matches!(step, PlanStep::Wait { .. }))
             .then(|| LINES.iter().map(|l| l.to_string()).collect());
+        let timeout_ms = step.timeout_ms();
         vec![RunEffect::StartStep {
             index,
             step,
             within,
+            timeout_ms,
         }]
     }
 
@@ -209,6 +218,7 @@ impl Model {
             Stage::Acquire,
             Vec::new(),
             true,
+            State::Withdrawn,
         )]
     }
 
@@ -268,6 +278,7 @@ impl Model {
                     id: ID.into(),
                     queued_ms: ms(granted.saturating_sub(self.started_at.unwrap_or_default())),
                     run_ms: ms(now.saturating_sub(granted)),
+                    held_ms: Millis::ZERO,
                     steps: std::mem::take(&mut self.records),
                 }]
             }
@@ -313,6 +324,11 @@ impl Model {
                         stage,
                         lines,
                         aborted,
+                        if aborted {
+                            State::Aborted
+                        } else {
+                            State::Faulted
+                        },
                     )]
                 }
                 None => Vec::new(),
@@ -327,6 +343,7 @@ impl Model {
                         Stage::Acquire,
                         Vec::new(),
                         false,
+                        State::Refused,
                     )]
                 } else {
                     let message = format!("operation '{ID}' is already running (C1: one instance at a time); this start was refused and the running one goes on");
@@ -337,6 +354,7 @@ impl Model {
                         Stage::Acquire,
                         Vec::new(),
                         false,
+                        State::Refused,
                     )]
                 }
             }
@@ -520,7 +538,7 @@ proptest! {
                     let message = if *code == "QUEUE_FULL" { "the queue is full" } else { "held" };
                     (run.refused(code, message), model.apply(input, None, now))
                 }
-                Input::Abort => (run.abort(&reason, ms(now)), model.apply(input, None, now)),
+                Input::Abort => (run.interrupt(&reason, ms(now)), model.apply(input, None, now)),
                 Input::Withdrawn => (run.withdrawn(ms(now)), model.apply(input, None, now)),
             };
             prop_assert_eq!(&effects, &expected, "after {:?} at {}", input, now);
@@ -538,9 +556,9 @@ proptest! {
             stream.extend(effects);
         }
         let terminals = stream.iter().filter(|e| is_terminal(e)).count();
-        prop_assert_eq!(terminals, usize::from(run.phase().is_ended()));
-        prop_assert_eq!(grammar == Grammar::End, run.phase().is_ended());
-        prop_assert_eq!(model.ended, run.phase().is_ended());
+        prop_assert_eq!(terminals, usize::from(run.state().is_final()));
+        prop_assert_eq!(grammar == Grammar::End, run.state().is_final());
+        prop_assert_eq!(model.ended, run.state().is_final());
         // A run ended by a fault had been granted.
         if stream.iter().any(|e| matches!(e, RunEffect::Fault { .. })) {
             prop_assert!(model.granted_at.is_some() || model.handed_back);

@@ -320,7 +320,7 @@ fn a_document_that_cannot_be_read_names_the_entry() {
         ),
         (
             |d| d["operations"][0]["steps"][0]["sensors"] = json!(["LT-2"]),
-            "operations[0].steps[0]: unknown field `sensors`, expected `command` or `timeoutMs`",
+            "operations[0].steps[0]: unknown field `sensors`, expected one of `command`, `timeoutMs`, `restart`",
         ),
         (
             |d| d["operations"][0]["steps"][1] = json!({ "timeoutMs": 1000 }),
@@ -591,4 +591,136 @@ fn a_setpoint_of_the_wrong_kind_for_its_actuator_is_refused_naming_the_entry() {
             "operations[1] (18).steps[0]: target for 'P1' must be true or false, got 1",
         ]
     );
+}
+
+/// The operations plant with a hold command on op 10 and plant-wide defaults
+/// for an operator's commands.
+fn with_holds() -> Value {
+    let mut doc = with_operations();
+    doc["actuators"].as_array_mut().unwrap().push(json!({ "id": "V13", "type": "valve", "device": "ctrl-1", "io": 13, "lockout": 0, "resource": "YEL" }));
+    doc["operationDefaults"] = json!({
+        "hold": { "command": { "pumps": { "P1": false } }, "timeoutMs": 15000 },
+        "restart": "rerun",
+        "stop": "now"
+    });
+    doc["operations"][0]["hold"] = json!({ "command": { "pumps": { "P1": false }, "valves": { "V12": 0 } }, "timeoutMs": 20000 });
+    doc["operations"][0]["stop"] = json!("finish-step");
+    doc["operations"][0]["steps"][1]["restart"] = json!("reissue");
+    doc
+}
+
+#[test]
+fn hold_restart_and_stop_settings_validate_and_read_back() {
+    assert_eq!(problems(with_holds()), Vec::<String>::new());
+    let plant: PlantModel = sugarshack_core::json::from_str(&with_holds().to_string()).unwrap();
+    let written = serde_json::to_value(&plant).unwrap();
+    let given = with_holds();
+    assert_eq!(written["operationDefaults"], given["operationDefaults"]);
+    assert_eq!(written["operations"][0], given["operations"][0]);
+}
+
+#[test]
+fn a_hold_command_that_would_fail_when_an_operator_holds_is_refused_at_the_check() {
+    let cases: Vec<(Breakage, &str)> = vec![
+        (
+            |d| d["operations"][0]["hold"]["command"] = json!({ "valves": { "V40": 0 } }),
+            "operations[0] (10).hold: C2: commands 'V40' on resource 'RED', outside the operation's resources (YEL)",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["command"] = json!({ "valves": { "V13": 0 } }),
+            "operations[0] (10).hold: C3: commands 'V13', which has no idle state to return to",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["command"] = json!({ "valves": { "V99": 0 } }),
+            "operations[0] (10).hold: unknown actuator 'V99'",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["command"] = json!({ "pumps": { "P1": 50 } }),
+            "operations[0] (10).hold: target for 'P1' must be true or false, got 50",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["timeoutMs"] = json!(0),
+            "operations[0] (10).hold: timeoutMs must be positive",
+        ),
+        (
+            |d| d["operationDefaults"]["hold"]["timeoutMs"] = json!(0),
+            "operationDefaults.hold: timeoutMs must be positive",
+        ),
+        (
+            |d| d["operationDefaults"]["hold"]["command"] = json!({ "valves": { "V99": 0 } }),
+            "operationDefaults.hold: unknown actuator 'V99'",
+        ),
+        (
+            |d| d["operationDefaults"]["hold"]["command"] = json!({ "valves": { "V13": 0 } }),
+            "operationDefaults.hold: C3: commands 'V13', which has no idle state to return to",
+        ),
+        (
+            |d| d["routines"][0]["transitions"][0]["trigger"] = json!({ "msg": "hold" }),
+            "routines[0] (truck).transitions[0]: the msg topic 'hold' is reserved: it is an operator's hold command to the routine",
+        ),
+    ];
+    assert_each_names_its_problem(with_holds, cases);
+}
+
+#[test]
+fn hold_restart_and_stop_settings_that_cannot_be_read_name_their_path() {
+    let cases: Vec<(Breakage, &str)> = vec![
+        (
+            |d| d["operations"][0]["steps"][1]["restart"] = json!("resume"),
+            "operations[0].steps[1]: restart must be one of 'reissue', 'rerun'; got 'resume'",
+        ),
+        (
+            |d| d["operations"][0]["steps"][0]["restart"] = json!(true),
+            "operations[0].steps[0].restart: ",
+        ),
+        (
+            |d| d["operationDefaults"]["restart"] = json!("again"),
+            "operationDefaults: restart must be one of 'reissue', 'rerun'; got 'again'",
+        ),
+        (
+            |d| d["operations"][0]["stop"] = json!("later"),
+            "operations[0]: stop must be one of 'finish-step', 'now'; got 'later'",
+        ),
+        (
+            |d| d["operationDefaults"]["stop"] = json!("finish"),
+            "operationDefaults: stop must be one of 'finish-step', 'now'; got 'finish'",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["timeoutMs"] = json!(-1),
+            "operations[0].hold: timeoutMs must be a non-negative number of milliseconds; got -1",
+        ),
+        (
+            |d| {
+                d["operations"][0]["hold"].as_object_mut().unwrap().remove("timeoutMs");
+            },
+            "operations[0].hold: missing field `timeoutMs`",
+        ),
+        (
+            |d| {
+                d["operationDefaults"]["hold"].as_object_mut().unwrap().remove("timeoutMs");
+            },
+            "operationDefaults.hold: missing field `timeoutMs`",
+        ),
+        (
+            |d| d["operations"][0]["hold"]["timeout"] = json!(20000),
+            "operations[0].hold.timeout: unknown field `timeout`, expected `command` or `timeoutMs`",
+        ),
+        (
+            |d| d["operationDefaults"]["pause"] = json!({}),
+            "operationDefaults.pause: unknown field `pause`, expected one of `hold`, `restart`, `stop`",
+        ),
+        (
+            |d| d["operations"][0]["hold"] = json!({ "pumps": { "P1": false } }),
+            "operations[0].hold.pumps: unknown field `pumps`, expected `command` or `timeoutMs`",
+        ),
+    ];
+    for (breaks, expected) in cases {
+        let mut doc = with_holds();
+        breaks(&mut doc);
+        let error = read_error(doc);
+        assert!(
+            error.starts_with(expected),
+            "expected {expected:?}, got {error:?}"
+        );
+    }
 }

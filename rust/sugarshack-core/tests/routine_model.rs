@@ -203,7 +203,7 @@ proptest! {
                 Event::Restart => {
                     let snapshot: RoutineSnapshot = serde_json::from_value(serde_json::to_value(r.snapshot().clone()).unwrap()).unwrap();
                     r = RoutineMachine::new(&plant, "r").unwrap();
-                    let moved = r.restore(&snapshot).unwrap();
+                    let moved = r.restore(&snapshot, &[]).unwrap();
                     prop_assert_eq!(moved.is_some(), m.pending.is_some());
                     if m.fault() { returned += 1; }
                     m.checked = vec![None; m.ts.len()];

@@ -4,6 +4,7 @@
 use sugarshack_core::alarm::{AlarmKind, MAX_SHELVE_MS};
 use sugarshack_core::code::{self, MAX_STATUS_CHARS};
 use sugarshack_core::interlock::EventKind;
+use sugarshack_core::procedure::Command;
 use sugarshack_core::routine::RESET_TOPIC;
 use wasm_bindgen::prelude::*;
 
@@ -64,6 +65,13 @@ pub fn alarm_severities() -> Result<JsValue, JsValue> {
 #[wasm_bindgen(js_name = routineResetTopic)]
 pub fn routine_reset_topic() -> String {
     RESET_TOPIC.into()
+}
+
+/// The operator's commands (`hold`, `restart`, `stop`, `abort`, `reset`):
+/// also the msg topics that give them to an operation or routine node.
+#[wasm_bindgen(js_name = operatorCommands, unchecked_return_type = "RunCommand[]")]
+pub fn operator_commands() -> Vec<String> {
+    crate::operation::command_names(Command::OPERATOR.to_vec())
 }
 
 /// The interlock event kinds an operator looks back on (faults, clears,

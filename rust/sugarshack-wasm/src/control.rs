@@ -286,12 +286,7 @@ impl PidLoop {
     pub fn new(
         #[wasm_bindgen(unchecked_param_type = "PidLoopConfig")] config: JsValue,
     ) -> Result<PidLoop, JsValue> {
-        let config: PidLoopConfig = from_js_bounded(
-            config,
-            Code::InvalidConfig,
-            "PID configuration",
-            Bound::Control,
-        )?;
+        let config: PidLoopConfig = pid_config(config)?;
         CoreLoop::new(config)
             .map(|core| PidLoop { core })
             .map_err(control_error)
@@ -615,6 +610,16 @@ pub fn validate_thresholds(
         .map_err(control_error)
 }
 
+/// A PID loop's or station's configuration, bounded as every control input is.
+fn pid_config<T: serde::de::DeserializeOwned>(config: JsValue) -> Result<T, JsValue> {
+    from_js_bounded(
+        config,
+        Code::InvalidConfig,
+        "PID configuration",
+        Bound::Control,
+    )
+}
+
 /// The state document of pid node `owner`: `saved` sealed for `config` at `nowMs`.
 #[wasm_bindgen(js_name = sealPidState)]
 pub fn seal_pid_state(
@@ -623,12 +628,7 @@ pub fn seal_pid_state(
     #[wasm_bindgen(unchecked_param_type = "StationSaved")] saved: JsValue,
     #[wasm_bindgen(unchecked_param_type = "number")] now_ms: JsValue,
 ) -> Result<String, JsValue> {
-    let config: StationConfig = from_js_bounded(
-        config,
-        Code::InvalidConfig,
-        "PID configuration",
-        Bound::Control,
-    )?;
+    let config: StationConfig = pid_config(config)?;
     let saved: Saved =
         from_js_bounded(saved, Code::InvalidInput, "saved PID state", Bound::Control)?;
     Ok(saved.seal(owner, &config, control_time(&now_ms)?))
@@ -667,12 +667,7 @@ impl PidStation {
     pub fn new(
         #[wasm_bindgen(unchecked_param_type = "StationConfig")] config: JsValue,
     ) -> Result<PidStation, JsValue> {
-        let config: StationConfig = from_js_bounded(
-            config,
-            Code::InvalidConfig,
-            "PID configuration",
-            Bound::Control,
-        )?;
+        let config: StationConfig = pid_config(config)?;
         Station::new(config)
             .map(|core| PidStation { core })
             .map_err(control_error)

@@ -1,15 +1,16 @@
 use std::collections::{BTreeMap, HashMap};
 
 use js_sys::Reflect;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sugarshack_core::alarm::AlarmsSnapshot;
 use sugarshack_core::clearance::{Attribution, ClearBlocker, LineBlockers};
 use sugarshack_core::code::Code;
 use sugarshack_core::interlock::Interlock as CoreInterlock;
 use sugarshack_core::interlock::{
-    Binding, FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet,
+    Beside, Binding, FaultOutcome, Grant, InterlockConfig, InterlockError, OpId, ResourceSet,
     RestoreOptions, Snapshot, Start,
 };
+use sugarshack_core::operation::{AbortedOperations, RunSnapshot};
 use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -126,6 +127,20 @@ export interface OpenedInterlock {
     /** The routines' states saved with it, by routine id. */
     routines: Record<string, RoutineSnapshot>;
     alarms: AlarmsSnapshot | null;
+    /** The held runs that came back held, their lines kept: restore each with `Tracker.restoreRun`. */
+    runs: RunSnapshot[];
+    /** Why each other held run did not come back held (its lines came back faulted). */
+    runsInterrupted: string[];
+    /** The aborted operations, for `new AbortedOperations(...)`. */
+    aborted: Record<string, unknown>;
+}
+
+/** What an interlock's state document keeps beside the interlock (`Interlock.seal`). */
+export interface SavedBeside {
+    routines: Record<string, RoutineSnapshot>;
+    alarms?: AlarmsSnapshot;
+    runs?: RunSnapshot[];
+    aborted?: Record<string, unknown>;
 }
 
 /** `Interlock.snapshot()`: the whole state by name, for persistence. */
@@ -236,6 +251,22 @@ struct OpenedView<'a> {
     dropped: Vec<String>,
     routines: &'a BTreeMap<String, RoutineSnapshot>,
     alarms: Option<&'a AlarmsSnapshot>,
+    runs: &'a [RunSnapshot],
+    runs_interrupted: &'a [String],
+    aborted: &'a AbortedOperations,
+}
+
+/// What the JS gives `seal` to keep beside the interlock.
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+struct SavedBeside {
+    routines: BTreeMap<String, RoutineSnapshot>,
+    #[serde(default)]
+    alarms: Option<AlarmsSnapshot>,
+    #[serde(default)]
+    runs: Vec<RunSnapshot>,
+    #[serde(default)]
+    aborted: AbortedOperations,
 }
 
 #[derive(Serialize)]
@@ -408,6 +439,7 @@ impl Interlock {
     /// added to the configuration since the save starts free, in `added`), or,
     /// when it is not this interlock's usable state, every line faulted with
     /// the reason in `lost`. Refused only for a configuration that cannot run.
+    /// Without a plant's tracker, no held run comes back held (see `openBound`).
     #[wasm_bindgen(unchecked_return_type = "OpenedInterlock")]
     pub fn open(
         #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
@@ -417,71 +449,61 @@ impl Interlock {
         text: &str,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let config = parse_config(config)?;
-        let now = time(now_ms)?;
-        if text.len() > Bound::InterlockSnapshot.max_bytes() {
-            return Err(js_error(
-                Code::InputTooLarge,
-                &format!("{source}: {} bytes, more than a state can be", text.len()),
-            ));
-        }
-        let binding = Binding {
-            owner,
-            plant: plant.as_deref(),
-        };
-        let opened = CoreInterlock::open(config, binding, source, text, now).map_err(core_error)?;
-        let (lost, added, dropped) = match opened.start {
-            Start::Restored { added, dropped } => (None, added, dropped),
-            Start::Lost { reason } => (Some(reason), Vec::new(), Vec::new()),
-        };
-        let view = to_js(&OpenedView {
-            lost,
-            added,
-            dropped,
-            routines: &opened.routines,
-            alarms: opened.alarms.as_ref(),
-        })?;
-        Reflect::set(
-            &view,
-            &"interlock".into(),
-            &Interlock::wrap(opened.interlock).into(),
-        )?;
-        Ok(view)
+        Self::opened(config, owner, plant, source, text, now_ms, None)
     }
 
-    /// Its state document at `nowMs`, with the routines' states (by routine
-    /// id) and the alarms saved beside it, sealed as the interlock `owner`
-    /// bound to `plant`.
+    /// `open` for an interlock bound to `tracker`'s plant: a run saved held
+    /// comes back held (in `runs`, its lines kept) when the plant still has
+    /// the plan it ran.
+    #[wasm_bindgen(js_name = openBound, unchecked_return_type = "OpenedInterlock")]
+    pub fn open_bound(
+        #[wasm_bindgen(unchecked_param_type = "InterlockConfig")] config: JsValue,
+        owner: &str,
+        plant: Option<String>,
+        source: &str,
+        text: &str,
+        now_ms: f64,
+        tracker: &crate::Tracker,
+    ) -> Result<JsValue, JsValue> {
+        Self::opened(
+            config,
+            owner,
+            plant,
+            source,
+            text,
+            now_ms,
+            Some(tracker.core.plant()),
+        )
+    }
+
+    /// Its state document at `nowMs`, with what is kept beside it (the
+    /// routines' states by routine id, the alarms, the held runs, the aborted
+    /// operations), sealed as the interlock `owner` bound to `plant`.
     pub fn seal(
         &self,
         owner: &str,
         plant: Option<String>,
-        #[wasm_bindgen(unchecked_param_type = "Record<string, RoutineSnapshot>")] routines: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "AlarmsSnapshot | undefined")] alarms: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "SavedBeside")] beside: JsValue,
         now_ms: f64,
     ) -> Result<String, JsValue> {
         let now = time(now_ms)?;
-        let routines: BTreeMap<String, RoutineSnapshot> = from_js_bounded(
-            routines,
+        let beside: SavedBeside = from_js_bounded(
+            beside,
             Code::InvalidSnapshot,
-            "invalid routine snapshots",
+            "invalid state beside the interlock",
             Bound::InterlockSnapshot,
         )?;
-        let alarms: Option<AlarmsSnapshot> = if alarms.is_undefined() || alarms.is_null() {
-            None
-        } else {
-            Some(from_js_bounded(
-                alarms,
-                Code::InvalidSnapshot,
-                "invalid alarms",
-                Bound::Alarms,
-            )?)
-        };
         let binding = Binding {
             owner,
             plant: plant.as_deref(),
         };
-        Ok(self.core.seal(binding, routines, alarms, now))
+        let beside = Beside {
+            routines: beside.routines,
+            alarms: beside.alarms,
+            runs: beside.runs,
+            aborted: beside.aborted,
+        };
+        Ok(self.core.seal(binding, beside, now))
     }
 
     /// A start without a usable saved state: every line faulted (cause
@@ -797,5 +819,52 @@ impl Interlock {
             .into_iter()
             .map(op_handle)
             .collect()
+    }
+}
+
+impl Interlock {
+    fn opened(
+        config: JsValue,
+        owner: &str,
+        plant: Option<String>,
+        source: &str,
+        text: &str,
+        now_ms: f64,
+        plant_doc: Option<&sugarshack_core::plant::Plant>,
+    ) -> Result<JsValue, JsValue> {
+        let config = parse_config(config)?;
+        let now = time(now_ms)?;
+        if text.len() > Bound::InterlockSnapshot.max_bytes() {
+            return Err(js_error(
+                Code::InputTooLarge,
+                &format!("{source}: {} bytes, more than a state can be", text.len()),
+            ));
+        }
+        let binding = Binding {
+            owner,
+            plant: plant.as_deref(),
+        };
+        let opened = CoreInterlock::open(config, binding, source, text, plant_doc, now)
+            .map_err(core_error)?;
+        let (lost, added, dropped) = match opened.start {
+            Start::Restored { added, dropped } => (None, added, dropped),
+            Start::Lost { reason } => (Some(reason), Vec::new(), Vec::new()),
+        };
+        let view = to_js(&OpenedView {
+            lost,
+            added,
+            dropped,
+            routines: &opened.routines,
+            alarms: opened.alarms.as_ref(),
+            runs: &opened.runs,
+            runs_interrupted: &opened.runs_interrupted,
+            aborted: &opened.aborted,
+        })?;
+        Reflect::set(
+            &view,
+            &"interlock".into(),
+            &Interlock::wrap(opened.interlock).into(),
+        )?;
+        Ok(view)
     }
 }

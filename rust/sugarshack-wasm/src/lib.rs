@@ -20,7 +20,7 @@ mod tracker;
 pub use alarm::Alarms;
 pub use contract::{
     abnormal_event_kinds, alarm_severities, catalog_texts, codes, max_shelve_ms, max_status_chars,
-    memory, routine_reset_topic,
+    memory, operator_commands, routine_reset_topic,
 };
 pub use control::{
     open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,

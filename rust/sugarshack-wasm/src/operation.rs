@@ -1,19 +1,27 @@
+use sugarshack_core::clearance::Attribution;
 use sugarshack_core::code::Code;
-use sugarshack_core::operation::{OperationRun as CoreRun, RunEffect, RunError};
+use sugarshack_core::operation::{
+    AbortedOperations as CoreAborted, OperationRun as CoreRun, RunEffect, RunError, RunOwner,
+    RunSnapshot,
+};
 use sugarshack_core::plant::Plant;
+use sugarshack_core::procedure::{Command, State};
 use sugarshack_core::time::{ms, Millis};
 use wasm_bindgen::prelude::*;
 
-use crate::{js_error, time, to_js};
+use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 /// The TypeScript shapes of what this module's calls return and take
 /// (`unchecked_return_type` / `unchecked_param_type` name them).
 #[wasm_bindgen(typescript_custom_section)]
 const TS_SHAPES: &str = r#"
+/** How a step goes on after a hold. */
+export type RestartRule = "reissue" | "rerun";
+
 /** One step of an operation's plan. */
 export type PlanStep =
-    | { kind: "command"; command: GroupCommand; timeoutMs: number }
-    | { kind: "wait"; condition: string; sensors: string[]; timeoutMs: number }
+    | { kind: "command"; command: GroupCommand; timeoutMs: number; restart: RestartRule }
+    | { kind: "wait"; condition: string; sensors: string[]; timeoutMs: number; restart: RestartRule }
     | { kind: "returnToIdle"; command: GroupCommand; timeoutMs: number };
 
 /** `Tracker.operationPlan()` and `OperationRun.plan()`. */
@@ -22,9 +30,20 @@ export interface OperationPlan {
     priority: number;
     resources: string[];
     steps: PlanStep[];
+    hold?: { command: GroupCommand; timeoutMs: number };
+    stop: "finish-step" | "now";
 }
 
 export type StepKind = "command" | "wait" | "returnToIdle";
+
+/** An ISA-88 state of an operation run or a routine. */
+export type RunState =
+    | "idle" | "queued" | "running" | "holding" | "held" | "restarting" | "stopping" | "stopped"
+    | "aborting" | "aborted" | "completing" | "complete" | "faulting" | "faulted"
+    | "withdrawing" | "withdrawn" | "refused";
+
+/** An operator's command. */
+export type RunCommand = "start" | "hold" | "restart" | "stop" | "abort" | "reset";
 
 /** How long one step of a finished run took. */
 export interface StepRecord {
@@ -32,16 +51,51 @@ export interface StepRecord {
     ms: number;
 }
 
+/** Who supervises a run (kept with a held run's save). */
+export type RunOwner = { kind: "routine"; id: string } | { kind: "node"; id: string };
+
+/** A held run as saved with the interlock's state. */
+export interface RunSnapshot {
+    operation: string;
+    plan: string;
+    step: number;
+    usedMs: number;
+    startedMs: number;
+    grantedMs: number;
+    heldSinceMs: number;
+    heldMs: number;
+    held: boolean;
+    steps: StepRecord[];
+    owner?: RunOwner;
+}
+
 /** What an operation run asks JS to do. */
 export type RunEffect =
     | { kind: "acquire"; operation: string; priority: number; resources: string[] }
-    | { kind: "startStep"; index: number; step: PlanStep; within?: string[] }
+    | { kind: "startStep"; index: number; step: PlanStep; within?: string[]; timeoutMs: number }
     | { kind: "cancelStep"; index: number }
+    | { kind: "hold"; command: GroupCommand; timeoutMs: number; within: string[] }
+    | { kind: "restore"; command: GroupCommand; timeoutMs: number; within: string[] }
+    | { kind: "entered"; state: RunState; step: number | null }
     | { kind: "release"; operation: string }
     | { kind: "withdraw"; operation: string }
     | { kind: "fault"; operation: string; note: string }
-    | { kind: "finished"; id: string; queuedMs: number; runMs: number; steps: StepRecord[] }
-    | { kind: "failed"; id: string; code: string; message: string; step: number | null; stage: "acquire" | StepKind | "release"; lockedOut: string[]; aborted: boolean };
+    | { kind: "finished"; id: string; queuedMs: number; runMs: number; heldMs: number; steps: StepRecord[] }
+    | { kind: "stopped"; id: string; code: string; message: string; queuedMs: number; runMs: number; heldMs: number; steps: StepRecord[]; step: number | null }
+    | { kind: "failed"; id: string; code: string; message: string; step: number | null; stage: "acquire" | StepKind | "hold" | "restart" | "release"; lockedOut: string[]; aborted: boolean; state: RunState };
+
+/** `OperationRun.restore()`: the run back held, and what it asks to do (the hold command again, if it was still holding). */
+export interface RestoredRun {
+    run: OperationRun;
+    effects: RunEffect[];
+}
+
+/** An aborted operation, as `AbortedOperations.list()` gives it. */
+export interface AbortedOperation {
+    operation: string;
+    sinceMs: number;
+    by: { by: string; reason?: string };
+}
 "#;
 
 /// JS's `Number.MAX_SAFE_INTEGER`: durations up to it come back as exact numbers.
@@ -49,6 +103,51 @@ const MAX_SAFE_MS: Millis = ms((1 << 53) - 1);
 
 fn run_error(err: RunError) -> JsValue {
     js_error(err.code(), &err.to_string())
+}
+
+/// An operator's command by its name (`hold`, `restart`, `stop`, `abort`, `reset`, `start`).
+pub(crate) fn command_of(name: &str) -> Result<Command, JsValue> {
+    Command::from_name(name).ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!(
+                "'{}' is not a command: hold, restart, stop, abort or reset",
+                sugarshack_core::text::quote(name)
+            ),
+        )
+    })
+}
+
+/// A state by its name, as a run reports it.
+pub(crate) fn state_of(name: Option<String>) -> Result<Option<State>, JsValue> {
+    name.map(|name| {
+        State::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| {
+                js_error(
+                    Code::InvalidInput,
+                    &format!(
+                        "'{}' is not a run state",
+                        sugarshack_core::text::quote(&name)
+                    ),
+                )
+            })
+    })
+    .transpose()
+}
+
+/// Who gave a command and why: bounded, an empty name reads "unknown".
+pub(crate) fn attribution(by: Option<String>, reason: Option<String>) -> Attribution {
+    Attribution::new(by.as_deref(), reason.as_deref(), false)
+}
+
+fn names(commands: Vec<Command>) -> Vec<String> {
+    commands.into_iter().map(|c| c.name().to_owned()).collect()
+}
+
+pub(crate) fn command_names(commands: Vec<Command>) -> Vec<String> {
+    names(commands)
 }
 
 /// A step index from JS: wasm-bindgen would read `undefined` or NaN as step 0.
@@ -82,8 +181,8 @@ fn effects(effects: Vec<RunEffect>) -> Result<JsValue, JsValue> {
 
 /// One start of an operation of the plant, made by `Tracker.operationRun(id)`.
 /// Every input returns the effects to carry out, as plain objects with a
-/// `kind`: `acquire`, `startStep`, `cancelStep`, `release`, `withdraw`,
-/// `fault`, `finished`, `failed`. Inputs that do not fit the run's phase and
+/// `kind`: `acquire`, `startStep`, `cancelStep`, `hold`, `restore`,
+/// `entered`, `release`, `withdraw`, `fault`, `finished`, `stopped`, `failed`. Inputs that do not fit the run's phase and
 /// step (a late timer, a repeated report) return `[]` and change nothing.
 #[wasm_bindgen]
 pub struct OperationRun {
@@ -95,6 +194,119 @@ impl OperationRun {
         CoreRun::of(plant, id)
             .map(|core| OperationRun { core })
             .map_err(run_error)
+    }
+
+    /// A run saved held, back on `plant`'s plan of it: `{ run, effects }`.
+    pub(crate) fn restore(plant: &Plant, snapshot: JsValue) -> Result<JsValue, JsValue> {
+        let saved: RunSnapshot = from_js_bounded(
+            snapshot,
+            Code::InvalidSnapshot,
+            "invalid run snapshot",
+            Bound::RoutineSnapshot,
+        )?;
+        let plan = plant.operation_plan(&saved.operation).ok_or_else(|| {
+            run_error(RunError::UnknownOperation {
+                id: saved.operation.clone(),
+            })
+        })?;
+        let (core, restored) = CoreRun::restore(plan, &saved).map_err(run_error)?;
+        let view = js_sys::Object::new();
+        js_sys::Reflect::set(&view, &"effects".into(), &effects(restored)?)?;
+        js_sys::Reflect::set(&view, &"run".into(), &OperationRun { core }.into())?;
+        Ok(view.into())
+    }
+}
+
+/// The operations of an interlock aborted and not reset since: every start of
+/// one is refused until a person resets it. Saved with the interlock's state.
+#[wasm_bindgen]
+pub struct AbortedOperations {
+    core: CoreAborted,
+}
+
+#[wasm_bindgen]
+impl AbortedOperations {
+    /// As saved (`{}` or undefined: none).
+    #[wasm_bindgen(constructor)]
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "Record<string, unknown> | undefined")]
+        saved: JsValue,
+    ) -> Result<AbortedOperations, JsValue> {
+        let core = if saved.is_undefined() || saved.is_null() {
+            CoreAborted::default()
+        } else {
+            from_js_bounded(
+                saved,
+                Code::InvalidSnapshot,
+                "invalid aborted operations",
+                Bound::InterlockSnapshot,
+            )?
+        };
+        Ok(AbortedOperations { core })
+    }
+
+    /// Throws `OPERATION_ABORTED` while `operation` waits for a reset.
+    #[wasm_bindgen(js_name = checkStart)]
+    pub fn check_start(&self, operation: &str) -> Result<(), JsValue> {
+        self.core.check_start(operation).map_err(run_error)
+    }
+
+    /// `aborted` or `idle`.
+    #[wasm_bindgen(unchecked_return_type = "RunState")]
+    pub fn state(&self, operation: &str) -> String {
+        self.core.state(operation).name().into()
+    }
+
+    /// A run of `operation` ended in `state` (its name), by `by` for `reason`.
+    pub fn ended(
+        &mut self,
+        operation: &str,
+        state: &str,
+        by: Option<String>,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<(), JsValue> {
+        let state = state_of(Some(state.to_owned()))?.unwrap_or(State::Idle);
+        let now = time(now_ms)?;
+        self.core
+            .ended(operation, state, &attribution(by, reason), now);
+        Ok(())
+    }
+
+    /// A person's reset; throws `COMMAND_REFUSED` unless it is aborted.
+    pub fn reset(&mut self, operation: &str) -> Result<(), JsValue> {
+        self.core.reset(operation).map(|_| ()).map_err(run_error)
+    }
+
+    /// A person's command to `operation` while no run of it exists: a reset
+    /// of an aborted one is taken; anything else is refused
+    /// (`COMMAND_REFUSED`, with the state and what it allows). Its state after.
+    #[wasm_bindgen(unchecked_return_type = "RunState")]
+    pub fn command(&mut self, operation: &str, command: &str) -> Result<String, JsValue> {
+        let command = command_of(command)?;
+        self.core
+            .command(operation, command)
+            .map(|state| state.name().into())
+            .map_err(run_error)
+    }
+
+    /// `[{ operation, sinceMs, by }]`.
+    #[wasm_bindgen(unchecked_return_type = "AbortedOperation[]")]
+    pub fn list(&self) -> Result<JsValue, JsValue> {
+        let all: Vec<serde_json::Value> = self
+            .core
+            .iter()
+            .map(
+                |(id, r)| serde_json::json!({ "operation": id, "sinceMs": r.since_ms, "by": r.by }),
+            )
+            .collect();
+        to_js(&all)
+    }
+
+    /// What is saved with the interlock's state.
+    #[wasm_bindgen(unchecked_return_type = "Record<string, unknown>")]
+    pub fn snapshot(&self) -> Result<JsValue, JsValue> {
+        to_js(&self.core)
     }
 }
 
@@ -110,10 +322,91 @@ impl OperationRun {
         to_js(self.core.plan())
     }
 
-    /// `new`, `queued`, `withdrawing`, `running`, `releasing`, `faulting`, or
-    /// once ended `done`, `faulted`, `refused`, `withdrawn`.
-    pub fn phase(&self) -> String {
-        self.core.phase().as_str().into()
+    /// Its ISA-88 state (`idle`, `queued`, `running`, `holding`, `held`,
+    /// `restarting`, `stopping`, `aborting`, `completing`, `faulting`,
+    /// `withdrawing`, or once ended `complete`, `stopped`, `aborted`,
+    /// `faulted`, `refused`, `withdrawn`).
+    #[wasm_bindgen(unchecked_return_type = "RunState")]
+    pub fn state(&self) -> String {
+        self.core.state().name().into()
+    }
+
+    /// The operator's commands its state allows now.
+    #[wasm_bindgen(unchecked_return_type = "RunCommand[]")]
+    pub fn commands(&self) -> Vec<String> {
+        names(self.core.commands())
+    }
+
+    /// An operator's command (`hold`, `restart`, `stop`, `abort`, `reset`)
+    /// by `by` for `reason`: its effects, or the table's refusal
+    /// (`COMMAND_REFUSED`), which changes nothing.
+    #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
+    pub fn command(
+        &mut self,
+        command: &str,
+        by: Option<String>,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let (command, now) = (command_of(command)?, run_time(now_ms)?);
+        let who = attribution(by, reason);
+        effects(self.core.command(command, &who, now).map_err(run_error)?)
+    }
+
+    #[wasm_bindgen(js_name = holdDone, unchecked_return_type = "RunEffect[]")]
+    pub fn hold_done(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.hold_done(now))
+    }
+
+    #[wasm_bindgen(js_name = holdFailed, unchecked_return_type = "RunEffect[]")]
+    pub fn hold_failed(
+        &mut self,
+        code: &str,
+        message: &str,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.hold_failed(code, message, now))
+    }
+
+    #[wasm_bindgen(js_name = restartDone, unchecked_return_type = "RunEffect[]")]
+    pub fn restart_done(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.restart_done(now))
+    }
+
+    #[wasm_bindgen(js_name = restartFailed, unchecked_return_type = "RunEffect[]")]
+    pub fn restart_failed(
+        &mut self,
+        code: &str,
+        message: &str,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.restart_failed(code, message, now))
+    }
+
+    /// Held (or holding): what survives a restart, kept with `owner`; else undefined.
+    #[wasm_bindgen(unchecked_return_type = "RunSnapshot | undefined")]
+    pub fn snapshot(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "RunOwner | undefined")] owner: JsValue,
+    ) -> Result<JsValue, JsValue> {
+        let owner: Option<RunOwner> = if owner.is_undefined() || owner.is_null() {
+            None
+        } else {
+            Some(from_js_bounded(
+                owner,
+                Code::InvalidInput,
+                "invalid run owner",
+                Bound::RoutineSnapshot,
+            )?)
+        };
+        match self.core.snapshot(owner) {
+            Some(snapshot) => to_js(&snapshot),
+            None => Ok(JsValue::UNDEFINED),
+        }
     }
 
     /// The index of the step in progress (phase `running`), else undefined.
@@ -181,10 +474,11 @@ impl OperationRun {
         effects(self.core.refused(code, message))
     }
 
+    /// Its supervisor is gone: a queued request is withdrawn, a granted run faulted.
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
-    pub fn abort(&mut self, reason: &str, now_ms: f64) -> Result<JsValue, JsValue> {
+    pub fn interrupt(&mut self, reason: &str, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
-        effects(self.core.abort(reason, now))
+        effects(self.core.interrupt(reason, now))
     }
 
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]

@@ -3,6 +3,7 @@ use sugarshack_core::plant::Plant;
 use sugarshack_core::routine::{RoutineError, RoutineMachine, RoutineSnapshot};
 use wasm_bindgen::prelude::*;
 
+use crate::operation::{command_names, command_of, state_of};
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 /// The TypeScript shapes of what this module's calls return and take
@@ -43,6 +44,15 @@ export interface RoutineSnapshot {
     state: string;
     pending: string | null;
     halted: boolean;
+    held?: boolean;
+    stopped?: boolean;
+    aborted?: boolean;
+}
+
+/** `Routine.command()`: the command its pending operation gets, and the move a reset made. */
+export interface RoutineCommanded {
+    forward: RunCommand | null;
+    moved: RoutineMove | null;
 }
 "#;
 
@@ -83,7 +93,56 @@ impl Routine {
         self.core.operations().into_iter().map(Into::into).collect()
     }
 
-    /// A trigger msg: the dispatch, or a refusal (busy, halted, no transition).
+    /// Its ISA-88 state, `operation` being its pending operation's state (if any).
+    #[wasm_bindgen(js_name = runState, unchecked_return_type = "RunState")]
+    pub fn run_state(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "RunState | undefined")] operation: Option<String>,
+    ) -> Result<String, JsValue> {
+        Ok(self.core.run_state(state_of(operation)?).name().into())
+    }
+
+    /// The operator's commands allowed now.
+    #[wasm_bindgen(unchecked_return_type = "RunCommand[]")]
+    pub fn commands(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "RunState | undefined")] operation: Option<String>,
+    ) -> Result<Vec<String>, JsValue> {
+        Ok(command_names(self.core.commands(state_of(operation)?)))
+    }
+
+    /// An operator's command: `{ forward, moved }`, the command its pending
+    /// operation gets (if any) and the move of a reset; or the refusal
+    /// (`COMMAND_REFUSED`, `ROUTINE_BUSY`), which changes nothing.
+    #[wasm_bindgen(unchecked_return_type = "RoutineCommanded")]
+    pub fn command(
+        &mut self,
+        command: &str,
+        #[wasm_bindgen(unchecked_param_type = "RunState | undefined")] operation: Option<String>,
+    ) -> Result<JsValue, JsValue> {
+        let command = command_of(command)?;
+        let (forward, moved) = self
+            .core
+            .command(command, state_of(operation)?)
+            .map_err(routine_error)?;
+        to_js(&serde_json::json!({ "forward": forward.map(|c| c.name()), "moved": moved }))
+    }
+
+    /// Its pending operation was stopped: it stays where it was, stopped until a reset.
+    #[wasm_bindgen(js_name = operationStopped, unchecked_return_type = "RoutineMove")]
+    pub fn operation_stopped(&mut self) -> Result<JsValue, JsValue> {
+        let moved = self.core.operation_stopped().map_err(routine_error)?;
+        to_js(&moved)
+    }
+
+    /// Its pending operation was aborted: it stays where it was, aborted until a reset.
+    #[wasm_bindgen(js_name = operationAborted, unchecked_return_type = "RoutineMove")]
+    pub fn operation_aborted(&mut self) -> Result<JsValue, JsValue> {
+        let moved = self.core.operation_aborted().map_err(routine_error)?;
+        to_js(&moved)
+    }
+
+    /// A trigger msg: the dispatch, or a refusal (busy, halted, held, no transition).
     #[wasm_bindgen(js_name = onMsg, unchecked_return_type = "RoutineDispatch")]
     pub fn on_msg(&mut self, topic: &str) -> Result<JsValue, JsValue> {
         let dispatch = self.core.on_msg(topic).map_err(routine_error)?;
@@ -161,11 +220,13 @@ impl Routine {
         to_js(&self.core.snapshot())
     }
 
-    /// Back to a saved snapshot; returns the move made if an operation was pending (it counts as faulted).
+    /// Back to a saved snapshot; returns the move made if an operation was
+    /// pending and did not come back held (in `held`): it counts as faulted.
     #[wasm_bindgen(unchecked_return_type = "RoutineMove | null")]
     pub fn restore(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "RoutineSnapshot")] snapshot: JsValue,
+        held: Vec<String>,
     ) -> Result<JsValue, JsValue> {
         let snapshot: RoutineSnapshot = from_js_bounded(
             snapshot,
@@ -173,7 +234,8 @@ impl Routine {
             "invalid routine snapshot",
             Bound::RoutineSnapshot,
         )?;
-        match self.core.restore(&snapshot).map_err(routine_error)? {
+        let held: Vec<&str> = held.iter().map(String::as_str).collect();
+        match self.core.restore(&snapshot, &held).map_err(routine_error)? {
             Some(moved) => to_js(&moved),
             None => Ok(JsValue::NULL),
         }

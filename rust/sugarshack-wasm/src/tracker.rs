@@ -853,6 +853,16 @@ impl Tracker {
         OperationRun::of(self.core.plant(), id)
     }
 
+    /// A run saved held, back on this plant's plan of it: `{ run, effects }`;
+    /// refused (`INVALID_SNAPSHOT`) when the plan changed since.
+    #[wasm_bindgen(js_name = restoreRun, unchecked_return_type = "RestoredRun")]
+    pub fn restore_run(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "RunSnapshot")] snapshot: JsValue,
+    ) -> Result<JsValue, JsValue> {
+        OperationRun::restore(self.core.plant(), snapshot)
+    }
+
     /// Routine `id` of this plant, in its initial state.
     pub fn routine(&self, id: &str) -> Result<Routine, JsValue> {
         Routine::of(self.core.plant(), id)

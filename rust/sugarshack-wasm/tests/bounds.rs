@@ -485,14 +485,14 @@ fn deep_routine_snapshots_are_refused_and_the_routine_carries_on() {
     let mut r = t.routine("r").unwrap();
     let saved = r.snapshot().unwrap();
     for (kind, deep) in deep_values() {
-        let err = r.restore(deep).unwrap_err();
+        let err = r.restore(deep, Vec::new()).unwrap_err();
         assert_eq!(code_of(&err), "INPUT_TOO_DEEP", "{kind}");
     }
     assert_eq!(
-        code_of(&r.restore(circular()).unwrap_err()),
+        code_of(&r.restore(circular(), Vec::new()).unwrap_err()),
         "INPUT_CIRCULAR"
     );
-    assert!(r.restore(saved).is_ok());
+    assert!(r.restore(saved, Vec::new()).is_ok());
     assert_eq!(
         get(&r.on_msg("go").unwrap(), "to").as_string().as_deref(),
         Some("b")

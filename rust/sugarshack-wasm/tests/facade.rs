@@ -608,20 +608,14 @@ fn resource_set_handles_are_dropped_past_the_bound_and_old_ones_refused() {
 #[wasm_bindgen_test]
 fn a_sealed_state_opens_for_its_interlock_and_any_other_text_opens_lost() {
     let lock = holder_and_waiter(100.0);
-    let routines =
-        json(r#"{ "r": { "routine": "r", "state": "idle", "pending": null, "halted": false } }"#);
-    let text = lock
-        .seal("il", Some("pl".into()), routines, JsValue::UNDEFINED, 110.0)
-        .unwrap();
-    let opened = Interlock::open(
-        plant_config(),
-        "il",
-        Some("pl".into()),
-        "file",
-        &text,
-        120.0,
-    )
-    .unwrap();
+    let beside = json(
+        r#"{ "routines": { "r": { "routine": "r", "state": "idle", "pending": null, "halted": false } } }"#,
+    );
+    let text = lock.seal("il", Some("pl".into()), beside, 110.0).unwrap();
+    let open = |text: &str| {
+        Interlock::open(plant_config(), "il", Some("pl".into()), "file", text, 120.0).unwrap()
+    };
+    let opened = open(&text);
     assert!(get(&opened, "lost").is_null());
     assert_eq!(stringify(&get(&opened, "added")), "[]");
     assert_eq!(
@@ -645,15 +639,7 @@ fn a_sealed_state_opens_for_its_interlock_and_any_other_text_opens_lost() {
         ("{".to_owned(), "not valid JSON"),
         (String::new(), "not valid JSON"),
     ] {
-        let lost = Interlock::open(
-            plant_config(),
-            "il",
-            Some("pl".into()),
-            "file",
-            &text,
-            120.0,
-        )
-        .unwrap();
+        let lost = open(&text);
         let reason = get(&lost, "lost").as_string().unwrap();
         assert!(
             reason.starts_with("file: ") && reason.contains(why),

@@ -171,7 +171,7 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
     assert_eq!(text(&r.condition_met(1).unwrap(), "operation"), "51");
     let snapshot = r.snapshot().unwrap();
     let mut again = t.routine("truck").unwrap();
-    let moved = again.restore(snapshot).unwrap();
+    let moved = again.restore(snapshot, Vec::new()).unwrap();
     assert_eq!(
         (text(&moved, "to"), again.state(), again.pending()),
         ("fault".into(), "fault".to_string(), None)
@@ -179,7 +179,7 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
     assert_eq!(
         code_of(
             again
-                .restore(json(r#"{"routine":"truck","state":"nope"}"#))
+                .restore(json(r#"{"routine":"truck","state":"nope"}"#), Vec::new())
                 .unwrap_err()
         ),
         "INVALID_SNAPSHOT"

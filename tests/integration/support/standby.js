@@ -14,8 +14,9 @@ const INSTANCES = ['a', 'b'];
 
 /**
  * The routines flow with the broker's client id and account read from the
- * environment, and a pid loop (test/pid in, test/pid/out) to show that a
- * standby's control nodes send nothing either.
+ * environment, a pid loop (test/pid in, test/pid/out) to show that a
+ * standby's control nodes send nothing either, and a journal into local files
+ * (`<dir>/journal`) that only the active instance writes.
  */
 function clusterFlow(port) {
   return flow(port, 'standby').map((n) => (n.type === 'mqtt-broker'
@@ -28,6 +29,9 @@ function clusterFlow(port) {
       id: 'pid', z: 'tab', type: 'sugarshack-pid', kp: '1', ti: '10', td: '0', outMin: '0', outMax: '100', action: 'reverse', ts: '1', setpoint: '50', smith: 'off', mode: 'auto', persist: false, wires: [['pidout']],
     },
     { id: 'pidout', z: 'tab', type: 'mqtt out', topic: 'test/pid/out', qos: '1', retain: 'false', broker: 'br', wires: [] },
+    {
+      id: 'journal-files', z: 'tab', type: 'sugarshack-journal', target: 'files', dir: 'journal', plantId: 'standby', flushS: '0.1', wires: [],
+    },
   ]);
 }
 

@@ -45,6 +45,7 @@ use crate::interlock::{
     Binding, EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError,
     OpId, ResourceSet, RestoreOptions, Start,
 };
+use crate::operation::AbortedOperations;
 use crate::time::{ms, Millis};
 
 pub use deadline::{Deadlines, Due};
@@ -444,6 +445,9 @@ pub struct Engine {
     listening: bool,
     shown: Counts,
     saved_routines: serde_json::Map<String, serde_json::Value>,
+    /// Operations aborted and not reset, as saved: an abort stands until a
+    /// person resets it, also while the interlock runs without its plant.
+    aborted: AbortedOperations,
     /// When it started (or took a state over): its checks beat on whole seconds from then.
     beat: Millis,
     out: Vec<Output>,
@@ -480,6 +484,7 @@ impl Engine {
                 ..Counts::default()
             },
             saved_routines: serde_json::Map::new(),
+            aborted: AbortedOperations::default(),
             beat: Millis::ZERO,
             out: Vec::new(),
         })
@@ -775,6 +780,7 @@ impl Engine {
             Saved::Doc(doc) => {
                 let doc = *doc;
                 self.saved_routines = doc.routines;
+                self.aborted = doc.aborted;
                 if let Some(alarms) = doc.alarms {
                     let restored = serde_json::from_value(alarms)
                         .map_err(|e| e.to_string())
@@ -820,7 +826,18 @@ impl Engine {
             owner: &doc.owner,
             plant: doc.plant.as_deref(),
         };
-        let opened = Interlock::open(config, binding, &doc.source, &doc.text, now)?;
+        // No run is the engine's: a run saved held comes back interrupted, its lines faulted.
+        let opened = Interlock::open(config, binding, &doc.source, &doc.text, None, now)?;
+        self.aborted = opened.aborted;
+        for why in opened.runs_interrupted {
+            self.log(
+                Level::Warn,
+                Text::Catalog {
+                    key: "logs.heldRunNotRestored",
+                    params: vec![("why", Param::Text(why))],
+                },
+            );
+        }
         let (added, dropped) = match opened.start {
             Start::Lost { reason } => return Ok((opened.interlock, Some(reason))),
             Start::Restored { added, dropped } => (added, dropped),

@@ -79,6 +79,7 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("logs.alarmsNotUpdated", &["message"]),
     ("logs.alarmsUnreadable", &["message"]),
     ("logs.grantedUnclaimed", &["operation"]),
+    ("logs.heldRunNotRestored", &["why"]),
     ("logs.lineAdded", &["line"]),
     ("logs.lineDropped", &["line"]),
     ("logs.lockoutsNotResent", &["lines", "message"]),

@@ -14,7 +14,8 @@ use std::sync::Arc;
 
 use super::{Due, Engine, MsgId, NodeId, Request, Stage};
 use crate::alarm::Alarms;
-use crate::interlock::{Binding, Interlock, InterlockError, RestoreOptions, Snapshot};
+use crate::interlock::{Beside, Binding, Interlock, InterlockError, RestoreOptions, Snapshot};
+use crate::operation::AbortedOperations;
 use crate::routine::RoutineSnapshot;
 use crate::time::Millis;
 
@@ -45,6 +46,9 @@ pub struct StateDoc {
     /// The alarms (read leniently: alarms that cannot be read start afresh).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alarms: Option<serde_json::Value>,
+    /// Operations aborted and not reset.
+    #[serde(default, skip_serializing_if = "AbortedOperations::is_empty")]
+    pub aborted: AbortedOperations,
     /// What waits, and until when.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub engine: Option<EngineState>,
@@ -126,6 +130,7 @@ impl Engine {
             interlock: self.interlock.snapshot(now),
             routines: self.saved_routines.clone(),
             alarms: serde_json::to_value(self.alarms.snapshot()).ok(),
+            aborted: self.aborted.clone(),
             engine: Some(EngineState {
                 stage: Some(self.stage),
                 lost: self.lost.clone(),
@@ -167,6 +172,7 @@ impl Engine {
             self.alarms = alarms;
         }
         self.saved_routines = doc.routines.clone();
+        self.aborted = doc.aborted.clone();
         let state = doc.engine.clone().unwrap_or_default();
         self.lost = state.lost;
         for saved in state.requests {
@@ -238,12 +244,14 @@ impl Engine {
             .filter_map(|(id, v)| Some((id.clone(), serde_json::from_value(v.clone()).ok()?)))
             .collect();
         routines.extend(running);
-        self.interlock.seal(
-            Binding { owner, plant },
+        // No run is the engine's, so none is saved held; the aborted ones stand.
+        let beside = Beside {
             routines,
-            Some(self.alarms.snapshot()),
-            now,
-        )
+            alarms: Some(self.alarms.snapshot()),
+            runs: Vec::new(),
+            aborted: self.aborted.clone(),
+        };
+        self.interlock.seal(Binding { owner, plant }, beside, now)
     }
 
     /// The state file's text at `now`.

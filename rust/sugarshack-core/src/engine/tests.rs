@@ -749,7 +749,7 @@ fn a_sealed_document_restarts_by_the_one_rule_held_lines_faulted_added_lines_fre
         owner: "il-1",
         plant: None,
     };
-    let opened = Interlock::open(config, binding, "state.json", &text, ms(300)).unwrap();
+    let opened = Interlock::open(config, binding, "state.json", &text, None, ms(300)).unwrap();
     assert!(matches!(opened.start, Start::Restored { .. }));
 
     let mut more = LINES.to_vec();

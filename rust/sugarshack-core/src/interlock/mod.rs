@@ -37,7 +37,7 @@ use crate::time::Millis;
 pub use config::{InterlockConfig, Policy, ResourceConfig, DEFAULT_QUEUE_BOUND};
 pub use error::InterlockError;
 pub use event::{Event, EventKind, EventRecord, Requester};
-pub use saved::{saved_for, Binding, Opened, SavedState, Start};
+pub use saved::{saved_for, Beside, Binding, Opened, SavedState, Start};
 pub use snapshot::{
     FaultCause, FaultSnapshot, RequestSnapshot, ResourceSnapshot, ResourceState, RestoreOptions,
     Snapshot, SNAPSHOT_VERSION,

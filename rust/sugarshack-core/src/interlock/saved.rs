@@ -3,17 +3,23 @@
 //! except a line the saved configuration shows was added since, which starts
 //! free; anything else (another interlock's document, a damaged one, one of
 //! an unknown version, a snapshot that does not say every line's state) is a
-//! lost state, and every line starts faulted.
+//! lost state, and every line starts faulted. The one exception to "held
+//! lines come back faulted": a line held by an operation an operator held
+//! (ISA-88) stays held by it, since that operation commands nothing and its
+//! run comes back held on the same plan; if its plan changed, it is
+//! interrupted like any other.
 
 use std::collections::{BTreeMap, HashSet};
 
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Event, Interlock, InterlockConfig, InterlockError, Policy, ResourceSet, RestoreOptions,
-    Snapshot, SNAPSHOT_VERSION,
+    Event, Hold, Interlock, InterlockConfig, InterlockError, OpState, Owner, Policy,
+    RequestSnapshot, ResourceSet, ResourceState, RestoreOptions, Snapshot, SNAPSHOT_VERSION,
 };
 use crate::alarm::AlarmsSnapshot;
+use crate::operation::{AbortedOperations, OperationRun, RunSnapshot};
+use crate::plant::Plant;
 use crate::routine::RoutineSnapshot;
 use crate::sealed::{self, Kind};
 use crate::time::Millis;
@@ -31,6 +37,25 @@ pub struct SavedState {
     /// The alarms, with their acknowledgements and shelves.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alarms: Option<AlarmsSnapshot>,
+    /// Operation runs an operator held: they come back held.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub runs: Vec<RunSnapshot>,
+    /// Operations aborted and not reset since.
+    #[serde(default, skip_serializing_if = "AbortedOperations::is_empty")]
+    pub aborted: AbortedOperations,
+}
+
+/// What an interlock's document keeps beside the interlock itself.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Beside {
+    /// Each routine's state, by routine id.
+    pub routines: BTreeMap<String, RoutineSnapshot>,
+    /// The alarms.
+    pub alarms: Option<AlarmsSnapshot>,
+    /// Held operation runs.
+    pub runs: Vec<RunSnapshot>,
+    /// Aborted operations.
+    pub aborted: AbortedOperations,
 }
 
 /// Which interlock a document belongs to, beyond its configuration.
@@ -88,6 +113,13 @@ pub struct Opened {
     pub routines: BTreeMap<String, RoutineSnapshot>,
     /// The alarms saved with it (none when lost).
     pub alarms: Option<AlarmsSnapshot>,
+    /// The held runs that came back held, their lines kept (each restores on its plan).
+    pub runs: Vec<RunSnapshot>,
+    /// Why each other held run did not come back held (its lines came back faulted).
+    pub runs_interrupted: Vec<String>,
+    /// The operations aborted and not reset (kept even when lost: an abort
+    /// stands until a person resets it).
+    pub aborted: AbortedOperations,
 }
 
 impl Opened {
@@ -98,8 +130,75 @@ impl Opened {
             start: Start::Lost { reason },
             routines: BTreeMap::new(),
             alarms: None,
+            runs: Vec::new(),
+            runs_interrupted: Vec::new(),
+            aborted: AbortedOperations::default(),
         })
     }
+}
+
+/// The saved held runs that come back held: each on a plan `plant` still has
+/// and with a hold on lines all still configured. Their holds are taken out
+/// of `snapshot` (their lines listed free), to be kept after the restore;
+/// the others' stay, and come back faulted "interrupted". With each run kept,
+/// its hold; and why each other did not come back.
+fn held_runs(
+    snapshot: &mut Snapshot,
+    runs: Vec<RunSnapshot>,
+    lines: &[String],
+    plant: Option<&Plant>,
+) -> (Vec<(RunSnapshot, RequestSnapshot)>, Vec<String>) {
+    let mut kept = Vec::new();
+    let mut interrupted = Vec::new();
+    for run in runs {
+        let hold = snapshot
+            .holds
+            .iter()
+            .position(|h| h.operation == run.operation);
+        let fits = match (plant, hold) {
+            (_, None) => Err(format!(
+                "operation '{}' was saved held, but it held no lines",
+                run.operation
+            )),
+            (None, _) => Err(format!(
+                "operation '{}' was saved held, but the interlock has no plant now",
+                run.operation
+            )),
+            (Some(plant), Some(i))
+                if snapshot.holds[i]
+                    .resources
+                    .iter()
+                    .all(|l| lines.contains(l)) =>
+            {
+                match plant.operation_plan(&run.operation) {
+                    None => Err(format!(
+                        "operation '{}' was saved held, but the plant document has it no more",
+                        run.operation
+                    )),
+                    Some(plan) => OperationRun::restore(plan, &run)
+                        .map(|_| i)
+                        .map_err(|err| err.to_string()),
+                }
+            }
+            (Some(_), Some(_)) => Err(format!(
+                "operation '{}' was saved held on a line no longer configured",
+                run.operation
+            )),
+        };
+        match fits {
+            Ok(i) => {
+                let hold = snapshot.holds.remove(i);
+                for line in &mut snapshot.resources {
+                    if hold.resources.contains(&line.name) {
+                        line.state = ResourceState::Free;
+                    }
+                }
+                kept.push((run, hold));
+            }
+            Err(why) => interrupted.push(why),
+        }
+    }
+    (kept, interrupted)
 }
 
 /// The lines of `names` not in `others`, in their order.
@@ -113,19 +212,15 @@ fn missing_from<'a>(names: &'a [String], others: &[String]) -> Vec<&'a str> {
 }
 
 impl Interlock {
-    /// Its state document: this interlock's snapshot at `now` with `routines`
-    /// and `alarms`, sealed as `binding`'s and for its configuration.
-    pub fn seal(
-        &self,
-        binding: Binding<'_>,
-        routines: BTreeMap<String, RoutineSnapshot>,
-        alarms: Option<AlarmsSnapshot>,
-        now: Millis,
-    ) -> String {
+    /// Its state document: this interlock's snapshot at `now` with what is
+    /// kept beside it, sealed as `binding`'s and for its configuration.
+    pub fn seal(&self, binding: Binding<'_>, beside: Beside, now: Millis) -> String {
         let state = SavedState {
             interlock: self.snapshot(now),
-            routines,
-            alarms,
+            routines: beside.routines,
+            alarms: beside.alarms,
+            runs: beside.runs,
+            aborted: beside.aborted,
         };
         let saved_for = saved_for(&self.config, binding.plant);
         // Plain data with string keys always serializes.
@@ -137,13 +232,15 @@ impl Interlock {
     /// "interrupted", waiting requests dropped), with a line added to the
     /// configuration since the save starting free (one `resource-added`
     /// event each); or, when `text` is not this interlock's usable state,
-    /// every line faulted with the reason. Refused only for a configuration
+    /// every line faulted with the reason. A run saved held whose plan
+    /// `plant` still has keeps its lines. Refused only for a configuration
     /// that cannot run.
     pub fn open(
         config: InterlockConfig,
         binding: Binding<'_>,
         source: &str,
         text: &str,
+        plant: Option<&Plant>,
         now: Millis,
     ) -> Result<Opened, InterlockError> {
         let lost = |config, why: String| Opened::lost(config, format!("{source}: {why}"), now);
@@ -152,9 +249,11 @@ impl Interlock {
             Err(refusal) => return lost(config, refusal.to_string()),
         };
         let SavedState {
-            interlock: snapshot,
+            interlock: mut snapshot,
             routines,
             alarms,
+            runs,
+            aborted,
         } = document.state;
         if snapshot.version != SNAPSHOT_VERSION {
             return lost(
@@ -182,16 +281,53 @@ impl Interlock {
             .into_iter()
             .map(str::to_owned)
             .collect();
+        let (kept, runs_interrupted) = held_runs(&mut snapshot, runs, &lines, plant);
         match Interlock::restore(config.clone(), &snapshot, RestoreOptions::default(), now) {
-            Ok((interlock, _)) => Ok(Opened {
-                interlock,
-                start: Start::Restored { added, dropped },
-                routines,
-                alarms,
-            }),
-            Err(InterlockError::InvalidSnapshot { reason }) => lost(config, reason),
+            Ok((mut interlock, _)) => {
+                let runs = kept
+                    .into_iter()
+                    .map(|(run, hold)| {
+                        interlock.keep_hold(&hold);
+                        run
+                    })
+                    .collect();
+                Ok(Opened {
+                    interlock,
+                    start: Start::Restored { added, dropped },
+                    routines,
+                    alarms,
+                    runs,
+                    runs_interrupted,
+                    aborted,
+                })
+            }
+            Err(InterlockError::InvalidSnapshot { reason }) => {
+                let mut opened = lost(config, reason)?;
+                opened.aborted = aborted;
+                Ok(opened)
+            }
             Err(other) => Err(other),
         }
+    }
+
+    /// A hold taken out of a snapshot for a run that comes back held: its lines held by it again.
+    fn keep_hold(&mut self, hold: &RequestSnapshot) {
+        let op = self.operation(&hold.operation);
+        // Checked by `held_runs`: every line is configured and was free after the restore.
+        let Ok(lines) = self.resource_set(&hold.resources) else {
+            return;
+        };
+        for &r in lines.ids() {
+            self.occupy(r, Owner::Held(op));
+        }
+        self.holding += 1;
+        self.operations[op.index()].state = OpState::Holding(Hold {
+            priority: hold.priority,
+            resources: lines,
+            since_ms: hold.since_ms,
+            waited_ms: hold.waited_ms,
+            warned: false,
+        });
     }
 
     /// Records that each line of `added` was configured after the state was saved and starts free.
@@ -261,7 +397,7 @@ mod tests {
     const LINES: [&str; 5] = ["YEL", "GRN", "BLU", "PUR", "RED"];
 
     fn sealed() -> String {
-        running(&LINES).seal(IL, BTreeMap::new(), None, ms(3))
+        running(&LINES).seal(IL, Beside::default(), ms(3))
     }
 
     fn lost_reason(opened: &Opened) -> &str {
@@ -273,7 +409,7 @@ mod tests {
 
     /// Opens `text` under the five lines; it must be lost, every line faulted "unknown".
     fn assert_lost(text: &str, why: &str) {
-        let opened = Interlock::open(config(&LINES), IL, FILE, text, ms(9)).unwrap();
+        let opened = Interlock::open(config(&LINES), IL, FILE, text, None, ms(9)).unwrap();
         let reason = lost_reason(&opened);
         assert!(
             reason.starts_with(FILE) && reason.contains(why),
@@ -284,7 +420,7 @@ mod tests {
 
     #[test]
     fn a_restart_restores_what_was_sealed() {
-        let opened = Interlock::open(config(&LINES), IL, FILE, &sealed(), ms(9)).unwrap();
+        let opened = Interlock::open(config(&LINES), IL, FILE, &sealed(), None, ms(9)).unwrap();
         assert_eq!(
             opened.start,
             Start::Restored {
@@ -305,8 +441,7 @@ mod tests {
                 owner: "il-2",
                 plant: None,
             },
-            BTreeMap::new(),
-            None,
+            Beside::default(),
             ms(3),
         );
         assert_lost(&other, "the state of node 'il-2'");
@@ -326,6 +461,8 @@ mod tests {
             interlock: snapshot,
             routines: BTreeMap::new(),
             alarms: None,
+            runs: Vec::new(),
+            aborted: AbortedOperations::default(),
         };
         sealed::seal(Kind::Interlock, "il", saved_for, ms(3), &state).unwrap()
     }
@@ -362,9 +499,9 @@ mod tests {
 
     #[test]
     fn a_line_added_to_the_configuration_after_the_save_starts_free_with_an_event_each() {
-        let text = running(&["YEL", "PUR", "RED"]).seal(IL, BTreeMap::new(), None, ms(3));
+        let text = running(&["YEL", "PUR", "RED"]).seal(IL, Beside::default(), ms(3));
         let lines = ["BLU", "YEL", "PUR", "RED", "GRN"];
-        let mut opened = Interlock::open(config(&lines), IL, FILE, &text, ms(9)).unwrap();
+        let mut opened = Interlock::open(config(&lines), IL, FILE, &text, None, ms(9)).unwrap();
         assert_eq!(
             opened.start,
             Start::Restored {
@@ -415,8 +552,8 @@ mod tests {
             prop_assume!(bytes[at] != byte);
             bytes[at] = byte;
             let Ok(changed) = String::from_utf8(bytes) else { return Ok(()) };
-            let opened = Interlock::open(config(&LINES), IL, FILE, &changed, ms(9)).unwrap();
-            let intact = Interlock::open(config(&LINES), IL, FILE, &text, ms(9)).unwrap();
+            let opened = Interlock::open(config(&LINES), IL, FILE, &changed, None, ms(9)).unwrap();
+            let intact = Interlock::open(config(&LINES), IL, FILE, &text, None, ms(9)).unwrap();
             match opened.start {
                 Start::Lost { .. } => prop_assert_eq!(lines_of(&opened), all_unknown(&LINES)),
                 Start::Restored { .. } => prop_assert_eq!(lines_of(&opened), lines_of(&intact)),

@@ -97,6 +97,11 @@ pub struct PlantModel {
     /// The routines: state machines that start one operation at a time (a truck unloading, a wash cycle).
     #[serde(default)]
     pub routines: Vec<Routine>,
+    /// What an operator's hold, restart and stop do to every operation that
+    /// does not say otherwise (ISA-88 commands; see each operation's `hold`
+    /// and `stop`, and each step's `restart`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub operation_defaults: Option<OperationDefaults>,
     /// How far ahead of the palette's clock a device's timestamp may be, in
     /// ms; a sample stamped further in the future is refused, since its
     /// device's clock is wrong.
@@ -454,6 +459,77 @@ pub struct Operation {
     pub resources: Vec<String>,
     /// Its steps, run in order: each sets actuators (`command`) or waits for a condition (`wait`).
     pub steps: Vec<Step>,
+    /// What an operator's hold does: the group command that makes it safe to
+    /// pause (close the feed valve, stop the pump), on its own lines only.
+    /// Held, it keeps its lines, commands nothing else, and its step's
+    /// timeout stands still until a restart or an abort. Default: the plant's
+    /// `operationDefaults.hold`, cut to this operation's lines; an empty
+    /// command holds without commanding anything. (An abort needs no
+    /// setting: its lines' lockouts go out at once, as for a fault, and it
+    /// waits for a reset.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hold: Option<HoldCommand>,
+    /// What an operator's stop does with the step in progress: `finish-step`
+    /// (the default) lets it end, `now` cuts it short; then every actuator
+    /// goes back to idle and the lines are released. Default: the plant's
+    /// `operationDefaults.stop`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
+}
+
+/// The group command an operator's hold sends, and how long it may take.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct HoldCommand {
+    /// The actuators to set and their targets, grouped by type: `{"pumps": {"P1": false}, "valves": {"V101": 0}}`.
+    pub command: GroupCommand,
+    /// How long, in ms, they may take to get there before the operation faults.
+    pub timeout_ms: Millis,
+}
+
+/// How a step goes on when a held operation restarts. Either way the
+/// actuators the hold command moved first go back where the operation had
+/// them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "kebab-case")]
+pub enum RestartRule {
+    /// The step goes on with the time it had left: a command step sends its command again (the default).
+    #[default]
+    Reissue,
+    /// The step runs again from its start, with its whole timeout.
+    Rerun,
+}
+
+/// What an operator's stop does with the step in progress.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "kebab-case")]
+pub enum StopRule {
+    /// The step in progress runs to its end (the default).
+    #[default]
+    FinishStep,
+    /// The step in progress ends at once.
+    Now,
+}
+
+/// What operations do on an operator's command unless they say otherwise.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+pub struct OperationDefaults {
+    /// The hold command of every operation without its own, cut to each
+    /// operation's lines: `{"pumps": {"P1": false, "P2": false}}` stops
+    /// whichever of these pumps an operation's lines have.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hold: Option<HoldCommand>,
+    /// The restart rule of every step without its own: `reissue` (the default) or `rerun`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restart: Option<RestartRule>,
+    /// The stop rule of every operation without its own: `finish-step` (the default) or `now`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
 }
 
 /// One step of an operation: set actuators, or wait for a condition.
@@ -472,6 +548,11 @@ pub enum Step {
         command: GroupCommand,
         /// How long, in ms, the actuators may take to get there before the operation faults.
         timeout_ms: Millis,
+        /// How it goes on when its operation restarts after a hold: `reissue`
+        /// (its command again, with the time it had left) or `rerun` (again
+        /// from its start). Default: the plant's `operationDefaults.restart`, else `reissue`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        restart: Option<RestartRule>,
     },
     /// Wait until a condition on sensor values holds, e.g.
     /// ``{"wait": "`LT-3` >= 12000", "sensors": ["LT-3"], "timeoutMs": 600000}``.
@@ -487,6 +568,12 @@ pub enum Step {
         sensors: Vec<String>,
         /// How long, in ms, the condition may take to hold before the operation faults.
         timeout_ms: Millis,
+        /// How it goes on when its operation restarts after a hold: `reissue`
+        /// (waiting on with the time it had left) or `rerun` (waiting again
+        /// with its whole timeout). Default: the plant's
+        /// `operationDefaults.restart`, else `reissue`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        restart: Option<RestartRule>,
     },
 }
 
@@ -506,6 +593,8 @@ struct StepFields {
     sensors: Option<Vec<String>>,
     #[serde(default, deserialize_with = "present")]
     timeout_ms: Option<Millis>,
+    #[serde(default, deserialize_with = "present")]
+    restart: Option<RestartRule>,
 }
 
 /// A key given as `null` is present: `"command": null` is a bad command, and
@@ -524,7 +613,7 @@ impl<'de> Deserialize<'de> for Step {
                 if fields.sensors.is_some() {
                     return Err(D::Error::unknown_field(
                         "sensors",
-                        &["command", "timeoutMs"],
+                        &["command", "timeoutMs", "restart"],
                     ));
                 }
                 Ok(Step::Command {
@@ -532,6 +621,7 @@ impl<'de> Deserialize<'de> for Step {
                     timeout_ms: fields
                         .timeout_ms
                         .ok_or_else(|| D::Error::missing_field("timeoutMs"))?,
+                    restart: fields.restart,
                 })
             }
             (None, Some(wait)) => Ok(Step::Wait {
@@ -542,6 +632,7 @@ impl<'de> Deserialize<'de> for Step {
                 timeout_ms: fields
                     .timeout_ms
                     .ok_or_else(|| D::Error::missing_field("timeoutMs"))?,
+                restart: fields.restart,
             }),
             (Some(_), Some(_)) => Err(D::Error::custom(
                 "a step has either 'command' or 'wait', not both: make them two steps",

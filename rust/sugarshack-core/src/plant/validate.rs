@@ -11,6 +11,7 @@ use super::{
     DeviceKind, PlantError, PlantErrors, PlantModel, PlantWarning, Profile, Signal, Step, Trigger,
 };
 use crate::condition::Condition;
+use crate::procedure::Command;
 use crate::routine::RESET_TOPIC;
 use crate::text::quote;
 use crate::time::Millis;
@@ -367,12 +368,17 @@ fn operations<'a>(
         if op.steps.is_empty() {
             report.error(&path, "an operation has at least one step");
         }
+        if let Some(hold) = &op.hold {
+            let path = format!("{path}.hold");
+            hold_command(plant, targeting, hold, Some(&op.resources), &path, report);
+        }
         for (j, step) in op.steps.iter().enumerate() {
             let path = format!("{path}.steps[{j}]");
             match step {
                 Step::Command {
                     command,
                     timeout_ms,
+                    ..
                 } => {
                     if *timeout_ms == Millis::ZERO {
                         report.error(&path, "timeoutMs must be positive");
@@ -384,31 +390,13 @@ fn operations<'a>(
                             continue;
                         }
                     };
-                    for (a, _) in targets {
-                        let a = &plant.actuators[a];
-                        match a.resource.as_deref() {
-                            Some(r) if op.resources.iter().any(|o| o == r) => {}
-                            Some(r) => report.error(
-                                &path,
-                                format!("C2: commands '{}' on resource '{}', outside the operation's resources ({})", quote(&a.id), quote(r), quote(op.resources.join(", "))),
-                            ),
-                            None => report.error(&path, format!("C2: commands '{}', which belongs to no resource", quote(&a.id))),
-                        }
-                        if a.idle.is_none() {
-                            report.error(
-                                &path,
-                                format!(
-                                    "C3: commands '{}', which has no idle state to return to",
-                                    quote(&a.id)
-                                ),
-                            );
-                        }
-                    }
+                    within_lines(plant, targets, &op.resources, &path, report);
                 }
                 Step::Wait {
                     wait,
                     sensors,
                     timeout_ms,
+                    ..
                 } => {
                     if *timeout_ms == Millis::ZERO {
                         report.error(&path, "timeoutMs must be positive");
@@ -419,7 +407,104 @@ fn operations<'a>(
             }
         }
     }
+    operation_defaults(plant, targeting, report);
     operations
+}
+
+/// An operation commands only actuators of its lines (C2) that have an idle
+/// state to return to (C3).
+fn within_lines(
+    plant: &PlantModel,
+    targets: Vec<(usize, f64)>,
+    lines: &[String],
+    path: &str,
+    report: &mut Report,
+) {
+    for (a, _) in targets {
+        let a = &plant.actuators[a];
+        match a.resource.as_deref() {
+            Some(r) if lines.iter().any(|o| o == r) => {}
+            Some(r) => report.error(
+                path,
+                format!(
+                    "C2: commands '{}' on resource '{}', outside the operation's resources ({})",
+                    quote(&a.id),
+                    quote(r),
+                    quote(lines.join(", "))
+                ),
+            ),
+            None => report.error(
+                path,
+                format!(
+                    "C2: commands '{}', which belongs to no resource",
+                    quote(&a.id)
+                ),
+            ),
+        }
+        idle_to_return_to(a, path, report);
+    }
+}
+
+fn idle_to_return_to(a: &super::Actuator, path: &str, report: &mut Report) {
+    if a.idle.is_none() {
+        report.error(
+            path,
+            format!(
+                "C3: commands '{}', which has no idle state to return to",
+                quote(&a.id)
+            ),
+        );
+    }
+}
+
+/// A hold command: a positive timeout, and actuators and targets that exist
+/// and suit; with `lines`, only actuators of those lines (C2). Each needs an
+/// idle state, since the return to idle puts back what a hold moved (C3).
+/// An empty command holds without commanding anything.
+fn hold_command(
+    plant: &PlantModel,
+    targeting: &Targeting,
+    hold: &super::HoldCommand,
+    lines: Option<&[String]>,
+    path: &str,
+    report: &mut Report,
+) {
+    if hold.timeout_ms == Millis::ZERO {
+        report.error(path, "timeoutMs must be positive");
+    }
+    let targets = match targeting.resolve(plant, &hold.command) {
+        Ok(targets) => targets,
+        Err(GroupError::Empty) => return,
+        Err(err) => return report.error(path, err.to_string()),
+    };
+    match lines {
+        Some(lines) => within_lines(plant, targets, lines, path, report),
+        None => {
+            for (a, _) in targets {
+                idle_to_return_to(&plant.actuators[a], path, report);
+            }
+        }
+    }
+}
+
+/// The plant's defaults for operator commands: a hold command cut to each
+/// operation's lines, so it only has to name actuators that exist and can
+/// return to idle.
+fn operation_defaults(plant: &PlantModel, targeting: &Targeting, report: &mut Report) {
+    if let Some(hold) = plant
+        .operation_defaults
+        .as_ref()
+        .and_then(|d| d.hold.as_ref())
+    {
+        hold_command(
+            plant,
+            targeting,
+            hold,
+            None,
+            "operationDefaults.hold",
+            report,
+        );
+    }
 }
 
 fn unknown_sensors(plant: &PlantModel, names: &[String], path: &str, report: &mut Report) {
@@ -504,6 +589,10 @@ fn routines(plant: &PlantModel, operations: &HashSet<&str>, report: &mut Report)
                 Trigger::Msg { msg } if msg == RESET_TOPIC => report.error(
                     &path,
                     format!("the msg topic '{RESET_TOPIC}' is reserved: it sends the routine back to its initial state, so this transition could never fire; give it another topic"),
+                ),
+                Trigger::Msg { msg } if Command::OPERATOR.iter().any(|c| c.name() == msg) => report.error(
+                    &path,
+                    format!("the msg topic '{msg}' is reserved: it is an operator's {msg} command to the routine, so this transition could never fire; give it another topic"),
                 ),
                 Trigger::Msg { .. } => {}
                 Trigger::When {

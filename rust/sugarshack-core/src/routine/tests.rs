@@ -147,11 +147,12 @@ fn a_restore_with_an_operation_pending_counts_it_as_faulted() {
             routine: "truck".into(),
             state: "empty".into(),
             pending: Some("10".into()),
-            halted: false
+            halted: false,
+            ..RoutineSnapshot::default()
         }
     );
     let mut restored = RoutineMachine::new(&p, "truck").unwrap();
-    let moved = restored.restore(&snapshot).unwrap();
+    let moved = restored.restore(&snapshot, &[]).unwrap();
     assert_eq!(moved.unwrap().operation.as_deref(), Some("10"));
     assert_eq!((restored.state(), restored.pending()), ("fault", None));
 
@@ -160,9 +161,10 @@ fn a_restore_with_an_operation_pending_counts_it_as_faulted() {
         state: "primed".into(),
         pending: None,
         halted: false,
+        ..RoutineSnapshot::default()
     };
     let mut restored = RoutineMachine::new(&p, "truck").unwrap();
-    let moved = restored.restore(&quiet).unwrap();
+    let moved = restored.restore(&quiet, &[]).unwrap();
     assert_eq!((restored.state(), moved), ("primed", None));
 }
 
@@ -176,6 +178,7 @@ fn a_snapshot_that_no_longer_fits_the_routine_is_refused() {
                 state: "empty".into(),
                 pending: None,
                 halted: false,
+                ..RoutineSnapshot::default()
             },
             "routine 'silo''s",
         ),
@@ -185,6 +188,7 @@ fn a_snapshot_that_no_longer_fits_the_routine_is_refused() {
                 state: "gone".into(),
                 pending: None,
                 halted: false,
+                ..RoutineSnapshot::default()
             },
             "no state 'gone'",
         ),
@@ -194,13 +198,14 @@ fn a_snapshot_that_no_longer_fits_the_routine_is_refused() {
                 state: "empty".into(),
                 pending: Some("12".into()),
                 halted: false,
+                ..RoutineSnapshot::default()
             },
             "no transition from 'empty' running '12'",
         ),
     ] {
         let mut r = RoutineMachine::new(&p, "truck").unwrap();
         r.on_msg("load").unwrap();
-        let err = r.restore(&snapshot).unwrap_err();
+        let err = r.restore(&snapshot, &[]).unwrap_err();
         assert_eq!(
             (r.state(), r.pending()),
             ("empty", Some("10")),

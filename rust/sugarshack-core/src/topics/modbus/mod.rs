@@ -351,6 +351,31 @@ struct Claim {
     owner: Option<ActuatorId>,
 }
 
+/// An actuator's or sensor's `modbus` section: there exactly when its device speaks Modbus.
+fn modbus_section<'a, T>(
+    section: Option<&'a T>,
+    on_modbus: bool,
+    path: &str,
+    things: &str,
+    missing: &str,
+    b: &mut Builder,
+) -> Option<&'a T> {
+    match (section, on_modbus) {
+        (Some(_), false) => {
+            b.error(
+                path,
+                format!("'modbus' is for {things} on devices with profile \"modbus\""),
+            );
+            None
+        }
+        (None, true) => {
+            b.error(path, missing);
+            None
+        }
+        (section, _) => section,
+    }
+}
+
 fn path_at(base: &str, field: &str) -> String {
     format!("{base}.modbus.{field}")
 }
@@ -690,24 +715,16 @@ impl ModbusMap {
             let Some(&device) = device_index.get(a.device.as_str()) else {
                 continue;
             };
-            let d = &plant.devices[device.index()];
-            let m = match (&a.modbus, d.profile == Profile::Modbus) {
-                (Some(_), false) => {
-                    b.error(
-                        &path,
-                        "'modbus' is for actuators on devices with profile \"modbus\"",
-                    );
-                    continue;
-                }
-                (None, true) => {
-                    b.error(
-                        &path,
-                        "an actuator on a modbus device needs 'modbus': the register it is commanded through (and read from)",
-                    );
-                    continue;
-                }
-                (Some(m), true) => m,
-                (None, false) => continue,
+            let on_modbus = plant.devices[device.index()].profile == Profile::Modbus;
+            let Some(m) = modbus_section(
+                a.modbus.as_ref(),
+                on_modbus,
+                &path,
+                "actuators",
+                "an actuator on a modbus device needs 'modbus': the register it is commanded through (and read from)",
+                b,
+            ) else {
+                continue;
             };
             let Some(t) = plant.actuator_types.get(&a.kind) else {
                 continue;
@@ -787,24 +804,16 @@ impl ModbusMap {
             let Some(&device) = device_index.get(s.device.as_str()) else {
                 continue;
             };
-            let d = &plant.devices[device.index()];
-            let r = match (&s.modbus, d.profile == Profile::Modbus) {
-                (Some(_), false) => {
-                    b.error(
-                        &path,
-                        "'modbus' is for sensors on devices with profile \"modbus\"",
-                    );
-                    continue;
-                }
-                (None, true) => {
-                    b.error(
-                        &path,
-                        "a sensor on a modbus device needs 'modbus': the register it is read from",
-                    );
-                    continue;
-                }
-                (Some(r), true) => r,
-                (None, false) => continue,
+            let on_modbus = plant.devices[device.index()].profile == Profile::Modbus;
+            let Some(r) = modbus_section(
+                s.modbus.as_ref(),
+                on_modbus,
+                &path,
+                "sensors",
+                "a sensor on a modbus device needs 'modbus': the register it is read from",
+                b,
+            ) else {
+                continue;
             };
             if map.units[device.index()].is_none() {
                 continue;

@@ -321,6 +321,35 @@ fn devices_and_connections_are_checked() {
         json!([]),
     );
     assert_refused(bare_actuator, "actuators[0] (V1)", "needs 'modbus'");
+    let bare_sensor = document(
+        json!([io(json!({}))]),
+        json!([]),
+        json!([{ "id": "FT-1", "device": "io-1", "name": "flow" }]),
+    );
+    assert_refused(bare_sensor, "sensors[0] (FT-1)", "needs 'modbus'");
+    // ... and only there.
+    let panel = json!([{ "id": "ctrl-1", "kind": "actuator-panel" }]);
+    let register = json!({ "kind": "input", "address": 1 });
+    let mqtt_actuator = document(
+        panel.clone(),
+        json!([{ "id": "V1", "type": "valve", "device": "ctrl-1", "lockout": 0, "modbus": { "command": register } }]),
+        json!([]),
+    );
+    assert_refused(
+        mqtt_actuator,
+        "actuators[0] (V1)",
+        "'modbus' is for actuators on devices with profile \"modbus\"",
+    );
+    let mqtt_sensor = document(
+        panel,
+        json!([]),
+        json!([{ "id": "FT-1", "device": "ctrl-1", "name": "flow", "modbus": register }]),
+    );
+    assert_refused(
+        mqtt_sensor,
+        "sensors[0] (FT-1)",
+        "'modbus' is for sensors on devices with profile \"modbus\"",
+    );
 }
 
 #[test]
