@@ -4,7 +4,8 @@
 // there: a journal attached once the flows run hears the grants of normal
 // work too (not only the abnormal events the alarms keep); a wasm instance that really traps in a msg is replaced, and the
 // interlock comes back from its last saved state on the new one, the msg
-// ending INTERNAL and no exception escaping.
+// ending INTERNAL and no exception escaping. An operation aborted while the
+// interlock ran bound to its plant stays aborted here until a person resets it.
 const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
@@ -18,6 +19,8 @@ helper.init(require.resolve('node-red'));
 const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
 const { EngineRuntime } = require(path.join(PALETTE, 'lib', 'interlock', 'engine-runtime.js'));
 const { journal } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
+const operator = require(path.join(PALETTE, 'lib', 'operator.js'));
+const fs = require('fs');
 
 const runtimeOf = () => helper.getNode('il').runtime;
 const quiet = () => settled(helper, 'il');
@@ -111,5 +114,45 @@ describe('an interlock run by the engine', function () {
     await until(() => out.length === 2, 'the second grant');
     await quiet();
     assert.equal(rows.filter((r) => r.tags.layer === 'interlock').length, 1, 'nothing more once detached');
+  });
+
+  it('an abort saved with the state stands until a person resets it; nothing else is commanded here', async function () {
+    await helper.load(paletteNodes, flow());
+    await until(() => runtimeOf().state === 'ready', 'the interlock');
+    await quiet();
+    const { where } = runtimeOf().store;
+    const config = runtimeOf().config;
+    await helper.unload();
+    // The document as an interlock bound to its plant writes it after an abort of operation 10.
+    const { Interlock } = wasm.load();
+    const opened = Interlock.open(config, 'il', undefined, where, fs.readFileSync(where, 'utf8'), 10);
+    const aborted = { 10: { sinceMs: 5, by: { by: 'ana', reason: 'gasket' } } };
+    fs.writeFileSync(where, opened.interlock.seal('il', undefined, { routines: {}, aborted }, 11));
+    opened.interlock.free();
+
+    await helper.load(paletteNodes, flow());
+    await until(() => runtimeOf().state === 'ready', 'the interlock again');
+    assert.deepEqual(runtimeOf().describe().aborted, [{ operation: '10', sinceMs: 5, by: 'ana', reason: 'gasket', commands: ['reset'] }]);
+    const refused = (target, name) => operator.command(runtimeOf(), target, name, { by: 'bo' }).then(() => null, (err) => err.code);
+    assert.equal(await refused({ operation: '10' }, 'restart'), 'COMMAND_REFUSED');
+    assert.equal(await refused({ operation: '12' }, 'reset'), 'UNKNOWN_RUN');
+    assert.equal(await refused({ routine: 'r' }, 'hold'), 'UNKNOWN_RUN');
+    assert.equal(await refused({ operation: '10' }, 'start'), 'INVALID_INPUT');
+    assert.equal(await refused({}, 'reset'), 'INVALID_INPUT');
+
+    const rows = [];
+    const detach = journal.attach({ row: (row) => rows.push(row) });
+    try {
+      const reset = await operator.command(runtimeOf(), { operation: '10' }, 'reset', { by: 'bo', reason: 'gasket changed' });
+      assert.deepEqual(reset, { operation: '10', command: 'reset', state: 'idle', by: 'bo' });
+    } finally {
+      detach();
+    }
+    assert.deepEqual(rows.filter((r) => r.tags.action === 'reset').map((r) => [r.tags.who, r.tags.target]), [['bo', '10']]);
+    assert.deepEqual(runtimeOf().describe().aborted, []);
+    // Answered once saved: the file no longer has it.
+    const reread = Interlock.open(config, 'il', undefined, where, fs.readFileSync(where, 'utf8'), 20);
+    assert.deepEqual(reread.aborted, {});
+    reread.interlock.free();
   });
 });

@@ -4,10 +4,11 @@ use js_sys::{Reflect, JSON};
 use sugarshack_core::code::Code;
 use sugarshack_core::engine::wire::Wire;
 use sugarshack_core::engine::{
-    self as core, AlarmAction, Fields, Input, MsgFields, MsgId, NodeId, NodeKind, NodeSpec,
-    OperatorAction, Raw, Resend, Saved, SealedDoc, StateDoc, Step, WhoFields,
+    self as core, AlarmAction, CommandTarget, Fields, Input, MsgFields, MsgId, NodeId, NodeKind,
+    NodeSpec, OperatorAction, Param, Raw, Resend, Saved, SealedDoc, StateDoc, Step, WhoFields,
 };
 use sugarshack_core::interlock::InterlockConfig;
+use sugarshack_core::procedure::Command;
 use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
@@ -46,13 +47,14 @@ export interface EngineFields {
     force?: boolean;
 }
 
-/** An operator's action: a clear, an emergency stop, or an alarm action. */
+/** An operator's action: a clear, an emergency stop, an alarm action, or an ISA-88 command. */
 export type OperatorRequest =
     | { kind: "clear"; lines?: unknown }
     | { kind: "eStop"; lines?: unknown }
     | { kind: "ack"; ids?: unknown }
     | { kind: "shelve"; id?: unknown; untilMs?: unknown; forMs?: unknown; oneShot?: boolean }
-    | { kind: "unshelve"; id?: unknown };
+    | { kind: "unshelve"; id?: unknown }
+    | { kind: "command"; command?: unknown; operation?: unknown; routine?: unknown };
 
 /** A line's state, as the engine's view shows it. */
 export type LineState =
@@ -90,6 +92,8 @@ export interface EngineView {
     alarms: Alarm[];
     alarmChanges: AlarmChange[];
     recentEvents: EventRecord[];
+    /** The operations aborted and not reset: each refuses a start until a person resets it. */
+    aborted: { operation: string; sinceMs: number; by: string; reason: string | null; commands: ["reset"] }[];
 }
 "#;
 
@@ -291,6 +295,7 @@ fn operator_action(request: &JsValue, now: Millis) -> Result<OperatorAction, cor
         "unshelve" => OperatorAction::Alarm(AlarmAction::Unshelve {
             id: core::alarm_id_of(&raw(&field(request, "id")))?,
         }),
+        "command" => command_action(request)?,
         other => {
             return Err(core::Refusal::plain(
                 Code::InvalidInput,
@@ -298,6 +303,40 @@ fn operator_action(request: &JsValue, now: Millis) -> Result<OperatorAction, cor
             ))
         }
     })
+}
+
+/// An ISA-88 command as main's interlock runtime reads it: an operator's
+/// command, to a routine (`routine`) or else an operation (`operation`).
+fn command_action(request: &JsValue) -> Result<OperatorAction, core::Refusal> {
+    let name = field(request, "command").as_string().unwrap_or_default();
+    let Some(command) = Command::from_name(&name).filter(|c| Command::OPERATOR.contains(c)) else {
+        let commands: Vec<&str> = Command::OPERATOR.iter().map(|c| c.name()).collect();
+        return Err(core::Refusal::catalog(
+            Code::InvalidInput,
+            "errors.notACommand",
+            vec![
+                ("command", Param::Text(quote(&name))),
+                ("commands", Param::Text(commands.join(", "))),
+            ],
+        ));
+    };
+    let id = |key| {
+        field(request, key)
+            .as_string()
+            .filter(|id| id.chars().count() <= core::MAX_NAME)
+    };
+    let target = match (id("routine"), id("operation")) {
+        (Some(routine), _) => CommandTarget::Routine(routine),
+        (None, Some(operation)) => CommandTarget::Operation(operation),
+        (None, None) => {
+            return Err(core::Refusal::catalog(
+                Code::InvalidInput,
+                "errors.commandTarget",
+                Vec::new(),
+            ))
+        }
+    };
+    Ok(OperatorAction::Command { target, command })
 }
 
 fn no_blockers(_: &str) -> Vec<sugarshack_core::clearance::ClearBlocker> {

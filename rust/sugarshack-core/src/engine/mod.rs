@@ -46,6 +46,7 @@ use crate::interlock::{
     OpId, ResourceSet, RestoreOptions, Start,
 };
 use crate::operation::AbortedOperations;
+use crate::procedure::{Command, State};
 use crate::time::{ms, Millis};
 
 pub use deadline::{Deadlines, Due};
@@ -276,6 +277,24 @@ pub enum OperatorAction {
     },
     /// Acts on alarms.
     Alarm(AlarmAction),
+    /// An ISA-88 command to an operation's run or a routine. No run or
+    /// routine is the engine's: only the reset of an operation saved aborted applies.
+    Command {
+        /// What it commands.
+        target: CommandTarget,
+        /// The command.
+        command: Command,
+    },
+}
+
+/// What an operator's command names.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub enum CommandTarget {
+    /// An operation, by id.
+    Operation(String),
+    /// A routine, by id.
+    Routine(String),
 }
 
 /// Why faulted lines send their lockouts again.
@@ -1764,7 +1783,53 @@ impl Engine {
                 }
             }
             OperatorAction::Alarm(action) => self.alarm_action(msg, action, &who, now),
+            OperatorAction::Command { target, command } => {
+                self.command(msg, target, command, &who, by)
+            }
         }
+    }
+
+    /// An operator's command: the reset of an operation saved aborted; nothing else runs here.
+    fn command(
+        &mut self,
+        msg: MsgId,
+        target: CommandTarget,
+        command: Command,
+        who: &Who,
+        by: String,
+    ) {
+        let refusal = |key, id: String| {
+            Refusal::catalog(Code::UnknownRun, key, vec![("id", Param::Text(id))])
+        };
+        let answer = match target {
+            CommandTarget::Routine(id) => Err(refusal("errors.noSuchRoutineRun", id)),
+            CommandTarget::Operation(id) if self.aborted.state(&id) == State::Aborted => {
+                match self.aborted.command(&id, command) {
+                    Ok(state) => {
+                        let effects = vec![
+                            journal(
+                                Action::Reset,
+                                who.by.clone(),
+                                who.reason.clone(),
+                                vec![id.clone()],
+                            ),
+                            Output::Reply {
+                                msg,
+                                answer: Ok(serde_json::json!({
+                                    "operation": id, "command": command, "state": state, "by": by
+                                })),
+                            },
+                        ];
+                        // Saved before it is answered: the reset stands once said.
+                        self.commit(false, effects);
+                        return;
+                    }
+                    Err(err) => Err(Refusal::plain(err.code(), err.to_string())),
+                }
+            }
+            CommandTarget::Operation(id) => Err(refusal("errors.noSuchOperationRun", id)),
+        };
+        self.out.push(Output::Reply { msg, answer });
     }
 
     /// An alarm action, on the alarm states as of now (a person acts on what the page shows).

@@ -65,7 +65,11 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("errors.alarmIdInvalid", &["got"]),
     ("errors.alarmIdsInvalid", &["max"]),
     ("errors.byNotName", &["got"]),
+    ("errors.commandTarget", &[]),
     ("errors.noLinesToStop", &[]),
+    ("errors.noSuchOperationRun", &["id"]),
+    ("errors.noSuchRoutineRun", &["id"]),
+    ("errors.notACommand", &["command", "commands"]),
     ("errors.notNames", &["from", "names", "length", "got"]),
     ("errors.operationMissing", &[]),
     ("errors.operationNotName", &["from", "got"]),
@@ -263,6 +267,8 @@ pub enum Action {
     AlarmShelve,
     /// An alarm taken off its shelf.
     AlarmUnshelve,
+    /// An aborted operation reset.
+    Reset,
 }
 
 /// Log levels.

@@ -911,3 +911,100 @@ fn a_name_msgs_repeat_crosses_the_wire_once() {
         "the second msg's names are numbers only"
     );
 }
+
+/// What answered msg `k` in `out`.
+fn answer_to(out: &[Output], k: u32) -> &Result<serde_json::Value, Refusal> {
+    out.iter()
+        .find_map(|o| match o {
+            Output::Reply { msg, answer } if *msg == MsgId(k) => Some(answer),
+            _ => None,
+        })
+        .expect("an answer")
+}
+
+#[test]
+fn an_abort_saved_with_a_plant_stands_on_the_engine_until_a_person_resets_it() {
+    let b = Bench::new();
+    let mut aborted = AbortedOperations::default();
+    let ana = Attribution::new(Some("ana"), Some("gasket"), false);
+    aborted.ended("10", State::Aborted, &ana, ms(5));
+    let beside = crate::interlock::Beside {
+        aborted,
+        ..Default::default()
+    };
+    let binding = Binding {
+        owner: "il-1",
+        plant: None,
+    };
+    let saved = b.engine.interlock().seal(binding, beside, ms(10));
+    let (mut engine, _) = started(&LINES, sealed(&saved, "il-1"), 1000);
+    let view = engine.view(ms(1000), &|_| Vec::new());
+    assert_eq!(view.aborted.len(), 1);
+    assert_eq!(
+        (
+            view.aborted[0].operation.as_str(),
+            view.aborted[0].by.as_str()
+        ),
+        ("10", "ana")
+    );
+    // Carried through the engine's own document and a hand-over.
+    let resealed = engine.seal("il-1", None, BTreeMap::new(), ms(1001));
+    let config = InterlockConfig::with_resources(LINES);
+    let reopened =
+        Interlock::open(config, binding, "state.json", &resealed, None, ms(1002)).unwrap();
+    assert_eq!(reopened.aborted.state("10"), State::Aborted);
+    assert_eq!(
+        engine.snapshot(ms(1003)).aborted.state("10"),
+        State::Aborted
+    );
+
+    let command = |k, target, command| Input::Operator {
+        msg: MsgId(k),
+        action: OperatorAction::Command { target, command },
+        who: WhoFields {
+            by: text("bo"),
+            ..WhoFields::default()
+        },
+    };
+    let ten = || CommandTarget::Operation("10".to_owned());
+    let cases = [
+        (1, ten(), Command::Hold, Code::CommandRefused),
+        (
+            2,
+            CommandTarget::Routine("r".to_owned()),
+            Command::Reset,
+            Code::UnknownRun,
+        ),
+        (
+            3,
+            CommandTarget::Operation("12".to_owned()),
+            Command::Reset,
+            Code::UnknownRun,
+        ),
+    ];
+    for (k, target, cmd, code) in cases {
+        engine.handle(command(k, target, cmd), ms(1010));
+        let out = engine.take_outputs();
+        assert!(!out.iter().any(|o| matches!(o, Output::Commit { .. })));
+        assert!(
+            matches!(answer_to(&out, k), Err(r) if r.code == code),
+            "{k}"
+        );
+    }
+    engine.handle(command(4, ten(), Command::Reset), ms(1020));
+    let out = engine.take_outputs();
+    assert!(
+        matches!(out.first(), Some(Output::Commit { .. })),
+        "saved before answered"
+    );
+    assert!(out.iter().any(|o| matches!(o,
+        Output::Journal(j) if j.action == Action::Reset && j.target == ["10"])));
+    assert_eq!(
+        answer_to(&out, 4).as_ref().unwrap(),
+        &serde_json::json!({ "operation": "10", "command": "reset", "state": "idle", "by": "bo" })
+    );
+    assert!(engine.view(ms(1021), &|_| Vec::new()).aborted.is_empty());
+    engine.handle(command(5, ten(), Command::Reset), ms(1030));
+    let out = engine.take_outputs();
+    assert!(matches!(answer_to(&out, 5), Err(r) if r.code == Code::UnknownRun));
+}

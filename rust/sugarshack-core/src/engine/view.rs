@@ -2,7 +2,8 @@
 //! by an operation since when, or faulted with its cause, since when, and
 //! why it may not be cleared yet), the queue with priorities and waited
 //! times (requests a drain holds back included), whether the state was lost
-//! at start, the alarms and the latest notable events.
+//! at start, the alarms, the latest notable events and the operations
+//! aborted and not reset.
 
 use serde::Serialize;
 
@@ -10,6 +11,7 @@ use super::{Blockers, Engine};
 use crate::alarm::{Alarm, AlarmChange};
 use crate::clearance::ClearBlocker;
 use crate::interlock::{EventRecord, RequestSnapshot, ResourceState};
+use crate::procedure::Command;
 use crate::time::Millis;
 
 /// One waiting request.
@@ -40,6 +42,22 @@ pub struct Holder {
     pub since_ms: Millis,
     /// How long it has held.
     pub held_ms: Millis,
+}
+
+/// An operation aborted and not reset: it refuses every start until a person resets it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct AbortedView {
+    /// The operation.
+    pub operation: String,
+    /// Since when.
+    pub since_ms: Millis,
+    /// Who aborted it.
+    pub by: String,
+    /// Why.
+    pub reason: Option<String>,
+    /// What an operator may command it: a reset.
+    pub commands: [Command; 1],
 }
 
 /// Why a line is faulted.
@@ -96,6 +114,8 @@ pub struct EngineView {
     pub alarm_changes: Vec<AlarmChange>,
     /// The latest notable events.
     pub recent_events: Vec<EventRecord>,
+    /// The operations aborted and not reset.
+    pub aborted: Vec<AbortedView>,
 }
 
 impl Engine {
@@ -183,6 +203,17 @@ impl Engine {
             alarms: self.alarms.list().cloned().collect(),
             alarm_changes: self.recent_changes.iter().cloned().collect(),
             recent_events: self.recent_events.iter().cloned().collect(),
+            aborted: self
+                .aborted
+                .iter()
+                .map(|(operation, record)| AbortedView {
+                    operation: operation.to_owned(),
+                    since_ms: record.since_ms,
+                    by: record.by.by.clone(),
+                    reason: record.by.reason.clone(),
+                    commands: [Command::Reset],
+                })
+                .collect(),
         }
     }
 }
