@@ -201,6 +201,8 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   next.handOver(e.stateText(25, {}), 25);
   next.life('drain-end', 26);
   next.free();
+  e.acquireOperation(1, 13, 'd', 26);
+  e.releaseOperation(2, 14, 'd', 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);
