@@ -310,7 +310,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.free();
 }
 
-/** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded. */
+/** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded, then reset with its routine. */
 function primeCommands(t, AbortedOperations) {
   const run = t.operationRun('o');
   run.start(0);
@@ -343,6 +343,9 @@ function primeCommands(t, AbortedOperations) {
   aborted.reset('o');
   aborted.ended('o', 'aborted', null, null, 10);
   aborted.command('o', 'reset');
+  const routine = t.routine('r');
+  aborted.resetRoutine(routine);
+  routine.free();
   aborted.snapshot();
   aborted.free();
 }

@@ -730,23 +730,40 @@ proptest! {
 
     /// A routine under commands and its operation's fate: every move declared,
     /// a refused command changes nothing, a held, stopped or aborted routine
-    /// fires no trigger, aborted is left only by a reset.
+    /// fires no trigger, aborted is left only by a reset, and its reset
+    /// resets exactly its operations that were aborted (another's stays).
     #[test]
     fn a_routine_under_commands_moves_only_as_declared(
         error_state in any::<bool>(),
         inputs in prop::collection::vec(routine_input(), 0..50),
     ) {
+        use sugarshack_core::operation::AbortedOperations;
         use sugarshack_core::routine::RoutineMachine;
         let plant = routine_plant(error_state);
         let mut r = RoutineMachine::new(&plant, "truck").unwrap();
         // The pending operation's state, as its run would say.
         let mut op: Option<State> = None;
+        // The interlock's aborted operations; "99" is no operation of the routine.
+        let who = Attribution::new(Some("ana"), None, false);
+        let mut aborted = AbortedOperations::default();
+        aborted.ended("99", State::Aborted, &who, ms(0));
+        let mut model_aborted: Vec<String> = Vec::new();
         for input in inputs {
             let before = r.run_state(op);
             let before_snapshot = r.snapshot();
             match input {
                 RoutineInput::Command(c) => match r.command(c, op) {
-                    Ok((forward, _)) => {
+                    Ok((forward, moved)) => {
+                        if moved.is_some() {
+                            let mut expected: Vec<String> = r.operations().into_iter().map(String::from).filter(|o| model_aborted.contains(o)).collect();
+                            let mut reset = aborted.reset_routine(&r.operations());
+                            reset.sort();
+                            expected.sort();
+                            prop_assert_eq!(reset, expected, "a routine's reset");
+                            model_aborted.clear();
+                            prop_assert!(r.operations().iter().all(|o| aborted.state(o) == State::Idle));
+                            prop_assert_eq!(aborted.state("99"), State::Aborted, "another's abort stands");
+                        }
                         let Verdict::To(first) = procedure::ROUTINE.verdict(before, c) else {
                             panic!("{c} taken in {before}");
                         };
@@ -787,6 +804,13 @@ proptest! {
                     };
                     if !can_end {
                         continue;
+                    }
+                    if matches!(end, RoutineInput::OperationAborted) {
+                        let pending = r.pending().unwrap().to_owned();
+                        aborted.ended(&pending, State::Aborted, &who, ms(1));
+                        if !model_aborted.contains(&pending) {
+                            model_aborted.push(pending);
+                        }
                     }
                     let (result, event) = match end {
                         RoutineInput::Completed => (r.completed().map(|_| ()), RoutineEvent::Completed),
