@@ -321,6 +321,8 @@ function primeCommands(t, AbortedOperations) {
   const held = t.operationRun('o');
   held.start(0);
   held.granted(1);
+  held.stepDone(0, 1);
+  // Held in the wait: its restart restores V (the command step would command V itself).
   held.command('hold', 'primer', null, 2);
   held.holdDone(3);
   const { run: back, effects } = t.restoreRun(held.snapshot({ kind: 'node', id: 'primer' }));

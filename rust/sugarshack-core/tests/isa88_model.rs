@@ -28,8 +28,9 @@ fn group(written: serde_json::Value) -> GroupCommand {
 
 const ID: &str = "fill";
 
-/// Steps as written (true: a command, false: a wait) and their restart rules;
-/// a return to idle is appended.
+/// Steps as written (true: a command of valve V{i}, false: a wait) and their
+/// restart rules; a return to idle is appended, with what the hold sets (P
+/// and V1) as the plan builder adds it.
 fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
     let mut plan_steps: Vec<PlanStep> = steps
         .iter()
@@ -56,8 +57,17 @@ fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
             }
         })
         .collect();
+    let mut idle = serde_json::Map::new();
+    for (i, &(command, _)) in steps.iter().enumerate() {
+        if command {
+            idle.insert(format!("V{i}"), json!(0));
+        }
+    }
+    for id in ["V1", "P"] {
+        idle.insert(id.into(), json!(0));
+    }
     plan_steps.push(PlanStep::ReturnToIdle {
-        command: group(json!({ "valve": { "V0": 0, "P": 0 } })),
+        command: group(json!({ "valve": idle })),
         timeout_ms: ms(3000),
     });
     OperationPlan {
@@ -66,7 +76,7 @@ fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
         resources: vec!["YEL".into()],
         steps: plan_steps,
         hold: hold.then(|| HoldCommand {
-            command: group(json!({ "valve": { "P": 0 } })),
+            command: group(json!({ "valve": { "P": 0, "V1": 0 } })),
             timeout_ms: ms(700),
         }),
         stop: if stop_now {
@@ -315,7 +325,9 @@ impl Model {
             (At::Held { i }, Command::Restart) => {
                 self.at = At::Restarting { i };
                 out.push(Expect::Entered(State::Restarting));
-                if self.plan.restore_before(i).is_some() {
+                // The hold sets P, which no step but the return to idle
+                // commands: something to restore, unless held in that step.
+                if self.plan.hold.is_some() && i != self.last() {
                     out.push(Expect::Restore);
                 } else {
                     self.restart_done(i, now, &mut out);
@@ -642,6 +654,16 @@ proptest! {
             prop_assert_eq!(run.step(), model.step());
             prop_assert!(procedure::operation_move_declared(before, after) || by_events(before, after)
                 || matches!(input, Input::Command(c) if matches!(OPERATION.verdict(before, c), Verdict::To(t) if by_events(t, after))));
+            // A restore leaves to its step the actuators the step commands again.
+            for e in &effects {
+                if let RunEffect::Restore { command, .. } = e {
+                    let i = run.step().expect("a restore is of a step");
+                    if let PlanStep::Command { command: own, .. } | PlanStep::ReturnToIdle { command: own, .. } = &plan.steps[i] {
+                        prop_assert!(command.members().all(|(_, id, _)| own.members().all(|(_, m, _)| m != id)),
+                            "the restore {:?} sets what step {} commands", command, i);
+                    }
+                }
+            }
             // A held run commands nothing while it stays held.
             if before == State::Held && after == State::Held {
                 prop_assert!(effects.is_empty(), "held, yet {:?} gave {:?}", input, effects);
