@@ -181,10 +181,7 @@ class RoutineHost {
       this.commanding = null;
       if (moved) {
         this.lastFault = false;
-        const aborted = this.interlock.abortedOperations();
-        for (const operation of machine.operations()) {
-          if (aborted.state(operation) === 'aborted') aborted.command(operation, 'reset');
-        }
+        this.interlock.abortedOperations().resetRoutine(machine);
         this.interlock.changed(() => this.emit('reset', { from: moved.from, to: moved.to, by: who.by || null }));
       } else {
         const runState = this.runState();

@@ -377,7 +377,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.free();
 }
 
-/** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded. */
+/** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded, then reset with its routine. */
 function primeCommands(t, AbortedOperations) {
   const run = t.operationRun('o');
   run.start(0);
@@ -388,6 +388,8 @@ function primeCommands(t, AbortedOperations) {
   const held = t.operationRun('o');
   held.start(0);
   held.granted(1);
+  held.stepDone(0, 1);
+  // Held in the wait: its restart restores V (the command step would command V itself).
   held.command('hold', 'primer', null, 2);
   held.holdDone(3);
   const { run: back, effects } = t.restoreRun(held.snapshot({ kind: 'node', id: 'primer' }));
@@ -410,6 +412,9 @@ function primeCommands(t, AbortedOperations) {
   aborted.reset('o');
   aborted.ended('o', 'aborted', null, null, 10);
   aborted.command('o', 'reset');
+  const routine = t.routine('r');
+  aborted.resetRoutine(routine);
+  routine.free();
   aborted.snapshot();
   aborted.free();
 }

@@ -190,7 +190,9 @@ describe('the HMI at /dashboard in headless Chromium', function () {
     assert.ok(op, 'an operation held from the page');
     const held = await waitText(runOn(op), /\bheld\b/, `operation ${op} shown held`, 20000);
     assert.ok(held.includes(PLANT.operations.find((o) => o.id === op).description), `by its name: ${held}`);
-    assert.ok(await page.$(`${runOn(op)} .ss-restart`), 'RESTART offered');
+    // The state's text and its buttons may come in separate pushes: wait for the button, not the text.
+    await page.waitForSelector(`${runOn(op)} .ss-restart`, { timeout: 10000 }).catch(() => null);
+    assert.ok(await page.$(`${runOn(op)} .ss-restart`), `RESTART offered: ${JSON.stringify(await runOf(op))}`);
     assert.equal(await page.$(`${runOn(op)} .ss-hold`), null, 'HOLD not offered while held');
     const lines = (await red.get('/sugarshack/state')).interlocks[0].lines;
     assert.ok(lines.some((l) => l.holder && l.holder.operation === op), `a held operation keeps its lines: ${JSON.stringify(lines.map((l) => [l.name, l.holder]))}`);

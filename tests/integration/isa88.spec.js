@@ -26,6 +26,11 @@ const { connectProbe } = require('./support/mqtt-probe');
 const { startTestSimulator } = require('./support/simulator');
 const { NodeRedProcess, sleep, waitFor } = require('./support/node-red');
 const { build, nid } = require('../../scripts/case-study-flow');
+const { docBlocks, run } = require('../../scripts/docs/snippets');
+
+// The state API page's own command holds op 10: its snippet needs op 10 running, which this test sees to.
+const HOLD_SNIPPET = docBlocks(['docs/reference/state-api.md'])
+  .find((b) => b.tags.by === 'tests/integration/isa88.spec.js' && b.body.includes('"command":"hold"'));
 
 const ROOT = path.resolve(__dirname, '..', '..');
 const PLANT_FILE = path.join(ROOT, 'flows', 'plant.json');
@@ -125,7 +130,8 @@ describe('ISA-88 hold, restart and abort on the real stack (Mosquitto, simulator
     assert.ok(volume('T-truck') < 4000, `the truck is still filling (${volume('T-truck')} L)`);
 
     const heldAt = Date.now();
-    await click(walkthroughButton('hold op 10'));
+    const answer = JSON.parse(await run(HOLD_SNIPPET, { red: red.port }));
+    assert.equal(answer.operation, '10');
     await waitFor(runIs('10', 'held'), 'op 10 held', 30000);
     for (const [id, value] of holdCommand('10')) assert.ok(sent(heldAt, id, value), `the hold sent ${id} ${commandText(ACTUATORS[id], value)}`);
     await waitFor(() => !pumpRunning('P1') && valveAt('V101') < 3, 'P1 stopped and V101 closed at the devices', 10000);

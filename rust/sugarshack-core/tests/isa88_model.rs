@@ -28,8 +28,9 @@ fn group(written: serde_json::Value) -> GroupCommand {
 
 const ID: &str = "fill";
 
-/// Steps as written (true: a command, false: a wait) and their restart rules;
-/// a return to idle is appended.
+/// Steps as written (true: a command of valve V{i}, false: a wait) and their
+/// restart rules; a return to idle is appended, with what the hold sets (P
+/// and V1) as the plan builder adds it.
 fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
     let mut plan_steps: Vec<PlanStep> = steps
         .iter()
@@ -56,8 +57,17 @@ fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
             }
         })
         .collect();
+    let mut idle = serde_json::Map::new();
+    for (i, &(command, _)) in steps.iter().enumerate() {
+        if command {
+            idle.insert(format!("V{i}"), json!(0));
+        }
+    }
+    for id in ["V1", "P"] {
+        idle.insert(id.into(), json!(0));
+    }
     plan_steps.push(PlanStep::ReturnToIdle {
-        command: group(json!({ "valve": { "V0": 0, "P": 0 } })),
+        command: group(json!({ "valve": idle })),
         timeout_ms: ms(3000),
     });
     OperationPlan {
@@ -66,7 +76,7 @@ fn plan(steps: &[(bool, bool)], hold: bool, stop_now: bool) -> OperationPlan {
         resources: vec!["YEL".into()],
         steps: plan_steps,
         hold: hold.then(|| HoldCommand {
-            command: group(json!({ "valve": { "P": 0 } })),
+            command: group(json!({ "valve": { "P": 0, "V1": 0 } })),
             timeout_ms: ms(700),
         }),
         stop: if stop_now {
@@ -315,7 +325,9 @@ impl Model {
             (At::Held { i }, Command::Restart) => {
                 self.at = At::Restarting { i };
                 out.push(Expect::Entered(State::Restarting));
-                if self.plan.restore_before(i).is_some() {
+                // The hold sets P, which no step but the return to idle
+                // commands: something to restore, unless held in that step.
+                if self.plan.hold.is_some() && i != self.last() {
                     out.push(Expect::Restore);
                 } else {
                     self.restart_done(i, now, &mut out);
@@ -642,6 +654,16 @@ proptest! {
             prop_assert_eq!(run.step(), model.step());
             prop_assert!(procedure::operation_move_declared(before, after) || by_events(before, after)
                 || matches!(input, Input::Command(c) if matches!(OPERATION.verdict(before, c), Verdict::To(t) if by_events(t, after))));
+            // A restore leaves to its step the actuators the step commands again.
+            for e in &effects {
+                if let RunEffect::Restore { command, .. } = e {
+                    let i = run.step().expect("a restore is of a step");
+                    if let PlanStep::Command { command: own, .. } | PlanStep::ReturnToIdle { command: own, .. } = &plan.steps[i] {
+                        prop_assert!(command.members().all(|(_, id, _)| own.members().all(|(_, m, _)| m != id)),
+                            "the restore {:?} sets what step {} commands", command, i);
+                    }
+                }
+            }
             // A held run commands nothing while it stays held.
             if before == State::Held && after == State::Held {
                 prop_assert!(effects.is_empty(), "held, yet {:?} gave {:?}", input, effects);
@@ -730,23 +752,40 @@ proptest! {
 
     /// A routine under commands and its operation's fate: every move declared,
     /// a refused command changes nothing, a held, stopped or aborted routine
-    /// fires no trigger, aborted is left only by a reset.
+    /// fires no trigger, aborted is left only by a reset, and its reset
+    /// resets exactly its operations that were aborted (another's stays).
     #[test]
     fn a_routine_under_commands_moves_only_as_declared(
         error_state in any::<bool>(),
         inputs in prop::collection::vec(routine_input(), 0..50),
     ) {
+        use sugarshack_core::operation::AbortedOperations;
         use sugarshack_core::routine::RoutineMachine;
         let plant = routine_plant(error_state);
         let mut r = RoutineMachine::new(&plant, "truck").unwrap();
         // The pending operation's state, as its run would say.
         let mut op: Option<State> = None;
+        // The interlock's aborted operations; "99" is no operation of the routine.
+        let who = Attribution::new(Some("ana"), None, false);
+        let mut aborted = AbortedOperations::default();
+        aborted.ended("99", State::Aborted, &who, ms(0));
+        let mut model_aborted: Vec<String> = Vec::new();
         for input in inputs {
             let before = r.run_state(op);
             let before_snapshot = r.snapshot();
             match input {
                 RoutineInput::Command(c) => match r.command(c, op) {
-                    Ok((forward, _)) => {
+                    Ok((forward, moved)) => {
+                        if moved.is_some() {
+                            let mut expected: Vec<String> = r.operations().into_iter().map(String::from).filter(|o| model_aborted.contains(o)).collect();
+                            let mut reset = aborted.reset_routine(&r.operations());
+                            reset.sort();
+                            expected.sort();
+                            prop_assert_eq!(reset, expected, "a routine's reset");
+                            model_aborted.clear();
+                            prop_assert!(r.operations().iter().all(|o| aborted.state(o) == State::Idle));
+                            prop_assert_eq!(aborted.state("99"), State::Aborted, "another's abort stands");
+                        }
                         let Verdict::To(first) = procedure::ROUTINE.verdict(before, c) else {
                             panic!("{c} taken in {before}");
                         };
@@ -787,6 +826,13 @@ proptest! {
                     };
                     if !can_end {
                         continue;
+                    }
+                    if matches!(end, RoutineInput::OperationAborted) {
+                        let pending = r.pending().unwrap().to_owned();
+                        aborted.ended(&pending, State::Aborted, &who, ms(1));
+                        if !model_aborted.contains(&pending) {
+                            model_aborted.push(pending);
+                        }
                     }
                     let (result, event) = match end {
                         RoutineInput::Completed => (r.completed().map(|_| ()), RoutineEvent::Completed),

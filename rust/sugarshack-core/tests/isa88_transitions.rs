@@ -380,11 +380,12 @@ fn a_reissued_step_goes_on_with_the_time_it_had_left() {
     // The first command step (V1, V2 open) 15 s into its 20 s.
     cmd(&mut r, Command::Hold, 15_000);
     r.hold_done(ms(16_000));
-    // Nothing commanded before step 1: the hold's V1 and P1 go back to idle.
+    // Nothing commanded before step 1: the hold's P1 goes back to idle; V1 is
+    // the step's own, which it opens again.
     let restarted = cmd(&mut r, Command::Restart, 50_000);
     assert_eq!(
         serde_json::to_value(&restarted[1]).unwrap()["command"],
-        json!({ "pumps": { "P1": false }, "valves": { "V1": 0 } })
+        json!({ "pumps": { "P1": false } })
     );
     match r.restart_done(ms(51_000)).as_slice() {
         [_, RunEffect::StartStep {
@@ -404,6 +405,47 @@ fn a_reissued_step_goes_on_with_the_time_it_had_left() {
     cmd(&mut r, Command::Restart, 53_000);
     match r.restart_done(ms(53_500)).as_slice() {
         [_, RunEffect::StartStep { timeout_ms, .. }] => assert_eq!(*timeout_ms, ms(4_000)),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_restart_leaves_to_the_step_the_actuators_it_commands_itself() {
+    let mut r = run();
+    cmd(&mut r, Command::Start, 0);
+    r.granted(ms(0));
+    for i in 0..3 {
+        r.step_done(i, ms(1000 + i as u64));
+    }
+    // Held in the last step, "P1 off": the restore opens V1 again but does
+    // not start P1 only for the step to stop it.
+    cmd(&mut r, Command::Hold, 5_000);
+    r.hold_done(ms(5_500));
+    let restarted = cmd(&mut r, Command::Restart, 9_000);
+    assert_eq!(
+        serde_json::to_value(&restarted).unwrap(),
+        json!([
+            { "kind": "entered", "state": "restarting", "step": 3 },
+            { "kind": "restore", "command": { "valves": { "V1": 100 } }, "timeoutMs": 4000, "within": ["YEL"] }
+        ])
+    );
+    match r.restart_done(ms(9_500)).as_slice() {
+        [_, RunEffect::StartStep { index: 3, step, .. }] => assert_eq!(step, plan_step(&r, 3)),
+        other => panic!("{other:?}"),
+    }
+    // Held in the return to idle, which commands every actuator the hold
+    // set: nothing to restore, the step goes on at once.
+    r.step_done(3, ms(10_000));
+    cmd(&mut r, Command::Hold, 11_000);
+    r.hold_done(ms(11_500));
+    match cmd(&mut r, Command::Restart, 12_000).as_slice() {
+        [RunEffect::Entered {
+            state: State::Restarting,
+            ..
+        }, RunEffect::Entered {
+            state: State::Running,
+            ..
+        }, RunEffect::StartStep { index: 4, .. }] => {}
         other => panic!("{other:?}"),
     }
 }

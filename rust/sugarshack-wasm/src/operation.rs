@@ -9,6 +9,7 @@ use sugarshack_core::procedure::{Command, State};
 use sugarshack_core::time::{ms, Millis};
 use wasm_bindgen::prelude::*;
 
+use crate::routine::Routine;
 use crate::{from_js_bounded, js_error, time, to_js, Bound};
 
 /// The TypeScript shapes of what this module's calls return and take
@@ -276,6 +277,13 @@ impl AbortedOperations {
     /// A person's reset; throws `COMMAND_REFUSED` unless it is aborted.
     pub fn reset(&mut self, operation: &str) -> Result<(), JsValue> {
         self.core.reset(operation).map(|_| ()).map_err(run_error)
+    }
+
+    /// `routine`'s reset: its operations that wait for a reset after an
+    /// abort are reset with it. Their ids.
+    #[wasm_bindgen(js_name = resetRoutine)]
+    pub fn reset_routine(&mut self, routine: &Routine) -> Vec<String> {
+        self.core.reset_routine(&routine.machine().operations())
     }
 
     /// A person's command to `operation` while no run of it exists: a reset

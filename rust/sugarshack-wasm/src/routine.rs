@@ -73,6 +73,10 @@ impl Routine {
             .map(|core| Routine { core })
             .map_err(routine_error)
     }
+
+    pub(crate) fn machine(&self) -> &RoutineMachine {
+        &self.core
+    }
 }
 
 #[wasm_bindgen]

@@ -4,6 +4,7 @@
 //! plans, C2 refusals, stale sensors and a routine's round trip through a snapshot.
 
 use js_sys::{Array, JSON};
+use sugarshack_wasm::operation::AbortedOperations;
 use sugarshack_wasm::Tracker;
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
@@ -185,6 +186,22 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
         "INVALID_SNAPSHOT"
     );
     assert_eq!(code_of(t.routine("silo").err().unwrap()), "UNKNOWN_ROUTINE");
+}
+
+#[wasm_bindgen_test]
+fn a_routines_reset_resets_its_aborted_operations() {
+    let r = tracker().routine("truck").unwrap();
+    let mut aborted = AbortedOperations::new(JsValue::UNDEFINED).unwrap();
+    for operation in ["51", "99"] {
+        aborted
+            .ended(operation, "aborted", Some("ana".into()), None, 1.0)
+            .unwrap();
+    }
+    assert_eq!(aborted.reset_routine(&r), vec!["51".to_string()]);
+    assert_eq!(
+        (aborted.state("51"), aborted.state("99")),
+        ("idle".to_string(), "aborted".to_string())
+    );
 }
 
 #[wasm_bindgen_test]

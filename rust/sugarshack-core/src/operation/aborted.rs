@@ -72,6 +72,16 @@ impl AbortedOperations {
         Ok(self.0.remove(id).expect("checked aborted"))
     }
 
+    /// A routine's reset: those of its `operations` aborted (each waits
+    /// for a reset after an abort) are reset with it. Their ids, in order.
+    pub fn reset_routine(&mut self, operations: &[&str]) -> Vec<String> {
+        operations
+            .iter()
+            .filter(|id| self.0.remove(**id).is_some())
+            .map(|id| (*id).to_owned())
+            .collect()
+    }
+
     /// A person's `command` to `id` while no run of it exists: a reset of
     /// an aborted one is taken (its state after: idle); any other command is
     /// refused with the table's words.
@@ -121,5 +131,19 @@ mod tests {
         assert!(aborted.check_start("10").is_ok());
         let json = serde_json::to_value(&aborted).unwrap();
         assert_eq!(json, serde_json::json!({}));
+    }
+
+    #[test]
+    fn a_routines_reset_resets_its_aborted_operations_and_no_others() {
+        let mut aborted = AbortedOperations::default();
+        let who = Attribution::new(Some("ana"), None, false);
+        aborted.ended("12", State::Aborted, &who, ms(1));
+        aborted.ended("10", State::Aborted, &who, ms(2));
+        aborted.ended("99", State::Aborted, &who, ms(3));
+        assert_eq!(aborted.reset_routine(&["10", "12", "15"]), ["10", "12"]);
+        assert_eq!(aborted.state("10"), State::Idle);
+        assert_eq!(aborted.state("12"), State::Idle);
+        assert_eq!(aborted.state("99"), State::Aborted, "not the routine's");
+        assert!(aborted.reset_routine(&["10", "12", "15"]).is_empty());
     }
 }

@@ -100,16 +100,27 @@ impl OperationPlan {
 
     /// What a restart at step `index` sends before the step goes on: every
     /// actuator the hold command set, back where the run had it (as the last
-    /// command step before `index` left it, else at its idle state). None
-    /// when there is nothing to put back.
+    /// command step before `index` left it, else at its idle state), except
+    /// those step `index` commands itself (rerun or reissued, it sends its
+    /// command again; a wait commands nothing). None when there is nothing
+    /// to put back.
     pub fn restore_before(&self, index: usize) -> Option<HoldCommand> {
         let hold = self.hold.as_ref()?;
         let idle = self.steps.iter().find_map(|s| match s {
             PlanStep::ReturnToIdle { command, .. } => Some(command),
             _ => None,
         });
+        let step_commands = match self.steps.get(index) {
+            Some(PlanStep::Command { command, .. } | PlanStep::ReturnToIdle { command, .. }) => {
+                Some(command)
+            }
+            Some(PlanStep::Wait { .. }) | None => None,
+        };
         let mut restore = GroupCommand::default();
         for (key, id, _) in hold.command.members() {
+            if step_commands.is_some_and(|c| c.members().any(|(_, m, _)| m == id)) {
+                continue;
+            }
             let earlier = self.steps[..index.min(self.steps.len())]
                 .iter()
                 .rev()
@@ -263,6 +274,33 @@ mod tests {
         );
         assert_eq!(plan.resources, vec!["YEL".to_string()]);
         assert!(plant.operation_plan("11").is_none());
+    }
+
+    #[test]
+    fn a_restore_leaves_to_the_step_the_actuators_it_commands() {
+        let mut plan = plant().operation_plan("10").unwrap();
+        plan.hold = Some(HoldCommand {
+            command: serde_json::from_value(
+                json!({ "pumps": { "P1": false }, "valves": { "V1": 0 } }),
+            )
+            .unwrap(),
+            timeout_ms: ms(4000),
+        });
+        let restore = |index| {
+            plan.restore_before(index)
+                .map(|r| serde_json::to_value(r.command).unwrap())
+        };
+        // The wait commands nothing: both back where the run had them.
+        assert_eq!(
+            restore(2),
+            Some(json!({ "pumps": { "P1": true }, "valves": { "V1": 100 } }))
+        );
+        // "P1 off" and "P1 on" command P1 themselves; "V2, V1 open" commands V1.
+        assert_eq!(restore(3), Some(json!({ "valves": { "V1": 100 } })));
+        assert_eq!(restore(1), Some(json!({ "valves": { "V1": 100 } })));
+        assert_eq!(restore(0), Some(json!({ "pumps": { "P1": false } })));
+        // The return to idle commands every actuator a hold may set.
+        assert_eq!(restore(4), None);
     }
 
     #[test]

@@ -380,6 +380,27 @@ struct Failure {
     by_command: bool,
 }
 
+impl Failure {
+    /// What the plant or the interlock reported failed (`code`, `message`) at `place`.
+    fn reported(
+        code: &str,
+        message: &str,
+        place: String,
+        step: Option<usize>,
+        stage: Stage,
+    ) -> Self {
+        Failure {
+            code: code.into(),
+            place,
+            cause: message.into(),
+            step,
+            stage,
+            aborted: false,
+            by_command: false,
+        }
+    }
+}
+
 /// How a withdrawal ends the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Withdrawal {
@@ -637,7 +658,14 @@ impl OperationRun {
         let Inner::Holding { at, .. } = self.state else {
             return Vec::new();
         };
-        self.command_failed(at.index, Stage::Hold, "its hold command", code, message)
+        let place = format!("its hold command in {}", self.describe(at.index));
+        self.fault_reported(Failure::reported(
+            code,
+            message,
+            place,
+            Some(at.index),
+            Stage::Hold,
+        ))
     }
 
     /// Held: what the hold changed goes back, then the step goes on.
@@ -686,34 +714,14 @@ impl OperationRun {
         let Inner::Restarting { at, .. } = self.state else {
             return Vec::new();
         };
-        self.command_failed(at.index, Stage::Restart, "its restart", code, message)
-    }
-
-    fn command_failed(
-        &mut self,
-        index: usize,
-        stage: Stage,
-        what: &str,
-        code: &str,
-        message: &str,
-    ) -> Vec<RunEffect> {
-        let place = format!(
-            "{what} in {}",
-            describe_step(index, self.plan.steps[index].kind())
-        );
-        let note = format!("{place}: {message}");
-        vec![self.fault(
-            Failure {
-                code: code.into(),
-                place,
-                cause: message.into(),
-                step: Some(index),
-                stage,
-                aborted: false,
-                by_command: false,
-            },
-            note,
-        )]
+        let place = format!("its restart in {}", self.describe(at.index));
+        self.fault_reported(Failure::reported(
+            code,
+            message,
+            place,
+            Some(at.index),
+            Stage::Restart,
+        ))
     }
 
     /// An operator's stop: withdrawn while queued; else as the plan's stop rule says, then back to idle and released.
@@ -835,34 +843,47 @@ impl OperationRun {
             Inner::Step { at, .. }
             | Inner::Holding { at, .. }
             | Inner::Held { at, .. }
-            | Inner::Restarting { at, .. } => {
-                if let Inner::Held { since_ms, .. } = self.state {
-                    self.held_ms = self.held_ms.saturating_add(now.saturating_sub(since_ms));
-                }
-                let in_flight = !matches!(self.state, Inner::Held { .. });
-                let kind = self.plan.steps[at.index].kind();
-                let fault = self.fault(
-                    Failure {
-                        code: ABORTED.into(),
-                        place: describe_step(at.index, kind),
-                        cause: by.clone(),
-                        step: Some(at.index),
-                        stage: kind.into(),
-                        aborted: true,
-                        by_command: true,
-                    },
-                    by,
-                );
-                let mut effects = Vec::with_capacity(3);
-                if in_flight {
-                    effects.push(RunEffect::CancelStep { index: at.index });
-                }
-                effects.push(self.entered());
-                effects.push(fault);
-                effects
-            }
+            | Inner::Restarting { at, .. } => self.abort_in_step(at.index, by, true, now),
             _ => Vec::new(),
         }
+    }
+
+    /// A granted run in step `index` ends at once, aborted with its lines'
+    /// lockouts (an operator's abort, `by_command`, or its supervisor gone):
+    /// the time held so far counts, the step in flight (none while held) is
+    /// cancelled, and an operator's abort shows its aborting state first.
+    fn abort_in_step(
+        &mut self,
+        index: usize,
+        cause: String,
+        by_command: bool,
+        now: Millis,
+    ) -> Vec<RunEffect> {
+        if let Inner::Held { since_ms, .. } = self.state {
+            self.held_ms = self.held_ms.saturating_add(now.saturating_sub(since_ms));
+        }
+        let in_flight = !matches!(self.state, Inner::Held { .. });
+        let fault = self.fault(
+            Failure {
+                code: ABORTED.into(),
+                place: self.describe(index),
+                cause: cause.clone(),
+                step: Some(index),
+                stage: self.plan.steps[index].kind().into(),
+                aborted: true,
+                by_command,
+            },
+            cause,
+        );
+        let mut effects = Vec::with_capacity(3);
+        if in_flight {
+            effects.push(RunEffect::CancelStep { index });
+        }
+        if by_command {
+            effects.push(self.entered());
+        }
+        effects.push(fault);
+        effects
     }
 
     /// The interlock granted the lines: the first step starts. A grant that
@@ -947,21 +968,14 @@ impl OperationRun {
         if !matches!(self.state, Inner::Step { at, .. } if at.index == index) {
             return Vec::new();
         }
-        let kind = self.plan.steps[index].kind();
-        let place = describe_step(index, kind);
-        let note = format!("{place}: {message}");
-        vec![self.fault(
-            Failure {
-                code: code.into(),
-                place,
-                cause: message.into(),
-                step: Some(index),
-                stage: kind.into(),
-                aborted: false,
-                by_command: false,
-            },
-            note,
-        )]
+        let stage = self.plan.steps[index].kind().into();
+        self.fault_reported(Failure::reported(
+            code,
+            message,
+            self.describe(index),
+            Some(index),
+            stage,
+        ))
     }
 
     /// The interlock refused the release.
@@ -976,19 +990,11 @@ impl OperationRun {
             _ => return Vec::new(),
         };
         let place = "its release".to_owned();
-        let note = format!("{place}: {message}");
-        vec![self.fault(
-            Failure {
-                code: code.into(),
-                place,
-                cause: message.into(),
-                step: None,
-                stage: Stage::Release,
-                aborted,
-                by_command,
-            },
-            note,
-        )]
+        self.fault_reported(Failure {
+            aborted,
+            by_command,
+            ..Failure::reported(code, message, place, None, Stage::Release)
+        })
     }
 
     /// The interlock faulted the operation; `locked_out` are the lines whose lockouts went out.
@@ -1083,30 +1089,7 @@ impl OperationRun {
             | Inner::Holding { at, .. }
             | Inner::Held { at, .. }
             | Inner::Restarting { at, .. } => {
-                if let Inner::Held { since_ms, .. } = self.state {
-                    self.held_ms = self.held_ms.saturating_add(now.saturating_sub(since_ms));
-                }
-                let in_flight = !matches!(self.state, Inner::Held { .. });
-                let kind = self.plan.steps[at.index].kind();
-                let cause = format!("interrupted: {reason}");
-                let fault = self.fault(
-                    Failure {
-                        code: ABORTED.into(),
-                        place: describe_step(at.index, kind),
-                        cause: cause.clone(),
-                        step: Some(at.index),
-                        stage: kind.into(),
-                        aborted: true,
-                        by_command: false,
-                    },
-                    cause,
-                );
-                let mut effects = Vec::with_capacity(2);
-                if in_flight {
-                    effects.push(RunEffect::CancelStep { index: at.index });
-                }
-                effects.push(fault);
-                effects
+                self.abort_in_step(at.index, format!("interrupted: {reason}"), false, now)
             }
             _ => Vec::new(),
         }
@@ -1209,7 +1192,7 @@ impl OperationRun {
             Some(i) => format!(
                 "operation '{}' was stopped by an operator at {}; what it commanded is back at idle and its lines are released",
                 self.plan.id,
-                describe_step(i, self.plan.steps[i].kind())
+                self.describe(i)
             ),
             None => format!(
                 "operation '{}' was stopped by an operator while it waited for its lines",
@@ -1321,6 +1304,12 @@ impl OperationRun {
         }
     }
 
+    /// A reported failure faults the run, noted with where and why.
+    fn fault_reported(&mut self, failure: Failure) -> Vec<RunEffect> {
+        let note = format!("{}: {}", failure.place, failure.cause);
+        vec![self.fault(failure, note)]
+    }
+
     fn fault(&mut self, failure: Failure, note: String) -> RunEffect {
         self.state = Inner::Faulting(failure);
         RunEffect::Fault {
@@ -1344,8 +1333,10 @@ impl OperationRun {
             state: State::Withdrawn,
         }
     }
-}
 
-fn describe_step(index: usize, kind: StepKind) -> String {
-    format!("step {} ({})", index + 1, kind.words())
+    /// Step `index` in words: `step 3 (wait)`.
+    fn describe(&self, index: usize) -> String {
+        let kind = self.plan.steps[index].kind();
+        format!("step {} ({})", index + 1, kind.words())
+    }
 }

@@ -490,7 +490,7 @@ pub struct HoldCommand {
 
 /// How a step goes on when a held operation restarts. Either way the
 /// actuators the hold command moved first go back where the operation had
-/// them.
+/// them, except those the step commands itself (it sends its command again).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
