@@ -23,7 +23,8 @@ pub use contract::{
     memory, operator_commands, routine_reset_topic,
 };
 pub use control::{
-    open_pid_state, pid_defaults, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,
+    open_pid_state, pid_defaults, seal_pid_state, validate_thresholds, IoModule, PidLoop,
+    PidStation, Rcc,
 };
 pub use device::DeviceSide;
 pub use engine::Engine;

@@ -316,7 +316,10 @@ mod tests {
             }
         );
         assert_eq!(config.max_samples, DEFAULT_MAX_SAMPLES);
-        assert_eq!((DEFAULT_ALPHA, DEFAULT_H, DEFAULT_MAX_SAMPLES), (0.1, 3.0, 400));
+        assert_eq!(
+            (DEFAULT_ALPHA, DEFAULT_H, DEFAULT_MAX_SAMPLES),
+            (0.1, 3.0, 400)
+        );
         SmithPredictor::new(config).unwrap();
     }
 
