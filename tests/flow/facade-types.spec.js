@@ -291,6 +291,7 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('StationConfig', pid);
     const saved = { integral: 1, setpoint: 50, mode: 'manual', manual: 3 };
     shapes.expect('StationSaved', facade.openPidState('test', facade.sealPidState('p', pid, saved, 5), 'p'));
+    shapes.expect('PidDefaults', facade.pidDefaults());
   });
 
   it('clear blockers against a plant', function () {

@@ -139,7 +139,8 @@ const PACKAGE_NAME = JSON.parse(fs.readFileSync(path.join(PALETTE, 'package.json
  */
 function tCatalog(file, source) {
   const type = /translator\(RED, '([^']+)'\)/.exec(source);
-  if (type) return { stem: path.basename(file, '.js'), prefix: type[1] };
+  // A node type's texts are in its catalog (locales/en-US/pid.json for sugarshack-pid), wherever in lib/ they are read.
+  if (type) return { stem: type[1].replace(/^sugarshack-/, ''), prefix: type[1] };
   const ns = /var NS = '([^':]+)\/([\w-]+):([\w.-]+)\.';/.exec(source);
   if (!ns) return null;
   assert.equal(ns[1], PACKAGE_NAME, `${file}: the namespace names another module`);
