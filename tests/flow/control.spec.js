@@ -495,6 +495,20 @@ describe('sugarshack control: pid', function () {
     }
     assert.equal(seen.out.length, 0);
   });
+
+  it("refuses at deploy a choice the editor does not offer (a flow written by hand), and takes a blank one as the core's default", async function () {
+    const seen = await start([
+      pidNode('hand', { action: 'forward' }),
+      pidNode('pOn', { pOn: 'setpoint' }),
+      pidNode('none', { action: '', pOn: '', mode: '' }),
+    ]);
+    assert.match(String(errorLogs('hand')[0]), /action must be one of 'reverse', 'direct'; got 'forward'/);
+    assert.match(String(errorLogs('pOn')[0]), /proportionalOn must be one of 'error', 'measurement'; got 'setpoint'/);
+    assert.deepEqual(errorLogs('none'), []);
+    await deliver('none', { payload: 40, timestamp: 1000 });
+    const { pid } = seen.out.at(-1);
+    assert.deepEqual([pid.mode, pid.p], ['auto', 20], 'auto, reverse action, P on the error: kp 2 × (50 − 40)');
+  });
 });
 
 describe('sugarshack control: rcc and rcc-io', function () {
