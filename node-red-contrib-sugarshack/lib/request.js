@@ -140,19 +140,25 @@ function nodeValues(RED, node, props, names) {
     const values = Object.fromEntries(names.map((name) => [name, props[name]]));
     let left = perMsg.length;
     let failed = false;
+    const fail = (name, err) => {
+      if (failed) return;
+      failed = true;
+      const why = `${LABELS[name] ? LABELS[name]() : name}: ${err && typeof err.message === 'string' ? err.message : String(err)}`;
+      then(SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) }));
+    };
     for (const name of perMsg) {
-      RED.util.evaluateNodeProperty(props[name], props[`${name}Type`], node, msg, (err, value) => {
-        if (failed) return;
-        if (err) {
-          failed = true;
-          const why = `${LABELS[name] ? LABELS[name]() : name}: ${err && typeof err.message === 'string' ? err.message : String(err)}`;
-          then(SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) }));
-          return;
-        }
-        values[name] = value;
-        left -= 1;
-        if (left === 0) then(null, values);
-      });
+      try {
+        RED.util.evaluateNodeProperty(props[name], props[`${name}Type`], node, msg, (err, value) => {
+          if (err) fail(name, err);
+          else if (!failed) {
+            values[name] = value;
+            left -= 1;
+            if (left === 0) then(null, values);
+          }
+        });
+      } catch (err) {
+        fail(name, err); // an expression that does not parse, a msg path that is not one
+      }
     }
   };
 }

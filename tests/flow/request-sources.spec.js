@@ -6,6 +6,7 @@
 // And the queue of held msgs keeps within Node-RED's nodeMessageBufferMaxLength.
 const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
+const { boundPlant, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const {
   paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, startServer, stopServer, settings, settled,
 } = require('./support');
@@ -87,6 +88,7 @@ describe('sugarshack acquire: values from msg, flow, global, env or JSONata', fu
     await helper.load(paletteNodes, flow([
       acquire('a', '10', 0, '$join(["YEL", payload.line], ",")', 'out', { resourcesType: 'jsonata' }),
       acquire('b', '11', 0, '$notAFunction(payload)', 'out', { resourcesType: 'jsonata' }),
+      acquire('c', '12', 0, '$join([', 'out', { resourcesType: 'jsonata' }),
     ]));
     const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
     assert.deepEqual((await answer('a', { payload: { line: ' RED ' } }, out, caught)).granted.resources, ['YEL', 'RED']);
@@ -99,6 +101,7 @@ describe('sugarshack acquire: values from msg, flow, global, env or JSONata', fu
     const failed = await answer('b', { payload: 1 }, out, caught);
     assert.equal(failed.error.code, 'INVALID_INPUT');
     assert.match(failed.error.message, /could not read the msg: the configured resources: .*non-function/);
+    assert.equal((await answer('c', { payload: 1 }, out, caught)).error.code, 'INVALID_INPUT', 'an expression that does not parse');
     assert.deepEqual(counts(), { holding: 0, queued: 0, faulted: 0 });
   });
 
@@ -124,5 +127,25 @@ describe('sugarshack acquire: values from msg, flow, global, env or JSONata', fu
     await settled(helper, 'il');
     assert.deepEqual(counts(), { holding: 1, queued: 3, faulted: 0 });
     assert.equal((await answer('a', { operation: 'w4' }, out, caught)).error.code, 'QUEUE_FULL');
+  });
+
+  it('on an interlock bound to a plant too: a priority from global context, an operation from env, resources by JSONata', async function () {
+    process.env.SUGARSHACK_TEST_OP = ' 77 ';
+    const doc = { ...fakePlant([fakeValve('V101', 1, 'YEL'), fakeValve('V501', 5, 'RED'), fakePump('YEL')]), resources: [{ id: 'YEL' }, { id: 'RED' }], operations: [] };
+    await helper.load(paletteNodes, [
+      TAB, ...boundPlant(doc),
+      acquire('a', 'SUGARSHACK_TEST_OP', 'urgency', 'payload.lines', 'out', { operationType: 'env', priorityType: 'global', resourcesType: 'jsonata' }),
+      acquire('old', ' 5 ', '3', 'RED', 'out'),
+      ...['out', 'caught', 'mqtt', 'ev', 'events'].map(sinkNode),
+    ]);
+    const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
+    helper.getNode('a').context().global.set('urgency', '8');
+    assert.deepEqual((await answer('a', { payload: { lines: ['YEL'] } }, out, caught)).granted,
+      { operation: '77', priority: 8, resources: ['YEL'], waitedMs: 0 });
+    assert.deepEqual((await answer('old', {}, out, caught)).granted, { operation: '5', priority: 3, resources: ['RED'], waitedMs: 0 });
+    helper.getNode('a').context().global.set('urgency', 1.5);
+    const refused = await answer('a', { operation: '78', payload: { lines: 'RED' } }, out, caught);
+    assert.equal(refused.error.code, 'INVALID_PRIORITY');
+    assert.match(refused.error.message, /the configured priority must be a whole number.*1\.5/);
   });
 });

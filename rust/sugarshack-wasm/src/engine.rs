@@ -43,6 +43,7 @@ export interface EngineFields {
     resources?: unknown;
     errorMessage?: unknown;
     payload?: unknown;
+    /** msg._client.user as the msg carries it: its username, name, email or userId names who asks. */
     user?: unknown;
     by?: unknown;
     reason?: unknown;
