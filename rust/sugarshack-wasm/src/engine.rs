@@ -52,6 +52,20 @@ export interface EngineFields {
     configured?: { operation?: unknown; priority?: unknown; resources?: unknown };
 }
 
+/** A refusal as `readRequest` and `namesOf` answer it: its code, and its words (a catalog key with its values, or the core's own). */
+export interface ReadRefusal {
+    code: string;
+    text: { kind: "catalog"; key: string; params: unknown[] } | { kind: "plain"; text: string };
+}
+
+/** `readRequest()`: what a msg asks for, read by the core's rules, or the refusal. */
+export type RequestRead =
+    | { ok: { operation?: string; priority?: number; resources?: string[]; who?: { by: string | null; reason: string | null; force: boolean } } }
+    | { refused: ReadRefusal };
+
+/** `namesOf()`: the names, trimmed, or the refusal. */
+export type NamesRead = { ok: string[] } | { refused: ReadRefusal };
+
 /** An operator's action: a clear, an emergency stop, an alarm action, or an ISA-88 command. */
 export type OperatorRequest =
     | { kind: "clear"; lines?: unknown }
@@ -278,7 +292,7 @@ fn configured_of(object: &JsValue) -> Configured {
 /// allFaulted, namesGiven }`), `fields` the msg's values, `configured` the
 /// node's. Returns `{ ok: { operation?, priority?, resources?, who? } }` or
 /// `{ refused: { code, text } }` (text as the engine's outputs carry it).
-#[wasm_bindgen(js_name = readRequest)]
+#[wasm_bindgen(js_name = readRequest, unchecked_return_type = "RequestRead")]
 pub fn read_request(
     #[wasm_bindgen(
         unchecked_param_type = "{ kind: string; allFaulted?: boolean; namesGiven?: boolean }"
@@ -311,8 +325,11 @@ pub fn read_request(
 
 /// Names from a list or comma-separated text, trimmed; `from` says where
 /// they came from when they are not names. `{ ok: string[] }` or `{ refused }`.
-#[wasm_bindgen(js_name = namesOf)]
-pub fn split_names(value: JsValue, from: &str) -> Result<JsValue, JsValue> {
+#[wasm_bindgen(js_name = namesOf, unchecked_return_type = "NamesRead")]
+pub fn split_names(
+    #[wasm_bindgen(unchecked_param_type = "unknown")] value: JsValue,
+    from: &str,
+) -> Result<JsValue, JsValue> {
     answer(core::names_of(&raw(&value), Param::Text(quote(from))))
 }
 
