@@ -15,7 +15,7 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
 
     onInterlockInput(node, runtime, { kind: 'cancel', operation: props.operation }, (rt, msg, send, done) => {
-      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      const operation = readMsg(() => operationOf(msg, props.operation));
       journal.action('cancel', msg, operation);
       rt.cancel(operation, () => {
         send(msg);

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
-const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
+const { clearOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/i18n');
 
@@ -19,10 +19,7 @@ module.exports = function (RED) {
 
     const spec = { kind: 'clear', allFaulted, refusalsWired, resources: props.resources };
     onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
-      const request = readMsg(() => ({
-        names: allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources),
-        who: attributionOf(msg),
-      }));
+      const request = readMsg(() => clearOf(msg, props.resources, allFaulted));
       const target = request.names === null ? 'all' : request.names;
       try {
         rt.clear(request.names, (cleared) => {

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
-const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
+const { operationOf, stopOf, noteOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 const { journal } = require('../lib/journal/bus');
 const { SugarshackError } = require('../lib/errors');
@@ -38,12 +38,13 @@ module.exports = function (RED) {
     const spec = { kind: 'fault', byResources, failMsg, operation: props.operation, resources: props.resources };
     onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
       const request = readMsg(() => {
-        const who = byResources ? attributionOf(msg) : null;
+        const stop = byResources ? stopOf(msg, props.resources) : null;
+        const who = stop ? stop.who : null;
         return {
           // The error a Catch node caught is the note; else an operator's stated reason (kept with the e-stop either way).
           note: noteOf(msg, who && who.reason),
-          operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
-          resources: byResources ? resourcesOf(msg, props.resources) : null,
+          operation: byResources ? null : operationOf(msg, props.operation),
+          resources: stop ? stop.resources : null,
           who,
         };
       });

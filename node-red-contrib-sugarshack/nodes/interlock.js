@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-const { coreConfig } = require('../lib/config');
+const { coreConfig, messageBufferMax } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { EngineRuntime } = require('../lib/interlock/engine-runtime');
 const { clusterOf } = require('../lib/cluster');
@@ -29,7 +29,7 @@ module.exports = function (RED) {
       config: null, persist, plantBound: Boolean(props.plant), plantId: props.plant || null, legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null,
     };
     try {
-      settings.config = coreConfig(props);
+      settings.config = coreConfig(props, messageBufferMax(RED));
       if (props.plant && !plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
     } catch (err) {
       settings.error = err;

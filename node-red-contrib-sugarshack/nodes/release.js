@@ -15,7 +15,7 @@ module.exports = function (RED) {
 
     // The msg goes on once the release is saved.
     onInterlockInput(node, runtime, { kind: 'release', operation: props.operation }, (rt, msg, send, done) => {
-      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+      const operation = readMsg(() => operationOf(msg, props.operation));
       rt.release(operation, () => {
         send(msg);
         done();

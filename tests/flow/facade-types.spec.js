@@ -411,6 +411,17 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('RoutineSnapshot', saved);
     shapes.expect('RoutineMove | null', r.restore(saved, ['o']));
     shapes.expect('RoutineMove', r.operationStopped());
+    r.reset();
+    r.onMsg('go');
+    shapes.expect('RoutineFailed', r.operationFailed(false, 'step'));
+  });
+
+  it('a msg\'s request read by the core: its values, or the refusal', function () {
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'acquire' }, { operation: ' 12 ', resources: 'A,B' }, { priority: '5' }));
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'who' }, { user: { username: 'ann' }, by: 'bo', reason: 'fix' }, {}));
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'acquire' }, { operation: 'x', priority: 'soon' }, {}));
+    shapes.expect('NamesRead', facade.namesOf(' a, b', 'sensors'));
+    shapes.expect('NamesRead', facade.namesOf(7, 'sensors'));
   });
 
   it('the device side: messages and commands', function () {

@@ -15,55 +15,38 @@ const { Committer } = require('../durable');
 const { InterlockRuntime } = require('../interlock-runtime');
 const { EngineCarrier, refusalError, render } = require('../engine-carrier');
 const { Wire } = require('../wasm/wire');
-const { readMsg } = require('../request');
+const { readMsg, fieldsOf } = require('../request');
 const { journal } = require('../journal/bus');
 const { timeLayer } = require('../stats');
 const wasm = require('../wasm');
 const i18n = require('../i18n');
 
+// Text up to this long crosses as a string argument; longer, the facade reads its length and head only.
+const SHORT_TEXT = 1000;
 // A msg handle is a u32 the engine keeps; it wraps long after any msg of its range ended.
 const HANDLES = 2 ** 32;
-
-/** The signed-in dashboard user's name, as a msg carries it (msg._client.user). */
-function userOf(msg) {
-  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
-  const user = client && client.user && typeof client.user === 'object' ? client.user : null;
-  return user ? [user.username, user.name, user.email, user.userId].find((v) => typeof v === 'string' && v.trim() !== '') : undefined;
-}
-
-/** What a clear, fault or cancel msg carries, as read off it (the engine decides what it means). */
-function fieldsOf(msg) {
-  const error = msg.error;
-  return {
-    operation: msg.operation,
-    follow: msg.interlock ? msg.interlock.operation : undefined,
-    resources: msg.resources,
-    errorMessage: error ? error.message : undefined,
-    payload: msg.payload,
-    user: userOf(msg),
-    by: msg.by,
-    reason: msg.reason,
-    force: msg.force === true,
-  };
-}
 
 /** Each node kind's input: its outputs, and the engine call a msg makes (read first, so a throwing getter refuses the msg). */
 const KINDS = {
   acquire: {
     ports: 1,
-    read: (msg) => [msg.operation, msg.priority, msg.resources],
-    // The same input three ways: with nothing, with only an operation's text (one string crosses), with anything.
-    call: (e, h, k, [operation, priority, resources], now) => {
-      if (priority !== undefined || resources !== undefined) e.acquireNamed(h, k, operation, priority, resources, now);
+    // The node's values read for this msg (from context, env or JSONata) go with the msg's.
+    read: (msg, values) => (values
+      ? [msg.operation, msg.priority, msg.resources, { operation: msg.operation, priority: msg.priority, resources: msg.resources, configured: values }]
+      : [msg.operation, msg.priority, msg.resources]),
+    // The same input four ways: with nothing, with only an operation's short text (one string crosses), with anything, with the node's values read.
+    call: (e, h, k, [operation, priority, resources, fields], now) => {
+      if (fields) e.acquireFields(h, k, fields, now);
+      else if (priority !== undefined || resources !== undefined) e.acquireNamed(h, k, operation, priority, resources, now);
       else if (operation === undefined) e.acquire(h, k, now);
-      else if (typeof operation === 'string') e.acquireOperation(h, k, operation, now);
+      else if (typeof operation === 'string' && operation.length <= SHORT_TEXT) e.acquireOperation(h, k, operation, now);
       else e.acquireNamed(h, k, operation, priority, resources, now);
     },
   },
   release: {
     ports: 1,
     read: (msg) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined],
-    call: (e, h, k, [operation, follow], now) => (typeof operation === 'string' && follow === undefined
+    call: (e, h, k, [operation, follow], now) => (typeof operation === 'string' && operation.length <= SHORT_TEXT && follow === undefined
       ? e.releaseOperation(h, k, operation, now) : e.release(h, k, operation, follow, now)),
   },
   cancel: { ports: 1, read: fieldsOf, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
@@ -357,12 +340,12 @@ class EngineRuntime extends InterlockRuntime {
   }
 
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
-  input(node, msg, send, done) {
+  input(node, msg, send, done, values) {
     const handle = /** @type {number} */ (this.nodeHandles.get(node.id));
     const bound = /** @type {{ spec: any }} */ (this.nodes.get(handle));
     const spec = /** @type {{ kind: keyof typeof KINDS }} */ (bound.spec);
     const kind = KINDS[spec.kind];
-    const read = readMsg(() => kind.read(msg));
+    const read = readMsg(() => kind.read(msg, values));
     const k = this.nextMsg;
     this.nextMsg = (this.nextMsg + 1) % HANDLES;
     const entry = heldMsg({ node, msg, send, done, sinceMs: 0, ports: kind.ports });

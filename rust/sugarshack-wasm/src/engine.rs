@@ -1,11 +1,12 @@
 use std::collections::BTreeMap;
 
-use js_sys::{Reflect, JSON};
+use js_sys::{JsString, Reflect, JSON};
 use sugarshack_core::code::Code;
 use sugarshack_core::engine::wire::Wire;
 use sugarshack_core::engine::{
-    self as core, AlarmAction, CommandTarget, Fields, Input, MsgFields, MsgId, NodeId, NodeKind,
-    NodeSpec, OperatorAction, Param, Raw, Resend, Saved, SealedDoc, StateDoc, Step, WhoFields,
+    self as core, AlarmAction, Asks, CommandTarget, Configured, Fields, Input, MsgFields, MsgId,
+    NodeId, NodeKind, NodeSpec, OperatorAction, Param, Raw, Resend, Saved, SealedDoc, SignedIn,
+    StateDoc, Step, WhoFields,
 };
 use sugarshack_core::interlock::InterlockConfig;
 use sugarshack_core::procedure::Command;
@@ -13,6 +14,7 @@ use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
 
 use crate::{from_js_bounded, js_error, time, to_js, Bound, Tracker};
 
@@ -41,11 +43,28 @@ export interface EngineFields {
     resources?: unknown;
     errorMessage?: unknown;
     payload?: unknown;
+    /** msg._client.user as the msg carries it: its username, name, email or userId names who asks. */
     user?: unknown;
     by?: unknown;
     reason?: unknown;
     force?: boolean;
+    /** The node's values as read for this msg (from context, env or JSONata), in place of its deployed ones. */
+    configured?: { operation?: unknown; priority?: unknown; resources?: unknown };
 }
+
+/** A refusal as `readRequest` and `namesOf` answer it: its code, and its words (a catalog key with its values, or the core's own). */
+export interface ReadRefusal {
+    code: string;
+    text: { kind: "catalog"; key: string; params: unknown[] } | { kind: "plain"; text: string };
+}
+
+/** `readRequest()`: what a msg asks for, read by the core's rules, or the refusal. */
+export type RequestRead =
+    | { ok: { operation?: string; priority?: number; resources?: string[]; who?: { by: string | null; reason: string | null; force: boolean } } }
+    | { refused: ReadRefusal };
+
+/** `namesOf()`: the names, trimmed, or the refusal. */
+export type NamesRead = { ok: string[] } | { refused: ReadRefusal };
 
 /** An operator's action: a clear, an emergency stop, an alarm action, or an ISA-88 command. */
 export type OperatorRequest =
@@ -142,11 +161,25 @@ pub(crate) fn raw(value: &JsValue) -> Raw {
     if value.is_undefined() || value.is_null() {
         return Raw::Absent;
     }
-    if let Some(text) = value.as_string() {
-        return Raw::Text(text);
+    if let Some(text) = value.dyn_ref::<JsString>() {
+        // Text past what any rule reads crosses as its head and its length.
+        let length = text.length() as usize;
+        if length > core::MAX_TEXT {
+            let head = text
+                .slice(0, core::HEAD as u32)
+                .as_string()
+                .unwrap_or_default();
+            return Raw::Long { head, length };
+        }
+        return Raw::Text(value.as_string().unwrap_or_default());
     }
     if let Some(n) = value.as_f64() {
-        return Raw::Number(n);
+        // A number that is not finite is no value a rule reads (quoted as JSON writes it).
+        return if n.is_finite() {
+            Raw::Number(n)
+        } else {
+            Raw::Other("null".to_owned())
+        };
     }
     if let Some(b) = value.as_bool() {
         return Raw::Bool(b);
@@ -173,7 +206,12 @@ fn quoted(value: &JsValue) -> String {
             .unwrap_or_default();
         return quote(format!("{text}n"));
     }
-    match JSON::stringify(value).ok().and_then(|t| t.as_string()) {
+    // Only what a quote shows crosses: a 1 MB object's JSON stays in JS.
+    let json = JSON::stringify(value)
+        .ok()
+        .filter(|t| !t.is_undefined())
+        .map(|t| t.slice(0, core::HEAD as u32));
+    match json.and_then(|t| t.as_string()) {
         Some(text) => quote(text),
         None if is_array(value) == Ok(true) => "an array".to_owned(),
         None => value.js_typeof().as_string().unwrap_or_default(),
@@ -206,8 +244,14 @@ fn field(object: &JsValue, key: &'static str) -> JsValue {
 }
 
 fn who_fields(object: &JsValue) -> WhoFields {
+    let user = field(object, "user");
     WhoFields {
-        user: raw(&field(object, "user")),
+        user: SignedIn {
+            username: raw(&field(&user, "username")),
+            name: raw(&field(&user, "name")),
+            email: raw(&field(&user, "email")),
+            user_id: raw(&field(&user, "userId")),
+        },
         by: raw(&field(object, "by")),
         reason: raw(&field(object, "reason")),
         force: field(object, "force").as_bool() == Some(true),
@@ -215,6 +259,10 @@ fn who_fields(object: &JsValue) -> WhoFields {
 }
 
 fn msg_fields(object: &JsValue) -> MsgFields {
+    fields_of(object).into()
+}
+
+fn fields_of(object: &JsValue) -> Fields {
     Fields {
         operation: raw(&field(object, "operation")),
         priority: raw(&field(object, "priority")),
@@ -223,8 +271,80 @@ fn msg_fields(object: &JsValue) -> MsgFields {
         error_message: raw(&field(object, "errorMessage")),
         payload: raw(&field(object, "payload")),
         who: who_fields(object),
+        configured: Some(field(object, "configured"))
+            .filter(JsValue::is_object)
+            .map(|c| configured_of(&c)),
     }
-    .into()
+}
+
+/// A node's operation, priority and resources, as JS read them.
+fn configured_of(object: &JsValue) -> Configured {
+    Configured {
+        operation: raw(&field(object, "operation")),
+        priority: raw(&field(object, "priority")),
+        resources: raw(&field(object, "resources")),
+    }
+}
+
+/// What a msg asks of a node run by no engine (an interlock bound to a
+/// plant, an operation or routine node): `asks` says what the node reads
+/// (`{ kind: "acquire" | "named" | "stop" | "who" }`, or `{ kind: "clear",
+/// allFaulted, namesGiven }`), `fields` the msg's values, `configured` the
+/// node's. Returns `{ ok: { operation?, priority?, resources?, who? } }` or
+/// `{ refused: { code, text } }` (text as the engine's outputs carry it).
+#[wasm_bindgen(js_name = readRequest, unchecked_return_type = "RequestRead")]
+pub fn read_request(
+    #[wasm_bindgen(
+        unchecked_param_type = "{ kind: string; allFaulted?: boolean; namesGiven?: boolean }"
+    )]
+    asks: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "EngineFields")] fields: JsValue,
+    #[wasm_bindgen(
+        unchecked_param_type = "{ operation?: unknown; priority?: unknown; resources?: unknown }"
+    )]
+    configured: JsValue,
+) -> Result<JsValue, JsValue> {
+    let flag = |key| field(&asks, key).as_bool() == Some(true);
+    let asks = match field(&asks, "kind").as_string().as_deref() {
+        Some("acquire") => Asks::Acquire,
+        Some("named") => Asks::Named,
+        Some("stop") => Asks::Stop,
+        Some("clear") => Asks::Clear {
+            all_faulted: flag("allFaulted"),
+            names_given: flag("namesGiven"),
+        },
+        Some("who") => Asks::Who,
+        other => return Err(invalid(&format!("unknown request {other:?}"))),
+    };
+    answer(core::read_request(
+        asks,
+        &fields_of(&fields),
+        &configured_of(&configured),
+    ))
+}
+
+/// Names from a list or comma-separated text, trimmed; `from` says where
+/// they came from when they are not names. `{ ok: string[] }` or `{ refused }`.
+#[wasm_bindgen(js_name = namesOf, unchecked_return_type = "NamesRead")]
+pub fn split_names(
+    #[wasm_bindgen(unchecked_param_type = "unknown")] value: JsValue,
+    from: &str,
+) -> Result<JsValue, JsValue> {
+    answer(core::names_of(&raw(&value), Param::Text(quote(from))))
+}
+
+/// A read's answer, as `readRequest` and `namesOf` return it: `{ ok }` or `{ refused }`.
+fn answer<T: serde::Serialize>(read: Result<T, core::Refusal>) -> Result<JsValue, JsValue> {
+    #[derive(serde::Serialize)]
+    #[serde(rename_all = "camelCase")]
+    enum Answer<T> {
+        Ok(T),
+        Refused(core::Refusal),
+    }
+    match read {
+        Ok(value) => to_js(&Answer::Ok(value)),
+        Err(refusal) => to_js(&Answer::<T>::Refused(refusal)),
+    }
 }
 
 fn invalid(message: &str) -> JsValue {
@@ -704,6 +824,24 @@ impl Engine {
             node: NodeId(node),
             msg: MsgId(msg),
             fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
+    /// A msg into an acquire node whose values are read per msg (from
+    /// context, env or JSONata): `fields.configured` holds them.
+    #[wasm_bindgen(js_name = acquireFields)]
+    pub fn acquire_fields(
+        &mut self,
+        node: u32,
+        msg: u32,
+        #[wasm_bindgen(unchecked_param_type = "EngineFields")] fields: JsValue,
+        now_ms: f64,
+    ) {
+        let input = Input::Acquire {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields: msg_fields(&fields),
         };
         self.msg_input(msg, input, now_ms);
     }

@@ -56,8 +56,9 @@ pub use output::{
     Text, CATALOG_LABELS, CATALOG_TEXTS,
 };
 pub use request::{
-    alarm_id_of, alarm_ids_of, attribution_of, note_of, operation_of, priority_of, resources_of,
-    shelf_end_of, Raw, Who, WhoFields, MAX_NAME, MAX_NAMES,
+    alarm_id_of, alarm_ids_of, attribution_of, names_of, note_of, operation_of, priority_of,
+    read_request, resources_of, shelf_end_of, Asked, Asks, Configured, Raw, SignedIn, Who,
+    WhoFields, HEAD, MAX_NAME, MAX_NAMES, MAX_TEXT,
 };
 pub use snapshot::{EngineState, RequestState, StateDoc, STATE_FORMAT};
 
@@ -171,6 +172,9 @@ pub struct Fields {
     pub payload: Raw,
     /// Who asks (a clear, an emergency stop).
     pub who: WhoFields,
+    /// The node's values as read for this msg (from context, env or
+    /// JSONata), in place of those it was deployed with.
+    pub configured: Option<Configured>,
 }
 
 /// [`Fields`], boxed, or none when the msg names nothing itself (most
@@ -186,11 +190,12 @@ static NO_FIELDS: Fields = Fields {
     error_message: Raw::Absent,
     payload: Raw::Absent,
     who: WhoFields {
-        user: Raw::Absent,
+        user: SignedIn::NONE,
         by: Raw::Absent,
         reason: Raw::Absent,
         force: false,
     },
+    configured: None,
 };
 
 impl std::ops::Deref for MsgFields {
@@ -1086,7 +1091,8 @@ impl Engine {
         let Some(n) = self.nodes.get(&node) else {
             return Err(unknown_node(node));
         };
-        if !fields.operation.present() {
+        let deployed = fields.configured.is_none();
+        if !fields.operation.present() && deployed {
             if let Some((name, op, at)) = &n.op {
                 if *at == epoch {
                     return Ok((name.clone(), *op));
@@ -1094,8 +1100,12 @@ impl Engine {
             }
         }
         let follow_value = if follow { &fields.follow } else { &Raw::Absent };
-        let name = operation_of(&fields.operation, &n.spec.operation, follow_value)?;
-        let configured = !fields.operation.present() && n.spec.operation.present();
+        let name = operation_of(
+            &fields.operation,
+            node_value(n, fields, Value::Operation),
+            follow_value,
+        )?;
+        let configured = deployed && !fields.operation.present() && n.spec.operation.present();
         let op = self.interlock.operation(&name);
         // The interlock's text: the same name from every msg is one text, which the wire sends once.
         let name: Arc<str> = self
@@ -1120,12 +1130,13 @@ impl Engine {
         let Some(n) = self.nodes.get(&node) else {
             return Err(unknown_node(node));
         };
-        if !fields.resources.present() {
+        let deployed = fields.configured.is_none();
+        if !fields.resources.present() && deployed {
             if let Some(set) = &n.set {
                 return Ok(set.clone());
             }
         }
-        let names = resources_of(&fields.resources, &n.spec.resources)?;
+        let names = resources_of(&fields.resources, node_value(n, fields, Value::Resources))?;
         let set = self.interlock.resource_set(&names)?;
         let names: Names = names
             .into_iter()
@@ -1135,7 +1146,7 @@ impl Engine {
                     .unwrap_or_else(|| Arc::from(n))
             })
             .collect();
-        if !fields.resources.present() {
+        if !fields.resources.present() && deployed {
             if let Some(n) = self.nodes.get_mut(&node) {
                 n.set = Some((set.clone(), names.clone()));
             }
@@ -1147,13 +1158,14 @@ impl Engine {
         let Some(n) = self.nodes.get(&node) else {
             return Err(unknown_node(node));
         };
-        if !fields.priority.present() {
+        let deployed = fields.configured.is_none();
+        if !fields.priority.present() && deployed {
             if let Some(p) = n.priority {
                 return Ok(p);
             }
         }
-        let priority = priority_of(&fields.priority, &n.spec.priority)?;
-        if !fields.priority.present() {
+        let priority = priority_of(&fields.priority, node_value(n, fields, Value::Priority))?;
+        if !fields.priority.present() && deployed {
             if let Some(n) = self.nodes.get_mut(&node) {
                 n.priority = Some(priority);
             }
@@ -1299,10 +1311,9 @@ impl Engine {
 
     fn release(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
         // A node's configured operation is resolved once; a name from a msg each time.
-        let configured = self
-            .nodes
-            .get(&node)
-            .is_some_and(|n| !fields.operation.present() && n.spec.operation.present());
+        let configured = self.nodes.get(&node).is_some_and(|n| {
+            fields.configured.is_none() && !fields.operation.present() && n.spec.operation.present()
+        });
         let released = if configured {
             match self.operation(node, fields, false) {
                 Ok((_, op)) => self.interlock.release(op, now),
@@ -1333,7 +1344,11 @@ impl Engine {
         let Some(n) = self.node(node) else {
             return Err(unknown_node(node));
         };
-        operation_of(&fields.operation, &n.spec.operation, &fields.follow)
+        operation_of(
+            &fields.operation,
+            node_value(n, fields, Value::Operation),
+            &fields.follow,
+        )
     }
 
     fn cancel(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
@@ -1412,7 +1427,10 @@ impl Engine {
                 .or_else(|| note_of(&Raw::Absent, &fields.payload));
             let target = if by_resources {
                 let n = self.node(node).expect("checked");
-                Err(resources_of(&fields.resources, &n.spec.resources)?)
+                Err(resources_of(
+                    &fields.resources,
+                    node_value(n, fields, Value::Resources),
+                )?)
             } else {
                 Ok(self.named_operation(node, fields)?)
             };
@@ -1552,7 +1570,10 @@ impl Engine {
                 None
             } else {
                 let n = self.node(node).expect("checked");
-                Some(resources_of(&fields.resources, &n.spec.resources)?)
+                Some(resources_of(
+                    &fields.resources,
+                    node_value(n, fields, Value::Resources),
+                )?)
             };
             Ok::<_, Refusal>((names, attribution_of(&fields.who)?))
         })();
@@ -2121,6 +2142,24 @@ fn grant_set(request: &Request, now: Millis) -> Set {
         priority: request.priority,
         resources: request.names.clone(),
         waited_ms: now.saturating_sub(request.since),
+    }
+}
+
+/// A value a node reads where the msg gives none.
+#[derive(Clone, Copy)]
+enum Value {
+    Operation,
+    Priority,
+    Resources,
+}
+
+/// The node's `value`: as read for this msg when the host read it, else as deployed.
+fn node_value<'a>(n: &'a Node, fields: &'a Fields, value: Value) -> &'a Raw {
+    let values = fields.configured.as_ref();
+    match value {
+        Value::Operation => values.map_or(&n.spec.operation, |c| &c.operation),
+        Value::Priority => values.map_or(&n.spec.priority, |c| &c.priority),
+        Value::Resources => values.map_or(&n.spec.resources, |c| &c.resources),
     }
 }
 

@@ -9,6 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::output::{Param, Refusal};
+use super::Fields;
 use crate::code::Code;
 use crate::time::Millis;
 
@@ -29,6 +30,14 @@ pub enum Raw {
     Names(Vec<String>),
     /// Anything else, as a short quote for a message (`[1,2]`, `{"a":1}`, `10n`).
     Other(String),
+    /// Text longer than [`MAX_TEXT`]: the host hands its first [`HEAD`]
+    /// characters and its length (UTF-16 units, as JS counts), no more.
+    Long {
+        /// Its first characters.
+        head: String,
+        /// Its whole length.
+        length: usize,
+    },
 }
 
 /// How much of a refused value a message quotes, in characters.
@@ -45,6 +54,11 @@ pub const MAX_NOTE: usize = 1000;
 pub const MAX_BY: usize = 200;
 /// The core keeps 500 characters of a reason; a little above that is read.
 pub const MAX_REASON: usize = 1000;
+/// The longest text a host hands whole: a list of lines as comma-separated
+/// text, the longest any rule reads. Longer text crosses as [`Raw::Long`].
+pub const MAX_TEXT: usize = MAX_NAMES * (MAX_NAME + 1);
+/// How much of a longer text crosses: more than any rule keeps or quotes.
+pub const HEAD: usize = MAX_NOTE;
 
 impl Raw {
     /// Set: not absent, and not the empty string.
@@ -62,13 +76,24 @@ impl Raw {
             Raw::Bool(b) => b.to_string(),
             Raw::Names(names) => serde_json::to_string(names).unwrap_or_default(),
             Raw::Other(quoted) => quoted.clone(),
+            Raw::Long { head, .. } => serde_json::to_string(head).unwrap_or_default(),
         };
         clip(&text, QUOTE_MAX)
     }
 
+    /// The text, or as much of it as crossed.
     fn text(&self) -> Option<&str> {
         match self {
-            Raw::Text(text) => Some(text),
+            Raw::Text(text) | Raw::Long { head: text, .. } => Some(text),
+            _ => None,
+        }
+    }
+
+    /// The length JS gives the text.
+    fn text_len(&self) -> Option<usize> {
+        match self {
+            Raw::Text(text) => Some(js_len(text)),
+            Raw::Long { length, .. } => Some(*length),
             _ => None,
         }
     }
@@ -124,17 +149,19 @@ impl From {
 }
 
 fn as_operation_name(value: &Raw, from: From) -> Result<String, Refusal> {
-    match value {
-        Raw::Number(n) if n.is_finite() => Ok(js_number(*n)),
-        Raw::Text(text) if js_len(text) > MAX_OPERATION_NAME => Err(Refusal::catalog(
+    if let Some(length) = value.text_len().filter(|l| *l > MAX_OPERATION_NAME) {
+        return Err(Refusal::catalog(
             Code::InvalidOperation,
             "errors.operationTooLong",
             vec![
                 ("from", from.param()),
-                ("length", Param::Text(js_len(text).to_string())),
+                ("length", Param::Text(length.to_string())),
                 ("max", Param::Text(MAX_OPERATION_NAME.to_string())),
             ],
-        )),
+        ));
+    }
+    match value {
+        Raw::Number(n) if n.is_finite() => Ok(js_number(*n)),
         Raw::Text(text) => Ok(text.trim().to_owned()),
         other => Err(Refusal::catalog(
             Code::InvalidOperation,
@@ -209,8 +236,9 @@ fn integer_text(text: &str) -> Option<f64> {
     digits.parse::<f64>().ok()
 }
 
-/// Names from a list or comma-separated text, trimmed, the empty ones left out.
-fn split_names(value: &Raw, from: From) -> Result<Vec<String>, Refusal> {
+/// Names from a list or comma-separated text, trimmed, the empty ones left
+/// out; `from` names where they came from when they are not names.
+pub fn names_of(value: &Raw, from: Param) -> Result<Vec<String>, Refusal> {
     let names: Option<Vec<&str>> = match value {
         Raw::Text(text) if js_len(text) <= MAX_NAMES * (MAX_NAME + 1) => {
             Some(text.split(',').collect())
@@ -233,7 +261,7 @@ fn split_names(value: &Raw, from: From) -> Result<Vec<String>, Refusal> {
             Code::InvalidResources,
             "errors.notNames",
             vec![
-                ("from", from.param()),
+                ("from", from),
                 ("names", Param::Text(MAX_NAMES.to_string())),
                 ("length", Param::Text(MAX_NAME.to_string())),
                 ("got", Param::Text(value.quote())),
@@ -245,9 +273,9 @@ fn split_names(value: &Raw, from: From) -> Result<Vec<String>, Refusal> {
 /// Resource names from msg.resources, else the configured list (maybe empty).
 pub fn resources_of(msg: &Raw, configured: &Raw) -> Result<Vec<String>, Refusal> {
     if msg.present() {
-        split_names(msg, From::Msg("msg.resources"))
+        names_of(msg, From::Msg("msg.resources").param())
     } else if configured.present() {
-        split_names(configured, From::Configured("configuredResources"))
+        names_of(configured, From::Configured("configuredResources").param())
     } else {
         Ok(Vec::new())
     }
@@ -270,12 +298,49 @@ pub fn note_of(error_message: &Raw, payload: &Raw) -> Option<String> {
     Some(keep(text, MAX_NOTE))
 }
 
+/// A signed-in dashboard user (msg._client.user), as read off the msg.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", default)]
+pub struct SignedIn {
+    /// Its username.
+    pub username: Raw,
+    /// Its name.
+    pub name: Raw,
+    /// Its email.
+    pub email: Raw,
+    /// Its userId.
+    pub user_id: Raw,
+}
+
+impl SignedIn {
+    /// No one signed in.
+    pub const NONE: SignedIn = SignedIn {
+        username: Raw::Absent,
+        name: Raw::Absent,
+        email: Raw::Absent,
+        user_id: Raw::Absent,
+    };
+
+    /// A user known by its username.
+    pub fn username(name: &str) -> Self {
+        SignedIn {
+            username: Raw::Text(name.to_owned()),
+            ..SignedIn::default()
+        }
+    }
+
+    /// What names the user: its username, else its name, email or userId (the first that is text).
+    fn names(&self) -> [&Raw; 4] {
+        [&self.username, &self.name, &self.email, &self.user_id]
+    }
+}
+
 /// Who asks, as read off a msg.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", default)]
 pub struct WhoFields {
-    /// The signed-in dashboard user (msg._client.user: its username, name, email or userId).
-    pub user: Raw,
+    /// The signed-in dashboard user (msg._client.user).
+    pub user: SignedIn,
     /// msg.by.
     pub by: Raw,
     /// msg.reason.
@@ -296,11 +361,15 @@ pub struct Who {
     pub force: bool,
 }
 
-/// The signed-in dashboard user, else msg.by (so a page cannot record a
-/// clear under another name); msg.reason; msg.force.
+/// The signed-in dashboard user (its username, name, email or userId),
+/// else msg.by (so a page cannot record a clear under another name);
+/// msg.reason; msg.force.
 pub fn attribution_of(fields: &WhoFields) -> Result<Who, Refusal> {
-    let by = [&fields.user, &fields.by]
+    let by = fields
+        .user
+        .names()
         .into_iter()
+        .chain([&fields.by])
         .find_map(|v| v.text().filter(|t| !t.trim().is_empty()));
     if fields.by.present() && fields.by.text().is_none() {
         return Err(Refusal::catalog(
@@ -325,6 +394,107 @@ pub fn attribution_of(fields: &WhoFields) -> Result<Who, Refusal> {
             .map(|r| keep(r, MAX_REASON)),
         force: fields.force,
     })
+}
+
+/// What a node reads off a msg, for a host that runs no engine for it (an
+/// interlock bound to a plant, an operation or routine node).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "camelCase")]
+pub enum Asks {
+    /// An acquire: operation, priority and resources.
+    Acquire,
+    /// A release, cancel or fault of an operation: the operation, else the acquire the msg follows.
+    Named,
+    /// An emergency stop: lines and who asks.
+    Stop,
+    /// A clear: who asks, and the lines (none: every faulted line, when the
+    /// node clears all and the msg names none).
+    #[serde(rename_all = "camelCase")]
+    Clear {
+        /// The node clears every faulted line unless the msg names some.
+        all_faulted: bool,
+        /// msg.resources is set (even to null).
+        names_given: bool,
+    },
+    /// Who asks (an operator's command, an alarm action).
+    Who,
+}
+
+/// What the node's configuration says, where the msg says nothing.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", default)]
+pub struct Configured {
+    /// Its operation id.
+    pub operation: Raw,
+    /// Its priority.
+    pub priority: Raw,
+    /// Its resources.
+    pub resources: Raw,
+}
+
+/// What a msg asks for, as the rules above read it.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Asked {
+    /// The operation id, trimmed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub operation: Option<String>,
+    /// The priority (absent: 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub priority: Option<i32>,
+    /// The lines, trimmed (a clear's none: every faulted line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resources: Option<Vec<String>>,
+    /// Who asks.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub who: Option<Who>,
+}
+
+/// Reads what `asks` needs of a msg's `fields`, the node's `configured`
+/// values where the msg gives none; the first refusal stops it.
+pub fn read_request(
+    asks: Asks,
+    fields: &Fields,
+    configured: &Configured,
+) -> Result<Asked, Refusal> {
+    let Fields {
+        operation,
+        priority,
+        resources,
+        follow,
+        who,
+        ..
+    } = fields;
+    let mut asked = Asked::default();
+    match asks {
+        Asks::Acquire => {
+            asked.operation = Some(operation_of(
+                operation,
+                &configured.operation,
+                &Raw::Absent,
+            )?);
+            asked.priority = Some(priority_of(priority, &configured.priority)?);
+            asked.resources = Some(resources_of(resources, &configured.resources)?);
+        }
+        Asks::Named => {
+            asked.operation = Some(operation_of(operation, &configured.operation, follow)?);
+        }
+        Asks::Stop => {
+            asked.who = Some(attribution_of(who)?);
+            asked.resources = Some(resources_of(resources, &configured.resources)?);
+        }
+        Asks::Clear {
+            all_faulted,
+            names_given,
+        } => {
+            if !all_faulted || names_given {
+                asked.resources = Some(resources_of(resources, &configured.resources)?);
+            }
+            asked.who = Some(attribution_of(who)?);
+        }
+        Asks::Who => asked.who = Some(attribution_of(who)?),
+    }
+    Ok(asked)
 }
 
 /// The longest alarm id read (`kind:subject`).
@@ -538,7 +708,7 @@ mod tests {
     #[test]
     fn a_signed_in_user_outranks_msg_by() {
         let who = attribution_of(&WhoFields {
-            user: text("ann"),
+            user: SignedIn::username("ann"),
             by: text("bob"),
             reason: text("leak"),
             force: true,
@@ -548,7 +718,7 @@ mod tests {
         assert_eq!(who.reason.as_deref(), Some("leak"));
         assert!(who.force);
         let who = attribution_of(&WhoFields {
-            user: text("  "),
+            user: SignedIn::username("  "),
             by: text("bob"),
             ..WhoFields::default()
         })
@@ -572,5 +742,151 @@ mod tests {
             })),
             (Code::InvalidInput, "errors.reasonNotText")
         );
+    }
+
+    #[test]
+    fn a_signed_in_user_is_named_by_username_then_name_email_or_user_id() {
+        let by = |user: SignedIn| {
+            attribution_of(&WhoFields {
+                user,
+                by: text("bob"),
+                ..WhoFields::default()
+            })
+            .unwrap()
+            .by
+        };
+        let user = SignedIn {
+            username: Raw::Number(7.0),
+            name: text(" "),
+            email: text("ann@shack"),
+            user_id: text("u1"),
+        };
+        assert_eq!(by(user).as_deref(), Some("ann@shack"));
+        let user = SignedIn {
+            user_id: text("u1"),
+            ..SignedIn::default()
+        };
+        assert_eq!(by(user).as_deref(), Some("u1"));
+        // No name that is text: msg.by.
+        let user = SignedIn {
+            username: Raw::Bool(true),
+            ..SignedIn::default()
+        };
+        assert_eq!(by(user).as_deref(), Some("bob"));
+        // Names and reasons are kept to their bounds, even past what crosses whole.
+        let who = attribution_of(&WhoFields {
+            by: Raw::Long {
+                head: "b".repeat(HEAD),
+                length: MAX_TEXT + 5,
+            },
+            reason: text(&"r".repeat(1500)),
+            ..WhoFields::default()
+        })
+        .unwrap();
+        assert_eq!(who.by.map(|b| b.len()), Some(MAX_BY));
+        assert_eq!(who.reason.map(|r| r.len()), Some(MAX_REASON));
+    }
+
+    #[test]
+    fn text_too_long_to_cross_is_refused_with_its_whole_length() {
+        let long = Raw::Long {
+            head: "o".repeat(HEAD),
+            length: 1_000_000,
+        };
+        let refusal = operation_of(&long, &Raw::Absent, &Raw::Absent).unwrap_err();
+        assert_eq!(refusal.key(), Some("errors.operationTooLong"));
+        assert_eq!(
+            refusal.params()[1],
+            ("length", Param::Text("1000000".into()))
+        );
+        assert_eq!(long.quote().chars().count(), QUOTE_MAX);
+        assert_eq!(
+            refusal_key(priority_of(&long, &Raw::Absent)),
+            (Code::InvalidPriority, "errors.priorityNotInteger")
+        );
+        assert_eq!(
+            refusal_key(resources_of(&long, &Raw::Absent)),
+            (Code::InvalidResources, "errors.notNames")
+        );
+    }
+
+    #[test]
+    fn names_name_where_they_came_from() {
+        assert_eq!(
+            names_of(&text(" a ,b"), Param::Text("sensors".into())).unwrap(),
+            ["a", "b"]
+        );
+        let refusal = names_of(&Raw::Number(1.0), Param::Text("sensors".into())).unwrap_err();
+        assert_eq!(refusal.params()[0], ("from", Param::Text("sensors".into())));
+    }
+
+    fn fields(operation: Raw, priority: Raw, resources: Raw) -> Fields {
+        Fields {
+            operation,
+            priority,
+            resources,
+            ..Fields::default()
+        }
+    }
+
+    #[test]
+    fn a_request_is_read_as_its_node_asks() {
+        let configured = Configured {
+            operation: text(" 10 "),
+            priority: text("5"),
+            resources: text("YEL, RED"),
+        };
+        // An acquire: the node's values trimmed where the msg has none, the msg's first.
+        let asked = read_request(Asks::Acquire, &Fields::default(), &configured).unwrap();
+        assert_eq!(asked.operation.as_deref(), Some("10"));
+        assert_eq!(asked.priority, Some(5));
+        assert_eq!(asked.resources, Some(vec!["YEL".into(), "RED".into()]));
+        let msg = fields(text("12"), Raw::Number(-3.0), text("GRN"));
+        let asked = read_request(Asks::Acquire, &msg, &Configured::default()).unwrap();
+        assert_eq!(
+            (asked.operation.as_deref(), asked.priority),
+            (Some("12"), Some(-3))
+        );
+        // No priority anywhere: 0.
+        let asked = read_request(Asks::Acquire, &msg_op("1"), &Configured::default()).unwrap();
+        assert_eq!(asked.priority, Some(0));
+        // A release follows the acquire; an acquire never does.
+        let follow = Fields {
+            follow: text(" 9 "),
+            ..Fields::default()
+        };
+        let asked = read_request(Asks::Named, &follow, &Configured::default()).unwrap();
+        assert_eq!(asked.operation.as_deref(), Some("9"));
+        assert_eq!(
+            refusal_key(read_request(Asks::Acquire, &follow, &Configured::default())),
+            (Code::MissingOperation, "errors.operationMissing")
+        );
+        // A clear of every faulted line names none unless the msg does.
+        let clear = |names_given| Asks::Clear {
+            all_faulted: true,
+            names_given,
+        };
+        let asked = read_request(clear(false), &Fields::default(), &configured).unwrap();
+        assert_eq!(asked.resources, None);
+        assert_eq!(asked.who, Some(Who::default()));
+        let asked = read_request(clear(true), &Fields::default(), &configured).unwrap();
+        assert_eq!(asked.resources, Some(vec!["YEL".into(), "RED".into()]));
+        // Who asks: the signed-in user first.
+        let who = Fields {
+            who: WhoFields {
+                user: SignedIn::username("ann"),
+                by: text("bob"),
+                ..WhoFields::default()
+            },
+            ..Fields::default()
+        };
+        let asked = read_request(Asks::Who, &who, &Configured::default()).unwrap();
+        assert_eq!(asked.who.and_then(|w| w.by).as_deref(), Some("ann"));
+        let asked = read_request(Asks::Stop, &who, &configured).unwrap();
+        assert_eq!(asked.resources.map(|r| r.len()), Some(2));
+    }
+
+    fn msg_op(operation: &str) -> Fields {
+        fields(text(operation), Raw::Absent, Raw::Absent)
     }
 }

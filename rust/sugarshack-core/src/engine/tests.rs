@@ -412,7 +412,7 @@ fn a_clear_is_attributed_to_the_signed_in_user_over_msg_by() {
         msg: MsgId(2),
         fields: Fields {
             who: WhoFields {
-                user: text("ann"),
+                user: SignedIn::username("ann"),
                 by: text("bob"),
                 reason: text("checked"),
                 force: false,
@@ -1007,4 +1007,46 @@ fn an_abort_saved_with_a_plant_stands_on_the_engine_until_a_person_resets_it() {
     engine.handle(command(5, ten(), Command::Reset), ms(1030));
     let out = engine.take_outputs();
     assert!(matches!(answer_to(&out, 5), Err(r) if r.code == Code::UnknownRun));
+}
+
+#[test]
+fn a_node_value_read_for_one_msg_takes_the_deployed_ones_place_for_that_msg_only() {
+    let mut b = Bench::new();
+    let read = |operation: &str, priority: Raw| -> MsgFields {
+        Fields {
+            configured: Some(Configured {
+                operation: text(operation),
+                priority,
+                resources: text(" GRN "),
+            }),
+            ..Fields::default()
+        }
+        .into()
+    };
+    let out = b.run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(1),
+        fields: read(" 11 ", text("7")),
+    });
+    assert!(
+        out.iter().any(|o| matches!(o,
+            Output::Send { msg: MsgId(1), set: Set::Interlock { operation, priority: 7, resources, .. }, .. }
+            if &**operation == "11" && resources.len() == 1 && &*resources[0] == "GRN")),
+        "{out:?}"
+    );
+    // The next msg with none reads the deployed values (op 10 on YEL, priority 20).
+    let out = b.acquire(1, 2);
+    assert!(
+        out.iter().any(|o| matches!(o,
+            Output::Send { msg: MsgId(2), set: Set::Interlock { operation, priority: 20, .. }, .. }
+            if &**operation == "10")),
+        "{out:?}"
+    );
+    // A msg's own value still comes first; a bad value read for the msg is refused as the node's.
+    let out = b.run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(3),
+        fields: read("13", text("urgent")),
+    });
+    assert_eq!(answers(&out), ["fail 3 INVALID_PRIORITY"]);
 }
