@@ -43,7 +43,8 @@ fn plant_reporting(valves_per_device: u32, devices: u32, reports: &str) -> Plant
 #[derive(Clone, Debug)]
 enum Step {
     Command(f64),
-    Lockout(f64),
+    /// A lockout to a target, answering a fault raised this long before (if it answers one).
+    Lockout(f64, Option<u64>),
     Sample(f64),
     Tick,
     Offline,
@@ -54,7 +55,8 @@ enum Step {
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
         2 => prop::sample::select(vec![0.0, 50.0, 100.0]).prop_map(Step::Command),
-        1 => prop::sample::select(vec![0.0, 0.0, 50.0]).prop_map(Step::Lockout),
+        1 => (prop::sample::select(vec![0.0, 0.0, 50.0]), prop::sample::select(vec![None, Some(0), Some(250)]))
+            .prop_map(|(target, lead)| Step::Lockout(target, lead)),
         5 => prop::sample::select(vec![0.0, 1.5, 2.0, 2.5, 30.0, 50.0, 97.0, 98.0, 98.5, 100.0]).prop_map(Step::Sample),
         4 => Just(Step::Tick),
         1 => Just(Step::Offline),
@@ -87,14 +89,17 @@ enum Seen {
         motion: u64,
         completion: u64,
         retries: u32,
+        timed: bool,
     },
     GroupCompleted {
         caller: u64,
         after: u64,
+        fault_lockout: Option<u64>,
     },
     GroupFailed {
         caller: u64,
         fault: FaultKind,
+        retries: u32,
     },
     Retry {
         caller: u64,
@@ -121,6 +126,7 @@ struct Cmd {
     attempt: u64,
     moving: Option<u64>,
     retries: u32,
+    fault_at: Option<u64>,
 }
 
 #[derive(Clone, Copy)]
@@ -180,7 +186,14 @@ impl Model {
     }
 
     /// Sets the new command, or completes it at once where the valve already is.
-    fn issue(&mut self, caller: u64, target: f64, now: u64, seen: &mut Vec<Seen>) {
+    fn issue(
+        &mut self,
+        caller: u64,
+        target: f64,
+        fault_at: Option<u64>,
+        now: u64,
+        seen: &mut Vec<Seen>,
+    ) {
         self.commanded = Some(target);
         self.resting = Some(target);
         self.uncommanded = false;
@@ -196,8 +209,13 @@ impl Model {
                 motion: 0,
                 completion: 0,
                 retries: 0,
+                timed: false,
             });
-            seen.push(Seen::GroupCompleted { caller, after: 0 });
+            seen.push(Seen::GroupCompleted {
+                caller,
+                after: 0,
+                fault_lockout: fault_at.map(|at| now.saturating_sub(at)),
+            });
         } else {
             self.cmd = Some(Cmd {
                 caller,
@@ -207,6 +225,7 @@ impl Model {
                 attempt: now,
                 moving: None,
                 retries: 0,
+                fault_at,
             });
         }
     }
@@ -251,13 +270,14 @@ impl Model {
                 }
                 seen.push(publish(target, false));
                 self.retained = false;
-                self.issue(caller, target, now, &mut seen);
+                self.issue(caller, target, None, now, &mut seen);
             }
-            Step::Lockout(target) => {
+            Step::Lockout(target, lead) => {
                 if let Some(old) = self.cmd.take() {
                     seen.push(Seen::GroupFailed {
                         caller: old.caller,
                         fault: FaultKind::LockedOut,
+                        retries: old.retries,
                     });
                 }
                 seen.push(publish(target, true));
@@ -275,7 +295,8 @@ impl Model {
                         last_send: now,
                     },
                 });
-                self.issue(caller, target, now, &mut seen);
+                let fault_at = lead.map(|lead| now.saturating_sub(lead));
+                self.issue(caller, target, fault_at, now, &mut seen);
             }
             Step::Sample(v) => {
                 self.last_sample = now;
@@ -326,10 +347,12 @@ impl Model {
                                 motion: cmd.moving.unwrap() - cmd.issued,
                                 completion: now - cmd.issued,
                                 retries: cmd.retries,
+                                timed: true,
                             });
                             seen.push(Seen::GroupCompleted {
                                 caller: cmd.caller,
                                 after: now - cmd.issued,
+                                fault_lockout: cmd.fault_at.map(|at| now - at),
                             });
                         }
                     }
@@ -346,6 +369,7 @@ impl Model {
                         seen.push(Seen::GroupFailed {
                             caller: cmd.caller,
                             fault: FaultKind::Stale,
+                            retries: cmd.retries,
                         });
                     }
                 } else if let Some(cmd) = self.cmd.as_mut() {
@@ -377,6 +401,7 @@ impl Model {
                             seen.push(Seen::GroupFailed {
                                 caller: cmd.caller,
                                 fault,
+                                retries: cmd.retries,
                             });
                         }
                     }
@@ -396,6 +421,7 @@ impl Model {
                         seen.push(Seen::GroupFailed {
                             caller: cmd.caller,
                             fault: FaultKind::DeviceOffline,
+                            retries: cmd.retries,
                         });
                     }
                 }
@@ -443,21 +469,38 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 issue_to_motion_ms,
                 completion_ms,
                 retries,
+                timed,
                 ..
             } => Some(Seen::Completed {
                 caller,
                 motion: issue_to_motion_ms.as_u64(),
                 completion: completion_ms.as_u64(),
                 retries,
+                timed,
             }),
             Effect::GroupCompleted {
                 caller,
                 completion_ms,
+                fault_lockout_ms,
             } => Some(Seen::GroupCompleted {
                 caller,
                 after: completion_ms.as_u64(),
+                fault_lockout: fault_lockout_ms.map(|f| f.as_u64()),
             }),
-            Effect::GroupFailed { caller, fault, .. } => Some(Seen::GroupFailed { caller, fault }),
+            Effect::GroupFailed {
+                caller,
+                fault,
+                retries,
+                code,
+                ..
+            } => {
+                assert_eq!(code, fault.code(), "a group fails with its fault's code");
+                Some(Seen::GroupFailed {
+                    caller,
+                    fault,
+                    retries,
+                })
+            }
             Effect::Retry {
                 caller,
                 attempt,
@@ -502,9 +545,12 @@ proptest! {
             let caller = caller as u64;
             let expected = model.apply(step, caller, now);
             let actual = match *step {
-                Step::Command(target) | Step::Lockout(target) => {
-                    let lockout = matches!(step, Step::Lockout(_));
-                    match tracker.command(&[(valve, target)], caller, lockout, ms(now)) {
+                Step::Command(target) | Step::Lockout(target, _) => {
+                    let (lockout, fault_at) = match *step {
+                        Step::Lockout(_, lead) => (true, lead.map(|lead| ms(now.saturating_sub(lead)))),
+                        _ => (false, None),
+                    };
+                    match tracker.command_after_fault(&[(valve, target)], caller, lockout, fault_at, ms(now)) {
                         Ok(effects) => observe(effects),
                         Err(err) => vec![Seen::Refused(err.code().name())],
                     }
