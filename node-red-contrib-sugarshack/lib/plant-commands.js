@@ -7,7 +7,7 @@
 const { SugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { seconds } = require('./plant');
-const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
+const { groupPayload, isLockout, actuatorIds } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
@@ -31,10 +31,11 @@ class GroupCommands {
   command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
     const { plant } = this;
     // The msg is read again here: a getter or proxy that throws is the sender's error (INVALID_INPUT).
-    const { payload, lockout } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg) }));
+    const { payload, lockout, faultAtMs } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg), faultAtMs: msg.faultAtMs }));
     const caller = this.newCaller();
     const now = clock.now();
-    plant.t.command(payload, caller, lockout, now, within);
+    // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
+    plant.t.command(payload, caller, lockout, now, within, typeof faultAtMs === 'number' ? faultAtMs : undefined);
     plant.statusView.dropRefusal(node);
     const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
     this.hold(caller, entry, timeoutMs);
@@ -76,7 +77,7 @@ class GroupCommands {
       const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
       try {
         const caller = this.newCaller();
-        plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined));
+        plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
         const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
         this.hold(caller, entry, 0);
         plant.flush(null);
@@ -158,8 +159,7 @@ class GroupCommands {
   recordCompleted(e) {
     const entry = this.pending.get(e.caller);
     if (!entry) return;
-    // Commands that found their actuator already in place say nothing about timing.
-    if (e.completionMs > 0) {
+    if (e.timed) {
       stats.add('command/issueToMotion', e.issueToMotionMs);
       stats.add('command/completion', e.completionMs);
     }
@@ -172,21 +172,15 @@ class GroupCommands {
     });
   }
 
-  recordRetry(e) {
-    const entry = this.pending.get(e.caller);
-    if (entry) entry.retries.set(e.actuator, e.attempt);
-  }
-
   /** The same msg goes on from the node that holds it (a link call return stays intact). */
   complete(e) {
     const entry = this.pending.take(e.caller);
     if (!entry) return;
     const result = { completionMs: e.completionMs, actuators: entry.completed };
-    const { msg } = entry;
     // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-    if (msg && typeof msg.faultAtMs === 'number') {
-      result.faultLockoutMs = Math.max(0, clock.now() - msg.faultAtMs);
-      stats.add('fault/lockout', result.faultLockoutMs);
+    if (e.faultLockoutMs !== undefined) {
+      result.faultLockoutMs = e.faultLockoutMs;
+      stats.add('fault/lockout', e.faultLockoutMs);
     }
     entry.complete(result);
   }
@@ -197,8 +191,7 @@ class GroupCommands {
     const entry = this.pending.take(e.caller);
     if (!entry) return;
     const a = plant.actuators[e.actuator];
-    const retries = entry.retries.get(e.actuator) || 0;
-    const { code, message } = plant.t.describeFault(e.actuator, e.fault, retries, targetOf(entry.payload, a.id));
+    const { code, message, retries } = e;
     if (entry.msg) {
       entry.msg.command = {
         failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
@@ -212,7 +205,7 @@ class GroupCommands {
 
 /** A group command msg held by a group command or actuators node until its command completes. */
 function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
-  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [], retries: new Map() });
+  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [] });
   entry.complete = (result) => {
     msg.command = result;
     if (entry.send) {
@@ -235,7 +228,7 @@ function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, si
  * @param {{ payload: unknown, onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
  */
 function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
-  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [], retries: new Map() });
+  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [] });
   let answered = false;
   const answer = (err) => {
     if (answered) return;

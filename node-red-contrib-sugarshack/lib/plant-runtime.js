@@ -361,7 +361,6 @@ class PlantRuntime extends RuntimeBase {
         break;
       default:
         if (e.kind === 'completed') this.commands.recordCompleted(e);
-        else if (e.kind === 'retry') this.commands.recordRetry(e);
         else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
@@ -381,8 +380,8 @@ class PlantRuntime extends RuntimeBase {
     return {
       lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
       buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
-      devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
-      devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
+      devicesOffline: health.devicesOffline,
+      devices: health.devices,
       sensors: health.sensors,
       actuators: health.actuators,
       // The document's words for its operations, so that an operator reads "load truck", not "10".
