@@ -2,12 +2,12 @@
 'use strict';
 // A plant's group commands in flight: each one the core is carrying out, by
 // its caller id, with what waits for its outcome (a msg held by a group command
-// or actuators node, an operation step, a lockout), its timeout, and the
-// actuators that completed so far. The core says when one completes or fails.
+// or actuators node, an operation step, a lockout) and the actuators that
+// completed so far. The core says when one completes, fails or times out.
 const { SugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { seconds } = require('./plant');
-const { groupPayload, isLockout, actuatorIds } = require('./group');
+const { groupPayload, isLockout } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
@@ -35,10 +35,10 @@ class GroupCommands {
     const caller = this.newCaller();
     const now = clock.now();
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    plant.t.command(payload, caller, lockout, now, within, typeof faultAtMs === 'number' ? faultAtMs : undefined);
+    plant.t.command(payload, caller, lockout, now, within, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs);
     plant.statusView.dropRefusal(node);
     const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
-    this.hold(caller, entry, timeoutMs);
+    this.hold(caller, entry, now, timeoutMs);
     plant.flush(null);
   }
 
@@ -50,14 +50,15 @@ class GroupCommands {
     const { plant } = this;
     const caller = this.newCaller();
     const now = clock.now();
-    plant.guard(() => plant.t.command(payload, caller, false, now, within));
+    plant.guard(() => plant.t.command(payload, caller, false, now, within, undefined, timeoutMs));
     const entry = callbackEntry({ payload, onDone, sinceMs: now });
-    this.hold(caller, entry, timeoutMs);
+    this.hold(caller, entry, now, timeoutMs);
     plant.flush(null);
     return () => {
       if (this.pending.get(caller) !== entry) return;
       this.pending.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
+      plant.followDeadline();
       plant.refreshStatus();
     };
   }
@@ -79,7 +80,7 @@ class GroupCommands {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
         const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
-        this.hold(caller, entry, 0);
+        this.hold(caller, entry, faultAtMs, 0);
         plant.flush(null);
       } catch (err) {
         plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
@@ -87,9 +88,10 @@ class GroupCommands {
     }
   }
 
-  hold(caller, entry, timeoutMs) {
+  /** Keeps `entry` until the core answers `caller`; by its timeout at the latest (the core's deadline). */
+  hold(caller, entry, now, timeoutMs) {
     this.pending.add(caller, entry);
-    if (timeoutMs > 0) entry.timer = clock.setTimeout(() => this.expire(caller, entry, timeoutMs), timeoutMs);
+    if (timeoutMs > 0) this.plant.wakeAt(now + timeoutMs);
   }
 
   newCaller() {
@@ -99,21 +101,15 @@ class GroupCommands {
     return this.nextCaller;
   }
 
-  expire(caller, entry, timeoutMs) {
+  /** Its caller waited its timeout: the core withdrew the command. */
+  timedOut(e) {
     const { plant } = this;
-    if (plant.state !== 'ready' || this.pending.get(caller) !== entry) return;
-    this.pending.take(caller);
-    try {
-      plant.guard(() => plant.t.withdraw(caller));
-    } catch (err) {
-      plant.log('error', err.message);
-    }
-    const completed = new Set(entry.completed.map((c) => c.actuator));
-    const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const waiting = e.waiting.map((handle) => plant.actuators[handle].id);
     if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
     if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
-    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(timeoutMs), waiting: waiting.join(', ') }));
-    plant.refreshStatus();
+    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(e.timeoutMs), waiting: waiting.join(', ') }));
   }
 
   // ---- what the held msgs are ----------------------------------------------
@@ -152,6 +148,7 @@ class GroupCommands {
       this.pending.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
     }
+    plant.followDeadline();
   }
 
   // ---- outcomes, from the core's effects -----------------------------------
@@ -182,6 +179,7 @@ class GroupCommands {
       result.faultLockoutMs = e.faultLockoutMs;
       stats.add('fault/lockout', e.faultLockoutMs);
     }
+    this.plant.followDeadline();
     entry.complete(result);
   }
 
@@ -199,6 +197,7 @@ class GroupCommands {
       };
     }
     if (entry.node) plant.showError(entry.node, code);
+    plant.followDeadline();
     entry.refuse(new SugarshackError(code, message));
   }
 }

@@ -23,6 +23,7 @@ const i18n = require('./i18n');
 const { clusterOf } = require('./cluster');
 
 const TICK_MS = 250;
+const MAX_TIMER_MS = 2 ** 31 - 1;
 
 class PlantRuntime extends RuntimeBase {
   /**
@@ -37,6 +38,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.t = null;
     this.tickTimer = null;
+    this.deadline = null; // { at, timer }: the one timer for the core's next group command timeout
     this.bus = new PlantBuses(this);
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
@@ -131,6 +133,7 @@ class PlantRuntime extends RuntimeBase {
     this.tickTimer = null;
     this.statusView.stop();
     this.commands.abandonAll();
+    this.stopDeadline();
     if (wasReady) this.freeTracker();
   }
 
@@ -162,6 +165,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
     this.commands.abandonAll();
+    this.stopDeadline();
     if (this.t) this.freeTracker();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
@@ -294,6 +298,43 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- time and effects ----------------------------------------------------
 
+  /** Wakes at `at` (or earlier, if set so) to time out the group commands the core says are due. */
+  wakeAt(at) {
+    if (this.deadline && this.deadline.at <= at) return;
+    this.stopDeadline();
+    // Node fires a longer timeout at once; woken early, it sleeps again until the deadline.
+    const timer = clock.setTimeout(() => this.timeouts(), Math.min(Math.max(0, at - clock.now()), MAX_TIMER_MS));
+    this.deadline = { at, timer };
+  }
+
+  stopDeadline() {
+    if (this.deadline) clock.clearTimeout(this.deadline.timer);
+    this.deadline = null;
+  }
+
+  /** A group command left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
+  followDeadline() {
+    if (!this.deadline || this.state !== 'ready') return;
+    const next = this.t.nextDeadline();
+    if (next === this.deadline.at) return;
+    this.stopDeadline();
+    if (next !== undefined) this.wakeAt(next);
+  }
+
+  timeouts() {
+    this.deadline = null;
+    if (this.state !== 'ready') return;
+    try {
+      this.guard(() => {
+        if (this.t.expire(clock.now()) > 0) this.flush(null);
+        const next = this.t.nextDeadline();
+        if (next !== undefined) this.wakeAt(next);
+      });
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
   tick() {
     if (this.state !== 'ready') return;
     try {
@@ -349,6 +390,9 @@ class PlantRuntime extends RuntimeBase {
         break;
       case 'groupFailed':
         this.commands.fail(e);
+        break;
+      case 'groupTimedOut':
+        this.commands.timedOut(e);
         break;
       case 'deviceStatus':
         this.bus.deviceStatus(e);

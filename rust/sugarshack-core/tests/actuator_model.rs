@@ -5,7 +5,9 @@
 
 use proptest::prelude::*;
 use serde_json::json;
-use sugarshack_core::actuator::{ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Tracker};
+use sugarshack_core::actuator::{
+    ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Terms, Tracker,
+};
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::time::ms;
 
@@ -42,7 +44,8 @@ fn plant_reporting(valves_per_device: u32, devices: u32, reports: &str) -> Plant
 
 #[derive(Clone, Debug)]
 enum Step {
-    Command(f64),
+    /// A command to a target, its caller waiting this long (if it gives up).
+    Command(f64, Option<u64>),
     /// A lockout to a target, answering a fault raised this long before (if it answers one).
     Lockout(f64, Option<u64>),
     Sample(f64),
@@ -54,7 +57,8 @@ enum Step {
 
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
-        2 => prop::sample::select(vec![0.0, 50.0, 100.0]).prop_map(Step::Command),
+        2 => (prop::sample::select(vec![0.0, 50.0, 100.0]), prop::sample::select(vec![None, Some(0), Some(1500), Some(4000)]))
+            .prop_map(|(target, timeout)| Step::Command(target, timeout)),
         1 => (prop::sample::select(vec![0.0, 0.0, 50.0]), prop::sample::select(vec![None, Some(0), Some(250)]))
             .prop_map(|(target, lead)| Step::Lockout(target, lead)),
         5 => prop::sample::select(vec![0.0, 1.5, 2.0, 2.5, 30.0, 50.0, 97.0, 98.0, 98.5, 100.0]).prop_map(Step::Sample),
@@ -101,6 +105,10 @@ enum Seen {
         fault: FaultKind,
         retries: u32,
     },
+    GroupTimedOut {
+        caller: u64,
+        timeout: u64,
+    },
     Retry {
         caller: u64,
         attempt: u32,
@@ -127,6 +135,8 @@ struct Cmd {
     moving: Option<u64>,
     retries: u32,
     fault_at: Option<u64>,
+    /// Its timeout and when it runs out.
+    deadline: Option<(u64, u64)>,
 }
 
 #[derive(Clone, Copy)]
@@ -190,7 +200,7 @@ impl Model {
         &mut self,
         caller: u64,
         target: f64,
-        fault_at: Option<u64>,
+        (fault_at, timeout): (Option<u64>, Option<u64>),
         now: u64,
         seen: &mut Vec<Seen>,
     ) {
@@ -226,6 +236,7 @@ impl Model {
                 moving: None,
                 retries: 0,
                 fault_at,
+                deadline: timeout.filter(|t| *t > 0).map(|t| (t, now + t)),
             });
         }
     }
@@ -252,7 +263,7 @@ impl Model {
     fn apply(&mut self, step: &Step, caller: u64, now: u64) -> Vec<Seen> {
         let mut seen = Vec::new();
         match *step {
-            Step::Command(target) => {
+            Step::Command(target, timeout) => {
                 if self.order.is_some() {
                     return vec![Seen::Refused("LOCKOUT_PENDING")];
                 }
@@ -270,7 +281,7 @@ impl Model {
                 }
                 seen.push(publish(target, false));
                 self.retained = false;
-                self.issue(caller, target, None, now, &mut seen);
+                self.issue(caller, target, (None, timeout), now, &mut seen);
             }
             Step::Lockout(target, lead) => {
                 if let Some(old) = self.cmd.take() {
@@ -296,7 +307,7 @@ impl Model {
                     },
                 });
                 let fault_at = lead.map(|lead| now.saturating_sub(lead));
-                self.issue(caller, target, fault_at, now, &mut seen);
+                self.issue(caller, target, (fault_at, None), now, &mut seen);
             }
             Step::Sample(v) => {
                 self.last_sample = now;
@@ -359,6 +370,15 @@ impl Model {
                 }
             }
             Step::Tick => {
+                // A caller that waited its timeout: the command is withdrawn, whatever the device.
+                let due = self.cmd.as_ref().and_then(|c| c.deadline);
+                if let Some((timeout, _)) = due.filter(|(_, at)| *at <= now) {
+                    let cmd = self.cmd.take().unwrap();
+                    seen.push(Seen::GroupTimedOut {
+                        caller: cmd.caller,
+                        timeout,
+                    });
+                }
                 if !self.online {
                     return seen;
                 }
@@ -501,6 +521,17 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                     retries,
                 })
             }
+            Effect::GroupTimedOut {
+                caller,
+                timeout_ms,
+                waiting,
+            } => {
+                assert_eq!(waiting.len(), 1, "the valve still waited for");
+                Some(Seen::GroupTimedOut {
+                    caller,
+                    timeout: timeout_ms.as_u64(),
+                })
+            }
             Effect::Retry {
                 caller,
                 attempt,
@@ -545,12 +576,13 @@ proptest! {
             let caller = caller as u64;
             let expected = model.apply(step, caller, now);
             let actual = match *step {
-                Step::Command(target) | Step::Lockout(target, _) => {
-                    let (lockout, fault_at) = match *step {
-                        Step::Lockout(_, lead) => (true, lead.map(|lead| ms(now.saturating_sub(lead)))),
-                        _ => (false, None),
+                Step::Command(target, _) | Step::Lockout(target, _) => {
+                    let terms = match *step {
+                        Step::Lockout(_, lead) => Terms { lockout: true, fault_at: lead.map(|lead| ms(now.saturating_sub(lead))), timeout: None },
+                        Step::Command(_, timeout) => Terms { timeout: timeout.map(ms), ..Terms::default() },
+                        _ => unreachable!(),
                     };
-                    match tracker.command_after_fault(&[(valve, target)], caller, lockout, fault_at, ms(now)) {
+                    match tracker.issue(&[(valve, target)], caller, terms, ms(now)) {
                         Ok(effects) => observe(effects),
                         Err(err) => vec![Seen::Refused(err.code().name())],
                     }
@@ -562,6 +594,8 @@ proptest! {
                 Step::PathRestored => observe(tracker.path_restored(ms(now))),
             };
             prop_assert_eq!(&actual, &expected, "{:?} at {}", step, now);
+            let deadline = model.cmd.as_ref().and_then(|c| c.deadline).map(|(_, at)| ms(at));
+            prop_assert_eq!(tracker.next_deadline(), deadline, "the next deadline after {:?} at {}", step, now);
 
             let pending: Vec<(f64, u64, u32)> = tracker
                 .pending_lockouts()

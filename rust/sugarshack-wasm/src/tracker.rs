@@ -1,5 +1,5 @@
 use serde::Serialize;
-use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, TrackError};
+use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
@@ -67,6 +67,7 @@ export type TrackerEffect =
     | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
     | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number }
     | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[] }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -483,6 +484,7 @@ impl Tracker {
     /// `within`: the resources the commanding operation holds (C2), if it is one.
     /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
     /// `faultAtMs`: when the fault it answers was raised; its `groupCompleted` then has `faultLockoutMs`.
+    /// `timeoutMs`: how long its caller waits (`nextDeadline`, `expire`).
     pub fn command(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "GroupCommand | string")] payload: JsValue,
@@ -491,10 +493,16 @@ impl Tracker {
         now_ms: f64,
         within: Option<Vec<String>>,
         fault_at_ms: Option<f64>,
+        timeout_ms: Option<f64>,
     ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
-        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time.
-        let fault_at = fault_at_ms.and_then(Millis::whole);
+        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
+        // a timeout that is none (0, NaN) sets no limit.
+        let terms = Terms {
+            lockout,
+            fault_at: fault_at_ms.and_then(Millis::whole),
+            timeout: timeout_ms.and_then(Millis::whole),
+        };
         let payload: serde_json::Value = from_js_bounded(
             payload,
             Code::InvalidGroup,
@@ -509,7 +517,7 @@ impl Tracker {
         }
         let effects = self
             .core
-            .command_after_fault(&targets, u64::from(caller), lockout, fault_at, now)
+            .issue(&targets, u64::from(caller), terms, now)
             .map_err(track_error)?;
         Ok(self.queue(effects))
     }
@@ -725,6 +733,20 @@ impl Tracker {
     pub fn tick(&mut self, now_ms: f64) -> Result<u32, JsValue> {
         let effects = self.core.tick(time(now_ms)?);
         Ok(self.queue(effects))
+    }
+
+    /// Withdraws the group commands whose timeout ran out (`groupTimedOut`),
+    /// and nothing else; returns how many effects are queued.
+    pub fn expire(&mut self, now_ms: f64) -> Result<u32, JsValue> {
+        let mut effects = Vec::new();
+        self.core.expire(time(now_ms)?, &mut effects);
+        Ok(self.queue(effects))
+    }
+
+    /// When the next group command's timeout runs out (epoch ms), if any: call `expire` then.
+    #[wasm_bindgen(js_name = nextDeadline)]
+    pub fn next_deadline(&self) -> Option<f64> {
+        self.core.next_deadline().map(Millis::as_f64)
     }
 
     /// The queued effects, oldest first, as plain objects with a `kind`.

@@ -178,6 +178,17 @@ pub enum Effect {
         #[serde(skip_serializing_if = "Option::is_none")]
         fault_lockout_ms: Option<Millis>,
     },
+    /// The group's caller waited its timeout: the group is withdrawn (as
+    /// [`Tracker::withdraw`]); answer the caller with an error.
+    #[serde(rename_all = "camelCase")]
+    GroupTimedOut {
+        /// The caller's handle of the group command.
+        caller: Caller,
+        /// The timeout it was given.
+        timeout_ms: Millis,
+        /// Its actuators not at their target yet, in the command's order.
+        waiting: Vec<ActuatorId>,
+    },
     /// The group failed (fail-fast): answer the caller with an error.
     #[serde(rename_all = "camelCase")]
     GroupFailed {
@@ -397,6 +408,25 @@ struct Group {
     remaining: usize,
     /// When the fault this command answers was raised (a lockout's), if any.
     fault_at: Option<Millis>,
+    /// Its timeout, and the time it runs out.
+    deadline: Option<(Millis, Millis)>,
+    /// Its actuators, in the command's order.
+    members: Vec<ActuatorId>,
+}
+
+/// How a group command is carried out, beyond its targets.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Terms {
+    /// A lockout: published retained, taking over actuators still moving,
+    /// standing until feedback confirms it.
+    pub lockout: bool,
+    /// When the fault it answers was raised: its completion reports the
+    /// fault lockout time, from the fault to every actuator in place (0 for
+    /// a fault time after it).
+    pub fault_at: Option<Millis>,
+    /// How long its caller waits: the first [`Tracker::tick`] at or past it
+    /// withdraws the group ([`Effect::GroupTimedOut`]). None or 0: no limit.
+    pub timeout: Option<Millis>,
 }
 
 impl Group {
@@ -916,20 +946,23 @@ impl Tracker {
         lockout: bool,
         now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
-        self.command_after_fault(targets, caller, lockout, None, now)
+        let terms = Terms {
+            lockout,
+            ..Terms::default()
+        };
+        self.issue(targets, caller, terms, now)
     }
 
-    /// [`Tracker::command`] answering a fault raised at `fault_at` (a
-    /// lockout's): its completion reports the fault lockout time, from the
-    /// fault to every actuator in place (0 for a fault time after it).
-    pub fn command_after_fault(
+    /// [`Tracker::command`] on `terms`: a lockout or not, the fault it
+    /// answers, the time its caller waits.
+    pub fn issue(
         &mut self,
         targets: &[(ActuatorId, f64)],
         caller: Caller,
-        lockout: bool,
-        fault_at: Option<Millis>,
+        terms: Terms,
         now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
+        let lockout = terms.lockout;
         self.check_group(targets, caller, lockout)?;
         let mut effects = Vec::with_capacity(targets.len() + 1);
         let mut remaining = 0;
@@ -1015,7 +1048,12 @@ impl Tracker {
         let group = Group {
             issued_ms: now,
             remaining,
-            fault_at,
+            fault_at: terms.fault_at,
+            deadline: terms
+                .timeout
+                .filter(|t| *t > Millis::ZERO)
+                .map(|t| (t, now.saturating_add(t))),
+            members: targets.iter().map(|&(id, _)| id).collect(),
         };
         if remaining == 0 {
             effects.push(group.completed(caller, now));
@@ -1369,6 +1407,7 @@ impl Tracker {
     /// `now - start >= T`. Nothing is checked for a device known offline.
     pub fn tick(&mut self, now: Millis) -> Vec<Effect> {
         let mut effects = Vec::new();
+        self.expire(now, &mut effects);
         for index in 0..self.actuators.len() {
             let id = ActuatorId(index as u32);
             let a = &self.actuators[index];
@@ -1402,6 +1441,51 @@ impl Tracker {
             }
         }
         effects
+    }
+
+    /// When the next group command's timeout runs out, if one has a timeout:
+    /// `tick` then, at the latest, to answer its caller on time.
+    pub fn next_deadline(&self) -> Option<Millis> {
+        self.groups
+            .values()
+            .filter_map(|g| g.deadline.map(|(_, at)| at))
+            .min()
+    }
+
+    /// Withdraws every group whose timeout ran out, earliest first (`tick`
+    /// does too; this checks nothing else, for a caller woken at a deadline).
+    pub fn expire(&mut self, now: Millis, effects: &mut Vec<Effect>) {
+        let mut due: Vec<(Millis, Caller)> = self
+            .groups
+            .iter()
+            .filter_map(|(&caller, g)| {
+                g.deadline
+                    .filter(|(_, at)| *at <= now)
+                    .map(|(_, at)| (at, caller))
+            })
+            .collect();
+        due.sort_unstable();
+        for (_, caller) in due {
+            let group = self.groups.get(&caller).expect("listed above");
+            let (timeout_ms, _) = group.deadline.expect("listed above");
+            let waiting = group
+                .members
+                .iter()
+                .copied()
+                .filter(|id| {
+                    self.actuators[id.index()]
+                        .command
+                        .as_ref()
+                        .is_some_and(|c| c.caller == caller)
+                })
+                .collect();
+            self.withdraw(caller);
+            effects.push(Effect::GroupTimedOut {
+                caller,
+                timeout_ms,
+                waiting,
+            });
+        }
     }
 
     /// No motion or target not reached: retried, then escalated.

@@ -1173,7 +1173,12 @@ fn only_commands_that_had_to_move_are_timed() {
 #[test]
 fn a_lockout_after_a_fault_reports_the_time_from_the_fault_to_isolation() {
     let (mut t, v1, v2, _) = tracker();
-    t.command_after_fault(&[(v1, 0.0), (v2, 50.0)], 1, true, Some(ms(750)), ms(1000))
+    let after_fault = |at: u64| Terms {
+        lockout: true,
+        fault_at: Some(ms(at)),
+        timeout: None,
+    };
+    t.issue(&[(v1, 0.0), (v2, 50.0)], 1, after_fault(750), ms(1000))
         .unwrap();
     let done = t.feedback(v2, 49.0, None, ms(1040)).unwrap();
     assert!(has(&done, |e| matches!(
@@ -1183,7 +1188,7 @@ fn a_lockout_after_a_fault_reports_the_time_from_the_fault_to_isolation() {
     )));
     // All in place at once; a fault time after the command counts as none elapsed.
     let at_once = t
-        .command_after_fault(&[(v1, 0.0)], 2, true, Some(ms(5000)), ms(1100))
+        .issue(&[(v1, 0.0)], 2, after_fault(5000), ms(1100))
         .unwrap();
     assert!(has(&at_once, |e| matches!(
         e,
@@ -1220,4 +1225,41 @@ fn a_device_reads_offline_above_stale_above_online() {
     assert_eq!(json[0]["state"], "offline");
     assert_eq!(json[1]["state"], "stale");
     assert_eq!(json[1]["stale"], json!(["V9"]));
+}
+
+#[test]
+fn a_group_past_its_timeout_is_withdrawn_at_the_first_tick_naming_what_it_waited_for() {
+    let mut t = Tracker::new(plant("hang"), ms(0)).unwrap();
+    let [v1, v2, p1] = ["V1", "V2", "P1"].map(|n| t.actuator(n).unwrap());
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.feedback(v2, 0.0, None, ms(0)).unwrap();
+    let waits = |timeout: u64| Terms {
+        timeout: Some(ms(timeout)),
+        ..Terms::default()
+    };
+    t.issue(&[(v2, 100.0), (v1, 10.0)], 1, waits(1500), ms(100))
+        .unwrap();
+    t.issue(&[(p1, 1.0)], 2, waits(0), ms(100)).unwrap();
+    assert_eq!(
+        t.next_deadline(),
+        Some(ms(1600)),
+        "no limit for a 0 timeout"
+    );
+    t.feedback(v1, 10.0, None, ms(500)).unwrap();
+    assert!(!has(&t.tick(ms(1599)), |e| matches!(
+        e,
+        Effect::GroupTimedOut { .. }
+    )));
+    let timed_out = t.tick(ms(1600));
+    assert_eq!(
+        timed_out.first(),
+        Some(&Effect::GroupTimedOut {
+            caller: 1,
+            timeout_ms: ms(1500),
+            waiting: vec![v2],
+        })
+    );
+    assert_eq!(t.phase(v2), Some(Phase::Idle), "withdrawn");
+    assert_eq!(t.next_deadline(), None);
+    assert!(!t.withdraw(1), "already answered");
 }
