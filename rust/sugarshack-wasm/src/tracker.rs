@@ -485,6 +485,8 @@ impl Tracker {
     /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
     /// `faultAtMs`: when the fault it answers was raised; its `groupCompleted` then has `faultLockoutMs`.
     /// `timeoutMs`: how long its caller waits (`nextDeadline`, `expire`).
+    // One crossing per command: each of its terms is an argument, not an object to read.
+    #[allow(clippy::too_many_arguments)]
     pub fn command(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "GroupCommand | string")] payload: JsValue,
