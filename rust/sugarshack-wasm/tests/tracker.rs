@@ -251,6 +251,7 @@ fn the_core_answers_a_group_command_worded_timed_and_on_its_deadline() {
     t.command(valve(), 1, false, 100.0, None, None, Some(1500.0))
         .unwrap();
     assert_eq!(t.next_deadline(), Some(1600.0));
+    t.take_effects().unwrap();
     t.expire(1599.0).unwrap();
     assert!(kinds(&t.take_effects().unwrap()).is_empty());
     t.expire(1600.0).unwrap();
