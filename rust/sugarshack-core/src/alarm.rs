@@ -23,7 +23,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::actuator::DeviceHealth;
+use crate::actuator::{Availability, DeviceHealth};
 use crate::clearance::{cut, Attribution};
 use crate::code::Code;
 use crate::text::quote;
@@ -202,11 +202,12 @@ impl Condition {
     /// A device's condition, if it has one: offline, else stale feedback
     /// from some of its actuators (named).
     pub fn of_device(health: &DeviceHealth) -> Option<Self> {
-        if !health.online {
-            return Some(Condition::new(AlarmKind::DeviceOffline, &health.device));
-        }
-        if health.stale.is_empty() {
-            return None;
+        match health.state() {
+            Availability::Offline => {
+                return Some(Condition::new(AlarmKind::DeviceOffline, &health.device))
+            }
+            Availability::Online => return None,
+            Availability::Stale => {}
         }
         let mut condition = Condition::new(AlarmKind::DeviceStale, &health.device);
         condition.text = format!(

@@ -1,7 +1,5 @@
 use serde::Serialize;
-use sugarshack_core::actuator::{
-    describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError,
-};
+use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
@@ -66,9 +64,10 @@ export type FaultKind =
 export type TrackerEffect =
     | { kind: "publish"; device: number; topic: string; payload: string; retain: boolean }
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
-    | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number }
-    | { kind: "groupCompleted"; caller: number; completionMs: number }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind }
+    | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
+    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[] }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -86,6 +85,8 @@ export interface DeviceHealth {
     online: boolean;
     /** Actuators whose feedback went silent. */
     stale: string[];
+    /** Offline above all, else stale while any actuator is. */
+    state: "online" | "stale" | "offline";
 }
 
 /** A sensor as an operator sees it (`value` null before the first sample or with no reading). */
@@ -115,6 +116,8 @@ export interface ActuatorPosition {
 /** `Tracker.health()`. */
 export interface PlantHealth {
     devices: DeviceHealth[];
+    /** The ids of the devices offline, in plant order. */
+    devicesOffline: string[];
     sensors: SensorHealth[];
     actuators: ActuatorPosition[];
 }
@@ -205,6 +208,7 @@ struct SensorView<'a> {
 #[serde(rename_all = "camelCase")]
 struct HealthView<'a> {
     devices: Vec<sugarshack_core::actuator::DeviceHealth>,
+    devices_offline: Vec<String>,
     sensors: Vec<SensorView<'a>>,
     actuators: Vec<PositionView<'a>>,
 }
@@ -479,6 +483,10 @@ impl Tracker {
     /// nothing; returns how many effects are queued. A refusal throws and sends nothing.
     /// `within`: the resources the commanding operation holds (C2), if it is one.
     /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
+    /// `faultAtMs`: when the fault it answers was raised; its `groupCompleted` then has `faultLockoutMs`.
+    /// `timeoutMs`: how long its caller waits (`nextDeadline`, `expire`).
+    // One crossing per command: each of its terms is an argument, not an object to read.
+    #[allow(clippy::too_many_arguments)]
     pub fn command(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "GroupCommand | string")] payload: JsValue,
@@ -486,8 +494,17 @@ impl Tracker {
         lockout: bool,
         now_ms: f64,
         within: Option<Vec<String>>,
+        fault_at_ms: Option<f64>,
+        timeout_ms: Option<f64>,
     ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
+        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
+        // a timeout that is none (0, NaN) sets no limit.
+        let terms = Terms {
+            lockout,
+            fault_at: fault_at_ms.and_then(Millis::whole),
+            timeout: timeout_ms.and_then(Millis::whole),
+        };
         let payload: serde_json::Value = from_js_bounded(
             payload,
             Code::InvalidGroup,
@@ -502,7 +519,7 @@ impl Tracker {
         }
         let effects = self
             .core
-            .command(&targets, u64::from(caller), lockout, now)
+            .issue(&targets, u64::from(caller), terms, now)
             .map_err(track_error)?;
         Ok(self.queue(effects))
     }
@@ -720,6 +737,20 @@ impl Tracker {
         Ok(self.queue(effects))
     }
 
+    /// Withdraws the group commands whose timeout ran out (`groupTimedOut`),
+    /// and nothing else; returns how many effects are queued.
+    pub fn expire(&mut self, now_ms: f64) -> Result<u32, JsValue> {
+        let mut effects = Vec::new();
+        self.core.expire(time(now_ms)?, &mut effects);
+        Ok(self.queue(effects))
+    }
+
+    /// When the next group command's timeout runs out (epoch ms), if any: call `expire` then.
+    #[wasm_bindgen(js_name = nextDeadline)]
+    pub fn next_deadline(&self) -> Option<f64> {
+        self.core.next_deadline().map(Millis::as_f64)
+    }
+
     /// The queued effects, oldest first, as plain objects with a `kind`.
     #[wasm_bindgen(js_name = takeEffects, unchecked_return_type = "TrackerEffect[]")]
     pub fn take_effects(&mut self) -> Result<JsValue, JsValue> {
@@ -804,22 +835,13 @@ impl Tracker {
                 &format!("unknown fault '{}'", quote(fault)),
             )
         })?;
-        let plant = self.core.plant();
-        let a = &plant.actuators[id.index()];
-        let t = plant
-            .actuator_types
-            .get(&a.kind)
-            .ok_or_else(|| js_error(Code::Internal, &format!("actuator '{}' has no type", a.id)))?;
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
-        let heard = self.core.heard(id).expect("checked handle");
-        let profile = plant
-            .devices
-            .iter()
-            .find(|d| d.id == a.device)
-            .map_or("sugarshack", |d| d.profile.name());
-        let message = describe_fault(a, t, kind, retries, target, (heard, profile));
+        let message = self
+            .core
+            .describe_fault(id, kind, retries, target)
+            .ok_or_else(|| js_error(Code::Internal, "the actuator has no type"))?;
         to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 
@@ -961,6 +983,7 @@ impl Tracker {
             .collect();
         to_js(&HealthView {
             devices: self.core.device_health(),
+            devices_offline: self.core.devices_offline(),
             sensors,
             actuators,
         })
