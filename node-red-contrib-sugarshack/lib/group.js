@@ -19,10 +19,10 @@ const i18n = require('./i18n');
  */
 let last = null;
 
-/** The core's read of a group command msg; throws its refusal for a Catch node (and what a field throws as it is read). @returns {GroupRead} */
+/** The core's read of a group command msg; throws its refusal for a Catch node. @returns {GroupRead} */
 function readGroup(msg) {
   if (last && last.msg === msg) return last.read;
-  const read = wasm.load().readGroupMsg(msg);
+  const read = wasm.load().readGroupMsg(msg.topic, msg.lockout, msg.interlock, msg.payload);
   if ('refusal' in read) throw new SugarshackError(read.refusal.code, i18n.textOf(read.refusal.key, read.refusal.params));
   if (!last) queueMicrotask(() => { last = null; });
   last = { msg, read };
@@ -37,7 +37,7 @@ function groupPayload(msg) {
 /** A lockout (its topic, or msg.lockout): a standing order that never waits for a deploy's drain. Its payload is not read. */
 function isLockout(msg) {
   if (last && last.msg === msg) return last.read.lockout;
-  return wasm.load().isLockoutMsg(msg);
+  return wasm.load().isLockoutMsg(msg.topic, msg.lockout);
 }
 
 /** The lines the msg's acquire node granted it, which its command must keep within (C2); undefined when none. */

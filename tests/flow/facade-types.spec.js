@@ -294,13 +294,13 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
   });
 
   it('a group command msg read in one call: lockout, lines held, payload; or the refusal', function () {
-    const read = facade.readGroupMsg({ topic: 'plant/command', interlock: { resources: ['A'] }, payload: '{"valves": {"V1": 5}}' });
+    const read = facade.readGroupMsg('plant/command', undefined, { resources: ['A'] }, '{"valves": {"V1": 5}}');
     shapes.expect('GroupMsgRead', read);
     assert.deepEqual(read, { lockout: false, within: ['A'], payload: { valves: { V1: 5 } } });
-    const refused = facade.readGroupMsg({ topic: 'plant/command', interlock: 'A', payload: {} });
+    const refused = facade.readGroupMsg('plant/command', undefined, 'A', {});
     shapes.expect('GroupMsgRead', refused);
     assert.deepEqual(refused, { refusal: { code: 'INVALID_RESOURCES', key: 'errors.heldNotListed', params: { got: '"A"' } } });
-    assert.equal(facade.isLockoutMsg({ topic: 'lockout/A' }), true);
+    assert.equal(facade.isLockoutMsg('lockout/A', undefined), true);
   });
 
   it('clear blockers against a plant', function () {

@@ -4,9 +4,9 @@
 //! payload as the command reads it (JSON text parsed once, within its bound),
 //! or the refusal to throw.
 
-use js_sys::{Array, Object, Reflect, Uint8Array, JSON};
+use js_sys::{Object, Reflect, Uint8Array, JSON};
 use sugarshack_core::engine::{Param, Refusal};
-use sugarshack_core::plant::group_msg::{self, Interlock, Unread};
+use sugarshack_core::plant::group_msg::{self, Interlock};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
@@ -20,34 +20,29 @@ export type GroupMsgRead =
     | { refusal: { code: string; key: string; params: Record<string, string> } };
 "#;
 
-/// Reads a group command msg: `msg.lockout` and `msg.topic`, then (unless
-/// it is a lockout) `msg.interlock`, then `msg.payload` (an object as given;
-/// text or a Buffer as JSON). A field that throws as it is read throws here.
+/// Reads a group command msg: `msg.topic`, `msg.lockout`, `msg.interlock`
+/// and `msg.payload` (an object as given; text or a Buffer as JSON).
 #[wasm_bindgen(js_name = readGroupMsg, unchecked_return_type = "GroupMsgRead")]
 pub fn read_group_msg(
-    #[wasm_bindgen(unchecked_param_type = "object")] msg: &JsValue,
-) -> Result<JsValue, JsValue> {
-    let flag = raw(&field(msg, "lockout")?);
-    let topic = field(msg, "topic")?.as_string();
-    let read = group_msg::read_group_msg(topic.as_deref(), &flag, || {
-        interlock_of(&field(msg, "interlock")?)
-    });
+    #[wasm_bindgen(unchecked_param_type = "unknown")] topic: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "unknown")] lockout: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "unknown")] interlock: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "unknown")] payload: JsValue,
+) -> JsValue {
+    let read = group_msg::read_group_msg(
+        topic.as_string().as_deref(),
+        &raw(&lockout),
+        &interlock_of(&interlock),
+    )
+    .and_then(|read| Ok((read, command_payload(payload)?)));
     let out = Object::new();
-    let read = match read {
-        Ok(read) => read,
-        Err(Unread::Unreadable(thrown)) => return Err(thrown),
-        Err(Unread::Refused(refusal)) => {
-            set(&out, "refusal", &refusal_object(&refusal));
-            return Ok(out.into());
-        }
-    };
-    match command_payload(field(msg, "payload")?) {
-        Ok(payload) => {
+    match read {
+        Ok((read, payload)) => {
             let within = match read.within {
                 Some(lines) => lines
                     .into_iter()
                     .map(JsValue::from)
-                    .collect::<Array>()
+                    .collect::<js_sys::Array>()
                     .into(),
                 None => JsValue::NULL,
             };
@@ -57,38 +52,31 @@ pub fn read_group_msg(
         }
         Err(refusal) => set(&out, "refusal", &refusal_object(&refusal)),
     }
-    Ok(out.into())
+    out.into()
 }
 
-/// Whether a msg is a lockout (`msg.lockout`, `msg.topic`), its payload unread.
+/// Whether a msg is a lockout (`msg.topic`, `msg.lockout`), its payload unread.
 #[wasm_bindgen(js_name = isLockoutMsg)]
 pub fn is_lockout_msg(
-    #[wasm_bindgen(unchecked_param_type = "object")] msg: &JsValue,
-) -> Result<bool, JsValue> {
-    let flag = raw(&field(msg, "lockout")?);
-    let topic = field(msg, "topic")?.as_string();
-    Ok(group_msg::is_lockout(topic.as_deref(), &flag))
-}
-
-/// A property of the msg; a getter or proxy that throws throws on to the host.
-fn field(msg: &JsValue, key: &str) -> Result<JsValue, JsValue> {
-    Reflect::get(msg, &key.into())
+    #[wasm_bindgen(unchecked_param_type = "unknown")] topic: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "unknown")] lockout: JsValue,
+) -> bool {
+    group_msg::is_lockout(topic.as_string().as_deref(), &raw(&lockout))
 }
 
 /// msg.interlock: unset, an object's `resources`, or anything else quoted.
-fn interlock_of(interlock: &JsValue) -> Result<Interlock, JsValue> {
+fn interlock_of(interlock: &JsValue) -> Interlock {
     if interlock.is_undefined() {
-        return Ok(Interlock::Unset);
+        return Interlock::Unset;
     }
     if !interlock.is_object() {
-        return Ok(Interlock::Other(quoted(interlock)));
+        return Interlock::Other(quoted(interlock));
     }
-    let resources = field(interlock, "resources")?;
-    Ok(if resources.is_undefined() {
-        Interlock::Other(quoted(interlock))
-    } else {
-        Interlock::Holds(raw(&resources))
-    })
+    match Reflect::get(interlock, &"resources".into()) {
+        Ok(resources) if resources.is_undefined() => Interlock::Other(quoted(interlock)),
+        Ok(resources) => Interlock::Holds(raw(&resources)),
+        Err(_) => Interlock::Other("(unreadable)".to_owned()),
+    }
 }
 
 /// The payload as the command reads it: text or a Buffer parsed as JSON

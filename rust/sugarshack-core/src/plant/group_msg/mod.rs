@@ -170,29 +170,18 @@ pub struct GroupMsg {
     pub within: Option<Vec<String>>,
 }
 
-/// Why a group command msg was not read: a rule refused it, or the host
-/// could not read one of its fields (a getter that throws).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Unread<E> {
-    /// Refused, in the catalog's words.
-    Refused(Refusal),
-    /// A field the host could not read, as the host reported it.
-    Unreadable(E),
-}
-
-/// Reads a group command msg: its topic and msg.lockout, then, unless it is
-/// a lockout, msg.interlock (read only then, as the nodes always did).
-pub fn read_group_msg<E>(
+/// Reads a group command msg: its topic, msg.lockout and msg.interlock.
+pub fn read_group_msg(
     topic: Option<&str>,
     flag: &Raw,
-    interlock: impl FnOnce() -> Result<Interlock, E>,
-) -> Result<GroupMsg, Unread<E>> {
+    interlock: &Interlock,
+) -> Result<GroupMsg, Refusal> {
     let lockout = is_lockout(topic, flag);
     // A lockout isolates a faulted line whatever the msg holds.
     let within = if lockout {
         None
     } else {
-        held_lines(&interlock().map_err(Unread::Unreadable)?).map_err(Unread::Refused)?
+        held_lines(interlock)?
     };
     Ok(GroupMsg { lockout, within })
 }
