@@ -75,7 +75,7 @@ class GroupCommands {
       const onDone = (err) => {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
-      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
+      const carrier = { topic: plant.t.lockoutTopic(resource), payload: command, resource, operation, faultAtMs };
       try {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));

@@ -52,8 +52,8 @@ module.exports = function (RED) {
       const out = (lockouts) => {
         // faultAtMs lets the group command that applies the lockout report the fault lockout time.
         const faultAtMs = clock.now();
-        const commands = lockouts.map(({ resource, command }) => ({
-          topic: `lockout/${resource}`,
+        const commands = lockouts.map(({ resource, topic, command }) => ({
+          topic,
           payload: command,
           resource,
           operation,

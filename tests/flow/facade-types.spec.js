@@ -294,6 +294,16 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('PidDefaults', facade.pidDefaults());
   });
 
+  it('a group command msg read in one call: lockout, lines held, payload; or the refusal', function () {
+    const read = facade.readGroupMsg('plant/command', undefined, { resources: ['A'] }, '{"valves": {"V1": 5}}');
+    shapes.expect('GroupMsgRead', read);
+    assert.deepEqual(read, { lockout: false, within: ['A'], payload: { valves: { V1: 5 } } });
+    const refused = facade.readGroupMsg('plant/command', undefined, 'A', {});
+    shapes.expect('GroupMsgRead', refused);
+    assert.deepEqual(refused, { refusal: { code: 'INVALID_RESOURCES', key: 'errors.heldNotListed', params: { got: '"A"' } } });
+    assert.equal(facade.isLockoutMsg('lockout/A', undefined), true);
+  });
+
   it('clear blockers against a plant', function () {
     const plant = keep(new facade.Tracker(PLANT, 0));
     const il = keep(new facade.Interlock({ resources: plant.interlockResources() }));

@@ -197,7 +197,7 @@ pub(crate) fn raw(value: &JsValue) -> Raw {
 }
 
 /// A short quote of any value: JSON where it can be written, `10n` for a BigInt.
-fn quoted(value: &JsValue) -> String {
+pub(crate) fn quoted(value: &JsValue) -> String {
     if value.is_bigint() {
         let text = js_sys::BigInt::from(value.clone())
             .to_string(10)

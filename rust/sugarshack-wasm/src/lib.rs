@@ -11,6 +11,7 @@ mod contract;
 mod control;
 mod device;
 mod engine;
+mod group;
 mod interlock;
 mod modbus;
 pub mod operation;
@@ -28,6 +29,7 @@ pub use control::{
 };
 pub use device::DeviceSide;
 pub use engine::Engine;
+pub use group::{is_lockout_msg, read_group_msg};
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
 pub use routine::Routine;
 pub use tracker::{Ingest, Tracker};

@@ -1,6 +1,7 @@
 use serde::Serialize;
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
+use sugarshack_core::plant::group_msg;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use sugarshack_core::topics::modbus::link::Links;
@@ -164,7 +165,8 @@ enum Output {
 #[wasm_bindgen]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Ingest {
-    /// Not a topic of any device of the plant: a command, or someone else's traffic.
+    /// Not a topic of any device of the plant, and not text that reads as a
+    /// group command: someone else's traffic if it came from MQTT.
     Foreign = 0,
     /// A device topic the palette does not read (logs, telemetry, its commands echoed back).
     Other = 1,
@@ -174,6 +176,9 @@ pub enum Ingest {
     Samples = 3,
     /// Nothing usable: a `malformed` effect is queued.
     Refused = 4,
+    /// Not a topic of any device, and its text reads as a group command (or
+    /// a broken one, to be refused): see `plant::group_msg::command_like`.
+    Command = 5,
 }
 
 /// Device payloads larger than this are refused unread.
@@ -591,11 +596,18 @@ impl Tracker {
     /// it could not use is queued as `{ kind: "malformed", device, reason,
     /// message }` (or `rejected` for a value the actuator cannot have); it
     /// throws only on a bad `nowMs`. Feedback's hot path: no serde.
+    /// A lockout topic is a `Command`, unread; so is text on no device's
+    /// topic that reads as one.
     pub fn ingest(&mut self, topic: &str, payload: &str, now_ms: f64) -> Result<Ingest, JsValue> {
-        self.ingest_bytes(topic, payload.as_bytes(), now_ms)
+        let kind = self.ingest_bytes(topic, payload.as_bytes(), now_ms)?;
+        Ok(match kind {
+            Ingest::Foreign if self.core.plant().command_like(payload) => Ingest::Command,
+            kind => kind,
+        })
     }
 
-    /// [`Tracker::ingest`] for a payload as bytes (an MQTT Buffer).
+    /// [`Tracker::ingest`] for a payload as bytes (an MQTT Buffer): on no
+    /// device's topic, bytes are never taken for a group command.
     #[wasm_bindgen(js_name = ingestBytes)]
     pub fn ingest_bytes(
         &mut self,
@@ -605,6 +617,9 @@ impl Tracker {
     ) -> Result<Ingest, JsValue> {
         let now = time(now_ms)?;
         self.forget_last();
+        if group_msg::is_lockout_topic(topic) {
+            return Ok(Ingest::Command);
+        }
         let contract = self.core.contract();
         if payload.len() > MAX_PAYLOAD_BYTES {
             return Ok(match contract.device_of(topic) {
@@ -705,6 +720,12 @@ impl Tracker {
     #[wasm_bindgen(js_name = isGroupKey)]
     pub fn is_group_key(&self, key: &str) -> bool {
         self.core.plant().is_group_key(key)
+    }
+
+    /// The topic of a line's lockout msg (`lockout/<line>`), which a group command node reads as a lockout.
+    #[wasm_bindgen(js_name = lockoutTopic)]
+    pub fn lockout_topic(&self, line: &str) -> String {
+        group_msg::lockout_topic(line)
     }
 
     /// A device's availability (its retained status or last will).

@@ -2185,13 +2185,7 @@ fn journal(
     }))
 }
 
-/// The topic of a line's lockout msg: a group command node reads `lockout/` as a lockout.
-pub fn lockout_topic(line: &str) -> String {
-    format!("{LOCKOUT_PREFIX}{line}")
-}
-
-/// Topics of lockout group commands start so.
-pub const LOCKOUT_PREFIX: &str = "lockout/";
+pub use crate::plant::group_msg::{lockout_topic, LOCKOUT_PREFIX};
 
 #[cfg(test)]
 mod tests;

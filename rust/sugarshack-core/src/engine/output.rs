@@ -55,8 +55,9 @@ pub enum Text {
     },
 }
 
-/// Every catalog text the engine names, with the placeholders it fills: the
-/// palette's catalogs must hold each one (its tests read this list).
+/// Every catalog text the engine (and `plant::group_msg`) names, with the
+/// placeholders it fills: the palette's catalogs must hold each one (its
+/// tests read this list).
 pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     (
         "errors.acquireTimeout",
@@ -66,6 +67,9 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("errors.alarmIdsInvalid", &["max"]),
     ("errors.byNotName", &["got"]),
     ("errors.commandTarget", &[]),
+    ("errors.groupNotJson", &["message"]),
+    ("errors.groupTooLarge", &["length", "max"]),
+    ("errors.heldNotListed", &["got"]),
     ("errors.noLinesToStop", &[]),
     ("errors.noSuchOperationRun", &["id"]),
     ("errors.noSuchRoutineRun", &["id"]),
@@ -386,6 +390,7 @@ mod tests {
             include_str!("mod.rs"),
             include_str!("request.rs"),
             include_str!("snapshot.rs"),
+            include_str!("../plant/group_msg/mod.rs"),
         ];
         for source in sources {
             for (at, _) in source.match_indices('"') {
