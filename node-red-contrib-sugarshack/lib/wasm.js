@@ -203,6 +203,7 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   next.free();
   e.acquireOperation(1, 13, 'd', 26);
   e.releaseOperation(2, 14, 'd', 26);
+  e.acquireFields(1, 15, { configured: { operation: 'e', priority: 1, resources: 'A' } }, 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);
@@ -302,6 +303,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.lastSamples();
   t.phase(v);
   t.describeFault(v, 'no-motion', 1, 100);
+  t.lockoutTopic('A');
+  t.expire(470);
+  t.nextDeadline();
   t.position(v);
   t.slot(0, 'valve', 1);
   t.actuators();
@@ -372,6 +376,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.command('reset', undefined);
   r.onMsg('go');
   r.operationAborted();
+  r.reset();
+  r.onMsg('go');
+  r.operationFailed(false, undefined);
   r.restore(r.snapshot(), []);
   r.free();
   t.free();
