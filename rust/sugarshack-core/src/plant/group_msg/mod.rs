@@ -53,11 +53,10 @@ pub fn command_like(text: &str, is_group_key: impl Fn(&str) -> bool) -> bool {
     }
     let mut deserializer = serde_json::Deserializer::from_str(text);
     let keyed = deserializer.deserialize_map(GroupKeyed(&is_group_key));
-    match keyed.and_then(|keyed| deserializer.end().map(|()| keyed)) {
-        Ok(keyed) => keyed,
-        // Broken JSON (or nested past serde's limit): refused as a command.
-        Err(_) => true,
-    }
+    // Broken JSON (or nested past serde's limit): refused as a command.
+    keyed
+        .and_then(|keyed| deserializer.end().map(|()| keyed))
+        .unwrap_or(true)
 }
 
 /// What JS's `trimStart` takes off: Unicode white space and the byte order mark.
