@@ -54,27 +54,47 @@ function bindPlant(RED, node, configId, options) {
 /**
  * @param {NodeRed.Node} node
  * @param {any} runtime the interlock or plant runtime, null when unset
- * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done) => void} work
+ * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done, values?: object) => void} work
  * @param {'interlock' | 'plant'} [kind]
- * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean }} [options] `passive`: the work runs on a standby too (device feedback keeps it warm)
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean, values?: ((msg: NodeRed.Message, then: (err: Error | null, values?: object) => void) => void) | null }} [options]
+ *   `passive`: the work runs on a standby too (device feedback keeps it warm); `values`: reads the
+ *   node's values for each msg first (from context, env or JSONata), handed to `work` as its fifth argument
  */
-function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false } = {}) {
+function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false, values = null } = {}) {
   node.on('input', (msg, send, done) => {
     if (!runtime) {
       done(MISSING[kind]());
       return;
     }
-    let now = false;
-    try {
-      now = urgent(msg);
-    } catch {
-      now = false; // an unreadable msg waits like any other and is refused when read
-    }
-    runtime.submit(node, done, (rt) => work(rt, msg, send, done), { urgent: now, passive });
+    const go = (read) => {
+      let now = false;
+      try {
+        now = urgent(msg);
+      } catch {
+        now = false; // an unreadable msg waits like any other and is refused when read
+      }
+      runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive });
+    };
+    if (!values) go(undefined);
+    else values(msg, (err, read) => (err ? done(err) : go(read)));
   });
+}
+
+/**
+ * The input of an interlock node (acquire, release, cancel, fault, clear).
+ * On an interlock run by an engine, the node is bound under `spec` and each
+ * msg is one engine input; on one bound to a plant, `work` does its part.
+ * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
+ * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done, values?: object) => void} work
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean, values?: any }} [options]
+ */
+function onInterlockInput(node, runtime, spec, work, options) {
+  if (runtime && runtime.addNodeSpec) runtime.addNodeSpec(node, spec);
+  onInput(node, runtime, (rt, msg, send, done, values) => (rt.addNodeSpec
+    ? rt.input(node, msg, send, done, values) : work(rt, msg, send, done, values)), 'interlock', options);
 }
 
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
 
-module.exports = { bindInterlock, bindPlant, onInput, always };
+module.exports = { bindInterlock, bindPlant, onInput, onInterlockInput, always };

@@ -22,7 +22,24 @@ function secondsToMs(value) {
   return Number.isFinite(seconds) ? Math.round(seconds * 1000) : value;
 }
 
-function coreConfig(props) {
+/**
+ * Node-RED's bound on the msgs a node buffers (settings.js
+ * `nodeMessageBufferMaxLength`), read as its delay node reads it: set or
+ * not, 0 for no bound.
+ * @param {any} RED
+ */
+function messageBufferMax(RED) {
+  const name = 'nodeMessageBufferMaxLength';
+  const settings = RED && RED.settings;
+  const value = settings && Object.prototype.hasOwnProperty.call(settings, name) ? Number(settings[name]) : 0;
+  return Number.isSafeInteger(value) && value > 0 ? value : 0;
+}
+
+/**
+ * @param {Record<string, any>} props the interlock node's properties
+ * @param {number} [bufferMax] Node-RED's msg buffer bound (0: none): the queue of held msgs keeps within it too
+ */
+function coreConfig(props, bufferMax = 0) {
   const resources = Array.isArray(props.resources) ? props.resources : [];
   const config = {
     resources: resources.map((r, i) => ({ name: typeof r.name === 'string' ? r.name.trim() : r.name, lockout: parseLockout(r, i) })),
@@ -35,7 +52,10 @@ function coreConfig(props) {
     const bound = Number(props.queueBound);
     config.queueBound = Number.isFinite(bound) ? bound : props.queueBound;
   }
+  // Held msgs are buffered msgs: Node-RED's bound caps the queue (a request past it is refused, QUEUE_FULL).
+  if (bufferMax > 0 && config.queueBound === undefined) config.queueBound = bufferMax;
+  else if (bufferMax > 0 && typeof config.queueBound === 'number') config.queueBound = Math.min(config.queueBound, bufferMax);
   return config;
 }
 
-module.exports = { coreConfig, secondsToMs };
+module.exports = { coreConfig, messageBufferMax, secondsToMs };

@@ -189,6 +189,7 @@ class Committer {
     this.store = store;
     this.snapshot = snapshot;
     this.collect = collect || (() => null);
+    this.collects = Boolean(collect);
     this.mayAct = mayAct || (() => true);
     this.clock = clock;
     this.onError = onError || (() => {});
@@ -204,9 +205,19 @@ class Committer {
     this.writes = 0;
   }
 
+  /** Nothing is written and nothing waits: a change's effects would run at once (`change` and `after` alike). */
+  get idle() {
+    return !this.frozen && !this.store.durable && !this.collects && !this.dirty && !this.writing && this.effects.length === 0;
+  }
+
   /** A state change happened; `effect` runs once it is durable. */
   change(effect, { evenUnsaved = false } = {}) {
     if (this.frozen) return;
+    if (!this.store.durable && !this.collects && !this.dirty && this.effects.length === 0) {
+      // Nothing is written and nothing waits: the effect goes now, without a turn of the event loop.
+      if (effect) this.run(effect);
+      return;
+    }
     this.dirty = true;
     if (effect) {
       // In order behind effects still waiting (an `after` queued behind an earlier change).

@@ -1,36 +1,51 @@
 // @ts-check
 'use strict';
-// Reads a group command msg. Whether the command is allowed is the core's call.
+// Carries a group command msg to the core, which reads it in one call
+// (plant/group_msg.rs): whether it is a lockout, the lines its command must
+// keep within (C2), and its payload as the command reads it. The read is kept
+// until the call that took the msg in returns, so the node that takes it in
+// and the command it issues at once read it once. Whether the command is
+// allowed is the core's call too.
 const { SugarshackError } = require('./errors');
-const { quote } = require('./request');
+const wasm = require('./wasm');
+const i18n = require('./i18n');
 
-// More lines than any plant has, longer names than a person gives: not a list an acquire node made.
-const MAX_HELD = 4096;
-const MAX_NAME = 200;
+/** @typedef {{ lockout: boolean, within: string[] | null, payload: any }} GroupRead */
 
-// Longer JSON text than any group command: refused before it is parsed.
-const MAX_GROUP_TEXT = 64 * 1024;
+/**
+ * The last read and its msg. Dropped once the current call returns: a msg
+ * that waits (a deploy's drain) or comes back changed is read anew.
+ * @type {{ msg: object, read: GroupRead } | null}
+ */
+let last = null;
 
-/** msg.payload as an object; JSON text is parsed (an inject or MQTT may send text). */
+/** The core's read of a group command msg; throws its refusal for a Catch node. @returns {GroupRead} */
+function readGroup(msg) {
+  if (last && last.msg === msg) return last.read;
+  const read = wasm.load().readGroupMsg(msg.topic, msg.lockout, msg.interlock, msg.payload);
+  if ('refusal' in read) throw new SugarshackError(read.refusal.code, i18n.textOf(read.refusal.key, read.refusal.params));
+  if (!last) queueMicrotask(() => { last = null; });
+  last = { msg, read };
+  return read;
+}
+
+/** msg.payload as the command reads it (JSON text parsed). */
 function groupPayload(msg) {
-  const { payload } = msg;
-  if (typeof payload !== 'string' && !Buffer.isBuffer(payload)) return payload;
-  if (payload.length > MAX_GROUP_TEXT) {
-    throw SugarshackError.of('INPUT_TOO_LARGE', 'groupTooLarge', { length: payload.length, max: MAX_GROUP_TEXT });
-  }
-  try {
-    return JSON.parse(payload.toString());
-  } catch (err) {
-    throw SugarshackError.of('INVALID_GROUP', 'groupNotJson', { message: err.message });
-  }
+  return readGroup(msg).payload;
 }
 
-/** A lockout from a fault node (topic "lockout/<resource>"), or flagged with msg.lockout = true. */
+/** A lockout (its topic, or msg.lockout): a standing order that never waits for a deploy's drain. Its payload is not read. */
 function isLockout(msg) {
-  return msg.lockout === true || (typeof msg.topic === 'string' && msg.topic.startsWith('lockout/'));
+  if (last && last.msg === msg) return last.read.lockout;
+  return wasm.load().isLockoutMsg(msg.topic, msg.lockout);
 }
 
-/** The actuator ids a (validated) group command names, in order. */
+/** The lines the msg's acquire node granted it, which its command must keep within (C2); undefined when none. */
+function heldResources(msg) {
+  return readGroup(msg).within || undefined;
+}
+
+/** The actuator ids a (read) group command names, in order. */
 function actuatorIds(payload) {
   const ids = [];
   if (!payload || typeof payload !== 'object') return ids;
@@ -49,18 +64,4 @@ function targetOf(payload, id) {
   return undefined;
 }
 
-/**
- * The resources an acquire node granted this msg (msg.interlock.resources): a group
- * command carried by it may only command actuators on them (C2). Undefined when the
- * msg carries no msg.interlock; anything else than a list of names there is refused,
- * never taken as "no restriction".
- */
-function heldResources(msg) {
-  const { interlock } = msg;
-  if (interlock === undefined) return undefined;
-  const held = interlock !== null && typeof interlock === 'object' ? interlock.resources : undefined;
-  if (Array.isArray(held) && held.length <= MAX_HELD && held.every((r) => typeof r === 'string' && r.length <= MAX_NAME)) return held;
-  throw SugarshackError.of('INVALID_RESOURCES', 'heldNotListed', { got: quote(held === undefined ? interlock : held) });
-}
-
-module.exports = { groupPayload, isLockout, actuatorIds, targetOf, heldResources };
+module.exports = { readGroup, groupPayload, isLockout, heldResources, actuatorIds, targetOf };

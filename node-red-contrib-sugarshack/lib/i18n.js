@@ -92,4 +92,19 @@ function text(key, subs) {
   return read;
 }
 
-module.exports = { translator, useRED, text, englishCatalog, SHARED_NAMESPACE };
+/**
+ * A text of lib/ whose key the core named (`errors.acquireTimeout`...): the
+ * core lists every such key with its placeholders (the facade's
+ * catalogTexts()), and the catalog tests check that list.
+ * @param {string} key @param {Record<string, any>} [subs]
+ */
+function textOf(key, subs) {
+  return text(key, subs);
+}
+
+/** A text of node type `type`'s catalog, in the runtime's language. @param {string} type @param {string} key @param {Record<string, any>} [subs] */
+function typeText(type, key, subs) {
+  return translator(sharedRED, type)(key, subs);
+}
+
+module.exports = { typeText, translator, useRED, text, textOf, englishCatalog, SHARED_NAMESPACE };

@@ -160,16 +160,7 @@ class InterlockRuntime extends RuntimeBase {
       return;
     }
     if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
-    let saved;
-    try {
-      saved = this.store.read();
-    } catch (err) {
-      saved = { kind: 'lost', why: err.message };
-    }
-    if (saved.kind === 'first' && this.persist && !this.cluster) {
-      const legacy = await this.legacySnapshot();
-      if (legacy) saved = { kind: 'carried-over', snapshot: legacy };
-    }
+    const saved = await this.readSaved();
     if (this.ended) return;
     try {
       this.core = this.guard(() => this.build(saved, clock.now()));
@@ -178,12 +169,7 @@ class InterlockRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
-    try {
-      this.store.markRan();
-    } catch (err) {
-      // Its state cannot be written either: grants will wait for it (status "state not saved").
-      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
-    }
+    this.markRan();
     this.state = 'ready';
     this.restoreHeldRuns();
     this.committer.change(); // the state as started is the first one on disk
@@ -191,6 +177,35 @@ class InterlockRuntime extends RuntimeBase {
     this.refreshStatus();
     this.resendLockouts(i18n.text('labels.resentAtStart'));
     this.replayParked();
+  }
+
+  /** What was saved: its state file, or on a first run a state an earlier version kept in a context store. */
+  async readSaved() {
+    const saved = this.readStore();
+    if (saved.kind === 'first' && this.persist && !this.cluster) {
+      const legacy = await this.legacySnapshot();
+      if (legacy) return { kind: 'carried-over', snapshot: legacy };
+    }
+    return saved;
+  }
+
+  /** The state file as read, or lost when it cannot be read. */
+  readStore() {
+    try {
+      return this.store.read();
+    } catch (err) {
+      return { kind: 'lost', why: err.message };
+    }
+  }
+
+  /** It ran here: from now on a missing state file is a lost state. */
+  markRan() {
+    try {
+      this.store.markRan();
+    } catch (err) {
+      // Its state cannot be written either: grants will wait for it (status "state not saved").
+      this.log('error', i18n.text('logs.markerNotWritten', { where: this.store.where, message: err.message }));
+    }
   }
 
   // ---- hot standby (lib/cluster) ----------------------------------------------
@@ -506,14 +521,7 @@ class InterlockRuntime extends RuntimeBase {
     this.applySettings(settings);
     // A standby has no state of its own: it takes the new settings when it is elected.
     if (this.state === 'standby') return;
-    try {
-      this.config = this.resolveConfig();
-    } catch (err) {
-      if (this.core) this.freeCore();
-      this.state = 'starting';
-      this.fail(err);
-      return;
-    }
+    if (!this.takeConfig()) return;
     const now = clock.now();
     const { Interlock } = wasm.load();
     try {
@@ -538,6 +546,19 @@ class InterlockRuntime extends RuntimeBase {
     this.resendLockouts(i18n.text('labels.resentPlantChanged'));
   }
 
+  /** New settings' configuration in force; false (failed, its core freed) when it cannot run. */
+  takeConfig() {
+    try {
+      this.config = this.resolveConfig();
+      return true;
+    } catch (err) {
+      if (this.core) this.freeCore();
+      this.state = 'starting';
+      this.fail(err);
+      return false;
+    }
+  }
+
   /** After a wasm trap: back to the last saved state, as after a restart (held lines faulted, waiting dropped). */
   rebuild() {
     if (this.state !== 'ready') return;
@@ -559,12 +580,7 @@ class InterlockRuntime extends RuntimeBase {
     this.aborted = null;
     if (this.alarms) wasm.forget(this.alarms.core);
     this.alarms = null;
-    let saved;
-    try {
-      saved = this.store.read();
-    } catch (err) {
-      saved = { kind: 'lost', why: err.message };
-    }
+    const saved = this.readStore();
     try {
       this.core = this.build(saved, clock.now());
       this.alarms = this.alarmBook();

@@ -32,6 +32,7 @@ const byOf = (who) => who.by || 'unknown';
 
 /** An emergency stop of `lines`; their lockouts go out. `note`: the fault's note when `who` gives no reason. */
 function estop(runtime, lines, who, note) {
+  if (runtime.operate) return runtime.operate({ kind: 'eStop', lines }, who); // the engine's note: the editor's e-stop
   return act(runtime, (resolve) => {
     if (!lines || lines.length === 0) throw SugarshackError.of('INVALID_RESOURCES', 'noLinesToStop');
     journal.action('e-stop', who, lines);
@@ -44,6 +45,7 @@ function estop(runtime, lines, who, note) {
 
 /** Clears `lines` (every faulted one when null), by the core's clear rule, forced when `who.force`. */
 function clear(runtime, lines, who) {
+  if (runtime.operate) return runtime.operate({ kind: 'clear', lines }, who);
   const target = lines === null ? 'all' : lines;
   return act(runtime, (resolve) => {
     try {
@@ -62,15 +64,18 @@ const alarmAnswer = (who, resolve) => (changes) => resolve({ changes, by: byOf(w
 
 /** Acknowledges alarms `ids` (every unacknowledged one when null). */
 function acknowledge(runtime, ids, who) {
+  if (runtime.operate) return runtime.operate({ kind: 'ack', ids }, who);
   return act(runtime, (resolve) => runtime.acknowledgeAlarms(ids, who, alarmAnswer(who, resolve)));
 }
 
 /** Shelves alarm `id` until `untilMs`; `oneShot`: also until its condition next ends. */
 function shelve(runtime, id, { untilMs, oneShot = false }, who) {
+  if (runtime.operate) return runtime.operate({ kind: 'shelve', id, untilMs, oneShot }, who);
   return act(runtime, (resolve) => runtime.shelveAlarm(id, untilMs, who, alarmAnswer(who, resolve), { oneShot }));
 }
 
 function unshelve(runtime, id, who) {
+  if (runtime.operate) return runtime.operate({ kind: 'unshelve', id }, who);
   return act(runtime, (resolve) => runtime.unshelveAlarm(id, who, alarmAnswer(who, resolve)));
 }
 
@@ -89,6 +94,7 @@ function unshelve(runtime, id, who) {
  * @returns {Promise<{ operation?: string, routine?: string, command: string, state: string | null, by: string }>}
  */
 function command(runtime, target, name, who) {
+  if (runtime.operate) return runtime.operate({ kind: 'command', command: name, operation: target?.operation, routine: target?.routine }, who);
   return act(runtime, (resolve) => {
     runtime.command(target, name, who, (state) => {
       const [kind, id] = target.routine !== undefined ? ['routine', target.routine] : ['operation', target.operation];

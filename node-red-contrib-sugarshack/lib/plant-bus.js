@@ -3,8 +3,8 @@
 // A plant's MQTT side: the actuators nodes that speak for its devices, the
 // device msgs they hand in (read by the core's topics module), the publishes
 // and event msgs that leave from them, and whether each one's broker is up.
-// Which topic is whose, and what a payload on a foreign topic means, is decided
-// here (and by the core it asks); everything else about a msg is the core's.
+// Which topic is whose, and whether a payload on a foreign topic is a group
+// command, is the core's to say; here its answer is carried out.
 const { journal } = require('./journal/bus');
 const { clock } = require('./clock');
 const wasm = require('./wasm');
@@ -14,8 +14,6 @@ const i18n = require('./i18n');
 const MAX_WARNED = 1000;
 // Publishes kept while a deploy has no actuators node serving their device yet.
 const MAX_UNSENT = 10000;
-// JSON text on a foreign topic longer than this is taken as a (too large) group command unread.
-const COMMAND_TEXT_MAX = 64 * 1024;
 
 class PlantBuses {
   /** plant: the PlantRuntime (its core `t`, device ids and handles, effects pump and status). */
@@ -79,10 +77,10 @@ class PlantBuses {
   /**
    * Hands a device msg (its topic and payload) to the core, which reads it by
    * the plant's device profiles and applies it. Returns false when the msg is
-   * a group command: its topic is no device's, and it comes from the flow or
-   * carries a group command. Other MQTT traffic on topics of no device
-   * (discovery, other devices: `fromMqtt`) is ignored and counted; bad input
-   * is warned about, counted and skipped.
+   * a group command: on a lockout topic, or on no device's topic from the
+   * flow, or one the core reads as a command. Other MQTT traffic on topics of
+   * no device (discovery, other devices: `fromMqtt`) is ignored and counted;
+   * bad input is warned about, counted and skipped.
    */
   feedback(node, topic, payload, fromMqtt) {
     if (typeof topic !== 'string' || topic === '') return false;
@@ -101,16 +99,16 @@ class PlantBuses {
     const text = payloadText(payload);
     const kind = text === null ? t.ingestBytes(topic, payload, now) : t.ingest(topic, text, now);
     const { Ingest } = wasm.load();
-    if (kind === Ingest.Foreign) return fromMqtt && this.foreign(bus, payload);
+    if (kind === Ingest.Command) return false;
+    if (kind === Ingest.Foreign) return fromMqtt && this.ignore(bus);
     if (kind === Ingest.Other) return true;
     if (kind === Ingest.Samples) plant.sensors.sampled(now);
     plant.flush({ bus, topic });
     return true;
   }
 
-  /** An MQTT msg on a topic of no device: a group command if it carries one, else someone else's traffic (ignored, counted). */
-  foreign(bus, payload) {
-    if (commandLike(payload, (key) => this.plant.t.isGroupKey(key))) return false;
+  /** An MQTT msg on a topic of no device that is no group command: someone else's traffic (ignored, counted). */
+  ignore(bus) {
     if (bus) {
       bus.ignored += 1;
       this.plant.refreshStatus(bus.node);
@@ -251,32 +249,6 @@ class PlantBuses {
  */
 function eventsWired(node) {
   return !Array.isArray(node.wires) || (Array.isArray(node.wires[2]) && node.wires[2].length > 0);
-}
-
-/**
- * Whether a payload on a foreign topic is meant as a group command: an
- * object with a group command key (`isGroupKey`, the core's), or JSON text
- * that is not an object without one (so that a broken command is refused,
- * not ignored).
- */
-function commandLike(payload, isGroupKey) {
-  let value = payload;
-  if (typeof payload === 'string') {
-    const start = payload.trimStart()[0];
-    if (start === '[') return true;
-    if (start !== '{') return false;
-    if (payload.length > COMMAND_TEXT_MAX) return true;
-    try {
-      value = JSON.parse(payload);
-    } catch {
-      return true;
-    }
-  }
-  if (value === null || typeof value !== 'object' || Buffer.isBuffer(value)) return false;
-  if (Array.isArray(value)) return true;
-  const keys = Object.keys(value);
-  for (let i = 0; i < keys.length && i < 100; i++) if (isGroupKey(keys[i])) return true;
-  return false;
 }
 
 /**

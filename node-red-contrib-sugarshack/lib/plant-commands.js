@@ -2,12 +2,12 @@
 'use strict';
 // A plant's group commands in flight: each one the core is carrying out, by
 // its caller id, with what waits for its outcome (a msg held by a group command
-// or actuators node, an operation step, a lockout), its timeout, and the
-// actuators that completed so far. The core says when one completes or fails.
+// or actuators node, an operation step, a lockout) and the actuators that
+// completed so far. The core says when one completes, fails or times out.
 const { SugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { seconds } = require('./plant');
-const { groupPayload, isLockout, actuatorIds, targetOf } = require('./group');
+const { groupPayload, isLockout } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
@@ -31,13 +31,14 @@ class GroupCommands {
   command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
     const { plant } = this;
     // The msg is read again here: a getter or proxy that throws is the sender's error (INVALID_INPUT).
-    const { payload, lockout } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg) }));
+    const { payload, lockout, faultAtMs } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg), faultAtMs: msg.faultAtMs }));
     const caller = this.newCaller();
     const now = clock.now();
-    plant.t.command(payload, caller, lockout, now, within);
+    // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
+    plant.t.command(payload, caller, lockout, now, within, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs);
     plant.statusView.dropRefusal(node);
     const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
-    this.hold(caller, entry, timeoutMs);
+    this.hold(caller, entry, now, timeoutMs);
     plant.flush(null);
   }
 
@@ -49,14 +50,15 @@ class GroupCommands {
     const { plant } = this;
     const caller = this.newCaller();
     const now = clock.now();
-    plant.guard(() => plant.t.command(payload, caller, false, now, within));
+    plant.guard(() => plant.t.command(payload, caller, false, now, within, undefined, timeoutMs));
     const entry = callbackEntry({ payload, onDone, sinceMs: now });
-    this.hold(caller, entry, timeoutMs);
+    this.hold(caller, entry, now, timeoutMs);
     plant.flush(null);
     return () => {
       if (this.pending.get(caller) !== entry) return;
       this.pending.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
+      plant.followDeadline();
       plant.refreshStatus();
     };
   }
@@ -73,12 +75,12 @@ class GroupCommands {
       const onDone = (err) => {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
-      const carrier = { topic: `lockout/${resource}`, payload: command, resource, operation, faultAtMs };
+      const carrier = { topic: plant.t.lockoutTopic(resource), payload: command, resource, operation, faultAtMs };
       try {
         const caller = this.newCaller();
-        plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined));
+        plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
         const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
-        this.hold(caller, entry, 0);
+        this.hold(caller, entry, faultAtMs, 0);
         plant.flush(null);
       } catch (err) {
         plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
@@ -86,9 +88,10 @@ class GroupCommands {
     }
   }
 
-  hold(caller, entry, timeoutMs) {
+  /** Keeps `entry` until the core answers `caller`; by its timeout at the latest (the core's deadline). */
+  hold(caller, entry, now, timeoutMs) {
     this.pending.add(caller, entry);
-    if (timeoutMs > 0) entry.timer = clock.setTimeout(() => this.expire(caller, entry, timeoutMs), timeoutMs);
+    if (timeoutMs > 0) this.plant.wakeAt(now + timeoutMs);
   }
 
   newCaller() {
@@ -98,21 +101,15 @@ class GroupCommands {
     return this.nextCaller;
   }
 
-  expire(caller, entry, timeoutMs) {
+  /** Its caller waited its timeout: the core withdrew the command. */
+  timedOut(e) {
     const { plant } = this;
-    if (plant.state !== 'ready' || this.pending.get(caller) !== entry) return;
-    this.pending.take(caller);
-    try {
-      plant.guard(() => plant.t.withdraw(caller));
-    } catch (err) {
-      plant.log('error', err.message);
-    }
-    const completed = new Set(entry.completed.map((c) => c.actuator));
-    const waiting = actuatorIds(entry.payload).filter((id) => !completed.has(id));
+    const entry = this.pending.take(e.caller);
+    if (!entry) return;
+    const waiting = e.waiting.map((handle) => plant.actuators[handle].id);
     if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
     if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
-    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(timeoutMs), waiting: waiting.join(', ') }));
-    plant.refreshStatus();
+    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(e.timeoutMs), waiting: waiting.join(', ') }));
   }
 
   // ---- what the held msgs are ----------------------------------------------
@@ -151,6 +148,7 @@ class GroupCommands {
       this.pending.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
     }
+    plant.followDeadline();
   }
 
   // ---- outcomes, from the core's effects -----------------------------------
@@ -158,8 +156,7 @@ class GroupCommands {
   recordCompleted(e) {
     const entry = this.pending.get(e.caller);
     if (!entry) return;
-    // Commands that found their actuator already in place say nothing about timing.
-    if (e.completionMs > 0) {
+    if (e.timed) {
       stats.add('command/issueToMotion', e.issueToMotionMs);
       stats.add('command/completion', e.completionMs);
     }
@@ -172,22 +169,17 @@ class GroupCommands {
     });
   }
 
-  recordRetry(e) {
-    const entry = this.pending.get(e.caller);
-    if (entry) entry.retries.set(e.actuator, e.attempt);
-  }
-
   /** The same msg goes on from the node that holds it (a link call return stays intact). */
   complete(e) {
     const entry = this.pending.take(e.caller);
     if (!entry) return;
     const result = { completionMs: e.completionMs, actuators: entry.completed };
-    const { msg } = entry;
     // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-    if (msg && typeof msg.faultAtMs === 'number') {
-      result.faultLockoutMs = Math.max(0, clock.now() - msg.faultAtMs);
-      stats.add('fault/lockout', result.faultLockoutMs);
+    if (e.faultLockoutMs !== undefined) {
+      result.faultLockoutMs = e.faultLockoutMs;
+      stats.add('fault/lockout', e.faultLockoutMs);
     }
+    this.plant.followDeadline();
     entry.complete(result);
   }
 
@@ -197,8 +189,7 @@ class GroupCommands {
     const entry = this.pending.take(e.caller);
     if (!entry) return;
     const a = plant.actuators[e.actuator];
-    const retries = entry.retries.get(e.actuator) || 0;
-    const { code, message } = plant.t.describeFault(e.actuator, e.fault, retries, targetOf(entry.payload, a.id));
+    const { code, message, retries } = e;
     if (entry.msg) {
       entry.msg.command = {
         failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
@@ -206,13 +197,14 @@ class GroupCommands {
       };
     }
     if (entry.node) plant.showError(entry.node, code);
+    plant.followDeadline();
     entry.refuse(new SugarshackError(code, message));
   }
 }
 
 /** A group command msg held by a group command or actuators node until its command completes. */
 function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
-  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [], retries: new Map() });
+  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [] });
   entry.complete = (result) => {
     msg.command = result;
     if (entry.send) {
@@ -235,7 +227,7 @@ function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, si
  * @param {{ payload: unknown, onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
  */
 function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
-  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [], retries: new Map() });
+  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [] });
   let answered = false;
   const answer = (err) => {
     if (answered) return;

@@ -23,6 +23,7 @@ const i18n = require('./i18n');
 const { clusterOf } = require('./cluster');
 
 const TICK_MS = 250;
+const MAX_TIMER_MS = 2 ** 31 - 1;
 
 class PlantRuntime extends RuntimeBase {
   /**
@@ -37,6 +38,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.t = null;
     this.tickTimer = null;
+    this.deadline = null; // { at, timer }: the one timer for the core's next group command timeout
     this.bus = new PlantBuses(this);
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
@@ -131,6 +133,7 @@ class PlantRuntime extends RuntimeBase {
     this.tickTimer = null;
     this.statusView.stop();
     this.commands.abandonAll();
+    this.stopDeadline();
     if (wasReady) this.freeTracker();
   }
 
@@ -162,6 +165,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
     this.commands.abandonAll();
+    this.stopDeadline();
     if (this.t) this.freeTracker();
     if (this.tickTimer) clock.clearInterval(this.tickTimer);
     this.tickTimer = null;
@@ -294,6 +298,43 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- time and effects ----------------------------------------------------
 
+  /** Wakes at `at` (or earlier, if set so) to time out the group commands the core says are due. */
+  wakeAt(at) {
+    if (this.deadline && this.deadline.at <= at) return;
+    this.stopDeadline();
+    // Node fires a longer timeout at once; woken early, it sleeps again until the deadline.
+    const timer = clock.setTimeout(() => this.timeouts(), Math.min(Math.max(0, at - clock.now()), MAX_TIMER_MS));
+    this.deadline = { at, timer };
+  }
+
+  stopDeadline() {
+    if (this.deadline) clock.clearTimeout(this.deadline.timer);
+    this.deadline = null;
+  }
+
+  /** A group command left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
+  followDeadline() {
+    if (!this.deadline || this.state !== 'ready') return;
+    const next = this.t.nextDeadline();
+    if (next === this.deadline.at) return;
+    this.stopDeadline();
+    if (next !== undefined) this.wakeAt(next);
+  }
+
+  timeouts() {
+    this.deadline = null;
+    if (this.state !== 'ready') return;
+    try {
+      this.guard(() => {
+        if (this.t.expire(clock.now()) > 0) this.flush(null);
+        const next = this.t.nextDeadline();
+        if (next !== undefined) this.wakeAt(next);
+      });
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
   tick() {
     if (this.state !== 'ready') return;
     try {
@@ -350,6 +391,9 @@ class PlantRuntime extends RuntimeBase {
       case 'groupFailed':
         this.commands.fail(e);
         break;
+      case 'groupTimedOut':
+        this.commands.timedOut(e);
+        break;
       case 'deviceStatus':
         this.bus.deviceStatus(e);
         break;
@@ -361,7 +405,6 @@ class PlantRuntime extends RuntimeBase {
         break;
       default:
         if (e.kind === 'completed') this.commands.recordCompleted(e);
-        else if (e.kind === 'retry') this.commands.recordRetry(e);
         else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
@@ -381,8 +424,8 @@ class PlantRuntime extends RuntimeBase {
     return {
       lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
       buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
-      devicesOffline: health.devices.filter((d) => !d.online).map((d) => d.device),
-      devices: health.devices.map((d) => ({ ...d, state: !d.online ? 'offline' : d.stale.length ? 'stale' : 'online' })),
+      devicesOffline: health.devicesOffline,
+      devices: health.devices,
       sensors: health.sensors,
       actuators: health.actuators,
       // The document's words for its operations, so that an operator reads "load truck", not "10".

@@ -1,14 +1,14 @@
 // @ts-check
 'use strict';
-// Reads what a msg asks for (operation, priority, resources), falling back to
-// the node's configuration. Only shapes are checked here; whether a request is
-// allowed is for the core to say.
+// Hands what a msg asks for (operation, priority, resources, who asks) to the
+// core, which reads it by its rules (engine/request.rs): msg's values first,
+// then the node's, trimmed, defaulted, attributed. Whether a request is
+// allowed is for the interlock to say.
 const { SugarshackError } = require('./errors');
 const i18n = require('./i18n');
-const { isTrap } = require('./wasm');
+const wasm = require('./wasm');
+const { refusalError } = require('./engine-carrier');
 
-const I32_MIN = -2147483648;
-const I32_MAX = 2147483647;
 // A refusal quotes at most this much of the value it refuses.
 const QUOTE_MAX = 100;
 
@@ -33,72 +33,134 @@ function readMsg(read) {
   try {
     return read();
   } catch (err) {
-    if (err instanceof SugarshackError || isTrap(err)) throw err;
+    if (err instanceof SugarshackError || wasm.isTrap(err)) throw err;
     const why = err && typeof err.message === 'string' ? err.message : String(err);
     throw SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) });
   }
 }
 
-function present(value) {
-  return value !== undefined && value !== null && value !== '';
+/**
+ * What a msg carries for the core's request rules, read off it as it is: the
+ * core trims, defaults and picks who asks (wasm's readRequest bounds the text
+ * that crosses and turns numbers that are not finite away).
+ */
+function fieldsOf(msg) {
+  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
+  const error = msg.error;
+  return {
+    operation: msg.operation,
+    priority: msg.priority,
+    resources: msg.resources,
+    follow: msg.interlock ? msg.interlock.operation : undefined,
+    errorMessage: error ? error.message : undefined,
+    payload: msg.payload,
+    user: client ? client.user : undefined,
+    by: msg.by,
+    reason: msg.reason,
+    force: msg.force === true,
+  };
 }
 
-// An operation id is a name a person gave; past this it is not one.
-const MAX_OPERATION_NAME = 200;
+/** The core's answer to a read: its value, or the refusal thrown in the catalog's words. */
+function answered(answer) {
+  if (answer.refused) throw refusalError(answer.refused);
+  return answer.ok;
+}
 
-function asOperationName(value, from) {
-  if (typeof value === 'number' && Number.isFinite(value)) return String(value);
-  if (typeof value === 'string' && value.length > MAX_OPERATION_NAME) {
-    throw SugarshackError.of('INVALID_OPERATION', 'operationTooLong', { from, length: value.length, max: MAX_OPERATION_NAME });
-  }
-  if (typeof value === 'string') return value.trim();
-  throw SugarshackError.of('INVALID_OPERATION', 'operationNotName', { from, got: quote(value) });
+/** What the core reads of `msg` for `asks`, the node's `configured` values where the msg has none. */
+function ask(asks, msg, configured = {}) {
+  return answered(wasm.load().readRequest(asks, fieldsOf(msg), configured));
+}
+
+const ACQUIRE = { kind: 'acquire' };
+const NAMED = { kind: 'named' };
+const STOP = { kind: 'stop' };
+const WHO = { kind: 'who' };
+
+/** An acquire's operation, priority and resources: msg's, else the node's (priority: 0). */
+function requestOf(msg, operation, priority, resources) {
+  return ask(ACQUIRE, msg, { operation, priority, resources });
+}
+
+/** The operation a release, cancel or fault names: msg.operation, the node's, else msg.interlock.operation. */
+function operationOf(msg, configured) {
+  return ask(NAMED, msg, { operation: configured }).operation;
+}
+
+/** The lines and who asks for an emergency stop. */
+function stopOf(msg, resources) {
+  return ask(STOP, msg, { resources });
+}
+
+/** Who asks for a clear and which lines (null: every faulted one, when the node clears all). */
+function clearOf(msg, resources, allFaulted) {
+  const asked = ask({ kind: 'clear', allFaulted, namesGiven: msg.resources !== undefined }, msg, { resources });
+  return { names: asked.resources === undefined ? null : asked.resources, who: asked.who };
+}
+
+/** Who asks, and why ({ by, reason, force }): the core's precedence (a signed-in user over msg.by). */
+function attributionOf(msg) {
+  return ask(WHO, msg).who;
+}
+
+/** Names from a list or comma-separated text, trimmed; `from` names them in a refusal. */
+function splitNames(value, from) {
+  return answered(wasm.load().namesOf(value, from));
+}
+
+// The words that name a node's value in a refusal.
+/** @type {Record<string, () => string>} */
+const LABELS = {
+  operation: () => i18n.text('labels.configuredOperation'),
+  priority: () => i18n.text('labels.configuredPriority'),
+  resources: () => i18n.text('labels.configuredResources'),
+};
+// typedInput types read for each msg; a literal, or a flow saved before the types, is the node's value as deployed.
+const PER_MSG = new Set(['msg', 'flow', 'global', 'env', 'jsonata']);
+
+/** Whether the node reads its value `name` for each msg (its typedInput's type says where from). */
+function isPerMsg(props, name) {
+  return PER_MSG.has(props[`${name}Type`]);
 }
 
 /**
- * The operation id: msg.operation, else the configured one, else (for calls
- * that follow an acquire) msg.interlock.operation.
+ * The node's values that come from msg, flow, global, env or JSONata (as the
+ * trigger node reads its values, through RED.util.evaluateNodeProperty): a
+ * function reading them for a msg into `then(err, values)`, the literal ones
+ * as deployed; null when every one of `names` is literal (read by the core as
+ * deployed). What a value means is the core's to say, as for any other.
+ * @param {any} RED @param {NodeRed.Node} node @param {Record<string, any>} props @param {string[]} names
+ * @returns {((msg: NodeRed.Message, then: (err: Error | null, values?: Record<string, any>) => void) => void) | null}
  */
-function operationOf(msg, configured, { followAcquire = false } = {}) {
-  if (present(msg.operation)) return asOperationName(msg.operation, 'msg.operation');
-  if (present(configured)) return asOperationName(configured, i18n.text('labels.configuredOperation'));
-  if (followAcquire && msg.interlock && present(msg.interlock.operation)) {
-    return asOperationName(msg.interlock.operation, 'msg.interlock.operation');
-  }
-  throw SugarshackError.of('MISSING_OPERATION', 'operationMissing');
-}
-
-function priorityOf(msg, configured) {
-  const [value, from] = present(msg.priority) ? [msg.priority, 'msg.priority'] : [configured, i18n.text('labels.configuredPriority')];
-  if (!present(value)) return 0;
-  let number = NaN;
-  if (typeof value === 'number') number = value;
-  else if (typeof value === 'string' && /^\s*[-+]?\d+\s*$/.test(value)) number = Number(value);
-  if (!Number.isInteger(number) || number < I32_MIN || number > I32_MAX) {
-    throw SugarshackError.of('INVALID_PRIORITY', 'priorityNotInteger', { from, got: quote(value) });
-  }
-  return number;
-}
-
-// More names than any plant has lines, longer than any name a person gives: not a list of lines.
-const MAX_NAMES = 4096;
-const MAX_NAME = 200;
-
-function splitNames(value, from) {
-  let names = null;
-  if (typeof value === 'string' && value.length <= MAX_NAMES * (MAX_NAME + 1)) names = value.split(',');
-  else if (Array.isArray(value) && value.length <= MAX_NAMES && value.every((v) => typeof v === 'string')) names = value;
-  if (!names || names.length > MAX_NAMES || names.some((n) => n.length > MAX_NAME)) {
-    throw SugarshackError.of('INVALID_RESOURCES', 'notNames', { from, names: MAX_NAMES, length: MAX_NAME, got: quote(value) });
-  }
-  return names.map((s) => s.trim()).filter(Boolean);
-}
-
-/** Resource names from msg.resources, else the configured list (possibly empty). */
-function resourcesOf(msg, configured) {
-  if (present(msg.resources)) return splitNames(msg.resources, 'msg.resources');
-  if (present(configured)) return splitNames(configured, i18n.text('labels.configuredResources'));
-  return [];
+function nodeValues(RED, node, props, names) {
+  const perMsg = names.filter((name) => isPerMsg(props, name));
+  if (perMsg.length === 0) return null;
+  return (msg, then) => {
+    /** @type {Record<string, any>} */
+    const values = Object.fromEntries(names.map((name) => [name, props[name]]));
+    let left = perMsg.length;
+    let failed = false;
+    const fail = (name, err) => {
+      if (failed) return;
+      failed = true;
+      const why = `${LABELS[name] ? LABELS[name]() : name}: ${err && typeof err.message === 'string' ? err.message : String(err)}`;
+      then(SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) }));
+    };
+    for (const name of perMsg) {
+      try {
+        RED.util.evaluateNodeProperty(props[name], props[`${name}Type`], node, msg, (err, value) => {
+          if (err) fail(name, err);
+          else if (!failed) {
+            values[name] = value;
+            left -= 1;
+            if (left === 0) then(null, values);
+          }
+        });
+      } catch (err) {
+        fail(name, err); // an expression that does not parse, a msg path that is not one
+      }
+    }
+  };
 }
 
 /**
@@ -117,32 +179,4 @@ function noteOf(msg, reason = null) {
   return text === undefined ? undefined : text.slice(0, MAX_NOTE);
 }
 
-// The core keeps 100 characters of a name and 500 of a reason; a little above that crosses into it.
-const MAX_BY = 200;
-const MAX_REASON = 1000;
-
-/**
- * Who asks for a clear or an emergency stop, and why: msg.by, else the
- * dashboard's signed-in user (msg._client.user), else "unknown"; msg.reason;
- * msg.force === true overrides a clear's refusal (recorded as forced).
- */
-function attributionOf(msg) {
-  const client = msg._client && typeof msg._client === 'object' ? msg._client : null;
-  const user = client && client.user && typeof client.user === 'object' ? client.user : null;
-  // A signed-in dashboard user outranks msg.by, so a page cannot record a clear under another name.
-  const candidates = [user && (user.username || user.name || user.email || user.userId), msg.by];
-  const by = candidates.find((v) => typeof v === 'string' && v.trim() !== '');
-  if (present(msg.by) && typeof msg.by !== 'string') {
-    throw SugarshackError.of('INVALID_INPUT', 'byNotName', { got: quote(msg.by) });
-  }
-  if (present(msg.reason) && typeof msg.reason !== 'string') {
-    throw SugarshackError.of('INVALID_INPUT', 'reasonNotText', { got: quote(msg.reason) });
-  }
-  return {
-    by: by === undefined ? null : by.slice(0, MAX_BY),
-    reason: present(msg.reason) ? msg.reason.slice(0, MAX_REASON) : null,
-    force: msg.force === true,
-  };
-}
-
-module.exports = { operationOf, priorityOf, resourcesOf, noteOf, attributionOf, splitNames, readMsg, quote };
+module.exports = { nodeValues, isPerMsg, requestOf, operationOf, stopOf, clearOf, noteOf, attributionOf, splitNames, fieldsOf, readMsg, quote };

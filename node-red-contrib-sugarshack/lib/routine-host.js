@@ -238,21 +238,12 @@ class RoutineHost {
         this.run = null;
         if (this.ended || !this.machine) return;
         const e = asSugarshackError(err);
-        if (e.operation && e.operation.state === 'aborted') {
-          // Aborted (by an operator, or while queued): the routine stays where it was, aborted until a reset.
-          const moved = this.machine.operationAborted();
-          this.announce(() => this.report(e, 'aborted', { operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message } }));
-        } else if (!e.operation || e.operation.kind === 'acquire') {
-          // Refused before the grant (already running, queue full...): nothing ran, nothing locked out.
-          this.machine.refused();
-          this.announce(() => this.report(e, 'refused', { operation, error: { code: e.code, message: e.message } }));
-        } else {
-          const moved = this.machine.faulted();
-          this.lastFault = true;
-          this.announce(() => this.report(e, 'faulted', {
-            operation, from: moved.from, to: moved.to, error: { code: e.code, message: e.message },
-          }));
-        }
+        // The routine says what the failure was (aborted, refused before the grant, faulted) and moves.
+        const ran = e.operation || null;
+        const { outcome, moved } = this.machine.operationFailed(ran !== null && ran.state === 'aborted', ran ? String(ran.kind) : undefined);
+        if (outcome === 'faulted') this.lastFault = true;
+        const error = { code: e.code, message: e.message };
+        this.announce(() => this.report(e, outcome, moved ? { operation, from: moved.from, to: moved.to, error } : { operation, error }));
         this.afterRun();
       },
       abandon: () => {},

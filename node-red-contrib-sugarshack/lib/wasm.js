@@ -157,10 +157,78 @@ const SAMPLE_MODBUS = Object.freeze({
 });
 
 function prime(facade) {
+  primeEngine(facade);
   primeInterlock(facade);
   primeModbus(facade);
   primeAlarms(facade);
   primeControl(facade);
+}
+
+/** An engine through every input: a grant, a wait, a release, a fault, a clear, a drain, alarms, a restart. */
+function primeEngine({ Engine, Tracker, wasmMemory }) {
+  wasmMemory();
+  const t = new Tracker(SAMPLE_PLANT, 0);
+  const config = { resources: t.interlockResources(), warnQueuedMs: 1, warnHeldMs: 1 };
+  const e = new Engine(config, { plantBound: true });
+  e.headerPtr();
+  e.addNode(1, { kind: 'acquire', timeoutMs: 5, operation: 'a', priority: 1, resources: 'A' }, 0);
+  e.addNode(2, { kind: 'release' }, 0);
+  e.addNode(3, { kind: 'cancel' }, 0);
+  e.addNode(4, { kind: 'fault', byResources: false, failMsg: false }, 0);
+  e.addNode(5, { kind: 'clear', allFaulted: true, refusalsWired: false }, 0);
+  e.listen(true, 0);
+  e.start(null, undefined, 0);
+  e.acquire(1, 1, 1);
+  e.findOperation('a');
+  e.acquireNamed(1, 2, 'b', 2, ['A', 'B'], 2);
+  e.tick(10);
+  e.release(2, 3, 'a', undefined, 11);
+  e.cancel(3, 4, { operation: 'b' }, 12);
+  e.acquireNamed(1, 5, 'c', undefined, 'A', 13);
+  e.fault(4, 6, { operation: 'c', errorMessage: 'primer' }, 14);
+  e.clear(5, 7, {}, false, 15);
+  e.fault(4, 8, { follow: 'c' }, 16);
+  e.clearAgainst(5, 9, { force: true }, false, 17, t);
+  e.operator(10, { kind: 'eStop', lines: ['B'] }, { user: 'primer' }, 18);
+  e.operatorAgainst(11, { kind: 'clear' }, { force: true }, 19, t);
+  e.operator(12, { kind: 'ack' }, {}, 20);
+  e.storeFailing('primer', 21);
+  e.plantConditions(t.alarmConditions(), 22);
+  e.resendLockouts('atStart', 23);
+  e.life('drain-begin', 24);
+  const next = new Engine(config, { plantBound: true, wire: 'json' });
+  next.life('drain-begin', 25);
+  next.handOver(e.stateText(25, {}), 25);
+  next.life('drain-end', 26);
+  next.free();
+  e.acquireOperation(1, 13, 'd', 26);
+  e.releaseOperation(2, 14, 'd', 26);
+  e.acquireFields(1, 15, { configured: { operation: 'e', priority: 1, resources: 'A' } }, 26);
+  e.closeNode(1, true, 27);
+  e.view(28);
+  e.viewAgainst(28, t);
+  e.savedRoutines();
+  e.stage();
+  e.faultedResources();
+  e.counts();
+  e.lost();
+  e.alarmIds();
+  e.handleEpoch();
+  e.snapshot(29);
+  const text = e.stateText(30, {});
+  const restarted = new Engine(config, {});
+  restarted.startAgainst(JSON.parse(text), undefined, 31, t);
+  restarted.life('shutdown', 32);
+  restarted.free();
+  const sealed = e.seal('primer', undefined, {}, 33);
+  const opened = new Engine(config, {});
+  opened.startSealed('primer', undefined, 'primer', sealed, 34);
+  opened.free();
+  const reopened = new Engine(config, { plantBound: true });
+  reopened.startSealedAgainst('primer', undefined, 'primer', sealed, 35, t);
+  reopened.free();
+  e.free();
+  t.free();
 }
 
 function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
@@ -235,6 +303,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.lastSamples();
   t.phase(v);
   t.describeFault(v, 'no-motion', 1, 100);
+  t.lockoutTopic('A');
+  t.expire(470);
+  t.nextDeadline();
   t.position(v);
   t.slot(0, 'valve', 1);
   t.actuators();
@@ -305,6 +376,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.command('reset', undefined);
   r.onMsg('go');
   r.operationAborted();
+  r.reset();
+  r.onMsg('go');
+  r.operationFailed(false, undefined);
   r.restore(r.snapshot(), []);
   r.free();
   t.free();

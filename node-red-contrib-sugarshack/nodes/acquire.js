@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput } = require('../lib/binding');
-const { operationOf, priorityOf, resourcesOf, readMsg } = require('../lib/request');
+const { bindInterlock, onInterlockInput } = require('../lib/binding');
+const { nodeValues, isPerMsg, requestOf, readMsg } = require('../lib/request');
 const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -15,14 +15,14 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
 
     // Holds the msg until granted; the same msg object then goes on (link call returns stay intact).
-    onInput(node, runtime, (rt, msg, send, done) => {
-      const request = readMsg(() => ({
-        operation: operationOf(msg, props.operation),
-        priority: priorityOf(msg, props.priority),
-        resources: resourcesOf(msg, props.resources),
-      }));
+    // Values from msg, flow, global, env or JSONata are read for each msg; literal ones (and flows saved before the types) as deployed.
+    const values = nodeValues(RED, node, props, ['operation', 'priority', 'resources']);
+    const deployed = (name) => (isPerMsg(props, name) ? undefined : props[name]);
+    const spec = { kind: 'acquire', timeoutMs, operation: deployed('operation'), priority: deployed('priority'), resources: deployed('resources') };
+    onInterlockInput(node, runtime, spec, (rt, msg, send, done, read = props) => {
+      const request = readMsg(() => requestOf(msg, read.operation, read.priority, read.resources));
       rt.acquire({ node, msg, send, done, ...request, timeoutMs });
-    });
+    }, { values });
   }
 
   RED.nodes.registerType('sugarshack-acquire', AcquireNode);

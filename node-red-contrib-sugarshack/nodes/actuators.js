@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { bindPlant, onInput, always } = require('../lib/binding');
-const { heldResources, isLockout } = require('../lib/group');
+const { readGroup, isLockout } = require('../lib/group');
 const { splitNames, readMsg } = require('../lib/request');
 const { translator, useRED } = require('../lib/i18n');
 const { SugarshackError } = require('../lib/errors');
@@ -38,11 +38,11 @@ module.exports = function (RED) {
       const seen = readMsg(() => ({
         topic: msg.topic,
         payload: msg.payload,
-        lockout: isLockout(msg),
+        // A lockout topic the core tells in its feedback read; msg.lockout, when set, it is asked about.
+        lockout: msg.lockout !== undefined && isLockout(msg),
         // As an `mqtt in` node gives it: only such msgs on foreign topics may be someone else's traffic.
         fromMqtt: typeof msg.qos === 'number' && typeof msg.retain === 'boolean',
       }));
-      // "lockout/<resource>" from a fault node is a command, whatever the resource's name.
       if (!seen.lockout && rt.feedback(node, seen.topic, seen.payload, seen.fromMqtt)) {
         done();
         return;
@@ -59,9 +59,9 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const within = readMsg(() => (seen.lockout ? undefined : heldResources(msg)));
-      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within });
-      if (rt.draining && !seen.lockout) rt.submit(node, done, issue);
+      const read = readMsg(() => readGroup(msg));
+      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within: read.within || undefined });
+      if (rt.draining && !read.lockout) rt.submit(node, done, issue);
       else issue();
     }, 'plant', { urgent: always, passive: true });
   }

@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput, always } = require('../lib/binding');
+const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/i18n');
@@ -14,14 +14,14 @@ module.exports = function (RED) {
     const node = this;
     const runtime = bindInterlock(RED, node, props.interlock);
 
-    onInput(node, runtime, (rt, msg, send, done) => {
-      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+    onInterlockInput(node, runtime, { kind: 'cancel', operation: props.operation }, (rt, msg, send, done) => {
+      const operation = readMsg(() => operationOf(msg, props.operation));
       journal.action('cancel', msg, operation);
       rt.cancel(operation, () => {
         send(msg);
         done();
       });
-    }, 'interlock', { urgent: always }); // a withdrawal never waits for a deploy's drain
+    }, { urgent: always }); // a withdrawal never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-cancel', CancelNode);

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput, always } = require('../lib/binding');
-const { resourcesOf, attributionOf, readMsg } = require('../lib/request');
+const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
+const { clearOf, readMsg } = require('../lib/request');
 const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/i18n');
 
@@ -17,11 +17,9 @@ module.exports = function (RED) {
     // A refusal is an answer a dashboard shows: out of output 2 when it is wired, else to the Catch nodes.
     const refusalsWired = Array.isArray(props.wires) && Array.isArray(props.wires[1]) && props.wires[1].length > 0;
 
-    onInput(node, runtime, (rt, msg, send, done) => {
-      const request = readMsg(() => ({
-        names: allFaulted && msg.resources === undefined ? null : resourcesOf(msg, props.resources),
-        who: attributionOf(msg),
-      }));
+    const spec = { kind: 'clear', allFaulted, refusalsWired, resources: props.resources };
+    onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
+      const request = readMsg(() => clearOf(msg, props.resources, allFaulted));
       const target = request.names === null ? 'all' : request.names;
       try {
         rt.clear(request.names, (cleared) => {
@@ -39,7 +37,7 @@ module.exports = function (RED) {
         send([null, msg]);
         done();
       }
-    }, 'interlock', { urgent: always }); // an operator's clear never waits for a deploy's drain
+    }, { urgent: always }); // an operator's clear never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-clear', ClearNode);

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput, always } = require('../lib/binding');
-const { operationOf, resourcesOf, noteOf, attributionOf, readMsg } = require('../lib/request');
+const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
+const { operationOf, stopOf, noteOf, readMsg } = require('../lib/request');
 const { clock } = require('../lib/clock');
 const { journal } = require('../lib/journal/bus');
 const { SugarshackError } = require('../lib/errors');
@@ -35,14 +35,16 @@ module.exports = function (RED) {
     const failMsg = props.after === 'fail';
 
     // Output 2 gets one lockout group command per latched line, once the fault is saved.
-    onInput(node, runtime, (rt, msg, send, done) => {
+    const spec = { kind: 'fault', byResources, failMsg, operation: props.operation, resources: props.resources };
+    onInterlockInput(node, runtime, spec, (rt, msg, send, done) => {
       const request = readMsg(() => {
-        const who = byResources ? attributionOf(msg) : null;
+        const stop = byResources ? stopOf(msg, props.resources) : null;
+        const who = stop ? stop.who : null;
         return {
           // The error a Catch node caught is the note; else an operator's stated reason (kept with the e-stop either way).
           note: noteOf(msg, who && who.reason),
-          operation: byResources ? null : operationOf(msg, props.operation, { followAcquire: true }),
-          resources: byResources ? resourcesOf(msg, props.resources) : null,
+          operation: byResources ? null : operationOf(msg, props.operation),
+          resources: stop ? stop.resources : null,
           who,
         };
       });
@@ -50,8 +52,8 @@ module.exports = function (RED) {
       const out = (lockouts) => {
         // faultAtMs lets the group command that applies the lockout report the fault lockout time.
         const faultAtMs = clock.now();
-        const commands = lockouts.map(({ resource, command }) => ({
-          topic: `lockout/${resource}`,
+        const commands = lockouts.map(({ resource, topic, command }) => ({
+          topic,
           payload: command,
           resource,
           operation,
@@ -69,7 +71,7 @@ module.exports = function (RED) {
       if (byResources) journal.action('e-stop', request.who, request.resources);
       if (byResources) rt.faultResources(request.resources, note, out, request.who);
       else rt.fault(operation, note, out);
-    }, 'interlock', { urgent: always }); // an e-stop never waits for a deploy's drain
+    }, { urgent: always }); // an e-stop never waits for a deploy's drain
   }
 
   RED.nodes.registerType('sugarshack-fault', FaultNode);

@@ -17,7 +17,7 @@ module.exports = function (RED) {
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const within = readMsg(() => (isLockout(msg) ? undefined : heldResources(msg)));
+      const within = readMsg(() => heldResources(msg));
       rt.command({ node, msg, send, done, timeoutMs, within });
     }, 'plant', { urgent: isLockout }); // a lockout never waits for a deploy's drain
   }

@@ -1,7 +1,9 @@
 // @ts-check
 'use strict';
-const { coreConfig } = require('../lib/config');
+const { coreConfig, messageBufferMax } = require('../lib/config');
 const { InterlockRuntime } = require('../lib/interlock-runtime');
+const { EngineRuntime } = require('../lib/interlock/engine-runtime');
+const { clusterOf } = require('../lib/cluster');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 const { useRED } = require('../lib/i18n');
@@ -27,7 +29,7 @@ module.exports = function (RED) {
       config: null, persist, plantBound: Boolean(props.plant), plantId: props.plant || null, legacyStore: props.store && props.store !== 'default' ? props.store : undefined, error: null,
     };
     try {
-      settings.config = coreConfig(props);
+      settings.config = coreConfig(props, messageBufferMax(RED));
       if (props.plant && !plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
     } catch (err) {
       settings.error = err;
@@ -39,8 +41,19 @@ module.exports = function (RED) {
       plant: plant ? plant.targetKey : null,
       error: settings.error ? settings.error.message : null,
     });
-    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new InterlockRuntime({ RED, id: node.id, settings, plant }));
+    // Alone, the interlock runs on one engine; bound to a plant (its runs and routines) or in a hot-standby cluster, on the interlock runtime.
+    const Runtime = props.plant || inCluster(RED) ? InterlockRuntime : EngineRuntime;
+    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new Runtime({ RED, id: node.id, settings, plant }));
   }
 
   RED.nodes.registerType('sugarshack-interlock', InterlockNode);
 };
+
+/** Whether this instance is one of a hot-standby cluster (a misconfigured one counts: the interlock runtime refuses then). */
+function inCluster(RED) {
+  try {
+    return Boolean(clusterOf(RED));
+  } catch {
+    return true;
+  }
+}

@@ -1,6 +1,6 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInput, always } = require('../lib/binding');
+const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
 const { operationOf, readMsg } = require('../lib/request');
 const { useRED } = require('../lib/i18n');
 
@@ -14,13 +14,13 @@ module.exports = function (RED) {
     const runtime = bindInterlock(RED, node, props.interlock);
 
     // The msg goes on once the release is saved.
-    onInput(node, runtime, (rt, msg, send, done) => {
-      const operation = readMsg(() => operationOf(msg, props.operation, { followAcquire: true }));
+    onInterlockInput(node, runtime, { kind: 'release', operation: props.operation }, (rt, msg, send, done) => {
+      const operation = readMsg(() => operationOf(msg, props.operation));
       rt.release(operation, () => {
         send(msg);
         done();
       });
-    }, 'interlock', { urgent: always }); // a release lets a drain end; it never waits for one
+    }, { urgent: always }); // a release lets a drain end; it never waits for one
   }
 
   RED.nodes.registerType('sugarshack-release', ReleaseNode);

@@ -35,7 +35,8 @@ const helper = require('node-red-node-test-helper');
 const { verdict, median } = require('./verdict');
 
 const ROOT = path.resolve(__dirname, '../..');
-const PALETTE = path.join(ROOT, 'node-red-contrib-sugarshack');
+// SUGARSHACK_PALETTE: another build of the palette, to compare two in one sitting.
+const PALETTE = process.env.SUGARSHACK_PALETTE || path.join(ROOT, 'node-red-contrib-sugarshack');
 const QUICK = process.argv.includes('--quick');
 const onlyAt = process.argv.indexOf('--only');
 const ONLY = onlyAt >= 0 ? new Set(process.argv[onlyAt + 1].split(',')) : null;

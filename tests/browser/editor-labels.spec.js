@@ -188,7 +188,7 @@ describe('the editor\'s labels in headless Chromium', function () {
 
   it('fills a dialog\'s placeholders, options and tips, and checks a plant document\'s shape in English', async function () {
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('acq10')));
-    await page.waitForSelector('#node-input-operation', { visible: true, timeout: 10000 });
+    await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container', { visible: true, timeout: 10000 });
     const placeholders = await page.evaluate(() => ['operation', 'priority', 'resources', 'timeout']
       .map((f) => $(`#node-input-${f}`).attr('placeholder')));
     const dialog = await page.evaluate(() => $('#dialog-form').text().replace(/\s+/g, ' ').trim());

@@ -415,6 +415,34 @@ describe('sugarshack control: pid', function () {
     assert.equal(dead('legacy'), dead('wide'));
   });
 
+  it("blank settings take the core's defaults (stale after 3 × Ts, alpha, h, max dead), and the editor and help state the same", async function () {
+    const defaults = require(path.join(PALETTE, 'lib', 'wasm.js')).load().pidDefaults();
+    const adaptive = { smith: 'adaptive', modelGain: '1', modelTau: '3', ts: '0.3', td: '0' };
+    const seen = await start([
+      pidNode('pid', { ts: '0.5', staleS: '', fallback: '7' }),
+      pidNode('leftBlank', { ...adaptive, alpha: '', horizon: '', maxSamples: '' }, 'blank'),
+      pidNode('setAsDefaults', { ...adaptive, alpha: String(defaults.alpha), horizon: String(defaults.h), maxSamples: String(defaults.maxSamples) }, 'set'),
+    ], ['out', 'blank', 'set']);
+    await deliver('pid', { payload: 40 });
+    await clock().advance(defaults.staleSamples * 500 - 1);
+    assert.equal(seen.out.length, 1, `fresh for ${defaults.staleSamples} × Ts less 1 ms`);
+    await clock().advance(1);
+    await until(() => seen.out.length === 2, 'the watchdog send');
+    assert.deepEqual([seen.out[1].payload, seen.out[1].pid.mode], [7, 'fallback']);
+    for (const id of ['leftBlank', 'setAsDefaults']) {
+      await deliver(id, { payload: 0, timestamp: 1000, roundTripMs: 900 });
+      await deliver(id, { payload: 0, timestamp: 1300, roundTripMs: 300 });
+    }
+    assert.deepEqual(seen.caught.map((m) => m.error.message), []);
+    assert.deepEqual(seen.blank.map((m) => m.pid.deadTimeSamples), [3, 4], 'floor(900 / 300), then (840 + 3 × 180) / 300 with alpha 0.1, h 3');
+    assert.deepEqual(seen.blank.map((m) => m.pid), seen.set.map((m) => m.pid));
+    const editor = fs.readFileSync(path.join(PALETTE, 'nodes', 'pid.html'), 'utf8');
+    const startsAt = (field) => Number(editor.match(new RegExp(`\\b${field}: \\{ value: ([\\d.]+)`))[1]);
+    assert.deepEqual([startsAt('alpha'), startsAt('horizon'), startsAt('maxSamples')], [defaults.alpha, defaults.h, defaults.maxSamples]);
+    const help = fs.readFileSync(path.join(PALETTE, 'nodes', 'locales', 'en-US', 'pid.html'), 'utf8');
+    assert.match(help, new RegExp(`default ${defaults.staleSamples} × Ts`));
+  });
+
   it('a change is applied whole or not at all: new tunings with limits the fallback falls outside change nothing', async function () {
     const seen = await start([pidNode('pid', { fallback: '5' })]);
     await deliver('pid', { payload: 40, timestamp: 1000 });
@@ -466,6 +494,20 @@ describe('sugarshack control: pid', function () {
       assert.equal(seen.caught.at(-1).error.code, 'INVALID_CONFIG');
     }
     assert.equal(seen.out.length, 0);
+  });
+
+  it("refuses at deploy a choice the editor does not offer (a flow written by hand), and takes a blank one as the core's default", async function () {
+    const seen = await start([
+      pidNode('hand', { action: 'forward' }),
+      pidNode('pOn', { pOn: 'setpoint' }),
+      pidNode('none', { action: '', pOn: '', mode: '' }),
+    ]);
+    assert.match(String(errorLogs('hand')[0]), /action must be one of 'reverse', 'direct'; got 'forward'/);
+    assert.match(String(errorLogs('pOn')[0]), /proportionalOn must be one of 'error', 'measurement'; got 'setpoint'/);
+    assert.deepEqual(errorLogs('none'), []);
+    await deliver('none', { payload: 40, timestamp: 1000 });
+    const { pid } = seen.out.at(-1);
+    assert.deepEqual([pid.mode, pid.p], ['auto', 20], 'auto, reverse action, P on the error: kp 2 × (50 − 40)');
   });
 });
 

@@ -291,6 +291,17 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('StationConfig', pid);
     const saved = { integral: 1, setpoint: 50, mode: 'manual', manual: 3 };
     shapes.expect('StationSaved', facade.openPidState('test', facade.sealPidState('p', pid, saved, 5), 'p'));
+    shapes.expect('PidDefaults', facade.pidDefaults());
+  });
+
+  it('a group command msg read in one call: lockout, lines held, payload; or the refusal', function () {
+    const read = facade.readGroupMsg('plant/command', undefined, { resources: ['A'] }, '{"valves": {"V1": 5}}');
+    shapes.expect('GroupMsgRead', read);
+    assert.deepEqual(read, { lockout: false, within: ['A'], payload: { valves: { V1: 5 } } });
+    const refused = facade.readGroupMsg('plant/command', undefined, 'A', {});
+    shapes.expect('GroupMsgRead', refused);
+    assert.deepEqual(refused, { refusal: { code: 'INVALID_RESOURCES', key: 'errors.heldNotListed', params: { got: '"A"' } } });
+    assert.equal(facade.isLockoutMsg('lockout/A', undefined), true);
   });
 
   it('clear blockers against a plant', function () {
@@ -410,6 +421,17 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('RoutineSnapshot', saved);
     shapes.expect('RoutineMove | null', r.restore(saved, ['o']));
     shapes.expect('RoutineMove', r.operationStopped());
+    r.reset();
+    r.onMsg('go');
+    shapes.expect('RoutineFailed', r.operationFailed(false, 'step'));
+  });
+
+  it('a msg\'s request read by the core: its values, or the refusal', function () {
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'acquire' }, { operation: ' 12 ', resources: 'A,B' }, { priority: '5' }));
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'who' }, { user: { username: 'ann' }, by: 'bo', reason: 'fix' }, {}));
+    shapes.expect('RequestRead', facade.readRequest({ kind: 'acquire' }, { operation: 'x', priority: 'soon' }, {}));
+    shapes.expect('NamesRead', facade.namesOf(' a, b', 'sensors'));
+    shapes.expect('NamesRead', facade.namesOf(7, 'sensors'));
   });
 
   it('the device side: messages and commands', function () {
@@ -494,6 +516,60 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('StationStale | undefined', station.tick(5000));
     shapes.expect('PidConfigInput', pid);
     shapes.expect('SmithConfig', smith);
+  });
+
+  it('the engine: options, nodes, msg fields, operator requests, its view', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const config = { resources: t.interlockResources() };
+    const options = { plantBound: true, wire: 'typed' };
+    shapes.expect('EngineOptions', options);
+    const e = keep(new facade.Engine(config, options));
+    const nodes = [
+      { kind: 'acquire', timeoutMs: 1000, operation: 'o', priority: 2, resources: 'A' },
+      { kind: 'release', operation: 'o' },
+      { kind: 'fault', byResources: true, failMsg: false, resources: 'B' },
+      { kind: 'clear', allFaulted: true, refusalsWired: false },
+    ];
+    nodes.forEach((node, i) => {
+      shapes.expect('EngineNode', node);
+      e.addNode(i + 1, node, 0);
+    });
+    e.start(null, undefined, 0);
+    e.acquire(1, 1, 1);
+    e.acquireNamed(1, 9, 'p', 1, undefined, 1);
+    const fields = { reason: 'leak', user: 'Ann', force: false };
+    shapes.expect('EngineFields', fields);
+    e.fault(3, 2, fields, 2);
+    for (const request of [{ kind: 'clear', lines: ['B'] }, { kind: 'ack' }, { kind: 'shelve', id: 'line-faulted:B', forMs: 1000 }]) {
+      shapes.expect('OperatorRequest', request);
+      e.operatorAgainst(3, request, fields, 3, t);
+    }
+    e.fault(3, 4, fields, 4);
+    shapes.expect('EngineView', e.viewAgainst(5, t));
+    shapes.expect('InterlockCounts', e.counts());
+    shapes.expect('InterlockSnapshot', e.snapshot(5));
+  });
+
+  it('the engine\'s sealed document: the interlock reads it, a restart faults its held line, another owner\'s is lost', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const config = { resources: t.interlockResources() };
+    const e = keep(new facade.Engine(config, {}));
+    e.addNode(1, { kind: 'acquire', timeoutMs: 1000, operation: 'o', priority: 2, resources: 'A' }, 0);
+    e.start(null, undefined, 0);
+    e.acquire(1, 1, 1);
+    assert.equal(e.counts().faulted, 0);
+    const text = e.seal('il-1', 'plant-1', {}, 2);
+    const opened = facade.Interlock.open(config, 'il-1', 'plant-1', 'state.json', text, 3);
+    keep(opened.interlock);
+    shapes.expect('OpenedInterlock', opened);
+    assert.equal(opened.lost, null);
+    const restarted = keep(new facade.Engine(config, {}));
+    restarted.startSealed('il-1', 'plant-1', 'state.json', text, 3);
+    assert.deepEqual([restarted.counts().faulted, restarted.lost()], [1, undefined]);
+    const foreign = keep(new facade.Engine(config, {}));
+    foreign.startSealedAgainst('il-2', 'plant-1', 'state.json', text, 3, t);
+    assert.equal(foreign.counts().faulted, config.resources.length);
+    assert.match(foreign.lost(), /^state\.json: /);
   });
 
   it('every declared shape was met by a real value', function () {

@@ -48,6 +48,16 @@ function plantDocument() {
   });
 }
 
+/** A line's lockout as a fault node words it: each member actuator at its lockout state. */
+function lockoutOf(line) {
+  const command = {};
+  for (const a of plantDocument().actuators.filter((x) => x.resource === line)) {
+    const group = `${a.type}s`;
+    command[group] = { ...command[group], [a.id]: a.lockout };
+  }
+  return command;
+}
+
 // The node each kind of msg goes to.
 const TARGETS = {
   acquire: 'acq', release: 'rel', fault: 'flt', estop: 'stop', clear: 'clr', cancel: 'cnl', group: 'gc',
@@ -423,7 +433,11 @@ describe('sugarshack fuzz', function () {
       drain('bus', { topic: 'station-3/sensor/volume/state', payload: { ts: now(), value: 120 } });
       report();
       const snapshot = il().core.snapshot(now());
-      if (snapshot.resources.some((r) => r.state.state === 'faulted')) drain('clr', {});
+      const faulted = snapshot.resources.filter((r) => r.state.state === 'faulted').map((r) => r.name);
+      // A flow wires the fault nodes' lockouts to the actuators; here they reach a sink, so the
+      // drain carries each faulted line's lockout to the panel before the clear asks it confirmed.
+      for (const line of faulted) drain('bus', { topic: `lockout/${line}`, payload: lockoutOf(line) });
+      if (faulted.length > 0) drain('clr', {});
       for (const hold of snapshot.holds) drain('rel', { operation: hold.operation });
       await settled(helper, 'il');
       await clock().advance(2000);

@@ -139,7 +139,8 @@ const PACKAGE_NAME = JSON.parse(fs.readFileSync(path.join(PALETTE, 'package.json
  */
 function tCatalog(file, source) {
   const type = /translator\(RED, '([^']+)'\)/.exec(source);
-  if (type) return { stem: path.basename(file, '.js'), prefix: type[1] };
+  // A node type's texts are in its catalog (locales/en-US/pid.json for sugarshack-pid), wherever in lib/ they are read.
+  if (type) return { stem: type[1].replace(/^sugarshack-/, ''), prefix: type[1] };
   const ns = /var NS = '([^':]+)\/([\w-]+):([\w.-]+)\.';/.exec(source);
   if (!ns) return null;
   assert.equal(ns[1], PACKAGE_NAME, `${file}: the namespace names another module`);
@@ -148,7 +149,10 @@ function tCatalog(file, source) {
 
 /** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
 function lookups() {
-  const found = [];
+  // The texts the core's engine names (its catalogTexts()) are looked up like the JS's.
+  const { texts, labels } = require(path.join(LIB, 'wasm.js')).load().catalogTexts();
+  const found = texts.map(({ key, params }) => ({ at: `core: ${key}`, keys: [`sugarshack.${key}`], subs: params, stem: 'interlock', catalog: SHARED_CATALOG }))
+    .concat(labels.map((label) => ({ at: `core: label ${label}`, keys: [`sugarshack.labels.${label}`], subs: [], stem: 'interlock', catalog: SHARED_CATALOG })));
   for (const { file, source } of sources()) {
     const own = tCatalog(file, source);
     // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).

@@ -8,7 +8,7 @@ const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, clock, settled,
 } = require('./support');
-const { configDurationMs, configDurationListMs } = require(path.join(PALETTE, 'lib', 'control.js'));
+const { configDurationMs, configDurationListMs } = require(path.join(PALETTE, 'lib', 'control'));
 const { paletteOf } = require(path.join(PALETTE, 'lib', 'lifecycle.js'));
 
 helper.init(require.resolve('node-red'));

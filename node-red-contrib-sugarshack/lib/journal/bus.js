@@ -16,6 +16,8 @@ const finite = (v) => (typeof v === 'number' && Number.isFinite(v) ? v : undefin
 class JournalBus {
   constructor() {
     this.sinks = new Set();
+    /** @type {Set<() => void>} told when `active` may have changed */
+    this.watchers = new Set();
   }
 
   get active() {
@@ -24,7 +26,21 @@ class JournalBus {
 
   attach(sink) {
     this.sinks.add(sink);
-    return () => this.sinks.delete(sink);
+    this.changed();
+    return () => {
+      this.sinks.delete(sink);
+      this.changed();
+    };
+  }
+
+  /** Calls `fn` whenever a writer attaches or leaves; returns the unsubscribe function. @param {() => void} fn */
+  watch(fn) {
+    this.watchers.add(fn);
+    return () => this.watchers.delete(fn);
+  }
+
+  changed() {
+    for (const fn of this.watchers) fn();
   }
 
   publish(row) {

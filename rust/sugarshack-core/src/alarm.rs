@@ -23,7 +23,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::actuator::DeviceHealth;
+use crate::actuator::{Availability, DeviceHealth};
 use crate::clearance::{cut, Attribution};
 use crate::code::Code;
 use crate::text::quote;
@@ -202,11 +202,12 @@ impl Condition {
     /// A device's condition, if it has one: offline, else stale feedback
     /// from some of its actuators (named).
     pub fn of_device(health: &DeviceHealth) -> Option<Self> {
-        if !health.online {
-            return Some(Condition::new(AlarmKind::DeviceOffline, &health.device));
-        }
-        if health.stale.is_empty() {
-            return None;
+        match health.state() {
+            Availability::Offline => {
+                return Some(Condition::new(AlarmKind::DeviceOffline, &health.device))
+            }
+            Availability::Online => return None,
+            Availability::Stale => {}
         }
         let mut condition = Condition::new(AlarmKind::DeviceStale, &health.device);
         condition.text = format!(
@@ -421,6 +422,11 @@ impl Alarms {
     /// The alarm with this id, if listed.
     pub fn get(&self, id: &str) -> Option<&Alarm> {
         self.alarms.get(id)
+    }
+
+    /// Whether a condition waits out its kind's on-delay.
+    pub fn has_delayed(&self) -> bool {
+        !self.delayed.is_empty()
     }
 
     /// When the next shelf runs out, if any alarm is shelved.

@@ -9,6 +9,7 @@ pub mod clearance;
 pub mod code;
 pub mod condition;
 pub mod control;
+pub mod engine;
 pub mod interlock;
 pub mod json;
 pub mod operation;

@@ -151,6 +151,29 @@ pub struct Moved {
     pub halted: bool,
 }
 
+/// What a dispatched operation's run that did not complete means to its routine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Failure {
+    /// Aborted (by an operator, or while queued): aborted until a reset.
+    Aborted,
+    /// Refused before its grant (already running, queue full...): nothing
+    /// ran and nothing locked out, so the routine stays and may dispatch again.
+    Refused,
+    /// Failed once granted: the error state, or a halt.
+    Faulted,
+}
+
+/// A failed run's meaning, and the move it made (none for a refusal).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Failed {
+    /// What the failure was.
+    pub outcome: Failure,
+    /// The move it made.
+    pub moved: Option<Moved>,
+}
+
 /// What survives a restart: the state, and the operation that was pending (if any).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -548,6 +571,29 @@ impl RoutineMachine {
             }
         };
         Ok(self.moved(from, Some(operation), halted))
+    }
+
+    /// The pending operation's run ended without completing: `aborted` when
+    /// the run was aborted, `stage` the stage it failed in (none, or
+    /// `"acquire"`: before its grant). Aborted, refused or faulted, and moved as each says.
+    pub fn operation_failed(
+        &mut self,
+        aborted: bool,
+        stage: Option<&str>,
+    ) -> Result<Failed, RoutineError> {
+        let outcome = if aborted {
+            Failure::Aborted
+        } else if stage.is_none_or(|s| s == "acquire") {
+            Failure::Refused
+        } else {
+            Failure::Faulted
+        };
+        let moved = match outcome {
+            Failure::Aborted => Some(self.operation_aborted()?),
+            Failure::Refused => self.refused().map(|()| None)?,
+            Failure::Faulted => Some(self.faulted()?),
+        };
+        Ok(Failed { outcome, moved })
     }
 
     /// The pending operation was stopped: the routine stays where it was, stopped until a reset.

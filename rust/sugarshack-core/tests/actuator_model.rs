@@ -5,7 +5,9 @@
 
 use proptest::prelude::*;
 use serde_json::json;
-use sugarshack_core::actuator::{ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Tracker};
+use sugarshack_core::actuator::{
+    ActuatorId, Counts, DeviceId, Effect, FaultKind, Phase, Terms, Tracker,
+};
 use sugarshack_core::plant::PlantModel;
 use sugarshack_core::time::ms;
 
@@ -42,8 +44,10 @@ fn plant_reporting(valves_per_device: u32, devices: u32, reports: &str) -> Plant
 
 #[derive(Clone, Debug)]
 enum Step {
-    Command(f64),
-    Lockout(f64),
+    /// A command to a target, its caller waiting this long (if it gives up).
+    Command(f64, Option<u64>),
+    /// A lockout to a target, answering a fault raised this long before (if it answers one).
+    Lockout(f64, Option<u64>),
     Sample(f64),
     Tick,
     Offline,
@@ -53,8 +57,10 @@ enum Step {
 
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
-        2 => prop::sample::select(vec![0.0, 50.0, 100.0]).prop_map(Step::Command),
-        1 => prop::sample::select(vec![0.0, 0.0, 50.0]).prop_map(Step::Lockout),
+        2 => (prop::sample::select(vec![0.0, 50.0, 100.0]), prop::sample::select(vec![None, Some(0), Some(1500), Some(4000)]))
+            .prop_map(|(target, timeout)| Step::Command(target, timeout)),
+        1 => (prop::sample::select(vec![0.0, 0.0, 50.0]), prop::sample::select(vec![None, Some(0), Some(250)]))
+            .prop_map(|(target, lead)| Step::Lockout(target, lead)),
         5 => prop::sample::select(vec![0.0, 1.5, 2.0, 2.5, 30.0, 50.0, 97.0, 98.0, 98.5, 100.0]).prop_map(Step::Sample),
         4 => Just(Step::Tick),
         1 => Just(Step::Offline),
@@ -87,14 +93,21 @@ enum Seen {
         motion: u64,
         completion: u64,
         retries: u32,
+        timed: bool,
     },
     GroupCompleted {
         caller: u64,
         after: u64,
+        fault_lockout: Option<u64>,
     },
     GroupFailed {
         caller: u64,
         fault: FaultKind,
+        retries: u32,
+    },
+    GroupTimedOut {
+        caller: u64,
+        timeout: u64,
     },
     Retry {
         caller: u64,
@@ -121,6 +134,9 @@ struct Cmd {
     attempt: u64,
     moving: Option<u64>,
     retries: u32,
+    fault_at: Option<u64>,
+    /// Its timeout and when it runs out.
+    deadline: Option<(u64, u64)>,
 }
 
 #[derive(Clone, Copy)]
@@ -180,7 +196,14 @@ impl Model {
     }
 
     /// Sets the new command, or completes it at once where the valve already is.
-    fn issue(&mut self, caller: u64, target: f64, now: u64, seen: &mut Vec<Seen>) {
+    fn issue(
+        &mut self,
+        caller: u64,
+        target: f64,
+        (fault_at, timeout): (Option<u64>, Option<u64>),
+        now: u64,
+        seen: &mut Vec<Seen>,
+    ) {
         self.commanded = Some(target);
         self.resting = Some(target);
         self.uncommanded = false;
@@ -196,8 +219,13 @@ impl Model {
                 motion: 0,
                 completion: 0,
                 retries: 0,
+                timed: false,
             });
-            seen.push(Seen::GroupCompleted { caller, after: 0 });
+            seen.push(Seen::GroupCompleted {
+                caller,
+                after: 0,
+                fault_lockout: fault_at.map(|at| now.saturating_sub(at)),
+            });
         } else {
             self.cmd = Some(Cmd {
                 caller,
@@ -207,6 +235,8 @@ impl Model {
                 attempt: now,
                 moving: None,
                 retries: 0,
+                fault_at,
+                deadline: timeout.filter(|t| *t > 0).map(|t| (t, now + t)),
             });
         }
     }
@@ -233,7 +263,7 @@ impl Model {
     fn apply(&mut self, step: &Step, caller: u64, now: u64) -> Vec<Seen> {
         let mut seen = Vec::new();
         match *step {
-            Step::Command(target) => {
+            Step::Command(target, timeout) => {
                 if self.order.is_some() {
                     return vec![Seen::Refused("LOCKOUT_PENDING")];
                 }
@@ -251,13 +281,14 @@ impl Model {
                 }
                 seen.push(publish(target, false));
                 self.retained = false;
-                self.issue(caller, target, now, &mut seen);
+                self.issue(caller, target, (None, timeout), now, &mut seen);
             }
-            Step::Lockout(target) => {
+            Step::Lockout(target, lead) => {
                 if let Some(old) = self.cmd.take() {
                     seen.push(Seen::GroupFailed {
                         caller: old.caller,
                         fault: FaultKind::LockedOut,
+                        retries: old.retries,
                     });
                 }
                 seen.push(publish(target, true));
@@ -275,7 +306,8 @@ impl Model {
                         last_send: now,
                     },
                 });
-                self.issue(caller, target, now, &mut seen);
+                let fault_at = lead.map(|lead| now.saturating_sub(lead));
+                self.issue(caller, target, (fault_at, None), now, &mut seen);
             }
             Step::Sample(v) => {
                 self.last_sample = now;
@@ -326,16 +358,27 @@ impl Model {
                                 motion: cmd.moving.unwrap() - cmd.issued,
                                 completion: now - cmd.issued,
                                 retries: cmd.retries,
+                                timed: true,
                             });
                             seen.push(Seen::GroupCompleted {
                                 caller: cmd.caller,
                                 after: now - cmd.issued,
+                                fault_lockout: cmd.fault_at.map(|at| now - at),
                             });
                         }
                     }
                 }
             }
             Step::Tick => {
+                // A caller that waited its timeout: the command is withdrawn, whatever the device.
+                let due = self.cmd.as_ref().and_then(|c| c.deadline);
+                if let Some((timeout, _)) = due.filter(|(_, at)| *at <= now) {
+                    let cmd = self.cmd.take().unwrap();
+                    seen.push(Seen::GroupTimedOut {
+                        caller: cmd.caller,
+                        timeout,
+                    });
+                }
                 if !self.online {
                     return seen;
                 }
@@ -346,6 +389,7 @@ impl Model {
                         seen.push(Seen::GroupFailed {
                             caller: cmd.caller,
                             fault: FaultKind::Stale,
+                            retries: cmd.retries,
                         });
                     }
                 } else if let Some(cmd) = self.cmd.as_mut() {
@@ -377,6 +421,7 @@ impl Model {
                             seen.push(Seen::GroupFailed {
                                 caller: cmd.caller,
                                 fault,
+                                retries: cmd.retries,
                             });
                         }
                     }
@@ -396,6 +441,7 @@ impl Model {
                         seen.push(Seen::GroupFailed {
                             caller: cmd.caller,
                             fault: FaultKind::DeviceOffline,
+                            retries: cmd.retries,
                         });
                     }
                 }
@@ -443,21 +489,49 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 issue_to_motion_ms,
                 completion_ms,
                 retries,
+                timed,
                 ..
             } => Some(Seen::Completed {
                 caller,
                 motion: issue_to_motion_ms.as_u64(),
                 completion: completion_ms.as_u64(),
                 retries,
+                timed,
             }),
             Effect::GroupCompleted {
                 caller,
                 completion_ms,
+                fault_lockout_ms,
             } => Some(Seen::GroupCompleted {
                 caller,
                 after: completion_ms.as_u64(),
+                fault_lockout: fault_lockout_ms.map(|f| f.as_u64()),
             }),
-            Effect::GroupFailed { caller, fault, .. } => Some(Seen::GroupFailed { caller, fault }),
+            Effect::GroupFailed {
+                caller,
+                fault,
+                retries,
+                code,
+                ..
+            } => {
+                assert_eq!(code, fault.code(), "a group fails with its fault's code");
+                Some(Seen::GroupFailed {
+                    caller,
+                    fault,
+                    retries,
+                })
+            }
+            Effect::GroupTimedOut {
+                caller,
+                timeout_ms,
+                waiting,
+            } => {
+                assert_eq!(waiting.len(), 1, "the valve still waited for");
+                Some(Seen::GroupTimedOut {
+                    caller,
+                    timeout: timeout_ms.as_u64(),
+                })
+            }
             Effect::Retry {
                 caller,
                 attempt,
@@ -502,9 +576,13 @@ proptest! {
             let caller = caller as u64;
             let expected = model.apply(step, caller, now);
             let actual = match *step {
-                Step::Command(target) | Step::Lockout(target) => {
-                    let lockout = matches!(step, Step::Lockout(_));
-                    match tracker.command(&[(valve, target)], caller, lockout, ms(now)) {
+                Step::Command(target, _) | Step::Lockout(target, _) => {
+                    let terms = match *step {
+                        Step::Lockout(_, lead) => Terms { lockout: true, fault_at: lead.map(|lead| ms(now.saturating_sub(lead))), timeout: None },
+                        Step::Command(_, timeout) => Terms { timeout: timeout.map(ms), ..Terms::default() },
+                        _ => unreachable!(),
+                    };
+                    match tracker.issue(&[(valve, target)], caller, terms, ms(now)) {
                         Ok(effects) => observe(effects),
                         Err(err) => vec![Seen::Refused(err.code().name())],
                     }
@@ -516,6 +594,8 @@ proptest! {
                 Step::PathRestored => observe(tracker.path_restored(ms(now))),
             };
             prop_assert_eq!(&actual, &expected, "{:?} at {}", step, now);
+            let deadline = model.cmd.as_ref().and_then(|c| c.deadline).map(|(_, at)| ms(at));
+            prop_assert_eq!(tracker.next_deadline(), deadline, "the next deadline after {:?} at {}", step, now);
 
             let pending: Vec<(f64, u64, u32)> = tracker
                 .pending_lockouts()

@@ -372,7 +372,7 @@ fn station_config(values: [f64; 10], smith: Option<u8>, on_measurement: bool) ->
             }),
         },
         ts_s,
-        stale: millis(50.0),
+        stale: Some(millis(50.0)),
         setpoint,
         mode: Mode::Auto,
         manual: None,

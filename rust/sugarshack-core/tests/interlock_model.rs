@@ -144,6 +144,22 @@ impl Model {
         }
     }
 
+    /// When the next elapsed-time warning is due: the earliest wait or hold not warned about yet crossing its limit.
+    fn next_warning(&self) -> Option<u64> {
+        let waits = self
+            .queue
+            .iter()
+            .filter(|w| !w.warned)
+            .map(|w| w.since + WARN_QUEUED_MS);
+        let holds = self
+            .holds
+            .iter()
+            .flatten()
+            .filter(|h| !h.warned)
+            .map(|h| h.since + WARN_HELD_MS);
+        waits.chain(holds).min()
+    }
+
     fn sorted_queue(&self) -> Vec<Waiter> {
         let mut queue = self.queue.clone();
         queue.sort_by(|a, b| b.priority.cmp(&a.priority).then(a.seq.cmp(&b.seq)));
@@ -683,6 +699,11 @@ fn run(policy: Policy, priorities: Vec<i32>, calls: Vec<(Call, u64)>) {
                 .count()
         );
         check_invariants(&lock, &model, &pre_faulted, call, &actual);
+        assert_eq!(
+            lock.next_warning().map(|at| at.as_u64()),
+            model.next_warning(),
+            "next warning after {call:?}"
+        );
     }
 }
 

@@ -182,7 +182,7 @@ fn auto_mode() {
             smith: None,
         },
         ts_s: 1.0,
-        stale: Millis::ZERO,
+        stale: Some(Millis::ZERO),
         setpoint: 10.0,
         mode: Mode::Auto,
         manual: None,

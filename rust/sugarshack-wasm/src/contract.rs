@@ -84,3 +84,22 @@ pub fn abnormal_event_kinds() -> Result<JsValue, JsValue> {
         .collect();
     to_js(&kinds)
 }
+
+/// The instance's memory: an engine's outputs are read from it, where its `headerPtr()` says.
+#[wasm_bindgen(js_name = wasmMemory, unchecked_return_type = "{ buffer: ArrayBuffer }")]
+pub fn memory() -> JsValue {
+    wasm_bindgen::memory()
+}
+
+/// Every text of the palette's catalogs the engine names (`key`, under the
+/// shared `sugarshack` texts) with the placeholders it fills, and the labels
+/// a placeholder may name: `{ texts: [{ key, params }], labels }`.
+#[wasm_bindgen(js_name = catalogTexts, unchecked_return_type = "{ texts: { key: string, params: string[] }[], labels: string[] }")]
+pub fn catalog_texts() -> Result<JsValue, JsValue> {
+    use sugarshack_core::engine::{CATALOG_LABELS, CATALOG_TEXTS};
+    let texts: Vec<serde_json::Value> = CATALOG_TEXTS
+        .iter()
+        .map(|(key, params)| serde_json::json!({ "key": key, "params": params }))
+        .collect();
+    to_js(&serde_json::json!({ "texts": texts, "labels": CATALOG_LABELS }))
+}

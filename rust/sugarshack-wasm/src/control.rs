@@ -6,7 +6,9 @@ use sugarshack_core::control::pid::{PidInput, PidStep};
 use sugarshack_core::control::pid_loop::{PidLoop as CoreLoop, PidLoopConfig};
 use sugarshack_core::control::rcc::{self, Decision, IoState, RccConfig, RccController};
 use sugarshack_core::control::smith::SmithPredictor;
-use sugarshack_core::control::station::{Change, Sample, Saved, Station, StationConfig};
+use sugarshack_core::control::station::{
+    Change, Sample, Saved, Station, StationConfig, PID_DEFAULTS,
+};
 use sugarshack_core::control::ControlError;
 use wasm_bindgen::prelude::*;
 
@@ -153,10 +155,18 @@ export interface RccConfig {
 export interface StationConfig {
     loop: PidLoopConfig;
     tsS: number;
-    staleMs?: number;
+    staleMs?: number | null;
     setpoint: number;
     mode?: "auto" | "manual";
     manual?: number | null;
+}
+
+/** `pidDefaults()`: what a pid node's blank settings become (stale after: `staleSamples` × Ts). */
+export interface PidDefaults {
+    alpha: number;
+    h: number;
+    maxSamples: number;
+    staleSamples: number;
 }
 
 /** `PidStation.change()`: any part absent; applied whole or refused whole. */
@@ -618,6 +628,12 @@ fn pid_config<T: serde::de::DeserializeOwned>(config: JsValue) -> Result<T, JsVa
         "PID configuration",
         Bound::Control,
     )
+}
+
+/// What a pid node's blank settings become, from the core: for the editor and help.
+#[wasm_bindgen(js_name = pidDefaults, unchecked_return_type = "PidDefaults")]
+pub fn pid_defaults() -> Result<JsValue, JsValue> {
+    to_js(&PID_DEFAULTS)
 }
 
 /// The state document of pid node `owner`: `saved` sealed for `config` at `nowMs`.

@@ -11,6 +11,7 @@ use sugarshack_core::interlock::{
     RestoreOptions, Snapshot, Start,
 };
 use sugarshack_core::operation::{AbortedOperations, RunSnapshot};
+use sugarshack_core::plant::group_msg::lockout_topic;
 use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -53,6 +54,8 @@ export interface InterlockCounts {
 /** A lockout command a fault sends for one line. */
 export interface LockoutCommand {
     resource: string;
+    /** `lockout/<resource>`: the topic its msg goes out on. */
+    topic: string;
     command: GroupCommand | null;
 }
 
@@ -232,6 +235,7 @@ fn whole(handle: f64) -> Option<u64> {
 #[serde(rename_all = "camelCase")]
 struct LockoutView<'a> {
     resource: &'a str,
+    topic: String,
     command: &'a serde_json::Value,
 }
 
@@ -375,9 +379,13 @@ impl Interlock {
         let lockouts = outcome
             .lockouts
             .iter()
-            .map(|l| LockoutView {
-                resource: self.core.resource_name(l.resource).unwrap_or_default(),
-                command: &l.command,
+            .map(|l| {
+                let resource = self.core.resource_name(l.resource).unwrap_or_default();
+                LockoutView {
+                    resource,
+                    topic: lockout_topic(resource),
+                    command: &l.command,
+                }
             })
             .collect();
         to_js(&FaultView {
@@ -656,7 +664,7 @@ impl Interlock {
         self.granted.get(index as usize).copied()
     }
 
-    /// `{ lockouts: [{ resource, command }], dropped, grants }`.
+    /// `{ lockouts: [{ resource, topic, command }], dropped, grants }`.
     #[wasm_bindgen(unchecked_return_type = "FaultOutcome")]
     pub fn fault(
         &mut self,

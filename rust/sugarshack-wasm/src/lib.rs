@@ -10,6 +10,8 @@ mod condition;
 mod contract;
 mod control;
 mod device;
+mod engine;
+mod group;
 mod interlock;
 mod modbus;
 pub mod operation;
@@ -18,13 +20,16 @@ mod tracker;
 
 pub use alarm::Alarms;
 pub use contract::{
-    abnormal_event_kinds, alarm_severities, codes, max_shelve_ms, max_status_chars,
-    operator_commands, routine_reset_topic,
+    abnormal_event_kinds, alarm_severities, catalog_texts, codes, max_shelve_ms, max_status_chars,
+    memory, operator_commands, routine_reset_topic,
 };
 pub use control::{
-    open_pid_state, seal_pid_state, validate_thresholds, IoModule, PidLoop, PidStation, Rcc,
+    open_pid_state, pid_defaults, seal_pid_state, validate_thresholds, IoModule, PidLoop,
+    PidStation, Rcc,
 };
 pub use device::DeviceSide;
+pub use engine::Engine;
+pub use group::{is_lockout_msg, read_group_msg};
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
 pub use routine::Routine;
 pub use tracker::{Ingest, Tracker};

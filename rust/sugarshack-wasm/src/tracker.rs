@@ -1,8 +1,7 @@
 use serde::Serialize;
-use sugarshack_core::actuator::{
-    describe_fault, ActuatorId, DeviceId, Effect, FaultKind, TrackError,
-};
+use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
+use sugarshack_core::plant::group_msg;
 use sugarshack_core::plant::Signal;
 use sugarshack_core::sensor::{SensorError, SensorId, SensorStore};
 use sugarshack_core::topics::modbus::link::Links;
@@ -66,9 +65,10 @@ export type FaultKind =
 export type TrackerEffect =
     | { kind: "publish"; device: number; topic: string; payload: string; retain: boolean }
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
-    | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number }
-    | { kind: "groupCompleted"; caller: number; completionMs: number }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind }
+    | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
+    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[] }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -86,6 +86,8 @@ export interface DeviceHealth {
     online: boolean;
     /** Actuators whose feedback went silent. */
     stale: string[];
+    /** Offline above all, else stale while any actuator is. */
+    state: "online" | "stale" | "offline";
 }
 
 /** A sensor as an operator sees it (`value` null before the first sample or with no reading). */
@@ -115,6 +117,8 @@ export interface ActuatorPosition {
 /** `Tracker.health()`. */
 export interface PlantHealth {
     devices: DeviceHealth[];
+    /** The ids of the devices offline, in plant order. */
+    devicesOffline: string[];
     sensors: SensorHealth[];
     actuators: ActuatorPosition[];
 }
@@ -161,7 +165,8 @@ enum Output {
 #[wasm_bindgen]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Ingest {
-    /// Not a topic of any device of the plant: a command, or someone else's traffic.
+    /// Not a topic of any device of the plant, and not text that reads as a
+    /// group command: someone else's traffic if it came from MQTT.
     Foreign = 0,
     /// A device topic the palette does not read (logs, telemetry, its commands echoed back).
     Other = 1,
@@ -171,6 +176,9 @@ pub enum Ingest {
     Samples = 3,
     /// Nothing usable: a `malformed` effect is queued.
     Refused = 4,
+    /// Not a topic of any device, and its text reads as a group command (or
+    /// a broken one, to be refused): see `plant::group_msg::command_like`.
+    Command = 5,
 }
 
 /// Device payloads larger than this are refused unread.
@@ -205,6 +213,7 @@ struct SensorView<'a> {
 #[serde(rename_all = "camelCase")]
 struct HealthView<'a> {
     devices: Vec<sugarshack_core::actuator::DeviceHealth>,
+    devices_offline: Vec<String>,
     sensors: Vec<SensorView<'a>>,
     actuators: Vec<PositionView<'a>>,
 }
@@ -479,6 +488,10 @@ impl Tracker {
     /// nothing; returns how many effects are queued. A refusal throws and sends nothing.
     /// `within`: the resources the commanding operation holds (C2), if it is one.
     /// A normal command to an actuator whose lockout is unconfirmed throws `LOCKOUT_PENDING`.
+    /// `faultAtMs`: when the fault it answers was raised; its `groupCompleted` then has `faultLockoutMs`.
+    /// `timeoutMs`: how long its caller waits (`nextDeadline`, `expire`).
+    // One crossing per command: each of its terms is an argument, not an object to read.
+    #[allow(clippy::too_many_arguments)]
     pub fn command(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "GroupCommand | string")] payload: JsValue,
@@ -486,8 +499,17 @@ impl Tracker {
         lockout: bool,
         now_ms: f64,
         within: Option<Vec<String>>,
+        fault_at_ms: Option<f64>,
+        timeout_ms: Option<f64>,
     ) -> Result<u32, JsValue> {
         let now = time(now_ms)?;
+        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
+        // a timeout that is none (0, NaN) sets no limit.
+        let terms = Terms {
+            lockout,
+            fault_at: fault_at_ms.and_then(Millis::whole),
+            timeout: timeout_ms.and_then(Millis::whole),
+        };
         let payload: serde_json::Value = from_js_bounded(
             payload,
             Code::InvalidGroup,
@@ -502,7 +524,7 @@ impl Tracker {
         }
         let effects = self
             .core
-            .command(&targets, u64::from(caller), lockout, now)
+            .issue(&targets, u64::from(caller), terms, now)
             .map_err(track_error)?;
         Ok(self.queue(effects))
     }
@@ -574,11 +596,18 @@ impl Tracker {
     /// it could not use is queued as `{ kind: "malformed", device, reason,
     /// message }` (or `rejected` for a value the actuator cannot have); it
     /// throws only on a bad `nowMs`. Feedback's hot path: no serde.
+    /// A lockout topic is a `Command`, unread; so is text on no device's
+    /// topic that reads as one.
     pub fn ingest(&mut self, topic: &str, payload: &str, now_ms: f64) -> Result<Ingest, JsValue> {
-        self.ingest_bytes(topic, payload.as_bytes(), now_ms)
+        let kind = self.ingest_bytes(topic, payload.as_bytes(), now_ms)?;
+        Ok(match kind {
+            Ingest::Foreign if self.core.plant().command_like(payload) => Ingest::Command,
+            kind => kind,
+        })
     }
 
-    /// [`Tracker::ingest`] for a payload as bytes (an MQTT Buffer).
+    /// [`Tracker::ingest`] for a payload as bytes (an MQTT Buffer): on no
+    /// device's topic, bytes are never taken for a group command.
     #[wasm_bindgen(js_name = ingestBytes)]
     pub fn ingest_bytes(
         &mut self,
@@ -588,6 +617,9 @@ impl Tracker {
     ) -> Result<Ingest, JsValue> {
         let now = time(now_ms)?;
         self.forget_last();
+        if group_msg::is_lockout_topic(topic) {
+            return Ok(Ingest::Command);
+        }
         let contract = self.core.contract();
         if payload.len() > MAX_PAYLOAD_BYTES {
             return Ok(match contract.device_of(topic) {
@@ -690,6 +722,12 @@ impl Tracker {
         self.core.plant().is_group_key(key)
     }
 
+    /// The topic of a line's lockout msg (`lockout/<line>`), which a group command node reads as a lockout.
+    #[wasm_bindgen(js_name = lockoutTopic)]
+    pub fn lockout_topic(&self, line: &str) -> String {
+        group_msg::lockout_topic(line)
+    }
+
     /// A device's availability (its retained status or last will).
     #[wasm_bindgen(js_name = deviceStatus)]
     pub fn device_status(
@@ -718,6 +756,20 @@ impl Tracker {
     pub fn tick(&mut self, now_ms: f64) -> Result<u32, JsValue> {
         let effects = self.core.tick(time(now_ms)?);
         Ok(self.queue(effects))
+    }
+
+    /// Withdraws the group commands whose timeout ran out (`groupTimedOut`),
+    /// and nothing else; returns how many effects are queued.
+    pub fn expire(&mut self, now_ms: f64) -> Result<u32, JsValue> {
+        let mut effects = Vec::new();
+        self.core.expire(time(now_ms)?, &mut effects);
+        Ok(self.queue(effects))
+    }
+
+    /// When the next group command's timeout runs out (epoch ms), if any: call `expire` then.
+    #[wasm_bindgen(js_name = nextDeadline)]
+    pub fn next_deadline(&self) -> Option<f64> {
+        self.core.next_deadline().map(Millis::as_f64)
     }
 
     /// The queued effects, oldest first, as plain objects with a `kind`.
@@ -804,22 +856,13 @@ impl Tracker {
                 &format!("unknown fault '{}'", quote(fault)),
             )
         })?;
-        let plant = self.core.plant();
-        let a = &plant.actuators[id.index()];
-        let t = plant
-            .actuator_types
-            .get(&a.kind)
-            .ok_or_else(|| js_error(Code::Internal, &format!("actuator '{}' has no type", a.id)))?;
         let target = target
             .as_f64()
             .or_else(|| target.as_bool().map(|on| if on { 1.0 } else { 0.0 }));
-        let heard = self.core.heard(id).expect("checked handle");
-        let profile = plant
-            .devices
-            .iter()
-            .find(|d| d.id == a.device)
-            .map_or("sugarshack", |d| d.profile.name());
-        let message = describe_fault(a, t, kind, retries, target, (heard, profile));
+        let message = self
+            .core
+            .describe_fault(id, kind, retries, target)
+            .ok_or_else(|| js_error(Code::Internal, "the actuator has no type"))?;
         to_js(&serde_json::json!({ "code": kind.code(), "message": message }))
     }
 
@@ -961,6 +1004,7 @@ impl Tracker {
             .collect();
         to_js(&HealthView {
             devices: self.core.device_health(),
+            devices_offline: self.core.devices_offline(),
             sensors,
             actuators,
         })

@@ -113,6 +113,8 @@ fn still_commands(t: &mut Tracker, caller: u32) {
             false,
             10.0,
             None,
+            None,
+            None,
         )
         .expect("a valid command after a refusal");
     assert!(queued > 0);
@@ -124,7 +126,9 @@ fn still_commands(t: &mut Tracker, caller: u32) {
 fn deep_group_commands_are_refused_and_the_tracker_carries_on() {
     let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     for (caller, (kind, deep)) in deep_values().into_iter().enumerate() {
-        let err = t.command(deep, 1, false, 10.0, None).unwrap_err();
+        let err = t
+            .command(deep, 1, false, 10.0, None, None, None)
+            .unwrap_err();
         assert_code(&err, "INPUT_TOO_DEEP", kind);
         assert_message_starts_with(&err, "invalid group command: nested deeper than");
         still_commands(&mut t, 100 + caller as u32);
@@ -162,7 +166,9 @@ fn values_that_are_not_data_are_refused_and_the_tracker_carries_on() {
         (js("return () => 1;"), "INVALID_INPUT", "nothing to read"),
     ];
     for (caller, (value, code, words)) in cases.into_iter().enumerate() {
-        let err = t.command(value, 1, false, 10.0, None).unwrap_err();
+        let err = t
+            .command(value, 1, false, 10.0, None, None, None)
+            .unwrap_err();
         let message = message_of(&err);
         assert_eq!(code_of(&err), code, "{message}");
         assert!(message.contains(words), "{message}");
@@ -174,7 +180,9 @@ fn values_that_are_not_data_are_refused_and_the_tracker_carries_on() {
 fn a_megabyte_group_command_is_refused_as_too_large() {
     let mut t = Tracker::new(json(&plant()), 0.0).unwrap();
     let big = js("return { valves: { V12: 'x'.repeat(1 << 20) } };");
-    let err = t.command(big, 1, false, 10.0, None).unwrap_err();
+    let err = t
+        .command(big, 1, false, 10.0, None, None, None)
+        .unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE");
     let message = message_of(&err);
     assert!(
@@ -190,7 +198,9 @@ fn a_megabyte_group_command_is_refused_as_too_large() {
         r#"{{"valves": {{"V12": "{}"}}}}"#,
         "é".repeat(40_000)
     ));
-    let err = t.command(as_text, 1, false, 10.0, None).unwrap_err();
+    let err = t
+        .command(as_text, 1, false, 10.0, None, None, None)
+        .unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE", "{}", message_of(&err));
     assert_message_contains(&err, "80023 bytes of JSON");
     still_commands(&mut t, 2);
@@ -205,6 +215,8 @@ fn group_commands_may_come_as_json_text() {
             1,
             false,
             10.0,
+            None,
+            None,
             None
         )
         .unwrap()
@@ -216,6 +228,8 @@ fn group_commands_may_come_as_json_text() {
             2,
             false,
             10.0,
+            None,
+            None,
             None,
         )
         .unwrap_err();
@@ -246,7 +260,9 @@ fn a_huge_bad_target_or_name_is_quoted_short() {
         (format!(r#"["{long}"]"#), "INVALID_GROUP"),
     ];
     for (payload, code) in cases {
-        let err = t.command(json(&payload), 1, false, 10.0, None).unwrap_err();
+        let err = t
+            .command(json(&payload), 1, false, 10.0, None, None, None)
+            .unwrap_err();
         let message = message_of(&err);
         assert_eq!(code_of(&err), code, "{message:.300}");
         assert!(
@@ -263,11 +279,15 @@ fn a_huge_bad_target_or_name_is_quoted_short() {
             false,
             10.0,
             None,
+            None,
+            None,
         )
         .unwrap_err();
     assert_message_short(&err);
     let million = js("return { valves: { V12: 'x'.repeat(1000000) } };");
-    let err = t.command(million, 1, false, 10.0, None).unwrap_err();
+    let err = t
+        .command(million, 1, false, 10.0, None, None, None)
+        .unwrap_err();
     assert_eq!(code_of(&err), "INPUT_TOO_LARGE");
     assert_message_short(&err);
 }

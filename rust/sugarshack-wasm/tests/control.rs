@@ -4,7 +4,7 @@
 //! predictor's estimate, an RCC pair deciding over a JS state tuple, and the
 //! errors a flow author sees for a broken configuration.
 
-use sugarshack_wasm::{validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
+use sugarshack_wasm::{pid_defaults, validate_thresholds, IoModule, PidLoop, PidStation, Rcc};
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -304,6 +304,26 @@ fn huge_inputs_are_coded_errors_and_the_object_keeps_working() {
 
 const STATION: &str = r#"{ "loop": { "pid": { "kp": 2, "tiS": 10, "tdS": 1, "outMin": 0, "outMax": 100, "fallback": 7 } },
                           "tsS": 1, "staleMs": 80, "setpoint": 50 }"#;
+
+#[wasm_bindgen_test]
+fn a_station_without_stale_after_goes_stale_after_the_defaults_periods_of_ts() {
+    let defaults = pid_defaults().unwrap();
+    assert_eq!(
+        (
+            number(&defaults, "alpha"),
+            number(&defaults, "h"),
+            number(&defaults, "maxSamples"),
+            number(&defaults, "staleSamples")
+        ),
+        (0.1, 3.0, 400.0, 3.0)
+    );
+    let blank = r#"{ "loop": { "pid": { "kp": 2, "outMin": 0, "outMax": 100 } }, "tsS": 0.5, "setpoint": 50 }"#;
+    let mut station = PidStation::new(json(blank)).unwrap();
+    station
+        .measure(n(40.0), n(1000.0), n(1000.0), NONE, NONE)
+        .unwrap();
+    assert_eq!(station.next_tick_ms(), Some(2500.0), "3 × 0.5 s after");
+}
 
 #[wasm_bindgen_test]
 fn a_station_steps_changes_and_goes_stale_by_tick() {

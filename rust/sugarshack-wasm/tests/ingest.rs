@@ -70,6 +70,8 @@ fn esphome_states_complete_a_group_command() {
         false,
         10.0,
         None,
+        None,
+        None,
     )
     .unwrap();
     let published: Vec<(String, String)> = effects(&mut t)

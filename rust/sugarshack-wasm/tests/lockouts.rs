@@ -51,8 +51,16 @@ fn a_lockout_stands_until_feedback_confirms_it() {
     let v12 = t.actuator("V12").unwrap();
     t.feedback(v12, 99.0, None, 10.0).unwrap();
     effects(&mut t);
-    t.command(json(r#"{ "valves": { "V12": 0 } }"#), 1, true, 100.0, None)
-        .unwrap();
+    t.command(
+        json(r#"{ "valves": { "V12": 0 } }"#),
+        1,
+        true,
+        100.0,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
     let sent = effects(&mut t);
     assert_eq!(get(&sent[0], "retain").as_bool(), Some(true));
     assert_eq!(lockouts_pending(&t), 1.0);
@@ -70,6 +78,8 @@ fn a_lockout_stands_until_feedback_confirms_it() {
             2,
             false,
             200.0,
+            None,
+            None,
             None,
         )
         .unwrap_err();
@@ -109,6 +119,8 @@ fn a_lockout_stands_until_feedback_confirms_it() {
         3,
         false,
         6200.0,
+        None,
+        None,
         None,
     )
     .unwrap();

@@ -57,6 +57,8 @@ fn a_poll_reads_feedback_and_a_command_is_written_then_fails_when_the_connection
         false,
         1100.0,
         None,
+        None,
+        None,
     )
     .unwrap();
     assert_eq!(kinds(&t.take_effects().unwrap()), ["modbusSend"]);

@@ -77,8 +77,16 @@ fn a_run_goes_from_its_request_to_its_release() {
         .filter_map(|l| l.as_string())
         .collect();
     assert!(
-        t.command(get(&step, "command"), 1, false, 1500.0, Some(within))
-            .unwrap()
+        t.command(
+            get(&step, "command"),
+            1,
+            false,
+            1500.0,
+            Some(within),
+            None,
+            None
+        )
+        .unwrap()
             > 0
     );
     assert_eq!(

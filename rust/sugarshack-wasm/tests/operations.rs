@@ -70,17 +70,41 @@ fn a_command_within_held_resources_goes_and_one_outside_them_is_refused() {
     let mut t = tracker();
     let yel = Some(vec!["YEL".to_string()]);
     assert!(
-        t.command(json(r#"{"valves":{"V1":100}}"#), 1, false, 0.0, yel.clone())
-            .unwrap()
+        t.command(
+            json(r#"{"valves":{"V1":100}}"#),
+            1,
+            false,
+            0.0,
+            yel.clone(),
+            None,
+            None
+        )
+        .unwrap()
             > 0
     );
     let err = t
-        .command(json(r#"{"valves":{"V9":100}}"#), 2, false, 0.0, yel)
+        .command(
+            json(r#"{"valves":{"V9":100}}"#),
+            2,
+            false,
+            0.0,
+            yel,
+            None,
+            None,
+        )
         .unwrap_err();
     assert_eq!(code_of(err), "OUTSIDE_RESOURCES");
     // Without `within` (a plain group command node) C2 is not the tracker's to check.
     assert!(t
-        .command(json(r#"{"valves":{"V9":100}}"#), 3, false, 0.0, None)
+        .command(
+            json(r#"{"valves":{"V9":100}}"#),
+            3,
+            false,
+            0.0,
+            None,
+            None,
+            None
+        )
         .is_ok());
 }
 

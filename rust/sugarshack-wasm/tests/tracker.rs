@@ -69,6 +69,8 @@ fn a_group_command_runs_from_plain_objects_to_completion() {
             false,
             100.0,
             None,
+            None,
+            None,
         )
         .unwrap();
     assert_eq!(queued, 2);
@@ -114,11 +116,22 @@ fn a_group_command_runs_from_plain_objects_to_completion() {
 #[wasm_bindgen_test]
 fn refusals_throw_coded_errors_and_send_nothing() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
-    t.command(json(r#"{ "valves": { "V12": 100 } }"#), 1, false, 0.0, None)
-        .unwrap();
+    t.command(
+        json(r#"{ "valves": { "V12": 100 } }"#),
+        1,
+        false,
+        0.0,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
     t.take_effects().unwrap();
     let code = |t: &mut Tracker, payload: &str| {
-        code_of(t.command(json(payload), 2, false, 10.0, None).unwrap_err())
+        code_of(
+            t.command(json(payload), 2, false, 10.0, None, None, None)
+                .unwrap_err(),
+        )
     };
     for (payload, expected) in [
         (r#"{ "valves": { "V12": 0 } }"#, "STILL_MOVING"),
@@ -188,10 +201,20 @@ fn counts_on_a_device_list_count_only_its_actuators() {
         false,
         0.0,
         None,
+        None,
+        None,
     )
     .unwrap();
-    t.command(json(r#"{ "valves": { "V1": 0 } }"#), 2, true, 0.0, None)
-        .unwrap();
+    t.command(
+        json(r#"{ "valves": { "V1": 0 } }"#),
+        2,
+        true,
+        0.0,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
     let moving = |c: &JsValue| get(c, "moving").as_f64().unwrap();
     let on_two = t.counts_on(&[1]).unwrap();
     assert_eq!(moving(&on_two), 2.0);
@@ -207,5 +230,72 @@ fn counts_on_a_device_list_count_only_its_actuators() {
         moving(&t.counts_on(&[7, 1_000_000]).unwrap()),
         0.0,
         "unknown devices count nothing"
+    );
+}
+
+/// The effect of `kind` among `effects`.
+fn effect(effects: &JsValue, kind: &str) -> JsValue {
+    Array::from(effects)
+        .iter()
+        .find(|e| get(e, "kind").as_string().as_deref() == Some(kind))
+        .unwrap_or_else(|| panic!("no {kind} in {:?}", kinds(effects)))
+}
+
+#[wasm_bindgen_test]
+fn the_core_answers_a_group_command_worded_timed_and_on_its_deadline() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    t.feedback_batch(&[v12], &[0.0], None, 10.0).unwrap();
+    t.take_effects().unwrap();
+    let valve = || json(r#"{ "valves": { "V12": 100 } }"#);
+    t.command(valve(), 1, false, 100.0, None, None, Some(1500.0))
+        .unwrap();
+    assert_eq!(t.next_deadline(), Some(1600.0));
+    t.take_effects().unwrap();
+    t.expire(1599.0).unwrap();
+    assert!(kinds(&t.take_effects().unwrap()).is_empty());
+    t.expire(1600.0).unwrap();
+    let timed_out = effect(&t.take_effects().unwrap(), "groupTimedOut");
+    assert_eq!(get(&timed_out, "timeoutMs").as_f64(), Some(1500.0));
+    assert_eq!(
+        Array::from(&get(&timed_out, "waiting")).to_vec(),
+        vec![JsValue::from(v12)]
+    );
+    assert_eq!(t.next_deadline(), None);
+
+    // No retries in this plant: the first no-motion check fails the group, worded by the core.
+    t.command(valve(), 2, false, 2000.0, None, None, None)
+        .unwrap();
+    t.tick(3000.0).unwrap();
+    let failed = effect(&t.take_effects().unwrap(), "groupFailed");
+    assert_eq!(
+        get(&failed, "code").as_string().as_deref(),
+        Some("COMMAND_FAILED")
+    );
+    assert_eq!(get(&failed, "retries").as_f64(), Some(0.0));
+    assert_eq!(
+        get(&failed, "message").as_string().as_deref(),
+        Some("valve V12 did not move within 1 s of its command")
+    );
+
+    // A lockout after a fault: the fault lockout time; in place at once, so not timed.
+    t.command(
+        json(r#"{ "valves": { "V12": 0 } }"#),
+        3,
+        true,
+        3500.0,
+        None,
+        Some(3250.0),
+        None,
+    )
+    .unwrap();
+    let effects = t.take_effects().unwrap();
+    assert_eq!(
+        get(&effect(&effects, "completed"), "timed").as_bool(),
+        Some(false)
+    );
+    assert_eq!(
+        get(&effect(&effects, "groupCompleted"), "faultLockoutMs").as_f64(),
+        Some(250.0)
     );
 }

@@ -38,6 +38,7 @@ pub use error::TrackError;
 pub use fault::{describe_fault, Heard};
 
 use crate::clearance::ClearBlocker;
+use crate::code::Code;
 use crate::plant::{
     state_value, Escalation, GroupError, Plant, PlantErrors, PlantModel, Range, Signal,
 };
@@ -161,6 +162,9 @@ pub enum Effect {
         completion_ms: Millis,
         /// Retries made before this.
         retries: u32,
+        /// Whether its times are figures of motion: false when the command
+        /// found the actuator already at its target (both times are 0 then).
+        timed: bool,
     },
     /// Every actuator of the group reached its target: answer the caller.
     #[serde(rename_all = "camelCase")]
@@ -169,6 +173,21 @@ pub enum Effect {
         caller: Caller,
         /// From the command to the last actuator's completion.
         completion_ms: Millis,
+        /// The fault lockout time: from the fault the command answered (its
+        /// `fault_at`, see [`Tracker::command_after_fault`]) to this completion.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        fault_lockout_ms: Option<Millis>,
+    },
+    /// The group's caller waited its timeout: the group is withdrawn (as
+    /// [`Tracker::withdraw`]); answer the caller with an error.
+    #[serde(rename_all = "camelCase")]
+    GroupTimedOut {
+        /// The caller's handle of the group command.
+        caller: Caller,
+        /// The timeout it was given.
+        timeout_ms: Millis,
+        /// Its actuators not at their target yet, in the command's order.
+        waiting: Vec<ActuatorId>,
     },
     /// The group failed (fail-fast): answer the caller with an error.
     #[serde(rename_all = "camelCase")]
@@ -179,6 +198,12 @@ pub enum Effect {
         actuator: ActuatorId,
         /// Which failure.
         fault: FaultKind,
+        /// Retries of the failed command before it failed.
+        retries: u32,
+        /// The code the caller fails with (`COMMAND_FAILED`, `LOCKED_OUT`).
+        code: Code,
+        /// Why, in plain words (see [`describe_fault`]).
+        message: String,
     },
     /// A command failed its check and was sent again.
     #[serde(rename_all = "camelCase")]
@@ -247,8 +272,7 @@ pub enum Effect {
 }
 
 /// A device as an operator sees it: online, and which of its actuators went silent.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-#[serde(rename_all = "camelCase")]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DeviceHealth {
     /// The device's id.
     pub device: String,
@@ -256,6 +280,43 @@ pub struct DeviceHealth {
     pub online: bool,
     /// Its actuators whose feedback is stale, in plant order.
     pub stale: Vec<String>,
+}
+
+/// A device's state in one word, as an operator's screen shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Availability {
+    /// Online, every actuator's feedback fresh.
+    Online,
+    /// Online, but some of its actuators went silent.
+    Stale,
+    /// It reported offline (status or last will).
+    Offline,
+}
+
+impl DeviceHealth {
+    /// Offline above all, else stale while any of its actuators is.
+    pub fn state(&self) -> Availability {
+        if !self.online {
+            Availability::Offline
+        } else if !self.stale.is_empty() {
+            Availability::Stale
+        } else {
+            Availability::Online
+        }
+    }
+}
+
+impl Serialize for DeviceHealth {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut s = serializer.serialize_struct("DeviceHealth", 4)?;
+        s.serialize_field("device", &self.device)?;
+        s.serialize_field("online", &self.online)?;
+        s.serialize_field("stale", &self.stale)?;
+        s.serialize_field("state", &self.state())?;
+        s.end()
+    }
 }
 
 /// A lockout not yet confirmed by feedback.
@@ -345,6 +406,37 @@ struct DeviceState {
 struct Group {
     issued_ms: Millis,
     remaining: usize,
+    /// When the fault this command answers was raised (a lockout's), if any.
+    fault_at: Option<Millis>,
+    /// Its timeout, and the time it runs out.
+    deadline: Option<(Millis, Millis)>,
+    /// Its actuators, in the command's order.
+    members: Vec<ActuatorId>,
+}
+
+/// How a group command is carried out, beyond its targets.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Terms {
+    /// A lockout: published retained, taking over actuators still moving,
+    /// standing until feedback confirms it.
+    pub lockout: bool,
+    /// When the fault it answers was raised: its completion reports the
+    /// fault lockout time, from the fault to every actuator in place (0 for
+    /// a fault time after it).
+    pub fault_at: Option<Millis>,
+    /// How long its caller waits: the first [`Tracker::tick`] at or past it
+    /// withdraws the group ([`Effect::GroupTimedOut`]). None or 0: no limit.
+    pub timeout: Option<Millis>,
+}
+
+impl Group {
+    fn completed(&self, caller: Caller, now: Millis) -> Effect {
+        Effect::GroupCompleted {
+            caller,
+            completion_ms: now.saturating_sub(self.issued_ms),
+            fault_lockout_ms: self.fault_at.map(|at| now.saturating_sub(at)),
+        }
+    }
 }
 
 /// Counts for a status line.
@@ -684,6 +776,43 @@ impl Tracker {
         self.devices.iter().map(|d| self.health_of(d)).collect()
     }
 
+    /// The ids of the devices that reported offline, in plant order.
+    pub fn devices_offline(&self) -> Vec<String> {
+        self.devices
+            .iter()
+            .filter(|d| !d.online)
+            .map(|d| d.name.clone())
+            .collect()
+    }
+
+    /// Why a command of actuator `id` to `target` failed with `fault` after
+    /// `retries` retries, worded from the plant document; None for an unknown handle.
+    pub fn describe_fault(
+        &self,
+        id: ActuatorId,
+        fault: FaultKind,
+        retries: u32,
+        target: Option<f64>,
+    ) -> Option<String> {
+        let a = self.plant.actuators.get(id.index())?;
+        let kind = self.plant.actuator_types.get(&a.kind)?;
+        let profile = self
+            .plant
+            .devices
+            .iter()
+            .find(|d| d.id == a.device)
+            .map_or("sugarshack", |d| d.profile.name());
+        let heard = self.heard(id)?;
+        Some(describe_fault(
+            a,
+            kind,
+            fault,
+            retries,
+            target,
+            (heard, profile),
+        ))
+    }
+
     /// One device's health ([`Tracker::device_health`]), if the handle is known.
     pub fn device_health_of(&self, id: DeviceId) -> Option<DeviceHealth> {
         self.devices.get(id.index()).map(|d| self.health_of(d))
@@ -817,13 +946,30 @@ impl Tracker {
         lockout: bool,
         now: Millis,
     ) -> Result<Vec<Effect>, TrackError> {
+        let terms = Terms {
+            lockout,
+            ..Terms::default()
+        };
+        self.issue(targets, caller, terms, now)
+    }
+
+    /// [`Tracker::command`] on `terms`: a lockout or not, the fault it
+    /// answers, the time its caller waits.
+    pub fn issue(
+        &mut self,
+        targets: &[(ActuatorId, f64)],
+        caller: Caller,
+        terms: Terms,
+        now: Millis,
+    ) -> Result<Vec<Effect>, TrackError> {
+        let lockout = terms.lockout;
         self.check_group(targets, caller, lockout)?;
         let mut effects = Vec::with_capacity(targets.len() + 1);
         let mut remaining = 0;
         for &(id, target) in targets {
             if let Some(old) = self.actuators[id.index()].command.take() {
                 // Only a lockout gets here with a command active: it takes over.
-                self.fail_group(old.caller, id, FaultKind::LockedOut, &mut effects);
+                self.fail_group(&old, id, FaultKind::LockedOut, &mut effects);
             }
             let a = &mut self.actuators[id.index()];
             // A register holds its last write: nothing is retained to clear.
@@ -882,6 +1028,7 @@ impl Tracker {
                     issue_to_motion_ms: Millis::ZERO,
                     completion_ms: Millis::ZERO,
                     retries: 0,
+                    timed: false,
                 });
                 continue;
             }
@@ -898,19 +1045,20 @@ impl Tracker {
             a.set_phase(&mut self.tally, Phase::Pending);
             remaining += 1;
         }
+        let group = Group {
+            issued_ms: now,
+            remaining,
+            fault_at: terms.fault_at,
+            deadline: terms
+                .timeout
+                .filter(|t| *t > Millis::ZERO)
+                .map(|t| (t, now.saturating_add(t))),
+            members: targets.iter().map(|&(id, _)| id).collect(),
+        };
         if remaining == 0 {
-            effects.push(Effect::GroupCompleted {
-                caller,
-                completion_ms: Millis::ZERO,
-            });
+            effects.push(group.completed(caller, now));
         } else {
-            self.groups.insert(
-                caller,
-                Group {
-                    issued_ms: now,
-                    remaining,
-                },
-            );
+            self.groups.insert(caller, group);
         }
         Ok(effects)
     }
@@ -1160,6 +1308,7 @@ impl Tracker {
                 issue_to_motion_ms,
                 completion_ms: now.saturating_sub(command.issued_ms),
                 retries: command.retries,
+                timed: true,
             });
             self.complete_one(command.caller, now, effects);
         }
@@ -1258,6 +1407,7 @@ impl Tracker {
     /// `now - start >= T`. Nothing is checked for a device known offline.
     pub fn tick(&mut self, now: Millis) -> Vec<Effect> {
         let mut effects = Vec::new();
+        self.expire(now, &mut effects);
         for index in 0..self.actuators.len() {
             let id = ActuatorId(index as u32);
             let a = &self.actuators[index];
@@ -1291,6 +1441,51 @@ impl Tracker {
             }
         }
         effects
+    }
+
+    /// When the next group command's timeout runs out, if one has a timeout:
+    /// `tick` then, at the latest, to answer its caller on time.
+    pub fn next_deadline(&self) -> Option<Millis> {
+        self.groups
+            .values()
+            .filter_map(|g| g.deadline.map(|(_, at)| at))
+            .min()
+    }
+
+    /// Withdraws every group whose timeout ran out, earliest first (`tick`
+    /// does too; this checks nothing else, for a caller woken at a deadline).
+    pub fn expire(&mut self, now: Millis, effects: &mut Vec<Effect>) {
+        let mut due: Vec<(Millis, Caller)> = self
+            .groups
+            .iter()
+            .filter_map(|(&caller, g)| {
+                g.deadline
+                    .filter(|(_, at)| *at <= now)
+                    .map(|(_, at)| (at, caller))
+            })
+            .collect();
+        due.sort_unstable();
+        for (_, caller) in due {
+            let group = self.groups.get(&caller).expect("listed above");
+            let (timeout_ms, _) = group.deadline.expect("listed above");
+            let waiting = group
+                .members
+                .iter()
+                .copied()
+                .filter(|id| {
+                    self.actuators[id.index()]
+                        .command
+                        .as_ref()
+                        .is_some_and(|c| c.caller == caller)
+                })
+                .collect();
+            self.withdraw(caller);
+            effects.push(Effect::GroupTimedOut {
+                caller,
+                timeout_ms,
+                waiting,
+            });
+        }
     }
 
     /// No motion or target not reached: retried, then escalated.
@@ -1403,7 +1598,7 @@ impl Tracker {
             (Escalation::Hang, Some(command)) => command.escalated = true,
             (Escalation::FailFast, Some(_)) => {
                 let command = a.command.take().expect("matched");
-                self.fail_group(command.caller, id, fault, effects);
+                self.fail_group(&command, id, fault, effects);
             }
         }
     }
@@ -1415,24 +1610,27 @@ impl Tracker {
         group.remaining -= 1;
         if group.remaining == 0 {
             let group = self.groups.remove(&caller).expect("present");
-            effects.push(Effect::GroupCompleted {
-                caller,
-                completion_ms: now.saturating_sub(group.issued_ms),
-            });
+            effects.push(group.completed(caller, now));
         }
     }
 
-    /// The group fails once; its other actuators stop being waited for.
+    /// The group of `failed` (the command of `actuator`) fails once, worded
+    /// with that command's retries and target; its other actuators stop being waited for.
     fn fail_group(
         &mut self,
-        caller: Caller,
+        failed: &Command,
         actuator: ActuatorId,
         fault: FaultKind,
         effects: &mut Vec<Effect>,
     ) {
+        let caller = failed.caller;
         if self.groups.remove(&caller).is_none() {
             return;
         }
+        let retries = failed.retries;
+        let message = self
+            .describe_fault(actuator, fault, retries, Some(failed.target))
+            .unwrap_or_default();
         for a in &mut self.actuators {
             if a.command.as_ref().is_some_and(|c| c.caller == caller) {
                 a.command = None;
@@ -1445,6 +1643,9 @@ impl Tracker {
             caller,
             actuator,
             fault,
+            retries,
+            code: fault.code(),
+            message,
         });
     }
 }

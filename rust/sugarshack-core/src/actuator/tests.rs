@@ -65,7 +65,8 @@ fn completes_group(effects: &[Effect], caller: Caller, at_ms: u64) -> bool {
             e,
             Effect::GroupCompleted {
                 caller: c,
-                completion_ms
+                completion_ms,
+                ..
             } if *c == caller && *completion_ms == ms(at_ms)
         )
     })
@@ -1113,4 +1114,152 @@ fn what_was_heard_goes_from_nothing_to_the_device_to_the_actuator() {
         "a sample is heard without a status"
     );
     assert_eq!(t.heard(ActuatorId(99)), None);
+}
+
+#[test]
+fn a_failed_group_carries_its_commands_retries_code_and_words() {
+    let (mut t, v1, _, p1) = tracker();
+    t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    t.feedback(v1, 20.0, None, ms(500)).unwrap();
+    t.tick(ms(3000));
+    t.feedback(v1, 40.0, None, ms(3500)).unwrap();
+    let failed = t.tick(ms(6000));
+    let Some(Effect::GroupFailed {
+        retries,
+        code,
+        message,
+        ..
+    }) = failed
+        .iter()
+        .find(|e| matches!(e, Effect::GroupFailed { .. }))
+    else {
+        panic!("{failed:?}");
+    };
+    assert_eq!((*retries, *code), (1, Code::CommandFailed));
+    assert_eq!(
+        message,
+        "valve V1 did not reach 100 within 3 s of its command (after 1 retry)"
+    );
+    // Taken over by a lockout before any retry: its own code, no retries.
+    t.feedback(p1, 0.0, None, ms(6000)).unwrap();
+    t.command(&[(p1, 1.0)], 2, false, ms(6000)).unwrap();
+    let lockout = t.command(&[(p1, 0.0)], 3, true, ms(6100)).unwrap();
+    assert!(has(&lockout, |e| matches!(
+        e,
+        Effect::GroupFailed { caller: 2, retries: 0, code: Code::LockedOut, message, .. }
+            if message == "pump P1 was taken over by a lockout command before it completed"
+    )));
+}
+
+#[test]
+fn only_commands_that_had_to_move_are_timed() {
+    let (mut t, v1, v2, _) = tracker();
+    let in_place = t.command(&[(v1, 1.0)], 1, false, ms(10)).unwrap();
+    assert!(has(&in_place, |e| matches!(
+        e,
+        Effect::Completed { timed: false, completion_ms, .. } if *completion_ms == Millis::ZERO
+    )));
+    t.command(&[(v2, 50.0)], 2, false, ms(20)).unwrap();
+    let moved = t.feedback(v2, 50.0, None, ms(20)).unwrap();
+    assert!(
+        has(&moved, |e| matches!(
+            e,
+            Effect::Completed { timed: true, .. }
+        )),
+        "arrived in the same ms: still a figure of motion"
+    );
+}
+
+#[test]
+fn a_lockout_after_a_fault_reports_the_time_from_the_fault_to_isolation() {
+    let (mut t, v1, v2, _) = tracker();
+    let after_fault = |at: u64| Terms {
+        lockout: true,
+        fault_at: Some(ms(at)),
+        timeout: None,
+    };
+    t.issue(&[(v1, 0.0), (v2, 50.0)], 1, after_fault(750), ms(1000))
+        .unwrap();
+    let done = t.feedback(v2, 49.0, None, ms(1040)).unwrap();
+    assert!(has(&done, |e| matches!(
+        e,
+        Effect::GroupCompleted { caller: 1, completion_ms, fault_lockout_ms: Some(f) }
+            if *completion_ms == ms(40) && *f == ms(290)
+    )));
+    // All in place at once; a fault time after the command counts as none elapsed.
+    let at_once = t
+        .issue(&[(v1, 0.0)], 2, after_fault(5000), ms(1100))
+        .unwrap();
+    assert!(has(&at_once, |e| matches!(
+        e,
+        Effect::GroupCompleted { caller: 2, fault_lockout_ms: Some(f), .. } if *f == Millis::ZERO
+    )));
+    let plain = t.command(&[(v1, 10.0)], 3, false, ms(1200)).unwrap();
+    assert!(!has(&plain, |e| matches!(e, Effect::GroupCompleted { .. })));
+    let done = t.feedback(v1, 10.0, None, ms(1300)).unwrap();
+    assert!(has(&done, |e| matches!(
+        e,
+        Effect::GroupCompleted {
+            caller: 3,
+            fault_lockout_ms: None,
+            ..
+        }
+    )));
+}
+
+#[test]
+fn a_device_reads_offline_above_stale_above_online() {
+    let (mut t, v1, _, _) = tracker();
+    let state = |t: &Tracker, d: &str| t.device_health_of(t.device(d).unwrap()).unwrap().state();
+    assert_eq!(state(&t, "ctrl-1"), Availability::Online);
+    // V9 never reported: after staleMs it is stale, so ctrl-2 is.
+    t.tick(ms(5000));
+    assert_eq!(state(&t, "ctrl-2"), Availability::Stale);
+    assert_eq!(state(&t, "ctrl-1"), Availability::Stale);
+    t.feedback(v1, 0.0, None, ms(5100)).unwrap();
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    t.device_status(ctrl1, false, ms(5200)).unwrap();
+    assert_eq!(state(&t, "ctrl-1"), Availability::Offline);
+    assert_eq!(t.devices_offline(), vec!["ctrl-1".to_owned()]);
+    let json = serde_json::to_value(t.device_health()).unwrap();
+    assert_eq!(json[0]["state"], "offline");
+    assert_eq!(json[1]["state"], "stale");
+    assert_eq!(json[1]["stale"], json!(["V9"]));
+}
+
+#[test]
+fn a_group_past_its_timeout_is_withdrawn_at_the_first_tick_naming_what_it_waited_for() {
+    let mut t = Tracker::new(plant("hang"), ms(0)).unwrap();
+    let [v1, v2, p1] = ["V1", "V2", "P1"].map(|n| t.actuator(n).unwrap());
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.feedback(v2, 0.0, None, ms(0)).unwrap();
+    let waits = |timeout: u64| Terms {
+        timeout: Some(ms(timeout)),
+        ..Terms::default()
+    };
+    t.issue(&[(v2, 100.0), (v1, 10.0)], 1, waits(1500), ms(100))
+        .unwrap();
+    t.issue(&[(p1, 1.0)], 2, waits(0), ms(100)).unwrap();
+    assert_eq!(
+        t.next_deadline(),
+        Some(ms(1600)),
+        "no limit for a 0 timeout"
+    );
+    t.feedback(v1, 10.0, None, ms(500)).unwrap();
+    assert!(!has(&t.tick(ms(1599)), |e| matches!(
+        e,
+        Effect::GroupTimedOut { .. }
+    )));
+    let timed_out = t.tick(ms(1600));
+    assert_eq!(
+        timed_out.first(),
+        Some(&Effect::GroupTimedOut {
+            caller: 1,
+            timeout_ms: ms(1500),
+            waiting: vec![v2],
+        })
+    );
+    assert_eq!(t.phase(v2), Some(Phase::Idle), "withdrawn");
+    assert_eq!(t.next_deadline(), None);
+    assert!(!t.withdraw(1), "already answered");
 }

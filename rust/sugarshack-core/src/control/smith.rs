@@ -22,6 +22,15 @@ use crate::time::Millis;
 /// Upper bound on `max_samples`: 100 000 samples of f64 is 800 kB per loop.
 pub const MAX_DELAY_LINE: usize = 100_000;
 
+/// `max_samples` when not set: 400 samples of Ts covers the paper's delays at its Ts.
+pub const DEFAULT_MAX_SAMPLES: usize = 400;
+
+/// The estimator's weight of a new round trip when not set.
+pub const DEFAULT_ALPHA: f64 = 0.1;
+
+/// How many standard deviations above the mean round trip the dead time covers, when not set.
+pub const DEFAULT_H: f64 = 3.0;
+
 /// First-order process model without its dead time: gain and time constant.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", deny_unknown_fields)]
@@ -44,8 +53,10 @@ pub enum DeadTime {
     /// D_c from the estimator fed with measured round trips.
     Adaptive {
         /// The weight of each new round trip in the estimate.
+        #[serde(default = "default_alpha")]
         alpha: f64,
         /// How many standard deviations above the mean the dead time is taken.
+        #[serde(default = "default_h")]
         h: f64,
     },
 }
@@ -66,7 +77,15 @@ pub struct SmithConfig {
 }
 
 fn default_max_samples() -> usize {
-    400
+    DEFAULT_MAX_SAMPLES
+}
+
+fn default_alpha() -> f64 {
+    DEFAULT_ALPHA
+}
+
+fn default_h() -> f64 {
+    DEFAULT_H
 }
 
 impl SmithConfig {
@@ -283,6 +302,34 @@ mod tests {
             s.advance(1.0, 0.3).unwrap();
         }
         assert_eq!(s.model_outputs.len(), 51);
+    }
+
+    #[test]
+    fn an_adaptive_dead_time_left_blank_takes_alpha_h_and_max_samples_from_here() {
+        let given = r#"{ "model": { "gain": 1, "tauS": 3 }, "tsS": 0.3, "deadTime": { "mode": "adaptive" } }"#;
+        let config: SmithConfig = serde_json::from_str(given).unwrap();
+        assert_eq!(
+            config.dead_time,
+            DeadTime::Adaptive {
+                alpha: DEFAULT_ALPHA,
+                h: DEFAULT_H
+            }
+        );
+        assert_eq!(config.max_samples, DEFAULT_MAX_SAMPLES);
+        assert_eq!(
+            (DEFAULT_ALPHA, DEFAULT_H, DEFAULT_MAX_SAMPLES),
+            (0.1, 3.0, 400)
+        );
+        SmithPredictor::new(config).unwrap();
+    }
+
+    #[test]
+    fn what_is_set_wins_over_the_defaults() {
+        let given = r#"{ "model": { "gain": 1, "tauS": 3 }, "tsS": 0.3, "maxSamples": 20,
+                         "deadTime": { "mode": "adaptive", "alpha": 0.5, "h": 0 } }"#;
+        let config: SmithConfig = serde_json::from_str(given).unwrap();
+        assert_eq!(config.dead_time, DeadTime::Adaptive { alpha: 0.5, h: 0.0 });
+        assert_eq!(config.max_samples, 20);
     }
 
     #[test]

@@ -20,6 +20,7 @@ use super::error::{computed, finite, ControlError};
 use super::pid::{PidInput, PidStep, StepMode};
 use super::pid_loop::{PidLoop, PidLoopConfig};
 use super::rcc::{self, Decision};
+use super::smith;
 use crate::sealed::{self, Kind, Refusal};
 use crate::text::quote;
 use crate::text::seconds;
@@ -45,9 +46,10 @@ pub struct StationConfig {
     pub pid_loop: PidLoopConfig,
     /// Sample period in seconds: the dt of a first sample.
     pub ts_s: f64,
-    /// No valid measurement for this long sends the fallback; 0 turns it off.
+    /// No valid measurement for this long sends the fallback; 0 turns it off;
+    /// absent (or null): [`DEFAULT_STALE_SAMPLES`] × Ts.
     #[serde(rename = "staleMs", default, deserialize_with = "stale_after")]
-    pub stale: Millis,
+    pub stale: Option<Millis>,
     /// The set point at start.
     pub setpoint: f64,
     /// The mode at start.
@@ -58,10 +60,52 @@ pub struct StationConfig {
     pub manual: Option<f64>,
 }
 
-/// The stale time as written, in ms: refused unless a number >= 0.
-fn stale_after<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Millis, D::Error> {
-    let ms = f64::deserialize(deserializer)?;
-    Millis::new(ms).ok_or_else(|| {
+/// Stale after this many sample periods when the configuration does not say.
+pub const DEFAULT_STALE_SAMPLES: f64 = 3.0;
+
+/// What a pid node's configuration left blank becomes: shown by the editor and help.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PidDefaults {
+    /// The adaptive dead time's estimator weight.
+    pub alpha: f64,
+    /// The adaptive dead time's standard deviations above the mean.
+    pub h: f64,
+    /// The longest dead time the Smith predictor's delay line holds, in samples.
+    pub max_samples: usize,
+    /// Stale after this many sample periods.
+    pub stale_samples: f64,
+}
+
+/// The defaults every pid node's configuration falls back on.
+pub const PID_DEFAULTS: PidDefaults = PidDefaults {
+    alpha: smith::DEFAULT_ALPHA,
+    h: smith::DEFAULT_H,
+    max_samples: smith::DEFAULT_MAX_SAMPLES,
+    stale_samples: DEFAULT_STALE_SAMPLES,
+};
+
+impl StationConfig {
+    /// The stale time in force: as set, else [`DEFAULT_STALE_SAMPLES`] × Ts.
+    pub fn stale_after(&self) -> Result<Millis, ControlError> {
+        match self.stale {
+            Some(stale) => Ok(stale),
+            None => Millis::from_secs_f64(DEFAULT_STALE_SAMPLES * self.ts_s).ok_or_else(|| {
+                ControlError::config(format!(
+                    "stale after defaults to {DEFAULT_STALE_SAMPLES} × Ts, and Ts {} is too long for it: set stale after",
+                    quote(self.ts_s)
+                ))
+            }),
+        }
+    }
+}
+
+/// The stale time as written, in ms: refused unless a number >= 0; null is "not set".
+fn stale_after<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Option<Millis>, D::Error> {
+    let Some(ms) = Option::<f64>::deserialize(deserializer)? else {
+        return Ok(None);
+    };
+    Millis::new(ms).map(Some).ok_or_else(|| {
         serde::de::Error::custom(format!(
             "stale after must be a number of seconds >= 0 (0 turns the watchdog off), got {}",
             seconds(ms)
@@ -295,10 +339,11 @@ impl Station {
                 "starting in manual mode needs a manual output",
             ));
         }
+        let stale = config.stale_after()?;
         Ok(Self {
             pid_loop: PidLoop::new(config.pid_loop)?,
             ts_s: config.ts_s,
-            stale: config.stale,
+            stale,
             setpoint,
             mode: config.mode,
             manual,

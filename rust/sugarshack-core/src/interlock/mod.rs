@@ -266,7 +266,8 @@ enum OpState {
 
 #[derive(Clone, Debug)]
 struct Operation {
-    name: String,
+    /// Shared with whoever names the operation (the engine's requests, its wire's table).
+    name: Arc<str>,
     state: OpState,
     generation: u32,
     /// False once forgotten, until the slot is reused.
@@ -278,6 +279,8 @@ struct Operation {
 pub struct Interlock {
     config: InterlockConfig,
     resource_index: HashMap<String, ResourceId>,
+    /// Each line's name, shared with whoever names it (the engine's requests, its wire's table).
+    line_names: Vec<Arc<str>>,
     owners: Vec<Owner>,
     /// Per resource, the requests that need it, in grant order.
     waiters: Vec<BTreeSet<QueueKey>>,
@@ -303,6 +306,11 @@ pub struct Interlock {
     holding: usize,
     faulted: usize,
     events: Vec<Event>,
+    /// When each wait or hold not warned about yet crosses its warning time,
+    /// so the next one is known without reading every request.
+    warn_due: BTreeSet<(Millis, OpId)>,
+    /// Only abnormal events are recorded (nobody reads the others).
+    abnormal_only: bool,
 }
 
 impl Interlock {
@@ -316,9 +324,15 @@ impl Interlock {
             .enumerate()
             .map(|(i, r)| (r.name.clone(), ResourceId(i as u32)))
             .collect();
+        let line_names = config
+            .resources
+            .iter()
+            .map(|r| Arc::from(r.name.as_str()))
+            .collect();
         Ok(Interlock {
             config,
             resource_index,
+            line_names,
             owners: vec![Owner::Free; count],
             waiters: vec![BTreeSet::new(); count],
             queue: BTreeSet::new(),
@@ -334,6 +348,8 @@ impl Interlock {
             holding: 0,
             faulted: 0,
             events: Vec::new(),
+            warn_due: BTreeSet::new(),
+            abnormal_only: false,
         })
     }
 
@@ -358,7 +374,7 @@ impl Interlock {
         let id = match self.free_slots.pop() {
             Some(index) => {
                 let slot = &mut self.operations[index as usize];
-                slot.name = name.to_owned();
+                slot.name = Arc::from(name);
                 slot.known = true;
                 OpId {
                     index,
@@ -367,7 +383,7 @@ impl Interlock {
             }
             None => {
                 self.operations.push(Operation {
-                    name: name.to_owned(),
+                    name: Arc::from(name),
                     state: OpState::Idle,
                     generation: 0,
                     known: true,
@@ -416,8 +432,8 @@ impl Interlock {
             if !slot.known || !matches!(slot.state, OpState::Idle) || named.contains(&id) {
                 continue;
             }
-            self.operation_index.remove(&slot.name);
-            slot.name = String::new();
+            self.operation_index.remove(&*slot.name);
+            slot.name = Arc::from("");
             slot.known = false;
             slot.generation = (slot.generation + 1) & GENERATION_MASK;
             self.free_slots.push(index as u32);
@@ -440,7 +456,18 @@ impl Interlock {
 
     /// The name of the operation with handle `id`.
     pub fn operation_name(&self, id: OpId) -> Option<&str> {
-        self.slot(id).map(|op| op.name.as_str())
+        self.slot(id).map(|op| &*op.name)
+    }
+
+    /// [`Interlock::operation_name`], shared: one text however many requests name it.
+    pub fn shared_operation_name(&self, id: OpId) -> Option<Arc<str>> {
+        self.slot(id).map(|op| op.name.clone())
+    }
+
+    /// The line `name`'s name as the interlock keeps it, shared.
+    pub fn shared_line_name(&self, name: &str) -> Option<Arc<str>> {
+        let id = self.resource_index.get(name)?;
+        self.line_names.get(id.index()).cloned()
     }
 
     /// The handle of the line `name`.
@@ -485,6 +512,20 @@ impl Interlock {
         }
     }
 
+    /// With recording on, record only the abnormal events (faults, clears,
+    /// warnings...: what alarms and an operator's event list keep), or every one.
+    pub fn record_abnormal_only(&mut self, only: bool) {
+        self.abnormal_only = only;
+    }
+
+    /// What faulted the line, if it is faulted.
+    pub fn fault_cause(&self, resource: ResourceId) -> Option<FaultCause> {
+        match self.owners.get(resource.index()) {
+            Some(Owner::Faulted(fault)) => Some(fault.cause),
+            _ => None,
+        }
+    }
+
     /// Whether the line is faulted.
     pub fn is_faulted(&self, resource: ResourceId) -> bool {
         matches!(self.owners.get(resource.index()), Some(Owner::Faulted(_)))
@@ -501,6 +542,18 @@ impl Interlock {
     /// Whether the operation holds its lines.
     pub fn is_holding(&self, op: OpId) -> bool {
         matches!(self.slot(op).map(|o| &o.state), Some(OpState::Holding(_)))
+    }
+
+    /// Whether the operation holds, waits, or names a faulted line: what an
+    /// operation's fault acts on (an idle name is only remembered until the
+    /// interlock forgets it, and not across a restart).
+    pub fn is_active(&self, op: OpId) -> bool {
+        self.slot(op)
+            .is_some_and(|o| !matches!(o.state, OpState::Idle))
+            || self
+                .owners
+                .iter()
+                .any(|owner| matches!(owner, Owner::Faulted(f) if f.operation == Some(op)))
     }
 
     /// Whether the operation waits in the queue.
@@ -553,11 +606,13 @@ impl Interlock {
             });
         }
         self.enqueue(key, resources.clone(), now);
-        self.record(Event::Queued {
-            at_ms: now,
-            request: Requester { op, priority },
-            resources: resources.clone(),
-        });
+        if self.records(EventKind::Queued) {
+            self.record(Event::Queued {
+                at_ms: now,
+                request: Requester { op, priority },
+                resources: resources.clone(),
+            });
+        }
         Ok(Acquisition::Queued)
     }
 
@@ -571,9 +626,7 @@ impl Interlock {
                 operation: self.name(op),
             });
         }
-        let OpState::Holding(hold) =
-            std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
-        else {
+        let Some(hold) = self.end_hold(op) else {
             unreachable!("checked above")
         };
         self.holding -= 1;
@@ -588,12 +641,14 @@ impl Interlock {
         }
         let held_ms = now.saturating_sub(hold.since_ms);
         let priority = hold.priority;
-        self.record(Event::Released {
-            at_ms: now,
-            request: Requester { op, priority },
-            resources: hold.resources,
-            held_ms,
-        });
+        if self.records(EventKind::Released) {
+            self.record(Event::Released {
+                at_ms: now,
+                request: Requester { op, priority },
+                resources: hold.resources,
+                held_ms,
+            });
+        }
         Ok(self.grant_candidates(candidates, now))
     }
 
@@ -611,15 +666,17 @@ impl Interlock {
         };
         let waiting = self.dequeue(key);
         let waited = now.saturating_sub(waiting.since_ms);
-        self.record(Event::Cancelled {
-            at_ms: now,
-            request: Requester {
-                op,
-                priority: key.priority,
-            },
-            resources: waiting.resources.clone(),
-            waited_ms: waited,
-        });
+        if self.records(EventKind::Cancelled) {
+            self.record(Event::Cancelled {
+                at_ms: now,
+                request: Requester {
+                    op,
+                    priority: key.priority,
+                },
+                resources: waiting.resources.clone(),
+                waited_ms: waited,
+            });
+        }
         Ok(self.after_withdrawal(&waiting.resources, now))
     }
 
@@ -829,6 +886,8 @@ impl Interlock {
                 let waited = now.saturating_sub(waiting.since_ms);
                 if !waiting.warned && waited >= limit {
                     waiting.warned = true;
+                    self.warn_due
+                        .remove(&(waiting.since_ms.saturating_add(limit), key.op));
                     warnings.push(Event::WarnQueued {
                         at_ms: now,
                         request: Requester {
@@ -847,13 +906,16 @@ impl Interlock {
                     let held = now.saturating_sub(hold.since_ms);
                     if !hold.warned && held >= limit {
                         hold.warned = true;
+                        let id = OpId {
+                            index: index as u32,
+                            generation: op.generation,
+                        };
+                        self.warn_due
+                            .remove(&(hold.since_ms.saturating_add(limit), id));
                         warnings.push(Event::WarnHeld {
                             at_ms: now,
                             request: Requester {
-                                op: OpId {
-                                    index: index as u32,
-                                    generation: op.generation,
-                                },
+                                op: id,
                                 priority: hold.priority,
                             },
                             resources: hold.resources.clone(),
@@ -867,6 +929,16 @@ impl Interlock {
             self.events.extend(warnings.iter().cloned());
         }
         warnings
+    }
+
+    /// When [`Self::tick`] next has a warning to give: the earliest time a
+    /// wait or hold not warned about yet crosses its warning time.
+    pub fn next_warning(&self) -> Option<Millis> {
+        self.warn_due.first().map(|(at, _)| *at)
+    }
+
+    fn due_after(since_ms: Millis, limit: Option<Millis>) -> Option<Millis> {
+        limit.map(|limit| since_ms.saturating_add(limit))
     }
 
     // ---- events ------------------------------------------------------------
@@ -974,19 +1046,49 @@ impl Interlock {
             self.occupy(r, Owner::Held(op));
         }
         self.holding += 1;
-        self.record(Event::Granted {
-            at_ms: now,
-            request: Requester { op, priority },
-            resources: resources.clone(),
-            waited_ms,
-        });
+        if self.records(EventKind::Granted) {
+            self.record(Event::Granted {
+                at_ms: now,
+                request: Requester { op, priority },
+                resources: resources.clone(),
+                waited_ms,
+            });
+        }
+        self.hold(op, priority, resources, now, waited_ms);
+    }
+
+    /// `op` holds `resources` since `since_ms` (its lines are already its own).
+    fn hold(
+        &mut self,
+        op: OpId,
+        priority: i32,
+        resources: ResourceSet,
+        since_ms: Millis,
+        waited_ms: Millis,
+    ) {
+        if let Some(at) = Self::due_after(since_ms, self.config.warn_held_ms) {
+            self.warn_due.insert((at, op));
+        }
         self.operations[op.index()].state = OpState::Holding(Hold {
             priority,
             resources,
-            since_ms: now,
+            since_ms,
             waited_ms,
             warned: false,
         });
+    }
+
+    /// `op` holds nothing any more: its hold ends.
+    fn end_hold(&mut self, op: OpId) -> Option<Hold> {
+        let OpState::Holding(hold) =
+            std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
+        else {
+            return None;
+        };
+        if let Some(at) = Self::due_after(hold.since_ms, self.config.warn_held_ms) {
+            self.warn_due.remove(&(at, op));
+        }
+        Some(hold)
     }
 
     fn enqueue(&mut self, key: QueueKey, resources: ResourceSet, since_ms: Millis) {
@@ -997,6 +1099,9 @@ impl Interlock {
         }
         self.busy[key.op.index()] = taken;
         self.queue.insert(key);
+        if let Some(at) = Self::due_after(since_ms, self.config.warn_queued_ms) {
+            self.warn_due.insert((at, key.op));
+        }
         self.operations[key.op.index()].state = OpState::Queued(Waiting {
             key,
             resources,
@@ -1014,6 +1119,9 @@ impl Interlock {
         self.queue.remove(&key);
         for r in waiting.resources.ids() {
             self.waiters[r.index()].remove(&key);
+        }
+        if let Some(at) = Self::due_after(waiting.since_ms, self.config.warn_queued_ms) {
+            self.warn_due.remove(&(at, key.op));
         }
         waiting
     }
@@ -1103,9 +1211,7 @@ impl Interlock {
 
     /// Latches everything a holding operation holds and makes it idle.
     fn fault_holder(&mut self, op: OpId, cause: FaultCause, note: Option<&str>, now: Millis) {
-        let OpState::Holding(hold) =
-            std::mem::replace(&mut self.operations[op.index()].state, OpState::Idle)
-        else {
+        let Some(hold) = self.end_hold(op) else {
             return;
         };
         self.holding -= 1;
@@ -1169,9 +1275,14 @@ impl Interlock {
         }
     }
 
+    /// Whether an event of `kind` would be kept (spares making one that would not).
+    fn records(&self, kind: EventKind) -> bool {
+        self.config.record_events && (!self.abnormal_only || kind.is_abnormal())
+    }
+
     /// Keeps `event` for [`Self::drain_events`] when recording is on.
     fn record(&mut self, event: Event) {
-        if self.config.record_events {
+        if self.config.record_events && (!self.abnormal_only || event.kind().is_abnormal()) {
             self.events.push(event);
         }
     }

@@ -3,8 +3,8 @@ use std::collections::{HashMap, HashSet};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    bound_note, cut, Event, Grant, Hold, Interlock, InterlockConfig, InterlockError, OpState,
-    Owner, QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
+    bound_note, cut, Event, Grant, Interlock, InterlockConfig, InterlockError, OpState, Owner,
+    QueueKey, Requester, ResourceId, ResourceSet, QUOTE_MAX_CHARS,
 };
 
 use crate::time::Millis;
@@ -347,7 +347,7 @@ impl Interlock {
             .iter()
             .filter_map(|op| match &op.state {
                 OpState::Holding(hold) => Some(RequestSnapshot {
-                    operation: op.name.clone(),
+                    operation: op.name.to_string(),
                     priority: hold.priority,
                     resources: self.names(&hold.resources),
                     since_ms: hold.since_ms,
@@ -452,13 +452,7 @@ impl Interlock {
                     lock.occupy(r, Owner::Held(op));
                 }
                 lock.holding += 1;
-                lock.operations[op.index()].state = OpState::Holding(Hold {
-                    priority: hold.priority,
-                    resources: lines,
-                    since_ms: hold.since_ms,
-                    waited_ms: hold.waited_ms,
-                    warned: false,
-                });
+                lock.hold(op, hold.priority, lines, hold.since_ms, hold.waited_ms);
                 continue;
             }
             if lines.is_empty() {

@@ -9,6 +9,7 @@
 pub(crate) mod fixtures;
 mod graph;
 mod group;
+pub mod group_msg;
 #[cfg(feature = "schema")]
 mod schema;
 mod setpoint;
@@ -1010,6 +1011,12 @@ impl Plant {
     /// Whether `key` names an actuator type (or its plural), as group commands' keys do.
     pub fn is_group_key(&self, key: &str) -> bool {
         self.targeting.kind(key).is_some()
+    }
+
+    /// Whether JSON text on a topic of no device is meant as a group command
+    /// (see [`group_msg::command_like`]): else it is someone else's traffic.
+    pub fn command_like(&self, text: &str) -> bool {
+        group_msg::command_like(text, |key| self.is_group_key(key))
     }
 }
 

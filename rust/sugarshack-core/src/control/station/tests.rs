@@ -18,7 +18,7 @@ fn config() -> StationConfig {
             smith: None,
         },
         ts_s: 1.0,
-        stale: millis(80.0),
+        stale: Some(millis(80.0)),
         setpoint: 50.0,
         mode: Mode::Auto,
         manual: None,
@@ -214,7 +214,7 @@ fn stale_sends_the_fallback_every_stale_ms_from_the_last_good_measurement() {
     );
     assert_eq!(
         Station::new(StationConfig {
-            stale: Millis::ZERO,
+            stale: Some(Millis::ZERO),
             ..config()
         })
         .unwrap()
@@ -291,6 +291,78 @@ fn a_restart_restores_what_was_saved_or_refuses_it_whole() {
     };
     assert!(s.restore(bad).is_err());
     assert_eq!((s.state().integral, s.state().setpoint), (0.0, 50.0));
+}
+
+#[test]
+fn stale_after_left_out_is_three_sample_periods() {
+    let mut written = serde_json::to_value(config()).unwrap();
+    written["tsS"] = serde_json::json!(0.1);
+    for absent in [None, Some(serde_json::Value::Null)] {
+        match &absent {
+            None => written.as_object_mut().unwrap().remove("staleMs"),
+            Some(null) => written
+                .as_object_mut()
+                .unwrap()
+                .insert("staleMs".into(), null.clone()),
+        };
+        let read: StationConfig = serde_json::from_value(written.clone()).unwrap();
+        assert_eq!(read.stale, None, "{absent:?} is not set");
+        // 3 × 0.1 s as the node computed it before the rule moved here: 300.00000000000006 ms
+        assert_eq!(read.stale_after().unwrap(), millis(3.0 * 0.1 * 1000.0));
+        let mut s = Station::new(read).unwrap();
+        s.measure(sample(40.0, 1000.0)).unwrap();
+        assert_eq!(
+            s.next_tick(),
+            Some(millis(1000.0 + DEFAULT_STALE_SAMPLES * 0.1 * 1000.0))
+        );
+    }
+    assert_eq!(DEFAULT_STALE_SAMPLES, 3.0);
+}
+
+#[test]
+fn a_stale_time_that_is_set_wins_and_zero_turns_the_watch_off() {
+    let set = StationConfig {
+        stale: Some(millis(80.0)),
+        ..config()
+    };
+    assert_eq!(set.stale_after().unwrap(), millis(80.0));
+    let mut off = Station::new(StationConfig {
+        stale: Some(Millis::ZERO),
+        ..config()
+    })
+    .unwrap();
+    off.measure(sample(40.0, 1000.0)).unwrap();
+    assert_eq!(off.next_tick(), None);
+}
+
+#[test]
+fn a_ts_too_long_for_the_default_stale_time_is_refused() {
+    let refused = Station::new(StationConfig {
+        ts_s: f64::MAX / 2.0,
+        stale: None,
+        ..config()
+    })
+    .unwrap_err();
+    assert_eq!(refused.code(), "INVALID_CONFIG");
+    assert!(refused.to_string().contains("set stale after"), "{refused}");
+}
+
+#[test]
+fn the_defaults_shown_are_the_ones_applied() {
+    assert_eq!(
+        PID_DEFAULTS,
+        PidDefaults {
+            alpha: smith::DEFAULT_ALPHA,
+            h: smith::DEFAULT_H,
+            max_samples: smith::DEFAULT_MAX_SAMPLES,
+            stale_samples: DEFAULT_STALE_SAMPLES,
+        }
+    );
+    let shown = serde_json::to_value(PID_DEFAULTS).unwrap();
+    assert_eq!(
+        shown,
+        serde_json::json!({ "alpha": 0.1, "h": 3.0, "maxSamples": 400, "staleSamples": 3.0 })
+    );
 }
 
 #[test]

@@ -1,11 +1,13 @@
 // @ts-check
 'use strict';
-// Shared by the pid, rcc and rcc-io nodes: reading their configuration fields
-// into numbers, checking msg fields, and numbers short enough for a status.
-// The control rules themselves (PID, Smith predictor, RCC) live in the core.
-const { SugarshackError } = require('./errors');
-const wasm = require('./wasm');
-const i18n = require('./i18n');
+// Shared by the pid, rcc and rcc-io nodes (and read by others for their
+// settings): reading configuration fields into numbers, checking msg fields,
+// numbers short enough for a status, and wasm objects that survive a trap.
+// The control rules themselves (PID, Smith predictor, RCC, their defaults)
+// live in the core; the pid node's runtime is in ./pid-node.js.
+const { SugarshackError } = require('../errors');
+const wasm = require('../wasm');
+const i18n = require('../i18n');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';
@@ -122,7 +124,7 @@ function fmt(x) {
  * the current object; a trap in one ends that call with INTERNAL and starts the
  * rebuild. `free()` lets it go.
  * @template {{ free(): void }} T
- * @param {(facade: import('./wasm').Facade) => T} make
+ * @param {(facade: import('../wasm').Facade) => T} make
  * @param {{ onRevive?: () => void }} [options]
  * @returns {T} typed as the object it stands in for
  */

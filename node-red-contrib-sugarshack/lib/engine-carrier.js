@@ -1,0 +1,231 @@
+// @ts-check
+'use strict';
+// Performs an engine's outputs (read by lib/wasm/wire.js) by the state rule:
+// what follows a `commit` leaves once the state it follows is written (an
+// urgent group, a fault's lockouts, even when the write fails, unless the
+// instance may not act at all), what follows an `after` leaves behind the
+// writes before it, what comes before either leaves at once. Held msgs wait
+// here under the handle their node chose; the engine answers each once.
+// The one timer is here too: it calls `due` when the engine says it is next due.
+const { SugarshackError } = require('./errors');
+const { clock: systemClock } = require('./clock');
+const i18n = require('./i18n');
+
+/**
+ * @typedef {import('./pending').HeldMsg & { ports?: number, cause?: any }} Held a held msg; `ports`: its node's outputs (1 unless told); `cause`: the error a failed msg's error keeps as its cause
+ * @typedef {{ urgent: boolean, after: boolean, actions: (() => void)[] }} Group
+ */
+
+class EngineCarrier {
+  /**
+   * @param {object} o
+   * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void, run(effect: () => void): void, readonly idle: boolean }} o.committer
+   * @param {(output: any, effect: (action: () => void) => void) => void} [o.other] an output with no msg of its own (an event, an alarm, a log, a node's error); `effect` keeps an action in order
+   * @param {(holding: number, queued: number, faulted: number, lost: boolean) => void} [o.counts]
+   * @param {() => void} [o.due] the engine is due: its owner calls its tick
+   * @param {{ now(): number, setTimeout: Function, clearTimeout: Function }} [o.clock]
+   */
+  constructor({ committer, other, counts, due, clock = systemClock }) {
+    this.committer = committer;
+    this.due = due || (() => {});
+    this.clock = clock;
+    /** @type {any} */
+    this.timer = null;
+    this.timerAt = -1;
+    this.otherOutput = other || (() => {});
+    this.countsChanged = counts || (() => {});
+    /** @type {Map<number, Held>} */
+    this.held = new Map();
+    /** @type {Group | null} */
+    this.group = null;
+    /** what follows a commit or an after runs as the committer runs effects (an error in it is reported, not thrown) */
+    this.guarded = false;
+    /** @type {{ port: number, msgs: any[] } | null} msgs a node sends beside the msg answered next */
+    this.extra = null;
+  }
+
+  /** Keeps `entry` under handle `k` until the engine answers it. @param {number} k @param {Held} entry */
+  hold(k, entry) {
+    this.held.set(k, entry);
+  }
+
+  /** A node closes for a deploy: its held msgs are completed there, and wait for its next instance. @param {NodeRed.Node} node */
+  detach(node) {
+    for (const entry of this.held.values()) if (entry.node === node) entry.detach();
+  }
+
+  /** The next instance of a node restarted by a deploy sends its held msgs on. @param {NodeRed.Node} node */
+  adopt(node) {
+    for (const entry of this.held.values()) if (!entry.node && entry.nodeId === node.id) entry.adopt(node);
+  }
+
+  /** @param {number} k */
+  take(k) {
+    const entry = this.held.get(k);
+    this.held.delete(k);
+    return entry;
+  }
+
+  /** The last engine call's outputs, performed in order, and its next deadline kept. @param {{ read(visitor: any): void, nextDeadline(): number }} wire */
+  perform(wire) {
+    this.group = null;
+    this.guarded = false;
+    this.extra = null;
+    wire.read(this);
+    this.closeGroup();
+    this.arm(wire.nextDeadline());
+  }
+
+  /** The one timer, set for `at` (-1: none). @param {number} at */
+  arm(at) {
+    if (at === this.timerAt) return;
+    this.stop();
+    this.timerAt = at;
+    if (at < 0) return;
+    this.timer = this.clock.setTimeout(() => {
+      this.timer = null;
+      this.timerAt = -1;
+      this.due();
+    }, Math.max(0, at - this.clock.now()));
+  }
+
+  /** No timer any more (a shutdown, a standby). */
+  stop() {
+    if (this.timer) this.clock.clearTimeout(this.timer);
+    this.timer = null;
+    this.timerAt = -1;
+  }
+
+  /** @param {boolean} urgent */
+  commit(urgent) {
+    this.closeGroup();
+    // Nothing to write and nothing waiting: what follows runs as it comes, with no group to keep.
+    this.group = this.committer.idle ? null : { urgent, after: false, actions: [] };
+    this.guarded = this.group === null;
+  }
+
+  after() {
+    this.closeGroup();
+    this.group = this.committer.idle ? null : { urgent: false, after: true, actions: [] };
+    this.guarded = this.group === null;
+  }
+
+  closeGroup() {
+    const group = this.group;
+    this.group = null;
+    if (!group) return;
+    const run = group.actions.length ? () => group.actions.forEach((action) => action()) : null;
+    if (group.after) {
+      if (run) this.committer.after(run);
+    } else this.committer.change(run, { evenUnsaved: group.urgent });
+  }
+
+  /** `action` now, or once the state it follows is written. @param {() => void} action */
+  effect(action) {
+    if (this.group) this.group.actions.push(action);
+    else if (this.guarded) this.committer.run(action);
+    else action();
+  }
+
+  /** @param {number} k @param {number} port @param {any} set */
+  send(k, port, set) {
+    const entry = this.take(k);
+    const extra = this.extra;
+    this.extra = null;
+    if (!entry) return;
+    this.effect(() => {
+      if (set && entry.msg) applySet(entry.msg, set);
+      answer(entry, port, extra, null);
+    });
+  }
+
+  /** @param {number} k @param {number} port @param {any[]} msgs */
+  emit(k, port, msgs) {
+    this.extra = { port, msgs };
+  }
+
+  /** @param {number} k @param {any} refusal */
+  complete(k, refusal) {
+    const entry = this.take(k);
+    const extra = this.extra;
+    this.extra = null;
+    if (!entry) return;
+    const err = refusal ? refusalError(refusal) : null;
+    this.effect(() => answer(entry, null, extra, err));
+  }
+
+  /** @param {number} holding @param {number} queued @param {number} faulted @param {boolean} lost */
+  counts(holding, queued, faulted, lost) {
+    this.countsChanged(holding, queued, faulted, lost);
+  }
+
+  /** @param {any} output */
+  other(output) {
+    this.otherOutput(output, (action) => this.effect(action));
+  }
+}
+
+/**
+ * Sends the msg on output `port` (null: none) and `extra` msgs on theirs, then completes it.
+ * @param {Held} entry @param {number | null} port @param {{ port: number, msgs: any[] } | null} extra @param {Error | null} err
+ */
+function answer(entry, port, extra, err) {
+  const ports = entry.ports || 1;
+  if (entry.send && (port !== null || extra)) {
+    if (ports === 1) entry.send(entry.msg);
+    else {
+      /** @type {any[]} */
+      const out = new Array(ports).fill(null);
+      if (port !== null) out[port] = entry.msg;
+      if (extra) out[extra.port] = extra.msgs;
+      entry.send(out);
+    }
+  }
+  if (err) {
+    // A failed fault msg keeps the Catch's error it carried as the cause.
+    if (entry.cause) /** @type {any} */ (err).cause = entry.cause;
+    entry.reject(err);
+  } else entry.abandon();
+}
+
+/** What the engine sets on a msg it sends on. @param {any} msg @param {any} set */
+function applySet(msg, set) {
+  if (set.kind === 'interlock') {
+    msg.interlock = { operation: set.operation, priority: set.priority, resources: set.resources, waitedMs: set.waitedMs };
+  } else if (set.kind === 'cleared') {
+    msg.cleared = set.cleared;
+    msg.clearedBy = { by: set.by, reason: set.reason, forced: set.forced };
+  } else if (set.kind === 'refused') {
+    const err = refusalError(set.refusal);
+    msg.refused = { code: err.code, message: err.message, lines: set.refusal.lines || [] };
+  }
+}
+
+/** A refusal as the error a Catch node gets. @param {any} refusal */
+function refusalError(refusal) {
+  const err = new SugarshackError(refusal.code, render(refusal.text));
+  if (refusal.lines && refusal.lines.length) /** @type {any} */ (err).lines = refusal.lines;
+  return err;
+}
+
+/** Words the engine chose, from the catalogs (the keys it may name are its catalogTexts()). @param {any} t */
+function render(t) {
+  if (t.kind === 'plain') return t.text;
+  if (t.kind === 'faulted') return faultedText(t);
+  /** @type {Record<string, any>} */
+  const subs = {};
+  for (const [name, p] of t.params) subs[name] = p.kind === 'label' ? i18n.textOf(`labels.${p.value}`) : p.value;
+  return i18n.textOf(t.key, subs);
+}
+
+/** What a failed fault msg says: what was faulted and what locked out, with the fault's note. @param {any} t */
+function faultedText(t) {
+  const say = (key, subs) => i18n.typeText('sugarshack-fault', `errors.${key}`, subs);
+  const lines = t.lines.join(', ');
+  const what = t.operation === null || t.operation === undefined
+    ? say('stopped', { lines: lines || say('nothing') })
+    : say(lines ? 'faultedLocked' : 'faultedHeldNothing', { operation: t.operation, lines });
+  return t.note ? say('withNote', { what, note: t.note }) : what;
+}
+
+module.exports = { EngineCarrier, refusalError, render };

@@ -1,0 +1,164 @@
+// @ts-check
+'use strict';
+// Reads the outputs an engine call left in wasm memory (see the core's
+// engine/wire.rs): a header of six numbers at the engine's headerPtr(), then
+// the batch as words and text, or as one JSON text. Names (operations,
+// lines) cross once: this keeps the mirror of the engine's string table.
+// Each output goes to a visitor's method, so nothing is made per output
+// that the visitor does not keep.
+const wasm = require('../wasm');
+
+const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUNTS: 7, NAME: 8, NAMES_RESET: 9, ALARM: 10 };
+const SET = { NOTHING: 0, INTERLOCK: 1, OTHER: 2 };
+const decoder = new TextDecoder('utf-8', { ignoreBOM: true });
+
+/** UTF-8 bytes as text; a short ASCII run (a name) is read byte by byte, cheaper than a decoder call. @param {Uint8Array} bytes @param {number} at @param {number} length */
+function textAt(bytes, at, length) {
+  if (length > 32) return decoder.decode(bytes.subarray(at, at + length));
+  let text = '';
+  for (let i = at; i < at + length; i++) {
+    const b = bytes[i];
+    if (b >= 0x80) return decoder.decode(bytes.subarray(at, at + length));
+    text += String.fromCharCode(b);
+  }
+  return text;
+}
+
+/**
+ * What a batch's outputs go to, in order.
+ * @typedef {{
+ *   commit(urgent: boolean): void,
+ *   after(): void,
+ *   send(msg: number, port: number, set: any): void,
+ *   emit(msg: number, port: number, msgs: any[]): void,
+ *   complete(msg: number, refusal: any): void,
+ *   counts(holding: number, queued: number, faulted: number, lost: boolean): void,
+ *   other(output: any): void,
+ * }} Visitor
+ */
+
+class Wire {
+  /** @param {{ headerPtr(): number }} engine */
+  constructor(engine) {
+    this.headerPtr = engine.headerPtr();
+    /** @type {Float64Array | null} */
+    this.header = null;
+    /** @type {Float64Array | null} */
+    this.memory = null;
+    /** @type {string[]} the engine's string table */
+    this.names = [];
+    this.buffer = new ArrayBuffer(0);
+    this.bytes = new Uint8Array(0);
+    this.refresh();
+  }
+
+  /** Views on the memory as it is now (it is replaced when wasm memory grows). */
+  refresh() {
+    const { buffer } = wasm.load().wasmMemory();
+    this.buffer = buffer;
+    this.header = new Float64Array(buffer, this.headerPtr, 6);
+    this.memory = new Float64Array(buffer);
+    this.bytes = new Uint8Array(buffer);
+  }
+
+  /** When the engine is next due (-1: never), after the last call. */
+  nextDeadline() {
+    if (this.buffer.byteLength === 0) this.refresh();
+    return /** @type {Float64Array} */ (this.header)[4];
+  }
+
+  /**
+   * Hands the last call's outputs to `visitor`, in order.
+   * @param {Visitor} visitor
+   */
+  read(visitor) {
+    if (this.buffer.byteLength === 0) this.refresh(); // detached: memory grew
+    const h = /** @type {Float64Array} */ (this.header);
+    const textLen = h[3];
+    const text = textLen > 0 ? textAt(this.bytes, h[2], textLen) : '';
+    const words = h[1];
+    // Read once: a batch read again would repeat its sends.
+    h[1] = 0;
+    h[3] = 0;
+    if (h[5] === 1) {
+      if (text) for (const output of JSON.parse(text)) dispatch(output, visitor);
+      return;
+    }
+    const w = /** @type {Float64Array} */ (this.memory);
+    const names = this.names;
+    const at = h[0] / 8;
+    const end = at + words;
+    const str = (i) => text.substr(w[i], w[i + 1]);
+    for (let i = at; i < end;) {
+      switch (w[i]) {
+        case TAG.COMMIT: visitor.commit(w[i + 1] === 1); i += 2; break;
+        case TAG.AFTER: visitor.after(); i += 1; break;
+        case TAG.SEND: {
+          const msg = w[i + 1];
+          const port = w[i + 2];
+          const kind = w[i + 3];
+          if (kind === SET.NOTHING) {
+            visitor.send(msg, port, null);
+            i += 4;
+          } else if (kind === SET.INTERLOCK) {
+            const n = w[i + 7];
+            const resources = new Array(n);
+            for (let k = 0; k < n; k++) resources[k] = names[w[i + 8 + k]];
+            visitor.send(msg, port, { kind: 'interlock', operation: names[w[i + 4]], priority: w[i + 5], resources, waitedMs: w[i + 6] });
+            i += 8 + n;
+          } else {
+            visitor.send(msg, port, JSON.parse(str(i + 4)));
+            i += 6;
+          }
+          break;
+        }
+        case TAG.EMIT: visitor.emit(w[i + 1], w[i + 2], JSON.parse(str(i + 3))); i += 5; break;
+        case TAG.COMPLETE:
+          if (w[i + 2] === 0) {
+            visitor.complete(w[i + 1], null);
+            i += 3;
+          } else {
+            visitor.complete(w[i + 1], JSON.parse(str(i + 3)));
+            i += 5;
+          }
+          break;
+        case TAG.COUNTS: visitor.counts(w[i + 1], w[i + 2], w[i + 3], w[i + 4] === 1); i += 5; break;
+        case TAG.OTHER: visitor.other(JSON.parse(str(i + 1))); i += 3; break;
+        case TAG.NAME: names[w[i + 1]] = str(i + 2); i += 4; break;
+        case TAG.NAMES_RESET: names.length = 0; i += 1; break;
+        case TAG.ALARM: {
+          /** @type {any} the change as serde writes it */
+          const change = { id: str(i + 2), action: str(i + 4), from: str(i + 6), to: str(i + 8), atMs: w[i + 1] };
+          let at = i + 10;
+          if (w[at] === 1) {
+            change.by = str(at + 1);
+            at += 3;
+          } else at += 1;
+          if (w[at] === 1) {
+            change.reason = str(at + 1);
+            at += 3;
+          } else at += 1;
+          visitor.other({ kind: 'alarm', change });
+          i = at;
+          break;
+        }
+        default: throw new Error(`engine wire: unknown record ${w[i]} at word ${i - at}`);
+      }
+    }
+  }
+}
+
+/** One output as serde writes it (the JSON batch), to the visitor. */
+function dispatch(o, visitor) {
+  switch (o.kind) {
+    case 'commit': visitor.commit(o.urgent); break;
+    case 'after': visitor.after(); break;
+    case 'send': visitor.send(o.msg, o.port, o.set.kind === 'nothing' ? null : o.set); break;
+    case 'emit': visitor.emit(o.msg, o.port, o.msgs); break;
+    case 'complete': visitor.complete(o.msg, o.refusal); break;
+    case 'counts': visitor.counts(o.holding, o.queued, o.faulted, o.lost); break;
+    default: visitor.other(o);
+  }
+}
+
+module.exports = { Wire };
