@@ -11,6 +11,7 @@
 #   tracker        feedback ingest through wasm as the nodes call it
 #   durable        what writing the interlock's state before a grant costs
 #   actuator node  Node-RED cost per feedback msg (test helper, no broker)
+#   crossings      calls into wasm per msg through the nodes: acquire, release, feedback, group command
 #   peers          against node-red-contrib-simple-message-queue, -queue-gate and a function-node PID; durable grants/s
 #   layers         per-layer overhead p99 on the case-study plant, GC pauses apart (scripts/measure.js)
 #   plant load     CPU and memory of Node-RED on the simulated case-study plant
@@ -55,6 +56,7 @@ run interlock node tests/bench/interlock-bench.js "${quick[@]}" ${rest[@]+"${res
 run tracker node tests/bench/tracker-bench.js
 run durable node tests/bench/durable-bench.js "${quick[@]}"
 run "actuator node" node tests/bench/actuator-node-bench.js
+run crossings node tests/bench/crossings.js
 run peers node tests/bench/peers-bench.js "${quick[@]}"
 if [ "$full" = 1 ]; then
   run layers node scripts/measure.js --minutes 10

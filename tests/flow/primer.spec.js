@@ -6,6 +6,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 
 const wasm = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'lib', 'wasm.js'));
+const { spyOnFacade } = require('../facade-spy');
 
 // wasm-bindgen's own plumbing, and calls a primer cannot make without breaking its objects.
 const NOT_PRIMED = new Set([
@@ -16,37 +17,12 @@ const NOT_PRIMED = new Set([
 // The devices' side of the topic contract: the plant simulator's, never loaded by the palette's nodes.
 const NOT_PRIMED_CLASSES = new Set(['DeviceSide']);
 
-/** Every method and getter of each class the facade exports, wrapped to record its calls; `restore()` undoes it. */
+/** The facade's methods and getters the primer must call, wrapped to record their calls; `restore()` undoes it. */
 function spyOn(facade) {
   const called = new Set();
-  const methods = [];
-  const undo = [];
-  for (const [className, cls] of Object.entries(facade)) {
-    if (typeof cls !== 'function' || !cls.prototype || Object.getOwnPropertyNames(cls.prototype).length <= 1) continue;
-    if (NOT_PRIMED_CLASSES.has(className)) continue;
-    for (const [target, prefix] of [[cls.prototype, className], [cls, className]]) {
-      for (const name of Object.getOwnPropertyNames(target)) {
-        if (['length', 'name', 'prototype'].includes(name) || NOT_PRIMED.has(name)) continue;
-        const key = `${prefix}.${name}`;
-        if (NOT_PRIMED.has(key)) continue;
-        const descriptor = Object.getOwnPropertyDescriptor(target, name);
-        const wrapped = { ...descriptor };
-        if (typeof descriptor.value === 'function') {
-          const original = descriptor.value;
-          wrapped.value = function (...args) { called.add(key); return original.apply(this, args); };
-        } else if (descriptor.get) {
-          const original = descriptor.get;
-          wrapped.get = function () { called.add(key); return original.call(this); };
-        } else {
-          continue;
-        }
-        methods.push(key);
-        Object.defineProperty(target, name, wrapped);
-        undo.push(() => Object.defineProperty(target, name, descriptor));
-      }
-    }
-  }
-  return { called, methods, restore: () => undo.forEach((fn) => fn()) };
+  const skip = (className, name) => NOT_PRIMED_CLASSES.has(className) || NOT_PRIMED.has(name) || NOT_PRIMED.has(`${className}.${name}`);
+  const { methods, restore } = spyOnFacade(facade, (key) => called.add(key), { skip });
+  return { called, methods, restore };
 }
 
 describe('the wasm primer', function () {

@@ -1,0 +1,48 @@
+'use strict';
+// Calls into wasm per msg on an interlock bound to no plant (the core's
+// Engine), counted through the nodes as tests/bench/crossings.js counts them
+// (its table covers the plant path too). One call per acquire and per release
+// granting three waiters, no follow-up: a rule that slips back into JS and
+// asks the core again fails here.
+const assert = require('node:assert/strict');
+const path = require('path');
+const helper = require('node-red-node-test-helper');
+const { PALETTE, startServer, stopServer } = require('./support');
+const { measure, Crossings } = require('../bench/crossings');
+
+const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+
+helper.init(require.resolve('node-red'));
+
+// As measured since the core's Engine runs an interlock alone: an upper bound.
+const MAX_CALLS_PER_MSG = 1;
+
+describe('crossings into wasm per msg, interlock alone', function () {
+  beforeEach(startServer);
+  afterEach(stopServer);
+
+  it('an acquire and a release granting three waiters each cross in once, with no follow-up', async function () {
+    const rows = await measure(['acquire', 'release3'], { msgs: 20, warmup: 16 });
+    assert.deepEqual(rows.map((r) => r.id), ['acquire', 'release3']);
+    for (const row of rows) {
+      const calls = row.top.map((t) => `${t.key} ${t.perMsg}`).join(', ');
+      assert.ok(row.perMsg > 0, `${row.label}: no call counted (is the facade wrapped?)`);
+      assert.ok(row.perMsg <= MAX_CALLS_PER_MSG, `${row.label}: ${row.perMsg} calls per msg (${calls}), at most ${MAX_CALLS_PER_MSG}`);
+      assert.equal(row.followUpsPerMsg, 0, `${row.label}: follow-up calls (${calls})`);
+    }
+  });
+
+  it('counts a msg\'s second call on a wasm object as a follow-up, and nothing outside a msg', async function () {
+    const { Engine } = wasm.load();
+    const engine = new Engine({ resources: [{ name: 'YEL', lockout: null }] }, { wire: 'typed' });
+    const crossings = new Crossings();
+    try {
+      engine.headerPtr();
+      await crossings.during(() => { engine.headerPtr(); engine.headerPtr(); });
+      assert.deepEqual(crossings.take(1), { perMsg: 2, followUpsPerMsg: 1, top: [{ key: 'Engine.headerPtr', perMsg: 2 }] });
+    } finally {
+      crossings.restore();
+      engine.free();
+    }
+  });
+});
