@@ -287,7 +287,8 @@ describe('ISA-88 commands: hold, restart, stop, abort, reset', function () {
     const reset = await command('r', 'reset', { by: 'ben' });
     assert.equal(reset.error, undefined);
     assert.deepEqual(runtime().describe().aborted, [], 'its operation reset with it');
-    assert.equal(seen.rt.at(-1).payload.event, 'reset');
+    // The command is answered when decided; the routine's msg is sent after it.
+    await until(() => seen.rt.at(-1).payload.event === 'reset', 'the routine sends its reset');
     assert.equal(host.describe().state, 'empty');
   });
 
