@@ -55,13 +55,4 @@ function actuatorIds(payload) {
   return ids;
 }
 
-/** The target a group command gives `id`, if any. */
-function targetOf(payload, id) {
-  if (!payload || typeof payload !== 'object') return undefined;
-  for (const members of Object.values(payload)) {
-    if (members && typeof members === 'object' && Object.prototype.hasOwnProperty.call(members, id)) return members[id];
-  }
-  return undefined;
-}
-
-module.exports = { readGroup, groupPayload, isLockout, heldResources, actuatorIds, targetOf };
+module.exports = { readGroup, groupPayload, isLockout, heldResources, actuatorIds };

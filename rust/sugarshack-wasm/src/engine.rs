@@ -262,6 +262,15 @@ fn msg_fields(object: &JsValue) -> MsgFields {
     fields_of(object).into()
 }
 
+/// A msg that names only its operation, as text.
+fn operation_only(operation: String) -> MsgFields {
+    Fields {
+        operation: Raw::Text(operation),
+        ..Fields::default()
+    }
+    .into()
+}
+
 fn fields_of(object: &JsValue) -> Fields {
     Fields {
         operation: raw(&field(object, "operation")),
@@ -849,11 +858,7 @@ impl Engine {
     /// `acquireNamed` for a msg that names only its operation, as text: one string crosses, nothing else.
     #[wasm_bindgen(js_name = acquireOperation)]
     pub fn acquire_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
-        let fields = Fields {
-            operation: Raw::Text(operation),
-            ..Fields::default()
-        }
-        .into();
+        let fields = operation_only(operation);
         let input = Input::Acquire {
             node: NodeId(node),
             msg: MsgId(msg),
@@ -865,11 +870,7 @@ impl Engine {
     /// `release` for a msg that names only its operation, as text (no msg.interlock).
     #[wasm_bindgen(js_name = releaseOperation)]
     pub fn release_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
-        let fields = Fields {
-            operation: Raw::Text(operation),
-            ..Fields::default()
-        }
-        .into();
+        let fields = operation_only(operation);
         let input = Input::Release {
             node: NodeId(node),
             msg: MsgId(msg),
