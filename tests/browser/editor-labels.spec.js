@@ -218,8 +218,14 @@ describe('the editor\'s labels in headless Chromium', function () {
         notJson: [plant.validate.call(n, '{'), notJson],
         answers: ['[]', '{}', '{"actuatorTypes":{}}', '{"actuatorTypes":{},"devices":[],"actuators":1}', '{"actuatorTypes":{},"devices":[]}']
           .map((text) => plant.validate.call(n, text)),
+        // A blank Smith setting takes the core's default; a wrong one is marked.
+        pid: ['alpha', 'horizon', 'maxSamples'].map((field) => {
+          const { validate } = RED.nodes.getType('sugarshack-pid').defaults[field];
+          return ['', '0', '-1'].map((v) => validate.call({ smith: 'adaptive' }, v));
+        }),
       };
     });
+    assert.deepEqual(checks.pid, [[true, false, false], [true, true, false], [true, false, false]]);
     assert.equal(checks.starterName, 'sugar shack');
     assert.equal(checks.notJson[0], `the plant document is not valid JSON: ${checks.notJson[1]}`);
     assert.deepEqual(checks.answers, [
