@@ -135,7 +135,9 @@ function isPerMsg(props, name) {
 function nodeValues(RED, node, props, names) {
   const perMsg = names.filter((name) => isPerMsg(props, name));
   if (perMsg.length === 0) return null;
-  return (msg, then) => {
+  const inOrder = arrivalOrder();
+  return (msg, whenRead) => {
+    const then = inOrder(whenRead);
     /** @type {Record<string, any>} */
     const values = Object.fromEntries(names.map((name) => [name, props[name]]));
     let left = perMsg.length;
@@ -160,6 +162,28 @@ function nodeValues(RED, node, props, names) {
         fail(name, err); // an expression that does not parse, a msg path that is not one
       }
     }
+  };
+}
+
+/**
+ * Answers in the order their msgs came, whatever order their reads end in (a
+ * JSONata expression over a long array resolves after one over a short one):
+ * the queue's order among equals is arrival order.
+ */
+function arrivalOrder() {
+  /** @type {{ deliver: Function, args: any[] | null }[]} */
+  const waiting = [];
+  return (deliver) => {
+    const slot = { deliver, args: null };
+    waiting.push(slot);
+    return (...args) => {
+      if (slot.args) return;
+      slot.args = args;
+      while (waiting.length > 0 && waiting[0].args) {
+        const next = /** @type {{ deliver: Function, args: any[] }} */ (waiting.shift());
+        next.deliver(...next.args);
+      }
+    };
   };
 }
 

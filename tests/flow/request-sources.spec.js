@@ -105,6 +105,21 @@ describe('sugarshack acquire: values from msg, flow, global, env or JSONata', fu
     assert.deepEqual(counts(), { holding: 0, queued: 0, faulted: 0 });
   });
 
+  it('msgs whose values are read by JSONata queue in the order they came, however long each read takes', async function () {
+    // Over a long array the expression resolves after the same one over a short array sent later.
+    await helper.load(paletteNodes, flow([acquire('a', '', '$count(payload.$string())', 'YEL', 'out', { priorityType: 'jsonata' })]));
+    const [out, caught] = ['out', 'caught'].map((id) => collect(helper, id));
+    helper.getNode('a').receive({ operation: 'first', payload: Array.from({ length: 200 }, (_, i) => i) });
+    helper.getNode('a').receive({ operation: 'second', payload: [] });
+    await until(() => out.length + caught.length > 0 && counts().queued === 1, 'one granted, one queued');
+    assert.deepEqual(out.map((m) => m.interlock.operation), ['first']);
+    assert.equal(out[0].interlock.priority, 200);
+    helper.getNode('rel').receive({ operation: 'first' });
+    await until(() => out.length === 2, 'the second granted');
+    assert.deepEqual(out[1].interlock, { operation: 'second', priority: 0, resources: ['YEL'], waitedMs: 0 });
+    assert.equal(caught.length, 0);
+  });
+
   it('the queue of held msgs keeps within nodeMessageBufferMaxLength, as the delay node\'s buffer does', async function () {
     settings({ nodeMessageBufferMaxLength: 2 });
     await helper.load(paletteNodes, flow([acquire('a', '', 0, 'YEL', 'out')], { queueBound: '1024' }));
