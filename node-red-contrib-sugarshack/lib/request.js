@@ -174,6 +174,7 @@ function arrivalOrder() {
   /** @type {{ deliver: Function, args: any[] | null }[]} */
   const waiting = [];
   return (deliver) => {
+    /** @type {{ deliver: Function, args: any[] | null }} */
     const slot = { deliver, args: null };
     waiting.push(slot);
     return (...args) => {
