@@ -63,40 +63,48 @@ class Condition {
 
   /**
    * Resolves with the values once the condition holds; rejects with
-   * CONDITION_TIMEOUT after `timeoutMs` (saying why it last failed). Checked
-   * at once, then on every sample of its sensors. `signal.cancelled` stops it quietly.
+   * CONDITION_TIMEOUT at the core's deadline `timeoutMs` from now (saying why
+   * it last failed). Checked at once, then on every sample of its sensors.
+   * `signal.cancelled` stops it quietly.
    */
   waitUntil(timeoutMs, signal = {}) {
+    const { sensors } = this.plant;
     return new Promise((resolve, reject) => {
-      let lastReason = text('labels.neverChecked');
       let finished = false;
       const finish = (fn, value) => {
         if (finished) return;
         finished = true;
-        clock.clearTimeout(timer);
         unwatch();
         signal.cancel = null;
         fn(value);
       };
+      const timedOut = (reason) => finish(reject, SugarshackError.of(
+        'CONDITION_TIMEOUT',
+        'conditionTimeout',
+        { condition: this.text, seconds: timeoutMs / 1000, reason: reason ?? text('labels.neverChecked') },
+      ));
       const evaluate = () => {
         if (finished) return;
         let outcome;
+        let checked;
         try {
-          outcome = this.check(clock.now());
+          const now = clock.now();
+          outcome = this.check(now);
+          checked = sensors.checked(wait, outcome.met ? undefined : outcome.reason, now);
         } catch (err) {
+          sensors.cancelWait(wait);
           finish(reject, err);
           return;
         }
-        if (outcome.met) finish(resolve, outcome.values);
-        else lastReason = outcome.reason;
+        if (checked.state === 'met') finish(resolve, outcome.values);
+        else if (checked.state === 'timedOut') timedOut(checked.reason);
       };
-      const timer = clock.setTimeout(() => finish(reject, SugarshackError.of(
-        'CONDITION_TIMEOUT',
-        'conditionTimeout',
-        { condition: this.text, seconds: timeoutMs / 1000, reason: lastReason },
-      )), timeoutMs);
+      const wait = sensors.startWait(timeoutMs, timedOut);
       const unwatch = this.plant.watchSensors(this.handles, evaluate);
-      signal.cancel = (reason) => finish(reject, new SugarshackError('ABORTED', reason));
+      signal.cancel = (reason) => {
+        sensors.cancelWait(wait);
+        finish(reject, new SugarshackError('ABORTED', reason));
+      };
       evaluate();
     });
   }

@@ -38,7 +38,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.t = null;
     this.tickTimer = null;
-    this.deadline = null; // { at, timer }: the one timer for the core's next group command timeout
+    this.deadline = null; // { at, timer }: the one timer for the core's next group command or wait timeout
     this.bus = new PlantBuses(this);
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
@@ -298,7 +298,7 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- time and effects ----------------------------------------------------
 
-  /** Wakes at `at` (or earlier, if set so) to time out the group commands the core says are due. */
+  /** Wakes at `at` (or earlier, if set so) to time out the group commands and waits the core says are due. */
   wakeAt(at) {
     if (this.deadline && this.deadline.at <= at) return;
     this.stopDeadline();
@@ -312,7 +312,7 @@ class PlantRuntime extends RuntimeBase {
     this.deadline = null;
   }
 
-  /** A group command left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
+  /** A group command or wait left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
   followDeadline() {
     if (!this.deadline || this.state !== 'ready') return;
     const next = this.t.nextDeadline();
@@ -326,7 +326,9 @@ class PlantRuntime extends RuntimeBase {
     if (this.state !== 'ready') return;
     try {
       this.guard(() => {
-        if (this.t.expire(clock.now()) > 0) this.flush(null);
+        const now = clock.now();
+        if (this.t.expire(now) > 0) this.flush(null);
+        this.sensors.expire(now);
         const next = this.t.nextDeadline();
         if (next !== undefined) this.wakeAt(next);
       });

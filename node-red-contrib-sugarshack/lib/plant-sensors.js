@@ -4,9 +4,12 @@
 // (wait steps, routine transitions, wait nodes) watching its sensors are
 // evaluated again, the values go to the journal, the device's time of flight
 // to the stats. Conditions over the same text and sensors are read once.
+// A wait's deadline is the core's, on the plant's one timer.
 const { Condition } = require('./condition');
 const { stats } = require('./stats');
 const { journal } = require('./journal/bus');
+const { clock } = require('./clock');
+const { SugarshackError } = require('./errors');
 
 class SensorWatch {
   /** plant: the PlantRuntime (its core `t` and ids by handle). */
@@ -14,6 +17,74 @@ class SensorWatch {
     this.plant = plant;
     this.watchers = new Map(); // sensor handle -> Set of functions called on each new sample
     this.conditions = new Map(); // condition text + sensors -> Condition
+    /** @type {Map<number, Wait>} the core's waits by number, for `core` (the tracker that numbered them) */
+    this.waits = new Map();
+    this.core = null;
+  }
+
+  /**
+   * A wait of `timeoutMs` from now in the core; `timedOut(reason)` once its
+   * deadline passes (reason: why its condition last did not hold, or null).
+   * Throws QUEUE_FULL.
+   * @param {number} timeoutMs @param {(reason: string | null) => void} timedOut
+   * @returns {Wait}
+   */
+  startWait(timeoutMs, timedOut) {
+    const t = this.current();
+    const id = t.waitStart(timeoutMs, clock.now());
+    /** @type {Wait} */
+    const wait = { id, at: t.waitDeadline(id) ?? clock.now(), timedOut };
+    this.waits.set(id, wait);
+    this.plant.wakeAt(wait.at);
+    return wait;
+  }
+
+  /**
+   * Its condition was checked at `now`: held (`reason` undefined) or not;
+   * the core says whether it is met, still waiting, or timed out.
+   * @param {Wait} wait @param {string | undefined} reason @param {number} now
+   */
+  checked(wait, reason, now) {
+    const outcome = this.current().waitChecked(wait.id, reason, now);
+    if (outcome.state !== 'waiting') this.ended(wait);
+    return outcome;
+  }
+
+  /** Ends `wait` unmet (its msg went away). @param {Wait} wait */
+  cancelWait(wait) {
+    if (this.waits.get(wait.id) !== wait) return;
+    if (this.plant.t) this.current().waitCancel(wait.id);
+    this.ended(wait);
+  }
+
+  /** @param {Wait} wait */
+  ended(wait) {
+    if (this.waits.get(wait.id) === wait) this.waits.delete(wait.id);
+    this.plant.followDeadline();
+  }
+
+  /** At the plant's deadline: the waits the core timed out. */
+  expire(now) {
+    for (const { wait: id, reason } of this.current().expireWaits(now)) {
+      const wait = this.waits.get(id);
+      this.waits.delete(id);
+      if (wait) wait.timedOut(reason);
+    }
+  }
+
+  /** The plant's tracker; after a trap's rebuild, the waits go on in the new one until their deadlines. */
+  current() {
+    const { t } = this.plant;
+    if (!t) throw SugarshackError.of('NO_PLANT', 'plantNotRunning');
+    if (this.core === t) return t;
+    const carried = [...this.waits.values()];
+    this.waits.clear();
+    for (const wait of carried) {
+      wait.id = t.waitUntil(wait.at);
+      this.waits.set(wait.id, wait);
+    }
+    this.core = t;
+    return t;
   }
 
   /** Calls `fn` on each new sample of any of `handles`; returns the function that stops it. */
@@ -39,10 +110,9 @@ class SensorWatch {
     return condition;
   }
 
-  /** Whether any condition waits on a sensor (its sensor handles are this document's). */
+  /** Whether a msg or a step waits on a condition (its sensor handles are this document's). */
   waiting() {
-    for (const watching of this.watchers.values()) if (watching.size > 0) return true;
-    return false;
+    return this.waits.size > 0;
   }
 
   /** A new tracker: conditions read by the old one are read again; with a new document, the watchers go too. */
@@ -76,5 +146,7 @@ class SensorWatch {
     }
   }
 }
+
+/** @typedef {{ id: number, at: number, timedOut: (reason: string | null) => void }} Wait a wait in the core, and its deadline */
 
 module.exports = { SensorWatch };

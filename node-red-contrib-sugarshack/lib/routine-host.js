@@ -16,8 +16,8 @@ const { journal } = require('./journal/bus');
 const wasm = require('./wasm');
 const i18n = require('./i18n');
 
-// How often due conditions are looked for; each transition's own everyMs decides when it is checked.
-const TICK_MS = 250;
+// Node fires a longer timeout at once; woken early, the host sleeps again until the deadline.
+const MAX_TIMER_MS = 2 ** 31 - 1;
 
 // The operator's states a routine's status shows: how each looks, and its text (`state`: the routine's state).
 const OPERATOR_STATES = Object.freeze({
@@ -45,14 +45,16 @@ class RoutineHost {
     this.commanding = null;
     this.lastFault = false;
     this.warned = new Set();
-    this.timer = null;
+    this.timer = null; // at the machine's next deadline
+    this.unwatch = []; // stops watching its conditions' sensors
+    this.checkParked = false; // a check waits for the interlock to open
     this.ended = false;
   }
 
   /** Builds the machine (throws UNKNOWN_ROUTINE) and restores `saved`, if any. */
   start(saved) {
     this.build(saved);
-    this.timer = clock.setInterval(() => this.checkConditions(), TICK_MS);
+    this.checkConditions();
   }
 
   build(saved) {
@@ -67,6 +69,7 @@ class RoutineHost {
     }
     this.machine = machine;
     this.conditions = conditions;
+    this.watchInputs();
     // Its operation, saved held, came back held: still pending (see InterlockRuntime.restoreHeldRuns).
     const held = this.interlock.heldOperationsOf(this.id);
     this.takeHeldRun();
@@ -116,6 +119,7 @@ class RoutineHost {
       this.interlock.log('error', i18n.text('logs.routineUnfit', { id: this.id, message: err.message }));
     }
     this.refresh();
+    this.checkConditions();
   }
 
   snapshot() {
@@ -190,6 +194,7 @@ class RoutineHost {
       for (const event of after) this.interlock.changed(event);
     }
     this.refresh();
+    this.checkConditions(); // a restart or a reset may let its conditions fire again
     return this.runState();
   }
 
@@ -253,11 +258,63 @@ class RoutineHost {
   afterRun() {
     this.refresh();
     if (this.rebuildAfterRun) this.rebuild(this.snapshot());
+    else this.checkConditions();
+  }
+
+  // ---- its conditions: checked when their sensors sample and at the machine's deadlines ----
+
+  /** A value that did not change cannot make a condition hold: each is checked again once its sensors sample. */
+  watchInputs() {
+    this.stopWatching();
+    for (const [t, condition] of this.conditions) {
+      this.unwatch.push(this.plant.watchSensors(condition.handles, () => this.inputChanged(t)));
+    }
+  }
+
+  stopWatching() {
+    for (const stop of this.unwatch.splice(0)) stop();
+  }
+
+  inputChanged(t) {
+    const machine = this.machine;
+    if (this.ended || !machine) return;
+    machine.inputChanged(t);
+    const next = machine.nextDeadline();
+    if (next !== undefined && next <= clock.now()) this.checkConditions();
+    else this.followDeadline();
+  }
+
+  /** One timer, at the machine's next deadline; none while nothing can fall due. */
+  followDeadline() {
+    if (this.timer) clock.clearTimeout(this.timer);
+    this.timer = null;
+    const machine = this.machine;
+    if (this.ended || !machine || this.run) return;
+    const next = machine.nextDeadline();
+    if (next === undefined) return;
+    this.timer = clock.setTimeout(() => {
+      this.timer = null;
+      this.checkConditions();
+    }, Math.min(Math.max(0, next - clock.now()), MAX_TIMER_MS));
+  }
+
+  /** A deploy drains (or the interlock starts): its conditions are checked once the interlock opens. */
+  checkWhenOpen() {
+    if (this.checkParked || (this.interlock.gateOpen && this.interlock.state !== 'starting')) return;
+    this.checkParked = true;
+    this.interlock.whenOpen(() => {
+      this.checkParked = false;
+      this.checkConditions();
+    });
   }
 
   checkConditions() {
     const machine = this.machine;
-    if (this.ended || !machine || this.run || !this.interlock.gateOpen || this.interlock.state !== 'ready') return;
+    if (this.ended || !machine || this.run) return;
+    if (!this.interlock.gateOpen || this.interlock.state !== 'ready') {
+      this.checkWhenOpen();
+      return;
+    }
     const now = clock.now();
     let due;
     try {
@@ -275,13 +332,19 @@ class RoutineHost {
       } catch (err) {
         if (!this.warned.has(t)) this.interlock.log('error', i18n.text('logs.routineError', { id: this.id, message: err.message }));
         this.warned.add(t);
+        if (this.machine) this.machine.inputChanged(t); // tried again after its everyMs
         continue;
       }
       const current = this.machine;
-      if (!outcome.met || this.ended || !current || this.run || !this.interlock.gateOpen) continue;
+      if (!outcome.met || this.ended || !current) continue;
+      if (this.run || !this.interlock.gateOpen) {
+        current.inputChanged(t); // held, not acted on: due again
+        continue;
+      }
       const d = stats.time('routine', () => current.conditionMet(t));
       if (d) this.dispatch(d);
     }
+    this.followDeadline();
   }
 
   // ---- events and status -----------------------------------------------------
@@ -354,7 +417,8 @@ class RoutineHost {
 
   shutdown() {
     this.ended = true;
-    if (this.timer) clock.clearInterval(this.timer);
+    this.stopWatching();
+    if (this.timer) clock.clearTimeout(this.timer);
     this.timer = null;
     wasm.release(this.machine);
     this.machine = null;

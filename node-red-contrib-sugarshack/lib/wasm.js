@@ -352,6 +352,12 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
   t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
+  const wait = t.waitStart(5, 0);
+  t.waitDeadline(wait);
+  t.waitChecked(wait, 'primer', 1);
+  t.waitCancel(t.waitUntil(9));
+  t.waiting();
+  t.expireWaits(10);
   const r = t.routine('r');
   r.conditions();
   r.condition(1);
@@ -362,6 +368,8 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.onMsg('go');
   r.completed();
   r.due(0);
+  r.inputChanged(1);
+  r.nextDeadline();
   r.conditionMet(1);
   r.faulted();
   r.reset();

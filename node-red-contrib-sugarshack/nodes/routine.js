@@ -6,7 +6,6 @@ const { refuseDeploy } = require('../lib/deploy-refusal');
 const { errorStatus } = require('../lib/status');
 const { translator, useRED } = require('../lib/i18n');
 const { readMsg, attributionOf } = require('../lib/request');
-const { clock } = require('../lib/clock');
 const operator = require('../lib/operator');
 const wasm = require('../lib/wasm');
 
@@ -45,11 +44,10 @@ module.exports = function (RED) {
       });
     }
 
-    /** A refusal shows on the node a while, then its state again; the msg completes with it. */
+    /** A refusal shows on the node until the routine's next change shows its state; the msg completes with it. */
     const refused = (err) => {
       const e = asSugarshackError(err);
       node.status(errorStatus(e.code));
-      clock.setTimeout(() => host && host.refresh(), 5000);
       return e;
     };
 

@@ -403,6 +403,17 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     }
   });
 
+  it('a wait on a condition: checked, timed out at the tracker\'s deadline', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const a = t.waitStart(1000, 0);
+    const b = t.waitUntil(5000);
+    assert.equal(t.nextDeadline(), 1000);
+    shapes.expect('WaitChecked', t.waitChecked(a, 'stale', 10));
+    shapes.expect('WaitTimedOut[]', t.expireWaits(1000));
+    shapes.expect('WaitChecked', t.waitChecked(a, undefined, 1100));
+    shapes.expect('WaitChecked', t.waitChecked(b, undefined, 6000));
+  });
+
   it('a routine: dispatches, moves, conditions, snapshot', function () {
     const t = keep(new facade.Tracker(PLANT, 0));
     const r = keep(t.routine('r'));

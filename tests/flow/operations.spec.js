@@ -244,6 +244,25 @@ describe('sugarshack operations and routines', function () {
     assert.equal(seen.caught.length, 1);
   });
 
+  it('a routine\'s condition is checked when its sensor samples, not on a poll: the sample that makes it hold fires it at once', async function () {
+    const seen = await start([routineNode]);
+    fakePanel();
+    sensor(150); // op 10's wait holds
+    helper.getNode('r').receive({ topic: 'load' });
+    await runTill(() => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command' && m.payload === 'OFF'), 'op 10 past its wait');
+    sensor(50);
+    await runTill(() => seen.rt.some((m) => m.payload.event === 'completed'), 'op 10');
+    await run(2000);
+    assert.deepEqual(seen.rt.map((m) => m.payload.event), ['dispatched', 'completed'], 'checked on entering \'full\', then never again without a sample');
+    assert.equal(statusOf('r').text, 'full');
+    const at = clock().now();
+    sensor(150);
+    await quiet(); // no clock time passes: nothing polls, the sample itself is the check
+    const dispatched = seen.rt.filter((m) => m.payload.event === 'dispatched').map((m) => m.payload.operation);
+    assert.deepEqual(dispatched, ['10', '12'], 'dispatched on the sample');
+    assert.equal(clock().now(), at);
+  });
+
   it('a routine trigger whose operation is already running is refused and the routine stays where it was', async function () {
     const seen = await start([operationNode('op10', '10'), routineNode]);
     fakePanel();

@@ -1,7 +1,10 @@
 //! A routine (the paper's §III-E, Alg. 3): a state machine R = (S, s0, O, T)
 //! that dispatches at most one operation at a time and moves on its return.
-//! A trigger is a msg topic, or a sensor condition checked every `everyMs`
-//! (the condition itself is evaluated by the caller, which reports the result).
+//! A trigger is a msg topic, or a sensor condition. A condition is due when
+//! its state is entered, then again once its sensors sampled, at most once
+//! per `everyMs` (the caller evaluates it and reports the result): a value
+//! that did not change cannot make it hold, so nothing polls. The caller
+//! keeps one timer at [`RoutineMachine::next_deadline`].
 
 use std::fmt;
 
@@ -214,6 +217,8 @@ pub struct RoutineMachine {
     aborted: bool,
     /// Per transition: when its condition was last handed out for evaluation.
     checked: Vec<Option<Millis>>,
+    /// Per transition: whether its sensors sampled since then.
+    changed: Vec<bool>,
 }
 
 impl RoutineMachine {
@@ -225,6 +230,7 @@ impl RoutineMachine {
             .ok_or_else(|| RoutineError::UnknownRoutine { name: id.into() })?;
         Ok(RoutineMachine {
             checked: vec![None; graph.edges().len()],
+            changed: vec![false; graph.edges().len()],
             state: graph.initial(),
             graph,
             pending: None,
@@ -479,26 +485,62 @@ impl RoutineMachine {
         Ok(self.dispatch(transition))
     }
 
-    /// The condition transitions of the current state due for evaluation at `now`
-    /// (never checked in this state, or checked `everyMs` ago). They count as checked now.
+    /// When the condition of transition `i` is due: at once (`ZERO`) if not
+    /// checked in this state, `everyMs` after its check once its sensors
+    /// sampled, else never. None for a transition of another state, or a msg's.
+    fn due_at(&self, i: usize, t: &Edge) -> Option<Millis> {
+        let Trigger::When { every_ms, .. } = t.trigger else {
+            return None;
+        };
+        if t.from != self.state {
+            return None;
+        }
+        match self.checked[i] {
+            None => Some(Millis::ZERO),
+            Some(at) => self.changed[i].then(|| at.saturating_add(every_ms)),
+        }
+    }
+
+    /// The condition transitions of the current state due for evaluation at
+    /// `now` (never checked in this state, or their sensors sampled since a
+    /// check `everyMs` ago). They count as checked now.
     pub fn due(&mut self, now: Millis) -> Vec<usize> {
         if self.ready().is_err() {
             return Vec::new();
         }
-        let mut due = Vec::new();
-        for (i, t) in self.graph.edges().iter().enumerate() {
-            let Trigger::When { every_ms, .. } = t.trigger else {
-                continue;
-            };
-            if t.from != self.state {
-                continue;
-            }
-            if self.checked[i].is_none_or(|at| now.saturating_sub(at) >= every_ms) {
-                self.checked[i] = Some(now);
-                due.push(i);
-            }
+        let due: Vec<usize> = (0..self.graph.edges().len())
+            .filter(|&i| {
+                self.due_at(i, &self.graph.edges()[i])
+                    .is_some_and(|at| at <= now)
+            })
+            .collect();
+        for &i in &due {
+            self.checked[i] = Some(now);
+            self.changed[i] = false;
         }
         due
+    }
+
+    /// A sensor of the condition of `transition` sampled (or its check could
+    /// not be acted on): it is due again `everyMs` after its last check.
+    pub fn input_changed(&mut self, transition: usize) {
+        if let Some(changed) = self.changed.get_mut(transition) {
+            *changed = true;
+        }
+    }
+
+    /// When [`RoutineMachine::due`] next has something to hand out (`ZERO`:
+    /// now), if ever: never while an operation is pending or it is halted,
+    /// held, stopped or aborted, nor while no sensor of its state's
+    /// conditions sampled since their check.
+    pub fn next_deadline(&self) -> Option<Millis> {
+        if self.ready().is_err() {
+            return None;
+        }
+        let edges = self.graph.edges();
+        (0..edges.len())
+            .filter_map(|i| self.due_at(i, &edges[i]))
+            .min()
     }
 
     /// The condition of `transition` held: it fires if the routine is still in its
@@ -529,6 +571,7 @@ impl RoutineMachine {
     fn enter(&mut self, state: StateId) {
         self.state = state;
         self.checked.iter_mut().for_each(|c| *c = None);
+        self.changed.iter_mut().for_each(|c| *c = false);
     }
 
     /// A move from `from` to where the routine is now.
@@ -551,9 +594,15 @@ impl RoutineMachine {
 
     /// The pending operation was refused before it ran (the interlock refused its
     /// request, or it was already running elsewhere): nothing moved, the routine
-    /// stays where it was and may dispatch again.
+    /// stays where it was and may dispatch again (a condition that fired it
+    /// is due again `everyMs` after its check).
     pub fn refused(&mut self) -> Result<(), RoutineError> {
-        self.take_pending().map(|_| ())
+        let transition = self.pending;
+        self.take_pending()?;
+        if let Some(t) = transition {
+            self.input_changed(t);
+        }
+        Ok(())
     }
 
     /// The pending operation faulted: go to the error state, or halt where it is.

@@ -1,6 +1,8 @@
 //! The routine machine and the sensor store against simple reference models:
-//! random trigger / return / fault / reset / restart sequences, and random
-//! samples and reads around the staleness limit.
+//! random trigger / return / fault / reset / restart / sample sequences (a
+//! condition is due on entering its state, then only after its sensors
+//! sampled, at most once per period, and the machine's next deadline says
+//! when), and random samples and reads around the staleness limit.
 
 use proptest::prelude::*;
 use serde_json::json;
@@ -66,6 +68,8 @@ enum Event {
         gap: u64,
         met: Vec<bool>,
     },
+    /// A sensor of the condition of the transition at this position (modulo their count) sampled.
+    Sample(usize),
     Complete,
     /// The dispatched operation was refused before it ran.
     Refuse,
@@ -79,6 +83,7 @@ fn event() -> impl Strategy<Value = Event> {
         3 => prop::sample::select(TOPICS.to_vec()).prop_map(Event::Msg),
         3 => (prop::sample::select(vec![0u64, 999, 1000, 1500, 2500]), prop::collection::vec(any::<bool>(), 4))
             .prop_map(|(gap, met)| Event::Check { gap, met }),
+        3 => (0..8usize).prop_map(Event::Sample),
         3 => Just(Event::Complete),
         1 => Just(Event::Refuse),
         1 => Just(Event::Fault),
@@ -95,12 +100,30 @@ struct Model {
     pending: Option<usize>,
     halted: bool,
     checked: Vec<Option<u64>>,
+    changed: Vec<bool>,
 }
 
 impl Model {
     fn enter(&mut self, state: usize) {
         self.state = state;
         self.checked = vec![None; self.ts.len()];
+        self.changed = vec![false; self.ts.len()];
+    }
+    /// When a condition is next due: at once unchecked, a period after its check once sampled.
+    fn next_deadline(&self) -> Option<u64> {
+        if self.pending.is_some() || self.halted {
+            return None;
+        }
+        self.ts
+            .iter()
+            .enumerate()
+            .filter_map(|(i, (from, _, _, trig))| match (trig, self.checked[i]) {
+                (Trig::Every(_), _) if *from != self.state => None,
+                (Trig::Every(_), None) => Some(0),
+                (Trig::Every(every), Some(at)) => self.changed[i].then_some(at + every),
+                (Trig::Msg(_), _) => None,
+            })
+            .min()
     }
     fn fault(&mut self) -> bool {
         let Some(t) = self.pending.take() else {
@@ -123,7 +146,7 @@ proptest! {
     fn routine_matches_the_reference(ts in transitions(), error_state in any::<bool>(), events in prop::collection::vec(event(), 1..60)) {
         let plant = plant(&ts, error_state);
         let mut r = RoutineMachine::new(&plant, "r").unwrap();
-        let mut m = Model { checked: vec![None; ts.len()], ts: ts.clone(), error_state, state: 0, pending: None, halted: false };
+        let mut m = Model { checked: vec![None; ts.len()], changed: vec![false; ts.len()], ts: ts.clone(), error_state, state: 0, pending: None, halted: false };
         let mut now = 0u64;
         let mut dispatched = 0usize;
         let mut returned = 0usize;
@@ -152,8 +175,9 @@ proptest! {
                     if m.pending.is_none() && !m.halted {
                         for (i, (from, _, _, trig)) in m.ts.iter().enumerate() {
                             if let Trig::Every(every) = trig {
-                                if *from == m.state && m.checked[i].is_none_or(|at| now - at >= *every) {
+                                if *from == m.state && m.checked[i].is_none_or(|at| m.changed[i] && now - at >= *every) {
                                     m.checked[i] = Some(now);
+                                    m.changed[i] = false;
                                     expected.push(i);
                                 }
                             }
@@ -172,6 +196,11 @@ proptest! {
                         }
                     }
                 }
+                Event::Sample(k) => {
+                    let t = k % m.ts.len();
+                    r.input_changed(t);
+                    m.changed[t] = true;
+                }
                 Event::Complete => match (r.completed(), m.pending.take()) {
                     (Ok(moved), Some(t)) => {
                         prop_assert_eq!(moved.to.as_str(), STATES[m.ts[t].1]);
@@ -183,9 +212,13 @@ proptest! {
                     (got, want) => prop_assert!(false, "complete: got {:?}, model pending {:?}", got, want),
                 },
                 Event::Refuse => {
-                    let had = m.pending.take().is_some();
-                    prop_assert_eq!(r.refused().is_ok(), had);
-                    if had { returned += 1; }
+                    let had = m.pending.take();
+                    prop_assert_eq!(r.refused().is_ok(), had.is_some());
+                    if let Some(t) = had {
+                        // Tried again: due a period after the check that fired it.
+                        m.changed[t] = true;
+                        returned += 1;
+                    }
                 }
                 Event::Fault => {
                     let had = m.pending.is_some();
@@ -207,12 +240,14 @@ proptest! {
                     prop_assert_eq!(moved.is_some(), m.pending.is_some());
                     if m.fault() { returned += 1; }
                     m.checked = vec![None; m.ts.len()];
+                    m.changed = vec![false; m.ts.len()];
                 }
             }
             prop_assert_eq!(r.state(), STATES[m.state]);
             let pending = m.pending.map(|t| format!("op{}", m.ts[t].2));
             prop_assert_eq!(r.pending(), pending.as_deref());
             prop_assert_eq!(r.halted(), m.halted);
+            prop_assert_eq!(r.next_deadline(), m.next_deadline().map(ms));
             // At most one operation pending at any time.
             prop_assert!(dispatched - returned <= 1);
         }

@@ -1,24 +1,51 @@
 //! Conditions over the plant's sensors (wait steps, routine transitions, the
 //! wait node's own), read and evaluated by the core: JS reads the sensors'
 //! fresh values (`readSensors`) and asks whether the condition holds on them.
+//! A wait on one is the core's too: its deadline is among the tracker's
+//! (`nextDeadline`), and `expireWaits` says which ran out.
 
 use std::collections::HashMap;
 
 use sugarshack_core::code::Code;
-use sugarshack_core::condition::Condition;
-use sugarshack_core::text::quote;
+use sugarshack_core::condition::{Checked, Condition, TimedOut, WaitId, Waits};
+use sugarshack_core::text::{abridge, quote};
+use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 
-use crate::{js_error, Tracker};
+use crate::{js_error, time, to_js, Tracker};
+
+/// The TypeScript shapes of what the waits' calls return.
+#[wasm_bindgen(typescript_custom_section)]
+const TS_SHAPES: &str = r#"
+/** A wait that ran out of time, and why its condition last did not hold (null: never checked). */
+export interface WaitTimedOut {
+    wait: number;
+    reason: string | null;
+}
+
+/** `Tracker.waitChecked()`: met, still waiting, timed out (checked after its deadline), or ended before. */
+export type WaitChecked =
+    | { state: "met" | "waiting" | "ended" }
+    | { state: "timedOut"; reason: string | null };
+"#;
 
 /// More distinct conditions than any plant has waits: not conditions a person wrote.
 const MAX_CONDITIONS: usize = 10_000;
+/// More msgs waiting at once than a plant's flows hold: refused rather than kept.
+const MAX_WAITS: usize = 100_000;
+/// The longest reason kept for a wait's timeout.
+const MAX_REASON_CHARS: usize = 2_000;
 
 /// The conditions read for one tracker, each once.
 #[derive(Debug, Default)]
 pub(crate) struct Conditions {
     list: Vec<Condition>,
     by_key: HashMap<(String, Vec<String>), u32>,
+    pub(crate) waits: Waits,
+}
+
+fn timed_out(t: TimedOut) -> serde_json::Value {
+    serde_json::json!({ "wait": t.wait.0, "reason": t.reason })
 }
 
 #[wasm_bindgen]
@@ -78,5 +105,96 @@ impl Tracker {
             Ok(holds) => JsValue::from_bool(holds),
             Err(no_number) => JsValue::from_str(&no_number.to_string()),
         })
+    }
+
+    /// A wait of `timeoutMs` from `nowMs` on a condition; its number. Its
+    /// deadline is in `nextDeadline` from now on. Throws `QUEUE_FULL` past
+    /// the most waits one plant keeps.
+    #[wasm_bindgen(js_name = waitStart)]
+    pub fn wait_start(&mut self, timeout_ms: f64, now_ms: f64) -> Result<u32, JsValue> {
+        let timeout = Millis::new(timeout_ms).ok_or_else(|| {
+            js_error(
+                Code::InvalidInput,
+                &format!(
+                    "a wait's timeout must be a number of ms, got {}",
+                    quote(timeout_ms)
+                ),
+            )
+        })?;
+        let now = time(now_ms)?;
+        self.room_for_a_wait()?;
+        Ok(self.conditions.waits.start(timeout, now).0)
+    }
+
+    /// A wait until `deadlineMs`, carried over from a tracker that is gone (a trap); its number.
+    #[wasm_bindgen(js_name = waitUntil)]
+    pub fn wait_until(&mut self, deadline_ms: f64) -> Result<u32, JsValue> {
+        let deadline = time(deadline_ms)?;
+        self.room_for_a_wait()?;
+        Ok(self.conditions.waits.until(deadline).0)
+    }
+
+    fn room_for_a_wait(&self) -> Result<(), JsValue> {
+        if self.conditions.waits.len() >= MAX_WAITS {
+            return Err(js_error(
+                Code::QueueFull,
+                &format!("more than {MAX_WAITS} msgs wait on conditions of one plant; refused"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// When wait `wait` times out (epoch ms), if it is still in progress.
+    #[wasm_bindgen(js_name = waitDeadline)]
+    pub fn wait_deadline(&self, wait: u32) -> Option<f64> {
+        self.conditions
+            .waits
+            .deadline(WaitId(wait))
+            .map(Millis::as_f64)
+    }
+
+    /// Its condition was checked at `nowMs`: held (`reason` undefined) or not, and why.
+    #[wasm_bindgen(js_name = waitChecked, unchecked_return_type = "WaitChecked")]
+    pub fn wait_checked(
+        &mut self,
+        wait: u32,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let reason = reason.map(|r| abridge(&r, MAX_REASON_CHARS));
+        let outcome = match self.conditions.waits.checked(WaitId(wait), reason, now) {
+            Checked::Met => serde_json::json!({ "state": "met" }),
+            Checked::Waiting => serde_json::json!({ "state": "waiting" }),
+            Checked::Unknown => serde_json::json!({ "state": "ended" }),
+            Checked::TimedOut(t) => serde_json::json!({ "state": "timedOut", "reason": t.reason }),
+        };
+        to_js(&outcome)
+    }
+
+    /// Ends wait `wait` unmet (its msg went away); false when it had ended.
+    #[wasm_bindgen(js_name = waitCancel)]
+    pub fn wait_cancel(&mut self, wait: u32) -> bool {
+        self.conditions.waits.cancel(WaitId(wait))
+    }
+
+    /// The waits whose deadline is reached at `nowMs`, earliest first: `[{ wait, reason }]`; they end.
+    #[wasm_bindgen(js_name = expireWaits, unchecked_return_type = "WaitTimedOut[]")]
+    pub fn expire_waits(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = time(now_ms)?;
+        let out: Vec<serde_json::Value> = self
+            .conditions
+            .waits
+            .expire(now)
+            .into_iter()
+            .map(timed_out)
+            .collect();
+        to_js(&out)
+    }
+
+    /// How many waits are in progress.
+    #[wasm_bindgen(js_name = waiting)]
+    pub fn waiting(&self) -> u32 {
+        self.conditions.waits.len() as u32
     }
 }

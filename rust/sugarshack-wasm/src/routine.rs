@@ -1,6 +1,7 @@
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::Plant;
 use sugarshack_core::routine::{RoutineError, RoutineMachine, RoutineSnapshot};
+use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
 
 use crate::operation::{command_names, command_of, state_of};
@@ -163,6 +164,19 @@ impl Routine {
     pub fn due(&mut self, now_ms: f64) -> Result<Vec<u32>, JsValue> {
         let now = time(now_ms)?;
         Ok(self.core.due(now).into_iter().map(|t| t as u32).collect())
+    }
+
+    /// A sensor of the condition of `transition` sampled (or its met check
+    /// could not be acted on): it is due again `everyMs` after its last check.
+    #[wasm_bindgen(js_name = inputChanged)]
+    pub fn input_changed(&mut self, transition: u32) {
+        self.core.input_changed(transition as usize);
+    }
+
+    /// When `due` next hands out a condition (epoch ms; 0: now), if ever: call it then.
+    #[wasm_bindgen(js_name = nextDeadline)]
+    pub fn next_deadline(&self) -> Option<f64> {
+        self.core.next_deadline().map(Millis::as_f64)
     }
 
     /// `{ when, sensors }` of a condition transition.

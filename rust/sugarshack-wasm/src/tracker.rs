@@ -766,10 +766,17 @@ impl Tracker {
         Ok(self.queue(effects))
     }
 
-    /// When the next group command's timeout runs out (epoch ms), if any: call `expire` then.
+    /// When the next group command's or wait's timeout runs out (epoch ms), if
+    /// any: call `expire` and `expireWaits` then.
     #[wasm_bindgen(js_name = nextDeadline)]
     pub fn next_deadline(&self) -> Option<f64> {
-        self.core.next_deadline().map(Millis::as_f64)
+        let waits = self.conditions.waits.next_deadline();
+        self.core
+            .next_deadline()
+            .into_iter()
+            .chain(waits)
+            .min()
+            .map(Millis::as_f64)
     }
 
     /// The queued effects, oldest first, as plain objects with a `kind`.

@@ -37,11 +37,14 @@ mod check;
 mod eval;
 mod lex;
 mod parse;
+mod wait;
 
 use std::fmt;
 use std::ops::Range;
 
 use crate::text::quote;
+
+pub use wait::{Checked, TimedOut, WaitId, Waits};
 
 /// The longest condition read.
 pub const MAX_CHARS: usize = 2000;

@@ -692,7 +692,8 @@ pub enum Trigger {
         /// The msg topic that fires it (any but `reset`, which sends the routine back to its initial state).
         msg: String,
     },
-    /// A condition on sensor values, checked every `everyMs`, e.g.
+    /// A condition on sensor values, checked on entering the state and then
+    /// as its sensors sample, at most once per `everyMs`, e.g.
     /// ``{"when": "`LT-3` >= 12000", "sensors": ["LT-3"], "everyMs": 1000}``.
     #[serde(rename_all = "camelCase")]
     When {
@@ -704,7 +705,8 @@ pub enum Trigger {
         when: String,
         /// The ids of the sensors the condition reads.
         sensors: Vec<String>,
-        /// How often the condition is checked, in ms.
+        /// The least time between two checks of the condition, in ms (it is
+        /// checked again only once its sensors sampled).
         every_ms: Millis,
     },
 }

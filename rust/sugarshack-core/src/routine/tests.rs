@@ -79,7 +79,7 @@ fn a_msg_without_a_transition_from_the_state_is_refused() {
 }
 
 #[test]
-fn conditions_fall_due_every_period_and_the_first_met_fires() {
+fn conditions_fall_due_on_entry_then_after_a_sample_once_a_period_and_the_first_met_fires() {
     let mut r = RoutineMachine::new(&plant(true), "truck").unwrap();
     assert!(
         r.due(ms(0)).is_empty(),
@@ -91,9 +91,32 @@ fn conditions_fall_due_every_period_and_the_first_met_fires() {
         "nothing is due while an operation runs"
     );
     r.completed().unwrap();
+    assert_eq!(
+        r.next_deadline(),
+        Some(Millis::ZERO),
+        "due at once in a new state"
+    );
     assert_eq!(r.due(ms(10_000)), vec![1, 2]);
+    assert_eq!(
+        r.next_deadline(),
+        None,
+        "nothing sampled: nothing to check again"
+    );
+    assert!(
+        r.due(ms(20_000)).is_empty(),
+        "no polling: unchanged values cannot hold now"
+    );
+    r.input_changed(1);
+    r.input_changed(2);
+    assert_eq!(
+        r.next_deadline(),
+        Some(ms(11_000)),
+        "everyMs after the check"
+    );
     assert!(r.due(ms(10_999)).is_empty());
     assert_eq!(r.due(ms(11_000)), vec![1]);
+    assert_eq!(r.next_deadline(), Some(ms(13_000)));
+    r.input_changed(1);
     assert_eq!(r.due(ms(13_000)), vec![1, 2]);
     assert_eq!(
         r.condition(2),
@@ -101,6 +124,12 @@ fn conditions_fall_due_every_period_and_the_first_met_fires() {
     );
     let d = r.condition_met(2).unwrap();
     assert_eq!(d.operation, "12");
+    r.input_changed(1);
+    assert_eq!(
+        r.next_deadline(),
+        None,
+        "nothing is due while an operation runs"
+    );
     assert_eq!(
         r.condition_met(1),
         None,
@@ -264,6 +293,12 @@ fn a_dispatch_refused_before_it_ran_leaves_the_state_unchanged() {
     assert_eq!(r.on_msg("load").unwrap().operation, "10");
     r.completed().unwrap();
     assert!(r.refused().is_err());
+    // A condition's dispatch refused is tried again a period after its check, with no new sample.
+    assert_eq!(r.due(ms(1_000)), vec![1, 2]);
+    assert_eq!(r.condition_met(1).unwrap().operation, "11");
+    r.refused().unwrap();
+    assert_eq!(r.next_deadline(), Some(ms(2_000)));
+    assert_eq!(r.due(ms(2_000)), vec![1]);
 }
 
 #[test]

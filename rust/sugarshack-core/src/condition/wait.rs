@@ -1,0 +1,149 @@
+//! Waits on conditions (a wait node's msg, an operation's wait step): each
+//! ends when its condition holds on fresh values, or times out at its
+//! deadline saying why it last did not hold. The host checks the condition
+//! when its sensors sample and reports each check here; it keeps one timer at
+//! [`Waits::next_deadline`] and calls [`Waits::expire`] then.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::time::Millis;
+
+/// A wait, by the number [`Waits::start`] gave it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct WaitId(pub u32);
+
+/// A wait that ran out of time: why its condition last did not hold (none
+/// when it was never checked).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TimedOut {
+    /// The wait.
+    pub wait: WaitId,
+    /// Why it last did not hold.
+    pub reason: Option<String>,
+}
+
+/// What a check of a wait's condition did to it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Checked {
+    /// It held in time: the wait is over.
+    Met,
+    /// It did not hold: the wait goes on.
+    Waiting,
+    /// Checked after its deadline (the timer came late): it timed out, held or not.
+    TimedOut(TimedOut),
+    /// No such wait (it ended before).
+    Unknown,
+}
+
+#[derive(Clone, Debug)]
+struct Wait {
+    deadline: Millis,
+    reason: Option<String>,
+}
+
+/// The waits in progress and their deadlines.
+#[derive(Clone, Debug, Default)]
+pub struct Waits {
+    waits: BTreeMap<WaitId, Wait>,
+    deadlines: BTreeSet<(Millis, WaitId)>,
+    next: u32,
+}
+
+impl Waits {
+    /// A wait of `timeout` from `now`; its deadline is `now + timeout`.
+    pub fn start(&mut self, timeout: Millis, now: Millis) -> WaitId {
+        self.until(now.saturating_add(timeout))
+    }
+
+    /// A wait until `deadline` (one carried over from a core that is gone).
+    pub fn until(&mut self, deadline: Millis) -> WaitId {
+        let id = WaitId(self.next);
+        self.next = self.next.wrapping_add(1);
+        self.waits.insert(
+            id,
+            Wait {
+                deadline,
+                reason: None,
+            },
+        );
+        self.deadlines.insert((deadline, id));
+        id
+    }
+
+    /// When `wait` times out, if it is in progress.
+    pub fn deadline(&self, wait: WaitId) -> Option<Millis> {
+        self.waits.get(&wait).map(|w| w.deadline)
+    }
+
+    /// Its condition was checked at `now`: held (`reason` none) or not, and why.
+    /// Holding at its deadline still counts; after it, the wait timed out.
+    pub fn checked(&mut self, wait: WaitId, reason: Option<String>, now: Millis) -> Checked {
+        let Some(w) = self.waits.get_mut(&wait) else {
+            return Checked::Unknown;
+        };
+        if now > w.deadline {
+            let timed_out = self.end(wait).map(|w| TimedOut {
+                wait,
+                reason: w.reason,
+            });
+            return timed_out.map_or(Checked::Unknown, Checked::TimedOut);
+        }
+        match reason {
+            None => {
+                self.end(wait);
+                Checked::Met
+            }
+            Some(reason) => {
+                w.reason = Some(reason);
+                Checked::Waiting
+            }
+        }
+    }
+
+    /// Ends `wait` unmet (its msg was cancelled); false when it had ended.
+    pub fn cancel(&mut self, wait: WaitId) -> bool {
+        self.end(wait).is_some()
+    }
+
+    fn end(&mut self, wait: WaitId) -> Option<Wait> {
+        let w = self.waits.remove(&wait)?;
+        self.deadlines.remove(&(w.deadline, wait));
+        Some(w)
+    }
+
+    /// The earliest deadline of a wait in progress.
+    pub fn next_deadline(&self) -> Option<Millis> {
+        self.deadlines.first().map(|(at, _)| *at)
+    }
+
+    /// The waits whose deadline is reached at `now`, earliest first; they end.
+    /// (A check that held before this call, at the deadline itself, counted.)
+    pub fn expire(&mut self, now: Millis) -> Vec<TimedOut> {
+        let mut out = Vec::new();
+        while let Some(&(at, wait)) = self.deadlines.first() {
+            if at > now {
+                break;
+            }
+            if let Some(w) = self.end(wait) {
+                out.push(TimedOut {
+                    wait,
+                    reason: w.reason,
+                });
+            }
+        }
+        out
+    }
+
+    /// How many are in progress.
+    pub fn len(&self) -> usize {
+        self.waits.len()
+    }
+
+    /// Whether none is in progress.
+    pub fn is_empty(&self) -> bool {
+        self.waits.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests;
