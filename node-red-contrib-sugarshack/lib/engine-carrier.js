@@ -8,6 +8,7 @@
 // here under the handle their node chose; the engine answers each once.
 // The one timer is here too: it calls `due` when the engine says it is next due.
 const { SugarshackError } = require('./errors');
+const { HeldMsg } = require('./pending');
 const { clock: systemClock } = require('./clock');
 const i18n = require('./i18n');
 
@@ -35,7 +36,12 @@ class EngineCarrier {
     this.otherOutput = other || (() => {});
     this.countsChanged = counts || (() => {});
     /** @type {Map<number, Held>} */
-    this.held = new Map();
+    this.table = new Map();
+    // The msg held last waits apart: most are answered within the call that
+    // held them, and spare the Map an entry made and deleted per msg.
+    this.lastKey = -1;
+    /** @type {Held | null} */
+    this.last = null;
     /** @type {Group | null} */
     this.group = null;
     /** what follows a commit or an after runs as the committer runs effects (an error in it is reported, not thrown) */
@@ -44,9 +50,24 @@ class EngineCarrier {
     this.extra = null;
   }
 
+  /** Every held msg by handle, in the order held. @returns {Map<number, Held>} */
+  get held() {
+    this.settleLast();
+    return this.table;
+  }
+
+  settleLast() {
+    if (this.lastKey === -1) return;
+    this.table.set(this.lastKey, /** @type {Held} */ (this.last));
+    this.lastKey = -1;
+    this.last = null;
+  }
+
   /** Keeps `entry` under handle `k` until the engine answers it. @param {number} k @param {Held} entry */
   hold(k, entry) {
-    this.held.set(k, entry);
+    this.settleLast();
+    this.lastKey = k;
+    this.last = entry;
   }
 
   /** A node closes for a deploy: its held msgs are completed there, and wait for its next instance. @param {NodeRed.Node} node */
@@ -61,8 +82,14 @@ class EngineCarrier {
 
   /** @param {number} k */
   take(k) {
-    const entry = this.held.get(k);
-    this.held.delete(k);
+    if (k === this.lastKey) {
+      const entry = /** @type {Held} */ (this.last);
+      this.lastKey = -1;
+      this.last = null;
+      return entry;
+    }
+    const entry = this.table.get(k);
+    this.table.delete(k);
     return entry;
   }
 
@@ -166,6 +193,30 @@ class EngineCarrier {
 }
 
 /**
+ * A msg held under its handle, made with its fields at once (a HeldMsg made
+ * from an object of fields copies them, a cost per msg).
+ */
+class CarriedMsg extends HeldMsg {
+  /**
+   * @param {NodeRed.Node} node @param {NodeRed.Message} msg @param {NodeRed.Send} send @param {NodeRed.Done} done
+   * @param {number} ports its node's outputs
+   */
+  constructor(node, msg, send, done, ports) {
+    super(/** @type {any} */ (NO_FIELDS));
+    this.node = node;
+    this.msg = msg;
+    this.send = send;
+    this.done = done;
+    this.nodeId = node ? node.id : null;
+    this.ports = ports;
+    /** @type {any} */
+    this.cause = null;
+  }
+}
+// Nothing to copy: the fields are set above.
+const NO_FIELDS = Object.freeze({});
+
+/**
  * Sends the msg on output `port` (null: none) and `extra` msgs on theirs, then completes it.
  * @param {Held} entry @param {number | null} port @param {{ port: number, msgs: any[] } | null} extra @param {Error | null} err
  */
@@ -228,4 +279,4 @@ function faultedText(t) {
   return t.note ? say('withNote', { what, note: t.note }) : what;
 }
 
-module.exports = { EngineCarrier, refusalError, render };
+module.exports = { EngineCarrier, CarriedMsg, refusalError, render };

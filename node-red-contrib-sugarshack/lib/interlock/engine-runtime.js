@@ -7,13 +7,12 @@
 // is left here is I/O: reading a msg's fields, the state file, the status,
 // the events nodes and the editor's requests.
 const { SugarshackError } = require('../errors');
-const { heldMsg } = require('../pending');
 const { describeEvent } = require('../events');
 const { countsStatus } = require('../status');
 const { clock } = require('../clock');
 const { Committer } = require('../durable');
 const { InterlockRuntime } = require('../interlock-runtime');
-const { EngineCarrier, refusalError, render } = require('../engine-carrier');
+const { EngineCarrier, CarriedMsg, refusalError, render } = require('../engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { readMsg, fieldsOf } = require('../request');
 const { journal } = require('../journal/bus');
@@ -348,7 +347,7 @@ class EngineRuntime extends InterlockRuntime {
     const read = readMsg(() => kind.read(msg, values));
     const k = this.nextMsg;
     this.nextMsg = (this.nextMsg + 1) % HANDLES;
-    const entry = heldMsg({ node, msg, send, done, sinceMs: 0, ports: kind.ports });
+    const entry = new CarriedMsg(node, msg, send, done, kind.ports);
     // A Catch node's error stays the cause of the error a failed fault msg ends with.
     if (spec.kind === 'fault' && msg.error && typeof msg.error === 'object') entry.cause = msg.error;
     this.carrier.hold(k, entry);

@@ -34,6 +34,7 @@ pub mod wire;
 use std::collections::VecDeque;
 
 use fx::FxMap;
+use request::operation_name_of;
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
@@ -1100,7 +1101,7 @@ impl Engine {
             }
         }
         let follow_value = if follow { &fields.follow } else { &Raw::Absent };
-        let name = operation_of(
+        let name = operation_name_of(
             &fields.operation,
             node_value(n, fields, Value::Operation),
             follow_value,
@@ -1111,7 +1112,7 @@ impl Engine {
         let name: Arc<str> = self
             .interlock
             .shared_operation_name(op)
-            .unwrap_or_else(|| name.into());
+            .unwrap_or_else(|| Arc::from(&*name));
         if configured {
             let epoch = self.interlock.forgettings();
             if let Some(n) = self.nodes.get_mut(&node) {
@@ -1320,7 +1321,16 @@ impl Engine {
                 Err(refusal) => return self.refuse(node, msg, refusal),
             }
         } else {
-            match self.named_operation(node, fields) {
+            let Some(n) = self.nodes.get(&node) else {
+                return self.refuse(node, msg, unknown_node(node));
+            };
+            // The name borrowed from the msg: nothing is copied to look it up.
+            let named = operation_name_of(
+                &fields.operation,
+                node_value(n, fields, Value::Operation),
+                &fields.follow,
+            );
+            match named {
                 Ok(name) => self.interlock.release_named(&name, now),
                 Err(refusal) => return self.refuse(node, msg, refusal),
             }

@@ -6,6 +6,8 @@
 //! outranks msg.by). Only shapes are read here; whether a request is allowed
 //! is the interlock's to say.
 
+use std::borrow::Cow;
+
 use serde::{Deserialize, Serialize};
 
 use super::output::{Param, Refusal};
@@ -63,7 +65,12 @@ pub const HEAD: usize = MAX_NOTE;
 impl Raw {
     /// Set: not absent, and not the empty string.
     pub fn present(&self) -> bool {
-        !matches!(self, Raw::Absent) && *self != Raw::Text(String::new())
+        // Matched, not compared with an empty text made (and dropped) per call: this runs several times a msg.
+        match self {
+            Raw::Absent => false,
+            Raw::Text(text) => !text.is_empty(),
+            _ => true,
+        }
     }
 
     /// The value as a short quote: JSON for text and numbers, cut to 100 characters.
@@ -148,7 +155,7 @@ impl From {
     }
 }
 
-fn as_operation_name(value: &Raw, from: From) -> Result<String, Refusal> {
+fn as_operation_name(value: &Raw, from: From) -> Result<Cow<'_, str>, Refusal> {
     if let Some(length) = value.text_len().filter(|l| *l > MAX_OPERATION_NAME) {
         return Err(Refusal::catalog(
             Code::InvalidOperation,
@@ -161,8 +168,8 @@ fn as_operation_name(value: &Raw, from: From) -> Result<String, Refusal> {
         ));
     }
     match value {
-        Raw::Number(n) if n.is_finite() => Ok(js_number(*n)),
-        Raw::Text(text) => Ok(text.trim().to_owned()),
+        Raw::Number(n) if n.is_finite() => Ok(Cow::Owned(js_number(*n))),
+        Raw::Text(text) => Ok(Cow::Borrowed(text.trim())),
         other => Err(Refusal::catalog(
             Code::InvalidOperation,
             "errors.operationNotName",
@@ -175,6 +182,16 @@ fn as_operation_name(value: &Raw, from: From) -> Result<String, Refusal> {
 /// nodes that follow an acquire) msg.interlock.operation. An id that is
 /// empty once trimmed names no operation.
 pub fn operation_of(msg: &Raw, configured: &Raw, follow: &Raw) -> Result<String, Refusal> {
+    operation_name_of(msg, configured, follow).map(Cow::into_owned)
+}
+
+/// [`operation_of`], borrowed from the fields where it can be (the per-msg
+/// paths spare a copy of the name).
+pub fn operation_name_of<'a>(
+    msg: &'a Raw,
+    configured: &'a Raw,
+    follow: &'a Raw,
+) -> Result<Cow<'a, str>, Refusal> {
     let name = if msg.present() {
         as_operation_name(msg, From::Msg("msg.operation"))?
     } else if configured.present() {

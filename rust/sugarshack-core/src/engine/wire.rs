@@ -66,8 +66,10 @@ pub mod set {
     pub const OTHER: f64 = 2.0;
 }
 
-/// Names kept in the table before it starts again (a flow naming a new operation per msg).
-pub const NAMES_KEPT: usize = 65_536;
+/// Names kept in the table before it starts again (a flow naming a new
+/// operation per msg): small enough that the table and its mirror stay in
+/// cache, far more than the names a plant uses at once.
+pub const NAMES_KEPT: usize = 4096;
 
 /// An encoder of batches, with the string table the host mirrors.
 #[derive(Clone, Debug, Default)]
@@ -81,6 +83,8 @@ pub struct Wire {
     names: FxMap<usize, (Arc<str>, u32)>,
     /// Where a JSON field is written before it joins the text (kept: no allocation per field).
     scratch: Vec<u8>,
+    /// The table entries of a record's names (kept: no allocation per record).
+    ids: Vec<f64>,
 }
 
 impl Wire {
@@ -121,52 +125,48 @@ impl Wire {
             Output::After => self.push(&[tag::AFTER]),
             Output::Send { msg, port, set } => {
                 // Names first: the host learns them before the record that uses them.
+                let mut ids = std::mem::take(&mut self.ids);
+                ids.clear();
                 if let Set::Interlock {
                     operation,
                     resources,
                     ..
                 } = set
                 {
-                    let new = std::iter::once(operation)
-                        .chain(resources.iter())
-                        .filter(|n| !self.names.contains_key(&key(n)))
-                        .count();
-                    if self.names.len() + new > NAMES_KEPT {
+                    // Room for every name of the record, whether new or not: no pass to count the new ones.
+                    if self.names.len() + 1 + resources.len() > NAMES_KEPT {
                         self.names.clear();
                         self.words.push(tag::NAMES_RESET);
                     }
-                    self.name(operation);
+                    ids.push(self.name(operation));
                     for r in resources.iter() {
-                        self.name(r);
+                        ids.push(self.name(r));
                     }
                 }
                 self.push(&[tag::SEND, f64::from(msg.0), f64::from(*port)]);
                 match set {
                     Set::Nothing => self.push(&[set::NOTHING]),
                     Set::Interlock {
-                        operation,
                         priority,
                         resources,
                         waited_ms,
+                        ..
                     } => {
-                        let op = self.id(operation);
                         self.push(&[
                             set::INTERLOCK,
-                            op,
+                            ids[0],
                             f64::from(*priority),
                             waited_ms.as_f64(),
                             resources.len() as f64,
                         ]);
-                        for r in resources.iter() {
-                            let id = self.id(r);
-                            self.words.push(id);
-                        }
+                        self.push(&ids[1..]);
                     }
                     other => {
                         self.words.push(set::OTHER);
                         self.json_field(other);
                     }
                 }
+                self.ids = ids;
             }
             Output::Emit { msg, port, msgs } => {
                 self.push(&[tag::EMIT, f64::from(msg.0), f64::from(*port)]);
@@ -205,20 +205,16 @@ impl Wire {
         }
     }
 
-    /// Makes sure the host knows `name`'s table entry.
-    fn name(&mut self, name: &Arc<str>) {
-        if self.names.contains_key(&key(name)) {
-            return;
+    /// `name`'s table entry, announced to the host first if it is new.
+    fn name(&mut self, name: &Arc<str>) -> f64 {
+        if let Some((_, id)) = self.names.get(&key(name)) {
+            return f64::from(*id);
         }
         let id = self.names.len() as u32;
         self.names.insert(key(name), (name.clone(), id));
         self.push(&[tag::NAME, f64::from(id)]);
         self.text_field(name);
-    }
-
-    /// The table entry of a name already announced.
-    fn id(&self, name: &Arc<str>) -> f64 {
-        f64::from(self.names[&key(name)].1)
+        f64::from(id)
     }
 
     fn push(&mut self, words: &[f64]) {

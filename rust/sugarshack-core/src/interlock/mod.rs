@@ -293,7 +293,8 @@ pub struct Interlock {
     busy: Vec<u32>,
     /// Reused buffer of candidates for a grant, to spare an allocation per call.
     candidates: Vec<QueueKey>,
-    operation_index: HashMap<String, OpId>,
+    /// Each known name's handle, keyed by the slot's own text (one allocation per name).
+    operation_index: HashMap<Arc<str>, OpId>,
     /// Slots of forgotten operations, reused before the table grows.
     free_slots: Vec<u32>,
     /// The fewest names kept before forgetting ([`OPERATION_NAMES_KEPT`]; lower in tests).
@@ -371,10 +372,11 @@ impl Interlock {
         if self.free_slots.is_empty() && self.operation_index.len() >= self.forget_at {
             self.forget_idle_operations();
         }
+        let name: Arc<str> = Arc::from(name);
         let id = match self.free_slots.pop() {
             Some(index) => {
                 let slot = &mut self.operations[index as usize];
-                slot.name = Arc::from(name);
+                slot.name = name.clone();
                 slot.known = true;
                 OpId {
                     index,
@@ -383,7 +385,7 @@ impl Interlock {
             }
             None => {
                 self.operations.push(Operation {
-                    name: Arc::from(name),
+                    name: name.clone(),
                     state: OpState::Idle,
                     generation: 0,
                     known: true,
@@ -395,7 +397,7 @@ impl Interlock {
                 }
             }
         };
-        self.operation_index.insert(name.to_owned(), id);
+        self.operation_index.insert(name, id);
         id
     }
 
