@@ -298,13 +298,14 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- time and effects ----------------------------------------------------
 
-  /** Wakes at `at` (or earlier, if set so) to time out the group commands the core says are due. */
-  wakeAt(at) {
-    if (this.deadline && this.deadline.at <= at) return;
+  /** The one timer follows the core's next group command timeout (`next`, epoch ms; none when undefined). */
+  setDeadline(next) {
+    if (this.deadline && this.deadline.at === next) return;
     this.stopDeadline();
+    if (next === undefined || this.state !== 'ready') return;
     // Node fires a longer timeout at once; woken early, it sleeps again until the deadline.
-    const timer = clock.setTimeout(() => this.timeouts(), Math.min(Math.max(0, at - clock.now()), MAX_TIMER_MS));
-    this.deadline = { at, timer };
+    const timer = clock.setTimeout(() => this.timeouts(), Math.min(Math.max(0, next - clock.now()), MAX_TIMER_MS));
+    this.deadline = { at: next, timer };
   }
 
   stopDeadline() {
@@ -312,13 +313,9 @@ class PlantRuntime extends RuntimeBase {
     this.deadline = null;
   }
 
-  /** A group command left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
+  /** After a call that answered no deadline: the timer follows the core's. */
   followDeadline() {
-    if (!this.deadline || this.state !== 'ready') return;
-    const next = this.t.nextDeadline();
-    if (next === this.deadline.at) return;
-    this.stopDeadline();
-    if (next !== undefined) this.wakeAt(next);
+    if (this.state === 'ready') this.setDeadline(this.t.nextDeadline());
   }
 
   timeouts() {
@@ -327,8 +324,7 @@ class PlantRuntime extends RuntimeBase {
     try {
       this.guard(() => {
         if (this.t.expire(clock.now()) > 0) this.flush(null);
-        const next = this.t.nextDeadline();
-        if (next !== undefined) this.wakeAt(next);
+        this.followDeadline();
       });
     } catch (err) {
       this.log('error', err.message);
@@ -350,12 +346,13 @@ class PlantRuntime extends RuntimeBase {
 
   /**
    * After every core call: act on its effects, then update status. `source`:
-   * the feedback msg's bus and topic. A feedback msg whose effects are only
-   * new values (or none: the usual report of positions that did not move)
-   * changed no count, so the status is left as it is.
+   * the feedback msg's bus and topic. `answer`: what the call answered in one
+   * value (effects, next deadline, counts), else the effects are taken. A
+   * feedback msg whose effects are only new values (or none: the usual report
+   * of positions that did not move) changed no count, so the status is left as it is.
    */
-  flush(source) {
-    const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
+  flush(source, answer = null) {
+    const effects = answer ? answer.effects || [] : this.t.queued() > 0 ? this.t.takeEffects() : [];
     let counted = source === null;
     try {
       for (const effect of effects) {
@@ -366,11 +363,14 @@ class PlantRuntime extends RuntimeBase {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    // An answer with effects or a command carries the next deadline; other calls are asked when a timer runs.
+    if (answer && (answer.effects || answer.lockout !== undefined)) this.setDeadline(answer.deadline);
+    else if (!answer && this.deadline && effects.length > 0) this.followDeadline();
     this.changes.effects(effects);
     if (!counted) {
       if (this.palette) this.palette.changes.touch(this);
     } else if (source === null) {
-      this.refreshStatus();
+      this.refreshStatus(undefined, answer ? answer.counts : undefined);
     } else {
       this.statusView.request();
     }
@@ -433,8 +433,9 @@ class PlantRuntime extends RuntimeBase {
     };
   }
 
-  refreshStatus(only) {
-    this.statusView.refresh(only);
+  /** `counts`: the core's counts of every actuator, if a call just answered them. */
+  refreshStatus(only, counts) {
+    this.statusView.refresh(only, counts);
   }
 
   showError(node, code) {

@@ -48,7 +48,8 @@ class PlantStatus {
     this.plant.statusBoard.set(node, shown);
   }
 
-  refresh(only) {
+  /** `allCounts`: the core's counts of every actuator, when the call that changed them answered them. */
+  refresh(only, allCounts) {
     const { plant } = this;
     const board = plant.statusBoard;
     if (plant.palette) plant.palette.changes.touch(plant);
@@ -80,7 +81,7 @@ class PlantStatus {
       if (bus && bus.devices) {
         counts = this.countsOn(bus);
       } else {
-        if (!all) all = countsOf(plant.t.counts());
+        if (!all) all = countsOf(allCounts || plant.t.counts());
         counts = all;
       }
       const offline = counts.offline;
