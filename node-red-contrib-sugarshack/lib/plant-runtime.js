@@ -350,6 +350,8 @@ class PlantRuntime extends RuntimeBase {
    * value (effects, next deadline, counts), else the effects are taken. A
    * feedback msg whose effects are only new values (or none: the usual report
    * of positions that did not move) changed no count, so the status is left as it is.
+   * @param {{ bus: any, topic: string } | null} source
+   * @param {{ effects?: any[], deadline?: number, counts?: any, lockout?: boolean } | null} [answer]
    */
   flush(source, answer = null) {
     const effects = answer ? answer.effects || [] : this.t.queued() > 0 ? this.t.takeEffects() : [];
