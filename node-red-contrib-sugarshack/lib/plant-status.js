@@ -36,16 +36,20 @@ class PlantStatus {
     this.sticky.delete(node);
   }
 
-  /** Whether some refusal shows until a time (the tick ends it). */
-  timed() {
-    return this.sticky.size > 0;
+  /** When the first refusal shown for a while ends (the plant's timer then shows the counts again), or Infinity. */
+  shownUntil() {
+    let until = Infinity;
+    for (const { until: end } of this.sticky.values()) until = Math.min(until, end);
+    return until;
   }
 
   /** A short reason in a red ring: on an actuators node for a while, on other nodes until their next accepted command. */
   showError(node, code) {
     const shown = errorStatus(code);
-    this.sticky.set(node, { status: shown, until: this.plant.bus.of(node) ? clock.now() + BUS_ERROR_MS : Infinity });
+    const bus = this.plant.bus.of(node);
+    this.sticky.set(node, { status: shown, until: bus ? clock.now() + BUS_ERROR_MS : Infinity });
     this.plant.statusBoard.set(node, shown);
+    if (bus) this.plant.arm();
   }
 
   /** `allCounts`: the core's counts of every actuator, when the call that changed them answered them. */

@@ -309,6 +309,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.lockoutTopic('A');
   t.expire(470);
   t.nextDeadline();
+  t.nextWake();
   t.position(v);
   t.slot(0, 'valve', 1);
   t.actuators();

@@ -204,7 +204,7 @@ struct Answer<'a> {
     samples: &'a [f64],
     #[serde(skip_serializing_if = "<[Output]>::is_empty")]
     effects: &'a [Output],
-    /// With effects or a command: the next group command timeout, if any (`nextDeadline`).
+    /// With effects or a command: when `tick` is next due, if ever (`nextWake`).
     #[serde(skip_serializing_if = "Option::is_none")]
     deadline: Option<f64>,
     /// With a command: the counts after it.
@@ -402,7 +402,7 @@ impl Tracker {
     fn answer(&mut self, mut answer: Answer) -> Result<String, JsValue> {
         let mut effects = std::mem::take(&mut self.effects);
         if !effects.is_empty() || answer.lockout.is_some() {
-            answer.deadline = self.core.next_deadline().map(Millis::as_f64);
+            answer.deadline = self.core.next_wake().map(Millis::as_f64);
         }
         let answer = Answer {
             effects: &effects,
@@ -959,6 +959,13 @@ impl Tracker {
     #[wasm_bindgen(js_name = nextDeadline)]
     pub fn next_deadline(&self) -> Option<f64> {
         self.core.next_deadline().map(Millis::as_f64)
+    }
+
+    /// When `tick` is next due (epoch ms: a group command timeout or a
+    /// threshold), if ever: a host keeps one timer on it. A tick before it does nothing.
+    #[wasm_bindgen(js_name = nextWake)]
+    pub fn next_wake(&self) -> Option<f64> {
+        self.core.next_wake().map(Millis::as_f64)
     }
 
     /// The queued effects, oldest first, as plain objects with a `kind`.
