@@ -410,7 +410,6 @@ impl Tracker {
         };
         let text =
             serde_json::to_string(&answer).map_err(|e| js_error(Code::Internal, &e.to_string()));
-        drop(answer);
         effects.clear();
         self.effects = effects;
         self.send_queued.fill(false);
