@@ -96,24 +96,16 @@ class PlantBuses {
       ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples)
       : plant.t.ingestMsg(topic, text, now, served, withSamples));
     const { Ingest } = wasm.load();
-    switch (answer.kind) {
-      case Ingest.Command:
-        return false;
-      case Ingest.Foreign:
-        return fromMqtt && this.ignore(bus);
-      case Ingest.Other:
-        return true;
-      case Ingest.Unserved: {
-        const device = plant.devices[answer.device];
-        this.malformed(bus, topic, device, 'device not served', i18n.text('logs.deviceNotServed', { device }));
-        plant.refreshStatus(node);
-        return true;
-      }
-      case Ingest.Samples:
-        plant.sensors.sampled(now, answer);
-        break;
-      default:
+    if (answer.kind === Ingest.Command) return false;
+    if (answer.kind === Ingest.Foreign) return fromMqtt && this.ignore(bus);
+    if (answer.kind === Ingest.Other) return true;
+    if (answer.kind === Ingest.Unserved) {
+      const device = plant.devices[answer.device];
+      this.malformed(bus, topic, device, 'device not served', i18n.text('logs.deviceNotServed', { device }));
+      plant.refreshStatus(node);
+      return true;
     }
+    if (answer.kind === Ingest.Samples) plant.sensors.sampled(now, answer);
     plant.flush({ bus, topic }, answer);
     return true;
   }
