@@ -69,7 +69,7 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
     const go = (read) => {
       let now = false;
       try {
-        now = urgent(msg);
+        now = !runtime.gateOpen && urgent(msg); // asked only while a deploy drains
       } catch {
         now = false; // an unreadable msg waits like any other and is refused when read
       }

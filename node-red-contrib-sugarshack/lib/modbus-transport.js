@@ -9,6 +9,7 @@
 // standby: a Modbus unit has no broker to fence a deposed writer.
 const net = require('net');
 const { clock } = require('./clock');
+const { journal } = require('./journal/bus');
 const i18n = require('./i18n');
 
 const SERIALPORT_MISSING = 'SERIALPORT_MISSING';
@@ -130,7 +131,7 @@ class ModbusTransport {
     if (device !== undefined) {
       const sensors = this.t.lastSensors();
       if (sensors.length > 0) {
-        plant.sensors.sampled(now);
+        plant.sensors.sampled(now, { device, ts: this.t.lastTs(), sensors, samples: journal.active ? this.t.lastSamples() : [] });
         this.emitSamples(device, now);
       }
     }

@@ -85,25 +85,28 @@ class PlantBuses {
   feedback(node, topic, payload, fromMqtt) {
     if (typeof topic !== 'string' || topic === '') return false;
     const { plant } = this;
-    const { t } = plant;
     const bus = this.of(node);
-    if (bus && bus.devices) {
-      const device = t.topicDevice(topic);
-      if (device !== undefined && !bus.devices.has(device)) {
-        this.malformed(bus, topic, plant.devices[device], 'device not served', i18n.text('logs.deviceNotServed', { device: plant.devices[device] }));
-        plant.refreshStatus(node);
-        return true;
-      }
-    }
+    if (bus && bus.devices && !bus.deviceHandles) bus.deviceHandles = Uint32Array.from(bus.devices);
+    const served = bus && bus.devices ? bus.deviceHandles : undefined;
     const now = clock.now();
     const text = payloadText(payload);
-    const kind = text === null ? t.ingestBytes(topic, payload, now) : t.ingest(topic, text, now);
+    const withSamples = journal.active;
+    // One call: the core reads the msg, applies it and answers all of it (see Tracker.ingestMsg).
+    const answer = JSON.parse(text === null
+      ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples)
+      : plant.t.ingestMsg(topic, text, now, served, withSamples));
     const { Ingest } = wasm.load();
-    if (kind === Ingest.Command) return false;
-    if (kind === Ingest.Foreign) return fromMqtt && this.ignore(bus);
-    if (kind === Ingest.Other) return true;
-    if (kind === Ingest.Samples) plant.sensors.sampled(now);
-    plant.flush({ bus, topic });
+    if (answer.kind === Ingest.Command) return false;
+    if (answer.kind === Ingest.Foreign) return fromMqtt && this.ignore(bus);
+    if (answer.kind === Ingest.Other) return true;
+    if (answer.kind === Ingest.Unserved) {
+      const device = plant.devices[answer.device];
+      this.malformed(bus, topic, device, 'device not served', i18n.text('logs.deviceNotServed', { device }));
+      plant.refreshStatus(node);
+      return true;
+    }
+    if (answer.kind === Ingest.Samples) plant.sensors.sampled(now, answer);
+    plant.flush({ bus, topic }, answer);
     return true;
   }
 

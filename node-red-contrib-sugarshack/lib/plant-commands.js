@@ -7,7 +7,7 @@
 const { SugarshackError } = require('./errors');
 const { PendingRegistry, heldMsg } = require('./pending');
 const { seconds } = require('./plant');
-const { groupPayload, isLockout } = require('./group');
+const { refusalError } = require('./group');
 const { readMsg } = require('./request');
 const { stats } = require('./stats');
 const { clock } = require('./clock');
@@ -26,20 +26,22 @@ class GroupCommands {
   /**
    * Issues msg.payload as a group command and holds the msg until it completes;
    * it then leaves `node` on output `output` (of `outputs`). Throws the core's refusal.
-   * `within`: the resources the commanding operation holds; a command outside them is refused (C2).
+   * One call: the core reads the msg (a lockout; the lines it holds, which the command keeps within: C2), issues it and answers.
    */
-  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0, within }) {
+  command({ node, msg, send, done, output = 0, outputs = 1, timeoutMs = 0 }) {
     const { plant } = this;
-    // The msg is read again here: a getter or proxy that throws is the sender's error (INVALID_INPUT).
-    const { payload, lockout, faultAtMs } = readMsg(() => ({ payload: groupPayload(msg), lockout: isLockout(msg), faultAtMs: msg.faultAtMs }));
+    // A getter or proxy that throws is the sender's error (INVALID_INPUT).
+    const { topic, lockout, interlock, payload, faultAtMs } = readMsg(() => ({
+      topic: msg.topic, lockout: msg.lockout, interlock: msg.interlock, payload: msg.payload, faultAtMs: msg.faultAtMs,
+    }));
     const caller = this.newCaller();
     const now = clock.now();
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    plant.t.command(payload, caller, lockout, now, within, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs);
+    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, caller, now, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
+    if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
-    const entry = msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs: now });
-    this.hold(caller, entry, now, timeoutMs);
-    plant.flush(null);
+    this.pending.add(caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout, sinceMs: now }));
+    plant.flush(null, answer);
   }
 
   /**
@@ -51,9 +53,10 @@ class GroupCommands {
     const caller = this.newCaller();
     const now = clock.now();
     plant.guard(() => plant.t.command(payload, caller, false, now, within, undefined, timeoutMs));
-    const entry = callbackEntry({ payload, onDone, sinceMs: now });
-    this.hold(caller, entry, now, timeoutMs);
+    const entry = callbackEntry({ onDone, sinceMs: now });
+    this.pending.add(caller, entry);
     plant.flush(null);
+    plant.followDeadline();
     return () => {
       if (this.pending.get(caller) !== entry) return;
       this.pending.take(caller);
@@ -79,19 +82,12 @@ class GroupCommands {
       try {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
-        const entry = callbackEntry({ payload: command, onDone, sinceMs: faultAtMs, msg: carrier, lockout: true });
-        this.hold(caller, entry, faultAtMs, 0);
+        this.pending.add(caller, callbackEntry({ onDone, sinceMs: faultAtMs, msg: carrier, lockout: true }));
         plant.flush(null);
       } catch (err) {
         plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
       }
     }
-  }
-
-  /** Keeps `entry` until the core answers `caller`; by its timeout at the latest (the core's deadline). */
-  hold(caller, entry, now, timeoutMs) {
-    this.pending.add(caller, entry);
-    if (timeoutMs > 0) this.plant.wakeAt(now + timeoutMs);
   }
 
   newCaller() {
@@ -179,7 +175,6 @@ class GroupCommands {
       result.faultLockoutMs = e.faultLockoutMs;
       stats.add('fault/lockout', e.faultLockoutMs);
     }
-    this.plant.followDeadline();
     entry.complete(result);
   }
 
@@ -197,14 +192,13 @@ class GroupCommands {
       };
     }
     if (entry.node) plant.showError(entry.node, code);
-    plant.followDeadline();
     entry.refuse(new SugarshackError(code, message));
   }
 }
 
 /** A group command msg held by a group command or actuators node until its command completes. */
-function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, sinceMs }) {
-  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, payload, lockout, completed: [] });
+function msgEntry({ node, msg, send, done, output, outputs, lockout, sinceMs }) {
+  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, lockout, completed: [] });
   entry.complete = (result) => {
     msg.command = result;
     if (entry.send) {
@@ -224,10 +218,10 @@ function msgEntry({ node, msg, send, done, output, outputs, payload, lockout, si
 
 /**
  * A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once.
- * @param {{ payload: unknown, onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
+ * @param {{ onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
  */
-function callbackEntry({ payload, onDone, sinceMs, msg = null, lockout = false }) {
-  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, payload, lockout, completed: [] });
+function callbackEntry({ onDone, sinceMs, msg = null, lockout = false }) {
+  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, lockout, completed: [] });
   let answered = false;
   const answer = (err) => {
     if (answered) return;

@@ -22,7 +22,8 @@ const wasm = require('./wasm');
 const i18n = require('./i18n');
 const { clusterOf } = require('./cluster');
 
-const TICK_MS = 250;
+// How often each actuators node's broker connection is looked at (its config node tells no one).
+const BROKER_POLL_MS = 250;
 const MAX_TIMER_MS = 2 ** 31 - 1;
 
 class PlantRuntime extends RuntimeBase {
@@ -37,8 +38,9 @@ class PlantRuntime extends RuntimeBase {
     this.plant = settings.plant;
     this.plantError = settings.error || null;
     this.t = null;
-    this.tickTimer = null;
-    this.deadline = null; // { at, timer }: the one timer for the core's next group command or wait timeout
+    this.deadline = null; // { at, timer }: the one timer, for the earliest of the core's next wake and the polls below
+    this.coreWake = undefined; // when the core's tick is next due (epoch ms), if ever
+    this.nextPoll = Infinity; // the next look at the brokers' connections
     this.bus = new PlantBuses(this);
     this.commands = new GroupCommands(this);
     this.sensors = new SensorWatch(this);
@@ -96,7 +98,7 @@ class PlantRuntime extends RuntimeBase {
       return;
     }
     this.state = 'ready';
-    this.tickTimer = clock.setInterval(() => this.tick(), TICK_MS);
+    this.followDeadline();
     this.changes.rebuilt();
     this.modbus.sync();
     this.refreshStatus();
@@ -129,8 +131,6 @@ class PlantRuntime extends RuntimeBase {
     if (this.stopFollowing) this.stopFollowing();
     this.stopFollowing = null;
     this.endCommon();
-    if (this.tickTimer) clock.clearInterval(this.tickTimer);
-    this.tickTimer = null;
     this.statusView.stop();
     this.commands.abandonAll();
     this.stopDeadline();
@@ -167,8 +167,6 @@ class PlantRuntime extends RuntimeBase {
     this.commands.abandonAll();
     this.stopDeadline();
     if (this.t) this.freeTracker();
-    if (this.tickTimer) clock.clearInterval(this.tickTimer);
-    this.tickTimer = null;
     this.state = 'starting';
     this.failure = null;
     this.start();
@@ -189,6 +187,7 @@ class PlantRuntime extends RuntimeBase {
       return;
     }
     this.changes.rebuilt();
+    this.followDeadline();
     this.modbus.sync();
     this.refreshStatus();
   }
@@ -203,6 +202,7 @@ class PlantRuntime extends RuntimeBase {
   /** An actuators node (see PlantBuses.add). */
   addBus(node, names, broker) {
     this.bus.add(node, names, broker, this.state === 'ready');
+    this.arm(); // its broker is looked at from now on
     this.modbus.sync();
     this.refreshStatus(node);
   }
@@ -298,12 +298,28 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- time and effects ----------------------------------------------------
 
-  /** Wakes at `at` (or earlier, if set so) to time out the group commands and waits the core says are due. */
-  wakeAt(at) {
-    if (this.deadline && this.deadline.at <= at) return;
+  /** The core's next wake (`next`, epoch ms; never when undefined): the one timer follows it. */
+  setDeadline(next) {
+    this.coreWake = next;
+    this.arm();
+  }
+
+  /**
+   * The one timer, at the earliest of the core's wake, the next look at the
+   * brokers (while any actuators node has one) and the end of a refusal shown.
+   */
+  arm() {
+    if (this.state !== 'ready') {
+      this.stopDeadline();
+      return;
+    }
+    if (this.nextPoll === Infinity && this.bus.list.some((b) => b.broker)) this.nextPoll = clock.now() + BROKER_POLL_MS;
+    const at = Math.min(this.coreWake === undefined ? Infinity : this.coreWake, this.nextPoll, this.statusView.shownUntil());
+    if (this.deadline && this.deadline.at === at) return;
     this.stopDeadline();
+    if (at === Infinity) return;
     // Node fires a longer timeout at once; woken early, it sleeps again until the deadline.
-    const timer = clock.setTimeout(() => this.timeouts(), Math.min(Math.max(0, at - clock.now()), MAX_TIMER_MS));
+    const timer = clock.setTimeout(() => this.wake(), Math.min(Math.max(0, at - clock.now()), MAX_TIMER_MS));
     this.deadline = { at, timer };
   }
 
@@ -312,52 +328,46 @@ class PlantRuntime extends RuntimeBase {
     this.deadline = null;
   }
 
-  /** A group command or wait left the core: the timer follows its next deadline, or stops (nothing timed while none is due). */
+  /** After a call that answered no wake: the timer follows the core's. */
   followDeadline() {
-    if (!this.deadline || this.state !== 'ready') return;
-    const next = this.t.nextDeadline();
-    if (next === this.deadline.at) return;
-    this.stopDeadline();
-    if (next !== undefined) this.wakeAt(next);
+    if (this.state === 'ready') this.setDeadline(this.t.nextWake());
   }
 
-  timeouts() {
+  /** The timer: the brokers looked at when due, the core's tick when due, a refusal shown ended; then the timer again. */
+  wake() {
     this.deadline = null;
     if (this.state !== 'ready') return;
     try {
       this.guard(() => {
         const now = clock.now();
-        if (this.t.expire(now) > 0) this.flush(null);
-        this.sensors.expire(now);
-        const next = this.t.nextDeadline();
-        if (next !== undefined) this.wakeAt(next);
+        if (this.nextPoll <= now) {
+          this.nextPoll = Infinity;
+          this.bus.watchBrokers();
+        }
+        if (this.coreWake !== undefined && this.coreWake <= now) {
+          if (this.t.tick(now) > 0) this.flush(null);
+          this.sensors.expire(now);
+          this.coreWake = this.t.nextWake();
+        }
+        if (this.statusView.shownUntil() <= now) this.refreshStatus();
       });
     } catch (err) {
       this.log('error', err.message);
     }
-  }
-
-  tick() {
-    if (this.state !== 'ready') return;
-    try {
-      this.guard(() => {
-        this.bus.watchBrokers();
-        if (this.t.tick(clock.now()) > 0) this.flush(null);
-        else if (this.statusView.timed()) this.refreshStatus();
-      });
-    } catch (err) {
-      this.log('error', err.message);
-    }
+    this.arm();
   }
 
   /**
    * After every core call: act on its effects, then update status. `source`:
-   * the feedback msg's bus and topic. A feedback msg whose effects are only
-   * new values (or none: the usual report of positions that did not move)
-   * changed no count, so the status is left as it is.
+   * the feedback msg's bus and topic. `answer`: what the call answered in one
+   * value (effects, next deadline, counts), else the effects are taken. A
+   * feedback msg whose effects are only new values (or none: the usual report
+   * of positions that did not move) changed no count, so the status is left as it is.
+   * @param {{ bus: any, topic: string } | null} source
+   * @param {{ effects?: any[], deadline?: number, counts?: any, lockout?: boolean } | null} [answer]
    */
-  flush(source) {
-    const effects = this.t.queued() > 0 ? this.t.takeEffects() : [];
+  flush(source, answer = null) {
+    const effects = answer ? answer.effects || [] : this.t.queued() > 0 ? this.t.takeEffects() : [];
     let counted = source === null;
     try {
       for (const effect of effects) {
@@ -368,11 +378,14 @@ class PlantRuntime extends RuntimeBase {
       counted = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    // An answer with effects or a command carries the core's next wake; after other calls with effects it is asked.
+    if (answer && (answer.effects || answer.lockout !== undefined)) this.setDeadline(answer.deadline);
+    else if (!answer && effects.length > 0) this.followDeadline();
     this.changes.effects(effects);
     if (!counted) {
       if (this.palette) this.palette.changes.touch(this);
     } else if (source === null) {
-      this.refreshStatus();
+      this.refreshStatus(undefined, answer ? answer.counts : undefined);
     } else {
       this.statusView.request();
     }
@@ -435,8 +448,9 @@ class PlantRuntime extends RuntimeBase {
     };
   }
 
-  refreshStatus(only) {
-    this.statusView.refresh(only);
+  /** `counts`: the core's counts of every actuator, if a call just answered them. */
+  refreshStatus(only, counts) {
+    this.statusView.refresh(only, counts);
   }
 
   showError(node, code) {
@@ -445,6 +459,6 @@ class PlantRuntime extends RuntimeBase {
 }
 
 // The actuator layer's own time per call, for the overhead figures.
-timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'tick']);
+timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'wake']);
 
 module.exports = { PlantRuntime };

@@ -35,7 +35,7 @@ class SensorWatch {
     /** @type {Wait} */
     const wait = { id, at: t.waitDeadline(id) ?? clock.now(), timedOut };
     this.waits.set(id, wait);
-    this.plant.wakeAt(wait.at);
+    this.plant.followDeadline();
     return wait;
   }
 
@@ -121,28 +121,30 @@ class SensorWatch {
     if (watchers) this.watchers.clear();
   }
 
-  /** After samples: the device time of flight, and the conditions watching updated sensors. */
-  sampled(now) {
-    const { t, devices } = this.plant;
-    const ts = t.lastTs();
-    if (journal.active) this.journalSamples(ts, now);
-    if (ts !== undefined) stats.add(`tof/${devices[t.lastDevice()]}`, now - ts);
-    if (this.plant.changes.active) this.plant.changes.sensors(t.lastSensors());
+  /**
+   * After samples: the device time of flight, and the conditions watching
+   * updated sensors. `read`: what the core read of the msg ({ device, ts,
+   * sensors, samples }, see Tracker.ingestMsg).
+   */
+  sampled(now, read) {
+    const { ts, sensors = [] } = read;
+    if (journal.active) this.journalSamples(read, now);
+    if (ts !== undefined) stats.add(`tof/${this.plant.devices[read.device]}`, now - ts);
+    if (this.plant.changes.active) this.plant.changes.sensors(sensors);
     if (this.watchers.size === 0) return;
-    for (const handle of t.lastSensors()) {
+    for (const handle of sensors) {
       const watching = this.watchers.get(handle);
       if (watching) for (const fn of [...watching]) fn();
     }
   }
 
-  /** Every value the last device msg carried, to the journal (the entity is the actuator's or sensor's id). */
-  journalSamples(ts, now) {
-    const { t, devices, actuators, sensorNames } = this.plant;
-    const device = devices[t.lastDevice()];
-    const samples = t.lastSamples();
+  /** Every value a device msg carried, to the journal (the entity is the actuator's or sensor's id; a null value: no reading). */
+  journalSamples({ device: handle, ts, samples = [] }, now) {
+    const { devices, actuators, sensorNames } = this.plant;
+    const device = devices[handle];
     for (let i = 0; i + 2 < samples.length; i += 3) {
       const entity = samples[i] === 0 ? actuators[samples[i + 1]].id : sensorNames[samples[i + 1]];
-      journal.datapoint(device, entity, samples[i + 2], ts, now);
+      journal.datapoint(device, entity, samples[i + 2] === null ? NaN : samples[i + 2], ts, now);
     }
   }
 }

@@ -36,19 +36,24 @@ class PlantStatus {
     this.sticky.delete(node);
   }
 
-  /** Whether some refusal shows until a time (the tick ends it). */
-  timed() {
-    return this.sticky.size > 0;
+  /** When the first refusal shown for a while ends (the plant's timer then shows the counts again), or Infinity. */
+  shownUntil() {
+    let until = Infinity;
+    for (const { until: end } of this.sticky.values()) until = Math.min(until, end);
+    return until;
   }
 
   /** A short reason in a red ring: on an actuators node for a while, on other nodes until their next accepted command. */
   showError(node, code) {
     const shown = errorStatus(code);
-    this.sticky.set(node, { status: shown, until: this.plant.bus.of(node) ? clock.now() + BUS_ERROR_MS : Infinity });
+    const bus = this.plant.bus.of(node);
+    this.sticky.set(node, { status: shown, until: bus ? clock.now() + BUS_ERROR_MS : Infinity });
     this.plant.statusBoard.set(node, shown);
+    if (bus) this.plant.arm();
   }
 
-  refresh(only) {
+  /** `allCounts`: the core's counts of every actuator, when the call that changed them answered them. */
+  refresh(only, allCounts) {
     const { plant } = this;
     const board = plant.statusBoard;
     if (plant.palette) plant.palette.changes.touch(plant);
@@ -80,7 +85,7 @@ class PlantStatus {
       if (bus && bus.devices) {
         counts = this.countsOn(bus);
       } else {
-        if (!all) all = countsOf(plant.t.counts());
+        if (!all) all = countsOf(allCounts || plant.t.counts());
         counts = all;
       }
       const offline = counts.offline;

@@ -289,6 +289,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.pathRestored(450);
   t.ingest('p/status', 'online', 460);
   t.ingestBytes('p/valve/1/state', Uint8Array.of(49), 460);
+  t.ingestMsg('p/status', 'online', 460, Uint32Array.of(0), true);
+  t.ingestMsgBytes('p/valve/1/state', Uint8Array.of(49), 460, undefined, false);
+  t.commandMsg('lockout/A', undefined, undefined, '{"valves":{"V":0}}', 3, 460, undefined, 1000);
   t.lastTs();
   t.lastDevice();
   t.lastSensors();
@@ -306,6 +309,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.lockoutTopic('A');
   t.expire(470);
   t.nextDeadline();
+  t.nextWake();
   t.position(v);
   t.slot(0, 'valve', 1);
   t.actuators();

@@ -59,9 +59,9 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const read = readMsg(() => readGroup(msg));
-      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3, within: read.within || undefined });
-      if (rt.draining && !read.lockout) rt.submit(node, done, issue);
+      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3 });
+      // Only a lockout goes in while a deploy drains (the core reads the msg again as it issues it).
+      if (rt.draining && !readMsg(() => readGroup(msg)).lockout) rt.submit(node, done, issue);
       else issue();
     }, 'plant', { urgent: always, passive: true });
   }

@@ -1,8 +1,7 @@
 // @ts-check
 'use strict';
 const { bindPlant, onInput } = require('../lib/binding');
-const { heldResources, isLockout } = require('../lib/group');
-const { readMsg } = require('../lib/request');
+const { isLockout } = require('../lib/group');
 const { useRED } = require('../lib/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -17,8 +16,7 @@ module.exports = function (RED) {
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.
     onInput(node, runtime, (rt, msg, send, done) => {
-      const within = readMsg(() => heldResources(msg));
-      rt.command({ node, msg, send, done, timeoutMs, within });
+      rt.command({ node, msg, send, done, timeoutMs });
     }, 'plant', { urgent: isLockout }); // a lockout never waits for a deploy's drain
   }
 

@@ -1,7 +1,7 @@
 'use strict';
 // Actuator nodes with MQTT-shaped msgs fed straight in (no broker): plant
 // config, actuators bus and group command, against the wasm tracker, on the
-// manual clock (the tracker checks its thresholds every 250 ms of it).
+// manual clock (the tracker checks each threshold when it falls due on it).
 const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
@@ -264,17 +264,17 @@ describe('sugarshack actuator nodes', function () {
     atRest();
     command({ valves: { V12: 100 } });
     await quiet();
-    // No motion within 300 ms: seen at the tracker's check at 500 ms, which sends the command again.
-    await clock().advance(499);
-    assert.equal(seen.mqtt.length, 1, 'no retry before the check after the no-motion window');
+    // No motion within 300 ms: seen when that window ends (the plant's timer is set for it), and the command sent again.
+    await clock().advance(299);
+    assert.equal(seen.mqtt.length, 1, 'no retry before the no-motion window ends');
     await clock().advance(1);
     await until(() => seen.mqtt.length === 2, 'the retry publish');
     assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload]), [['ctrl-1/valve/12/command', '100'], ['ctrl-1/valve/12/command', '100']]);
     assert.deepEqual(events(seen, 'retry')[0], {
       kind: 'retry', actuator: 'V12', caller: events(seen, 'retry')[0].caller, attempt: 1, fault: 'no-motion', msgid: events(seen, 'retry')[0].msgid,
     });
-    // The retry's window ends at 800 ms: seen at the check at 1000 ms, which escalates.
-    await clock().advance(499);
+    // The retry's window ends at 600 ms, when it escalates.
+    await clock().advance(299);
     assert.equal(seen.caught.length, 0, 'the retry has its own window');
     await clock().advance(1);
     await until(() => seen.caught.length === 1, 'the escalated error');

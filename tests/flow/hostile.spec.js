@@ -630,7 +630,10 @@ describe('sugarshack hostile input', function () {
       const core = runtimeOf('il').core;
       const tracker = runtimeOf('pl').t;
       tracker.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
-      await clock().advance(300);
+      // To the plant's one timer: the core's next wake (its first staleness check).
+      const timer = runtimeOf('pl').deadline;
+      assert.ok(timer, 'the plant keeps a timer');
+      await clock().advance(Math.max(1, timer.at - clock().now()));
       await settle();
       assert.deepEqual(uncaught, []);
       assert.ok(allTexts().some((t) => /trapped|core failed/.test(t)), 'the trap was logged');

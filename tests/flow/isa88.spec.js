@@ -124,8 +124,11 @@ describe('ISA-88 commands: hold, restart, stop, abort, reset', function () {
     });
     assert.deepEqual(lineState('YEL'), { state: 'held', operation: '10' }, 'the held operation keeps its line');
 
-    // Held, nothing is timed: no step timer, no command timer (the clock's only timers repeat: ticks, status).
-    assert.deepEqual([...clock().timers.values()].filter((t) => !t.every), [], 'no one-shot timer while held');
+    // Held, nothing is timed: no step timer, no command timer (the clock's only timers repeat: ticks, status;
+    // but the plant's one timer, on the tracker's next threshold, and it is no command's).
+    const plantTimer = helper.getNode('pl').runtime.deadline;
+    assert.deepEqual([...clock().timers].filter(([id, t]) => !t.every && !(plantTimer && id === plantTimer.timer.id)), [], 'no one-shot timer while held');
+    assert.equal(helper.getNode('pl').runtime.commands.entries().length, 0, 'no group command in flight while held');
     // Held for ten times the wait's timeout: no fault, no command.
     await run(6000);
     assert.equal(seen.caught.length, 0, 'no timeout while held');

@@ -596,6 +596,14 @@ proptest! {
             prop_assert_eq!(&actual, &expected, "{:?} at {}", step, now);
             let deadline = model.cmd.as_ref().and_then(|c| c.deadline).map(|(_, at)| ms(at));
             prop_assert_eq!(tracker.next_deadline(), deadline, "the next deadline after {:?} at {}", step, now);
+            // One timer on the next wake misses nothing: a tick any earlier has nothing to do
+            // (a wake in the past is due at once).
+            let wake = tracker.next_wake();
+            let before = wake.map_or(now + 10_000_000, |w| w.as_u64().saturating_sub(1));
+            if before >= now {
+                let mut probe = tracker.clone();
+                prop_assert_eq!(observe(probe.tick(ms(before))), vec![], "a tick at {} before the wake {:?}, after {:?} at {}", before, wake, step, now);
+            }
 
             let pending: Vec<(f64, u64, u32)> = tracker
                 .pending_lockouts()

@@ -29,14 +29,8 @@ pub fn read_group_msg(
     #[wasm_bindgen(unchecked_param_type = "unknown")] interlock: JsValue,
     #[wasm_bindgen(unchecked_param_type = "unknown")] payload: JsValue,
 ) -> JsValue {
-    let read = group_msg::read_group_msg(
-        topic.as_string().as_deref(),
-        &raw(&lockout),
-        &interlock_of(&interlock),
-    )
-    .and_then(|read| Ok((read, command_payload(payload)?)));
     let out = Object::new();
-    match read {
+    match read_msg(&topic, &lockout, &interlock, payload) {
         Ok((read, payload)) => {
             let within = match read.within {
                 Some(lines) => lines
@@ -53,6 +47,21 @@ pub fn read_group_msg(
         Err(refusal) => set(&out, "refusal", &refusal_object(&refusal)),
     }
     out.into()
+}
+
+/// A group command msg's terms and its payload as the command reads it, or its refusal.
+pub(crate) fn read_msg(
+    topic: &JsValue,
+    lockout: &JsValue,
+    interlock: &JsValue,
+    payload: JsValue,
+) -> Result<(group_msg::GroupMsg, JsValue), Refusal> {
+    let read = group_msg::read_group_msg(
+        topic.as_string().as_deref(),
+        &raw(lockout),
+        &interlock_of(interlock),
+    )?;
+    Ok((read, command_payload(payload)?))
 }
 
 /// Whether a msg is a lockout (`msg.topic`, `msg.lockout`), its payload unread.
@@ -104,18 +113,39 @@ fn command_payload(payload: JsValue) -> Result<JsValue, Refusal> {
 fn refusal_object(refusal: &Refusal) -> JsValue {
     let out = Object::new();
     let params = Object::new();
-    for (name, param) in refusal.params() {
-        let value = match param {
-            Param::Text(text) => text,
-            Param::Label(label) => label.to_owned(),
-        };
+    for (name, value) in refusal_params(refusal) {
         set(&params, name, &value.into());
     }
-    let key = refusal.key().unwrap_or_default();
     set(&out, "code", &refusal.code.name().into());
-    set(&out, "key", &key.into());
+    set(&out, "key", &refusal.key().unwrap_or_default().into());
     set(&out, "params", &params);
     out.into()
+}
+
+/// The same `{ code, key, params }` as JSON, for an answer given as one text.
+pub(crate) fn refusal_json(refusal: &Refusal) -> serde_json::Value {
+    let params: serde_json::Map<String, serde_json::Value> = refusal_params(refusal)
+        .into_iter()
+        .map(|(name, value)| (name.to_owned(), value.into()))
+        .collect();
+    serde_json::json!({
+        "code": refusal.code.name(),
+        "key": refusal.key().unwrap_or_default(),
+        "params": params,
+    })
+}
+
+fn refusal_params(refusal: &Refusal) -> Vec<(&'static str, String)> {
+    let params = refusal.params().into_iter();
+    params
+        .map(|(name, param)| {
+            let value = match param {
+                Param::Text(text) => text,
+                Param::Label(label) => label.to_owned(),
+            };
+            (name, value)
+        })
+        .collect()
 }
 
 fn set(object: &Object, key: &str, value: &JsValue) {

@@ -179,6 +179,40 @@ pub enum Ingest {
     /// Not a topic of any device, and its text reads as a group command (or
     /// a broken one, to be refused): see `plant::group_msg::command_like`.
     Command = 5,
+    /// A device's topic on an actuators node that does not serve that device (`ingestMsg`): unread.
+    Unserved = 6,
+}
+
+/// What one input did, in one JSON text (`ingestMsg`, `commandMsg`): what the
+/// host needs of it without asking again. Empty parts are left out.
+#[derive(Serialize, Default)]
+#[serde(rename_all = "camelCase")]
+struct Answer<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kind: Option<u8>,
+    /// The device whose topic it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device: Option<u32>,
+    /// The device time it carried.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ts: Option<f64>,
+    /// The sensors it gave a value (or a "no reading").
+    #[serde(skip_serializing_if = "<[u32]>::is_empty")]
+    sensors: &'a [u32],
+    /// Its values as `lastSamples` gives them (asked for: a journal records them); NaN is null.
+    #[serde(skip_serializing_if = "<[f64]>::is_empty")]
+    samples: &'a [f64],
+    #[serde(skip_serializing_if = "<[Output]>::is_empty")]
+    effects: &'a [Output],
+    /// With effects or a command: when `tick` is next due, if ever (`nextWake`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    deadline: Option<f64>,
+    /// With a command: the counts after it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    counts: Option<sugarshack_core::actuator::Counts>,
+    /// With a command: whether it is a lockout.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lockout: Option<bool>,
 }
 
 /// Device payloads larger than this are refused unread.
@@ -364,6 +398,93 @@ impl Tracker {
         self.last_samples.clear();
     }
 
+    /// `answer` with the queued effects (then taken) and, if any, the next deadline, as JSON text.
+    fn answer(&mut self, mut answer: Answer) -> Result<String, JsValue> {
+        let mut effects = std::mem::take(&mut self.effects);
+        if !effects.is_empty() || answer.lockout.is_some() {
+            answer.deadline = self.next_wake();
+        }
+        let answer = Answer {
+            effects: &effects,
+            ..answer
+        };
+        let text =
+            serde_json::to_string(&answer).map_err(|e| js_error(Code::Internal, &e.to_string()));
+        effects.clear();
+        self.effects = effects;
+        self.send_queued.fill(false);
+        text
+    }
+
+    /// The answer to a device msg: what [`Tracker::ingest`] read and applied.
+    fn ingested(&mut self, kind: Ingest, samples: bool) -> Result<String, JsValue> {
+        let last_sensors = std::mem::take(&mut self.last_sensors);
+        let last_samples = std::mem::take(&mut self.last_samples);
+        let text = self.answer(Answer {
+            kind: Some(kind as u8),
+            device: self.last_device,
+            ts: self.last_ts,
+            sensors: &last_sensors,
+            samples: if samples { &last_samples } else { &[] },
+            ..Answer::default()
+        });
+        self.last_sensors = last_sensors;
+        self.last_samples = last_samples;
+        text
+    }
+
+    /// A device msg on a node serving `served` (device handles; every device when none):
+    /// `Unserved` for another device's topic, else read as [`Tracker::ingest`] reads it.
+    fn unserved(&mut self, topic: &str, served: Option<&[u32]>) -> bool {
+        let Some(served) = served else { return false };
+        let served: Vec<DeviceId> = served.iter().map(|&d| DeviceId::from_index(d)).collect();
+        let Some(device) = self.core.contract().unserved(topic, &served) else {
+            return false;
+        };
+        self.forget_last();
+        self.last_device = Some(device.index() as u32);
+        true
+    }
+
+    /// Issues a group command read off its msg (see `command`).
+    #[allow(clippy::too_many_arguments)]
+    fn issue_command(
+        &mut self,
+        payload: JsValue,
+        caller: u32,
+        lockout: bool,
+        now_ms: f64,
+        within: Option<Vec<String>>,
+        fault_at_ms: Option<f64>,
+        timeout_ms: Option<f64>,
+    ) -> Result<u32, JsValue> {
+        let now = time(now_ms)?;
+        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
+        // a timeout that is none (0, NaN) sets no limit.
+        let terms = Terms {
+            lockout,
+            fault_at: fault_at_ms.and_then(Millis::whole),
+            timeout: timeout_ms.and_then(Millis::whole),
+        };
+        let payload: serde_json::Value = from_js_bounded(
+            payload,
+            Code::InvalidGroup,
+            "invalid group command",
+            Bound::GroupCommand,
+        )?;
+        let targets = self.core.parse_group(&payload).map_err(track_error)?;
+        if let Some(held) = within {
+            self.core
+                .check_within(&targets, &held)
+                .map_err(track_error)?;
+        }
+        let effects = self
+            .core
+            .issue(&targets, u64::from(caller), terms, now)
+            .map_err(track_error)?;
+        Ok(self.queue(effects))
+    }
+
     /// Queues the core's effects; a Modbus write goes to its connection's
     /// queue instead, and JS is told once that the connection has one.
     pub(crate) fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
@@ -502,31 +623,59 @@ impl Tracker {
         fault_at_ms: Option<f64>,
         timeout_ms: Option<f64>,
     ) -> Result<u32, JsValue> {
-        let now = time(now_ms)?;
-        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
-        // a timeout that is none (0, NaN) sets no limit.
-        let terms = Terms {
-            lockout,
-            fault_at: fault_at_ms.and_then(Millis::whole),
-            timeout: timeout_ms.and_then(Millis::whole),
-        };
-        let payload: serde_json::Value = from_js_bounded(
+        self.issue_command(
             payload,
-            Code::InvalidGroup,
-            "invalid group command",
-            Bound::GroupCommand,
+            caller,
+            lockout,
+            now_ms,
+            within,
+            fault_at_ms,
+            timeout_ms,
+        )
+    }
+
+    /// A group command msg in one call: read as `readGroupMsg` reads it
+    /// (`msg.topic`, `msg.lockout`, `msg.interlock`, `msg.payload`), issued as
+    /// `command` issues it. Answers JSON text: `{ refusal }` (as
+    /// `readGroupMsg`'s) or `{ lockout, effects?, deadline?, counts }`; the
+    /// command's refusal throws.
+    #[wasm_bindgen(js_name = commandMsg)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn command_msg(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "unknown")] topic: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "unknown")] lockout: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "unknown")] interlock: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "unknown")] payload: JsValue,
+        caller: u32,
+        now_ms: f64,
+        fault_at_ms: Option<f64>,
+        timeout_ms: Option<f64>,
+    ) -> Result<String, JsValue> {
+        let (read, payload) = match crate::group::read_msg(&topic, &lockout, &interlock, payload) {
+            Ok(read) => read,
+            Err(refusal) => {
+                return Ok(
+                    serde_json::json!({ "refusal": crate::group::refusal_json(&refusal) })
+                        .to_string(),
+                )
+            }
+        };
+        self.issue_command(
+            payload,
+            caller,
+            read.lockout,
+            now_ms,
+            read.within,
+            fault_at_ms,
+            timeout_ms,
         )?;
-        let targets = self.core.parse_group(&payload).map_err(track_error)?;
-        if let Some(held) = within {
-            self.core
-                .check_within(&targets, &held)
-                .map_err(track_error)?;
-        }
-        let effects = self
-            .core
-            .issue(&targets, u64::from(caller), terms, now)
-            .map_err(track_error)?;
-        Ok(self.queue(effects))
+        let counts = self.core.counts();
+        self.answer(Answer {
+            lockout: Some(read.lockout),
+            counts: Some(counts),
+            ..Answer::default()
+        })
     }
 
     /// Stops waiting for a caller's group (its msg timed out, or its node closed);
@@ -676,6 +825,45 @@ impl Tracker {
         })
     }
 
+    /// One device msg in one call: `ingest` (text) and what it did, as JSON
+    /// text `{ kind, device?, ts?, sensors?, samples?, effects?, deadline? }`
+    /// (see `Answer`). `served`: the devices of the actuators node it came to
+    /// (all when none); `samples`: whether to list the values read.
+    #[wasm_bindgen(js_name = ingestMsg)]
+    pub fn ingest_msg(
+        &mut self,
+        topic: &str,
+        payload: &str,
+        now_ms: f64,
+        served: Option<Vec<u32>>,
+        samples: bool,
+    ) -> Result<String, JsValue> {
+        let kind = if self.unserved(topic, served.as_deref()) {
+            Ingest::Unserved
+        } else {
+            self.ingest(topic, payload, now_ms)?
+        };
+        self.ingested(kind, samples)
+    }
+
+    /// [`Tracker::ingest_msg`] for a payload as bytes (`ingestBytes`).
+    #[wasm_bindgen(js_name = ingestMsgBytes)]
+    pub fn ingest_msg_bytes(
+        &mut self,
+        topic: &str,
+        payload: &[u8],
+        now_ms: f64,
+        served: Option<Vec<u32>>,
+        samples: bool,
+    ) -> Result<String, JsValue> {
+        let kind = if self.unserved(topic, served.as_deref()) {
+            Ingest::Unserved
+        } else {
+            self.ingest_bytes(topic, payload, now_ms)?
+        };
+        self.ingested(kind, samples)
+    }
+
     /// The device of the last `ingest`, if its topic was a device's.
     #[wasm_bindgen(js_name = lastDevice)]
     pub fn last_device(&self) -> Option<u32> {
@@ -773,6 +961,20 @@ impl Tracker {
         let waits = self.conditions.waits.next_deadline();
         self.core
             .next_deadline()
+            .into_iter()
+            .chain(waits)
+            .min()
+            .map(Millis::as_f64)
+    }
+
+    /// When `tick` (and `expireWaits`) is next due (epoch ms: a group command
+    /// timeout, a threshold or a wait's timeout), if ever: a host keeps one
+    /// timer on it. A tick before it does nothing.
+    #[wasm_bindgen(js_name = nextWake)]
+    pub fn next_wake(&self) -> Option<f64> {
+        let waits = self.conditions.waits.next_deadline();
+        self.core
+            .next_wake()
             .into_iter()
             .chain(waits)
             .min()

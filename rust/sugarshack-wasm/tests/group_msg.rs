@@ -195,3 +195,53 @@ fn hostile_values_are_read_without_a_trap() {
         Some(f64::INFINITY)
     );
 }
+
+#[wasm_bindgen_test]
+fn one_call_reads_and_issues_a_command_msg_and_answers_its_effects_deadline_and_counts() {
+    let mut t = plant();
+    let payload = text(r#"{"valves": {"V12": 50}}"#);
+    let out = t
+        .command_msg(
+            text("plant/command"),
+            U,
+            U,
+            payload,
+            7,
+            0.0,
+            None,
+            Some(1000.0),
+        )
+        .unwrap();
+    let read: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(read["lockout"], false);
+    assert_eq!(read["deadline"], 1000.0);
+    assert!(read["counts"]["lockoutsPending"].is_u64());
+    let kinds: Vec<&str> = read["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["publish"]);
+    assert_eq!(t.queued(), 0);
+    // Its refusal comes back as readGroupMsg's; a command outside the lines held throws the core's code.
+    let out = t
+        .command_msg(U, U, json("5"), json("{}"), 8, 0.0, None, None)
+        .unwrap();
+    let read: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(read["refusal"]["code"], "INVALID_RESOURCES");
+    assert_eq!(read["refusal"]["key"], "errors.heldNotListed");
+    let err = t
+        .command_msg(
+            U,
+            U,
+            U,
+            text(r#"{"valves": {"NOPE": 0}}"#),
+            9,
+            0.0,
+            None,
+            None,
+        )
+        .unwrap_err();
+    assert!(get(&err, "code").as_string().is_some());
+}

@@ -176,3 +176,71 @@ fn the_sugarshack_batch_still_reads_with_its_device_time() {
     assert_eq!(t.last_ts(), Some(90.0));
     assert_eq!(t.position(2), Some(40.0));
 }
+
+/// `ingestMsg`'s answer, parsed.
+fn answer(text: String) -> serde_json::Value {
+    serde_json::from_str(&text).unwrap()
+}
+
+#[wasm_bindgen_test]
+fn one_call_answers_a_device_msg_with_all_it_did() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    // Device 2 (ctrl-3) reports its valve: kind, device, time and the effects, nothing asked again.
+    let read = answer(
+        t.ingest_msg(
+            "ctrl-3/state",
+            r#"{"ts": 90, "valve": {"1": 40}}"#,
+            100.0,
+            None,
+            true,
+        )
+        .unwrap(),
+    );
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(read["device"], 2);
+    assert_eq!(read["ts"], 90.0);
+    assert_eq!(read["samples"], serde_json::json!([0.0, 2.0, 40.0]));
+    assert!(read["effects"].as_array().is_some_and(|e| !e.is_empty()));
+    assert_eq!(t.queued(), 0, "the answer took the effects");
+    // The same value again: nothing changed, so no effects, and no samples unless asked.
+    let read = answer(
+        t.ingest_msg(
+            "ctrl-3/state",
+            r#"{"valve": {"1": 40}}"#,
+            200.0,
+            None,
+            false,
+        )
+        .unwrap(),
+    );
+    assert_eq!(
+        read,
+        serde_json::json!({ "kind": Ingest::Samples as u8, "device": 2 })
+    );
+    // A sensor's value names the sensor; a node serving ctrl-1 only is told ctrl-3's msg is not its own.
+    let read = answer(
+        t.ingest_msg_bytes("station-2/sensor/volume/state", b"7", 300.0, None, false)
+            .unwrap(),
+    );
+    assert_eq!(read["sensors"], serde_json::json!([0]));
+    let read = answer(
+        t.ingest_msg(
+            "ctrl-3/state",
+            r#"{"valve": {"1": 0}}"#,
+            400.0,
+            Some(vec![0]),
+            false,
+        )
+        .unwrap(),
+    );
+    assert_eq!(
+        read,
+        serde_json::json!({ "kind": Ingest::Unserved as u8, "device": 2 })
+    );
+    assert_eq!(t.position(2), Some(40.0), "an unserved msg is not applied");
+    let read = answer(
+        t.ingest_msg("elsewhere/x", "{}", 500.0, Some(vec![0]), false)
+            .unwrap(),
+    );
+    assert_eq!(read, serde_json::json!({ "kind": Ingest::Foreign as u8 }));
+}

@@ -306,15 +306,30 @@ fn a_wait_is_a_deadline_of_the_tracker_and_times_out_with_its_last_reason() {
     assert_eq!(t.next_deadline(), None);
     let a = t.wait_start(5_000.0, 1_000.0).unwrap();
     let b = t.wait_start(9_000.0, 1_000.0).unwrap();
-    assert_eq!(t.next_deadline(), Some(6_000.0), "the tracker's one deadline");
-    let waiting = t.wait_checked(a, Some("LT-3 is stale".into()), 2_000.0).unwrap();
-    assert_eq!(get(&waiting, "state").as_string().as_deref(), Some("waiting"));
+    assert_eq!(
+        t.next_deadline(),
+        Some(6_000.0),
+        "the tracker's one deadline"
+    );
+    let waiting = t
+        .wait_checked(a, Some("LT-3 is stale".into()), 2_000.0)
+        .unwrap();
+    assert_eq!(
+        get(&waiting, "state").as_string().as_deref(),
+        Some("waiting")
+    );
     let out = Array::from(&t.expire_waits(6_000.0).unwrap());
     assert_eq!(out.length(), 1);
     assert_eq!(get(&out.get(0), "wait").as_f64(), Some(f64::from(a)));
-    assert_eq!(get(&out.get(0), "reason").as_string().as_deref(), Some("LT-3 is stale"));
+    assert_eq!(
+        get(&out.get(0), "reason").as_string().as_deref(),
+        Some("LT-3 is stale")
+    );
     let met = t.wait_checked(b, None, 7_000.0).unwrap();
     assert_eq!(get(&met, "state").as_string().as_deref(), Some("met"));
     assert_eq!((t.waiting(), t.next_deadline()), (0, None));
-    assert_eq!(code_of(t.wait_start(f64::NAN, 0.0).unwrap_err()), "INVALID_INPUT");
+    assert_eq!(
+        code_of(t.wait_start(f64::NAN, 0.0).unwrap_err()),
+        "INVALID_INPUT"
+    );
 }

@@ -545,6 +545,11 @@ pub struct Tracker {
     slots: HashMap<(DeviceId, String, u32), ActuatorId>,
     groups: HashMap<Caller, Group>,
     tally: Tally,
+    /// The earliest time `tick` may have work (a threshold, a lockout to send
+    /// again), never later than it: made exact by `tick` and a device coming
+    /// back, lowered as work is given, left early when work goes (a wake that
+    /// finds nothing due makes it exact again).
+    due: Option<Millis>,
 }
 
 impl Tracker {
@@ -622,7 +627,7 @@ impl Tracker {
                 uncommanded: false,
             });
         }
-        Ok(Tracker {
+        let mut tracker = Tracker {
             plant,
             timings,
             actuators,
@@ -634,7 +639,10 @@ impl Tracker {
                 total: Counts::default(),
                 per_device: vec![Counts::default(); plant_devices],
             },
-        })
+            due: None,
+        };
+        tracker.due = tracker.exact_due();
+        Ok(tracker)
     }
 
     /// The plant document it tracks.
@@ -1060,6 +1068,9 @@ impl Tracker {
         } else {
             self.groups.insert(caller, group);
         }
+        for &(id, _) in targets {
+            self.lower_due(id);
+        }
         Ok(effects)
     }
 
@@ -1227,6 +1238,11 @@ impl Tracker {
         a.last_sample_ms = now;
         if a.stale {
             a.stale = false;
+            // Fresh again: its feedback can go stale from now on.
+            self.due = earliest(
+                self.due,
+                now.saturating_add(self.timings[a.type_index].stale_ms),
+            );
             effects.push(Effect::Recovered {
                 actuator: id,
                 fault: FaultKind::Stale,
@@ -1378,6 +1394,9 @@ impl Tracker {
                 self.escalate(id, FaultKind::DeviceOffline, &mut effects);
             }
         }
+        if online {
+            self.due = self.exact_due();
+        }
         Ok(effects)
     }
 
@@ -1406,6 +1425,56 @@ impl Tracker {
     /// `completionMs` after its last send. A threshold counts as crossed once
     /// `now - start >= T`. Nothing is checked for a device known offline.
     pub fn tick(&mut self, now: Millis) -> Vec<Effect> {
+        let effects = self.tick_thresholds(now);
+        self.due = self.exact_due();
+        effects
+    }
+
+    /// When `tick` is next needed, if ever: the next group command timeout or
+    /// threshold, or earlier. A host keeps one timer on it; nothing is due
+    /// before it, so a call to `tick` before it does nothing.
+    pub fn next_wake(&self) -> Option<Millis> {
+        earliest_of(self.next_deadline(), self.due)
+    }
+
+    /// The exact earliest time `tick` has work on an actuator (see `tick`): O(actuators).
+    fn exact_due(&self) -> Option<Millis> {
+        (0..self.actuators.len())
+            .filter_map(|index| self.due_of(ActuatorId(index as u32)))
+            .min()
+    }
+
+    /// When `tick` next has work on one actuator, if ever.
+    fn due_of(&self, id: ActuatorId) -> Option<Millis> {
+        let a = &self.actuators[id.index()];
+        if !self.devices[a.device.index()].online {
+            return None;
+        }
+        let timing = &self.timings[a.type_index];
+        let stale =
+            (!a.stale && !a.on_change).then(|| a.last_sample_ms.saturating_add(timing.stale_ms));
+        let command = a.command.as_ref().filter(|c| !c.escalated).map(|c| {
+            let limit = if c.moving_ms.is_none() {
+                timing.no_motion_ms.min(timing.completion_ms)
+            } else {
+                timing.completion_ms
+            };
+            c.attempt_ms.saturating_add(limit)
+        });
+        let lockout = a
+            .lockout_order
+            .map(|o| o.last_send_ms.saturating_add(timing.completion_ms));
+        [stale, command, lockout].into_iter().flatten().min()
+    }
+
+    /// Work was given to an actuator: `tick` is due by its time at the latest.
+    fn lower_due(&mut self, id: ActuatorId) {
+        if let Some(at) = self.due_of(id) {
+            self.due = earliest(self.due, at);
+        }
+    }
+
+    fn tick_thresholds(&mut self, now: Millis) -> Vec<Effect> {
         let mut effects = Vec::new();
         self.expire(now, &mut effects);
         for index in 0..self.actuators.len() {
@@ -1672,3 +1741,16 @@ fn publish(
 
 #[cfg(test)]
 mod tests;
+
+/// The earlier of a time and another, if any.
+fn earliest(due: Option<Millis>, at: Millis) -> Option<Millis> {
+    Some(due.map_or(at, |d| d.min(at)))
+}
+
+/// The earlier of two times, either absent.
+fn earliest_of(a: Option<Millis>, b: Option<Millis>) -> Option<Millis> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}

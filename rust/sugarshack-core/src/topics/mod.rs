@@ -683,6 +683,13 @@ impl Contract {
             .find_map(|(at, _)| self.prefixes.get(&topic[..at]).copied())
     }
 
+    /// The device of `topic` when `served` does not include it: a device's msg
+    /// handed to an actuators node that does not speak for that device.
+    pub fn unserved(&self, topic: &str, served: &[DeviceId]) -> Option<DeviceId> {
+        self.device_of(topic)
+            .filter(|device| !served.contains(device))
+    }
+
     /// Reads one incoming message. `now` tells a timestamp in seconds
     /// from one in milliseconds. Never panics, whatever the bytes.
     pub fn parse(&self, topic: &str, payload: &[u8], now: Millis, out: &mut Readings) -> Incoming {

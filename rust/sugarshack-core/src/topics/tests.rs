@@ -452,3 +452,21 @@ fn a_custom_device_reads_by_template_path_and_map() {
         Some(Ok(Command::Set(V, 12.0)))
     );
 }
+
+#[test]
+fn a_device_msg_on_a_node_not_serving_its_device_is_named_unserved() {
+    let p = plant(
+        json!([{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "ctrl-2", "kind": "actuator-panel" }]),
+        json!([{ "id": "V1", "type": "valve", "device": "ctrl-1", "io": 1, "lockout": 0 },
+               { "id": "V2", "type": "valve", "device": "ctrl-2", "io": 1, "lockout": 0 }]),
+        json!([]),
+    );
+    let c = contract(&p);
+    let one = DeviceId::from_index(0);
+    let two = DeviceId::from_index(1);
+    assert_eq!(c.unserved("ctrl-2/state", &[one]), Some(two));
+    assert_eq!(c.unserved("ctrl-1/state", &[one]), None);
+    assert_eq!(c.unserved("ctrl-1/valve/1/state", &[]), Some(one));
+    // Not a device's topic: nobody's to serve.
+    assert_eq!(c.unserved("elsewhere/state", &[one]), None);
+}
