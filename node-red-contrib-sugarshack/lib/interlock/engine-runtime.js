@@ -12,7 +12,7 @@ const { describeEvent } = require('../events');
 const { countsStatus } = require('../status');
 const { clock } = require('../clock');
 const { Committer } = require('../durable');
-const { InterlockRuntime } = require('../interlock-runtime');
+const { InterlockHost } = require('./host');
 const { EngineCarrier, refusalError, render } = require('../engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { readMsg, fieldsOf } = require('../request');
@@ -64,7 +64,7 @@ const KINDS = {
   clear: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
 };
 
-class EngineRuntime extends InterlockRuntime {
+class EngineRuntime extends InterlockHost {
   constructor(args) {
     super(args);
     /** @type {any} the core Engine (tests and the state page read it as the interlock) */
@@ -183,7 +183,7 @@ class EngineRuntime extends InterlockRuntime {
     const now = clock.now();
     this.call((e) => {
       for (const [handle, { spec }] of this.nodes) e.addNode(handle, spec, now);
-      if (this.plant) for (const [handle, spec] of RUN_NODES) e.addNode(handle, spec, now);
+      for (const [handle, spec] of RUN_NODES) e.addNode(handle, spec, now);
       // Until the flows run, events nodes may still come: the events of a start go to them.
       if (this.events.listened() || !this.flowsRunning()) e.listen(true, now);
     });

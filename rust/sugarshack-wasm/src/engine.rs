@@ -89,7 +89,8 @@ export interface EngineLine {
     holder: { operation: string; priority: number; sinceMs: number; heldMs: number } | null;
     fault: { cause: string; operation: string | null; note: string | null; sinceMs: number } | null;
     waiting: string[];
-    clearBlockers: ClearBlocker[];
+    /** Each reason with its words. */
+    clearBlockers: (ClearBlocker & { text: string })[];
 }
 
 /** A waiting request in `Engine.view()`. */
