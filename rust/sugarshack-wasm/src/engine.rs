@@ -89,9 +89,16 @@ export interface EngineLine {
     holder: { operation: string; priority: number; sinceMs: number; heldMs: number } | null;
     fault: { cause: string; operation: string | null; note: string | null; sinceMs: number } | null;
     waiting: string[];
-    /** Each reason with its words. */
-    clearBlockers: (ClearBlocker & { text: string })[];
+    clearBlockers: WordedBlocker[];
 }
+
+/** Why a line in `Engine.view()` may not be cleared yet, with the core's words for it (`text`). */
+export type WordedBlocker =
+    | { kind: "lockoutPending"; actuator: string; sends: number; text: string }
+    | { kind: "offLockout"; actuator: string; position: number; lockout: number; text: string }
+    | { kind: "noFeedback"; actuator: string; text: string }
+    | { kind: "stale"; actuator: string; text: string }
+    | { kind: "deviceOffline"; device: string; text: string };
 
 /** A waiting request in `Engine.view()`. */
 export interface EngineWaiting {
