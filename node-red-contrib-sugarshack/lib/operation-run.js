@@ -190,30 +190,29 @@ class RunHost {
         this.entered = e.state;
         this.port.progress('entered', e.step, e.state);
         break;
-      case 'release':
-        this.attempt(
-          () => this.interlock.release(e.operation, () => this.feed((r) => r.released(clock.now()))),
-          (err) => this.feed((r) => r.releaseFailed(err.code, err.message, clock.now())),
-        );
+      case 'release': {
+        // The interlock's refusal comes back thrown, or later through `refused`.
+        const refused = (err) => this.feed((r) => r.releaseFailed(err.code, err.message, clock.now()));
+        this.attempt(() => this.interlock.release(e.operation, () => this.feed((r) => r.released(clock.now())), refused), refused);
         break;
-      case 'fault':
-        this.attempt(
-          () => this.interlock.fault(e.operation, e.note, (lockouts) => {
-            this.plant.issueLockouts(lockouts, e.operation);
-            this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
-          }),
-          (err) => {
-            this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
-            this.feed((r) => r.faultApplied([], clock.now()));
-          },
-        );
+      }
+      case 'fault': {
+        const refused = (err) => {
+          this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
+          this.feed((r) => r.faultApplied([], clock.now()));
+        };
+        this.attempt(() => this.interlock.fault(e.operation, e.note, (lockouts) => {
+          this.plant.issueLockouts(lockouts, e.operation);
+          this.feed((r) => r.faultApplied(lockouts.map((l) => l.resource), clock.now()));
+        }, refused), refused);
         break;
+      }
       case 'cancelStep':
         this.cancelStep();
         break;
       case 'withdraw':
         this.attempt(
-          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now()))),
+          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now())), () => this.feed((r) => r.withdrawn(clock.now()))),
           () => this.feed((r) => r.withdrawn(clock.now())),
         );
         break;

@@ -94,7 +94,8 @@ function unshelve(runtime, id, who) {
  * @returns {Promise<{ operation?: string, routine?: string, command: string, state: string | null, by: string }>}
  */
 function command(runtime, target, name, who) {
-  if (runtime.operate) return runtime.operate({ kind: 'command', command: name, operation: target?.operation, routine: target?.routine }, who);
+  // Runs and routines of a plant are supervised beside the engine: their commands go to them.
+  if (runtime.operate && !runtime.plant) return runtime.operate({ kind: 'command', command: name, operation: target?.operation, routine: target?.routine }, who);
   return act(runtime, (resolve) => {
     runtime.command(target, name, who, (state) => {
       const [kind, id] = target.routine !== undefined ? ['routine', target.routine] : ['operation', target.operation];

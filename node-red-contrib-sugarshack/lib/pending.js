@@ -1,21 +1,15 @@
 // @ts-check
 'use strict';
-// Msgs held while they wait: by acquire nodes until their operation is granted,
-// keyed by operation handle (an operation waits at most once); by group command
-// and actuators nodes until their group command completes, keyed by caller id.
-
-const { clock } = require('./clock');
+// Msgs held while they wait: by the interlock's engine carrier under their msg
+// handle (lib/engine-carrier.js); by group command and actuators nodes until
+// their group command completes, keyed by caller id (PendingRegistry).
 
 class PendingRegistry {
   constructor() {
     this.byHandle = new Map();
   }
 
-  get size() {
-    return this.byHandle.size;
-  }
-
-  /** entry: { node, msg, send, done, timer, ... } (acquire: operation, priority, resources, sinceMs) */
+  /** entry: { node, msg, send, done, ... } */
   add(handle, entry) {
     this.byHandle.set(handle, entry);
   }
@@ -28,13 +22,10 @@ class PendingRegistry {
     return this.byHandle.has(handle);
   }
 
-  /** Removes and returns the entry (its timer cleared), or undefined. */
+  /** Removes and returns the entry, or undefined. */
   take(handle) {
     const entry = this.byHandle.get(handle);
-    if (!entry) return undefined;
     this.byHandle.delete(handle);
-    if (entry.timer) clock.clearTimeout(entry.timer);
-    entry.timer = null;
     return entry;
   }
 
@@ -42,11 +33,9 @@ class PendingRegistry {
     return [...this.byHandle.values()];
   }
 
-  /** Handles of the entries held by `node`, or of all entries. */
-  handles(node) {
-    const out = [];
-    for (const [handle, entry] of this.byHandle) if (!node || entry.node === node) out.push(handle);
-    return out;
+  /** Handles of every entry held. */
+  handles() {
+    return [...this.byHandle.keys()];
   }
 }
 
@@ -75,13 +64,10 @@ class HeldMsg {
     this.sinceMs = 0;
     Object.assign(this, fields);
     this.nodeId = fields.node ? fields.node.id : null;
-    /** @type {unknown} */
-    this.timer = null;
   }
 
   /** The work failed: the msg ends with the error (a Catch node gets it). @param {Error} err */
   reject(err) {
-    this.stopTimer();
     if (this.done) this.done(err);
     else if (this.node) this.node.error(err, this.msg);
     this.done = null;
@@ -89,7 +75,6 @@ class HeldMsg {
 
   /** Completed without being sent on (withdrawn, or the flows stop). */
   abandon() {
-    this.stopTimer();
     if (this.done) this.done();
     this.done = null;
   }
@@ -105,11 +90,6 @@ class HeldMsg {
   adopt(next) {
     this.node = next;
     this.send = (m) => next.send(m);
-  }
-
-  stopTimer() {
-    if (this.timer) clock.clearTimeout(this.timer);
-    this.timer = null;
   }
 }
 

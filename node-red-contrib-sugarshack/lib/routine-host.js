@@ -70,7 +70,7 @@ class RoutineHost {
     this.machine = machine;
     this.conditions = conditions;
     this.watchInputs();
-    // Its operation, saved held, came back held: still pending (see InterlockRuntime.restoreHeldRuns).
+    // Its operation, saved held, came back held: still pending (see InterlockHost.restoreHeldRuns).
     const held = this.interlock.heldOperationsOf(this.id);
     this.takeHeldRun();
     if (!saved) return;

@@ -220,12 +220,25 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   restarted.startAgainst(JSON.parse(text), undefined, 31, t);
   restarted.life('shutdown', 32);
   restarted.free();
-  const sealed = e.seal('primer', undefined, {}, 33);
+  // The aborted operations the runs and routines of its plant record.
+  e.operationAborted('a', 'primer', undefined, 33);
+  e.abortedState('a');
+  try {
+    e.abortedCheckStart('a');
+  } catch {
+    // refused while aborted
+  }
+  const routine = t.routine('r');
+  e.abortedResetRoutine(routine);
+  routine.free();
+  e.abortedCommand('a', 'reset');
+  const sealed = e.seal('primer', undefined, {}, 33, []);
   const opened = new Engine(config, {});
   opened.startSealed('primer', undefined, 'primer', sealed, 34);
   opened.free();
   const reopened = new Engine(config, { plantBound: true });
   reopened.startSealedAgainst('primer', undefined, 'primer', sealed, 35, t);
+  reopened.takeRestoredRuns();
   reopened.free();
   e.free();
   t.free();

@@ -1,9 +1,7 @@
 // @ts-check
 'use strict';
 const { coreConfig, messageBufferMax } = require('../lib/config');
-const { InterlockRuntime } = require('../lib/interlock-runtime');
 const { EngineRuntime } = require('../lib/interlock/engine-runtime');
-const { clusterOf } = require('../lib/cluster');
 const { SugarshackError } = require('../lib/errors');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
 const { useRED } = require('../lib/i18n');
@@ -41,19 +39,10 @@ module.exports = function (RED) {
       plant: plant ? plant.targetKey : null,
       error: settings.error ? settings.error.message : null,
     });
-    // Alone, the interlock runs on one engine; bound to a plant (its runs and routines) or in a hot-standby cluster, on the interlock runtime.
-    const Runtime = props.plant || inCluster(RED) ? InterlockRuntime : EngineRuntime;
-    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new Runtime({ RED, id: node.id, settings, plant }));
+    // The interlock runs on one engine, its plant's runs and routines beside it.
+    node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new EngineRuntime({ RED, id: node.id, settings, plant }));
   }
 
   RED.nodes.registerType('sugarshack-interlock', InterlockNode);
 };
 
-/** Whether this instance is one of a hot-standby cluster (a misconfigured one counts: the interlock runtime refuses then). */
-function inCluster(RED) {
-  try {
-    return Boolean(clusterOf(RED));
-  } catch {
-    return true;
-  }
-}

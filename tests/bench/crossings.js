@@ -12,7 +12,7 @@
 // (flows/plant.json) and its five lines:
 //   acquire / release           on an interlock bound to no plant (the core's
 //                               Engine, lib/interlock/engine-runtime.js) and
-//                               on one bound to the plant (lib/interlock-runtime.js)
+//                               on one bound to the plant (the same engine)
 //   release granting three      a holder of YEL, GRN and BLU releases; one
 //                               waiter on each line is granted
 //   feedback                    a <panel>/state msg into the actuators node,

@@ -19,7 +19,7 @@ const os = require('os');
 const path = require('path');
 
 const ROOT = path.resolve(__dirname, '../..');
-const { InterlockRuntime } = require(path.join(ROOT, 'node-red-contrib-sugarshack/lib/interlock-runtime.js'));
+const { EngineRuntime } = require(path.join(ROOT, 'node-red-contrib-sugarshack/lib/interlock/engine-runtime.js'));
 
 const args = process.argv.slice(2);
 const QUICK = args.includes('--quick');
@@ -33,7 +33,7 @@ const LINES = Array.from({ length: 1024 }, (_, i) => `L${i}`);
 /** An interlock runtime outside Node-RED; `RED` may bring settings of its own (a cluster: tests/bench/standby-bench.js). */
 function fakeRuntime(persist, userDir, lines, RED = { settings: { userDir } }, id = `bench-${persist ? 'file' : 'memory'}-${lines.length}`) {
   const quiet = { error() {}, warn() {}, log() {}, context: () => ({ global: { get: (k, s, cb) => cb(null, undefined) } }) };
-  const rt = new InterlockRuntime({
+  const rt = new EngineRuntime({
     RED: { util: { generateId: () => Math.random().toString(16).slice(2) }, ...RED },
     id,
     settings: { config: { resources: lines.map((name) => ({ name, lockout: null })), policy: 'greedy', recordEvents: true }, persist, plantBound: false },

@@ -576,7 +576,7 @@ describe('sugarshack hostile input', function () {
       assert.deepEqual(liveLines(), { YEL: 'faulted:interrupted', GRN: 'faulted:manual', RED: 'free' }, 'from the last saved state');
       // Everything on the new instance: nothing left on the one that trapped.
       const fresh = require(path.join(PALETTE, 'wasm', 'sugarshack_wasm.js'));
-      assert.ok(il.core instanceof fresh.Interlock);
+      assert.ok(il.core instanceof fresh.Engine);
       assert.ok(pl.t instanceof fresh.Tracker);
       assert.ok(il.routines.get('truck').machine instanceof fresh.Routine, 'the routine rebuilt');
       assert.equal(il.routines.get('truck').machine.state(), 'empty');

@@ -7,11 +7,12 @@
 // is left here is I/O: reading a msg's fields, the state file, the status,
 // the events nodes and the editor's requests.
 const { SugarshackError } = require('../errors');
+const { heldMsg } = require('../pending');
 const { describeEvent } = require('../events');
 const { countsStatus } = require('../status');
 const { clock } = require('../clock');
 const { Committer } = require('../durable');
-const { InterlockRuntime } = require('../interlock-runtime');
+const { InterlockHost } = require('./host');
 const { EngineCarrier, CarriedMsg, refusalError, render } = require('../engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { readMsg, fieldsOf } = require('../request');
@@ -24,6 +25,16 @@ const i18n = require('../i18n');
 const SHORT_TEXT = 1000;
 // A msg handle is a u32 the engine keeps; it wraps long after any msg of its range ended.
 const HANDLES = 2 ** 32;
+// Operation runs (lib/operation-run.js) ask the engine as nodes of these handles, above any node's.
+const RUN_NODES = [
+  [0xfffffff0, { kind: 'acquire', timeoutMs: 0 }],
+  [0xfffffff1, { kind: 'release' }],
+  [0xfffffff2, { kind: 'cancel' }],
+  [0xfffffff3, { kind: 'fault', byResources: false, failMsg: false }],
+];
+const [RUN_ACQUIRE, RUN_RELEASE, RUN_CANCEL, RUN_FAULT] = RUN_NODES.map(([handle]) => handle);
+// The plant's device and bus conditions are looked at this often for the engine's alarms.
+const PLANT_CHECK_MS = 1000;
 
 /** Each node kind's input: its outputs, and the engine call a msg makes (read first, so a throwing getter refuses the msg). */
 const KINDS = {
@@ -53,7 +64,7 @@ const KINDS = {
   clear: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
 };
 
-class EngineRuntime extends InterlockRuntime {
+class EngineRuntime extends InterlockHost {
   constructor(args) {
     super(args);
     /** @type {any} the core Engine (tests and the state page read it as the interlock) */
@@ -79,8 +90,9 @@ class EngineRuntime extends InterlockRuntime {
     return new Committer({
       store: this.store,
       clock,
-      snapshot: () => this.core.seal(this.id, this.settings.plantId || undefined, {}, clock.now()),
-      mayAct: () => true,
+      snapshot: () => this.core.seal(this.id, this.settings.plantId || undefined, this.routineSnapshots(), clock.now(), this.heldRuns()),
+      // In a hot-standby cluster, only while this instance leads.
+      mayAct: () => !this.cluster || this.cluster.mayAct(),
       onError: (err) => {
         this.log('error', i18n.text('logs.stateNotSaved', { where: this.store.where, message: err.message || err }));
         this.storeFailing(true);
@@ -117,8 +129,9 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
+    if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
     const saved = await this.readSaved();
-    if (this.ended) return;
+    if (this.ended || this.state === 'standby') return;
     try {
       this.guard(() => this.open(saved));
     } catch (err) {
@@ -127,8 +140,11 @@ class EngineRuntime extends InterlockRuntime {
     }
     this.markRan();
     this.state = 'ready';
+    this.restoreHeldRuns();
+    this.watchPlant();
     this.listenChanged();
     this.refreshStatus();
+    this.resendLockouts('atStart');
     this.replayParked();
   }
 
@@ -137,12 +153,21 @@ class EngineRuntime extends InterlockRuntime {
     this.newEngine();
     const now = clock.now();
     this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
+    const plant = this.tracker();
     this.call((e) => {
-      if (saved.kind === 'saved') e.startSealed(this.id, this.settings.plantId || undefined, this.store.where, saved.text, now);
-      else if (saved.kind === 'lost') e.start(null, saved.why, now);
-      else if (saved.kind === 'carried-over') e.start({ interlock: saved.snapshot }, undefined, now);
-      else e.start(null, undefined, now);
+      if (saved.kind === 'saved') {
+        const args = [this.id, this.settings.plantId || undefined, this.store.where, saved.text, now];
+        if (plant) e.startSealedAgainst(...args, plant);
+        else e.startSealed(...args);
+      } else {
+        const [doc, lost] = saved.kind === 'lost' ? [null, saved.why] : saved.kind === 'carried-over' ? [{ interlock: saved.snapshot }, undefined] : [null, undefined];
+        if (plant) e.startAgainst(doc, lost, now, plant);
+        else e.start(doc, lost, now);
+      }
     });
+    // Bound to its plant: runs saved held come back held, routines from their saved states.
+    this.savedRuns = this.core.takeRestoredRuns();
+    this.savedRoutines = this.core.savedRoutines();
     const lost = this.core.lost();
     this.lostState = lost === undefined ? null : lost;
     if (this.lostState !== null) this.started = { outcome: 'lost', reason: this.lostState, added: [], dropped: [] };
@@ -151,13 +176,14 @@ class EngineRuntime extends InterlockRuntime {
 
   newEngine() {
     const { Engine } = wasm.load();
-    const engine = new Engine(this.config, {});
+    const engine = new Engine(this.config, { plantBound: Boolean(this.settings.plantBound) });
     if (this.core) wasm.release(this.core);
     this.core = engine;
     this.wire = new Wire(engine);
     const now = clock.now();
     this.call((e) => {
       for (const [handle, { spec }] of this.nodes) e.addNode(handle, spec, now);
+      for (const [handle, spec] of RUN_NODES) e.addNode(handle, spec, now);
       // Until the flows run, events nodes may still come: the events of a start go to them.
       if (this.events.listened() || !this.flowsRunning()) e.listen(true, now);
     });
@@ -170,31 +196,68 @@ class EngineRuntime extends InterlockRuntime {
   /** Nothing more leaves: a write in flight completes, held msgs are completed unsent. */
   async shutdown() {
     if (this.ended) return;
+    this.leaveCluster();
     this.endCommon();
-    this.statusPacer.stop();
+    this.stopTimers();
     await this.committer.freeze();
     this.lifeStep('shutdown');
     this.carrier.stop();
+    this.endRuns();
     this.freeCore();
+  }
+
+  /** Nothing of the runs and routines goes on (their state is saved as it is). */
+  endRuns() {
+    for (const run of this.runs) run.shutdown();
+    for (const host of this.routines.values()) host.shutdown();
   }
 
   /** Its config node left the flows: waiting requests are withdrawn and the state written. */
   async retire() {
     if (this.ended) return;
     const ready = this.state === 'ready';
+    // With no interlock to supervise them, granted runs fault and waiting ones withdraw.
+    if (ready) for (const run of [...this.runs]) run.interrupt('its interlock was removed from the flows');
+    this.leaveCluster();
     this.endCommon();
-    this.statusPacer.stop();
+    this.stopTimers();
     if (ready) {
       this.lifeStep('retire');
       await this.committer.drain();
     }
     this.carrier.stop();
+    this.endRuns();
     this.freeCore();
   }
 
   endCommon() {
     super.endCommon();
     this.stopJournalWatch();
+  }
+
+  /** Deposed (a hot-standby cluster): nothing more leaves; what waited here is completed unsent, and the state followed again. */
+  async standDown() {
+    if (this.ended || this.state === 'standby') return;
+    const wasReady = this.state === 'ready';
+    this.stopTimers();
+    await this.committer.freeze();
+    this.carrier.stop();
+    for (const [k, entry] of [...this.carrier.held]) {
+      this.carrier.take(k);
+      entry.abandon();
+    }
+    const error = SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: this.id, active: this.cluster && this.cluster.leader ? this.cluster.leader.instance : '?' });
+    for (const { reject } of this.replies.values()) reject(error);
+    this.replies.clear();
+    this.endRuns();
+    this.runs.clear();
+    this.routines.clear();
+    this.savedRoutines = {};
+    if (wasReady) this.freeCore();
+    this.lostState = null;
+    this.committer = this.makeCommitter();
+    this.carrier = this.makeCarrier();
+    this.becomeStandby();
   }
 
   lifeStep(step) {
@@ -222,13 +285,11 @@ class EngineRuntime extends InterlockRuntime {
     if (this.state === 'ready') this.lifeStep('drain-end');
   }
 
-  quiescent() {
-    return true;
-  }
-
   /** New settings after the drain: a new engine takes the old one's state over (holds, waiting msgs, their deadlines). */
   swap(settings) {
     this.applySettings(settings);
+    // A standby has no state of its own: it takes the new settings when it is elected.
+    if (this.state === 'standby') return;
     if (!this.takeConfig()) return;
     const old = this.core;
     try {
@@ -249,8 +310,11 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
+    for (const host of this.routines.values()) host.rebuild(host.snapshot());
     this.listenChanged();
     this.refreshStatus();
+    // A new plant tracker knows no standing lockout yet.
+    this.resendLockouts('plantChanged');
   }
 
   /** After a wasm trap: back to the last saved state, as after a restart; what waited is refused. */
@@ -259,6 +323,13 @@ class EngineRuntime extends InterlockRuntime {
     this.committer.discard();
     this.carrier.stop();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
+    for (const host of this.routines.values()) host.suspend();
+    // A held run comes back held from the saved state: its owner's port waits for it.
+    const heldPorts = [];
+    for (const run of [...this.runs]) {
+      if (run.heldBeforeTrap) heldPorts.push(run.suspend());
+      else run.abandon(error);
+    }
     for (const [k, entry] of [...this.carrier.held]) {
       this.carrier.take(k);
       entry.reject(error);
@@ -274,8 +345,17 @@ class EngineRuntime extends InterlockRuntime {
       this.fail(err);
       return;
     }
+    this.restoreHeldRuns();
+    // A routine's is taken by the routine as it rebuilds (below).
+    for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) {
+      const run = this.heldRunOf(port.owner);
+      if (run) run.takePort(port);
+      else port.fail(error);
+    }
+    for (const [id, host] of this.routines) host.rebuild(this.savedRoutines[id]);
     this.listenChanged();
     this.refreshStatus();
+    this.resendLockouts('afterRebuild');
   }
 
   // ---- nodes -----------------------------------------------------------------
@@ -296,11 +376,16 @@ class EngineRuntime extends InterlockRuntime {
   }
 
   closing(node) {
+    this.closingRuns(node);
     const handle = this.nodeHandles.get(node.id);
     const bound = handle === undefined ? undefined : this.nodes.get(handle);
     if (handle === undefined || !bound || bound.node !== node) return;
     this.nodes.delete(handle);
     if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, false, now));
+  }
+
+  closingRuns(node) {
+    for (const run of this.runs) run.detachNode(node);
   }
 
   /** A node restarted by a deploy that did not come back: the engine withdraws what it waited for. */
@@ -351,8 +436,10 @@ class EngineRuntime extends InterlockRuntime {
     // A Catch node's error stays the cause of the error a failed fault msg ends with.
     if (spec.kind === 'fault' && msg.error && typeof msg.error === 'object') entry.cause = msg.error;
     this.carrier.hold(k, entry);
+    const plant = spec.kind === 'clear' ? this.tracker() : null;
     try {
-      this.call((e, now) => kind.call(e, handle, k, read, now));
+      if (plant) this.call((e, now) => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant));
+      else this.call((e, now) => kind.call(e, handle, k, read, now));
     } catch (err) {
       this.carrier.take(k);
       throw err;
@@ -363,9 +450,13 @@ class EngineRuntime extends InterlockRuntime {
 
   other(o, effect) {
     switch (o.kind) {
-      case 'event':
-        effect(() => this.events.publish([o.event]));
+      case 'event': {
+        // In a cluster each event names the instance and the fencing token it was committed under.
+        const { cluster } = this;
+        const event = cluster ? { ...o.event, instance: cluster.instance, token: cluster.token } : o.event;
+        effect(() => this.events.publish([event]));
         break;
+      }
       case 'journal':
         effect(() => journal.action(o.action, { by: o.by, reason: o.reason }, o.target));
         break;
@@ -383,6 +474,9 @@ class EngineRuntime extends InterlockRuntime {
         break;
       case 'reply':
         effect(() => this.reply(o.msg, o.answer));
+        break;
+      case 'lockouts':
+        effect(() => this.plant && this.plant.issueLockouts(lockoutsOf(o.lockouts), null));
         break;
       default:
         break;
@@ -438,12 +532,33 @@ class EngineRuntime extends InterlockRuntime {
       const k = this.nextMsg;
       this.nextMsg = (this.nextMsg + 1) % HANDLES;
       this.replies.set(k, { resolve, reject });
+      const plant = this.tracker();
       try {
-        this.call((e, now) => e.operator(k, action, who, now));
+        this.call((e, now) => (plant ? e.operatorAgainst(k, action, who, now, plant) : e.operator(k, action, who, now)));
       } catch (err) {
         this.replies.delete(k);
         reject(err);
       }
+    });
+  }
+
+  /** The state node's alarm requests: the engine's, `then(changes)` once saved. */
+  acknowledgeAlarms(ids, who, then) {
+    this.alarmRequest({ kind: 'ack', ids }, who, then);
+  }
+
+  shelveAlarm(id, untilMs, who, then, { oneShot = false } = {}) {
+    this.alarmRequest({ kind: 'shelve', id, untilMs, oneShot }, who, then);
+  }
+
+  unshelveAlarm(id, who, then) {
+    this.alarmRequest({ kind: 'unshelve', id }, who, then);
+  }
+
+  alarmRequest(action, who, then) {
+    this.operate(action, who).then((answer) => then(answer.changes), (err) => {
+      this.log('warn', err.message);
+      then([]);
     });
   }
 
@@ -465,20 +580,167 @@ class EngineRuntime extends InterlockRuntime {
 
   /** The state as a person reads it: the engine's view, with what the host knows (its store, how it started). */
   describe() {
+    // A standby shows which committed state it follows (the etcd revision of its last write).
+    if (this.state === 'standby' && this.etcdStore) return { failure: null, following: { where: this.etcdStore.where, revision: this.etcdStore.held.revision } };
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
-    const view = this.core.view(clock.now());
+    const now = clock.now();
+    const plant = this.tracker();
+    const view = plant ? this.core.viewAgainst(now, plant) : this.core.view(now);
     delete view.stage;
     return {
       ...view,
       // Each event with its one readable line, as the events nodes send it.
       recentEvents: view.recentEvents.map((e) => ({ ...e, summary: describeEvent(e) })),
-      plant: null,
-      routines: [],
+      plant: this.plant ? this.plant.id : null,
+      routines: [...this.routines.values()].map((host) => host.describe()),
       started: this.started,
       saved: { where: this.store.where, failing: this.committer.failing, writes: this.committer.writes },
-      runs: [],
+      runs: this.describeRuns(now),
     };
   }
+
+  // ---- the plant bound to it: its runs, routines, lockouts and conditions ------------
+
+  /** The plant's tracker while the plant runs (clears are checked against it), else null. */
+  tracker() {
+    return this.plant && this.plant.state === 'ready' ? this.plant.t : null;
+  }
+
+  /** Faulted lines send their lockouts again once the flows run ("atStart", "plantChanged", "afterRebuild"). */
+  resendLockouts(why) {
+    if (!this.plant || !this.palette) return;
+    this.palette.whenStarted(() => {
+      if (this.state === 'ready') this.lifeCall((e, now) => e.resendLockouts(why, now));
+    });
+  }
+
+  /** An engine call whose failure is logged, not thrown (no msg to refuse). @param {(engine: any, now: number) => void} fn */
+  lifeCall(fn) {
+    try {
+      this.call(fn);
+    } catch (err) {
+      this.log('error', err.message);
+    }
+  }
+
+  /** The plant's device and bus conditions go to the engine's alarms as they change. */
+  watchPlant() {
+    this.stopTimers();
+    if (!this.plant && !this.cluster) return;
+    this.plantConditions = '';
+    this.alarmTimer = clock.setInterval(() => this.observePlant(), PLANT_CHECK_MS);
+    this.observePlant();
+  }
+
+  observePlant() {
+    const plant = this.tracker();
+    if (this.state !== 'ready') return;
+    try {
+      const buses = plant ? this.plant.buses.filter((b) => b.connected === false).map((b) => ({ kind: 'bus-disconnected', subject: (b.node && b.node.name) || b.nodeId })) : [];
+      const devices = plant ? this.guard(() => plant.alarmConditions()) : [];
+      const conditions = [...devices, ...buses, ...(this.cluster ? this.cluster.alarmConditions() : [])];
+      const seen = JSON.stringify(conditions);
+      if (seen === this.plantConditions) return;
+      this.plantConditions = seen;
+      this.call((e, now) => e.plantConditions(conditions, now));
+    } catch (err) {
+      this.log('error', i18n.text('logs.alarmsNotUpdated', { message: err.message }));
+    }
+  }
+
+  /** The routines' states now, by id, for the state document. */
+  routineSnapshots() {
+    const routines = {};
+    for (const [id, host] of this.routines) {
+      const snapshot = host.snapshot();
+      if (snapshot) routines[id] = snapshot;
+    }
+    return routines;
+  }
+
+  /** The runs held now, saved so that they come back held. */
+  heldRuns() {
+    const runs = [];
+    for (const run of this.runs) {
+      const held = run.snapshot();
+      if (held) runs.push(held);
+    }
+    return runs;
+  }
+
+  /**
+   * The operations aborted and not reset, kept by the engine (a run's abort, a routine's reset, an operator's).
+   * @returns {any}
+   */
+  abortedOperations() {
+    const core = this.core;
+    if (!core) throw SugarshackError.of('INTERNAL', 'interlockRebuilt');
+    return {
+      checkStart: (operation) => core.abortedCheckStart(operation),
+      state: (operation) => core.abortedState(operation),
+      ended: (operation, _state, by, reason, now) => core.operationAborted(operation, by, reason, now),
+      command: (operation, command) => core.abortedCommand(operation, command),
+      resetRoutine: (machine) => core.abortedResetRoutine(machine),
+    };
+  }
+
+  /**
+   * A run's request to the engine, as a msg of one of the run nodes: the
+   * carrier holds an entry for it, and its answer (`sent`, `failed`, or
+   * `abandoned` when completed unsent) comes back once.
+   */
+  runRequest(ports, call, { sent, failed, abandoned = () => {} }) {
+    const k = this.nextMsg;
+    this.nextMsg = (this.nextMsg + 1) % HANDLES;
+    let open = true;
+    const once = (fn) => (arg) => {
+      if (!open) return;
+      open = false;
+      fn(arg);
+    };
+    const entry = heldMsg({ node: null, msg: null, send: once(sent), done: null, sinceMs: 0, ports });
+    entry.reject = once(failed);
+    entry.abandon = once(abandoned);
+    this.carrier.hold(k, entry);
+    try {
+      this.call((e, now) => call(e, k, now));
+    } catch (err) {
+      this.carrier.take(k);
+      throw err;
+    }
+  }
+
+  /** A run waits for its grant (`entry.grant`), or is refused (`entry.refuse`) or taken out of the queue (`entry.abandon`). */
+  request(entry) {
+    this.runRequest(1, (e, k, now) => e.acquireNamed(RUN_ACQUIRE, k, entry.operation, entry.priority, entry.resources, now), {
+      sent: () => entry.grant(clock.now()),
+      failed: (err) => entry.refuse(err),
+      abandoned: () => entry.abandon(),
+    });
+  }
+
+  /** A run releases its lines: `then` once saved, `refused(err)` when the engine refuses. */
+  release(operation, then, refused = () => {}) {
+    this.runRequest(1, (e, k, now) => e.releaseOperation(RUN_RELEASE, k, operation, now), { sent: () => then(), failed: refused });
+  }
+
+  /** A run withdraws its waiting request. */
+  cancel(operation, then, refused = () => {}) {
+    this.runRequest(1, (e, k, now) => e.cancel(RUN_CANCEL, k, { operation }, now), { sent: () => then && then(), failed: refused });
+  }
+
+  /** A run faults: `then(lockouts)` once saved, or if saving fails (isolation first). */
+  fault(operation, note, then, refused = (err) => this.log('error', err.message)) {
+    this.runRequest(2, (e, k, now) => e.fault(RUN_FAULT, k, { operation, errorMessage: note }, now), {
+      sent: (out) => then(lockoutsOf(out[1] || [])),
+      failed: refused,
+    });
+  }
+}
+
+/** The engine's lockout msgs as the plant's lockout commands. @param {any[]} msgs */
+function lockoutsOf(msgs) {
+  return msgs.map((m) => ({ resource: m.resource, topic: m.topic, command: m.payload }));
 }
 
 // The interlock layer's own time per msg, for the overhead figures.

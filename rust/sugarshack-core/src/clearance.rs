@@ -183,6 +183,42 @@ impl fmt::Display for LineBlockers {
     }
 }
 
+/// `reasons` as a person's page lists them: each reason with its words (`text`).
+pub fn worded_reasons<S: serde::Serializer>(
+    reasons: &[ClearBlocker],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::{Error, SerializeSeq};
+    let mut seq = serializer.serialize_seq(Some(reasons.len()))?;
+    for reason in reasons {
+        let mut value = serde_json::to_value(reason).map_err(S::Error::custom)?;
+        if let Some(map) = value.as_object_mut() {
+            map.insert("text".into(), reason.to_string().into());
+        }
+        seq.serialize_element(&value)?;
+    }
+    seq.end()
+}
+
+/// A refused clear's `lines` as a Catch node gets them: each line's reasons
+/// and their words (`texts`, in the same order).
+pub fn worded_lines<S: serde::Serializer>(
+    lines: &[LineBlockers],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeSeq;
+    let mut seq = serializer.serialize_seq(Some(lines.len()))?;
+    for l in lines {
+        let texts: Vec<String> = l.reasons.iter().map(ToString::to_string).collect();
+        seq.serialize_element(&serde_json::json!({
+            "line": l.line,
+            "reasons": l.reasons,
+            "texts": texts,
+        }))?;
+    }
+    seq.end()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -216,6 +252,33 @@ mod tests {
         assert_eq!(
             line.to_string(),
             "YEL: device ctrl-1 offline; member actuator V101 not in its lockout state (reads 40, lockout 0)"
+        );
+    }
+
+    #[test]
+    fn reasons_cross_with_their_words() {
+        let reasons = vec![ClearBlocker::DeviceOffline {
+            device: "ctrl-1".into(),
+        }];
+        let mut out = Vec::new();
+        worded_reasons(&reasons, &mut serde_json::Serializer::new(&mut out)).unwrap();
+        let read: serde_json::Value = serde_json::from_slice(&out).unwrap();
+        assert_eq!(
+            read,
+            serde_json::json!([{ "kind": "deviceOffline", "device": "ctrl-1", "text": "device ctrl-1 offline" }])
+        );
+        let lines = vec![LineBlockers {
+            line: "YEL".into(),
+            reasons,
+        }];
+        let mut out = Vec::new();
+        worded_lines(&lines, &mut serde_json::Serializer::new(&mut out)).unwrap();
+        let read: serde_json::Value = serde_json::from_slice(&out).unwrap();
+        assert_eq!(read[0]["line"], "YEL");
+        assert_eq!(read[0]["reasons"][0]["device"], "ctrl-1");
+        assert_eq!(
+            read[0]["texts"],
+            serde_json::json!(["device ctrl-1 offline"])
         );
     }
 }

@@ -358,7 +358,7 @@ fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
 /// A restart from the engine's sealed document: a line held or faulted
 /// before is faulted after, a free line is free, nothing is lost.
 fn restart_keeps_every_taken_line_locked_out(live: &Engine, masks: &[u8], now: u64) {
-    let text = live.seal("il", None, BTreeMap::new(), ms(now));
+    let text = live.seal("il", None, BTreeMap::new(), Vec::new(), ms(now));
     let mut restarted = engine(masks);
     restarted.handle(
         Input::Start(Saved::Sealed(Box::new(SealedDoc {

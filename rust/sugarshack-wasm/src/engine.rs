@@ -9,7 +9,8 @@ use sugarshack_core::engine::{
     StateDoc, Step, WhoFields,
 };
 use sugarshack_core::interlock::InterlockConfig;
-use sugarshack_core::procedure::Command;
+use sugarshack_core::operation::RunSnapshot;
+use sugarshack_core::procedure::{Command, State};
 use sugarshack_core::routine::RoutineSnapshot;
 use sugarshack_core::text::quote;
 use sugarshack_core::time::Millis;
@@ -88,8 +89,16 @@ export interface EngineLine {
     holder: { operation: string; priority: number; sinceMs: number; heldMs: number } | null;
     fault: { cause: string; operation: string | null; note: string | null; sinceMs: number } | null;
     waiting: string[];
-    clearBlockers: ClearBlocker[];
+    clearBlockers: WordedBlocker[];
 }
+
+/** Why a line in `Engine.view()` may not be cleared yet, with the core's words for it (`text`). */
+export type WordedBlocker =
+    | { kind: "lockoutPending"; actuator: string; sends: number; text: string }
+    | { kind: "offLockout"; actuator: string; position: number; lockout: number; text: string }
+    | { kind: "noFeedback"; actuator: string; text: string }
+    | { kind: "stale"; actuator: string; text: string }
+    | { kind: "deviceOffline"; device: string; text: string };
 
 /** A waiting request in `Engine.view()`. */
 export interface EngineWaiting {
@@ -478,7 +487,8 @@ impl Engine {
         match plant {
             Some(tracker) => {
                 let blockers = |line: &str| tracker.core.clear_blockers(line);
-                self.core.handle_checked(input, now, &blockers);
+                self.core
+                    .handle_bound(input, now, &blockers, Some(tracker.core.plant()));
             }
             None => self.core.handle_checked(input, now, &no_blockers),
         }
@@ -1067,14 +1077,16 @@ impl Engine {
     }
 
     /// Its sealed state document at `nowMs`, with the running routines'
-    /// states (`routines`, by id) over those read at start and its alarms,
-    /// as the interlock `owner` bound to `plant`.
+    /// states (`routines`, by id) over those read at start, its alarms and
+    /// the `runs` held now (they come back held), as the interlock `owner`
+    /// bound to `plant`.
     pub fn seal(
         &self,
         owner: &str,
         plant: Option<String>,
         #[wasm_bindgen(unchecked_param_type = "Record<string, RoutineSnapshot>")] routines: JsValue,
         now_ms: f64,
+        #[wasm_bindgen(unchecked_param_type = "RunSnapshot[] | undefined")] runs: JsValue,
     ) -> Result<String, JsValue> {
         let now = time(now_ms)?;
         let routines: BTreeMap<String, RoutineSnapshot> = from_js_bounded(
@@ -1083,7 +1095,74 @@ impl Engine {
             "invalid routine snapshots",
             Bound::InterlockSnapshot,
         )?;
-        Ok(self.core.seal(owner, plant.as_deref(), routines, now))
+        let runs: Vec<RunSnapshot> = if runs.is_undefined() || runs.is_null() {
+            Vec::new()
+        } else {
+            from_js_bounded(
+                runs,
+                Code::InvalidSnapshot,
+                "invalid held runs",
+                Bound::InterlockSnapshot,
+            )?
+        };
+        Ok(self.core.seal(owner, plant.as_deref(), routines, runs, now))
+    }
+
+    /// The runs that came back held at start (once), for their owners to supervise again.
+    #[wasm_bindgen(js_name = takeRestoredRuns, unchecked_return_type = "RunSnapshot[]")]
+    pub fn take_restored_runs(&mut self) -> Result<JsValue, JsValue> {
+        to_js(&self.core.take_restored_runs())
+    }
+
+    /// Refused (OPERATION_ABORTED) while `operation` stands aborted and not reset.
+    #[wasm_bindgen(js_name = abortedCheckStart)]
+    pub fn aborted_check_start(&self, operation: &str) -> Result<(), JsValue> {
+        self.core
+            .aborted()
+            .check_start(operation)
+            .map_err(|err| js_error(err.code(), &err.to_string()))
+    }
+
+    /// Whether `operation` stands aborted: its run state ("aborted", or "idle").
+    #[wasm_bindgen(js_name = abortedState, unchecked_return_type = "RunState")]
+    pub fn aborted_state(&self, operation: &str) -> String {
+        self.core.aborted().state(operation).name().into()
+    }
+
+    /// A run of `operation` ended aborted by `by` (saved with the state): it refuses starts until reset.
+    #[wasm_bindgen(js_name = operationAborted)]
+    pub fn operation_aborted(
+        &mut self,
+        operation: &str,
+        by: Option<String>,
+        reason: Option<String>,
+        now_ms: f64,
+    ) -> Result<(), JsValue> {
+        let now = time(now_ms)?;
+        let who = crate::operation::attribution(by, reason);
+        self.core
+            .aborted_mut()
+            .ended(operation, State::Aborted, &who, now);
+        Ok(())
+    }
+
+    /// A command to an operation saved aborted (a person's reset); the state it entered.
+    #[wasm_bindgen(js_name = abortedCommand, unchecked_return_type = "RunState")]
+    pub fn aborted_command(&mut self, operation: &str, command: &str) -> Result<String, JsValue> {
+        let command = crate::operation::command_of(command)?;
+        self.core
+            .aborted_mut()
+            .command(operation, command)
+            .map(|state| state.name().into())
+            .map_err(|err| js_error(err.code(), &err.to_string()))
+    }
+
+    /// A routine's reset resets the operations it dispatched that stand aborted; their ids.
+    #[wasm_bindgen(js_name = abortedResetRoutine)]
+    pub fn aborted_reset_routine(&mut self, routine: &crate::routine::Routine) -> Vec<String> {
+        self.core
+            .aborted_mut()
+            .reset_routine(&routine.machine().operations())
     }
 
     /// The interlock as a person reads it.

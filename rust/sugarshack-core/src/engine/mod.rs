@@ -46,7 +46,8 @@ use crate::interlock::{
     Binding, EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError,
     OpId, ResourceSet, RestoreOptions, Start,
 };
-use crate::operation::AbortedOperations;
+use crate::operation::{AbortedOperations, RunSnapshot};
+use crate::plant::Plant;
 use crate::procedure::{Command, State};
 use crate::time::{ms, Millis};
 
@@ -473,6 +474,9 @@ pub struct Engine {
     /// Operations aborted and not reset, as saved: an abort stands until a
     /// person resets it, also while the interlock runs without its plant.
     aborted: AbortedOperations,
+    /// The runs saved held that came back held at start, their lines kept,
+    /// until the host (which supervises runs) takes them.
+    restored_runs: Vec<RunSnapshot>,
     /// When it started (or took a state over): its checks beat on whole seconds from then.
     beat: Millis,
     out: Vec<Output>,
@@ -510,6 +514,7 @@ impl Engine {
             },
             saved_routines: serde_json::Map::new(),
             aborted: AbortedOperations::default(),
+            restored_runs: Vec::new(),
             beat: Millis::ZERO,
             out: Vec::new(),
         })
@@ -577,6 +582,22 @@ impl Engine {
         })
     }
 
+    /// The runs that came back held at start, for the host to supervise again (once).
+    pub fn take_restored_runs(&mut self) -> Vec<RunSnapshot> {
+        std::mem::take(&mut self.restored_runs)
+    }
+
+    /// The operations aborted and not reset.
+    pub fn aborted(&self) -> &AbortedOperations {
+        &self.aborted
+    }
+
+    /// The operations aborted and not reset, for the host's runs and routines
+    /// (an abort they accept, a routine's reset); saved with the state.
+    pub fn aborted_mut(&mut self) -> &mut AbortedOperations {
+        &mut self.aborted
+    }
+
     /// The routines' saved states, as read at start (kept for their hosts).
     pub fn saved_routines(&self) -> &serde_json::Map<String, serde_json::Value> {
         &self.saved_routines
@@ -636,6 +657,19 @@ impl Engine {
     /// why the plant does not show a line isolated (a clear is refused
     /// until it does, unless forced).
     pub fn handle_checked(&mut self, input: Input, now: Millis, blockers: Blockers<'_>) {
+        self.handle_bound(input, now, blockers, None);
+    }
+
+    /// [`Engine::handle_checked`] with the plant itself: a start from a
+    /// sealed document brings the runs saved held back held when `plant`
+    /// still has their plans (see [`Engine::take_restored_runs`]).
+    pub fn handle_bound(
+        &mut self,
+        input: Input,
+        now: Millis,
+        blockers: Blockers<'_>,
+        plant: Option<&Plant>,
+    ) {
         let before = self.counts();
         match self.stage.gate() {
             Gate::Park if !matches!(input, Input::Start(_) | Input::Life(_)) => {
@@ -656,7 +690,7 @@ impl Engine {
             _ => {}
         }
         match input {
-            Input::Start(saved) => self.start(saved, now, blockers),
+            Input::Start(saved) => self.start(saved, now, blockers, plant),
             Input::Life(step) => self.life(step, now),
             input @ (Input::AddNode { .. } | Input::CloseNode { .. }) => {
                 if let Some(orphan) = self.configure(input) {
@@ -750,11 +784,11 @@ impl Engine {
 
     // ---- life --------------------------------------------------------------------
 
-    fn start(&mut self, saved: Saved, now: Millis, blockers: Blockers<'_>) {
+    fn start(&mut self, saved: Saved, now: Millis, blockers: Blockers<'_>, plant: Option<&Plant>) {
         if !matches!(self.stage, Stage::Starting | Stage::StartingHeld) {
             return;
         }
-        let (interlock, lost) = match self.restored(saved, now) {
+        let (interlock, lost) = match self.restored(saved, now, plant) {
             Ok(pair) => pair,
             Err(err) => {
                 // The configuration itself cannot run (checked when made): keep the fresh interlock.
@@ -796,12 +830,13 @@ impl Engine {
         &mut self,
         saved: Saved,
         now: Millis,
+        plant: Option<&Plant>,
     ) -> Result<(Interlock, Option<String>), InterlockError> {
         let config = recording(&self.config);
         let why = match saved {
             Saved::First => return Ok((Interlock::new(config)?, None)),
             Saved::Lost(why) => why,
-            Saved::Sealed(doc) => return self.opened(*doc, config, now),
+            Saved::Sealed(doc) => return self.opened(*doc, config, now, plant),
             Saved::Doc(doc) => {
                 let doc = *doc;
                 self.saved_routines = doc.routines;
@@ -846,14 +881,16 @@ impl Engine {
         doc: SealedDoc,
         config: InterlockConfig,
         now: Millis,
+        plant: Option<&Plant>,
     ) -> Result<(Interlock, Option<String>), InterlockError> {
         let binding = Binding {
             owner: &doc.owner,
             plant: doc.plant.as_deref(),
         };
-        // No run is the engine's: a run saved held comes back interrupted, its lines faulted.
-        let opened = Interlock::open(config, binding, &doc.source, &doc.text, None, now)?;
+        // Without its plant, a run saved held comes back interrupted, its lines faulted.
+        let opened = Interlock::open(config, binding, &doc.source, &doc.text, plant, now)?;
         self.aborted = opened.aborted;
+        self.restored_runs = opened.runs;
         for why in opened.runs_interrupted {
             self.log(
                 Level::Warn,

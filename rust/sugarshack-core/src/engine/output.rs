@@ -110,8 +110,11 @@ pub struct RefusalOf {
     pub code: Code,
     /// The message.
     pub text: Text,
-    /// A refused clear: every reason, per line.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// A refused clear: every reason, per line, with their words (`texts`).
+    #[serde(
+        skip_serializing_if = "Vec::is_empty",
+        serialize_with = "crate::clearance::worded_lines"
+    )]
     pub lines: Vec<LineBlockers>,
 }
 

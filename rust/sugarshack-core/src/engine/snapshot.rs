@@ -15,7 +15,7 @@ use std::sync::Arc;
 use super::{Due, Engine, MsgId, NodeId, Request, Stage};
 use crate::alarm::Alarms;
 use crate::interlock::{Beside, Binding, Interlock, InterlockError, RestoreOptions, Snapshot};
-use crate::operation::AbortedOperations;
+use crate::operation::{AbortedOperations, RunSnapshot};
 use crate::routine::RoutineSnapshot;
 use crate::time::Millis;
 
@@ -235,6 +235,7 @@ impl Engine {
         owner: &str,
         plant: Option<&str>,
         running: BTreeMap<String, RoutineSnapshot>,
+        runs: Vec<RunSnapshot>,
         now: Millis,
     ) -> String {
         // Those read at start were a routine's state when opened (the document's types say so).
@@ -244,11 +245,11 @@ impl Engine {
             .filter_map(|(id, v)| Some((id.clone(), serde_json::from_value(v.clone()).ok()?)))
             .collect();
         routines.extend(running);
-        // No run is the engine's, so none is saved held; the aborted ones stand.
+        // The runs held now (the host supervises them) come back held; the aborted ones stand.
         let beside = Beside {
             routines,
             alarms: Some(self.alarms.snapshot()),
-            runs: Vec::new(),
+            runs,
             aborted: self.aborted.clone(),
         };
         self.interlock.seal(Binding { owner, plant }, beside, now)

@@ -742,7 +742,9 @@ fn a_sealed_document_restarts_by_the_one_rule_held_lines_faulted_added_lines_fre
     let mut b = Bench::new();
     b.acquire(1, 1);
     b.at(100).acquire(2, 2);
-    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(200));
+    let text = b
+        .engine
+        .seal("il-1", None, BTreeMap::new(), Vec::new(), ms(200));
     // The interlock's own reader takes the engine's document.
     let config = InterlockConfig::with_resources(LINES);
     let binding = Binding {
@@ -775,7 +777,9 @@ fn a_sealed_document_restarts_by_the_one_rule_held_lines_faulted_added_lines_fre
 #[test]
 fn another_interlocks_or_a_damaged_sealed_document_is_a_lost_state() {
     let b = Bench::new();
-    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(0));
+    let text = b
+        .engine
+        .seal("il-1", None, BTreeMap::new(), Vec::new(), ms(0));
     let damaged = text.replacen("YEL", "YEX", 1);
     for (text, owner) in [(text.as_str(), "il-2"), (damaged.as_str(), "il-1")] {
         let (engine, out) = started(&LINES, sealed(text, owner), 1000);
@@ -826,7 +830,9 @@ fn an_emergency_stops_note_is_the_caught_error_over_the_stated_reason_over_the_p
 #[test]
 fn who_listens_before_the_start_hears_every_event_of_the_start() {
     let b = Bench::new();
-    let text = b.engine.seal("il-1", None, BTreeMap::new(), ms(0));
+    let text = b
+        .engine
+        .seal("il-1", None, BTreeMap::new(), Vec::new(), ms(0));
     let mut more = LINES.to_vec();
     more.push("ORG");
     let kinds = |listen: bool| {
@@ -948,7 +954,7 @@ fn an_abort_saved_with_a_plant_stands_on_the_engine_until_a_person_resets_it() {
         ("10", "ana")
     );
     // Carried through the engine's own document and a hand-over.
-    let resealed = engine.seal("il-1", None, BTreeMap::new(), ms(1001));
+    let resealed = engine.seal("il-1", None, BTreeMap::new(), Vec::new(), ms(1001));
     let config = InterlockConfig::with_resources(LINES);
     let reopened =
         Interlock::open(config, binding, "state.json", &resealed, None, ms(1002)).unwrap();
@@ -1049,4 +1055,94 @@ fn a_node_value_read_for_one_msg_takes_the_deployed_ones_place_for_that_msg_only
         fields: read("13", text("urgent")),
     });
     assert_eq!(answers(&out), ["fail 3 INVALID_PRIORITY"]);
+}
+
+#[test]
+fn a_run_saved_held_comes_back_held_only_when_started_with_its_plant() {
+    use crate::operation::{RunOwner, RunSnapshot};
+    use crate::plant::fixtures::{yel_plant, yel_valve};
+    let doc = yel_plant(
+        serde_json::json!([yel_valve("V1", 1)]),
+        serde_json::json!([{ "command": { "valves": { "V1": 100 } }, "timeoutMs": 2000 }]),
+    );
+    let plant = Plant::new(serde_json::from_value(doc).unwrap()).unwrap();
+    let plan = plant.operation_plan("10").unwrap();
+    // Operation 10 holds YEL, then its run is held by an operator and saved with the state.
+    let mut engine = Engine::new(InterlockConfig::with_resources(["YEL"]), true).unwrap();
+    engine.handle(Input::Start(Saved::First), ms(0));
+    let acquire = NodeSpec::acquire(
+        Raw::Text("10".into()),
+        Raw::Number(1.0),
+        Raw::Text("YEL".into()),
+        ms(0),
+    );
+    engine.handle(
+        Input::AddNode {
+            node: NodeId(1),
+            spec: acquire,
+        },
+        ms(0),
+    );
+    engine.handle(
+        Input::Acquire {
+            node: NodeId(1),
+            msg: MsgId(1),
+            fields: MsgFields::default(),
+        },
+        ms(10),
+    );
+    let held = RunSnapshot {
+        operation: "10".into(),
+        plan: plan.digest(),
+        step: 0,
+        used_ms: ms(5),
+        started_ms: ms(10),
+        granted_ms: ms(10),
+        held_since_ms: ms(20),
+        held_ms: Millis::ZERO,
+        held: true,
+        steps: Vec::new(),
+        owner: Some(RunOwner::Node {
+            id: "op-node".into(),
+        }),
+    };
+    let text = engine.seal(
+        "il-1",
+        Some("plant-1"),
+        BTreeMap::new(),
+        vec![held.clone()],
+        ms(30),
+    );
+    let doc = || {
+        Saved::Sealed(Box::new(SealedDoc {
+            text: text.clone(),
+            source: "state.json".into(),
+            owner: "il-1".into(),
+            plant: Some("plant-1".into()),
+        }))
+    };
+    let fresh = || Engine::new(InterlockConfig::with_resources(["YEL"]), true).unwrap();
+
+    let mut bound = fresh();
+    bound.handle_bound(Input::Start(doc()), ms(100), &|_| Vec::new(), Some(&plant));
+    assert_eq!(bound.take_restored_runs(), vec![held.clone()]);
+    assert!(bound.take_restored_runs().is_empty(), "taken once");
+    assert_eq!(bound.counts().holding, 1);
+    assert_eq!(bound.counts().faulted, 0);
+    // Sealed again with its run, it comes back held again.
+    let again = bound.seal(
+        "il-1",
+        Some("plant-1"),
+        BTreeMap::new(),
+        vec![held],
+        ms(110),
+    );
+    assert!(again.contains("op-node"));
+
+    // Without its plant, the run cannot be supervised: its line comes back faulted.
+    let mut alone = fresh();
+    alone.handle(Input::Start(doc()), ms(100));
+    assert!(alone.take_restored_runs().is_empty());
+    assert_eq!(alone.counts().holding, 0);
+    assert_eq!(alone.counts().faulted, 1);
 }

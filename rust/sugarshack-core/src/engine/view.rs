@@ -88,7 +88,8 @@ pub struct LineView {
     pub fault: Option<FaultView>,
     /// The operations waiting for it.
     pub waiting: Vec<String>,
-    /// Why it may not be cleared now.
+    /// Why it may not be cleared now, each with its words (`text`).
+    #[serde(serialize_with = "crate::clearance::worded_reasons")]
     pub clear_blockers: Vec<ClearBlocker>,
 }
 
