@@ -6,7 +6,7 @@
 'use strict';
 const fs = require('fs');
 const path = require('path');
-const { validatePlant } = require('../node-red-contrib-sugarshack/lib/plant');
+const { validatePlant } = require('../node-red-contrib-sugarshack/lib/plant/plant');
 
 function report(file) {
   const name = path.basename(file);

@@ -13,11 +13,11 @@
 // Everything is named by the interlock config node's id; its plant is the one
 // it is bound to. Handles (actuators, devices, sensors) are positions in the
 // plant's lists, valid until a change says `rebuilt`.
-const { paletteOf, readyInterlock, notRunningInterlock, runCommandOf } = require('./lifecycle');
-const { clock } = require('./clock');
-const operator = require('./operator');
+const { paletteOf, readyInterlock, notRunningInterlock, runCommandOf } = require('./host/lifecycle');
+const { clock } = require('./host/clock');
+const operator = require('./interlock/operator');
 const wasm = require('./wasm');
-const { SignIn } = require('./sign-in');
+const { SignIn } = require('./host/sign-in');
 
 // Raised when something is added (2: command); nothing is taken away.
 const VERSION = 2;

@@ -7,7 +7,7 @@
 // feedback is one notice, naming the runtimes that changed; listeners
 // throttle further as they like.
 const { EventEmitter } = require('events');
-const { clock } = require('./clock');
+const { clock } = require('./host/clock');
 const { clusterOf } = require('./cluster');
 
 /** { atMs, interlocks: [...], plants: [...], cluster? } of every runtime of `palette`; `cluster` in a hot-standby cluster. */

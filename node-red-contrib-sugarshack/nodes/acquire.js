@@ -1,8 +1,8 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInterlockInput } = require('../lib/binding');
-const { nodeValues, isPerMsg, requestOf, readMsg } = require('../lib/request');
-const { useRED } = require('../lib/i18n');
+const { bindInterlock, onInterlockInput } = require('../lib/host/binding');
+const { nodeValues, isPerMsg, requestOf, readMsg } = require('../lib/interlock/request');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

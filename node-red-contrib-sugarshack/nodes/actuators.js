@@ -1,10 +1,10 @@
 // @ts-check
 'use strict';
-const { bindPlant, onInput, always } = require('../lib/binding');
-const { readGroup, isLockout } = require('../lib/group');
-const { splitNames, readMsg } = require('../lib/request');
-const { translator, useRED } = require('../lib/i18n');
-const { SugarshackError } = require('../lib/errors');
+const { bindPlant, onInput, always } = require('../lib/host/binding');
+const { readGroup, isLockout } = require('../lib/plant/group');
+const { splitNames, readMsg } = require('../lib/interlock/request');
+const { translator, useRED } = require('../lib/host/i18n');
+const { SugarshackError } = require('../lib/host/errors');
 const { describe } = require('../lib/control');
 
 const OUTPUT_PREFIX = 'output/';

@@ -1,9 +1,9 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
-const { clearOf, readMsg } = require('../lib/request');
+const { bindInterlock, onInterlockInput, always } = require('../lib/host/binding');
+const { clearOf, readMsg } = require('../lib/interlock/request');
 const { journal } = require('../lib/journal/bus');
-const { useRED } = require('../lib/i18n');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -1,11 +1,11 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
-const { operationOf, stopOf, noteOf, readMsg } = require('../lib/request');
-const { clock } = require('../lib/clock');
+const { bindInterlock, onInterlockInput, always } = require('../lib/host/binding');
+const { operationOf, stopOf, noteOf, readMsg } = require('../lib/interlock/request');
+const { clock } = require('../lib/host/clock');
 const { journal } = require('../lib/journal/bus');
-const { SugarshackError } = require('../lib/errors');
-const { translator, useRED } = require('../lib/i18n');
+const { SugarshackError } = require('../lib/host/errors');
+const { translator, useRED } = require('../lib/host/i18n');
 
 /**
  * The error a faulted msg ends with when the node is set to fail it: it names

@@ -1,8 +1,8 @@
 // @ts-check
 'use strict';
-const { bindPlant, onInput } = require('../lib/binding');
-const { isLockout } = require('../lib/group');
-const { useRED } = require('../lib/i18n');
+const { bindPlant, onInput } = require('../lib/host/binding');
+const { isLockout } = require('../lib/plant/group');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

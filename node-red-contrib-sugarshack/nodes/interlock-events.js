@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
-const { bindInterlock } = require('../lib/binding');
-const { useRED } = require('../lib/i18n');
+const { bindInterlock } = require('../lib/host/binding');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -1,10 +1,10 @@
 // @ts-check
 'use strict';
-const { coreConfig, messageBufferMax } = require('../lib/config');
+const { coreConfig, messageBufferMax } = require('../lib/interlock/config');
 const { EngineRuntime } = require('../lib/interlock/engine-runtime');
-const { SugarshackError } = require('../lib/errors');
-const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
-const { useRED } = require('../lib/i18n');
+const { SugarshackError } = require('../lib/host/errors');
+const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/host/lifecycle');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -5,8 +5,8 @@ const { journal } = require('../lib/journal/bus');
 const { JournalWriter, httpTarget, DEFAULT_TIMEOUT_MS } = require('../lib/journal/writer');
 const { Spool } = require('../lib/journal/spool');
 const { filesTarget } = require('../lib/journal/files');
-const { compact, status } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
+const { compact, status } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
 const { configDurationMs } = require('../lib/control');
 const { quietOf } = require('../lib/cluster');
 

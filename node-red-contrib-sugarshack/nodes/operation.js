@@ -1,13 +1,13 @@
 // @ts-check
 'use strict';
-const { bindInterlock } = require('../lib/binding');
-const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { refuseDeploy } = require('../lib/deploy-refusal');
-const { errorStatus, status } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
-const { seconds } = require('../lib/plant');
-const { readMsg, attributionOf } = require('../lib/request');
-const operator = require('../lib/operator');
+const { bindInterlock } = require('../lib/host/binding');
+const { SugarshackError, asSugarshackError } = require('../lib/host/errors');
+const { refuseDeploy } = require('../lib/host/deploy-refusal');
+const { errorStatus, status } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
+const { seconds } = require('../lib/plant/plant');
+const { readMsg, attributionOf } = require('../lib/interlock/request');
+const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
 
 // The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to this operation's run.
@@ -29,7 +29,7 @@ function enteredStatus(t, state, step, total) {
   }
 }
 
-/** @returns {import('../lib/operation-run').RunPort & Record<string, any>} */
+/** @returns {import('../lib/operations/operation-run').RunPort & Record<string, any>} */
 function nodePort(t, node, msg, send, done, total, id) {
   const port = {
     owner: /** @type {{ kind: 'node', id: string }} */ ({ kind: 'node', id: node.id }),

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { runPid } = require('../lib/control/pid-node');
-const { useRED } = require('../lib/i18n');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -1,10 +1,10 @@
 // @ts-check
 'use strict';
-const { plantDocument, servePlantValidation } = require('../lib/plant');
-const { PlantRuntime } = require('../lib/plant-runtime');
-const { serveStats } = require('../lib/stats');
-const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/lifecycle');
-const { useRED } = require('../lib/i18n');
+const { plantDocument, servePlantValidation } = require('../lib/plant/plant');
+const { PlantRuntime } = require('../lib/plant/plant-runtime');
+const { serveStats } = require('../lib/host/stats');
+const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/host/lifecycle');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -1,13 +1,13 @@
 // @ts-check
 'use strict';
-const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { refuseDeploy } = require('../lib/deploy-refusal');
-const { errorStatus, status, StatusBoard } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
+const { SugarshackError, asSugarshackError } = require('../lib/host/errors');
+const { refuseDeploy } = require('../lib/host/deploy-refusal');
+const { errorStatus, status, StatusBoard } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
 const { isNumber, configNumber, configDurationMs, describe, fmt, revivable } = require('../lib/control');
 const { quietOf, standbyStatus } = require('../lib/cluster');
-const { clock } = require('../lib/clock');
-const { readMsg } = require('../lib/request');
+const { clock } = require('../lib/host/clock');
+const { readMsg } = require('../lib/interlock/request');
 
 const board = new StatusBoard();
 

@@ -1,8 +1,8 @@
 // @ts-check
 'use strict';
-const { bindInterlock, onInterlockInput, always } = require('../lib/binding');
-const { operationOf, readMsg } = require('../lib/request');
-const { useRED } = require('../lib/i18n');
+const { bindInterlock, onInterlockInput, always } = require('../lib/host/binding');
+const { operationOf, readMsg } = require('../lib/interlock/request');
+const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

@@ -1,12 +1,12 @@
 // @ts-check
 'use strict';
-const { bindInterlock } = require('../lib/binding');
-const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { refuseDeploy } = require('../lib/deploy-refusal');
-const { errorStatus } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
-const { readMsg, attributionOf } = require('../lib/request');
-const operator = require('../lib/operator');
+const { bindInterlock } = require('../lib/host/binding');
+const { SugarshackError, asSugarshackError } = require('../lib/host/errors');
+const { refuseDeploy } = require('../lib/host/deploy-refusal');
+const { errorStatus } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
+const { readMsg, attributionOf } = require('../lib/interlock/request');
+const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
 
 // The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to the routine.

@@ -8,17 +8,17 @@
 // commands ('hold', 'restart', 'stop', 'abort', 'reset') on msg.operation or
 // msg.routine, as the dashboard user (msg._client) or msg.by, then answer with
 // the state.
-const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf, runCommandOf } = require('../lib/lifecycle');
-const operator = require('../lib/operator');
+const { paletteOf, alarmIdOf, alarmIdsOf, shelfEndOf, runCommandOf } = require('../lib/host/lifecycle');
+const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
-const { attributionOf } = require('../lib/request');
-const { SugarshackError } = require('../lib/errors');
-const { errorStatus } = require('../lib/status');
+const { attributionOf } = require('../lib/interlock/request');
+const { SugarshackError } = require('../lib/host/errors');
+const { errorStatus } = require('../lib/host/status');
 const { stateOf } = require('../lib/state');
-const { clock } = require('../lib/clock');
-const { stats } = require('../lib/stats');
-const { status } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
+const { clock } = require('../lib/host/clock');
+const { stats } = require('../lib/host/stats');
+const { status } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
 const { configDurationMs } = require('../lib/control');
 
 const STATS_TOPIC = 'sugarshack/stats';

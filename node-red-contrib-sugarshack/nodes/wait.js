@@ -1,12 +1,12 @@
 // @ts-check
 'use strict';
-const { bindPlant } = require('../lib/binding');
-const { SugarshackError, asSugarshackError } = require('../lib/errors');
-const { refuseDeploy } = require('../lib/deploy-refusal');
-const { splitNames } = require('../lib/request');
-const { errorStatus, status } = require('../lib/status');
-const { translator, useRED } = require('../lib/i18n');
-const { clock } = require('../lib/clock');
+const { bindPlant } = require('../lib/host/binding');
+const { SugarshackError, asSugarshackError } = require('../lib/host/errors');
+const { refuseDeploy } = require('../lib/host/deploy-refusal');
+const { splitNames } = require('../lib/interlock/request');
+const { errorStatus, status } = require('../lib/host/status');
+const { translator, useRED } = require('../lib/host/i18n');
+const { clock } = require('../lib/host/clock');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {

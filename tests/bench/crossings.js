@@ -4,7 +4,7 @@
 // (node-red-node-test-helper, manual clock): every method and getter of every
 // facade class, and every free function, that calls into the wasm module is
 // wrapped with a counter (tests/facade-spy.js). The palette's own JS wrappers
-// around facade calls (lib/wasm.js numericCalls) are not counted themselves:
+// around facade calls (lib/wasm/index.js numericCalls) are not counted themselves:
 // the glue they call is. After a warm-up, N msgs of each kind go in, each
 // counted from its receive() until the runtimes have settled; what a kind
 // needs around its msg (the acquire before a release, the feedback that
@@ -35,7 +35,7 @@ const {
 } = require('../flow/support');
 
 const ROOT = path.resolve(__dirname, '../..');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const PLANT = require(path.join(ROOT, 'scripts', 'simulator', 'plant.js')).withProfile(require(path.join(ROOT, 'flows', 'plant.json')), 'sugarshack');
 
 const TARGET = 'at most 1 call in per input, no follow-up getters';

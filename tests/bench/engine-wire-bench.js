@@ -15,7 +15,7 @@ const { median } = require('./verdict');
 
 // SUGARSHACK_PALETTE: another build of the palette, to compare two in one sitting.
 const PALETTE = process.env.SUGARSHACK_PALETTE || path.resolve(__dirname, '../../node-red-contrib-sugarshack');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const { Wire } = require(path.join(PALETTE, 'lib', 'wasm', 'wire.js'));
 
 const QUICK = process.argv.includes('--quick');

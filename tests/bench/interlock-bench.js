@@ -4,7 +4,7 @@
 //
 // Three implementations run the same seeded workloads in one run:
 //   baseline  plain-JS Algorithms 1 and 2 (tests/bench/baseline-interlock.js)
-//   wasm      the wasm facade as the nodes call it (loaded by lib/wasm.js): handles resolved once, then
+//   wasm      the wasm facade as the nodes call it (loaded by lib/wasm/index.js): handles resolved once, then
 //             acquire/release per msg with Date.now(), and a Map from waiting
 //             request to its pending msg, looked up per grant
 //   native    the Rust core, via `cargo run --release --example interlock_bench`
@@ -40,8 +40,8 @@ const { spawnSync } = require('child_process');
 const { BaselineInterlock } = require('./baseline-interlock');
 
 const ROOT = path.resolve(__dirname, '../..');
-// Loaded as the nodes load it (lib/wasm.js: acquire and release through the facade's numeric calls).
-const WASM_LOADER = path.join(ROOT, 'node-red-contrib-sugarshack/lib/wasm.js');
+// Loaded as the nodes load it (lib/wasm/index.js: acquire and release through the facade's numeric calls).
+const WASM_LOADER = path.join(ROOT, 'node-red-contrib-sugarshack/lib/wasm/index.js');
 const argv = new Set(process.argv.slice(2));
 const QUICK = argv.has('--quick');
 

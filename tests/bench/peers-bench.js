@@ -51,7 +51,7 @@ helper.init(require.resolve('node-red'));
 // measurement; its stale watch sends after 3 s without one. On the system
 // clock a closed loop would wait for that watch. The palette's clock is moved
 // 1 s per measurement instead (its timers are never run: none is due).
-const { useClock, ManualClock } = require(path.join(PALETTE, 'lib', 'clock.js'));
+const { useClock, ManualClock } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 const manual = useClock(new ManualClock());
 
 const coreDir = path.dirname(require.resolve('node-red/package.json'));

@@ -10,7 +10,7 @@ const { ENVS, SNIPPET_MS, docBlocks, untested, run } = require('../../scripts/do
 const { Session, sleep } = require('../../scripts/lib/node-red-process');
 const { startSimulator, RESULT_TOPIC } = require('../../scripts/simulator');
 const { buildModel } = require('../../scripts/simulator/plant');
-const { validatePlant } = require('../../node-red-contrib-sugarshack/lib/plant');
+const { validatePlant } = require('../../node-red-contrib-sugarshack/lib/plant/plant');
 
 const blocks = docBlocks();
 

@@ -9,7 +9,7 @@ const {
   PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settled, clock,
 } = require('./support');
 
-const { actuatorText, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'status.js'));
+const { actuatorText, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'host', 'status.js'));
 
 helper.init(require.resolve('node-red'));
 

@@ -11,7 +11,7 @@ const helper = require('node-red-node-test-helper');
 const { PALETTE, paletteNodes, TAB, sinkNode, serverPerTest, clock, runFor, runUntil } = require('./support');
 const { fakePanel, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { paletteApi, VERSION } = require('../../node-red-contrib-sugarshack/lib/api');
-const { paletteOf } = require('../../node-red-contrib-sugarshack/lib/lifecycle');
+const { paletteOf } = require('../../node-red-contrib-sugarshack/lib/host/lifecycle');
 
 helper.init(require.resolve('node-red'));
 

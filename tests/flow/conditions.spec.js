@@ -1,5 +1,5 @@
 'use strict';
-// Conditions are the core's (lib/condition.js only reads sensors and asks it):
+// Conditions are the core's (lib/operations/condition.js only reads sensors and asks it):
 // the mistakes a deploy can see are refused there, with their path and in the
 // words of the person who wrote them; what the core accepts, Node-RED's own
 // JSONata reads and evaluates alike (random conditions of the language against
@@ -10,7 +10,7 @@ const path = require('path');
 const helper = require('node-red-node-test-helper');
 const { paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, runFor, PALETTE } = require('./support');
 const { sensor: sensorOf, stopPanels, fakePlant, fakeValve } = require('./fake-panel');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const jsonata = require('@node-red/util/lib/jsonata');
 const { mulberry32 } = require('../../scripts/simulator/random');
 

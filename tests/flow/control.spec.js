@@ -416,7 +416,7 @@ describe('sugarshack control: pid', function () {
   });
 
   it("blank settings take the core's defaults (stale after 3 × Ts, alpha, h, max dead), and the editor and help state the same", async function () {
-    const defaults = require(path.join(PALETTE, 'lib', 'wasm.js')).load().pidDefaults();
+    const defaults = require(path.join(PALETTE, 'lib', 'wasm', 'index.js')).load().pidDefaults();
     const adaptive = { smith: 'adaptive', modelGain: '1', modelTau: '3', ts: '0.3', td: '0' };
     const seen = await start([
       pidNode('pid', { ts: '0.5', staleS: '', fallback: '7' }),

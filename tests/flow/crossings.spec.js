@@ -10,7 +10,7 @@ const helper = require('node-red-node-test-helper');
 const { PALETTE, startServer, stopServer } = require('./support');
 const { measure, Crossings } = require('../bench/crossings');
 
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 
 helper.init(require.resolve('node-red'));
 

@@ -1,5 +1,5 @@
 'use strict';
-// The engine's outputs performed by the state rule (lib/engine-carrier.js):
+// The engine's outputs performed by the state rule (lib/interlock/engine-carrier.js):
 // a real engine, a real state file and the interlock's Committer. A grant
 // leaves only once a restart from the file would see its line held; a
 // fault's msg and lockouts leave even when the write fails, but not from an
@@ -10,12 +10,12 @@ const os = require('os');
 const assert = require('node:assert/strict');
 
 const LIB = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'lib');
-const { EngineCarrier } = require(path.join(LIB, 'engine-carrier.js'));
-const { FileStore, Committer } = require(path.join(LIB, 'durable.js'));
-const { ManualClock } = require(path.join(LIB, 'clock.js'));
-const { heldMsg } = require(path.join(LIB, 'pending.js'));
+const { EngineCarrier } = require(path.join(LIB, 'interlock', 'engine-carrier.js'));
+const { FileStore, Committer } = require(path.join(LIB, 'host', 'durable.js'));
+const { ManualClock } = require(path.join(LIB, 'host', 'clock.js'));
+const { heldMsg } = require(path.join(LIB, 'interlock', 'pending.js'));
 const { Wire } = require(path.join(LIB, 'wasm', 'wire.js'));
-const wasm = require(path.join(LIB, 'wasm.js'));
+const wasm = require(path.join(LIB, 'wasm', 'index.js'));
 
 const CONFIG = { resources: [{ name: 'A' }, { name: 'B' }] };
 const ACQUIRE = 1;

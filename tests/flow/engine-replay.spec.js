@@ -7,7 +7,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const { Wire } = require(path.join(PALETTE, 'lib', 'wasm', 'wire.js'));
 
 const NODES = [

@@ -16,10 +16,10 @@ const {
 
 helper.init(require.resolve('node-red'));
 
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const { EngineRuntime } = require(path.join(PALETTE, 'lib', 'interlock', 'engine-runtime.js'));
 const { journal } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
-const operator = require(path.join(PALETTE, 'lib', 'operator.js'));
+const operator = require(path.join(PALETTE, 'lib', 'interlock', 'operator.js'));
 const fs = require('fs');
 
 const runtimeOf = () => helper.getNode('il').runtime;

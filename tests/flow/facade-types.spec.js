@@ -12,7 +12,7 @@ const ts = require('typescript');
 
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
 const DTS = path.join(PALETTE, 'wasm', 'sugarshack_wasm.d.ts');
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 
 /** Every exported interface and type alias of the .d.ts, by name. */
 function declarations() {

@@ -18,7 +18,7 @@ const {
 } = require('./support');
 const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const { hooks } = require('@node-red/util');
 
 const { truckRoutine } = require('./fake-panel');

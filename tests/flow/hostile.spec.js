@@ -15,8 +15,8 @@ const {
 } = require('./support');
 const { SINKS, plantDocument: plantOf, everyNodeFlow } = require('./every-node');
 
-const wasm = require(path.join(PALETTE, 'lib', 'wasm.js'));
-const { settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
+const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
+const { settle } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 
 const { truckRoutine } = require('./fake-panel');
 

@@ -150,13 +150,13 @@ function tCatalog(file, source) {
 /** Every text lookup in the sources: { at, keys (full catalog keys), subs, stem (whose catalog), catalog }. */
 function lookups() {
   // The texts the core's engine names (its catalogTexts()) are looked up like the JS's.
-  const { texts, labels } = require(path.join(LIB, 'wasm.js')).load().catalogTexts();
+  const { texts, labels } = require(path.join(LIB, 'wasm', 'index.js')).load().catalogTexts();
   const found = texts.map(({ key, params }) => ({ at: `core: ${key}`, keys: [`sugarshack.${key}`], subs: params, stem: 'interlock', catalog: SHARED_CATALOG }))
     .concat(labels.map((label) => ({ at: `core: label ${label}`, keys: [`sugarshack.labels.${label}`], subs: [], stem: 'interlock', catalog: SHARED_CATALOG })));
   for (const { file, source } of sources()) {
     const own = tCatalog(file, source);
-    // A bare text() is lib/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
-    const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('\.\.?\/i18n'\)/.test(source);
+    // A bare text() is lib/host/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
+    const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('(?:\.\.?\/)+(?:host\/)?i18n'\)/.test(source);
     const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of|this\._|node\._)\(/g;
     for (const m of source.matchAll(calls)) {
       if (m[1] === 'text' && !importsText) continue;
@@ -328,7 +328,7 @@ describe('the editor\'s labels', function () {
 describe('texts in the runtime language', function () {
   const helper = require('node-red-node-test-helper');
   const { TAB, interlockConfig, acquire, sinkNode, collect, until, paletteNodes, startServer, stopServer } = require('./support');
-  const { SHARED_NAMESPACE } = require(path.join(PALETTE, 'lib', 'i18n.js'));
+  const { SHARED_NAMESPACE } = require(path.join(PALETTE, 'lib', 'host', 'i18n.js'));
   helper.init(require.resolve('node-red'));
 
   // A "de" catalog as Node-RED would hold it: by namespace, then the key.

@@ -6,7 +6,7 @@ const {
   collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settings, settled, clock, userDir,
 } = require('./support');
 
-const { WINDOW_MS } = require('../../node-red-contrib-sugarshack/lib/status-pacer');
+const { WINDOW_MS } = require('../../node-red-contrib-sugarshack/lib/host/status-pacer');
 
 helper.init(require.resolve('node-red'));
 

@@ -1,6 +1,6 @@
 'use strict';
 // ISA-88 commands on running work, through the operation and routine nodes
-// (msg topics hold, restart, stop, abort, reset) and lib/operator.js, against
+// (msg topics hold, restart, stop, abort, reset) and lib/interlock/operator.js, against
 // a fake panel that obeys commands (no broker), on the manual clock: a held
 // run commands nothing and its step timeout stands still; restart goes on
 // with what was left and completes with its normal result; stop ends in
@@ -19,7 +19,7 @@ const { hooks } = require('@node-red/util');
 const {
   fakePanel: panelOf, sensor: sensorOf, stopPanels, fakePlant, fakeValve, fakePump, truckRoutine, loadTruck, unloadTruck, boundPlant,
 } = require('./fake-panel');
-const operator = require('../../node-red-contrib-sugarshack/lib/operator');
+const operator = require('../../node-red-contrib-sugarshack/lib/interlock/operator');
 const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));

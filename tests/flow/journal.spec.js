@@ -11,12 +11,12 @@ const helper = require('node-red-node-test-helper');
 const {
   PALETTE, paletteNodes, startServer, stopServer, clock, userDir, runFor, settled,
 } = require('./support');
-const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
+const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 const { Spool } = require(path.join(PALETTE, 'lib', 'journal', 'spool.js'));
 const { JournalWriter, Encoder } = require(path.join(PALETTE, 'lib', 'journal', 'writer.js'));
 const { journal, JournalBus } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));
 const { filesTarget, readJournal, parseLine, writerId } = require(path.join(PALETTE, 'lib', 'journal', 'files.js'));
-const { stats } = require(path.join(PALETTE, 'lib', 'stats.js'));
+const { stats } = require(path.join(PALETTE, 'lib', 'host', 'stats.js'));
 
 helper.init(require.resolve('node-red'));
 

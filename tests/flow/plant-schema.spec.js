@@ -13,7 +13,7 @@ const Ajv = require('ajv');
 const helper = require('node-red-node-test-helper');
 const { PALETTE, paletteNodes, startServer, stopServer } = require('./support');
 
-const { validatePlant, PLANT_SCHEMA } = require(path.join(PALETTE, 'lib', 'plant.js'));
+const { validatePlant, PLANT_SCHEMA } = require(path.join(PALETTE, 'lib', 'plant', 'plant.js'));
 const { plantReference } = require('../../scripts/docs/plant-reference');
 
 helper.init(require.resolve('node-red'));

@@ -1,11 +1,11 @@
 'use strict';
-// The wasm primer (lib/wasm.js) calls each facade method once at load so that
+// The wasm primer (lib/wasm/index.js) calls each facade method once at load so that
 // no msg pays V8's first-call compilation. A method added to the facade and
 // left out of the primer fails here, by name.
 const assert = require('node:assert/strict');
 const path = require('path');
 
-const wasm = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'lib', 'wasm.js'));
+const wasm = require(path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack', 'lib', 'wasm', 'index.js'));
 const { spyOnFacade } = require('../facade-spy');
 
 // wasm-bindgen's own plumbing, and calls a primer cannot make without breaking its objects.
@@ -37,7 +37,7 @@ describe('the wasm primer', function () {
     assert.ok(spy.methods.length > 100, `found only ${spy.methods.length} methods: is the facade loaded?`);
     assert.ok(spy.methods.includes('Tracker.ingest') && spy.methods.includes('Interlock.restore'), 'instance and static methods are both seen');
     const missed = spy.methods.filter((key) => !spy.called.has(key));
-    assert.deepEqual(missed, [], `the primer (lib/wasm.js) does not call: ${missed.join(', ')}`);
+    assert.deepEqual(missed, [], `the primer (lib/wasm/index.js) does not call: ${missed.join(', ')}`);
   });
 
   it('would name a method it does not call', function () {

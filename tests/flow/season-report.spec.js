@@ -11,7 +11,7 @@ const {
   PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, startServer, stopServer, userDir, runFor, runUntil,
 } = require('./support');
 const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
-const { stats } = require(path.join(PALETTE, 'lib', 'stats.js'));
+const { stats } = require(path.join(PALETTE, 'lib', 'host', 'stats.js'));
 const { readJournal } = require(path.join(PALETTE, 'lib', 'journal', 'files.js'));
 const { main } = require('../../scripts/season-report');
 

@@ -9,7 +9,7 @@ const {
   PALETTE, paletteNodes, TAB, sinkNode, collect, until, startServer, stopServer, clock, settled,
 } = require('./support');
 const { configDurationMs, configDurationListMs } = require(path.join(PALETTE, 'lib', 'control'));
-const { paletteOf } = require(path.join(PALETTE, 'lib', 'lifecycle.js'));
+const { paletteOf } = require(path.join(PALETTE, 'lib', 'host', 'lifecycle.js'));
 
 helper.init(require.resolve('node-red'));
 

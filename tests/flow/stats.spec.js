@@ -2,7 +2,7 @@
 const assert = require('node:assert/strict');
 const path = require('path');
 const { PALETTE } = require('./support');
-const { Stats, SAMPLES, PER_SUBJECT_SAMPLES, overlapsPause } = require(path.join(PALETTE, 'lib', 'stats.js'));
+const { Stats, SAMPLES, PER_SUBJECT_SAMPLES, overlapsPause } = require(path.join(PALETTE, 'lib', 'host', 'stats.js'));
 
 const pauses = (...spans) => ({
   starts: Float64Array.from(spans, ([s]) => s),

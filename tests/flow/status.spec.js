@@ -2,7 +2,7 @@
 const assert = require('node:assert/strict');
 const path = require('path');
 const { PALETTE } = require('./support');
-const { statusText, compact, shortReason, countsStatus, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'status.js'));
+const { statusText, compact, shortReason, countsStatus, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'host', 'status.js'));
 
 describe('status text', function () {
   it('reads naturally for everyday counts', function () {
@@ -53,7 +53,7 @@ describe('status text', function () {
 
 describe('error codes', function () {
   const fs = require('fs');
-  const { isKnownCode } = require(path.join(PALETTE, 'lib', 'status.js'));
+  const { isKnownCode } = require(path.join(PALETTE, 'lib', 'host', 'status.js'));
 
   function sources(dir) {
     return fs.readdirSync(dir, { withFileTypes: true }).flatMap((entry) => {
@@ -87,8 +87,8 @@ describe('error codes', function () {
 });
 
 describe('status pacing', function () {
-  const { StatusPacer, WINDOW_MS, BURST } = require(path.join(PALETTE, 'lib', 'status-pacer.js'));
-  const { useClock, ManualClock } = require(path.join(PALETTE, 'lib', 'clock.js'));
+  const { StatusPacer, WINDOW_MS, BURST } = require(path.join(PALETTE, 'lib', 'host', 'status-pacer.js'));
+  const { useClock, ManualClock } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
   let manual;
   beforeEach(function () {
     manual = useClock(new ManualClock());

@@ -15,7 +15,7 @@ const paletteNodes = NODE_FILES.map((f) => require(path.join(PALETTE, 'nodes', `
 // The palette's subflow modules, and the core nodes their subflows are built from besides link and catch.
 const SUBFLOW_FILES = ['singular-operation', 'group-entry', 'condition-step', 'operator-panel'];
 const subflowNodes = SUBFLOW_FILES.map((f) => require(path.join(PALETTE, 'nodes', `${f}.js`)));
-const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
+const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 
 const coreNodesDir = path.dirname(require.resolve('@node-red/nodes/package.json'));
 const catchNode = require(path.join(coreNodesDir, 'core/common/25-catch.js'));

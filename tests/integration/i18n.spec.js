@@ -10,7 +10,7 @@ const fs = require('fs');
 const path = require('path');
 const { NodeRedProcess, waitFor } = require('./support/node-red');
 const { settingsFile } = require('../../scripts/lib/node-red-process');
-const { SHARED_NAMESPACE } = require('../../node-red-contrib-sugarshack/lib/i18n');
+const { SHARED_NAMESPACE } = require('../../node-red-contrib-sugarshack/lib/host/i18n');
 
 const PALETTE = path.resolve(__dirname, '..', '..', 'node-red-contrib-sugarshack');
 const ENGLISH = 'the configured priority must be a whole number, like 5 (higher is more urgent); got "urgent"';

@@ -27,7 +27,7 @@ const {
   PALETTE, TAB, sinkNode, startRealTimeServer, settings, collect, until, sleep,
 } = require('../flow/support');
 
-const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'clock.js'));
+const { useClock, ManualClock, settle } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 const { Spool } = require(path.join(PALETTE, 'lib', 'journal', 'spool.js'));
 const { JournalWriter, Encoder, httpTarget } = require(path.join(PALETTE, 'lib', 'journal', 'writer.js'));
 const { JournalBus } = require(path.join(PALETTE, 'lib', 'journal', 'bus.js'));

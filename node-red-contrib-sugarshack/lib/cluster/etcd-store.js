@@ -13,8 +13,8 @@
 // through a watch, so it shows the committed state and takes it over at once;
 // on election it reads it again under the token (a linearizable read after
 // every write of the old leader).
-const { safeName, INTERLOCK_STATE, MAX_STATE_BYTES } = require('../durable');
-const i18n = require('../i18n');
+const { safeName, INTERLOCK_STATE, MAX_STATE_BYTES } = require('../host/durable');
+const i18n = require('../host/i18n');
 
 // A commit takes about 5-10 ms on a healthy cluster; past this, isolation comes first.
 const URGENT_AFTER_MS = 100;

@@ -6,7 +6,7 @@
 const { clusterSettings } = require('./settings');
 const { Cluster } = require('./cluster');
 const { EtcdStore } = require('./etcd-store');
-const { standbyStatus } = require('../runtime-base');
+const { standbyStatus } = require('../host/runtime-base');
 
 const clusters = new WeakMap(); // RED.events -> Cluster | null
 

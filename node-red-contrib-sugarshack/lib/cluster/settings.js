@@ -16,7 +16,7 @@
 //     mqtt: { url, username, password, client: 'nr-edge-a' },   // dynamic-security fencing (optional)
 //   } }
 const os = require('os');
-const { SugarshackError } = require('../errors');
+const { SugarshackError } = require('../host/errors');
 
 // A dead leader is replaced about one TTL after its last keep-alive: 3 s keeps
 // failover p99 under 5 s with the keep-alives (every TTL/3) riding out an

@@ -5,9 +5,9 @@
 // numbers short enough for a status, and wasm objects that survive a trap.
 // The control rules themselves (PID, Smith predictor, RCC, their defaults)
 // live in the core; the pid node's runtime is in ./pid-node.js.
-const { SugarshackError } = require('../errors');
+const { SugarshackError } = require('../host/errors');
 const wasm = require('../wasm');
-const i18n = require('../i18n');
+const i18n = require('../host/i18n');
 
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 const blank = (v) => v === undefined || v === null || String(v).trim() === '';

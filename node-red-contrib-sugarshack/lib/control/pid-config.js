@@ -4,8 +4,8 @@
 // field as the user set it (a number checked a number), or left out. What a
 // blank becomes (alpha, h, max dead, stale after = 3 × Ts, action, P on...) and
 // every rule on the values are the core's.
-const { SugarshackError } = require('../errors');
-const { translator } = require('../i18n');
+const { SugarshackError } = require('../host/errors');
+const { translator } = require('../host/i18n');
 const { isNumber, blank, configNumber, configDurationMs, msgNumber, describe } = require('./index');
 
 /** @typedef {import('../../wasm/sugarshack_wasm').StationConfig} StationConfig */

@@ -3,15 +3,15 @@
 // A pid node at run time: msgs into the core's PidStation and its outcomes
 // into sends, statuses and the state file; one timer, for when the core says
 // its stale rule is next due.
-const { SugarshackError, asSugarshackError } = require('../errors');
-const { refuseDeploy } = require('../deploy-refusal');
-const { errorStatus, status, StatusBoard } = require('../status');
-const { translator } = require('../i18n');
+const { SugarshackError, asSugarshackError } = require('../host/errors');
+const { refuseDeploy } = require('../host/deploy-refusal');
+const { errorStatus, status, StatusBoard } = require('../host/status');
+const { translator } = require('../host/i18n');
 const { isNumber, msgNumber, describe, fmt, revivable } = require('./index');
 const { PidReader, isChange } = require('./pid-config');
 const { PidStateFile } = require('./pid-state');
-const { clock } = require('../clock');
-const { UntilReady } = require('../until-ready');
+const { clock } = require('../host/clock');
+const { UntilReady } = require('../host/until-ready');
 const wasm = require('../wasm');
 const { quietOf, standbyStatus } = require('../cluster');
 

@@ -4,10 +4,10 @@
 // the changes of one turn in one write), sealed and opened by the core, and the
 // one-time carry-over of a state earlier versions kept in the context store.
 const { isNumber, describe } = require('./index');
-const { clock } = require('../clock');
-const { FileStore, Committer, stateDir } = require('../durable');
+const { clock } = require('../host/clock');
+const { FileStore, Committer, stateDir } = require('../host/durable');
 const wasm = require('../wasm');
-const { translator } = require('../i18n');
+const { translator } = require('../host/i18n');
 
 // Where flows saved before the state file kept the loop's state: read once, carried over, deleted.
 const CONTEXT_KEY = 'pid';

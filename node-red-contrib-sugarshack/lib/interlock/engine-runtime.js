@@ -6,26 +6,26 @@
 // timeouts, lockouts, events, journal lines, alarms, the one timer). What
 // is left here is I/O: reading a msg's fields, the state file, the status,
 // the events nodes and the editor's requests.
-const { SugarshackError } = require('../errors');
-const { heldMsg } = require('../pending');
-const { describeEvent } = require('../events');
-const { countsStatus } = require('../status');
-const { clock } = require('../clock');
-const { Committer } = require('../durable');
+const { SugarshackError } = require('../host/errors');
+const { heldMsg } = require('./pending');
+const { describeEvent } = require('./events');
+const { countsStatus } = require('../host/status');
+const { clock } = require('../host/clock');
+const { Committer } = require('../host/durable');
 const { InterlockHost } = require('./host');
-const { EngineCarrier, CarriedMsg, refusalError, render } = require('../engine-carrier');
+const { EngineCarrier, CarriedMsg, refusalError, render } = require('./engine-carrier');
 const { Wire } = require('../wasm/wire');
-const { readMsg, fieldsOf } = require('../request');
+const { readMsg, fieldsOf } = require('./request');
 const { journal } = require('../journal/bus');
-const { timeLayer } = require('../stats');
+const { timeLayer } = require('../host/stats');
 const wasm = require('../wasm');
-const i18n = require('../i18n');
+const i18n = require('../host/i18n');
 
 // Text up to this long crosses as a string argument; longer, the facade reads its length and head only.
 const SHORT_TEXT = 1000;
 // A msg handle is a u32 the engine keeps; it wraps long after any msg of its range ended.
 const HANDLES = 2 ** 32;
-// Operation runs (lib/operation-run.js) ask the engine as nodes of these handles, above any node's.
+// Operation runs (lib/operations/operation-run.js) ask the engine as nodes of these handles, above any node's.
 const RUN_NODES = [
   [0xfffffff0, { kind: 'acquire', timeoutMs: 0 }],
   [0xfffffff1, { kind: 'release' }],

@@ -6,17 +6,17 @@
 // to it (hosted here, each asking the engine for its lines), the events
 // nodes, and the status its nodes show. The engine itself is driven by
 // lib/interlock/engine-runtime.js.
-const { SugarshackError, asSugarshackError } = require('../errors');
-const { EventFanout } = require('../events');
-const { errorStatus, status: statusOf } = require('../status');
-const { clock } = require('../clock');
-const { FileStore, MemoryStore, stateDir } = require('../durable');
-const { RuntimeBase, drainingStatus, standbyStatus } = require('../runtime-base');
-const { RunHost, waitingPort } = require('../operation-run');
-const { RoutineHost } = require('../routine-host');
+const { SugarshackError, asSugarshackError } = require('../host/errors');
+const { EventFanout } = require('./events');
+const { errorStatus, status: statusOf } = require('../host/status');
+const { clock } = require('../host/clock');
+const { FileStore, MemoryStore, stateDir } = require('../host/durable');
+const { RuntimeBase, drainingStatus, standbyStatus } = require('../host/runtime-base');
+const { RunHost, waitingPort } = require('../operations/operation-run');
+const { RoutineHost } = require('../operations/routine-host');
 const wasm = require('../wasm');
-const i18n = require('../i18n');
-const { StatusPacer } = require('../status-pacer');
+const i18n = require('../host/i18n');
+const { StatusPacer } = require('../host/status-pacer');
 const { clusterOf, EtcdStore } = require('../cluster');
 
 const LEGACY_KEY = (id) => `sugarshack-interlock:${id}`;

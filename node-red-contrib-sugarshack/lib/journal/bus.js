@@ -5,7 +5,7 @@
 // attached a call costs one check. Rows are plain objects
 // { table, tags, fields, at }; the writer adds `plant` and `seq`.
 
-const { clock } = require('../clock');
+const { clock } = require('../host/clock');
 const { TABLES, EVENT_FIELDS, SERIES_WITH_SUBJECT } = require('./schema');
 
 const MAX_TEXT = 200;
@@ -100,7 +100,7 @@ class JournalBus {
     });
   }
 
-  /** A timing figure from lib/stats.js, named as there (`tof/ctrl-1`, `command/completion`...). */
+  /** A timing figure from lib/host/stats.js, named as there (`tof/ctrl-1`, `command/completion`...). */
   timing(name, valueMs) {
     if (!this.active || name.startsWith('overhead/')) return;
     const prefix = SERIES_WITH_SUBJECT.find((p) => name.startsWith(`${p}/`));

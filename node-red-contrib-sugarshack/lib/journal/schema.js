@@ -66,7 +66,7 @@ const EVENT_FIELDS = {
   completionMs: 'completion_ms', runMs: 'run_ms', queuedMs: 'queued_ms', retries: 'retries',
 };
 
-// Series named `<series>/<subject>` in lib/stats.js; the others have no subject.
+// Series named `<series>/<subject>` in lib/host/stats.js; the others have no subject.
 const SERIES_WITH_SUBJECT = ['tof', 'operation/run', 'operation/queued'];
 
 const INT_FIELDS = new Set(['seq']);

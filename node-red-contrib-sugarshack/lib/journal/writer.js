@@ -16,8 +16,8 @@
 // start at 512 bytes (a few rows) and double with each success, so a flaky
 // server costs few rows sent twice.
 
-const { clock } = require('../clock');
-const i18n = require('../i18n');
+const { clock } = require('../host/clock');
+const i18n = require('../host/i18n');
 const { INT_FIELDS } = require('./schema');
 
 const ENCODER_OPTIONS = 'http::addr=localhost:9000;protocol_version=1';

@@ -6,7 +6,7 @@
 // lines) cross once: this keeps the mirror of the engine's string table.
 // Each output goes to a visitor's method, so nothing is made per output
 // that the visitor does not keep.
-const wasm = require('../wasm');
+const wasm = require('./');
 
 const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUNTS: 7, NAME: 8, NAMES_RESET: 9, ALARM: 10 };
 const SET = { NOTHING: 0, INTERLOCK: 1, OTHER: 2 };

@@ -3,7 +3,7 @@
 // Node status: what a node is doing, in fewer than 20 characters so the editor
 // never truncates it. Every status object is built here; the texts for error
 // codes come from the core's table of codes.
-const wasm = require('./wasm');
+const wasm = require('../wasm');
 const i18n = require('./i18n');
 
 const core = wasm.load();

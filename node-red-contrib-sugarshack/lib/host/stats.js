@@ -14,7 +14,7 @@
 // (seen by a PerformanceObserver on 'gc' entries) overlapped.
 
 const { PerformanceObserver, performance } = require('perf_hooks');
-const { journal } = require('./journal/bus');
+const { journal } = require('../journal/bus');
 
 const SAMPLES = 20000;
 const PER_SUBJECT_SAMPLES = 1000;

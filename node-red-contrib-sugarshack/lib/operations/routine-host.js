@@ -8,13 +8,13 @@
 // events out; a deploy hands the routine to the node's next instance. An
 // operator's ISA-88 command to the routine goes through its core machine,
 // which says what its pending operation gets.
-const { SugarshackError, asSugarshackError } = require('./errors');
-const { errorStatus, status } = require('./status');
-const { clock } = require('./clock');
-const { stats } = require('./stats');
-const { journal } = require('./journal/bus');
-const wasm = require('./wasm');
-const i18n = require('./i18n');
+const { SugarshackError, asSugarshackError } = require('../host/errors');
+const { errorStatus, status } = require('../host/status');
+const { clock } = require('../host/clock');
+const { stats } = require('../host/stats');
+const { journal } = require('../journal/bus');
+const wasm = require('../wasm');
+const i18n = require('../host/i18n');
 
 // Node fires a longer timeout at once; woken early, the host sleeps again until the deadline.
 const MAX_TIMER_MS = 2 ** 31 - 1;
@@ -35,7 +35,7 @@ class RoutineHost {
     this.interlock = interlock;
     this.plant = plant;
     this.id = id;
-    /** @type {import('../wasm/sugarshack_wasm').Routine | null} */
+    /** @type {import('../../wasm/sugarshack_wasm').Routine | null} */
     this.machine = null;
     this.conditions = new Map(); // transition index -> Condition
     this.node = null; // the routine node of the current deploy
@@ -58,7 +58,7 @@ class RoutineHost {
   }
 
   build(saved) {
-    /** @type {import('../wasm/sugarshack_wasm').Routine} */
+    /** @type {import('../../wasm/sugarshack_wasm').Routine} */
     const machine = this.plant.guard(() => this.plant.routine(this.id));
     const conditions = new Map();
     try {

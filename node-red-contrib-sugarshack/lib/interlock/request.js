@@ -4,9 +4,9 @@
 // core, which reads it by its rules (engine/request.rs): msg's values first,
 // then the node's, trimmed, defaulted, attributed. Whether a request is
 // allowed is for the interlock to say.
-const { SugarshackError } = require('./errors');
-const i18n = require('./i18n');
-const wasm = require('./wasm');
+const { SugarshackError } = require('../host/errors');
+const i18n = require('../host/i18n');
+const wasm = require('../wasm');
 const { refusalError } = require('./engine-carrier');
 
 // A refusal quotes at most this much of the value it refuses.

@@ -8,9 +8,9 @@
 // actuators node serves one of its devices and this instance is not a hot
 // standby: a Modbus unit has no broker to fence a deposed writer.
 const net = require('net');
-const { clock } = require('./clock');
-const { journal } = require('./journal/bus');
-const i18n = require('./i18n');
+const { clock } = require('../host/clock');
+const { journal } = require('../journal/bus');
+const i18n = require('../host/i18n');
 
 const SERIALPORT_MISSING = 'SERIALPORT_MISSING';
 

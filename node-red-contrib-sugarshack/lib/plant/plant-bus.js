@@ -5,10 +5,10 @@
 // and event msgs that leave from them, and whether each one's broker is up.
 // Which topic is whose, and whether a payload on a foreign topic is a group
 // command, is the core's to say; here its answer is carried out.
-const { journal } = require('./journal/bus');
-const { clock } = require('./clock');
-const wasm = require('./wasm');
-const i18n = require('./i18n');
+const { journal } = require('../journal/bus');
+const { clock } = require('../host/clock');
+const wasm = require('../wasm');
+const i18n = require('../host/i18n');
 
 // Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
 const MAX_WARNED = 1000;

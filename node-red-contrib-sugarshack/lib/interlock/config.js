@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 // Translates the interlock config node's properties into the core's configuration.
-const { SugarshackError } = require('./errors');
+const { SugarshackError } = require('../host/errors');
 
 function parseLockout(resource, index) {
   const { lockout } = resource;

@@ -6,11 +6,11 @@
 // into a rebuild instead of a dead process.
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
-const wasm = require('./wasm');
+const wasm = require('../wasm');
 const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
-/** @typedef {import('./pending').HeldMsg} HeldMsg */
+/** @typedef {import('../interlock/pending').HeldMsg} HeldMsg */
 /** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
 
 class RuntimeBase {

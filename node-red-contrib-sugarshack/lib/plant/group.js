@@ -5,9 +5,9 @@
 // keep within (C2), and its payload as the command reads it. A command msg
 // is read and issued in one call (Tracker.commandMsg); this reads one that
 // must wait for a deploy's drain unless it is a lockout.
-const { SugarshackError } = require('./errors');
-const wasm = require('./wasm');
-const i18n = require('./i18n');
+const { SugarshackError } = require('../host/errors');
+const wasm = require('../wasm');
+const i18n = require('../host/i18n');
 
 /** @typedef {{ lockout: boolean, within: string[] | null, payload: any }} GroupRead */
 

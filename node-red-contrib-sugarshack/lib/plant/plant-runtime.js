@@ -8,19 +8,19 @@
 // commands in flight (plant-commands.js), the sensor watchers (plant-sensors.js),
 // the Modbus connections (modbus-transport.js) and the nodes' status (plant-status.js). Every rule is the core's; this
 // calls it and hands the effects it returns to the part they concern.
-const { SugarshackError } = require('./errors');
-const { stats, timeLayer } = require('./stats');
-const { clock } = require('./clock');
-const { RuntimeBase } = require('./runtime-base');
+const { SugarshackError } = require('../host/errors');
+const { stats, timeLayer } = require('../host/stats');
+const { clock } = require('../host/clock');
+const { RuntimeBase } = require('../host/runtime-base');
 const { PlantBuses } = require('./plant-bus');
 const { GroupCommands } = require('./plant-commands');
 const { SensorWatch } = require('./plant-sensors');
 const { PlantStatus } = require('./plant-status');
 const { PlantChanges } = require('./plant-changes');
 const { ModbusTransport } = require('./modbus-transport');
-const wasm = require('./wasm');
-const i18n = require('./i18n');
-const { clusterOf } = require('./cluster');
+const wasm = require('../wasm');
+const i18n = require('../host/i18n');
+const { clusterOf } = require('../cluster');
 
 // How often each actuators node's broker connection is looked at (its config node tells no one).
 const BROKER_POLL_MS = 250;

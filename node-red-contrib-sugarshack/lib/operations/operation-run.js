@@ -9,18 +9,18 @@
 // a node: a deploy hands its msg over to the node's next instance, and a run
 // held by an operator is saved with the interlock's state and comes back held
 // after a restart.
-const { SugarshackError, asSugarshackError } = require('./errors');
-const { clock } = require('./clock');
-const { stats } = require('./stats');
-const { journal } = require('./journal/bus');
-const { text } = require('./i18n');
-const { heldMsg } = require('./pending');
-const wasm = require('./wasm');
+const { SugarshackError, asSugarshackError } = require('../host/errors');
+const { clock } = require('../host/clock');
+const { stats } = require('../host/stats');
+const { journal } = require('../journal/bus');
+const { text } = require('../host/i18n');
+const { heldMsg } = require('../interlock/pending');
+const wasm = require('../wasm');
 
-/** @typedef {import('../wasm/sugarshack_wasm').OperationRun} OperationRun */
-/** @typedef {import('../wasm/sugarshack_wasm').RunEffect} RunEffect */
-/** @typedef {import('../wasm/sugarshack_wasm').RunOwner} RunOwner */
-/** @typedef {import('../wasm/sugarshack_wasm').RunState} RunState */
+/** @typedef {import('../../wasm/sugarshack_wasm').OperationRun} OperationRun */
+/** @typedef {import('../../wasm/sugarshack_wasm').RunEffect} RunEffect */
+/** @typedef {import('../../wasm/sugarshack_wasm').RunOwner} RunOwner */
+/** @typedef {import('../../wasm/sugarshack_wasm').RunState} RunState */
 /**
  * @template {RunEffect['kind']} K
  * @typedef {Extract<RunEffect, { kind: K }>} EffectOf

@@ -13,12 +13,12 @@
 // A shutdown and a deploy both stop the flows; Node-RED replaces its active
 // configuration object before a deploy's stop, not before a shutdown's.
 const { clock } = require('./clock');
-const { stateOf, ChangeNotices } = require('./state');
+const { stateOf, ChangeNotices } = require('../state');
 const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
-const { quote } = require('./request');
-const operator = require('./operator');
-const wasm = require('./wasm');
+const { quote } = require('../interlock/request');
+const operator = require('../interlock/operator');
+const wasm = require('../wasm');
 
 const DRAIN_CHECK_MS = 250;
 

@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 // Msgs held while they wait: by the interlock's engine carrier under their msg
-// handle (lib/engine-carrier.js); by group command and actuators nodes until
+// handle (lib/interlock/engine-carrier.js); by group command and actuators nodes until
 // their group command completes, keyed by caller id (PendingRegistry).
 
 class PendingRegistry {

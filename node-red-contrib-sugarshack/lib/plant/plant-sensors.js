@@ -5,11 +5,11 @@
 // evaluated again, the values go to the journal, the device's time of flight
 // to the stats. Conditions over the same text and sensors are read once.
 // A wait's deadline is the core's, on the plant's one timer.
-const { Condition } = require('./condition');
-const { stats } = require('./stats');
-const { journal } = require('./journal/bus');
-const { clock } = require('./clock');
-const { SugarshackError } = require('./errors');
+const { Condition } = require('../operations/condition');
+const { stats } = require('../host/stats');
+const { journal } = require('../journal/bus');
+const { clock } = require('../host/clock');
+const { SugarshackError } = require('../host/errors');
 
 class SensorWatch {
   /** plant: the PlantRuntime (its core `t` and ids by handle). */

@@ -7,10 +7,10 @@
 // writes before it, what comes before either leaves at once. Held msgs wait
 // here under the handle their node chose; the engine answers each once.
 // The one timer is here too: it calls `due` when the engine says it is next due.
-const { SugarshackError } = require('./errors');
+const { SugarshackError } = require('../host/errors');
 const { HeldMsg } = require('./pending');
-const { clock: systemClock } = require('./clock');
-const i18n = require('./i18n');
+const { clock: systemClock } = require('../host/clock');
+const i18n = require('../host/i18n');
 
 /**
  * @typedef {import('./pending').HeldMsg & { ports?: number, cause?: any }} Held a held msg; `ports`: its node's outputs (1 unless told); `cause`: the error a failed msg's error keeps as its cause

@@ -4,14 +4,14 @@
 // its caller id, with what waits for its outcome (a msg held by a group command
 // or actuators node, an operation step, a lockout) and the actuators that
 // completed so far. The core says when one completes, fails or times out.
-const { SugarshackError } = require('./errors');
-const { PendingRegistry, heldMsg } = require('./pending');
+const { SugarshackError } = require('../host/errors');
+const { PendingRegistry, heldMsg } = require('../interlock/pending');
 const { seconds } = require('./plant');
 const { refusalError } = require('./group');
-const { readMsg } = require('./request');
-const { stats } = require('./stats');
-const { clock } = require('./clock');
-const i18n = require('./i18n');
+const { readMsg } = require('../interlock/request');
+const { stats } = require('../host/stats');
+const { clock } = require('../host/clock');
+const i18n = require('../host/i18n');
 
 const MAX_CALLER = 0xffffffff;
 

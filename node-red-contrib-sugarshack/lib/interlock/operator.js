@@ -7,8 +7,8 @@
 // fault nodes journal theirs, and answered once the state is saved. Every rule
 // is the core's: a refusal (CLEAR_REFUSED with every reason in `err.lines`,
 // NOT_FAULTED, UNKNOWN_ALARM, INVALID_SHELF, ...) rejects unchanged.
-const { SugarshackError } = require('./errors');
-const { journal } = require('./journal/bus');
+const { SugarshackError } = require('../host/errors');
+const { journal } = require('../journal/bus');
 
 /**
  * Runs `work(resolve)` on the runtime (a wasm trap becomes INTERNAL and a

@@ -4,11 +4,11 @@
 // it serves (one core call per node), its bad and ignored msgs and offline
 // devices; a refusal instead for a while; "draining" or "mqtt down" when that
 // is what matters. Paced: at plant scale the counts move hundreds of times a second.
-const { actuatorStatus, errorStatus, status } = require('./status');
-const { clock } = require('./clock');
-const { drainingStatus } = require('./runtime-base');
-const i18n = require('./i18n');
-const { StatusPacer } = require('./status-pacer');
+const { actuatorStatus, errorStatus, status } = require('../host/status');
+const { clock } = require('../host/clock');
+const { drainingStatus } = require('../host/runtime-base');
+const i18n = require('../host/i18n');
+const { StatusPacer } = require('../host/status-pacer');
 
 // How long a refusal shows on an actuators node before its counts come back.
 const BUS_ERROR_MS = 10000;

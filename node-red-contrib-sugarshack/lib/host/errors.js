@@ -11,14 +11,14 @@ class SugarshackError extends Error {
     this.name = 'SugarshackError';
     this.code = code;
     /**
-     * Set on an operation's failure after its grant (see lib/operation-run.js).
+     * Set on an operation's failure after its grant (see lib/operations/operation-run.js).
      * @type {{ id: string, step: number | null, kind: string, lockedOut: string[], aborted: boolean, state?: string } | undefined}
      */
     this.operation; // declared for the type checker; not set here
   }
 
   /**
-   * An error whose text is lib/'s catalog entry "sugarshack.errors.<key>" (see lib/i18n.js).
+   * An error whose text is lib/'s catalog entry "sugarshack.errors.<key>" (see lib/host/i18n.js).
    * @param {string} code @param {string} key @param {Record<string, any>} [subs]
    */
   static of(code, key, subs) {

@@ -5,17 +5,17 @@
 // off the interlock and plant (what GET /sugarshack/state reports) and hands
 // them over. Observed once a second, after every batch of interlock events
 // and before every answer, so an alarm's time is at most a second late.
-const wasm = require('./wasm');
-const i18n = require('./i18n');
+const wasm = require('../wasm');
+const i18n = require('../host/i18n');
 
 // Interlock events an operator looks back on, kept in memory for a page opened late: the core says which.
 const NOTABLE = new Set(wasm.load().abnormalEventKinds());
 const RECENT_EVENTS = 50;
 const RECENT_CHANGES = 50;
 
-/** @typedef {import('../wasm/sugarshack_wasm').Alarms} Alarms */
-/** @typedef {import('../wasm/sugarshack_wasm').AlarmChange} AlarmChange */
-/** @typedef {import('../wasm/sugarshack_wasm').EventRecord} EventRecord */
+/** @typedef {import('../../wasm/sugarshack_wasm').Alarms} Alarms */
+/** @typedef {import('../../wasm/sugarshack_wasm').AlarmChange} AlarmChange */
+/** @typedef {import('../../wasm/sugarshack_wasm').EventRecord} EventRecord */
 
 class AlarmBook {
   /** saved: the `alarms` of a saved interlock state, or undefined; warn(text) logs. */

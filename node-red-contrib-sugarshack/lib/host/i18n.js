@@ -12,8 +12,8 @@
 const fs = require('fs');
 const path = require('path');
 
-const EN_US = path.join(__dirname, '..', 'nodes', 'locales', 'en-US');
-const SHARED_NAMESPACE = `${require('../package.json').name}/interlock`;
+const EN_US = path.join(__dirname, '..', '..', 'nodes', 'locales', 'en-US');
+const SHARED_NAMESPACE = `${require('../../package.json').name}/interlock`;
 const SHARED_PREFIX = 'sugarshack';
 /** @type {Record<string, any> | null} */
 let english = null;

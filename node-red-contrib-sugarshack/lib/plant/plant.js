@@ -3,8 +3,8 @@
 // The plant config node's document, and its validation and schema for the editor.
 const fs = require('fs');
 const path = require('path');
-const { SugarshackError } = require('./errors');
-const wasm = require('./wasm');
+const { SugarshackError } = require('../host/errors');
+const wasm = require('../wasm');
 
 /** The plant document from the node's property: an object, or JSON text as typed in the editor. */
 function plantDocument(value) {
@@ -71,7 +71,7 @@ function validatePlant(value) {
 }
 
 /** The plant document's JSON Schema, generated from the core's types by the build; shipped in the package. */
-const PLANT_SCHEMA = path.join(__dirname, '..', 'schema', 'plant.schema.json');
+const PLANT_SCHEMA = path.join(__dirname, '..', '..', 'schema', 'plant.schema.json');
 
 const served = new WeakSet();
 

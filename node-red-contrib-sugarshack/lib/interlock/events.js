@@ -1,8 +1,8 @@
 // @ts-check
 'use strict';
 // Fans interlock event records out to every `interlock events` node.
-const { journal } = require('./journal/bus');
-const i18n = require('./i18n');
+const { journal } = require('../journal/bus');
+const i18n = require('../host/i18n');
 
 class EventFanout {
   constructor() {

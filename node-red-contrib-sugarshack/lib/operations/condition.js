@@ -5,17 +5,17 @@
 // and says whether it holds on the values read. It passes only on fresh
 // values: the core refuses a read with a stale or missing sensor, and the
 // condition then does not hold (it never passes on old data).
-const { SugarshackError } = require('./errors');
-const { text } = require('./i18n');
+const { SugarshackError } = require('../host/errors');
+const { text } = require('../host/i18n');
 const { performance } = require('perf_hooks');
-const { stats } = require('./stats');
-const { clock } = require('./clock');
+const { stats } = require('../host/stats');
+const { clock } = require('../host/clock');
 
 class Condition {
   /**
    * Reads `expression` over `sensors` (ids of the plant) in the plant's core now,
    * so that a mistake is refused at deploy (the core's INVALID_CONDITION or
-   * UNKNOWN_SENSOR); `layer` names whose overhead its evaluations count as (lib/stats.js).
+   * UNKNOWN_SENSOR); `layer` names whose overhead its evaluations count as (lib/host/stats.js).
    */
   constructor(expression, sensors, plant, layer) {
     this.layer = layer;
