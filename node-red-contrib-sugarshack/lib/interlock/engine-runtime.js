@@ -72,6 +72,9 @@ class EngineRuntime extends InterlockHost {
     /** @type {Wire | null} */
     this.wire = null;
     this.carrier = this.makeCarrier();
+    this.performing = false;
+    /** @type {((engine: any, now: number) => void)[]} calls made while outputs are performed */
+    this.deferred = [];
     /** @type {Map<string, number>} node id -> its handle, the same for each deploy of it */
     this.nodeHandles = new Map();
     /** @type {Map<number, { node: NodeRed.Node, spec: object }>} handle -> the instance bound now */
@@ -116,8 +119,29 @@ class EngineRuntime extends InterlockHost {
   /** One engine call; its outputs performed. @param {(engine: any, now: number) => void} fn */
   call(fn) {
     if (!this.core) return;
-    this.guard(() => fn(this.core, clock.now()));
-    /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
+    // An output performed may make another call (a run's release answered, its routine dispatches
+    // the next operation): it waits until this call's outputs are all read, which the next would overwrite.
+    if (this.performing) {
+      this.deferred.push(fn);
+      return;
+    }
+    this.performing = true;
+    try {
+      this.guard(() => fn(this.core, clock.now()));
+      /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
+      while (this.deferred.length > 0 && this.core) {
+        const next = /** @type {(engine: any, now: number) => void} */ (this.deferred.shift());
+        try {
+          this.guard(() => next(this.core, clock.now()));
+        } catch (err) {
+          this.log('error', err.message);
+        }
+        /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
+      }
+    } finally {
+      this.performing = false;
+      this.deferred.length = 0;
+    }
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -702,12 +726,17 @@ class EngineRuntime extends InterlockHost {
     entry.reject = once(failed);
     entry.abandon = once(abandoned);
     this.carrier.hold(k, entry);
-    try {
-      this.call((e, now) => call(e, k, now));
-    } catch (err) {
-      this.carrier.take(k);
-      throw err;
-    }
+    // Made while outputs are performed, it runs after them, and its refusal goes to the run.
+    const deferred = this.performing;
+    this.call((e, now) => {
+      try {
+        call(e, k, now);
+      } catch (err) {
+        this.carrier.take(k);
+        if (deferred) entry.reject(err);
+        throw err;
+      }
+    });
   }
 
   /** A run waits for its grant (`entry.grant`), or is refused (`entry.refuse`) or taken out of the queue (`entry.abandon`). */
