@@ -303,6 +303,25 @@ describe('sugarshack hostile input', function () {
     await stillWorks(seen, 'after');
   });
 
+  it('a refusal Node-RED cannot hand to a Catch node (too deep to clone) keeps its worded status; the interlock carries on', async function () {
+    await helper.load(paletteNodes, [...flow(), { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [[]] }]);
+    await until(() => runtimeOf('il').state === 'ready' && runtimeOf('pl').state === 'ready', 'the runtimes ready');
+    await quiet();
+    const granted = collect(helper, 'granted');
+    // Node-RED's clone for the Catch node throws RangeError out of done(err).
+    helper.getNode('acq').receive({ operation: 'deep', resources: deep() });
+    await quiet();
+    const shown = statusCalls('acq');
+    assert.ok(shown.length > 0, 'a status');
+    assert.equal(shown.at(-1).fill, 'red');
+    assert.notEqual(shown.at(-1).text, 'internal error');
+    const warned = helper.getNode('acq').warn.getCalls().map((c) => String(c.args[0]));
+    assert.ok(warned.some((w) => /could not pass this msg on/.test(w)), JSON.stringify(warned));
+    helper.getNode('acq').receive({ operation: 'after', resources: 'RED' });
+    await until(() => granted.length === 1, 'the grant after it');
+    assert.equal(granted[0].interlock.operation, 'after');
+  });
+
   it('hostile JS values: BigInt, getters that throw, proxies are INVALID_*, never INTERNAL', async function () {
     const { seen } = await start();
     const generation = wasm.currentGeneration();

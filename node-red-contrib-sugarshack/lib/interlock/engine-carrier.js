@@ -221,6 +221,17 @@ const NO_FIELDS = Object.freeze({});
  * @param {Held} entry @param {number | null} port @param {{ port: number, msgs: any[] } | null} extra @param {Error | null} err
  */
 function answer(entry, port, extra, err) {
+  try {
+    handOver(entry, port, extra, err);
+  } catch (thrown) {
+    // Node-RED's own send or done threw (it cannot clone a 10,000-deep msg for a Catch
+    // node or a second wire): logged on the node; the outputs after this one still go.
+    if (entry.node) entry.node.warn(i18n.text('logs.notHandedOver', { message: thrown && thrown.message }));
+  }
+}
+
+/** @param {Held} entry @param {number | null} port @param {any} extra @param {Error | null} err */
+function handOver(entry, port, extra, err) {
   const ports = entry.ports || 1;
   if (entry.send && (port !== null || extra)) {
     if (ports === 1) entry.send(entry.msg);
