@@ -1,7 +1,7 @@
 // @ts-check
 'use strict';
 const { bindInterlock, onInterlockInput } = require('../lib/host/binding');
-const { nodeValues, isPerMsg, requestOf, readMsg } = require('../lib/interlock/request');
+const { nodeValues, isPerMsg } = require('../lib/interlock/request');
 const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -19,10 +19,7 @@ module.exports = function (RED) {
     const values = nodeValues(RED, node, props, ['operation', 'priority', 'resources']);
     const deployed = (name) => (isPerMsg(props, name) ? undefined : props[name]);
     const spec = { kind: 'acquire', timeoutMs, operation: deployed('operation'), priority: deployed('priority'), resources: deployed('resources') };
-    onInterlockInput(node, runtime, spec, (rt, msg, send, done, read = props) => {
-      const request = readMsg(() => requestOf(msg, read.operation, read.priority, read.resources));
-      rt.acquire({ node, msg, send, done, ...request, timeoutMs });
-    }, { values });
+    onInterlockInput(node, runtime, spec, { values });
   }
 
   RED.nodes.registerType('sugarshack-acquire', AcquireNode);

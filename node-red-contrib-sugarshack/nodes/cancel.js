@@ -1,8 +1,6 @@
 // @ts-check
 'use strict';
 const { bindInterlock, onInterlockInput, always } = require('../lib/host/binding');
-const { operationOf, readMsg } = require('../lib/interlock/request');
-const { journal } = require('../lib/journal/bus');
 const { useRED } = require('../lib/host/i18n');
 
 /** @param {NodeRed.RED} RED */
@@ -11,17 +9,9 @@ module.exports = function (RED) {
   /** @this {NodeRed.Node} @param {NodeRed.NodeProps} props */
   function CancelNode(props) {
     RED.nodes.createNode(this, props);
-    const node = this;
-    const runtime = bindInterlock(RED, node, props.interlock);
-
-    onInterlockInput(node, runtime, { kind: 'cancel', operation: props.operation }, (rt, msg, send, done) => {
-      const operation = readMsg(() => operationOf(msg, props.operation));
-      journal.action('cancel', msg, operation);
-      rt.cancel(operation, () => {
-        send(msg);
-        done();
-      });
-    }, { urgent: always }); // a withdrawal never waits for a deploy's drain
+    const runtime = bindInterlock(RED, this, props.interlock);
+    // A withdrawal never waits for a deploy's drain.
+    onInterlockInput(this, runtime, { kind: 'cancel', operation: props.operation }, { urgent: always });
   }
 
   RED.nodes.registerType('sugarshack-cancel', CancelNode);

@@ -157,11 +157,11 @@ function lookups() {
     const own = tCatalog(file, source);
     // A bare text() is lib/host/i18n.js's only where the file takes it from there (journal/bus.js has a text() of its own).
     const importsText = /const \{[^}]*\btext\b[^}]*\} = require\('(?:\.\.?\/)+(?:host\/)?i18n'\)/.test(source);
-    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|SugarshackError\.of|this\._|node\._)\(/g;
+    const calls = /(?<![\w.$]|function )(t|text|i18n\.text|i18n\.typeText|SugarshackError\.of|this\._|node\._)\(/g;
     for (const m of source.matchAll(calls)) {
       if (m[1] === 'text' && !importsText) continue;
       const args = callArgs(source, m.index + m[0].length - 1);
-      const [keyArg, subsArg] = m[1] === 'SugarshackError.of' ? args.slice(1) : args;
+      const [keyArg, subsArg] = m[1] === 'SugarshackError.of' || m[1] === 'i18n.typeText' ? args.slice(1) : args;
       // The key, or each key a conditional may pick: a catalog key has a dot (SugarshackError.of's names the entry under errors).
       const keyForm = { 'SugarshackError.of': /'(\w+)'/g, 'this._': /'([\w-]+(?:\.\w+)+)'/g, 'node._': /'([\w-]+(?:\.\w+)+)'/g }[m[1]] || /'(\w+(?:\.\w+)+)'/g;
       const keys = [...keyArg.matchAll(keyForm)].map((k) => k[1]);
@@ -180,6 +180,12 @@ function lookups() {
           const catalog = catalogOf(stem);
           found.push({ at, keys: key ? withPlurals(catalog, [key]) : [], subs, stem, catalog });
         }
+      } else if (m[1] === 'i18n.typeText') {
+        // A node type's text read outside its node file: i18n.typeText('sugarshack-<type>', '<key>', subs).
+        const type = /^'sugarshack-([\w-]+)'$/.exec(args[0]);
+        assert.ok(type, `${at}: the type is not a literal`);
+        const catalog = catalogOf(type[1]);
+        found.push({ at, keys: withPlurals(catalog, keys.map((k) => `sugarshack-${type[1]}.${k}`)), subs, stem: type[1], catalog });
       } else if (m[1] === 't') {
         assert.ok(own, `${at}: t() in a file without translator(RED, '<type>') or var NS`);
         const catalog = catalogOf(own.stem);

@@ -81,17 +81,15 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
 }
 
 /**
- * The input of an interlock node (acquire, release, cancel, fault, clear).
- * On an interlock run by an engine, the node is bound under `spec` and each
- * msg is one engine input; on one bound to a plant, `work` does its part.
+ * The input of an interlock node (acquire, release, cancel, fault, clear):
+ * the node is bound to its interlock's engine under `spec`, and each msg is
+ * one engine input.
  * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
- * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done, values?: object) => void} work
  * @param {{ urgent?: (msg: NodeRed.Message) => boolean, values?: any }} [options]
  */
-function onInterlockInput(node, runtime, spec, work, options) {
-  if (runtime && runtime.addNodeSpec) runtime.addNodeSpec(node, spec);
-  onInput(node, runtime, (rt, msg, send, done, values) => (rt.addNodeSpec
-    ? rt.input(node, msg, send, done, values) : work(rt, msg, send, done, values)), 'interlock', options);
+function onInterlockInput(node, runtime, spec, options) {
+  if (runtime) runtime.addNodeSpec(node, spec);
+  onInput(node, runtime, (rt, msg, send, done, values) => rt.input(node, msg, send, done, values), 'interlock', options);
 }
 
 /** @type {(msg: NodeRed.Message) => boolean} */

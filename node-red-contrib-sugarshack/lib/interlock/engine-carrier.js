@@ -282,12 +282,13 @@ function render(t) {
 
 /** What a failed fault msg says: what was faulted and what locked out, with the fault's note. @param {any} t */
 function faultedText(t) {
-  const say = (key, subs) => i18n.typeText('sugarshack-fault', `errors.${key}`, subs);
   const lines = t.lines.join(', ');
-  const what = t.operation === null || t.operation === undefined
-    ? say('stopped', { lines: lines || say('nothing') })
-    : say(lines ? 'faultedLocked' : 'faultedHeldNothing', { operation: t.operation, lines });
-  return t.note ? say('withNote', { what, note: t.note }) : what;
+  let what;
+  if (t.operation === null || t.operation === undefined) {
+    what = i18n.typeText('sugarshack-fault', 'errors.stopped', { lines: lines || i18n.typeText('sugarshack-fault', 'errors.nothing', {}) });
+  } else if (lines) what = i18n.typeText('sugarshack-fault', 'errors.faultedLocked', { operation: t.operation, lines });
+  else what = i18n.typeText('sugarshack-fault', 'errors.faultedHeldNothing', { operation: t.operation });
+  return t.note ? i18n.typeText('sugarshack-fault', 'errors.withNote', { what, note: t.note }) : what;
 }
 
 module.exports = { EngineCarrier, CarriedMsg, refusalError, render };

@@ -72,31 +72,7 @@ function ask(asks, msg, configured = {}) {
   return answered(wasm.load().readRequest(asks, fieldsOf(msg), configured));
 }
 
-const ACQUIRE = { kind: 'acquire' };
-const NAMED = { kind: 'named' };
-const STOP = { kind: 'stop' };
 const WHO = { kind: 'who' };
-
-/** An acquire's operation, priority and resources: msg's, else the node's (priority: 0). */
-function requestOf(msg, operation, priority, resources) {
-  return ask(ACQUIRE, msg, { operation, priority, resources });
-}
-
-/** The operation a release, cancel or fault names: msg.operation, the node's, else msg.interlock.operation. */
-function operationOf(msg, configured) {
-  return ask(NAMED, msg, { operation: configured }).operation;
-}
-
-/** The lines and who asks for an emergency stop. */
-function stopOf(msg, resources) {
-  return ask(STOP, msg, { resources });
-}
-
-/** Who asks for a clear and which lines (null: every faulted one, when the node clears all). */
-function clearOf(msg, resources, allFaulted) {
-  const asked = ask({ kind: 'clear', allFaulted, namesGiven: msg.resources !== undefined }, msg, { resources });
-  return { names: asked.resources === undefined ? null : asked.resources, who: asked.who };
-}
 
 /** Who asks, and why ({ by, reason, force }): the core's precedence (a signed-in user over msg.by). */
 function attributionOf(msg) {
@@ -188,20 +164,4 @@ function arrivalOrder() {
   };
 }
 
-/**
- * A fault note: a Catch node's msg.error.message, else `reason` (an
- * operator's, for an e-stop), else a string payload. A msg.error.message that
- * is not text is kept as a note saying so: isolating the line comes first.
- */
-// The interlock keeps 500 characters of a note; no more than a little above that crosses into it.
-const MAX_NOTE = 1000;
-
-function noteOf(msg, reason = null) {
-  const message = msg.error ? msg.error.message : undefined;
-  // A note that is not text never stops a fault: isolating the line comes first.
-  if (message !== undefined && message !== null && typeof message !== 'string') return i18n.text('labels.noteNotText', { got: quote(message) });
-  const text = message || reason || (typeof msg.payload === 'string' && msg.payload) || undefined;
-  return text === undefined ? undefined : text.slice(0, MAX_NOTE);
-}
-
-module.exports = { nodeValues, isPerMsg, requestOf, operationOf, stopOf, clearOf, noteOf, attributionOf, splitNames, fieldsOf, readMsg, quote };
+module.exports = { nodeValues, isPerMsg, attributionOf, splitNames, fieldsOf, readMsg, quote };
