@@ -119,6 +119,25 @@ describe('one timer per engine: alarms, drains and routine deadlines with no pol
     noInterval();
   });
 
+  /**
+   * Deploys a changed plant document: it drains until `ended` holds (the last
+   * run or command ended), and the drain is over then, with no clock time more.
+   */
+  async function drainUntil(ended, what) {
+    const changed = plantDocument();
+    changed.operations[0].description = 'rinse again';
+    await helper.setFlows(flowOf(changed), 'full');
+    await quiet();
+    assert.equal(runtime().gateOpen, false, 'draining');
+    noInterval();
+    await runUntil(helper, ended, what, { step: 5 });
+    const endedAt = clock().now();
+    await quiet();
+    assert.equal(clock().now(), endedAt, 'no clock time passed');
+    assert.equal(runtime().gateOpen, true, 'the drain ended with it, not on a later look');
+    assert.equal(plant().plant.operations[0].description, 'rinse again', 'the new document is in force');
+  }
+
   it('ends a deploy\'s drain when the last run releases, without waiting for any timer', async function () {
     await helper.load(paletteNodes, flowOf());
     fakePanel(helper, plantDocument());
@@ -126,18 +145,7 @@ describe('one timer per engine: alarms, drains and routine deadlines with no pol
     helper.getNode('op20').receive({ topic: 'rinse', payload: 20 });
     await quiet();
     assert.equal(runtime().describe().runs.length, 1);
-    const changed = plantDocument();
-    changed.operations[0].description = 'rinse again';
-    await helper.setFlows(flowOf(changed), 'full');
-    await quiet();
-    assert.equal(runtime().gateOpen, false, 'draining while op 20 runs');
-    noInterval();
-    await runUntil(helper, () => runtime().runs.size === 0, 'op 20 to end', { step: 5 });
-    const endedAt = clock().now();
-    await quiet();
-    assert.equal(clock().now(), endedAt, 'no clock time passed');
-    assert.equal(runtime().gateOpen, true, 'the drain ended with the run, not on a later look');
-    assert.equal(plant().plant.operations[0].description, 'rinse again', 'the new document is in force');
+    await drainUntil(() => runtime().runs.size === 0, 'op 20 to end');
     assert.equal(to('out').length, 1);
   });
 
@@ -148,18 +156,7 @@ describe('one timer per engine: alarms, drains and routine deadlines with no pol
     helper.getNode('bus').receive({ topic: 'by hand', payload: { valves: { V202: 40 } } });
     await quiet();
     assert.equal(plant().quiescent(), false, 'a group command in flight');
-    const changed = plantDocument();
-    changed.operations[0].description = 'rinse again';
-    await helper.setFlows(flowOf(changed), 'full');
-    await quiet();
-    assert.equal(runtime().gateOpen, false, 'draining while the command runs');
-    noInterval();
-    await runUntil(helper, () => plant().quiescent(), 'the command to complete', { step: 5 });
-    const doneAt = clock().now();
-    await quiet();
-    assert.equal(clock().now(), doneAt);
-    assert.equal(runtime().gateOpen, true, 'the drain ended with the command');
-    assert.equal(plant().plant.operations[0].description, 'rinse again');
+    await drainUntil(() => plant().quiescent(), 'the command to complete');
   });
 
   it('checks a routine\'s condition at the core\'s deadline through the interlock\'s one engine timer', async function () {
