@@ -375,6 +375,24 @@ describe('ISA-88 commands: hold, restart, stop, abort, reset', function () {
     assert.equal(seen.out[0], msg, 'the start msg goes on');
   });
 
+  it('a drain that waits for a running operation ends as an operator holds it, with no timer to look again', async function () {
+    await start();
+    await inWait();
+    const doc = plantDocument();
+    doc.operations[1].description = 'unload the truck';
+    await helper.setFlows(flowOf({ doc }), 'full');
+    await quiet();
+    assert.equal(runtime().gateOpen, false, 'draining while op 10 runs');
+    assert.deepEqual([...clock().timers.values()].filter((t) => t.every), [], 'no interval looks at the drain');
+    await operator.command(runtime(), { operation: '10' }, 'hold', { by: 'ana' });
+    await runTill(() => runOf('10').state === 'held', 'held');
+    const heldAt = clock().now();
+    await quiet();
+    assert.equal(clock().now(), heldAt);
+    assert.equal(runtime().gateOpen, true, 'the drain ended with the hold');
+    assert.equal(runOf('10').state, 'held');
+  });
+
   it('a deploy that changes the plant does not wait for a held run: it is handed over held, and restarts on the new nodes', async function () {
     await start();
     const msg = await inWait();

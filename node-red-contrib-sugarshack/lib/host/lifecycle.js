@@ -20,8 +20,6 @@ const { quote } = require('../interlock/request');
 const operator = require('../interlock/operator');
 const wasm = require('../wasm');
 
-const DRAIN_CHECK_MS = 250;
-
 const palettes = new WeakMap(); // RED.events -> Palette
 
 class Palette {
@@ -32,7 +30,7 @@ class Palette {
     this.phase = 'starting'; // running | deploying | shutdown
     this.runtimes = new Map(); // config node id -> runtime
     this.swaps = new Map(); // runtime -> settings waiting for the drain
-    this.drainTimer = null;
+    this.drainCheck = false; // a look at the drain is queued
     this.afterStart = [];
     this.changes = new ChangeNotices();
     RED.events.on('flows:started', (event) => this.flowsStarted(event));
@@ -58,8 +56,6 @@ class Palette {
     if (!deploying) {
       // Frozen where they are: a drain in progress ends with the process.
       this.swaps.clear();
-      if (this.drainTimer) clock.clearInterval(this.drainTimer);
-      this.drainTimer = null;
     }
   }
 
@@ -130,10 +126,18 @@ class Palette {
     return this.swaps.size > 0;
   }
 
+  /**
+   * A runtime may have become quiet (a run ended or was held, a group command
+   * or a wait ended, a runtime left): the drain is looked at once this turn's
+   * work is done. No timer: every path that ends the last of them pokes.
+   */
   pokeDrain() {
-    if (this.swaps.size === 0 || !this.started) return;
-    if (!this.drainTimer) this.drainTimer = clock.setInterval(() => this.checkDrained(), DRAIN_CHECK_MS);
-    setImmediate(() => this.checkDrained());
+    if (this.swaps.size === 0 || !this.started || this.drainCheck) return;
+    this.drainCheck = true;
+    setImmediate(() => {
+      this.drainCheck = false;
+      this.checkDrained();
+    });
   }
 
   /** Every runtime quiet (no granted operation, no group command in flight): the changed ones swap, plants first. */
@@ -141,8 +145,6 @@ class Palette {
     if (this.swaps.size === 0 || !this.started) return;
     const all = [...this.runtimes.values()];
     if (!all.every((r) => r.quiescent())) return;
-    clock.clearInterval(this.drainTimer);
-    this.drainTimer = null;
     const swaps = [...this.swaps].sort(([a], [b]) => a.swapOrder - b.swapOrder);
     this.swaps.clear();
     const swapped = new Set();

@@ -212,6 +212,11 @@ class RuntimeBase {
     return !this.gateOpen;
   }
 
+  /** What kept a deploy's drain waiting may have ended here (see Palette.pokeDrain). */
+  mayBeQuiet() {
+    if (this.palette && this.palette.draining) this.palette.pokeDrain();
+  }
+
   // ---- endings ----------------------------------------------------------------
 
   /** Completes held work unsent and stops watching for traps. */

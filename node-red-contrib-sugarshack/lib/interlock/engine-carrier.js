@@ -6,11 +6,16 @@
 // instance may not act at all), what follows an `after` leaves behind the
 // writes before it, what comes before either leaves at once. Held msgs wait
 // here under the handle their node chose; the engine answers each once.
-// The one timer is here too: it calls `due` when the engine says it is next due.
+// The one timer is here too, at the earliest of the engine's next deadline
+// and its routines' (each the core's): it calls `due` (the engine's tick)
+// and `routinesDue` (their condition checks) when they are due.
 const { SugarshackError } = require('../host/errors');
 const { HeldMsg } = require('./pending');
 const { clock: systemClock } = require('../host/clock');
 const i18n = require('../host/i18n');
+
+// Node fires a longer timeout at once; woken early, the carrier sleeps again until the deadline.
+const MAX_TIMER_MS = 2 ** 31 - 1;
 
 /**
  * @typedef {import('./pending').HeldMsg & { ports?: number, cause?: any }} Held a held msg; `ports`: its node's outputs (1 unless told); `cause`: the error a failed msg's error keeps as its cause
@@ -24,15 +29,19 @@ class EngineCarrier {
    * @param {(output: any, effect: (action: () => void) => void) => void} [o.other] an output with no msg of its own (an event, an alarm, a log, a node's error); `effect` keeps an action in order
    * @param {(holding: number, queued: number, faulted: number, lost: boolean) => void} [o.counts]
    * @param {() => void} [o.due] the engine is due: its owner calls its tick
+   * @param {(now: number) => void} [o.routinesDue] a routine's deadline is due: its owner checks the routines due
    * @param {{ now(): number, setTimeout: Function, clearTimeout: Function }} [o.clock]
    */
-  constructor({ committer, other, counts, due, clock = systemClock }) {
+  constructor({ committer, other, counts, due, routinesDue, clock = systemClock }) {
     this.committer = committer;
     this.due = due || (() => {});
+    this.routinesDue = routinesDue || (() => {});
     this.clock = clock;
     /** @type {any} */
     this.timer = null;
     this.timerAt = -1;
+    this.engineAt = -1; // the engine's next deadline (epoch ms; -1: none)
+    this.routinesAt = -1; // its routines' earliest deadline (epoch ms; -1: none)
     this.otherOutput = other || (() => {});
     this.countsChanged = counts || (() => {});
     /** @type {Map<number, Held>} */
@@ -100,27 +109,51 @@ class EngineCarrier {
     this.extra = null;
     wire.read(this);
     this.closeGroup();
-    this.arm(wire.nextDeadline());
+    this.engineAt = wire.nextDeadline();
+    this.arm();
   }
 
-  /** The one timer, set for `at` (-1: none). @param {number} at */
-  arm(at) {
+  /** The routines' earliest deadline changed (-1: none). @param {number} at */
+  followRoutines(at) {
+    this.routinesAt = at;
+    this.arm();
+  }
+
+  /** The one timer, set for the earliest deadline (none when neither has one). */
+  arm() {
+    const { engineAt, routinesAt } = this;
+    const at = engineAt < 0 ? routinesAt : routinesAt < 0 ? engineAt : Math.min(engineAt, routinesAt);
     if (at === this.timerAt) return;
-    this.stop();
+    this.clearTimer();
     this.timerAt = at;
     if (at < 0) return;
-    this.timer = this.clock.setTimeout(() => {
-      this.timer = null;
-      this.timerAt = -1;
-      this.due();
-    }, Math.max(0, at - this.clock.now()));
+    this.timer = this.clock.setTimeout(() => this.fire(), Math.min(Math.max(0, at - this.clock.now()), MAX_TIMER_MS));
   }
 
-  /** No timer any more (a shutdown, a standby). */
-  stop() {
+  /** The timer: the engine's tick and the routines' checks, each when due; then the timer again. */
+  fire() {
+    this.timer = null;
+    this.timerAt = -1;
+    const now = this.clock.now();
+    if (this.engineAt >= 0 && this.engineAt <= now) {
+      this.engineAt = -1; // the tick's perform sets the next
+      this.due();
+    }
+    if (this.routinesAt >= 0 && this.routinesAt <= now) this.routinesDue(now);
+    this.arm();
+  }
+
+  clearTimer() {
     if (this.timer) this.clock.clearTimeout(this.timer);
     this.timer = null;
     this.timerAt = -1;
+  }
+
+  /** No timer any more (a shutdown, a standby, a rebuild): the deadlines come again with the next engine call and routine. */
+  stop() {
+    this.clearTimer();
+    this.engineAt = -1;
+    this.routinesAt = -1;
   }
 
   /** @param {boolean} urgent */

@@ -33,8 +33,6 @@ const RUN_NODES = [
   [0xfffffff3, { kind: 'fault', byResources: false, failMsg: false }],
 ];
 const [RUN_ACQUIRE, RUN_RELEASE, RUN_CANCEL, RUN_FAULT] = RUN_NODES.map(([handle]) => handle);
-// The plant's device and bus conditions are looked at this often for the engine's alarms.
-const PLANT_CHECK_MS = 1000;
 
 /** Each node kind's input: its outputs, and the engine call a msg makes (read first, so a throwing getter refuses the msg). */
 const KINDS = {
@@ -113,6 +111,7 @@ class EngineRuntime extends InterlockHost {
       other: (output, effect) => this.other(output, effect),
       counts: (holding, queued, faulted, lost) => this.countsChanged(holding, queued, faulted, lost),
       due: () => this.tick(),
+      routinesDue: (now) => this.routinesDue(now),
     });
   }
 
@@ -142,6 +141,7 @@ class EngineRuntime extends InterlockHost {
       this.performing = false;
       this.deferred.length = 0;
     }
+    this.mayBeQuiet();
   }
 
   // ---- lifecycle -----------------------------------------------------------
@@ -275,6 +275,7 @@ class EngineRuntime extends InterlockHost {
     this.replies.clear();
     this.endRuns();
     this.runs.clear();
+    this.mayBeQuiet();
     this.routines.clear();
     this.savedRoutines = {};
     if (wasReady) this.freeCore();
@@ -541,6 +542,21 @@ class EngineRuntime extends InterlockHost {
     }
   }
 
+  /** A routine's deadline changed: the one timer follows the earliest (the core says each; JS takes the minimum). */
+  routineDeadlinesChanged() {
+    let at = -1;
+    for (const host of this.routines.values()) {
+      if (host.dueAt !== undefined && (at < 0 || host.dueAt < at)) at = host.dueAt;
+    }
+    this.carrier.followRoutines(at);
+  }
+
+  /** The one timer at a routine's deadline: the routines due check their conditions. @param {number} now */
+  routinesDue(now) {
+    for (const host of [...this.routines.values()]) host.checkIfDue(now);
+    this.routineDeadlinesChanged();
+  }
+
   storeFailing(failing) {
     if (this.state !== 'ready' || this.ended || this.failingShown === failing) return;
     this.failingShown = failing;
@@ -647,12 +663,23 @@ class EngineRuntime extends InterlockHost {
     }
   }
 
-  /** The plant's device and bus conditions go to the engine's alarms as they change. */
+  /**
+   * The plant's device and bus conditions, and the cluster's, go to the
+   * engine's alarms as they change: the plant and the cluster say when they
+   * may have (no poll).
+   */
   watchPlant() {
     this.stopTimers();
     if (!this.plant && !this.cluster) return;
     this.plantConditions = '';
-    this.alarmTimer = clock.setInterval(() => this.observePlant(), PLANT_CHECK_MS);
+    const observe = () => this.observePlant();
+    const unwatch = this.plant ? this.plant.watchConditions(observe) : () => {};
+    const { cluster } = this;
+    if (cluster) cluster.on('changed', observe);
+    this.unwatchPlant = () => {
+      unwatch();
+      if (cluster) cluster.removeListener('changed', observe);
+    };
     this.observePlant();
   }
 

@@ -9,7 +9,6 @@
 const { SugarshackError, asSugarshackError } = require('../host/errors');
 const { EventFanout } = require('./events');
 const { errorStatus, status: statusOf } = require('../host/status');
-const { clock } = require('../host/clock');
 const { FileStore, MemoryStore, stateDir } = require('../host/durable');
 const { RuntimeBase, drainingStatus, standbyStatus } = require('../host/runtime-base');
 const { RunHost, waitingPort } = require('../operations/operation-run');
@@ -46,8 +45,8 @@ class InterlockHost extends RuntimeBase {
     this.savedRuns = [];
     this.lostState = null; // why the state was unknown at start, until those lines are cleared
     this.started = null; // how it last started: { outcome: 'new' | 'restored' | 'lost', reason, added, dropped }
-    /** @type {any} */
-    this.alarmTimer = null;
+    /** @type {(() => void) | null} stops following its plant's and cluster's alarm conditions */
+    this.unwatchPlant = null;
     // In a hot-standby cluster the state is in etcd whatever `persist` says: a standby without it would start every line faulted.
     this.stopFollowing = null;
     /** @type {EtcdStore | null} */
@@ -81,6 +80,9 @@ class InterlockHost extends RuntimeBase {
   fault(_operation, _note, _then) {}
 
   freeCore() {}
+
+  /** A routine's deadline changed (the engine runtime's one timer follows them). */
+  routineDeadlinesChanged() {}
 
   /** @returns {any} */
   abortedOperations() {
@@ -236,8 +238,8 @@ class InterlockHost extends RuntimeBase {
   }
 
   stopTimers() {
-    if (this.alarmTimer) clock.clearInterval(this.alarmTimer);
-    this.alarmTimer = null;
+    if (this.unwatchPlant) this.unwatchPlant();
+    this.unwatchPlant = null;
     this.statusPacer.stop();
   }
 
@@ -290,7 +292,7 @@ class InterlockHost extends RuntimeBase {
 
   runEnded(run) {
     this.runs.delete(run);
-    if (this.palette && this.palette.draining) this.palette.pokeDrain();
+    this.mayBeQuiet();
   }
 
   /** An operator aborted `operation` at `now`: it refuses every start until a person resets it (saved with the state). */
@@ -362,6 +364,7 @@ class InterlockHost extends RuntimeBase {
       delete this.savedRoutines[id];
       host.start(saved); // throws UNKNOWN_ROUTINE before it is kept
       this.routines.set(id, host);
+      this.routineDeadlinesChanged();
     }
     return host;
   }

@@ -189,6 +189,8 @@ class RunHost {
       case 'entered':
         this.entered = e.state;
         this.port.progress('entered', e.step, e.state);
+        // Held, it no longer keeps a deploy's drain waiting.
+        this.interlock.mayBeQuiet();
         break;
       case 'release': {
         // The interlock's refusal comes back thrown, or later through `refused`.

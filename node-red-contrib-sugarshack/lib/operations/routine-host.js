@@ -16,9 +16,6 @@ const { journal } = require('../journal/bus');
 const wasm = require('../wasm');
 const i18n = require('../host/i18n');
 
-// Node fires a longer timeout at once; woken early, the host sleeps again until the deadline.
-const MAX_TIMER_MS = 2 ** 31 - 1;
-
 // The operator's states a routine's status shows: how each looks, and its text (`state`: the routine's state).
 const OPERATOR_STATES = Object.freeze({
   holding: ['warning', (state) => i18n.text('runStatus.holding', { state })],
@@ -45,7 +42,8 @@ class RoutineHost {
     this.commanding = null;
     this.lastFault = false;
     this.warned = new Set();
-    this.timer = null; // at the machine's next deadline
+    /** @type {number | undefined} the machine's next deadline (epoch ms), kept for the interlock's one timer */
+    this.dueAt = undefined;
     this.unwatch = []; // stops watching its conditions' sensors
     this.checkParked = false; // a check waits for the interlock to open
     this.ended = false;
@@ -284,18 +282,24 @@ class RoutineHost {
     else this.followDeadline();
   }
 
-  /** One timer, at the machine's next deadline; none while nothing can fall due. */
+  /**
+   * The machine's next deadline (the core's rule), for the interlock's one
+   * timer, which checks this routine's conditions then; none while nothing
+   * can fall due.
+   */
   followDeadline() {
-    if (this.timer) clock.clearTimeout(this.timer);
-    this.timer = null;
     const machine = this.machine;
-    if (this.ended || !machine || this.run) return;
-    const next = machine.nextDeadline();
-    if (next === undefined) return;
-    this.timer = clock.setTimeout(() => {
-      this.timer = null;
-      this.checkConditions();
-    }, Math.min(Math.max(0, next - clock.now()), MAX_TIMER_MS));
+    const next = this.ended || !machine || this.run ? undefined : machine.nextDeadline();
+    if (next === this.dueAt) return;
+    this.dueAt = next;
+    this.interlock.routineDeadlinesChanged();
+  }
+
+  /** The interlock's timer at `now`: its conditions are checked if its deadline came. @param {number} now */
+  checkIfDue(now) {
+    if (this.dueAt === undefined || this.dueAt > now) return;
+    this.dueAt = undefined;
+    this.checkConditions();
   }
 
   /** A deploy drains (or the interlock starts): its conditions are checked once the interlock opens. */
@@ -418,8 +422,7 @@ class RoutineHost {
   shutdown() {
     this.ended = true;
     this.stopWatching();
-    if (this.timer) clock.clearTimeout(this.timer);
-    this.timer = null;
+    this.dueAt = undefined;
     wasm.release(this.machine);
     this.machine = null;
   }

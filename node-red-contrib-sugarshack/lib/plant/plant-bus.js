@@ -239,6 +239,7 @@ class PlantBuses {
         bus.connected = connected;
         this.emit(bus, 'actuator/mqtt', { kind: 'mqtt', connected });
         plant.refreshStatus(bus.node);
+        plant.conditionsMayHaveChanged();
       }
     }
     if (restored && plant.t.pathRestored(clock.now()) > 0) plant.flush(null);

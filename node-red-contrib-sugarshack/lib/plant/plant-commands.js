@@ -59,7 +59,7 @@ class GroupCommands {
     plant.followDeadline();
     return () => {
       if (this.pending.get(caller) !== entry) return;
-      this.pending.take(caller);
+      this.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
       plant.followDeadline();
       plant.refreshStatus();
@@ -90,6 +90,13 @@ class GroupCommands {
     }
   }
 
+  /** The command waiting on `caller`, taken out: it no longer keeps a deploy's drain waiting. */
+  take(caller) {
+    const entry = this.pending.take(caller);
+    this.plant.mayBeQuiet();
+    return entry;
+  }
+
   newCaller() {
     do {
       this.nextCaller = this.nextCaller >= MAX_CALLER ? 1 : this.nextCaller + 1;
@@ -100,7 +107,7 @@ class GroupCommands {
   /** Its caller waited its timeout: the core withdrew the command. */
   timedOut(e) {
     const { plant } = this;
-    const entry = this.pending.take(e.caller);
+    const entry = this.take(e.caller);
     if (!entry) return;
     const waiting = e.waiting.map((handle) => plant.actuators[handle].id);
     if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
@@ -127,12 +134,12 @@ class GroupCommands {
 
   /** Every held command completed unsent (a shutdown, a new document). */
   abandonAll() {
-    for (const caller of this.pending.handles()) this.pending.take(caller).abandon();
+    for (const caller of this.pending.handles()) this.take(caller).abandon();
   }
 
   /** Every held command fails with `error` (the core that carried them is gone). */
   refuseAll(error) {
-    for (const caller of this.pending.handles()) this.pending.take(caller).refuse(error);
+    for (const caller of this.pending.handles()) this.take(caller).refuse(error);
   }
 
   /** Withdraws the commands of node `nodeId` that no next instance took over. */
@@ -141,7 +148,7 @@ class GroupCommands {
     for (const caller of this.pending.handles()) {
       const entry = this.pending.get(caller);
       if (entry.nodeId !== nodeId || entry.node) continue;
-      this.pending.take(caller);
+      this.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
     }
     plant.followDeadline();
@@ -167,7 +174,7 @@ class GroupCommands {
 
   /** The same msg goes on from the node that holds it (a link call return stays intact). */
   complete(e) {
-    const entry = this.pending.take(e.caller);
+    const entry = this.take(e.caller);
     if (!entry) return;
     const result = { completionMs: e.completionMs, actuators: entry.completed };
     // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
@@ -181,7 +188,7 @@ class GroupCommands {
   /** The msg ends with an error a Catch node can turn into a fault of the operation. */
   fail(e) {
     const { plant } = this;
-    const entry = this.pending.take(e.caller);
+    const entry = this.take(e.caller);
     if (!entry) return;
     const a = plant.actuators[e.actuator];
     const { code, message, retries } = e;

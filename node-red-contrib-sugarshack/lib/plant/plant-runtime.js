@@ -25,6 +25,8 @@ const { clusterOf } = require('../cluster');
 // How often each actuators node's broker connection is looked at (its config node tells no one).
 const BROKER_POLL_MS = 250;
 const MAX_TIMER_MS = 2 ** 31 - 1;
+// The effects after which a device's availability or staleness (its alarm conditions) may differ.
+const HEALTH_EFFECTS = new Set(['deviceStatus', 'fault', 'recovered']);
 
 class PlantRuntime extends RuntimeBase {
   /**
@@ -47,6 +49,9 @@ class PlantRuntime extends RuntimeBase {
     this.statusView = new PlantStatus(this);
     this.changes = new PlantChanges((err) => this.log('error', err.message || String(err)));
     this.modbus = new ModbusTransport(this);
+    /** @type {Set<() => void>} told when the alarm conditions of its devices and buses may have changed */
+    this.conditionWatchers = new Set();
+    this.conditionsToTell = false;
     // In a hot-standby cluster the plant follows the feedback on every instance and commands only from the leader.
     try {
       this.cluster = clusterOf(RED);
@@ -102,7 +107,13 @@ class PlantRuntime extends RuntimeBase {
     this.changes.rebuilt();
     this.modbus.sync();
     this.refreshStatus();
+    this.conditionsMayHaveChanged();
     this.replayParked();
+  }
+
+  fail(err) {
+    super.fail(err);
+    this.conditionsMayHaveChanged();
   }
 
   makeTracker(plant) {
@@ -135,6 +146,7 @@ class PlantRuntime extends RuntimeBase {
     this.commands.abandonAll();
     this.stopDeadline();
     if (wasReady) this.freeTracker();
+    this.conditionsMayHaveChanged();
   }
 
   /** Its config node left the flows: the same as a shutdown (the tracker keeps nothing on disk). */
@@ -190,6 +202,7 @@ class PlantRuntime extends RuntimeBase {
     this.followDeadline();
     this.modbus.sync();
     this.refreshStatus();
+    this.conditionsMayHaveChanged();
   }
 
   // ---- nodes using this plant ----------------------------------------------
@@ -205,6 +218,7 @@ class PlantRuntime extends RuntimeBase {
     this.arm(); // its broker is looked at from now on
     this.modbus.sync();
     this.refreshStatus(node);
+    this.conditionsMayHaveChanged();
   }
 
   heldEntries() {
@@ -214,6 +228,7 @@ class PlantRuntime extends RuntimeBase {
   closing(node) {
     this.bus.remove(node);
     this.modbus.sync();
+    this.conditionsMayHaveChanged();
   }
 
   withdrawOrphans(nodeId) {
@@ -348,6 +363,8 @@ class PlantRuntime extends RuntimeBase {
           if (this.t.tick(now) > 0) this.flush(null);
           this.sensors.expire(now);
           this.coreWake = this.t.nextWake();
+          // Staleness falls due on the core's wake.
+          this.conditionsMayHaveChanged();
         }
         if (this.statusView.shownUntil() <= now) this.refreshStatus();
       });
@@ -369,15 +386,21 @@ class PlantRuntime extends RuntimeBase {
   flush(source, answer = null) {
     const effects = answer ? answer.effects || [] : this.t.queued() > 0 ? this.t.takeEffects() : [];
     let counted = source === null;
+    let health = false;
     try {
       for (const effect of effects) {
         this.route(effect, source);
-        if (effect.kind !== 'changed') counted = true;
+        if (effect.kind !== 'changed') {
+          counted = true;
+          if (HEALTH_EFFECTS.has(effect.kind)) health = true;
+        }
       }
     } catch (err) {
       counted = true;
+      health = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
+    if (health) this.conditionsMayHaveChanged();
     // An answer with effects or a command carries the core's next wake; after other calls with effects it is asked.
     if (answer && (answer.effects || answer.lockout !== undefined)) this.setDeadline(answer.deadline);
     else if (!answer && effects.length > 0) this.followDeadline();
@@ -423,6 +446,29 @@ class PlantRuntime extends RuntimeBase {
         else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
+  }
+
+  // ---- alarm conditions ----------------------------------------------------
+
+  /**
+   * Calls `fn` when the alarm conditions of its devices (the core's
+   * `alarmConditions`) or of its buses may have changed, at most once per
+   * turn of the event loop; returns the function that stops it.
+   * @param {() => void} fn
+   */
+  watchConditions(fn) {
+    this.conditionWatchers.add(fn);
+    return () => this.conditionWatchers.delete(fn);
+  }
+
+  /** A device, a bus or the tracker itself may have changed: the watchers are told once this burst is over. */
+  conditionsMayHaveChanged() {
+    if (this.conditionsToTell || this.conditionWatchers.size === 0) return;
+    this.conditionsToTell = true;
+    setImmediate(() => {
+      this.conditionsToTell = false;
+      for (const fn of [...this.conditionWatchers]) fn();
+    });
   }
 
   // ---- state and status ----------------------------------------------------

@@ -61,6 +61,7 @@ class SensorWatch {
   ended(wait) {
     if (this.waits.get(wait.id) === wait) this.waits.delete(wait.id);
     this.plant.followDeadline();
+    this.plant.mayBeQuiet();
   }
 
   /** At the plant's deadline: the waits the core timed out. */
@@ -70,6 +71,7 @@ class SensorWatch {
       this.waits.delete(id);
       if (wait) wait.timedOut(reason);
     }
+    this.plant.mayBeQuiet();
   }
 
   /** The plant's tracker; after a trap's rebuild, the waits go on in the new one until their deadlines. */
