@@ -165,6 +165,22 @@
     if (blank(node[name]) && !blank(node[legacyMs])) $('#node-input-' + name).val(msToSeconds(node[legacyMs]));
   }
 
+  // Where a node's value may come from besides its literal, read for each msg (msg.<field> still comes first).
+  var SOURCES = ['msg', 'flow', 'global', 'env', 'jsonata'];
+
+  /**
+   * A typedInput on each `[name, literalType]` of the node's dialog, its type
+   * kept in the hidden `#node-input-<name>Type`; a flow saved before the types has
+   * none, so its value is the literal it was.
+   */
+  function valueSources(node, fields) {
+    fields.forEach(function (field) {
+      var type = node[field[0] + 'Type'] || field[1];
+      $('#node-input-' + field[0] + 'Type').val(type);
+      $('#node-input-' + field[0]).typedInput({ default: field[1], types: [field[1]].concat(SOURCES), typeField: '#node-input-' + field[0] + 'Type' });
+    });
+  }
+
   var COLOR = '#D9A55B';
 
   /**
@@ -185,6 +201,7 @@
       '<div class="form-row">',
       '  <label for="node-input-operation"><i class="fa fa-cog"></i> ' + text('label.operation') + '</label>',
       '  <input type="text" id="node-input-operation" data-i18n="[placeholder]' + type + '.placeholder.operation">',
+      '  <input type="hidden" id="node-input-operationType">',
       '</div>',
       '<div class="form-row">',
       '  <label for="node-input-name"><i class="fa fa-tag"></i> <span data-i18n="node-red:common.label.name"></span></label>',
@@ -202,16 +219,18 @@
         name: { value: '' },
         interlock: { value: '', type: 'sugarshack-interlock', required: true },
         operation: { value: '' },
+        operationType: { value: 'str' },
       },
       label: function () {
         return this.name || (this.operation ? this._(type + '.nodeLabel.operation', { operation: this.operation }) : this._(type + '.paletteLabel'));
       },
       labelStyle: function () { return this.name ? 'node_label_italic' : ''; },
+      oneditprepare: function () { valueSources(this, [['operation', 'str']]); },
     });
   }
 
   window.sugarshackEditor = {
     resourcePicker: resourcePicker, devicePicker: devicePicker, sensorPicker: sensorPicker,
-    operationChoice: operationChoice, routineChoice: routineChoice, parseNames: parseNames, migrateMs: migrateMs, operationNode: operationNode, color: COLOR,
+    operationChoice: operationChoice, routineChoice: routineChoice, parseNames: parseNames, migrateMs: migrateMs, operationNode: operationNode, valueSources: valueSources, color: COLOR,
   };
 })();

@@ -283,4 +283,33 @@ describe('the editor\'s labels in headless Chromium', function () {
       acq10: 'belegen 10', granted: 'zugeteilt', il1: 'Verriegelung (1 Ressource)', il3: 'Verriegelung (3 Ressourcen)', acq: 'acquire',
     });
   });
+
+  it('offers the release, cancel, fault and clear values from msg, flow, global, env or JSONata, and saves where each comes from', async function () {
+    // Each node of a flow saved before the sources (no *Type): its dialog opens on the literal, and the picker still marks its lines.
+    const fields = [['rel7', 'operation', '7'], ['can', 'operation', ''], ['flt12', 'operation', '12'], ['estop', 'resources', 'YEL,RED'], ['clrYel', 'resources', 'YEL']];
+    for (const [id, field, literal] of fields) {
+      await page.evaluate((n) => RED.editor.edit(RED.nodes.node(n)), id);
+      const input = `#node-input-${field}`;
+      await page.waitForSelector(`${input} + .red-ui-typedInput-container`, { visible: true, timeout: 10000 });
+      const opened = await page.evaluate((sel) => [$(sel).typedInput('type'), $(sel).typedInput('value')], input);
+      assert.deepEqual(opened, ['str', literal], id);
+      if (field === 'resources') {
+        const marked = await page.evaluate(() => $('.form-row:visible button.selected').toArray().map((b) => b.textContent));
+        assert.deepEqual(marked, literal.split(','), `${id}: the picker marks the literal lines`);
+      }
+      await page.$eval(`${input} + .red-ui-typedInput-container .red-ui-typedInput-type-select`, (el) => el.click());
+      await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1, { timeout: 10000 });
+      const offered = await page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
+      await page.keyboard.press('Escape');
+      assert.deepEqual(offered, ['string', 'msg.', 'flow.', 'global.', 'env variable', 'expression'], id);
+      await page.evaluate((sel) => {
+        $(sel).typedInput('type', 'jsonata');
+        $(sel).typedInput('value', 'payload.x');
+        $('#node-dialog-ok').trigger('click');
+      }, input);
+      await page.waitForFunction(() => !$('#node-dialog-ok').is(':visible'), { timeout: 10000 });
+      const saved = await page.evaluate((n, f) => [RED.nodes.node(n)[f], RED.nodes.node(n)[`${f}Type`]], id, field);
+      assert.deepEqual(saved, ['payload.x', 'jsonata'], id);
+    }
+  });
 });

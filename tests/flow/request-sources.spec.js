@@ -8,7 +8,7 @@ const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
 const { boundPlant, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const {
-  paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, startServer, stopServer, settings, settled,
+  paletteNodes, TAB, interlockConfig, acquire, release, sinkNode, collect, until, startServer, stopServer, settings, settled, onInterlock,
 } = require('./support');
 
 helper.init(require.resolve('node-red'));
@@ -162,5 +162,132 @@ describe('sugarshack acquire: values from msg, flow, global, env or JSONata', fu
     const refused = await answer('a', { operation: '78', payload: { lines: 'RED' } }, out, caught);
     assert.equal(refused.error.code, 'INVALID_PRIORITY');
     assert.match(refused.error.message, /the configured priority must be a whole number.*1\.5/);
+  });
+});
+
+// The release, cancel, fault and clear nodes' own values, read the same ways.
+const cancel = (id, operation, extra = {}) => ({ id, z: 'f1', type: 'sugarshack-cancel', interlock: 'il', operation, wires: [['done']], ...extra });
+const fault = (id, mode, value, extra = {}) => ({
+  id, z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode, operation: mode === 'operation' ? value : '', resources: mode === 'resources' ? value : '',
+  after: 'send', wires: [['done'], ['lockouts']], ...extra,
+});
+const clear = (id, resources, extra = {}) => ({ id, z: 'f1', type: 'sugarshack-clear', interlock: 'il', mode: 'resources', resources, wires: [['done'], []], ...extra });
+
+describe('sugarshack release, cancel, fault and clear: values from msg, flow, global, env or JSONata', function () {
+  beforeEach(startServer);
+  afterEach(async function () {
+    delete process.env.SUGARSHACK_TEST_OP;
+    delete process.env.SUGARSHACK_TEST_LINES;
+    await stopServer();
+  });
+
+  /** Loads `nodes` beside acquire `a` (on YEL, its operation from the msg); `send` waits for the interlock to settle. */
+  async function load(nodes) {
+    await helper.load(paletteNodes, [TAB, interlockConfig(), acquire('a', '', 0, 'YEL', 'out'), ...nodes, catchAll, ...['out', 'done', 'lockouts', 'caught'].map(sinkNode)]);
+    const [out, done, lockouts, caught] = ['out', 'done', 'lockouts', 'caught'].map((id) => collect(helper, id));
+    const send = async (id, msg) => {
+      helper.getNode(id).receive(msg);
+      await settled(helper, 'il');
+    };
+    const faulted = () => helper.getNode('il').runtime.core.faultedResources();
+    return { out, done, lockouts, caught, send, faulted };
+  }
+
+  it('a release whose operation comes from flow context releases that operation; msg.operation first; literals as before', async function () {
+    const { out, done, send } = await load([
+      acquire('b', '', 0, 'GRN', 'out'),
+      release('rel', 'done', { operation: 'op', operationType: 'flow' }),
+      release('typed', 'done', { operation: ' 12 ', operationType: 'str' }),
+      release('old', 'done', { operation: 'op' }),
+    ]);
+    helper.getNode('rel').context().flow.set('op', '10');
+    await send('a', { operation: '10' });
+    await send('b', { operation: '11' });
+    assert.deepEqual(counts(), { holding: 2, queued: 0, faulted: 0 });
+    // msg.operation comes before the node's: op 11 goes, op 10 stays.
+    await send('rel', { operation: '11' });
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
+    await send('b', { operation: '13' });
+    await send('rel', {});
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 }, 'op 10 released, op 13 holds');
+    await send('a', { operation: '12' });
+    await send('typed', {});
+    // A flow saved before the types: "op" is the operation's id as typed, not a context key.
+    await send('a', { operation: 'op' });
+    await send('old', {});
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
+    assert.deepEqual(out.map((m) => m.interlock.operation), ['10', '11', '13', '12', 'op']);
+    assert.equal(done.length, 4);
+  });
+
+  it('a cancel whose operation comes from env withdraws that request; msg.operation first', async function () {
+    process.env.SUGARSHACK_TEST_OP = ' 12 ';
+    const { out, send } = await load([cancel('can', 'SUGARSHACK_TEST_OP', { operationType: 'env' })]);
+    await send('a', { operation: '10' });
+    for (const operation of ['12', '13']) await send('a', { operation });
+    assert.deepEqual(counts(), { holding: 1, queued: 2, faulted: 0 });
+    await send('can', { operation: '13' });
+    assert.deepEqual(counts(), { holding: 1, queued: 1, faulted: 0 });
+    await send('can', {});
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
+    assert.deepEqual(out.map((m) => m.interlock.operation), ['10'], 'the withdrawn requests were never granted');
+  });
+
+  it('a fault whose operation comes from JSONata faults its lines; an e-stop\'s lines from JSONata; msg first; a literal as before', async function () {
+    const { send, faulted, lockouts } = await load([
+      fault('flt', 'operation', '"op-" & payload.n', { operationType: 'jsonata' }),
+      fault('stop', 'resources', 'payload.lines', { resourcesType: 'jsonata' }),
+      fault('old', 'resources', 'payload'),
+    ]);
+    await send('a', { operation: 'op-7' });
+    await send('flt', { payload: { n: 7 } });
+    assert.deepEqual(faulted(), ['YEL']);
+    await send('stop', { payload: { lines: ['BLU', ' RED '] } });
+    assert.deepEqual(faulted(), ['YEL', 'BLU', 'RED']);
+    await send('stop', { resources: 'PUR', payload: { lines: ['GRN'] } });
+    assert.deepEqual(faulted(), ['YEL', 'BLU', 'PUR', 'RED'], 'msg.resources first');
+    // A flow saved before the types: "payload" is a line's name as typed, which the interlock does not know.
+    await send('old', { payload: 'GRN' });
+    assert.deepEqual(faulted(), ['YEL', 'BLU', 'PUR', 'RED']);
+    assert.deepEqual(lockouts.map((m) => m.topic), ['lockout/YEL', 'lockout/BLU', 'lockout/RED', 'lockout/PUR']);
+  });
+
+  it('a clear whose lines come from env clears those; msg.resources first; a literal as before', async function () {
+    process.env.SUGARSHACK_TEST_LINES = 'BLU, RED';
+    const { send, faulted } = await load([
+      fault('stop', 'resources', 'YEL,GRN,BLU,PUR,RED'),
+      clear('clr', 'SUGARSHACK_TEST_LINES', { resourcesType: 'env' }),
+      clear('old', 'GRN'),
+    ]);
+    await send('stop', {});
+    assert.deepEqual(faulted(), ['YEL', 'GRN', 'BLU', 'PUR', 'RED']);
+    await send('clr', { resources: ['PUR'] });
+    assert.deepEqual(faulted(), ['YEL', 'GRN', 'BLU', 'RED'], 'msg.resources first');
+    await send('clr', {});
+    assert.deepEqual(faulted(), ['YEL', 'GRN']);
+    await send('old', {});
+    assert.deepEqual(faulted(), ['YEL']);
+  });
+
+  it('a value JSONata cannot read completes the msg with INVALID_INPUT and a red status, for each node', async function () {
+    const nodes = [
+      release('rel', 'done', { operation: '$notAFunction(payload)', operationType: 'jsonata' }),
+      cancel('can', '$join([', { operationType: 'jsonata' }),
+      fault('flt', 'operation', '$notAFunction(payload)', { operationType: 'jsonata' }),
+      fault('stop', 'resources', '$join([', { resourcesType: 'jsonata' }),
+      clear('clr', '$notAFunction(payload)', { resourcesType: 'jsonata' }),
+    ];
+    const { done, caught } = await load(nodes);
+    const { statusOf } = onInterlock(helper);
+    for (const { id } of nodes) {
+      const before = caught.length;
+      helper.getNode(id).receive({ payload: 1 });
+      await until(() => caught.length > before, `${id} refused`);
+      assert.equal(caught[before].error.code, 'INVALID_INPUT', id);
+      assert.match(caught[before].error.message, /could not read the msg: the configured (operation|resources): /, id);
+      assert.deepEqual(statusOf(id), { fill: 'red', shape: 'ring', text: 'invalid input' }, id);
+    }
+    assert.equal(done.length, 0);
+    assert.deepEqual(counts(), { holding: 0, queued: 0, faulted: 0 });
   });
 });

@@ -76,7 +76,14 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
       runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive });
     };
     if (!values) go(undefined);
-    else values(msg, (err, read) => (err ? done(err) : go(read)));
+    else {
+      values(msg, (err, read) => {
+        if (!err) return go(read);
+        // A value that cannot be read (a JSONata error) shows on the node until the interlock's next change.
+        runtime.showError(node, /** @type {any} */ (err).code);
+        return done(err);
+      });
+    }
   });
 }
 

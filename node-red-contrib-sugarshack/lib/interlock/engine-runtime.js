@@ -53,14 +53,22 @@ const KINDS = {
   },
   release: {
     ports: 1,
-    read: (msg) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined],
-    call: (e, h, k, [operation, follow], now) => (typeof operation === 'string' && operation.length <= SHORT_TEXT && follow === undefined
-      ? e.releaseOperation(h, k, operation, now) : e.release(h, k, operation, follow, now)),
+    read: (msg, values) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined, values],
+    call: (e, h, k, [operation, follow, values], now) => {
+      if (values) e.releaseFields(h, k, { operation, follow, configured: values }, now);
+      else if (typeof operation === 'string' && operation.length <= SHORT_TEXT && follow === undefined) e.releaseOperation(h, k, operation, now);
+      else e.release(h, k, operation, follow, now);
+    },
   },
-  cancel: { ports: 1, read: fieldsOf, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
-  fault: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.fault(h, k, fields, now) },
-  clear: { ports: 2, read: fieldsOf, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
+  cancel: { ports: 1, read: withValues, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
+  fault: { ports: 2, read: withValues, call: (e, h, k, fields, now) => e.fault(h, k, fields, now) },
+  clear: { ports: 2, read: withValues, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
 };
+
+/** What a msg carries, with the node's values read for it (from context, env or JSONata) when it has any. */
+function withValues(msg, values) {
+  return values ? { ...fieldsOf(msg), configured: values } : fieldsOf(msg);
+}
 
 class EngineRuntime extends InterlockHost {
   constructor(args) {

@@ -204,6 +204,7 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   e.acquireOperation(1, 13, 'd', 26);
   e.releaseOperation(2, 14, 'd', 26);
   e.acquireFields(1, 15, { configured: { operation: 'e', priority: 1, resources: 'A' } }, 26);
+  e.releaseFields(2, 16, { configured: { operation: 'e' } }, 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);

@@ -916,6 +916,24 @@ impl Engine {
         self.msg_input(msg, input, now_ms);
     }
 
+    /// A msg into a release node whose operation is read per msg (from
+    /// context, env or JSONata): `fields` holds msg.operation, follow and `configured`.
+    #[wasm_bindgen(js_name = releaseFields)]
+    pub fn release_fields(
+        &mut self,
+        node: u32,
+        msg: u32,
+        #[wasm_bindgen(unchecked_param_type = "EngineFields")] fields: JsValue,
+        now_ms: f64,
+    ) {
+        let input = Input::Release {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields: msg_fields(&fields),
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
     /// A msg into a cancel node (`fields`: operation, follow, and who asks).
     pub fn cancel(
         &mut self,

@@ -1058,6 +1058,118 @@ fn a_node_value_read_for_one_msg_takes_the_deployed_ones_place_for_that_msg_only
 }
 
 #[test]
+fn release_cancel_fault_and_clear_nodes_read_their_value_for_one_msg_under_the_msgs_own() {
+    let mut b = Bench::new();
+    let read = |operation: &str, resources: &str| Fields {
+        configured: Some(Configured {
+            operation: text(operation),
+            priority: Raw::Absent,
+            resources: text(resources),
+        }),
+        ..Fields::default()
+    };
+    let faulted = |b: &Bench| -> Vec<String> {
+        let interlock = b.engine.interlock();
+        let set = interlock.faulted_resources();
+        set.ids()
+            .iter()
+            .filter_map(|r| interlock.resource_name(*r).map(str::to_owned))
+            .collect()
+    };
+    b.acquire(1, 1);
+    assert_eq!(
+        answers(&b.acquire(2, 2)),
+        Vec::<String>::new(),
+        "op 12 waits"
+    );
+    // A cancel node's operation read for this msg withdraws op 12.
+    let out = b.run(Input::Cancel {
+        node: NodeId(6),
+        msg: MsgId(3),
+        fields: read(" 12 ", "").into(),
+    });
+    assert_eq!(answers(&out), ["done 2", "send 3 on 0"]);
+    // A release node's: the msg's own operation comes first (op 77 holds nothing; op 10 stays).
+    let named = Fields {
+        operation: text("77"),
+        ..read("10", "")
+    };
+    b.run(Input::Release {
+        node: NodeId(5),
+        msg: MsgId(4),
+        fields: named.into(),
+    });
+    assert_eq!(
+        answers(&b.acquire(2, 5)),
+        Vec::<String>::new(),
+        "op 10 still holds YEL"
+    );
+    let out = b.run(Input::Release {
+        node: NodeId(5),
+        msg: MsgId(6),
+        fields: read("10", "").into(),
+    });
+    assert!(
+        answers(&out).contains(&"send 5 on 0".to_owned()),
+        "op 12 granted: {out:?}"
+    );
+    // A fault node's operation.
+    let out = b.run(Input::Fault {
+        node: NodeId(7),
+        msg: MsgId(7),
+        fields: read("12", "").into(),
+    });
+    assert_eq!(answers(&out), ["emit 7 on 1 x1", "send 7 on 0"]);
+    assert_eq!(faulted(&b), ["YEL"]);
+    // An e-stop's lines in place of its deployed RED; the msg's own lines first.
+    let out = b.run(Input::Fault {
+        node: NodeId(8),
+        msg: MsgId(8),
+        fields: read("", "GRN, BLU").into(),
+    });
+    assert_eq!(answers(&out), ["emit 8 on 1 x2", "fail 8 FAULTED"]);
+    let named = Fields {
+        resources: text("PUR"),
+        ..read("", "GRN")
+    };
+    b.run(Input::Fault {
+        node: NodeId(8),
+        msg: MsgId(9),
+        fields: named.into(),
+    });
+    assert_eq!(faulted(&b), ["YEL", "GRN", "BLU", "PUR"]);
+    // A clear node's lines; the msg's own lines first.
+    let out = b.run(Input::Clear {
+        node: NodeId(10),
+        msg: MsgId(10),
+        fields: read("", "GRN").into(),
+        names_given: false,
+    });
+    assert!(
+        answers(&out).contains(&"send 10 on 0".to_owned()),
+        "{out:?}"
+    );
+    let named = Fields {
+        resources: text("PUR"),
+        ..read("", "BLU")
+    };
+    b.run(Input::Clear {
+        node: NodeId(10),
+        msg: MsgId(11),
+        fields: named.into(),
+        names_given: true,
+    });
+    assert_eq!(faulted(&b), ["YEL", "BLU"]);
+    // The next msg with none reads the deployed value (the e-stop's RED).
+    b.run(Input::Fault {
+        node: NodeId(8),
+        msg: MsgId(12),
+        fields: MsgFields::default(),
+    });
+    assert_eq!(faulted(&b), ["YEL", "BLU", "RED"]);
+}
+
+#[test]
 fn a_run_saved_held_comes_back_held_only_when_started_with_its_plant() {
     use crate::operation::{RunOwner, RunSnapshot};
     use crate::plant::fixtures::{yel_plant, yel_valve};
