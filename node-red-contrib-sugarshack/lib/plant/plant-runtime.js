@@ -132,7 +132,7 @@ class PlantRuntime extends RuntimeBase {
     this.stopFollowing = null;
     this.endCommon();
     this.statusView.stop();
-    this.commands.abandonAll();
+    this.commands.endAll();
     this.stopDeadline();
     if (wasReady) this.freeTracker();
   }
@@ -164,7 +164,7 @@ class PlantRuntime extends RuntimeBase {
     this.plant = settings.plant;
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
-    this.commands.abandonAll();
+    this.commands.endAll();
     this.stopDeadline();
     if (this.t) this.freeTracker();
     this.state = 'starting';
@@ -175,7 +175,7 @@ class PlantRuntime extends RuntimeBase {
   /** After a wasm trap: a new tracker (positions come back with the next feedback); held commands fail. */
   rebuild() {
     if (this.state !== 'ready') return;
-    this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
+    this.commands.endAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
     this.modbus.closeAll();
     wasm.forget(this.t);
     this.t = null;
@@ -401,13 +401,9 @@ class PlantRuntime extends RuntimeBase {
         this.modbus.pump(e.connection);
         break;
       case 'groupCompleted':
-        this.commands.complete(e);
-        break;
       case 'groupFailed':
-        this.commands.fail(e);
-        break;
       case 'groupTimedOut':
-        this.commands.timedOut(e);
+        this.commands.settle(e);
         break;
       case 'deviceStatus':
         this.bus.deviceStatus(e);
@@ -419,8 +415,10 @@ class PlantRuntime extends RuntimeBase {
         this.bus.malformed(source ? source.bus : null, source ? source.topic : '', e.device, e.reason, e.message);
         break;
       default:
-        if (e.kind === 'completed') this.commands.recordCompleted(e);
-        else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
+        if (e.kind === 'completed' && e.timed) {
+          stats.add('command/issueToMotion', e.issueToMotionMs);
+          stats.add('command/completion', e.completionMs);
+        } else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
   }
