@@ -63,7 +63,7 @@ class PlantRuntime extends RuntimeBase {
         this.modbus.sync();
         return this.bus.standDown();
       },
-      resumed: () => this.bus.sendHeld(),
+      resumed: () => this.bus.sendWaiting('held'),
     }) : null;
   }
 
@@ -227,10 +227,6 @@ class PlantRuntime extends RuntimeBase {
     this.commands.command(request);
   }
 
-  runCommand(request) {
-    return this.commands.run(request);
-  }
-
   issueLockouts(lockouts, operation) {
     if (this.state !== 'ready') {
       if (lockouts.length) this.log('error', i18n.text('logs.lockoutsNotSent', { lines: lockouts.map((l) => l.resource).join(', ') }));
@@ -255,41 +251,6 @@ class PlantRuntime extends RuntimeBase {
 
   condition(text, sensors) {
     return this.sensors.condition(text, sensors);
-  }
-
-  /** The core's handle of sensor `id`; throws UNKNOWN_SENSOR. */
-  sensorHandle(id) {
-    return this.t.sensor(id);
-  }
-
-  /** Fresh values of `handles` at `now`; throws SENSOR_STALE / SENSOR_NO_VALUE. */
-  readSensors(handles, now) {
-    return this.t.readSensors(Uint32Array.from(handles), now);
-  }
-
-  /** The core's handle of `text` over sensor ids `sensors`; throws INVALID_CONDITION / UNKNOWN_SENSOR. */
-  compileCondition(text, sensors) {
-    return this.t.condition(text, sensors);
-  }
-
-  /** Whether condition `handle` holds on `values`: true, false, or why it gives no answer. */
-  conditionHolds(handle, values) {
-    return this.t.conditionHolds(handle, values);
-  }
-
-  /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */
-  plan(id) {
-    return this.t.operationPlan(id);
-  }
-
-  /** A new run of operation `id` (the core's state machine); throws UNKNOWN_OPERATION. */
-  operationRun(id) {
-    return this.t.operationRun(id);
-  }
-
-  /** Resources and lockout commands for an interlock bound to this plant. */
-  interlockResources() {
-    return this.t.interlockResources();
   }
 
   routine(id) {
