@@ -113,7 +113,10 @@ class GroupCommands {
     return entry && entry.msg ? entry.msg._msgid : null;
   }
 
-  /** Every held command ends: completed unsent (a shutdown, a new document), or failed with `error` (the core that carried them is gone). */
+  /**
+   * Every held command ends: completed unsent (a shutdown, a new document), or failed with `error` (the core that carried them is gone).
+   * @param {Error | null} [error]
+   */
   endAll(error = null) {
     const entries = this.entries();
     this.pending.clear();
