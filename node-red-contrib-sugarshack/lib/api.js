@@ -72,7 +72,7 @@ function paletteApi(RED) {
         document: doc,
         actuators: plant.actuators.map(({ deviceHandle, ...a }) => a),
         devices: [...plant.devices],
-        sensors: (doc.sensors || []).map((s) => ({ handle: plant.sensorHandle(s.id), ...s })),
+        sensors: (doc.sensors || []).map((s) => ({ handle: plant.t.sensor(s.id), ...s })),
       };
     },
 

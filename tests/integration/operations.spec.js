@@ -232,10 +232,10 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     });
     // Ready once every panel has reported and every tank level is fresh.
     const plant = helper.getNode('pl').runtime;
-    const sensors = PLANT.sensors.map((s) => plant.sensorHandle(s.id));
+    const sensors = Uint32Array.from(PLANT.sensors, (s) => plant.t.sensor(s.id));
     const fresh = () => {
       try {
-        plant.readSensors(sensors, Date.now());
+        plant.t.readSensors(sensors, Date.now());
         return true;
       } catch {
         return false;

@@ -108,7 +108,7 @@ class InterlockHost extends RuntimeBase {
     if (!this.settings.plantBound) return this.config;
     if (!this.plant) throw SugarshackError.of('NO_PLANT', 'noSuchPlant');
     if (this.plant.state !== 'ready') throw this.plant.failure || SugarshackError.of('NO_PLANT', 'plantNotRunning');
-    return { ...this.settings.config, resources: this.plant.interlockResources() };
+    return { ...this.settings.config, resources: this.plant.t.interlockResources() };
   }
 
   /** What was saved: its state file, or on a first run a state an earlier version kept in a context store. */

@@ -2,42 +2,7 @@
 'use strict';
 // Msgs held while they wait: by the interlock's engine carrier under their msg
 // handle (lib/interlock/engine-carrier.js); by group command and actuators nodes until
-// their group command completes, keyed by caller id (PendingRegistry).
-
-class PendingRegistry {
-  constructor() {
-    this.byHandle = new Map();
-  }
-
-  /** entry: { node, msg, send, done, ... } */
-  add(handle, entry) {
-    this.byHandle.set(handle, entry);
-  }
-
-  get(handle) {
-    return this.byHandle.get(handle);
-  }
-
-  has(handle) {
-    return this.byHandle.has(handle);
-  }
-
-  /** Removes and returns the entry, or undefined. */
-  take(handle) {
-    const entry = this.byHandle.get(handle);
-    this.byHandle.delete(handle);
-    return entry;
-  }
-
-  entries() {
-    return [...this.byHandle.values()];
-  }
-
-  /** Handles of every entry held. */
-  handles() {
-    return [...this.byHandle.keys()];
-  }
-}
+// their group command completes (lib/plant/plant-commands.js).
 
 /**
  * A msg held by a node until its work is answered. Between a deploy's restart
@@ -50,7 +15,7 @@ class PendingRegistry {
 class HeldMsg {
   /**
    * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
-   *   done: NodeRed.Done | null, sinceMs: number, [key: string]: any }} fields
+   *   done: NodeRed.Done | null, [key: string]: any }} fields
    */
   constructor(fields) {
     /** @type {NodeRed.Node | null} */
@@ -61,7 +26,6 @@ class HeldMsg {
     this.send = null;
     /** @type {NodeRed.Done | null} */
     this.done = null;
-    this.sinceMs = 0;
     Object.assign(this, fields);
     this.nodeId = fields.node ? fields.node.id : null;
   }
@@ -101,4 +65,4 @@ function heldMsg(fields) {
   return new HeldMsg(fields);
 }
 
-module.exports = { PendingRegistry, HeldMsg, heldMsg };
+module.exports = { HeldMsg, heldMsg };

@@ -27,9 +27,10 @@ class Condition {
 
   /** Its handles in the plant's current core (a new one after a trap knows nothing of the old one's). */
   read() {
-    this.core = this.plant.t;
-    this.handles = this.sensors.map((id) => this.plant.sensorHandle(id));
-    this.handle = this.plant.compileCondition(this.text, this.sensors);
+    const core = this.plant.t;
+    this.core = core;
+    this.handles = Uint32Array.from(this.sensors, (id) => core.sensor(id));
+    this.handle = core.condition(this.text, this.sensors);
   }
 
   /**
@@ -49,13 +50,13 @@ class Condition {
     let values;
     try {
       if (this.core !== this.plant.t) this.read();
-      values = this.plant.readSensors(this.handles, now);
+      values = this.core.readSensors(this.handles, now);
     } catch (err) {
       return { met: false, values: null, reason: err.message };
     }
     const input = {};
     this.sensors.forEach((id, i) => { input[id] = values[i]; });
-    const holds = this.plant.conditionHolds(this.handle, values);
+    const holds = this.core.conditionHolds(this.handle, values);
     if (holds === true) return { met: true, values: input, reason: null };
     const reason = typeof holds === 'string' ? holds : text('labels.values', { values: JSON.stringify(input) });
     return { met: false, values: input, reason };

@@ -58,7 +58,7 @@ class RunHost {
 
   start() {
     try {
-      this.run = this.plant.guard(() => this.plant.operationRun(this.operation));
+      this.run = this.plant.guard(() => this.plant.t.operationRun(this.operation));
       // An aborted operation starts again only after a person's reset (the core's rule).
       this.interlock.guard(() => this.interlock.abortedOperations().checkStart(this.operation));
     } catch (err) {
@@ -257,7 +257,7 @@ class RunHost {
     this.port.progress('queued');
     // Held for the run, not for a node: no node takes it over in a deploy.
     const entry = heldMsg({
-      node: null, msg: null, send: null, done: null, sinceMs: clock.now(), run: this,
+      node: null, msg: null, send: null, done: null, run: this,
       operation: e.operation, priority: e.priority, resources: e.resources, timeoutMs: 0,
     });
     entry.grant = () => {
@@ -291,13 +291,13 @@ class RunHost {
           .then(() => settle(null), (err) => settle(err));
         return (reason) => signal.cancel && signal.cancel(reason);
       }
-      return this.plant.runCommand({ payload: step.command, timeoutMs, within, onDone: settle });
+      return this.plant.commands.run({ payload: step.command, timeoutMs, within, onDone: settle });
     }, (r, err) => (err ? r.stepFailed(index, err.code, err.message, clock.now()) : r.stepDone(index, clock.now())));
   }
 
   /** A hold or restore group command within the run's lines. @param {EffectOf<'hold' | 'restore'>} e */
   groupCommand(e, settle) {
-    return this.plant.runCommand({ payload: e.command, timeoutMs: e.timeoutMs, within: e.within, onDone: settle });
+    return this.plant.commands.run({ payload: e.command, timeoutMs: e.timeoutMs, within: e.within, onDone: settle });
   }
 
   /**

@@ -36,7 +36,7 @@ class PlantBuses {
     if (resolve) this.resolveDevices(bus);
     this.list.push(bus);
     this.unserved.clear();
-    this.sendUnsent();
+    this.sendWaiting('unsent');
   }
 
   /** The device handles of every bus, against the document in force. */
@@ -170,11 +170,11 @@ class PlantBuses {
     bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
   }
 
-  /** The lease was renewed: what waited for it goes out, in order. */
-  sendHeld() {
-    const held = this.held;
-    this.held = [];
-    for (const e of held) this.publish(e);
+  /** What waited goes out, in order: `held` when the lease was renewed, `unsent` when an actuators node came. */
+  sendWaiting(which) {
+    const waiting = this[which];
+    this[which] = [];
+    for (const e of waiting) this.publish(e);
   }
 
   /**
@@ -188,12 +188,6 @@ class PlantBuses {
     this.held = [];
     const brokers = new Set(this.list.map((b) => b.broker).filter((b) => b && typeof b.disconnect === 'function' && typeof b.connect === 'function'));
     await Promise.all([...brokers].map((broker) => new Promise((resolve) => broker.disconnect(resolve)).then(() => broker.connect())));
-  }
-
-  sendUnsent() {
-    const unsent = this.unsent;
-    this.unsent = [];
-    for (const e of unsent) this.publish(e);
   }
 
   deviceStatus(e) {

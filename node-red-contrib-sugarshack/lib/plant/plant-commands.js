@@ -5,7 +5,7 @@
 // or actuators node, an operation step, a lockout) and the actuators that
 // completed so far. The core says when one completes, fails or times out.
 const { SugarshackError } = require('../host/errors');
-const { PendingRegistry, heldMsg } = require('../interlock/pending');
+const { heldMsg } = require('../interlock/pending');
 const { seconds } = require('./plant');
 const { refusalError } = require('./group');
 const { readMsg } = require('../interlock/request');
@@ -19,7 +19,7 @@ class GroupCommands {
   /** plant: the PlantRuntime (its core `t`, guard, effects pump and status). */
   constructor(plant) {
     this.plant = plant;
-    this.pending = new PendingRegistry(); // caller -> held group command
+    this.pending = new Map(); // caller -> held group command
     this.nextCaller = 0;
   }
 
@@ -40,7 +40,7 @@ class GroupCommands {
     const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, caller, now, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
-    this.pending.add(caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout, sinceMs: now }));
+    this.pending.set(caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
     plant.flush(null, answer);
   }
 
@@ -53,8 +53,8 @@ class GroupCommands {
     const caller = this.newCaller();
     const now = clock.now();
     plant.guard(() => plant.t.command(payload, caller, false, now, within, undefined, timeoutMs));
-    const entry = callbackEntry({ onDone, sinceMs: now });
-    this.pending.add(caller, entry);
+    const entry = callbackEntry({ onDone });
+    this.pending.set(caller, entry);
     plant.flush(null);
     plant.followDeadline();
     return () => {
@@ -78,11 +78,10 @@ class GroupCommands {
       const onDone = (err) => {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
-      const carrier = { topic: plant.t.lockoutTopic(resource), payload: command, resource, operation, faultAtMs };
       try {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
-        this.pending.add(caller, callbackEntry({ onDone, sinceMs: faultAtMs, msg: carrier, lockout: true }));
+        this.pending.set(caller, callbackEntry({ onDone, lockout: true }));
         plant.flush(null);
       } catch (err) {
         plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
@@ -92,9 +91,8 @@ class GroupCommands {
 
   /** The command waiting on `caller`, taken out: it no longer keeps a deploy's drain waiting. */
   take(caller) {
-    const entry = this.pending.take(caller);
+    this.pending.delete(caller);
     this.plant.mayBeQuiet();
-    return entry;
   }
 
   newCaller() {
@@ -104,26 +102,15 @@ class GroupCommands {
     return this.nextCaller;
   }
 
-  /** Its caller waited its timeout: the core withdrew the command. */
-  timedOut(e) {
-    const { plant } = this;
-    const entry = this.take(e.caller);
-    if (!entry) return;
-    const waiting = e.waiting.map((handle) => plant.actuators[handle].id);
-    if (entry.msg) entry.msg.command = { waiting, actuators: entry.completed };
-    if (entry.node) plant.showError(entry.node, 'COMMAND_TIMEOUT');
-    entry.refuse(SugarshackError.of('COMMAND_TIMEOUT', 'commandTimeout', { within: seconds(e.timeoutMs), waiting: waiting.join(', ') }));
-  }
-
   // ---- what the held msgs are ----------------------------------------------
 
   entries() {
-    return this.pending.entries();
+    return [...this.pending.values()];
   }
 
   /** Drained: nothing in flight but standing lockouts (the core's, sent again after a swap). */
   onlyLockouts() {
-    return this.pending.entries().every((entry) => entry.lockout);
+    return this.entries().every((entry) => entry.lockout);
   }
 
   /** The _msgid of the msg waiting on `caller`, or null. */
@@ -132,21 +119,21 @@ class GroupCommands {
     return entry && entry.msg ? entry.msg._msgid : null;
   }
 
-  /** Every held command completed unsent (a shutdown, a new document). */
-  abandonAll() {
-    for (const caller of this.pending.handles()) this.take(caller).abandon();
-  }
-
-  /** Every held command fails with `error` (the core that carried them is gone). */
-  refuseAll(error) {
-    for (const caller of this.pending.handles()) this.take(caller).refuse(error);
+  /**
+   * Every held command ends: completed unsent (a shutdown, a new document), or failed with `error` (the core that carried them is gone).
+   * @param {Error | null} [error]
+   */
+  endAll(error = null) {
+    const entries = this.entries();
+    this.pending.clear();
+    this.plant.mayBeQuiet();
+    for (const entry of entries) if (error) entry.refuse(error); else entry.abandon();
   }
 
   /** Withdraws the commands of node `nodeId` that no next instance took over. */
   withdrawOrphans(nodeId) {
     const { plant } = this;
-    for (const caller of this.pending.handles()) {
-      const entry = this.pending.get(caller);
+    for (const [caller, entry] of this.pending) {
       if (entry.nodeId !== nodeId || entry.node) continue;
       this.take(caller);
       plant.guard(() => plant.t.withdraw(caller));
@@ -156,56 +143,44 @@ class GroupCommands {
 
   // ---- outcomes, from the core's effects -----------------------------------
 
-  recordCompleted(e) {
+  /**
+   * A command's outcome (groupCompleted, groupFailed, groupTimedOut: the core
+   * lists the actuators that reached their targets): the same msg goes on
+   * from the node that holds it (a link call return stays intact), or ends
+   * with an error a Catch node can turn into a fault of the operation.
+   */
+  settle(e) {
+    const { plant } = this;
     const entry = this.pending.get(e.caller);
     if (!entry) return;
-    if (e.timed) {
-      stats.add('command/issueToMotion', e.issueToMotionMs);
-      stats.add('command/completion', e.completionMs);
+    this.take(e.caller);
+    const id = (handle) => plant.actuators[handle].id;
+    const actuators = e.actuators.map((reached) => ({ ...reached, actuator: id(reached.actuator) }));
+    if (e.kind === 'groupCompleted') {
+      const result = { completionMs: e.completionMs, actuators };
+      // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
+      if (e.faultLockoutMs !== undefined) {
+        result.faultLockoutMs = e.faultLockoutMs;
+        stats.add('fault/lockout', e.faultLockoutMs);
+      }
+      entry.complete(result);
+      return;
     }
-    entry.completed.push({
-      actuator: this.plant.actuators[e.actuator].id,
-      target: e.target,
-      issueToMotionMs: e.issueToMotionMs,
-      completionMs: e.completionMs,
-      retries: e.retries,
-    });
-  }
-
-  /** The same msg goes on from the node that holds it (a link call return stays intact). */
-  complete(e) {
-    const entry = this.take(e.caller);
-    if (!entry) return;
-    const result = { completionMs: e.completionMs, actuators: entry.completed };
-    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-    if (e.faultLockoutMs !== undefined) {
-      result.faultLockoutMs = e.faultLockoutMs;
-      stats.add('fault/lockout', e.faultLockoutMs);
-    }
-    entry.complete(result);
-  }
-
-  /** The msg ends with an error a Catch node can turn into a fault of the operation. */
-  fail(e) {
-    const { plant } = this;
-    const entry = this.take(e.caller);
-    if (!entry) return;
-    const a = plant.actuators[e.actuator];
-    const { code, message, retries } = e;
+    const timedOut = e.kind === 'groupTimedOut';
+    const waiting = timedOut ? e.waiting.map(id) : null;
     if (entry.msg) {
-      entry.msg.command = {
-        failed: { actuator: a.id, device: a.device, fault: e.fault, retries },
-        actuators: entry.completed,
-      };
+      const a = plant.actuators[e.actuator];
+      entry.msg.command = timedOut ? { waiting, actuators } : { failed: { actuator: a.id, device: a.device, fault: e.fault, retries: e.retries }, actuators };
     }
+    const code = timedOut ? 'COMMAND_TIMEOUT' : e.code;
     if (entry.node) plant.showError(entry.node, code);
-    entry.refuse(new SugarshackError(code, message));
+    entry.refuse(timedOut ? SugarshackError.of(code, 'commandTimeout', { within: seconds(e.timeoutMs), waiting: waiting.join(', ') }) : new SugarshackError(code, e.message));
   }
 }
 
 /** A group command msg held by a group command or actuators node until its command completes. */
-function msgEntry({ node, msg, send, done, output, outputs, lockout, sinceMs }) {
-  const entry = heldMsg({ node, msg, send, done, sinceMs, output, outputs, lockout, completed: [] });
+function msgEntry({ node, msg, send, done, output, outputs, lockout }) {
+  const entry = heldMsg({ node, msg, send, done, output, outputs, lockout });
   entry.complete = (result) => {
     msg.command = result;
     if (entry.send) {
@@ -225,10 +200,10 @@ function msgEntry({ node, msg, send, done, output, outputs, lockout, sinceMs }) 
 
 /**
  * A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once.
- * @param {{ onDone: (err: Error | null) => void, sinceMs: number, msg?: NodeRed.Message | null, lockout?: boolean }} args
+ * @param {{ onDone: (err: Error | null) => void, lockout?: boolean }} args
  */
-function callbackEntry({ onDone, sinceMs, msg = null, lockout = false }) {
-  const entry = heldMsg({ node: null, msg, send: null, done: null, sinceMs, lockout, completed: [] });
+function callbackEntry({ onDone, lockout = false }) {
+  const entry = heldMsg({ node: null, msg: null, send: null, done: null, lockout });
   let answered = false;
   const answer = (err) => {
     if (answered) return;

@@ -68,7 +68,7 @@ class PlantRuntime extends RuntimeBase {
         this.modbus.sync();
         return this.bus.standDown();
       },
-      resumed: () => this.bus.sendHeld(),
+      resumed: () => this.bus.sendWaiting('held'),
     }) : null;
   }
 
@@ -143,7 +143,7 @@ class PlantRuntime extends RuntimeBase {
     this.stopFollowing = null;
     this.endCommon();
     this.statusView.stop();
-    this.commands.abandonAll();
+    this.commands.endAll();
     this.stopDeadline();
     if (wasReady) this.freeTracker();
     this.conditionsMayHaveChanged();
@@ -176,7 +176,7 @@ class PlantRuntime extends RuntimeBase {
     this.plant = settings.plant;
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
-    this.commands.abandonAll();
+    this.commands.endAll();
     this.stopDeadline();
     if (this.t) this.freeTracker();
     this.state = 'starting';
@@ -187,7 +187,7 @@ class PlantRuntime extends RuntimeBase {
   /** After a wasm trap: a new tracker (positions come back with the next feedback); held commands fail. */
   rebuild() {
     if (this.state !== 'ready') return;
-    this.commands.refuseAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
+    this.commands.endAll(SugarshackError.of('INTERNAL', 'plantRebuilt'));
     this.modbus.closeAll();
     wasm.forget(this.t);
     this.t = null;
@@ -242,10 +242,6 @@ class PlantRuntime extends RuntimeBase {
     this.commands.command(request);
   }
 
-  runCommand(request) {
-    return this.commands.run(request);
-  }
-
   issueLockouts(lockouts, operation) {
     if (this.state !== 'ready') {
       if (lockouts.length) this.log('error', i18n.text('logs.lockoutsNotSent', { lines: lockouts.map((l) => l.resource).join(', ') }));
@@ -270,41 +266,6 @@ class PlantRuntime extends RuntimeBase {
 
   condition(text, sensors) {
     return this.sensors.condition(text, sensors);
-  }
-
-  /** The core's handle of sensor `id`; throws UNKNOWN_SENSOR. */
-  sensorHandle(id) {
-    return this.t.sensor(id);
-  }
-
-  /** Fresh values of `handles` at `now`; throws SENSOR_STALE / SENSOR_NO_VALUE. */
-  readSensors(handles, now) {
-    return this.t.readSensors(Uint32Array.from(handles), now);
-  }
-
-  /** The core's handle of `text` over sensor ids `sensors`; throws INVALID_CONDITION / UNKNOWN_SENSOR. */
-  compileCondition(text, sensors) {
-    return this.t.condition(text, sensors);
-  }
-
-  /** Whether condition `handle` holds on `values`: true, false, or why it gives no answer. */
-  conditionHolds(handle, values) {
-    return this.t.conditionHolds(handle, values);
-  }
-
-  /** The operation's plan (steps, then the return to idle); throws UNKNOWN_OPERATION. */
-  plan(id) {
-    return this.t.operationPlan(id);
-  }
-
-  /** A new run of operation `id` (the core's state machine); throws UNKNOWN_OPERATION. */
-  operationRun(id) {
-    return this.t.operationRun(id);
-  }
-
-  /** Resources and lockout commands for an interlock bound to this plant. */
-  interlockResources() {
-    return this.t.interlockResources();
   }
 
   routine(id) {
@@ -424,13 +385,9 @@ class PlantRuntime extends RuntimeBase {
         this.modbus.pump(e.connection);
         break;
       case 'groupCompleted':
-        this.commands.complete(e);
-        break;
       case 'groupFailed':
-        this.commands.fail(e);
-        break;
       case 'groupTimedOut':
-        this.commands.timedOut(e);
+        this.commands.settle(e);
         break;
       case 'deviceStatus':
         this.bus.deviceStatus(e);
@@ -442,8 +399,10 @@ class PlantRuntime extends RuntimeBase {
         this.bus.malformed(source ? source.bus : null, source ? source.topic : '', e.device, e.reason, e.message);
         break;
       default:
-        if (e.kind === 'completed') this.commands.recordCompleted(e);
-        else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
+        if (e.kind === 'completed' && e.timed) {
+          stats.add('command/issueToMotion', e.issueToMotionMs);
+          stats.add('command/completion', e.completionMs);
+        } else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
   }

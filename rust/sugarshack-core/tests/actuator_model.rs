@@ -502,19 +502,31 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 caller,
                 completion_ms,
                 fault_lockout_ms,
-            } => Some(Seen::GroupCompleted {
-                caller,
-                after: completion_ms.as_u64(),
-                fault_lockout: fault_lockout_ms.map(|f| f.as_u64()),
-            }),
+                actuators,
+            } => {
+                let [reached] = actuators[..] else {
+                    panic!("a completed group lists its one valve: {actuators:?}");
+                };
+                assert_eq!(
+                    reached.completion_ms, completion_ms,
+                    "the valve's completion is the group's"
+                );
+                Some(Seen::GroupCompleted {
+                    caller,
+                    after: completion_ms.as_u64(),
+                    fault_lockout: fault_lockout_ms.map(|f| f.as_u64()),
+                })
+            }
             Effect::GroupFailed {
                 caller,
                 fault,
                 retries,
                 code,
+                actuators,
                 ..
             } => {
                 assert_eq!(code, fault.code(), "a group fails with its fault's code");
+                assert!(actuators.is_empty(), "its one valve never got there");
                 Some(Seen::GroupFailed {
                     caller,
                     fault,
@@ -525,8 +537,10 @@ fn observe(effects: Vec<Effect>) -> Vec<Seen> {
                 caller,
                 timeout_ms,
                 waiting,
+                actuators,
             } => {
                 assert_eq!(waiting.len(), 1, "the valve still waited for");
+                assert!(actuators.is_empty(), "nothing else in its group");
                 Some(Seen::GroupTimedOut {
                     caller,
                     timeout: timeout_ms.as_u64(),

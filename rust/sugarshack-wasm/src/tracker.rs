@@ -61,14 +61,23 @@ export interface FaultDescription {
 export type FaultKind =
     | "no-motion" | "not-reached" | "uncommanded" | "stale" | "device-offline" | "locked-out";
 
+/** An actuator of a group command at its target, as the command's outcome lists it. */
+export interface Reached {
+    actuator: number;
+    target: number;
+    issueToMotionMs: number;
+    completionMs: number;
+    retries: number;
+}
+
 /** What the tracker asks JS to do (`takeEffects()`), and samples it refused. */
 export type TrackerEffect =
     | { kind: "publish"; device: number; topic: string; payload: string; retain: boolean }
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
     | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
-    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string }
-    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[] }
+    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number; actuators: Reached[] }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[] }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[] }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -444,6 +453,23 @@ impl Tracker {
         self.forget_last();
         self.last_device = Some(device.index() as u32);
         true
+    }
+
+    /// A device msg read by `read` (text or bytes, as it came: no copy), unless
+    /// its topic is a device the node does not serve; answered by [`Tracker::ingested`].
+    fn ingest_answered(
+        &mut self,
+        topic: &str,
+        served: Option<Vec<u32>>,
+        samples: bool,
+        read: impl FnOnce(&mut Self) -> Result<Ingest, JsValue>,
+    ) -> Result<String, JsValue> {
+        let kind = if self.unserved(topic, served.as_deref()) {
+            Ingest::Unserved
+        } else {
+            read(self)?
+        };
+        self.ingested(kind, samples)
     }
 
     /// Issues a group command read off its msg (see `command`).
@@ -838,12 +864,7 @@ impl Tracker {
         served: Option<Vec<u32>>,
         samples: bool,
     ) -> Result<String, JsValue> {
-        let kind = if self.unserved(topic, served.as_deref()) {
-            Ingest::Unserved
-        } else {
-            self.ingest(topic, payload, now_ms)?
-        };
-        self.ingested(kind, samples)
+        self.ingest_answered(topic, served, samples, |t| t.ingest(topic, payload, now_ms))
     }
 
     /// [`Tracker::ingest_msg`] for a payload as bytes (`ingestBytes`).
@@ -856,12 +877,9 @@ impl Tracker {
         served: Option<Vec<u32>>,
         samples: bool,
     ) -> Result<String, JsValue> {
-        let kind = if self.unserved(topic, served.as_deref()) {
-            Ingest::Unserved
-        } else {
-            self.ingest_bytes(topic, payload, now_ms)?
-        };
-        self.ingested(kind, samples)
+        self.ingest_answered(topic, served, samples, |t| {
+            t.ingest_bytes(topic, payload, now_ms)
+        })
     }
 
     /// The device of the last `ingest`, if its topic was a device's.

@@ -177,6 +177,8 @@ pub enum Effect {
         /// `fault_at`, see [`Tracker::command_after_fault`]) to this completion.
         #[serde(skip_serializing_if = "Option::is_none")]
         fault_lockout_ms: Option<Millis>,
+        /// Its actuators, in the order they reached their targets.
+        actuators: Vec<Reached>,
     },
     /// The group's caller waited its timeout: the group is withdrawn (as
     /// [`Tracker::withdraw`]); answer the caller with an error.
@@ -188,6 +190,8 @@ pub enum Effect {
         timeout_ms: Millis,
         /// Its actuators not at their target yet, in the command's order.
         waiting: Vec<ActuatorId>,
+        /// Its actuators that reached their targets before, in that order.
+        actuators: Vec<Reached>,
     },
     /// The group failed (fail-fast): answer the caller with an error.
     #[serde(rename_all = "camelCase")]
@@ -204,6 +208,8 @@ pub enum Effect {
         code: Code,
         /// Why, in plain words (see [`describe_fault`]).
         message: String,
+        /// Its actuators that reached their targets before, in that order.
+        actuators: Vec<Reached>,
     },
     /// A command failed its check and was sent again.
     #[serde(rename_all = "camelCase")]
@@ -412,6 +418,8 @@ struct Group {
     deadline: Option<(Millis, Millis)>,
     /// Its actuators, in the command's order.
     members: Vec<ActuatorId>,
+    /// Those at their targets so far, in that order.
+    reached: Vec<Reached>,
 }
 
 /// How a group command is carried out, beyond its targets.
@@ -429,12 +437,30 @@ pub struct Terms {
     pub timeout: Option<Millis>,
 }
 
+/// One actuator of a group at its target, as the group's outcome lists it
+/// (the figures of its [`Effect::Completed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Reached {
+    /// The actuator's handle.
+    pub actuator: ActuatorId,
+    /// The position commanded (0/1 for binary actuators).
+    pub target: f64,
+    /// From the command to the first motion seen (0 when it was there already).
+    pub issue_to_motion_ms: Millis,
+    /// From the command to its completion (0 when it was there already).
+    pub completion_ms: Millis,
+    /// Retries made before it got there.
+    pub retries: u32,
+}
+
 impl Group {
-    fn completed(&self, caller: Caller, now: Millis) -> Effect {
+    fn completed(self, caller: Caller, now: Millis) -> Effect {
         Effect::GroupCompleted {
             caller,
             completion_ms: now.saturating_sub(self.issued_ms),
             fault_lockout_ms: self.fault_at.map(|at| now.saturating_sub(at)),
+            actuators: self.reached,
         }
     }
 }
@@ -974,6 +1000,7 @@ impl Tracker {
         self.check_group(targets, caller, lockout)?;
         let mut effects = Vec::with_capacity(targets.len() + 1);
         let mut remaining = 0;
+        let mut reached = Vec::new();
         for &(id, target) in targets {
             if let Some(old) = self.actuators[id.index()].command.take() {
                 // Only a lockout gets here with a command active: it takes over.
@@ -1038,6 +1065,13 @@ impl Tracker {
                     retries: 0,
                     timed: false,
                 });
+                reached.push(Reached {
+                    actuator: id,
+                    target,
+                    issue_to_motion_ms: Millis::ZERO,
+                    completion_ms: Millis::ZERO,
+                    retries: 0,
+                });
                 continue;
             }
             a.command = Some(Command {
@@ -1062,6 +1096,7 @@ impl Tracker {
                 .filter(|t| *t > Millis::ZERO)
                 .map(|t| (t, now.saturating_add(t))),
             members: targets.iter().map(|&(id, _)| id).collect(),
+            reached,
         };
         if remaining == 0 {
             effects.push(group.completed(caller, now));
@@ -1317,16 +1352,23 @@ impl Tracker {
                 .moving_ms
                 .unwrap_or(now)
                 .saturating_sub(command.issued_ms);
+            let reached = Reached {
+                actuator: id,
+                target: command.target,
+                issue_to_motion_ms,
+                completion_ms: now.saturating_sub(command.issued_ms),
+                retries: command.retries,
+            };
             effects.push(Effect::Completed {
                 actuator: id,
                 caller: command.caller,
                 target: command.target,
                 issue_to_motion_ms,
-                completion_ms: now.saturating_sub(command.issued_ms),
+                completion_ms: reached.completion_ms,
                 retries: command.retries,
                 timed: true,
             });
-            self.complete_one(command.caller, now, effects);
+            self.complete_one(command.caller, reached, now, effects);
         }
         Ok(())
     }
@@ -1548,11 +1590,14 @@ impl Tracker {
                         .is_some_and(|c| c.caller == caller)
                 })
                 .collect();
+            let actuators =
+                std::mem::take(&mut self.groups.get_mut(&caller).expect("listed above").reached);
             self.withdraw(caller);
             effects.push(Effect::GroupTimedOut {
                 caller,
                 timeout_ms,
                 waiting,
+                actuators,
             });
         }
     }
@@ -1672,10 +1717,17 @@ impl Tracker {
         }
     }
 
-    fn complete_one(&mut self, caller: Caller, now: Millis, effects: &mut Vec<Effect>) {
+    fn complete_one(
+        &mut self,
+        caller: Caller,
+        reached: Reached,
+        now: Millis,
+        effects: &mut Vec<Effect>,
+    ) {
         let Some(group) = self.groups.get_mut(&caller) else {
             return;
         };
+        group.reached.push(reached);
         group.remaining -= 1;
         if group.remaining == 0 {
             let group = self.groups.remove(&caller).expect("present");
@@ -1693,9 +1745,9 @@ impl Tracker {
         effects: &mut Vec<Effect>,
     ) {
         let caller = failed.caller;
-        if self.groups.remove(&caller).is_none() {
+        let Some(group) = self.groups.remove(&caller) else {
             return;
-        }
+        };
         let retries = failed.retries;
         let message = self
             .describe_fault(actuator, fault, retries, Some(failed.target))
@@ -1715,6 +1767,7 @@ impl Tracker {
             retries,
             code: fault.code(),
             message,
+            actuators: group.reached,
         });
     }
 }

@@ -1183,7 +1183,7 @@ fn a_lockout_after_a_fault_reports_the_time_from_the_fault_to_isolation() {
     let done = t.feedback(v2, 49.0, None, ms(1040)).unwrap();
     assert!(has(&done, |e| matches!(
         e,
-        Effect::GroupCompleted { caller: 1, completion_ms, fault_lockout_ms: Some(f) }
+        Effect::GroupCompleted { caller: 1, completion_ms, fault_lockout_ms: Some(f), .. }
             if *completion_ms == ms(40) && *f == ms(290)
     )));
     // All in place at once; a fault time after the command counts as none elapsed.
@@ -1257,9 +1257,68 @@ fn a_group_past_its_timeout_is_withdrawn_at_the_first_tick_naming_what_it_waited
             caller: 1,
             timeout_ms: ms(1500),
             waiting: vec![v2],
+            actuators: vec![Reached {
+                actuator: v1,
+                target: 10.0,
+                issue_to_motion_ms: ms(400),
+                completion_ms: ms(400),
+                retries: 0,
+            }],
         })
     );
     assert_eq!(t.phase(v2), Some(Phase::Idle), "withdrawn");
     assert_eq!(t.next_deadline(), None);
     assert!(!t.withdraw(1), "already answered");
+}
+
+#[test]
+fn a_group_outcome_lists_the_actuators_that_reached_their_targets_in_that_order() {
+    let (mut t, v1, v2, p1) = tracker();
+    let at = |actuator, target, motion, completion| Reached {
+        actuator,
+        target,
+        issue_to_motion_ms: ms(motion),
+        completion_ms: ms(completion),
+        retries: 0,
+    };
+    // V1 is at 0 already; P1 then V2 get there.
+    t.command(&[(v2, 100.0), (v1, 0.0), (p1, 1.0)], 1, false, ms(100))
+        .unwrap();
+    t.feedback(p1, 1.0, None, ms(600)).unwrap();
+    t.feedback(v2, 40.0, None, ms(700)).unwrap();
+    let done = t.feedback(v2, 100.0, None, ms(1100)).unwrap();
+    let outcome = done
+        .iter()
+        .find(|e| matches!(e, Effect::GroupCompleted { .. }));
+    let Some(Effect::GroupCompleted { actuators, .. }) = outcome else {
+        panic!("completed: {done:?}");
+    };
+    assert_eq!(
+        actuators,
+        &vec![
+            at(v1, 0.0, 0, 0),
+            at(p1, 1.0, 500, 500),
+            at(v2, 100.0, 600, 1000)
+        ]
+    );
+
+    // A failed group lists those that got there before it failed.
+    t.command(&[(p1, 0.0), (v1, 50.0)], 2, false, ms(2000))
+        .unwrap();
+    t.feedback(p1, 0.0, None, ms(2300)).unwrap();
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let failed = t.device_status(ctrl1, false, ms(2400)).unwrap();
+    let outcome = failed
+        .iter()
+        .find(|e| matches!(e, Effect::GroupFailed { .. }));
+    let Some(Effect::GroupFailed {
+        actuators,
+        actuator,
+        ..
+    }) = outcome
+    else {
+        panic!("failed: {failed:?}");
+    };
+    assert_eq!(*actuator, v1);
+    assert_eq!(actuators, &vec![at(p1, 0.0, 300, 300)]);
 }
