@@ -147,7 +147,8 @@ class EngineRuntime extends InterlockHost {
       }
     } finally {
       this.performing = false;
-      this.deferred.length = 0;
+      // Setting an array's length is a runtime call in V8: only when something was left.
+      if (this.deferred.length !== 0) this.deferred.length = 0;
     }
     this.mayBeQuiet();
   }
