@@ -472,45 +472,6 @@ impl Tracker {
         self.ingested(kind, samples)
     }
 
-    /// Issues a group command read off its msg (see `command`).
-    #[allow(clippy::too_many_arguments)]
-    fn issue_command(
-        &mut self,
-        payload: JsValue,
-        caller: u32,
-        lockout: bool,
-        now_ms: f64,
-        within: Option<Vec<String>>,
-        fault_at_ms: Option<f64>,
-        timeout_ms: Option<f64>,
-    ) -> Result<u32, JsValue> {
-        let now = time(now_ms)?;
-        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
-        // a timeout that is none (0, NaN) sets no limit.
-        let terms = Terms {
-            lockout,
-            fault_at: fault_at_ms.and_then(Millis::whole),
-            timeout: timeout_ms.and_then(Millis::whole),
-        };
-        let payload: serde_json::Value = from_js_bounded(
-            payload,
-            Code::InvalidGroup,
-            "invalid group command",
-            Bound::GroupCommand,
-        )?;
-        let targets = self.core.parse_group(&payload).map_err(track_error)?;
-        if let Some(held) = within {
-            self.core
-                .check_within(&targets, &held)
-                .map_err(track_error)?;
-        }
-        let effects = self
-            .core
-            .issue(&targets, u64::from(caller), terms, now)
-            .map_err(track_error)?;
-        Ok(self.queue(effects))
-    }
-
     /// Queues the core's effects; a Modbus write goes to its connection's
     /// queue instead, and JS is told once that the connection has one.
     pub(crate) fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
@@ -649,15 +610,31 @@ impl Tracker {
         fault_at_ms: Option<f64>,
         timeout_ms: Option<f64>,
     ) -> Result<u32, JsValue> {
-        self.issue_command(
-            payload,
-            caller,
+        let now = time(now_ms)?;
+        // A fault time that is no time (a msg's stray `faultAtMs`) reports no fault lockout time;
+        // a timeout that is none (0, NaN) sets no limit.
+        let terms = Terms {
             lockout,
-            now_ms,
-            within,
-            fault_at_ms,
-            timeout_ms,
-        )
+            fault_at: fault_at_ms.and_then(Millis::whole),
+            timeout: timeout_ms.and_then(Millis::whole),
+        };
+        let payload: serde_json::Value = from_js_bounded(
+            payload,
+            Code::InvalidGroup,
+            "invalid group command",
+            Bound::GroupCommand,
+        )?;
+        let targets = self.core.parse_group(&payload).map_err(track_error)?;
+        if let Some(held) = within {
+            self.core
+                .check_within(&targets, &held)
+                .map_err(track_error)?;
+        }
+        let effects = self
+            .core
+            .issue(&targets, u64::from(caller), terms, now)
+            .map_err(track_error)?;
+        Ok(self.queue(effects))
     }
 
     /// A group command msg in one call: read as `readGroupMsg` reads it
@@ -687,7 +664,7 @@ impl Tracker {
                 )
             }
         };
-        self.issue_command(
+        self.command(
             payload,
             caller,
             read.lockout,
