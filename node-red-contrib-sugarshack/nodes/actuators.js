@@ -43,7 +43,7 @@ module.exports = function (RED) {
         // As an `mqtt in` node gives it: only such msgs on foreign topics may be someone else's traffic.
         fromMqtt: typeof msg.qos === 'number' && typeof msg.retain === 'boolean',
       }));
-      if (!seen.lockout && rt.feedback(node, seen.topic, seen.payload, seen.fromMqtt)) {
+      if (!seen.lockout && rt.bus.feedback(node, seen.topic, seen.payload, seen.fromMqtt)) {
         done();
         return;
       }
@@ -59,7 +59,7 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const issue = () => rt.command({ node, msg, send, done, output: 1, outputs: 3 });
+      const issue = () => rt.commands.command({ node, msg, send, done, output: 1, outputs: 3 });
       // Only a lockout goes in while a deploy drains (the core reads the msg again as it issues it).
       if (rt.draining && !readMsg(() => readGroup(msg)).lockout) rt.submit(node, done, issue);
       else issue();

@@ -16,7 +16,7 @@ module.exports = function (RED) {
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.
     onInput(node, runtime, (rt, msg, send, done) => {
-      rt.command({ node, msg, send, done, timeoutMs });
+      rt.commands.command({ node, msg, send, done, timeoutMs });
     }, 'plant', { urgent: isLockout }); // a lockout never waits for a deploy's drain
   }
 

@@ -123,7 +123,7 @@ module.exports = function (RED) {
           if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           const plan = interlock.plant.t.operationPlan(id);
           total = plan.steps.length;
-          for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.condition(step.condition, step.sensors);
+          for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.sensors.condition(step.condition, step.sensors);
           // A run of this node saved held came back held after a restart: this node supervises it again.
           const held = interlock.heldRunOf({ kind: 'node', id: node.id });
           if (held) {

@@ -27,7 +27,7 @@ module.exports = function (RED) {
           if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
           const text = String(props.sensors || '').trim();
-          condition = plant.condition(String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : []);
+          condition = plant.sensors.condition(String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : []);
           refusal = null;
           node.status({});
         } catch (err) {

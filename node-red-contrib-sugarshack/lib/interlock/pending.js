@@ -18,15 +18,11 @@ class HeldMsg {
    *   done: NodeRed.Done | null, [key: string]: any }} fields
    */
   constructor(fields) {
-    /** @type {NodeRed.Node | null} */
-    this.node = null;
-    /** @type {NodeRed.Message | null} */
-    this.msg = null;
-    /** @type {NodeRed.Send | null} */
-    this.send = null;
-    /** @type {NodeRed.Done | null} */
-    this.done = null;
     Object.assign(this, fields);
+    this.node = fields.node;
+    this.msg = fields.msg;
+    this.send = fields.send;
+    this.done = fields.done;
     this.nodeId = fields.node ? fields.node.id : null;
   }
 

@@ -101,7 +101,7 @@ class Condition {
         else if (checked.state === 'timedOut') timedOut(checked.reason);
       };
       const wait = sensors.startWait(timeoutMs, timedOut);
-      const unwatch = this.plant.watchSensors(this.handles, evaluate);
+      const unwatch = this.plant.sensors.watch(this.handles, evaluate);
       signal.cancel = (reason) => {
         sensors.cancelWait(wait);
         finish(reject, new SugarshackError('ABORTED', reason));

@@ -286,7 +286,7 @@ class RunHost {
     this.launch(index, saveFirst ? 'saved' : 'now', (settle) => {
       if (step.kind === 'wait') {
         const signal = {};
-        this.plant.condition(step.condition, step.sensors)
+        this.plant.sensors.condition(step.condition, step.sensors)
           .waitUntil(timeoutMs, signal)
           .then(() => settle(null), (err) => settle(err));
         return (reason) => signal.cancel && signal.cancel(reason);

@@ -57,10 +57,10 @@ class RoutineHost {
 
   build(saved) {
     /** @type {import('../../wasm/sugarshack_wasm').Routine} */
-    const machine = this.plant.guard(() => this.plant.routine(this.id));
+    const machine = this.plant.guard(() => this.plant.t.routine(this.id));
     const conditions = new Map();
     try {
-      for (const c of machine.conditions()) conditions.set(c.transition, this.plant.condition(c.when, c.sensors));
+      for (const c of machine.conditions()) conditions.set(c.transition, this.plant.sensors.condition(c.when, c.sensors));
     } catch (err) {
       machine.free();
       throw err;
@@ -265,7 +265,7 @@ class RoutineHost {
   watchInputs() {
     this.stopWatching();
     for (const [t, condition] of this.conditions) {
-      this.unwatch.push(this.plant.watchSensors(condition.handles, () => this.inputChanged(t)));
+      this.unwatch.push(this.plant.sensors.watch(condition.handles, () => this.inputChanged(t)));
     }
   }
 

@@ -150,9 +150,7 @@ class ModbusTransport {
       if (samples[i] !== 1) continue;
       const sensor = plant.sensorNames[samples[i + 1]];
       const value = samples[i + 2];
-      plant.bus.emitMsg(bus, {
-        topic: `sensor/${sensor}`, payload: Number.isNaN(value) ? null : value, sensor, device: plant.devices[device], timestamp: now, roundTripMs,
-      });
+      plant.bus.emit(bus, `sensor/${sensor}`, Number.isNaN(value) ? null : value, { sensor, device: plant.devices[device], timestamp: now, roundTripMs });
     }
   }
 

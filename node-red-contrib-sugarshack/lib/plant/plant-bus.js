@@ -20,7 +20,6 @@ class PlantBuses {
   constructor(plant) {
     this.plant = plant;
     this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
-    this.unserved = new Set(); // device ids already reported as served by no actuators node
     this.unsent = []; // publishes waiting for an actuators node during a deploy
     this.held = []; // publishes of a leader waiting for etcd to renew its lease
   }
@@ -33,29 +32,24 @@ class PlantBuses {
   add(node, names, broker, resolve) {
     this.list = this.list.filter((b) => b.nodeId !== node.id);
     const bus = { nodeId: node.id, node, names, devices: null, bad: 0, ignored: 0, warned: new Set(), broker: broker || null, connected: null };
-    if (resolve) this.resolveDevices(bus);
+    if (resolve) this.resolve([bus]);
     this.list.push(bus);
-    this.unserved.clear();
+    // A device served by no actuators node is reported again (the core remembers which were).
+    if (this.plant.t) this.plant.t.servingChanged();
     this.sendWaiting('unsent');
   }
 
-  /** The device handles of every bus, against the document in force. */
-  resolveAll() {
-    for (const bus of this.list) this.resolveDevices(bus);
-  }
-
-  resolveDevices(bus) {
-    if (!bus.names) return;
+  /** The device handles of `buses` (all by default), against the document in force. */
+  resolve(buses = this.list) {
     const { deviceIndex, devices } = this.plant;
-    bus.devices = new Set();
-    bus.deviceHandles = null;
-    for (const name of bus.names) {
-      const handle = deviceIndex.get(name);
-      if (handle === undefined) {
-        bus.node.error(i18n.text('logs.unknownDevice', { name, devices: devices.join(', ') }));
-      } else {
-        bus.devices.add(handle);
+    for (const bus of buses.filter((b) => b.names)) {
+      bus.devices = new Set();
+      for (const name of bus.names) {
+        const handle = deviceIndex.get(name);
+        if (handle === undefined) bus.node.error(i18n.text('logs.unknownDevice', { name, devices: devices.join(', ') }));
+        else bus.devices.add(handle);
       }
+      bus.deviceHandles = Uint32Array.from(bus.devices);
     }
   }
 
@@ -86,7 +80,6 @@ class PlantBuses {
     if (typeof topic !== 'string' || topic === '') return false;
     const { plant } = this;
     const bus = this.of(node);
-    if (bus && bus.devices && !bus.deviceHandles) bus.deviceHandles = Uint32Array.from(bus.devices);
     const served = bus && bus.devices ? bus.deviceHandles : undefined;
     const now = clock.now();
     const text = payloadText(payload);
@@ -97,7 +90,15 @@ class PlantBuses {
       : plant.t.ingestMsg(topic, text, now, served, withSamples));
     const { Ingest } = wasm.load();
     if (answer.kind === Ingest.Command) return false;
-    if (answer.kind === Ingest.Foreign) return fromMqtt && this.ignore(bus);
+    if (answer.kind === Ingest.Foreign) {
+      if (!fromMqtt) return false;
+      // On a topic of no device and no group command: someone else's traffic, ignored and counted.
+      if (bus) {
+        bus.ignored += 1;
+        plant.refreshStatus(node);
+      }
+      return true;
+    }
     if (answer.kind === Ingest.Other) return true;
     if (answer.kind === Ingest.Unserved) {
       const device = plant.devices[answer.device];
@@ -110,38 +111,28 @@ class PlantBuses {
     return true;
   }
 
-  /** An MQTT msg on a topic of no device that is no group command: someone else's traffic (ignored, counted). */
-  ignore(bus) {
-    if (bus) {
-      bus.ignored += 1;
-      this.plant.refreshStatus(bus.node);
-    }
-    return true;
-  }
-
   malformed(bus, topic, device, reason, message) {
-    if (!bus) return;
-    bus.bad += 1;
-    this.warnOnce(bus, topic, reason, `ignored ${clip(topic)}: ${message}`);
-    this.emit(bus, `actuator/malformed/${device}`, { kind: 'malformed', device, topic, reason, message, count: bus.bad });
+    if (bus) this.bad(bus, topic, reason, `ignored ${clip(topic)}: ${message}`, `actuator/malformed/${device}`, { kind: 'malformed', device, topic, reason, message });
   }
 
   /** A sample the core refused (`source`: the feedback msg's bus and topic, when it came from one). */
   reject(e, source) {
     const a = this.plant.actuators[e.actuator];
     const bus = (source && source.bus) || this.serving(a.deviceHandle);
-    if (!bus) return;
-    bus.bad += 1;
-    this.warnOnce(bus, source ? source.topic : a.device, e.code, i18n.text('logs.sampleIgnored', { topic: source ? source.topic : a.device, message: e.message }));
-    this.emit(bus, `actuator/rejected/${a.id}`, { ...e, actuator: a.id, topic: source ? source.topic : null, count: bus.bad });
+    const topic = source ? source.topic : a.device;
+    if (bus) this.bad(bus, topic, e.code, i18n.text('logs.sampleIgnored', { topic, message: e.message }), `actuator/rejected/${a.id}`, { ...e, actuator: a.id, topic: source ? source.topic : null });
   }
 
-  warnOnce(bus, topic, reason, text) {
+  /** Bad input on `bus`: counted, warned about once per topic and reason, and told as `event` on its events output. */
+  bad(bus, topic, reason, warning, event, payload) {
+    bus.bad += 1;
     // Keyed by the start of the topic: a stream of long distinct topics must not grow the set by their size.
     const key = `${String(topic).slice(0, 200)}\u0000${reason}`;
-    if (bus.warned.has(key) || bus.warned.size >= MAX_WARNED) return;
-    bus.warned.add(key);
-    bus.node.warn(text);
+    if (!bus.warned.has(key) && bus.warned.size < MAX_WARNED) {
+      bus.warned.add(key);
+      bus.node.warn(warning);
+    }
+    this.emit(bus, event, { ...payload, count: bus.bad });
   }
 
   // ---- msgs out ------------------------------------------------------------
@@ -161,10 +152,7 @@ class PlantBuses {
         if (this.unsent.length < MAX_UNSENT) this.unsent.push(e);
         return;
       }
-      if (!this.unserved.has(name)) {
-        this.unserved.add(name);
-        plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
-      }
+      if (plant.t.reportUnserved(e.device)) plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
       return;
     }
     bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
@@ -207,13 +195,9 @@ class PlantBuses {
     this.emit(bus, `actuator/${e.kind}/${a.id}`, payload);
   }
 
-  emit(bus, topic, payload) {
-    this.emitMsg(bus, { topic, payload });
-  }
-
-  /** A msg on the events output (the third) of an actuators node, if it is wired. */
-  emitMsg(bus, msg) {
-    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, msg]);
+  /** A msg on the events output (the third) of an actuators node, if it is wired; `extra`: its other properties. */
+  emit(bus, topic, payload, extra = undefined) {
+    if (bus && bus.node && eventsWired(bus.node)) bus.node.send([null, null, Object.assign({ topic, payload }, extra)]);
   }
 
   /**

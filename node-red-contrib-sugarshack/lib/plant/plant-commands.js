@@ -35,9 +35,8 @@ class GroupCommands {
       topic: msg.topic, lockout: msg.lockout, interlock: msg.interlock, payload: msg.payload, faultAtMs: msg.faultAtMs,
     }));
     const caller = this.newCaller();
-    const now = clock.now();
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, caller, now, typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
+    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, caller, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
     this.pending.set(caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
@@ -51,9 +50,8 @@ class GroupCommands {
   run({ payload, timeoutMs, within, onDone }) {
     const { plant } = this;
     const caller = this.newCaller();
-    const now = clock.now();
-    plant.guard(() => plant.t.command(payload, caller, false, now, within, undefined, timeoutMs));
-    const entry = callbackEntry({ onDone });
+    plant.guard(() => plant.t.command(payload, caller, false, clock.now(), within, undefined, timeoutMs));
+    const entry = callbackEntry(onDone);
     this.pending.set(caller, entry);
     plant.flush(null);
     plant.followDeadline();
@@ -81,7 +79,7 @@ class GroupCommands {
       try {
         const caller = this.newCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
-        this.pending.set(caller, callbackEntry({ onDone, lockout: true }));
+        this.pending.set(caller, callbackEntry(onDone, true));
         plant.flush(null);
       } catch (err) {
         plant.log('error', i18n.text('logs.lockoutNotSent', { line: resource, message: err.message }));
@@ -127,7 +125,7 @@ class GroupCommands {
     const entries = this.entries();
     this.pending.clear();
     this.plant.mayBeQuiet();
-    for (const entry of entries) if (error) entry.refuse(error); else entry.abandon();
+    for (const entry of entries) if (error) entry.reject(error); else entry.abandon();
   }
 
   /** Withdraws the commands of node `nodeId` that no next instance took over. */
@@ -145,73 +143,50 @@ class GroupCommands {
 
   /**
    * A command's outcome (groupCompleted, groupFailed, groupTimedOut: the core
-   * lists the actuators that reached their targets): the same msg goes on
+   * tells it by ids, with the actuators that reached their targets): the same msg goes on
    * from the node that holds it (a link call return stays intact), or ends
    * with an error a Catch node can turn into a fault of the operation.
    */
   settle(e) {
-    const { plant } = this;
     const entry = this.pending.get(e.caller);
     if (!entry) return;
     this.take(e.caller);
-    const id = (handle) => plant.actuators[handle].id;
-    const actuators = e.actuators.map((reached) => ({ ...reached, actuator: id(reached.actuator) }));
+    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
+    if (e.faultLockoutMs !== undefined) stats.add('fault/lockout', e.faultLockoutMs);
+    // `e.command`: the outcome by ids, as the core tells it to the msg.
     if (e.kind === 'groupCompleted') {
-      const result = { completionMs: e.completionMs, actuators };
-      // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-      if (e.faultLockoutMs !== undefined) {
-        result.faultLockoutMs = e.faultLockoutMs;
-        stats.add('fault/lockout', e.faultLockoutMs);
-      }
-      entry.complete(result);
+      entry.complete(e.command);
       return;
     }
-    const timedOut = e.kind === 'groupTimedOut';
-    const waiting = timedOut ? e.waiting.map(id) : null;
-    if (entry.msg) {
-      const a = plant.actuators[e.actuator];
-      entry.msg.command = timedOut ? { waiting, actuators } : { failed: { actuator: a.id, device: a.device, fault: e.fault, retries: e.retries }, actuators };
-    }
-    const code = timedOut ? 'COMMAND_TIMEOUT' : e.code;
-    if (entry.node) plant.showError(entry.node, code);
-    entry.refuse(timedOut ? SugarshackError.of(code, 'commandTimeout', { within: seconds(e.timeoutMs), waiting: waiting.join(', ') }) : new SugarshackError(code, e.message));
+    if (entry.msg) entry.msg.command = e.command;
+    const code = e.kind === 'groupTimedOut' ? 'COMMAND_TIMEOUT' : e.code;
+    if (entry.node) this.plant.showError(entry.node, code);
+    entry.reject(e.command.waiting ? SugarshackError.of(code, 'commandTimeout', { within: seconds(e.timeoutMs), waiting: e.command.waiting.join(', ') }) : new SugarshackError(code, e.message));
   }
 }
 
-/** A group command msg held by a group command or actuators node until its command completes. */
+/** A group command msg held by a group command or actuators node until its command completes; then it leaves on `output`. */
 function msgEntry({ node, msg, send, done, output, outputs, lockout }) {
-  const entry = heldMsg({ node, msg, send, done, output, outputs, lockout });
+  const entry = heldMsg({ node, msg, send, done, lockout });
   entry.complete = (result) => {
     msg.command = result;
-    if (entry.send) {
-      if (outputs === 1) {
-        entry.send(msg);
-      } else {
-        const out = new Array(outputs).fill(null);
-        out[output] = msg;
-        entry.send(out);
-      }
-    }
+    const out = new Array(outputs).fill(null);
+    out[output] = msg;
+    if (entry.send) entry.send(out);
     if (entry.done) entry.done();
   };
-  entry.refuse = entry.reject;
   return entry;
 }
 
 /**
- * A group command of the palette itself (an operation step, a lockout): the outcome goes to `onDone`, once.
- * @param {{ onDone: (err: Error | null) => void, lockout?: boolean }} args
+ * A group command of the palette itself (an operation step, a lockout): the
+ * outcome goes to `onDone` (once: an entry is answered as it leaves `pending`).
+ * @param {(err: Error | null) => void} onDone
  */
-function callbackEntry({ onDone, lockout = false }) {
+function callbackEntry(onDone, lockout = false) {
   const entry = heldMsg({ node: null, msg: null, send: null, done: null, lockout });
-  let answered = false;
-  const answer = (err) => {
-    if (answered) return;
-    answered = true;
-    onDone(err || null);
-  };
-  entry.complete = () => answer(null);
-  entry.refuse = (err) => answer(err);
+  entry.complete = () => onDone(null);
+  entry.reject = onDone;
   return entry;
 }
 

@@ -25,8 +25,6 @@ const { clusterOf } = require('../cluster');
 // How often each actuators node's broker connection is looked at (its config node tells no one).
 const BROKER_POLL_MS = 250;
 const MAX_TIMER_MS = 2 ** 31 - 1;
-// The effects after which a device's availability or staleness (its alarm conditions) may differ.
-const HEALTH_EFFECTS = new Set(['deviceStatus', 'fault', 'recovered']);
 
 class PlantRuntime extends RuntimeBase {
   /**
@@ -103,12 +101,17 @@ class PlantRuntime extends RuntimeBase {
       return;
     }
     this.state = 'ready';
-    this.followDeadline();
+    this.tracking();
+    this.replayParked();
+  }
+
+  /** A new tracker in force: the timer, the Modbus links, the status and the alarm conditions follow it. */
+  tracking() {
     this.changes.rebuilt();
+    this.followDeadline();
     this.modbus.sync();
     this.refreshStatus();
     this.conditionsMayHaveChanged();
-    this.replayParked();
   }
 
   fail(err) {
@@ -116,23 +119,19 @@ class PlantRuntime extends RuntimeBase {
     this.conditionsMayHaveChanged();
   }
 
+  /** A core tracker for `plant`; its ids, types and per-device slots are read once. */
   makeTracker(plant) {
     const { Tracker } = wasm.load();
     const t = new Tracker(plant, clock.now());
-    this.index(t, plant);
-    for (const warning of t.warnings()) this.log('warn', i18n.text('logs.plantWarning', { warning }));
-    return t;
-  }
-
-  /** Ids, types and per-device slots, read once from the core. */
-  index(t, plant) {
     this.devices = t.devices();
     this.deviceIndex = new Map(this.devices.map((id, handle) => [id, handle]));
     const deviceIndex = this.deviceIndex;
     this.actuators = t.actuators().map((a) => ({ ...a, deviceHandle: deviceIndex.get(a.device) }));
     this.sensorNames = [];
     for (const sensor of plant.sensors || []) this.sensorNames[t.sensor(sensor.id)] = sensor.id;
-    this.bus.resolveAll();
+    this.bus.resolve();
+    for (const warning of t.warnings()) this.log('warn', i18n.text('logs.plantWarning', { warning }));
+    return t;
   }
 
   /** A shutdown: held msgs are completed unsent; nothing else moves. */
@@ -198,11 +197,7 @@ class PlantRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
-    this.changes.rebuilt();
-    this.followDeadline();
-    this.modbus.sync();
-    this.refreshStatus();
-    this.conditionsMayHaveChanged();
+    this.tracking();
   }
 
   // ---- nodes using this plant ----------------------------------------------
@@ -238,10 +233,6 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- calls from nodes and runs (see the part each goes to) ---------------
 
-  command(request) {
-    this.commands.command(request);
-  }
-
   issueLockouts(lockouts, operation) {
     if (this.state !== 'ready') {
       if (lockouts.length) this.log('error', i18n.text('logs.lockoutsNotSent', { lines: lockouts.map((l) => l.resource).join(', ') }));
@@ -250,26 +241,10 @@ class PlantRuntime extends RuntimeBase {
     this.commands.lockouts(lockouts, operation);
   }
 
-  feedback(node, topic, payload, fromMqtt = false) {
-    return this.bus.feedback(node, topic, payload, fromMqtt);
-  }
-
   /** Writes a Modbus output (`output/<id>`), untracked; throws UNKNOWN_OUTPUT, INVALID_TARGET, DEVICE_OFFLINE. */
   output(id, value) {
     this.guard(() => this.t.output(id, value, clock.now()));
     this.flush(null);
-  }
-
-  watchSensors(handles, fn) {
-    return this.sensors.watch(handles, fn);
-  }
-
-  condition(text, sensors) {
-    return this.sensors.condition(text, sensors);
-  }
-
-  routine(id) {
-    return this.t.routine(id);
   }
 
   // ---- time and effects ----------------------------------------------------
@@ -338,41 +313,29 @@ class PlantRuntime extends RuntimeBase {
   /**
    * After every core call: act on its effects, then update status. `source`:
    * the feedback msg's bus and topic. `answer`: what the call answered in one
-   * value (effects, next deadline, counts), else the effects are taken. A
+   * value (effects, whether they may move the status or the devices' health,
+   * next deadline, counts), else the queued effects are taken as one. A
    * feedback msg whose effects are only new values (or none: the usual report
    * of positions that did not move) changed no count, so the status is left as it is.
    * @param {{ bus: any, topic: string } | null} source
-   * @param {{ effects?: any[], deadline?: number, counts?: any, lockout?: boolean } | null} [answer]
+   * @param {{ effects?: any[], status?: boolean, health?: boolean, deadline?: number, counts?: any, lockout?: boolean }} [answer]
    */
-  flush(source, answer = null) {
-    const effects = answer ? answer.effects || [] : this.t.queued() > 0 ? this.t.takeEffects() : [];
-    let counted = source === null;
-    let health = false;
+  flush(source, answer = this.t.queued() > 0 ? JSON.parse(this.t.takeAnswer()) : {}) {
+    const effects = answer.effects || [];
     try {
-      for (const effect of effects) {
-        this.route(effect, source);
-        if (effect.kind !== 'changed') {
-          counted = true;
-          if (HEALTH_EFFECTS.has(effect.kind)) health = true;
-        }
-      }
+      for (const effect of effects) this.route(effect, source);
     } catch (err) {
-      counted = true;
-      health = true;
+      answer.status = true;
+      answer.health = true;
       this.log('error', i18n.text('logs.effectsNotRouted', { message: err.message || err }));
     }
-    if (health) this.conditionsMayHaveChanged();
-    // An answer with effects or a command carries the core's next wake; after other calls with effects it is asked.
-    if (answer && (answer.effects || answer.lockout !== undefined)) this.setDeadline(answer.deadline);
-    else if (!answer && effects.length > 0) this.followDeadline();
+    if (answer.health) this.conditionsMayHaveChanged();
+    // An answer with effects or a command carries the core's next wake.
+    if (answer.effects || answer.lockout !== undefined) this.setDeadline(answer.deadline);
     this.changes.effects(effects);
-    if (!counted) {
-      if (this.palette) this.palette.changes.touch(this);
-    } else if (source === null) {
-      this.refreshStatus(undefined, answer ? answer.counts : undefined);
-    } else {
-      this.statusView.request();
-    }
+    if (source === null) this.refreshStatus(undefined, answer.counts);
+    else if (answer.status) this.statusView.request();
+    else if (this.palette) this.palette.changes.touch(this);
   }
 
   /** One effect of the core, to the part it concerns. */
@@ -436,21 +399,11 @@ class PlantRuntime extends RuntimeBase {
    * The plant as a person (or a dashboard) reads it: unconfirmed lockouts,
    * each device online or offline and its actuators with stale feedback, the
    * last value of every sensor and whether it is fresh, each actuators node's
-   * broker connection.
+   * broker connection; the document's operations in its words.
    */
   describe() {
     if (this.state !== 'ready') return { failure: this.failure ? { code: this.failure.code, message: this.failure.message } : null };
-    const health = this.t.health(clock.now());
-    return {
-      lockoutsPending: this.t.pendingLockouts().map((o) => ({ ...o, actuator: this.actuators[o.actuator].id })),
-      buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })),
-      devicesOffline: health.devicesOffline,
-      devices: health.devices,
-      sensors: health.sensors,
-      actuators: health.actuators,
-      // The document's words for its operations, so that an operator reads "load truck", not "10".
-      operations: (this.plant.operations || []).map((o) => ({ id: o.id, description: o.description || '', resources: o.resources || [] })),
-    };
+    return { ...this.t.health(clock.now()), buses: this.buses.map((b) => ({ node: b.nodeId, connected: b.connected })) };
   }
 
   /** `counts`: the core's counts of every actuator, if a call just answered them. */
@@ -464,6 +417,8 @@ class PlantRuntime extends RuntimeBase {
 }
 
 // The actuator layer's own time per call, for the overhead figures.
-timeLayer(PlantRuntime, 'actuator', ['command', 'feedback', 'wake']);
+timeLayer(PlantRuntime, 'actuator', ['wake']);
+timeLayer(GroupCommands, 'actuator', ['command']);
+timeLayer(PlantBuses, 'actuator', ['feedback']);
 
 module.exports = { PlantRuntime };

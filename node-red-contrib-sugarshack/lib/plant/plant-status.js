@@ -102,7 +102,6 @@ class PlantStatus {
 
   /** Counts of the actuators on a bus's devices (phases and unconfirmed lockouts, kept by the core). */
   countsOn(bus) {
-    if (!bus.deviceHandles) bus.deviceHandles = Uint32Array.from(bus.devices);
     return countsOf(this.plant.t.countsOn(bus.deviceHandles));
   }
 }

@@ -61,6 +61,15 @@ export interface FaultDescription {
 export type FaultKind =
     | "no-motion" | "not-reached" | "uncommanded" | "stale" | "device-offline" | "locked-out";
 
+/** What a group command's caller is told (a held msg's `msg.command`), by ids. */
+export interface GroupOutcome {
+    completionMs?: number;
+    faultLockoutMs?: number;
+    waiting?: string[];
+    failed?: { actuator: string; device: string; fault: FaultKind; retries: number };
+    actuators: { actuator: string; target: number; issueToMotionMs: number; completionMs: number; retries: number }[];
+}
+
 /** An actuator of a group command at its target, as the command's outcome lists it. */
 export interface Reached {
     actuator: number;
@@ -75,9 +84,9 @@ export type TrackerEffect =
     | { kind: "publish"; device: number; topic: string; payload: string; retain: boolean }
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
     | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
-    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number; actuators: Reached[] }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[] }
-    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[] }
+    | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number; actuators: Reached[]; command: GroupOutcome }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[]; command: GroupOutcome }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[]; command: GroupOutcome }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -130,6 +139,10 @@ export interface PlantHealth {
     devicesOffline: string[];
     sensors: SensorHealth[];
     actuators: ActuatorPosition[];
+    /** Lockouts feedback has not confirmed yet, by actuator id, in plant order. */
+    lockoutsPending: { actuator: string; target: number; sinceMs: number; sends: number }[];
+    /** The document's operations in its words. */
+    operations: { id: string; description: string; resources: string[] }[];
 }
 "#;
 
@@ -145,6 +158,12 @@ fn track_error(err: TrackError) -> JsValue {
 #[derive(Serialize)]
 #[serde(untagged)]
 enum Output {
+    /// A group command's outcome, with what its caller is told by ids (`command`).
+    Outcome {
+        #[serde(flatten)]
+        effect: Effect,
+        command: sugarshack_core::actuator::Outcome,
+    },
     Effect(Effect),
     #[serde(rename_all = "camelCase")]
     Rejected {
@@ -168,6 +187,16 @@ enum Output {
         reason: String,
         message: String,
     },
+}
+
+impl Output {
+    /// The core's effect it carries, if any.
+    fn effect(&self) -> Option<&Effect> {
+        match self {
+            Output::Effect(e) | Output::Outcome { effect: e, .. } => Some(e),
+            _ => None,
+        }
+    }
 }
 
 /// What [`Tracker::ingest`] made of a message.
@@ -222,6 +251,12 @@ struct Answer<'a> {
     /// With a command: whether it is a lockout.
     #[serde(skip_serializing_if = "Option::is_none")]
     lockout: Option<bool>,
+    /// Whether an effect may move what the status shows (anything but new values).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    status: bool,
+    /// Whether an effect may move a device's availability or staleness (its alarm conditions).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    health: bool,
 }
 
 /// Device payloads larger than this are refused unread.
@@ -259,6 +294,26 @@ struct HealthView<'a> {
     devices_offline: Vec<String>,
     sensors: Vec<SensorView<'a>>,
     actuators: Vec<PositionView<'a>>,
+    lockouts_pending: Vec<LockoutView<'a>>,
+    operations: Vec<OperationView<'a>>,
+}
+
+/// A lockout feedback has not confirmed yet, by the actuator's id.
+#[derive(serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+struct LockoutView<'a> {
+    actuator: &'a str,
+    target: f64,
+    since_ms: Millis,
+    sends: u32,
+}
+
+/// An operation in the document's words, so that an operator reads "load truck", not "10".
+#[derive(serde::Serialize)]
+struct OperationView<'a> {
+    id: &'a str,
+    description: &'a str,
+    resources: &'a [String],
 }
 
 /// An actuator as an operator sees it on its line: where it was told to be and where it is.
@@ -414,6 +469,12 @@ impl Tracker {
             answer.deadline = self.next_wake();
         }
         let answer = Answer {
+            status: effects
+                .iter()
+                .any(|o| o.effect().is_none_or(Effect::moves_status)),
+            health: effects
+                .iter()
+                .any(|o| o.effect().is_some_and(Effect::moves_health)),
             effects: &effects,
             ..answer
         };
@@ -477,7 +538,10 @@ impl Tracker {
     pub(crate) fn queue(&mut self, effects: impl IntoIterator<Item = Effect>) -> u32 {
         for effect in effects {
             let Effect::Write { device, request } = effect else {
-                self.effects.push(Output::Effect(effect));
+                self.effects.push(match self.core.outcome(&effect) {
+                    Some(command) => Output::Outcome { effect, command },
+                    None => Output::Effect(effect),
+                });
                 continue;
             };
             let Some(connection) = self.links.enqueue(device, request) else {
@@ -829,7 +893,7 @@ impl Tracker {
     }
 
     /// One device msg in one call: `ingest` (text) and what it did, as JSON
-    /// text `{ kind, device?, ts?, sensors?, samples?, effects?, deadline? }`
+    /// text `{ kind, device?, ts?, sensors?, samples?, effects?, status?, health?, deadline? }`
     /// (see `Answer`). `served`: the devices of the actuators node it came to
     /// (all when none); `samples`: whether to list the values read.
     #[wasm_bindgen(js_name = ingestMsg)]
@@ -983,6 +1047,26 @@ impl Tracker {
         self.effects.clear();
         self.send_queued.fill(false);
         out
+    }
+
+    /// The queued effects as [`Tracker::ingestMsg`] answers them (with the
+    /// next deadline when there are any), in one JSON text.
+    #[wasm_bindgen(js_name = takeAnswer, unchecked_return_type = "string")]
+    pub fn take_answer(&mut self) -> Result<String, JsValue> {
+        self.answer(Answer::default())
+    }
+
+    /// A publish for `device` (a handle) found no actuators node serving it:
+    /// true when that is to be reported (once, until `servingChanged`).
+    #[wasm_bindgen(js_name = reportUnserved)]
+    pub fn report_unserved(&mut self, device: u32) -> bool {
+        self.core.unserved(DeviceId::from_index(device))
+    }
+
+    /// The actuators nodes serving the devices changed: an unserved device is reported again.
+    #[wasm_bindgen(js_name = servingChanged)]
+    pub fn serving_changed(&mut self) {
+        self.core.serving_changed();
     }
 
     /// `{ moving, stopped, faulted, lockoutsPending }`.
@@ -1163,8 +1247,8 @@ impl Tracker {
     /// What an operator reads of the plant now: `{ devices: [{ device, online,
     /// stale: [actuator] }], sensors: [{ sensor, unit, value, receivedMs, fresh,
     /// why }], actuators: [{ actuator, type, device, resource, unit, binary,
-    /// commanded, reported, phase }] }` (`value` null before the first sample
-    /// or when the device reports none).
+    /// commanded, reported, phase }], lockoutsPending, operations }` (`value`
+    /// null before the first sample or when the device reports none).
     #[wasm_bindgen(unchecked_return_type = "PlantHealth")]
     pub fn health(&self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = time(now_ms)?;
@@ -1206,11 +1290,33 @@ impl Tracker {
                 }
             })
             .collect();
+        let lockouts_pending = self
+            .core
+            .pending_lockouts()
+            .into_iter()
+            .map(|o| LockoutView {
+                actuator: &plant.actuators[o.actuator.index()].id,
+                target: o.target,
+                since_ms: o.since_ms,
+                sends: o.sends,
+            })
+            .collect();
+        let operations = plant
+            .operations
+            .iter()
+            .map(|o| OperationView {
+                id: &o.id,
+                description: o.description.as_deref().unwrap_or_default(),
+                resources: &o.resources,
+            })
+            .collect();
         to_js(&HealthView {
             devices: self.core.device_health(),
             devices_offline: self.core.devices_offline(),
             sensors,
             actuators,
+            lockouts_pending,
+            operations,
         })
     }
 

@@ -333,3 +333,56 @@ fn a_wait_is_a_deadline_of_the_tracker_and_times_out_with_its_last_reason() {
         "INVALID_INPUT"
     );
 }
+
+#[wasm_bindgen_test]
+fn an_answer_says_whether_the_status_and_the_devices_health_may_have_moved() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let v12 = t.slot(ctrl1, "valve", 12).unwrap();
+    let answer = |t: &mut Tracker| {
+        serde_json::from_str::<serde_json::Value>(&t.take_answer().unwrap()).unwrap()
+    };
+    assert_eq!(answer(&mut t), serde_json::json!({}), "nothing queued");
+    t.feedback(v12, 0.0, None, 10.0).unwrap();
+    t.take_effects().unwrap();
+    t.feedback(v12, 40.0, None, 20.0).unwrap();
+    let changed = answer(&mut t);
+    assert_eq!(changed["effects"][0]["kind"], "changed");
+    assert!(
+        changed.get("status").is_none() && changed.get("health").is_none(),
+        "{changed}"
+    );
+    t.device_status(ctrl1, false, 30.0).unwrap();
+    let offline = answer(&mut t);
+    assert_eq!(offline["status"], true, "{offline}");
+    assert_eq!(offline["health"], true, "{offline}");
+
+    assert!(t.report_unserved(ctrl1), "reported the first time");
+    assert!(!t.report_unserved(ctrl1));
+    t.serving_changed();
+    assert!(t.report_unserved(ctrl1));
+}
+
+#[wasm_bindgen_test]
+fn health_lists_unconfirmed_lockouts_by_actuator_id() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    t.command(
+        json(r#"{ "valves": { "V12": 0 } }"#),
+        3,
+        true,
+        100.0,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
+    let health = t.health(200.0).unwrap();
+    let pending = Array::from(&get(&health, "lockoutsPending"));
+    assert_eq!(pending.length(), 1);
+    assert_eq!(
+        get(&pending.get(0), "actuator").as_string().as_deref(),
+        Some("V12")
+    );
+    assert_eq!(get(&pending.get(0), "sends").as_f64(), Some(1.0));
+    assert_eq!(Array::from(&get(&health, "operations")).length(), 0);
+}

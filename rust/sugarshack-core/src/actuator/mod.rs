@@ -277,6 +277,22 @@ pub enum Effect {
     },
 }
 
+impl Effect {
+    /// Whether the host's status may read differently after it: anything but a
+    /// new feedback value (report by exception) may move the counts.
+    pub fn moves_status(&self) -> bool {
+        !matches!(self, Effect::Changed { .. })
+    }
+
+    /// Whether a device's availability or staleness (its alarm conditions) may differ after it.
+    pub fn moves_health(&self) -> bool {
+        matches!(
+            self,
+            Effect::DeviceStatus { .. } | Effect::Fault { .. } | Effect::Recovered { .. }
+        )
+    }
+}
+
 /// A device as an operator sees it: online, and which of its actuators went silent.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceHealth {
@@ -405,6 +421,8 @@ struct DeviceState {
     online: bool,
     /// A status or a sample of its actuators has come from it since the start.
     heard: bool,
+    /// A publish for it found no node serving it, and was reported (see [`Tracker::unserved`]).
+    unserved_told: bool,
     actuators: Vec<ActuatorId>,
 }
 
@@ -444,6 +462,57 @@ pub struct Terms {
 pub struct Reached {
     /// The actuator's handle.
     pub actuator: ActuatorId,
+    /// The position commanded (0/1 for binary actuators).
+    pub target: f64,
+    /// From the command to the first motion seen (0 when it was there already).
+    pub issue_to_motion_ms: Millis,
+    /// From the command to its completion (0 when it was there already).
+    pub completion_ms: Millis,
+    /// Retries made before it got there.
+    pub retries: u32,
+}
+
+/// What a group command's caller is told of its outcome (a held msg's
+/// `msg.command`), by actuator and device ids: the actuators that reached
+/// their targets, and those it waited for (a timeout) or the one that failed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Outcome {
+    /// From the command to the last completion (completed only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub completion_ms: Option<Millis>,
+    /// From the fault the command answered to its completion (a fault's lockout).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fault_lockout_ms: Option<Millis>,
+    /// Not at their targets when it timed out, in the command's order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waiting: Option<Vec<String>>,
+    /// The actuator that failed it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failed: Option<Failed>,
+    /// Those that reached their targets, in that order.
+    pub actuators: Vec<ReachedBy>,
+}
+
+/// The actuator that failed a group command, by id.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Failed {
+    /// The actuator's id.
+    pub actuator: String,
+    /// Its device's id.
+    pub device: String,
+    /// Which failure.
+    pub fault: FaultKind,
+    /// Retries of the command before it failed.
+    pub retries: u32,
+}
+
+/// [`Reached`] by the actuator's id.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct ReachedBy {
+    /// The actuator's id.
+    pub actuator: String,
     /// The position commanded (0/1 for binary actuators).
     pub target: f64,
     /// From the command to the first motion seen (0 when it was there already).
@@ -601,6 +670,7 @@ impl Tracker {
                 name: d.id.clone(),
                 online: true,
                 heard: false,
+                unserved_told: false,
                 actuators: Vec::new(),
             })
             .collect();
@@ -787,6 +857,80 @@ impl Tracker {
         }
         counts.offline_devices = self.devices.iter().filter(|d| !d.online).count();
         counts
+    }
+
+    /// The outcome of a group command in `effect` (completed, failed, timed
+    /// out), by ids; none for another effect.
+    pub fn outcome(&self, effect: &Effect) -> Option<Outcome> {
+        let name = |id: ActuatorId| self.actuators[id.index()].name.clone();
+        let by_id = |reached: &[Reached]| {
+            reached
+                .iter()
+                .map(|r| ReachedBy {
+                    actuator: name(r.actuator),
+                    target: r.target,
+                    issue_to_motion_ms: r.issue_to_motion_ms,
+                    completion_ms: r.completion_ms,
+                    retries: r.retries,
+                })
+                .collect()
+        };
+        let none = |actuators| Outcome {
+            completion_ms: None,
+            fault_lockout_ms: None,
+            waiting: None,
+            failed: None,
+            actuators,
+        };
+        Some(match effect {
+            Effect::GroupCompleted {
+                completion_ms,
+                fault_lockout_ms,
+                actuators,
+                ..
+            } => Outcome {
+                completion_ms: Some(*completion_ms),
+                fault_lockout_ms: *fault_lockout_ms,
+                ..none(by_id(actuators))
+            },
+            Effect::GroupTimedOut {
+                waiting, actuators, ..
+            } => Outcome {
+                waiting: Some(waiting.iter().map(|&id| name(id)).collect()),
+                ..none(by_id(actuators))
+            },
+            Effect::GroupFailed {
+                actuator,
+                fault,
+                retries,
+                actuators,
+                ..
+            } => Outcome {
+                failed: Some(Failed {
+                    actuator: name(*actuator),
+                    device: self.plant.actuators[actuator.index()].device.clone(),
+                    fault: *fault,
+                    retries: *retries,
+                }),
+                ..none(by_id(actuators))
+            },
+            _ => return None,
+        })
+    }
+
+    /// A publish for `device` found no node serving it: true when that is to
+    /// be reported (once per device until [`Tracker::serving_changed`]).
+    pub fn unserved(&mut self, device: DeviceId) -> bool {
+        self.devices
+            .get_mut(device.index())
+            .is_some_and(|d| !std::mem::replace(&mut d.unserved_told, true))
+    }
+
+    /// The nodes serving the devices changed: a device served by none is reported again.
+    pub fn serving_changed(&mut self) {
+        for d in &mut self.devices {
+            d.unserved_told = false;
+        }
     }
 
     /// Lockouts not yet confirmed by feedback, in actuator order.

@@ -1322,3 +1322,102 @@ fn a_group_outcome_lists_the_actuators_that_reached_their_targets_in_that_order(
     assert_eq!(*actuator, v1);
     assert_eq!(actuators, &vec![at(p1, 0.0, 300, 300)]);
 }
+
+#[test]
+fn only_a_device_status_a_fault_or_a_recovery_moves_health_and_only_a_new_value_leaves_the_status()
+{
+    let (mut t, v1, _, _) = tracker();
+    let changed = t.feedback(v1, 40.0, None, ms(100)).unwrap();
+    assert!(matches!(changed.as_slice(), [Effect::Changed { .. }]));
+    assert!(changed
+        .iter()
+        .all(|e| !e.moves_status() && !e.moves_health()));
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let offline = t.device_status(ctrl1, false, ms(200)).unwrap();
+    assert!(offline
+        .iter()
+        .any(|e| matches!(e, Effect::DeviceStatus { .. }) && e.moves_health()));
+    let issued = t.command(&[(v1, 80.0)], 7, false, ms(300)).unwrap();
+    assert!(!issued.is_empty());
+    for e in &issued {
+        assert!(e.moves_status(), "{e:?}");
+        assert_eq!(
+            e.moves_health(),
+            matches!(
+                e,
+                Effect::DeviceStatus { .. } | Effect::Fault { .. } | Effect::Recovered { .. }
+            )
+        );
+    }
+}
+
+#[test]
+fn a_device_served_by_no_node_is_reported_once_until_the_serving_nodes_change() {
+    let (mut t, _, _, _) = tracker();
+    let [ctrl1, ctrl2] = ["ctrl-1", "ctrl-2"].map(|n| t.device(n).unwrap());
+    assert!(t.unserved(ctrl1));
+    assert!(!t.unserved(ctrl1));
+    assert!(t.unserved(ctrl2), "each device is reported on its own");
+    t.serving_changed();
+    assert!(t.unserved(ctrl1));
+    assert!(!t.unserved(ctrl1));
+    assert!(!t.unserved(DeviceId::from_index(99)), "no such device");
+}
+
+#[test]
+fn a_group_outcome_is_told_to_its_caller_by_actuator_and_device_ids() {
+    let (mut t, v1, v2, p1) = tracker();
+    let reached = |id: &str, target, motion, completion| ReachedBy {
+        actuator: id.into(),
+        target,
+        issue_to_motion_ms: ms(motion),
+        completion_ms: ms(completion),
+        retries: 0,
+    };
+    t.command(&[(v1, 0.0), (p1, 1.0)], 1, false, ms(100))
+        .unwrap();
+    let done = t.feedback(p1, 1.0, None, ms(600)).unwrap();
+    let completed = done.iter().find_map(|e| t.outcome(e)).unwrap();
+    assert_eq!(
+        completed,
+        Outcome {
+            completion_ms: Some(ms(500)),
+            fault_lockout_ms: None,
+            waiting: None,
+            failed: None,
+            actuators: vec![reached("V1", 0.0, 0, 0), reached("P1", 1.0, 500, 500)],
+        }
+    );
+    t.command(&[(p1, 0.0), (v2, 50.0)], 2, false, ms(2000))
+        .unwrap();
+    t.feedback(p1, 0.0, None, ms(2300)).unwrap();
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let failed = t.device_status(ctrl1, false, ms(2400)).unwrap();
+    let outcome = failed.iter().find_map(|e| t.outcome(e)).unwrap();
+    assert_eq!(
+        outcome.failed,
+        Some(Failed {
+            actuator: "V2".into(),
+            device: "ctrl-1".into(),
+            fault: FaultKind::DeviceOffline,
+            retries: 0,
+        })
+    );
+    assert_eq!(outcome.actuators, vec![reached("P1", 0.0, 300, 300)]);
+    assert!(failed
+        .iter()
+        .filter(|e| !matches!(e, Effect::GroupFailed { .. }))
+        .all(|e| t.outcome(e).is_none()));
+    let timed_out = Effect::GroupTimedOut {
+        caller: 3,
+        timeout_ms: ms(1500),
+        waiting: vec![v2, v1],
+        actuators: Vec::new(),
+    };
+    let told = t.outcome(&timed_out).unwrap();
+    assert_eq!(told.waiting, Some(vec!["V2".to_string(), "V1".to_string()]));
+    assert_eq!(
+        serde_json::to_value(&told).unwrap(),
+        json!({ "waiting": ["V2", "V1"], "actuators": [] })
+    );
+}
