@@ -100,12 +100,6 @@ class PlantBuses {
       return true;
     }
     if (answer.kind === Ingest.Other) return true;
-    if (answer.kind === Ingest.Unserved) {
-      const device = plant.devices[answer.device];
-      this.malformed(bus, topic, device, 'device not served', i18n.text('logs.deviceNotServed', { device }));
-      plant.refreshStatus(node);
-      return true;
-    }
     if (answer.kind === Ingest.Samples) plant.sensors.sampled(now, answer);
     plant.flush({ bus, topic }, answer);
     return true;
@@ -239,32 +233,28 @@ function eventsWired(node) {
  */
 function payloadText(payload) {
   if (typeof payload === 'string') return payload;
-  try {
-    if (payload instanceof Uint8Array) return null; // a Buffer too
-  } catch (err) {
-    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`); // a revoked proxy
-  }
-  if (payload === undefined) return '';
-  return jsonText(payload, true);
+  return payload === undefined ? '' : jsonText(payload, true);
 }
 
 /**
- * JSON text of a value; one that cannot be written (circular, too deep, a
- * getter that throws) becomes a string saying so, which the core refuses as
- * it would any wrong value: at the top, or in its own field (`value`).
+ * JSON text of a value (null for bytes at the top: passed as they are); one
+ * that cannot be written (circular, too deep, a getter that throws, a revoked
+ * proxy) becomes a string saying so, which the core refuses as it would any
+ * wrong value: at the top, or in its own field (`value`).
  */
 function jsonText(value, top) {
   try {
+    if (top && value instanceof Uint8Array) return null; // a Buffer too
     const text = JSON.stringify(value);
     return text === undefined ? JSON.stringify(String(value)) : text;
   } catch (err) {
-    if (top && value !== null && typeof value === 'object' && !Array.isArray(value)) {
-      try {
+    try {
+      if (top && value !== null && typeof value === 'object' && !Array.isArray(value)) {
         const fields = Object.keys(value).slice(0, 1000).map((k) => `${JSON.stringify(k)}:${jsonText(value[k], false)}`);
         return `{${fields.join(',')}}`;
-      } catch {
-        // a proxy or getter that throws on its keys: unreadable as a whole
       }
+    } catch {
+      // a proxy or getter that throws on its keys: unreadable as a whole
     }
     return JSON.stringify(`(unreadable: ${clip(err && err.message)})`);
   }

@@ -142,9 +142,7 @@ class PlantRuntime extends RuntimeBase {
     this.stopFollowing = null;
     this.endCommon();
     this.statusView.stop();
-    this.commands.endAll();
-    this.stopDeadline();
-    if (wasReady) this.freeTracker();
+    this.freeTracker(wasReady);
     this.conditionsMayHaveChanged();
   }
 
@@ -153,7 +151,11 @@ class PlantRuntime extends RuntimeBase {
     return this.shutdown();
   }
 
-  freeTracker() {
+  /** Held commands end unsent and the timer stops; the tracker, if `built`, is freed with its Modbus links. */
+  freeTracker(built) {
+    this.commands.endAll();
+    this.stopDeadline();
+    if (!built) return;
     this.modbus.closeAll();
     wasm.release(this.t);
     this.t = null;
@@ -175,9 +177,7 @@ class PlantRuntime extends RuntimeBase {
     this.plant = settings.plant;
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
-    this.commands.endAll();
-    this.stopDeadline();
-    if (this.t) this.freeTracker();
+    this.freeTracker(this.t !== null);
     this.state = 'starting';
     this.failure = null;
     this.start();

@@ -217,7 +217,8 @@ pub enum Ingest {
     /// Not a topic of any device, and its text reads as a group command (or
     /// a broken one, to be refused): see `plant::group_msg::command_like`.
     Command = 5,
-    /// A device's topic on an actuators node that does not serve that device (`ingestMsg`): unread.
+    /// A device's topic on an actuators node that does not serve that device
+    /// (`ingestMsg`): unread, a `malformed` effect says so.
     Unserved = 6,
 }
 
@@ -513,6 +514,8 @@ impl Tracker {
         };
         self.forget_last();
         self.last_device = Some(device.index() as u32);
+        let name = self.core.device_name(device).unwrap_or_default().to_owned();
+        self.refused(device, Refusal::not_served(&name));
         true
     }
 

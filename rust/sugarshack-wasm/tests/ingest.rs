@@ -233,9 +233,12 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
         )
         .unwrap(),
     );
+    assert_eq!(read["kind"], Ingest::Unserved as u8);
+    assert_eq!(read["device"], 2);
     assert_eq!(
-        read,
-        serde_json::json!({ "kind": Ingest::Unserved as u8, "device": 2 })
+        read["effects"],
+        serde_json::json!([{ "kind": "malformed", "device": "ctrl-3", "reason": "device not served",
+            "message": "device 'ctrl-3' is not in this node's device list" }])
     );
     assert_eq!(t.position(2), Some(40.0), "an unserved msg is not applied");
     let read = answer(

@@ -1324,20 +1324,22 @@ fn a_group_outcome_lists_the_actuators_that_reached_their_targets_in_that_order(
 }
 
 #[test]
-fn only_a_device_status_a_fault_or_a_recovery_moves_health_and_only_a_new_value_leaves_the_status()
-{
+fn only_device_status_fault_and_recovery_move_health_and_a_new_value_leaves_the_status() {
     let (mut t, v1, _, _) = tracker();
-    let changed = t.feedback(v1, 40.0, None, ms(100)).unwrap();
-    assert!(matches!(changed.as_slice(), [Effect::Changed { .. }]));
-    assert!(changed
+    let moved = t.feedback(v1, 40.0, None, ms(100)).unwrap();
+    let value = moved
         .iter()
-        .all(|e| !e.moves_status() && !e.moves_health()));
-    let ctrl1 = t.device("ctrl-1").unwrap();
-    let offline = t.device_status(ctrl1, false, ms(200)).unwrap();
-    assert!(offline
-        .iter()
-        .any(|e| matches!(e, Effect::DeviceStatus { .. }) && e.moves_health()));
-    let issued = t.command(&[(v1, 80.0)], 7, false, ms(300)).unwrap();
+        .find(|e| matches!(e, Effect::Changed { .. }))
+        .expect("a new value");
+    assert!(!value.moves_status() && !value.moves_health());
+    for e in &moved {
+        assert_eq!(
+            e.moves_status(),
+            !matches!(e, Effect::Changed { .. }),
+            "{e:?}"
+        );
+    }
+    let issued = t.command(&[(v1, 80.0)], 7, false, ms(150)).unwrap();
     assert!(!issued.is_empty());
     for e in &issued {
         assert!(e.moves_status(), "{e:?}");
@@ -1349,6 +1351,11 @@ fn only_a_device_status_a_fault_or_a_recovery_moves_health_and_only_a_new_value_
             )
         );
     }
+    let ctrl1 = t.device("ctrl-1").unwrap();
+    let offline = t.device_status(ctrl1, false, ms(200)).unwrap();
+    assert!(offline
+        .iter()
+        .any(|e| matches!(e, Effect::DeviceStatus { .. }) && e.moves_health()));
 }
 
 #[test]

@@ -71,6 +71,18 @@ pub struct Refusal {
 }
 
 impl Refusal {
+    /// A device's msg on an actuators node that does not speak for that device
+    /// (see [`Contract::unserved`]): unread, and said so.
+    pub fn not_served(device: &str) -> Self {
+        Refusal::new(
+            "device not served",
+            format!(
+                "device '{}' is not in this node's device list",
+                quote(device)
+            ),
+        )
+    }
+
     pub(crate) fn new(reason: &'static str, message: impl Into<String>) -> Self {
         Refusal {
             reason,

@@ -454,6 +454,16 @@ fn a_custom_device_reads_by_template_path_and_map() {
 }
 
 #[test]
+fn a_msg_of_a_device_not_served_is_refused_in_words_naming_the_device() {
+    let refusal = Refusal::not_served("ctrl-2");
+    assert_eq!(refusal.reason, "device not served");
+    assert_eq!(
+        refusal.message,
+        "device 'ctrl-2' is not in this node's device list"
+    );
+}
+
+#[test]
 fn a_device_msg_on_a_node_not_serving_its_device_is_named_unserved() {
     let p = plant(
         json!([{ "id": "ctrl-1", "kind": "actuator-panel" }, { "id": "ctrl-2", "kind": "actuator-panel" }]),
