@@ -314,6 +314,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.isGroupKey('valves');
   t.pendingLockouts();
   t.takeEffects();
+  t.takeAnswer();
+  t.reportUnserved(t.device('p'));
+  t.servingChanged();
   t.counts();
   t.countsOn(Uint32Array.of(t.device('p')));
   t.health(460);
