@@ -133,9 +133,9 @@ class PlantBuses {
 
   publish(e) {
     const { plant } = this;
-    const may = plant.publishing();
-    if (may !== 'send') {
-      if (may === 'hold' && this.held.length < MAX_UNSENT) this.held.push(e);
+    if (plant.cluster && !plant.cluster.mayAct()) {
+      // Held by a leader whose lease awaits etcd's answer; dropped by a standby.
+      if (plant.cluster.role === 'suspended' && this.held.length < MAX_UNSENT) this.held.push(e);
       return;
     }
     const name = plant.devices[e.device];

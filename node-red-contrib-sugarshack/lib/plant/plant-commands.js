@@ -179,15 +179,12 @@ function msgEntry({ node, msg, send, done, output, outputs, lockout }) {
 }
 
 /**
- * A group command of the palette itself (an operation step, a lockout): the
- * outcome goes to `onDone` (once: an entry is answered as it leaves `pending`).
+ * A group command of the palette itself (an operation step, a lockout): no msg;
+ * the outcome goes to `onDone` (once: an entry is answered as it leaves `pending`).
  * @param {(err: Error | null) => void} onDone
  */
 function callbackEntry(onDone, lockout = false) {
-  const entry = heldMsg({ node: null, msg: null, send: null, done: null, lockout });
-  entry.complete = () => onDone(null);
-  entry.reject = onDone;
-  return entry;
+  return { node: null, nodeId: null, msg: null, lockout, complete: () => onDone(null), reject: onDone, abandon: () => {} };
 }
 
 module.exports = { GroupCommands };

@@ -75,12 +75,6 @@ class PlantRuntime extends RuntimeBase {
     return this.cluster !== null && !this.cluster.active;
   }
 
-  /** Whether a publish may leave now: 'send', 'hold' (a leader whose lease awaits etcd's answer) or 'drop'. */
-  publishing() {
-    if (!this.cluster || this.cluster.mayAct()) return 'send';
-    return this.cluster.role === 'suspended' ? 'hold' : 'drop';
-  }
-
   /** The actuators nodes serving this plant (read by the interlock's alarms). */
   get buses() {
     return this.bus.list;
