@@ -343,19 +343,45 @@ fn an_answer_says_whether_the_status_and_the_devices_health_may_have_moved() {
         serde_json::from_str::<serde_json::Value>(&t.take_answer().unwrap()).unwrap()
     };
     assert_eq!(answer(&mut t), serde_json::json!({}), "nothing queued");
+    // Each answer flags what its effects may move: the status for anything but
+    // a new value, the devices' health for a device status, a fault or a recovery.
+    let flagged = |a: &serde_json::Value| {
+        let kinds: Vec<String> = a["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["kind"].as_str().unwrap().to_owned())
+            .collect();
+        assert_eq!(
+            a.get("status").is_some(),
+            kinds.iter().any(|k| k != "changed"),
+            "{a}"
+        );
+        let health = kinds
+            .iter()
+            .any(|k| ["deviceStatus", "fault", "recovered"].contains(&k.as_str()));
+        assert_eq!(a.get("health").is_some(), health, "{a}");
+        kinds
+    };
     t.feedback(v12, 0.0, None, 10.0).unwrap();
     t.take_effects().unwrap();
-    t.feedback(v12, 40.0, None, 20.0).unwrap();
-    let changed = answer(&mut t);
-    assert_eq!(changed["effects"][0]["kind"], "changed");
-    assert!(
-        changed.get("status").is_none() && changed.get("health").is_none(),
-        "{changed}"
-    );
-    t.device_status(ctrl1, false, 30.0).unwrap();
-    let offline = answer(&mut t);
-    assert_eq!(offline["status"], true, "{offline}");
-    assert_eq!(offline["health"], true, "{offline}");
+    t.command(
+        json(r#"{ "valves": { "V12": 100 } }"#),
+        5,
+        false,
+        100.0,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
+    assert_eq!(flagged(&answer(&mut t)), ["publish"]);
+    t.feedback(v12, 40.0, None, 200.0).unwrap();
+    assert!(flagged(&answer(&mut t)).contains(&"moving".to_owned()));
+    t.feedback(v12, 60.0, None, 300.0).unwrap();
+    assert_eq!(flagged(&answer(&mut t)), ["changed"]);
+    t.device_status(ctrl1, false, 400.0).unwrap();
+    assert!(flagged(&answer(&mut t)).contains(&"deviceStatus".to_owned()));
 
     assert!(t.report_unserved(ctrl1), "reported the first time");
     assert!(!t.report_unserved(ctrl1));
