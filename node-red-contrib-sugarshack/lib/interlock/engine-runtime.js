@@ -83,7 +83,7 @@ class EngineRuntime extends InterlockHost {
     this.deferred = [];
     /** @type {Map<string, number>} node id -> its handle, the same for each deploy of it */
     this.nodeHandles = new Map();
-    /** @type {Map<number, { node: NodeRed.Node, spec: object }>} handle -> the instance bound now */
+    /** @type {Map<number, { node: NodeRed.Node, spec: any, kind: any }>} handle -> the instance bound now, with its kind's input */
     this.nodes = new Map();
     this.nextMsg = 0;
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
@@ -408,7 +408,7 @@ class EngineRuntime extends InterlockHost {
       handle = this.nodeHandles.size + 1;
       this.nodeHandles.set(node.id, handle);
     }
-    this.nodes.set(handle, { node, spec });
+    this.nodes.set(handle, { node, spec, kind: KINDS[spec.kind] });
     this.call((e, now) => e.addNode(handle, spec, now));
   }
 
@@ -476,9 +476,7 @@ class EngineRuntime extends InterlockHost {
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
   input(node, msg, send, done, values) {
     const handle = /** @type {number} */ (this.nodeHandles.get(node.id));
-    const bound = /** @type {{ spec: any }} */ (this.nodes.get(handle));
-    const spec = /** @type {{ kind: keyof typeof KINDS }} */ (bound.spec);
-    const kind = KINDS[spec.kind];
+    const { spec, kind } = /** @type {{ spec: any, kind: any }} */ (this.nodes.get(handle));
     // Read first: a getter that throws refuses the msg before anything is held.
     /** @type {any} */
     let read;
