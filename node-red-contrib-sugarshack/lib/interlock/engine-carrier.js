@@ -229,29 +229,19 @@ class EngineCarrier {
   }
 }
 
-/**
- * A msg held under its handle, made with its fields at once (a HeldMsg made
- * from an object of fields copies them, a cost per msg).
- */
+/** A msg held under its handle, with its node's outputs and, for a fault msg, the error it carried. */
 class CarriedMsg extends HeldMsg {
   /**
    * @param {NodeRed.Node} node @param {NodeRed.Message} msg @param {NodeRed.Send} send @param {NodeRed.Done} done
    * @param {number} ports its node's outputs
    */
   constructor(node, msg, send, done, ports) {
-    super(/** @type {any} */ (NO_FIELDS));
-    this.node = node;
-    this.msg = msg;
-    this.send = send;
-    this.done = done;
-    this.nodeId = node ? node.id : null;
+    super(node, msg, send, done);
     this.ports = ports;
     /** @type {any} */
     this.cause = null;
   }
 }
-// Nothing to copy: the fields are set above.
-const NO_FIELDS = Object.freeze({});
 
 /**
  * Sets what the engine says on the msg, sends it on output `port` and `extra` msgs on theirs, then completes it.
