@@ -66,25 +66,28 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
       done(MISSING[kind]());
       return;
     }
-    const go = (read) => {
-      let now = false;
-      try {
-        now = !runtime.gateOpen && urgent(msg); // asked only while a deploy drains
-      } catch {
-        now = false; // an unreadable msg waits like any other and is refused when read
-      }
-      runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive });
-    };
-    if (!values) go(undefined);
-    else {
-      values(msg, (err, read) => {
-        if (!err) return go(read);
-        // A value that cannot be read (a JSONata error) shows on the node until the interlock's next change.
-        runtime.showError(node, /** @type {any} */ (err).code);
-        return done(err);
-      });
+    if (!values) {
+      submitInput(runtime, node, msg, send, done, undefined, work, urgent, passive);
+      return;
     }
+    values(msg, (err, read) => {
+      if (!err) return submitInput(runtime, node, msg, send, done, read, work, urgent, passive);
+      // A value that cannot be read (a JSONata error) shows on the node until the interlock's next change.
+      runtime.showError(node, /** @type {any} */ (err).code);
+      return done(err);
+    });
   });
+}
+
+/** Hands a msg's work to its runtime (see RuntimeBase.submit). */
+function submitInput(runtime, node, msg, send, done, read, work, urgent, passive) {
+  let now = false;
+  try {
+    now = !runtime.gateOpen && urgent(msg); // asked only while a deploy drains
+  } catch {
+    now = false; // an unreadable msg waits like any other and is refused when read
+  }
+  runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive });
 }
 
 /**
@@ -94,12 +97,30 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
  * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
  * @param {{ urgent?: (msg: NodeRed.Message) => boolean, values?: any }} [options]
  */
-function onInterlockInput(node, runtime, spec, options) {
-  if (runtime) runtime.addNodeSpec(node, spec);
-  onInput(node, runtime, (rt, msg, send, done, values) => rt.input(node, msg, send, done, values), 'interlock', options);
+function onInterlockInput(node, runtime, spec, options = {}) {
+  if (!runtime || options.values) {
+    if (runtime) runtime.addNodeSpec(node, spec);
+    onInput(node, runtime, interlockWork(node), 'interlock', options);
+    return;
+  }
+  runtime.addNodeSpec(node, spec);
+  const work = interlockWork(node);
+  const urgent = options.urgent || never;
+  // Ready with the gate open (nearly every msg): to the engine at once, nothing made per msg on the way.
+  node.on('input', (msg, send, done) => {
+    if (runtime.state === 'ready' && runtime.gateOpen) runtime.inputNow(node, msg, send, done);
+    else submitInput(runtime, node, msg, send, done, undefined, work, urgent, false);
+  });
+}
+
+/** @param {NodeRed.Node} node */
+function interlockWork(node) {
+  return (rt, msg, send, done, values) => rt.input(node, msg, send, done, values);
 }
 
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
+/** @type {(msg: NodeRed.Message) => boolean} */
+const never = () => false;
 
 module.exports = { bindInterlock, bindPlant, onInput, onInterlockInput, always };

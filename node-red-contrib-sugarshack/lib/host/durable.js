@@ -324,9 +324,13 @@ class Committer {
     }, ms);
   }
 
-  run(effect) {
+  /**
+   * Runs `effect(a, b, c, d)`; what it throws is reported.
+   * @param {(a?: any, b?: any, c?: any, d?: any) => void} effect @param {any} [a] @param {any} [b] @param {any} [c] @param {any} [d]
+   */
+  run(effect, a, b, c, d) {
     try {
-      effect();
+      effect(a, b, c, d);
     } catch (err) {
       this.onError(err);
     }

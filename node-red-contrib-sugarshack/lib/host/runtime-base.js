@@ -127,10 +127,15 @@ class RuntimeBase {
     try {
       this.guard(() => work(this));
     } catch (err) {
-      const e = asSugarshackError(err);
-      if (node) this.showError(node, e.code);
-      done(e);
+      this.refuse(node, done, err);
     }
+  }
+
+  /** Work that threw completes its msg with the error (a Catch node gets it), shown on the node. */
+  refuse(node, done, err) {
+    const e = asSugarshackError(err);
+    if (node) this.showError(node, e.code);
+    done(e);
   }
 
   /**
@@ -152,11 +157,16 @@ class RuntimeBase {
     try {
       return fn();
     } catch (err) {
-      if (!wasm.isTrap(err)) throw err;
-      const generation = this.generation;
-      setImmediate(() => wasm.recover(err, generation));
-      throw SugarshackError.of('INTERNAL', 'coreTrapped', { kind: this.kind, message: err.message });
+      throw this.trapped(err);
     }
+  }
+
+  /** What `err` thrown by a core call surfaces as: a wasm trap starts the rebuild and is INTERNAL; anything else is itself. */
+  trapped(err) {
+    if (!wasm.isTrap(err)) return err;
+    const generation = this.generation;
+    setImmediate(() => wasm.recover(err, generation));
+    return SugarshackError.of('INTERNAL', 'coreTrapped', { kind: this.kind, message: err.message });
   }
 
   afterTrap(err, generation) {

@@ -25,7 +25,7 @@ const MAX_TIMER_MS = 2 ** 31 - 1;
 class EngineCarrier {
   /**
    * @param {object} o
-   * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void, run(effect: () => void): void, readonly idle: boolean }} o.committer
+   * @param {{ change(effect: (() => void) | null, options?: { evenUnsaved?: boolean }): void, after(effect: () => void): void, run(effect: (...args: any[]) => void, ...args: any[]): void, readonly idle: boolean }} o.committer
    * @param {(output: any, effect: (action: () => void) => void) => void} [o.other] an output with no msg of its own (an event, an alarm, a log, a node's error); `effect` keeps an action in order
    * @param {(holding: number, queued: number, faulted: number, lost: boolean) => void} [o.counts]
    * @param {() => void} [o.due] the engine is due: its owner calls its tick
@@ -182,9 +182,18 @@ class EngineCarrier {
 
   /** `action` now, or once the state it follows is written. @param {() => void} action */
   effect(action) {
-    if (this.group) this.group.actions.push(action);
-    else if (this.guarded) this.committer.run(action);
-    else action();
+    this.effectOf(action);
+  }
+
+  /**
+   * `fn(a, b, c, d)` now, or once the state it follows is written: a closure
+   * is made only for what waits (most msgs are answered at once).
+   * @template A, B, C, D @param {(a: A, b: B, c: C, d: D) => void} fn @param {A} [a] @param {B} [b] @param {C} [c] @param {D} [d]
+   */
+  effectOf(fn, a, b, c, d) {
+    if (this.group) this.group.actions.push(() => fn(/** @type {A} */ (a), /** @type {B} */ (b), /** @type {C} */ (c), /** @type {D} */ (d)));
+    else if (this.guarded) this.committer.run(fn, a, b, c, d);
+    else fn(/** @type {A} */ (a), /** @type {B} */ (b), /** @type {C} */ (c), /** @type {D} */ (d));
   }
 
   /** @param {number} k @param {number} port @param {any} set */
@@ -192,11 +201,7 @@ class EngineCarrier {
     const entry = this.take(k);
     const extra = this.extra;
     this.extra = null;
-    if (!entry) return;
-    this.effect(() => {
-      if (set && entry.msg) applySet(entry.msg, set);
-      answer(entry, port, extra, null);
-    });
+    if (entry) this.effectOf(sendOn, entry, port, set, extra);
   }
 
   /** @param {number} k @param {number} port @param {any[]} msgs */
@@ -210,8 +215,7 @@ class EngineCarrier {
     const extra = this.extra;
     this.extra = null;
     if (!entry) return;
-    const err = refusal ? refusalError(refusal) : null;
-    this.effect(() => answer(entry, null, extra, err));
+    this.effectOf(answer, entry, null, extra, refusal ? refusalError(refusal) : null);
   }
 
   /** @param {number} holding @param {number} queued @param {number} faulted @param {boolean} lost */
@@ -225,29 +229,28 @@ class EngineCarrier {
   }
 }
 
-/**
- * A msg held under its handle, made with its fields at once (a HeldMsg made
- * from an object of fields copies them, a cost per msg).
- */
+/** A msg held under its handle, with its node's outputs and, for a fault msg, the error it carried. */
 class CarriedMsg extends HeldMsg {
   /**
    * @param {NodeRed.Node} node @param {NodeRed.Message} msg @param {NodeRed.Send} send @param {NodeRed.Done} done
    * @param {number} ports its node's outputs
    */
   constructor(node, msg, send, done, ports) {
-    super(/** @type {any} */ (NO_FIELDS));
-    this.node = node;
-    this.msg = msg;
-    this.send = send;
-    this.done = done;
-    this.nodeId = node ? node.id : null;
+    super(node, msg, send, done);
     this.ports = ports;
     /** @type {any} */
     this.cause = null;
   }
 }
-// Nothing to copy: the fields are set above.
-const NO_FIELDS = Object.freeze({});
+
+/**
+ * Sets what the engine says on the msg, sends it on output `port` and `extra` msgs on theirs, then completes it.
+ * @param {Held} entry @param {number} port @param {any} set @param {{ port: number, msgs: any[] } | null} extra
+ */
+function sendOn(entry, port, set, extra) {
+  if (set && entry.msg) applySet(entry.msg, set);
+  answer(entry, port, extra, null);
+}
 
 /**
  * Sends the msg on output `port` (null: none) and `extra` msgs on theirs, then completes it.

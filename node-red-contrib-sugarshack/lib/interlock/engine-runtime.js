@@ -15,7 +15,7 @@ const { Committer } = require('../host/durable');
 const { InterlockHost } = require('./host');
 const { EngineCarrier, CarriedMsg, refusalError, render } = require('./engine-carrier');
 const { Wire } = require('../wasm/wire');
-const { readMsg, fieldsOf } = require('./request');
+const { unreadable, fieldsOf } = require('./request');
 const { journal } = require('../journal/bus');
 const { timeLayer } = require('../host/stats');
 const wasm = require('../wasm');
@@ -43,7 +43,7 @@ const KINDS = {
       ? [msg.operation, msg.priority, msg.resources, { operation: msg.operation, priority: msg.priority, resources: msg.resources, configured: values }]
       : [msg.operation, msg.priority, msg.resources]),
     // The same input four ways: with nothing, with only an operation's short text (one string crosses), with anything, with the node's values read.
-    call: (e, h, k, [operation, priority, resources, fields], now) => {
+    call: (e, now, h, k, [operation, priority, resources, fields]) => {
       if (fields) e.acquireFields(h, k, fields, now);
       else if (priority !== undefined || resources !== undefined) e.acquireNamed(h, k, operation, priority, resources, now);
       else if (operation === undefined) e.acquire(h, k, now);
@@ -54,15 +54,15 @@ const KINDS = {
   release: {
     ports: 1,
     read: (msg, values) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined, values],
-    call: (e, h, k, [operation, follow, values], now) => {
+    call: (e, now, h, k, [operation, follow, values]) => {
       if (values) e.releaseFields(h, k, { operation, follow, configured: values }, now);
       else if (typeof operation === 'string' && operation.length <= SHORT_TEXT && follow === undefined) e.releaseOperation(h, k, operation, now);
       else e.release(h, k, operation, follow, now);
     },
   },
-  cancel: { ports: 1, read: withValues, call: (e, h, k, fields, now) => e.cancel(h, k, fields, now) },
-  fault: { ports: 2, read: withValues, call: (e, h, k, fields, now) => e.fault(h, k, fields, now) },
-  clear: { ports: 2, read: withValues, call: (e, h, k, fields, now) => e.clear(h, k, fields, fields.resources !== undefined, now) },
+  cancel: { ports: 1, read: withValues, call: (e, now, h, k, fields) => e.cancel(h, k, fields, now) },
+  fault: { ports: 2, read: withValues, call: (e, now, h, k, fields) => e.fault(h, k, fields, now) },
+  clear: { ports: 2, read: withValues, call: (e, now, h, k, fields) => e.clear(h, k, fields, fields.resources !== undefined, now) },
 };
 
 /** What a msg carries, with the node's values read for it (from context, env or JSONata) when it has any. */
@@ -83,7 +83,7 @@ class EngineRuntime extends InterlockHost {
     this.deferred = [];
     /** @type {Map<string, number>} node id -> its handle, the same for each deploy of it */
     this.nodeHandles = new Map();
-    /** @type {Map<number, { node: NodeRed.Node, spec: object }>} handle -> the instance bound now */
+    /** @type {Map<number, { node: NodeRed.Node, spec: any, kind: any }>} handle -> the instance bound now, with its kind's input */
     this.nodes = new Map();
     this.nextMsg = 0;
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
@@ -123,18 +123,25 @@ class EngineRuntime extends InterlockHost {
     });
   }
 
-  /** One engine call; its outputs performed. @param {(engine: any, now: number) => void} fn */
-  call(fn) {
+  /**
+   * One engine call, `fn(engine, now, a, b, c)`; its outputs performed.
+   * @param {(engine: any, now: number, a?: any, b?: any, c?: any) => void} fn @param {any} [a] @param {any} [b] @param {any} [c]
+   */
+  call(fn, a, b, c) {
     if (!this.core) return;
     // An output performed may make another call (a run's release answered, its routine dispatches
     // the next operation): it waits until this call's outputs are all read, which the next would overwrite.
     if (this.performing) {
-      this.deferred.push(fn);
+      this.deferred.push((e, now) => fn(e, now, a, b, c));
       return;
     }
     this.performing = true;
     try {
-      this.guard(() => fn(this.core, clock.now()));
+      try {
+        fn(this.core, clock.now(), a, b, c);
+      } catch (err) {
+        throw this.trapped(err);
+      }
       /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
       while (this.deferred.length > 0 && this.core) {
         const next = /** @type {(engine: any, now: number) => void} */ (this.deferred.shift());
@@ -401,7 +408,7 @@ class EngineRuntime extends InterlockHost {
       handle = this.nodeHandles.size + 1;
       this.nodeHandles.set(node.id, handle);
     }
-    this.nodes.set(handle, { node, spec });
+    this.nodes.set(handle, { node, spec, kind: KINDS[spec.kind] });
     this.call((e, now) => e.addNode(handle, spec, now));
   }
 
@@ -457,15 +464,28 @@ class EngineRuntime extends InterlockHost {
     }
   }
 
+  /** A msg into one of its nodes while it runs with the gate open (see onInterlockInput): `input` with no values read. */
+  inputNow(node, msg, send, done) {
+    try {
+      this.input(node, msg, send, done, undefined);
+    } catch (err) {
+      this.refuse(node, done, this.trapped(err));
+    }
+  }
+
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
   input(node, msg, send, done, values) {
     const handle = /** @type {number} */ (this.nodeHandles.get(node.id));
-    const bound = /** @type {{ spec: any }} */ (this.nodes.get(handle));
-    const spec = /** @type {{ kind: keyof typeof KINDS }} */ (bound.spec);
-    const kind = KINDS[spec.kind];
-    const read = readMsg(() => kind.read(msg, values));
-    const k = this.nextMsg;
-    this.nextMsg = (this.nextMsg + 1) % HANDLES;
+    const { spec, kind } = /** @type {{ spec: any, kind: any }} */ (this.nodes.get(handle));
+    // Read first: a getter that throws refuses the msg before anything is held.
+    /** @type {any} */
+    let read;
+    try {
+      read = kind.read(msg, values);
+    } catch (err) {
+      throw unreadable(err);
+    }
+    const k = this.newHandle();
     const entry = new CarriedMsg(node, msg, send, done, kind.ports);
     // A Catch node's error stays the cause of the error a failed fault msg ends with.
     if (spec.kind === 'fault' && msg.error && typeof msg.error === 'object') entry.cause = msg.error;
@@ -473,11 +493,18 @@ class EngineRuntime extends InterlockHost {
     const plant = spec.kind === 'clear' ? this.tracker() : null;
     try {
       if (plant) this.call((e, now) => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant));
-      else this.call((e, now) => kind.call(e, handle, k, read, now));
+      else this.call(kind.call, handle, k, read);
     } catch (err) {
       this.carrier.take(k);
       throw err;
     }
+  }
+
+  /** A new msg handle. */
+  newHandle() {
+    const k = this.nextMsg;
+    this.nextMsg = k === HANDLES - 1 ? 0 : k + 1;
+    return k;
   }
 
   // ---- outputs with no msg of their own ----------------------------------------
@@ -527,7 +554,12 @@ class EngineRuntime extends InterlockHost {
   countsChanged(holding, queued, faulted, lost) {
     if (!lost) this.lostState = null;
     if (this.palette) this.palette.changes.touch(this);
-    this.counts = { holding, queued, faulted, lost };
+    // Kept in place: they change with every grant, and are read when shown (paced).
+    const c = this.counts;
+    c.holding = holding;
+    c.queued = queued;
+    c.faulted = faulted;
+    c.lost = lost;
     this.statusPacer.request();
   }
 
@@ -578,8 +610,7 @@ class EngineRuntime extends InterlockHost {
   /** An operator's action; resolves with the engine's reply once its state is written. */
   operate(action, who) {
     return new Promise((resolve, reject) => {
-      const k = this.nextMsg;
-      this.nextMsg = (this.nextMsg + 1) % HANDLES;
+      const k = this.newHandle();
       this.replies.set(k, { resolve, reject });
       const plant = this.tracker();
       try {
@@ -750,8 +781,7 @@ class EngineRuntime extends InterlockHost {
    * `abandoned` when completed unsent) comes back once.
    */
   runRequest(ports, call, { sent, failed, abandoned = () => {} }) {
-    const k = this.nextMsg;
-    this.nextMsg = (this.nextMsg + 1) % HANDLES;
+    const k = this.newHandle();
     let open = true;
     const once = (fn) => (arg) => {
       if (!open) return;

@@ -14,16 +14,19 @@
  */
 class HeldMsg {
   /**
-   * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
-   *   done: NodeRed.Done | null, [key: string]: any }} fields
+   * @param {NodeRed.Node | null} node @param {NodeRed.Message | null} msg
+   * @param {NodeRed.Send | null} send @param {NodeRed.Done | null} done
    */
-  constructor(fields) {
-    Object.assign(this, fields);
-    this.node = fields.node;
-    this.msg = fields.msg;
-    this.send = fields.send;
-    this.done = fields.done;
-    this.nodeId = fields.node ? fields.node.id : null;
+  constructor(node, msg, send, done) {
+    /** @type {NodeRed.Node | null} */
+    this.node = node;
+    /** @type {NodeRed.Message | null} */
+    this.msg = msg;
+    /** @type {NodeRed.Send | null} */
+    this.send = send;
+    /** @type {NodeRed.Done | null} */
+    this.done = done;
+    this.nodeId = node ? node.id : null;
   }
 
   /** The work failed: the msg ends with the error (a Catch node gets it). @param {Error} err */
@@ -54,11 +57,13 @@ class HeldMsg {
 }
 
 /**
- * @param {ConstructorParameters<typeof HeldMsg>[0]} fields
+ * A held msg with its holder's own fields.
+ * @param {{ node: NodeRed.Node | null, msg: NodeRed.Message | null, send: NodeRed.Send | null,
+ *   done: NodeRed.Done | null, [key: string]: any }} fields
  * @returns {HeldMsg & { [key: string]: any }}
  */
 function heldMsg(fields) {
-  return new HeldMsg(fields);
+  return Object.assign(new HeldMsg(fields.node, fields.msg, fields.send, fields.done), fields);
 }
 
 module.exports = { HeldMsg, heldMsg };

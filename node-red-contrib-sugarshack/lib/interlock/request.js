@@ -33,10 +33,15 @@ function readMsg(read) {
   try {
     return read();
   } catch (err) {
-    if (err instanceof SugarshackError || wasm.isTrap(err)) throw err;
-    const why = err && typeof err.message === 'string' ? err.message : String(err);
-    throw SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) });
+    throw unreadable(err);
   }
+}
+
+/** What reading a msg threw, as readMsg throws it. */
+function unreadable(err) {
+  if (err instanceof SugarshackError || wasm.isTrap(err)) return err;
+  const why = err && typeof err.message === 'string' ? err.message : String(err);
+  return SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) });
 }
 
 /**
@@ -164,4 +169,4 @@ function arrivalOrder() {
   };
 }
 
-module.exports = { nodeValues, isPerMsg, attributionOf, splitNames, fieldsOf, readMsg, quote };
+module.exports = { nodeValues, isPerMsg, attributionOf, splitNames, fieldsOf, readMsg, unreadable, quote };
