@@ -228,15 +228,19 @@ class EngineNode {
     this.held.delete(k);
     return msg;
   }
-  /** One msg in: held under a new handle, and handed to the engine; its own answer, if it came in this call. */
-  input(msg, fn) {
+  /** A msg in, held under a new handle; its handle, for the call. */
+  admit(msg) {
     const k = this.nextMsg;
     this.nextMsg = (this.nextMsg + 1) % HANDLES;
     this.hold(k, msg);
     this.answered = null;
     this.refused = null;
-    this.granted.length = 0;
-    fn(this.e, k, Date.now());
+    // Setting an array's length is a V8 runtime call: only when something was left.
+    if (this.granted.length !== 0) this.granted.length = 0;
+    return k;
+  }
+  /** The call's outputs, read; the msg's own answer, if it came in this call. */
+  answer() {
     this.wire.read(this);
     if (this.refused) fail(`engine refused a msg: ${JSON.stringify(this.refused)}`);
     return this.answered;
@@ -249,16 +253,17 @@ class EngineNode {
       const spec = { kind: 'acquire', timeoutMs: 0, operation: this.names[op], priority, resources: set.join(',') };
       this.call((e) => e.addNode(node, spec, Date.now()));
     }
-    const name = this.names[op];
-    const answered = this.configured
-      ? this.input(msg, (e, k, now) => e.acquire(node, k, now))
-      : this.input(msg, (e, k, now) => e.acquireNamed(NAMED_NODE, k, name, priority, set, now));
-    return answered === msg;
+    const k = this.admit(msg);
+    if (this.configured) this.e.acquire(node, k, Date.now());
+    else this.e.acquireNamed(NAMED_NODE, k, this.names[op], priority, set, Date.now());
+    return this.answer() === msg;
   }
   release(op) {
     // The msg that went through the acquire node: the release follows msg.interlock.
     const msg = { _msgId: `release-${op}`, interlock: { operation: this.names[op] } };
-    this.input(msg, (e, k, now) => e.release(RELEASE_NODE, k, undefined, msg.interlock.operation, now));
+    const k = this.admit(msg);
+    this.e.release(RELEASE_NODE, k, undefined, msg.interlock.operation, Date.now());
+    this.answer();
     return this.granted.slice();
   }
   drain() {}
