@@ -35,6 +35,7 @@ function load() {
   }
   const facade = /** @type {Facade} */ (bindings);
   numericCalls(facade);
+  engineCalls(facade);
   prime(facade);
   return facade;
 }
@@ -55,6 +56,26 @@ function numericCalls({ Interlock }) {
     const count = this.releaseCode(op, nowMs);
     if (count < 0) throw this.takeError();
     return count;
+  };
+}
+
+// Text up to this long crosses as a string argument (longer, the facade reads its head and length only).
+const SHORT_TEXT = 1000;
+
+/**
+ * An engine's release of a msg that names no operation and follows an
+ * acquire (the usual release node) through the facade's one-string variant:
+ * each JS value `release` reads costs the facade a call back into JS per
+ * question (absent? text? how long? its text), a string argument none.
+ * Same input, same outputs.
+ */
+/** @param {Facade} facade */
+function engineCalls({ Engine }) {
+  const release = Engine.prototype.release;
+  Engine.prototype.release = function releaseMsg(node, msg, operation, follow, nowMs) {
+    if ((operation === undefined || operation === null) && typeof follow === 'string' && follow.length <= SHORT_TEXT) {
+      this.releaseFollowing(node, msg, follow, nowMs);
+    } else release.call(this, node, msg, operation, follow, nowMs);
   };
 }
 
@@ -205,6 +226,8 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   e.releaseOperation(2, 14, 'd', 26);
   e.acquireFields(1, 15, { configured: { operation: 'e', priority: 1, resources: 'A' } }, 26);
   e.releaseFields(2, 16, { configured: { operation: 'e' } }, 26);
+  e.acquireOperation(1, 17, 'f', 26);
+  e.releaseFollowing(2, 18, 'f', 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);
