@@ -71,11 +71,13 @@ const SHORT_TEXT = 1000;
  */
 /** @param {Facade} facade */
 function engineCalls({ Engine }) {
-  const release = Engine.prototype.release;
-  Engine.prototype.release = function releaseMsg(node, msg, operation, follow, nowMs) {
+  const proto = /** @type {any} */ (Engine.prototype);
+  // The facade's own release, kept on the class (what counts calls into wasm sees each one).
+  proto.releaseValues = proto.release;
+  proto.release = function release(node, msg, operation, follow, nowMs) {
     if ((operation === undefined || operation === null) && typeof follow === 'string' && follow.length <= SHORT_TEXT) {
       this.releaseFollowing(node, msg, follow, nowMs);
-    } else release.call(this, node, msg, operation, follow, nowMs);
+    } else this.releaseValues(node, msg, operation, follow, nowMs);
   };
 }
 
