@@ -63,11 +63,12 @@ function numericCalls({ Interlock }) {
 const SHORT_TEXT = 1000;
 
 /**
- * An engine's release of a msg that names no operation and follows an
- * acquire (the usual release node) through the facade's one-string variant:
- * each JS value `release` reads costs the facade a call back into JS per
- * question (absent? text? how long? its text), a string argument none.
- * Same input, same outputs.
+ * An engine's release of a msg that names its operation, or names none and
+ * follows an acquire (the usual release node), through the facade's
+ * one-string variants: each JS value `release` reads costs the facade a call
+ * back into JS per question (absent? text? how long? its text), a string
+ * argument none. A msg's own operation (text, not empty) is the one released
+ * whatever it follows, so it crosses alone. Same input, same outputs.
  */
 /** @param {Facade} facade */
 function engineCalls({ Engine }) {
@@ -75,7 +76,9 @@ function engineCalls({ Engine }) {
   // The facade's own release, kept on the class (what counts calls into wasm sees each one).
   proto.releaseValues = proto.release;
   proto.release = function release(node, msg, operation, follow, nowMs) {
-    if ((operation === undefined || operation === null) && typeof follow === 'string' && follow.length <= SHORT_TEXT) {
+    if (typeof operation === 'string' && operation.length > 0 && operation.length <= SHORT_TEXT) {
+      this.releaseOperation(node, msg, operation, nowMs);
+    } else if ((operation === undefined || operation === null) && typeof follow === 'string' && follow.length <= SHORT_TEXT) {
       this.releaseFollowing(node, msg, follow, nowMs);
     } else this.releaseValues(node, msg, operation, follow, nowMs);
   };
@@ -230,6 +233,7 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   e.releaseFields(2, 16, { configured: { operation: 'e' } }, 26);
   e.acquireOperation(1, 17, 'f', 26);
   e.releaseFollowing(2, 18, 'f', 26);
+  /** @type {any} */ (e).releaseValues(2, 19, undefined, ['f'], 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);
