@@ -8,8 +8,19 @@
 // that the visitor does not keep.
 const wasm = require('./');
 
-const TAG = { COMMIT: 1, AFTER: 2, SEND: 3, EMIT: 4, COMPLETE: 5, OTHER: 6, COUNTS: 7, NAME: 8, NAMES_RESET: 9, ALARM: 10 };
-const SET = { NOTHING: 0, INTERLOCK: 1, OTHER: 2 };
+// Record tags and what a send sets (engine/wire.rs), as plain constants: read per record.
+const COMMIT = 1;
+const AFTER = 2;
+const SEND = 3;
+const EMIT = 4;
+const COMPLETE = 5;
+const OTHER = 6;
+const COUNTS = 7;
+const NAME = 8;
+const NAMES_RESET = 9;
+const ALARM = 10;
+const SET_NOTHING = 0;
+const SET_INTERLOCK = 1;
 const decoder = new TextDecoder('utf-8', { ignoreBOM: true });
 
 /** UTF-8 bytes as text; a short ASCII run (a name) is read byte by byte, cheaper than a decoder call. @param {Uint8Array} bytes @param {number} at @param {number} length */
@@ -22,6 +33,11 @@ function textAt(bytes, at, length) {
     text += String.fromCharCode(b);
   }
   return text;
+}
+
+/** The text field at word `i` (its start and length in the batch's text). @param {string} text @param {Float64Array} w @param {number} i */
+function str(text, w, i) {
+  return text.substr(w[i], w[i + 1]);
 }
 
 /**
@@ -88,54 +104,53 @@ class Wire {
     const names = this.names;
     const at = h[0] / 8;
     const end = at + words;
-    const str = (i) => text.substr(w[i], w[i + 1]);
     for (let i = at; i < end;) {
       switch (w[i]) {
-        case TAG.COMMIT: visitor.commit(w[i + 1] === 1); i += 2; break;
-        case TAG.AFTER: visitor.after(); i += 1; break;
-        case TAG.SEND: {
+        case COMMIT: visitor.commit(w[i + 1] === 1); i += 2; break;
+        case AFTER: visitor.after(); i += 1; break;
+        case SEND: {
           const msg = w[i + 1];
           const port = w[i + 2];
           const kind = w[i + 3];
-          if (kind === SET.NOTHING) {
+          if (kind === SET_NOTHING) {
             visitor.send(msg, port, null);
             i += 4;
-          } else if (kind === SET.INTERLOCK) {
+          } else if (kind === SET_INTERLOCK) {
             const n = w[i + 7];
             const resources = new Array(n);
             for (let k = 0; k < n; k++) resources[k] = names[w[i + 8 + k]];
             visitor.send(msg, port, { kind: 'interlock', operation: names[w[i + 4]], priority: w[i + 5], resources, waitedMs: w[i + 6] });
             i += 8 + n;
           } else {
-            visitor.send(msg, port, JSON.parse(str(i + 4)));
+            visitor.send(msg, port, JSON.parse(str(text, w, i + 4)));
             i += 6;
           }
           break;
         }
-        case TAG.EMIT: visitor.emit(w[i + 1], w[i + 2], JSON.parse(str(i + 3))); i += 5; break;
-        case TAG.COMPLETE:
+        case EMIT: visitor.emit(w[i + 1], w[i + 2], JSON.parse(str(text, w, i + 3))); i += 5; break;
+        case COMPLETE:
           if (w[i + 2] === 0) {
             visitor.complete(w[i + 1], null);
             i += 3;
           } else {
-            visitor.complete(w[i + 1], JSON.parse(str(i + 3)));
+            visitor.complete(w[i + 1], JSON.parse(str(text, w, i + 3)));
             i += 5;
           }
           break;
-        case TAG.COUNTS: visitor.counts(w[i + 1], w[i + 2], w[i + 3], w[i + 4] === 1); i += 5; break;
-        case TAG.OTHER: visitor.other(JSON.parse(str(i + 1))); i += 3; break;
-        case TAG.NAME: names[w[i + 1]] = str(i + 2); i += 4; break;
-        case TAG.NAMES_RESET: names.length = 0; i += 1; break;
-        case TAG.ALARM: {
+        case COUNTS: visitor.counts(w[i + 1], w[i + 2], w[i + 3], w[i + 4] === 1); i += 5; break;
+        case OTHER: visitor.other(JSON.parse(str(text, w, i + 1))); i += 3; break;
+        case NAME: names[w[i + 1]] = str(text, w, i + 2); i += 4; break;
+        case NAMES_RESET: names.length = 0; i += 1; break;
+        case ALARM: {
           /** @type {any} the change as serde writes it */
-          const change = { id: str(i + 2), action: str(i + 4), from: str(i + 6), to: str(i + 8), atMs: w[i + 1] };
+          const change = { id: str(text, w, i + 2), action: str(text, w, i + 4), from: str(text, w, i + 6), to: str(text, w, i + 8), atMs: w[i + 1] };
           let at = i + 10;
           if (w[at] === 1) {
-            change.by = str(at + 1);
+            change.by = str(text, w, at + 1);
             at += 3;
           } else at += 1;
           if (w[at] === 1) {
-            change.reason = str(at + 1);
+            change.reason = str(text, w, at + 1);
             at += 3;
           } else at += 1;
           visitor.other({ kind: 'alarm', change });

@@ -1,5 +1,6 @@
 //! Instructions per acquire+release through the engine, for `perf stat`:
-//! `engine_probe engine|wire|interlock`.
+//! `engine_probe engine|wire|follow|interlock` (follow: the release follows
+//! msg.interlock.operation, as a release node with no operation of its own).
 use sugarshack_core::engine::wire::Wire;
 use sugarshack_core::engine::*;
 use sugarshack_core::interlock::InterlockConfig;
@@ -31,6 +32,13 @@ fn main() {
         },
         ms(0),
     );
+    e.handle(
+        Input::AddNode {
+            node: NodeId(3),
+            spec: NodeSpec::of(NodeKind::Release, Raw::Absent),
+        },
+        ms(0),
+    );
     e.handle(Input::Start(Saved::First), ms(0));
     e.take_outputs();
     let mut wire = Wire::new();
@@ -55,19 +63,25 @@ fn main() {
                     },
                     ms(1),
                 );
-                if what == "wire" {
+                if what != "engine" {
                     wire.encode(e.outputs());
                 }
                 e.clear_outputs();
-                e.handle(
+                let release = if what == "follow" {
+                    Input::Release {
+                        node: NodeId(3),
+                        msg: MsgId(2 * i + 1),
+                        fields: MsgFields::following(Raw::Text("load truck".into())),
+                    }
+                } else {
                     Input::Release {
                         node: NodeId(2),
                         msg: MsgId(2 * i + 1),
                         fields: MsgFields::default(),
-                    },
-                    ms(1),
-                );
-                if what == "wire" {
+                    }
+                };
+                e.handle(release, ms(1));
+                if what != "engine" {
                     wire.encode(e.outputs());
                 }
                 e.clear_outputs();

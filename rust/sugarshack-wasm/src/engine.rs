@@ -889,6 +889,19 @@ impl Engine {
         self.msg_input(msg, input, now_ms);
     }
 
+    /// `release` for a msg with no msg.operation that follows an acquire
+    /// (msg.interlock.operation as text): one string crosses, nothing is asked of JS.
+    #[wasm_bindgen(js_name = releaseFollowing)]
+    pub fn release_following(&mut self, node: u32, msg: u32, follow: String, now_ms: f64) {
+        let fields = MsgFields::following(Raw::Text(follow));
+        let input = Input::Release {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
     /// A msg into a release node: msg.operation, and msg.interlock.operation (the acquire it follows).
     pub fn release(
         &mut self,
@@ -898,15 +911,16 @@ impl Engine {
         #[wasm_bindgen(unchecked_param_type = "unknown")] follow: JsValue,
         now_ms: f64,
     ) {
-        let fields = if operation.is_undefined() && follow.is_undefined() {
-            MsgFields::default()
-        } else {
+        let operation = raw(&operation);
+        let fields = if operation.present() {
             Fields {
-                operation: raw(&operation),
+                operation,
                 follow: raw(&follow),
                 ..Fields::default()
             }
             .into()
+        } else {
+            MsgFields::following(raw(&follow))
         };
         let input = Input::Release {
             node: NodeId(node),

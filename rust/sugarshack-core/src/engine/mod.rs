@@ -180,9 +180,28 @@ pub struct Fields {
 }
 
 /// [`Fields`], boxed, or none when the msg names nothing itself (most
-/// msgs): an input stays small on the hot path.
+/// msgs): an input stays small on the hot path. A msg that carries only
+/// msg.interlock.operation (the usual release) keeps it beside, unboxed.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct MsgFields(Option<Box<Fields>>);
+pub struct MsgFields {
+    all: Option<Box<Fields>>,
+    follow: Raw,
+}
+
+impl MsgFields {
+    /// A msg that carries msg.interlock.operation and nothing else a node reads.
+    pub fn following(follow: Raw) -> Self {
+        MsgFields { all: None, follow }
+    }
+
+    /// msg.interlock.operation, however the msg carried it.
+    pub fn followed(&self) -> &Raw {
+        match &self.all {
+            Some(fields) => &fields.follow,
+            None => &self.follow,
+        }
+    }
+}
 
 static NO_FIELDS: Fields = Fields {
     operation: Raw::Absent,
@@ -203,13 +222,16 @@ static NO_FIELDS: Fields = Fields {
 impl std::ops::Deref for MsgFields {
     type Target = Fields;
     fn deref(&self) -> &Fields {
-        self.0.as_deref().unwrap_or(&NO_FIELDS)
+        self.all.as_deref().unwrap_or(&NO_FIELDS)
     }
 }
 
 impl From<Fields> for MsgFields {
     fn from(fields: Fields) -> Self {
-        MsgFields(Some(Box::new(fields)))
+        MsgFields {
+            all: Some(Box::new(fields)),
+            follow: Raw::Absent,
+        }
     }
 }
 
@@ -1137,7 +1159,11 @@ impl Engine {
                 }
             }
         }
-        let follow_value = if follow { &fields.follow } else { &Raw::Absent };
+        let follow_value = if follow {
+            fields.followed()
+        } else {
+            &Raw::Absent
+        };
         let name = operation_name_of(
             &fields.operation,
             node_value(n, fields, Value::Operation),
@@ -1365,7 +1391,7 @@ impl Engine {
             let named = operation_name_of(
                 &fields.operation,
                 node_value(n, fields, Value::Operation),
-                &fields.follow,
+                fields.followed(),
             );
             match named {
                 Ok(name) => self.interlock.release_named(&name, now),
@@ -1394,7 +1420,7 @@ impl Engine {
         operation_of(
             &fields.operation,
             node_value(n, fields, Value::Operation),
-            &fields.follow,
+            fields.followed(),
         )
     }
 

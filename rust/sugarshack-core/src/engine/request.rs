@@ -119,7 +119,12 @@ pub fn js_number(n: f64) -> String {
 
 /// The length JS gives a string (UTF-16 units): the bounds are the ones JS checked.
 fn js_len(text: &str) -> usize {
-    text.encode_utf16().count()
+    // ASCII (most names) is one unit a byte: no pass over its characters.
+    if text.is_ascii() {
+        text.len()
+    } else {
+        text.encode_utf16().count()
+    }
 }
 
 /// `text` cut to `max` characters, the last an ellipsis when cut.

@@ -1258,3 +1258,58 @@ fn a_run_saved_held_comes_back_held_only_when_started_with_its_plant() {
     assert_eq!(alone.counts().holding, 0);
     assert_eq!(alone.counts().faulted, 1);
 }
+
+#[test]
+fn a_msg_that_only_follows_an_acquire_reads_as_those_fields_boxed() {
+    // Each node that follows an acquire (release, cancel, fault), with the
+    // usual name, one to trim, none, a number, text that is no name, and one nobody holds.
+    let follows = [
+        text("10"),
+        text(" 12 "),
+        text(""),
+        Raw::Number(18.0),
+        Raw::Names(vec!["10".into()]),
+        text("nobody"),
+        Raw::Absent,
+    ];
+    let run = |fields: &dyn Fn() -> MsgFields| {
+        let mut b = Bench::new();
+        b.acquire(1, 1);
+        b.at(5).acquire(2, 2);
+        b.at(6).acquire(3, 3);
+        let mut out = Vec::new();
+        for (k, node) in [6, 5, 7].into_iter().enumerate() {
+            let input = |msg| match node {
+                5 => Input::Release {
+                    node: NodeId(5),
+                    msg: MsgId(msg),
+                    fields: fields(),
+                },
+                6 => Input::Cancel {
+                    node: NodeId(6),
+                    msg: MsgId(msg),
+                    fields: fields(),
+                },
+                _ => Input::Fault {
+                    node: NodeId(7),
+                    msg: MsgId(msg),
+                    fields: fields(),
+                },
+            };
+            out.push(b.at(10 + k as u64).run(input(10 + k as u32)));
+        }
+        out
+    };
+    for follow in follows {
+        let unboxed = run(&|| MsgFields::following(follow.clone()));
+        let boxed = run(&|| {
+            Fields {
+                follow: follow.clone(),
+                ..Fields::default()
+            }
+            .into()
+        });
+        assert_eq!(unboxed, boxed, "{follow:?}");
+        assert!(!unboxed.iter().all(Vec::is_empty));
+    }
+}
