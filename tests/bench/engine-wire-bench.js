@@ -64,13 +64,13 @@ function engine(wire) {
 const SCENARIOS = {
   'acquire + release (case study)': ({ call }, k, now) => {
     call((e) => e.acquire(1, k, now));
-    call((e) => e.release(2, k + 1, 'load truck', undefined, now));
+    call((e) => e.releaseTexts(2, k + 1, 'load truck', undefined, now));
   },
   'release granting three waiters': ({ call }, k, now) => {
     call((e) => e.acquireNamed(3, k, 'holder', 9, undefined, now));
     for (let i = 1; i <= 3; i++) call((e) => e.acquireNamed(3, k + i, `w${i}`, i, i === 1 ? 'YEL' : i === 2 ? 'RED' : 'GRN', now));
-    call((e) => e.release(2, k + 4, 'holder', undefined, now));
-    for (let i = 1; i <= 3; i++) call((e) => e.release(2, k + 4 + i, `w${i}`, undefined, now));
+    call((e) => e.releaseTexts(2, k + 4, 'holder', undefined, now));
+    for (let i = 1; i <= 3; i++) call((e) => e.releaseTexts(2, k + 4 + i, `w${i}`, undefined, now));
   },
   'fault with three lockouts, then clear': ({ call }, k, now) => {
     call((e) => e.fault(4, k, { reason: 'bench' }, now));

@@ -262,7 +262,7 @@ class EngineNode {
     // The msg that went through the acquire node: the release follows msg.interlock.
     const msg = { _msgId: `release-${op}`, interlock: { operation: this.names[op] } };
     const k = this.admit(msg);
-    this.e.release(RELEASE_NODE, k, undefined, msg.interlock.operation, Date.now());
+    this.e.releaseTexts(RELEASE_NODE, k, undefined, msg.interlock.operation, Date.now());
     this.answer();
     return this.granted.slice();
   }

@@ -56,7 +56,8 @@ const KINDS = {
     read: (msg, values) => [msg.operation, msg.interlock ? msg.interlock.operation : undefined, values],
     call: (e, now, h, k, [operation, follow, values]) => {
       if (values) e.releaseFields(h, k, { operation, follow, configured: values }, now);
-      else if (typeof operation === 'string' && operation.length <= SHORT_TEXT && follow === undefined) e.releaseOperation(h, k, operation, now);
+      // Text or nothing in both crosses as strings; anything else the facade reads as JS values.
+      else if (isShortText(operation) && isShortText(follow)) e.releaseTexts(h, k, operation, follow, now);
       else e.release(h, k, operation, follow, now);
     },
   },
@@ -64,6 +65,11 @@ const KINDS = {
   fault: { ports: 2, read: withValues, call: (e, now, h, k, fields) => e.fault(h, k, fields, now) },
   clear: { ports: 2, read: withValues, call: (e, now, h, k, fields) => e.clear(h, k, fields, fields.resources !== undefined, now) },
 };
+
+/** Undefined, null, or text short enough to cross whole as a string argument. */
+function isShortText(value) {
+  return value === undefined || value === null || (typeof value === 'string' && value.length <= SHORT_TEXT);
+}
 
 /** What a msg carries, with the node's values read for it (from context, env or JSONata) when it has any. */
 function withValues(msg, values) {
@@ -816,7 +822,7 @@ class EngineRuntime extends InterlockHost {
 
   /** A run releases its lines: `then` once saved, `refused(err)` when the engine refuses. */
   release(operation, then, refused = () => {}) {
-    this.runRequest(1, (e, k, now) => e.releaseOperation(RUN_RELEASE, k, operation, now), { sent: () => then(), failed: refused });
+    this.runRequest(1, (e, k, now) => e.releaseTexts(RUN_RELEASE, k, operation, undefined, now), { sent: () => then(), failed: refused });
   }
 
   /** A run withdraws its waiting request. */

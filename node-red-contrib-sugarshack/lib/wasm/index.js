@@ -35,7 +35,6 @@ function load() {
   }
   const facade = /** @type {Facade} */ (bindings);
   numericCalls(facade);
-  engineCalls(facade);
   prime(facade);
   return facade;
 }
@@ -56,31 +55,6 @@ function numericCalls({ Interlock }) {
     const count = this.releaseCode(op, nowMs);
     if (count < 0) throw this.takeError();
     return count;
-  };
-}
-
-// Text up to this long crosses as a string argument (longer, the facade reads its head and length only).
-const SHORT_TEXT = 1000;
-
-/**
- * An engine's release of a msg that names its operation, or names none and
- * follows an acquire (the usual release node), through the facade's
- * one-string variants: each JS value `release` reads costs the facade a call
- * back into JS per question (absent? text? how long? its text), a string
- * argument none. A msg's own operation (text, not empty) is the one released
- * whatever it follows, so it crosses alone. Same input, same outputs.
- */
-/** @param {Facade} facade */
-function engineCalls({ Engine }) {
-  const proto = /** @type {any} */ (Engine.prototype);
-  // The facade's own release, kept on the class (what counts calls into wasm sees each one).
-  proto.releaseValues = proto.release;
-  proto.release = function release(node, msg, operation, follow, nowMs) {
-    if (typeof operation === 'string' && operation.length > 0 && operation.length <= SHORT_TEXT) {
-      this.releaseOperation(node, msg, operation, nowMs);
-    } else if ((operation === undefined || operation === null) && typeof follow === 'string' && follow.length <= SHORT_TEXT) {
-      this.releaseFollowing(node, msg, follow, nowMs);
-    } else this.releaseValues(node, msg, operation, follow, nowMs);
   };
 }
 
@@ -228,12 +202,12 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   next.life('drain-end', 26);
   next.free();
   e.acquireOperation(1, 13, 'd', 26);
-  e.releaseOperation(2, 14, 'd', 26);
+  e.releaseTexts(2, 14, 'd', undefined, 26);
   e.acquireFields(1, 15, { configured: { operation: 'e', priority: 1, resources: 'A' } }, 26);
   e.releaseFields(2, 16, { configured: { operation: 'e' } }, 26);
   e.acquireOperation(1, 17, 'f', 26);
-  e.releaseFollowing(2, 18, 'f', 26);
-  /** @type {any} */ (e).releaseValues(2, 19, undefined, ['f'], 26);
+  e.releaseTexts(2, 18, undefined, 'f', 26);
+  e.release(2, 19, undefined, ['f'], 26);
   e.closeNode(1, true, 27);
   e.view(28);
   e.viewAgainst(28, t);

@@ -521,6 +521,40 @@ impl Engine {
         header[NEXT_DEADLINE] = self.core.next_deadline().map_or(-1.0, Millis::as_f64);
     }
 
+    /// A msg into acquire node `node`, with what it carries.
+    fn acquire_msg(&mut self, node: u32, msg: u32, fields: MsgFields, now_ms: f64) {
+        let input = Input::Acquire {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
+    /// A msg into release node `node`: its own operation when it names one, else the acquire it follows (the core reads which).
+    fn release_msg(&mut self, node: u32, msg: u32, operation: Raw, follow: Raw, now_ms: f64) {
+        let fields = if operation.present() {
+            Fields {
+                operation,
+                follow,
+                ..Fields::default()
+            }
+            .into()
+        } else {
+            MsgFields::following(follow)
+        };
+        self.release_fields_msg(node, msg, fields, now_ms);
+    }
+
+    fn release_fields_msg(&mut self, node: u32, msg: u32, fields: MsgFields, now_ms: f64) {
+        let input = Input::Release {
+            node: NodeId(node),
+            msg: MsgId(msg),
+            fields,
+        };
+        self.msg_input(msg, input, now_ms);
+    }
+
     /// A msg's input at a time from JS; a bad time refuses the msg (the hot calls never throw).
     fn msg_input(&mut self, msg: u32, input: Input, now_ms: f64) {
         match Millis::whole(now_ms) {
@@ -813,12 +847,7 @@ impl Engine {
     /// A msg into an acquire node that names nothing itself (the node's
     /// configuration applies). Never throws: a bad time refuses the msg.
     pub fn acquire(&mut self, node: u32, msg: u32, now_ms: f64) {
-        let input = Input::Acquire {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields: MsgFields::default(),
-        };
-        self.msg_input(msg, input, now_ms);
+        self.acquire_msg(node, msg, MsgFields::default(), now_ms);
     }
 
     /// A msg into an acquire node, with what it names (msg.operation, msg.priority, msg.resources).
@@ -839,12 +868,7 @@ impl Engine {
             ..Fields::default()
         }
         .into();
-        let input = Input::Acquire {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields,
-        };
-        self.msg_input(msg, input, now_ms);
+        self.acquire_msg(node, msg, fields, now_ms);
     }
 
     /// A msg into an acquire node whose values are read per msg (from
@@ -857,49 +881,29 @@ impl Engine {
         #[wasm_bindgen(unchecked_param_type = "EngineFields")] fields: JsValue,
         now_ms: f64,
     ) {
-        let input = Input::Acquire {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields: msg_fields(&fields),
-        };
-        self.msg_input(msg, input, now_ms);
+        self.acquire_msg(node, msg, msg_fields(&fields), now_ms);
     }
 
     /// `acquireNamed` for a msg that names only its operation, as text: one string crosses, nothing else.
     #[wasm_bindgen(js_name = acquireOperation)]
     pub fn acquire_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
         let fields = operation_only(operation);
-        let input = Input::Acquire {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields,
-        };
-        self.msg_input(msg, input, now_ms);
+        self.acquire_msg(node, msg, fields, now_ms);
     }
 
-    /// `release` for a msg that names only its operation, as text (no msg.interlock).
-    #[wasm_bindgen(js_name = releaseOperation)]
-    pub fn release_operation(&mut self, node: u32, msg: u32, operation: String, now_ms: f64) {
-        let fields = operation_only(operation);
-        let input = Input::Release {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields,
-        };
-        self.msg_input(msg, input, now_ms);
-    }
-
-    /// `release` for a msg with no msg.operation that follows an acquire
-    /// (msg.interlock.operation as text): one string crosses, nothing is asked of JS.
-    #[wasm_bindgen(js_name = releaseFollowing)]
-    pub fn release_following(&mut self, node: u32, msg: u32, follow: String, now_ms: f64) {
-        let fields = MsgFields::following(Raw::Text(follow));
-        let input = Input::Release {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields,
-        };
-        self.msg_input(msg, input, now_ms);
+    /// `release` for a msg whose operation and followed operation are each text
+    /// or absent: they cross as strings, and nothing is asked of JS.
+    #[wasm_bindgen(js_name = releaseTexts)]
+    pub fn release_texts(
+        &mut self,
+        node: u32,
+        msg: u32,
+        operation: Option<String>,
+        follow: Option<String>,
+        now_ms: f64,
+    ) {
+        let text = |t: Option<String>| t.map_or(Raw::Absent, Raw::Text);
+        self.release_msg(node, msg, text(operation), text(follow), now_ms);
     }
 
     /// A msg into a release node: msg.operation, and msg.interlock.operation (the acquire it follows).
@@ -911,23 +915,7 @@ impl Engine {
         #[wasm_bindgen(unchecked_param_type = "unknown")] follow: JsValue,
         now_ms: f64,
     ) {
-        let operation = raw(&operation);
-        let fields = if operation.present() {
-            Fields {
-                operation,
-                follow: raw(&follow),
-                ..Fields::default()
-            }
-            .into()
-        } else {
-            MsgFields::following(raw(&follow))
-        };
-        let input = Input::Release {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields,
-        };
-        self.msg_input(msg, input, now_ms);
+        self.release_msg(node, msg, raw(&operation), raw(&follow), now_ms);
     }
 
     /// A msg into a release node whose operation is read per msg (from
@@ -940,12 +928,7 @@ impl Engine {
         #[wasm_bindgen(unchecked_param_type = "EngineFields")] fields: JsValue,
         now_ms: f64,
     ) {
-        let input = Input::Release {
-            node: NodeId(node),
-            msg: MsgId(msg),
-            fields: msg_fields(&fields),
-        };
-        self.msg_input(msg, input, now_ms);
+        self.release_fields_msg(node, msg, msg_fields(&fields), now_ms);
     }
 
     /// A msg into a cancel node (`fields`: operation, follow, and who asks).
