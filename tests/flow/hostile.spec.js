@@ -396,6 +396,31 @@ describe('sugarshack hostile input', function () {
     await until(() => seen.rccout.length === rccOut + 1, 'an rcc decision');
   });
 
+  it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
+    const { seen, panel } = await start();
+    const generation = wasm.currentGeneration();
+    panel.mute = true;
+    const out = seen.gcout.length;
+    const mqtt = seen.mqtt.length;
+    helper.getNode('gc').receive({ payload: { valves: { V201: 100 } } });
+    await until(() => seen.mqtt.length > mqtt, 'the command published');
+    const io = seen.mqtt.at(-1).topic.split('/')[2];
+    // Circular in `pump` (as a function node could make it): JSON cannot write it whole.
+    const loop = {};
+    loop.self = loop;
+    const report = { ts: clock().now(), valve: { ...panel.positions.valve, [io]: 100 }, pump: loop };
+    const bad = badCount();
+    helper.getNode('bus').receive({ topic: 'ctrl-1/state', payload: report });
+    await until(() => seen.gcout.length === out + 1, 'the command completed by the readable field');
+    await until(() => badCount() === bad + 1, 'the circular field counted');
+    assert.match(malformed(seen).at(-1).message, /unreadable: Converting circular structure/);
+    // A getter that throws at the top: the whole payload is unreadable, refused and counted, never thrown.
+    await ignored(seen, { topic: 'ctrl-1/state', payload: { ts: clock().now(), get valve() { throw new Error('no valves'); }, pump: loop } });
+    // A proxy passing for a Buffer is no Buffer: refused as unreadable.
+    await ignored(seen, { topic: 'ctrl-1/valve/1/state', payload: new Proxy(Buffer.from('1'), { get() { throw new Error('no bytes'); } }) });
+    assert.equal(wasm.currentGeneration(), generation, 'no input was taken for a broken wasm instance');
+  });
+
   it('errors quote at most ~100 characters: a 1,000,000-character id, name, payload or topic', async function () {
     const { seen } = await start();
     const huge = (c) => c.repeat(1000000);

@@ -82,12 +82,13 @@ class PlantBuses {
     const bus = this.of(node);
     const served = bus && bus.devices ? bus.deviceHandles : undefined;
     const now = clock.now();
-    const text = payloadText(payload);
     const withSamples = journal.active;
     // One call: the core reads the msg, applies it and answers all of it (see Tracker.ingestMsg).
-    const answer = JSON.parse(text === null
-      ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples)
-      : plant.t.ingestMsg(topic, text, now, served, withSamples));
+    // Text and bytes (a Buffer; isView first: no proxy's trap runs here) cross as received;
+    // the facade reads any other value (what auto-detect parsed, or a hostile one).
+    const answer = JSON.parse(typeof payload === 'string' ? plant.t.ingestMsg(topic, payload, now, served, withSamples)
+      : ArrayBuffer.isView(payload) && payload instanceof Uint8Array ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples)
+        : plant.t.ingestMsgValue(topic, payload, now, served, withSamples));
     const { Ingest } = wasm.load();
     if (answer.kind === Ingest.Command) return false;
     if (answer.kind === Ingest.Foreign) {
@@ -225,39 +226,6 @@ class PlantBuses {
  */
 function eventsWired(node) {
   return !Array.isArray(node.wires) || (Array.isArray(node.wires[2]) && node.wires[2].length > 0);
-}
-
-/**
- * A payload as the text its device sent: `mqtt in` hands over text, a Buffer
- * (null here: passed as bytes), or what auto-detect parsed from JSON text.
- */
-function payloadText(payload) {
-  if (typeof payload === 'string') return payload;
-  return payload === undefined ? '' : jsonText(payload, true);
-}
-
-/**
- * JSON text of a value (null for bytes at the top: passed as they are); one
- * that cannot be written (circular, too deep, a getter that throws, a revoked
- * proxy) becomes a string saying so, which the core refuses as it would any
- * wrong value: at the top, or in its own field (`value`).
- */
-function jsonText(value, top) {
-  try {
-    if (top && value instanceof Uint8Array) return null; // a Buffer too
-    const text = JSON.stringify(value);
-    return text === undefined ? JSON.stringify(String(value)) : text;
-  } catch (err) {
-    try {
-      if (top && value !== null && typeof value === 'object' && !Array.isArray(value)) {
-        const fields = Object.keys(value).slice(0, 1000).map((k) => `${JSON.stringify(k)}:${jsonText(value[k], false)}`);
-        return `{${fields.join(',')}}`;
-      }
-    } catch {
-      // a proxy or getter that throws on its keys: unreadable as a whole
-    }
-    return JSON.stringify(`(unreadable: ${clip(err && err.message)})`);
-  }
 }
 
 /** A value as a short quote for a log line. */

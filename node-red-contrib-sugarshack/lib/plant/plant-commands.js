@@ -9,18 +9,14 @@ const { heldMsg } = require('../interlock/pending');
 const { seconds } = require('./plant');
 const { refusalError } = require('./group');
 const { readMsg } = require('../interlock/request');
-const { stats } = require('../host/stats');
 const { clock } = require('../host/clock');
 const i18n = require('../host/i18n');
-
-const MAX_CALLER = 0xffffffff;
 
 class GroupCommands {
   /** plant: the PlantRuntime (its core `t`, guard, effects pump and status). */
   constructor(plant) {
     this.plant = plant;
-    this.pending = new Map(); // caller -> held group command
-    this.nextCaller = 0;
+    this.pending = new Map(); // caller (the core's) -> held group command
   }
 
   /**
@@ -34,12 +30,11 @@ class GroupCommands {
     const { topic, lockout, interlock, payload, faultAtMs } = readMsg(() => ({
       topic: msg.topic, lockout: msg.lockout, interlock: msg.interlock, payload: msg.payload, faultAtMs: msg.faultAtMs,
     }));
-    const caller = this.newCaller();
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, caller, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
+    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
-    this.pending.set(caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
+    this.pending.set(answer.caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
     plant.flush(null, answer);
   }
 
@@ -49,7 +44,7 @@ class GroupCommands {
    */
   run({ payload, timeoutMs, within, onDone }) {
     const { plant } = this;
-    const caller = this.newCaller();
+    const caller = plant.t.nextCaller();
     plant.guard(() => plant.t.command(payload, caller, false, clock.now(), within, undefined, timeoutMs));
     const entry = callbackEntry(onDone);
     this.pending.set(caller, entry);
@@ -77,7 +72,7 @@ class GroupCommands {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
       try {
-        const caller = this.newCaller();
+        const caller = plant.t.nextCaller();
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
         this.pending.set(caller, callbackEntry(onDone, true));
         plant.flush(null);
@@ -91,13 +86,6 @@ class GroupCommands {
   take(caller) {
     this.pending.delete(caller);
     this.plant.mayBeQuiet();
-  }
-
-  newCaller() {
-    do {
-      this.nextCaller = this.nextCaller >= MAX_CALLER ? 1 : this.nextCaller + 1;
-    } while (this.pending.has(this.nextCaller));
-    return this.nextCaller;
   }
 
   // ---- what the held msgs are ----------------------------------------------
@@ -151,8 +139,6 @@ class GroupCommands {
     const entry = this.pending.get(e.caller);
     if (!entry) return;
     this.take(e.caller);
-    // A lockout from a fault node: the paper's fault lockout time, fault to isolation.
-    if (e.faultLockoutMs !== undefined) stats.add('fault/lockout', e.faultLockoutMs);
     // `e.command`: the outcome by ids, as the core tells it to the msg.
     if (e.kind === 'groupCompleted') {
       entry.complete(e.command);

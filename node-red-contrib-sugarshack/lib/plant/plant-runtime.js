@@ -119,10 +119,8 @@ class PlantRuntime extends RuntimeBase {
     const t = new Tracker(plant, clock.now());
     this.devices = t.devices();
     this.deviceIndex = new Map(this.devices.map((id, handle) => [id, handle]));
-    const deviceIndex = this.deviceIndex;
-    this.actuators = t.actuators().map((a) => ({ ...a, deviceHandle: deviceIndex.get(a.device) }));
-    this.sensorNames = [];
-    for (const sensor of plant.sensors || []) this.sensorNames[t.sensor(sensor.id)] = sensor.id;
+    this.actuators = t.actuators();
+    this.sensorNames = t.sensors();
     this.bus.resolve();
     for (const warning of t.warnings()) this.log('warn', i18n.text('logs.plantWarning', { warning }));
     return t;
@@ -307,15 +305,16 @@ class PlantRuntime extends RuntimeBase {
   /**
    * After every core call: act on its effects, then update status. `source`:
    * the feedback msg's bus and topic. `answer`: what the call answered in one
-   * value (effects, whether they may move the status or the devices' health,
-   * next deadline, counts), else the queued effects are taken as one. A
+   * value (effects, the timing figures they measure, whether they may move the
+   * status or the devices' health, next deadline, counts), else the queued effects are taken as one. A
    * feedback msg whose effects are only new values (or none: the usual report
    * of positions that did not move) changed no count, so the status is left as it is.
    * @param {{ bus: any, topic: string } | null} source
-   * @param {{ effects?: any[], status?: boolean, health?: boolean, deadline?: number, counts?: any, lockout?: boolean }} [answer]
+   * @param {{ effects?: any[], timings?: [string, number][], status?: boolean, health?: boolean, deadline?: number, counts?: any, lockout?: boolean }} [answer]
    */
   flush(source, answer = this.t.queued() > 0 ? JSON.parse(this.t.takeAnswer()) : {}) {
     const effects = answer.effects || [];
+    for (const [series, ms] of answer.timings || []) stats.add(series, ms);
     try {
       for (const effect of effects) this.route(effect, source);
     } catch (err) {
@@ -356,10 +355,6 @@ class PlantRuntime extends RuntimeBase {
         this.bus.malformed(source ? source.bus : null, source ? source.topic : '', e.device, e.reason, e.message);
         break;
       default:
-        if (e.kind === 'completed' && e.timed) {
-          stats.add('command/issueToMotion', e.issueToMotionMs);
-          stats.add('command/completion', e.completionMs);
-        } else if (e.kind === 'lockoutConfirmed' && e.afterMs !== undefined) stats.add('lockout/confirm', e.afterMs);
         this.bus.emitActuator(e);
     }
   }

@@ -308,7 +308,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.ingestBytes('p/valve/1/state', Uint8Array.of(49), 460);
   t.ingestMsg('p/status', 'online', 460, Uint32Array.of(0), true);
   t.ingestMsgBytes('p/valve/1/state', Uint8Array.of(49), 460, undefined, false);
-  t.commandMsg('lockout/A', undefined, undefined, '{"valves":{"V":0}}', 3, 460, undefined, 1000);
+  t.ingestMsgValue('p/state', { valve: { 1: 0 } }, 460, undefined, false);
+  t.commandMsg('lockout/A', undefined, undefined, '{"valves":{"V":0}}', 460, undefined, 1000);
+  t.nextCaller();
   t.lastTs();
   t.lastDevice();
   t.lastSensors();
@@ -334,6 +336,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.slot(0, 'valve', 1);
   t.actuators();
   t.devices();
+  t.sensors();
   t.warnings();
   t.operationPlan('o');
   const run = t.operationRun('o');

@@ -15,6 +15,7 @@ mod group;
 mod interlock;
 mod modbus;
 pub mod operation;
+mod payload;
 mod routine;
 mod tracker;
 

@@ -9,6 +9,7 @@ use sugarshack_core::topics::{Incoming, Reading, Readings, Refusal};
 use wasm_bindgen::prelude::*;
 
 use crate::operation::OperationRun;
+use crate::payload::{self, Payload};
 use crate::routine::Routine;
 use crate::{from_js_bounded, js_error, plant_document, time, to_js, Bound};
 use sugarshack_core::text::quote;
@@ -36,6 +37,7 @@ export interface PlantActuator {
     id: string;
     type: string;
     device: string;
+    deviceHandle: number | null;
     io: number | null;
     binary: boolean;
     idle: number | null;
@@ -249,9 +251,15 @@ struct Answer<'a> {
     /// With a command: the counts after it.
     #[serde(skip_serializing_if = "Option::is_none")]
     counts: Option<sugarshack_core::actuator::Counts>,
+    /// With a command msg: its caller, which its outcome effects name.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    caller: Option<u32>,
     /// With a command: whether it is a lockout.
     #[serde(skip_serializing_if = "Option::is_none")]
     lockout: Option<bool>,
+    /// What its effects measure, as `[series, ms]` for the host's stats (`Effect::timings`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    timings: Vec<(&'static str, f64)>,
     /// Whether an effect may move what the status shows (anything but new values).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     status: bool,
@@ -271,6 +279,8 @@ struct ActuatorView<'a> {
     #[serde(rename = "type")]
     kind: &'a str,
     device: &'a str,
+    /// Its device's handle (see `devices`).
+    device_handle: Option<u32>,
     io: Option<u32>,
     binary: bool,
     idle: Option<f64>,
@@ -476,6 +486,13 @@ impl Tracker {
             health: effects
                 .iter()
                 .any(|o| o.effect().is_some_and(Effect::moves_health)),
+            timings: effects
+                .iter()
+                .filter_map(Output::effect)
+                .flat_map(Effect::timings)
+                .flatten()
+                .map(|(series, ms)| (series, ms.as_f64()))
+                .collect(),
             effects: &effects,
             ..answer
         };
@@ -623,7 +640,7 @@ impl Tracker {
             .map(|id| id.index() as u32)
     }
 
-    /// Every actuator: `[{ handle, id, type, device, io, binary, idle, lockout }]`.
+    /// Every actuator: `[{ handle, id, type, device, deviceHandle, io, binary, idle, lockout }]`.
     #[wasm_bindgen(unchecked_return_type = "PlantActuator[]")]
     pub fn actuators(&self) -> Result<JsValue, JsValue> {
         let views: Vec<ActuatorView> = self
@@ -639,6 +656,7 @@ impl Tracker {
                     id: &a.id,
                     kind: &a.kind,
                     device: &a.device,
+                    device_handle: self.core.device(&a.device).ok().map(|d| d.index() as u32),
                     io: a.io,
                     binary: self.core.signal(id) == Some(Signal::Binary),
                     idle: self.core.idle_state(id),
@@ -707,8 +725,8 @@ impl Tracker {
     /// A group command msg in one call: read as `readGroupMsg` reads it
     /// (`msg.topic`, `msg.lockout`, `msg.interlock`, `msg.payload`), issued as
     /// `command` issues it. Answers JSON text: `{ refusal }` (as
-    /// `readGroupMsg`'s) or `{ lockout, effects?, deadline?, counts }`; the
-    /// command's refusal throws.
+    /// `readGroupMsg`'s) or `{ caller, lockout, effects?, deadline?, counts }`
+    /// (`caller`: as `nextCaller` gives it); the command's refusal throws.
     #[wasm_bindgen(js_name = commandMsg)]
     #[allow(clippy::too_many_arguments)]
     pub fn command_msg(
@@ -717,7 +735,6 @@ impl Tracker {
         #[wasm_bindgen(unchecked_param_type = "unknown")] lockout: JsValue,
         #[wasm_bindgen(unchecked_param_type = "unknown")] interlock: JsValue,
         #[wasm_bindgen(unchecked_param_type = "unknown")] payload: JsValue,
-        caller: u32,
         now_ms: f64,
         fault_at_ms: Option<f64>,
         timeout_ms: Option<f64>,
@@ -731,6 +748,7 @@ impl Tracker {
                 )
             }
         };
+        let caller = self.next_caller();
         self.command(
             payload,
             caller,
@@ -742,10 +760,19 @@ impl Tracker {
         )?;
         let counts = self.core.counts();
         self.answer(Answer {
+            caller: Some(caller),
             lockout: Some(read.lockout),
             counts: Some(counts),
             ..Answer::default()
         })
+    }
+
+    /// A caller for the next `command`: a positive integer no group command
+    /// still waiting has (see the core's `Tracker::new_caller`).
+    #[wasm_bindgen(js_name = nextCaller)]
+    pub fn next_caller(&mut self) -> u32 {
+        // The core gives callers within u32 (MAX_CALLER).
+        self.core.new_caller() as u32
     }
 
     /// Stops waiting for a caller's group (its msg timed out, or its node closed);
@@ -834,30 +861,27 @@ impl Tracker {
         payload: &[u8],
         now_ms: f64,
     ) -> Result<Ingest, JsValue> {
+        self.ingest_sized(topic, Ok(payload), now_ms)
+    }
+
+    /// [`Tracker::ingest_bytes`] of bytes, or of a payload over the bound left
+    /// in JS (`Err`: at least its size in bytes).
+    fn ingest_sized(
+        &mut self,
+        topic: &str,
+        payload: Result<&[u8], usize>,
+        now_ms: f64,
+    ) -> Result<Ingest, JsValue> {
         let now = time(now_ms)?;
         self.forget_last();
         if group_msg::is_lockout_topic(topic) {
             return Ok(Ingest::Command);
         }
+        let payload = match payload {
+            Ok(bytes) if bytes.len() <= MAX_PAYLOAD_BYTES => bytes,
+            over => return Ok(self.too_large(topic, over.map_or_else(|size| size, <[u8]>::len))),
+        };
         let contract = self.core.contract();
-        if payload.len() > MAX_PAYLOAD_BYTES {
-            return Ok(match contract.device_of(topic) {
-                Some(device) => {
-                    self.last_device = Some(device.index() as u32);
-                    self.malformed(
-                        device,
-                        "too large",
-                        format!(
-                            "payload of {} bytes is over the {} MiB a device message may have",
-                            payload.len(),
-                            MAX_PAYLOAD_BYTES >> 20
-                        ),
-                    );
-                    Ingest::Refused
-                }
-                None => Ingest::Foreign,
-            });
-        }
         let mut readings = std::mem::take(&mut self.readings);
         let incoming = contract.parse(topic, payload, now, &mut readings);
         self.readings = readings;
@@ -895,6 +919,23 @@ impl Tracker {
         })
     }
 
+    /// A payload over the bound (`size`: at least its bytes), refused unread.
+    fn too_large(&mut self, topic: &str, size: usize) -> Ingest {
+        let Some(device) = self.core.contract().device_of(topic) else {
+            return Ingest::Foreign;
+        };
+        self.last_device = Some(device.index() as u32);
+        self.malformed(
+            device,
+            "too large",
+            format!(
+                "payload of {size} bytes is over the {} MiB a device message may have",
+                MAX_PAYLOAD_BYTES >> 20
+            ),
+        );
+        Ingest::Refused
+    }
+
     /// One device msg in one call: `ingest` (text) and what it did, as JSON
     /// text `{ kind, device?, ts?, sensors?, samples?, effects?, status?, health?, deadline? }`
     /// (see `Answer`). `served`: the devices of the actuators node it came to
@@ -924,6 +965,28 @@ impl Tracker {
         self.ingest_answered(topic, served, samples, |t| {
             t.ingest_bytes(topic, payload, now_ms)
         })
+    }
+
+    /// [`Tracker::ingest_msg`] for a payload as Node-RED handed it over: text,
+    /// bytes (a Buffer), or a value (what `mqtt in` auto-detect parsed from
+    /// JSON), which is read as JSON text; see `payload`. Never throws for the
+    /// payload, whatever it is.
+    #[wasm_bindgen(js_name = ingestMsgValue)]
+    pub fn ingest_msg_value(
+        &mut self,
+        topic: &str,
+        #[wasm_bindgen(unchecked_param_type = "unknown")] payload: JsValue,
+        now_ms: f64,
+        served: Option<Vec<u32>>,
+        samples: bool,
+    ) -> Result<String, JsValue> {
+        match payload::read(&payload, MAX_PAYLOAD_BYTES) {
+            Payload::Text(text) => self.ingest_msg(topic, &text, now_ms, served, samples),
+            Payload::Bytes(bytes) => self.ingest_msg_bytes(topic, &bytes, now_ms, served, samples),
+            Payload::TooLarge(size) => self.ingest_answered(topic, served, samples, |t| {
+                t.ingest_sized(topic, Err(size), now_ms)
+            }),
+        }
     }
 
     /// The device of the last `ingest`, if its topic was a device's.
@@ -1209,6 +1272,13 @@ impl Tracker {
             .sensor(name)
             .map(|id| id.index() as u32)
             .map_err(sensor_error)
+    }
+
+    /// Sensor ids in handle order.
+    pub fn sensors(&self) -> Vec<String> {
+        (0..self.sensors.len())
+            .map(|i| self.sensors.name(SensorId::from_index(i as u32)).to_owned())
+            .collect()
     }
 
     /// The sensor a device publishes as datapoint `name`, if the plant names one.

@@ -206,7 +206,6 @@ fn one_call_reads_and_issues_a_command_msg_and_answers_its_effects_deadline_and_
             U,
             U,
             payload,
-            7,
             0.0,
             None,
             Some(1000.0),
@@ -226,22 +225,39 @@ fn one_call_reads_and_issues_a_command_msg_and_answers_its_effects_deadline_and_
     assert_eq!(t.queued(), 0);
     // Its refusal comes back as readGroupMsg's; a command outside the lines held throws the core's code.
     let out = t
-        .command_msg(U, U, json("5"), json("{}"), 8, 0.0, None, None)
+        .command_msg(U, U, json("5"), json("{}"), 0.0, None, None)
         .unwrap();
     let read: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(read["refusal"]["code"], "INVALID_RESOURCES");
     assert_eq!(read["refusal"]["key"], "errors.heldNotListed");
     let err = t
-        .command_msg(
-            U,
-            U,
-            U,
-            text(r#"{"valves": {"NOPE": 0}}"#),
-            9,
-            0.0,
-            None,
-            None,
-        )
+        .command_msg(U, U, U, text(r#"{"valves": {"NOPE": 0}}"#), 0.0, None, None)
         .unwrap_err();
     assert!(get(&err, "code").as_string().is_some());
+}
+
+#[wasm_bindgen_test]
+fn a_command_msg_gets_its_caller_from_the_tracker_and_its_outcome_names_it() {
+    let mut t = plant();
+    let issue = |t: &mut Tracker, target: &str| {
+        let out = t
+            .command_msg(text("plant/command"), U, U, text(target), 0.0, None, None)
+            .unwrap();
+        serde_json::from_str::<serde_json::Value>(&out).unwrap()
+    };
+    let first = issue(&mut t, r#"{"valves": {"V12": 50}}"#);
+    assert_eq!(first["caller"], 1);
+    assert_eq!(t.next_caller(), 2, "the next caller follows");
+    t.feedback(0, 50.0, None, 10.0).unwrap();
+    let done: Vec<serde_json::Value> = Array::from(&t.take_effects().unwrap())
+        .iter()
+        .map(|e| serde_json::from_str(&JSON::stringify(&e).unwrap().as_string().unwrap()).unwrap())
+        .filter(|e: &serde_json::Value| e["kind"] == "groupCompleted")
+        .collect();
+    assert_eq!(
+        done.first().map(|e| e["caller"].clone()),
+        Some(serde_json::json!(1)),
+        "{done:?}"
+    );
+    assert_eq!(issue(&mut t, r#"{"valves": {"V12": 0}}"#)["caller"], 3);
 }

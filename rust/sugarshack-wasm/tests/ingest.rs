@@ -247,3 +247,162 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
     );
     assert_eq!(read, serde_json::json!({ "kind": Ingest::Foreign as u8 }));
 }
+
+/// A JS value made by `body` (a function body that returns it).
+fn js(body: &str) -> JsValue {
+    js_sys::Function::new_no_args(body)
+        .call0(&JsValue::NULL)
+        .unwrap()
+}
+
+/// `ingestMsgValue`'s answer for `payload` on `topic`, parsed, with its malformed reasons.
+fn value_answer(
+    t: &mut Tracker,
+    topic: &str,
+    payload: &JsValue,
+) -> (serde_json::Value, Vec<String>) {
+    let read = answer(
+        t.ingest_msg_value(topic, payload.clone(), 100.0, None, false)
+            .unwrap(),
+    );
+    let reasons = read["effects"]
+        .as_array()
+        .map(|effects| {
+            effects
+                .iter()
+                .filter(|e| e["kind"] == "malformed")
+                .map(|e| e["reason"].as_str().unwrap().to_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    (read, reasons)
+}
+
+#[wasm_bindgen_test]
+fn a_payload_as_a_value_is_read_as_the_json_its_device_sent() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    // What auto-detect parsed, as text and as bytes: the same reading.
+    let (read, reasons) = value_answer(
+        &mut t,
+        "ctrl-3/state",
+        &js(r#"return { ts: 90, valve: { 1: 40 } };"#),
+    );
+    assert_eq!(
+        (read["kind"].clone(), read["ts"].clone()),
+        (
+            serde_json::json!(Ingest::Samples as u8),
+            serde_json::json!(90.0)
+        )
+    );
+    assert!(reasons.is_empty(), "{reasons:?}");
+    assert_eq!(t.position(2), Some(40.0));
+    let (read, _) = value_answer(&mut t, "station-2/sensor/volume/state", &js("return 7;"));
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    let (read, _) = value_answer(
+        &mut t,
+        "ctrl-3/state",
+        &js(r#"return new TextEncoder().encode('{"valve": {"1": 60}}');"#),
+    );
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(t.position(2), Some(60.0));
+    let (read, _) = value_answer(
+        &mut t,
+        "ctrl-3/state",
+        &JsValue::from_str(r#"{"valve": {"1": 70}}"#),
+    );
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(t.position(2), Some(70.0));
+    // A group command as a value on no device's topic reads as one; other values are someone else's.
+    let (read, _) = value_answer(
+        &mut t,
+        "plant/command",
+        &js("return { valves: { V101: 0 } };"),
+    );
+    assert_eq!(read["kind"], Ingest::Command as u8);
+    let (read, _) = value_answer(&mut t, "elsewhere/x", &js("return { other: 1 };"));
+    assert_eq!(read["kind"], Ingest::Foreign as u8);
+}
+
+#[wasm_bindgen_test]
+fn a_payload_that_cannot_be_written_as_json_is_refused_never_thrown() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    // Circular: its readable fields are applied, the circular one is refused in its own field.
+    let circular = js("const v = { valve: { 1: 30 } }; v.self = v; return v;");
+    let (read, _) = value_answer(&mut t, "ctrl-3/state", &circular);
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(t.position(2), Some(30.0), "the readable field is not lost");
+    // A field whose value is circular: refused in that field, nothing applied from it.
+    let inner = js("const v = {}; v.v = v; return { valve: { 1: v } };");
+    let (read, reasons) = value_answer(&mut t, "ctrl-3/state", &inner);
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(reasons, ["bad group"], "{read}");
+    assert_eq!(t.position(2), Some(30.0));
+    // A BigInt in a field: that field refused in its own words.
+    let (read, reasons) =
+        value_answer(&mut t, "ctrl-3/state", &js("return { valve: { 1: 10n } };"));
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+    assert_eq!(reasons, ["bad group"]);
+    assert!(
+        read.to_string()
+            .contains("unreadable: Do not know how to serialize a BigInt"),
+        "{read}"
+    );
+    // Unreadable as a whole (a getter that throws, a revoked proxy, a BigInt, a deep array): refused at the top.
+    for body in [
+        "const v = {}; Object.defineProperty(v, 'valve', { enumerable: true, get() { throw new Error('no'); } }); return v;",
+        "const p = Proxy.revocable({}, {}); p.revoke(); return p.proxy;",
+        "return 10n;",
+        "let v = []; for (let i = 0; i < 100000; i++) v = [v]; return v;",
+        "return Symbol('x');",
+        "return () => 1;",
+        "const e = new Error('x'); Object.defineProperty(e, 'message', { get() { throw e; } }); return { toJSON() { throw e; } };",
+    ] {
+        let (read, reasons) = value_answer(&mut t, "ctrl-3/state", &js(body));
+        assert_eq!(read["kind"], Ingest::Refused as u8, "{body}: {read}");
+        assert_eq!(reasons.len(), 1, "{body}: {read}");
+        assert_eq!(t.position(2), Some(30.0), "{body}");
+    }
+    // Over the bound: refused unread, as text and as bytes.
+    for body in [
+        "return { blob: 'x'.repeat(17 * 1024 * 1024) };",
+        "return new Uint8Array(17 * 1024 * 1024);",
+        "return 'x'.repeat(17 * 1024 * 1024);",
+    ] {
+        let (read, reasons) = value_answer(&mut t, "ctrl-3/state", &js(body));
+        assert_eq!(read["kind"], Ingest::Refused as u8, "{body}: {read}");
+        assert_eq!(reasons, ["too large"], "{body}");
+    }
+    let (read, _) = value_answer(
+        &mut t,
+        "elsewhere/x",
+        &js("return { blob: 'x'.repeat(17 * 1024 * 1024) };"),
+    );
+    assert_eq!(read["kind"], Ingest::Foreign as u8);
+    let (read, _) = value_answer(
+        &mut t,
+        "lockout/YEL",
+        &js("return new Uint8Array(17 * 1024 * 1024);"),
+    );
+    assert_eq!(read["kind"], Ingest::Command as u8);
+    // Undefined is an empty payload, as before.
+    let (read, _) = value_answer(&mut t, "ctrl-3/state", &JsValue::UNDEFINED);
+    assert_eq!(read["kind"], Ingest::Refused as u8);
+}
+
+#[wasm_bindgen_test]
+fn a_payload_that_passes_for_bytes_but_is_not_is_refused_never_thrown() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    for body in [
+        "return new Proxy(new Uint8Array(4), { get() { throw new Error('no'); } });",
+        "return new Proxy(new Uint8Array(4), {});",
+        "const p = Proxy.revocable(new Uint8Array(4), {}); p.revoke(); return p.proxy;",
+        "return Object.create(Uint8Array.prototype);",
+    ] {
+        let (read, reasons) = value_answer(&mut t, "ctrl-3/state", &js(body));
+        assert_eq!(read["kind"], Ingest::Refused as u8, "{body}: {read}");
+        assert_eq!(reasons.len(), 1, "{body}: {read}");
+    }
+    // The tracker still answers: no borrow was left open.
+    let (read, _) = value_answer(&mut t, "ctrl-3/state", &js("return { valve: { 1: 5 } };"));
+    assert_eq!(read["kind"], Ingest::Samples as u8);
+}

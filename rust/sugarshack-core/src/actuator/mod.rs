@@ -80,6 +80,9 @@ impl DeviceId {
 /// The caller's handle for a group command (one msg waiting for it).
 pub type Caller = u64;
 
+/// The largest caller [`Tracker::new_caller`] gives: a host's plain integer (u32).
+pub const MAX_CALLER: Caller = u32::MAX as Caller;
+
 /// Where an actuator is in carrying out its command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -277,7 +280,36 @@ pub enum Effect {
     },
 }
 
+/// The timing series an effect adds a value to (the paper's Figs. 12-14, as
+/// the host's stats name them), at most two per effect.
+pub type Timings = [Option<(&'static str, Millis)>; 2];
+
 impl Effect {
+    /// The timing figures it measures: a command's issuance to motion and
+    /// completion (when the actuator moved: `timed`), a lockout confirmed, a
+    /// fault lockout (fault to its lockout command completed).
+    pub fn timings(&self) -> Timings {
+        match *self {
+            Effect::Completed {
+                timed: true,
+                issue_to_motion_ms,
+                completion_ms,
+                ..
+            } => [
+                Some(("command/issueToMotion", issue_to_motion_ms)),
+                Some(("command/completion", completion_ms)),
+            ],
+            Effect::LockoutConfirmed { after_ms, .. } => {
+                [Some(("lockout/confirm", after_ms)), None]
+            }
+            Effect::GroupCompleted {
+                fault_lockout_ms: Some(ms),
+                ..
+            } => [Some(("fault/lockout", ms)), None],
+            _ => [None, None],
+        }
+    }
+
     /// Whether the host's status may read differently after it: anything but a
     /// new feedback value (report by exception) may move the counts.
     pub fn moves_status(&self) -> bool {
@@ -639,6 +671,8 @@ pub struct Tracker {
     /// (device, type name, io) -> actuator, for device feedback.
     slots: HashMap<(DeviceId, String, u32), ActuatorId>,
     groups: HashMap<Caller, Group>,
+    /// The caller `new_caller` gave last (0: none yet).
+    last_caller: Caller,
     tally: Tally,
     /// The earliest time `tick` may have work (a threshold, a lockout to send
     /// again), never later than it: made exact by `tick` and a device coming
@@ -731,6 +765,7 @@ impl Tracker {
             device_by_name,
             slots,
             groups: HashMap::new(),
+            last_caller: 0,
             tally: Tally {
                 total: Counts::default(),
                 per_device: vec![Counts::default(); plant_devices],
@@ -1251,6 +1286,22 @@ impl Tracker {
             self.lower_due(id);
         }
         Ok(effects)
+    }
+
+    /// A caller for a new group command: the one after the last given (from 1,
+    /// back to 1 after [`MAX_CALLER`]), skipping any whose group is still waiting.
+    /// It ends: every waiting group holds an actuator no other one holds.
+    pub fn new_caller(&mut self) -> Caller {
+        loop {
+            self.last_caller = if self.last_caller >= MAX_CALLER {
+                1
+            } else {
+                self.last_caller + 1
+            };
+            if !self.groups.contains_key(&self.last_caller) {
+                return self.last_caller;
+            }
+        }
     }
 
     /// Stops tracking a caller's group (its msg timed out or its node closed).

@@ -535,6 +535,74 @@ fn withdrawing_a_group_leaves_its_actuators_idle() {
 }
 
 #[test]
+fn timed_completions_confirmed_lockouts_and_fault_lockouts_are_timing_figures() {
+    let series = |effects: &[Effect]| -> Vec<(&str, u64)> {
+        effects
+            .iter()
+            .flat_map(Effect::timings)
+            .flatten()
+            .map(|(name, ms)| (name, ms.as_u64()))
+            .collect()
+    };
+    let (mut t, v1, v2, _) = tracker();
+    // Already there: completed at once, no figure of motion.
+    assert_eq!(
+        series(&t.command(&[(v2, 0.0)], 1, false, ms(0)).unwrap()),
+        []
+    );
+    t.command(&[(v1, 100.0)], 2, false, ms(0)).unwrap();
+    t.feedback(v1, 50.0, None, ms(400)).unwrap();
+    let done = t.feedback(v1, 100.0, None, ms(900)).unwrap();
+    assert_eq!(
+        series(&done),
+        [("command/issueToMotion", 400), ("command/completion", 900)]
+    );
+    // A lockout after a fault at 1000: confirmed and completed, fault to completion.
+    let issued = t
+        .issue(
+            &[(v1, 0.0)],
+            3,
+            Terms {
+                lockout: true,
+                fault_at: Some(ms(1000)),
+                timeout: None,
+            },
+            ms(1200),
+        )
+        .unwrap();
+    assert_eq!(series(&issued), []);
+    t.feedback(v1, 50.0, None, ms(1500)).unwrap();
+    let done = t.feedback(v1, 0.0, None, ms(2000)).unwrap();
+    assert_eq!(
+        series(&done),
+        [
+            ("lockout/confirm", 800),
+            ("command/issueToMotion", 300),
+            ("command/completion", 800),
+            ("fault/lockout", 1000)
+        ]
+    );
+}
+
+#[test]
+fn callers_count_up_wrap_within_u32_and_skip_a_group_still_waiting() {
+    let (mut t, v1, v2, _) = tracker();
+    assert_eq!([t.new_caller(), t.new_caller()], [1, 2]);
+    // 3 waits on V1; 4 completes at once (V2 is already at 0) and waits on nothing.
+    t.command(&[(v1, 100.0)], 3, false, ms(0)).unwrap();
+    t.command(&[(v2, 0.0)], 4, false, ms(0)).unwrap();
+    assert_eq!(t.new_caller(), 4);
+    t.last_caller = MAX_CALLER - 1;
+    assert_eq!(t.new_caller(), MAX_CALLER);
+    assert_eq!([t.new_caller(), t.new_caller()], [1, 2]);
+    // Past 2 comes 3, still waiting: skipped.
+    assert_eq!(t.new_caller(), 4);
+    assert!(t.withdraw(3));
+    t.last_caller = 2;
+    assert_eq!(t.new_caller(), 3, "free again once withdrawn");
+}
+
+#[test]
 fn group_commands_read_by_type_and_refuse_mismatches() {
     let (t, v1, v2, p1) = tracker();
     let targets = t
