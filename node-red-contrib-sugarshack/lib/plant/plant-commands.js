@@ -44,7 +44,7 @@ class GroupCommands {
    */
   run({ payload, timeoutMs, within, onDone }) {
     const { plant } = this;
-    const caller = plant.t.nextCaller();
+    const caller = plant.guard(() => plant.t.nextCaller());
     plant.guard(() => plant.t.command(payload, caller, false, clock.now(), within, undefined, timeoutMs));
     const entry = callbackEntry(onDone);
     this.pending.set(caller, entry);
@@ -72,7 +72,7 @@ class GroupCommands {
         if (err) plant.log('warn', i18n.text('logs.lockoutUnconfirmed', { line: resource, message: err.message }));
       };
       try {
-        const caller = plant.t.nextCaller();
+        const caller = plant.guard(() => plant.t.nextCaller());
         plant.guard(() => plant.t.command(command, caller, true, faultAtMs, undefined, faultAtMs));
         this.pending.set(caller, callbackEntry(onDone, true));
         plant.flush(null);
