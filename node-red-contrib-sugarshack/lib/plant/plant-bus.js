@@ -86,14 +86,13 @@ class PlantBuses {
     // One call: the core reads the msg, applies it and answers all of it (see Tracker.ingestMsg).
     // Text and bytes (a Buffer; isView first: no proxy's trap runs here) cross as received;
     // the facade reads any other value (what auto-detect parsed, or a hostile one).
-    const answer = JSON.parse(typeof payload === 'string' ? plant.t.ingestMsg(topic, payload, now, served, withSamples)
-      : ArrayBuffer.isView(payload) && payload instanceof Uint8Array ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples)
-        : plant.t.ingestMsgValue(topic, payload, now, served, withSamples));
+    const answer = JSON.parse(typeof payload === 'string' ? plant.t.ingestMsg(topic, payload, now, served, withSamples, fromMqtt)
+      : ArrayBuffer.isView(payload) && payload instanceof Uint8Array ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples, fromMqtt)
+        : plant.t.ingestMsgValue(topic, payload, now, served, withSamples, fromMqtt));
     const { Ingest } = wasm.load();
     if (answer.kind === Ingest.Command) return false;
     if (answer.kind === Ingest.Foreign) {
-      if (!fromMqtt) return false;
-      // On a topic of no device and no group command: someone else's traffic, ignored and counted.
+      // From MQTT on a topic of no device and no group command: someone else's traffic, ignored and counted.
       if (bus) {
         bus.ignored += 1;
         plant.refreshStatus(node);

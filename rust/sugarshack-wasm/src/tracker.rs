@@ -543,12 +543,16 @@ impl Tracker {
         topic: &str,
         served: Option<Vec<u32>>,
         samples: bool,
+        from_mqtt: Option<bool>,
         read: impl FnOnce(&mut Self) -> Result<Ingest, JsValue>,
     ) -> Result<String, JsValue> {
-        let kind = if self.unserved(topic, served.as_deref()) {
-            Ingest::Unserved
-        } else {
-            read(self)?
+        let kind = match self.unserved(topic, served.as_deref()) {
+            true => Ingest::Unserved,
+            // Only MQTT brings someone else's traffic; from the flow it is a group command.
+            false => match read(self)? {
+                Ingest::Foreign if from_mqtt == Some(false) => Ingest::Command,
+                kind => kind,
+            },
         };
         self.ingested(kind, samples)
     }
@@ -939,7 +943,9 @@ impl Tracker {
     /// One device msg in one call: `ingest` (text) and what it did, as JSON
     /// text `{ kind, device?, ts?, sensors?, samples?, effects?, status?, health?, deadline? }`
     /// (see `Answer`). `served`: the devices of the actuators node it came to
-    /// (all when none); `samples`: whether to list the values read.
+    /// (all when none); `samples`: whether to list the values read; `fromMqtt`:
+    /// whether it came from `mqtt in` (false: from the flow, so on no device's
+    /// topic it is a group command, `Command`; unknown: told as `Foreign`).
     #[wasm_bindgen(js_name = ingestMsg)]
     pub fn ingest_msg(
         &mut self,
@@ -948,8 +954,11 @@ impl Tracker {
         now_ms: f64,
         served: Option<Vec<u32>>,
         samples: bool,
+        from_mqtt: Option<bool>,
     ) -> Result<String, JsValue> {
-        self.ingest_answered(topic, served, samples, |t| t.ingest(topic, payload, now_ms))
+        self.ingest_answered(topic, served, samples, from_mqtt, |t| {
+            t.ingest(topic, payload, now_ms)
+        })
     }
 
     /// [`Tracker::ingest_msg`] for a payload as bytes (`ingestBytes`).
@@ -961,8 +970,9 @@ impl Tracker {
         now_ms: f64,
         served: Option<Vec<u32>>,
         samples: bool,
+        from_mqtt: Option<bool>,
     ) -> Result<String, JsValue> {
-        self.ingest_answered(topic, served, samples, |t| {
+        self.ingest_answered(topic, served, samples, from_mqtt, |t| {
             t.ingest_bytes(topic, payload, now_ms)
         })
     }
@@ -979,13 +989,20 @@ impl Tracker {
         now_ms: f64,
         served: Option<Vec<u32>>,
         samples: bool,
+        from_mqtt: Option<bool>,
     ) -> Result<String, JsValue> {
         match payload::read(&payload, MAX_PAYLOAD_BYTES) {
-            Payload::Text(text) => self.ingest_msg(topic, &text, now_ms, served, samples),
-            Payload::Bytes(bytes) => self.ingest_msg_bytes(topic, &bytes, now_ms, served, samples),
-            Payload::TooLarge(size) => self.ingest_answered(topic, served, samples, |t| {
-                t.ingest_sized(topic, Err(size), now_ms)
-            }),
+            Payload::Text(text) => {
+                self.ingest_msg(topic, &text, now_ms, served, samples, from_mqtt)
+            }
+            Payload::Bytes(bytes) => {
+                self.ingest_msg_bytes(topic, &bytes, now_ms, served, samples, from_mqtt)
+            }
+            Payload::TooLarge(size) => {
+                self.ingest_answered(topic, served, samples, from_mqtt, |t| {
+                    t.ingest_sized(topic, Err(size), now_ms)
+                })
+            }
         }
     }
 

@@ -193,6 +193,7 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
             100.0,
             None,
             true,
+            None,
         )
         .unwrap(),
     );
@@ -210,6 +211,7 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
             200.0,
             None,
             false,
+            None,
         )
         .unwrap(),
     );
@@ -219,8 +221,15 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
     );
     // A sensor's value names the sensor; a node serving ctrl-1 only is told ctrl-3's msg is not its own.
     let read = answer(
-        t.ingest_msg_bytes("station-2/sensor/volume/state", b"7", 300.0, None, false)
-            .unwrap(),
+        t.ingest_msg_bytes(
+            "station-2/sensor/volume/state",
+            b"7",
+            300.0,
+            None,
+            false,
+            None,
+        )
+        .unwrap(),
     );
     assert_eq!(read["sensors"], serde_json::json!([0]));
     let read = answer(
@@ -230,6 +239,7 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
             400.0,
             Some(vec![0]),
             false,
+            None,
         )
         .unwrap(),
     );
@@ -242,10 +252,35 @@ fn one_call_answers_a_device_msg_with_all_it_did() {
     );
     assert_eq!(t.position(2), Some(40.0), "an unserved msg is not applied");
     let read = answer(
-        t.ingest_msg("elsewhere/x", "{}", 500.0, Some(vec![0]), false)
+        t.ingest_msg("elsewhere/x", "{}", 500.0, Some(vec![0]), false, Some(true))
             .unwrap(),
     );
     assert_eq!(read, serde_json::json!({ "kind": Ingest::Foreign as u8 }));
+    // The same msg from the flow (not from `mqtt in`): a group command, for the command path to read.
+    let read = answer(
+        t.ingest_msg(
+            "elsewhere/x",
+            "{}",
+            500.0,
+            Some(vec![0]),
+            false,
+            Some(false),
+        )
+        .unwrap(),
+    );
+    assert_eq!(read, serde_json::json!({ "kind": Ingest::Command as u8 }));
+    let read = answer(
+        t.ingest_msg_value(
+            "elsewhere/x",
+            JsValue::from(5),
+            500.0,
+            None,
+            false,
+            Some(false),
+        )
+        .unwrap(),
+    );
+    assert_eq!(read["kind"], Ingest::Command as u8);
 }
 
 /// A JS value made by `body` (a function body that returns it).
@@ -262,7 +297,7 @@ fn value_answer(
     payload: &JsValue,
 ) -> (serde_json::Value, Vec<String>) {
     let read = answer(
-        t.ingest_msg_value(topic, payload.clone(), 100.0, None, false)
+        t.ingest_msg_value(topic, payload.clone(), 100.0, None, false, None)
             .unwrap(),
     );
     let reasons = read["effects"]
