@@ -217,7 +217,8 @@ pub enum Ingest {
     /// Nothing usable: a `malformed` effect is queued.
     Refused = 4,
     /// Not a topic of any device, and its text reads as a group command (or
-    /// a broken one, to be refused): see `plant::group_msg::command_like`.
+    /// a broken one, to be refused): see `plant::group_msg::command_like`; or,
+    /// in `ingestMsg*`, any msg from the flow (not MQTT) on no device's topic.
     Command = 5,
     /// A device's topic on an actuators node that does not serve that device
     /// (`ingestMsg`): unread, a `malformed` effect says so.
