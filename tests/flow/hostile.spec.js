@@ -222,6 +222,19 @@ async function ignored(seen, msg, reason) {
   return event;
 }
 
+/**
+ * A group command opening V201, published with the panel muted: it completes on the
+ * feedback the test sends. Returns the count of completed commands before it, and V201's io.
+ */
+async function commandUnanswered(seen, panel) {
+  panel.mute = true;
+  const out = seen.gcout.length;
+  const mqtt = seen.mqtt.length;
+  helper.getNode('gc').receive({ payload: { valves: { V201: 100 } } });
+  await until(() => seen.mqtt.length > mqtt, 'the command published');
+  return { out, io: seen.mqtt.at(-1).topic.split('/')[2] };
+}
+
 /** The interlock still grants a free line at once and queues on a held one; the plant still completes a command. */
 async function stillWorks(seen, tag) {
   const granted = seen.granted.length;
@@ -399,12 +412,7 @@ describe('sugarshack hostile input', function () {
   it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
     const { seen, panel } = await start();
     const generation = wasm.currentGeneration();
-    panel.mute = true;
-    const out = seen.gcout.length;
-    const mqtt = seen.mqtt.length;
-    helper.getNode('gc').receive({ payload: { valves: { V201: 100 } } });
-    await until(() => seen.mqtt.length > mqtt, 'the command published');
-    const io = seen.mqtt.at(-1).topic.split('/')[2];
+    const { out, io } = await commandUnanswered(seen, panel);
     // Circular in `pump` (as a function node could make it): JSON cannot write it whole.
     const loop = {};
     loop.self = loop;
@@ -576,6 +584,130 @@ describe('sugarshack hostile input', function () {
     await until(() => completionsOf('rt', again).length === 1, 'the second trigger');
     assert.equal(completionsOf('rt', again)[0].error, undefined, 'not ROUTINE_BUSY');
     assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' }, 'h still holds YEL; nothing faulted');
+  });
+
+  // A value the core reads inside its call (a payload object, a list of lines) whose getter sends
+  // another msg in at once: that msg reaches the core while the first call still runs.
+  describe('a msg sent in from inside another msg\'s read', function () {
+    /** A list of `lines` whose first element's getter gives `inner` to node `id` first. */
+    function sendingLines(id, inner, lines) {
+      const list = [...lines];
+      Object.defineProperty(list, 0, { enumerable: true, get() { helper.getNode(id).receive(inner); return lines[0]; } });
+      return list;
+    }
+
+    /** Node `id`'s one completion of `msg`, once there. */
+    async function completionOf(id, msg) {
+      await until(() => completionsOf(id, msg).length > 0, `node ${id} to complete the msg`);
+      await settle();
+      assert.equal(completionsOf(id, msg).length, 1);
+      return completionsOf(id, msg)[0];
+    }
+
+    /** The msg sent from inside the read is refused as the sender's doing, worded so it can be fixed. */
+    async function reentered(id, msg) {
+      const { error } = await completionOf(id, msg);
+      assert.ok(error, `node ${id}: refused`);
+      assert.equal(error.code, 'INVALID_INPUT', error.message);
+      assert.match(error.message, /while the core was still reading another msg/);
+    }
+
+    it('feedback whose payload getter sends feedback and a group command in: those are refused, the first applied, nothing rebuilt', async function () {
+      const { seen, panel } = await start();
+      const generation = wasm.currentGeneration();
+      const tracker = runtimeOf('pl').t;
+      const { out, io } = await commandUnanswered(seen, panel);
+      const sample = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: 7 } };
+      const command = { payload: { valves: { V501: 100 } } };
+      const valve = { ...panel.positions.valve, [io]: 100 };
+      const payload = {
+        ts: clock().now(),
+        get valve() {
+          helper.getNode('bus').receive(sample);
+          helper.getNode('gc').receive(command);
+          return valve;
+        },
+      };
+      const outer = { topic: 'ctrl-1/state', payload };
+      helper.getNode('bus').receive(outer);
+      await reentered('bus', sample);
+      await reentered('gc', command);
+      assert.equal((await completionOf('bus', outer)).error, undefined);
+      await until(() => seen.gcout.length === out + 1, 'the command completed by the first msg');
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+      assert.equal(runtimeOf('pl').t, tracker);
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' }, 'h still holds YEL');
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+      // Sent again on its own, the refused sample is applied.
+      const again = { topic: sample.topic, payload: { ts: clock().now(), value: 7 } };
+      helper.getNode('bus').receive(again);
+      assert.equal((await completionOf('bus', again)).error, undefined);
+      panel.mute = false;
+      await stillWorks(seen, 'after');
+    });
+
+    it('an acquire whose lines\' getter sends an acquire and a release into the same interlock: each taken after it, nothing rebuilt', async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      helper.getNode('acq').receive({ operation: 'g', resources: 'GRN' });
+      await until(() => seen.granted.length === 2, 'g holding GRN');
+      const inner = { operation: 'inner', resources: 'RED' };
+      const release = { operation: 'g' };
+      const outer = { operation: 'outer', resources: sendingLines('rel', release, ['GRN']) };
+      // msg.operation is read before the core is called: its getter's msg comes first, as from any function node.
+      Object.defineProperty(outer, 'priority', { enumerable: true, get() { helper.getNode('acq').receive(inner); return 5; } });
+      helper.getNode('acq').receive(outer);
+      assert.equal((await completionOf('rel', release)).error, undefined);
+      await until(() => seen.granted.length === 4, 'inner and outer granted');
+      assert.deepEqual(seen.granted.slice(2).map((m) => m.interlock.operation).sort(), ['inner', 'outer']);
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+      assert.equal(runtimeOf('il').core, core);
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'held', RED: 'held' });
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+    });
+
+    it('a clear whose lines\' getter sends feedback to the plant it checks against: the feedback is refused, the clear done, nothing rebuilt', async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+      await until(() => liveLines().GRN === 'faulted:manual', 'GRN faulted');
+      const sample = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: 7 } };
+      const clear = { resources: sendingLines('bus', sample, ['GRN']) };
+      helper.getNode('clr').receive(clear);
+      await reentered('bus', sample);
+      assert.equal((await completionOf('clr', clear)).error, undefined);
+      await until(() => liveLines().GRN === 'free', 'GRN cleared');
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+      await stillWorks(seen, 'after');
+    });
+
+    it('an rcc msg whose ages\' getter sends another into the same rcc node: that one is refused, the first decided, nothing rebuilt', async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      const out = seen.rccout.length;
+      const inner = { payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } };
+      const outer = { payload: { procVar: 40, lastAction: 10, agesMs: [20, null] } };
+      Object.defineProperty(outer.payload.agesMs, 0, { enumerable: true, get() { helper.getNode('rcc').receive(inner); return 20; } });
+      helper.getNode('rcc').receive(outer);
+      await reentered('rcc', inner);
+      assert.equal((await completionOf('rcc', outer)).error, undefined);
+      assert.equal(seen.rccout.length, out + 1, 'the first msg decided');
+      assert.equal(seen.rccout.at(-1).rcc.engaged, true);
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+    });
+
+    it('a borrow refused outside any msg\'s read is still a trap (a borrow left open by an earlier one)', function () {
+      const err = new Error('recursive use of an object detected which would lead to unsafe aliasing in rust');
+      assert.equal(wasm.isTrap(err), true);
+      assert.equal(wasm.isReentry(err), false);
+      assert.deepEqual(wasm.reading(() => [wasm.isTrap(err), wasm.isReentry(err)]), [false, true]);
+      assert.equal(wasm.isReentry(new Error('unreachable')), false);
+    });
   });
 
   describe('a wasm instance that really traps', function () {

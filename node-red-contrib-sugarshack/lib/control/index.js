@@ -139,8 +139,9 @@ function revivable(make, { onRevive = () => {} } = {}) {
   });
   const call = (fn) => {
     try {
-      return fn(object);
+      return wasm.reading(fn, object);
     } catch (err) {
+      if (wasm.isReentry(err)) throw SugarshackError.of('INVALID_INPUT', 'msgReentered');
       if (!wasm.isTrap(err)) throw err;
       const broken = generation;
       setImmediate(() => wasm.recover(err, broken));

@@ -161,8 +161,9 @@ class RuntimeBase {
     }
   }
 
-  /** What `err` thrown by a core call surfaces as: a wasm trap starts the rebuild and is INTERNAL; anything else is itself. */
+  /** What `err` thrown by a core call surfaces as: a wasm trap starts the rebuild and is INTERNAL; a call from inside a msg's read is refused; anything else is itself. */
   trapped(err) {
+    if (wasm.isReentry(err)) return SugarshackError.of('INVALID_INPUT', 'msgReentered');
     if (!wasm.isTrap(err)) return err;
     const generation = this.generation;
     setImmediate(() => wasm.recover(err, generation));

@@ -144,7 +144,7 @@ class EngineRuntime extends InterlockHost {
     this.performing = true;
     try {
       try {
-        fn(this.core, clock.now(), a, b, c);
+        wasm.reading(fn, this.core, clock.now(), a, b, c);
       } catch (err) {
         throw this.trapped(err);
       }

@@ -11,6 +11,7 @@ const { refusalError } = require('./group');
 const { readMsg } = require('../interlock/request');
 const { clock } = require('../host/clock');
 const i18n = require('../host/i18n');
+const wasm = require('../wasm');
 
 class GroupCommands {
   /** plant: the PlantRuntime (its core `t`, guard, effects pump and status). */
@@ -31,7 +32,8 @@ class GroupCommands {
       topic: msg.topic, lockout: msg.lockout, interlock: msg.interlock, payload: msg.payload, faultAtMs: msg.faultAtMs,
     }));
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    const answer = JSON.parse(plant.t.commandMsg(topic, lockout, interlock, payload, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs));
+    const at = typeof faultAtMs === 'number' ? faultAtMs : undefined;
+    const answer = JSON.parse(wasm.reading(commandMsg, plant.t, topic, lockout, interlock, payload, clock.now(), at, timeoutMs));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
     this.pending.set(answer.caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
@@ -152,6 +154,11 @@ class GroupCommands {
 }
 
 /** A group command msg held by a group command or actuators node until its command completes; then it leaves on `output`. */
+/** A group command msg's values, read by the facade (their getters may run). */
+function commandMsg(t, topic, lockout, interlock, payload, now, faultAtMs, timeoutMs) {
+  return t.commandMsg(topic, lockout, interlock, payload, now, faultAtMs, timeoutMs);
+}
+
 function msgEntry({ node, msg, send, done, output, outputs, lockout }) {
   const entry = heldMsg({ node, msg, send, done, lockout });
   entry.complete = (result) => {

@@ -63,8 +63,35 @@ function currentGeneration() {
   return generation;
 }
 
-// wasm-bindgen reports a borrow left open by an earlier trap with these words.
+// wasm-bindgen reports a borrow left open by an earlier trap with these words;
+// also a call on an object whose own call is still running (see `reading`).
 const POISONED = /recursive use of an object detected|attempted to take ownership of Rust value while it was borrowed/;
+
+// Facade calls in progress that read a msg's values: its getters, proxies and
+// toJSON run inside them, and one that sends a msg on at once calls the core
+// again from there. Only those can call back into JS, so a borrow refused
+// while one runs is that msg's doing, not a broken instance.
+let readingDepth = 0;
+
+/**
+ * Calls `fn(a, …, h)`, a facade call that reads a msg's values (arguments
+ * spelled out: the interlock makes one per msg, and a rest array would cost).
+ * @template T @param {(...args: any[]) => T} fn @returns {T}
+ * @param {any} [a] @param {any} [b] @param {any} [c] @param {any} [d] @param {any} [e] @param {any} [f] @param {any} [g] @param {any} [h]
+ */
+function reading(fn, a, b, c, d, e, f, g, h) {
+  readingDepth += 1;
+  try {
+    return fn(a, b, c, d, e, f, g, h);
+  } finally {
+    readingDepth -= 1;
+  }
+}
+
+/** Whether `err` is the core refusing a call made from inside a msg read by another (see `reading`). */
+function isReentry(err) {
+  return readingDepth > 0 && !!err && typeof err === 'object' && POISONED.test(String(err.message));
+}
 
 /**
  * Whether an error thrown by a facade call means the instance itself broke. A
@@ -75,7 +102,7 @@ function isTrap(err) {
   if (!err || typeof err !== 'object') return false;
   if (typeof WebAssembly !== 'undefined' && err instanceof WebAssembly.RuntimeError) return true;
   if (err instanceof RangeError && /call stack/i.test(err.message)) return /wasm:\/\/|wasm-function/.test(String(err.stack));
-  return POISONED.test(String(err.message));
+  return POISONED.test(String(err.message)) && readingDepth === 0;
 }
 
 /**
@@ -543,4 +570,4 @@ function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds, 
   loop.free();
 }
 
-module.exports = { load, isTrap, recover, onTrap, currentGeneration, forget, release, prime, SAMPLE_PLANT };
+module.exports = { load, isTrap, isReentry, reading, recover, onTrap, currentGeneration, forget, release, prime, SAMPLE_PLANT };
