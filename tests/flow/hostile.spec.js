@@ -5,8 +5,9 @@
 // never an exception out of the handler, its node shows a red status, and the
 // interlock and the plant go on as if nothing happened. Then: errors quote
 // little of what they refuse, C2 cannot be bypassed with a malformed
-// msg.interlock, device clocks ahead or behind ours, and a wasm instance that
-// really traps is replaced without taking the process or the saved state along.
+// msg.interlock, device clocks ahead or behind ours, a msg sent in from inside
+// another's read is refused without a rebuild, and a wasm instance that really
+// traps is replaced without taking the process or the saved state along.
 const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
