@@ -88,7 +88,7 @@ class PlantBuses {
     // the facade reads any other value (what auto-detect parsed, or a hostile one).
     const answer = JSON.parse(typeof payload === 'string' ? plant.t.ingestMsg(topic, payload, now, served, withSamples, fromMqtt)
       : ArrayBuffer.isView(payload) && payload instanceof Uint8Array ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples, fromMqtt)
-        : wasm.reading(ingestValue, plant.t, topic, payload, now, served, withSamples, fromMqtt));
+        : wasm.reading(() => plant.t.ingestMsgValue(topic, payload, now, served, withSamples, fromMqtt)));
     const { Ingest } = wasm.load();
     if (answer.kind === Ingest.Command) return false;
     if (answer.kind === Ingest.Foreign) {
@@ -228,11 +228,6 @@ function eventsWired(node) {
 }
 
 /** A value as a short quote for a log line. */
-/** A payload that is neither text nor bytes, read by the facade (its getters may run). */
-function ingestValue(t, topic, payload, now, served, withSamples, fromMqtt) {
-  return t.ingestMsgValue(topic, payload, now, served, withSamples, fromMqtt);
-}
-
 function clip(value) {
   const s = String(value);
   return s.length > 60 ? `${s.slice(0, 57)}...` : s;

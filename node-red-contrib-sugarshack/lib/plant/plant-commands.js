@@ -32,8 +32,8 @@ class GroupCommands {
       topic: msg.topic, lockout: msg.lockout, interlock: msg.interlock, payload: msg.payload, faultAtMs: msg.faultAtMs,
     }));
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
-    const at = typeof faultAtMs === 'number' ? faultAtMs : undefined;
-    const answer = JSON.parse(wasm.reading(commandMsg, plant.t, topic, lockout, interlock, payload, clock.now(), at, timeoutMs));
+    // `reading`: the facade reads the payload, whose getters may send a msg in at once.
+    const answer = JSON.parse(wasm.reading(() => plant.t.commandMsg(topic, lockout, interlock, payload, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs)));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
     this.pending.set(answer.caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
@@ -154,11 +154,6 @@ class GroupCommands {
 }
 
 /** A group command msg held by a group command or actuators node until its command completes; then it leaves on `output`. */
-/** A group command msg's values, read by the facade (their getters may run). */
-function commandMsg(t, topic, lockout, interlock, payload, now, faultAtMs, timeoutMs) {
-  return t.commandMsg(topic, lockout, interlock, payload, now, faultAtMs, timeoutMs);
-}
-
 function msgEntry({ node, msg, send, done, output, outputs, lockout }) {
   const entry = heldMsg({ node, msg, send, done, lockout });
   entry.complete = (result) => {
