@@ -23,7 +23,7 @@
 //! ```
 
 mod deadline;
-mod fx;
+pub(crate) mod fx;
 mod lifecycle;
 mod output;
 mod request;
@@ -453,6 +453,9 @@ struct Request {
     deadline: Option<Millis>,
     held_back: bool,
 }
+
+/// A msg's operation (name and handle), priority and lines, as read for an acquire.
+type Resolved = (Arc<str>, OpId, i32, ResourceSet, Names);
 
 /// A node's configuration, read once.
 #[derive(Clone, Debug)]
@@ -1237,13 +1240,31 @@ impl Engine {
         Ok(priority)
     }
 
+    /// A deployed node's operation, priority and lines, when the msg names
+    /// none and all three are resolved already: one look-up of the node.
+    fn resolved(&self, node: NodeId, fields: &MsgFields) -> Option<Resolved> {
+        if fields.configured.is_some()
+            || fields.operation.present()
+            || fields.priority.present()
+            || fields.resources.present()
+        {
+            return None;
+        }
+        let n = self.nodes.get(&node)?;
+        let (name, op, at) = n.op.as_ref()?;
+        let (set, names) = n.set.as_ref()?;
+        let priority = n.priority?;
+        (*at == self.interlock.forgettings())
+            .then(|| (name.clone(), *op, priority, set.clone(), names.clone()))
+    }
+
     fn acquire(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
-        let read = (|| {
+        let read = self.resolved(node, fields).map(Ok).unwrap_or_else(|| {
             let (name, op) = self.operation(node, fields, false)?;
             let priority = self.priority(node, fields)?;
             let (set, names) = self.resources(node, fields)?;
             Ok::<_, Refusal>((name, op, priority, set, names))
-        })();
+        });
         let (name, op, priority, set, names) = match read {
             Ok(read) => read,
             Err(refusal) => return self.refuse(node, msg, refusal),

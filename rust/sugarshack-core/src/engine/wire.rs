@@ -108,8 +108,15 @@ impl Wire {
         self.words.clear();
         self.text.clear();
         self.text_units = 0;
-        for output in in_wire_order(outputs) {
-            self.record(output);
+        // As in_wire_order, without an iterator chain per batch (this runs per msg).
+        let counts = outputs.iter().rposition(|o| matches!(o, Output::Counts(_)));
+        if let Some(at) = counts {
+            self.record(&outputs[at]);
+        }
+        for (i, output) in outputs.iter().enumerate() {
+            if Some(i) != counts {
+                self.record(output);
+            }
         }
     }
 

@@ -29,6 +29,7 @@ mod snapshot;
 
 use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap, HashSet};
+use std::hash::Hasher;
 use std::sync::Arc;
 
 use crate::clearance::{Attribution, ClearBlocker, LineBlockers};
@@ -122,6 +123,18 @@ impl std::fmt::Display for OpId {
 /// A flow that names a new operation per msg would otherwise grow the
 /// interlock without end.
 pub const OPERATION_NAMES_KEPT: usize = 4096;
+
+/// Entries of [`Interlock`]'s recent names: more than the operations a plant runs at once.
+const RECENT_NAMES: usize = 1 << RECENT_BITS;
+const RECENT_BITS: u32 = 6;
+
+/// Where a name sits among the recent names (the hash needs no key: a clash only misses).
+fn recent_slot(name: &str) -> usize {
+    let mut hasher = crate::engine::fx::Fx::default();
+    hasher.write(name.as_bytes());
+    // The top bits: the multiply mixes every byte into them, not into the low ones.
+    (hasher.finish() >> (u64::BITS - RECENT_BITS)) as usize
+}
 
 /// A set of resources, sorted and without duplicates. Cloning shares it, so
 /// holding and queueing a set made once at deploy allocates nothing.
@@ -295,6 +308,11 @@ pub struct Interlock {
     candidates: Vec<QueueKey>,
     /// Each known name's handle, keyed by the slot's own text (one allocation per name).
     operation_index: HashMap<Arc<str>, OpId>,
+    /// Names looked up lately, by a fast hash of their text: a release that
+    /// follows its acquire names the same few holders again and again. An
+    /// entry only counts when its slot still bears that name, so a collision
+    /// or a forgotten name just misses and the keyed index answers.
+    recent: [Option<OpId>; RECENT_NAMES],
     /// Slots of forgotten operations, reused before the table grows.
     free_slots: Vec<u32>,
     /// The fewest names kept before forgetting ([`OPERATION_NAMES_KEPT`]; lower in tests).
@@ -341,6 +359,7 @@ impl Interlock {
             busy: Vec::new(),
             candidates: Vec::new(),
             operation_index: HashMap::new(),
+            recent: [None; RECENT_NAMES],
             free_slots: Vec::new(),
             names_kept: OPERATION_NAMES_KEPT,
             forget_at: OPERATION_NAMES_KEPT,
@@ -366,7 +385,7 @@ impl Interlock {
     /// idle operations: their handles are refused from then on (see
     /// [`Interlock::forgettings`]), and their names register anew.
     pub fn operation(&mut self, name: &str) -> OpId {
-        if let Some(&id) = self.operation_index.get(name) {
+        if let Some(id) = self.known_name(name) {
             return id;
         }
         if self.free_slots.is_empty() && self.operation_index.len() >= self.forget_at {
@@ -397,8 +416,22 @@ impl Interlock {
                 }
             }
         };
+        self.recent[recent_slot(&name)] = Some(id);
         self.operation_index.insert(name, id);
         id
+    }
+
+    /// The handle of a known name: from the recent names when there, else the index.
+    fn known_name(&mut self, name: &str) -> Option<OpId> {
+        let at = recent_slot(name);
+        if let Some(id) = self.recent[at] {
+            if self.slot(id).is_some_and(|slot| *slot.name == *name) {
+                return Some(id);
+            }
+        }
+        let id = self.operation_index.get(name).copied()?;
+        self.recent[at] = Some(id);
+        Some(id)
     }
 
     /// How many operation names the interlock knows now.
@@ -686,8 +719,8 @@ impl Interlock {
     /// holds nothing; the name is not registered, so bad input cannot grow
     /// the operation table.
     pub fn release_named(&mut self, name: &str, now: Millis) -> Result<Vec<Grant>, InterlockError> {
-        match self.operation_index.get(name) {
-            Some(&op) => self.release(op, now),
+        match self.known_name(name) {
+            Some(op) => self.release(op, now),
             None => Err(InterlockError::NotHolding {
                 operation: cut(name, QUOTE_MAX_CHARS).into_owned(),
             }),

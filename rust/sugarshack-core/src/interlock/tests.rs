@@ -1171,6 +1171,44 @@ fn fault_notes_are_kept_to_a_bounded_length() {
 }
 
 #[test]
+fn names_that_share_a_recent_slot_or_a_reused_slot_each_find_their_own_operation() {
+    let mut lock = plant(Policy::Greedy);
+    let first = "op0".to_owned();
+    let twin = (1..)
+        .map(|i| format!("op{i}"))
+        .find(|n| recent_slot(n) == recent_slot(&first))
+        .unwrap();
+    let (a, b) = (lock.operation(&first), lock.operation(&twin));
+    assert_ne!(a, b);
+    let yel = set(&lock, &["YEL"]);
+    let grn = set(&lock, &["GRN"]);
+    lock.acquire(a, 1, &yel, ms(0)).unwrap();
+    lock.acquire(b, 1, &grn, ms(0)).unwrap();
+    // Each lookup evicts the other from the shared slot.
+    assert_eq!(lock.operation(&first), a);
+    assert_eq!(lock.operation(&twin), b);
+    lock.release_named(&first, ms(1)).unwrap();
+    assert!(lock.is_holding(b) && !lock.is_holding(a));
+    lock.release_named(&twin, ms(2)).unwrap();
+
+    // A forgotten name's slot taken by another name: the old name holds nothing.
+    let mut lock = keeping_names(plant(Policy::Greedy), 1);
+    let old = lock.operation("old");
+    assert_eq!(
+        lock.release_named("old", ms(0)).unwrap_err().code(),
+        "NOT_HOLDING"
+    );
+    let new = lock.operation("new");
+    assert_eq!(new.index, old.index, "the slot is reused");
+    lock.acquire(new, 1, &set(&lock, &["YEL"]), ms(1)).unwrap();
+    assert_eq!(
+        lock.release_named("old", ms(2)).unwrap_err().code(),
+        "NOT_HOLDING"
+    );
+    assert!(lock.is_holding(new));
+}
+
+#[test]
 fn release_and_cancel_by_name_do_not_register_unknown_names() {
     let mut lock = plant(Policy::Greedy);
     assert_eq!(
