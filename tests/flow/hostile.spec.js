@@ -20,6 +20,7 @@ const wasm = require(path.join(PALETTE, 'lib', 'wasm', 'index.js'));
 const { settle } = require(path.join(PALETTE, 'lib', 'host', 'clock.js'));
 
 const { truckRoutine } = require('./fake-panel');
+const { spyOnFacade } = require('../facade-spy');
 
 helper.init(require.resolve('node-red'));
 
@@ -702,11 +703,55 @@ describe('sugarshack hostile input', function () {
       assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
     });
 
+    it('a clear sent from inside an acquire\'s read waits for it; its own lines\' getter sending feedback to the plant is refused, nothing rebuilt', async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+      await until(() => liveLines().GRN === 'faulted:manual', 'GRN faulted');
+      const sample = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: 7 } };
+      const clear = { resources: sendingLines('bus', sample, ['GRN']) };
+      const outer = { operation: 'outer', resources: sendingLines('clr', clear, ['RED']) };
+      helper.getNode('acq').receive(outer);
+      await reentered('bus', sample);
+      assert.equal((await completionOf('clr', clear)).error, undefined);
+      await until(() => liveLines().GRN === 'free' && seen.granted.length === 2, 'GRN cleared, RED granted');
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+    });
+
+    it('the msg sent from inside the read is refused before it reaches the core: no call into wasm for it', async function () {
+      const { seen } = await start();
+      const calls = [];
+      /** Node `id` given `inner`, counting the facade calls it makes. */
+      const counted = (id, inner) => {
+        const spy = spyOnFacade(wasm.load(), (key) => calls.push(key));
+        try {
+          helper.getNode(id).receive(inner);
+        } finally {
+          spy.restore();
+        }
+      };
+      const sample = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: 7 } };
+      const outer = { topic: sample.topic, payload: { ts: clock().now(), get value() { counted('bus', sample); return 7; } } };
+      helper.getNode('bus').receive(outer);
+      await reentered('bus', sample);
+      assert.deepEqual(calls, [], 'the plant\'s core not called for it');
+      const out = seen.rccout.length;
+      const inner = { payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } };
+      const first = { payload: { procVar: 40, lastAction: 10, agesMs: [20, null] } };
+      Object.defineProperty(first.payload.agesMs, 0, { enumerable: true, get() { counted('rcc', inner); return 20; } });
+      helper.getNode('rcc').receive(first);
+      await reentered('rcc', inner);
+      assert.deepEqual(calls, [], 'the rcc\'s core object not called for it');
+      assert.equal(seen.rccout.length, out + 1, 'the first msg decided');
+    });
+
     it('a borrow refused outside any msg\'s read is still a trap (a borrow left open by an earlier one)', function () {
       const err = new Error('recursive use of an object detected which would lead to unsafe aliasing in rust');
       assert.equal(wasm.isTrap(err), true);
       assert.equal(wasm.isReentry(err), false);
-      assert.deepEqual(wasm.reading(() => [wasm.isTrap(err), wasm.isReentry(err)]), [false, true]);
+      assert.deepEqual(wasm.reading({ reading: false }, () => [wasm.isTrap(err), wasm.isReentry(err)]), [false, true]);
       assert.equal(wasm.isReentry(new Error('unreachable')), false);
     });
   });

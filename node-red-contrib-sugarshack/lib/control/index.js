@@ -137,9 +137,11 @@ function revivable(make, { onRevive = () => {} } = {}) {
     generation = wasm.currentGeneration();
     onRevive();
   });
+  // Each call may read a msg's values (see wasm.reading): one on this object from inside it is refused.
+  const owner = { reading: false };
   const call = (fn) => {
     try {
-      return wasm.reading(fn, object);
+      return wasm.reading(owner, fn, object);
     } catch (err) {
       if (wasm.isReentry(err)) throw SugarshackError.of('INVALID_INPUT', 'msgReentered');
       if (!wasm.isTrap(err)) throw err;

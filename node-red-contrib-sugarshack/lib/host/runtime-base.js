@@ -31,6 +31,8 @@ class RuntimeBase {
     /** @type {(() => void)[]} run once ready with the gate open */
     this.openWaiters = [];
     this.generation = wasm.currentGeneration();
+    /** a core call of its reads a msg's values (see wasm.reading) */
+    this.reading = false;
     this.stopTrapWatch = wasm.onTrap((err, generation) => this.afterTrap(err, generation));
   }
 

@@ -144,7 +144,7 @@ class EngineRuntime extends InterlockHost {
     this.performing = true;
     try {
       try {
-        wasm.reading(fn, this.core, clock.now(), a, b, c);
+        wasm.reading(this, fn, this.core, clock.now(), a, b, c);
       } catch (err) {
         throw this.trapped(err);
       }
@@ -152,7 +152,7 @@ class EngineRuntime extends InterlockHost {
       while (this.deferred.length > 0 && this.core) {
         const next = /** @type {(engine: any, now: number) => void} */ (this.deferred.shift());
         try {
-          this.guard(() => next(this.core, clock.now()));
+          this.guard(() => wasm.reading(this, next, this.core, clock.now()));
         } catch (err) {
           this.log('error', err.message);
         }
@@ -497,8 +497,10 @@ class EngineRuntime extends InterlockHost {
     if (spec.kind === 'fault' && msg.error && typeof msg.error === 'object') entry.cause = msg.error;
     this.carrier.hold(k, entry);
     const plant = spec.kind === 'clear' ? this.tracker() : null;
+    // The plant's tracker is lent to the engine while it reads the clear's values: the plant takes no call meanwhile.
+    const owner = this.plant;
     try {
-      if (plant) this.call((e, now) => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant));
+      if (plant) this.call((e, now) => wasm.reading(owner, () => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant)));
       else this.call(kind.call, handle, k, read);
     } catch (err) {
       this.carrier.take(k);
@@ -772,6 +774,8 @@ class EngineRuntime extends InterlockHost {
   abortedOperations() {
     const core = this.core;
     if (!core) throw SugarshackError.of('INTERNAL', 'interlockRebuilt');
+    // Called at once on the engine, not through `call`: refused while the engine reads a msg.
+    wasm.entering(this);
     return {
       checkStart: (operation) => core.abortedCheckStart(operation),
       state: (operation) => core.abortedState(operation),

@@ -88,7 +88,7 @@ class PlantBuses {
     // the facade reads any other value (what auto-detect parsed, or a hostile one).
     const answer = JSON.parse(typeof payload === 'string' ? plant.t.ingestMsg(topic, payload, now, served, withSamples, fromMqtt)
       : ArrayBuffer.isView(payload) && payload instanceof Uint8Array ? plant.t.ingestMsgBytes(topic, payload, now, served, withSamples, fromMqtt)
-        : wasm.reading(() => plant.t.ingestMsgValue(topic, payload, now, served, withSamples, fromMqtt)));
+        : wasm.reading(plant, () => plant.t.ingestMsgValue(topic, payload, now, served, withSamples, fromMqtt)));
     const { Ingest } = wasm.load();
     if (answer.kind === Ingest.Command) return false;
     if (answer.kind === Ingest.Foreign) {

@@ -33,7 +33,7 @@ class GroupCommands {
     }));
     // A msg from a fault node carries the fault's time: the core reports the fault lockout time from it.
     // `reading`: the facade reads the payload, whose getters may send a msg in at once.
-    const answer = JSON.parse(wasm.reading(() => plant.t.commandMsg(topic, lockout, interlock, payload, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs)));
+    const answer = JSON.parse(wasm.reading(plant, () => plant.t.commandMsg(topic, lockout, interlock, payload, clock.now(), typeof faultAtMs === 'number' ? faultAtMs : undefined, timeoutMs)));
     if (answer.refusal) throw refusalError(answer.refusal);
     plant.statusView.dropRefusal(node);
     this.pending.set(answer.caller, msgEntry({ node, msg, send, done, output, outputs, lockout: answer.lockout }));
