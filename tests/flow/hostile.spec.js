@@ -747,6 +747,31 @@ describe('sugarshack hostile input', function () {
       assert.equal(seen.rccout.length, out + 1, 'the first msg decided');
     });
 
+    it('refused re-entries leave the core\'s memory as it was (the refused call allocates nothing in wasm)', async function () {
+      this.timeout(30000);
+      await start();
+      const bytes = () => wasm.load().wasmMemory().buffer.byteLength;
+      let last = null;
+      /** `n` samples, each with a getter that sends another sample in, which is refused. */
+      const feed = (n) => {
+        for (let i = 0; i < n; i++) {
+          const inner = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), value: i } };
+          const outer = { topic: inner.topic, payload: { ts: clock().now(), get value() { helper.getNode('bus').receive(inner); return i; } } };
+          helper.getNode('bus').receive(outer);
+          last = inner;
+        }
+      };
+      feed(1000);
+      await quiet();
+      const before = bytes();
+      // Memory grows in 64 KiB pages: 10,000 refusals leaking 16 bytes each would take more than two.
+      feed(10000);
+      await quiet();
+      console.log(`      wasm memory ${before} -> ${bytes()} bytes over 10,000 refused re-entries`);
+      await reentered('bus', last);
+      assert.equal(bytes(), before, 'no page added');
+    });
+
     it('a borrow refused outside any msg\'s read is still a trap (a borrow left open by an earlier one)', function () {
       const err = new Error('recursive use of an object detected which would lead to unsafe aliasing in rust');
       assert.equal(wasm.isTrap(err), true);
