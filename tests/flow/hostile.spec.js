@@ -718,6 +718,24 @@ describe('sugarshack hostile input', function () {
       assert.equal(seen.granted[1].interlock.operation, 'outer');
     });
 
+    it('a clear waiting for an acquire sent in from inside a feedback msg\'s read: refused when its turn comes (the plant still reads), and its msg ends with that error', async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+      await until(() => liveLines().GRN === 'faulted:manual', 'GRN faulted');
+      const clear = { resources: 'GRN' };
+      const acquire = { operation: 'outer', resources: sendingLines('clr', clear, ['RED']) };
+      const outer = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), get value() { helper.getNode('acq').receive(acquire); return 7; } } };
+      helper.getNode('bus').receive(outer);
+      await reentered('clr', clear);
+      assert.equal((await completionOf('bus', outer)).error, undefined);
+      await until(() => seen.granted.length === 2, 'RED granted');
+      assert.equal(seen.granted[1].interlock.operation, 'outer');
+      assert.equal(liveLines().GRN, 'faulted:manual', 'the refused clear cleared nothing');
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+    });
+
     it('the msg sent from inside the read is refused before it reaches the core: no call into wasm for it', async function () {
       const { seen } = await start();
       const calls = [];

@@ -85,7 +85,7 @@ class EngineRuntime extends InterlockHost {
     this.wire = null;
     this.carrier = this.makeCarrier();
     this.performing = false;
-    /** @type {((engine: any, now: number) => void)[]} calls made while outputs are performed */
+    /** @type {{ run: (engine: any, now: number) => void, failed?: (err: Error) => void }[]} calls made while outputs are performed */
     this.deferred = [];
     /** @type {Map<string, number>} node id -> its handle, the same for each deploy of it */
     this.nodeHandles = new Map();
@@ -130,15 +130,17 @@ class EngineRuntime extends InterlockHost {
   }
 
   /**
-   * One engine call, `fn(engine, now, a, b, c)`; its outputs performed.
+   * One engine call, `fn(engine, now, a, b, c)`; its outputs performed. `failed(err)`: told
+   * when the call, deferred, throws (its msg ends with the error; else the error is logged).
    * @param {(engine: any, now: number, a?: any, b?: any, c?: any) => void} fn @param {any} [a] @param {any} [b] @param {any} [c]
+   * @param {(err: Error) => void} [failed]
    */
-  call(fn, a, b, c) {
+  call(fn, a, b, c, failed) {
     if (!this.core) return;
     // An output performed may make another call (a run's release answered, its routine dispatches
     // the next operation): it waits until this call's outputs are all read, which the next would overwrite.
     if (this.performing) {
-      this.deferred.push((e, now) => fn(e, now, a, b, c));
+      this.deferred.push({ run: (e, now) => fn(e, now, a, b, c), failed });
       return;
     }
     this.performing = true;
@@ -150,11 +152,12 @@ class EngineRuntime extends InterlockHost {
       }
       /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
       while (this.deferred.length > 0 && this.core) {
-        const next = /** @type {(engine: any, now: number) => void} */ (this.deferred.shift());
+        const next = /** @type {{ run: (engine: any, now: number) => void, failed?: (err: Error) => void }} */ (this.deferred.shift());
         try {
-          this.guard(() => wasm.reading(this, next, this.core, clock.now()));
+          this.guard(() => wasm.reading(this, next.run, this.core, clock.now()));
         } catch (err) {
-          this.log('error', err.message);
+          if (next.failed) next.failed(err);
+          else this.log('error', err.message);
         }
         /** @type {EngineCarrier} */ (this.carrier).perform(/** @type {Wire} */ (this.wire));
       }
@@ -499,9 +502,14 @@ class EngineRuntime extends InterlockHost {
     const plant = spec.kind === 'clear' ? this.tracker() : null;
     // The plant's tracker is lent to the engine while it reads the clear's values: the plant takes no call meanwhile.
     const owner = this.plant;
+    // Deferred (sent in while outputs are performed), a refusal still ends this msg.
+    const failed = this.performing ? (/** @type {Error} */ err) => {
+      const held = this.carrier.take(k);
+      if (held) held.reject(err);
+    } : undefined;
     try {
-      if (plant) this.call((e, now) => wasm.reading(owner, () => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant)));
-      else this.call(kind.call, handle, k, read);
+      if (plant) this.call((e, now) => wasm.reading(owner, () => e.clearAgainst(handle, k, read, read.resources !== undefined, now, plant)), undefined, undefined, undefined, failed);
+      else this.call(kind.call, handle, k, read, failed);
     } catch (err) {
       this.carrier.take(k);
       throw err;
