@@ -154,8 +154,9 @@ class RuntimeBase {
     done();
   }
 
-  /** Runs `fn`; a wasm trap in it starts the rebuild and surfaces as INTERNAL. */
+  /** Runs `fn`, a core call: refused while its core reads a msg (see wasm.reading); a wasm trap in it starts the rebuild and surfaces as INTERNAL. */
   guard(fn) {
+    wasm.entering(this);
     try {
       return fn();
     } catch (err) {

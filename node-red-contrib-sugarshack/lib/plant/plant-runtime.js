@@ -225,12 +225,6 @@ class PlantRuntime extends RuntimeBase {
 
   // ---- calls from nodes and runs (see the part each goes to) ---------------
 
-  /** Runs `fn`, a call that reaches the tracker: refused while the tracker reads a msg (see wasm.reading). */
-  guard(fn) {
-    wasm.entering(this);
-    return super.guard(fn);
-  }
-
   issueLockouts(lockouts, operation) {
     if (this.state !== 'ready') {
       if (lockouts.length) this.log('error', i18n.text('logs.lockoutsNotSent', { lines: lockouts.map((l) => l.resource).join(', ') }));
