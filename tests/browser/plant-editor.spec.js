@@ -170,7 +170,9 @@ describe('the plant document in the editor (headless Chromium)', function () {
   }
 
   async function done() {
-    await page.click('#node-dialog-ok');
+    // Clicked in the page, not at its place on screen: the tray may still be sliding in, with its
+    // OK button outside the window or under the search box (seen as the test's flaky timeout).
+    await page.$eval('#node-dialog-ok', (ok) => ok.click());
     await page.waitForFunction(() => !$('.red-ui-tray').length, { timeout: 10000 });
   }
 
