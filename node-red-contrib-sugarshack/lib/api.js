@@ -54,7 +54,7 @@ function paletteApi(RED) {
     interlock(id) {
       const il = readyInterlock(palette, id);
       if (!il) return null;
-      return { id, name: il.owner ? il.owner.name || '' : '', draining: !il.gateOpen, ...il.describe() };
+      return { id, name: il.owner ? il.owner.name || '' : '', draining: !il.gateOpen, ...il.described() };
     },
 
     /**
@@ -72,7 +72,7 @@ function paletteApi(RED) {
         document: doc,
         actuators: plant.actuators.map(({ deviceHandle, ...a }) => a),
         devices: [...plant.devices],
-        sensors: (doc.sensors || []).map((s) => ({ handle: plant.t.sensor(s.id), ...s })),
+        sensors: plant.guard(() => (doc.sensors || []).map((s) => ({ handle: plant.t.sensor(s.id), ...s }))),
       };
     },
 
@@ -80,23 +80,23 @@ function paletteApi(RED) {
     actuators(id, handles) {
       const plant = plantOf(id);
       if (!plant) return null;
-      return handles.map((h) => ({ target: nullable(plant.t.target(h)), position: nullable(plant.t.position(h)), phase: plant.t.phase(h) }));
+      return plant.guard(() => handles.map((h) => ({ target: nullable(plant.t.target(h)), position: nullable(plant.t.position(h)), phase: plant.t.phase(h) })));
     },
 
     /** Devices `handles` now: [{ online, stale: [actuator ids with stale feedback] }]. */
     devices(id, handles) {
       const plant = plantOf(id);
       if (!plant) return null;
-      return handles.map((h) => {
+      return plant.guard(() => handles.map((h) => {
         const health = plant.t.deviceHealth(h);
         return { online: health.online, stale: health.stale };
-      });
+      }));
     },
 
     /** Every sensor now, by handle: [{ sensor, value, receivedMs, fresh, why }]. */
     sensors(id) {
       const plant = plantOf(id);
-      return plant ? plant.t.health(clock.now()).sensors : null;
+      return plant ? plant.guard(() => plant.t.health(clock.now()).sensors) : null;
     },
 
     /**

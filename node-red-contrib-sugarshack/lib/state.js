@@ -16,7 +16,7 @@ function stateOf(palette) {
   const plants = [];
   for (const [id, runtime] of palette.runtimes) {
     const base = { id, name: runtime.owner ? runtime.owner.name || '' : '', state: runtime.state, draining: !runtime.gateOpen };
-    (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.describe() });
+    (runtime.kind === 'plant' ? plants : interlocks).push({ ...base, ...runtime.described() });
   }
   let cluster = null;
   try {

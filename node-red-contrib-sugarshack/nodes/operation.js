@@ -121,7 +121,8 @@ module.exports = function (RED) {
         try {
           if (!interlock.plant) throw new SugarshackError('NO_PLANT', t('errors.noPlant'));
           if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
-          const plan = interlock.plant.t.operationPlan(id);
+          const plant = interlock.plant;
+          const plan = plant.guard(() => plant.t.operationPlan(id));
           total = plan.steps.length;
           for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.sensors.condition(step.condition, step.sensors);
           // A run of this node saved held came back held after a restart: this node supervises it again.

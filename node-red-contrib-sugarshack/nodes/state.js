@@ -40,7 +40,7 @@ function alarmTargets(t, palette, msg, id) {
     if (found.length === 0) throw new SugarshackError('NO_INTERLOCK', t('errors.noInterlock', { id: String(msg.interlock).slice(0, 100) }));
     return found;
   }
-  const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.hasAlarm(id));
+  const targets = ready.map(([, rt]) => rt).filter((rt) => id === null || rt.guard(() => rt.hasAlarm(id)));
   if (targets.length === 0 && id !== null) throw new SugarshackError('UNKNOWN_ALARM', t('errors.noAlarm', { id: id.slice(0, 100) }));
   return targets;
 }
@@ -59,7 +59,7 @@ function runRequest(t, palette, msg) {
   let ready = readyInterlocks(palette);
   if (msg.interlock !== undefined) ready = ready.filter(([rid]) => rid === msg.interlock);
   if (ready.length === 0) throw new SugarshackError('NO_INTERLOCK', t('errors.noInterlock', { id: String(msg.interlock).slice(0, 100) }));
-  const listing = ready.find(([, rt]) => listsRun(rt.describe(), target));
+  const listing = ready.find(([, rt]) => listsRun(rt.described(), target));
   return operator.command((listing || ready[0])[1], target, command, { by: who.by, reason: who.reason });
 }
 
@@ -157,7 +157,14 @@ module.exports = function (RED) {
         done();
         return;
       }
-      const answer = message('request');
+      let answer;
+      try {
+        answer = message('request');
+      } catch (err) {
+        node.status(errorStatus(err.code));
+        done(err);
+        return;
+      }
       // The request's own fields (a dashboard's _client, a topic) ride along.
       send(Object.assign(msg, answer, { topic: msg.topic || answer.topic }));
       done();

@@ -12,6 +12,7 @@ const { PALETTE, paletteNodes, TAB, sinkNode, serverPerTest, clock, runFor, runU
 const { fakePanel, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { paletteApi, VERSION } = require('../../node-red-contrib-sugarshack/lib/api');
 const { paletteOf } = require('../../node-red-contrib-sugarshack/lib/host/lifecycle');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));
 
@@ -80,6 +81,38 @@ describe('the palette API for other packages (lib/api.js)', function () {
     assert.deepEqual([line.state.state, line.fault.note], ['faulted', 'smoke']);
     assert.equal(api.interlock('il').recentEvents.find((e) => e.kind === 'resource-faulted').by, 'ann');
     stop.forEach((off) => off());
+  });
+
+  it('its reads made from inside a msg\'s read of the plant (a feedback payload\'s getter) throw INVALID_INPUT, nothing rebuilt; after it they answer', async function () {
+    const api = await start();
+    const generation = wasm.currentGeneration();
+    const reads = {
+      interlock: () => api.interlock('il'),
+      plant: () => api.plant('il'),
+      actuators: () => api.actuators('il', [0]),
+      devices: () => api.devices('il', [0]),
+      sensors: () => api.sensors('il'),
+    };
+    const thrown = {};
+    const payload = {
+      ts: clock().now(),
+      get value() {
+        for (const [name, read] of Object.entries(reads)) {
+          try {
+            read();
+          } catch (err) {
+            thrown[name] = `${err.code}: ${err.message}`;
+          }
+        }
+        return 7;
+      },
+    };
+    helper.getNode('bus').receive({ topic: 'station-3/sensor/volume/state', payload });
+    await runFor(helper, 100);
+    for (const name of Object.keys(reads)) assert.match(thrown[name] ?? 'nothing thrown', /^INVALID_INPUT: .*while the core was still reading another msg/, name);
+    assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+    assert.equal(api.sensors('il')[0].value, 7, 'the feedback applied');
+    for (const read of Object.values(reads)) assert.ok(read() !== null);
   });
 
   it('clears by the core\'s rule: refused with every reason in the core\'s words, then forced, as the given person', async function () {

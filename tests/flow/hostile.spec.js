@@ -138,8 +138,9 @@ function fakePanel(seen) {
   return panel;
 }
 
-async function start() {
-  await helper.load(paletteNodes, flow());
+/** `extra`: nodes beside every node's. */
+async function start(extra = []) {
+  await helper.load(paletteNodes, [...flow(), ...extra]);
   const seen = {};
   for (const id of SINKS) seen[id] = collect(helper, id);
   await until(() => runtimeOf('il').state === 'ready' && runtimeOf('pl').state === 'ready', 'the runtimes ready');
@@ -711,6 +712,29 @@ describe('sugarshack hostile input', function () {
       assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
     });
 
+    it('a state node\'s requests sent from inside another msg\'s read (an alarm request in an acquire\'s, a state request in feedback\'s): refused before they reach the core, the first msgs go on, nothing rebuilt', async function () {
+      const { seen } = await start([{ id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, intervalS: '1', wires: [[]] }]);
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      const shelve = { topic: 'shelve', id: 'line-faulted:GRN', forMs: 60000 };
+      helper.getNode('acq').receive({ operation: 'outer', resources: sendingLines('st', shelve, ['GRN']) });
+      await reentered('st', shelve);
+      await until(() => seen.granted.length === 2, 'GRN granted');
+      assert.equal(seen.granted[1].interlock.operation, 'outer');
+      // The interlock's view is read against the plant's tracker, which the feedback's read holds.
+      const request = { topic: 'state please' };
+      const feedback = { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), get value() { helper.getNode('st').receive(request); return 7; } } };
+      helper.getNode('bus').receive(feedback);
+      await reentered('st', request);
+      assert.equal((await completionOf('bus', feedback)).error, undefined);
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+      assert.equal(runtimeOf('il').core, core);
+      assert.equal(runtimeOf('pl').t, tracker);
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+    });
+
     it('a clear sent from inside an acquire\'s read waits for it; its own lines\' getter sending feedback to the plant is refused, nothing rebuilt', async function () {
       const { seen } = await start();
       await clearSendingFeedback((clear) => helper.getNode('acq').receive({ operation: 'outer', resources: sendingLines('clr', clear, ['RED']) }));
@@ -788,12 +812,14 @@ describe('sugarshack hostile input', function () {
       assert.equal(bytes(), before, 'no page added');
     });
 
-    it('a borrow refused outside any msg\'s read is still a trap (a borrow left open by an earlier one)', function () {
+    it('a borrow refused is a trap (a borrow left open by an earlier one), in a msg\'s read too: a msg is refused before it could make one', function () {
       const err = new Error('recursive use of an object detected which would lead to unsafe aliasing in rust');
       assert.equal(wasm.isTrap(err), true);
-      assert.equal(wasm.isReentry(err), false);
-      assert.deepEqual(wasm.reading({ reading: false }, () => [wasm.isTrap(err), wasm.isReentry(err)]), [false, true]);
-      assert.equal(wasm.isReentry(new Error('unreachable')), false);
+      assert.equal(wasm.reading({ reading: false }, () => wasm.isTrap(err)), true);
+      const owner = { reading: false };
+      assert.throws(() => wasm.reading(owner, () => wasm.entering(owner)), (e) => e.code === 'INVALID_INPUT' && /while the core was still reading/.test(e.message));
+      assert.equal(owner.reading, false, 'unmarked once its read ends');
+      assert.equal(wasm.isTrap(new Error('unreachable')), false);
     });
   });
 

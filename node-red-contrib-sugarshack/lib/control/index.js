@@ -143,7 +143,6 @@ function revivable(make, { onRevive = () => {} } = {}) {
     try {
       return wasm.reading(owner, fn, object);
     } catch (err) {
-      if (wasm.isReentry(err)) throw SugarshackError.of('INVALID_INPUT', 'msgReentered');
       if (!wasm.isTrap(err)) throw err;
       const broken = generation;
       setImmediate(() => wasm.recover(err, broken));

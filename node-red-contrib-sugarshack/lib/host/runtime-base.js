@@ -164,13 +164,17 @@ class RuntimeBase {
     }
   }
 
-  /** What `err` thrown by a core call surfaces as: a wasm trap starts the rebuild and is INTERNAL; a call from inside a msg's read is refused; anything else is itself. */
+  /** What `err` thrown by a core call surfaces as: a wasm trap starts the rebuild and is INTERNAL; anything else is itself. */
   trapped(err) {
-    if (wasm.isReentry(err)) return SugarshackError.of('INVALID_INPUT', 'msgReentered');
     if (!wasm.isTrap(err)) return err;
     const generation = this.generation;
     setImmediate(() => wasm.recover(err, generation));
     return SugarshackError.of('INTERNAL', 'coreTrapped', { kind: this.kind, message: err.message });
+  }
+
+  /** What `describe()` says, read from its core through `guard`. */
+  described() {
+    return this.guard(() => this.describe());
   }
 
   afterTrap(err, generation) {
@@ -249,6 +253,11 @@ class RuntimeBase {
    */
   refreshStatus(_only) {
     throw new Error(`the ${this.kind} runtime does not show a status`);
+  }
+
+  /** Its state as a person reads it; each runtime says how. @returns {object} */
+  describe() {
+    throw new Error(`the ${this.kind} runtime does not describe itself`);
   }
 
   /** Makes its core objects again from its last durable state, after a trap; each runtime says how. */

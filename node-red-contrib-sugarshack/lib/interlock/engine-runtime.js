@@ -630,7 +630,7 @@ class EngineRuntime extends InterlockHost {
       this.replies.set(k, { resolve, reject });
       const plant = this.tracker();
       try {
-        this.call((e, now) => (plant ? e.operatorAgainst(k, action, who, now, plant) : e.operator(k, action, who, now)));
+        this.call((e, now) => (plant ? wasm.reading(this.plant, () => e.operatorAgainst(k, action, who, now, plant)) : e.operator(k, action, who, now)));
       } catch (err) {
         this.replies.delete(k);
         reject(err);

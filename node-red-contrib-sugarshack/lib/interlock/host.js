@@ -111,6 +111,12 @@ class InterlockHost extends RuntimeBase {
     return { ...this.settings.config, resources: this.plant.t.interlockResources() };
   }
 
+  /** Its view is read against its plant's tracker: refused while that reads a msg too. */
+  described() {
+    if (this.plant) wasm.entering(this.plant);
+    return super.described();
+  }
+
   /** What was saved: its state file, or on a first run a state an earlier version kept in a context store. */
   async readSaved() {
     const saved = this.readStore();
@@ -188,7 +194,7 @@ class InterlockHost extends RuntimeBase {
     for (const snapshot of saved) {
       const owner = snapshot.owner || { kind: 'node', id: '' };
       try {
-        const restored = this.guard(() => this.plant.t.restoreRun(snapshot));
+        const restored = this.plant.guard(() => this.plant.t.restoreRun(snapshot));
         const run = new RunHost({ interlock: this, plant: this.plant, operation: snapshot.operation, msg: null, port: waitingPort(this, owner) });
         this.runs.add(run);
         run.restored(restored);

@@ -10,6 +10,7 @@ const { stats } = require('../host/stats');
 const { journal } = require('../journal/bus');
 const { clock } = require('../host/clock');
 const { SugarshackError } = require('../host/errors');
+const wasm = require('../wasm');
 
 class SensorWatch {
   /** plant: the PlantRuntime (its core `t` and ids by handle). */
@@ -78,6 +79,8 @@ class SensorWatch {
   current() {
     const { t } = this.plant;
     if (!t) throw SugarshackError.of('NO_PLANT', 'plantNotRunning');
+    // A wait started from inside a msg's read of the plant (a run's wait step) is refused, as the plant's own calls are.
+    wasm.entering(this.plant);
     if (this.core === t) return t;
     const carried = [...this.waits.values()];
     this.waits.clear();

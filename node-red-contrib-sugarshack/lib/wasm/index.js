@@ -64,18 +64,16 @@ function currentGeneration() {
   return generation;
 }
 
-// wasm-bindgen reports a borrow left open by an earlier trap with these words;
-// also a call on an object whose own call is still running (see `reading`).
+// wasm-bindgen reports a borrow left open by an earlier trap with these words
+// (a call on an object whose own call still runs would too: `reading` keeps
+// msgs from making one).
 const POISONED = /recursive use of an object detected|attempted to take ownership of Rust value while it was borrowed/;
 
 // A facade call that reads a msg's values runs the msg's getters, proxies and
 // toJSON inside it, and one that sends a msg on at once calls the core again
 // from there. The call marks its owner (a runtime, a revivable control object)
-// `reading`, and a call on an owner so marked is refused before it reaches
-// wasm (`entering`). The count of such calls in progress is for calls that
-// bypass their owner's check: a borrow refused while one runs is that msg's
-// doing (a trap before it already started the rebuild), not a broken instance.
-let readingNow = 0;
+// `reading`, and every call on an owner so marked is refused before it reaches
+// wasm (`entering`, in each runtime's guard and each revivable's calls).
 
 /**
  * Calls `fn(a, …, g)`, a facade call on `owner`'s core object that reads a
@@ -87,23 +85,16 @@ let readingNow = 0;
 function reading(owner, fn, a, b, c, d, e, f, g) {
   entering(owner);
   owner.reading = true;
-  readingNow += 1;
   try {
     return fn(a, b, c, d, e, f, g);
   } finally {
     owner.reading = false;
-    readingNow -= 1;
   }
 }
 
 /** Refuses a call on `owner` while it reads a msg (see `reading`), before wasm-bindgen's glue runs for it. @param {{ reading: boolean }} owner */
 function entering(owner) {
   if (owner.reading) throw SugarshackError.of('INVALID_INPUT', 'msgReentered');
-}
-
-/** Whether `err` is the core refusing a call made from inside a msg read by another, past its owner's check (see `reading`). */
-function isReentry(err) {
-  return readingNow > 0 && !!err && typeof err === 'object' && POISONED.test(String(err.message));
 }
 
 /**
@@ -115,7 +106,7 @@ function isTrap(err) {
   if (!err || typeof err !== 'object') return false;
   if (typeof WebAssembly !== 'undefined' && err instanceof WebAssembly.RuntimeError) return true;
   if (err instanceof RangeError && /call stack/i.test(err.message)) return /wasm:\/\/|wasm-function/.test(String(err.stack));
-  return POISONED.test(String(err.message)) && readingNow === 0;
+  return POISONED.test(String(err.message));
 }
 
 /**
@@ -583,4 +574,4 @@ function primeControl({ PidLoop, PidStation, Rcc, IoModule, validateThresholds, 
   loop.free();
 }
 
-module.exports = { load, isTrap, isReentry, reading, entering, recover, onTrap, currentGeneration, forget, release, prime, SAMPLE_PLANT };
+module.exports = { load, isTrap, reading, entering, recover, onTrap, currentGeneration, forget, release, prime, SAMPLE_PLANT };

@@ -7,13 +7,12 @@
 //! value throws out of here, and no text read is over `max` bytes.
 
 use js_sys::{Array, JsString, Reflect, Uint8Array, JSON};
+use sugarshack_core::text::quote;
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
 /// An object JSON cannot write whole is read field by field, at most this many.
 const MAX_KEYS: usize = 1000;
-/// An unreadable value's reason is quoted up to this many characters.
-const MAX_REASON_CHARS: usize = 60;
 
 #[wasm_bindgen]
 extern "C" {
@@ -130,7 +129,8 @@ fn fields(value: &JsValue, max: usize) -> Option<Result<String, usize>> {
     Some(Ok(text))
 }
 
-/// A JSON string saying why a value cannot be read (the thrown error's message).
+/// A JSON string saying why a value cannot be read (the thrown error's
+/// message, quoted as every error text is).
 fn unreadable(thrown: &JsValue) -> String {
     let message = if thrown.is_object() {
         Reflect::get(thrown, &JsValue::from_str("message"))
@@ -140,13 +140,7 @@ fn unreadable(thrown: &JsValue) -> String {
         thrown.as_string()
     }
     .unwrap_or_else(|| "not an Error".to_owned());
-    let clipped = if message.chars().count() > MAX_REASON_CHARS {
-        let head: String = message.chars().take(MAX_REASON_CHARS - 3).collect();
-        format!("{head}...")
-    } else {
-        message
-    };
-    json_string(&format!("(unreadable: {clipped})"))
+    json_string(&format!("(unreadable: {})", quote(message)))
 }
 
 fn json_string(text: &str) -> String {

@@ -5,6 +5,7 @@
 //! `malformed` effects, and foreign topics are told apart.
 
 use js_sys::Array;
+use sugarshack_core::text::QUOTE_CHARS;
 use sugarshack_wasm::{Ingest, Tracker};
 use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
@@ -422,6 +423,32 @@ fn a_payload_that_cannot_be_written_as_json_is_refused_never_thrown() {
     // Undefined is an empty payload, as before.
     let (read, _) = value_answer(&mut t, "ctrl-3/state", &JsValue::UNDEFINED);
     assert_eq!(read["kind"], Ingest::Refused as u8);
+}
+
+#[wasm_bindgen_test]
+fn an_unreadable_payloads_thrown_message_is_quoted_as_every_error_text_is() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    // What the message says the payload was: an array whose toJSON throws `n` characters.
+    let mut got = |n: usize| {
+        let thrower = format!(
+            "const a = []; a.toJSON = () => {{ throw new Error('y'.repeat({n})); }}; return a;"
+        );
+        let (read, reasons) = value_answer(&mut t, "ctrl-3/state", &js(&thrower));
+        assert_eq!(reasons, ["not an object"], "{read}");
+        let message = read["effects"][0]["message"].as_str().unwrap().to_owned();
+        message.split_once(", got ").unwrap().1.to_owned()
+    };
+    // Under the bound: whole.
+    assert_eq!(got(70), format!("\"(unreadable: {})\"", "y".repeat(70)));
+    // Over it: cut once, by the same rule as every quoted value.
+    let long = got(500);
+    assert!(long.starts_with("\"(unreadable: yyy"), "{long}");
+    assert_eq!(long.chars().count(), QUOTE_CHARS, "{long}");
+    assert!(
+        long.ends_with('…') && long.matches('…').count() == 1,
+        "{long}"
+    );
+    assert!(!long.contains("..."), "{long}");
 }
 
 #[wasm_bindgen_test]
