@@ -67,11 +67,31 @@ const MEGABYTE = 1024 * 1024;
 const bigObject = () => ({ blob: 'x'.repeat(MEGABYTE) });
 const bigArray = () => new Array(200000).fill(123456); // about 1.4 MB of JSON
 
-/** A msg whose `field` is a getter that throws. */
-function throwingGetter(fields, field) {
+/** A msg whose `field` is a getter that throws (`make()`, an Error by default). */
+function throwingGetter(fields, field, make = () => new Error(`no ${field} for you`)) {
   const msg = { ...fields };
-  Object.defineProperty(msg, field, { enumerable: true, get() { throw new Error(`no ${field} for you`); } });
+  Object.defineProperty(msg, field, { enumerable: true, get() { throw make(); } });
   return msg;
+}
+
+// wasm-bindgen's words for a borrow it refuses (its runtime's BORROW_ERROR and OWNERSHIP_ERROR).
+const BORROW_WORDS = 'recursive use of an object detected which would lead to unsafe aliasing in rust';
+const OWNERSHIP_WORDS = 'attempted to take ownership of Rust value while it was borrowed';
+
+/** The errors wasm-bindgen's glue throws for a borrow it refuses, made for real: calls on an RCC object from inside its own `decide`. */
+function gluesBorrowErrors() {
+  const rcc = new (wasm.load().Rcc)({ id: 2, thresholdsMs: [1000, 2000], tsMs: 500, smoothHandover: true });
+  const thrown = {};
+  const attempt = (name, fn) => {
+    try {
+      fn();
+    } catch (err) {
+      thrown[name] = err;
+    }
+  };
+  // `free` inside is let through: the object goes once `decide` ends.
+  rcc.decide({ lastAction: 1, get agesMs() { attempt('borrow', () => rcc.nextTickMs()); attempt('ownership', () => rcc.free()); return [null, null]; } }, 0);
+  return thrown;
 }
 
 /** A msg that is a Proxy: `_msgid` and `fields` read through, every other read throws. */
@@ -411,6 +431,57 @@ describe('sugarshack hostile input', function () {
     helper.getNode('rcc').receive({ payload: { procVar: 40, lastAction: 10, agesMs: [null, null] } });
     await until(() => seen.rccout.length === rccOut + 1, 'an rcc decision');
   });
+
+  // What a broken wasm instance throws, thrown by a msg's own getter or toJSON: the sender's error all the same.
+  for (const [name, make, deepCode] of [
+    ['wasm-bindgen\'s words for a borrow left open', () => new Error(BORROW_WORDS), 'INVALID_INPUT'],
+    ['wasm-bindgen\'s words for an object taken while borrowed', () => new Error(OWNERSHIP_WORDS), 'INVALID_INPUT'],
+    ['a WebAssembly.RuntimeError', () => new WebAssembly.RuntimeError('unreachable'), 'INVALID_INPUT'],
+    // The core takes a stack overflow in its read of a value for one too deep.
+    ['a stack overflow\'s RangeError', () => new RangeError('Maximum call stack size exceeded'), 'INPUT_TOO_DEEP'],
+  ]) {
+    it(`a msg whose getter or toJSON throws ${name} is refused with a code, never taken for a trap: nothing rebuilt`, async function () {
+      const { seen } = await start();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      const boom = () => { throw make(); };
+      /** A list of `names` whose first element's getter throws. */
+      const lines = (names) => {
+        const list = [...names];
+        Object.defineProperty(list, 0, { enumerable: true, get: boom });
+        return list;
+      };
+      const badValves = () => ({ valves: { get V201() { return boom(); } } });
+
+      await refused('acq', throwingGetter({ operation: 'x', resources: 'RED' }, 'priority', make), 'INVALID_INPUT');
+      await refused('acq', { operation: 'x', resources: lines(['RED']) }, 'INVALID_RESOURCES');
+      await refused('flt', { operation: 'h', error: { get message() { return boom(); } } }, 'INVALID_INPUT');
+      await noteNotText({ toJSON: boom });
+      await refused('clr', throwingGetter({}, 'resources', make), 'INVALID_INPUT');
+      await refused('clr', { resources: lines(['GRN']) }, 'INVALID_RESOURCES');
+      await refused('rt', throwingGetter({}, 'topic', make), 'INVALID_INPUT');
+      await refused('gc', throwingGetter({}, 'payload', make), 'INVALID_INPUT');
+      await refused('gc', { payload: badValves() }, deepCode);
+      await refused('gc', { payload: { toJSON: boom } }, deepCode);
+      await refused('bus', { topic: 'plant/command', payload: badValves() }, deepCode);
+      await refused('bus', { topic: 'plant/command', payload: { toJSON: boom } }, deepCode);
+      await ignored(seen, { topic: 'ctrl-1/state', payload: { ts: clock().now(), get valve() { return boom(); } } });
+      await ignored(seen, { topic: 'ctrl-1/state', payload: { toJSON: boom } });
+      await ignored(seen, { topic: 'station-3/sensor/volume/state', payload: { ts: clock().now(), get value() { return boom(); } } });
+      await refused('pid', { tunings: { get kp() { return boom(); } } }, 'INVALID_INPUT');
+      await refused('rcc', { payload: { procVar: 40, lastAction: 10, get agesMs() { return boom(); } } }, 'INVALID_INPUT');
+      await refused('io', throwingGetter({ topic: 'measurement' }, 'payload', make), 'INVALID_INPUT');
+
+      await quiet();
+      assert.equal(wasm.currentGeneration(), generation, 'no input was taken for a broken wasm instance');
+      assert.equal(runtimeOf('il').core, core);
+      assert.equal(runtimeOf('pl').t, tracker);
+      assert.ok(!allTexts().some((t) => /trapped|core failed/.test(t)), 'no trap logged');
+      assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' });
+      await stillWorks(seen, 'after');
+    });
+  }
 
   it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
     const { seen, panel } = await start();
@@ -813,9 +884,20 @@ describe('sugarshack hostile input', function () {
     });
 
     it('a borrow refused is a trap (a borrow left open by an earlier one), in a msg\'s read too: a msg is refused before it could make one', function () {
-      const err = new Error('recursive use of an object detected which would lead to unsafe aliasing in rust');
+      const { borrow: err, ownership } = gluesBorrowErrors();
+      assert.equal(err.message, BORROW_WORDS);
+      assert.equal(ownership.message, OWNERSHIP_WORDS);
       assert.equal(wasm.isTrap(err), true);
+      assert.equal(wasm.isTrap(ownership), true);
       assert.equal(wasm.reading({ reading: false }, () => wasm.isTrap(err)), true);
+      // The same words thrown by JS code (a msg's getter), or quoted by a refusal, are not.
+      assert.equal(wasm.isTrap(new Error(BORROW_WORDS)), false);
+      assert.equal(wasm.isTrap(new Error(OWNERSHIP_WORDS)), false);
+      assert.equal(wasm.isTrap(new Error(`cannot be turned into JSON (Error: ${BORROW_WORDS})`)), false);
+      // Nor a message written to look like the glue's stack.
+      const frame = String(err.stack).split('\n')[1];
+      assert.equal(wasm.isTrap(new Error(`${BORROW_WORDS}\n${frame}`)), false);
+      assert.equal(wasm.isTrap(new WebAssembly.RuntimeError(`unreachable\n    at wasm://wasm/0:wasm-function[1]:0x1`)), false);
       const owner = { reading: false };
       assert.throws(() => wasm.reading(owner, () => wasm.entering(owner)), (e) => e.code === 'INVALID_INPUT' && /while the core was still reading/.test(e.message));
       assert.equal(owner.reading, false, 'unmarked once its read ends');
@@ -929,7 +1011,8 @@ describe('sugarshack hostile input', function () {
       await after(seen, generation, { core, tracker });
     });
 
-    it('a trap in a pid node\'s loop: that msg ends INTERNAL, every runtime rebuilds', async function () {
+    /** A pid msg whose loop's `measure` runs `trapping(original, args)` on its wasm object: that msg ends INTERNAL, every runtime rebuilds. */
+    async function pidTrapped(trapping) {
       const { seen } = await before();
       const generation = wasm.currentGeneration();
       const core = runtimeOf('il').core;
@@ -937,9 +1020,8 @@ describe('sugarshack hostile input', function () {
       // The pid node's loop is private to it: reach it through the rebuild hook the node registered.
       const mem = require(path.join(PALETTE, 'wasm', 'sugarshack_wasm.js'));
       const original = mem.PidStation.prototype.measure;
-      mem.PidStation.prototype.measure = function trapping(...args) {
-        this.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
-        return original.apply(this, args);
+      mem.PidStation.prototype.measure = function trapped(...args) {
+        return trapping.call(this, original, args);
       };
       try {
         const msg = { payload: 42 };
@@ -950,6 +1032,20 @@ describe('sugarshack hostile input', function () {
         mem.PidStation.prototype.measure = original;
       }
       await after(seen, generation, { core, tracker });
+    }
+
+    it('a trap in a pid node\'s loop: that msg ends INTERNAL, every runtime rebuilds', async function () {
+      await pidTrapped(function trapping(original, args) {
+        this.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+        return original.apply(this, args);
+      });
+    });
+
+    it('a borrow wasm-bindgen\'s glue refuses in a pid node\'s loop (as for one left open): that msg ends INTERNAL, every runtime rebuilds', async function () {
+      const { borrow } = gluesBorrowErrors();
+      await pidTrapped(() => {
+        throw borrow;
+      });
     });
   });
 });

@@ -64,10 +64,38 @@ function currentGeneration() {
   return generation;
 }
 
-// wasm-bindgen reports a borrow left open by an earlier trap with these words
-// (a call on an object whose own call still runs would too: `reading` keeps
-// msgs from making one).
-const POISONED = /recursive use of an object detected|attempted to take ownership of Rust value while it was borrowed/;
+// wasm-bindgen's runtime reports a borrow left open by an earlier trap with
+// these words, thrown by its glue's `__wbindgen_throw` import (a call on an
+// object whose own call still runs would too: `reading` keeps msgs from making
+// one). Only that throw counts: a msg's getter, proxy or toJSON may throw the
+// same words, and a core refusal may quote them.
+const POISONED = new Set([
+  'recursive use of an object detected which would lead to unsafe aliasing in rust',
+  'attempted to take ownership of Rust value while it was borrowed',
+]);
+const IN_WASM = /wasm:\/\/|wasm-function/;
+
+/**
+ * The first frame of `err`'s stack: where it was made. Read after the header
+ * V8 wrote (`name: message`), so a message cannot pass for a frame.
+ * @param {{ name?: unknown, message?: unknown, stack?: unknown }} err
+ */
+function firstFrame(err) {
+  const stack = String(err.stack);
+  const header = `${err.name}: ${err.message}\n`;
+  if (/\n/.test(String(err.message)) || !stack.startsWith(header)) return '';
+  return stack.slice(header.length).split('\n', 1)[0];
+}
+
+/** Whether `frame` is the glue's `__wbindgen_throw` import, which throws wasm-bindgen's runtime errors. @param {string} frame */
+function inGlueThrow(frame) {
+  const at = /^ {4}at (?:Object\.)?__wbg___wbindgen_throw_[0-9a-f]+ \((.+):\d+:\d+\)$/.exec(frame);
+  try {
+    return at !== null && at[1] === require.resolve(BINDINGS);
+  } catch {
+    return false; // not built: nothing of it ran
+  }
+}
 
 // A facade call that reads a msg's values runs the msg's getters, proxies and
 // toJSON inside it, and one that sends a msg on at once calls the core again
@@ -98,15 +126,21 @@ function entering(owner) {
 }
 
 /**
- * Whether an error thrown by a facade call means the instance itself broke. A
- * stack overflow counts only inside wasm code: the same RangeError from plain
- * JS (a msg nested too deep to read) is the sender's problem, not a trap.
+ * Whether an error thrown by a facade call means the instance itself broke: a
+ * RuntimeError made in wasm code, a borrow wasm-bindgen's glue refused (see
+ * POISONED). A stack overflow counts only inside wasm code: the same RangeError
+ * from plain JS (a msg nested too deep to read) is the sender's problem. So is
+ * a RuntimeError or those words thrown by a msg's own code.
  */
 function isTrap(err) {
   if (!err || typeof err !== 'object') return false;
-  if (typeof WebAssembly !== 'undefined' && err instanceof WebAssembly.RuntimeError) return true;
-  if (err instanceof RangeError && /call stack/i.test(err.message)) return /wasm:\/\/|wasm-function/.test(String(err.stack));
-  return POISONED.test(String(err.message));
+  try {
+    if (typeof WebAssembly !== 'undefined' && err instanceof WebAssembly.RuntimeError) return IN_WASM.test(firstFrame(err));
+    if (err instanceof RangeError && /call stack/i.test(err.message)) return IN_WASM.test(String(err.stack));
+    return Object.getPrototypeOf(err) === Error.prototype && POISONED.has(err.message) && inGlueThrow(firstFrame(err));
+  } catch {
+    return false; // a thrown proxy whose reading throws: a msg's, not wasm's
+  }
 }
 
 /**
