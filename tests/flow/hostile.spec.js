@@ -483,6 +483,25 @@ describe('sugarshack hostile input', function () {
     });
   }
 
+  it('a getter that throws a proxy which throws on being looked at (its prototype, its message) is refused INVALID_INPUT by every node, nothing rebuilt', async function () {
+    const { seen } = await start();
+    const generation = wasm.currentGeneration();
+    const looked = () => { throw new Error(BORROW_WORDS); };
+    const thrown = () => new Proxy({}, { get: looked, getPrototypeOf: looked, has: looked, ownKeys: looked });
+    for (const [id, fields, field] of [
+      ['acq', { operation: 'x', resources: 'RED' }, 'priority'], ['rel', {}, 'operation'], ['flt', { operation: 'h' }, 'payload'],
+      ['clr', {}, 'resources'], ['rt', {}, 'topic'], ['gc', {}, 'payload'], ['bus', { topic: 'plant/command' }, 'payload'],
+      ['pid', {}, 'payload'], ['rcc', {}, 'payload'], ['io', { topic: 'measurement' }, 'payload'],
+    ]) {
+      const err = await refused(id, throwingGetter(fields, field, thrown), 'INVALID_INPUT');
+      assert.match(err.message, /could not read the msg: object/, id);
+    }
+    await quiet();
+    assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+    assert.deepEqual(liveLines(), { YEL: 'held', GRN: 'free', RED: 'free' });
+    await stillWorks(seen, 'after');
+  });
+
   it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
     const { seen, panel } = await start();
     const generation = wasm.currentGeneration();

@@ -4,7 +4,7 @@
 // field as the user set it (a number checked a number), or left out. What a
 // blank becomes (alpha, h, max dead, stale after = 3 × Ts, action, P on...) and
 // every rule on the values are the core's.
-const { SugarshackError } = require('../host/errors');
+const { SugarshackError, thrownWords } = require('../host/errors');
 const { translator } = require('../host/i18n');
 const { isNumber, blank, configNumber, configDurationMs, msgNumber, describe } = require('./index');
 
@@ -139,9 +139,12 @@ class PidReader {
    */
   inputError(err) {
     const { t } = this;
-    return err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)
-      ? err
-      : new SugarshackError('INVALID_INPUT', t('errors.msgUnreadable', { why: String(err && typeof err.message === 'string' ? err.message : typeof err).slice(0, 100) }));
+    try {
+      if (err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)) return err;
+    } catch {
+      // a thrown proxy that throws on being looked at: the sender's too
+    }
+    return new SugarshackError('INVALID_INPUT', t('errors.msgUnreadable', { why: thrownWords(err).slice(0, 100) }));
   }
 }
 

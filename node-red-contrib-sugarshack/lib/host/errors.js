@@ -38,4 +38,18 @@ function asSugarshackError(err) {
   return wrapped;
 }
 
-module.exports = { SugarshackError, asSugarshackError };
+/**
+ * What a value a msg's code threw says: its message, or itself as text; its
+ * type when even reading it throws (a thrown proxy, a toString that throws).
+ * @param {unknown} thrown
+ */
+function thrownWords(thrown) {
+  try {
+    const message = thrown && /** @type {any} */ (thrown).message;
+    return typeof message === 'string' ? message : String(thrown);
+  } catch {
+    return typeof thrown;
+  }
+}
+
+module.exports = { SugarshackError, asSugarshackError, thrownWords };

@@ -4,7 +4,7 @@
 // core, which reads it by its rules (engine/request.rs): msg's values first,
 // then the node's, trimmed, defaulted, attributed. Whether a request is
 // allowed is for the interlock to say.
-const { SugarshackError } = require('../host/errors');
+const { SugarshackError, thrownWords } = require('../host/errors');
 const i18n = require('../host/i18n');
 const wasm = require('../wasm');
 const { refusalError } = require('./engine-carrier');
@@ -39,9 +39,12 @@ function readMsg(read) {
 
 /** What reading a msg threw, as readMsg throws it. */
 function unreadable(err) {
-  if (err instanceof SugarshackError || wasm.isTrap(err)) return err;
-  const why = err && typeof err.message === 'string' ? err.message : String(err);
-  return SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) });
+  try {
+    if (err instanceof SugarshackError || wasm.isTrap(err)) return err;
+  } catch {
+    // a thrown proxy that throws on being looked at: the sender's too
+  }
+  return SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: thrownWords(err).slice(0, QUOTE_MAX) });
 }
 
 /**
@@ -126,7 +129,7 @@ function nodeValues(RED, node, props, names) {
     const fail = (name, err) => {
       if (failed) return;
       failed = true;
-      const why = `${LABELS[name] ? LABELS[name]() : name}: ${err && typeof err.message === 'string' ? err.message : String(err)}`;
+      const why = `${LABELS[name] ? LABELS[name]() : name}: ${thrownWords(err)}`;
       then(SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: why.slice(0, QUOTE_MAX) }));
     };
     for (const name of perMsg) {
