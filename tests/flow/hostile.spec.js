@@ -502,6 +502,21 @@ describe('sugarshack hostile input', function () {
     await stillWorks(seen, 'after');
   });
 
+  it('whatever was thrown, even a proxy that throws on being looked at, becomes a coded error, never a second throw', function () {
+    const { asSugarshackError } = require(path.join(PALETTE, 'lib', 'host', 'errors.js'));
+    const looked = () => { throw new Error('looked at'); };
+    const { proxy, revoke } = Proxy.revocable({}, {});
+    revoke();
+    for (const thrown of [new Proxy({}, { get: looked, getPrototypeOf: looked, has: looked, ownKeys: looked }), proxy]) {
+      const err = asSugarshackError(thrown);
+      assert.equal(err.code, 'INTERNAL');
+      assert.equal(err.message, 'object');
+    }
+    assert.equal(asSugarshackError(new TypeError('x is not a function')).message, 'x is not a function');
+    const coded = Object.assign(new Error('queue full'), { code: 'QUEUE_FULL' });
+    assert.equal(asSugarshackError(coded), coded);
+  });
+
   it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
     const { seen, panel } = await start();
     const generation = wasm.currentGeneration();

@@ -32,10 +32,15 @@ class SugarshackError extends Error {
  * @returns {SugarshackError}
  */
 function asSugarshackError(err) {
-  if (err && typeof err === 'object' && typeof err.code === 'string' && err.message) return err;
-  const wrapped = new SugarshackError('INTERNAL', err && err.message ? err.message : String(err));
-  if (err && err.stack) wrapped.stack = err.stack;
-  return wrapped;
+  try {
+    if (err && typeof err === 'object' && typeof err.code === 'string' && err.message) return err;
+    const wrapped = new SugarshackError('INTERNAL', err && err.message ? err.message : String(err));
+    if (err && err.stack) wrapped.stack = err.stack;
+    return wrapped;
+  } catch {
+    // a thrown proxy that throws on being looked at: what it is, never a second throw
+    return new SugarshackError('INTERNAL', thrownWords(err));
+  }
 }
 
 /**
