@@ -265,14 +265,10 @@ class RunHost {
       this.feed((r) => r.granted(clock.now()));
     };
     entry.refuse = (err) => this.feed((r) => r.refused(err.code, err.message));
-    // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
-    // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
+    // Taken out of the queue by someone else (a cancel node, a fault while it waits); a shutdown ends through `shutdown`.
     entry.abandon = () => {
       if (this.interlock.ended) return;
-      this.feed((r) => [
-        ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
-        ...r.withdrawn(clock.now()),
-      ]);
+      this.feed((r) => r.takenOutOfQueue(clock.now()));
     };
     this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }

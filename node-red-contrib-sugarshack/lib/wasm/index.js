@@ -406,6 +406,7 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   const stopped = t.operationRun('o');
   stopped.start(0);
   stopped.withdrawn(1);
+  stopped.takenOutOfQueue(2);
   stopped.free();
   const interrupted = t.operationRun('o');
   interrupted.start(0);

@@ -434,6 +434,57 @@ fn an_interrupt_while_queued_withdraws_the_request() {
 }
 
 #[test]
+fn a_request_taken_out_of_the_queue_by_someone_else_ends_refused() {
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    let effects = r.taken_out_of_queue(ms(5));
+    assert_eq!(
+        failed(&effects),
+        (
+            "ABORTED",
+            "operation '10' was taken out of the queue (a cancel, or a fault while it waited) before it was granted",
+            None,
+            Stage::Acquire,
+            &[][..],
+            false
+        )
+    );
+    assert_eq!(r.state(), State::Refused);
+    assert!(
+        r.taken_out_of_queue(ms(6)).is_empty(),
+        "nothing after the end"
+    );
+}
+
+#[test]
+fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    r.interrupt("its node closed", ms(5));
+    let effects = r.taken_out_of_queue(ms(6));
+    let (code, message, ..) = failed(&effects);
+    assert_eq!(
+        (code, message),
+        (
+            "ABORTED",
+            "operation '10' was withdrawn from the queue (its node closed)"
+        )
+    );
+    assert_eq!(r.state(), State::Withdrawn);
+    // Granted meanwhile, the release it handed back decides the end.
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    r.interrupt("its node closed", ms(5));
+    r.granted(ms(6));
+    assert!(r.taken_out_of_queue(ms(7)).is_empty());
+    assert_eq!(r.state(), State::Withdrawing);
+    // Granted and running, it is not in the queue any more.
+    let mut r = granted();
+    assert!(r.taken_out_of_queue(ms(2000)).is_empty());
+    assert_eq!(r.state(), State::Running);
+}
+
+#[test]
 fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
     let mut r = run();
     r.start(ms(0)).unwrap();

@@ -80,6 +80,7 @@ enum Input {
     Refused(&'static str),
     Abort,
     Withdrawn,
+    TakenOut,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -110,6 +111,7 @@ fn input() -> impl Strategy<Value = Input> {
         1 => prop::sample::select(vec!["ALREADY_HOLDING", "ALREADY_QUEUED", "QUEUE_FULL"]).prop_map(Input::Refused),
         1 => Just(Input::Abort),
         2 => Just(Input::Withdrawn),
+        1 => Just(Input::TakenOut),
     ]
 }
 
@@ -390,6 +392,22 @@ impl Model {
             Input::Withdrawn if self.withdrawing.is_some() && !self.handed_back => {
                 self.withdrawn_failure()
             }
+            Input::TakenOut if queued => {
+                self.ended = true;
+                let message = format!("operation '{ID}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted");
+                vec![failed(
+                    "ABORTED",
+                    message,
+                    None,
+                    Stage::Acquire,
+                    Vec::new(),
+                    false,
+                    State::Refused,
+                )]
+            }
+            Input::TakenOut if self.withdrawing.is_some() && !self.handed_back => {
+                self.withdrawn_failure()
+            }
             _ => Vec::new(),
         }
     }
@@ -540,6 +558,7 @@ proptest! {
                 }
                 Input::Abort => (run.interrupt(&reason, ms(now)), model.apply(input, None, now)),
                 Input::Withdrawn => (run.withdrawn(ms(now)), model.apply(input, None, now)),
+                Input::TakenOut => (run.taken_out_of_queue(ms(now)), model.apply(input, None, now)),
             };
             prop_assert_eq!(&effects, &expected, "after {:?} at {}", input, now);
             prop_assert_eq!(run.step(), model.current.map(|(i, _)| i));

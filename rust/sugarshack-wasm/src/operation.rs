@@ -489,6 +489,13 @@ impl OperationRun {
         effects(self.core.interrupt(reason, now))
     }
 
+    /// Someone else took its request out of the queue: it ends refused, or as its withdrawal says.
+    #[wasm_bindgen(js_name = takenOutOfQueue, unchecked_return_type = "RunEffect[]")]
+    pub fn taken_out_of_queue(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.taken_out_of_queue(now))
+    }
+
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn withdrawn(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;

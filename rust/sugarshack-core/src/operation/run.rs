@@ -1095,6 +1095,20 @@ impl OperationRun {
         }
     }
 
+    /// Someone else took the request out of the queue (a cancel, a fault
+    /// while it waited): a queued run ends refused, nothing ran; one already
+    /// withdrawing ends as its withdrawal says.
+    pub fn taken_out_of_queue(&mut self, now: Millis) -> Vec<RunEffect> {
+        if !matches!(self.state, Inner::Queued) {
+            return self.withdrawn(now);
+        }
+        let message = format!(
+            "operation '{}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted",
+            self.plan.id
+        );
+        self.refused(ABORTED, &message)
+    }
+
     /// The queued request is gone (withdrawn, or found no longer queued).
     pub fn withdrawn(&mut self, _now: Millis) -> Vec<RunEffect> {
         match &self.state {
