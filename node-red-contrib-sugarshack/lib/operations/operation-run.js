@@ -201,7 +201,7 @@ class RunHost {
       case 'fault': {
         const refused = (err) => {
           this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
-          this.feed((r) => r.faultApplied([], clock.now()));
+          this.feed((r) => r.faultRefused(clock.now()));
         };
         this.attempt(() => this.interlock.fault(e.operation, e.note, (lockouts) => {
           this.plant.issueLockouts(lockouts, e.operation);
@@ -212,12 +212,11 @@ class RunHost {
       case 'cancelStep':
         this.cancelStep();
         break;
-      case 'withdraw':
-        this.attempt(
-          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now())), () => this.feed((r) => r.withdrawn(clock.now()))),
-          () => this.feed((r) => r.withdrawn(clock.now())),
-        );
+      case 'withdraw': {
+        const refused = () => this.feed((r) => r.withdrawRefused(clock.now()));
+        this.attempt(() => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now())), refused), refused);
         break;
+      }
       case 'finished':
         stats.add(`operation/run/${e.id}`, e.runMs);
         stats.add(`operation/queued/${e.id}`, e.queuedMs);

@@ -402,11 +402,13 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   done.stepDone(1, 3);
   done.releaseFailed('X', 'primer', 4);
   done.released(5);
+  done.faultRefused(6);
   done.free();
   const stopped = t.operationRun('o');
   stopped.start(0);
   stopped.withdrawn(1);
   stopped.takenOutOfQueue(2);
+  stopped.withdrawRefused(3);
   stopped.free();
   const interrupted = t.operationRun('o');
   interrupted.start(0);

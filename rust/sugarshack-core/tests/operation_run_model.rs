@@ -81,6 +81,8 @@ enum Input {
     Abort,
     Withdrawn,
     TakenOut,
+    FaultRefused,
+    WithdrawRefused,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -112,6 +114,8 @@ fn input() -> impl Strategy<Value = Input> {
         1 => Just(Input::Abort),
         2 => Just(Input::Withdrawn),
         1 => Just(Input::TakenOut),
+        1 => Just(Input::FaultRefused),
+        1 => Just(Input::WithdrawRefused),
     ]
 }
 
@@ -301,6 +305,8 @@ impl Model {
                     note: "its release: not held".into(),
                 }]
             }
+            Input::FaultRefused => self.apply(&Input::FaultApplied(0), index, now),
+            Input::WithdrawRefused => self.apply(&Input::Withdrawn, index, now),
             Input::FaultApplied(n) => match self.fault.take() {
                 Some(Fault {
                     code,
@@ -559,6 +565,8 @@ proptest! {
                 Input::Abort => (run.interrupt(&reason, ms(now)), model.apply(input, None, now)),
                 Input::Withdrawn => (run.withdrawn(ms(now)), model.apply(input, None, now)),
                 Input::TakenOut => (run.taken_out_of_queue(ms(now)), model.apply(input, None, now)),
+                Input::FaultRefused => (run.fault_refused(ms(now)), model.apply(input, None, now)),
+                Input::WithdrawRefused => (run.withdraw_refused(ms(now)), model.apply(input, None, now)),
             };
             prop_assert_eq!(&effects, &expected, "after {:?} at {}", input, now);
             prop_assert_eq!(run.step(), model.current.map(|(i, _)| i));

@@ -477,6 +477,13 @@ impl OperationRun {
         effects(self.core.fault_applied(lines, now))
     }
 
+    /// The interlock refused the fault: the run ends, nothing locked out.
+    #[wasm_bindgen(js_name = faultRefused, unchecked_return_type = "RunEffect[]")]
+    pub fn fault_refused(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.fault_refused(now))
+    }
+
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn refused(&mut self, code: &str, message: &str) -> Result<JsValue, JsValue> {
         effects(self.core.refused(code, message))
@@ -500,5 +507,12 @@ impl OperationRun {
     pub fn withdrawn(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.withdrawn(now))
+    }
+
+    /// The interlock refused the withdrawal: the request is gone all the same.
+    #[wasm_bindgen(js_name = withdrawRefused, unchecked_return_type = "RunEffect[]")]
+    pub fn withdraw_refused(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.withdraw_refused(now))
     }
 }

@@ -1040,6 +1040,11 @@ impl OperationRun {
         vec![failed]
     }
 
+    /// The interlock refused the fault: the run ends all the same, nothing locked out.
+    pub fn fault_refused(&mut self, now: Millis) -> Vec<RunEffect> {
+        self.fault_applied(Vec::new(), now)
+    }
+
     /// The interlock refused the request before any grant (C1, a full queue, a
     /// request dropped by a fault).
     pub fn refused(&mut self, code: &str, message: &str) -> Vec<RunEffect> {
@@ -1118,6 +1123,11 @@ impl OperationRun {
             } => self.end_withdrawn(),
             _ => Vec::new(),
         }
+    }
+
+    /// The interlock refused the withdrawal: the request is no longer queued, so it is gone all the same.
+    pub fn withdraw_refused(&mut self, now: Millis) -> Vec<RunEffect> {
+        self.withdrawn(now)
     }
 
     // ---- a held run across a restart ----------------------------------------
