@@ -89,16 +89,6 @@ class RunHost {
     if (state) port.progress('entered', this.run ? this.run.step() ?? null : null, state);
   }
 
-  /**
-   * A run that was only waiting for its grant when a deploy drained: it starts
-   * again with the plan of the document now in force (nothing of it ran).
-   */
-  restart() {
-    if (this.ended || this.granted) return;
-    this.free();
-    this.start();
-  }
-
   /** Its ISA-88 state (where it ended, once it did). @returns {RunState | null} */
   state() {
     if (this.run && !this.ended) return /** @type {RunState} */ (this.run.state());
