@@ -122,8 +122,8 @@ class RunHost {
     const run = /** @type {OperationRun} */ (this.run);
     const now = clock.now();
     const effects = this.interlock.guard(() => run.command(command, who.by || undefined, who.reason || undefined, now));
-    // An accepted abort always ends aborted: recorded in the same write as its lockouts.
-    if (command === 'abort') this.interlock.operationAborted(this.operation, who, now);
+    // Recorded in the same write as its lockouts. Only an abort makes it wait, and nothing follows one but its end.
+    if (run.awaitsReset()) this.interlock.operationAborted(this.operation, who, now);
     this.apply(effects);
     return this.state();
   }

@@ -486,6 +486,7 @@ function primeCommands(t, AbortedOperations) {
   held.restartDone(5);
   held.command('stop', 'primer', null, 6);
   held.command('abort', 'primer', null, 7);
+  held.awaitsReset();
   held.faultApplied(['A'], 8);
   held.command('reset', 'primer', null, 9);
   held.free();

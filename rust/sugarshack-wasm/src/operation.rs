@@ -417,6 +417,12 @@ impl OperationRun {
         }
     }
 
+    /// An operator aborted it: its operation refuses every start until a person's reset.
+    #[wasm_bindgen(js_name = awaitsReset)]
+    pub fn awaits_reset(&self) -> bool {
+        self.core.awaits_reset()
+    }
+
     /// The index of the step in progress (phase `running`), else undefined.
     pub fn step(&self) -> Option<u32> {
         self.core.step().map(|i| i as u32)

@@ -471,6 +471,8 @@ pub struct OperationRun {
     steps: Vec<StepRecord>,
     /// Where an operator's stop found it.
     stopped_at: Option<usize>,
+    /// An operator aborted it (not its supervisor going away).
+    aborted_by_operator: bool,
 }
 
 impl OperationRun {
@@ -484,6 +486,7 @@ impl OperationRun {
             granted_ms: Millis::ZERO,
             held_ms: Millis::ZERO,
             stopped_at: None,
+            aborted_by_operator: false,
         }
     }
 
@@ -546,6 +549,12 @@ impl OperationRun {
         procedure::OPERATION.commands(self.state())
     }
 
+    /// An operator aborted it: its operation refuses every start until a
+    /// person's reset, recorded at the abort (in the same write as its lockouts).
+    pub fn awaits_reset(&self) -> bool {
+        self.aborted_by_operator
+    }
+
     /// The index of the step in progress (or held, or being restarted).
     pub fn step(&self) -> Option<usize> {
         match self.state {
@@ -588,7 +597,10 @@ impl OperationRun {
             Command::Hold => self.hold(now),
             Command::Restart => self.restart(now),
             Command::Stop => self.stop(now),
-            Command::Abort => self.abort(who, now),
+            Command::Abort => {
+                self.aborted_by_operator = true;
+                self.abort(who, now)
+            }
             Command::Reset => {
                 *self = OperationRun::new(self.plan.clone());
                 vec![RunEffect::Entered {
