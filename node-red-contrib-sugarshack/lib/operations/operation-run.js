@@ -28,10 +28,12 @@ const wasm = require('../wasm');
 /**
  * Where a run reports. `owner` is kept with a held run's save; `waiting`
  * marks the port of a run restored held whose owner has not taken it yet.
+ * `fail` gets the run's final state (none when no run started or its core failed).
  * @typedef {{
  *   owner: RunOwner, waiting?: boolean,
  *   progress: (what: 'queued' | 'step' | 'entered', index?: number | null, detail?: any) => void,
- *   finish: (result: object) => void, stop: (result: object) => void, fail: (err: SugarshackError) => void,
+ *   finish: (result: object) => void, stop: (result: object) => void,
+ *   fail: (err: SugarshackError, ended?: RunState) => void,
  *   abandon?: () => void, adopt?: (node: any) => void, detachNode?: (node: any) => void, nodeId?: string,
  * }} RunPort
  */
@@ -219,7 +221,7 @@ class RunHost {
         }), 'stopped');
         break;
       case 'failed':
-        this.finishWith(() => this.port.fail(failure(e, this.operation)), e.state);
+        this.finishWith(() => this.port.fail(failure(e, this.operation), e.state), e.state);
         break;
       default: {
         const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added

@@ -457,6 +457,8 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.reset();
   r.onMsg('go');
   r.operationFailed(false, undefined);
+  r.onMsg('go');
+  r.runFailed(undefined);
   r.restore(r.snapshot(), []);
   r.free();
   t.free();
