@@ -28,10 +28,12 @@ const wasm = require('../wasm');
 /**
  * Where a run reports. `owner` is kept with a held run's save; `waiting`
  * marks the port of a run restored held whose owner has not taken it yet.
+ * `fail` gets the run's final state (none when no run started or its core failed).
  * @typedef {{
  *   owner: RunOwner, waiting?: boolean,
  *   progress: (what: 'queued' | 'step' | 'entered', index?: number | null, detail?: any) => void,
- *   finish: (result: object) => void, stop: (result: object) => void, fail: (err: SugarshackError) => void,
+ *   finish: (result: object) => void, stop: (result: object) => void,
+ *   fail: (err: SugarshackError, ended?: RunState) => void,
  *   abandon?: () => void, adopt?: (node: any) => void, detachNode?: (node: any) => void, nodeId?: string,
  * }} RunPort
  */
@@ -89,16 +91,6 @@ class RunHost {
     if (state) port.progress('entered', this.run ? this.run.step() ?? null : null, state);
   }
 
-  /**
-   * A run that was only waiting for its grant when a deploy drained: it starts
-   * again with the plan of the document now in force (nothing of it ran).
-   */
-  restart() {
-    if (this.ended || this.granted) return;
-    this.free();
-    this.start();
-  }
-
   /** Its ISA-88 state (where it ended, once it did). @returns {RunState | null} */
   state() {
     if (this.run && !this.ended) return /** @type {RunState} */ (this.run.state());
@@ -132,8 +124,8 @@ class RunHost {
     const run = /** @type {OperationRun} */ (this.run);
     const now = clock.now();
     const effects = this.interlock.guard(() => run.command(command, who.by || undefined, who.reason || undefined, now));
-    // An accepted abort always ends aborted: recorded in the same write as its lockouts.
-    if (command === 'abort') this.interlock.operationAborted(this.operation, who, now);
+    // Recorded in the same write as its lockouts. Only an abort makes it wait, and nothing follows one but its end.
+    if (run.awaitsReset()) this.interlock.operationAborted(this.operation, who, now);
     this.apply(effects);
     return this.state();
   }
@@ -201,7 +193,7 @@ class RunHost {
       case 'fault': {
         const refused = (err) => {
           this.interlock.log('error', text('logs.faultNotApplied', { operation: e.operation, message: err.message }));
-          this.feed((r) => r.faultApplied([], clock.now()));
+          this.feed((r) => r.faultRefused(clock.now()));
         };
         this.attempt(() => this.interlock.fault(e.operation, e.note, (lockouts) => {
           this.plant.issueLockouts(lockouts, e.operation);
@@ -212,12 +204,11 @@ class RunHost {
       case 'cancelStep':
         this.cancelStep();
         break;
-      case 'withdraw':
-        this.attempt(
-          () => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now())), () => this.feed((r) => r.withdrawn(clock.now()))),
-          () => this.feed((r) => r.withdrawn(clock.now())),
-        );
+      case 'withdraw': {
+        const refused = () => this.feed((r) => r.withdrawRefused(clock.now()));
+        this.attempt(() => this.interlock.cancel(e.operation, () => this.feed((r) => r.withdrawn(clock.now())), refused), refused);
         break;
+      }
       case 'finished':
         stats.add(`operation/run/${e.id}`, e.runMs);
         stats.add(`operation/queued/${e.id}`, e.queuedMs);
@@ -230,7 +221,7 @@ class RunHost {
         }), 'stopped');
         break;
       case 'failed':
-        this.finishWith(() => this.port.fail(failure(e, this.operation)), e.state);
+        this.finishWith(() => this.port.fail(failure(e, this.operation), e.state), e.state);
         break;
       default: {
         const unknown = /** @type {{ kind: string }} */ (e); // a kind a newer core added
@@ -265,14 +256,10 @@ class RunHost {
       this.feed((r) => r.granted(clock.now()));
     };
     entry.refuse = (err) => this.feed((r) => r.refused(err.code, err.message));
-    // Taken out of the queue by someone else (a cancel node, a fault while it waits): the run ends
-    // as refused, nothing ran. Its own withdrawal ends through `withdrawn`; a shutdown through `shutdown`.
+    // Taken out of the queue by someone else (a cancel node, a fault while it waits); a shutdown ends through `shutdown`.
     entry.abandon = () => {
       if (this.interlock.ended) return;
-      this.feed((r) => [
-        ...r.refused('ABORTED', text('errors.takenOutOfQueue', { operation: e.operation })),
-        ...r.withdrawn(clock.now()),
-      ]);
+      this.feed((r) => r.takenOutOfQueue(clock.now()));
     };
     this.attempt(() => this.interlock.request(entry), (err) => this.feed((r) => r.refused(err.code, err.message)));
   }

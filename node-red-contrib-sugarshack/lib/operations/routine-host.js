@@ -237,13 +237,12 @@ class RoutineHost {
         this.announce(() => this.emit('stopped', { operation, from: moved.from, to: moved.to, runMs: result.runMs, step: result.step }));
         this.afterRun();
       },
-      fail: (err) => {
+      fail: (err, ended) => {
         this.run = null;
         if (this.ended || !this.machine) return;
         const e = asSugarshackError(err);
-        // The routine says what the failure was (aborted, refused before the grant, faulted) and moves.
-        const ran = e.operation || null;
-        const { outcome, moved } = this.machine.operationFailed(ran !== null && ran.state === 'aborted', ran ? String(ran.kind) : undefined);
+        // From the run's final state the routine says what the failure was (aborted, refused before the grant, faulted) and moves.
+        const { outcome, moved } = this.machine.runFailed(ended);
         if (outcome === 'faulted') this.lastFault = true;
         const error = { code: e.code, message: e.message };
         this.announce(() => this.report(e, outcome, moved ? { operation, from: moved.from, to: moved.to, error } : { operation, error }));

@@ -427,10 +427,13 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   done.stepDone(1, 3);
   done.releaseFailed('X', 'primer', 4);
   done.released(5);
+  done.faultRefused(6);
   done.free();
   const stopped = t.operationRun('o');
   stopped.start(0);
   stopped.withdrawn(1);
+  stopped.takenOutOfQueue(2);
+  stopped.withdrawRefused(3);
   stopped.free();
   const interrupted = t.operationRun('o');
   interrupted.start(0);
@@ -479,6 +482,8 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.reset();
   r.onMsg('go');
   r.operationFailed(false, undefined);
+  r.onMsg('go');
+  r.runFailed(undefined);
   r.restore(r.snapshot(), []);
   r.free();
   t.free();
@@ -508,6 +513,7 @@ function primeCommands(t, AbortedOperations) {
   held.restartDone(5);
   held.command('stop', 'primer', null, 6);
   held.command('abort', 'primer', null, 7);
+  held.awaitsReset();
   held.faultApplied(['A'], 8);
   held.command('reset', 'primer', null, 9);
   held.free();

@@ -637,6 +637,22 @@ impl RoutineMachine {
         } else {
             Failure::Faulted
         };
+        self.failed_as(outcome)
+    }
+
+    /// The pending operation's run ended without completing, in `ended`
+    /// (its run's final state; none when no run started): aborted, faulted,
+    /// or else refused before it ran (refused, withdrawn), and moved as each says.
+    pub fn run_failed(&mut self, ended: Option<State>) -> Result<Failed, RoutineError> {
+        let outcome = match ended {
+            Some(State::Aborted) => Failure::Aborted,
+            Some(State::Faulted) => Failure::Faulted,
+            _ => Failure::Refused,
+        };
+        self.failed_as(outcome)
+    }
+
+    fn failed_as(&mut self, outcome: Failure) -> Result<Failed, RoutineError> {
         let moved = match outcome {
             Failure::Aborted => Some(self.operation_aborted()?),
             Failure::Refused => self.refused().map(|()| None)?,

@@ -204,6 +204,8 @@ struct Model {
     /// When the current hold began, and the held time so far.
     held_since: u64,
     held: u64,
+    /// An operator's abort was taken (until a reset).
+    aborted: bool,
 }
 
 impl Model {
@@ -215,6 +217,7 @@ impl Model {
             used: 0,
             held_since: 0,
             held: 0,
+            aborted: false,
         }
     }
 
@@ -307,6 +310,7 @@ impl Model {
     /// A command the table allows.
     fn command(&mut self, c: Command, now: u64) -> Vec<Expect> {
         let mut out = Vec::new();
+        self.aborted |= c == Command::Abort;
         match (self.at, c) {
             (At::Idle, Command::Start) => {
                 self.at = At::Queued;
@@ -652,6 +656,7 @@ proptest! {
             let after = run.state();
             prop_assert_eq!(after, model.state());
             prop_assert_eq!(run.step(), model.step());
+            prop_assert_eq!(run.awaits_reset(), model.aborted);
             prop_assert!(procedure::operation_move_declared(before, after) || by_events(before, after)
                 || matches!(input, Input::Command(c) if matches!(OPERATION.verdict(before, c), Verdict::To(t) if by_events(t, after))));
             // A restore leaves to its step the actuators the step commands again.

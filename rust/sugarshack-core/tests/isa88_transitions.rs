@@ -555,6 +555,35 @@ fn an_abort_locks_the_lines_out_at_once_and_waits_for_a_reset() {
 }
 
 #[test]
+fn only_an_operators_abort_leaves_its_operation_awaiting_a_reset() {
+    // Aborted while queued, running, held, or while a stop released: it waits for a reset.
+    for state in [State::Aborting, State::Aborted] {
+        for (how, r) in ways(state) {
+            assert!(r.awaits_reset(), "{how}");
+        }
+    }
+    // Its supervisor gone, a run ends aborted too, but nobody aborted it.
+    let mut r = run();
+    cmd(&mut r, Command::Start, 0);
+    r.granted(ms(0));
+    r.interrupt("its interlock left the flows", ms(10));
+    r.fault_applied(vec!["YEL".into()], ms(11));
+    assert_eq!(r.state(), State::Aborted);
+    assert!(!r.awaits_reset());
+    // Any other command, and the reset that ends the wait.
+    let mut r = run();
+    cmd(&mut r, Command::Start, 0);
+    r.granted(ms(0));
+    cmd(&mut r, Command::Stop, 20);
+    assert!(!r.awaits_reset());
+    cmd(&mut r, Command::Abort, 30);
+    assert!(r.awaits_reset());
+    r.fault_applied(Vec::new(), ms(31));
+    cmd(&mut r, Command::Reset, 40);
+    assert!(!r.awaits_reset());
+}
+
+#[test]
 fn a_held_run_comes_back_held_after_a_restart_on_the_same_plan_only() {
     let mut r = run();
     cmd(&mut r, Command::Start, 0);

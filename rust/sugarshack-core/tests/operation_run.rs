@@ -340,6 +340,30 @@ fn nothing_locked_out_leaves_the_locked_out_part_away() {
 }
 
 #[test]
+fn a_refused_fault_ends_the_run_faulted_with_nothing_locked_out() {
+    let mut r = at_step(0);
+    r.step_failed(0, "OUTSIDE_RESOURCES", "V9 is on RED", ms(10));
+    let effects = r.fault_refused(ms(11));
+    let (code, message, step, stage, locked_out, aborted) = failed(&effects);
+    assert_eq!(
+        (code, message, step, stage, locked_out.len(), aborted),
+        (
+            "OUTSIDE_RESOURCES",
+            "operation '10' faulted at step 1 (command): V9 is on RED",
+            Some(0),
+            Stage::Command,
+            0,
+            false
+        )
+    );
+    assert_eq!(r.state(), State::Faulted);
+    // Not faulting, there is no fault to refuse.
+    let mut r = at_step(0);
+    assert!(r.fault_refused(ms(11)).is_empty());
+    assert_eq!(r.state(), State::Running);
+}
+
+#[test]
 fn a_failed_release_faults_the_operation_at_its_release() {
     let mut r = at_step(3);
     assert_eq!(r.step_done(3, ms(8000)).len(), 1);
@@ -431,6 +455,79 @@ fn an_interrupt_while_queued_withdraws_the_request() {
     assert_eq!(r.state(), State::Withdrawn);
     assert!(r.granted(ms(8)).is_empty());
     assert!(r.interrupt("late", ms(9)).is_empty());
+}
+
+#[test]
+fn a_request_taken_out_of_the_queue_by_someone_else_ends_refused() {
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    let effects = r.taken_out_of_queue(ms(5));
+    assert_eq!(
+        failed(&effects),
+        (
+            "ABORTED",
+            "operation '10' was taken out of the queue (a cancel, or a fault while it waited) before it was granted",
+            None,
+            Stage::Acquire,
+            &[][..],
+            false
+        )
+    );
+    assert_eq!(r.state(), State::Refused);
+    assert!(
+        r.taken_out_of_queue(ms(6)).is_empty(),
+        "nothing after the end"
+    );
+}
+
+#[test]
+fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    r.interrupt("its node closed", ms(5));
+    let effects = r.taken_out_of_queue(ms(6));
+    let (code, message, ..) = failed(&effects);
+    assert_eq!(
+        (code, message),
+        (
+            "ABORTED",
+            "operation '10' was withdrawn from the queue (its node closed)"
+        )
+    );
+    assert_eq!(r.state(), State::Withdrawn);
+    // Granted meanwhile, the release it handed back decides the end.
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    r.interrupt("its node closed", ms(5));
+    r.granted(ms(6));
+    assert!(r.taken_out_of_queue(ms(7)).is_empty());
+    assert_eq!(r.state(), State::Withdrawing);
+    // Granted and running, it is not in the queue any more.
+    let mut r = granted();
+    assert!(r.taken_out_of_queue(ms(2000)).is_empty());
+    assert_eq!(r.state(), State::Running);
+}
+
+#[test]
+fn a_refused_withdrawal_ends_the_run_as_withdrawn() {
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    r.interrupt("its node closed", ms(5));
+    let effects = r.withdraw_refused(ms(6));
+    let (code, message, ..) = failed(&effects);
+    assert_eq!(
+        (code, message),
+        (
+            "ABORTED",
+            "operation '10' was withdrawn from the queue (its node closed)"
+        )
+    );
+    assert_eq!(r.state(), State::Withdrawn);
+    // Queued, nothing was asked to withdraw: a refusal changes nothing.
+    let mut r = run();
+    r.start(ms(0)).unwrap();
+    assert!(r.withdraw_refused(ms(6)).is_empty());
+    assert_eq!(r.state(), State::Queued);
 }
 
 #[test]

@@ -80,6 +80,9 @@ enum Input {
     Refused(&'static str),
     Abort,
     Withdrawn,
+    TakenOut,
+    FaultRefused,
+    WithdrawRefused,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -110,6 +113,9 @@ fn input() -> impl Strategy<Value = Input> {
         1 => prop::sample::select(vec!["ALREADY_HOLDING", "ALREADY_QUEUED", "QUEUE_FULL"]).prop_map(Input::Refused),
         1 => Just(Input::Abort),
         2 => Just(Input::Withdrawn),
+        1 => Just(Input::TakenOut),
+        1 => Just(Input::FaultRefused),
+        1 => Just(Input::WithdrawRefused),
     ]
 }
 
@@ -299,6 +305,8 @@ impl Model {
                     note: "its release: not held".into(),
                 }]
             }
+            Input::FaultRefused => self.apply(&Input::FaultApplied(0), index, now),
+            Input::WithdrawRefused => self.apply(&Input::Withdrawn, index, now),
             Input::FaultApplied(n) => match self.fault.take() {
                 Some(Fault {
                     code,
@@ -388,6 +396,22 @@ impl Model {
                 _ => Vec::new(),
             },
             Input::Withdrawn if self.withdrawing.is_some() && !self.handed_back => {
+                self.withdrawn_failure()
+            }
+            Input::TakenOut if queued => {
+                self.ended = true;
+                let message = format!("operation '{ID}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted");
+                vec![failed(
+                    "ABORTED",
+                    message,
+                    None,
+                    Stage::Acquire,
+                    Vec::new(),
+                    false,
+                    State::Refused,
+                )]
+            }
+            Input::TakenOut if self.withdrawing.is_some() && !self.handed_back => {
                 self.withdrawn_failure()
             }
             _ => Vec::new(),
@@ -540,6 +564,9 @@ proptest! {
                 }
                 Input::Abort => (run.interrupt(&reason, ms(now)), model.apply(input, None, now)),
                 Input::Withdrawn => (run.withdrawn(ms(now)), model.apply(input, None, now)),
+                Input::TakenOut => (run.taken_out_of_queue(ms(now)), model.apply(input, None, now)),
+                Input::FaultRefused => (run.fault_refused(ms(now)), model.apply(input, None, now)),
+                Input::WithdrawRefused => (run.withdraw_refused(ms(now)), model.apply(input, None, now)),
             };
             prop_assert_eq!(&effects, &expected, "after {:?} at {}", input, now);
             prop_assert_eq!(run.step(), model.current.map(|(i, _)| i));

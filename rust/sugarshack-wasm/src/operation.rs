@@ -417,6 +417,12 @@ impl OperationRun {
         }
     }
 
+    /// An operator aborted it: its operation refuses every start until a person's reset.
+    #[wasm_bindgen(js_name = awaitsReset)]
+    pub fn awaits_reset(&self) -> bool {
+        self.core.awaits_reset()
+    }
+
     /// The index of the step in progress (phase `running`), else undefined.
     pub fn step(&self) -> Option<u32> {
         self.core.step().map(|i| i as u32)
@@ -477,6 +483,13 @@ impl OperationRun {
         effects(self.core.fault_applied(lines, now))
     }
 
+    /// The interlock refused the fault: the run ends, nothing locked out.
+    #[wasm_bindgen(js_name = faultRefused, unchecked_return_type = "RunEffect[]")]
+    pub fn fault_refused(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.fault_refused(now))
+    }
+
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn refused(&mut self, code: &str, message: &str) -> Result<JsValue, JsValue> {
         effects(self.core.refused(code, message))
@@ -489,9 +502,23 @@ impl OperationRun {
         effects(self.core.interrupt(reason, now))
     }
 
+    /// Someone else took its request out of the queue: it ends refused, or as its withdrawal says.
+    #[wasm_bindgen(js_name = takenOutOfQueue, unchecked_return_type = "RunEffect[]")]
+    pub fn taken_out_of_queue(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.taken_out_of_queue(now))
+    }
+
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]
     pub fn withdrawn(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
         let now = run_time(now_ms)?;
         effects(self.core.withdrawn(now))
+    }
+
+    /// The interlock refused the withdrawal: the request is gone all the same.
+    #[wasm_bindgen(js_name = withdrawRefused, unchecked_return_type = "RunEffect[]")]
+    pub fn withdraw_refused(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
+        let now = run_time(now_ms)?;
+        effects(self.core.withdraw_refused(now))
     }
 }

@@ -242,6 +242,19 @@ impl Routine {
         to_js(&failed)
     }
 
+    /// Its pending operation's run ended without completing, in `ended`
+    /// (the run's final state; undefined when no run started): the routine
+    /// says whether that was an abort, a refusal or a fault, and moves.
+    #[wasm_bindgen(js_name = runFailed, unchecked_return_type = "RoutineFailed")]
+    pub fn run_failed(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "RunState | undefined")] ended: Option<String>,
+    ) -> Result<JsValue, JsValue> {
+        let ended = state_of(ended)?;
+        let failed = self.core.run_failed(ended).map_err(routine_error)?;
+        to_js(&failed)
+    }
+
     #[wasm_bindgen(unchecked_return_type = "RoutineMove")]
     pub fn faulted(&mut self) -> Result<JsValue, JsValue> {
         let moved = self.core.faulted().map_err(routine_error)?;

@@ -471,6 +471,8 @@ pub struct OperationRun {
     steps: Vec<StepRecord>,
     /// Where an operator's stop found it.
     stopped_at: Option<usize>,
+    /// An operator aborted it (not its supervisor going away).
+    aborted_by_operator: bool,
 }
 
 impl OperationRun {
@@ -484,6 +486,7 @@ impl OperationRun {
             granted_ms: Millis::ZERO,
             held_ms: Millis::ZERO,
             stopped_at: None,
+            aborted_by_operator: false,
         }
     }
 
@@ -546,6 +549,12 @@ impl OperationRun {
         procedure::OPERATION.commands(self.state())
     }
 
+    /// An operator aborted it: its operation refuses every start until a
+    /// person's reset, recorded at the abort (in the same write as its lockouts).
+    pub fn awaits_reset(&self) -> bool {
+        self.aborted_by_operator
+    }
+
     /// The index of the step in progress (or held, or being restarted).
     pub fn step(&self) -> Option<usize> {
         match self.state {
@@ -588,7 +597,10 @@ impl OperationRun {
             Command::Hold => self.hold(now),
             Command::Restart => self.restart(now),
             Command::Stop => self.stop(now),
-            Command::Abort => self.abort(who, now),
+            Command::Abort => {
+                self.aborted_by_operator = true;
+                self.abort(who, now)
+            }
             Command::Reset => {
                 *self = OperationRun::new(self.plan.clone());
                 vec![RunEffect::Entered {
@@ -1040,6 +1052,11 @@ impl OperationRun {
         vec![failed]
     }
 
+    /// The interlock refused the fault: the run ends all the same, nothing locked out.
+    pub fn fault_refused(&mut self, now: Millis) -> Vec<RunEffect> {
+        self.fault_applied(Vec::new(), now)
+    }
+
     /// The interlock refused the request before any grant (C1, a full queue, a
     /// request dropped by a fault).
     pub fn refused(&mut self, code: &str, message: &str) -> Vec<RunEffect> {
@@ -1095,6 +1112,20 @@ impl OperationRun {
         }
     }
 
+    /// Someone else took the request out of the queue (a cancel, a fault
+    /// while it waited): a queued run ends refused, nothing ran; one already
+    /// withdrawing ends as its withdrawal says.
+    pub fn taken_out_of_queue(&mut self, now: Millis) -> Vec<RunEffect> {
+        if !matches!(self.state, Inner::Queued) {
+            return self.withdrawn(now);
+        }
+        let message = format!(
+            "operation '{}' was taken out of the queue (a cancel, or a fault while it waited) before it was granted",
+            self.plan.id
+        );
+        self.refused(ABORTED, &message)
+    }
+
     /// The queued request is gone (withdrawn, or found no longer queued).
     pub fn withdrawn(&mut self, _now: Millis) -> Vec<RunEffect> {
         match &self.state {
@@ -1104,6 +1135,11 @@ impl OperationRun {
             } => self.end_withdrawn(),
             _ => Vec::new(),
         }
+    }
+
+    /// The interlock refused the withdrawal: the request is no longer queued, so it is gone all the same.
+    pub fn withdraw_refused(&mut self, now: Millis) -> Vec<RunEffect> {
+        self.withdrawn(now)
     }
 
     // ---- a held run across a restart ----------------------------------------

@@ -193,6 +193,28 @@ fn a_failed_run_is_refused_before_its_grant_faulted_after_and_aborted_when_abort
 }
 
 #[test]
+fn a_failed_run_moves_the_routine_as_its_end_state_says() {
+    // Ended before it ran (refused, withdrawn), or no run started: refused, nothing moved.
+    for ended in [None, Some(State::Refused), Some(State::Withdrawn)] {
+        let mut r = truck_after_load(true);
+        let failed = r.run_failed(ended).unwrap();
+        assert_eq!((failed.outcome, failed.moved), (Failure::Refused, None));
+        assert_eq!(r.pending(), None);
+        assert_eq!(r.state(), "empty");
+    }
+    let mut r = truck_after_load(true);
+    let failed = r.run_failed(Some(State::Faulted)).unwrap();
+    assert_eq!(failed.outcome, Failure::Faulted);
+    assert_eq!(failed.moved.map(|m| m.to), Some("fault".to_owned()));
+    let mut r = truck_after_load(true);
+    let failed = r.run_failed(Some(State::Aborted)).unwrap();
+    assert_eq!(failed.outcome, Failure::Aborted);
+    assert_eq!(failed.moved.map(|m| m.to), Some("empty".to_owned()));
+    assert!(r.on_msg("load").is_err(), "aborted until a reset");
+    assert_eq!(r.run_failed(None).unwrap_err().code(), "NOT_PENDING");
+}
+
+#[test]
 fn a_restore_with_an_operation_pending_counts_it_as_faulted() {
     let p = plant(true);
     let mut r = RoutineMachine::new(&p, "truck").unwrap();
