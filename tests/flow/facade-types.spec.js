@@ -434,7 +434,7 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('RoutineMove', r.operationStopped());
     r.reset();
     r.onMsg('go');
-    shapes.expect('RoutineFailed', r.operationFailed(false, 'step'));
+    shapes.expect('RoutineFailed', r.runFailed('faulted'));
   });
 
   it('a msg\'s request read by the core: its values, or the refusal', function () {

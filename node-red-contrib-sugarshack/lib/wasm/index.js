@@ -481,8 +481,6 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.operationAborted();
   r.reset();
   r.onMsg('go');
-  r.operationFailed(false, undefined);
-  r.onMsg('go');
   r.runFailed(undefined);
   r.restore(r.snapshot(), []);
   r.free();

@@ -622,24 +622,6 @@ impl RoutineMachine {
         Ok(self.moved(from, Some(operation), halted))
     }
 
-    /// The pending operation's run ended without completing: `aborted` when
-    /// the run was aborted, `stage` the stage it failed in (none, or
-    /// `"acquire"`: before its grant). Aborted, refused or faulted, and moved as each says.
-    pub fn operation_failed(
-        &mut self,
-        aborted: bool,
-        stage: Option<&str>,
-    ) -> Result<Failed, RoutineError> {
-        let outcome = if aborted {
-            Failure::Aborted
-        } else if stage.is_none_or(|s| s == "acquire") {
-            Failure::Refused
-        } else {
-            Failure::Faulted
-        };
-        self.failed_as(outcome)
-    }
-
     /// The pending operation's run ended without completing, in `ended`
     /// (its run's final state; none when no run started): aborted, faulted,
     /// or else refused before it ran (refused, withdrawn), and moved as each says.
@@ -649,10 +631,6 @@ impl RoutineMachine {
             Some(State::Faulted) => Failure::Faulted,
             _ => Failure::Refused,
         };
-        self.failed_as(outcome)
-    }
-
-    fn failed_as(&mut self, outcome: Failure) -> Result<Failed, RoutineError> {
         let moved = match outcome {
             Failure::Aborted => Some(self.operation_aborted()?),
             Failure::Refused => self.refused().map(|()| None)?,

@@ -28,7 +28,7 @@ export interface RoutineMove {
     halted: boolean;
 }
 
-/** `Routine.operationFailed()`: what the failed run was, and the move it made (none for a refusal). */
+/** `Routine.runFailed()`: what the failed run was, and the move it made (none for a refusal). */
 export interface RoutineFailed {
     outcome: "aborted" | "refused" | "faulted";
     moved: RoutineMove | null;
@@ -224,22 +224,6 @@ impl Routine {
     /// The dispatched operation was refused before it ran: the routine stays where it was.
     pub fn refused(&mut self) -> Result<(), JsValue> {
         self.core.refused().map_err(routine_error)
-    }
-
-    /// Its pending operation's run ended without completing (`aborted`: it
-    /// was aborted; `stage`: where it failed, none before it ran): the
-    /// routine says whether that was an abort, a refusal or a fault, and moves.
-    #[wasm_bindgen(js_name = operationFailed, unchecked_return_type = "RoutineFailed")]
-    pub fn operation_failed(
-        &mut self,
-        aborted: bool,
-        stage: Option<String>,
-    ) -> Result<JsValue, JsValue> {
-        let failed = self
-            .core
-            .operation_failed(aborted, stage.as_deref())
-            .map_err(routine_error)?;
-        to_js(&failed)
     }
 
     /// Its pending operation's run ended without completing, in `ended`

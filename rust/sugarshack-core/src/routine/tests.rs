@@ -165,34 +165,6 @@ fn without_an_error_state_a_fault_halts_until_reset() {
 }
 
 #[test]
-fn a_failed_run_is_refused_before_its_grant_faulted_after_and_aborted_when_aborted() {
-    // Refused before the grant: nothing moved, the routine may dispatch again.
-    for stage in [None, Some("acquire")] {
-        let mut r = truck_after_load(true);
-        let failed = r.operation_failed(false, stage).unwrap();
-        assert_eq!((failed.outcome, failed.moved), (Failure::Refused, None));
-        assert_eq!(r.pending(), None);
-        assert_eq!(r.state(), "empty");
-    }
-    // Failed once granted: to the error state.
-    let mut r = truck_after_load(true);
-    let failed = r.operation_failed(false, Some("step")).unwrap();
-    assert_eq!(failed.outcome, Failure::Faulted);
-    assert_eq!(failed.moved.map(|m| m.to), Some("fault".to_owned()));
-    // Aborted, in whatever stage: stays, aborted until a reset.
-    let mut r = truck_after_load(true);
-    let failed = r.operation_failed(true, Some("step")).unwrap();
-    assert_eq!(failed.outcome, Failure::Aborted);
-    assert_eq!(failed.moved.map(|m| m.to), Some("empty".to_owned()));
-    assert!(r.on_msg("load").is_err(), "aborted until a reset");
-    // Nothing pending: the routine says so.
-    assert_eq!(
-        r.operation_failed(false, None).unwrap_err().code(),
-        "NOT_PENDING"
-    );
-}
-
-#[test]
 fn a_failed_run_moves_the_routine_as_its_end_state_says() {
     // Ended before it ran (refused, withdrawn), or no run started: refused, nothing moved.
     for ended in [None, Some(State::Refused), Some(State::Withdrawn)] {
