@@ -57,13 +57,12 @@ class Wire {
   /** @param {{ headerPtr(): number }} engine */
   constructor(engine) {
     this.headerPtr = engine.headerPtr();
-    /** @type {Float64Array | null} */
-    this.header = null;
-    /** @type {Float64Array | null} */
-    this.memory = null;
+    // Each view's length is 0 once wasm memory grew (its buffer is then
+    // detached): read inline, where the buffer's byteLength is a builtin call.
+    this.header = new Float64Array(0);
+    this.memory = new Float64Array(0);
     /** @type {string[]} the engine's string table */
     this.names = [];
-    this.buffer = new ArrayBuffer(0);
     this.bytes = new Uint8Array(0);
     this.refresh();
   }
@@ -71,7 +70,6 @@ class Wire {
   /** Views on the memory as it is now (it is replaced when wasm memory grows). */
   refresh() {
     const { buffer } = wasm.load().wasmMemory();
-    this.buffer = buffer;
     this.header = new Float64Array(buffer, this.headerPtr, 6);
     this.memory = new Float64Array(buffer);
     this.bytes = new Uint8Array(buffer);
@@ -79,8 +77,8 @@ class Wire {
 
   /** When the engine is next due (-1: never), after the last call. */
   nextDeadline() {
-    if (this.buffer.byteLength === 0) this.refresh();
-    return /** @type {Float64Array} */ (this.header)[4];
+    if (this.header.length === 0) this.refresh();
+    return this.header[4];
   }
 
   /**
@@ -88,8 +86,8 @@ class Wire {
    * @param {Visitor} visitor
    */
   read(visitor) {
-    if (this.buffer.byteLength === 0) this.refresh(); // detached: memory grew
-    const h = /** @type {Float64Array} */ (this.header);
+    if (this.header.length === 0) this.refresh(); // detached: memory grew
+    const h = this.header;
     const textLen = h[3];
     const text = textLen > 0 ? textAt(this.bytes, h[2], textLen) : '';
     const words = h[1];
@@ -100,7 +98,7 @@ class Wire {
       if (text) for (const output of JSON.parse(text)) dispatch(output, visitor);
       return;
     }
-    const w = /** @type {Float64Array} */ (this.memory);
+    const w = this.memory;
     const names = this.names;
     const at = h[0] / 8;
     const end = at + words;
@@ -117,8 +115,9 @@ class Wire {
             i += 4;
           } else if (kind === SET_INTERLOCK) {
             const n = w[i + 7];
-            const resources = new Array(n);
-            for (let k = 0; k < n; k++) resources[k] = names[w[i + 8 + k]];
+            // Pushed, not new Array(n): that is a builtin call, and a holey array.
+            const resources = [];
+            for (let k = 0; k < n; k++) resources.push(names[w[i + 8 + k]]);
             visitor.send(msg, port, { kind: 'interlock', operation: names[w[i + 4]], priority: w[i + 5], resources, waitedMs: w[i + 6] });
             i += 8 + n;
           } else {

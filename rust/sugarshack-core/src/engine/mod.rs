@@ -1240,9 +1240,9 @@ impl Engine {
         Ok(priority)
     }
 
-    /// A deployed node's operation, priority and lines, when the msg names
-    /// none and all three are resolved already: one look-up of the node.
-    fn resolved(&self, node: NodeId, fields: &MsgFields) -> Option<Resolved> {
+    /// A deployed node's operation, priority, lines and timeout, when the msg
+    /// names none and all three are resolved already: one look-up of the node.
+    fn resolved(&self, node: NodeId, fields: &MsgFields) -> Option<(Resolved, Option<Millis>)> {
         if fields.configured.is_some()
             || fields.operation.present()
             || fields.priority.present()
@@ -1254,8 +1254,10 @@ impl Engine {
         let (name, op, at) = n.op.as_ref()?;
         let (set, names) = n.set.as_ref()?;
         let priority = n.priority?;
-        (*at == self.interlock.forgettings())
-            .then(|| (name.clone(), *op, priority, set.clone(), names.clone()))
+        (*at == self.interlock.forgettings()).then(|| {
+            let read = (name.clone(), *op, priority, set.clone(), names.clone());
+            (read, timeout_of(n))
+        })
     }
 
     fn acquire(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
@@ -1263,17 +1265,12 @@ impl Engine {
             let (name, op) = self.operation(node, fields, false)?;
             let priority = self.priority(node, fields)?;
             let (set, names) = self.resources(node, fields)?;
-            Ok::<_, Refusal>((name, op, priority, set, names))
+            let timeout = self.node(node).and_then(timeout_of);
+            Ok::<_, Refusal>(((name, op, priority, set, names), timeout))
         });
-        let (name, op, priority, set, names) = match read {
+        let ((name, op, priority, set, names), timeout) = match read {
             Ok(read) => read,
             Err(refusal) => return self.refuse(node, msg, refusal),
-        };
-        let timeout = match self.node(node).map(|n| &n.spec.kind) {
-            Some(NodeKind::Acquire { timeout_ms }) if *timeout_ms > Millis::ZERO => {
-                Some(*timeout_ms)
-            }
-            _ => None,
         };
         let request = Request {
             node,
@@ -1310,7 +1307,13 @@ impl Engine {
             .acquire(request.op, request.priority, &request.set, now)
         {
             Ok(crate::interlock::Acquisition::Granted) => {
-                let set = grant_set(&request, now);
+                // Kept nowhere: its names move into what is sent.
+                let set = Set::Interlock {
+                    waited_ms: now.saturating_sub(request.since),
+                    operation: request.name,
+                    priority: request.priority,
+                    resources: request.names,
+                };
                 self.out.push(Output::Commit { urgent: false });
                 self.out.push(Output::Send { msg, port: 0, set });
             }
@@ -1395,19 +1398,19 @@ impl Engine {
     }
 
     fn release(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
+        let Some(n) = self.nodes.get(&node) else {
+            return self.refuse(node, msg, unknown_node(node));
+        };
         // A node's configured operation is resolved once; a name from a msg each time.
-        let configured = self.nodes.get(&node).is_some_and(|n| {
-            fields.configured.is_none() && !fields.operation.present() && n.spec.operation.present()
-        });
+        let configured = fields.configured.is_none()
+            && !fields.operation.present()
+            && n.spec.operation.present();
         let released = if configured {
             match self.operation(node, fields, false) {
                 Ok((_, op)) => self.interlock.release(op, now),
                 Err(refusal) => return self.refuse(node, msg, refusal),
             }
         } else {
-            let Some(n) = self.nodes.get(&node) else {
-                return self.refuse(node, msg, unknown_node(node));
-            };
             // The name borrowed from the msg: nothing is copied to look it up.
             let named = operation_name_of(
                 &fields.operation,
@@ -2254,6 +2257,14 @@ fn node_value<'a>(n: &'a Node, fields: &'a Fields, value: Value) -> &'a Raw {
         Value::Operation => values.map_or(&n.spec.operation, |c| &c.operation),
         Value::Priority => values.map_or(&n.spec.priority, |c| &c.priority),
         Value::Resources => values.map_or(&n.spec.resources, |c| &c.resources),
+    }
+}
+
+/// An acquire node's timeout, when it has one.
+fn timeout_of(n: &Node) -> Option<Millis> {
+    match n.spec.kind {
+        NodeKind::Acquire { timeout_ms } if timeout_ms > Millis::ZERO => Some(timeout_ms),
+        _ => None,
     }
 }
 

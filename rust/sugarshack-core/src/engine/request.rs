@@ -174,12 +174,24 @@ fn as_operation_name(value: &Raw, from: From) -> Result<Cow<'_, str>, Refusal> {
     }
     match value {
         Raw::Number(n) if n.is_finite() => Ok(Cow::Owned(js_number(*n))),
-        Raw::Text(text) => Ok(Cow::Borrowed(text.trim())),
+        Raw::Text(text) => Ok(Cow::Borrowed(trimmed(text))),
         other => Err(Refusal::catalog(
             Code::InvalidOperation,
             "errors.operationNotName",
             vec![("from", from.param()), ("got", Param::Text(other.quote()))],
         )),
+    }
+}
+
+/// `text.trim()`, with no pass over its characters when it starts and ends
+/// with an ASCII character that is no space (most names).
+fn trimmed(text: &str) -> &str {
+    let bare = |b: Option<&u8>| b.is_some_and(|b| b.is_ascii() && !char::from(*b).is_whitespace());
+    let bytes = text.as_bytes();
+    if bare(bytes.first()) && bare(bytes.last()) {
+        text
+    } else {
+        text.trim()
     }
 }
 
@@ -581,6 +593,27 @@ mod tests {
     fn refusal_key(r: Result<impl std::fmt::Debug, Refusal>) -> (Code, &'static str) {
         let refusal = r.expect_err("refused");
         (refusal.code, refusal.key().expect("a catalog text"))
+    }
+
+    #[test]
+    fn an_operation_name_is_trimmed_of_any_space_ascii_or_not() {
+        for (given, name) in [
+            ("a", "a"),
+            ("load truck", "load truck"),
+            ("\u{b}a\u{c}", "a"),
+            ("\u{a0}a", "a"),
+            ("a\u{3000}", "a"),
+            ("éa é", "éa é"),
+            ("\t", ""),
+        ] {
+            assert_eq!(
+                operation_of(&text(given), &Raw::Absent, &Raw::Absent)
+                    .ok()
+                    .as_deref(),
+                (!name.is_empty()).then_some(name),
+                "{given:?}"
+            );
+        }
     }
 
     #[test]

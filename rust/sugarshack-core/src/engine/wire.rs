@@ -130,50 +130,66 @@ impl Wire {
         match output {
             Output::Commit { urgent } => self.push(&[tag::COMMIT, f64::from(u8::from(*urgent))]),
             Output::After => self.push(&[tag::AFTER]),
-            Output::Send { msg, port, set } => {
-                // Names first: the host learns them before the record that uses them.
-                let mut ids = std::mem::take(&mut self.ids);
-                ids.clear();
-                if let Set::Interlock {
-                    operation,
-                    resources,
-                    ..
-                } = set
-                {
-                    // Room for every name of the record, whether new or not: no pass to count the new ones.
-                    if self.names.len() + 1 + resources.len() > NAMES_KEPT {
-                        self.names.clear();
-                        self.words.push(tag::NAMES_RESET);
-                    }
-                    ids.push(self.name(operation));
-                    for r in resources.iter() {
-                        ids.push(self.name(r));
-                    }
-                }
-                self.push(&[tag::SEND, f64::from(msg.0), f64::from(*port)]);
-                match set {
-                    Set::Nothing => self.push(&[set::NOTHING]),
+            Output::Send {
+                msg,
+                port,
+                set: Set::Nothing,
+            } => self.push(&[tag::SEND, f64::from(msg.0), f64::from(*port), set::NOTHING]),
+            Output::Send {
+                msg,
+                port,
+                set:
                     Set::Interlock {
+                        operation,
                         priority,
                         resources,
                         waited_ms,
-                        ..
-                    } => {
-                        self.push(&[
-                            set::INTERLOCK,
-                            ids[0],
-                            f64::from(*priority),
-                            waited_ms.as_f64(),
-                            resources.len() as f64,
-                        ]);
-                        self.push(&ids[1..]);
-                    }
-                    other => {
-                        self.words.push(set::OTHER);
-                        self.json_field(other);
-                    }
+                    },
+            } => {
+                // Names first: the host learns them before the record that uses them.
+                // Room for every name of the record, whether new or not: no pass to count the new ones.
+                if self.names.len() + 1 + resources.len() > NAMES_KEPT {
+                    self.names.clear();
+                    self.words.push(tag::NAMES_RESET);
                 }
+                let operation = self.name(operation);
+                let mut ids = std::mem::take(&mut self.ids);
+                ids.clear();
+                for r in resources.iter() {
+                    ids.push(self.name(r));
+                }
+                self.push(&[
+                    tag::SEND,
+                    f64::from(msg.0),
+                    f64::from(*port),
+                    set::INTERLOCK,
+                    operation,
+                    f64::from(*priority),
+                    waited_ms.as_f64(),
+                    resources.len() as f64,
+                ]);
+                self.push(&ids);
                 self.ids = ids;
+            }
+            Output::Counts(c) => self.push(&[
+                tag::COUNTS,
+                c.holding as f64,
+                c.queued as f64,
+                c.faulted as f64,
+                f64::from(u8::from(c.lost)),
+            ]),
+            other => self.record_text(other),
+        }
+    }
+
+    /// The records with text beyond names (rare per msg): apart, so the
+    /// frequent ones above stay small.
+    #[inline(never)]
+    fn record_text(&mut self, output: &Output) {
+        match output {
+            Output::Send { msg, port, set } => {
+                self.push(&[tag::SEND, f64::from(msg.0), f64::from(*port), set::OTHER]);
+                self.json_field(set);
             }
             Output::Emit { msg, port, msgs } => {
                 self.push(&[tag::EMIT, f64::from(msg.0), f64::from(*port)]);
@@ -198,13 +214,6 @@ impl Wire {
                 self.optional_text(change.by.as_deref());
                 self.optional_text(change.reason.as_deref());
             }
-            Output::Counts(c) => self.push(&[
-                tag::COUNTS,
-                c.holding as f64,
-                c.queued as f64,
-                c.faulted as f64,
-                f64::from(u8::from(c.lost)),
-            ]),
             other => {
                 self.words.push(tag::OTHER);
                 self.json_field(other);
