@@ -480,13 +480,17 @@ fn a_request_taken_out_of_the_queue_by_someone_else_ends_refused() {
     );
 }
 
-#[test]
-fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
+/// A queued run whose node closed: it asked to be withdrawn.
+fn withdrawing() -> OperationRun {
     let mut r = run();
     r.start(ms(0)).unwrap();
     r.interrupt("its node closed", ms(5));
-    let effects = r.taken_out_of_queue(ms(6));
-    let (code, message, ..) = failed(&effects);
+    r
+}
+
+/// The run ended as its withdrawal says.
+fn assert_withdrawn(r: &OperationRun, effects: &[RunEffect]) {
+    let (code, message, ..) = failed(effects);
     assert_eq!(
         (code, message),
         (
@@ -495,10 +499,15 @@ fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
         )
     );
     assert_eq!(r.state(), State::Withdrawn);
+}
+
+#[test]
+fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
+    let mut r = withdrawing();
+    let effects = r.taken_out_of_queue(ms(6));
+    assert_withdrawn(&r, &effects);
     // Granted meanwhile, the release it handed back decides the end.
-    let mut r = run();
-    r.start(ms(0)).unwrap();
-    r.interrupt("its node closed", ms(5));
+    let mut r = withdrawing();
     r.granted(ms(6));
     assert!(r.taken_out_of_queue(ms(7)).is_empty());
     assert_eq!(r.state(), State::Withdrawing);
@@ -510,19 +519,9 @@ fn a_request_taken_out_while_withdrawing_ends_as_its_withdrawal_says() {
 
 #[test]
 fn a_refused_withdrawal_ends_the_run_as_withdrawn() {
-    let mut r = run();
-    r.start(ms(0)).unwrap();
-    r.interrupt("its node closed", ms(5));
+    let mut r = withdrawing();
     let effects = r.withdraw_refused(ms(6));
-    let (code, message, ..) = failed(&effects);
-    assert_eq!(
-        (code, message),
-        (
-            "ABORTED",
-            "operation '10' was withdrawn from the queue (its node closed)"
-        )
-    );
-    assert_eq!(r.state(), State::Withdrawn);
+    assert_withdrawn(&r, &effects);
     // Queued, nothing was asked to withdraw: a refusal changes nothing.
     let mut r = run();
     r.start(ms(0)).unwrap();
@@ -532,9 +531,7 @@ fn a_refused_withdrawal_ends_the_run_as_withdrawn() {
 
 #[test]
 fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
-    let mut r = run();
-    r.start(ms(0)).unwrap();
-    r.interrupt("its node closed", ms(5));
+    let mut r = withdrawing();
     assert_eq!(
         r.granted(ms(6)),
         vec![RunEffect::Release {
@@ -547,22 +544,12 @@ fn a_grant_that_crossed_the_withdrawal_is_released_before_the_end() {
         "the release decides how it ends"
     );
     let effects = r.released(ms(8));
-    let (code, message, ..) = failed(&effects);
-    assert_eq!(
-        (code, message),
-        (
-            "ABORTED",
-            "operation '10' was withdrawn from the queue (its node closed)"
-        )
-    );
-    assert_eq!(r.state(), State::Withdrawn);
+    assert_withdrawn(&r, &effects);
 }
 
 #[test]
 fn a_crossing_grant_that_cannot_be_released_faults_the_operation() {
-    let mut r = run();
-    r.start(ms(0)).unwrap();
-    r.interrupt("its node closed", ms(5));
+    let mut r = withdrawing();
     r.granted(ms(6));
     assert_eq!(
         r.release_failed("NOT_HOLDING", "gone", ms(7)),
