@@ -2,9 +2,8 @@
 'use strict';
 // A condition over live sensor values (`LT-3` >= 12000), in the core's
 // condition language: the core reads it once (refusing a mistake at deploy)
-// and says whether it holds on the values read. It passes only on fresh
-// values: the core refuses a read with a stale or missing sensor, and the
-// condition then does not hold (it never passes on old data).
+// and checks it in one call: it passes only on fresh values (a stale or
+// missing sensor: it does not hold, never on old data) and says why not.
 const { SugarshackError } = require('../host/errors');
 const { text } = require('../host/i18n');
 const { performance } = require('perf_hooks');
@@ -47,19 +46,13 @@ class Condition {
   }
 
   evaluate(now) {
-    let values;
     try {
       if (this.core !== this.plant.t) this.read();
-      values = this.core.readSensors(this.handles, now);
     } catch (err) {
+      // The new core refuses it (its document lacks a sensor): that is why it does not hold.
       return { met: false, values: null, reason: err.message };
     }
-    const input = {};
-    this.sensors.forEach((id, i) => { input[id] = values[i]; });
-    const holds = this.core.conditionHolds(this.handle, values);
-    if (holds === true) return { met: true, values: input, reason: null };
-    const reason = typeof holds === 'string' ? holds : text('labels.values', { values: JSON.stringify(input) });
-    return { met: false, values: input, reason };
+    return this.core.checkCondition(this.handle, this.handles, now);
   }
 
   /**

@@ -446,7 +446,9 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
-  t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
+  const condition = t.condition('L > 1', ['L']);
+  t.conditionHolds(condition, t.readSensors(Uint32Array.of(sensor), 1));
+  t.checkCondition(condition, Uint32Array.of(sensor), 1);
   const wait = t.waitStart(5, 0);
   t.waitDeadline(wait);
   t.waitChecked(wait, 'primer', 1);

@@ -17,6 +17,13 @@ use crate::{js_error, time, to_js, Tracker};
 /// The TypeScript shapes of what the waits' calls return.
 #[wasm_bindgen(typescript_custom_section)]
 const TS_SHAPES: &str = r#"
+/** `Tracker.checkCondition()`: whether it held, its sensors' values by id (null: one was not fresh), why not. */
+export interface ConditionCheck {
+    met: boolean;
+    values: Record<string, number> | null;
+    reason: string | null;
+}
+
 /** A wait that ran out of time, and why its condition last did not hold (null: never checked). */
 export interface WaitTimedOut {
     wait: number;
@@ -87,24 +94,52 @@ impl Tracker {
     /// answer (arithmetic met no number), which means it does not hold.
     #[wasm_bindgen(js_name = conditionHolds, unchecked_return_type = "boolean | string")]
     pub fn condition_holds(&self, handle: u32, values: &[f64]) -> Result<JsValue, JsValue> {
-        let condition =
-            self.conditions.list.get(handle as usize).ok_or_else(|| {
-                js_error(Code::InvalidCondition, &format!("no condition #{handle}"))
-            })?;
-        if values.len() != condition.sensors().len() {
-            return Err(js_error(
-                Code::InvalidInput,
-                &format!(
-                    "condition #{handle} reads {} sensors, given {} values",
-                    condition.sensors().len(),
-                    values.len()
-                ),
-            ));
-        }
+        let condition = self.condition_of(handle, values.len())?;
         Ok(match condition.holds(values) {
             Ok(holds) => JsValue::from_bool(holds),
             Err(no_number) => JsValue::from_str(&no_number.to_string()),
         })
+    }
+
+    /// Checks condition `handle` at `nowMs` on its sensors `sensors` (their
+    /// handles, in the order listed): the core reads their fresh values,
+    /// decides (a stale or missing sensor: not met) and words why not.
+    #[wasm_bindgen(js_name = checkCondition, unchecked_return_type = "ConditionCheck")]
+    pub fn check_condition(
+        &self,
+        handle: u32,
+        sensors: &[u32],
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let condition = self.condition_of(handle, sensors.len())?;
+        let now = time(now_ms)?;
+        let ids = sensors
+            .iter()
+            .map(|&h| self.sensor_id(h))
+            .collect::<Result<Vec<_>, _>>()?;
+        let verdict = condition.verdict(self.sensors.read(&ids, now));
+        to_js(&serde_json::json!({
+            "met": verdict.met(),
+            "values": verdict.values,
+            "reason": verdict.reason,
+        }))
+    }
+
+    fn condition_of(&self, handle: u32, values: usize) -> Result<&Condition, JsValue> {
+        let condition =
+            self.conditions.list.get(handle as usize).ok_or_else(|| {
+                js_error(Code::InvalidCondition, &format!("no condition #{handle}"))
+            })?;
+        if values != condition.sensors().len() {
+            return Err(js_error(
+                Code::InvalidInput,
+                &format!(
+                    "condition #{handle} reads {} sensors, given {values} values",
+                    condition.sensors().len(),
+                ),
+            ));
+        }
+        Ok(condition)
     }
 
     /// A wait of `timeoutMs` from `nowMs` on a condition; its number. Its

@@ -37,6 +37,7 @@ mod check;
 mod eval;
 mod lex;
 mod parse;
+mod verdict;
 mod wait;
 
 use std::fmt;
@@ -44,6 +45,7 @@ use std::ops::Range;
 
 use crate::text::quote;
 
+pub use verdict::Verdict;
 pub use wait::{Checked, TimedOut, WaitId, Waits};
 
 /// The longest condition read.
