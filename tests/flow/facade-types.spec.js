@@ -419,8 +419,8 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
 
   it('a wait on a condition: checked, timed out at the tracker\'s deadline', function () {
     const t = keep(new facade.Tracker(PLANT, 0));
-    const a = t.waitStart(1000, 0);
-    const b = t.waitUntil(5000);
+    const a = t.waitStart(1000, 0, 'L > 1');
+    const b = t.waitUntil(5000, 1000, 'L > 1');
     assert.equal(t.nextDeadline(), 1000);
     shapes.expect('WaitChecked', t.waitChecked(a, 'stale', 10));
     shapes.expect('WaitTimedOut[]', t.expireWaits(1000));

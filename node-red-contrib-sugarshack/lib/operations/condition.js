@@ -5,7 +5,6 @@
 // and checks it in one call: it passes only on fresh values (a stale or
 // missing sensor: it does not hold, never on old data) and says why not.
 const { SugarshackError } = require('../host/errors');
-const { text } = require('../host/i18n');
 const { performance } = require('perf_hooks');
 const { stats } = require('../host/stats');
 const { clock } = require('../host/clock');
@@ -56,8 +55,8 @@ class Condition {
   }
 
   /**
-   * Resolves with the values once the condition holds; rejects with
-   * CONDITION_TIMEOUT at the core's deadline `timeoutMs` from now (saying why
+   * Resolves with the values once the condition holds; rejects with the
+   * core's CONDITION_TIMEOUT at its deadline `timeoutMs` from now (saying why
    * it last failed). Checked at once, then on every sample of its sensors.
    * `signal.cancelled` stops it quietly.
    */
@@ -72,11 +71,7 @@ class Condition {
         signal.cancel = null;
         fn(value);
       };
-      const timedOut = (reason) => finish(reject, SugarshackError.of(
-        'CONDITION_TIMEOUT',
-        'conditionTimeout',
-        { condition: this.text, seconds: timeoutMs / 1000, reason: reason ?? text('labels.neverChecked') },
-      ));
+      const timedOut = ({ code, message }) => finish(reject, new SugarshackError(code, message));
       const evaluate = () => {
         if (finished) return;
         let outcome;
@@ -91,9 +86,9 @@ class Condition {
           return;
         }
         if (checked.state === 'met') finish(resolve, outcome.values);
-        else if (checked.state === 'timedOut') timedOut(checked.reason);
+        else if (checked.state === 'timedOut') timedOut(checked);
       };
-      const wait = sensors.startWait(timeoutMs, timedOut);
+      const wait = sensors.startWait(timeoutMs, this.text, timedOut);
       const unwatch = this.plant.sensors.watch(this.handles, evaluate);
       signal.cancel = (reason) => {
         sensors.cancelWait(wait);

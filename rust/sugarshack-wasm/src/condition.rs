@@ -7,7 +7,9 @@
 use std::collections::HashMap;
 
 use sugarshack_core::code::Code;
-use sugarshack_core::condition::{Checked, Condition, TimedOut, WaitId, Waits};
+use sugarshack_core::condition::{
+    Checked, Condition, TimedOut, WaitId, Waits, MAX_CHARS, TIMEOUT_CODE,
+};
 use sugarshack_core::text::{abridge, quote};
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -24,16 +26,21 @@ export interface ConditionCheck {
     reason: string | null;
 }
 
-/** A wait that ran out of time, and why its condition last did not hold (null: never checked). */
+/**
+ * A wait that ran out of time, why its condition last did not hold (null: never checked),
+ * and the error its msg fails with (CONDITION_TIMEOUT, worded by the core).
+ */
 export interface WaitTimedOut {
     wait: number;
     reason: string | null;
+    code: string;
+    message: string;
 }
 
 /** `Tracker.waitChecked()`: met, still waiting, timed out (checked after its deadline), or ended before. */
 export type WaitChecked =
     | { state: "met" | "waiting" | "ended" }
-    | { state: "timedOut"; reason: string | null };
+    | { state: "timedOut"; reason: string | null; code: string; message: string };
 "#;
 
 /// More distinct conditions than any plant has waits: not conditions a person wrote.
@@ -52,7 +59,12 @@ pub(crate) struct Conditions {
 }
 
 fn timed_out(t: TimedOut) -> serde_json::Value {
-    serde_json::json!({ "wait": t.wait.0, "reason": t.reason })
+    serde_json::json!({
+        "wait": t.wait.0,
+        "reason": t.reason,
+        "code": TIMEOUT_CODE.name(),
+        "message": t.message,
+    })
 }
 
 #[wasm_bindgen]
@@ -142,31 +154,37 @@ impl Tracker {
         Ok(condition)
     }
 
-    /// A wait of `timeoutMs` from `nowMs` on a condition; its number. Its
-    /// deadline is in `nextDeadline` from now on. Throws `QUEUE_FULL` past
-    /// the most waits one plant keeps.
+    /// A wait of `timeoutMs` from `nowMs` on `condition` (its text, for the
+    /// words of its timeout); its number. Its deadline is in `nextDeadline`
+    /// from now on. Throws `QUEUE_FULL` past the most waits one plant keeps.
     #[wasm_bindgen(js_name = waitStart)]
-    pub fn wait_start(&mut self, timeout_ms: f64, now_ms: f64) -> Result<u32, JsValue> {
-        let timeout = Millis::new(timeout_ms).ok_or_else(|| {
-            js_error(
-                Code::InvalidInput,
-                &format!(
-                    "a wait's timeout must be a number of ms, got {}",
-                    quote(timeout_ms)
-                ),
-            )
-        })?;
+    pub fn wait_start(
+        &mut self,
+        timeout_ms: f64,
+        now_ms: f64,
+        condition: &str,
+    ) -> Result<u32, JsValue> {
+        let timeout = wait_timeout(timeout_ms)?;
         let now = time(now_ms)?;
         self.room_for_a_wait()?;
-        Ok(self.conditions.waits.start(timeout, now).0)
+        let condition = abridge(condition, MAX_CHARS);
+        Ok(self.conditions.waits.start(&condition, timeout, now).0)
     }
 
-    /// A wait until `deadlineMs`, carried over from a tracker that is gone (a trap); its number.
+    /// A wait of `timeoutMs` on `condition` until `deadlineMs`, carried over
+    /// from a tracker that is gone (a trap); its number.
     #[wasm_bindgen(js_name = waitUntil)]
-    pub fn wait_until(&mut self, deadline_ms: f64) -> Result<u32, JsValue> {
+    pub fn wait_until(
+        &mut self,
+        deadline_ms: f64,
+        timeout_ms: f64,
+        condition: &str,
+    ) -> Result<u32, JsValue> {
         let deadline = time(deadline_ms)?;
+        let timeout = wait_timeout(timeout_ms)?;
         self.room_for_a_wait()?;
-        Ok(self.conditions.waits.until(deadline).0)
+        let condition = abridge(condition, MAX_CHARS);
+        Ok(self.conditions.waits.until(&condition, timeout, deadline).0)
     }
 
     fn room_for_a_wait(&self) -> Result<(), JsValue> {
@@ -202,7 +220,12 @@ impl Tracker {
             Checked::Met => serde_json::json!({ "state": "met" }),
             Checked::Waiting => serde_json::json!({ "state": "waiting" }),
             Checked::Unknown => serde_json::json!({ "state": "ended" }),
-            Checked::TimedOut(t) => serde_json::json!({ "state": "timedOut", "reason": t.reason }),
+            Checked::TimedOut(t) => serde_json::json!({
+                "state": "timedOut",
+                "reason": t.reason,
+                "code": TIMEOUT_CODE.name(),
+                "message": t.message,
+            }),
         };
         to_js(&outcome)
     }
@@ -232,4 +255,16 @@ impl Tracker {
     pub fn waiting(&self) -> u32 {
         self.conditions.waits.len() as u32
     }
+}
+
+fn wait_timeout(timeout_ms: f64) -> Result<Millis, JsValue> {
+    Millis::new(timeout_ms).ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!(
+                "a wait's timeout must be a number of ms, got {}",
+                quote(timeout_ms)
+            ),
+        )
+    })
 }

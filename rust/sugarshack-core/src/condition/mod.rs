@@ -46,7 +46,7 @@ use std::ops::Range;
 use crate::text::quote;
 
 pub use verdict::Verdict;
-pub use wait::{Checked, TimedOut, WaitId, Waits};
+pub use wait::{timeout_message, Checked, TimedOut, WaitId, Waits, TIMEOUT_CODE};
 
 /// The longest condition read.
 pub const MAX_CHARS: usize = 2000;
