@@ -1,8 +1,9 @@
 //! Conditions over the plant's sensors (wait steps, routine transitions, the
-//! wait node's own), read and evaluated by the core: JS reads the sensors'
-//! fresh values (`readSensors`) and asks whether the condition holds on them.
+//! wait node's own), read and evaluated by the core: `checkCondition` reads
+//! the sensors' fresh values, decides and says why not, in one call.
 //! A wait on one is the core's too: its deadline is among the tracker's
-//! (`nextDeadline`), and `expireWaits` says which ran out.
+//! (`nextDeadline`), and `expireWaits` says which ran out, with its
+//! CONDITION_TIMEOUT error worded.
 
 use std::collections::HashMap;
 
