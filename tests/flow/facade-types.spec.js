@@ -403,10 +403,24 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     }
   });
 
+  it('a condition checked: no value yet, held, not held', function () {
+    const t = keep(new facade.Tracker(PLANT, 0));
+    const sensor = t.sensor('L');
+    const handles = Uint32Array.of(sensor);
+    const condition = t.condition('L > 1', ['L']);
+    shapes.expect('ConditionCheck', t.checkCondition(condition, handles, 0));
+    t.recordSensor(sensor, 2, null, 10);
+    shapes.expect('ConditionCheck', t.checkCondition(condition, handles, 20));
+    t.recordSensor(sensor, 0, null, 30);
+    const notMet = t.checkCondition(condition, handles, 40);
+    shapes.expect('ConditionCheck', notMet);
+    assert.deepEqual(notMet, { met: false, values: { L: 0 }, reason: 'values {"L":0}' });
+  });
+
   it('a wait on a condition: checked, timed out at the tracker\'s deadline', function () {
     const t = keep(new facade.Tracker(PLANT, 0));
-    const a = t.waitStart(1000, 0);
-    const b = t.waitUntil(5000);
+    const a = t.waitStart(1000, 0, 'L > 1');
+    const b = t.waitUntil(5000, 1000, 'L > 1');
     assert.equal(t.nextDeadline(), 1000);
     shapes.expect('WaitChecked', t.waitChecked(a, 'stale', 10));
     shapes.expect('WaitTimedOut[]', t.expireWaits(1000));

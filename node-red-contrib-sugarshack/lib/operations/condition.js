@@ -2,11 +2,9 @@
 'use strict';
 // A condition over live sensor values (`LT-3` >= 12000), in the core's
 // condition language: the core reads it once (refusing a mistake at deploy)
-// and says whether it holds on the values read. It passes only on fresh
-// values: the core refuses a read with a stale or missing sensor, and the
-// condition then does not hold (it never passes on old data).
+// and checks it in one call: it passes only on fresh values (a stale or
+// missing sensor: it does not hold, never on old data) and says why not.
 const { SugarshackError } = require('../host/errors');
-const { text } = require('../host/i18n');
 const { performance } = require('perf_hooks');
 const { stats } = require('../host/stats');
 const { clock } = require('../host/clock');
@@ -47,24 +45,18 @@ class Condition {
   }
 
   evaluate(now) {
-    let values;
     try {
       if (this.core !== this.plant.t) this.read();
-      values = this.core.readSensors(this.handles, now);
     } catch (err) {
+      // The new core refuses it (its document lacks a sensor): that is why it does not hold.
       return { met: false, values: null, reason: err.message };
     }
-    const input = {};
-    this.sensors.forEach((id, i) => { input[id] = values[i]; });
-    const holds = this.core.conditionHolds(this.handle, values);
-    if (holds === true) return { met: true, values: input, reason: null };
-    const reason = typeof holds === 'string' ? holds : text('labels.values', { values: JSON.stringify(input) });
-    return { met: false, values: input, reason };
+    return this.core.checkCondition(this.handle, this.handles, now);
   }
 
   /**
-   * Resolves with the values once the condition holds; rejects with
-   * CONDITION_TIMEOUT at the core's deadline `timeoutMs` from now (saying why
+   * Resolves with the values once the condition holds; rejects with the
+   * core's CONDITION_TIMEOUT at its deadline `timeoutMs` from now (saying why
    * it last failed). Checked at once, then on every sample of its sensors.
    * `signal.cancelled` stops it quietly.
    */
@@ -79,11 +71,7 @@ class Condition {
         signal.cancel = null;
         fn(value);
       };
-      const timedOut = (reason) => finish(reject, SugarshackError.of(
-        'CONDITION_TIMEOUT',
-        'conditionTimeout',
-        { condition: this.text, seconds: timeoutMs / 1000, reason: reason ?? text('labels.neverChecked') },
-      ));
+      const timedOut = ({ code, message }) => finish(reject, new SugarshackError(code, message));
       const evaluate = () => {
         if (finished) return;
         let outcome;
@@ -98,9 +86,9 @@ class Condition {
           return;
         }
         if (checked.state === 'met') finish(resolve, outcome.values);
-        else if (checked.state === 'timedOut') timedOut(checked.reason);
+        else if (checked.state === 'timedOut') timedOut(checked);
       };
-      const wait = sensors.startWait(timeoutMs, timedOut);
+      const wait = sensors.startWait(timeoutMs, this.text, timedOut);
       const unwatch = this.plant.sensors.watch(this.handles, evaluate);
       signal.cancel = (reason) => {
         sensors.cancelWait(wait);

@@ -24,17 +24,17 @@ class SensorWatch {
   }
 
   /**
-   * A wait of `timeoutMs` from now in the core; `timedOut(reason)` once its
-   * deadline passes (reason: why its condition last did not hold, or null).
-   * Throws QUEUE_FULL.
-   * @param {number} timeoutMs @param {(reason: string | null) => void} timedOut
+   * A wait of `timeoutMs` from now in the core on `condition` (its text);
+   * `timedOut(answer)` once its deadline passes, with the core's
+   * CONDITION_TIMEOUT error (code, message). Throws QUEUE_FULL.
+   * @param {number} timeoutMs @param {string} condition @param {(answer: TimedOutAnswer) => void} timedOut
    * @returns {Wait}
    */
-  startWait(timeoutMs, timedOut) {
+  startWait(timeoutMs, condition, timedOut) {
     const t = this.current();
-    const id = t.waitStart(timeoutMs, clock.now());
+    const id = t.waitStart(timeoutMs, clock.now(), condition);
     /** @type {Wait} */
-    const wait = { id, at: t.waitDeadline(id) ?? clock.now(), timedOut };
+    const wait = { id, at: t.waitDeadline(id) ?? clock.now(), timeoutMs, condition, timedOut };
     this.waits.set(id, wait);
     this.plant.followDeadline();
     return wait;
@@ -67,10 +67,10 @@ class SensorWatch {
 
   /** At the plant's deadline: the waits the core timed out. */
   expire(now) {
-    for (const { wait: id, reason } of this.current().expireWaits(now)) {
-      const wait = this.waits.get(id);
-      this.waits.delete(id);
-      if (wait) wait.timedOut(reason);
+    for (const answer of this.current().expireWaits(now)) {
+      const wait = this.waits.get(answer.wait);
+      this.waits.delete(answer.wait);
+      if (wait) wait.timedOut(answer);
     }
     this.plant.mayBeQuiet();
   }
@@ -85,7 +85,7 @@ class SensorWatch {
     const carried = [...this.waits.values()];
     this.waits.clear();
     for (const wait of carried) {
-      wait.id = t.waitUntil(wait.at);
+      wait.id = t.waitUntil(wait.at, wait.timeoutMs, wait.condition);
       this.waits.set(wait.id, wait);
     }
     this.core = t;
@@ -154,6 +154,7 @@ class SensorWatch {
   }
 }
 
-/** @typedef {{ id: number, at: number, timedOut: (reason: string | null) => void }} Wait a wait in the core, and its deadline */
+/** @typedef {{ code: string, message: string }} TimedOutAnswer the core's CONDITION_TIMEOUT error for a wait */
+/** @typedef {{ id: number, at: number, timeoutMs: number, condition: string, timedOut: (answer: TimedOutAnswer) => void }} Wait a wait in the core, and its deadline */
 
 module.exports = { SensorWatch };

@@ -446,11 +446,13 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   const sensor = t.sensor('L');
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
-  t.conditionHolds(t.condition('L > 1', ['L']), t.readSensors(Uint32Array.of(sensor), 1));
-  const wait = t.waitStart(5, 0);
+  const condition = t.condition('L > 1', ['L']);
+  t.conditionHolds(condition, t.readSensors(Uint32Array.of(sensor), 1));
+  t.checkCondition(condition, Uint32Array.of(sensor), 1);
+  const wait = t.waitStart(5, 0, 'L > 1');
   t.waitDeadline(wait);
   t.waitChecked(wait, 'primer', 1);
-  t.waitCancel(t.waitUntil(9));
+  t.waitCancel(t.waitUntil(9, 5, 'L > 1'));
   t.waiting();
   t.expireWaits(10);
   const r = t.routine('r');

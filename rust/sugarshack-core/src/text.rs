@@ -84,9 +84,49 @@ pub fn abridge(text: &str, max_chars: usize) -> String {
     out
 }
 
+/// A number as JavaScript writes it (`String(n)`, `JSON.stringify`): no
+/// trailing `.0`, an exponent below 1e-6 and from 1e21 (`1e+21`), `0` for
+/// -0; `null` for what is no finite number, as in JSON.
+pub fn js_number(n: f64) -> String {
+    if !n.is_finite() {
+        return "null".to_owned();
+    }
+    if n == 0.0 {
+        return "0".to_owned();
+    }
+    let size = n.abs();
+    if (1e-6..1e21).contains(&size) {
+        return format!("{n}");
+    }
+    let exp = format!("{n:e}");
+    match exp.split_once('e') {
+        Some((digits, power)) if !power.starts_with('-') => format!("{digits}e+{power}"),
+        _ => exp,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_are_written_as_javascript_writes_them() {
+        for (n, js) in [
+            (100.0, "100"),
+            (12.5, "12.5"),
+            (-0.0, "0"),
+            (0.1 + 0.2, "0.30000000000000004"),
+            (1e-6, "0.000001"),
+            (1.5e-7, "1.5e-7"),
+            (1e21, "1e+21"),
+            (-2.5e22, "-2.5e+22"),
+            (123456789012345680000.0, "123456789012345680000"),
+            (f64::NAN, "null"),
+            (f64::INFINITY, "null"),
+        ] {
+            assert_eq!(js_number(n), js, "{n}");
+        }
+    }
 
     #[test]
     fn short_values_are_quoted_whole() {

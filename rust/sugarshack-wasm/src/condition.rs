@@ -1,13 +1,16 @@
 //! Conditions over the plant's sensors (wait steps, routine transitions, the
-//! wait node's own), read and evaluated by the core: JS reads the sensors'
-//! fresh values (`readSensors`) and asks whether the condition holds on them.
+//! wait node's own), read and evaluated by the core: `checkCondition` reads
+//! the sensors' fresh values, decides and says why not, in one call.
 //! A wait on one is the core's too: its deadline is among the tracker's
-//! (`nextDeadline`), and `expireWaits` says which ran out.
+//! (`nextDeadline`), and `expireWaits` says which ran out, with its
+//! CONDITION_TIMEOUT error worded.
 
 use std::collections::HashMap;
 
 use sugarshack_core::code::Code;
-use sugarshack_core::condition::{Checked, Condition, TimedOut, WaitId, Waits};
+use sugarshack_core::condition::{
+    Checked, Condition, TimedOut, WaitId, Waits, MAX_CHARS, TIMEOUT_CODE,
+};
 use sugarshack_core::text::{abridge, quote};
 use sugarshack_core::time::Millis;
 use wasm_bindgen::prelude::*;
@@ -17,16 +20,28 @@ use crate::{js_error, time, to_js, Tracker};
 /// The TypeScript shapes of what the waits' calls return.
 #[wasm_bindgen(typescript_custom_section)]
 const TS_SHAPES: &str = r#"
-/** A wait that ran out of time, and why its condition last did not hold (null: never checked). */
+/** `Tracker.checkCondition()`: whether it held, its sensors' values by id (null: one was not fresh), why not. */
+export interface ConditionCheck {
+    met: boolean;
+    values: Record<string, number> | null;
+    reason: string | null;
+}
+
+/**
+ * A wait that ran out of time, why its condition last did not hold (null: never checked),
+ * and the error its msg fails with (CONDITION_TIMEOUT, worded by the core).
+ */
 export interface WaitTimedOut {
     wait: number;
     reason: string | null;
+    code: string;
+    message: string;
 }
 
 /** `Tracker.waitChecked()`: met, still waiting, timed out (checked after its deadline), or ended before. */
 export type WaitChecked =
     | { state: "met" | "waiting" | "ended" }
-    | { state: "timedOut"; reason: string | null };
+    | { state: "timedOut"; reason: string | null; code: string; message: string };
 "#;
 
 /// More distinct conditions than any plant has waits: not conditions a person wrote.
@@ -45,7 +60,12 @@ pub(crate) struct Conditions {
 }
 
 fn timed_out(t: TimedOut) -> serde_json::Value {
-    serde_json::json!({ "wait": t.wait.0, "reason": t.reason })
+    serde_json::json!({
+        "wait": t.wait.0,
+        "reason": t.reason,
+        "code": TIMEOUT_CODE.name(),
+        "message": t.message,
+    })
 }
 
 #[wasm_bindgen]
@@ -87,51 +107,85 @@ impl Tracker {
     /// answer (arithmetic met no number), which means it does not hold.
     #[wasm_bindgen(js_name = conditionHolds, unchecked_return_type = "boolean | string")]
     pub fn condition_holds(&self, handle: u32, values: &[f64]) -> Result<JsValue, JsValue> {
-        let condition =
-            self.conditions.list.get(handle as usize).ok_or_else(|| {
-                js_error(Code::InvalidCondition, &format!("no condition #{handle}"))
-            })?;
-        if values.len() != condition.sensors().len() {
-            return Err(js_error(
-                Code::InvalidInput,
-                &format!(
-                    "condition #{handle} reads {} sensors, given {} values",
-                    condition.sensors().len(),
-                    values.len()
-                ),
-            ));
-        }
+        let condition = self.condition_of(handle, values.len())?;
         Ok(match condition.holds(values) {
             Ok(holds) => JsValue::from_bool(holds),
             Err(no_number) => JsValue::from_str(&no_number.to_string()),
         })
     }
 
-    /// A wait of `timeoutMs` from `nowMs` on a condition; its number. Its
-    /// deadline is in `nextDeadline` from now on. Throws `QUEUE_FULL` past
-    /// the most waits one plant keeps.
-    #[wasm_bindgen(js_name = waitStart)]
-    pub fn wait_start(&mut self, timeout_ms: f64, now_ms: f64) -> Result<u32, JsValue> {
-        let timeout = Millis::new(timeout_ms).ok_or_else(|| {
-            js_error(
-                Code::InvalidInput,
-                &format!(
-                    "a wait's timeout must be a number of ms, got {}",
-                    quote(timeout_ms)
-                ),
-            )
-        })?;
+    /// Checks condition `handle` at `nowMs` on its sensors `sensors` (their
+    /// handles, in the order listed): the core reads their fresh values,
+    /// decides (a stale or missing sensor: not met) and words why not.
+    #[wasm_bindgen(js_name = checkCondition, unchecked_return_type = "ConditionCheck")]
+    pub fn check_condition(
+        &self,
+        handle: u32,
+        sensors: &[u32],
+        now_ms: f64,
+    ) -> Result<JsValue, JsValue> {
+        let condition = self.condition_of(handle, sensors.len())?;
         let now = time(now_ms)?;
-        self.room_for_a_wait()?;
-        Ok(self.conditions.waits.start(timeout, now).0)
+        let ids = sensors
+            .iter()
+            .map(|&h| self.sensor_id(h))
+            .collect::<Result<Vec<_>, _>>()?;
+        let verdict = condition.verdict(self.sensors.read(&ids, now));
+        to_js(&serde_json::json!({
+            "met": verdict.met(),
+            "values": verdict.values,
+            "reason": verdict.reason,
+        }))
     }
 
-    /// A wait until `deadlineMs`, carried over from a tracker that is gone (a trap); its number.
-    #[wasm_bindgen(js_name = waitUntil)]
-    pub fn wait_until(&mut self, deadline_ms: f64) -> Result<u32, JsValue> {
-        let deadline = time(deadline_ms)?;
+    fn condition_of(&self, handle: u32, values: usize) -> Result<&Condition, JsValue> {
+        let condition =
+            self.conditions.list.get(handle as usize).ok_or_else(|| {
+                js_error(Code::InvalidCondition, &format!("no condition #{handle}"))
+            })?;
+        if values != condition.sensors().len() {
+            return Err(js_error(
+                Code::InvalidInput,
+                &format!(
+                    "condition #{handle} reads {} sensors, given {values} values",
+                    condition.sensors().len(),
+                ),
+            ));
+        }
+        Ok(condition)
+    }
+
+    /// A wait of `timeoutMs` from `nowMs` on `condition` (its text, for the
+    /// words of its timeout); its number. Its deadline is in `nextDeadline`
+    /// from now on. Throws `QUEUE_FULL` past the most waits one plant keeps.
+    #[wasm_bindgen(js_name = waitStart)]
+    pub fn wait_start(
+        &mut self,
+        timeout_ms: f64,
+        now_ms: f64,
+        condition: &str,
+    ) -> Result<u32, JsValue> {
+        let timeout = wait_timeout(timeout_ms)?;
+        let now = time(now_ms)?;
         self.room_for_a_wait()?;
-        Ok(self.conditions.waits.until(deadline).0)
+        let condition = abridge(condition, MAX_CHARS);
+        Ok(self.conditions.waits.start(&condition, timeout, now).0)
+    }
+
+    /// A wait of `timeoutMs` on `condition` until `deadlineMs`, carried over
+    /// from a tracker that is gone (a trap); its number.
+    #[wasm_bindgen(js_name = waitUntil)]
+    pub fn wait_until(
+        &mut self,
+        deadline_ms: f64,
+        timeout_ms: f64,
+        condition: &str,
+    ) -> Result<u32, JsValue> {
+        let deadline = time(deadline_ms)?;
+        let timeout = wait_timeout(timeout_ms)?;
+        self.room_for_a_wait()?;
+        let condition = abridge(condition, MAX_CHARS);
+        Ok(self.conditions.waits.until(&condition, timeout, deadline).0)
     }
 
     fn room_for_a_wait(&self) -> Result<(), JsValue> {
@@ -167,7 +221,12 @@ impl Tracker {
             Checked::Met => serde_json::json!({ "state": "met" }),
             Checked::Waiting => serde_json::json!({ "state": "waiting" }),
             Checked::Unknown => serde_json::json!({ "state": "ended" }),
-            Checked::TimedOut(t) => serde_json::json!({ "state": "timedOut", "reason": t.reason }),
+            Checked::TimedOut(t) => serde_json::json!({
+                "state": "timedOut",
+                "reason": t.reason,
+                "code": TIMEOUT_CODE.name(),
+                "message": t.message,
+            }),
         };
         to_js(&outcome)
     }
@@ -197,4 +256,16 @@ impl Tracker {
     pub fn waiting(&self) -> u32 {
         self.conditions.waits.len() as u32
     }
+}
+
+fn wait_timeout(timeout_ms: f64) -> Result<Millis, JsValue> {
+    Millis::new(timeout_ms).ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!(
+                "a wait's timeout must be a number of ms, got {}",
+                quote(timeout_ms)
+            ),
+        )
+    })
 }

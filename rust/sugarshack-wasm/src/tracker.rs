@@ -351,7 +351,7 @@ struct PositionView<'a> {
 #[wasm_bindgen]
 pub struct Tracker {
     pub(crate) core: sugarshack_core::actuator::Tracker,
-    sensors: SensorStore,
+    pub(crate) sensors: SensorStore,
     effects: Vec<Output>,
     scratch: Vec<Effect>,
     batch: Vec<(ActuatorId, f64)>,
@@ -1305,7 +1305,7 @@ impl Tracker {
         self.sensors.slot(device, name).map(|id| id.index() as u32)
     }
 
-    fn sensor_id(&self, handle: u32) -> Result<SensorId, JsValue> {
+    pub(crate) fn sensor_id(&self, handle: u32) -> Result<SensorId, JsValue> {
         if (handle as usize) < self.sensors.len() {
             Ok(SensorId::from_index(handle))
         } else {

@@ -134,6 +134,42 @@ fn sensors_are_read_only_while_fresh() {
 }
 
 #[wasm_bindgen_test]
+fn a_condition_is_checked_in_one_call_and_never_passes_on_old_data() {
+    let mut t = tracker();
+    let lt = t.sensor("LT-3").unwrap();
+    let c = t.condition("`LT-3` > 10", vec!["LT-3".into()]).unwrap();
+    let check = |t: &Tracker, now: f64| {
+        JSON::stringify(&t.check_condition(c, &[lt], now).unwrap())
+            .unwrap()
+            .as_string()
+            .unwrap()
+    };
+    assert_eq!(
+        check(&t, 0.0),
+        r#"{"met":false,"values":null,"reason":"sensor 'LT-3' has sent no value yet"}"#
+    );
+    t.record_sensor(lt, 12.5, Some(900.0), 1000.0).unwrap();
+    assert_eq!(
+        check(&t, 2999.0),
+        r#"{"met":true,"values":{"LT-3":12.5},"reason":null}"#
+    );
+    let stale = check(&t, 3000.0);
+    assert!(
+        stale.starts_with(r#"{"met":false,"values":null,"reason":"sensor 'LT-3' is stale"#),
+        "{stale}"
+    );
+    t.record_sensor(lt, 4.0, None, 3000.0).unwrap();
+    assert_eq!(
+        check(&t, 3000.0),
+        r#"{"met":false,"values":{"LT-3":4},"reason":"values {\"LT-3\":4}"}"#
+    );
+    assert_eq!(
+        code_of(t.check_condition(c, &[lt, lt], 3000.0).unwrap_err()),
+        "INVALID_INPUT"
+    );
+}
+
+#[wasm_bindgen_test]
 fn a_condition_is_read_once_and_holds_on_the_values_given() {
     let mut t = tracker();
     let lt = vec!["LT-3".to_string()];

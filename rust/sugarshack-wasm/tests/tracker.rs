@@ -304,8 +304,8 @@ fn the_core_answers_a_group_command_worded_timed_and_on_its_deadline() {
 fn a_wait_is_a_deadline_of_the_tracker_and_times_out_with_its_last_reason() {
     let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
     assert_eq!(t.next_deadline(), None);
-    let a = t.wait_start(5_000.0, 1_000.0).unwrap();
-    let b = t.wait_start(9_000.0, 1_000.0).unwrap();
+    let a = t.wait_start(5_000.0, 1_000.0, "`LT-3` > 10").unwrap();
+    let b = t.wait_start(9_000.0, 1_000.0, "`LT-3` > 10").unwrap();
     assert_eq!(
         t.next_deadline(),
         Some(6_000.0),
@@ -325,11 +325,19 @@ fn a_wait_is_a_deadline_of_the_tracker_and_times_out_with_its_last_reason() {
         get(&out.get(0), "reason").as_string().as_deref(),
         Some("LT-3 is stale")
     );
+    assert_eq!(
+        get(&out.get(0), "code").as_string().as_deref(),
+        Some("CONDITION_TIMEOUT")
+    );
+    assert_eq!(
+        get(&out.get(0), "message").as_string().as_deref(),
+        Some("condition `LT-3` > 10 did not hold within 5 s (last check: LT-3 is stale)")
+    );
     let met = t.wait_checked(b, None, 7_000.0).unwrap();
     assert_eq!(get(&met, "state").as_string().as_deref(), Some("met"));
     assert_eq!((t.waiting(), t.next_deadline()), (0, None));
     assert_eq!(
-        code_of(t.wait_start(f64::NAN, 0.0).unwrap_err()),
+        code_of(t.wait_start(f64::NAN, 0.0, "`LT-3` > 10").unwrap_err()),
         "INVALID_INPUT"
     );
 }

@@ -37,6 +37,7 @@ mod check;
 mod eval;
 mod lex;
 mod parse;
+mod verdict;
 mod wait;
 
 use std::fmt;
@@ -44,7 +45,8 @@ use std::ops::Range;
 
 use crate::text::quote;
 
-pub use wait::{Checked, TimedOut, WaitId, Waits};
+pub use verdict::Verdict;
+pub use wait::{timeout_message, Checked, TimedOut, WaitId, Waits, TIMEOUT_CODE};
 
 /// The longest condition read.
 pub const MAX_CHARS: usize = 2000;

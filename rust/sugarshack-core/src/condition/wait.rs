@@ -6,7 +6,12 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use crate::code::Code;
+use crate::text::js_number;
 use crate::time::Millis;
+
+/// The code of a wait that ran out of time.
+pub const TIMEOUT_CODE: Code = Code::ConditionTimeout;
 
 /// A wait, by the number [`Waits::start`] gave it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -20,6 +25,18 @@ pub struct TimedOut {
     pub wait: WaitId,
     /// Why it last did not hold.
     pub reason: Option<String>,
+    /// What a person reads: its condition, its timeout and why it last did not hold.
+    pub message: String,
+}
+
+/// The words of a wait on `condition` that did not hold within `timeout`,
+/// last failing for `reason` (none: never checked).
+pub fn timeout_message(condition: &str, timeout: Millis, reason: Option<&str>) -> String {
+    format!(
+        "condition {condition} did not hold within {} s (last check: {})",
+        js_number(timeout.as_f64() / 1000.0),
+        reason.unwrap_or("it was never checked")
+    )
 }
 
 /// What a check of a wait's condition did to it.
@@ -39,6 +56,18 @@ pub enum Checked {
 struct Wait {
     deadline: Millis,
     reason: Option<String>,
+    condition: String,
+    timeout: Millis,
+}
+
+impl Wait {
+    fn timed_out(self, wait: WaitId) -> TimedOut {
+        TimedOut {
+            wait,
+            message: timeout_message(&self.condition, self.timeout, self.reason.as_deref()),
+            reason: self.reason,
+        }
+    }
 }
 
 /// The waits in progress and their deadlines.
@@ -50,13 +79,13 @@ pub struct Waits {
 }
 
 impl Waits {
-    /// A wait of `timeout` from `now`; its deadline is `now + timeout`.
-    pub fn start(&mut self, timeout: Millis, now: Millis) -> WaitId {
-        self.until(now.saturating_add(timeout))
+    /// A wait of `timeout` from `now` on `condition` (its text); its deadline is `now + timeout`.
+    pub fn start(&mut self, condition: &str, timeout: Millis, now: Millis) -> WaitId {
+        self.until(condition, timeout, now.saturating_add(timeout))
     }
 
-    /// A wait until `deadline` (one carried over from a core that is gone).
-    pub fn until(&mut self, deadline: Millis) -> WaitId {
+    /// A wait of `timeout` on `condition` until `deadline` (one carried over from a core that is gone).
+    pub fn until(&mut self, condition: &str, timeout: Millis, deadline: Millis) -> WaitId {
         let id = WaitId(self.next);
         self.next = self.next.wrapping_add(1);
         self.waits.insert(
@@ -64,6 +93,8 @@ impl Waits {
             Wait {
                 deadline,
                 reason: None,
+                condition: condition.to_owned(),
+                timeout,
             },
         );
         self.deadlines.insert((deadline, id));
@@ -82,10 +113,7 @@ impl Waits {
             return Checked::Unknown;
         };
         if now > w.deadline {
-            let timed_out = self.end(wait).map(|w| TimedOut {
-                wait,
-                reason: w.reason,
-            });
+            let timed_out = self.end(wait).map(|w| w.timed_out(wait));
             return timed_out.map_or(Checked::Unknown, Checked::TimedOut);
         }
         match reason {
@@ -125,10 +153,7 @@ impl Waits {
                 break;
             }
             if let Some(w) = self.end(wait) {
-                out.push(TimedOut {
-                    wait,
-                    reason: w.reason,
-                });
+                out.push(w.timed_out(wait));
             }
         }
         out

@@ -6,11 +6,34 @@ use proptest::prelude::*;
 use super::*;
 use crate::time::ms;
 
+const C: &str = "`LT-3` > 10";
+
+fn timed_out(wait: WaitId, timeout: u64, reason: Option<&str>) -> TimedOut {
+    TimedOut {
+        wait,
+        reason: reason.map(str::to_owned),
+        message: timeout_message(C, ms(timeout), reason),
+    }
+}
+
+#[test]
+fn a_timed_out_wait_is_worded_with_its_condition_timeout_and_last_reason() {
+    assert_eq!(
+        timeout_message("`LT-3` >= 100", ms(600), Some("values {\"LT-3\":50}")),
+        "condition `LT-3` >= 100 did not hold within 0.6 s (last check: values {\"LT-3\":50})"
+    );
+    assert_eq!(
+        timeout_message("`LT-3` < 50", ms(60_000), None),
+        "condition `LT-3` < 50 did not hold within 60 s (last check: it was never checked)"
+    );
+    assert_eq!(TIMEOUT_CODE.name(), "CONDITION_TIMEOUT");
+}
+
 #[test]
 fn a_wait_times_out_at_its_deadline_saying_why_it_last_did_not_hold() {
     let mut waits = Waits::default();
-    let a = waits.start(ms(5_000), ms(1_000));
-    let b = waits.start(ms(2_000), ms(1_500));
+    let a = waits.start(C, ms(5_000), ms(1_000));
+    let b = waits.start(C, ms(2_000), ms(1_500));
     assert_eq!(waits.deadline(a), Some(ms(6_000)));
     assert_eq!(waits.next_deadline(), Some(ms(3_500)), "the earliest one");
     assert_eq!(
@@ -23,19 +46,13 @@ fn a_wait_times_out_at_its_deadline_saying_why_it_last_did_not_hold() {
     );
     assert_eq!(
         waits.expire(ms(3_500)),
-        vec![TimedOut {
-            wait: b,
-            reason: None
-        }],
+        vec![timed_out(b, 2_000, None)],
         "never checked"
     );
     assert_eq!(waits.next_deadline(), Some(ms(6_000)));
     assert_eq!(
         waits.expire(ms(7_000)),
-        vec![TimedOut {
-            wait: a,
-            reason: Some("LT-3 is stale".into())
-        }]
+        vec![timed_out(a, 5_000, Some("LT-3 is stale"))]
     );
     assert!(waits.is_empty());
     assert_eq!(waits.next_deadline(), None, "no timer while nothing waits");
@@ -44,7 +61,7 @@ fn a_wait_times_out_at_its_deadline_saying_why_it_last_did_not_hold() {
 #[test]
 fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
     let mut waits = Waits::default();
-    let a = waits.start(ms(1_000), ms(0));
+    let a = waits.start(C, ms(1_000), ms(0));
     assert_eq!(
         waits.checked(a, None, ms(1_000)),
         Checked::Met,
@@ -56,15 +73,12 @@ fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
         "it ended"
     );
     assert!(waits.expire(ms(5_000)).is_empty());
-    let b = waits.start(ms(1_000), ms(0));
+    let b = waits.start(C, ms(1_000), ms(0));
     waits.checked(b, Some("values {\"L\":1}".into()), ms(10));
     // The timer came late: a sample after the deadline does not let it pass.
     assert_eq!(
         waits.checked(b, None, ms(1_001)),
-        Checked::TimedOut(TimedOut {
-            wait: b,
-            reason: Some("values {\"L\":1}".into())
-        })
+        Checked::TimedOut(timed_out(b, 1_000, Some("values {\"L\":1}")))
     );
     assert_eq!(waits.next_deadline(), None);
 }
@@ -72,14 +86,22 @@ fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
 #[test]
 fn a_cancelled_wait_never_times_out_and_a_carried_deadline_stays() {
     let mut waits = Waits::default();
-    let a = waits.start(ms(1_000), ms(0));
+    let a = waits.start(C, ms(1_000), ms(0));
     assert!(waits.cancel(a));
     assert!(!waits.cancel(a));
     assert!(waits.expire(ms(2_000)).is_empty());
-    let b = waits.until(ms(700));
+    let b = waits.until(C, ms(300), ms(700));
     assert_eq!(waits.deadline(b), Some(ms(700)));
     assert_ne!(a, b, "a new wait gets a new number");
     assert_eq!(waits.expire(ms(700)).len(), 1);
+}
+
+fn timeout_of(timeouts: &[(WaitId, u64)], wait: WaitId) -> u64 {
+    timeouts
+        .iter()
+        .rev()
+        .find(|(w, _)| *w == wait)
+        .map_or(0, |(_, t)| *t)
 }
 
 #[derive(Clone, Debug)]
@@ -107,15 +129,17 @@ proptest! {
     fn waits_match_the_reference(ops in prop::collection::vec((op(), 0u64..800), 1..80)) {
         let mut waits = Waits::default();
         let mut model: Vec<(WaitId, u64, Option<String>)> = Vec::new();
+        let mut timeouts: Vec<(WaitId, u64)> = Vec::new();
         let mut started: Vec<WaitId> = Vec::new();
         let mut now = 0u64;
         for (step, (op, gap)) in ops.into_iter().enumerate() {
             now += gap;
             match op {
                 Op::Start(timeout) => {
-                    let id = waits.start(ms(timeout), ms(now));
+                    let id = waits.start(C, ms(timeout), ms(now));
                     prop_assert!(model.iter().all(|(w, _, _)| *w != id));
                     model.push((id, now + timeout, None));
+                    timeouts.push((id, timeout));
                     started.push(id);
                 }
                 Op::Check(k, met) => {
@@ -126,7 +150,7 @@ proptest! {
                         None => Checked::Unknown,
                         Some(i) if now > model[i].1 => {
                             let (wait, _, reason) = model.remove(i);
-                            Checked::TimedOut(TimedOut { wait, reason })
+                            Checked::TimedOut(timed_out(wait, timeout_of(&timeouts, wait), reason.as_deref()))
                         }
                         Some(i) if met => {
                             model.remove(i);
@@ -148,7 +172,7 @@ proptest! {
                     let mut due: Vec<_> = model.iter().filter(|(_, at, _)| *at <= now).cloned().collect();
                     due.sort_by_key(|(w, at, _)| (*at, *w));
                     model.retain(|(_, at, _)| *at > now);
-                    let want: Vec<_> = due.into_iter().map(|(wait, _, reason)| TimedOut { wait, reason }).collect();
+                    let want: Vec<_> = due.into_iter().map(|(wait, _, reason)| timed_out(wait, timeout_of(&timeouts, wait), reason.as_deref())).collect();
                     prop_assert_eq!(waits.expire(ms(now)), want);
                 }
             }
