@@ -2044,7 +2044,7 @@ impl Engine {
                                 "operation",
                                 Param::Text(record.operation.clone().unwrap_or_default()),
                             ),
-                            ("seconds", Param::Text(request::js_number(seconds))),
+                            ("seconds", Param::Text(crate::text::js_number(seconds))),
                             ("lines", Param::Text(record.resources.join(", "))),
                         ],
                     },
@@ -2097,7 +2097,7 @@ impl Engine {
                     ("resources", Param::Text(lines.join(", "))),
                     (
                         "seconds",
-                        Param::Text(request::js_number(timeout.as_f64() / 1000.0)),
+                        Param::Text(crate::text::js_number(timeout.as_f64() / 1000.0)),
                     ),
                 ],
             )),

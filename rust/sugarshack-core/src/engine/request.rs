@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::output::{Param, Refusal};
 use super::Fields;
 use crate::code::Code;
+use crate::text::js_number;
 use crate::time::Millis;
 
 /// A value as JS had it on a msg or in a node's configuration.
@@ -103,17 +104,6 @@ impl Raw {
             Raw::Long { length, .. } => Some(*length),
             _ => None,
         }
-    }
-}
-
-/// A number as JS's `String(n)` writes it (integers without a fraction).
-pub fn js_number(n: f64) -> String {
-    if n == 0.0 {
-        "0".to_owned()
-    } else if n.fract() == 0.0 && n.abs() < 1e21 {
-        format!("{n:.0}")
-    } else {
-        n.to_string()
     }
 }
 
