@@ -517,6 +517,96 @@ describe('sugarshack hostile input', function () {
     assert.equal(asSugarshackError(coded), coded);
   });
 
+  describe('one reader of what was thrown (asSugarshackError)', function () {
+    const { SugarshackError, asSugarshackError } = require(path.join(PALETTE, 'lib', 'host', 'errors.js'));
+    const refuse = (words) => new SugarshackError('INVALID_INPUT', `could not read: ${words}`);
+    const boom = () => { throw new Error('looked at'); };
+    /** The error `thrown` becomes, both ways; every code and message of it readable (twice: a getter may throw once). */
+    const readBoth = (thrown) => [asSugarshackError(thrown), asSugarshackError(thrown, refuse)].map((err) => {
+      assert.ok(err instanceof SugarshackError || err === thrown);
+      for (let i = 0; i < 2; i++) {
+        assert.equal(typeof err.code, 'string');
+        assert.equal(typeof err.message, 'string');
+      }
+      return err;
+    });
+
+    it('a value that throws when its message, code or constructor is read, or turned into text, is told by its type', function () {
+      const noPrototype = Object.create(null);
+      const primitiveThrows = { [Symbol.toPrimitive]: boom };
+      const messageThrows = { get message() { return boom(); } };
+      const messageAnObjectThatThrows = { message: primitiveThrows, toString: boom };
+      for (const thrown of [noPrototype, primitiveThrows, messageThrows, messageAnObjectThatThrows]) {
+        const [internal, refused] = readBoth(thrown);
+        assert.deepEqual([internal.code, internal.message], ['INTERNAL', 'object']);
+        assert.deepEqual([refused.code, refused.message], ['INVALID_INPUT', 'could not read: object']);
+      }
+      const codeThrows = Object.defineProperty(new Error('disk gone'), 'code', { get: boom });
+      const constructorThrows = Object.defineProperty(new Error('no class'), 'constructor', { get: boom });
+      assert.deepEqual(readBoth(codeThrows).map((e) => [e.code, e.message]), [['INTERNAL', 'disk gone'], ['INVALID_INPUT', 'could not read: disk gone']]);
+      assert.deepEqual(readBoth(constructorThrows).map((e) => [e.code, e.message]), [['INTERNAL', 'no class'], ['INVALID_INPUT', 'could not read: no class']]);
+    });
+
+    it('a code that reads once, or a proxy around a coded error, is never passed on: its code may throw when the caller reads it', function () {
+      let reads = 0;
+      const onceCoded = Object.defineProperty(new Error('once'), 'code', { get: () => (reads++ === 0 ? 'QUEUE_FULL' : boom()) });
+      assert.deepEqual(readBoth(onceCoded).map((e) => e.code), ['INTERNAL', 'INVALID_INPUT']);
+      const ours = new SugarshackError('QUEUE_FULL', 'queue full');
+      const wrapped = new Proxy(ours, { get: (target, key) => (key === 'code' ? boom() : Reflect.get(target, key)) });
+      assert.deepEqual(readBoth(wrapped).map((e) => [e.code, e.message]), [['INTERNAL', 'queue full'], ['INVALID_INPUT', 'could not read: queue full']]);
+      const { proxy, revoke } = Proxy.revocable(ours, {});
+      revoke();
+      assert.deepEqual(readBoth(proxy).map((e) => [e.code, e.message]), [['INTERNAL', 'object'], ['INVALID_INPUT', 'could not read: object']]);
+    });
+
+    it('ours and the core\'s pass as they are; a coded error of another is kept as INTERNAL\'s, refused as a msg\'s', function () {
+      const ours = new SugarshackError('QUEUE_FULL', 'queue full');
+      const core = Object.assign(new Error('no such line'), { name: 'SugarshackError', code: 'UNKNOWN_RESOURCE' });
+      const node = Object.assign(new Error('ENOENT: no such file'), { code: 'ENOENT' });
+      assert.equal(asSugarshackError(ours), ours);
+      assert.equal(asSugarshackError(ours, refuse), ours);
+      assert.equal(asSugarshackError(core, refuse), core);
+      assert.equal(asSugarshackError(node), node);
+      assert.deepEqual([asSugarshackError(node, refuse).code, asSugarshackError(node, refuse).message], ['INVALID_INPUT', 'could not read: ENOENT: no such file']);
+      // Without words, a coded error is not kept: it is told as itself.
+      const silent = Object.assign(new Error(''), { code: 'X' });
+      assert.deepEqual([asSugarshackError(silent).code, asSugarshackError(silent).message], ['INTERNAL', 'Error']);
+    });
+
+    it('other values are told as text; the stack of what is wrapped as INTERNAL is kept, even one whose getter throws', function () {
+      assert.deepEqual([Symbol('s'), null, undefined, 42, 'plain words'].map((v) => asSugarshackError(v).message),
+        ['Symbol(s)', 'null', 'undefined', '42', 'plain words']);
+      const typeError = new TypeError('x is not a function');
+      assert.equal(asSugarshackError(typeError).stack, typeError.stack);
+      const stackThrows = Object.defineProperty(new Error('no stack'), 'stack', { get: boom });
+      assert.equal(asSugarshackError(stackThrows).message, 'no stack');
+      assert.match(asSugarshackError(stackThrows).stack, /SugarshackError: no stack/);
+    });
+  });
+
+  it('a getter that throws a coded error of another, or a proxy around one of ours whose code throws, is refused INVALID_INPUT by every node', async function () {
+    const { seen } = await start();
+    const generation = wasm.currentGeneration();
+    const { SugarshackError } = require(path.join(PALETTE, 'lib', 'host', 'errors.js'));
+    const looked = () => { throw new Error('code looked at'); };
+    for (const [thrown, words] of [
+      [() => Object.assign(new Error('ENOENT: disk gone'), { code: 'ENOENT' }), /could not read the msg: ENOENT: disk gone/],
+      [() => new Proxy(new SugarshackError('QUEUE_FULL', 'queue full'), { get: (t, key) => (key === 'code' ? looked() : Reflect.get(t, key)) }), /could not read the msg: queue full/],
+    ]) {
+      for (const [id, fields, field] of [
+        ['acq', { operation: 'x', resources: 'RED' }, 'priority'], ['rel', {}, 'operation'], ['flt', { operation: 'h' }, 'payload'],
+        ['clr', {}, 'resources'], ['rt', {}, 'topic'], ['gc', {}, 'payload'], ['bus', { topic: 'plant/command' }, 'payload'],
+        ['pid', {}, 'payload'], ['rcc', {}, 'payload'], ['io', { topic: 'measurement' }, 'payload'],
+      ]) {
+        const err = await refused(id, throwingGetter(fields, field, thrown), 'INVALID_INPUT');
+        assert.match(err.message, words, id);
+      }
+    }
+    await quiet();
+    assert.equal(wasm.currentGeneration(), generation, 'no rebuild');
+    await stillWorks(seen, 'after');
+  });
+
   it('feedback as an object circular in one field: the rest is applied, that field alone refused, nothing thrown', async function () {
     const { seen, panel } = await start();
     const generation = wasm.currentGeneration();

@@ -4,7 +4,7 @@
 // field as the user set it (a number checked a number), or left out. What a
 // blank becomes (alpha, h, max dead, stale after = 3 × Ts, action, P on...) and
 // every rule on the values are the core's.
-const { SugarshackError, thrownWords } = require('../host/errors');
+const { SugarshackError } = require('../host/errors');
 const { translator } = require('../host/i18n');
 const { isNumber, blank, configNumber, configDurationMs, msgNumber, describe } = require('./index');
 
@@ -131,20 +131,6 @@ class PidReader {
       throw new SugarshackError('INVALID_INPUT', t('errors.decisionInvalid'));
     }
     return { engaged: rcc.engaged, firstCycle: rcc.firstCycle, track: rcc.track ?? null };
-  }
-
-  /**
-   * What reading a msg threw: ours and the core's pass; anything else (a getter, a proxy) is the sender's INVALID_INPUT.
-   * @param {any} err
-   */
-  inputError(err) {
-    const { t } = this;
-    try {
-      if (err instanceof SugarshackError || (err && typeof err.code === 'string' && err.message)) return err;
-    } catch {
-      // a thrown proxy that throws on being looked at: the sender's too
-    }
-    return new SugarshackError('INVALID_INPUT', t('errors.msgUnreadable', { why: thrownWords(err).slice(0, 100) }));
   }
 }
 

@@ -4,6 +4,7 @@
 // into sends, statuses and the state file; one timer, for when the core says
 // its stale rule is next due.
 const { SugarshackError, asSugarshackError } = require('../host/errors');
+const { unreadable } = require('../interlock/request');
 const { refuseDeploy } = require('../host/deploy-refusal');
 const { errorStatus, status, StatusBoard } = require('../host/status');
 const { translator } = require('../host/i18n');
@@ -128,7 +129,7 @@ function runPid(RED, node, props) {
       if (msg.rcc !== undefined) decision = read.decision(msg.rcc);
       if (msg.track !== undefined && msg.track !== null) track = msgNumber(msg.track, t('input.track'));
     } catch (err) {
-      refuse(read.inputError(err), done);
+      refuse(unreadable(err), done);
       return;
     }
     const now = clock.now();
@@ -178,7 +179,7 @@ function runPid(RED, node, props) {
         }
       }
     } catch (err) {
-      refuse(read.inputError(err), done);
+      refuse(unreadable(err), done);
       return;
     }
     measure(msg, send, done);
@@ -195,7 +196,7 @@ function runPid(RED, node, props) {
     try {
       handle(msg, send, once);
     } catch (err) {
-      refuse(read.inputError(err), once);
+      refuse(unreadable(err), once);
     }
   }
 

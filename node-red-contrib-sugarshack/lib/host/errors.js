@@ -2,6 +2,7 @@
 'use strict';
 // Errors reported to flows. They look like the core's (name "SugarshackError"
 // and a `code`) so a Catch node sees one shape, whichever layer refused the msg.
+const { types } = require('util');
 const { text } = require('./i18n');
 
 class SugarshackError extends Error {
@@ -27,31 +28,56 @@ class SugarshackError extends Error {
 }
 
 /**
- * The error as thrown by the core, or wrapped so that it always carries a code.
- * @param {any} err whatever was thrown
+ * Whatever was thrown, as a SugarshackError with words; never throws, whatever it
+ * is (a revoked proxy, a getter or Symbol.toPrimitive that throws).
+ *
+ * Kept as it is: an error with a string `code` and a message (the core's, ours,
+ * Node's), and given `refuse` only one named SugarshackError (a msg's own code
+ * throwing a coded error is still the sender's). Anything else becomes
+ * `refuse(words)`, or INTERNAL with its words and stack.
+ * @param {unknown} err whatever was thrown
+ * @param {(words: string) => SugarshackError} [refuse] the refusal for what a msg's own code threw
  * @returns {SugarshackError}
  */
-function asSugarshackError(err) {
+function asSugarshackError(err, refuse) {
+  if (isCoded(err, refuse !== undefined)) return /** @type {SugarshackError} */ (err);
+  const words = thrownWords(err);
+  if (refuse) return refuse(words);
+  const wrapped = new SugarshackError('INTERNAL', words);
   try {
-    if (err && typeof err === 'object' && typeof err.code === 'string' && err.message) return err;
-    const wrapped = new SugarshackError('INTERNAL', err && err.message ? err.message : String(err));
-    if (err && err.stack) wrapped.stack = err.stack;
-    return wrapped;
+    const stack = /** @type {any} */ (err).stack;
+    if (typeof stack === 'string') wrapped.stack = stack;
   } catch {
-    // a thrown proxy that throws on being looked at: what it is, never a second throw
-    return new SugarshackError('INTERNAL', thrownWords(err));
+    // a stack getter that throws: the wrapper's own stack
   }
+  return wrapped;
 }
 
 /**
- * What a value a msg's code threw says: its message, or itself as text; its
- * type when even reading it throws (a thrown proxy, a toString that throws).
+ * An error to pass on as it is. Its code, message and name are read as own data
+ * properties, which runs none of its code; a proxy is never kept, since reading
+ * its code later, as every caller does, could throw.
+ * @param {unknown} err @param {boolean} oursOnly
+ */
+function isCoded(err, oursOnly) {
+  if (err === null || (typeof err !== 'object' && typeof err !== 'function') || types.isProxy(err)) return false;
+  const own = (/** @type {string} */ key) => {
+    const property = Object.getOwnPropertyDescriptor(err, key);
+    return property && typeof property.value === 'string' ? property.value : undefined;
+  };
+  return own('code') !== undefined && Boolean(own('message')) && (!oursOnly || own('name') === 'SugarshackError');
+}
+
+/**
+ * What a thrown value says: its message, or itself as text; its type when even
+ * reading it throws (a thrown proxy, a toString that throws).
  * @param {unknown} thrown
  */
 function thrownWords(thrown) {
   try {
-    const message = thrown && /** @type {any} */ (thrown).message;
-    return typeof message === 'string' ? message : String(thrown);
+    const message = thrown !== null && (typeof thrown === 'object' || typeof thrown === 'function')
+      ? /** @type {any} */ (thrown).message : undefined;
+    return typeof message === 'string' && message !== '' ? message : String(thrown);
   } catch {
     return typeof thrown;
   }

@@ -4,7 +4,7 @@
 // core, which reads it by its rules (engine/request.rs): msg's values first,
 // then the node's, trimmed, defaulted, attributed. Whether a request is
 // allowed is for the interlock to say.
-const { SugarshackError, thrownWords } = require('../host/errors');
+const { SugarshackError, asSugarshackError, thrownWords } = require('../host/errors');
 const i18n = require('../host/i18n');
 const wasm = require('../wasm');
 const { refusalError } = require('./engine-carrier');
@@ -37,14 +37,14 @@ function readMsg(read) {
   }
 }
 
-/** What reading a msg threw, as readMsg throws it. */
+/** What reading a msg threw, as readMsg throws it: ours and a trap pass, anything else is the sender's. */
 function unreadable(err) {
-  try {
-    if (err instanceof SugarshackError || wasm.isTrap(err)) return err;
-  } catch {
-    // a thrown proxy that throws on being looked at: the sender's too
-  }
-  return SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: thrownWords(err).slice(0, QUOTE_MAX) });
+  return wasm.isTrap(err) ? err : asSugarshackError(err, msgUnreadable);
+}
+
+/** @param {string} words */
+function msgUnreadable(words) {
+  return SugarshackError.of('INVALID_INPUT', 'msgUnreadable', { why: words.slice(0, QUOTE_MAX) });
 }
 
 /**
