@@ -233,14 +233,9 @@ describe('routines running operations on Mosquitto with the plant simulator', fu
     // Ready once every panel has reported and every tank level is fresh.
     const plant = helper.getNode('pl').runtime;
     const sensors = Uint32Array.from(PLANT.sensors, (s) => plant.t.sensor(s.id));
-    const fresh = () => {
-      try {
-        plant.t.readSensors(sensors, Date.now());
-        return true;
-      } catch {
-        return false;
-      }
-    };
+    // Checked as any condition over them is: its values are null while one is not fresh.
+    const everyOne = plant.t.condition('true', PLANT.sensors.map((s) => s.id));
+    const fresh = () => plant.t.checkCondition(everyOne, sensors, Date.now()).values !== null;
     const reported = (id) => seen.ev.some((x) => x.msg.topic === `actuator/changed/${id}`);
     await until(() => fresh() && ['V101', 'P1', 'V401', 'V501', 'P3'].every(reported), 'the first panel batches and sensor values', 8000);
   }

@@ -447,7 +447,6 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.sensorSlot('s', 'level');
   t.recordSensor(sensor, 1, 0, 0);
   const condition = t.condition('L > 1', ['L']);
-  t.conditionHolds(condition, t.readSensors(Uint32Array.of(sensor), 1));
   t.checkCondition(condition, Uint32Array.of(sensor), 1);
   const wait = t.waitStart(5, 0, 'L > 1');
   t.waitDeadline(wait);

@@ -102,18 +102,6 @@ impl Tracker {
         Ok(handle)
     }
 
-    /// Whether condition `handle` holds on `values` (its sensors' fresh
-    /// values, in the order listed): `true`, `false`, or why it gives no
-    /// answer (arithmetic met no number), which means it does not hold.
-    #[wasm_bindgen(js_name = conditionHolds, unchecked_return_type = "boolean | string")]
-    pub fn condition_holds(&self, handle: u32, values: &[f64]) -> Result<JsValue, JsValue> {
-        let condition = self.condition_of(handle, values.len())?;
-        Ok(match condition.holds(values) {
-            Ok(holds) => JsValue::from_bool(holds),
-            Err(no_number) => JsValue::from_str(&no_number.to_string()),
-        })
-    }
-
     /// Checks condition `handle` at `nowMs` on its sensors `sensors` (their
     /// handles, in the order listed): the core reads their fresh values,
     /// decides (a stale or missing sensor: not met) and words why not.

@@ -1419,15 +1419,4 @@ impl Tracker {
             &self.core.device_health(),
         ))
     }
-
-    /// The values of `sensors` if every one is fresh; else throws `SENSOR_STALE` or `SENSOR_NO_VALUE`.
-    #[wasm_bindgen(js_name = readSensors)]
-    pub fn read_sensors(&self, sensors: &[u32], now_ms: f64) -> Result<Vec<f64>, JsValue> {
-        let now = time(now_ms)?;
-        let ids = sensors
-            .iter()
-            .map(|&h| self.sensor_id(h))
-            .collect::<Result<Vec<_>, _>>()?;
-        self.sensors.read(&ids, now).map_err(sensor_error)
-    }
 }

@@ -10,7 +10,7 @@ use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{get, json, message_of, valve_plant};
+use support::{fresh_value, get, json, message_of, valve_plant};
 
 /// The value a JS function body returns.
 fn js(body: &str) -> JsValue {
@@ -528,15 +528,15 @@ fn a_sample_stamped_in_the_future_is_refused_and_the_next_one_kept() {
     assert_eq!(code_of(&err), "FUTURE_TIMESTAMP");
     assert_message_contains(&err, "clock is 8999999999998000 ms ahead");
     assert_eq!(
-        t.read_sensors(&[lt], 2000.0).unwrap(),
-        vec![10.0],
+        fresh_value(&mut t, "LT-3", 2000.0),
+        Ok(10.0),
         "nothing of it kept"
     );
     assert!(
         t.record_sensor(lt, 11.0, Some(1500.0), 2500.0).unwrap(),
         "an older stamp, received later, is kept"
     );
-    assert_eq!(t.read_sensors(&[lt], 2500.0).unwrap(), vec![11.0]);
+    assert_eq!(fresh_value(&mut t, "LT-3", 2500.0), Ok(11.0));
     assert!(
         t.record_sensor(lt, 12.0, Some(2600.0 + 5000.0), 2600.0)
             .unwrap(),

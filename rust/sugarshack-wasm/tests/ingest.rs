@@ -11,7 +11,7 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{get, json};
+use support::{fresh_value, get, json};
 
 const PLANT: &str = r#"{
     "actuatorTypes": {
@@ -158,13 +158,15 @@ fn sensors_take_values_and_nan_and_report_which() {
         Ingest::Samples
     );
     assert_eq!(t.last_sensors(), vec![lt]);
-    assert_eq!(t.read_sensors(&[lt], 200.0).unwrap(), vec![1234.5]);
+    assert_eq!(fresh_value(&mut t, "LT-2", 200.0), Ok(1234.5));
     // Fresh for five of its 60 s updates.
-    assert!(t.read_sensors(&[lt], 299_000.0).is_ok());
+    assert!(fresh_value(&mut t, "LT-2", 299_000.0).is_ok());
     t.ingest("station-2/sensor/volume/state", "nan", 300.0)
         .unwrap();
-    let err = t.read_sensors(&[lt], 400.0).err().unwrap();
-    assert_eq!(get(&err, "code").as_string().unwrap(), "SENSOR_UNAVAILABLE");
+    assert_eq!(
+        fresh_value(&mut t, "LT-2", 400.0),
+        Err("sensor 'LT-2' has no reading: its device reports none (nan); check the probe".into())
+    );
 }
 
 #[wasm_bindgen_test]

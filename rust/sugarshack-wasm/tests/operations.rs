@@ -10,7 +10,7 @@ use wasm_bindgen::JsValue;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{code_of, get, json, message_of, valve_plant};
+use support::{code_of, fresh_value, get, json, message_of, valve_plant};
 
 fn text(value: &JsValue, key: &str) -> String {
     get(value, key).as_string().unwrap_or_default()
@@ -114,21 +114,22 @@ fn sensors_are_read_only_while_fresh() {
     let lt = t.sensor("LT-3").unwrap();
     assert_eq!(t.sensor_slot("station-3", "volume"), Some(lt));
     assert_eq!(
-        code_of(t.read_sensors(&[lt], 0.0).unwrap_err()),
-        "SENSOR_NO_VALUE"
+        fresh_value(&mut t, "LT-3", 0.0),
+        Err("sensor 'LT-3' has sent no value yet".into())
     );
     assert!(t.record_sensor(lt, 12.5, Some(900.0), 1000.0).unwrap());
-    assert_eq!(t.read_sensors(&[lt], 2999.0).unwrap(), vec![12.5]);
+    assert_eq!(fresh_value(&mut t, "LT-3", 2999.0), Ok(12.5));
     assert_eq!(
-        code_of(t.read_sensors(&[lt], 3000.0).unwrap_err()),
-        "SENSOR_STALE"
+        fresh_value(&mut t, "LT-3", 3000.0),
+        Err("sensor 'LT-3' is stale: its last value is 2000 ms old (limit 2000 ms)".into())
     );
     assert_eq!(
         code_of(t.record_sensor(lt, f64::NAN, None, 3000.0).unwrap_err()),
         "INVALID_SENSOR_VALUE"
     );
+    let c = t.condition("`LT-3` > 10", vec!["LT-3".into()]).unwrap();
     assert_eq!(
-        code_of(t.read_sensors(&[7], 0.0).unwrap_err()),
+        code_of(t.check_condition(c, &[7], 0.0).unwrap_err()),
         "UNKNOWN_SENSOR"
     );
 }
@@ -179,24 +180,32 @@ fn a_condition_is_read_once_and_holds_on_the_values_given() {
         c,
         "read once"
     );
-    assert_eq!(t.condition_holds(c, &[30.0]).unwrap().as_bool(), Some(true));
-    assert_eq!(t.condition_holds(c, &[3.0]).unwrap().as_bool(), Some(false));
+    let sensor = t.sensor("LT-3").unwrap();
+    let check = |t: &mut Tracker, c: u32, value: f64| {
+        t.record_sensor(sensor, value, None, 0.0).unwrap();
+        let check = t.check_condition(c, &[sensor], 0.0).unwrap();
+        (
+            get(&check, "met").as_bool().unwrap(),
+            text(&check, "reason"),
+        )
+    };
+    assert_eq!(check(&mut t, c, 30.0), (true, String::new()));
+    assert_eq!(
+        check(&mut t, c, 3.0),
+        (false, r#"values {"LT-3":3}"#.into())
+    );
     let zero = t.condition("1 / (`LT-3` - 3) + 1 > 0", lt.clone()).unwrap();
-    let why = t
-        .condition_holds(zero, &[3.0])
-        .unwrap()
-        .as_string()
-        .unwrap();
+    let (met, why) = check(&mut t, zero, 3.0);
     assert!(
-        why.contains("'1 / (`LT-3` - 3)' gives no finite number"),
+        !met && why.contains("'1 / (`LT-3` - 3)' gives no finite number"),
         "{why}"
     );
     assert_eq!(
-        code_of(t.condition_holds(c, &[]).unwrap_err()),
+        code_of(t.check_condition(c, &[], 0.0).unwrap_err()),
         "INVALID_INPUT"
     );
     assert_eq!(
-        code_of(t.condition_holds(99, &[1.0]).unwrap_err()),
+        code_of(t.check_condition(99, &[sensor], 0.0).unwrap_err()),
         "INVALID_CONDITION"
     );
     let err = t.condition("LT-3 > 10", lt.clone()).unwrap_err();

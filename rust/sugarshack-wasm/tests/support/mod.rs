@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use js_sys::{Reflect, JSON};
+use sugarshack_wasm::Tracker;
 use wasm_bindgen::{JsCast, JsValue};
 
 /// A JS value from JSON text.
@@ -26,6 +27,21 @@ pub fn code_of(error: JsValue) -> String {
 /// The message of a thrown JS `Error`.
 pub fn message_of(error: &JsValue) -> String {
     error.dyn_ref::<js_sys::Error>().unwrap().message().into()
+}
+
+/// Sensor `id`'s value at `now_ms` as a condition over it reads it (the one
+/// way JS reads sensors): `Err` with why not when it is not fresh.
+pub fn fresh_value(t: &mut Tracker, id: &str, now_ms: f64) -> Result<f64, String> {
+    let condition = t
+        .condition(&format!("`{id}` = `{id}`"), vec![id.to_owned()])
+        .unwrap();
+    let sensor = t.sensor(id).unwrap();
+    let check = t.check_condition(condition, &[sensor], now_ms).unwrap();
+    let values = get(&check, "values");
+    if values.is_null() {
+        return Err(get(&check, "reason").as_string().unwrap());
+    }
+    Ok(get(&values, id).as_f64().unwrap())
 }
 
 /// A plant document: valves on panel ctrl-1 and the volume sensor LT-3 on
