@@ -9,7 +9,7 @@ use std::collections::HashMap;
 
 use sugarshack_core::code::Code;
 use sugarshack_core::condition::{
-    Checked, Condition, TimedOut, WaitId, Waits, MAX_CHARS, TIMEOUT_CODE,
+    Checked, Condition, TimedOut, TooManyWaits, WaitId, Waits, TIMEOUT_CODE,
 };
 use sugarshack_core::text::{abridge, quote};
 use sugarshack_core::time::Millis;
@@ -46,8 +46,6 @@ export type WaitChecked =
 
 /// More distinct conditions than any plant has waits: not conditions a person wrote.
 const MAX_CONDITIONS: usize = 10_000;
-/// More msgs waiting at once than a plant's flows hold: refused rather than kept.
-const MAX_WAITS: usize = 100_000;
 /// The longest reason kept for a wait's timeout.
 const MAX_REASON_CHARS: usize = 2_000;
 
@@ -155,9 +153,7 @@ impl Tracker {
     ) -> Result<u32, JsValue> {
         let timeout = wait_timeout(timeout_ms)?;
         let now = time(now_ms)?;
-        self.room_for_a_wait()?;
-        let condition = abridge(condition, MAX_CHARS);
-        Ok(self.conditions.waits.start(&condition, timeout, now).0)
+        wait_number(self.conditions.waits.start(condition, timeout, now))
     }
 
     /// A wait of `timeoutMs` on `condition` until `deadlineMs`, carried over
@@ -171,19 +167,7 @@ impl Tracker {
     ) -> Result<u32, JsValue> {
         let deadline = time(deadline_ms)?;
         let timeout = wait_timeout(timeout_ms)?;
-        self.room_for_a_wait()?;
-        let condition = abridge(condition, MAX_CHARS);
-        Ok(self.conditions.waits.until(&condition, timeout, deadline).0)
-    }
-
-    fn room_for_a_wait(&self) -> Result<(), JsValue> {
-        if self.conditions.waits.len() >= MAX_WAITS {
-            return Err(js_error(
-                Code::QueueFull,
-                &format!("more than {MAX_WAITS} msgs wait on conditions of one plant; refused"),
-            ));
-        }
-        Ok(())
+        wait_number(self.conditions.waits.until(condition, timeout, deadline))
     }
 
     /// When wait `wait` times out (epoch ms), if it is still in progress.
@@ -244,6 +228,13 @@ impl Tracker {
     pub fn waiting(&self) -> u32 {
         self.conditions.waits.len() as u32
     }
+}
+
+/// A wait's number, or the core's QUEUE_FULL.
+fn wait_number(started: Result<WaitId, TooManyWaits>) -> Result<u32, JsValue> {
+    started
+        .map(|wait| wait.0)
+        .map_err(|full| js_error(full.code(), &full.to_string()))
 }
 
 fn wait_timeout(timeout_ms: f64) -> Result<Millis, JsValue> {

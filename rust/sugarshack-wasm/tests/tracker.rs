@@ -9,7 +9,7 @@ use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::wasm_bindgen_test;
 
 mod support;
-use support::{code_of, get, json};
+use support::{code_of, get, json, message_of};
 
 const PLANT: &str = r#"{
     "actuatorTypes": {
@@ -340,6 +340,23 @@ fn a_wait_is_a_deadline_of_the_tracker_and_times_out_with_its_last_reason() {
         code_of(t.wait_start(f64::NAN, 0.0, "`LT-3` > 10").unwrap_err()),
         "INVALID_INPUT"
     );
+}
+
+#[wasm_bindgen_test]
+fn a_wait_past_the_most_one_plant_keeps_is_queue_full_started_or_carried_over() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let mut started = 0;
+    while t.wait_start(1_000.0, 0.0, "`LT-3` > 10").is_ok() {
+        started += 1;
+    }
+    assert_eq!(started, 100_000);
+    let full = t.wait_until(500.0, 1_000.0, "`LT-3` > 10").unwrap_err();
+    assert_eq!(
+        message_of(&full),
+        "more than 100000 msgs wait on conditions of one plant; refused"
+    );
+    assert_eq!(code_of(full), "QUEUE_FULL");
+    assert_eq!(t.waiting(), 100_000);
 }
 
 #[wasm_bindgen_test]

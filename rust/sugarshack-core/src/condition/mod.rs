@@ -46,7 +46,9 @@ use std::ops::Range;
 use crate::text::quote;
 
 pub use verdict::Verdict;
-pub use wait::{timeout_message, Checked, TimedOut, WaitId, Waits, TIMEOUT_CODE};
+pub use wait::{
+    timeout_message, Checked, TimedOut, TooManyWaits, WaitId, Waits, MAX_WAITS, TIMEOUT_CODE,
+};
 
 /// The longest condition read.
 pub const MAX_CHARS: usize = 2000;

@@ -5,13 +5,38 @@
 //! [`Waits::next_deadline`] and calls [`Waits::expire`] then.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
 
+use super::MAX_CHARS;
 use crate::code::Code;
-use crate::text::js_number;
+use crate::text::{abridge, js_number};
 use crate::time::Millis;
 
 /// The code of a wait that ran out of time.
 pub const TIMEOUT_CODE: Code = Code::ConditionTimeout;
+
+/// More msgs waiting at once than a plant's flows hold: refused rather than kept.
+pub const MAX_WAITS: usize = 100_000;
+
+/// A wait refused: [`MAX_WAITS`] are in progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TooManyWaits;
+
+impl TooManyWaits {
+    /// The code a Catch node sees.
+    pub fn code(self) -> Code {
+        Code::QueueFull
+    }
+}
+
+impl fmt::Display for TooManyWaits {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "more than {MAX_WAITS} msgs wait on conditions of one plant; refused"
+        )
+    }
+}
 
 /// A wait, by the number [`Waits::start`] gave it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -80,12 +105,27 @@ pub struct Waits {
 
 impl Waits {
     /// A wait of `timeout` from `now` on `condition` (its text); its deadline is `now + timeout`.
-    pub fn start(&mut self, condition: &str, timeout: Millis, now: Millis) -> WaitId {
+    pub fn start(
+        &mut self,
+        condition: &str,
+        timeout: Millis,
+        now: Millis,
+    ) -> Result<WaitId, TooManyWaits> {
         self.until(condition, timeout, now.saturating_add(timeout))
     }
 
-    /// A wait of `timeout` on `condition` until `deadline` (one carried over from a core that is gone).
-    pub fn until(&mut self, condition: &str, timeout: Millis, deadline: Millis) -> WaitId {
+    /// A wait of `timeout` on `condition` until `deadline` (one carried over
+    /// from a core that is gone). Its text is kept to [`MAX_CHARS`], for the
+    /// words of its timeout; refused past [`MAX_WAITS`] in progress.
+    pub fn until(
+        &mut self,
+        condition: &str,
+        timeout: Millis,
+        deadline: Millis,
+    ) -> Result<WaitId, TooManyWaits> {
+        if self.waits.len() >= MAX_WAITS {
+            return Err(TooManyWaits);
+        }
         let id = WaitId(self.next);
         self.next = self.next.wrapping_add(1);
         self.waits.insert(
@@ -93,12 +133,12 @@ impl Waits {
             Wait {
                 deadline,
                 reason: None,
-                condition: condition.to_owned(),
+                condition: abridge(condition, MAX_CHARS),
                 timeout,
             },
         );
         self.deadlines.insert((deadline, id));
-        id
+        Ok(id)
     }
 
     /// When `wait` times out, if it is in progress.

@@ -4,6 +4,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::text::abridge;
 use crate::time::ms;
 
 const C: &str = "`LT-3` > 10";
@@ -32,8 +33,8 @@ fn a_timed_out_wait_is_worded_with_its_condition_timeout_and_last_reason() {
 #[test]
 fn a_wait_times_out_at_its_deadline_saying_why_it_last_did_not_hold() {
     let mut waits = Waits::default();
-    let a = waits.start(C, ms(5_000), ms(1_000));
-    let b = waits.start(C, ms(2_000), ms(1_500));
+    let a = waits.start(C, ms(5_000), ms(1_000)).unwrap();
+    let b = waits.start(C, ms(2_000), ms(1_500)).unwrap();
     assert_eq!(waits.deadline(a), Some(ms(6_000)));
     assert_eq!(waits.next_deadline(), Some(ms(3_500)), "the earliest one");
     assert_eq!(
@@ -61,7 +62,7 @@ fn a_wait_times_out_at_its_deadline_saying_why_it_last_did_not_hold() {
 #[test]
 fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
     let mut waits = Waits::default();
-    let a = waits.start(C, ms(1_000), ms(0));
+    let a = waits.start(C, ms(1_000), ms(0)).unwrap();
     assert_eq!(
         waits.checked(a, None, ms(1_000)),
         Checked::Met,
@@ -73,7 +74,7 @@ fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
         "it ended"
     );
     assert!(waits.expire(ms(5_000)).is_empty());
-    let b = waits.start(C, ms(1_000), ms(0));
+    let b = waits.start(C, ms(1_000), ms(0)).unwrap();
     waits.checked(b, Some("values {\"L\":1}".into()), ms(10));
     // The timer came late: a sample after the deadline does not let it pass.
     assert_eq!(
@@ -86,14 +87,47 @@ fn a_condition_holding_by_the_deadline_counts_and_after_it_times_out() {
 #[test]
 fn a_cancelled_wait_never_times_out_and_a_carried_deadline_stays() {
     let mut waits = Waits::default();
-    let a = waits.start(C, ms(1_000), ms(0));
+    let a = waits.start(C, ms(1_000), ms(0)).unwrap();
     assert!(waits.cancel(a));
     assert!(!waits.cancel(a));
     assert!(waits.expire(ms(2_000)).is_empty());
-    let b = waits.until(C, ms(300), ms(700));
+    let b = waits.until(C, ms(300), ms(700)).unwrap();
     assert_eq!(waits.deadline(b), Some(ms(700)));
     assert_ne!(a, b, "a new wait gets a new number");
     assert_eq!(waits.expire(ms(700)).len(), 1);
+}
+
+#[test]
+fn a_wait_past_the_most_one_plant_keeps_is_refused_started_or_carried_over() {
+    let mut waits = Waits::default();
+    for _ in 0..MAX_WAITS {
+        waits.start(C, ms(1_000), ms(0)).unwrap();
+    }
+    assert_eq!(waits.start(C, ms(1_000), ms(0)), Err(TooManyWaits));
+    assert_eq!(waits.until(C, ms(1_000), ms(500)), Err(TooManyWaits));
+    assert_eq!(waits.len(), MAX_WAITS, "nothing of them kept");
+    assert_eq!(TooManyWaits.code(), Code::QueueFull);
+    assert_eq!(
+        TooManyWaits.to_string(),
+        "more than 100000 msgs wait on conditions of one plant; refused"
+    );
+    // One ended makes room again.
+    assert_eq!(waits.expire(ms(1_000)).len(), MAX_WAITS);
+    assert!(waits.until(C, ms(1_000), ms(2_000)).is_ok());
+}
+
+#[test]
+fn a_condition_text_is_kept_to_the_longest_read_both_ways() {
+    let long = format!("`LT-3` > {}", "1".repeat(3 * MAX_CHARS));
+    let mut waits = Waits::default();
+    let a = waits.start(&long, ms(1_000), ms(0)).unwrap();
+    let b = waits.until(&long, ms(1_000), ms(1_000)).unwrap();
+    for (wait, out) in [a, b].into_iter().zip(waits.expire(ms(1_000))) {
+        assert_eq!(out.wait, wait);
+        let kept = abridge(&long, MAX_CHARS);
+        assert_eq!(kept.chars().count(), MAX_CHARS);
+        assert_eq!(out.message, timeout_message(&kept, ms(1_000), None));
+    }
 }
 
 fn timeout_of(timeouts: &[(WaitId, u64)], wait: WaitId) -> u64 {
@@ -136,7 +170,7 @@ proptest! {
             now += gap;
             match op {
                 Op::Start(timeout) => {
-                    let id = waits.start(C, ms(timeout), ms(now));
+                    let id = waits.start(C, ms(timeout), ms(now)).unwrap();
                     prop_assert!(model.iter().all(|(w, _, _)| *w != id));
                     model.push((id, now + timeout, None));
                     timeouts.push((id, timeout));
