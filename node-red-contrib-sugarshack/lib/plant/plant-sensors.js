@@ -75,7 +75,11 @@ class SensorWatch {
     this.plant.mayBeQuiet();
   }
 
-  /** The plant's tracker; after a trap's rebuild, the waits go on in the new one until their deadlines. */
+  /**
+   * The plant's tracker; after a trap's rebuild, the waits go on in the new one until their deadlines.
+   * A trap replaces the wasm instance and its memory with it, so what a wait needs to go on (the
+   * deadline the core gave, its timeout and text, both the caller's) is kept here, not in the core.
+   */
   current() {
     const { t } = this.plant;
     if (!t) throw SugarshackError.of('NO_PLANT', 'plantNotRunning');
