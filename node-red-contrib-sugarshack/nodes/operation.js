@@ -9,6 +9,7 @@ const { seconds } = require('../lib/plant/plant');
 const { readMsg, attributionOf } = require('../lib/interlock/request');
 const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
+const { configuredOrRefused } = require('../lib/host/node-config');
 
 // The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to this operation's run.
 const COMMANDS = new Set(/** @type {string[]} */ (wasm.load().operatorCommands()));
@@ -112,7 +113,9 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const t = translator(RED, 'sugarshack-operation');
-    const id = String(props.operation || '').trim();
+    const config = configuredOrRefused(node, 'operation', props);
+    if (!config) return;
+    const id = /** @type {string} */ (config.id);
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
     let total = 0;
     if (interlock) {

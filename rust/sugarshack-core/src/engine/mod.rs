@@ -22,6 +22,7 @@
 //!     if &**operation == "load truck")));
 //! ```
 
+mod config;
 mod deadline;
 pub(crate) mod fx;
 mod lifecycle;
@@ -51,6 +52,7 @@ use crate::plant::Plant;
 use crate::procedure::{Command, State};
 use crate::time::{ms, Millis};
 
+pub use config::{node_config, ConfigFields, ConfigOf, NodeConfig, MAX_CONFIG_ID, MAX_TIMEOUT_S};
 pub use deadline::{Deadlines, Due};
 pub use lifecycle::{Gate, Stage, Step, TRANSITIONS};
 pub use output::{
