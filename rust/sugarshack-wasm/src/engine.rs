@@ -356,6 +356,17 @@ pub fn split_names(
     answer(core::names_of(&raw(&value), Param::Text(quote(from))))
 }
 
+/// Who an operator's action is attributed to (`by` as the action carried it),
+/// as its event and journal line name them: "unknown" when nobody said.
+#[wasm_bindgen(js_name = attributedBy)]
+pub fn attributed_by(#[wasm_bindgen(unchecked_param_type = "unknown")] by: JsValue) -> String {
+    let by = match raw(&by) {
+        Raw::Text(text) | Raw::Long { head: text, .. } => Some(text),
+        _ => None,
+    };
+    sugarshack_core::clearance::attributed_by(by.as_deref())
+}
+
 /// What the configuration of a node of `kind` ("operation", "routine",
 /// "wait", "acquire", "groupCommand") means, read off its properties
 /// (`operation`, `routine`, `timeout` in seconds, `sensors`) by the core:

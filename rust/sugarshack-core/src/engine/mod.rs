@@ -41,7 +41,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::alarm::{AlarmChange, AlarmKind, Alarms, Condition};
-use crate::clearance::{Attribution, ClearBlocker};
+use crate::clearance::{Attribution, ClearBlocker, UNKNOWN_BY};
 use crate::code::Code;
 use crate::interlock::{
     Binding, EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError,
@@ -1695,7 +1695,7 @@ impl Engine {
                         port: 0,
                         set: Set::Cleared(Box::new(Cleared {
                             cleared,
-                            by: who.by.clone().unwrap_or_else(|| "unknown".to_owned()),
+                            by: who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned()),
                             reason: who.reason.clone(),
                             forced: who.force,
                         })),
@@ -1844,7 +1844,7 @@ impl Engine {
                 return;
             }
         };
-        let by = who.by.clone().unwrap_or_else(|| "unknown".to_owned());
+        let by = who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned());
         match action {
             OperatorAction::Clear { lines } => match self.clear_lines(lines, &who, now, blockers) {
                 Ok((cleared, mut effects)) => {
@@ -2009,7 +2009,7 @@ impl Engine {
             msg,
             answer: Ok(serde_json::json!({
                 "changes": changes,
-                "by": who.by.clone().unwrap_or_else(|| "unknown".to_owned()),
+                "by": who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned()),
             })),
         });
         self.commit(false, effects);
