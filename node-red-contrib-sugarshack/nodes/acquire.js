@@ -3,6 +3,7 @@
 const { bindInterlock, onInterlockInput } = require('../lib/host/binding');
 const { nodeValues, isPerMsg } = require('../lib/interlock/request');
 const { useRED } = require('../lib/host/i18n');
+const { configuredOrRefused } = require('../lib/host/node-config');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
@@ -11,7 +12,9 @@ module.exports = function (RED) {
   function AcquireNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
-    const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
+    const config = configuredOrRefused(node, 'acquire', props);
+    if (!config) return;
+    const { timeoutMs } = config;
     const runtime = bindInterlock(RED, node, props.interlock);
 
     // Holds the msg until granted; the same msg object then goes on (link call returns stay intact).

@@ -3,6 +3,7 @@
 const { bindPlant, onInput } = require('../lib/host/binding');
 const { isLockout } = require('../lib/plant/group');
 const { useRED } = require('../lib/host/i18n');
+const { configuredOrRefused } = require('../lib/host/node-config');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
@@ -11,7 +12,9 @@ module.exports = function (RED) {
   function GroupCommandNode(props) {
     RED.nodes.createNode(this, props);
     const node = this;
-    const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
+    const config = configuredOrRefused(node, 'groupCommand', props);
+    if (!config) return;
+    const { timeoutMs } = config;
     const runtime = bindPlant(RED, node, props.plant);
 
     // Holds the msg until every actuator of the group has completed; the same msg then goes on.

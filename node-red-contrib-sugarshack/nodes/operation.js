@@ -6,9 +6,10 @@ const { refuseDeploy } = require('../lib/host/deploy-refusal');
 const { errorStatus, status } = require('../lib/host/status');
 const { translator, useRED } = require('../lib/host/i18n');
 const { seconds } = require('../lib/plant/plant');
-const { readMsg, attributionOf } = require('../lib/interlock/request');
+const { readMsg, attributionOf, nodeValues } = require('../lib/interlock/request');
 const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
+const { configuredOrRefused, nodeConfig } = require('../lib/host/node-config');
 
 // The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to this operation's run.
 const COMMANDS = new Set(/** @type {string[]} */ (wasm.load().operatorCommands()));
@@ -112,9 +113,20 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const t = translator(RED, 'sugarshack-operation');
-    const id = String(props.operation || '').trim();
+    // The operation's id: typed in (as every flow saved before the sources), or read for each msg from
+    // a msg property, flow or global context, env or JSONata, as Node-RED's trigger node reads its values.
+    const values = nodeValues(RED, node, props, ['operation']);
+    const config = values ? { id: null } : configuredOrRefused(node, 'operation', props);
+    if (!config) return;
+    const deployed = config.id ?? null;
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
-    let total = 0;
+    let total = 0; // the deployed operation's steps
+    /** The steps of operation `id`, its conditions checked against the document in force. */
+    const stepsOf = (plant, id) => {
+      const plan = plant.guard(() => plant.t.operationPlan(id));
+      for (const step of plan.steps) if (step.kind === 'wait') plant.sensors.condition(step.condition, step.sensors);
+      return plan.steps.length;
+    };
     if (interlock) {
       // Checked against the document in force, so a broken operation shows at deploy.
       interlock.whenOpen(() => {
@@ -122,14 +134,13 @@ module.exports = function (RED) {
           if (!interlock.plant) throw new SugarshackError('NO_PLANT', t('errors.noPlant'));
           if (interlock.plant.state !== 'ready') throw interlock.plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
           const plant = interlock.plant;
-          const plan = plant.guard(() => plant.t.operationPlan(id));
-          total = plan.steps.length;
-          for (const step of plan.steps) if (step.kind === 'wait') interlock.plant.sensors.condition(step.condition, step.sensors);
+          if (deployed !== null) total = stepsOf(plant, deployed);
           // A run of this node saved held came back held after a restart: this node supervises it again.
           const held = interlock.heldRunOf({ kind: 'node', id: node.id });
           if (held) {
+            const id = held.operation;
             const carrier = { _msgid: RED.util.generateId(), topic: `operation/${id}` };
-            held.takePort(nodePort(t, node, carrier, (m) => node.send(m), null, total, id));
+            held.takePort(nodePort(t, node, carrier, (m) => node.send(m), null, id === deployed ? total : stepsOf(plant, id), id));
           }
           if (![...interlock.runs].some((run) => run.port.nodeId === node.id)) node.status(status('idle', t('status.idle')));
         } catch (err) {
@@ -141,11 +152,7 @@ module.exports = function (RED) {
     // The msg is held while the operation runs and goes on with msg.operation = { id, queuedMs, runMs, heldMs, steps }.
     // A msg whose topic is an operator's command (hold, restart, stop, abort, reset) commands its run instead,
     // and is completed once the state it entered is saved (or with the refusal).
-    node.on('input', (msg, send, done) => {
-      if (!interlock) {
-        done(new SugarshackError('NO_INTERLOCK', t('errors.noInterlock')));
-        return;
-      }
+    const handle = (msg, send, done, id) => {
       let topic;
       try {
         topic = readMsg(() => msg.topic);
@@ -160,7 +167,34 @@ module.exports = function (RED) {
         }, { urgent: true }); // an operator's command never waits for a deploy's drain
         return;
       }
-      interlock.submit(node, done, (rt) => rt.startRun(id, msg, nodePort(t, node, msg, send, done, total, id)));
+      interlock.submit(node, done, (rt) => {
+        const steps = id === deployed || !rt.plant ? total : stepsOf(rt.plant, id); // no plant: startRun refuses
+        rt.startRun(id, msg, nodePort(t, node, msg, send, done, steps, id));
+      });
+    };
+    node.on('input', (msg, send, done) => {
+      if (!interlock) {
+        done(new SugarshackError('NO_INTERLOCK', t('errors.noInterlock')));
+        return;
+      }
+      if (!values) {
+        handle(msg, send, done, deployed);
+        return;
+      }
+      values(msg, (err, read) => {
+        let id = null;
+        try {
+          if (err) throw err;
+          id = nodeConfig('operation', /** @type {Record<string, any>} */ (read)).id;
+        } catch (refusal) {
+          // A value that cannot be read, or is no operation id, shows on the node; the msg fails with it.
+          const e = asSugarshackError(refusal);
+          interlock.showError(node, e.code);
+          done(e);
+          return;
+        }
+        handle(msg, send, done, id);
+      });
     });
   }
 

@@ -5,6 +5,7 @@ const { PlantRuntime } = require('../lib/plant/plant-runtime');
 const { serveStats } = require('../lib/host/stats');
 const { paletteOf, settingsKey, runtimeOfConfigNode } = require('../lib/host/lifecycle');
 const { useRED } = require('../lib/host/i18n');
+const { messageBufferMax } = require('../lib/interlock/config');
 
 /** @param {NodeRed.RED} RED */
 module.exports = function (RED) {
@@ -28,6 +29,8 @@ module.exports = function (RED) {
     }
     const key = settingsKey({ plant: settings.plant, error: settings.error ? settings.error.message : null });
     node.runtime = runtimeOfConfigNode(RED, node, key, settings, () => new PlantRuntime({ id: node.id, settings, RED }));
+    // The publishes it keeps while they cannot go out keep within Node-RED's buffer bound, read as the delay node reads it.
+    node.runtime.bus.bufferMax = messageBufferMax(RED);
   }
 
   RED.nodes.registerType('sugarshack-plant', PlantNode);

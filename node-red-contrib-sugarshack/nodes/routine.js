@@ -8,6 +8,7 @@ const { translator, useRED } = require('../lib/host/i18n');
 const { readMsg, attributionOf } = require('../lib/interlock/request');
 const operator = require('../lib/interlock/operator');
 const wasm = require('../lib/wasm');
+const { configuredOrRefused } = require('../lib/host/node-config');
 
 // The operator's commands (hold, restart, stop, abort, reset): as msg topics, commands to the routine.
 const COMMANDS = new Set(/** @type {string[]} */ (wasm.load().operatorCommands()));
@@ -23,7 +24,9 @@ module.exports = function (RED) {
     RED.nodes.createNode(this, props);
     const node = this;
     const t = translator(RED, 'sugarshack-routine');
-    const id = String(props.routine || '').trim();
+    const config = configuredOrRefused(node, 'routine', props);
+    if (!config) return;
+    const id = /** @type {string} */ (config.id);
     const interlock = bindInterlock(RED, node, props.interlock, { showCounts: false });
     let host = null;
     let refusal = interlock ? null : new SugarshackError('NO_INTERLOCK', t('errors.noInterlock'));

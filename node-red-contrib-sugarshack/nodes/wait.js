@@ -3,7 +3,7 @@
 const { bindPlant } = require('../lib/host/binding');
 const { SugarshackError, asSugarshackError } = require('../lib/host/errors');
 const { refuseDeploy } = require('../lib/host/deploy-refusal');
-const { splitNames } = require('../lib/interlock/request');
+const { nodeConfig } = require('../lib/host/node-config');
 const { errorStatus, status } = require('../lib/host/status');
 const { translator, useRED } = require('../lib/host/i18n');
 const { clock } = require('../lib/host/clock');
@@ -17,7 +17,7 @@ module.exports = function (RED) {
     const node = this;
     const t = translator(RED, 'sugarshack-wait');
     const plant = bindPlant(RED, node, props.plant, { showCounts: false });
-    const timeoutMs = Math.max(0, Number(props.timeout) || 0) * 1000;
+    let timeoutMs = 0;
     let condition = null;
     let refusal = plant ? null : new SugarshackError('NO_PLANT', t('errors.noPlant'));
     // Read by the core against the document in force (after a deploy's drain, the new one).
@@ -25,9 +25,9 @@ module.exports = function (RED) {
       plant.whenOpen(() => {
         try {
           if (plant.state !== 'ready') throw plant.failure || new SugarshackError('NO_PLANT', t('errors.plantStopped'));
-          if (!(timeoutMs > 0)) throw new SugarshackError('INVALID_CONDITION', t('errors.noTimeout'));
-          const text = String(props.sensors || '').trim();
-          condition = plant.sensors.condition(String(props.condition || ''), text ? splitNames(text, t('config.sensors')) : []);
+          const config = nodeConfig('wait', props);
+          timeoutMs = /** @type {number} */ (config.timeoutMs);
+          condition = plant.sensors.condition(String(props.condition || ''), /** @type {string[]} */ (config.sensors));
           refusal = null;
           node.status({});
         } catch (err) {

@@ -112,37 +112,47 @@
    * A typedInput on a text input naming one entry of the plant document: type `listed` ({ value,
    * label, icon }) lists the entries `choicesOf(configId)` gives ({ value, label }) for the config
    * node chosen in `configSelector`; type `str` takes any id typed (the plant not chosen or not
-   * saved yet). A value the list has, or none, opens on the list; another opens typed.
+   * saved yet). A value the list has, or none, opens on the list; another opens typed. With
+   * `typeField` (a hidden input), the value may also be read for each msg from SOURCES, its type kept there.
    */
-  function plantChoice(inputSelector, configSelector, choicesOf, listed) {
+  function plantChoice(inputSelector, configSelector, choicesOf, listed, typeField) {
     var input = $(inputSelector);
+    var sources = typeField ? SOURCES : [];
     var choices = [];
     function read() {
       choices = choicesOf($(configSelector).val());
-      return choices.length ? [$.extend({ options: choices }, listed), 'str'] : ['str'];
+      return (choices.length ? [$.extend({ options: choices }, listed), 'str'] : ['str']).concat(sources);
     }
-    function typeOf(value) {
+    function typeOf(value, type) {
+      if (sources.indexOf(type) !== -1) return type;
       var inList = choices.some(function (c) { return c.value === value; });
       return choices.length && (inList || !value) ? listed.value : 'str';
     }
     var value = input.val();
     var types = read();
-    input.typedInput({ types: types, default: typeOf(value) });
+    var type = typeOf(value, typeField && $(typeField).val());
+    var options = { types: types, default: type };
+    if (typeField) {
+      $(typeField).val(type);
+      options.typeField = typeField;
+    }
+    input.typedInput(options);
     $(configSelector).on('change', function () {
       // The editor fires this once it fills the config list; an unchanged list keeps an open menu.
       var shown = JSON.stringify(choices);
       var next = read();
       if (JSON.stringify(choices) === shown) return;
       var before = input.typedInput('value');
+      var was = input.typedInput('type');
       input.typedInput('types', next);
-      input.typedInput('type', typeOf(before));
-      if (typeOf(before) === 'str' || before) input.typedInput('value', before);
+      input.typedInput('type', typeOf(before, was));
+      if (typeOf(before, was) !== listed.value || before) input.typedInput('value', before);
     });
   }
 
-  /** The chosen interlock's plant's operations, or any id typed. */
-  function operationChoice(inputSelector, configSelector, listed) {
-    plantChoice(inputSelector, configSelector, operationChoices, listed);
+  /** The chosen interlock's plant's operations, or any id typed (or, with `typeField`, read for each msg). */
+  function operationChoice(inputSelector, configSelector, listed, typeField) {
+    plantChoice(inputSelector, configSelector, operationChoices, listed, typeField);
   }
 
   /** The chosen interlock's plant's routines, or any id typed. */

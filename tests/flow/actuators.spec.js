@@ -6,7 +6,7 @@ const assert = require('node:assert/strict');
 const path = require('path');
 const helper = require('node-red-node-test-helper');
 const {
-  PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settled, clock,
+  PALETTE, paletteNodes, linkNodes, TAB, sinkNode, collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settled, clock, settings,
 } = require('./support');
 
 const { actuatorText, MAX_STATUS_LENGTH } = require(path.join(PALETTE, 'lib', 'host', 'status.js'));
@@ -552,6 +552,30 @@ describe('sugarshack actuator nodes', function () {
     await until(() => warnings('bus').length === 1, 'the warning');
     assert.match(warnings('bus')[0], /ctrl-2' is not in this node's device list/);
     assert.equal(lastStatus('bus').text, 'moving 1 · bad 1', 'counts only the served devices');
+  });
+
+  it('publishes waiting for a deploy\'s actuators node keep within nodeMessageBufferMaxLength: past it a warning, and every commanded state goes out again', async function () {
+    settings({ nodeMessageBufferMaxLength: 2 });
+    const seen = await start();
+    atRest();
+    await quiet();
+    const { runtime } = helper.getNode('pl');
+    const busNode = helper.getNode('bus');
+    // A deploy in progress: its actuators node is not back yet.
+    runtime.palette.started = false;
+    runtime.bus.remove(busNode);
+    command({ valves: { V12: 100, V13: 50 }, pumps: { P1: true } });
+    await quiet();
+    assert.equal(runtime.bus.unsent.length, 2, 'two kept, the third past the bound');
+    assert.deepEqual(warnings('pl').filter((w) => /publishes wait to go out/.test(w)).length, 1);
+    assert.match(warnings('pl').at(-1), /more than 2 publishes wait to go out/);
+    runtime.palette.started = true;
+    runtime.bus.add(busNode, null, null);
+    await quiet();
+    const last = new Map(seen.mqtt.map((m) => [m.topic, m.payload]));
+    assert.deepEqual([...last.keys()].sort(), ['ctrl-1/pump/1/command', 'ctrl-1/valve/12/command', 'ctrl-1/valve/13/command'],
+      'the dropped command went out with the states sent again');
+    assert.equal(seen.mqtt.length, 5, 'the two kept, then the three commanded states');
   });
 
   it('routes each device to the actuators node that serves it', async function () {

@@ -317,6 +317,19 @@ describe('sugarshack control: pid', function () {
       assert.deepEqual(warnings(), []);
     });
 
+    it("msgs held while the saved state is read keep within nodeMessageBufferMaxLength: past it a msg is refused, as the delay node's buffer does", async function () {
+      settings({ nodeMessageBufferMaxLength: 2, contextStorage: { kept: { module: slowStore } } });
+      const seen = await load();
+      for (const [i, payload] of [40, 41, 42].entries()) helper.getNode('pid').receive({ payload, timestamp: 1000 * (i + 1) });
+      await until(() => seen.caught.length === 1, 'the third refused');
+      assert.equal(seen.caught[0].error.code, 'QUEUE_FULL');
+      assert.match(seen.caught[0].error.message, /2 msgs already wait for the saved PID state to be read/);
+      assert.equal(seen.caught[0].payload, 42);
+      await clock().advance(20);
+      await until(() => seen.out.length === 2, 'the two held ones handled once started');
+      assert.deepEqual(seen.out.map((m) => m.timestamp), [1000, 2000], 'in arrival order');
+    });
+
     it('a state an earlier version saved in the context store is carried over once: restored, written to the file, deleted from the store', async function () {
       data['pid:f1'] = { pid: { integral: 7, setpoint: 60, mode: 'auto', manual: null } };
       let seen = await load();

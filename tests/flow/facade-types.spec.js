@@ -457,6 +457,9 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     shapes.expect('RequestRead', facade.readRequest({ kind: 'acquire' }, { operation: 'x', priority: 'soon' }, {}));
     shapes.expect('NamesRead', facade.namesOf(' a, b', 'sensors'));
     shapes.expect('NamesRead', facade.namesOf(7, 'sensors'));
+    shapes.expect('ConfigRead', facade.nodeConfig('wait', { timeout: '60', sensors: 'LT-3' }));
+    shapes.expect('ConfigRead', facade.nodeConfig('operation', { operation: ' 10 ' }));
+    shapes.expect('ConfigRead', facade.nodeConfig('acquire', { timeout: -1 }));
   });
 
   it('the device side: messages and commands', function () {

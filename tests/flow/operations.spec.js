@@ -124,6 +124,36 @@ describe('sugarshack operations and routines', function () {
     assert.deepEqual(statusOf('op10'), { fill: 'green', shape: 'dot', text: 'done 0.14 s' });
   });
 
+  it('an operation id read for each msg: from env and from a msg property, as typed values are; one that is none or unknown fails its msg', async function () {
+    process.env.SUGARSHACK_TEST_OP = ' 18 ';
+    try {
+      const seen = await start([
+        { ...operationNode('byEnv', 'SUGARSHACK_TEST_OP'), operationType: 'env' },
+        { ...operationNode('byMsg', 'payload.op'), operationType: 'msg' },
+      ]);
+      fakePanel();
+      helper.getNode('byEnv').receive({ topic: 'env' });
+      await quiet();
+      assert.equal(statusOf('byEnv').text, '1/2 command', 'the steps of operation 18');
+      await runTill(() => seen.out.length === 1, 'operation 18 from env');
+      assert.deepEqual([seen.out[0].topic, seen.out[0].operation.id], ['env', '18']);
+      helper.getNode('byMsg').receive({ topic: 'msg', payload: { op: '12' } });
+      await runTill(() => seen.out.length === 2, 'operation 12 from the msg');
+      assert.deepEqual([seen.out[1].topic, seen.out[1].operation.id], ['msg', '12']);
+      helper.getNode('byMsg').receive({ payload: {} });
+      await until(() => seen.caught.length === 1, 'no id');
+      assert.equal(seen.caught[0].error.code, 'INVALID_CONFIG');
+      assert.match(seen.caught[0].error.message, /the configured operation is required/);
+      assert.equal(statusOf('byMsg').fill, 'red');
+      helper.getNode('byMsg').receive({ payload: { op: '99' } });
+      await until(() => seen.caught.length === 2, 'an unknown id');
+      assert.equal(seen.caught[1].error.code, 'UNKNOWN_OPERATION');
+      assert.equal(seen.out.length, 2);
+    } finally {
+      delete process.env.SUGARSHACK_TEST_OP;
+    }
+  });
+
   it('a wait that times out faults the operation: lockout goes out, the line is blocked until cleared, then resumes', async function () {
     const completions = trackCompletions();
     const seen = await start([

@@ -139,6 +139,15 @@ describe('operators\' ISA-88 commands through every surface', function () {
     assert.ok(!(api.interlock('il').aborted || []).some((a) => a.operation === '10'), 'no longer aborted');
   });
 
+  it("the palette API's answer names who acted as the core attributes it: trimmed, unknown when nobody said", async function () {
+    const { api, seen } = await start();
+    await fillingMidStep(api, seen);
+    const aborted = await api.command('il', { operation: '10' }, 'abort', { by: ' \t', reason: 'leak' });
+    assert.equal(aborted.by, 'unknown');
+    const reset = await api.command('il', { operation: '10' }, 'reset', { by: ' bo ' });
+    assert.equal(reset.by, 'bo');
+  });
+
   it('the plant state node: hold and restart by topic as msg.by, answered with the state; a refused restart fails the msg for a Catch node', async function () {
     const { api, seen } = await start();
     await fillingMidStep(api, seen);

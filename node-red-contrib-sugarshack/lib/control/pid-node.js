@@ -13,6 +13,7 @@ const { PidReader, isChange } = require('./pid-config');
 const { PidStateFile } = require('./pid-state');
 const { clock } = require('../host/clock');
 const { UntilReady } = require('../host/until-ready');
+const { messageBufferMax } = require('../interlock/config');
 const wasm = require('../wasm');
 const { quietOf, standbyStatus } = require('../cluster');
 
@@ -53,6 +54,8 @@ function runPid(RED, node, props) {
   let ready = false;
   let closed = false;
   const early = new UntilReady(); // msgs that arrived while the saved state was read
+  // Node-RED's bound on buffered msgs (0: none), as its delay node keeps it: past it a msg is refused, not queued.
+  const earlyMax = messageBufferMax(RED);
 
   const show = (shown) => board.set(node, shown);
 
@@ -232,7 +235,10 @@ function runPid(RED, node, props) {
       // A hot standby acts on nothing (the active instance got the same msg).
       show(standbyStatus());
       done();
-    } else if (!ready) early.hold({ node, msg, send, done });
+    } else if (!ready) {
+      if (earlyMax > 0 && early.length >= earlyMax) done(new SugarshackError('QUEUE_FULL', t('errors.notReadyFull', { max: earlyMax })));
+      else early.hold({ node, msg, send, done });
+    }
     else safeHandle(msg, send, done);
   });
 

@@ -9,6 +9,7 @@
 // NOT_FAULTED, UNKNOWN_ALARM, INVALID_SHELF, ...) rejects unchanged.
 const { SugarshackError } = require('../host/errors');
 const { journal } = require('../journal/bus');
+const wasm = require('../wasm');
 
 /**
  * Runs `work(resolve)` on the runtime (a wasm trap becomes INTERNAL and a
@@ -28,7 +29,8 @@ function act(runtime, work) {
   });
 }
 
-const byOf = (who) => who.by || 'unknown';
+// Who the answer names: the core's words for it (trimmed, "unknown" when nobody said), as its event names them.
+const byOf = (who) => wasm.load().attributedBy(who.by);
 
 /** An emergency stop of `lines`; their lockouts go out. `note`: the fault's note when `who` gives no reason. */
 function estop(runtime, lines, who, note) {

@@ -12,7 +12,8 @@ const i18n = require('../host/i18n');
 
 // Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
 const MAX_WARNED = 1000;
-// Publishes kept while a deploy has no actuators node serving their device yet.
+// Publishes kept while they cannot go out (a deploy has no actuators node serving their device yet,
+// a leader waits for etcd): Node-RED's nodeMessageBufferMaxLength when set, else this many.
 const MAX_UNSENT = 10000;
 
 class PlantBuses {
@@ -22,6 +23,8 @@ class PlantBuses {
     this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
     this.unsent = []; // publishes waiting for an actuators node during a deploy
     this.held = []; // publishes of a leader waiting for etcd to renew its lease
+    this.dropped = { unsent: 0, held: 0 }; // publishes past the bound, since each last went out
+    this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength (0: unset), as the plant node last read it
   }
 
   /**
@@ -135,7 +138,7 @@ class PlantBuses {
     const { plant } = this;
     if (plant.cluster && !plant.cluster.mayAct()) {
       // Held by a leader whose lease awaits etcd's answer; dropped by a standby.
-      if (plant.cluster.role === 'suspended' && this.held.length < MAX_UNSENT) this.held.push(e);
+      if (plant.cluster.role === 'suspended') this.wait('held', e);
       return;
     }
     const name = plant.devices[e.device];
@@ -143,7 +146,7 @@ class PlantBuses {
     if (!bus) {
       if (plant.palette && !plant.palette.started) {
         // A deploy in progress: the actuators node serving it comes back in a moment.
-        if (this.unsent.length < MAX_UNSENT) this.unsent.push(e);
+        this.wait('unsent', e);
         return;
       }
       if (plant.t.reportUnserved(e.device)) plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
@@ -152,11 +155,34 @@ class PlantBuses {
     bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
   }
 
-  /** What waited goes out, in order: `held` when the lease was renewed, `unsent` when an actuators node came. */
+  /**
+   * Keeps publish `e` in `which` until it can go out. Past the bound it is dropped, with a warning
+   * the first time; what it commanded goes out again with the rest when they do (see sendWaiting).
+   * @param {'unsent' | 'held'} which
+   */
+  wait(which, e) {
+    const max = this.bufferMax || MAX_UNSENT;
+    if (this[which].length < max) {
+      this[which].push(e);
+      return;
+    }
+    this.dropped[which] += 1;
+    if (this.dropped[which] === 1) this.plant.log('warn', i18n.text('logs.publishesDropped', { max }));
+  }
+
+  /**
+   * What waited goes out, in order: `held` when the lease was renewed, `unsent` when an actuators node
+   * came. If some were dropped (a lockout among them, maybe), every commanded state and standing
+   * lockout is published again, as when a broker comes back.
+   * @param {'unsent' | 'held'} which
+   */
   sendWaiting(which) {
     const waiting = this[which];
+    const dropped = this.dropped[which];
     this[which] = [];
+    this.dropped[which] = 0;
     for (const e of waiting) this.publish(e);
+    if (dropped > 0 && this.plant.t && this.plant.t.pathRestored(clock.now()) > 0) this.plant.flush(null);
   }
 
   /**
@@ -168,6 +194,7 @@ class PlantBuses {
    */
   async standDown() {
     this.held = [];
+    this.dropped.held = 0;
     const brokers = new Set(this.list.map((b) => b.broker).filter((b) => b && typeof b.disconnect === 'function' && typeof b.connect === 'function'));
     await Promise.all([...brokers].map((broker) => new Promise((resolve) => broker.disconnect(resolve)).then(() => broker.connect())));
   }

@@ -52,13 +52,22 @@ pub struct Attribution {
     pub forced: bool,
 }
 
+/// Who did it, when nobody said.
+pub const UNKNOWN_BY: &str = "unknown";
+
+/// Who an operator's action is attributed to, as its event and journal line
+/// name them: trimmed and cut, [`UNKNOWN_BY`] when nobody said.
+pub fn attributed_by(by: Option<&str>) -> String {
+    Attribution::new(by, None, false).by
+}
+
 impl Attribution {
-    /// Bounded: a name or reason from outside is cut, an empty name reads `"unknown"`.
+    /// Bounded: a name or reason from outside is cut, an empty name reads [`UNKNOWN_BY`].
     pub fn new(by: Option<&str>, reason: Option<&str>, forced: bool) -> Self {
         let by = by
             .map(str::trim)
             .filter(|b| !b.is_empty())
-            .unwrap_or("unknown");
+            .unwrap_or(UNKNOWN_BY);
         Attribution {
             by: cut(by, BY_MAX_CHARS),
             reason: reason
@@ -232,6 +241,19 @@ mod tests {
         assert_eq!(long.by.chars().count(), BY_MAX_CHARS);
         assert_eq!(long.reason.unwrap().chars().count(), REASON_MAX_CHARS);
         assert!(long.forced);
+    }
+
+    /// What an operator's action answers as its `by` is what its event names.
+    #[test]
+    fn an_action_is_attributed_as_its_event_names_it() {
+        assert_eq!(attributed_by(None), UNKNOWN_BY);
+        assert_eq!(attributed_by(Some(" \t")), UNKNOWN_BY);
+        assert_eq!(attributed_by(Some(" ana ")), "ana");
+        let long = "p".repeat(10_000);
+        assert_eq!(
+            attributed_by(Some(&long)),
+            Attribution::new(Some(&long), None, false).by
+        );
     }
 
     #[test]

@@ -64,6 +64,11 @@ export type RequestRead =
     | { ok: { operation?: string; priority?: number; resources?: string[]; who?: { by: string | null; reason: string | null; force: boolean } } }
     | { refused: ReadRefusal };
 
+/** `nodeConfig()`: what a node's configuration means (its kind's values only), or the refusal. */
+export type ConfigRead =
+    | { ok: { id?: string; timeoutMs?: number; sensors?: string[] } }
+    | { refused: ReadRefusal };
+
 /** `namesOf()`: the names, trimmed, or the refusal. */
 export type NamesRead = { ok: string[] } | { refused: ReadRefusal };
 
@@ -349,6 +354,51 @@ pub fn split_names(
     from: &str,
 ) -> Result<JsValue, JsValue> {
     answer(core::names_of(&raw(&value), Param::Text(quote(from))))
+}
+
+/// Who an operator's action is attributed to (`by` as the action carried it),
+/// as its event and journal line name them: "unknown" when nobody said.
+#[wasm_bindgen(js_name = attributedBy)]
+pub fn attributed_by(#[wasm_bindgen(unchecked_param_type = "unknown")] by: JsValue) -> String {
+    let by = match raw(&by) {
+        Raw::Text(text) | Raw::Long { head: text, .. } => Some(text),
+        _ => None,
+    };
+    sugarshack_core::clearance::attributed_by(by.as_deref())
+}
+
+/// What the configuration of a node of `kind` ("operation", "routine",
+/// "wait", "acquire", "groupCommand") means, read off its properties
+/// (`operation`, `routine`, `timeout` in seconds, `sensors`) by the core:
+/// `{ ok: { id?, timeoutMs?, sensors? } }` or `{ refused }`.
+#[wasm_bindgen(js_name = nodeConfig, unchecked_return_type = "ConfigRead")]
+pub fn node_config(
+    kind: &str,
+    #[wasm_bindgen(unchecked_param_type = "Record<string, unknown>")] props: JsValue,
+) -> Result<JsValue, JsValue> {
+    let of = core::ConfigOf::from_name(kind)
+        .ok_or_else(|| invalid(&format!("unknown node kind '{}'", quote(kind))))?;
+    let id = match of {
+        core::ConfigOf::Routine => "routine",
+        _ => "operation",
+    };
+    let fields = core::ConfigFields {
+        id: config_raw(&field(&props, id)),
+        timeout: config_raw(&field(&props, "timeout")),
+        sensors: config_raw(&field(&props, "sensors")),
+    };
+    answer(core::node_config(of, &fields))
+}
+
+/// [`raw`], a number that is not finite quoted as JS writes it (a refusal names what was typed).
+fn config_raw(value: &JsValue) -> Raw {
+    match value.as_f64() {
+        Some(n) if n.is_nan() => Raw::Other("NaN".to_owned()),
+        Some(n) if n.is_infinite() => {
+            Raw::Other(if n > 0.0 { "Infinity" } else { "-Infinity" }.to_owned())
+        }
+        _ => raw(value),
+    }
 }
 
 /// A read's answer, as `readRequest` and `namesOf` return it: `{ ok }` or `{ refused }`.

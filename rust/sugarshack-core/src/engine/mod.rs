@@ -22,6 +22,7 @@
 //!     if &**operation == "load truck")));
 //! ```
 
+mod config;
 mod deadline;
 pub(crate) mod fx;
 mod lifecycle;
@@ -40,7 +41,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::alarm::{AlarmChange, AlarmKind, Alarms, Condition};
-use crate::clearance::{Attribution, ClearBlocker};
+use crate::clearance::{Attribution, ClearBlocker, UNKNOWN_BY};
 use crate::code::Code;
 use crate::interlock::{
     Binding, EventKind, EventRecord, FaultCause, Grant, Interlock, InterlockConfig, InterlockError,
@@ -51,6 +52,7 @@ use crate::plant::Plant;
 use crate::procedure::{Command, State};
 use crate::time::{ms, Millis};
 
+pub use config::{node_config, ConfigFields, ConfigOf, NodeConfig, MAX_CONFIG_ID, MAX_TIMEOUT_S};
 pub use deadline::{Deadlines, Due};
 pub use lifecycle::{Gate, Stage, Step, TRANSITIONS};
 pub use output::{
@@ -1693,7 +1695,7 @@ impl Engine {
                         port: 0,
                         set: Set::Cleared(Box::new(Cleared {
                             cleared,
-                            by: who.by.clone().unwrap_or_else(|| "unknown".to_owned()),
+                            by: who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned()),
                             reason: who.reason.clone(),
                             forced: who.force,
                         })),
@@ -1842,7 +1844,7 @@ impl Engine {
                 return;
             }
         };
-        let by = who.by.clone().unwrap_or_else(|| "unknown".to_owned());
+        let by = who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned());
         match action {
             OperatorAction::Clear { lines } => match self.clear_lines(lines, &who, now, blockers) {
                 Ok((cleared, mut effects)) => {
@@ -2007,7 +2009,7 @@ impl Engine {
             msg,
             answer: Ok(serde_json::json!({
                 "changes": changes,
-                "by": who.by.clone().unwrap_or_else(|| "unknown".to_owned()),
+                "by": who.by.clone().unwrap_or_else(|| UNKNOWN_BY.to_owned()),
             })),
         });
         self.commit(false, effects);

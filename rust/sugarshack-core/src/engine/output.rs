@@ -70,6 +70,9 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("errors.groupNotJson", &["message"]),
     ("errors.groupTooLarge", &["length", "max"]),
     ("errors.heldNotListed", &["got"]),
+    ("errors.idNotText", &["from", "got"]),
+    ("errors.idRequired", &["from"]),
+    ("errors.idTooLong", &["from", "max"]),
     ("errors.noLinesToStop", &[]),
     ("errors.noSuchOperationRun", &["id"]),
     ("errors.noSuchRoutineRun", &["id"]),
@@ -82,6 +85,8 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("errors.priorityNotInteger", &["from", "got"]),
     ("errors.reasonNotText", &["got"]),
     ("errors.shelfUnbounded", &[]),
+    ("errors.timeoutNotSeconds", &["from", "max", "got"]),
+    ("errors.timeoutRequired", &[]),
     ("events.heldLong", &["operation", "seconds", "lines"]),
     ("events.waitedLong", &["operation", "seconds", "lines"]),
     ("logs.alarmsNotUpdated", &["message"]),
@@ -100,6 +105,9 @@ pub const CATALOG_LABELS: &[&str] = &[
     "configuredOperation",
     "configuredPriority",
     "configuredResources",
+    "configuredRoutine",
+    "configuredSensors",
+    "configuredTimeout",
 ];
 
 /// Why a msg was refused: the code a Catch node sees and the words a person reads.
@@ -391,6 +399,7 @@ mod tests {
     fn the_catalog_lists_name_every_text_the_engine_words() {
         let sources = [
             include_str!("mod.rs"),
+            include_str!("config.rs"),
             include_str!("request.rs"),
             include_str!("snapshot.rs"),
             include_str!("../plant/group_msg/mod.rs"),
@@ -413,7 +422,8 @@ mod tests {
                     );
                 }
             }
-            for label in source.split("Configured(\"").skip(1) {
+            let labels = source.split("Configured(\"").skip(1);
+            for label in labels.chain(source.split("Label(\"").skip(1)) {
                 let label = &label[..label.find('"').unwrap_or(0)];
                 assert!(CATALOG_LABELS.contains(&label), "label {label}");
             }

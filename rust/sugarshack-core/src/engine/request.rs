@@ -175,7 +175,7 @@ fn as_operation_name(value: &Raw, from: From) -> Result<Cow<'_, str>, Refusal> {
 
 /// `text.trim()`, with no pass over its characters when it starts and ends
 /// with an ASCII character that is no space (most names).
-fn trimmed(text: &str) -> &str {
+pub(super) fn trimmed(text: &str) -> &str {
     let bare = |b: Option<&u8>| b.is_some_and(|b| b.is_ascii() && !char::from(*b).is_whitespace());
     let bytes = text.as_bytes();
     if bare(bytes.first()) && bare(bytes.last()) {
