@@ -464,6 +464,8 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.operations();
   r.onMsg('go');
   r.completed();
+  r.gate(false);
+  r.gate(true);
   r.due(0);
   r.inputChanged(1);
   r.nextDeadline();
