@@ -24,6 +24,13 @@ function declarations() {
   return decls;
 }
 
+/** The attempt of the last effect of `kind` in `effects` (what an answer to it names). */
+function attemptOf(effects, kind) {
+  const effect = effects.filter((e) => e.kind === kind).pop();
+  assert.ok(effect, `an effect of kind ${kind} in ${JSON.stringify(effects)}`);
+  return effect.attempt;
+}
+
 const nameOf = (name) => (ts.isIdentifier(name) || ts.isStringLiteral(name) ? name.text : name.getText());
 
 /**
@@ -259,8 +266,7 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     const run = keep(plant.operationRun('o'));
     run.start(1);
     run.granted(1);
-    run.command('hold', 'Ann', 'gasket', 2);
-    run.holdDone(2);
+    run.holdDone(attemptOf(run.command('hold', 'Ann', 'gasket', 2), 'hold'), 2);
     const held = run.snapshot({ kind: 'node', id: 'op' });
     shapes.expect('RunSnapshot', held);
     shapes.expect('RunOwner', held.owner);
@@ -392,10 +398,16 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     const commanded = keep(t.operationRun('o'));
     shapes.expect('RunCommand[]', commanded.commands());
     // Held in the wait: the restart puts V back before the wait goes on (a command step of V would command it itself).
-    effects.push(...commanded.start(30), ...commanded.granted(31), ...commanded.stepDone(0, 31), ...commanded.command('hold', 'Ann', null, 32), ...commanded.holdDone(33));
+    // Each answer names the attempt of the effect it answers.
+    const step = commanded.start(30).concat(commanded.granted(31), commanded.stepDone(0, 31));
+    const hold = commanded.command('hold', 'Ann', null, 32);
+    effects.push(...step, ...hold, ...commanded.holdDone(attemptOf(hold, 'hold'), 33));
     shapes.expect('RunState', commanded.state());
-    effects.push(...commanded.command('restart', 'Ann', null, 34), ...commanded.restartDone(35), ...commanded.command('stop', 'Ann', null, 36));
-    effects.push(...commanded.stepDone(1, 37), ...commanded.stepDone(2, 38), ...commanded.released(39));
+    const restore = commanded.command('restart', 'Ann', null, 34);
+    const again = commanded.restartDone(attemptOf(restore, 'restore'), 35);
+    effects.push(...restore, ...again, ...commanded.command('stop', 'Ann', null, 36));
+    const toIdle = commanded.stepDone(attemptOf(again, 'startStep'), 37);
+    effects.push(...toIdle, ...commanded.stepDone(attemptOf(toIdle, 'startStep'), 38), ...commanded.released(39));
     shapes.expect('RunEffect[]', effects);
     const kinds = new Set(effects.map((e) => e.kind));
     for (const kind of ['acquire', 'startStep', 'release', 'finished', 'fault', 'failed', 'hold', 'restore', 'entered', 'cancelStep', 'stopped']) {

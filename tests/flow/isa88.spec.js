@@ -168,6 +168,52 @@ describe('ISA-88 commands: hold, restart, stop, abort, reset', function () {
     assert.match(err.message, /did not hold within 0\.54 s/);
   });
 
+  it('a late answer to the step a hold cancelled goes to the core with its attempt, which ignores it once the restart sent the same step again', async function () {
+    await start();
+    // Each group command's answer (its onDone), in the order sent: step 1, the hold, the restore, step 1 again.
+    const commands = helper.getNode('pl').runtime.commands;
+    const sendCommand = commands.run;
+    const answers = [];
+    commands.run = function (args) {
+      answers.push(args.onDone);
+      return sendCommand.call(this, args);
+    };
+    send('op10', { topic: 'load' });
+    await until(() => answers.length === 1, 'step 1 sent');
+    // What reaches the run's core, and what it answers.
+    const host = [...runtime().runs][0];
+    const fed = [];
+    for (const name of ['stepDone', 'stepFailed']) {
+      const input = host.run[name];
+      host.run[name] = function (attempt, ...rest) {
+        const effects = input.call(this, attempt, ...rest);
+        fed.push({ name, attempt, effects });
+        return effects;
+      };
+    }
+    await command('op10', 'hold');
+    await runTill(() => runOf('10').state === 'held', 'held');
+    await command('op10', 'restart');
+    await until(() => answers.length === 4, 'step 1 sent again');
+    assert.equal(host.run.step(), 0, 'in step 1 again, its new attempt in flight');
+    const before = panel.commands.length;
+    // The cancelled attempt answers now, done and then failed: the core ignores both.
+    answers[0](null);
+    answers[0](new Error('late'));
+    assert.deepEqual(fed, [{ name: 'stepDone', attempt: 0, effects: [] }, { name: 'stepFailed', attempt: 0, effects: [] }]);
+    assert.equal(host.run.step(), 0);
+    assert.equal(panel.commands.length, before, 'no step 2 on the late answer');
+    assert.equal(runOf('10').state, 'running');
+    // The current attempt's answer moves the run on, and it completes with its normal result.
+    await runTill(() => statusOf('op10').text === '3/5 wait', 'the wait');
+    assert.deepEqual(fed[2], { name: 'stepDone', attempt: 3, effects: fed[2].effects });
+    assert.deepEqual(fed[2].effects.map((e) => [e.kind, e.index, e.attempt]), [['startStep', 1, 4]]);
+    sensor(150);
+    await runTill(() => seen.out.length === 1, 'the return');
+    assert.equal(seen.caught.length, 0, 'nothing faulted');
+    assert.deepEqual(seen.out[0].operation.steps.map((s) => s.kind), ['command', 'command', 'wait', 'command', 'returnToIdle']);
+  });
+
   it('a refused transition (restart of a running operation) reaches a Catch node as COMMAND_REFUSED and changes nothing', async function () {
     await start();
     await inWait();

@@ -183,4 +183,30 @@ describe('one timer per engine: alarms, drains and routine deadlines with no pol
     assert.deepEqual(to('rt').map((m) => [m.payload.event, m.payload.operation]), [['dispatched', '51']], 'fired at its deadline');
     noInterval();
   });
+
+  it('keeps no routine deadline while its interlock drains: a sample then arms no timer, and the condition is checked once the drain ended', async function () {
+    await helper.load(paletteNodes, flowOf());
+    fakePanel(helper, plantDocument());
+    sensor(helper, 50);
+    await quiet();
+    await runFor(helper, 100);
+    // A run keeps a deploy's drain open until it ends.
+    helper.getNode('op20').receive({ topic: 'rinse', payload: 20 });
+    await quiet();
+    const changed = plantDocument();
+    changed.operations[0].description = 'rinse again';
+    await helper.setFlows(flowOf(changed), 'full');
+    await quiet();
+    assert.equal(runtime().gateOpen, false, 'draining');
+    const host = runtime().routines.get('silo');
+    sensor(helper, 150); // the silo's condition holds now
+    await quiet();
+    assert.equal(host.dueAt, undefined, 'no deadline while draining');
+    assert.deepEqual(to('rt').map((m) => m.payload.event), [], 'nothing fired');
+    await runUntil(helper, () => runtime().gateOpen, 'the drain to end', { step: 5 });
+    // The new document's sensors start empty: the next sample makes the condition hold again.
+    sensor(helper, 150);
+    await runUntil(helper, () => to('rt').length > 0, 'the condition checked', { step: 50, maxMs: 2000 });
+    assert.deepEqual(to('rt').map((m) => [m.payload.event, m.payload.operation]), [['dispatched', '51']], 'fired once the drain ended');
+  });
 });

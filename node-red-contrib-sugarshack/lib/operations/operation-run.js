@@ -52,8 +52,8 @@ class RunHost {
     this.ended = false;
     /** @type {RunState | null} where it ended, once it did */
     this.endState = null;
-    /** @type {{ index: number, cancel: (reason: string) => void } | null} the step, hold or restore in progress */
-    this.current = null;
+    /** @type {Map<number, (reason: string) => void>} the step, hold or restore in progress, by its attempt: how to cancel it */
+    this.inFlight = new Map();
     /** @type {RunState | null} the operator's state it last entered, as known without asking its core */
     this.entered = null;
   }
@@ -171,12 +171,12 @@ class RunHost {
         break;
       case 'hold':
         // Like a lockout, the hold makes equipment safe: it leaves even if the state cannot be saved.
-        this.launch(this.stepIndex(), saveFirst ? 'unsaved' : 'now', (settle) => this.groupCommand(e, settle),
-          (r, err) => (err ? r.holdFailed(err.code, err.message, clock.now()) : r.holdDone(clock.now())));
+        this.launch(e.attempt, saveFirst ? 'unsaved' : 'now', (settle) => this.groupCommand(e, settle),
+          (r, err) => (err ? r.holdFailed(e.attempt, err.code, err.message, clock.now()) : r.holdDone(e.attempt, clock.now())));
         break;
       case 'restore':
-        this.launch(this.stepIndex(), saveFirst ? 'saved' : 'now', (settle) => this.groupCommand(e, settle),
-          (r, err) => (err ? r.restartFailed(err.code, err.message, clock.now()) : r.restartDone(clock.now())));
+        this.launch(e.attempt, saveFirst ? 'saved' : 'now', (settle) => this.groupCommand(e, settle),
+          (r, err) => (err ? r.restartFailed(e.attempt, err.code, err.message, clock.now()) : r.restartDone(e.attempt, clock.now())));
         break;
       case 'entered':
         this.entered = e.state;
@@ -202,7 +202,7 @@ class RunHost {
         break;
       }
       case 'cancelStep':
-        this.cancelStep();
+        this.cancel(e.attempt, text('labels.operationStopped'));
         break;
       case 'withdraw': {
         const refused = () => this.feed((r) => r.withdrawRefused(clock.now()));
@@ -238,11 +238,6 @@ class RunHost {
     }
   }
 
-  stepIndex() {
-    const step = this.run ? this.run.step() : undefined;
-    return step ?? -1;
-  }
-
   /** @param {EffectOf<'acquire'>} e */
   acquire(e) {
     this.port.progress('queued');
@@ -268,9 +263,9 @@ class RunHost {
    * A step with the time the core gives it (after a hold, what was left).
    * @param {EffectOf<'startStep'>} effect @param {boolean} saveFirst
    */
-  startStep({ index, step, within, timeoutMs }, saveFirst) {
+  startStep({ index, attempt, step, within, timeoutMs }, saveFirst) {
     this.port.progress('step', index, step);
-    this.launch(index, saveFirst ? 'saved' : 'now', (settle) => {
+    this.launch(attempt, saveFirst ? 'saved' : 'now', (settle) => {
       if (step.kind === 'wait') {
         const signal = {};
         this.plant.sensors.condition(step.condition, step.sensors)
@@ -279,7 +274,7 @@ class RunHost {
         return (reason) => signal.cancel && signal.cancel(reason);
       }
       return this.plant.commands.run({ payload: step.command, timeoutMs, within, onDone: settle });
-    }, (r, err) => (err ? r.stepFailed(index, err.code, err.message, clock.now()) : r.stepDone(index, clock.now())));
+    }, (r, err) => (err ? r.stepFailed(attempt, err.code, err.message, clock.now()) : r.stepDone(attempt, clock.now())));
   }
 
   /** A hold or restore group command within the run's lines. @param {EffectOf<'hold' | 'restore'>} e */
@@ -288,30 +283,28 @@ class RunHost {
   }
 
   /**
-   * Makes an action (a step, a hold or restore command) the one in progress,
-   * and starts it: `now`, once the state is saved (`saved`), or once saved
-   * or the save failed (`unsaved`). Cancelled before it started, it never
-   * does; its outcome is fed to the core only while it is still the one in
-   * progress (a late answer for an action already left is dropped).
-   * @param {number} index
+   * Starts an action (a step, a hold or restore command), attempt `attempt`
+   * of the core: `now`, once the state is saved (`saved`), or once saved or
+   * the save failed (`unsaved`). Cancelled before it started, it never does.
+   * Its outcome goes to the core with its attempt, however late: the core
+   * ignores an answer to an attempt that is no longer its current one.
+   * @param {number} attempt
    * @param {'now' | 'saved' | 'unsaved'} when
    * @param {(settle: (err: any) => void) => ((reason: string) => void)} begin returns its cancel
    * @param {(run: OperationRun, err: SugarshackError | null) => RunEffect[]} outcome
    */
-  launch(index, when, begin, outcome) {
-    /** @type {{ index: number, cancel: (reason: string) => void }} */
-    const token = { index, cancel: () => {} };
-    this.current = token;
+  launch(attempt, when, begin, outcome) {
+    this.inFlight.set(attempt, () => {});
     const settle = (err) => {
-      if (this.current !== token) return;
-      this.current = null;
+      this.inFlight.delete(attempt);
       const e = err ? asSugarshackError(err) : null;
       this.feed((r) => outcome(r, e));
     };
     const go = () => {
-      if (this.current !== token || this.ended) return;
+      if (!this.inFlight.has(attempt) || this.ended) return;
       try {
-        token.cancel = begin(settle);
+        const cancel = begin(settle);
+        if (this.inFlight.has(attempt)) this.inFlight.set(attempt, cancel);
       } catch (err) {
         settle(err);
       }
@@ -320,10 +313,16 @@ class RunHost {
     else this.interlock.committer.change(go, { evenUnsaved: when === 'unsaved' });
   }
 
-  cancelStep() {
-    const token = this.current;
-    this.current = null;
-    if (token) token.cancel(text('labels.operationStopped'));
+  /** Stops attempt `attempt` if it is still in progress. @param {number} attempt @param {string} reason */
+  cancel(attempt, reason) {
+    const cancel = this.inFlight.get(attempt);
+    this.inFlight.delete(attempt);
+    if (cancel) cancel(reason);
+  }
+
+  /** Stops whatever is in progress (the run ends without its core). @param {string} reason */
+  cancelAll(reason) {
+    for (const attempt of [...this.inFlight.keys()]) this.cancel(attempt, reason);
   }
 
   /** @param {() => void} report @param {RunState} [state] */
@@ -361,9 +360,7 @@ class RunHost {
   shutdown() {
     if (this.ended) return;
     this.ended = true;
-    const token = this.current;
-    this.current = null;
-    if (token) token.cancel(text('labels.nodeRedStopping'));
+    this.cancelAll(text('labels.nodeRedStopping'));
     this.free();
     if (this.port.abandon) this.port.abandon();
   }
@@ -379,9 +376,7 @@ class RunHost {
    */
   suspend() {
     this.ended = true;
-    const token = this.current;
-    this.current = null;
-    if (token) token.cancel(text('labels.coreFailed'));
+    this.cancelAll(text('labels.coreFailed'));
     wasm.forget(this.run);
     this.run = null;
     this.interlock.runEnded(this);
@@ -391,9 +386,7 @@ class RunHost {
   /** Its core is gone (a wasm trap): the run ends with the error, touching nothing. */
   abandon(err) {
     if (this.ended) return;
-    const token = this.current;
-    this.current = null;
-    if (token) token.cancel(text('labels.coreFailed'));
+    this.cancelAll(text('labels.coreFailed'));
     this.finishWith(() => this.port.fail(err));
   }
 }

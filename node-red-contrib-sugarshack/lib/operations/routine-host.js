@@ -276,6 +276,7 @@ class RoutineHost {
     const machine = this.machine;
     if (this.ended || !machine) return;
     machine.inputChanged(t);
+    this.gate(machine);
     const next = machine.nextDeadline();
     if (next !== undefined && next <= clock.now()) this.checkConditions();
     else this.followDeadline();
@@ -301,6 +302,17 @@ class RoutineHost {
     this.checkConditions();
   }
 
+  /**
+   * Tells its core whether the interlock's gate is open (ready, not draining):
+   * closed, it hands out no condition and keeps no deadline, and the check
+   * waits for the gate to open.
+   */
+  gate(machine) {
+    const open = this.interlock.gateOpen && this.interlock.state === 'ready';
+    machine.gate(open);
+    if (!open) this.checkWhenOpen();
+  }
+
   /** A deploy drains (or the interlock starts): its conditions are checked once the interlock opens. */
   checkWhenOpen() {
     if (this.checkParked || (this.interlock.gateOpen && this.interlock.state !== 'starting')) return;
@@ -314,10 +326,7 @@ class RoutineHost {
   checkConditions() {
     const machine = this.machine;
     if (this.ended || !machine || this.run) return;
-    if (!this.interlock.gateOpen || this.interlock.state !== 'ready') {
-      this.checkWhenOpen();
-      return;
-    }
+    this.gate(machine);
     const now = clock.now();
     let due;
     try {
@@ -340,10 +349,7 @@ class RoutineHost {
       }
       const current = this.machine;
       if (!outcome.met || this.ended || !current) continue;
-      if (this.run || !this.interlock.gateOpen) {
-        current.inputChanged(t); // held, not acted on: due again
-        continue;
-      }
+      // Held back by a run dispatched meanwhile (or the closed gate), the core makes it due again.
       const d = stats.time('routine', () => current.conditionMet(t));
       if (d) this.dispatch(d);
     }

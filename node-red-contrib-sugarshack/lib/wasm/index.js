@@ -463,6 +463,8 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   r.operations();
   r.onMsg('go');
   r.completed();
+  r.gate(false);
+  r.gate(true);
   r.due(0);
   r.inputChanged(1);
   r.nextDeadline();
@@ -490,26 +492,24 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
 
 /** An operation held, restarted, saved held and restored, stopped, aborted and reset; its operation's abort recorded, then reset with its routine. */
 function primeCommands(t, AbortedOperations) {
+  // The hold or restore a command asks for is its last effect: its answer names its attempt.
+  const attempt = (effects) => effects[effects.length - 1].attempt;
   const run = t.operationRun('o');
   run.start(0);
   run.granted(1);
-  run.command('hold', 'primer', 'primer', 2);
-  run.holdFailed('X', 'primer', 3);
+  run.holdFailed(attempt(run.command('hold', 'primer', 'primer', 2)), 'X', 'primer', 3);
   run.free();
   const held = t.operationRun('o');
   held.start(0);
   held.granted(1);
   held.stepDone(0, 1);
   // Held in the wait: its restart restores V (the command step would command V itself).
-  held.command('hold', 'primer', null, 2);
-  held.holdDone(3);
+  held.holdDone(attempt(held.command('hold', 'primer', null, 2)), 3);
   const { run: back, effects } = t.restoreRun(held.snapshot({ kind: 'node', id: 'primer' }));
   effects.length;
-  back.command('restart', 'primer', null, 4);
-  back.restartFailed('X', 'primer', 5);
+  back.restartFailed(attempt(back.command('restart', 'primer', null, 4)), 'X', 'primer', 5);
   back.free();
-  held.command('restart', 'primer', null, 4);
-  held.restartDone(5);
+  held.restartDone(attempt(held.command('restart', 'primer', null, 4)), 5);
   held.command('stop', 'primer', null, 6);
   held.command('abort', 'primer', null, 7);
   held.awaitsReset();

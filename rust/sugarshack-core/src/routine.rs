@@ -4,7 +4,10 @@
 //! its state is entered, then again once its sensors sampled, at most once
 //! per `everyMs` (the caller evaluates it and reports the result): a value
 //! that did not change cannot make it hold, so nothing polls. The caller
-//! keeps one timer at [`RoutineMachine::next_deadline`].
+//! keeps one timer at [`RoutineMachine::next_deadline`]. Conditions are
+//! checked only while its interlock's gate is open (the caller says when it
+//! opens and closes, [`RoutineMachine::gate`]): a deploy's drain or a start
+//! fires nothing, and what was due is checked once it opens.
 
 use std::fmt;
 
@@ -219,6 +222,8 @@ pub struct RoutineMachine {
     checked: Vec<Option<Millis>>,
     /// Per transition: whether its sensors sampled since then.
     changed: Vec<bool>,
+    /// Its interlock's gate is closed (starting, or a deploy's drain): no condition is due.
+    gate_closed: bool,
 }
 
 impl RoutineMachine {
@@ -238,6 +243,7 @@ impl RoutineMachine {
             held: false,
             stopped: false,
             aborted: false,
+            gate_closed: false,
         })
     }
 
@@ -501,11 +507,17 @@ impl RoutineMachine {
         }
     }
 
+    /// Its interlock's gate opened (`true`) or closed: while closed no
+    /// condition is due and none fires; what fell due meanwhile is due once it opens.
+    pub fn gate(&mut self, open: bool) {
+        self.gate_closed = !open;
+    }
+
     /// The condition transitions of the current state due for evaluation at
     /// `now` (never checked in this state, or their sensors sampled since a
-    /// check `everyMs` ago). They count as checked now.
+    /// check `everyMs` ago). They count as checked now. None while the gate is closed.
     pub fn due(&mut self, now: Millis) -> Vec<usize> {
-        if self.ready().is_err() {
+        if self.gate_closed || self.ready().is_err() {
             return Vec::new();
         }
         let due: Vec<usize> = (0..self.graph.edges().len())
@@ -530,11 +542,11 @@ impl RoutineMachine {
     }
 
     /// When [`RoutineMachine::due`] next has something to hand out (`ZERO`:
-    /// now), if ever: never while an operation is pending or it is halted,
-    /// held, stopped or aborted, nor while no sensor of its state's
-    /// conditions sampled since their check.
+    /// now), if ever: never while an operation is pending, the gate is closed
+    /// or it is halted, held, stopped or aborted, nor while no sensor of its
+    /// state's conditions sampled since their check.
     pub fn next_deadline(&self) -> Option<Millis> {
-        if self.ready().is_err() {
+        if self.gate_closed || self.ready().is_err() {
             return None;
         }
         let edges = self.graph.edges();
@@ -544,10 +556,16 @@ impl RoutineMachine {
     }
 
     /// The condition of `transition` held: it fires if the routine is still in its
-    /// `from` state with nothing pending (an earlier one may have fired meanwhile).
+    /// `from` state with nothing pending (an earlier one may have fired
+    /// meanwhile) and the gate open. Held back by a pending operation or the
+    /// closed gate, it is due again `everyMs` after its check.
     pub fn condition_met(&mut self, transition: usize) -> Option<Dispatch> {
         let t = self.graph.edges().get(transition)?;
-        if t.from != self.state || self.ready().is_err() {
+        if t.from != self.state {
+            return None;
+        }
+        if self.gate_closed || self.ready().is_err() {
+            self.input_changed(transition);
             return None;
         }
         Some(self.dispatch(transition))

@@ -5,7 +5,10 @@
 //! supervisor gone), at random times. After every input:
 //!
 //! - the run's state, step and effects are the model's (the effects by kind,
-//!   step and timeout: a held step's timeout stands still);
+//!   step, timeout and attempt: a held step's timeout stands still, and each
+//!   step, hold command and restore is a new attempt);
+//! - an answer to an earlier attempt (a step cancelled by a hold, then
+//!   reissued after the restart), interleaved anywhere, changes nothing;
 //! - the move is declared: one command the table allows, then only moves
 //!   events declare; a command the table refuses changes nothing;
 //! - a held run commands nothing: no step, no command, no release goes out
@@ -104,6 +107,30 @@ enum Input {
     ReleaseFailed,
     FaultApplied,
     Interrupt,
+    /// An answer to the attempt `n` before the latest one.
+    Stale(Answer, u32),
+}
+
+/// An answer to a step, a hold command or a restore.
+#[derive(Clone, Copy, Debug)]
+enum Answer {
+    StepDone,
+    StepFailed,
+    HoldDone,
+    HoldFailed,
+    RestartDone,
+    RestartFailed,
+}
+
+fn answer() -> impl Strategy<Value = Answer> {
+    prop::sample::select(vec![
+        Answer::StepDone,
+        Answer::StepFailed,
+        Answer::HoldDone,
+        Answer::HoldFailed,
+        Answer::RestartDone,
+        Answer::RestartFailed,
+    ])
 }
 
 fn input() -> impl Strategy<Value = Input> {
@@ -123,6 +150,7 @@ fn input() -> impl Strategy<Value = Input> {
         1 => Just(Input::ReleaseFailed),
         3 => Just(Input::FaultApplied),
         1 => Just(Input::Interrupt),
+        4 => (answer(), 1..4u32).prop_map(|(a, n)| Input::Stale(a, n)),
     ]
 }
 
@@ -130,10 +158,12 @@ fn input() -> impl Strategy<Value = Input> {
 #[derive(Clone, Debug, PartialEq)]
 enum Expect {
     Acquire,
-    Start(usize, Millis),
-    Cancel(usize),
-    Hold,
-    Restore,
+    /// Step, timeout, attempt.
+    Start(usize, Millis, u32),
+    /// Step, attempt.
+    Cancel(usize, u32),
+    Hold(u32),
+    Restore(u32),
     Entered(State),
     Release,
     Withdraw,
@@ -147,11 +177,14 @@ fn seen(e: &RunEffect) -> Expect {
     match e {
         RunEffect::Acquire { .. } => Expect::Acquire,
         RunEffect::StartStep {
-            index, timeout_ms, ..
-        } => Expect::Start(*index, *timeout_ms),
-        RunEffect::CancelStep { index } => Expect::Cancel(*index),
-        RunEffect::Hold { .. } => Expect::Hold,
-        RunEffect::Restore { .. } => Expect::Restore,
+            index,
+            timeout_ms,
+            attempt,
+            ..
+        } => Expect::Start(*index, *timeout_ms, *attempt),
+        RunEffect::CancelStep { index, attempt } => Expect::Cancel(*index, *attempt),
+        RunEffect::Hold { attempt, .. } => Expect::Hold(*attempt),
+        RunEffect::Restore { attempt, .. } => Expect::Restore(*attempt),
         RunEffect::Entered { state, .. } => Expect::Entered(*state),
         RunEffect::Release { .. } => Expect::Release,
         RunEffect::Withdraw { .. } => Expect::Withdraw,
@@ -206,6 +239,8 @@ struct Model {
     held: u64,
     /// An operator's abort was taken (until a reset).
     aborted: bool,
+    /// Attempts asked for so far (a reset does not start them again).
+    attempts: u32,
 }
 
 impl Model {
@@ -218,7 +253,19 @@ impl Model {
             held_since: 0,
             held: 0,
             aborted: false,
+            attempts: 0,
         }
+    }
+
+    /// A new attempt's number.
+    fn attempt(&mut self) -> u32 {
+        self.attempts += 1;
+        self.attempts - 1
+    }
+
+    /// The latest attempt (the one in flight, if any).
+    fn latest(&self) -> u32 {
+        self.attempts.saturating_sub(1)
     }
 
     fn state(&self) -> State {
@@ -266,13 +313,15 @@ impl Model {
             .timeout_ms()
             .saturating_sub(ms(self.used))
             .max(ms(1));
-        out.push(Expect::Start(i, timeout));
+        let attempt = self.attempt();
+        out.push(Expect::Start(i, timeout, attempt));
     }
 
     fn hold(&mut self, i: usize, out: &mut Vec<Expect>) {
         if self.plan.hold.is_some() {
             self.at = At::Holding { i };
-            out.extend([Expect::Entered(State::Holding), Expect::Hold]);
+            let attempt = self.attempt();
+            out.extend([Expect::Entered(State::Holding), Expect::Hold(attempt)]);
         } else {
             self.at = At::Held { i };
             out.push(Expect::Entered(State::Held));
@@ -319,11 +368,11 @@ impl Model {
             (At::Step { i, .. }, Command::Hold) => {
                 self.used += now.saturating_sub(self.since);
                 self.held_since = now;
-                out.push(Expect::Cancel(i));
+                out.push(Expect::Cancel(i, self.latest()));
                 self.hold(i, &mut out);
             }
             (At::Restarting { i }, Command::Hold) => {
-                out.push(Expect::Cancel(i));
+                out.push(Expect::Cancel(i, self.latest()));
                 self.hold(i, &mut out);
             }
             (At::Held { i }, Command::Restart) => {
@@ -332,7 +381,8 @@ impl Model {
                 // The hold sets P, which no step but the return to idle
                 // commands: something to restore, unless held in that step.
                 if self.plan.hold.is_some() && i != self.last() {
-                    out.push(Expect::Restore);
+                    let attempt = self.attempt();
+                    out.push(Expect::Restore(attempt));
                 } else {
                     self.restart_done(i, now, &mut out);
                 }
@@ -349,7 +399,10 @@ impl Model {
                     self.at = At::Step { i, stopping: true };
                     out.push(Expect::Entered(State::Stopping));
                 } else {
-                    out.extend([Expect::Cancel(i), Expect::Entered(State::Stopping)]);
+                    out.extend([
+                        Expect::Cancel(i, self.latest()),
+                        Expect::Entered(State::Stopping),
+                    ]);
                     self.return_to_idle(i, now, &mut out);
                 }
             }
@@ -386,13 +439,15 @@ impl Model {
                 if matches!(self.at, At::Held { .. }) {
                     self.held += now.saturating_sub(self.held_since);
                 } else {
-                    out.push(Expect::Cancel(i));
+                    out.push(Expect::Cancel(i, self.latest()));
                 }
                 out.push(Expect::Entered(State::Aborting));
                 self.fault(State::Aborted, &mut out);
             }
             (At::Ended(_), Command::Reset) => {
+                let attempts = self.attempts;
                 *self = Model::new(self.plan.clone());
+                self.attempts = attempts;
                 out.push(Expect::Entered(State::Idle));
             }
             (at, c) => panic!("the table allows {c} in {at:?}, the model does not"),
@@ -527,7 +582,7 @@ impl Model {
                 if matches!(self.at, At::Held { .. }) {
                     self.held += now.saturating_sub(self.held_since);
                 } else {
-                    out.push(Expect::Cancel(i));
+                    out.push(Expect::Cancel(i, self.latest()));
                 }
                 self.fault(State::Aborted, &mut out);
             }
@@ -552,6 +607,7 @@ fn event_of(input: Input) -> Option<Event> {
         Input::ReleaseFailed => Event::ReleaseFailed,
         Input::FaultApplied => Event::FaultApplied,
         Input::Interrupt => Event::Interrupted,
+        Input::Stale(..) => return None,
     })
 }
 
@@ -577,8 +633,8 @@ fn commands_something(e: &Expect) -> bool {
         e,
         Expect::Acquire
             | Expect::Start(..)
-            | Expect::Hold
-            | Expect::Restore
+            | Expect::Hold(_)
+            | Expect::Restore(_)
             | Expect::Release
             | Expect::Withdraw
             | Expect::Fault
@@ -623,24 +679,39 @@ proptest! {
                         Vec::new()
                     }
                 },
+                Input::Stale(answer, n) => {
+                    let Some(attempt) = model.latest().checked_sub(n) else { continue };
+                    let effects = match answer {
+                        Answer::StepDone => run.step_done(attempt, ms(now)),
+                        Answer::StepFailed => run.step_failed(attempt, "COMMAND_TIMEOUT", "late", ms(now)),
+                        Answer::HoldDone => run.hold_done(attempt, ms(now)),
+                        Answer::HoldFailed => run.hold_failed(attempt, "COMMAND_FAILED", "stuck", ms(now)),
+                        Answer::RestartDone => run.restart_done(attempt, ms(now)),
+                        Answer::RestartFailed => run.restart_failed(attempt, "COMMAND_FAILED", "stuck", ms(now)),
+                    };
+                    prop_assert!(effects.is_empty(), "{:?} of attempt {} in {}: {:?}", answer, attempt, before, effects);
+                    prop_assert_eq!(run.state(), before, "an earlier attempt's answer moved the run");
+                    effects
+                }
                 _ => {
-                    let step = run.step().unwrap_or(0);
+                    // The answers name the latest attempt: the one in flight, if any.
+                    let attempt = model.latest();
                     let effects = match input {
                         Input::Granted => run.granted(ms(now)),
                         Input::Refused => run.refused("QUEUE_FULL", "the queue is full"),
                         Input::Withdrawn => run.withdrawn(ms(now)),
-                        Input::StepDone => run.step_done(step, ms(now)),
-                        Input::StepDoneOther => run.step_done(step + 1, ms(now)),
-                        Input::StepFailed => run.step_failed(step, "COMMAND_TIMEOUT", "late", ms(now)),
-                        Input::HoldDone => run.hold_done(ms(now)),
-                        Input::HoldFailed => run.hold_failed("COMMAND_FAILED", "stuck", ms(now)),
-                        Input::RestartDone => run.restart_done(ms(now)),
-                        Input::RestartFailed => run.restart_failed("COMMAND_FAILED", "stuck", ms(now)),
+                        Input::StepDone => run.step_done(attempt, ms(now)),
+                        Input::StepDoneOther => run.step_done(attempt + 1, ms(now)),
+                        Input::StepFailed => run.step_failed(attempt, "COMMAND_TIMEOUT", "late", ms(now)),
+                        Input::HoldDone => run.hold_done(attempt, ms(now)),
+                        Input::HoldFailed => run.hold_failed(attempt, "COMMAND_FAILED", "stuck", ms(now)),
+                        Input::RestartDone => run.restart_done(attempt, ms(now)),
+                        Input::RestartFailed => run.restart_failed(attempt, "COMMAND_FAILED", "stuck", ms(now)),
                         Input::Released => run.released(ms(now)),
                         Input::ReleaseFailed => run.release_failed("NOT_HOLDING", "gone", ms(now)),
                         Input::FaultApplied => run.fault_applied(vec!["YEL".into()], ms(now)),
                         Input::Interrupt => run.interrupt("its interlock left the flows", ms(now)),
-                        Input::Command(_) => unreachable!(),
+                        Input::Command(_) | Input::Stale(..) => unreachable!(),
                     };
                     let expected = match input {
                         Input::StepDoneOther => Vec::new(),

@@ -60,6 +60,11 @@ fn cmd(r: &mut OperationRun, c: Command, at: u64) -> Vec<RunEffect> {
     r.command(c, &who(), ms(at)).unwrap()
 }
 
+/// The attempt the run waits for (none: one it never asked for).
+fn cur(r: &OperationRun) -> u32 {
+    r.attempt().unwrap_or(u32::MAX)
+}
+
 /// A run in `state`, reached one way per entry of `ways`: each a name and the run.
 fn ways(state: State) -> Vec<(&'static str, OperationRun)> {
     let mut all: Vec<(&'static str, OperationRun)> = Vec::new();
@@ -74,7 +79,7 @@ fn ways(state: State) -> Vec<(&'static str, OperationRun)> {
                 let mut r = queued.clone();
                 r.granted(ms(100));
                 for i in 0..at_step {
-                    r.step_done(i, ms(200 + i as u64));
+                    r.step_done(i as u32, ms(200 + i as u64));
                 }
                 r
             };
@@ -92,13 +97,13 @@ fn ways(state: State) -> Vec<(&'static str, OperationRun)> {
                 State::Held => {
                     let mut r = granted(2);
                     cmd(&mut r, Command::Hold, 1000);
-                    r.hold_done(ms(1100));
+                    r.hold_done(cur(&r), ms(1100));
                     add("held in the wait", &r);
                 }
                 State::Restarting => {
                     let mut r = granted(2);
                     cmd(&mut r, Command::Hold, 1000);
-                    r.hold_done(ms(1100));
+                    r.hold_done(cur(&r), ms(1100));
                     cmd(&mut r, Command::Restart, 2000);
                     add("restarting in the wait", &r);
                 }
@@ -114,8 +119,8 @@ fn ways(state: State) -> Vec<(&'static str, OperationRun)> {
                     add("stopped in the wait", &r);
                     let mut r = granted(2);
                     cmd(&mut r, Command::Stop, 1000);
-                    r.step_done(2, ms(1200));
-                    r.step_done(4, ms(1300));
+                    r.step_done(cur(&r), ms(1200));
+                    r.step_done(cur(&r), ms(1300));
                     add("stopped, back at idle, releasing", &r);
                 }
                 State::Aborting => {
@@ -130,8 +135,8 @@ fn ways(state: State) -> Vec<(&'static str, OperationRun)> {
                     add("aborted in the wait", &r);
                     let mut r = granted(2);
                     cmd(&mut r, Command::Stop, 1000);
-                    r.step_done(2, ms(1200));
-                    r.step_done(4, ms(1300));
+                    r.step_done(cur(&r), ms(1200));
+                    r.step_done(cur(&r), ms(1300));
                     cmd(&mut r, Command::Abort, 1400);
                     add("aborted while a stop released", &r);
                 }
@@ -247,15 +252,15 @@ fn inputs_for(event: Event) -> Vec<fn(&mut OperationRun)> {
         Event::RequestRefused => vec![|r| drop(r.refused("QUEUE_FULL", "full"))],
         Event::Withdrawn => vec![|r| drop(r.withdrawn(ms(7000)))],
         Event::StepDone | Event::LastStepDone => {
-            vec![|r| drop(r.step_done(r.step().unwrap_or(0), ms(7000)))]
+            vec![|r| drop(r.step_done(cur(r), ms(7000)))]
         }
         Event::Failed => vec![
-            |r| drop(r.step_failed(r.step().unwrap_or(0), "E", "x", ms(7000))),
-            |r| drop(r.hold_failed("E", "x", ms(7000))),
-            |r| drop(r.restart_failed("E", "x", ms(7000))),
+            |r| drop(r.step_failed(cur(r), "E", "x", ms(7000))),
+            |r| drop(r.hold_failed(cur(r), "E", "x", ms(7000))),
+            |r| drop(r.restart_failed(cur(r), "E", "x", ms(7000))),
         ],
-        Event::HoldDone => vec![|r| drop(r.hold_done(ms(7000)))],
-        Event::RestartDone => vec![|r| drop(r.restart_done(ms(7000)))],
+        Event::HoldDone => vec![|r| drop(r.hold_done(cur(r), ms(7000)))],
+        Event::RestartDone => vec![|r| drop(r.restart_done(cur(r), ms(7000)))],
         Event::Released => vec![|r| drop(r.released(ms(7000)))],
         Event::ReleaseFailed => vec![|r| drop(r.release_failed("NOT_HOLDING", "gone", ms(7000)))],
         Event::FaultApplied => vec![|r| drop(r.fault_applied(vec!["YEL".into()], ms(7000)))],
@@ -297,13 +302,13 @@ fn a_hold_sends_the_hold_command_and_nothing_else_until_restarted() {
     assert_eq!(
         serde_json::to_value(&held).unwrap(),
         json!([
-            { "kind": "cancelStep", "index": 2 },
+            { "kind": "cancelStep", "index": 2, "attempt": 2 },
             { "kind": "entered", "state": "holding", "step": 2 },
-            { "kind": "hold", "command": { "pumps": { "P1": false }, "valves": { "V1": 0 } }, "timeoutMs": 4000, "within": ["YEL"] }
+            { "kind": "hold", "attempt": 3, "command": { "pumps": { "P1": false }, "valves": { "V1": 0 } }, "timeoutMs": 4000, "within": ["YEL"] }
         ])
     );
     assert_eq!(
-        serde_json::to_value(r.hold_done(ms(13_000))).unwrap(),
+        serde_json::to_value(r.hold_done(3, ms(13_000))).unwrap(),
         json!([{ "kind": "entered", "state": "held", "step": 2 }])
     );
     // Held: late reports of the cancelled step, a repeated hold report: nothing.
@@ -311,7 +316,7 @@ fn a_hold_sends_the_hold_command_and_nothing_else_until_restarted() {
     assert!(r
         .step_failed(2, "CONDITION_TIMEOUT", "late", ms(80_000))
         .is_empty());
-    assert!(r.hold_done(ms(14_000)).is_empty());
+    assert!(r.hold_done(3, ms(14_000)).is_empty());
     assert!(r.granted(ms(14_000)).is_empty());
     assert_eq!(
         r.commands(),
@@ -329,10 +334,10 @@ fn a_hold_sends_the_hold_command_and_nothing_else_until_restarted() {
         serde_json::to_value(&restarted).unwrap(),
         json!([
             { "kind": "entered", "state": "restarting", "step": 2 },
-            { "kind": "restore", "command": { "pumps": { "P1": true }, "valves": { "V1": 100 } }, "timeoutMs": 4000, "within": ["YEL"] }
+            { "kind": "restore", "attempt": 4, "command": { "pumps": { "P1": true }, "valves": { "V1": 100 } }, "timeoutMs": 4000, "within": ["YEL"] }
         ])
     );
-    match r.restart_done(ms(101_000)).as_slice() {
+    match r.restart_done(4, ms(101_000)).as_slice() {
         [RunEffect::Entered {
             state: State::Running,
             step: Some(2),
@@ -345,9 +350,9 @@ fn a_hold_sends_the_hold_command_and_nothing_else_until_restarted() {
         }
         other => panic!("{other:?}"),
     }
-    r.step_done(2, ms(111_000));
-    r.step_done(3, ms(112_000));
-    r.step_done(4, ms(113_000));
+    r.step_done(5, ms(111_000));
+    r.step_done(6, ms(112_000));
+    r.step_done(7, ms(113_000));
     match r.released(ms(114_000)).as_slice() {
         [RunEffect::Finished {
             run_ms,
@@ -373,13 +378,88 @@ fn a_hold_sends_the_hold_command_and_nothing_else_until_restarted() {
 }
 
 #[test]
+fn a_late_answer_of_a_step_attempt_cancelled_by_a_hold_is_ignored_after_the_restart() {
+    let mut r = run();
+    cmd(&mut r, Command::Start, 0);
+    r.granted(ms(0));
+    // Step 0 (V1, V2 open) is attempt 0; the hold cancels it.
+    let held = cmd(&mut r, Command::Hold, 1_000);
+    assert!(matches!(
+        held.as_slice(),
+        [
+            RunEffect::CancelStep {
+                index: 0,
+                attempt: 0
+            },
+            _,
+            RunEffect::Hold { attempt: 1, .. }
+        ]
+    ));
+    r.hold_done(1, ms(1_100));
+    cmd(&mut r, Command::Restart, 2_000);
+    // The same step again, a new attempt (after the hold's 1 and the restore's 2).
+    match r.restart_done(2, ms(2_100)).as_slice() {
+        [_, RunEffect::StartStep {
+            index: 0,
+            attempt: 3,
+            ..
+        }] => {}
+        other => panic!("{other:?}"),
+    }
+    // The cancelled attempt's command completes (or fails) late: same step, earlier attempt, ignored.
+    assert!(r.step_done(0, ms(2_200)).is_empty());
+    assert!(r
+        .step_failed(0, "COMMAND_TIMEOUT", "late", ms(2_200))
+        .is_empty());
+    // Late answers of the hold and the restore too.
+    assert!(r.hold_done(1, ms(2_200)).is_empty());
+    assert!(r
+        .restart_failed(2, "COMMAND_FAILED", "late", ms(2_200))
+        .is_empty());
+    assert_eq!(
+        (r.state(), r.step(), r.attempt()),
+        (State::Running, Some(0), Some(3))
+    );
+    // The current attempt's answer moves it on.
+    assert!(matches!(
+        r.step_done(3, ms(3_000)).as_slice(),
+        [RunEffect::StartStep {
+            index: 1,
+            attempt: 4,
+            ..
+        }]
+    ));
+}
+
+#[test]
+fn a_run_saved_before_attempts_were_numbered_comes_back_and_numbers_on() {
+    let mut r = run();
+    cmd(&mut r, Command::Start, 0);
+    r.granted(ms(0));
+    cmd(&mut r, Command::Hold, 1_000);
+    r.hold_done(cur(&r), ms(1_100));
+    let mut saved = serde_json::to_value(r.snapshot(None).unwrap()).unwrap();
+    assert_eq!(saved["attempts"], 2);
+    saved.as_object_mut().unwrap().remove("attempts");
+    let saved = serde_json::from_value(saved).expect("a save without attempts");
+    let plan = plant("finish-step").operation_plan("fill").unwrap();
+    let (mut back, _) = OperationRun::restore(plan, &saved).unwrap();
+    assert_eq!(back.state(), State::Held);
+    match cmd(&mut back, Command::Restart, 2_000).as_slice() {
+        [_, RunEffect::Restore { attempt: 0, .. }] => {}
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(back.restart_done(0, ms(2_100)).len(), 2);
+}
+
+#[test]
 fn a_reissued_step_goes_on_with_the_time_it_had_left() {
     let mut r = run();
     cmd(&mut r, Command::Start, 0);
     r.granted(ms(0));
     // The first command step (V1, V2 open) 15 s into its 20 s.
     cmd(&mut r, Command::Hold, 15_000);
-    r.hold_done(ms(16_000));
+    r.hold_done(cur(&r), ms(16_000));
     // Nothing commanded before step 1: the hold's P1 goes back to idle; V1 is
     // the step's own, which it opens again.
     let restarted = cmd(&mut r, Command::Restart, 50_000);
@@ -387,7 +467,7 @@ fn a_reissued_step_goes_on_with_the_time_it_had_left() {
         serde_json::to_value(&restarted[1]).unwrap()["command"],
         json!({ "pumps": { "P1": false } })
     );
-    match r.restart_done(ms(51_000)).as_slice() {
+    match r.restart_done(cur(&r), ms(51_000)).as_slice() {
         [_, RunEffect::StartStep {
             index: 0,
             timeout_ms,
@@ -401,9 +481,9 @@ fn a_reissued_step_goes_on_with_the_time_it_had_left() {
     }
     // Held again while restarting, then once more: the clock of the step stood still throughout.
     cmd(&mut r, Command::Hold, 52_000);
-    r.hold_done(ms(52_500));
+    r.hold_done(cur(&r), ms(52_500));
     cmd(&mut r, Command::Restart, 53_000);
-    match r.restart_done(ms(53_500)).as_slice() {
+    match r.restart_done(cur(&r), ms(53_500)).as_slice() {
         [_, RunEffect::StartStep { timeout_ms, .. }] => assert_eq!(*timeout_ms, ms(4_000)),
         other => panic!("{other:?}"),
     }
@@ -420,24 +500,24 @@ fn a_restart_leaves_to_the_step_the_actuators_it_commands_itself() {
     // Held in the last step, "P1 off": the restore opens V1 again but does
     // not start P1 only for the step to stop it.
     cmd(&mut r, Command::Hold, 5_000);
-    r.hold_done(ms(5_500));
+    r.hold_done(cur(&r), ms(5_500));
     let restarted = cmd(&mut r, Command::Restart, 9_000);
     assert_eq!(
         serde_json::to_value(&restarted).unwrap(),
         json!([
             { "kind": "entered", "state": "restarting", "step": 3 },
-            { "kind": "restore", "command": { "valves": { "V1": 100 } }, "timeoutMs": 4000, "within": ["YEL"] }
+            { "kind": "restore", "attempt": 5, "command": { "valves": { "V1": 100 } }, "timeoutMs": 4000, "within": ["YEL"] }
         ])
     );
-    match r.restart_done(ms(9_500)).as_slice() {
+    match r.restart_done(5, ms(9_500)).as_slice() {
         [_, RunEffect::StartStep { index: 3, step, .. }] => assert_eq!(step, plan_step(&r, 3)),
         other => panic!("{other:?}"),
     }
     // Held in the return to idle, which commands every actuator the hold
     // set: nothing to restore, the step goes on at once.
-    r.step_done(3, ms(10_000));
+    r.step_done(cur(&r), ms(10_000));
     cmd(&mut r, Command::Hold, 11_000);
-    r.hold_done(ms(11_500));
+    r.hold_done(cur(&r), ms(11_500));
     match cmd(&mut r, Command::Restart, 12_000).as_slice() {
         [RunEffect::Entered {
             state: State::Restarting,
@@ -475,7 +555,7 @@ fn a_stop_finishes_the_step_then_returns_to_idle_and_releases() {
         other => panic!("{other:?}"),
     }
     assert_eq!(
-        r.step_done(4, ms(3000)),
+        r.step_done(2, ms(3000)),
         vec![RunEffect::Release {
             operation: "fill".into()
         }]
@@ -502,12 +582,19 @@ fn a_stop_now_cuts_the_step_short() {
         matches!(
             effects.as_slice(),
             [
-                RunEffect::CancelStep { index: 0 },
+                RunEffect::CancelStep {
+                    index: 0,
+                    attempt: 0
+                },
                 RunEffect::Entered {
                     state: State::Stopping,
                     ..
                 },
-                RunEffect::StartStep { index: 4, .. }
+                RunEffect::StartStep {
+                    index: 4,
+                    attempt: 1,
+                    ..
+                }
             ]
         ),
         "{effects:?}"
@@ -524,7 +611,7 @@ fn an_abort_locks_the_lines_out_at_once_and_waits_for_a_reset() {
     assert_eq!(
         aborted,
         json!([
-            { "kind": "cancelStep", "index": 1 },
+            { "kind": "cancelStep", "index": 1, "attempt": 1 },
             { "kind": "entered", "state": "aborting", "step": null },
             { "kind": "fault", "operation": "fill", "note": "aborted by ana: gasket check" }
         ])
@@ -596,7 +683,7 @@ fn a_held_run_comes_back_held_after_a_restart_on_the_same_plan_only() {
         .snapshot(Some(RunOwner::Routine { id: "truck".into() }))
         .unwrap();
     assert!(!holding.held);
-    r.hold_done(ms(13_000));
+    r.hold_done(cur(&r), ms(13_000));
     let saved = r
         .snapshot(Some(RunOwner::Node { id: "n1".into() }))
         .unwrap();
@@ -619,10 +706,10 @@ fn a_held_run_comes_back_held_after_a_restart_on_the_same_plan_only() {
     ));
     // It goes on as it would have.
     cmd(&mut back, Command::Restart, 20_000);
-    back.restart_done(ms(21_000));
-    back.step_done(2, ms(22_000));
-    back.step_done(3, ms(23_000));
-    back.step_done(4, ms(24_000));
+    back.restart_done(cur(&back), ms(21_000));
+    back.step_done(cur(&back), ms(22_000));
+    back.step_done(cur(&back), ms(23_000));
+    back.step_done(cur(&back), ms(24_000));
     assert!(matches!(
         back.released(ms(25_000)).as_slice(),
         [RunEffect::Finished { .. }]

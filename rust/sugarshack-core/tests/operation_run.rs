@@ -67,7 +67,7 @@ fn granted() -> OperationRun {
 fn at_step(index: usize) -> OperationRun {
     let mut r = granted();
     for i in 0..index {
-        assert_eq!(r.step_done(i, ms(2000 + 1000 * i as u64)).len(), 1);
+        assert_eq!(r.step_done(i as u32, ms(2000 + 1000 * i as u64)).len(), 1);
     }
     assert_eq!(r.step(), Some(index));
     r
@@ -129,6 +129,7 @@ fn the_grant_starts_step_0_with_the_lines_as_within() {
         r.granted(ms(1000)),
         vec![RunEffect::StartStep {
             index: 0,
+            attempt: 0,
             step: plan().steps[0].clone(),
             within: Some(lines()),
             timeout_ms: ms(9000),
@@ -146,6 +147,7 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
         r.step_done(1, ms(5000)),
         vec![RunEffect::StartStep {
             index: 2,
+            attempt: 2,
             step: plan().steps[2].clone(),
             within: None,
             timeout_ms: ms(60000),
@@ -155,6 +157,7 @@ fn a_wait_step_has_no_within_and_the_return_to_idle_has() {
         r.step_done(2, ms(6000)),
         vec![RunEffect::StartStep {
             index: 3,
+            attempt: 3,
             step: plan().steps[3].clone(),
             within: Some(lines()),
             timeout_ms: ms(9000),
@@ -239,7 +242,7 @@ fn late_duplicated_and_out_of_order_inputs_are_ignored() {
         r.step_done(3, ms(9000)).is_empty(),
         "a done of a step not started"
     );
-    assert!(r.step_done(usize::MAX, ms(9000)).is_empty());
+    assert!(r.step_done(u32::MAX, ms(9000)).is_empty());
     assert!(r.step_failed(0, "TIMEOUT", "late", ms(9000)).is_empty());
     assert!(r.step_failed(99, "TIMEOUT", "unknown", ms(9000)).is_empty());
     assert!(r.released(ms(9000)).is_empty(), "nothing was released");
@@ -305,7 +308,7 @@ fn each_step_kind_is_named_in_the_note() {
     let notes: Vec<String> = (0..4)
         .map(|i| {
             let mut r = at_step(i);
-            match r.step_failed(i, "E", "m", ms(0)).as_slice() {
+            match r.step_failed(i as u32, "E", "m", ms(0)).as_slice() {
                 [RunEffect::Fault { note, .. }] => note.clone(),
                 other => panic!("{other:?}"),
             }
@@ -581,7 +584,10 @@ fn an_interrupt_while_running_cancels_the_step_and_faults_the_operation() {
             ms(4000)
         ),
         vec![
-            RunEffect::CancelStep { index: 1 },
+            RunEffect::CancelStep {
+                index: 1,
+                attempt: 1
+            },
             RunEffect::Fault {
                 operation: "10".into(),
                 note: "interrupted: its operation node was stopped (redeploy or shutdown)".into(),
@@ -663,7 +669,7 @@ fn effects_serialize_as_js_reads_them() {
     let start = serde_json::to_value(r.granted(ms(1))).unwrap();
     assert_eq!(
         start,
-        json!([{ "kind": "startStep", "index": 0, "within": ["YEL", "RED"],
+        json!([{ "kind": "startStep", "index": 0, "attempt": 0, "within": ["YEL", "RED"],
                  "timeoutMs": 9000,
                  "step": { "kind": "command", "command": { "valves": { "V1": 100 } }, "timeoutMs": 9000, "restart": "reissue" } }])
     );
@@ -671,14 +677,14 @@ fn effects_serialize_as_js_reads_them() {
     let wait = serde_json::to_value(r.step_done(1, ms(3))).unwrap();
     assert_eq!(
         wait,
-        json!([{ "kind": "startStep", "index": 2,
+        json!([{ "kind": "startStep", "index": 2, "attempt": 2,
                  "timeoutMs": 60000,
                  "step": { "kind": "wait", "condition": "`LT-3` > 100", "sensors": ["LT-3"], "timeoutMs": 60000, "restart": "rerun" } }])
     );
     let abort = serde_json::to_value(r.interrupt("closed", ms(4))).unwrap();
     assert_eq!(
         abort,
-        json!([{ "kind": "cancelStep", "index": 2 },
+        json!([{ "kind": "cancelStep", "index": 2, "attempt": 2 },
                { "kind": "fault", "operation": "10", "note": "interrupted: closed" }])
     );
     let end = serde_json::to_value(r.fault_applied(vec!["YEL".into()], ms(5))).unwrap();
@@ -738,6 +744,7 @@ fn a_run_of_a_plant_operation_ends_with_its_return_to_idle() {
     match r.step_done(0, ms(1)).as_slice() {
         [RunEffect::StartStep {
             index: 1,
+            attempt: 1,
             step: PlanStep::ReturnToIdle { command, .. },
             within: Some(within),
             ..

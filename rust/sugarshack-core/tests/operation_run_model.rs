@@ -206,8 +206,10 @@ impl Model {
         let within = (!matches!(step, PlanStep::Wait { .. }))
             .then(|| LINES.iter().map(|l| l.to_string()).collect());
         let timeout_ms = step.timeout_ms();
+        // No hold here: each step is tried once, and its attempt is its index.
         vec![RunEffect::StartStep {
             index,
+            attempt: index as u32,
             step,
             within,
             timeout_ms,
@@ -386,7 +388,10 @@ impl Model {
                         aborted: true,
                     });
                     vec![
-                        RunEffect::CancelStep { index: i },
+                        RunEffect::CancelStep {
+                            index: i,
+                            attempt: i as u32,
+                        },
                         RunEffect::Fault {
                             operation: ID.into(),
                             note: cause,
@@ -480,7 +485,7 @@ fn follow(g: Grammar, e: &RunEffect, plan: &OperationPlan) -> Result<Grammar, St
             }
             Releasing
         }
-        (Stepping(k), RunEffect::CancelStep { index }) if *index == k => Cancelled(k),
+        (Stepping(k), RunEffect::CancelStep { index, .. }) if *index == k => Cancelled(k),
         (Stepping(_) | Cancelled(_) | Releasing, RunEffect::Fault { .. }) => Faulting,
         (Releasing, RunEffect::Finished { .. }) => End,
         (Faulting, RunEffect::Failed { .. }) => End,
@@ -546,11 +551,11 @@ proptest! {
                 Input::Granted => (run.granted(ms(now)), model.apply(input, None, now)),
                 Input::StepDone(w) => {
                     let i = index(w);
-                    (run.step_done(i, ms(now)), model.apply(input, Some(i), now))
+                    (run.step_done(i as u32, ms(now)), model.apply(input, Some(i), now))
                 }
                 Input::StepFailed(w) => {
                     let i = index(w);
-                    (run.step_failed(i, "E_STEP", "it broke", ms(now)), model.apply(input, Some(i), now))
+                    (run.step_failed(i as u32, "E_STEP", "it broke", ms(now)), model.apply(input, Some(i), now))
                 }
                 Input::Released => (run.released(ms(now)), model.apply(input, None, now)),
                 Input::ReleaseFailed => (run.release_failed("E_RELEASE", "not held", ms(now)), model.apply(input, None, now)),

@@ -2,7 +2,9 @@
 //! random trigger / return / fault / reset / restart / sample sequences (a
 //! condition is due on entering its state, then only after its sensors
 //! sampled, at most once per period, and the machine's next deadline says
-//! when), and random samples and reads around the staleness limit.
+//! when; nothing is due while the interlock's gate is closed, and a met
+//! condition held back is due again), and random samples and reads around
+//! the staleness limit.
 
 use proptest::prelude::*;
 use serde_json::json;
@@ -76,6 +78,8 @@ enum Event {
     Fault,
     Reset,
     Restart,
+    /// The interlock's gate opened (true) or closed.
+    Gate(bool),
 }
 
 fn event() -> impl Strategy<Value = Event> {
@@ -89,6 +93,7 @@ fn event() -> impl Strategy<Value = Event> {
         1 => Just(Event::Fault),
         1 => Just(Event::Reset),
         1 => Just(Event::Restart),
+        2 => any::<bool>().prop_map(Event::Gate),
     ]
 }
 
@@ -101,6 +106,7 @@ struct Model {
     halted: bool,
     checked: Vec<Option<u64>>,
     changed: Vec<bool>,
+    gate_closed: bool,
 }
 
 impl Model {
@@ -111,7 +117,7 @@ impl Model {
     }
     /// When a condition is next due: at once unchecked, a period after its check once sampled.
     fn next_deadline(&self) -> Option<u64> {
-        if self.pending.is_some() || self.halted {
+        if self.pending.is_some() || self.halted || self.gate_closed {
             return None;
         }
         self.ts
@@ -146,7 +152,7 @@ proptest! {
     fn routine_matches_the_reference(ts in transitions(), error_state in any::<bool>(), events in prop::collection::vec(event(), 1..60)) {
         let plant = plant(&ts, error_state);
         let mut r = RoutineMachine::new(&plant, "r").unwrap();
-        let mut m = Model { checked: vec![None; ts.len()], changed: vec![false; ts.len()], ts: ts.clone(), error_state, state: 0, pending: None, halted: false };
+        let mut m = Model { checked: vec![None; ts.len()], changed: vec![false; ts.len()], ts: ts.clone(), error_state, state: 0, pending: None, halted: false, gate_closed: false };
         let mut now = 0u64;
         let mut dispatched = 0usize;
         let mut returned = 0usize;
@@ -172,7 +178,7 @@ proptest! {
                 Event::Check { gap, met } => {
                     now += gap;
                     let mut expected = Vec::new();
-                    if m.pending.is_none() && !m.halted {
+                    if m.pending.is_none() && !m.halted && !m.gate_closed {
                         for (i, (from, _, _, trig)) in m.ts.iter().enumerate() {
                             if let Trig::Every(every) = trig {
                                 if *from == m.state && m.checked[i].is_none_or(|at| m.changed[i] && now - at >= *every) {
@@ -193,6 +199,9 @@ proptest! {
                         if fires {
                             m.pending = Some(t);
                             dispatched += 1;
+                        } else if m.ts[t].0 == m.state {
+                            // Held back (another fired first): due again a period after its check.
+                            m.changed[t] = true;
                         }
                     }
                 }
@@ -233,6 +242,10 @@ proptest! {
                         m.enter(0);
                     }
                 }
+                Event::Gate(open) => {
+                    r.gate(open);
+                    m.gate_closed = !open;
+                }
                 Event::Restart => {
                     let snapshot: RoutineSnapshot = serde_json::from_value(serde_json::to_value(r.snapshot().clone()).unwrap()).unwrap();
                     r = RoutineMachine::new(&plant, "r").unwrap();
@@ -241,6 +254,8 @@ proptest! {
                     if m.fault() { returned += 1; }
                     m.checked = vec![None; m.ts.len()];
                     m.changed = vec![false; m.ts.len()];
+                    // A new machine starts open: its host says when the gate is closed.
+                    m.gate_closed = false;
                 }
             }
             prop_assert_eq!(r.state(), STATES[m.state]);

@@ -67,16 +67,21 @@ export interface RunSnapshot {
     heldMs: number;
     held: boolean;
     steps: StepRecord[];
+    /** How many attempts it had made (absent in a save from before they were numbered). */
+    attempts?: number;
     owner?: RunOwner;
 }
 
-/** What an operation run asks JS to do. */
+/**
+ * What an operation run asks JS to do. A step, a hold command and a restore
+ * each carry a new `attempt`: its answer names it, and `cancelStep` names the one it stops.
+ */
 export type RunEffect =
     | { kind: "acquire"; operation: string; priority: number; resources: string[] }
-    | { kind: "startStep"; index: number; step: PlanStep; within?: string[]; timeoutMs: number }
-    | { kind: "cancelStep"; index: number }
-    | { kind: "hold"; command: GroupCommand; timeoutMs: number; within: string[] }
-    | { kind: "restore"; command: GroupCommand; timeoutMs: number; within: string[] }
+    | { kind: "startStep"; index: number; attempt: number; step: PlanStep; within?: string[]; timeoutMs: number }
+    | { kind: "cancelStep"; index: number; attempt: number }
+    | { kind: "hold"; attempt: number; command: GroupCommand; timeoutMs: number; within: string[] }
+    | { kind: "restore"; attempt: number; command: GroupCommand; timeoutMs: number; within: string[] }
     | { kind: "entered"; state: RunState; step: number | null }
     | { kind: "release"; operation: string }
     | { kind: "withdraw"; operation: string }
@@ -151,14 +156,15 @@ pub(crate) fn command_names(commands: Vec<Command>) -> Vec<String> {
     names(commands)
 }
 
-/// A step index from JS: wasm-bindgen would read `undefined` or NaN as step 0.
-fn step_index(index: f64) -> Result<usize, JsValue> {
-    if index.is_finite() && index >= 0.0 && index.fract() == 0.0 && index <= u32::MAX as f64 {
-        Ok(index as usize)
+/// An attempt's number from JS: wasm-bindgen would read `undefined` or NaN as 0.
+fn attempt_of(attempt: f64) -> Result<u32, JsValue> {
+    if attempt.is_finite() && attempt >= 0.0 && attempt.fract() == 0.0 && attempt <= u32::MAX as f64
+    {
+        Ok(attempt as u32)
     } else {
         Err(js_error(
             Code::InvalidStep,
-            &format!("a step index is a whole number from 0, got {index}"),
+            &format!("an attempt is a whole number from 0, got {attempt}"),
         ))
     }
 }
@@ -184,7 +190,7 @@ fn effects(effects: Vec<RunEffect>) -> Result<JsValue, JsValue> {
 /// Every input returns the effects to carry out, as plain objects with a
 /// `kind`: `acquire`, `startStep`, `cancelStep`, `hold`, `restore`,
 /// `entered`, `release`, `withdraw`, `fault`, `finished`, `stopped`, `failed`. Inputs that do not fit the run's phase and
-/// step (a late timer, a repeated report) return `[]` and change nothing.
+/// step (a late timer, a repeated report, an answer to an attempt that is not the current one) return `[]` and change nothing.
 #[wasm_bindgen]
 pub struct OperationRun {
     core: CoreRun,
@@ -361,38 +367,42 @@ impl OperationRun {
         effects(self.core.command(command, &who, now).map_err(run_error)?)
     }
 
+    /// The hold command of attempt `attempt` completed.
     #[wasm_bindgen(js_name = holdDone, unchecked_return_type = "RunEffect[]")]
-    pub fn hold_done(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
-        let now = run_time(now_ms)?;
-        effects(self.core.hold_done(now))
+    pub fn hold_done(&mut self, attempt: f64, now_ms: f64) -> Result<JsValue, JsValue> {
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.hold_done(attempt, now))
     }
 
     #[wasm_bindgen(js_name = holdFailed, unchecked_return_type = "RunEffect[]")]
     pub fn hold_failed(
         &mut self,
+        attempt: f64,
         code: &str,
         message: &str,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let now = run_time(now_ms)?;
-        effects(self.core.hold_failed(code, message, now))
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.hold_failed(attempt, code, message, now))
     }
 
+    /// The restore of attempt `attempt` completed.
     #[wasm_bindgen(js_name = restartDone, unchecked_return_type = "RunEffect[]")]
-    pub fn restart_done(&mut self, now_ms: f64) -> Result<JsValue, JsValue> {
-        let now = run_time(now_ms)?;
-        effects(self.core.restart_done(now))
+    pub fn restart_done(&mut self, attempt: f64, now_ms: f64) -> Result<JsValue, JsValue> {
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.restart_done(attempt, now))
     }
 
     #[wasm_bindgen(js_name = restartFailed, unchecked_return_type = "RunEffect[]")]
     pub fn restart_failed(
         &mut self,
+        attempt: f64,
         code: &str,
         message: &str,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let now = run_time(now_ms)?;
-        effects(self.core.restart_failed(code, message, now))
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.restart_failed(attempt, code, message, now))
     }
 
     /// Held (or holding): what survives a restart, kept with `owner`; else undefined.
@@ -441,22 +451,23 @@ impl OperationRun {
         effects(self.core.granted(now))
     }
 
+    /// The step of attempt `attempt` completed.
     #[wasm_bindgen(js_name = stepDone, unchecked_return_type = "RunEffect[]")]
-    pub fn step_done(&mut self, index: f64, now_ms: f64) -> Result<JsValue, JsValue> {
-        let (index, now) = (step_index(index)?, run_time(now_ms)?);
-        effects(self.core.step_done(index, now))
+    pub fn step_done(&mut self, attempt: f64, now_ms: f64) -> Result<JsValue, JsValue> {
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.step_done(attempt, now))
     }
 
     #[wasm_bindgen(js_name = stepFailed, unchecked_return_type = "RunEffect[]")]
     pub fn step_failed(
         &mut self,
-        index: f64,
+        attempt: f64,
         code: &str,
         message: &str,
         now_ms: f64,
     ) -> Result<JsValue, JsValue> {
-        let (index, now) = (step_index(index)?, run_time(now_ms)?);
-        effects(self.core.step_failed(index, code, message, now))
+        let (attempt, now) = (attempt_of(attempt)?, run_time(now_ms)?);
+        effects(self.core.step_failed(attempt, code, message, now))
     }
 
     #[wasm_bindgen(unchecked_return_type = "RunEffect[]")]

@@ -166,8 +166,14 @@ impl Routine {
         Ok(self.core.due(now).into_iter().map(|t| t as u32).collect())
     }
 
-    /// A sensor of the condition of `transition` sampled (or its met check
-    /// could not be acted on): it is due again `everyMs` after its last check.
+    /// Its interlock's gate opened (`true`: ready, not draining) or closed:
+    /// while closed no condition is due and none fires.
+    pub fn gate(&mut self, open: bool) {
+        self.core.gate(open);
+    }
+
+    /// A sensor of the condition of `transition` sampled (or its check
+    /// failed): it is due again `everyMs` after its last check.
     #[wasm_bindgen(js_name = inputChanged)]
     pub fn input_changed(&mut self, transition: u32) {
         self.core.input_changed(transition as usize);
@@ -206,7 +212,8 @@ impl Routine {
         to_js(&all)
     }
 
-    /// A due condition held: the dispatch, or undefined if the routine moved on meanwhile.
+    /// A due condition held: the dispatch, or undefined if the routine moved
+    /// on meanwhile, or (due again) while an operation is pending or the gate is closed.
     #[wasm_bindgen(js_name = conditionMet, unchecked_return_type = "RoutineDispatch | undefined")]
     pub fn condition_met(&mut self, transition: u32) -> Result<JsValue, JsValue> {
         match self.core.condition_met(transition as usize) {

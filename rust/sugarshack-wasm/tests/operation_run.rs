@@ -67,7 +67,7 @@ fn a_run_goes_from_its_request_to_its_release() {
     let command = one(run.granted(1500.0));
     assert_eq!(
         stringify(&command),
-        r#"{"kind":"startStep","index":0,"step":{"kind":"command","command":{"valves":{"V1":100}},"timeoutMs":9000,"restart":"reissue"},"within":["YEL"],"timeoutMs":9000}"#
+        r#"{"kind":"startStep","index":0,"attempt":0,"step":{"kind":"command","command":{"valves":{"V1":100}},"timeoutMs":9000,"restart":"reissue"},"within":["YEL"],"timeoutMs":9000}"#
     );
     assert_eq!((run.state(), run.step()), ("running".to_string(), Some(0)));
     // The step and its `within` go to the tracker as they are (C2 checked there).
@@ -98,7 +98,7 @@ fn a_run_goes_from_its_request_to_its_release() {
     let wait = one(run.step_done(0.0, 2500.0));
     assert_eq!(
         stringify(&wait),
-        r#"{"kind":"startStep","index":1,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000,"restart":"reissue"},"timeoutMs":60000}"#
+        r#"{"kind":"startStep","index":1,"attempt":1,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000,"restart":"reissue"},"timeoutMs":60000}"#
     );
     assert_eq!(
         Array::from(&run.step_done(0.0, 2600.0).unwrap()).length(),
@@ -222,7 +222,7 @@ fn an_operators_commands_cross_with_their_refusals_coded() {
         .unwrap();
     assert_eq!(
         stringify(&held),
-        r#"[{"kind":"cancelStep","index":1},{"kind":"entered","state":"held","step":1}]"#
+        r#"[{"kind":"cancelStep","index":1,"attempt":1},{"kind":"entered","state":"held","step":1}]"#
     );
     assert_eq!(run.state(), "held");
     let saved = run.snapshot(JsValue::UNDEFINED).unwrap();
@@ -233,8 +233,19 @@ fn an_operators_commands_cross_with_their_refusals_coded() {
     let restart = run.command("restart", None, None, 5000.0).unwrap();
     assert_eq!(
         stringify(&Array::from(&restart).get(2)),
-        r#"{"kind":"startStep","index":1,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000,"restart":"reissue"},"timeoutMs":59000}"#
+        r#"{"kind":"startStep","index":1,"attempt":2,"step":{"kind":"wait","condition":"`LT-3` > 10","sensors":["LT-3"],"timeoutMs":60000,"restart":"reissue"},"timeoutMs":59000}"#
     );
+    // The wait's attempt cancelled by the hold answers late: ignored; the reissued one's moves it on.
+    assert_eq!(
+        Array::from(&run.step_done(1.0, 5100.0).unwrap()).length(),
+        0
+    );
+    assert_eq!(run.step(), Some(1));
+    assert_eq!(
+        Array::from(&run.step_done(2.0, 5200.0).unwrap()).length(),
+        1
+    );
+    assert_eq!(run.step(), Some(2));
     assert_eq!(
         code_of(t.restore_run(json(r#"{ "operation": "10" }"#)).unwrap_err()),
         "INVALID_SNAPSHOT"

@@ -236,6 +236,11 @@ fn a_routine_dispatches_moves_and_survives_a_snapshot() {
         JSON::stringify(&r.conditions().unwrap()).unwrap(),
         r#"[{"transition":1,"when":"`LT-3` > 10","sensors":["LT-3"]}]"#
     );
+    // Its interlock's gate closed (a drain): nothing due, no deadline; open again, it is due.
+    r.gate(false);
+    assert!(r.due(5000.0).unwrap().is_empty());
+    assert_eq!(r.next_deadline(), None);
+    r.gate(true);
     assert_eq!(r.due(5000.0).unwrap(), vec![1]);
     assert_eq!(text(&r.condition(1).unwrap(), "when"), "`LT-3` > 10");
     assert_eq!(text(&r.condition_met(1).unwrap(), "operation"), "51");

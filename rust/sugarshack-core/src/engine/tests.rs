@@ -1214,6 +1214,7 @@ fn a_run_saved_held_comes_back_held_only_when_started_with_its_plant() {
         held_ms: Millis::ZERO,
         held: true,
         steps: Vec::new(),
+        attempts: 1,
         owner: Some(RunOwner::Node {
             id: "op-node".into(),
         }),

@@ -9,7 +9,10 @@
 //!
 //! Inputs that do not fit the run's state and step (a timer that fired late,
 //! a report repeated, anything after the end) change nothing and return no
-//! effect. The one refused misuse is a second `start`, which would otherwise
+//! effect. Each step, hold command and restore it asks for carries an attempt
+//! number, new for each; an answer names the attempt it answers, so a late
+//! answer to an attempt cancelled earlier (the same step before a hold and
+//! restart) is told from the current one's and ignored. The one refused misuse is a second `start`, which would otherwise
 //! wait for effects that never come; a command its state does not allow is
 //! refused with the table's words.
 //!
@@ -229,6 +232,10 @@ pub struct RunSnapshot {
     pub held: bool,
     /// The steps it completed.
     pub steps: Vec<StepRecord>,
+    /// How many attempts it had made: numbering goes on from there (a save
+    /// made before attempts were numbered reads 0).
+    #[serde(default)]
+    pub attempts: u32,
     /// Who supervises it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub owner: Option<RunOwner>,
@@ -256,6 +263,8 @@ pub enum RunEffect {
     StartStep {
         /// The step's index.
         index: usize,
+        /// This attempt's number: its answer names it.
+        attempt: u32,
         /// The step.
         step: PlanStep,
         /// The lines the command must stay within (C2).
@@ -265,13 +274,17 @@ pub enum RunEffect {
         timeout_ms: Millis,
     },
     /// Stop what is in progress in step `index` (the step's command or wait,
-    /// or a hold or restart command issued in it); report nothing for it.
+    /// or a hold or restart command issued in it): attempt `attempt`; report nothing for it.
     CancelStep {
         /// The step's index.
         index: usize,
+        /// The attempt cancelled.
+        attempt: u32,
     },
     /// Send the hold command; report `hold_done` or `hold_failed`.
     Hold {
+        /// This attempt's number: its answer names it.
+        attempt: u32,
         /// The group command.
         command: GroupCommand,
         /// How long it may take.
@@ -281,6 +294,8 @@ pub enum RunEffect {
     },
     /// Put back what the hold command changed; report `restart_done` or `restart_failed`.
     Restore {
+        /// This attempt's number: its answer names it.
+        attempt: u32,
         /// The group command.
         command: GroupCommand,
         /// How long it may take.
@@ -473,6 +488,9 @@ pub struct OperationRun {
     stopped_at: Option<usize>,
     /// An operator aborted it (not its supervisor going away).
     aborted_by_operator: bool,
+    /// How many attempts (steps, hold commands, restores) it asked for; the
+    /// last one is the only one whose answer counts.
+    attempts: u32,
 }
 
 impl OperationRun {
@@ -487,6 +505,7 @@ impl OperationRun {
             held_ms: Millis::ZERO,
             stopped_at: None,
             aborted_by_operator: false,
+            attempts: 0,
         }
     }
 
@@ -555,6 +574,31 @@ impl OperationRun {
         self.aborted_by_operator
     }
 
+    /// The attempt whose answer it waits for (a step, a hold command or a
+    /// restore in flight), if any. Its caller never needs it: each effect
+    /// carries its attempt.
+    pub fn attempt(&self) -> Option<u32> {
+        match self.state {
+            Inner::Step { .. } | Inner::Holding { .. } | Inner::Restarting { .. } => {
+                self.attempts.checked_sub(1)
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether `attempt` is the one it waits for: an answer to any other
+    /// (cancelled, superseded, or never asked for) changes nothing.
+    fn answers(&self, attempt: u32) -> bool {
+        self.attempt() == Some(attempt)
+    }
+
+    /// A new attempt's number.
+    fn next_attempt(&mut self) -> u32 {
+        let attempt = self.attempts;
+        self.attempts = self.attempts.saturating_add(1);
+        attempt
+    }
+
     /// The index of the step in progress (or held, or being restarted).
     pub fn step(&self) -> Option<usize> {
         match self.state {
@@ -602,7 +646,10 @@ impl OperationRun {
                 self.abort(who, now)
             }
             Command::Reset => {
+                // Numbering goes on: an answer from before the reset stays stale.
+                let attempts = self.attempts;
                 *self = OperationRun::new(self.plan.clone());
+                self.attempts = attempts;
                 vec![RunEffect::Entered {
                     state: State::Idle,
                     step: None,
@@ -631,7 +678,7 @@ impl OperationRun {
             Inner::Restarting { at, since_ms } => (at, since_ms),
             _ => return Vec::new(),
         };
-        let mut effects = vec![RunEffect::CancelStep { index: at.index }];
+        let mut effects = vec![self.cancel(at.index)];
         effects.extend(self.begin_hold(at, since_ms));
         effects
     }
@@ -643,6 +690,7 @@ impl OperationRun {
                 vec![
                     self.entered(),
                     RunEffect::Hold {
+                        attempt: self.next_attempt(),
                         command: hold.command,
                         timeout_ms: hold.timeout_ms,
                         within: self.plan.resources.clone(),
@@ -656,20 +704,32 @@ impl OperationRun {
         }
     }
 
-    /// The hold command completed: held, commanding nothing.
-    pub fn hold_done(&mut self, _now: Millis) -> Vec<RunEffect> {
+    /// The hold command (attempt `attempt`) completed: held, commanding nothing.
+    pub fn hold_done(&mut self, attempt: u32, _now: Millis) -> Vec<RunEffect> {
         let Inner::Holding { at, since_ms } = self.state else {
             return Vec::new();
         };
+        if !self.answers(attempt) {
+            return Vec::new();
+        }
         self.state = Inner::Held { at, since_ms };
         vec![self.entered()]
     }
 
-    /// The hold command failed or timed out: the operation faults.
-    pub fn hold_failed(&mut self, code: &str, message: &str, _now: Millis) -> Vec<RunEffect> {
+    /// The hold command (attempt `attempt`) failed or timed out: the operation faults.
+    pub fn hold_failed(
+        &mut self,
+        attempt: u32,
+        code: &str,
+        message: &str,
+        _now: Millis,
+    ) -> Vec<RunEffect> {
         let Inner::Holding { at, .. } = self.state else {
             return Vec::new();
         };
+        if !self.answers(attempt) {
+            return Vec::new();
+        }
         let place = format!("its hold command in {}", self.describe(at.index));
         self.fault_reported(Failure::reported(
             code,
@@ -689,17 +749,27 @@ impl OperationRun {
         let mut effects = vec![self.entered()];
         match self.plan.restore_before(at.index) {
             Some(restore) => effects.push(RunEffect::Restore {
+                attempt: self.next_attempt(),
                 command: restore.command,
                 timeout_ms: restore.timeout_ms,
                 within: self.plan.resources.clone(),
             }),
-            None => effects.extend(self.restart_done(now)),
+            None => effects.extend(self.resume(now)),
         }
         effects
     }
 
-    /// What the hold changed is back: the step goes on as its restart rule says.
-    pub fn restart_done(&mut self, now: Millis) -> Vec<RunEffect> {
+    /// What the hold changed is back (the restore, attempt `attempt`): the
+    /// step goes on as its restart rule says.
+    pub fn restart_done(&mut self, attempt: u32, now: Millis) -> Vec<RunEffect> {
+        if !self.answers(attempt) {
+            return Vec::new();
+        }
+        self.resume(now)
+    }
+
+    /// Restarting, nothing left to put back: the step goes on as its restart rule says.
+    fn resume(&mut self, now: Millis) -> Vec<RunEffect> {
         let Inner::Restarting { at, since_ms } = self.state else {
             return Vec::new();
         };
@@ -721,11 +791,20 @@ impl OperationRun {
         effects
     }
 
-    /// What a restart sends failed or timed out: the operation faults.
-    pub fn restart_failed(&mut self, code: &str, message: &str, _now: Millis) -> Vec<RunEffect> {
+    /// What a restart sends (attempt `attempt`) failed or timed out: the operation faults.
+    pub fn restart_failed(
+        &mut self,
+        attempt: u32,
+        code: &str,
+        message: &str,
+        _now: Millis,
+    ) -> Vec<RunEffect> {
         let Inner::Restarting { at, .. } = self.state else {
             return Vec::new();
         };
+        if !self.answers(attempt) {
+            return Vec::new();
+        }
         let place = format!("its restart in {}", self.describe(at.index));
         self.fault_reported(Failure::reported(
             code,
@@ -763,8 +842,9 @@ impl OperationRun {
                     };
                     return vec![self.entered()];
                 }
+                let cancel = self.cancel(at.index);
                 let next = self.stop_to_idle(at.index, now);
-                let mut effects = vec![RunEffect::CancelStep { index: at.index }, self.entered()];
+                let mut effects = vec![cancel, self.entered()];
                 effects.extend(next);
                 effects
             }
@@ -874,7 +954,7 @@ impl OperationRun {
         if let Inner::Held { since_ms, .. } = self.state {
             self.held_ms = self.held_ms.saturating_add(now.saturating_sub(since_ms));
         }
-        let in_flight = !matches!(self.state, Inner::Held { .. });
+        let cancel = (!matches!(self.state, Inner::Held { .. })).then(|| self.cancel(index));
         let fault = self.fault(
             Failure {
                 code: ABORTED.into(),
@@ -888,9 +968,7 @@ impl OperationRun {
             cause,
         );
         let mut effects = Vec::with_capacity(3);
-        if in_flight {
-            effects.push(RunEffect::CancelStep { index });
-        }
+        effects.extend(cancel);
         if by_command {
             effects.push(self.entered());
         }
@@ -914,17 +992,18 @@ impl OperationRun {
         }
     }
 
-    /// Step `index` completed: the next one starts, or the release after the
-    /// last. Stopping, the return to idle is next.
-    pub fn step_done(&mut self, index: usize, now: Millis) -> Vec<RunEffect> {
+    /// The step in progress completed (its attempt `attempt`): the next one
+    /// starts, or the release after the last. Stopping, the return to idle is next.
+    pub fn step_done(&mut self, attempt: u32, now: Millis) -> Vec<RunEffect> {
         let (at, since_ms, stopping) = match self.state {
             Inner::Step {
                 at,
                 since_ms,
                 stopping,
-            } if at.index == index => (at, since_ms, stopping),
+            } if self.answers(attempt) => (at, since_ms, stopping),
             _ => return Vec::new(),
         };
+        let index = at.index;
         self.steps.push(StepRecord {
             kind: self.plan.steps[index].kind(),
             ms: at.used_ms.saturating_add(now.saturating_sub(since_ms)),
@@ -969,17 +1048,22 @@ impl OperationRun {
         }
     }
 
-    /// Step `index` failed (refused, failed, or not done within its timeout).
+    /// The step in progress failed (its attempt `attempt`: refused, failed,
+    /// or not done within its timeout).
     pub fn step_failed(
         &mut self,
-        index: usize,
+        attempt: u32,
         code: &str,
         message: &str,
         _now: Millis,
     ) -> Vec<RunEffect> {
-        if !matches!(self.state, Inner::Step { at, .. } if at.index == index) {
+        let Inner::Step { at, .. } = self.state else {
+            return Vec::new();
+        };
+        if !self.answers(attempt) {
             return Vec::new();
         }
+        let index = at.index;
         let stage = self.plan.steps[index].kind().into();
         self.fault_reported(Failure::reported(
             code,
@@ -1163,6 +1247,7 @@ impl OperationRun {
             held_ms: self.held_ms,
             held,
             steps: self.steps.clone(),
+            attempts: self.attempts,
             owner,
         })
     }
@@ -1201,6 +1286,7 @@ impl OperationRun {
         run.granted_ms = saved.granted_ms;
         run.held_ms = saved.held_ms;
         run.steps = saved.steps.clone();
+        run.attempts = saved.attempts;
         let at = InStep {
             index: saved.step,
             used_ms: saved.used_ms,
@@ -1296,7 +1382,15 @@ impl OperationRun {
         }
     }
 
-    fn start_step(&self, at: InStep) -> RunEffect {
+    /// Cancels the attempt in flight, in step `index`.
+    fn cancel(&self, index: usize) -> RunEffect {
+        RunEffect::CancelStep {
+            index,
+            attempt: self.attempts.saturating_sub(1),
+        }
+    }
+
+    fn start_step(&mut self, at: InStep) -> RunEffect {
         let step = self.plan.steps[at.index].clone();
         let within = match step {
             PlanStep::Command { .. } | PlanStep::ReturnToIdle { .. } => {
@@ -1308,6 +1402,7 @@ impl OperationRun {
         let timeout_ms = step.timeout_ms().saturating_sub(at.used_ms).max(ms(1));
         RunEffect::StartStep {
             index: at.index,
+            attempt: self.next_attempt(),
             step,
             within,
             timeout_ms,

@@ -145,6 +145,43 @@ fn conditions_fall_due_on_entry_then_after_a_sample_once_a_period_and_the_first_
 }
 
 #[test]
+fn conditions_are_checked_only_while_the_gate_is_open() {
+    let mut r = truck_after_load(true);
+    r.completed().unwrap();
+    r.gate(false);
+    assert_eq!(r.next_deadline(), None, "no deadline while closed");
+    assert!(r.due(ms(0)).is_empty(), "nothing due while closed");
+    r.input_changed(1);
+    assert_eq!(r.next_deadline(), None);
+    // Open again: what was due is due at once, unchecked so far.
+    r.gate(true);
+    assert_eq!(r.next_deadline(), Some(Millis::ZERO));
+    assert_eq!(r.due(ms(1_000)), vec![1, 2]);
+    // Closed between the check and its result: it does not fire, and is due again a period later.
+    r.gate(false);
+    assert_eq!(r.condition_met(1), None);
+    assert_eq!(r.pending(), None);
+    r.gate(true);
+    assert_eq!(r.next_deadline(), Some(ms(2_000)));
+    assert_eq!(r.due(ms(2_000)), vec![1]);
+    assert_eq!(r.condition_met(1).unwrap().operation, "11");
+}
+
+#[test]
+fn a_met_condition_held_back_by_a_pending_operation_is_due_again() {
+    let mut r = truck_after_load(true);
+    r.completed().unwrap();
+    assert_eq!(r.due(ms(0)), vec![1, 2]);
+    // Both hold: the first fires, the second waits for the operation.
+    assert!(r.condition_met(1).is_some());
+    assert_eq!(r.condition_met(2), None);
+    // Refused before it ran: both are due again a period after the check.
+    r.refused().unwrap();
+    assert_eq!(r.next_deadline(), Some(ms(1_000)));
+    assert_eq!(r.due(ms(3_000)), vec![1, 2]);
+}
+
+#[test]
 fn a_fault_moves_to_the_error_state() {
     let mut r = truck_after_load(true);
     let moved = r.faulted().unwrap();
