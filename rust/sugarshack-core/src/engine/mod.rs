@@ -52,7 +52,7 @@ use crate::procedure::{Command, State};
 use crate::time::{ms, Millis};
 
 pub use deadline::{Deadlines, Due};
-pub use lifecycle::{Gate, Stage, Step, TRANSITIONS};
+pub use lifecycle::{Admit, Gate, Stage, Step, Work, TRANSITIONS};
 pub use output::{
     Action, Cleared, Counts, Journal, Level, LockoutMsg, Output, Param, Refusal, RefusalOf, Set,
     Text, CATALOG_LABELS, CATALOG_TEXTS,
@@ -961,6 +961,10 @@ impl Engine {
     }
 
     fn life(&mut self, step: Step, now: Millis) {
+        // A host that fails or stands down frees its engine instead.
+        if step.host_only() {
+            return;
+        }
         let from = self.stage;
         let to = from.after(step);
         match step {
