@@ -188,7 +188,7 @@ class EngineRuntime extends InterlockHost {
       return;
     }
     this.markRan();
-    this.state = 'ready';
+    this.step('started');
     this.restoreHeldRuns();
     this.watchPlant();
     this.listenChanged();
@@ -268,7 +268,7 @@ class EngineRuntime extends InterlockHost {
     // With no interlock to supervise them, granted runs fault and waiting ones withdraw.
     if (ready) for (const run of [...this.runs]) run.interrupt('its interlock was removed from the flows');
     this.leaveCluster();
-    this.endCommon();
+    this.endCommon('retire');
     this.stopTimers();
     if (ready) {
       this.lifeStep('retire');
@@ -279,8 +279,9 @@ class EngineRuntime extends InterlockHost {
     this.freeCore();
   }
 
-  endCommon() {
-    super.endCommon();
+  /** @param {'shutdown' | 'retire'} [step] */
+  endCommon(step) {
+    super.endCommon(step);
     this.stopJournalWatch();
   }
 
@@ -354,7 +355,9 @@ class EngineRuntime extends InterlockHost {
         });
       });
       if (old) wasm.release(old);
-      this.state = 'ready';
+      // Started again under the new settings (a failure before is over).
+      this.step('restart');
+      this.step('started');
       this.failure = null;
     } catch (err) {
       this.fail(err);
@@ -391,7 +394,6 @@ class EngineRuntime extends InterlockHost {
     try {
       this.open(this.readStore());
     } catch (err) {
-      this.state = 'starting';
       this.fail(err);
       return;
     }
