@@ -28,8 +28,9 @@ class RuntimeBase {
     this.failure = null;
     this.users = new Set();
     this.statusBoard = new StatusBoard();
-    /** held while starting or draining (`ParkedWork` each) */
+    /** held while starting or draining (`ParkedWork` each), within Node-RED's msg buffer bound */
     this.parked = new UntilReady();
+    this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength in force (0: no bound)
     /** @type {(() => void)[]} run once ready with the gate open */
     this.openWaiters = [];
     this.generation = wasm.currentGeneration();
@@ -40,8 +41,10 @@ class RuntimeBase {
 
   // ---- owner and users -----------------------------------------------------
 
-  attach(owner) {
+  /** Its config node of this deploy, and Node-RED's msg buffer bound as this deploy reads it (0: none). */
+  attach(owner, bufferMax = 0) {
     this.owner = owner;
+    this.bufferMax = bufferMax;
   }
 
   /** Takes `step` of its life: the core says the stage it leads to. @param {LifeStep} step */
@@ -152,7 +155,7 @@ class RuntimeBase {
         this.perform(node, done, work);
         break;
       case 'park':
-        this.parked.hold({ node, done, work });
+        this.park(node, done, work);
         break;
       case 'refuse':
         done(this.failure);
@@ -162,6 +165,16 @@ class RuntimeBase {
         break;
       default:
         done();
+    }
+  }
+
+  /** Held until it starts or the drain ends; past Node-RED's msg buffer bound, refused (QUEUE_FULL). */
+  park(node, done, work) {
+    const max = this.bufferMax;
+    if (max > 0 && this.parked.length >= max) {
+      this.refuse(node, done, SugarshackError.of('QUEUE_FULL', 'parkedFull', { kind: this.kind, max }));
+    } else {
+      this.parked.hold({ node, done, work });
     }
   }
 
