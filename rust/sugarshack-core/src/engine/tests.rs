@@ -703,6 +703,29 @@ fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
     assert_eq!(b.engine.take_outputs(), standby.take_outputs());
 }
 
+#[test]
+fn a_waiting_request_whose_lines_the_new_settings_lack_is_refused_at_the_hand_over() {
+    let mut b = Bench::new();
+    b.acquire(2, 1);
+    b.at(10).run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(2),
+        fields: Fields {
+            resources: text("YEL, GRN"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    b.run(Input::Life(Step::DrainBegin));
+    let doc = b.engine.snapshot(ms(20));
+    let lines: Vec<&str> = LINES.iter().copied().filter(|l| *l != "GRN").collect();
+    let mut next = Engine::new(InterlockConfig::with_resources(lines), false).unwrap();
+    next.hand_over(&doc, ms(20)).unwrap();
+    let out = next.take_outputs();
+    assert_eq!(answers(&out), ["fail 2 UNKNOWN_RESOURCE"]);
+    assert_eq!(next.counts().queued, 0);
+}
+
 /// An engine on `lines` with a clear-all node (9), started from `saved` at `now`.
 fn started(lines: &[&str], saved: Saved, now: u64) -> (Engine, Vec<Output>) {
     let mut engine = Engine::new(
