@@ -348,11 +348,9 @@ class EngineRuntime extends InterlockHost {
         const text = old ? old.stateText(clock.now(), {}) : null;
         this.core = null; // kept by newEngine() below from freeing it before it is read
         this.newEngine();
-        this.call((e, now) => {
-          if (text) e.handOver(text, now);
-          else e.start(null, undefined, now);
-          e.life('drain-begin', now);
-        });
+        // Two calls: each one's outputs are performed before the next overwrites them.
+        this.call((e, now) => (text ? e.handOver(text, now) : e.start(null, undefined, now)));
+        this.call((e, now) => e.life('drain-begin', now));
       });
       if (old) wasm.release(old);
       // Started again under the new settings (a failure before is over).
