@@ -106,9 +106,9 @@ function onInterlockInput(node, runtime, spec, options = {}) {
   runtime.addNodeSpec(node, spec);
   const work = interlockWork(node);
   const urgent = options.urgent || never;
-  // Ready with the gate open (nearly every msg): to the engine at once, nothing made per msg on the way.
+  // Plain work taken now (running, no drain: nearly every msg): to the engine at once, nothing made per msg on the way.
   node.on('input', (msg, send, done) => {
-    if (runtime.state === 'ready' && runtime.gateOpen) runtime.inputNow(node, msg, send, done);
+    if (runtime.life.admit[0] === 'take') runtime.inputNow(node, msg, send, done);
     else submitInput(runtime, node, msg, send, done, undefined, work, urgent, false);
   });
 }
