@@ -1208,7 +1208,16 @@ impl Engine {
             }
         }
         let names = resources_of(&fields.resources, node_value(n, fields, Value::Resources))?;
-        let set = self.interlock.resource_set(&names)?;
+        let set = match self.interlock.resource_set(&names) {
+            Ok(set) => set,
+            // A drain: the new settings may have the line. The request waits by its names,
+            // read again when they apply (refused then if they lack it).
+            Err(InterlockError::UnknownResource { .. }) if self.stage.gate() == Gate::HoldBack => {
+                let names: Names = names.into_iter().map(Arc::from).collect();
+                return Ok((ResourceSet::default(), names));
+            }
+            Err(err) => return Err(err.into()),
+        };
         let names: Names = names
             .into_iter()
             .map(|n| {
