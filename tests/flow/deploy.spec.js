@@ -323,6 +323,29 @@ describe('sugarshack deploys while operations run', function () {
     assert.equal(completions.filter((c) => c.error).length, 1, 'nothing else refused');
   });
 
+  it('an acquire that comes while a deploy drains waits in the engine, its timeout running: it times out before the drain ends', async function () {
+    const withAcquire = (flow) => [...flow, {
+      id: 'acq', z: 'f1', type: 'sugarshack-acquire', interlock: 'il', operation: 'by hand', priority: 0, resources: 'YEL', timeout: 1, wires: [['out']],
+    }];
+    await start(withAcquire(flowOf(plantDocument(), { operations: ['10', '20'] })));
+    helper.getNode('r').receive({ topic: 'drain' }); // op 51 runs until LT-7 falls
+    await run(30);
+    await helper.setFlows(withAcquire(flowOf(changedDocument(), { operations: ['10', '20'] })), 'full');
+    await quiet();
+    assert.equal(runtime().draining, true);
+    helper.getNode('acq').receive({ payload: 'by hand' });
+    await quiet();
+    assert.equal(runtime().parked.length, 0, 'not held in JS: the engine holds it back');
+    await run(1100);
+    assert.equal(runtime().draining, true, 'the drain still goes on');
+    const refused = completions.filter((c) => c.nodeId === 'acq' && c.error);
+    assert.deepEqual(refused.map((c) => c.error.code), ['ACQUIRE_TIMEOUT']);
+    assert.equal(to('caught').length, 1, 'a Catch node gets it');
+    levels.level = 10;
+    await runTill(() => !runtime().draining, 'op 51 to finish and the drain to end');
+    assert.equal(to('out').filter((m) => m.payload === 'by hand').length, 0, 'the timed-out request is not granted after the drain');
+  });
+
   it('a routine whose operation waits in the queue through a draining deploy moves on when it returns', async function () {
     await start(flowOf(plantDocument(), { operations: ['52'] }));
     helper.getNode('op52').receive({ topic: 'fill by hand', payload: 52 });

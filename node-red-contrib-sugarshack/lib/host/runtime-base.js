@@ -12,7 +12,7 @@ const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('../interlock/pending').HeldMsg} HeldMsg */
-/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
+/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void, urgent: boolean, passive: boolean }} ParkedWork */
 /** @typedef {import('../../wasm/sugarshack_wasm').LifeView} LifeView */
 /** @typedef {import('../../wasm/sugarshack_wasm').LifeStep} LifeStep */
 
@@ -155,7 +155,7 @@ class RuntimeBase {
         this.perform(node, done, work);
         break;
       case 'park':
-        this.park(node, done, work);
+        this.park({ node, done, work, urgent, passive });
         break;
       case 'refuse':
         done(this.failure);
@@ -169,12 +169,13 @@ class RuntimeBase {
   }
 
   /** Held until it starts or the drain ends; past Node-RED's msg buffer bound, refused (QUEUE_FULL). */
-  park(node, done, work) {
+  /** @param {ParkedWork} task */
+  park(task) {
     const max = this.bufferMax;
     if (max > 0 && this.parked.length >= max) {
-      this.refuse(node, done, SugarshackError.of('QUEUE_FULL', 'parkedFull', { kind: this.kind, max }));
+      this.refuse(task.node, task.done, SugarshackError.of('QUEUE_FULL', 'parkedFull', { kind: this.kind, max }));
     } else {
-      this.parked.hold({ node, done, work });
+      this.parked.hold(task);
     }
   }
 
@@ -252,7 +253,7 @@ class RuntimeBase {
         this.log('error', err.message);
       }
     }
-    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work);
+    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work, task);
   }
 
   /** A closing node's held work is completed unsent. */

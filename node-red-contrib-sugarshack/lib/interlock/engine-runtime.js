@@ -214,6 +214,8 @@ class EngineRuntime extends InterlockHost {
         else e.start(doc, lost, now);
       }
     });
+    // Started while a deploy drains: the engine holds new requests back until the drain ends.
+    if (this.draining) this.call((e, at) => e.life('drain-begin', at));
     // Bound to its plant: runs saved held come back held, routines from their saved states.
     this.savedRuns = this.core.takeRestoredRuns();
     this.savedRoutines = this.core.savedRoutines();
