@@ -137,12 +137,13 @@ describe('the palette API for other packages (lib/api.js)', function () {
     await assert.rejects(api.clear('nope', null, {}), (err) => err.code === 'NO_INTERLOCK');
     // On a hot standby the refusal names the instance that acts (tests/integration/standby.spec.js runs a real one).
     const runtime = paletteOf(RED).runtimes.get('il');
-    const [state, cluster] = [runtime.state, runtime.cluster];
-    Object.assign(runtime, { state: 'standby', cluster: { leader: { instance: 'edge-b' } } });
+    const [life, cluster] = [runtime.life, runtime.cluster];
+    runtime.step('stand-down');
+    runtime.cluster = { leader: { instance: 'edge-b' } };
     try {
       await assert.rejects(api.clear('il', ['YEL'], {}), (err) => err.code === 'NO_INTERLOCK' && err.message === "interlock 'il' is on standby here: instance edge-b acts");
     } finally {
-      Object.assign(runtime, { state, cluster });
+      Object.assign(runtime, { life, cluster });
     }
   });
 

@@ -10,7 +10,7 @@ const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, TAB, sinkNode, until, trackCompletions, trackDeliveries, untrackCompletions,
-  startServer, stopServer, settled, clock, runFor, runUntil,
+  startServer, stopServer, settled, clock, runFor, runUntil, settings,
 } = require('./support');
 const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump, boundPlant } = require('./fake-panel');
 
@@ -297,6 +297,53 @@ describe('sugarshack deploys while operations run', function () {
     await runTill(() => routineEvents().filter((e) => e.event === 'completed' && e.operation === '51').length === 2, 'op 51 again');
     assert.deepEqual(commandsOf('ctrl-1/valve/6/command').map(([p]) => p).filter((p) => p !== '0'), ['30', '100', '70']);
     assertNothingFaulted();
+  });
+
+  it('msgs held while a deploy drains keep within nodeMessageBufferMaxLength: the one past it is refused (QUEUE_FULL), those held run after', async function () {
+    settings({ nodeMessageBufferMaxLength: 2 });
+    await start(flowOf(plantDocument(), { operations: ['10', '20'] }));
+    helper.getNode('op20').receive({ topic: 'rinse', payload: 20 });
+    await run(30);
+    await helper.setFlows(flowOf(changedDocument(), { operations: ['10', '20', '30'] }), 'full');
+    await quiet();
+    assert.equal(runtime().draining, true);
+    helper.getNode('op30').receive({ topic: 'top up', payload: 30 });
+    helper.getNode('op10').receive({ topic: 'load truck', payload: 10 });
+    helper.getNode('op30').receive({ topic: 'top up again', payload: 31 });
+    await quiet();
+    assert.equal(runtime().parked.length, 2, 'two held, as the setting allows');
+    const refused = completions.filter((c) => c.error);
+    assert.equal(refused.length, 1, 'the third is completed with an error');
+    assert.deepEqual([refused[0].nodeId, refused[0].error.code], ['op30', 'QUEUE_FULL']);
+    assert.match(refused[0].error.message, /holds 2 msgs already .*nodeMessageBufferMaxLength/);
+    assert.equal(to('caught').length, 1, 'a Catch node gets it');
+    await runTill(() => returned('30').length === 1, 'the drain to end and the held op 30 to run');
+    assert.equal(returned('30')[0].payload, 30);
+    assert.ok(runtime().describe().runs.some((r) => r.operation === '10'), 'the held op 10 started too');
+    assert.equal(completions.filter((c) => c.error).length, 1, 'nothing else refused');
+  });
+
+  it('an acquire that comes while a deploy drains waits in the engine, its timeout running: it times out before the drain ends', async function () {
+    const withAcquire = (flow) => [...flow, {
+      id: 'acq', z: 'f1', type: 'sugarshack-acquire', interlock: 'il', operation: 'by hand', priority: 0, resources: 'YEL', timeout: 1, wires: [['out']],
+    }];
+    await start(withAcquire(flowOf(plantDocument(), { operations: ['10', '20'] })));
+    helper.getNode('r').receive({ topic: 'drain' }); // op 51 runs until LT-7 falls
+    await run(30);
+    await helper.setFlows(withAcquire(flowOf(changedDocument(), { operations: ['10', '20'] })), 'full');
+    await quiet();
+    assert.equal(runtime().draining, true);
+    helper.getNode('acq').receive({ payload: 'by hand' });
+    await quiet();
+    assert.equal(runtime().parked.length, 0, 'not held in JS: the engine holds it back');
+    await run(1100);
+    assert.equal(runtime().draining, true, 'the drain still goes on');
+    const refused = completions.filter((c) => c.nodeId === 'acq' && c.error);
+    assert.deepEqual(refused.map((c) => c.error.code), ['ACQUIRE_TIMEOUT']);
+    assert.equal(to('caught').length, 1, 'a Catch node gets it');
+    levels.level = 10;
+    await runTill(() => !runtime().draining, 'op 51 to finish and the drain to end');
+    assert.equal(to('out').filter((m) => m.payload === 'by hand').length, 0, 'the timed-out request is not granted after the drain');
   });
 
   it('a routine whose operation waits in the queue through a draining deploy moves on when it returns', async function () {

@@ -612,6 +612,18 @@ describe('the facade\'s declared shapes (wasm/sugarshack_wasm.d.ts)', function (
     assert.match(foreign.lost(), /^state\.json: /);
   });
 
+  it('a runtime\'s life: the view of each stage a step leads to', function () {
+    let view = facade.lifeView('starting');
+    shapes.expect('LifeView', view);
+    for (const step of ['drain-begin', 'fail', 'restart', 'stand-down', 'activate', 'started', 'drain-end', 'retire']) {
+      shapes.expect('LifeStep', step);
+      view = facade.lifeStep(view.stage, step);
+      shapes.expect('LifeView', view);
+      for (const admit of view.admit) shapes.expect('LifeAdmit', admit);
+    }
+    assert.equal(view.stage, 'stopped');
+  });
+
   it('every declared shape was met by a real value', function () {
     // Classes are wasm's own; a class is checked only where a declared shape names it.
     const unmet = [...declarations()].filter(([name, decl]) => !ts.isClassDeclaration(decl) && !shapes.met.has(name)).map(([name]) => name);

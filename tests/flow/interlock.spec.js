@@ -3,7 +3,7 @@ const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
 const {
   paletteNodes, catchNode, linkNodes, lockoutOf, TAB, interlockConfig, acquire, release, sinkNode,
-  collect, until, trackCompletions, untrackCompletions, startServer, stopServer, settings, settled, clock, userDir,
+  collect, until, trackCompletions, trackDeliveries, untrackCompletions, startServer, stopServer, settings, settled, clock, userDir,
 } = require('./support');
 
 const { WINDOW_MS } = require('../../node-red-contrib-sugarshack/lib/host/status-pacer');
@@ -340,6 +340,29 @@ describe('sugarshack interlock nodes', function () {
     helper.getNode('rel').receive({ operation: '10' });
     await quiet();
     assert.equal(out.length, 1, 'the timed-out request is not granted');
+  });
+
+  it('a deploy that removes a line a request waits for refuses that request (a Catch node gets it), never drops it', async function () {
+    const lines = (names) => names.map((name) => ({ name, lockout: '' }));
+    const flow = (names) => [
+      TAB, interlockConfig({ resources: lines(names) }), acquire('a', '', 0, '', 'out'),
+      { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] }, sinkNode('out'), sinkNode('caught'),
+    ];
+    await helper.load(paletteNodes, flow(['YEL', 'GRN']));
+    const out = collect(helper, 'out');
+    helper.getNode('a').receive({ operation: 'holder', resources: 'YEL' });
+    await until(() => out.length === 1, 'the holder granted');
+    helper.getNode('a').receive({ operation: 'waiter', resources: 'YEL, GRN' });
+    await settled(helper, 'il');
+    assert.equal(counts().queued, 1);
+    // The Catch node of the new flows gets it: what reaches a node is followed across the deploy.
+    const delivered = trackDeliveries();
+    await helper.setFlows(flow(['YEL']), 'full');
+    await until(() => delivered.some((d) => d.nodeId === 'caught'), 'the waiter refused');
+    const refused = delivered.find((d) => d.nodeId === 'caught').msg;
+    assert.deepEqual([refused.operation, refused.error.code], ['waiter', 'UNKNOWN_RESOURCE']);
+    assert.equal(runtimeOf().carrier.held.size, 0, 'nothing held for it any more');
+    assert.deepEqual(counts(), { holding: 1, queued: 0, faulted: 0 });
   });
 
   it('an invalid configuration shows "config error" and fails every msg', async function () {

@@ -93,23 +93,24 @@ function submitInput(runtime, node, msg, send, done, read, work, urgent, passive
 /**
  * The input of an interlock node (acquire, release, cancel, fault, clear):
  * the node is bound to its interlock's engine under `spec`, and each msg is
- * one engine input.
+ * one engine input. None waits for a deploy's drain here: the engine holds
+ * new requests back itself, their timeouts running (only its start, before
+ * it has an engine, holds them in JS).
  * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
  * @param {{ urgent?: (msg: NodeRed.Message) => boolean, values?: any }} [options]
  */
 function onInterlockInput(node, runtime, spec, options = {}) {
   if (!runtime || options.values) {
     if (runtime) runtime.addNodeSpec(node, spec);
-    onInput(node, runtime, interlockWork(node), 'interlock', options);
+    onInput(node, runtime, interlockWork(node), 'interlock', { ...options, urgent: always });
     return;
   }
   runtime.addNodeSpec(node, spec);
   const work = interlockWork(node);
-  const urgent = options.urgent || never;
-  // Ready with the gate open (nearly every msg): to the engine at once, nothing made per msg on the way.
+  // Plain work taken now (running, no drain: nearly every msg): to the engine at once, nothing made per msg on the way.
   node.on('input', (msg, send, done) => {
-    if (runtime.state === 'ready' && runtime.gateOpen) runtime.inputNow(node, msg, send, done);
-    else submitInput(runtime, node, msg, send, done, undefined, work, urgent, false);
+    if (runtime.life.admit[0] === 'take') runtime.inputNow(node, msg, send, done);
+    else submitInput(runtime, node, msg, send, done, undefined, work, always, false);
   });
 }
 
@@ -120,7 +121,5 @@ function interlockWork(node) {
 
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
-/** @type {(msg: NodeRed.Message) => boolean} */
-const never = () => false;
 
 module.exports = { bindInterlock, bindPlant, onInput, onInterlockInput, always };

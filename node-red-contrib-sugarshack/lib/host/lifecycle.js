@@ -17,6 +17,7 @@ const { stateOf, ChangeNotices } = require('../state');
 const { SugarshackError } = require('./errors');
 const { text } = require('./i18n');
 const { quote } = require('../interlock/request');
+const { messageBufferMax } = require('../interlock/config');
 const operator = require('../interlock/operator');
 const wasm = require('../wasm');
 
@@ -312,7 +313,7 @@ function shelfEndOf(body, now) {
 function runtimeOfConfigNode(RED, node, key, settings, create) {
   const palette = paletteOf(RED);
   const runtime = palette.runtimeFor(node.id, key, settings, create);
-  runtime.attach(node);
+  runtime.attach(node, messageBufferMax(RED));
   if (!runtime.started) {
     runtime.started = true;
     runtime.start();

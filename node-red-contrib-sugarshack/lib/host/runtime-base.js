@@ -1,9 +1,10 @@
 // @ts-check
 'use strict';
 // What the interlock and plant runtimes share: the config node that owns them
-// (replaced on each deploy), the nodes showing their status, the gate that
-// holds new work while a deploy drains, and the guard that turns a wasm trap
-// into a rebuild instead of a dead process.
+// (replaced on each deploy), the nodes showing their status, their life (the
+// core's one state machine: which stage each step leads to, and what each
+// stage does with a msg; this keeps the stage it said and carries msgs), and
+// the guard that turns a wasm trap into a rebuild instead of a dead process.
 const { SugarshackError, asSugarshackError } = require('./errors');
 const { errorStatus, status, StatusBoard } = require('./status');
 const wasm = require('../wasm');
@@ -11,7 +12,9 @@ const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('../interlock/pending').HeldMsg} HeldMsg */
-/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void }} ParkedWork */
+/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void, urgent: boolean, passive: boolean }} ParkedWork */
+/** @typedef {import('../../wasm/sugarshack_wasm').LifeView} LifeView */
+/** @typedef {import('../../wasm/sugarshack_wasm').LifeStep} LifeStep */
 
 class RuntimeBase {
   /** kind: 'interlock' | 'plant', for messages. @param {'interlock' | 'plant'} kind */
@@ -20,14 +23,14 @@ class RuntimeBase {
     this.owner = null; // the config node instance of the current deploy
     this.key = null; // settings key, set by the palette
     this.palette = null;
-    this.state = 'starting'; // -> ready | failed; stopped once shut down or retired
+    /** @type {LifeView} its stage as the core said it at its last step, and what it does with msgs there */
+    this.life = wasm.load().lifeView('starting');
     this.failure = null;
-    this.ended = false;
     this.users = new Set();
     this.statusBoard = new StatusBoard();
-    this.gateOpen = true;
-    /** held while starting or draining (`ParkedWork` each) */
+    /** held while starting or draining (`ParkedWork` each), within Node-RED's msg buffer bound */
     this.parked = new UntilReady();
+    this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength in force (0: no bound)
     /** @type {(() => void)[]} run once ready with the gate open */
     this.openWaiters = [];
     this.generation = wasm.currentGeneration();
@@ -38,15 +41,42 @@ class RuntimeBase {
 
   // ---- owner and users -----------------------------------------------------
 
-  attach(owner) {
+  /** Its config node of this deploy, and Node-RED's msg buffer bound as this deploy reads it (0: none). */
+  attach(owner, bufferMax = 0) {
     this.owner = owner;
+    this.bufferMax = bufferMax;
+  }
+
+  /** Takes `step` of its life: the core says the stage it leads to. @param {LifeStep} step */
+  step(step) {
+    this.life = wasm.load().lifeStep(this.life.stage, step);
+  }
+
+  /** 'starting' | 'ready' | 'failed' | 'standby' | 'stopped': its stage as the state API names it. */
+  get state() {
+    return this.life.state;
+  }
+
+  /** Shut down or retired: it changes nothing any more. */
+  get ended() {
+    return this.life.stopped;
+  }
+
+  /** A deploy's drain goes on (new work waits unless urgent). */
+  get draining() {
+    return this.life.draining;
+  }
+
+  /** No deploy's drain goes on. */
+  get gateOpen() {
+    return !this.life.draining;
   }
 
   /** It cannot run (its settings, its document or its saved state refused): every msg gets the reason. */
   fail(err) {
     const e = asSugarshackError(err);
     this.failure = e;
-    this.state = 'failed';
+    this.step('fail');
     this.log('error', e.message);
     this.refreshStatus();
     this.parked.completeAll(e);
@@ -111,18 +141,42 @@ class RuntimeBase {
   // ---- work from nodes -----------------------------------------------------
 
   /**
-   * Runs `work(this)` when the runtime can take it: at once when ready, held
-   * (in arrival order) while it starts or a deploy drains. `urgent` work (a
-   * fault, a lockout, a clear, a release, device feedback) does not wait for a
-   * drain: the drain itself may wait for it. A refusal thrown by `work`
-   * completes the msg with the error, so a Catch node gets it.
+   * Runs `work(this)` when the runtime can take it, as its stage says
+   * (`life.admit`): at once when ready, held (in arrival order) while it
+   * starts or a deploy drains, refused when it failed, completed unsent when
+   * stopped or on standby. `urgent` work (a fault, a lockout, a clear, a
+   * release, device feedback) does not wait for a drain: the drain itself
+   * may wait for it; `passive` work runs on a standby too. A refusal thrown
+   * by `work` completes the msg with the error, so a Catch node gets it.
    */
   submit(node, done, work, { urgent = false, passive = false } = {}) {
-    if (this.ended) done();
-    else if (this.state === 'failed') done(this.failure);
-    else if (this.standby && !passive) this.standbyDone(node, done);
-    else if (this.state === 'starting' || (!this.gateOpen && !urgent)) this.parked.hold({ node, done, work });
-    else this.perform(node, done, work);
+    switch (this.life.admit[(urgent ? 1 : 0) | (passive ? 2 : 0) | (this.standby ? 4 : 0)]) {
+      case 'take':
+        this.perform(node, done, work);
+        break;
+      case 'park':
+        this.park({ node, done, work, urgent, passive });
+        break;
+      case 'refuse':
+        done(this.failure);
+        break;
+      case 'standby':
+        this.standbyDone(node, done);
+        break;
+      default:
+        done();
+    }
+  }
+
+  /** Held until it starts or the drain ends; past Node-RED's msg buffer bound, refused (QUEUE_FULL). */
+  /** @param {ParkedWork} task */
+  park(task) {
+    const max = this.bufferMax;
+    if (max > 0 && this.parked.length >= max) {
+      this.refuse(task.node, task.done, SugarshackError.of('QUEUE_FULL', 'parkedFull', { kind: this.kind, max }));
+    } else {
+      this.parked.hold(task);
+    }
   }
 
   perform(node, done, work) {
@@ -146,7 +200,7 @@ class RuntimeBase {
    * every Catch node of the standby), and the node shows `standby`.
    */
   get standby() {
-    return this.state === 'standby';
+    return this.life.state === 'standby';
   }
 
   standbyDone(node, done) {
@@ -186,8 +240,8 @@ class RuntimeBase {
 
   /** Runs `fn` once the runtime is ready and no deploy is draining (checks against the settings in force). */
   whenOpen(fn) {
-    if (this.state !== 'starting' && this.gateOpen) fn();
-    else this.openWaiters.push(fn);
+    if (this.life.waits) this.openWaiters.push(fn);
+    else fn();
   }
 
   /** Releases held work in order (ready, or a drain finished). */
@@ -199,7 +253,7 @@ class RuntimeBase {
         this.log('error', err.message);
       }
     }
-    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work);
+    for (const task of this.parked.take()) this.submit(task.node, task.done, task.work, task);
   }
 
   /** A closing node's held work is completed unsent. */
@@ -207,16 +261,19 @@ class RuntimeBase {
     this.parked.completeOf(node);
   }
 
+  /** A deploy's drain begins. */
   closeGate() {
-    if (!this.gateOpen) return;
-    this.gateOpen = false;
+    if (this.life.draining) return;
+    this.step('drain-begin');
+    if (!this.life.draining) return; // stopped: nothing drains
     this.onGateClosed();
     this.refreshStatus();
   }
 
+  /** The drain ended. */
   openGate() {
-    if (this.gateOpen) return;
-    this.gateOpen = true;
+    if (!this.life.draining) return;
+    this.step('drain-end');
     this.refreshStatus();
     this.onGateOpened();
     this.replayParked();
@@ -226,10 +283,6 @@ class RuntimeBase {
 
   onGateOpened() {}
 
-  get draining() {
-    return !this.gateOpen;
-  }
-
   /** What kept a deploy's drain waiting may have ended here (see Palette.pokeDrain). */
   mayBeQuiet() {
     if (this.palette && this.palette.draining) this.palette.pokeDrain();
@@ -237,10 +290,9 @@ class RuntimeBase {
 
   // ---- endings ----------------------------------------------------------------
 
-  /** Completes held work unsent and stops watching for traps. */
-  endCommon() {
-    this.ended = true;
-    this.state = 'stopped';
+  /** Completes held work unsent and stops watching for traps. @param {'shutdown' | 'retire'} [step] */
+  endCommon(step = 'shutdown') {
+    this.step(step);
     this.stopTrapWatch();
     this.parked.completeAll();
   }

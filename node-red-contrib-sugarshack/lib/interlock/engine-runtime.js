@@ -188,7 +188,7 @@ class EngineRuntime extends InterlockHost {
       return;
     }
     this.markRan();
-    this.state = 'ready';
+    this.step('started');
     this.restoreHeldRuns();
     this.watchPlant();
     this.listenChanged();
@@ -214,6 +214,8 @@ class EngineRuntime extends InterlockHost {
         else e.start(doc, lost, now);
       }
     });
+    // Started while a deploy drains: the engine holds new requests back until the drain ends.
+    if (this.draining) this.call((e, at) => e.life('drain-begin', at));
     // Bound to its plant: runs saved held come back held, routines from their saved states.
     this.savedRuns = this.core.takeRestoredRuns();
     this.savedRoutines = this.core.savedRoutines();
@@ -268,7 +270,7 @@ class EngineRuntime extends InterlockHost {
     // With no interlock to supervise them, granted runs fault and waiting ones withdraw.
     if (ready) for (const run of [...this.runs]) run.interrupt('its interlock was removed from the flows');
     this.leaveCluster();
-    this.endCommon();
+    this.endCommon('retire');
     this.stopTimers();
     if (ready) {
       this.lifeStep('retire');
@@ -279,8 +281,9 @@ class EngineRuntime extends InterlockHost {
     this.freeCore();
   }
 
-  endCommon() {
-    super.endCommon();
+  /** @param {'shutdown' | 'retire'} [step] */
+  endCommon(step) {
+    super.endCommon(step);
     this.stopJournalWatch();
   }
 
@@ -347,14 +350,14 @@ class EngineRuntime extends InterlockHost {
         const text = old ? old.stateText(clock.now(), {}) : null;
         this.core = null; // kept by newEngine() below from freeing it before it is read
         this.newEngine();
-        this.call((e, now) => {
-          if (text) e.handOver(text, now);
-          else e.start(null, undefined, now);
-          e.life('drain-begin', now);
-        });
+        // Two calls: each one's outputs are performed before the next overwrites them.
+        this.call((e, now) => (text ? e.handOver(text, now) : e.start(null, undefined, now)));
+        this.call((e, now) => e.life('drain-begin', now));
       });
       if (old) wasm.release(old);
-      this.state = 'ready';
+      // Started again under the new settings (a failure before is over).
+      this.step('restart');
+      this.step('started');
       this.failure = null;
     } catch (err) {
       this.fail(err);
@@ -391,7 +394,6 @@ class EngineRuntime extends InterlockHost {
     try {
       this.open(this.readStore());
     } catch (err) {
-      this.state = 'starting';
       this.fail(err);
       return;
     }

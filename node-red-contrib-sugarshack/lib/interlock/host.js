@@ -171,13 +171,13 @@ class InterlockHost extends RuntimeBase {
   /** Elected: the committed state is opened as after a restart (held lines faulted, lockouts sent again). */
   activate() {
     if (this.ended || this.state !== 'standby') return;
-    this.state = 'starting';
+    this.step('activate');
     this.refreshStatus();
     this.start();
   }
 
   becomeStandby() {
-    this.state = 'standby';
+    this.step('stand-down');
     this.parked.completeAll();
     this.refreshStatus();
     if (this.etcdStore) this.etcdStore.follow().catch((err) => this.log('warn', i18n.text('logs.standbyNotFollowing', { message: err.message })));
@@ -256,7 +256,6 @@ class InterlockHost extends RuntimeBase {
       return true;
     } catch (err) {
       if (this.core) this.freeCore();
-      this.state = 'starting';
       this.fail(err);
       return false;
     }

@@ -94,7 +94,7 @@ class PlantRuntime extends RuntimeBase {
       this.fail(err);
       return;
     }
-    this.state = 'ready';
+    this.step('started');
     this.tracking();
     this.replayParked();
   }
@@ -170,7 +170,7 @@ class PlantRuntime extends RuntimeBase {
     this.plantError = settings.error || null;
     this.sensors.forget({ watchers: true });
     this.freeTracker(this.t !== null);
-    this.state = 'starting';
+    this.step('restart');
     this.failure = null;
     this.start();
   }

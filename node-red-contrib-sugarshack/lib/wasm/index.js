@@ -222,6 +222,7 @@ const SAMPLE_MODBUS = Object.freeze({
 });
 
 function prime(facade) {
+  facade.lifeStep(facade.lifeView('starting').stage, 'started');
   primeEngine(facade);
   primeInterlock(facade);
   primeModbus(facade);

@@ -13,6 +13,7 @@ mod device;
 mod engine;
 mod group;
 mod interlock;
+mod lifecycle;
 mod modbus;
 pub mod operation;
 mod payload;
@@ -32,6 +33,7 @@ pub use device::DeviceSide;
 pub use engine::Engine;
 pub use group::{is_lockout_msg, read_group_msg};
 pub use interlock::{Interlock, RESOURCE_SETS_KEPT};
+pub use lifecycle::{life_step, life_view};
 pub use routine::Routine;
 pub use tracker::{Ingest, Tracker};
 

@@ -54,7 +54,7 @@ use crate::time::{ms, Millis};
 
 pub use config::{node_config, ConfigFields, ConfigOf, NodeConfig, MAX_CONFIG_ID, MAX_TIMEOUT_S};
 pub use deadline::{Deadlines, Due};
-pub use lifecycle::{Gate, Stage, Step, TRANSITIONS};
+pub use lifecycle::{Admit, Gate, Stage, Step, Work, TRANSITIONS};
 pub use output::{
     Action, Cleared, Counts, Journal, Level, LockoutMsg, Output, Param, Refusal, RefusalOf, Set,
     Text, CATALOG_LABELS, CATALOG_TEXTS,
@@ -963,6 +963,10 @@ impl Engine {
     }
 
     fn life(&mut self, step: Step, now: Millis) {
+        // A host that fails or stands down frees its engine instead.
+        if step.host_only() {
+            return;
+        }
         let from = self.stage;
         let to = from.after(step);
         match step {
@@ -1206,7 +1210,16 @@ impl Engine {
             }
         }
         let names = resources_of(&fields.resources, node_value(n, fields, Value::Resources))?;
-        let set = self.interlock.resource_set(&names)?;
+        let set = match self.interlock.resource_set(&names) {
+            Ok(set) => set,
+            // A drain: the new settings may have the line. The request waits by its names,
+            // read again when they apply (refused then if they lack it).
+            Err(InterlockError::UnknownResource { .. }) if self.stage.gate() == Gate::HoldBack => {
+                let names: Names = names.into_iter().map(Arc::from).collect();
+                return Ok((ResourceSet::default(), names));
+            }
+            Err(err) => return Err(err.into()),
+        };
         let names: Names = names
             .into_iter()
             .map(|n| {

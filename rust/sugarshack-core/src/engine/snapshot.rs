@@ -177,8 +177,13 @@ impl Engine {
         self.lost = state.lost;
         for saved in state.requests {
             let op = self.interlock.operation(&saved.operation);
-            let Ok(set) = self.interlock.resource_set(&saved.resources) else {
-                continue;
+            let set = match self.interlock.resource_set(&saved.resources) {
+                Ok(set) => set,
+                Err(err) => {
+                    // Its lines left with the new settings: refused, as at a drain's end (never lost unanswered).
+                    self.refuse(saved.node, saved.msg, err.into());
+                    continue;
+                }
             };
             let request = Request {
                 node: saved.node,

@@ -703,6 +703,66 @@ fn the_state_document_holds_the_requests_and_a_hand_over_keeps_them() {
     assert_eq!(b.engine.take_outputs(), standby.take_outputs());
 }
 
+#[test]
+fn a_waiting_request_whose_lines_the_new_settings_lack_is_refused_at_the_hand_over() {
+    let mut b = Bench::new();
+    b.acquire(2, 1);
+    b.at(10).run(Input::Acquire {
+        node: NodeId(1),
+        msg: MsgId(2),
+        fields: Fields {
+            resources: text("YEL, GRN"),
+            ..Fields::default()
+        }
+        .into(),
+    });
+    b.run(Input::Life(Step::DrainBegin));
+    let doc = b.engine.snapshot(ms(20));
+    let lines: Vec<&str> = LINES.iter().copied().filter(|l| *l != "GRN").collect();
+    let mut next = Engine::new(InterlockConfig::with_resources(lines), false).unwrap();
+    next.hand_over(&doc, ms(20)).unwrap();
+    let out = next.take_outputs();
+    assert_eq!(answers(&out), ["fail 2 UNKNOWN_RESOURCE"]);
+    assert_eq!(next.counts().queued, 0);
+}
+
+#[test]
+fn during_a_drain_a_request_for_a_line_only_the_new_settings_have_waits_by_its_names_with_its_timeout(
+) {
+    let mut b = Bench::new();
+    b.run(Input::Life(Step::DrainBegin));
+    let teal = |msg: u32| Input::Acquire {
+        node: NodeId(4),
+        msg: MsgId(msg),
+        fields: Fields {
+            resources: text("TEAL"),
+            ..Fields::default()
+        }
+        .into(),
+    };
+    assert_eq!(
+        answers(&b.at(10).run(teal(1))),
+        Vec::<String>::new(),
+        "held back, not refused"
+    );
+    assert_eq!(b.engine.counts().queued, 1);
+    // Its timeout runs while it waits.
+    assert_eq!(answers(&b.tick(5010)), ["fail 1 ACQUIRE_TIMEOUT"]);
+    b.at(6000).run(teal(2));
+    let mut lines = LINES.to_vec();
+    lines.push("TEAL");
+    let mut next = Engine::new(InterlockConfig::with_resources(lines), false).unwrap();
+    next.hand_over(&b.engine.snapshot(ms(6000)), ms(6000))
+        .unwrap();
+    next.handle(Input::Life(Step::DrainBegin), ms(6000));
+    next.take_outputs();
+    next.handle(Input::Life(Step::DrainEnd), ms(6100));
+    assert_eq!(answers(&next.take_outputs()), ["send 2 on 0"]);
+    // Under settings that still lack it, the drain's end refuses it.
+    let out = b.at(6200).run(Input::Life(Step::DrainEnd));
+    assert_eq!(answers(&out), ["fail 2 UNKNOWN_RESOURCE"]);
+}
+
 /// An engine on `lines` with a clear-all node (9), started from `saved` at `now`.
 fn started(lines: &[&str], saved: Saved, now: u64) -> (Engine, Vec<Output>) {
     let mut engine = Engine::new(
