@@ -47,10 +47,29 @@ class RuntimeBase {
     this.bufferMax = bufferMax;
   }
 
-  /** Takes `step` of its life: the core says the stage it leads to. @param {LifeStep} step */
+  /** Takes `step` of its life: the core says the stage it leads to; work that waits for the gate hears it close. @param {LifeStep} step */
   step(step) {
+    const wasOpen = this.takesWork;
     this.life = wasm.load().lifeStep(this.life.stage, step);
+    if (wasOpen && !this.takesWork) this.gateMoved(false);
   }
+
+  /** What its stage does now with work (`life.admit`): urgent work does not wait for a drain, passive work runs on a standby too. */
+  admits(urgent = false, passive = false) {
+    return this.life.admit[(urgent ? 1 : 0) | (passive ? 2 : 0) | (this.standby ? 4 : 0)];
+  }
+
+  /** Its stage takes plain work now: started, no drain, not failed, on standby or stopped. */
+  get takesWork() {
+    return this.admits() === 'take';
+  }
+
+  /**
+   * Its gate closed (a step) or opened (held work resumes, after the step
+   * and its engine's): what runs by the gate follows (an interlock's routines).
+   * @param {boolean} _open
+   */
+  gateMoved(_open) {}
 
   /** 'starting' | 'ready' | 'failed' | 'standby' | 'stopped': its stage as the state API names it. */
   get state() {
@@ -150,7 +169,7 @@ class RuntimeBase {
    * by `work` completes the msg with the error, so a Catch node gets it.
    */
   submit(node, done, work, { urgent = false, passive = false } = {}) {
-    switch (this.life.admit[(urgent ? 1 : 0) | (passive ? 2 : 0) | (this.standby ? 4 : 0)]) {
+    switch (this.admits(urgent, passive)) {
       case 'take':
         this.perform(node, done, work);
         break;
@@ -246,6 +265,7 @@ class RuntimeBase {
 
   /** Releases held work in order (ready, or a drain finished). */
   replayParked() {
+    if (this.takesWork) this.gateMoved(true);
     for (const fn of this.openWaiters.splice(0)) {
       try {
         fn();

@@ -81,6 +81,11 @@ class InterlockHost extends RuntimeBase {
 
   freeCore() {}
 
+  /** Its routines' conditions are due only while its gate is open. @param {boolean} open */
+  gateMoved(open) {
+    for (const host of [...this.routines.values()]) host.gate(open);
+  }
+
   /** A routine's deadline changed (the engine runtime's one timer follows them). */
   routineDeadlinesChanged() {}
 

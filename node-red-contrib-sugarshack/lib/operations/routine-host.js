@@ -45,7 +45,6 @@ class RoutineHost {
     /** @type {number | undefined} the machine's next deadline (epoch ms), kept for the interlock's one timer */
     this.dueAt = undefined;
     this.unwatch = []; // stops watching its conditions' sensors
-    this.checkParked = false; // a check waits for the interlock to open
     this.ended = false;
   }
 
@@ -65,6 +64,7 @@ class RoutineHost {
       machine.free();
       throw err;
     }
+    machine.gate(this.interlock.takesWork);
     this.machine = machine;
     this.conditions = conditions;
     this.watchInputs();
@@ -276,7 +276,6 @@ class RoutineHost {
     const machine = this.machine;
     if (this.ended || !machine) return;
     machine.inputChanged(t);
-    this.gate(machine);
     const next = machine.nextDeadline();
     if (next !== undefined && next <= clock.now()) this.checkConditions();
     else this.followDeadline();
@@ -303,30 +302,22 @@ class RoutineHost {
   }
 
   /**
-   * Tells its core whether the interlock's gate is open (ready, not draining):
-   * closed, it hands out no condition and keeps no deadline, and the check
-   * waits for the gate to open.
+   * Its interlock's gate opened or closed (the interlock tells it: starting,
+   * a deploy's drain, a failure): closed, its core hands out no condition and
+   * keeps no deadline; open, its conditions are checked.
+   * @param {boolean} open
    */
-  gate(machine) {
-    const open = this.interlock.gateOpen && this.interlock.state === 'ready';
+  gate(open) {
+    const machine = this.machine;
+    if (this.ended || !machine) return;
     machine.gate(open);
-    if (!open) this.checkWhenOpen();
-  }
-
-  /** A deploy drains (or the interlock starts): its conditions are checked once the interlock opens. */
-  checkWhenOpen() {
-    if (this.checkParked || (this.interlock.gateOpen && this.interlock.state !== 'starting')) return;
-    this.checkParked = true;
-    this.interlock.whenOpen(() => {
-      this.checkParked = false;
-      this.checkConditions();
-    });
+    if (open) this.checkConditions();
+    else this.followDeadline();
   }
 
   checkConditions() {
     const machine = this.machine;
     if (this.ended || !machine || this.run) return;
-    this.gate(machine);
     const now = clock.now();
     let due;
     try {
