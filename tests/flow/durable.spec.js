@@ -489,6 +489,20 @@ describe('sugarshack durable interlock state', function () {
       assert.equal(completions.filter((c) => c.msgid === wide._msgid).length, 1, 'the removed node\'s msg completed');
     });
 
+    it('a deploy that restarts a waiting acquire node bound elsewhere withdraws its request at the deploy\'s end; the next waiter goes', async function () {
+      const f = flow([], { policy: 'no-overtaking' });
+      const completions = trackCompletions();
+      const wide = { payload: 'flit downstock' };
+      await holdAndTwoWaiting(f, wide);
+      // Modified, not removed: its new instance names no interlock here, so it never comes back to this one.
+      await helper.setFlows(f.map((n) => (n.id === 'a18' ? { ...n, interlock: 'gone' } : n)), 'nodes');
+      const after = collect(helper, 'out');
+      await until(() => after.length === 1, 'op 51 granted once 18 was withdrawn');
+      assert.equal(after[0].interlock.operation, '51');
+      assert.deepEqual(counts(), { holding: 2, queued: 0, faulted: 0 }, 'op 10 holds YEL, op 51 RED, nothing waits');
+      assert.equal(completions.filter((c) => c.msgid === wide._msgid).length, 1, 'the restarted node\'s msg completed');
+    });
+
     it('a deploy that changes the interlock\'s settings keeps holds, faults and waiting requests', async function () {
       const f = flow();
       await holdFaultAndWait(f);

@@ -46,6 +46,8 @@ class Palette {
     for (const runtime of [...this.runtimes.values()]) {
       if (!runtime.owner) this.retire(runtime);
     }
+    // What a restarted node held and it did not come back for is withdrawn (a first start has none).
+    for (const runtime of this.runtimes.values()) runtime.deployEnds();
     for (const fn of this.afterStart.splice(0)) setImmediate(fn);
     if (this.swaps.size > 0) this.pokeDrain();
   }
@@ -54,6 +56,7 @@ class Palette {
     this.started = false;
     const deploying = Boolean(event && this.startedConfig && event.config !== this.startedConfig);
     this.phase = deploying ? 'deploying' : 'shutdown';
+    if (deploying) for (const runtime of this.runtimes.values()) runtime.deployBegins();
     if (!deploying) {
       // Frozen where they are: a drain in progress ends with the process.
       this.swaps.clear();

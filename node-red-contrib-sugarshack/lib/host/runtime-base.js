@@ -137,25 +137,26 @@ class RuntimeBase {
    * A node closes in a deploy (not a shutdown). Restarted, its held msgs are
    * completed now and go on from its next instance; removed, what it waits for
    * is withdrawn. A restarted node that has not come back by the end of the
-   * deploy counts as removed.
+   * deploy counts as removed (each runtime says how: see `closing`).
    */
   nodeClosed(node, removed) {
     this.dropParked(node);
     for (const entry of this.heldEntries()) if (entry.node === node) entry.detach();
-    this.closing(node);
-    const settle = () => {
-      if (this.state === 'ready') this.withdrawOrphans(node.id);
-    };
-    if (removed) settle();
-    else this.palette.whenStarted(settle);
+    this.closing(node, removed);
   }
 
-  /** @param {NodeRed.Node} _node */
-  closing(_node) {}
+  /** @param {NodeRed.Node} _node @param {boolean} _removed */
+  closing(_node, _removed) {}
 
-  /** Withdraws what the held msgs of node `nodeId`, not taken over, wait for. */
-  /** @param {string} _nodeId */
-  withdrawOrphans(_nodeId) {}
+  /** A deploy stops the flows (the palette tells each runtime). */
+  deployBegins() {
+    this.step('deploy-begin');
+  }
+
+  /** The deploy's flows started. */
+  deployEnds() {
+    this.step('deploy-end');
+  }
 
   // ---- work from nodes -----------------------------------------------------
 

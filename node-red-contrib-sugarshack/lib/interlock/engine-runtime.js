@@ -427,24 +427,28 @@ class EngineRuntime extends InterlockHost {
     return [...this.carrier.held.values()];
   }
 
-  closing(node) {
+  /** The engine decides: removed, what the node waits for is withdrawn now; restarted, at the deploy's end unless it came back. */
+  closing(node, removed) {
     this.closingRuns(node);
     const handle = this.nodeHandles.get(node.id);
     const bound = handle === undefined ? undefined : this.nodes.get(handle);
     if (handle === undefined || !bound || bound.node !== node) return;
     this.nodes.delete(handle);
-    if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, false, now));
+    if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, removed, now));
   }
 
   closingRuns(node) {
     for (const run of this.runs) run.detachNode(node);
   }
 
-  /** A node restarted by a deploy that did not come back: the engine withdraws what it waited for. */
-  withdrawOrphans(nodeId) {
-    const handle = this.nodeHandles.get(nodeId);
-    if (handle === undefined || this.nodes.has(handle)) return;
-    this.call((e, now) => e.closeNode(handle, true, now));
+  deployBegins() {
+    super.deployBegins();
+    this.lifeStep('deploy-begin');
+  }
+
+  deployEnds() {
+    super.deployEnds();
+    this.lifeStep('deploy-end');
   }
 
   addEventsNode(node) {

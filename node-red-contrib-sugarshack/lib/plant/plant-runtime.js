@@ -212,15 +212,18 @@ class PlantRuntime extends RuntimeBase {
     return this.commands.entries();
   }
 
-  closing(node) {
+  /** A plant has no engine: the commands of a node that did not come back by the deploy's end are withdrawn here. */
+  closing(node, removed) {
     this.bus.remove(node);
     this.modbus.sync();
     this.conditionsMayHaveChanged();
-  }
-
-  withdrawOrphans(nodeId) {
-    this.commands.withdrawOrphans(nodeId);
-    this.refreshStatus();
+    const settle = () => {
+      if (this.state !== 'ready') return;
+      this.commands.withdrawOrphans(node.id);
+      this.refreshStatus();
+    };
+    if (removed) settle();
+    else this.palette.whenStarted(settle);
   }
 
   // ---- calls from nodes and runs (see the part each goes to) ---------------
