@@ -193,7 +193,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1
       && $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').length === 1, { timeout: 10000 });
     const types = await page.$$eval('.red-ui-typedInput-options a', (els) => els.filter((e) => e.offsetParent).map((e) => e.innerText.trim()));
-    assert.deepEqual(types, [catalog('operation')['sugarshack-operation'].label.fromPlant, 'string']);
+    // Listed, typed, or read for each msg as Node-RED's own nodes read a value.
+    assert.deepEqual(types, [catalog('operation')['sugarshack-operation'].label.fromPlant, 'string', 'msg.', 'flow.', 'global.', 'env variable', 'expression']);
     await page.evaluate(() => $('.red-ui-typedInput-options:visible a').filter((i, a) => a.innerText.trim() === 'string').trigger('click'));
     await page.click('#node-input-operation + .red-ui-typedInput-container input.red-ui-typedInput-input', { clickCount: 3 });
     await page.keyboard.type('30');
@@ -202,6 +203,15 @@ describe('the plant document in the editor (headless Chromium)', function () {
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
     await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container', { visible: true, timeout: 10000 });
     assert.deepEqual(await page.evaluate(() => [$('#node-input-operation').typedInput('type'), $('#node-input-operation').val()]), ['str', '30']);
+
+    // Read from each msg: the type is kept beside the value, and opens as it was saved.
+    await page.evaluate(() => { $('#node-input-operation').typedInput('type', 'msg'); $('#node-input-operation').typedInput('value', 'topic'); });
+    await done();
+    assert.deepEqual(await page.evaluate(() => [RED.nodes.node('op').operationType, RED.nodes.node('op').operation]), ['msg', 'topic']);
+    await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
+    await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container', { visible: true, timeout: 10000 });
+    assert.deepEqual(await page.evaluate(() => [$('#node-input-operation').typedInput('type'), $('#node-input-operation').val()]), ['msg', 'topic']);
+    await done();
   });
 
   it('lists the plant\'s routines in the routine node, its first for a new one', async function () {
