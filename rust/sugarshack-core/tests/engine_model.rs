@@ -8,6 +8,8 @@
 //!   release's grants go out in priority order;
 //! - no request outlives its acquire timeout past a tick, and none is refused
 //!   for it early;
+//! - msgs that come before the engine starts wait for the start (within a
+//!   bound, past it refused), their timeouts counting from when they came;
 //! - nothing is granted while a drain holds the queue back;
 //! - an engine that takes the state over (its snapshot through JSON) at any
 //!   point gives the same outputs for the same inputs from then on
@@ -205,12 +207,25 @@ impl Host {
     }
 }
 
+/// `replayed`: the outputs of many inputs at once (the start's, of the msgs
+/// that waited for it): a grant's operation may be released again within them.
 fn check(
     engine: &Engine,
     host: &mut Host,
     out: &[Output],
     now: u64,
     priorities_of_grants: &mut Vec<i32>,
+) {
+    check_batch(engine, host, out, now, priorities_of_grants, false);
+}
+
+fn check_batch(
+    engine: &Engine,
+    host: &mut Host,
+    out: &[Output],
+    now: u64,
+    priorities_of_grants: &mut Vec<i32>,
+    replayed: bool,
 ) {
     for o in out {
         match o {
@@ -225,7 +240,8 @@ fn check(
                     let op = engine.interlock().find_operation(operation).expect("known");
                     // Granted and not released within this same input (a fault may follow only later).
                     assert!(
-                        engine.interlock().is_holding(op)
+                        replayed
+                            || engine.interlock().is_holding(op)
                             || engine.interlock().counts().faulted > 0,
                         "{operation} answered but not holding"
                     );
@@ -249,17 +265,45 @@ fn check(
     }
 }
 
-fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
+/// No acquire with a timeout still waits once its time ran out (after a tick or the start).
+fn none_outlives_its_timeout(host: &Host, masks_timeout: impl Fn(u32) -> bool, now: u64) {
+    for (msg, (came, op)) in &host.came {
+        if op.is_some_and(&masks_timeout) && !host.answered.contains(msg) {
+            assert!(
+                came + TIMEOUT_MS > now,
+                "msg {msg} came at {came} and still waits at {now}"
+            );
+        }
+    }
+}
+
+/// `start_at`: the step before which the engine starts (past the last: never,
+/// its msgs wait until the shutdown); `park_bound`: most msgs that wait for it.
+fn run(
+    masks: Vec<u8>,
+    steps: Vec<(Step_, u64)>,
+    twin_at: usize,
+    start_at: usize,
+    park_bound: usize,
+) {
     let mut live = engine(&masks);
-    live.handle(Input::Start(Saved::First), ms(0));
-    live.take_outputs();
+    live.set_park_bound(park_bound);
+    let mut waiting = 0;
     let mut twin: Option<Engine> = None;
     let mut host = Host::default();
     let mut now = 0;
     let mut next_msg = 1;
+    let times_out = |op: u32| op % 2 == 1;
     for (index, (step, dt)) in steps.iter().enumerate() {
         now += dt;
-        if index == twin_at {
+        if index == start_at {
+            live.handle(Input::Start(Saved::First), ms(now));
+            let out = live.take_outputs();
+            check_batch(&live, &mut host, &out, now, &mut Vec::new(), true);
+            none_outlives_its_timeout(&host, times_out, now);
+        }
+        let starting = index < start_at;
+        if index == twin_at && !starting {
             let doc: StateDoc =
                 serde_json::from_str(&serde_json::to_string(&live.snapshot(ms(now))).unwrap())
                     .unwrap();
@@ -277,6 +321,7 @@ fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
             } else {
                 Step::DrainBegin
             })],
+            Step_::HandOver if starting => vec![],
             Step_::HandOver => {
                 let doc = live.snapshot(ms(now));
                 live.hand_over(&doc, ms(now)).unwrap();
@@ -303,10 +348,26 @@ fn run(masks: Vec<u8>, steps: Vec<(Step_, u64)>, twin_at: usize) {
         };
         for input in inputs {
             let draining = live.stage() == Stage::Draining && input != Input::Life(Step::DrainEnd);
+            let carries_msg = !matches!(input, Input::Tick | Input::Life(_));
             live.handle(input.clone(), ms(now));
             let out = live.take_outputs();
             let mut grants = Vec::new();
             check(&live, &mut host, &out, now, &mut grants);
+            if starting && carries_msg {
+                let refused = out.iter().any(|o| {
+                    matches!(o, Output::Complete { refusal: Some(r), .. } if r.code.name() == "QUEUE_FULL")
+                });
+                let full = park_bound > 0 && waiting >= park_bound;
+                assert_eq!(refused, full, "{waiting} waiting, bound {park_bound}");
+                assert!(
+                    refused || out.is_empty(),
+                    "answered before the start: {out:?}"
+                );
+                waiting += usize::from(!full);
+            }
+            if matches!(step, Step_::Tick) && !starting {
+                none_outlives_its_timeout(&host, times_out, now);
+            }
             if draining {
                 assert!(
                     !out.iter().any(|o| matches!(
@@ -390,7 +451,9 @@ proptest! {
         masks in proptest::collection::vec(1u8..16, OPS as usize),
         steps in proptest::collection::vec((step(), 0u64..500), 1..70),
         twin_at in 0usize..70,
+        start_at in prop_oneof![Just(0usize), 0usize..80],
+        park_bound in prop_oneof![Just(0usize), 1usize..6],
     ) {
-        run(masks, steps, twin_at);
+        run(masks, steps, twin_at, start_at, park_bound);
     }
 }

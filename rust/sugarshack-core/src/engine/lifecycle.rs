@@ -203,7 +203,8 @@ pub const TRANSITIONS: &[(Stage, Step, Stage)] = &[
 /// What a stage does with an input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Gate {
-    /// Kept, in arrival order, until the engine has started.
+    /// Kept, in arrival order, until the engine has started (within its
+    /// park bound); answered as by a stopped engine if it stops first.
     Park,
     /// Taken; new requests are held back until the drain ends.
     HoldBack,

@@ -456,6 +456,14 @@ struct Request {
     held_back: bool,
 }
 
+/// An input that arrived while the engine started, with when it arrived
+/// (a request's timeout counts from then).
+#[derive(Clone, Debug, PartialEq)]
+struct Parked {
+    input: Input,
+    at: Millis,
+}
+
 /// A msg's operation (name and handle), priority and lines, as read for an acquire.
 type Resolved = (Arc<str>, OpId, i32, ResourceSet, Names);
 
@@ -487,7 +495,9 @@ pub struct Engine {
     by_op: FxMap<OpId, MsgId>,
     held_back: VecDeque<MsgId>,
     deadlines: Deadlines,
-    parked: Vec<Input>,
+    parked: Vec<Parked>,
+    /// Most parked inputs that carry a msg (0: no bound).
+    park_bound: usize,
     lost: Option<String>,
     alarms: Alarms,
     alarm_due: Option<Millis>,
@@ -526,6 +536,7 @@ impl Engine {
             held_back: VecDeque::new(),
             deadlines: Deadlines::default(),
             parked: Vec::new(),
+            park_bound: 0,
             lost: None,
             alarms: Alarms::new(),
             alarm_due: None,
@@ -630,6 +641,23 @@ impl Engine {
         &self.saved_routines
     }
 
+    /// Bounds the inputs that carry a msg parked while it starts (the host
+    /// passes Node-RED's nodeMessageBufferMaxLength; 0: none, the default):
+    /// one more is refused (QUEUE_FULL).
+    pub fn set_park_bound(&mut self, max: usize) {
+        self.park_bound = max;
+    }
+
+    /// The inputs parked for the start, with when each arrived, for a host
+    /// that frees its engine before it starts (its start failed, or it
+    /// stood down) and answers or moves their msgs itself.
+    pub fn take_parked(&mut self) -> Vec<(Input, Millis)> {
+        std::mem::take(&mut self.parked)
+            .into_iter()
+            .map(|p| (p.input, p.at))
+            .collect()
+    }
+
     /// When [`Engine::tick`] is next due, if ever.
     pub fn next_deadline(&self) -> Option<Millis> {
         if self.stage == Stage::Stopped {
@@ -697,6 +725,18 @@ impl Engine {
         blockers: Blockers<'_>,
         plant: Option<&Plant>,
     ) {
+        self.take_input(input, now, now, blockers, plant);
+    }
+
+    /// An input that arrived at `arrived` (before `now` when it was parked).
+    fn take_input(
+        &mut self,
+        input: Input,
+        now: Millis,
+        arrived: Millis,
+        blockers: Blockers<'_>,
+        plant: Option<&Plant>,
+    ) {
         let before = self.counts();
         match self.stage.gate() {
             Gate::Park if !matches!(input, Input::Start(_) | Input::Life(_)) => {
@@ -706,7 +746,7 @@ impl Engine {
                     // Who listens decides which events of the start itself go out.
                     self.listening = on;
                 } else {
-                    self.parked.push(input);
+                    self.park(input, now);
                 }
                 return;
             }
@@ -724,7 +764,9 @@ impl Engine {
                     self.withdraw_node(orphan, now);
                 }
             }
-            Input::Acquire { node, msg, fields } => self.acquire(node, msg, &fields, now),
+            Input::Acquire { node, msg, fields } => {
+                self.acquire(node, msg, &fields, now, arrived.min(now))
+            }
             Input::Release { node, msg, fields } => self.release(node, msg, &fields, now),
             Input::Cancel { node, msg, fields } => self.cancel(node, msg, &fields, now),
             Input::Fault { node, msg, fields } => self.fault(node, msg, &fields, now),
@@ -846,8 +888,43 @@ impl Engine {
         self.out.push(Output::Commit { urgent: false });
         self.flush_events();
         self.observe_alarms(now, false);
-        for input in std::mem::take(&mut self.parked) {
-            self.handle_checked(input, now, blockers);
+        self.replay_parked(now, blockers);
+    }
+
+    /// Keeps an input for the start; past the bound, one that carries a msg is refused.
+    fn park(&mut self, input: Input, now: Millis) {
+        if self.park_bound > 0 && msg_of(&input).is_some() {
+            let carrying = self
+                .parked
+                .iter()
+                .filter(|p| msg_of(&p.input).is_some())
+                .count();
+            if carrying >= self.park_bound {
+                let refusal = Refusal::catalog(
+                    Code::QueueFull,
+                    "errors.parkedFull",
+                    vec![
+                        ("kind", Param::Text("interlock".to_owned())),
+                        ("max", Param::Text(self.park_bound.to_string())),
+                    ],
+                );
+                return self.refuse_input(input, refusal);
+            }
+        }
+        self.parked.push(Parked { input, at: now });
+    }
+
+    /// The inputs parked for the start, in arrival order, each as of when it arrived.
+    fn replay_parked(&mut self, now: Millis, blockers: Blockers<'_>) {
+        for Parked { input, at } in std::mem::take(&mut self.parked) {
+            self.take_input(input, now, at, blockers, None);
+        }
+    }
+
+    /// Stopped before it started: every parked msg is answered as a stopped engine answers it.
+    fn unpark_stopped(&mut self) {
+        for parked in std::mem::take(&mut self.parked) {
+            self.refuse_stopped(parked.input);
         }
     }
 
@@ -1007,7 +1084,7 @@ impl Engine {
         self.by_op.clear();
         self.held_back.clear();
         self.deadlines = Deadlines::default();
-        self.parked.clear();
+        self.unpark_stopped();
         self.alarm_due = None;
     }
 
@@ -1028,6 +1105,7 @@ impl Engine {
             }
         }
         self.commit(false, effects);
+        self.unpark_stopped();
     }
 
     /// The msgs of the queued requests, in queue order.
@@ -1275,7 +1353,15 @@ impl Engine {
         })
     }
 
-    fn acquire(&mut self, node: NodeId, msg: MsgId, fields: &MsgFields, now: Millis) {
+    /// An acquire that arrived at `arrived`: it waits, and times out, from then.
+    fn acquire(
+        &mut self,
+        node: NodeId,
+        msg: MsgId,
+        fields: &MsgFields,
+        now: Millis,
+        arrived: Millis,
+    ) {
         let read = self.resolved(node, fields).map(Ok).unwrap_or_else(|| {
             let (name, op) = self.operation(node, fields, false)?;
             let priority = self.priority(node, fields)?;
@@ -1294,10 +1380,14 @@ impl Engine {
             priority,
             set,
             names,
-            since: now,
-            deadline: timeout.map(|t| now.saturating_add(t)),
+            since: arrived,
+            deadline: timeout.map(|t| arrived.saturating_add(t)),
             held_back: false,
         };
+        if request.deadline.is_some_and(|at| at <= now) {
+            // Parked while it started, past its timeout: it timed out waiting.
+            return self.refuse(node, msg, timed_out(&request));
+        }
         if self.stage.gate() == Gate::HoldBack {
             // A drain: it queues once the new settings apply. Refused now if it never could.
             if self.interlock.is_holding(op) || self.interlock.is_queued(op) {
@@ -2094,28 +2184,13 @@ impl Engine {
                 ),
             }
         }
-        let timeout = request
-            .deadline
-            .map_or(Millis::ZERO, |at| at.saturating_sub(request.since));
-        let lines: Vec<&str> = request.names.iter().map(|n| &**n).collect();
         effects.push(Output::NodeError {
             node: request.node,
             code: Code::AcquireTimeout,
         });
         effects.push(Output::Complete {
             msg,
-            refusal: Some(Refusal::catalog(
-                Code::AcquireTimeout,
-                "errors.acquireTimeout",
-                vec![
-                    ("operation", Param::Text(request.name.to_string())),
-                    ("resources", Param::Text(lines.join(", "))),
-                    (
-                        "seconds",
-                        Param::Text(crate::text::js_number(timeout.as_f64() / 1000.0)),
-                    ),
-                ],
-            )),
+            refusal: Some(timed_out(&request)),
         });
         self.commit(false, effects);
     }
@@ -2195,25 +2270,29 @@ impl Engine {
 
     /// An input after the engine stopped: its msg is completed unsent.
     fn refuse_stopped(&mut self, input: Input) {
-        let msg = match input {
-            Input::Acquire { msg, .. }
-            | Input::Release { msg, .. }
-            | Input::Cancel { msg, .. }
-            | Input::Fault { msg, .. }
-            | Input::Clear { msg, .. } => msg,
-            Input::Operator { msg, .. } => {
-                self.out.push(Output::Reply {
-                    msg,
-                    answer: Err(Refusal::plain(
-                        Code::InterlockStopped,
-                        "the interlock has stopped",
-                    )),
-                });
-                return;
-            }
-            _ => return,
-        };
-        self.out.push(Output::Complete { msg, refusal: None });
+        match msg_of(&input) {
+            Some((None, msg)) => self.out.push(Output::Reply {
+                msg,
+                answer: Err(Refusal::plain(
+                    Code::InterlockStopped,
+                    "the interlock has stopped",
+                )),
+            }),
+            Some((Some(_), msg)) => self.out.push(Output::Complete { msg, refusal: None }),
+            None => {}
+        }
+    }
+
+    /// Refuses an input's msg (an operator's request is answered with the refusal).
+    fn refuse_input(&mut self, input: Input, refusal: Refusal) {
+        match msg_of(&input) {
+            Some((Some(node), msg)) => self.refuse(node, msg, refusal),
+            Some((None, msg)) => self.out.push(Output::Reply {
+                msg,
+                answer: Err(refusal),
+            }),
+            None => {}
+        }
     }
 
     /// Refuses a msg before it became an input (its time unreadable).
@@ -2246,6 +2325,39 @@ fn recording(config: &InterlockConfig) -> InterlockConfig {
         record_events: true,
         ..config.clone()
     }
+}
+
+/// The node and msg an input carries (no node: an operator's request, answered by a reply).
+fn msg_of(input: &Input) -> Option<(Option<NodeId>, MsgId)> {
+    match *input {
+        Input::Acquire { node, msg, .. }
+        | Input::Release { node, msg, .. }
+        | Input::Cancel { node, msg, .. }
+        | Input::Fault { node, msg, .. }
+        | Input::Clear { node, msg, .. } => Some((Some(node), msg)),
+        Input::Operator { msg, .. } => Some((None, msg)),
+        _ => None,
+    }
+}
+
+/// Why a request that waited its whole timeout is refused.
+fn timed_out(request: &Request) -> Refusal {
+    let timeout = request
+        .deadline
+        .map_or(Millis::ZERO, |at| at.saturating_sub(request.since));
+    let lines: Vec<&str> = request.names.iter().map(|n| &**n).collect();
+    Refusal::catalog(
+        Code::AcquireTimeout,
+        "errors.acquireTimeout",
+        vec![
+            ("operation", Param::Text(request.name.to_string())),
+            ("resources", Param::Text(lines.join(", "))),
+            (
+                "seconds",
+                Param::Text(crate::text::js_number(timeout.as_f64() / 1000.0)),
+            ),
+        ],
+    )
 }
 
 fn grant_set(request: &Request, now: Millis) -> Set {

@@ -82,6 +82,7 @@ pub const CATALOG_TEXTS: &[(&str, &[&str])] = &[
     ("errors.operationNotName", &["from", "got"]),
     ("errors.operationRequired", &[]),
     ("errors.operationTooLong", &["from", "length", "max"]),
+    ("errors.parkedFull", &["kind", "max"]),
     ("errors.priorityNotInteger", &["from", "got"]),
     ("errors.reasonNotText", &["got"]),
     ("errors.shelfUnbounded", &[]),

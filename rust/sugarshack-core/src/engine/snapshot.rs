@@ -222,9 +222,7 @@ impl Engine {
         if self.stage.gate() == super::Gate::Park {
             self.stage = self.stage.after(super::Step::Started);
             self.update_recording();
-            for input in std::mem::take(&mut self.parked) {
-                self.handle(input, now);
-            }
+            self.replay_parked(now, &|_| Vec::new());
         }
         Ok(())
     }

@@ -28,6 +28,13 @@ impl Bench {
     }
 
     fn with(config: InterlockConfig) -> Self {
+        let mut b = Self::unstarted(config);
+        b.run(Input::Start(Saved::First));
+        b
+    }
+
+    /// The nodes added, the start not yet given.
+    fn unstarted(config: InterlockConfig) -> Self {
         let mut engine = Engine::new(config, false).unwrap();
         let nodes = [
             (
@@ -100,7 +107,6 @@ impl Bench {
                 ms(0),
             );
         }
-        engine.handle(Input::Start(Saved::First), ms(0));
         engine.take_outputs();
         Bench { engine, now: 0 }
     }
@@ -576,6 +582,133 @@ fn inputs_wait_while_starting_and_a_shutdown_completes_held_msgs_unsent() {
     );
     assert_eq!(answers(&engine.take_outputs()), ["done 4"]);
     assert_eq!(engine.next_deadline(), None);
+}
+
+/// Node 3 (op 18) and node 4 (op 51, 5 s timeout) ask for RED before the start.
+fn parked_for_red() -> Bench {
+    let mut b = Bench::unstarted(InterlockConfig::with_resources(LINES));
+    assert!(b.at(1000).acquire(3, 1).is_empty());
+    assert!(b.at(2000).acquire(4, 2).is_empty());
+    b.run(Input::Operator {
+        msg: MsgId(3),
+        action: OperatorAction::EStop {
+            lines: vec!["BLU".into()],
+        },
+        who: WhoFields::default(),
+    });
+    assert!(b.engine.take_outputs().is_empty(), "all parked");
+    b
+}
+
+#[test]
+fn a_shutdown_or_removal_before_the_start_answers_every_parked_msg() {
+    for step in [Step::Shutdown, Step::Retire] {
+        let mut b = parked_for_red();
+        let out = b.at(3000).run(Input::Life(step));
+        assert_eq!(answers(&out), ["done 1", "done 2"], "{step:?}");
+        assert!(
+            matches!(answer_to(&out, 3), Err(r) if r.code == Code::InterlockStopped),
+            "{step:?}: the operator is told"
+        );
+        assert!(b.engine.take_parked().is_empty());
+        // Nothing is left to replay, and nothing after is taken.
+        assert_eq!(
+            answers(&b.run(Input::Start(Saved::First))),
+            Vec::<String>::new()
+        );
+        assert_eq!(b.engine.interlock().counts().holding, 0);
+    }
+    // A host that frees its engine unstarted takes the parked inputs to answer them.
+    let mut b = parked_for_red();
+    let parked = b.engine.take_parked();
+    let arrived: Vec<u64> = parked.iter().map(|(_, at)| at.as_u64()).collect();
+    assert_eq!(arrived, [1000, 2000, 2000]);
+}
+
+#[test]
+fn a_parked_requests_timeout_counts_from_its_arrival() {
+    // Started before the timeout ran out: it times out 5 s after it arrived.
+    let mut b = parked_for_red();
+    let out = b.at(4000).run(Input::Start(Saved::First));
+    assert_eq!(answers(&out), ["send 1 on 0"], "op 51 waits for RED");
+    assert_eq!(b.engine.next_deadline(), Some(ms(7000)));
+    assert_eq!(answers(&b.tick(6999)), Vec::<String>::new());
+    assert_eq!(answers(&b.tick(7000)), ["fail 2 ACQUIRE_TIMEOUT"]);
+    // One granted at the start waited from its arrival.
+    let mut b = parked_for_red();
+    let out = b.at(2500).run(Input::Start(Saved::First));
+    assert_eq!(granted_interlock(&out, 1).3, 1500);
+    // Started when its time had run out: it timed out waiting, though RED is free.
+    for start in [7000, 9000] {
+        let mut b = Bench::unstarted(InterlockConfig::with_resources(LINES));
+        b.at(2000).acquire(4, 2);
+        let out = b.at(start).run(Input::Start(Saved::First));
+        assert_eq!(
+            answers(&out),
+            ["fail 2 ACQUIRE_TIMEOUT"],
+            "started at {start}"
+        );
+        let refusal = out
+            .iter()
+            .find_map(|o| match o {
+                Output::Complete {
+                    refusal: Some(r), ..
+                } => Some(r.clone()),
+                _ => None,
+            })
+            .unwrap();
+        assert_eq!(refusal.params()[2], ("seconds", Param::Text("5".into())));
+        assert!(out.contains(&Output::NodeError {
+            node: NodeId(4),
+            code: Code::AcquireTimeout
+        }));
+        assert_eq!(b.engine.interlock().counts().queued, 0);
+        assert_eq!(b.engine.next_deadline(), None);
+    }
+}
+
+#[test]
+fn parking_is_bounded_for_msgs_and_the_refusal_says_why() {
+    let mut b = Bench::unstarted(InterlockConfig::with_resources(LINES));
+    b.engine.set_park_bound(2);
+    assert!(b.acquire(1, 1).is_empty());
+    // Inputs without a msg are not counted (nor refused: nobody to tell).
+    b.run(Input::StoreFailing(None));
+    assert!(b.acquire(4, 2).is_empty());
+    let out = b.acquire(3, 3);
+    assert_eq!(answers(&out), ["fail 3 QUEUE_FULL"]);
+    assert!(out.contains(&Output::NodeError {
+        node: NodeId(3),
+        code: Code::QueueFull
+    }));
+    let refusal = out
+        .iter()
+        .find_map(|o| match o {
+            Output::Complete {
+                refusal: Some(r), ..
+            } => Some(r.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(refusal.key(), Some("errors.parkedFull"));
+    assert_eq!(
+        refusal.params(),
+        vec![
+            ("kind", Param::Text("interlock".into())),
+            ("max", Param::Text("2".into())),
+        ]
+    );
+    let out = b.run(Input::Operator {
+        msg: MsgId(4),
+        action: OperatorAction::Clear { lines: None },
+        who: WhoFields::default(),
+    });
+    assert!(matches!(answer_to(&out, 4), Err(r) if r.code == Code::QueueFull));
+    let out = b.run(Input::Start(Saved::First));
+    assert_eq!(answers(&out), ["send 1 on 0", "send 2 on 0"]);
+    // Running, nothing parks: the bound does not apply (it queues for YEL).
+    assert_eq!(answers(&b.acquire(2, 5)), Vec::<String>::new());
+    assert_eq!(b.engine.counts().queued, 1);
 }
 
 #[test]
