@@ -40,6 +40,10 @@ finish() {
   echo "tests: ${passed:-0} passed, ${failed:-0} failed"
 }
 trap finish EXIT
+# A run stopped by a signal failed: without these, finish sees the last command's status (0) and says all passed.
+trap 'exit 143' TERM
+trap 'exit 130' INT
+trap 'exit 129' HUP
 
 # Packs the palette (and the OPC UA package) once, then installs the tarballs into a fresh user dir per Node-RED version.
 pack() { # <package dir>: prints the tarball's path
