@@ -199,6 +199,18 @@ fn logged(out: &[Output], level: Level, key: &str) -> bool {
     })
 }
 
+/// The refusal of the first msg completed with one.
+fn first_refusal(out: &[Output]) -> Refusal {
+    out.iter()
+        .find_map(|o| match o {
+            Output::Complete {
+                refusal: Some(r), ..
+            } => Some(r.clone()),
+            _ => None,
+        })
+        .expect("a msg completed with a refusal")
+}
+
 fn counts(out: &[Output]) -> Option<Counts> {
     out.iter().rev().find_map(|o| match o {
         Output::Counts(c) => Some(*c),
@@ -267,15 +279,7 @@ fn an_acquire_timeout_is_a_deadline_that_withdraws_the_request() {
     assert_eq!(answers(&b.tick(5999)), Vec::<String>::new());
     let out = b.tick(6000);
     assert_eq!(answers(&out), ["fail 2 ACQUIRE_TIMEOUT"]);
-    let refusal = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Complete {
-                refusal: Some(r), ..
-            } => Some(r.clone()),
-            _ => None,
-        })
-        .unwrap();
+    let refusal = first_refusal(&out);
     assert_eq!(refusal.key(), Some("errors.acquireTimeout"));
     assert_eq!(
         refusal.params(),
@@ -648,15 +652,7 @@ fn a_parked_requests_timeout_counts_from_its_arrival() {
             ["fail 2 ACQUIRE_TIMEOUT"],
             "started at {start}"
         );
-        let refusal = out
-            .iter()
-            .find_map(|o| match o {
-                Output::Complete {
-                    refusal: Some(r), ..
-                } => Some(r.clone()),
-                _ => None,
-            })
-            .unwrap();
+        let refusal = first_refusal(&out);
         assert_eq!(refusal.params()[2], ("seconds", Param::Text("5".into())));
         assert!(out.contains(&Output::NodeError {
             node: NodeId(4),
@@ -681,15 +677,7 @@ fn parking_is_bounded_for_msgs_and_the_refusal_says_why() {
         node: NodeId(3),
         code: Code::QueueFull
     }));
-    let refusal = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Complete {
-                refusal: Some(r), ..
-            } => Some(r.clone()),
-            _ => None,
-        })
-        .unwrap();
+    let refusal = first_refusal(&out);
     assert_eq!(refusal.key(), Some("errors.parkedFull"));
     assert_eq!(
         refusal.params(),
