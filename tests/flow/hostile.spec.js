@@ -1119,6 +1119,40 @@ describe('sugarshack hostile input', function () {
       await after(seen, generation, { core, tracker });
     });
 
+    it('a warm-up that traps the instance made for the rebuild: that one is dropped, every runtime rebuilds on a fresh one', async function () {
+      const { seen } = await before();
+      const generation = wasm.currentGeneration();
+      const core = runtimeOf('il').core;
+      const tracker = runtimeOf('pl').t;
+      const { prime } = wasm;
+      const { emitWarning } = process;
+      const warnings = [];
+      let warmed = null;
+      // As a warm-up calling a changed signature did: a call that traps the instance it warms.
+      wasm.prime = (facade) => {
+        wasm.prime = prime;
+        warmed = facade;
+        const t = new facade.Tracker(wasm.SAMPLE_PLANT, 0);
+        t.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+        t.counts();
+      };
+      process.emitWarning = (warning) => warnings.push(String(warning));
+      try {
+        core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+        const msg = { operation: 'x', resources: 'RED' };
+        helper.getNode('acq').receive(msg);
+        await until(() => completionsOf('acq', msg).length === 1, 'the msg to complete');
+        assert.equal(completionsOf('acq', msg)[0].error.code, 'INTERNAL');
+        await after(seen, generation, { core, tracker });
+      } finally {
+        wasm.prime = prime;
+        process.emitWarning = emitWarning;
+      }
+      assert.ok(warmed, 'the rebuild warmed its instance');
+      assert.notEqual(wasm.load(), warmed, 'the instance the warm-up trapped is not the one in use');
+      assert.ok(warnings.some((w) => /warm-up failed/.test(w)), `the failed warm-up is told: ${warnings.join('; ')}`);
+    });
+
     it('a trap in the plant tick (a timer): no uncaught exception, every runtime rebuilds', async function () {
       const { seen } = await before();
       const generation = wasm.currentGeneration();

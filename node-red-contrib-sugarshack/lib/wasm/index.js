@@ -21,9 +21,28 @@ let generation = 0;
 /** @type {Set<TrapListener>} */
 const trapListeners = new Set();
 
-/** @returns {Facade} */
+/**
+ * The instance every runtime uses, warmed up once. A warm-up that failed may
+ * have trapped the instance it ran on, which would then fail every later call
+ * (memory out of bounds): it is dropped, and a fresh one runs unwarmed.
+ * @returns {Facade}
+ */
 function load() {
   if (bindings) return bindings;
+  const facade = instantiate();
+  try {
+    module.exports.prime(facade);
+  } catch (err) {
+    bindings = null;
+    delete require.cache[require.resolve(BINDINGS)];
+    process.emitWarning(`sugarshack: the wasm warm-up failed, running without it: ${err && err.message}`);
+    return instantiate();
+  }
+  return facade;
+}
+
+/** @returns {Facade} a new wasm instance, as `bindings` */
+function instantiate() {
   try {
     bindings = require(BINDINGS);
   } catch (err) {
@@ -36,7 +55,6 @@ function load() {
   }
   const facade = /** @type {Facade} */ (bindings);
   numericCalls(facade);
-  prime(facade);
   return facade;
 }
 
