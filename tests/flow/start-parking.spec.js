@@ -116,23 +116,26 @@ describe('sugarshack msgs while an interlock starts', function () {
     assert.deepEqual(msgs.map((m) => doneOf(m).length), [1, 1, 1], 'the timeout of the first does not answer it again');
   });
 
-  it('a stand-down while it starts completes every msg kept unsent once, its nodes showing standby', async function () {
-    const readEnds = await loadHeld(flow());
-    const msgs = [{ n: 1 }, { n: 2 }];
-    helper.getNode('a10').receive(msgs[0]);
-    helper.getNode('a12').receive(msgs[1]);
-    await run(0);
-    const runtime = runtimeOf();
-    await runtime.standDown();
-    assert.equal(runtime.state, 'standby');
-    assert.equal(runtime.core, null, 'its engine freed, never started');
-    for (const msg of msgs) assert.deepEqual(doneOf(msg).map((c) => c.error), [undefined]);
-    assert.equal(lastStatus('a10').text, 'standby');
-    await readEnds().catch(() => {});
-    await run(2000);
-    assert.deepEqual(msgs.map((m) => doneOf(m).length), [1, 1]);
-    assert.equal(runtime.state, 'standby', 'the read ending starts nothing');
-  });
+  // Deposed while it reads (standDown), or found on standby by the read of the cluster's committed state (becomeStandby).
+  for (const how of ['standDown', 'becomeStandby']) {
+    it(`on standby while it starts (${how}) it completes every msg kept unsent once, its nodes showing standby`, async function () {
+      const readEnds = await loadHeld(flow());
+      const msgs = [{ n: 1 }, { n: 2 }];
+      helper.getNode('a10').receive(msgs[0]);
+      helper.getNode('a12').receive(msgs[1]);
+      await run(0);
+      const runtime = runtimeOf();
+      await runtime[how]();
+      assert.equal(runtime.state, 'standby');
+      assert.equal(runtime.core, null, 'its engine freed, never started');
+      for (const msg of msgs) assert.deepEqual(doneOf(msg).map((c) => c.error), [undefined]);
+      assert.equal(lastStatus('a10').text, 'standby');
+      await readEnds();
+      await run(2000);
+      assert.deepEqual(msgs.map((m) => doneOf(m).length), [1, 1]);
+      assert.equal(runtime.state, 'standby', 'the read ending starts nothing');
+    });
+  }
 
   it('new settings deployed while it starts: a new engine takes the msgs kept, each timing out from its arrival', async function () {
     const f = flow();
