@@ -265,12 +265,16 @@ class EngineRuntime extends InterlockHost {
    * as those after will (the engine, never started, is freed).
    */
   fail(err) {
-    const parked = this.state === 'starting' && this.core ? this.parkedOut() : [];
+    const starting = this.state === 'starting' && this.core !== null;
+    const parked = starting ? this.parkedOut() : [];
     super.fail(err);
+    const failure = /** @type {SugarshackError} */ (this.failure);
     for (const { entry, reply } of parked) {
-      if (entry) entry.reject(this.failure);
-      else if (reply) reply.reject(this.failure);
+      if (entry) entry.reject(failure);
+      else if (reply) reply.reject(failure);
     }
+    // Failed part-way through its start (its engine took them, then the rest threw): nothing answers them now.
+    if (starting) this.refuseHeld(failure);
   }
 
   /** Stood down before it started: the msgs its engine kept are completed unsent, their nodes showing standby (the active instance answers them). */
@@ -463,12 +467,7 @@ class EngineRuntime extends InterlockHost {
   /** Its engine was lost to a trap while the saved state was read: what it kept is refused, and a new one waits for the start. */
   renewAfterTrap(error) {
     this.carrier.stop();
-    for (const [k, entry] of [...this.carrier.held]) {
-      this.carrier.take(k);
-      entry.reject(error);
-    }
-    for (const { reject } of this.replies.values()) reject(error);
-    this.replies.clear();
+    this.refuseHeld(error);
     wasm.forget(this.core);
     this.core = null;
     this.wire = null;
@@ -477,6 +476,16 @@ class EngineRuntime extends InterlockHost {
     } catch (err) {
       this.fail(err);
     }
+  }
+
+  /** Every msg it holds, and every operator's request waiting for its reply, ends with `error`. @param {Error} error */
+  refuseHeld(error) {
+    for (const [k, entry] of [...this.carrier.held]) {
+      this.carrier.take(k);
+      entry.reject(error);
+    }
+    for (const { reject } of this.replies.values()) reject(error);
+    this.replies.clear();
   }
 
   /** After a wasm trap: back to the last saved state, as after a restart; what waited is refused. */
@@ -496,12 +505,7 @@ class EngineRuntime extends InterlockHost {
       if (run.heldBeforeTrap) heldPorts.push(run.suspend());
       else run.abandon(error);
     }
-    for (const [k, entry] of [...this.carrier.held]) {
-      this.carrier.take(k);
-      entry.reject(error);
-    }
-    for (const { reject } of this.replies.values()) reject(error);
-    this.replies.clear();
+    this.refuseHeld(error);
     wasm.forget(this.core);
     this.core = null;
     try {
