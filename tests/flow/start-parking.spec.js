@@ -12,6 +12,7 @@ const {
   paletteNodes, TAB, interlockConfig, acquire, sinkNode, collect, until, serverPerTest, completions, settings, clock, memoryStore, runFor,
 } = require('./support');
 const { errorStatus } = require('../../node-red-contrib-sugarshack/lib/host/status');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));
 
@@ -136,6 +137,29 @@ describe('sugarshack msgs while an interlock starts', function () {
       assert.equal(runtime.state, 'standby', 'the read ending starts nothing');
     });
   }
+
+  it('a wasm trap while it starts: the msg that trapped and those kept end INTERNAL once, a new engine keeps those after for the start', async function () {
+    const readEnds = await loadHeld(flow());
+    const out = collect(helper, 'out');
+    const kept = { n: 1 };
+    helper.getNode('a12').receive(kept);
+    await run(0);
+    const generation = wasm.currentGeneration();
+    const core = runtimeOf().core;
+    core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+    const trapping = { n: 2 };
+    helper.getNode('a12').receive(trapping);
+    await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
+    await run(0);
+    assert.equal(runtimeOf().state, 'starting');
+    assert.notEqual(runtimeOf().core, core, 'a new engine on the new instance');
+    for (const msg of [kept, trapping]) assert.deepEqual(doneOf(msg).map((c) => c.error.code), ['INTERNAL']);
+    const after = { n: 3 };
+    helper.getNode('a12').receive(after);
+    await readEnds();
+    assert.deepEqual(out.map((m) => m.n), [3]);
+    assert.deepEqual([kept, trapping, after].map((m) => doneOf(m).length), [1, 1, 1]);
+  });
 
   it('new settings deployed while it starts: a new engine takes the msgs kept, each timing out from its arrival', async function () {
     const f = flow();
