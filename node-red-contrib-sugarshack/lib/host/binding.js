@@ -56,22 +56,23 @@ function bindPlant(RED, node, configId, options) {
  * @param {any} runtime the interlock or plant runtime, null when unset
  * @param {(runtime: any, msg: NodeRed.Message, send: NodeRed.Send, done: NodeRed.Done, values?: object) => void} work
  * @param {'interlock' | 'plant'} [kind]
- * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean, values?: ((msg: NodeRed.Message, then: (err: Error | null, values?: object) => void) => void) | null }} [options]
+ * @param {{ urgent?: (msg: NodeRed.Message) => boolean, passive?: boolean, engine?: boolean, values?: ((msg: NodeRed.Message, then: (err: Error | null, values?: object) => void) => void) | null }} [options]
  *   `passive`: the work runs on a standby too (device feedback keeps it warm); `values`: reads the
  *   node's values for each msg first (from context, env or JSONata), handed to `work` as its fifth argument
  */
-function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false, values = null } = {}) {
+function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false, passive = false, engine = false, values = null } = {}) {
+  const how = { urgent, passive, engine };
   node.on('input', (msg, send, done) => {
     if (!runtime) {
       done(MISSING[kind]());
       return;
     }
     if (!values) {
-      submitInput(runtime, node, msg, send, done, undefined, work, urgent, passive);
+      submitInput(runtime, node, msg, send, done, undefined, work, how);
       return;
     }
     values(msg, (err, read) => {
-      if (!err) return submitInput(runtime, node, msg, send, done, read, work, urgent, passive);
+      if (!err) return submitInput(runtime, node, msg, send, done, read, work, how);
       // A value that cannot be read (a JSONata error) shows on the node until the interlock's next change.
       runtime.showError(node, /** @type {any} */ (err).code);
       return done(err);
@@ -79,30 +80,37 @@ function onInput(node, runtime, work, kind = 'interlock', { urgent = () => false
   });
 }
 
-/** Hands a msg's work to its runtime (see RuntimeBase.submit). */
-function submitInput(runtime, node, msg, send, done, read, work, urgent, passive) {
+/**
+ * Hands a msg's work to its runtime (see RuntimeBase.submit); `engine`: the
+ * work is one input of the runtime's engine, which keeps it while it starts.
+ * @param {any} runtime @param {NodeRed.Node} node @param {NodeRed.Message} msg @param {NodeRed.Send} send @param {NodeRed.Done} done
+ * @param {object | undefined} read @param {Function} work
+ * @param {{ urgent: (msg: NodeRed.Message) => boolean, passive: boolean, engine: boolean }} how
+ */
+function submitInput(runtime, node, msg, send, done, read, work, how) {
+  const { urgent, passive, engine } = how;
   let now = false;
   try {
     now = !runtime.gateOpen && urgent(msg); // asked only while a deploy drains
   } catch {
     now = false; // an unreadable msg waits like any other and is refused when read
   }
-  runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive });
+  runtime.submit(node, done, (rt) => work(rt, msg, send, done, read), { urgent: now, passive, engine });
 }
 
 /**
  * The input of an interlock node (acquire, release, cancel, fault, clear):
  * the node is bound to its interlock's engine under `spec`, and each msg is
- * one engine input. None waits for a deploy's drain here: the engine holds
- * new requests back itself, their timeouts running (only its start, before
- * it has an engine, holds them in JS).
+ * one engine input. None waits here, for a deploy's drain nor for the start:
+ * the engine holds new requests back itself, and keeps msgs until it has
+ * read its saved state, their timeouts running (it is made before that read).
  * @param {NodeRed.Node} node @param {any} runtime @param {object} spec
  * @param {{ urgent?: (msg: NodeRed.Message) => boolean, values?: any }} [options]
  */
 function onInterlockInput(node, runtime, spec, options = {}) {
   if (!runtime || options.values) {
     if (runtime) runtime.addNodeSpec(node, spec);
-    onInput(node, runtime, interlockWork(node), 'interlock', { ...options, urgent: always });
+    onInput(node, runtime, interlockWork(node), 'interlock', { ...options, urgent: always, engine: true });
     return;
   }
   runtime.addNodeSpec(node, spec);
@@ -110,7 +118,7 @@ function onInterlockInput(node, runtime, spec, options = {}) {
   // Plain work taken now (running, no drain: nearly every msg): to the engine at once, nothing made per msg on the way.
   node.on('input', (msg, send, done) => {
     if (runtime.life.admit[0] === 'take') runtime.inputNow(node, msg, send, done);
-    else submitInput(runtime, node, msg, send, done, undefined, work, always, false);
+    else submitInput(runtime, node, msg, send, done, undefined, work, ENGINE_INPUT);
   });
 }
 
@@ -121,5 +129,8 @@ function interlockWork(node) {
 
 /** @type {(msg: NodeRed.Message) => boolean} */
 const always = () => true;
+
+/** How an interlock node's msg is submitted: never held for a drain, kept by the engine while it starts. */
+const ENGINE_INPUT = { urgent: always, passive: false, engine: true };
 
 module.exports = { bindInterlock, bindPlant, onInput, onInterlockInput, always };

@@ -12,7 +12,7 @@ const i18n = require('./i18n');
 const { UntilReady } = require('./until-ready');
 
 /** @typedef {import('../interlock/pending').HeldMsg} HeldMsg */
-/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void, urgent: boolean, passive: boolean }} ParkedWork */
+/** @typedef {{ node: NodeRed.Node | null, done: NodeRed.Done, work: (runtime: any) => void, urgent: boolean, passive: boolean, engine?: boolean }} ParkedWork */
 /** @typedef {import('../../wasm/sugarshack_wasm').LifeView} LifeView */
 /** @typedef {import('../../wasm/sugarshack_wasm').LifeStep} LifeStep */
 
@@ -28,7 +28,12 @@ class RuntimeBase {
     this.failure = null;
     this.users = new Set();
     this.statusBoard = new StatusBoard();
-    /** held while starting or draining (`ParkedWork` each), within Node-RED's msg buffer bound */
+    /**
+     * Work held while starting or draining (`ParkedWork` each), within Node-RED's
+     * msg buffer bound: a plant's (it has no engine), and an interlock's that is
+     * no engine input (an operation or routine node's run, hosted here). An
+     * interlock node's msg waits in the engine instead (see `parksInEngine`).
+     */
     this.parked = new UntilReady();
     this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength in force (0: no bound)
     /** @type {(() => void)[]} run once ready with the gate open */
@@ -169,13 +174,14 @@ class RuntimeBase {
    * may wait for it; `passive` work runs on a standby too. A refusal thrown
    * by `work` completes the msg with the error, so a Catch node gets it.
    */
-  submit(node, done, work, { urgent = false, passive = false } = {}) {
+  submit(node, done, work, { urgent = false, passive = false, engine = false } = {}) {
     switch (this.admits(urgent, passive)) {
       case 'take':
         this.perform(node, done, work);
         break;
       case 'park':
-        this.park({ node, done, work, urgent, passive });
+        if (engine && this.parksInEngine) this.perform(node, done, work);
+        else this.park({ node, done, work, urgent, passive, engine });
         break;
       case 'refuse':
         done(this.failure);
@@ -186,6 +192,11 @@ class RuntimeBase {
       default:
         done();
     }
+  }
+
+  /** Its engine takes its inputs while it starts (an interlock's, once made), keeping them for the start. */
+  get parksInEngine() {
+    return false;
   }
 
   /** Held until it starts or the drain ends; past Node-RED's msg buffer bound, refused (QUEUE_FULL). */

@@ -13,6 +13,7 @@ const { countsStatus } = require('../host/status');
 const { clock } = require('../host/clock');
 const { Committer } = require('../host/durable');
 const { InterlockHost } = require('./host');
+const { standbyStatus } = require('../host/runtime-base');
 const { EngineCarrier, CarriedMsg, refusalError, render } = require('./engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { unreadable, fieldsOf } = require('./request');
@@ -174,13 +175,16 @@ class EngineRuntime extends InterlockHost {
   async start() {
     try {
       this.config = this.resolveConfig();
+      // Made before the saved state is read: msgs meanwhile wait in it, their timeouts running.
+      this.guard(() => this.newEngine());
     } catch (err) {
       this.fail(err);
       return;
     }
     if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
     const saved = await this.readSaved();
-    if (this.ended || this.state === 'standby') return;
+    // Stopped, failed or on standby meanwhile: what its engine kept is answered already.
+    if (this.state !== 'starting') return;
     try {
       this.guard(() => this.open(saved));
     } catch (err) {
@@ -197,9 +201,8 @@ class EngineRuntime extends InterlockHost {
     this.replayParked();
   }
 
-  /** A new engine for the settings in force, its nodes added, started from what was saved. */
+  /** Its engine, made for the settings in force, started from what was saved. */
   open(saved) {
-    this.newEngine();
     const now = clock.now();
     this.started = { outcome: 'new', reason: null, added: [], dropped: [] };
     const plant = this.tracker();
@@ -227,7 +230,7 @@ class EngineRuntime extends InterlockHost {
 
   newEngine() {
     const { Engine } = wasm.load();
-    const engine = new Engine(this.config, { plantBound: Boolean(this.settings.plantBound) });
+    const engine = new Engine(this.config, { plantBound: Boolean(this.settings.plantBound), parkBound: this.bufferMax });
     if (this.core) wasm.release(this.core);
     this.core = engine;
     this.wire = new Wire(engine);
@@ -257,6 +260,71 @@ class EngineRuntime extends InterlockHost {
     this.freeCore();
   }
 
+  /**
+   * Its start failed: the msgs its engine kept for the start get the reason,
+   * as those after will (the engine, never started, is freed).
+   */
+  fail(err) {
+    const starting = this.state === 'starting' && this.core !== null;
+    const parked = starting ? this.parkedOut() : [];
+    super.fail(err);
+    const failure = /** @type {SugarshackError} */ (this.failure);
+    for (const { entry, reply } of parked) {
+      if (entry) entry.reject(failure);
+      else if (reply) reply.reject(failure);
+    }
+    // Failed part-way through its start (its engine took them, then the rest threw): nothing answers them now.
+    if (starting) this.refuseHeld(failure);
+  }
+
+  /** Stood down before it started: the msgs its engine kept are completed unsent, their nodes showing standby (the active instance answers them). */
+  becomeStandby() {
+    if (this.core && this.state === 'starting') this.standByParked();
+    super.becomeStandby();
+  }
+
+  standByParked() {
+    const error = this.standbyError();
+    for (const { entry, reply } of this.parkedOut()) {
+      if (reply) reply.reject(error);
+      else if (entry) {
+        if (entry.node) this.setStatus(entry.node, standbyStatus());
+        entry.abandon();
+      }
+    }
+  }
+
+  /**
+   * Frees its unstarted engine, taking out what it kept for the start (the
+   * core says which msgs): each a held msg (`entry`) or an operator's request
+   * (`reply`), for the caller to answer once.
+   * @returns {{ entry?: any, reply?: { resolve: Function, reject: Function } }[]}
+   */
+  parkedOut() {
+    /** @type {number[]} */
+    let handles;
+    try {
+      handles = [...this.guard(() => this.core.takeParked())];
+    } catch {
+      // Its engine unreadable (a trap): all it held waited for the start.
+      handles = [...this.carrier.held.keys(), ...this.replies.keys()];
+    }
+    this.freeCore();
+    const out = [];
+    for (const k of handles) {
+      const entry = this.carrier.take(k);
+      const reply = entry ? undefined : this.replies.get(k);
+      this.replies.delete(k);
+      if (entry) out.push({ entry });
+      else if (reply) out.push({ reply });
+    }
+    return out;
+  }
+
+  standbyError() {
+    return SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: this.id, active: this.cluster && this.cluster.leader ? this.cluster.leader.instance : '?' });
+  }
+
   /** Nothing of the runs and routines goes on (their state is saved as it is). */
   endRuns() {
     for (const run of this.runs) run.shutdown();
@@ -272,10 +340,9 @@ class EngineRuntime extends InterlockHost {
     this.leaveCluster();
     this.endCommon('retire');
     this.stopTimers();
-    if (ready) {
-      this.lifeStep('retire');
-      await this.committer.drain();
-    }
+    // Still starting, its engine completes what it kept unsent and saves nothing.
+    this.lifeStep('retire');
+    if (ready) await this.committer.drain();
     this.carrier.stop();
     this.endRuns();
     this.freeCore();
@@ -290,15 +357,15 @@ class EngineRuntime extends InterlockHost {
   /** Deposed (a hot-standby cluster): nothing more leaves; what waited here is completed unsent, and the state followed again. */
   async standDown() {
     if (this.ended || this.state === 'standby') return;
-    const wasReady = this.state === 'ready';
     this.stopTimers();
     await this.committer.freeze();
+    if (this.state === 'starting' && this.core) this.standByParked();
     this.carrier.stop();
     for (const [k, entry] of [...this.carrier.held]) {
       this.carrier.take(k);
       entry.abandon();
     }
-    const error = SugarshackError.of('NO_INTERLOCK', 'standbyInterlock', { id: this.id, active: this.cluster && this.cluster.leader ? this.cluster.leader.instance : '?' });
+    const error = this.standbyError();
     for (const { reject } of this.replies.values()) reject(error);
     this.replies.clear();
     this.endRuns();
@@ -306,7 +373,7 @@ class EngineRuntime extends InterlockHost {
     this.mayBeQuiet();
     this.routines.clear();
     this.savedRoutines = {};
-    if (wasReady) this.freeCore();
+    if (this.core) this.freeCore();
     this.lostState = null;
     this.committer = this.makeCommitter();
     this.carrier = this.makeCarrier();
@@ -344,6 +411,10 @@ class EngineRuntime extends InterlockHost {
     // A standby has no state of its own: it takes the new settings when it is elected.
     if (this.state === 'standby') return;
     if (!this.takeConfig()) return;
+    if (this.state === 'starting') {
+      this.renewUnstarted();
+      return;
+    }
     const old = this.core;
     try {
       this.guard(() => {
@@ -370,8 +441,59 @@ class EngineRuntime extends InterlockHost {
     this.resendLockouts('plantChanged');
   }
 
+  /**
+   * New settings before the saved state was read: an engine for them takes
+   * over the msgs the old one kept, each as of its arrival (the core moves
+   * them); the start goes on with it.
+   */
+  renewUnstarted() {
+    const old = this.core;
+    try {
+      this.guard(() => {
+        this.core = null; // kept by newEngine() below from freeing it before its msgs move
+        this.newEngine();
+        this.call((e, now) => old.handParkedTo(e, now));
+      });
+      wasm.release(old);
+    } catch (err) {
+      // The old engine still has them (nothing moved): they get the reason from it.
+      if (this.core && this.core !== old) wasm.release(this.core);
+      this.core = old;
+      this.wire = new Wire(old);
+      this.fail(err);
+    }
+  }
+
+  /** Its engine was lost to a trap while the saved state was read: what it kept is refused, and a new one waits for the start. */
+  renewAfterTrap(error) {
+    this.carrier.stop();
+    this.refuseHeld(error);
+    wasm.forget(this.core);
+    this.core = null;
+    this.wire = null;
+    try {
+      this.guard(() => this.newEngine());
+    } catch (err) {
+      this.fail(err);
+    }
+  }
+
+  /** Every msg it holds, and every operator's request waiting for its reply, ends with `error`. @param {Error} error */
+  refuseHeld(error) {
+    for (const [k, entry] of [...this.carrier.held]) {
+      this.carrier.take(k);
+      entry.reject(error);
+    }
+    for (const { reject } of this.replies.values()) reject(error);
+    this.replies.clear();
+  }
+
   /** After a wasm trap: back to the last saved state, as after a restart; what waited is refused. */
   rebuild() {
+    if (this.state === 'starting' && this.core) {
+      this.renewAfterTrap(SugarshackError.of('INTERNAL', 'interlockRebuilt'));
+      return;
+    }
     if (this.state !== 'ready') return;
     this.committer.discard();
     this.carrier.stop();
@@ -383,15 +505,11 @@ class EngineRuntime extends InterlockHost {
       if (run.heldBeforeTrap) heldPorts.push(run.suspend());
       else run.abandon(error);
     }
-    for (const [k, entry] of [...this.carrier.held]) {
-      this.carrier.take(k);
-      entry.reject(error);
-    }
-    for (const { reject } of this.replies.values()) reject(error);
-    this.replies.clear();
+    this.refuseHeld(error);
     wasm.forget(this.core);
     this.core = null;
     try {
+      this.newEngine();
       this.open(this.readStore());
     } catch (err) {
       this.fail(err);
@@ -434,7 +552,8 @@ class EngineRuntime extends InterlockHost {
     const bound = handle === undefined ? undefined : this.nodes.get(handle);
     if (handle === undefined || !bound || bound.node !== node) return;
     this.nodes.delete(handle);
-    if (this.state === 'ready') this.call((e, now) => e.closeNode(handle, removed, now));
+    // Starting too: the msgs its engine keeps for the start follow the node as those it holds do.
+    if (this.core) this.call((e, now) => e.closeNode(handle, removed, now));
   }
 
   closingRuns(node) {
@@ -486,6 +605,11 @@ class EngineRuntime extends InterlockHost {
     } catch (err) {
       this.refuse(node, done, this.trapped(err));
     }
+  }
+
+  /** Its engine takes node msgs while it starts (it keeps them for the start, their timeouts running). */
+  get parksInEngine() {
+    return this.core !== null;
   }
 
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */
@@ -595,9 +719,9 @@ class EngineRuntime extends InterlockHost {
     return this.shown.status;
   }
 
-  /** The engine is due: its deadlines (acquire timeouts, warnings, alarms). */
+  /** The engine is due: its deadlines (acquire timeouts, warnings, alarms; starting, the timeouts of the msgs it keeps). */
   tick() {
-    if (this.state !== 'ready') return;
+    if (this.state !== 'ready' && this.state !== 'starting') return;
     try {
       this.call((e, now) => e.tick(now));
     } catch (err) {

@@ -260,8 +260,9 @@ class InterlockHost extends RuntimeBase {
       this.config = this.resolveConfig();
       return true;
     } catch (err) {
-      if (this.core) this.freeCore();
+      // Failed first: an engine still starting hands the msgs it kept to the failure.
       this.fail(err);
+      if (this.core) this.freeCore();
       return false;
     }
   }

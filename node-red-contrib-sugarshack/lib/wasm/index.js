@@ -308,6 +308,15 @@ function primeEngine({ Engine, Tracker, wasmMemory }) {
   restarted.startAgainst(JSON.parse(text), undefined, 31, t);
   restarted.life('shutdown', 32);
   restarted.free();
+  // Msgs kept before a start: moved to an engine made for new settings, or taken out when freed unstarted.
+  const early = new Engine(config, { plantBound: true, parkBound: 2 });
+  const later = new Engine(config, { plantBound: true });
+  for (const unstarted of [early, later]) unstarted.addNode(1, { kind: 'acquire', timeoutMs: 5, operation: 'a', priority: 1, resources: 'A' }, 32);
+  early.acquire(1, 20, 32);
+  early.handParkedTo(later, 32);
+  later.takeParked();
+  early.free();
+  later.free();
   // The aborted operations the runs and routines of its plant record.
   e.operationAborted('a', 'primer', undefined, 33);
   e.abortedState('a');

@@ -349,6 +349,7 @@ fn run(
         for input in inputs {
             let draining = live.stage() == Stage::Draining && input != Input::Life(Step::DrainEnd);
             let carries_msg = !matches!(input, Input::Tick | Input::Life(_));
+            let tick = input == Input::Tick;
             live.handle(input.clone(), ms(now));
             let out = live.take_outputs();
             let mut grants = Vec::new();
@@ -365,7 +366,27 @@ fn run(
                 );
                 waiting += usize::from(!full);
             }
-            if matches!(step, Step_::Tick) && !starting {
+            if starting && tick {
+                // Before the start a tick only refuses the acquires whose timeout ran out.
+                let timed_out = out
+                    .iter()
+                    .filter(|o| matches!(o, Output::Complete { refusal: Some(r), .. } if r.code.name() == "ACQUIRE_TIMEOUT"))
+                    .count();
+                assert!(
+                    out.iter().all(|o| matches!(
+                        o,
+                        Output::NodeError { .. }
+                            | Output::Complete {
+                                refusal: Some(_),
+                                ..
+                            }
+                    )),
+                    "a tick before the start did more: {out:?}"
+                );
+                assert_eq!(out.len(), 2 * timed_out, "{out:?}");
+                waiting -= timed_out;
+            }
+            if matches!(step, Step_::Tick) {
                 none_outlives_its_timeout(&host, times_out, now);
             }
             if draining {

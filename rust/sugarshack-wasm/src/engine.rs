@@ -25,6 +25,8 @@ const TS_SHAPES: &str = r#"
 /** `new Engine(config, options)`: how the outputs cross, and whether its lines are a plant's. */
 export interface EngineOptions {
     plantBound?: boolean;
+    /** Most msgs it keeps while it starts (Node-RED's nodeMessageBufferMaxLength; 0 or absent: no bound): one more is refused (QUEUE_FULL). */
+    parkBound?: number;
     /** "typed" (words and a string table, the default) or "json" (one JSON text per batch). */
     wire?: "typed" | "json";
 }
@@ -238,6 +240,28 @@ thread_local! {
 }
 
 /// A property of a plain object handed in by the host (read safely).
+/// The park bound of an engine's options: absent or a whole number of msgs
+/// (0: none); more than a u32 is no bound memory could reach, kept as the most.
+fn park_bound(value: &JsValue) -> Result<usize, JsValue> {
+    if value.is_undefined() || value.is_null() {
+        return Ok(0);
+    }
+    match value.as_f64() {
+        Some(max) if max.is_finite() && max >= 0.0 && max.fract() == 0.0 => {
+            Ok(max.min(f64::from(u32::MAX)) as usize)
+        }
+        _ => Err(js_error(
+            Code::InvalidConfig,
+            &format!(
+                "parkBound must be a whole number of msgs, 0 or more, got {}",
+                value
+                    .as_f64()
+                    .map_or_else(|| value.js_typeof().as_string().unwrap_or_default(), quote)
+            ),
+        )),
+    }
+}
+
 fn field(object: &JsValue, key: &'static str) -> JsValue {
     if !object.is_object() {
         return JsValue::UNDEFINED;
@@ -646,8 +670,10 @@ impl Engine {
         )?;
         let plant_bound = field(&options, "plantBound").as_bool() == Some(true);
         let json = field(&options, "wire").as_string().as_deref() == Some("json");
-        let core = core::Engine::new(config, plant_bound)
+        let park_bound = park_bound(&field(&options, "parkBound"))?;
+        let mut core = core::Engine::new(config, plant_bound)
             .map_err(|err| js_error(err.code(), &err.to_string()))?;
+        core.set_park_bound(park_bound);
         Ok(Engine {
             core,
             wire: Wire::new(),
@@ -1112,6 +1138,29 @@ impl Engine {
             Bound::Alarms,
         )?;
         self.input(Input::PlantConditions(conditions), time(now_ms)?, None);
+        Ok(())
+    }
+
+    /// Frees it unstarted (its start failed, or it stood down): the handles
+    /// of the msgs it kept for the start, taken out, for the host to complete.
+    #[wasm_bindgen(js_name = takeParked)]
+    pub fn take_parked(&mut self) -> Vec<u32> {
+        self.core
+            .take_parked()
+            .iter()
+            .filter_map(|(input, _)| input.msg())
+            .map(|msg| msg.0)
+            .collect()
+    }
+
+    /// Moves the msgs it kept for the start to `next` (made for new settings
+    /// before this one started), each as of its arrival: parked there within
+    /// its bound, or taken if it runs; `next`'s outputs are left in its header.
+    #[wasm_bindgen(js_name = handParkedTo)]
+    pub fn hand_parked_to(&mut self, next: &mut Engine, now_ms: f64) -> Result<(), JsValue> {
+        let now = time(now_ms)?;
+        next.core.receive_parked(self.core.take_parked(), now);
+        next.flush();
         Ok(())
     }
 

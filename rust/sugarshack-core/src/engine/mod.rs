@@ -658,6 +658,20 @@ impl Engine {
             .collect()
     }
 
+    /// Takes over the inputs another engine parked (see [`Engine::take_parked`]),
+    /// each as of when it arrived: parked here too while this one starts
+    /// (within its own bound), else taken now.
+    pub fn receive_parked(&mut self, parked: Vec<(Input, Millis)>, now: Millis) {
+        for (input, at) in parked {
+            let at = at.min(now);
+            if self.stage.gate() == Gate::Park {
+                self.park(input, at);
+            } else {
+                self.take_input(input, now, at, &|_| Vec::new(), None);
+            }
+        }
+    }
+
     /// When [`Engine::tick`] is next due, if ever.
     pub fn next_deadline(&self) -> Option<Millis> {
         if self.stage == Stage::Stopped {
@@ -665,6 +679,7 @@ impl Engine {
         }
         [
             self.deadlines.next(),
+            self.parked_due(),
             self.interlock.next_warning().map(|at| self.on_beat(at)),
             self.alarm_due,
         ]
@@ -742,6 +757,8 @@ impl Engine {
             Gate::Park if !matches!(input, Input::Start(_) | Input::Life(_)) => {
                 if let Input::AddNode { .. } | Input::CloseNode { .. } = input {
                     self.configure(input);
+                } else if let Input::Tick = input {
+                    self.expire_parked(now);
                 } else if let Input::Listen(on) = input {
                     // Who listens decides which events of the start itself go out.
                     self.listening = on;
@@ -891,7 +908,7 @@ impl Engine {
         self.replay_parked(now, blockers);
     }
 
-    /// Keeps an input for the start; past the bound, one that carries a msg is refused.
+    /// Keeps an input that arrived at `now` for the start; past the bound, one that carries a msg is refused.
     fn park(&mut self, input: Input, now: Millis) {
         if self.park_bound > 0 && msg_of(&input).is_some() {
             let carrying = self
@@ -918,6 +935,66 @@ impl Engine {
     fn replay_parked(&mut self, now: Millis, blockers: Blockers<'_>) {
         for Parked { input, at } in std::mem::take(&mut self.parked) {
             self.take_input(input, now, at, blockers, None);
+        }
+    }
+
+    /// When the first parked acquire times out, if one has a timeout.
+    fn parked_due(&self) -> Option<Millis> {
+        self.parked
+            .iter()
+            .filter_map(|p| self.parked_deadline(p))
+            .min()
+    }
+
+    /// When a parked input times out: an acquire of a node with a timeout, from its arrival.
+    fn parked_deadline(&self, parked: &Parked) -> Option<Millis> {
+        match &parked.input {
+            Input::Acquire { node, .. } => self
+                .node(*node)
+                .and_then(timeout_of)
+                .map(|t| parked.at.saturating_add(t)),
+            _ => None,
+        }
+    }
+
+    /// Parked acquires whose timeout ran out before the start are refused now,
+    /// read without the interlock (the start replaces it): nothing changes, nothing is saved.
+    fn expire_parked(&mut self, now: Millis) {
+        let (due, kept): (Vec<Parked>, Vec<Parked>) = std::mem::take(&mut self.parked)
+            .into_iter()
+            .partition(|p| self.parked_deadline(p).is_some_and(|at| at <= now));
+        self.parked = kept;
+        for Parked { input, at } in due {
+            if let Input::Acquire { node, msg, fields } = input {
+                let refusal = self.parked_timed_out(node, &fields, at, now);
+                self.refuse(node, msg, refusal);
+            }
+        }
+    }
+
+    /// Why a parked acquire is refused at its timeout: timed out, or what its msg's read refuses.
+    fn parked_timed_out(
+        &self,
+        node: NodeId,
+        fields: &MsgFields,
+        at: Millis,
+        now: Millis,
+    ) -> Refusal {
+        let Some(n) = self.node(node) else {
+            return unknown_node(node);
+        };
+        let name = operation_name_of(
+            &fields.operation,
+            node_value(n, fields, Value::Operation),
+            &Raw::Absent,
+        );
+        let names = resources_of(&fields.resources, node_value(n, fields, Value::Resources));
+        match (name, names) {
+            (Ok(name), Ok(names)) => {
+                let timeout = timeout_of(n).unwrap_or(now.saturating_sub(at));
+                timed_out_after(&name, &names, timeout)
+            }
+            (Err(refusal), _) | (_, Err(refusal)) => refusal,
         }
     }
 
@@ -1090,6 +1167,10 @@ impl Engine {
 
     /// Removed from the flows: waiting requests are withdrawn (their msgs completed unsent) and the state saved.
     fn retire(&mut self, now: Millis) {
+        if self.stage.gate() == Gate::Park {
+            // Never started: no state of its own to save (what was saved stays as it was).
+            return self.unpark_stopped();
+        }
         let msgs: Vec<MsgId> = self.interlock_queue_msgs().into_iter().rev().collect();
         let mut effects = Vec::new();
         for msg in msgs {
@@ -2327,6 +2408,13 @@ fn recording(config: &InterlockConfig) -> InterlockConfig {
     }
 }
 
+impl Input {
+    /// The msg it carries, if any (a node's msg, or an operator's request).
+    pub fn msg(&self) -> Option<MsgId> {
+        msg_of(self).map(|(_, msg)| msg)
+    }
+}
+
 /// The node and msg an input carries (no node: an operator's request, answered by a reply).
 fn msg_of(input: &Input) -> Option<(Option<NodeId>, MsgId)> {
     match *input {
@@ -2345,12 +2433,17 @@ fn timed_out(request: &Request) -> Refusal {
     let timeout = request
         .deadline
         .map_or(Millis::ZERO, |at| at.saturating_sub(request.since));
-    let lines: Vec<&str> = request.names.iter().map(|n| &**n).collect();
+    timed_out_after(&request.name, &request.names, timeout)
+}
+
+/// Why a request of `operation` for `lines` that waited `timeout` is refused.
+fn timed_out_after<S: AsRef<str>>(operation: &str, lines: &[S], timeout: Millis) -> Refusal {
+    let lines: Vec<&str> = lines.iter().map(AsRef::as_ref).collect();
     Refusal::catalog(
         Code::AcquireTimeout,
         "errors.acquireTimeout",
         vec![
-            ("operation", Param::Text(request.name.to_string())),
+            ("operation", Param::Text(operation.to_owned())),
             ("resources", Param::Text(lines.join(", "))),
             (
                 "seconds",

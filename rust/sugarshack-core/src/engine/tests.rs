@@ -664,6 +664,56 @@ fn a_parked_requests_timeout_counts_from_its_arrival() {
 }
 
 #[test]
+fn a_parked_acquire_times_out_before_the_start_and_nothing_is_saved() {
+    let mut b = parked_for_red();
+    // Op 51 (node 4, 5 s) arrived at 2000: due at 7000 though the engine has not started.
+    assert_eq!(b.engine.next_deadline(), Some(ms(7000)));
+    assert_eq!(answers(&b.tick(6999)), Vec::<String>::new());
+    let out = b.tick(7000);
+    assert_eq!(answers(&out), ["fail 2 ACQUIRE_TIMEOUT"]);
+    assert!(
+        !out.iter().any(|o| matches!(o, Output::Commit { .. })),
+        "an unstarted engine has no state to save"
+    );
+    let refusal = first_refusal(&out);
+    assert_eq!(refusal.params()[0], ("operation", Param::Text("51".into())));
+    assert_eq!(refusal.params()[2], ("seconds", Param::Text("5".into())));
+    assert_eq!(b.engine.next_deadline(), None);
+    // The rest still waits for the start.
+    let out = b.at(8000).run(Input::Start(Saved::First));
+    assert_eq!(answers(&out), ["send 1 on 0"]);
+    // A removal before the start saves nothing either.
+    let mut b = parked_for_red();
+    let out = b.at(3000).run(Input::Life(Step::Retire));
+    assert!(!out.iter().any(|o| matches!(o, Output::Commit { .. })));
+}
+
+#[test]
+fn parked_inputs_move_to_a_new_engine_with_their_arrival() {
+    let mut b = parked_for_red();
+    let parked = b.engine.take_parked();
+    // Unstarted: they park again, within its bound, their timeouts from their arrival.
+    let mut next = Bench::unstarted(InterlockConfig::with_resources(LINES));
+    next.engine.set_park_bound(2);
+    next.engine.receive_parked(parked, ms(3000));
+    let out = next.engine.take_outputs();
+    assert!(matches!(answer_to(&out, 3), Err(r) if r.code == Code::QueueFull));
+    assert_eq!(next.engine.next_deadline(), Some(ms(7000)));
+    let out = next.at(4000).run(Input::Start(Saved::First));
+    assert_eq!(answers(&out), ["send 1 on 0"]);
+    assert_eq!(answers(&next.tick(7000)), ["fail 2 ACQUIRE_TIMEOUT"]);
+    // Started: they are taken now, as of their arrival.
+    let mut b = parked_for_red();
+    let parked = b.engine.take_parked();
+    let mut started = Bench::unstarted(InterlockConfig::with_resources(LINES));
+    started.at(2500).run(Input::Start(Saved::First));
+    started.engine.receive_parked(parked, ms(2500));
+    let out = started.engine.take_outputs();
+    assert_eq!(granted_interlock(&out, 1).3, 1500);
+    assert!(answer_to(&out, 3).is_ok());
+}
+
+#[test]
 fn parking_is_bounded_for_msgs_and_the_refusal_says_why() {
     let mut b = Bench::unstarted(InterlockConfig::with_resources(LINES));
     b.engine.set_park_bound(2);
