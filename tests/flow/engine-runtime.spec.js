@@ -155,4 +155,22 @@ describe('an interlock run by the engine', function () {
     assert.deepEqual(reread.aborted, {});
     reread.interlock.free();
   });
+
+  it('one whose settings were refused, given good ones by the next deploy, starts from its saved state: a faulted line stays faulted', async function () {
+    await helper.load(paletteNodes, flow());
+    helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+    await until(() => liveLines().GRN === 'faulted:manual', 'GRN faulted');
+    await quiet();
+    // The same line twice: the core refuses these settings at deploy.
+    const refused = flow().map((n) => (n.id === 'il' ? { ...n, resources: [...n.resources, n.resources[0]] } : n));
+    await helper.setFlows(refused, 'full');
+    await until(() => runtimeOf().state === 'failed', 'the refused settings');
+    await helper.setFlows(flow(), 'full');
+    await until(() => runtimeOf().state === 'ready', 'the start with good settings');
+    await quiet();
+    assert.deepEqual(liveLines(), { YEL: 'free', GRN: 'faulted:manual', RED: 'free' }, 'from the saved state, not a first start');
+    helper.getNode('acq').receive({ operation: 'rinse', resources: 'GRN' });
+    await quiet();
+    assert.deepEqual(runtimeOf().core.counts(), { holding: 0, queued: 1, faulted: 1 }, 'the faulted line is not granted');
+  });
 });

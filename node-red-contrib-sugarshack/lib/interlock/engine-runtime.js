@@ -415,6 +415,13 @@ class EngineRuntime extends InterlockHost {
       this.renewUnstarted();
       return;
     }
+    // Its start failed: nothing runs to hand over, so it starts again from what was saved, never from nothing.
+    if (this.state === 'failed') {
+      this.failure = null;
+      this.step('restart');
+      this.start();
+      return;
+    }
     const old = this.core;
     try {
       this.guard(() => {
