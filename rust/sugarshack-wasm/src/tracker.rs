@@ -1,4 +1,5 @@
 use serde::Serialize;
+use sugarshack_core::actuator::outbox::{self, Kept, Outlet};
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::group_msg;
@@ -271,6 +272,19 @@ struct Answer<'a> {
 
 /// Device payloads larger than this are refused unread.
 const MAX_PAYLOAD_BYTES: usize = 16 * 1024 * 1024;
+
+/// MQTT's largest topic (its length is a 16-bit count).
+const MAX_TOPIC_BYTES: usize = 65_535;
+
+/// An outlet as JS names it (`"unsent"` or `"held"`).
+fn outlet_named(name: &str) -> Result<Outlet, JsValue> {
+    Outlet::named(name).ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!("no outlet {}: \"unsent\" or \"held\"", quote(name)),
+        )
+    })
+}
 
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -1151,6 +1165,73 @@ impl Tracker {
     #[wasm_bindgen(js_name = servingChanged)]
     pub fn serving_changed(&mut self) {
         self.core.serving_changed();
+    }
+
+    /// Keeps a publish (as a `publish` effect gave it) that cannot go out yet
+    /// at `outlet` (`"unsent"`: a deploy has no actuators node serving its
+    /// device yet; `"held"`: a leader waits for its lease), within `bound`
+    /// (Node-RED's `nodeMessageBufferMaxLength`; 0: 10000). Past it the core
+    /// drops one, never a lockout (see `sugarshack_core::actuator::outbox`).
+    /// Returns the bound in force when this is the first drop since the
+    /// outlet last went out (to warn of), else 0.
+    #[wasm_bindgen(js_name = keepPublish)]
+    pub fn keep_publish(
+        &mut self,
+        outlet: &str,
+        device: u32,
+        topic: String,
+        payload: String,
+        retain: bool,
+        bound: f64,
+    ) -> Result<u32, JsValue> {
+        let outlet = outlet_named(outlet)?;
+        let device = self.device_id(device)?;
+        if topic.len() > MAX_TOPIC_BYTES || payload.len() > MAX_PAYLOAD_BYTES {
+            return Err(js_error(
+                Code::InputTooLarge,
+                "a publish's topic or payload is larger than any the plant makes",
+            ));
+        }
+        if !(bound.is_finite() && (0.0..=f64::from(u32::MAX)).contains(&bound)) {
+            return Err(js_error(
+                Code::InvalidInput,
+                &format!("a publish bound must be a count, got {}", quote(bound)),
+            ));
+        }
+        let bound = bound as usize;
+        Ok(
+            match self
+                .core
+                .wait(outlet, device, topic, payload, retain, bound)
+            {
+                Kept::Dropped { first: true } if bound == 0 => outbox::DEFAULT_BOUND as u32,
+                Kept::Dropped { first: true } => bound as u32,
+                _ => 0,
+            },
+        )
+    }
+
+    /// What waited at `outlet` goes out: its publishes are queued, oldest
+    /// first, then (if the core dropped any) every commanded state and
+    /// standing lockout again; returns how many effects are queued.
+    #[wasm_bindgen(js_name = sendKept)]
+    pub fn send_kept(&mut self, outlet: &str, now_ms: f64) -> Result<u32, JsValue> {
+        let outlet = outlet_named(outlet)?;
+        let effects = self.core.send_waiting(outlet, time(now_ms)?);
+        Ok(self.queue(effects))
+    }
+
+    /// What waits at `outlet` is dropped unsent (a deposed leader's).
+    #[wasm_bindgen(js_name = dropKept)]
+    pub fn drop_kept(&mut self, outlet: &str) -> Result<(), JsValue> {
+        self.core.forget_waiting(outlet_named(outlet)?);
+        Ok(())
+    }
+
+    /// How many publishes wait at `outlet`.
+    #[wasm_bindgen(js_name = keptPublishes)]
+    pub fn kept_publishes(&self, outlet: &str) -> Result<u32, JsValue> {
+        Ok(self.core.waiting(outlet_named(outlet)?) as u32)
     }
 
     /// `{ moving, stopped, faulted, lockoutsPending }`.

@@ -150,3 +150,72 @@ fn a_future_timestamp_throws_and_applies_nothing() {
         .unwrap();
     assert_eq!(t.position(v12), Some(40.0), "at the skew limit it applies");
 }
+
+/// A publish effect handed back to `wait` at `outlet` within `bound`: what `wait` answers.
+fn wait_publish(t: &mut Tracker, outlet: &str, publish: &JsValue, bound: f64) -> u32 {
+    t.keep_publish(
+        outlet,
+        get(publish, "device").as_f64().unwrap() as u32,
+        get(publish, "topic").as_string().unwrap(),
+        get(publish, "payload").as_string().unwrap(),
+        get(publish, "retain").as_bool().unwrap(),
+        bound,
+    )
+    .unwrap()
+}
+
+#[wasm_bindgen_test]
+fn waiting_publishes_keep_a_lockout_past_the_bound_and_send_every_state_again_after_a_drop() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    t.feedback(v12, 99.0, None, 10.0).unwrap();
+    effects(&mut t);
+    let command = json(r#"{ "valves": { "V12": 50 } }"#);
+    t.command(command, 1, false, 100.0, None, None, None)
+        .unwrap();
+    let sent = effects(&mut t);
+    assert_eq!(wait_publish(&mut t, "held", &sent[0], 1.0), 0, "kept");
+    t.withdraw(1);
+    let lockout = json(r#"{ "valves": { "V12": 0 } }"#);
+    t.command(lockout, 2, true, 200.0, None, None, None)
+        .unwrap();
+    let locked = effects(&mut t);
+    // Past the bound: the lockout takes the command's place, and the bound is told to warn of.
+    assert_eq!(wait_publish(&mut t, "held", &locked[0], 1.0), 1);
+    assert_eq!(t.kept_publishes("held").unwrap(), 1);
+    assert_eq!(t.kept_publishes("unsent").unwrap(), 0);
+    assert_eq!(t.send_kept("held", 300.0).unwrap(), 3);
+    let out = effects(&mut t);
+    assert_eq!(kinds(&out), ["publish", "lockoutResent", "publish"]);
+    for publish in [&out[0], &out[2]] {
+        assert_eq!(get(publish, "payload").as_string().as_deref(), Some("0"));
+        assert_eq!(get(publish, "retain").as_bool(), Some(true));
+    }
+    assert_eq!(t.send_kept("held", 400.0).unwrap(), 0);
+
+    // An unset bound is the core's default; forgotten publishes never go out.
+    assert_eq!(wait_publish(&mut t, "unsent", &out[0], 0.0), 0);
+    t.drop_kept("unsent").unwrap();
+    assert_eq!(t.send_kept("unsent", 500.0).unwrap(), 0);
+
+    let refused = |r: Result<u32, JsValue>| code_of(r.unwrap_err());
+    assert_eq!(refused(t.kept_publishes("later")), "INVALID_INPUT");
+    assert_eq!(
+        refused(t.keep_publish("held", 0, "t".into(), "p".into(), false, -1.0)),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        refused(t.keep_publish("held", 0, "t".into(), "p".into(), false, f64::NAN)),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        refused(t.keep_publish("held", 7, "t".into(), "p".into(), false, 1.0)),
+        "UNKNOWN_DEVICE"
+    );
+    let long = "t".repeat(65_536);
+    assert_eq!(
+        refused(t.keep_publish("held", 0, long, "p".into(), false, 1.0)),
+        "INPUT_TOO_LARGE"
+    );
+    assert_eq!(refused(t.send_kept("held", f64::NAN)), "INVALID_TIME");
+}
