@@ -1202,7 +1202,7 @@ impl Tracker {
         Ok(
             match self
                 .core
-                .wait(outlet, device, topic, payload, retain, bound)
+                .keep_publish(outlet, device, topic, payload, retain, bound)
             {
                 Kept::Dropped { first: true } if bound == 0 => outbox::DEFAULT_BOUND as u32,
                 Kept::Dropped { first: true } => bound as u32,
@@ -1217,21 +1217,21 @@ impl Tracker {
     #[wasm_bindgen(js_name = sendKept)]
     pub fn send_kept(&mut self, outlet: &str, now_ms: f64) -> Result<u32, JsValue> {
         let outlet = outlet_named(outlet)?;
-        let effects = self.core.send_waiting(outlet, time(now_ms)?);
+        let effects = self.core.send_kept(outlet, time(now_ms)?);
         Ok(self.queue(effects))
     }
 
     /// What waits at `outlet` is dropped unsent (a deposed leader's).
     #[wasm_bindgen(js_name = dropKept)]
     pub fn drop_kept(&mut self, outlet: &str) -> Result<(), JsValue> {
-        self.core.forget_waiting(outlet_named(outlet)?);
+        self.core.drop_kept(outlet_named(outlet)?);
         Ok(())
     }
 
     /// How many publishes wait at `outlet`.
     #[wasm_bindgen(js_name = keptPublishes)]
     pub fn kept_publishes(&self, outlet: &str) -> Result<u32, JsValue> {
-        Ok(self.core.waiting(outlet_named(outlet)?) as u32)
+        Ok(self.core.kept_publishes(outlet_named(outlet)?) as u32)
     }
 
     /// `{ moving, stopped, faulted, lockoutsPending }`.

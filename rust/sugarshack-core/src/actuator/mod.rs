@@ -974,7 +974,7 @@ impl Tracker {
 
     /// Keeps a publish for `device` that cannot go out yet at `outlet`, within
     /// `bound` (0: the default); a lockout is never the one dropped (see [`outbox`]).
-    pub fn wait(
+    pub fn keep_publish(
         &mut self,
         outlet: outbox::Outlet,
         device: DeviceId,
@@ -1010,7 +1010,7 @@ impl Tracker {
     /// What waited at `outlet` goes out, oldest first; if any was dropped,
     /// every commanded state and standing lockout is published again after
     /// them (see [`Tracker::path_restored`]).
-    pub fn send_waiting(&mut self, outlet: outbox::Outlet, now: Millis) -> Vec<Effect> {
+    pub fn send_kept(&mut self, outlet: outbox::Outlet, now: Millis) -> Vec<Effect> {
         let (waiting, dropped) = self.outbox.take(outlet);
         let mut effects: Vec<Effect> = waiting
             .into_iter()
@@ -1028,12 +1028,12 @@ impl Tracker {
     }
 
     /// What waits at `outlet` is no longer this host's to send (a deposed leader's).
-    pub fn forget_waiting(&mut self, outlet: outbox::Outlet) {
+    pub fn drop_kept(&mut self, outlet: outbox::Outlet) {
         self.outbox.take(outlet);
     }
 
     /// How many publishes wait at `outlet`.
-    pub fn waiting(&self, outlet: outbox::Outlet) -> usize {
+    pub fn kept_publishes(&self, outlet: outbox::Outlet) -> usize {
         self.outbox.len(outlet)
     }
 

@@ -10,7 +10,7 @@
 //! already waiting is not kept twice, so lockouts past the bound are at most
 //! one per distinct lockout msg of the plant. When the publishes go out after
 //! a drop, every commanded state and standing lockout is published again
-//! ([`super::Tracker::send_waiting`]), so what was dropped still reaches its device.
+//! ([`super::Tracker::send_kept`]), so what was dropped still reaches its device.
 
 use std::collections::VecDeque;
 

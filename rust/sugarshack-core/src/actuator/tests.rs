@@ -987,7 +987,7 @@ fn wait_all(
                 topic,
                 payload,
                 retain,
-            } => Some(t.wait(outlet, device, topic, payload, retain, bound)),
+            } => Some(t.keep_publish(outlet, device, topic, payload, retain, bound)),
             _ => None,
         })
         .collect()
@@ -1010,7 +1010,7 @@ fn waiting_publishes_past_the_bound_never_lose_a_lockout_and_a_drop_republishes_
         wait_all(&mut t, Outlet::Held, lockout.clone(), 2),
         vec![Kept::Dropped { first: true }]
     );
-    assert_eq!(t.waiting(Outlet::Held), 2);
+    assert_eq!(t.kept_publishes(Outlet::Held), 2);
     // The same lockout again (a resend) is not kept twice; a command past the bound is dropped.
     assert_eq!(wait_all(&mut t, Outlet::Held, lockout, 2), vec![Kept::Kept]);
     t.withdraw(1);
@@ -1019,8 +1019,12 @@ fn waiting_publishes_past_the_bound_never_lose_a_lockout_and_a_drop_republishes_
         wait_all(&mut t, Outlet::Held, more, 2),
         vec![Kept::Dropped { first: false }]
     );
-    assert_eq!(t.waiting(Outlet::Unsent), 0, "the outlets wait apart");
-    let sent = t.send_waiting(Outlet::Held, ms(100));
+    assert_eq!(
+        t.kept_publishes(Outlet::Unsent),
+        0,
+        "the outlets wait apart"
+    );
+    let sent = t.send_kept(Outlet::Held, ms(100));
     assert_eq!(
         publishes(&sent),
         vec![
@@ -1032,9 +1036,9 @@ fn waiting_publishes_past_the_bound_never_lose_a_lockout_and_a_drop_republishes_
             ("ctrl-1/pump/1/command".into(), "OFF".into(), true),
         ]
     );
-    assert_eq!(t.waiting(Outlet::Held), 0);
+    assert_eq!(t.kept_publishes(Outlet::Held), 0);
     assert!(
-        t.send_waiting(Outlet::Held, ms(200)).is_empty(),
+        t.send_kept(Outlet::Held, ms(200)).is_empty(),
         "nothing dropped since"
     );
 }
@@ -1048,21 +1052,21 @@ fn only_a_standing_lockout_msg_is_kept_past_the_bound_and_a_forgotten_outlet_sen
     let lockout = t.command(&[(p1, 0.0)], 2, true, ms(0)).unwrap();
     let (device, topic) = (t.actuators[p1.index()].device, "ctrl-1/pump/1/command");
     // Retained but not the lockout's payload, or the lockout's payload not retained: no lockout.
-    let forged = t.wait(Outlet::Unsent, device, topic.into(), "ON".into(), true, 1);
+    let forged = t.keep_publish(Outlet::Unsent, device, topic.into(), "ON".into(), true, 1);
     assert_eq!(forged, Kept::Dropped { first: true });
-    let unretained = t.wait(Outlet::Unsent, device, topic.into(), "OFF".into(), false, 1);
+    let unretained = t.keep_publish(Outlet::Unsent, device, topic.into(), "OFF".into(), false, 1);
     assert_eq!(unretained, Kept::Dropped { first: false });
     assert_eq!(
         wait_all(&mut t, Outlet::Unsent, lockout, 1),
         vec![Kept::Dropped { first: false }]
     );
     assert_eq!(
-        t.waiting(Outlet::Unsent),
+        t.kept_publishes(Outlet::Unsent),
         1,
         "the lockout took the command's place"
     );
-    t.forget_waiting(Outlet::Unsent);
-    assert!(t.send_waiting(Outlet::Unsent, ms(10)).is_empty());
+    t.drop_kept(Outlet::Unsent);
+    assert!(t.send_kept(Outlet::Unsent, ms(10)).is_empty());
 }
 
 // ---- device timestamps ---------------------------------------------------------
