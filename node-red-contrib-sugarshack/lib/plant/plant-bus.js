@@ -128,35 +128,22 @@ class PlantBuses {
 
   // ---- msgs out ------------------------------------------------------------
 
+  /**
+   * Publish `e` goes out from the actuators node serving its device. Else the core is told why not (a
+   * fact: this instance's cluster role, a deploy, no such node) and keeps it or drops it: its rule.
+   */
   publish(e) {
     const { plant } = this;
-    if (plant.cluster && !plant.cluster.mayAct()) {
-      // Held by a leader whose lease awaits etcd's answer; dropped by a standby.
-      if (plant.cluster.role === 'suspended') this.wait('held', e);
+    const acting = !plant.cluster || plant.cluster.mayAct();
+    const bus = acting ? this.serving(e.device) : null;
+    if (bus) {
+      bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
       return;
     }
-    const name = plant.devices[e.device];
-    const bus = this.serving(e.device);
-    if (!bus) {
-      if (plant.palette && !plant.palette.started) {
-        // A deploy in progress: the actuators node serving it comes back in a moment.
-        this.wait('unsent', e);
-        return;
-      }
-      if (plant.t.reportUnserved(e.device)) plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
-      return;
-    }
-    bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
-  }
-
-  /**
-   * Publish `e` waits in the core until it can go out: `unsent` (a deploy), `held` (a lease).
-   * Which publish the core drops past the bound is its rule (never a lockout); the first drop is warned of.
-   * @param {'unsent' | 'held'} which
-   */
-  wait(which, e) {
-    const max = this.plant.t.keepPublish(which, e.device, e.topic, e.payload, e.retain, this.bufferMax);
-    if (max > 0) this.plant.log('warn', i18n.text('logs.publishesDropped', { max }));
+    const blocked = !acting ? plant.cluster.role : plant.palette && !plant.palette.started ? 'deploying' : 'unserved';
+    const told = plant.t.notSent(blocked, e.device, e.topic, e.payload, e.retain, this.bufferMax);
+    if (told > 0) plant.log('warn', i18n.text('logs.publishesDropped', { max: told }));
+    if (told < 0) plant.log('error', i18n.text('logs.deviceUnserved', { name: plant.devices[e.device], topic: e.topic, payload: e.payload }));
   }
 
   /** What waited in `which` goes out, with every commanded state and standing lockout after it if the core dropped some. */

@@ -1,5 +1,5 @@
 use serde::Serialize;
-use sugarshack_core::actuator::outbox::{self, Kept, Outlet};
+use sugarshack_core::actuator::outbox::{Blocked, Outlet, Told};
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::group_msg;
@@ -1167,24 +1167,32 @@ impl Tracker {
         self.core.serving_changed();
     }
 
-    /// Keeps a publish (as a `publish` effect gave it) that cannot go out yet
-    /// at `outlet` (`"unsent"`: a deploy has no actuators node serving its
-    /// device yet; `"held"`: a leader waits for its lease), within `bound`
-    /// (Node-RED's `nodeMessageBufferMaxLength`; 0: 10000). Past it the core
-    /// drops one, never a lockout (see `sugarshack_core::actuator::outbox`).
-    /// Returns the bound in force when this is the first drop since the
-    /// outlet last went out (to warn of), else 0.
-    #[wasm_bindgen(js_name = keepPublish)]
-    pub fn keep_publish(
+    /// A publish (as a `publish` effect gave it) that could not go out, and
+    /// why (`blocked`: the cluster role of an instance that may not act,
+    /// `"deploying"` when no actuators node serves its device during a
+    /// deploy, else `"unserved"`): the core keeps it (a suspended leader's as
+    /// `"held"`, a deploy's as `"unsent"`) within `bound` (Node-RED's
+    /// `nodeMessageBufferMaxLength`; 0: 10000), dropping one past it but never
+    /// a lockout, or drops it (see `sugarshack_core::actuator::outbox`).
+    /// Returns what to tell: the bound in force at the first drop since the
+    /// publishes last went out, -1 when no actuators node serves the device
+    /// (once per device until `servingChanged`), else 0.
+    #[wasm_bindgen(js_name = notSent)]
+    pub fn not_sent(
         &mut self,
-        outlet: &str,
+        blocked: &str,
         device: u32,
         topic: String,
         payload: String,
         retain: bool,
         bound: f64,
-    ) -> Result<u32, JsValue> {
-        let outlet = outlet_named(outlet)?;
+    ) -> Result<f64, JsValue> {
+        let blocked = Blocked::named(blocked).ok_or_else(|| {
+            js_error(
+                Code::InvalidInput,
+                &format!("no reason a publish is not sent: {}", quote(blocked)),
+            )
+        })?;
         let device = self.device_id(device)?;
         if topic.len() > MAX_TOPIC_BYTES || payload.len() > MAX_PAYLOAD_BYTES {
             return Err(js_error(
@@ -1198,17 +1206,14 @@ impl Tracker {
                 &format!("a publish bound must be a count, got {}", quote(bound)),
             ));
         }
-        let bound = bound as usize;
-        Ok(
-            match self
-                .core
-                .keep_publish(outlet, device, topic, payload, retain, bound)
-            {
-                Kept::Dropped { first: true } if bound == 0 => outbox::DEFAULT_BOUND as u32,
-                Kept::Dropped { first: true } => bound as u32,
-                _ => 0,
-            },
-        )
+        let told = self
+            .core
+            .not_sent(blocked, device, topic, payload, retain, bound as usize);
+        Ok(match told {
+            Told::Dropped { bound } => bound as f64,
+            Told::Unserved => -1.0,
+            Told::Nothing => 0.0,
+        })
     }
 
     /// What waited at `outlet` goes out: its publishes are queued, oldest

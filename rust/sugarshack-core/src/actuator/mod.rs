@@ -972,6 +972,34 @@ impl Tracker {
         }
     }
 
+    /// A publish for `device` that could not go out, `blocked`: it waits
+    /// ([`outbox::Blocked::outlet`]; past `bound` one is dropped, never a
+    /// lockout), or is dropped; answers what the host is to tell of it.
+    pub fn not_sent(
+        &mut self,
+        blocked: outbox::Blocked,
+        device: DeviceId,
+        topic: String,
+        payload: String,
+        retain: bool,
+        bound: usize,
+    ) -> outbox::Told {
+        match blocked.outlet() {
+            Some(outlet) => {
+                match self.keep_publish(outlet, device, topic, payload, retain, bound) {
+                    outbox::Kept::Dropped { first: true } => outbox::Told::Dropped {
+                        bound: outbox::bound_in_force(bound),
+                    },
+                    _ => outbox::Told::Nothing,
+                }
+            }
+            None if blocked == outbox::Blocked::Unserved && self.unserved(device) => {
+                outbox::Told::Unserved
+            }
+            None => outbox::Told::Nothing,
+        }
+    }
+
     /// Keeps a publish for `device` that cannot go out yet at `outlet`, within
     /// `bound` (0: the default); a lockout is never the one dropped (see [`outbox`]).
     pub fn keep_publish(

@@ -39,6 +39,66 @@ impl Outlet {
     }
 }
 
+/// Why a publish cannot go out, as the host finds it; what then becomes of it is [`Blocked::outlet`]'s rule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blocked {
+    /// A leader waits for its lease to be renewed: the publish waits ([`Outlet::Held`]).
+    Suspended,
+    /// Not the leader (a standby, or not or no longer in the cluster): the
+    /// leader commands, so it is dropped unsaid.
+    Standby,
+    /// A deploy in progress, no node serving its device yet: it waits ([`Outlet::Unsent`]).
+    Deploying,
+    /// No node serves its device: dropped, and reported once per device.
+    Unserved,
+}
+
+impl Blocked {
+    /// As a host names it: a cluster role that may not act (`"suspended"`,
+    /// `"standby"`, `"connecting"`, `"stopped"`), `"deploying"` or `"unserved"`.
+    pub fn named(name: &str) -> Option<Blocked> {
+        match name {
+            "suspended" => Some(Blocked::Suspended),
+            "standby" | "connecting" | "stopped" => Some(Blocked::Standby),
+            "deploying" => Some(Blocked::Deploying),
+            "unserved" => Some(Blocked::Unserved),
+            _ => None,
+        }
+    }
+
+    /// Where such a publish waits, if it does.
+    pub fn outlet(self) -> Option<Outlet> {
+        match self {
+            Blocked::Suspended => Some(Outlet::Held),
+            Blocked::Deploying => Some(Outlet::Unsent),
+            Blocked::Standby | Blocked::Unserved => None,
+        }
+    }
+}
+
+/// What a host is to tell of a publish that did not go out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Told {
+    /// Nothing.
+    Nothing,
+    /// Publishes past `bound` are dropped (the first drop since they last went out).
+    Dropped {
+        /// The bound in force.
+        bound: usize,
+    },
+    /// No node serves its device (once per device until the serving nodes change).
+    Unserved,
+}
+
+/// The bound in force for a host's `bound` (0: unset).
+pub fn bound_in_force(bound: usize) -> usize {
+    if bound == 0 {
+        DEFAULT_BOUND
+    } else {
+        bound
+    }
+}
+
 /// A publish that waits.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Waiting {
@@ -89,7 +149,7 @@ impl Outbox {
 
     /// Keeps `publish` at `outlet`, within `bound` (0: [`DEFAULT_BOUND`]; see the module).
     pub fn wait(&mut self, outlet: Outlet, publish: Waiting, bound: usize) -> Kept {
-        let bound = if bound == 0 { DEFAULT_BOUND } else { bound };
+        let bound = bound_in_force(bound);
         let queue = self.queue(outlet);
         if queue.publishes.len() < bound {
             queue.publishes.push_back(publish);
@@ -229,5 +289,30 @@ mod tests {
         assert_eq!(Outlet::named("held"), Some(Outlet::Held));
         assert_eq!(Outlet::named("unsent"), Some(Outlet::Unsent));
         assert_eq!(Outlet::named("other"), None);
+    }
+
+    #[test]
+    fn a_suspended_leader_and_a_deploy_wait_a_standby_and_an_unserved_device_do_not() {
+        for (name, outlet) in [
+            ("suspended", Some(Outlet::Held)),
+            ("deploying", Some(Outlet::Unsent)),
+            ("standby", None),
+            ("connecting", None),
+            ("stopped", None),
+            ("unserved", None),
+        ] {
+            assert_eq!(
+                Blocked::named(name).and_then(Blocked::outlet),
+                outlet,
+                "{name}"
+            );
+        }
+        assert_eq!(
+            Blocked::named("active"),
+            None,
+            "an active leader is not blocked"
+        );
+        assert_eq!(bound_in_force(0), DEFAULT_BOUND);
+        assert_eq!(bound_in_force(3), 3);
     }
 }

@@ -1069,6 +1069,52 @@ fn only_a_standing_lockout_msg_is_kept_past_the_bound_and_a_forgotten_outlet_sen
     assert!(t.send_kept(Outlet::Unsent, ms(10)).is_empty());
 }
 
+#[test]
+fn a_publish_not_sent_waits_or_is_dropped_as_why_it_could_not_go_out_says() {
+    use outbox::{Blocked, Outlet, Told};
+    let (mut t, v1, _, _) = tracker();
+    let device = t.actuators[v1.index()].device;
+    let mut not_sent = |t: &mut Tracker, blocked, bound| {
+        t.not_sent(
+            blocked,
+            device,
+            "ctrl-1/valve/1/command".into(),
+            "100".into(),
+            false,
+            bound,
+        )
+    };
+    assert_eq!(not_sent(&mut t, Blocked::Suspended, 1), Told::Nothing);
+    assert_eq!(
+        not_sent(&mut t, Blocked::Suspended, 1),
+        Told::Dropped { bound: 1 }
+    );
+    assert_eq!(
+        not_sent(&mut t, Blocked::Suspended, 1),
+        Told::Nothing,
+        "warned once"
+    );
+    assert_eq!(not_sent(&mut t, Blocked::Deploying, 0), Told::Nothing);
+    assert_eq!(not_sent(&mut t, Blocked::Standby, 0), Told::Nothing);
+    assert_eq!(
+        (
+            t.kept_publishes(Outlet::Held),
+            t.kept_publishes(Outlet::Unsent)
+        ),
+        (1, 1),
+        "a standby's is dropped"
+    );
+    assert_eq!(not_sent(&mut t, Blocked::Unserved, 0), Told::Unserved);
+    assert_eq!(
+        not_sent(&mut t, Blocked::Unserved, 0),
+        Told::Nothing,
+        "reported once"
+    );
+    t.serving_changed();
+    assert_eq!(not_sent(&mut t, Blocked::Unserved, 0), Told::Unserved);
+    assert_eq!(t.kept_publishes(Outlet::Unsent), 1);
+}
+
 // ---- device timestamps ---------------------------------------------------------
 
 #[test]
