@@ -603,6 +603,40 @@ describe('sugarshack actuator nodes', function () {
     ]);
   });
 
+  it('a leader waiting for its lease keeps its publishes, a lockout never the one dropped past nodeMessageBufferMaxLength; a standby sends none', async function () {
+    settings({ nodeMessageBufferMaxLength: 1 });
+    const seen = await start();
+    atRest();
+    await quiet();
+    const { runtime } = helper.getNode('pl');
+    // The cluster as the plant reads it: a leader whose lease awaits etcd's answer.
+    const cluster = { role: 'suspended', active: true, mayAct: () => cluster.role === 'active' };
+    runtime.cluster = cluster;
+    command({ valves: { V12: 100 } });
+    await quiet();
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.equal(seen.mqtt.length, 0, 'nothing goes out while the lease is in doubt');
+    assert.equal(runtime.t.keptPublishes('held'), 1, 'the lockout in the command\'s place');
+    assert.match(warnings('pl').at(-1), /more than 1 publishes wait to go out/);
+    cluster.role = 'active';
+    runtime.bus.sendWaiting('held'); // as the cluster's `resumed` does
+    await quiet();
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/pump/1/command', 'OFF', true],
+      ['ctrl-1/valve/12/command', '100', false],
+      ['ctrl-1/pump/1/command', 'OFF', true],
+    ]);
+    const warned = warnings('pl').length;
+    cluster.role = 'standby';
+    cluster.active = false;
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.equal(seen.mqtt.length, 3, 'a standby publishes nothing');
+    assert.equal(runtime.t.keptPublishes('held') + runtime.t.keptPublishes('unsent'), 0, 'nor keeps it');
+    assert.equal(warnings('pl').length, warned);
+  });
+
   it('routes each device to the actuators node that serves it', async function () {
     const seen = await start({
       busProps: { devices: 'ctrl-1' },
