@@ -73,6 +73,12 @@ export interface GroupOutcome {
     actuators: { actuator: string; target: number; issueToMotionMs: number; completionMs: number; retries: number }[];
 }
 
+/** The error a group command's caller fails with when it did not complete. */
+export interface OutcomeError {
+    code: string;
+    message: string;
+}
+
 /** An actuator of a group command at its target, as the command's outcome lists it. */
 export interface Reached {
     actuator: number;
@@ -88,8 +94,8 @@ export type TrackerEffect =
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
     | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
     | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number; actuators: Reached[]; command: GroupOutcome }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[]; command: GroupOutcome }
-    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[]; command: GroupOutcome }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[]; command: GroupOutcome; error: OutcomeError }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[]; command: GroupOutcome; error: OutcomeError }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -166,6 +172,9 @@ enum Output {
         #[serde(flatten)]
         effect: Effect,
         command: sugarshack_core::actuator::Outcome,
+        /// A failure's or timeout's error: the caller fails with it.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        error: Option<OutcomeError>,
     },
     Effect(Effect),
     #[serde(rename_all = "camelCase")]
@@ -190,6 +199,13 @@ enum Output {
         reason: String,
         message: String,
     },
+}
+
+/// The error of a group command that did not complete (`Tracker::outcome_error`).
+#[derive(Serialize)]
+struct OutcomeError {
+    code: &'static str,
+    message: String,
 }
 
 impl Output {
@@ -578,7 +594,16 @@ impl Tracker {
         for effect in effects {
             let Effect::Write { device, request } = effect else {
                 self.effects.push(match self.core.outcome(&effect) {
-                    Some(command) => Output::Outcome { effect, command },
+                    Some(command) => Output::Outcome {
+                        error: self.core.outcome_error(&effect).map(|(code, message)| {
+                            OutcomeError {
+                                code: code.name(),
+                                message,
+                            }
+                        }),
+                        effect,
+                        command,
+                    },
                     None => Output::Effect(effect),
                 });
                 continue;

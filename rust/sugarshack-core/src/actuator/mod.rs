@@ -898,6 +898,32 @@ impl Tracker {
         counts
     }
 
+    /// The error the caller of a group command that did not complete (failed,
+    /// timed out) gets: its code and words; none for another effect.
+    pub fn outcome_error(&self, effect: &Effect) -> Option<(Code, String)> {
+        match effect {
+            Effect::GroupFailed { code, message, .. } => Some((*code, message.clone())),
+            Effect::GroupTimedOut {
+                timeout_ms,
+                waiting,
+                ..
+            } => {
+                let waiting: Vec<&str> = waiting
+                    .iter()
+                    .map(|id| self.actuators[id.index()].name.as_str())
+                    .collect();
+                let message = format!(
+                    "group command did not complete within {}: {} had not completed; \
+                     the command was withdrawn (its actuators keep their last command)",
+                    crate::text::seconds(timeout_ms.as_f64()),
+                    waiting.join(", ")
+                );
+                Some((Code::CommandTimeout, message))
+            }
+            _ => None,
+        }
+    }
+
     /// The outcome of a group command in `effect` (completed, failed, timed
     /// out), by ids; none for another effect.
     pub fn outcome(&self, effect: &Effect) -> Option<Outcome> {

@@ -1115,6 +1115,42 @@ fn a_publish_not_sent_waits_or_is_dropped_as_why_it_could_not_go_out_says() {
     assert_eq!(t.kept_publishes(Outlet::Unsent), 1);
 }
 
+#[test]
+fn a_caller_whose_group_timed_out_or_failed_gets_the_code_and_words_of_it() {
+    let mut t = Tracker::new(plant("fail-fast"), ms(0)).unwrap();
+    let [v1, v2] = ["V1", "V2"].map(|n| t.actuator(n).unwrap());
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.feedback(v2, 0.0, None, ms(0)).unwrap();
+    let terms = Terms {
+        timeout: Some(ms(500)),
+        ..Terms::default()
+    };
+    t.issue(&[(v2, 100.0), (v1, 10.0)], 1, terms, ms(0))
+        .unwrap();
+    let timed_out = t.tick(ms(500));
+    let error = timed_out.iter().find_map(|e| t.outcome_error(e));
+    assert_eq!(
+        error,
+        Some((
+            Code::CommandTimeout,
+            "group command did not complete within 0.5 s: V2, V1 had not completed; \
+             the command was withdrawn (its actuators keep their last command)"
+                .into()
+        ))
+    );
+    t.command(&[(v1, 100.0)], 2, false, ms(600)).unwrap();
+    t.tick(ms(1600));
+    let failed = t.tick(ms(2600));
+    let (code, message) = failed.iter().find_map(|e| t.outcome_error(e)).unwrap();
+    assert_eq!(code, Code::CommandFailed);
+    assert!(message.contains("V1"), "{message}");
+    let done = t.command(&[(v2, 0.0)], 3, false, ms(3700)).unwrap();
+    assert!(
+        done.iter().all(|e| t.outcome_error(e).is_none()),
+        "a publish is no failure"
+    );
+}
+
 // ---- device timestamps ---------------------------------------------------------
 
 #[test]
