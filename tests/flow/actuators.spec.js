@@ -566,7 +566,7 @@ describe('sugarshack actuator nodes', function () {
     runtime.bus.remove(busNode);
     command({ valves: { V12: 100, V13: 50 }, pumps: { P1: true } });
     await quiet();
-    assert.equal(runtime.bus.unsent.length, 2, 'two kept, the third past the bound');
+    assert.equal(runtime.t.keptPublishes('unsent'), 2, 'two kept, the third past the bound');
     assert.deepEqual(warnings('pl').filter((w) => /publishes wait to go out/.test(w)).length, 1);
     assert.match(warnings('pl').at(-1), /more than 2 publishes wait to go out/);
     runtime.palette.started = true;
@@ -576,6 +576,65 @@ describe('sugarshack actuator nodes', function () {
     assert.deepEqual([...last.keys()].sort(), ['ctrl-1/pump/1/command', 'ctrl-1/valve/12/command', 'ctrl-1/valve/13/command'],
       'the dropped command went out with the states sent again');
     assert.equal(seen.mqtt.length, 5, 'the two kept, then the three commanded states');
+  });
+
+  it('a lockout waiting past nodeMessageBufferMaxLength is never the publish dropped: it takes an older command\'s place and goes out first', async function () {
+    settings({ nodeMessageBufferMaxLength: 1 });
+    const seen = await start();
+    atRest();
+    await quiet();
+    const { runtime } = helper.getNode('pl');
+    const busNode = helper.getNode('bus');
+    runtime.palette.started = false;
+    runtime.bus.remove(busNode);
+    command({ valves: { V12: 100 } });
+    await quiet();
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.match(warnings('pl').at(-1), /more than 1 publishes wait to go out/);
+    runtime.palette.started = true;
+    runtime.bus.add(busNode, null, null);
+    await quiet();
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/pump/1/command', 'OFF', true],
+      // The dropped command: every commanded state and standing lockout goes out again.
+      ['ctrl-1/valve/12/command', '100', false],
+      ['ctrl-1/pump/1/command', 'OFF', true],
+    ]);
+  });
+
+  it('a leader waiting for its lease keeps its publishes, a lockout never the one dropped past nodeMessageBufferMaxLength; a standby sends none', async function () {
+    settings({ nodeMessageBufferMaxLength: 1 });
+    const seen = await start();
+    atRest();
+    await quiet();
+    const { runtime } = helper.getNode('pl');
+    // The cluster as the plant reads it: a leader whose lease awaits etcd's answer.
+    const cluster = { role: 'suspended', active: true, mayAct: () => cluster.role === 'active' };
+    runtime.cluster = cluster;
+    command({ valves: { V12: 100 } });
+    await quiet();
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.equal(seen.mqtt.length, 0, 'nothing goes out while the lease is in doubt');
+    assert.equal(runtime.t.keptPublishes('held'), 1, 'the lockout in the command\'s place');
+    assert.match(warnings('pl').at(-1), /more than 1 publishes wait to go out/);
+    cluster.role = 'active';
+    runtime.bus.sendWaiting('held'); // as the cluster's `resumed` does
+    await quiet();
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [
+      ['ctrl-1/pump/1/command', 'OFF', true],
+      ['ctrl-1/valve/12/command', '100', false],
+      ['ctrl-1/pump/1/command', 'OFF', true],
+    ]);
+    const warned = warnings('pl').length;
+    cluster.role = 'standby';
+    cluster.active = false;
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.equal(seen.mqtt.length, 3, 'a standby publishes nothing');
+    assert.equal(runtime.t.keptPublishes('held') + runtime.t.keptPublishes('unsent'), 0, 'nor keeps it');
+    assert.equal(warnings('pl').length, warned);
   });
 
   it('routes each device to the actuators node that serves it', async function () {

@@ -12,18 +12,12 @@ const i18n = require('../host/i18n');
 
 // Distinct (topic, reason) warnings remembered per actuators node; past it, bad input is only counted.
 const MAX_WARNED = 1000;
-// Publishes kept while they cannot go out (a deploy has no actuators node serving their device yet,
-// a leader waits for etcd): Node-RED's nodeMessageBufferMaxLength when set, else this many.
-const MAX_UNSENT = 10000;
 
 class PlantBuses {
   /** plant: the PlantRuntime (its core `t`, device ids and handles, effects pump and status). */
   constructor(plant) {
     this.plant = plant;
     this.list = []; // { nodeId, node, names, devices, deviceHandles, bad, ignored, warned, broker, connected }
-    this.unsent = []; // publishes waiting for an actuators node during a deploy
-    this.held = []; // publishes of a leader waiting for etcd to renew its lease
-    this.dropped = { unsent: 0, held: 0 }; // publishes past the bound, since each last went out
     this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength (0: unset), as the plant node last read it
   }
 
@@ -134,55 +128,27 @@ class PlantBuses {
 
   // ---- msgs out ------------------------------------------------------------
 
+  /**
+   * Publish `e` goes out from the actuators node serving its device. Else the core is told why not (a
+   * fact: this instance's cluster role, a deploy, no such node) and keeps it or drops it: its rule.
+   */
   publish(e) {
     const { plant } = this;
-    if (plant.cluster && !plant.cluster.mayAct()) {
-      // Held by a leader whose lease awaits etcd's answer; dropped by a standby.
-      if (plant.cluster.role === 'suspended') this.wait('held', e);
+    const acting = !plant.cluster || plant.cluster.mayAct();
+    const bus = acting ? this.serving(e.device) : null;
+    if (bus) {
+      bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
       return;
     }
-    const name = plant.devices[e.device];
-    const bus = this.serving(e.device);
-    if (!bus) {
-      if (plant.palette && !plant.palette.started) {
-        // A deploy in progress: the actuators node serving it comes back in a moment.
-        this.wait('unsent', e);
-        return;
-      }
-      if (plant.t.reportUnserved(e.device)) plant.log('error', i18n.text('logs.deviceUnserved', { name, topic: e.topic, payload: e.payload }));
-      return;
-    }
-    bus.node.send([{ topic: e.topic, payload: e.payload, retain: e.retain, qos: 1 }, null, null]);
+    const blocked = !acting ? plant.cluster.role : plant.palette && !plant.palette.started ? 'deploying' : 'unserved';
+    const told = plant.t.notSent(blocked, e.device, e.topic, e.payload, e.retain, this.bufferMax);
+    if (told > 0) plant.log('warn', i18n.text('logs.publishesDropped', { max: told }));
+    if (told < 0) plant.log('error', i18n.text('logs.deviceUnserved', { name: plant.devices[e.device], topic: e.topic, payload: e.payload }));
   }
 
-  /**
-   * Keeps publish `e` in `which` until it can go out. Past the bound it is dropped, with a warning
-   * the first time; what it commanded goes out again with the rest when they do (see sendWaiting).
-   * @param {'unsent' | 'held'} which
-   */
-  wait(which, e) {
-    const max = this.bufferMax || MAX_UNSENT;
-    if (this[which].length < max) {
-      this[which].push(e);
-      return;
-    }
-    this.dropped[which] += 1;
-    if (this.dropped[which] === 1) this.plant.log('warn', i18n.text('logs.publishesDropped', { max }));
-  }
-
-  /**
-   * What waited goes out, in order: `held` when the lease was renewed, `unsent` when an actuators node
-   * came. If some were dropped (a lockout among them, maybe), every commanded state and standing
-   * lockout is published again, as when a broker comes back.
-   * @param {'unsent' | 'held'} which
-   */
+  /** What waited in `which` goes out, with every commanded state and standing lockout after it if the core dropped some. */
   sendWaiting(which) {
-    const waiting = this[which];
-    const dropped = this.dropped[which];
-    this[which] = [];
-    this.dropped[which] = 0;
-    for (const e of waiting) this.publish(e);
-    if (dropped > 0 && this.plant.t && this.plant.t.pathRestored(clock.now()) > 0) this.plant.flush(null);
+    if (this.plant.t && this.plant.t.sendKept(which, clock.now()) > 0) this.plant.flush(null);
   }
 
   /**
@@ -193,8 +159,7 @@ class PlantBuses {
    * again as a standby. A new client starts with none.
    */
   async standDown() {
-    this.held = [];
-    this.dropped.held = 0;
+    if (this.plant.t) this.plant.t.dropKept('held');
     const brokers = new Set(this.list.map((b) => b.broker).filter((b) => b && typeof b.disconnect === 'function' && typeof b.connect === 'function'));
     await Promise.all([...brokers].map((broker) => new Promise((resolve) => broker.disconnect(resolve)).then(() => broker.connect())));
   }

@@ -6,7 +6,6 @@
 // completed so far. The core says when one completes, fails or times out.
 const { SugarshackError } = require('../host/errors');
 const { heldMsg } = require('../interlock/pending');
-const { seconds } = require('./plant');
 const { refusalError } = require('./group');
 const { readMsg } = require('../interlock/request');
 const { clock } = require('../host/clock');
@@ -146,10 +145,10 @@ class GroupCommands {
       entry.complete(e.command);
       return;
     }
+    // The error (code and words) is the core's, a timeout's as a failure's.
     if (entry.msg) entry.msg.command = e.command;
-    const code = e.kind === 'groupTimedOut' ? 'COMMAND_TIMEOUT' : e.code;
-    if (entry.node) this.plant.showError(entry.node, code);
-    entry.reject(e.command.waiting ? SugarshackError.of(code, 'commandTimeout', { within: seconds(e.timeoutMs), waiting: e.command.waiting.join(', ') }) : new SugarshackError(code, e.message));
+    if (entry.node) this.plant.showError(entry.node, e.error.code);
+    entry.reject(new SugarshackError(e.error.code, e.error.message));
   }
 }
 

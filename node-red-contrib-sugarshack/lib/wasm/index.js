@@ -411,6 +411,10 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.topicDevice('p/x');
   t.isGroupKey('valves');
   t.pendingLockouts();
+  t.notSent('deploying', t.device('p'), 'p/x', '1', false, 0);
+  t.keptPublishes('unsent');
+  t.sendKept('unsent', 470);
+  t.dropKept('held');
   t.takeEffects();
   t.takeAnswer();
   t.reportUnserved(t.device('p'));

@@ -1,4 +1,5 @@
 use serde::Serialize;
+use sugarshack_core::actuator::outbox::{Blocked, Outlet, Told};
 use sugarshack_core::actuator::{ActuatorId, DeviceId, Effect, FaultKind, Terms, TrackError};
 use sugarshack_core::code::Code;
 use sugarshack_core::plant::group_msg;
@@ -72,6 +73,12 @@ export interface GroupOutcome {
     actuators: { actuator: string; target: number; issueToMotionMs: number; completionMs: number; retries: number }[];
 }
 
+/** The error a group command's caller fails with when it did not complete. */
+export interface OutcomeError {
+    code: string;
+    message: string;
+}
+
 /** An actuator of a group command at its target, as the command's outcome lists it. */
 export interface Reached {
     actuator: number;
@@ -87,8 +94,8 @@ export type TrackerEffect =
     | { kind: "moving"; actuator: number; caller: number; issueToMotionMs: number }
     | { kind: "completed"; actuator: number; caller: number; target: number; issueToMotionMs: number; completionMs: number; retries: number; timed: boolean }
     | { kind: "groupCompleted"; caller: number; completionMs: number; faultLockoutMs?: number; actuators: Reached[]; command: GroupOutcome }
-    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[]; command: GroupOutcome }
-    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[]; command: GroupOutcome }
+    | { kind: "groupFailed"; caller: number; actuator: number; fault: FaultKind; retries: number; code: string; message: string; actuators: Reached[]; command: GroupOutcome; error: OutcomeError }
+    | { kind: "groupTimedOut"; caller: number; timeoutMs: number; waiting: number[]; actuators: Reached[]; command: GroupOutcome; error: OutcomeError }
     | { kind: "retry"; actuator: number; caller: number; attempt: number; fault: FaultKind }
     | { kind: "fault"; actuator: number; fault: FaultKind }
     | { kind: "recovered"; actuator: number; fault: FaultKind }
@@ -165,6 +172,9 @@ enum Output {
         #[serde(flatten)]
         effect: Effect,
         command: sugarshack_core::actuator::Outcome,
+        /// A failure's or timeout's error: the caller fails with it.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        error: Option<OutcomeError>,
     },
     Effect(Effect),
     #[serde(rename_all = "camelCase")]
@@ -189,6 +199,13 @@ enum Output {
         reason: String,
         message: String,
     },
+}
+
+/// The error of a group command that did not complete (`Tracker::outcome_error`).
+#[derive(Serialize)]
+struct OutcomeError {
+    code: &'static str,
+    message: String,
 }
 
 impl Output {
@@ -271,6 +288,19 @@ struct Answer<'a> {
 
 /// Device payloads larger than this are refused unread.
 const MAX_PAYLOAD_BYTES: usize = 16 * 1024 * 1024;
+
+/// MQTT's largest topic (its length is a 16-bit count).
+const MAX_TOPIC_BYTES: usize = 65_535;
+
+/// An outlet as JS names it (`"unsent"` or `"held"`).
+fn outlet_named(name: &str) -> Result<Outlet, JsValue> {
+    Outlet::named(name).ok_or_else(|| {
+        js_error(
+            Code::InvalidInput,
+            &format!("no outlet {}: \"unsent\" or \"held\"", quote(name)),
+        )
+    })
+}
 
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -564,7 +594,16 @@ impl Tracker {
         for effect in effects {
             let Effect::Write { device, request } = effect else {
                 self.effects.push(match self.core.outcome(&effect) {
-                    Some(command) => Output::Outcome { effect, command },
+                    Some(command) => Output::Outcome {
+                        error: self.core.outcome_error(&effect).map(|(code, message)| {
+                            OutcomeError {
+                                code: code.name(),
+                                message,
+                            }
+                        }),
+                        effect,
+                        command,
+                    },
                     None => Output::Effect(effect),
                 });
                 continue;
@@ -1151,6 +1190,78 @@ impl Tracker {
     #[wasm_bindgen(js_name = servingChanged)]
     pub fn serving_changed(&mut self) {
         self.core.serving_changed();
+    }
+
+    /// A publish (as a `publish` effect gave it) that could not go out, and
+    /// why (`blocked`: the cluster role of an instance that may not act,
+    /// `"deploying"` when no actuators node serves its device during a
+    /// deploy, else `"unserved"`): the core keeps it (a suspended leader's as
+    /// `"held"`, a deploy's as `"unsent"`) within `bound` (Node-RED's
+    /// `nodeMessageBufferMaxLength`; 0: 10000), dropping one past it but never
+    /// a lockout, or drops it (see `sugarshack_core::actuator::outbox`).
+    /// Returns what to tell: the bound in force at the first drop since the
+    /// publishes last went out, -1 when no actuators node serves the device
+    /// (once per device until `servingChanged`), else 0.
+    #[wasm_bindgen(js_name = notSent)]
+    pub fn not_sent(
+        &mut self,
+        blocked: &str,
+        device: u32,
+        topic: String,
+        payload: String,
+        retain: bool,
+        bound: f64,
+    ) -> Result<f64, JsValue> {
+        let blocked = Blocked::named(blocked).ok_or_else(|| {
+            js_error(
+                Code::InvalidInput,
+                &format!("no reason a publish is not sent: {}", quote(blocked)),
+            )
+        })?;
+        let device = self.device_id(device)?;
+        if topic.len() > MAX_TOPIC_BYTES || payload.len() > MAX_PAYLOAD_BYTES {
+            return Err(js_error(
+                Code::InputTooLarge,
+                "a publish's topic or payload is larger than any the plant makes",
+            ));
+        }
+        if !(bound.is_finite() && (0.0..=f64::from(u32::MAX)).contains(&bound)) {
+            return Err(js_error(
+                Code::InvalidInput,
+                &format!("a publish bound must be a count, got {}", quote(bound)),
+            ));
+        }
+        let told = self
+            .core
+            .not_sent(blocked, device, topic, payload, retain, bound as usize);
+        Ok(match told {
+            Told::Dropped { bound } => bound as f64,
+            Told::Unserved => -1.0,
+            Told::Nothing => 0.0,
+        })
+    }
+
+    /// What waited at `outlet` goes out: its publishes are queued, oldest
+    /// first, then (if the core dropped any) every commanded state and
+    /// standing lockout again; returns how many effects are queued.
+    #[wasm_bindgen(js_name = sendKept)]
+    pub fn send_kept(&mut self, outlet: &str, now_ms: f64) -> Result<u32, JsValue> {
+        let outlet = outlet_named(outlet)?;
+        let effects = self.core.send_kept(outlet, time(now_ms)?);
+        Ok(self.queue(effects))
+    }
+
+    /// What waits at `outlet` is dropped unsent (a deposed leader's).
+    #[wasm_bindgen(js_name = dropKept)]
+    pub fn drop_kept(&mut self, outlet: &str) -> Result<(), JsValue> {
+        self.core.drop_kept(outlet_named(outlet)?);
+        Ok(())
+    }
+
+    /// How many publishes wait at `outlet`.
+    #[wasm_bindgen(js_name = keptPublishes)]
+    pub fn kept_publishes(&self, outlet: &str) -> Result<u32, JsValue> {
+        Ok(self.core.kept_publishes(outlet_named(outlet)?) as u32)
     }
 
     /// `{ moving, stopped, faulted, lockoutsPending }`.

@@ -150,3 +150,94 @@ fn a_future_timestamp_throws_and_applies_nothing() {
         .unwrap();
     assert_eq!(t.position(v12), Some(40.0), "at the skew limit it applies");
 }
+
+/// A publish effect handed back to `notSent`, `blocked`, within `bound`: what `notSent` answers.
+fn not_sent(t: &mut Tracker, blocked: &str, publish: &JsValue, bound: f64) -> f64 {
+    t.not_sent(
+        blocked,
+        get(publish, "device").as_f64().unwrap() as u32,
+        get(publish, "topic").as_string().unwrap(),
+        get(publish, "payload").as_string().unwrap(),
+        get(publish, "retain").as_bool().unwrap(),
+        bound,
+    )
+    .unwrap()
+}
+
+#[wasm_bindgen_test]
+fn publishes_not_sent_keep_a_lockout_past_the_bound_and_send_every_state_again_after_a_drop() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    t.feedback(v12, 99.0, None, 10.0).unwrap();
+    effects(&mut t);
+    let command = json(r#"{ "valves": { "V12": 50 } }"#);
+    t.command(command, 1, false, 100.0, None, None, None)
+        .unwrap();
+    let sent = effects(&mut t);
+    assert_eq!(not_sent(&mut t, "suspended", &sent[0], 1.0), 0.0, "kept");
+    t.withdraw(1);
+    let lockout = json(r#"{ "valves": { "V12": 0 } }"#);
+    t.command(lockout, 2, true, 200.0, None, None, None)
+        .unwrap();
+    let locked = effects(&mut t);
+    // Past the bound: the lockout takes the command's place, and the bound is told to warn of.
+    assert_eq!(not_sent(&mut t, "suspended", &locked[0], 1.0), 1.0);
+    assert_eq!(t.kept_publishes("held").unwrap(), 1);
+    assert_eq!(t.kept_publishes("unsent").unwrap(), 0);
+    assert_eq!(t.send_kept("held", 300.0).unwrap(), 3);
+    let out = effects(&mut t);
+    assert_eq!(kinds(&out), ["publish", "lockoutResent", "publish"]);
+    for publish in [&out[0], &out[2]] {
+        assert_eq!(get(publish, "payload").as_string().as_deref(), Some("0"));
+        assert_eq!(get(publish, "retain").as_bool(), Some(true));
+    }
+    assert_eq!(t.send_kept("held", 400.0).unwrap(), 0);
+
+    // A deploy's waits apart (an unset bound is the core's default); forgotten, it never goes out.
+    assert_eq!(not_sent(&mut t, "deploying", &out[0], 0.0), 0.0);
+    assert_eq!(t.kept_publishes("unsent").unwrap(), 1);
+    t.drop_kept("unsent").unwrap();
+    assert_eq!(t.send_kept("unsent", 500.0).unwrap(), 0);
+    // A standby's is dropped unsaid; an unserved device is told once.
+    assert_eq!(not_sent(&mut t, "standby", &out[0], 0.0), 0.0);
+    assert_eq!(not_sent(&mut t, "unserved", &out[0], 0.0), -1.0);
+    assert_eq!(not_sent(&mut t, "unserved", &out[0], 0.0), 0.0);
+    assert_eq!(
+        t.kept_publishes("held").unwrap() + t.kept_publishes("unsent").unwrap(),
+        0
+    );
+
+    let refused = |r: Result<f64, JsValue>| code_of(r.unwrap_err());
+    assert_eq!(
+        code_of(t.kept_publishes("later").unwrap_err()),
+        "INVALID_INPUT"
+    );
+    let publish = |t: &mut Tracker, blocked: &str, device: u32, topic: String, bound: f64| {
+        t.not_sent(blocked, device, topic, "p".into(), false, bound)
+    };
+    assert_eq!(
+        refused(publish(&mut t, "active", 0, "t".into(), 1.0)),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        refused(publish(&mut t, "suspended", 0, "t".into(), -1.0)),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        refused(publish(&mut t, "suspended", 0, "t".into(), f64::NAN)),
+        "INVALID_INPUT"
+    );
+    assert_eq!(
+        refused(publish(&mut t, "suspended", 7, "t".into(), 1.0)),
+        "UNKNOWN_DEVICE"
+    );
+    let long = "t".repeat(65_536);
+    assert_eq!(
+        refused(publish(&mut t, "suspended", 0, long, 1.0)),
+        "INPUT_TOO_LARGE"
+    );
+    assert_eq!(
+        code_of(t.send_kept("held", f64::NAN).unwrap_err()),
+        "INVALID_TIME"
+    );
+}

@@ -437,3 +437,41 @@ fn health_lists_unconfirmed_lockouts_by_actuator_id() {
     assert_eq!(get(&pending.get(0), "sends").as_f64(), Some(1.0));
     assert_eq!(Array::from(&get(&health, "operations")).length(), 0);
 }
+
+#[wasm_bindgen_test]
+fn a_group_that_timed_out_or_failed_carries_the_error_its_caller_fails_with() {
+    let mut t = Tracker::new(json(PLANT), 0.0).unwrap();
+    let v12 = t.actuator("V12").unwrap();
+    t.feedback_batch(&[v12], &[0.0], None, 10.0).unwrap();
+    let valve = || json(r#"{ "valves": { "V12": 100 } }"#);
+    t.command(valve(), 1, false, 100.0, None, None, Some(1500.0))
+        .unwrap();
+    let sent = t.take_effects().unwrap();
+    assert!(get(&effect(&sent, "publish"), "error").is_undefined());
+    t.expire(1600.0).unwrap();
+    let error = get(
+        &effect(&t.take_effects().unwrap(), "groupTimedOut"),
+        "error",
+    );
+    assert_eq!(
+        get(&error, "code").as_string().as_deref(),
+        Some("COMMAND_TIMEOUT")
+    );
+    assert_eq!(
+        get(&error, "message").as_string().as_deref(),
+        Some("group command did not complete within 1.5 s: V12 had not completed; the command was withdrawn (its actuators keep their last command)")
+    );
+    t.command(valve(), 2, false, 2000.0, None, None, None)
+        .unwrap();
+    t.tick(3000.0).unwrap();
+    let failed = effect(&t.take_effects().unwrap(), "groupFailed");
+    let error = get(&failed, "error");
+    assert_eq!(
+        get(&error, "code").as_string(),
+        get(&failed, "code").as_string()
+    );
+    assert_eq!(
+        get(&error, "message").as_string(),
+        get(&failed, "message").as_string()
+    );
+}

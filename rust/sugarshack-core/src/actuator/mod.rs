@@ -29,6 +29,7 @@
 
 mod error;
 mod fault;
+pub mod outbox;
 
 use std::collections::HashMap;
 
@@ -679,6 +680,8 @@ pub struct Tracker {
     /// back, lowered as work is given, left early when work goes (a wake that
     /// finds nothing due makes it exact again).
     due: Option<Millis>,
+    /// Publishes waiting until they can go out.
+    outbox: outbox::Outbox,
 }
 
 impl Tracker {
@@ -771,6 +774,7 @@ impl Tracker {
                 per_device: vec![Counts::default(); plant_devices],
             },
             due: None,
+            outbox: outbox::Outbox::default(),
         };
         tracker.due = tracker.exact_due();
         Ok(tracker)
@@ -894,6 +898,32 @@ impl Tracker {
         counts
     }
 
+    /// The error the caller of a group command that did not complete (failed,
+    /// timed out) gets: its code and words; none for another effect.
+    pub fn outcome_error(&self, effect: &Effect) -> Option<(Code, String)> {
+        match effect {
+            Effect::GroupFailed { code, message, .. } => Some((*code, message.clone())),
+            Effect::GroupTimedOut {
+                timeout_ms,
+                waiting,
+                ..
+            } => {
+                let waiting: Vec<&str> = waiting
+                    .iter()
+                    .map(|id| self.actuators[id.index()].name.as_str())
+                    .collect();
+                let message = format!(
+                    "group command did not complete within {}: {} had not completed; \
+                     the command was withdrawn (its actuators keep their last command)",
+                    crate::text::seconds(timeout_ms.as_f64()),
+                    waiting.join(", ")
+                );
+                Some((Code::CommandTimeout, message))
+            }
+            _ => None,
+        }
+    }
+
     /// The outcome of a group command in `effect` (completed, failed, timed
     /// out), by ids; none for another effect.
     pub fn outcome(&self, effect: &Effect) -> Option<Outcome> {
@@ -966,6 +996,99 @@ impl Tracker {
         for d in &mut self.devices {
             d.unserved_told = false;
         }
+    }
+
+    /// A publish for `device` that could not go out, `blocked`: it waits
+    /// ([`outbox::Blocked::outlet`]; past `bound` one is dropped, never a
+    /// lockout), or is dropped; answers what the host is to tell of it.
+    pub fn not_sent(
+        &mut self,
+        blocked: outbox::Blocked,
+        device: DeviceId,
+        topic: String,
+        payload: String,
+        retain: bool,
+        bound: usize,
+    ) -> outbox::Told {
+        match blocked.outlet() {
+            Some(outlet) => {
+                match self.keep_publish(outlet, device, topic, payload, retain, bound) {
+                    outbox::Kept::Dropped { first: true } => outbox::Told::Dropped {
+                        bound: outbox::bound_in_force(bound),
+                    },
+                    _ => outbox::Told::Nothing,
+                }
+            }
+            None if blocked == outbox::Blocked::Unserved && self.unserved(device) => {
+                outbox::Told::Unserved
+            }
+            None => outbox::Told::Nothing,
+        }
+    }
+
+    /// Keeps a publish for `device` that cannot go out yet at `outlet`, within
+    /// `bound` (0: the default); a lockout is never the one dropped (see [`outbox`]).
+    pub fn keep_publish(
+        &mut self,
+        outlet: outbox::Outlet,
+        device: DeviceId,
+        topic: String,
+        payload: String,
+        retain: bool,
+        bound: usize,
+    ) -> outbox::Kept {
+        let lockout = retain && self.is_lockout(device, &topic, &payload);
+        let publish = outbox::Waiting {
+            device,
+            topic,
+            payload,
+            retain,
+            lockout,
+        };
+        self.outbox.wait(outlet, publish, bound)
+    }
+
+    /// Whether `topic` and `payload` are the lockout of an actuator of `device` whose line stands locked out.
+    fn is_lockout(&self, device: DeviceId, topic: &str, payload: &str) -> bool {
+        let Some(d) = self.devices.get(device.index()) else {
+            return false;
+        };
+        d.actuators.iter().any(|&id| {
+            self.actuators[id.index()].locked_at.is_some_and(|target| {
+                let message = self.plant.contract().command(id, target);
+                message.topic == topic && message.payload == payload
+            })
+        })
+    }
+
+    /// What waited at `outlet` goes out, oldest first; if any was dropped,
+    /// every commanded state and standing lockout is published again after
+    /// them (see [`Tracker::path_restored`]).
+    pub fn send_kept(&mut self, outlet: outbox::Outlet, now: Millis) -> Vec<Effect> {
+        let (waiting, dropped) = self.outbox.take(outlet);
+        let mut effects: Vec<Effect> = waiting
+            .into_iter()
+            .map(|p| Effect::Publish {
+                device: p.device,
+                topic: p.topic,
+                payload: p.payload,
+                retain: p.retain,
+            })
+            .collect();
+        if dropped {
+            effects.extend(self.path_restored(now));
+        }
+        effects
+    }
+
+    /// What waits at `outlet` is no longer this host's to send (a deposed leader's).
+    pub fn drop_kept(&mut self, outlet: outbox::Outlet) {
+        self.outbox.take(outlet);
+    }
+
+    /// How many publishes wait at `outlet`.
+    pub fn kept_publishes(&self, outlet: outbox::Outlet) -> usize {
+        self.outbox.len(outlet)
     }
 
     /// Lockouts not yet confirmed by feedback, in actuator order.

@@ -972,6 +972,185 @@ fn a_restored_path_republishes_every_commanded_state_and_restarts_the_windows() 
     )));
 }
 
+/// Every publish of `effects` handed to the tracker's outbox at `outlet`, within `bound`.
+fn wait_all(
+    t: &mut Tracker,
+    outlet: outbox::Outlet,
+    effects: Vec<Effect>,
+    bound: usize,
+) -> Vec<outbox::Kept> {
+    effects
+        .into_iter()
+        .filter_map(|e| match e {
+            Effect::Publish {
+                device,
+                topic,
+                payload,
+                retain,
+            } => Some(t.keep_publish(outlet, device, topic, payload, retain, bound)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn waiting_publishes_past_the_bound_never_lose_a_lockout_and_a_drop_republishes_every_state() {
+    use outbox::{Kept, Outlet};
+    let (mut t, v1, v2, p1) = tracker();
+    let commands = t
+        .command(&[(v1, 100.0), (v2, 50.0)], 1, false, ms(0))
+        .unwrap();
+    assert_eq!(
+        wait_all(&mut t, Outlet::Held, commands, 2),
+        vec![Kept::Kept, Kept::Kept]
+    );
+    // The pump's lockout comes past the bound: the oldest command is dropped for it.
+    let lockout = t.command(&[(p1, 0.0)], 2, true, ms(10)).unwrap();
+    assert_eq!(
+        wait_all(&mut t, Outlet::Held, lockout.clone(), 2),
+        vec![Kept::Dropped { first: true }]
+    );
+    assert_eq!(t.kept_publishes(Outlet::Held), 2);
+    // The same lockout again (a resend) is not kept twice; a command past the bound is dropped.
+    assert_eq!(wait_all(&mut t, Outlet::Held, lockout, 2), vec![Kept::Kept]);
+    t.withdraw(1);
+    let more = t.command(&[(v1, 20.0)], 3, false, ms(20)).unwrap();
+    assert_eq!(
+        wait_all(&mut t, Outlet::Held, more, 2),
+        vec![Kept::Dropped { first: false }]
+    );
+    assert_eq!(
+        t.kept_publishes(Outlet::Unsent),
+        0,
+        "the outlets wait apart"
+    );
+    let sent = t.send_kept(Outlet::Held, ms(100));
+    assert_eq!(
+        publishes(&sent),
+        vec![
+            ("ctrl-1/valve/2/command".into(), "50".into(), false),
+            ("ctrl-1/pump/1/command".into(), "OFF".into(), true),
+            // Some were dropped: every commanded state and standing lockout again.
+            ("ctrl-1/valve/1/command".into(), "20".into(), false),
+            ("ctrl-1/valve/2/command".into(), "50".into(), false),
+            ("ctrl-1/pump/1/command".into(), "OFF".into(), true),
+        ]
+    );
+    assert_eq!(t.kept_publishes(Outlet::Held), 0);
+    assert!(
+        t.send_kept(Outlet::Held, ms(200)).is_empty(),
+        "nothing dropped since"
+    );
+}
+
+#[test]
+fn only_a_standing_lockout_msg_is_kept_past_the_bound_and_a_forgotten_outlet_sends_nothing() {
+    use outbox::{Kept, Outlet};
+    let (mut t, v1, _, p1) = tracker();
+    let command = t.command(&[(v1, 100.0)], 1, false, ms(0)).unwrap();
+    wait_all(&mut t, Outlet::Unsent, command, 1);
+    let lockout = t.command(&[(p1, 0.0)], 2, true, ms(0)).unwrap();
+    let (device, topic) = (t.actuators[p1.index()].device, "ctrl-1/pump/1/command");
+    // Retained but not the lockout's payload, or the lockout's payload not retained: no lockout.
+    let forged = t.keep_publish(Outlet::Unsent, device, topic.into(), "ON".into(), true, 1);
+    assert_eq!(forged, Kept::Dropped { first: true });
+    let unretained = t.keep_publish(Outlet::Unsent, device, topic.into(), "OFF".into(), false, 1);
+    assert_eq!(unretained, Kept::Dropped { first: false });
+    assert_eq!(
+        wait_all(&mut t, Outlet::Unsent, lockout, 1),
+        vec![Kept::Dropped { first: false }]
+    );
+    assert_eq!(
+        t.kept_publishes(Outlet::Unsent),
+        1,
+        "the lockout took the command's place"
+    );
+    t.drop_kept(Outlet::Unsent);
+    assert!(t.send_kept(Outlet::Unsent, ms(10)).is_empty());
+}
+
+#[test]
+fn a_publish_not_sent_waits_or_is_dropped_as_why_it_could_not_go_out_says() {
+    use outbox::{Blocked, Outlet, Told};
+    let (mut t, v1, _, _) = tracker();
+    let device = t.actuators[v1.index()].device;
+    let mut not_sent = |t: &mut Tracker, blocked, bound| {
+        t.not_sent(
+            blocked,
+            device,
+            "ctrl-1/valve/1/command".into(),
+            "100".into(),
+            false,
+            bound,
+        )
+    };
+    assert_eq!(not_sent(&mut t, Blocked::Suspended, 1), Told::Nothing);
+    assert_eq!(
+        not_sent(&mut t, Blocked::Suspended, 1),
+        Told::Dropped { bound: 1 }
+    );
+    assert_eq!(
+        not_sent(&mut t, Blocked::Suspended, 1),
+        Told::Nothing,
+        "warned once"
+    );
+    assert_eq!(not_sent(&mut t, Blocked::Deploying, 0), Told::Nothing);
+    assert_eq!(not_sent(&mut t, Blocked::Standby, 0), Told::Nothing);
+    assert_eq!(
+        (
+            t.kept_publishes(Outlet::Held),
+            t.kept_publishes(Outlet::Unsent)
+        ),
+        (1, 1),
+        "a standby's is dropped"
+    );
+    assert_eq!(not_sent(&mut t, Blocked::Unserved, 0), Told::Unserved);
+    assert_eq!(
+        not_sent(&mut t, Blocked::Unserved, 0),
+        Told::Nothing,
+        "reported once"
+    );
+    t.serving_changed();
+    assert_eq!(not_sent(&mut t, Blocked::Unserved, 0), Told::Unserved);
+    assert_eq!(t.kept_publishes(Outlet::Unsent), 1);
+}
+
+#[test]
+fn a_caller_whose_group_timed_out_or_failed_gets_the_code_and_words_of_it() {
+    let mut t = Tracker::new(plant("fail-fast"), ms(0)).unwrap();
+    let [v1, v2] = ["V1", "V2"].map(|n| t.actuator(n).unwrap());
+    t.feedback(v1, 0.0, None, ms(0)).unwrap();
+    t.feedback(v2, 0.0, None, ms(0)).unwrap();
+    let terms = Terms {
+        timeout: Some(ms(500)),
+        ..Terms::default()
+    };
+    t.issue(&[(v2, 100.0), (v1, 10.0)], 1, terms, ms(0))
+        .unwrap();
+    let timed_out = t.tick(ms(500));
+    let error = timed_out.iter().find_map(|e| t.outcome_error(e));
+    assert_eq!(
+        error,
+        Some((
+            Code::CommandTimeout,
+            "group command did not complete within 0.5 s: V2, V1 had not completed; \
+             the command was withdrawn (its actuators keep their last command)"
+                .into()
+        ))
+    );
+    t.command(&[(v1, 100.0)], 2, false, ms(600)).unwrap();
+    t.tick(ms(1600));
+    let failed = t.tick(ms(2600));
+    let (code, message) = failed.iter().find_map(|e| t.outcome_error(e)).unwrap();
+    assert_eq!(code, Code::CommandFailed);
+    assert!(message.contains("V1"), "{message}");
+    let done = t.command(&[(v2, 0.0)], 3, false, ms(3700)).unwrap();
+    assert!(
+        done.iter().all(|e| t.outcome_error(e).is_none()),
+        "a publish is no failure"
+    );
+}
+
 // ---- device timestamps ---------------------------------------------------------
 
 #[test]
