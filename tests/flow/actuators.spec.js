@@ -554,24 +554,32 @@ describe('sugarshack actuator nodes', function () {
     assert.equal(lastStatus('bus').text, 'moving 1 · bad 1', 'counts only the served devices');
   });
 
+  /** A deploy in progress: the plant's actuators node is not back yet. Returns what brings it back. */
+  function deployInProgress() {
+    const { runtime } = helper.getNode('pl');
+    const busNode = helper.getNode('bus');
+    runtime.palette.started = false;
+    runtime.bus.remove(busNode);
+    return async () => {
+      runtime.palette.started = true;
+      runtime.bus.add(busNode, null, null);
+      await quiet();
+    };
+  }
+
   it('publishes waiting for a deploy\'s actuators node keep within nodeMessageBufferMaxLength: past it a warning, and every commanded state goes out again', async function () {
     settings({ nodeMessageBufferMaxLength: 2 });
     const seen = await start();
     atRest();
     await quiet();
     const { runtime } = helper.getNode('pl');
-    const busNode = helper.getNode('bus');
-    // A deploy in progress: its actuators node is not back yet.
-    runtime.palette.started = false;
-    runtime.bus.remove(busNode);
+    const actuatorsBack = deployInProgress();
     command({ valves: { V12: 100, V13: 50 }, pumps: { P1: true } });
     await quiet();
     assert.equal(runtime.t.keptPublishes('unsent'), 2, 'two kept, the third past the bound');
     assert.deepEqual(warnings('pl').filter((w) => /publishes wait to go out/.test(w)).length, 1);
     assert.match(warnings('pl').at(-1), /more than 2 publishes wait to go out/);
-    runtime.palette.started = true;
-    runtime.bus.add(busNode, null, null);
-    await quiet();
+    await actuatorsBack();
     const last = new Map(seen.mqtt.map((m) => [m.topic, m.payload]));
     assert.deepEqual([...last.keys()].sort(), ['ctrl-1/pump/1/command', 'ctrl-1/valve/12/command', 'ctrl-1/valve/13/command'],
       'the dropped command went out with the states sent again');
@@ -584,17 +592,13 @@ describe('sugarshack actuator nodes', function () {
     atRest();
     await quiet();
     const { runtime } = helper.getNode('pl');
-    const busNode = helper.getNode('bus');
-    runtime.palette.started = false;
-    runtime.bus.remove(busNode);
+    const actuatorsBack = deployInProgress();
     command({ valves: { V12: 100 } });
     await quiet();
     runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
     await quiet();
     assert.match(warnings('pl').at(-1), /more than 1 publishes wait to go out/);
-    runtime.palette.started = true;
-    runtime.bus.add(busNode, null, null);
-    await quiet();
+    await actuatorsBack();
     assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [
       ['ctrl-1/pump/1/command', 'OFF', true],
       // The dropped command: every commanded state and standing lockout goes out again.
