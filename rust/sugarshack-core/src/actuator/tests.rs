@@ -1074,7 +1074,7 @@ fn a_publish_not_sent_waits_or_is_dropped_as_why_it_could_not_go_out_says() {
     use outbox::{Blocked, Outlet, Told};
     let (mut t, v1, _, _) = tracker();
     let device = t.actuators[v1.index()].device;
-    let mut not_sent = |t: &mut Tracker, blocked, bound| {
+    let not_sent = |t: &mut Tracker, blocked, bound| {
         t.not_sent(
             blocked,
             device,
