@@ -32,18 +32,21 @@ const DOC = {
 
 const SINKS = ['mqtt', 'out', 'caught', 'state'];
 
-async function start() {
-  await helper.load([...paletteNodes, keepRED], [
-    TAB,
-    // The surfaces under test: the operation node that starts 10, the plant state node, a Catch for refusals.
-    { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
-    { id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, wires: [['state']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
-    ...SINKS.map(sinkNode),
-  ]);
+/** The flow under test; `il`: the interlock node's settings changed. */
+const flow = (il = {}) => [
+  TAB,
+  // The surfaces under test: the operation node that starts 10, the plant state node, a Catch for refusals.
+  { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
+  { id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, wires: [['state']] },
+  { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+  { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
+  { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false, ...il },
+  { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
+  ...SINKS.map(sinkNode),
+];
+
+async function start(il = {}) {
+  await helper.load([...paletteNodes, keepRED], flow(il));
   const seen = Object.fromEntries(SINKS.map((id) => [id, collect(helper, id)]));
   const api = paletteApi(RED);
   await runUntil(helper, () => api.interlock('il') !== null, 'the interlock running');
@@ -181,5 +184,20 @@ describe('operators\' ISA-88 commands through every surface', function () {
     st.receive({ topic: 'hold', operation: '10', interlock: 'nope' });
     await runUntil(helper, () => seen.caught.length === 3, 'no such interlock');
     assert.equal(seen.caught[2].error.code, 'NO_INTERLOCK');
+  });
+  it('a held operation through a deploy that refuses the interlock settings and one that fixes them: one run of it, held, as after a restart', async function () {
+    const { api, seen } = await start({ persist: true });
+    await fillingMidStep(api, seen);
+    const runtime = helper.getNode('il').runtime;
+    await api.command('il', { operation: '10' }, 'hold', { by: 'bo' });
+    await runUntil(helper, () => stateOf(api, '10') === 'held', 'operation 10 held');
+    await helper.setFlows(flow({ persist: true, policy: 'bogus' }), 'nodes');
+    await runUntil(helper, () => runtime.state === 'failed', 'the refused settings');
+    await helper.setFlows(flow({ persist: true }), 'nodes');
+    await runUntil(helper, () => runtime.state === 'ready', 'the start from the saved state');
+    await runFor(helper, 100);
+    assert.equal(api.interlock('il').lines.find((l) => l.name === 'YEL').holder.operation, '10', 'it keeps its line');
+    const runs = api.interlock('il').runs.filter((r) => r.operation === '10');
+    assert.deepEqual(runs.map((r) => r.state), ['held'], 'one run of operation 10, a person restarts or aborts it');
   });
 });
