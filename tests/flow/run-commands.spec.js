@@ -7,9 +7,12 @@
 // commands and the manual clock.
 const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
-const { paletteNodes, TAB, sinkNode, collect, serverPerTest, runFor, runUntil } = require('./support');
+const {
+  paletteNodes, TAB, sinkNode, collect, serverPerTest, runFor, runUntil, until, completions,
+} = require('./support');
 const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { paletteApi } = require('../../node-red-contrib-sugarshack/lib/api');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));
 
@@ -58,8 +61,8 @@ const runOf = (api, operation) => (api.interlock('il').runs || []).find((r) => r
 const stateOf = (api, operation) => (runOf(api, operation) || {}).state;
 
 /** Starts operation 10 and waits until it waits for LT-3 (mid-step, the pump running). */
-async function fillingMidStep(api, seen) {
-  helper.getNode('op10').receive({ topic: 'fill' });
+async function fillingMidStep(api, seen, msg = { topic: 'fill' }) {
+  helper.getNode('op10').receive(msg);
   await runUntil(helper, () => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command' && m.payload === 'ON'), 'the pump started');
   await runFor(helper, 50);
   assert.equal(stateOf(api, '10'), 'running');
@@ -199,5 +202,24 @@ describe('operators\' ISA-88 commands through every surface', function () {
     assert.equal(api.interlock('il').lines.find((l) => l.name === 'YEL').holder.operation, '10', 'it keeps its line');
     const runs = api.interlock('il').runs.filter((r) => r.operation === '10');
     assert.deepEqual(runs.map((r) => r.state), ['held'], 'one run of operation 10, a person restarts or aborts it');
+  });
+  it('a held operation whose interlock cannot be rebuilt after a wasm trap (its saved state refused): the operation node\'s msg ends with the reason', async function () {
+    const { api, seen } = await start({ persist: true });
+    const msg = { topic: 'fill' };
+    await fillingMidStep(api, seen, msg);
+    await api.command('il', { operation: '10' }, 'hold', { by: 'bo' });
+    await runUntil(helper, () => stateOf(api, '10') === 'held', 'operation 10 held');
+    const runtime = helper.getNode('il').runtime;
+    const generation = wasm.currentGeneration();
+    runtime.open = () => {
+      throw new Error('the saved state cannot be opened');
+    };
+    runtime.core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+    assert.throws(() => runtime.described(), (err) => err.code === 'INTERNAL');
+    await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
+    await runFor(helper, 100);
+    assert.equal(runtime.state, 'failed');
+    const ended = completions().filter((c) => c.msgid === msg._msgid);
+    assert.deepEqual(ended.map((c) => c.error && c.error.message), ['the saved state cannot be opened'], 'answered once, with the reason');
   });
 });
