@@ -219,7 +219,7 @@ describe('operators\' ISA-88 commands through every surface', function () {
     await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
     await runFor(helper, 100);
     assert.equal(runtime.state, 'failed');
-    const ended = completions().filter((c) => c.msgid === msg._msgid);
+    const ended = completions().filter((c) => c.nodeId === 'op10' && c.msgid === msg._msgid);
     assert.deepEqual(ended.map((c) => c.error && c.error.message), ['the saved state cannot be opened'], 'answered once, with the reason');
   });
 });

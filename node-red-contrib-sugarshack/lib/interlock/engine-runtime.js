@@ -524,6 +524,8 @@ class EngineRuntime extends InterlockHost {
       this.open(this.readStore());
     } catch (err) {
       this.fail(err);
+      // No run comes back to take them: the owners' msgs end with the reason, as when none comes back (below).
+      for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) port.fail(/** @type {Error} */ (this.failure));
       return;
     }
     this.restoreHeldRuns();
