@@ -525,7 +525,7 @@ class EngineRuntime extends InterlockHost {
     } catch (err) {
       this.fail(err);
       // No run comes back to take them: the owners' msgs end with the reason, as when none comes back (below).
-      for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) port.fail(/** @type {Error} */ (this.failure));
+      for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) port.fail(/** @type {SugarshackError} */ (this.failure));
       return;
     }
     this.restoreHeldRuns();
