@@ -586,6 +586,21 @@ describe('sugarshack actuator nodes', function () {
     assert.equal(seen.mqtt.length, 5, 'the two kept, then the three commanded states');
   });
 
+  it('with nodeMessageBufferMaxLength past 2^32 - 1 a lockout waiting for a deploy\'s actuators node is kept and goes out', async function () {
+    settings({ nodeMessageBufferMaxLength: 2 ** 32 });
+    const seen = await start();
+    atRest();
+    await quiet();
+    const { runtime } = helper.getNode('pl');
+    const actuatorsBack = deployInProgress();
+    runtime.issueLockouts([{ resource: 'L1', command: { pumps: { P1: false } } }]);
+    await quiet();
+    assert.deepEqual(errors('pl'), [], 'no publish failed to be kept');
+    assert.equal(runtime.t.keptPublishes('unsent'), 1, 'the lockout waits');
+    await actuatorsBack();
+    assert.deepEqual(seen.mqtt.map((m) => [m.topic, m.payload, m.retain]), [['ctrl-1/pump/1/command', 'OFF', true]]);
+  });
+
   it('a lockout waiting past nodeMessageBufferMaxLength is never the publish dropped: it takes an older command\'s place and goes out first', async function () {
     settings({ nodeMessageBufferMaxLength: 1 });
     const seen = await start();

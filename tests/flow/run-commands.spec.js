@@ -7,9 +7,12 @@
 // commands and the manual clock.
 const assert = require('node:assert/strict');
 const helper = require('node-red-node-test-helper');
-const { paletteNodes, TAB, sinkNode, collect, serverPerTest, runFor, runUntil } = require('./support');
+const {
+  paletteNodes, TAB, sinkNode, collect, serverPerTest, runFor, runUntil, until, completions,
+} = require('./support');
 const { fakePanel, sensor, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 const { paletteApi } = require('../../node-red-contrib-sugarshack/lib/api');
+const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
 
 helper.init(require.resolve('node-red'));
 
@@ -32,18 +35,21 @@ const DOC = {
 
 const SINKS = ['mqtt', 'out', 'caught', 'state'];
 
-async function start() {
-  await helper.load([...paletteNodes, keepRED], [
-    TAB,
-    // The surfaces under test: the operation node that starts 10, the plant state node, a Catch for refusals.
-    { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
-    { id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, wires: [['state']] },
-    { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
-    { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
-    { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false },
-    { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
-    ...SINKS.map(sinkNode),
-  ]);
+/** The flow under test; `il`: the interlock node's settings changed. */
+const flow = (il = {}) => [
+  TAB,
+  // The surfaces under test: the operation node that starts 10, the plant state node, a Catch for refusals.
+  { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
+  { id: 'st', z: 'f1', type: 'sugarshack-state', onChange: false, wires: [['state']] },
+  { id: 'c1', z: 'f1', type: 'catch', scope: null, uncaught: false, wires: [['caught']] },
+  { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: DOC },
+  { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: false, ...il },
+  { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
+  ...SINKS.map(sinkNode),
+];
+
+async function start(il = {}) {
+  await helper.load([...paletteNodes, keepRED], flow(il));
   const seen = Object.fromEntries(SINKS.map((id) => [id, collect(helper, id)]));
   const api = paletteApi(RED);
   await runUntil(helper, () => api.interlock('il') !== null, 'the interlock running');
@@ -55,8 +61,8 @@ const runOf = (api, operation) => (api.interlock('il').runs || []).find((r) => r
 const stateOf = (api, operation) => (runOf(api, operation) || {}).state;
 
 /** Starts operation 10 and waits until it waits for LT-3 (mid-step, the pump running). */
-async function fillingMidStep(api, seen) {
-  helper.getNode('op10').receive({ topic: 'fill' });
+async function fillingMidStep(api, seen, msg = { topic: 'fill' }) {
+  helper.getNode('op10').receive(msg);
   await runUntil(helper, () => seen.mqtt.some((m) => m.topic === 'ctrl-1/pump/1/command' && m.payload === 'ON'), 'the pump started');
   await runFor(helper, 50);
   assert.equal(stateOf(api, '10'), 'running');
@@ -181,5 +187,39 @@ describe('operators\' ISA-88 commands through every surface', function () {
     st.receive({ topic: 'hold', operation: '10', interlock: 'nope' });
     await runUntil(helper, () => seen.caught.length === 3, 'no such interlock');
     assert.equal(seen.caught[2].error.code, 'NO_INTERLOCK');
+  });
+  it('a held operation through a deploy that refuses the interlock settings and one that fixes them: one run of it, held, as after a restart', async function () {
+    const { api, seen } = await start({ persist: true });
+    await fillingMidStep(api, seen);
+    const runtime = helper.getNode('il').runtime;
+    await api.command('il', { operation: '10' }, 'hold', { by: 'bo' });
+    await runUntil(helper, () => stateOf(api, '10') === 'held', 'operation 10 held');
+    await helper.setFlows(flow({ persist: true, policy: 'bogus' }), 'nodes');
+    await runUntil(helper, () => runtime.state === 'failed', 'the refused settings');
+    await helper.setFlows(flow({ persist: true }), 'nodes');
+    await runUntil(helper, () => runtime.state === 'ready', 'the start from the saved state');
+    await runFor(helper, 100);
+    assert.equal(api.interlock('il').lines.find((l) => l.name === 'YEL').holder.operation, '10', 'it keeps its line');
+    const runs = api.interlock('il').runs.filter((r) => r.operation === '10');
+    assert.deepEqual(runs.map((r) => r.state), ['held'], 'one run of operation 10, a person restarts or aborts it');
+  });
+  it('a held operation whose interlock cannot be rebuilt after a wasm trap (its saved state refused): the operation node\'s msg ends with the reason', async function () {
+    const { api, seen } = await start({ persist: true });
+    const msg = { topic: 'fill' };
+    await fillingMidStep(api, seen, msg);
+    await api.command('il', { operation: '10' }, 'hold', { by: 'bo' });
+    await runUntil(helper, () => stateOf(api, '10') === 'held', 'operation 10 held');
+    const runtime = helper.getNode('il').runtime;
+    const generation = wasm.currentGeneration();
+    runtime.open = () => {
+      throw new Error('the saved state cannot be opened');
+    };
+    runtime.core.__wbg_ptr = 0x7ffffff0; // eslint-disable-line no-underscore-dangle
+    assert.throws(() => runtime.described(), (err) => err.code === 'INTERNAL');
+    await until(() => wasm.currentGeneration() === generation + 1, 'the new instance');
+    await runFor(helper, 100);
+    assert.equal(runtime.state, 'failed');
+    const ended = completions().filter((c) => c.nodeId === 'op10' && c.msgid === msg._msgid);
+    assert.deepEqual(ended.map((c) => c.error && c.error.message), ['the saved state cannot be opened'], 'answered once, with the reason');
   });
 });

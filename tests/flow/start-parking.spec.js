@@ -13,6 +13,7 @@ const {
 } = require('./support');
 const { errorStatus } = require('../../node-red-contrib-sugarshack/lib/host/status');
 const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
+const { fakePanel, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -47,6 +48,44 @@ async function loadHeld(f, extra = {}) {
 }
 
 const doneOf = (msg) => completions().filter((c) => c.msgid === msg._msgid);
+
+/**
+ * A running interlock whose GRN an e-stop faulted, deposed, then put in a
+ * hot-standby cluster whose committed state (a stand-in etcd store) is read
+ * when told. Returns the state before the e-stop and after it, and the reads.
+ */
+async function deposedWithGrnFaulted() {
+  await helper.load(paletteNodes, [
+    TAB, interlockConfig({ persist: true }),
+    { id: 'stop', z: 'f1', type: 'sugarshack-fault', interlock: 'il', mode: 'resources', operation: '', resources: '', wires: [[], []] },
+  ]);
+  await until(() => runtimeOf().state === 'ready', 'the start');
+  const runtime = runtimeOf();
+  await run(0);
+  const free = runtime.store.read();
+  helper.getNode('stop').receive({ resources: 'GRN', payload: 'e-stop GRN' });
+  await until(() => runtime.core.counts().faulted === 1, 'GRN faulted');
+  await run(0);
+  const faulted = runtime.store.read();
+  const loads = [];
+  const store = {
+    where: 'etcd', durable: true, held: faulted, read: () => store.held, markRan() {}, write: async () => {}, unfollow: async () => {}, follow: async () => {},
+    load: () => new Promise((resolve, reject) => loads.push({ answer: (doc) => { store.held = doc; resolve(); }, reject })),
+  };
+  const cluster = { active: true, instance: 'a', token: '2', leader: null, mayAct: () => true, follow: () => () => {}, on() {}, removeListener() {}, alarmConditions: () => [] };
+  await runtime.standDown();
+  Object.assign(runtime, { cluster, etcdStore: store, store });
+  return { runtime, loads, free, faulted };
+}
+
+/** Elected, deposed while it reads the committed state, and elected again: two starts, the first one's read not answered yet. */
+async function electedTwice(runtime, loads) {
+  runtime.activate();
+  await until(() => loads.length === 1, 'the first read of the committed state');
+  await runtime.standDown();
+  runtime.activate();
+  await until(() => loads.length === 2, 'the second read');
+}
 
 describe('sugarshack msgs while an interlock starts', function () {
   serverPerTest();
@@ -180,5 +219,55 @@ describe('sugarshack msgs while an interlock starts', function () {
     assert.equal(errorsOf('a10')[0].code, 'ACQUIRE_TIMEOUT');
     await readEnds();
     assert.equal(doneOf(early).length, 1);
+  });
+  it('deposed and elected again while it reads the committed state: the first read, answered late with an older state, does not start it; the second does (GRN stays faulted)', async function () {
+    const { runtime, loads, free, faulted } = await deposedWithGrnFaulted();
+    await electedTwice(runtime, loads);
+    loads[0].answer(free);
+    await run(0);
+    loads[1].answer(faulted);
+    await until(() => runtime.state !== 'starting', 'the start');
+    await run(0);
+    assert.equal(runtime.state, 'ready');
+    assert.equal(runtime.core.counts().faulted, 1, 'GRN faulted, as committed');
+  });
+
+  it('deposed and elected again while it reads the committed state: the first read refused late (fenced out) leaves the second start going on', async function () {
+    const { runtime, loads, faulted } = await deposedWithGrnFaulted();
+    await electedTwice(runtime, loads);
+    loads[0].reject(new Error('fenced out'));
+    await run(0);
+    loads[1].answer(faulted);
+    await until(() => runtime.state !== 'starting', 'the start');
+    await run(0);
+    assert.equal(runtime.state, 'ready', 'the elected instance runs its interlock');
+    assert.equal(runtime.core.counts().faulted, 1);
+  });
+  it('an operation node\'s run asked for a line before an acquire msg while the state is read is granted first, as they came', async function () {
+    const doc = {
+      ...fakePlant([fakeValve('V101', 1, 'YEL'), fakePump('YEL')]),
+      resources: [{ id: 'YEL' }],
+      operations: [{ id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 3000 }] }],
+    };
+    const readEnds = await loadHeld([
+      TAB,
+      { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
+      { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true, store: 'slow' },
+      { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
+      { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
+      acquire('hand', 'by hand', 20, 'YEL', 'out'),
+      sinkNode('out'), sinkNode('mqtt'),
+    ]);
+    try {
+      fakePanel(helper, doc);
+      helper.getNode('op10').receive({ topic: 'fill' });
+      helper.getNode('hand').receive({ payload: 'by hand' });
+      await run(0);
+      await readEnds();
+      await run(50);
+      assert.equal(runtimeOf().describe().lines.find((l) => l.name === 'YEL').holder.operation, '10', 'the run asked first holds YEL');
+    } finally {
+      stopPanels();
+    }
   });
 });

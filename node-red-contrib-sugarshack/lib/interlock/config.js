@@ -22,6 +22,9 @@ function secondsToMs(value) {
   return Number.isFinite(seconds) ? Math.round(seconds * 1000) : value;
 }
 
+// The most a bound is read as: past a u32 no count the core keeps reaches it, and the core takes a bound as a u32.
+const MAX_BUFFER = 2 ** 32 - 1;
+
 /**
  * Node-RED's bound on the msgs a node buffers (settings.js
  * `nodeMessageBufferMaxLength`), read as its delay node reads it: set or
@@ -32,7 +35,7 @@ function messageBufferMax(RED) {
   const name = 'nodeMessageBufferMaxLength';
   const settings = RED && RED.settings;
   const value = settings && Object.prototype.hasOwnProperty.call(settings, name) ? Number(settings[name]) : 0;
-  return Number.isSafeInteger(value) && value > 0 ? value : 0;
+  return Number.isSafeInteger(value) && value > 0 ? Math.min(value, MAX_BUFFER) : 0;
 }
 
 /**

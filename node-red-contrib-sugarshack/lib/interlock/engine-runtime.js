@@ -93,6 +93,7 @@ class EngineRuntime extends InterlockHost {
     /** @type {Map<number, { node: NodeRed.Node, spec: any, kind: any }>} handle -> the instance bound now, with its kind's input */
     this.nodes = new Map();
     this.nextMsg = 0;
+    this.starts = 0; // start() calls so far: one whose reads a later one overtook stops where it is
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
     this.replies = new Map();
     this.failingShown = false;
@@ -173,6 +174,8 @@ class EngineRuntime extends InterlockHost {
   // ---- lifecycle -----------------------------------------------------------
 
   async start() {
+    const start = ++this.starts;
+    const latest = () => start === this.starts;
     try {
       this.config = this.resolveConfig();
       // Made before the saved state is read: msgs meanwhile wait in it, their timeouts running.
@@ -181,10 +184,11 @@ class EngineRuntime extends InterlockHost {
       this.fail(err);
       return;
     }
-    if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore))) return;
+    if (this.cluster && this.etcdStore && !(await this.loadCommitted(this.cluster, this.etcdStore, latest))) return;
     const saved = await this.readSaved();
-    // Stopped, failed or on standby meanwhile: what its engine kept is answered already.
-    if (this.state !== 'starting') return;
+    // Stopped, failed or on standby meanwhile: what its engine kept is answered already. A later start (elected
+    // again, new settings after a failure) reads for itself: what this one read may be older.
+    if (this.state !== 'starting' || !latest()) return;
     try {
       this.guard(() => this.open(saved));
     } catch (err) {
@@ -520,6 +524,8 @@ class EngineRuntime extends InterlockHost {
       this.open(this.readStore());
     } catch (err) {
       this.fail(err);
+      // No run comes back to take them: the owners' msgs end with the reason, as when none comes back (below).
+      for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) port.fail(/** @type {SugarshackError} */ (this.failure));
       return;
     }
     this.restoreHeldRuns();

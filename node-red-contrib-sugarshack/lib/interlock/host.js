@@ -154,18 +154,21 @@ class InterlockHost extends RuntimeBase {
   /**
    * In a cluster: true once the committed state is read under this instance's
    * fencing token, as a restart reads its file; false (standby) when this
-   * instance is not the leader.
+   * instance is not the leader, or (changing nothing) when `latest()` says a
+   * later start overtook this one.
    */
-  async loadCommitted(cluster, store) {
+  async loadCommitted(cluster, store, latest = () => true) {
     if (!this.stopFollowing) this.stopFollowing = cluster.follow(this);
     if (cluster.active) {
       try {
         await store.unfollow();
         await store.load();
         // Deposed while it read: standDown() has made it standby already.
-        if (this.ended || this.state === 'standby') return false;
+        if (this.ended || this.state === 'standby' || !latest()) return false;
         if (cluster.active) return true;
       } catch (err) {
+        // Deposed and elected again meanwhile: this read's refusal is not the later start's.
+        if (!latest()) return false;
         this.log('warn', i18n.text('logs.standbyNotTaken', { message: err.message }));
       }
     }
