@@ -94,6 +94,8 @@ class EngineRuntime extends InterlockHost {
     this.nodes = new Map();
     this.nextMsg = 0;
     this.starts = 0; // start() calls so far: one whose reads a later one overtook stops where it is
+    /** @type {{ ports: any[], error: SugarshackError } | null} operation nodes' ports of held runs, waiting for a start after a failure to restore them */
+    this.portsAwaitingRuns = null;
     /** @type {Map<number, { resolve: Function, reject: Function }>} operator requests waiting for their reply */
     this.replies = new Map();
     this.failingShown = false;
@@ -198,6 +200,10 @@ class EngineRuntime extends InterlockHost {
     this.markRan();
     this.step('started');
     this.restoreHeldRuns();
+    // Started again after a failure: the runs from before it take their ports back.
+    const awaiting = this.portsAwaitingRuns;
+    this.portsAwaitingRuns = null;
+    if (awaiting) this.resumeRuns(awaiting.ports, awaiting.error);
     this.watchPlant();
     this.listenChanged();
     this.refreshStatus();
@@ -279,6 +285,7 @@ class EngineRuntime extends InterlockHost {
     }
     // Failed part-way through its start (its engine took them, then the rest threw): nothing answers them now.
     if (starting) this.refuseHeld(failure);
+    this.failAwaitingPorts(failure);
   }
 
   /** Stood down before it started: the msgs its engine kept are completed unsent, their nodes showing standby (the active instance answers them). */
@@ -333,6 +340,17 @@ class EngineRuntime extends InterlockHost {
   endRuns() {
     for (const run of this.runs) run.shutdown();
     for (const host of this.routines.values()) host.shutdown();
+    this.failAwaitingPorts(null);
+  }
+
+  /** No start restores the runs their ports wait for: each owner's msg ends (with `error`, or unsent). */
+  failAwaitingPorts(error) {
+    const awaiting = this.portsAwaitingRuns;
+    this.portsAwaitingRuns = null;
+    for (const port of awaiting ? awaiting.ports : []) {
+      if (error) port.fail(error);
+      else if (port.abandon) port.abandon();
+    }
   }
 
   /** Its config node left the flows: waiting requests are withdrawn and the state written. */
@@ -422,6 +440,9 @@ class EngineRuntime extends InterlockHost {
     // Its start failed: nothing runs to hand over, so it starts again from what was saved, never from nothing.
     if (this.state === 'failed') {
       this.failure = null;
+      // As at a restart: its runs end, one held comes back held from the saved state (its owner's port waits for it).
+      const error = SugarshackError.of('INTERNAL', 'interlockRestarted');
+      this.portsAwaitingRuns = { ports: this.suspendRuns(error), error };
       this.step('restart');
       this.start();
       return;
@@ -499,6 +520,32 @@ class EngineRuntime extends InterlockHost {
     this.replies.clear();
   }
 
+  /**
+   * Its runs, before it opens its saved state again: a held one's operation
+   * node keeps its port for the run that comes back held (a routine's is
+   * taken by the routine as it rebuilds); the others end with `error`.
+   * @returns {any[]} the operation nodes' ports
+   */
+  suspendRuns(error) {
+    for (const host of this.routines.values()) host.suspend();
+    const ports = [];
+    for (const run of [...this.runs]) {
+      if (run.heldBeforeTrap) ports.push(run.suspend());
+      else run.abandon(error);
+    }
+    return ports.filter((p) => p.owner.kind === 'node');
+  }
+
+  /** The runs restored held take their nodes' ports back (a port no run came back for ends with `error`); routines rebuild. */
+  resumeRuns(ports, error) {
+    for (const port of ports) {
+      const run = this.heldRunOf(port.owner);
+      if (run) run.takePort(port);
+      else port.fail(error);
+    }
+    for (const [id, host] of this.routines) host.rebuild(this.savedRoutines[id]);
+  }
+
   /** After a wasm trap: back to the last saved state, as after a restart; what waited is refused. */
   rebuild() {
     if (this.state === 'starting' && this.core) {
@@ -509,13 +556,7 @@ class EngineRuntime extends InterlockHost {
     this.committer.discard();
     this.carrier.stop();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
-    for (const host of this.routines.values()) host.suspend();
-    // A held run comes back held from the saved state: its owner's port waits for it.
-    const heldPorts = [];
-    for (const run of [...this.runs]) {
-      if (run.heldBeforeTrap) heldPorts.push(run.suspend());
-      else run.abandon(error);
-    }
+    const heldPorts = this.suspendRuns(error);
     this.refuseHeld(error);
     wasm.forget(this.core);
     this.core = null;
@@ -525,17 +566,11 @@ class EngineRuntime extends InterlockHost {
     } catch (err) {
       this.fail(err);
       // No run comes back to take them: the owners' msgs end with the reason, as when none comes back (below).
-      for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) port.fail(/** @type {SugarshackError} */ (this.failure));
+      for (const port of heldPorts) port.fail(/** @type {SugarshackError} */ (this.failure));
       return;
     }
     this.restoreHeldRuns();
-    // A routine's is taken by the routine as it rebuilds (below).
-    for (const port of heldPorts.filter((p) => p.owner.kind === 'node')) {
-      const run = this.heldRunOf(port.owner);
-      if (run) run.takePort(port);
-      else port.fail(error);
-    }
-    for (const [id, host] of this.routines) host.rebuild(this.savedRoutines[id]);
+    this.resumeRuns(heldPorts, error);
     this.listenChanged();
     this.refreshStatus();
     this.resendLockouts('afterRebuild');
