@@ -13,6 +13,7 @@ const {
 } = require('./support');
 const { errorStatus } = require('../../node-red-contrib-sugarshack/lib/host/status');
 const wasm = require('../../node-red-contrib-sugarshack/lib/wasm');
+const { fakePanel, stopPanels, fakePlant, fakeValve, fakePump } = require('./fake-panel');
 
 helper.init(require.resolve('node-red'));
 
@@ -241,5 +242,35 @@ describe('sugarshack msgs while an interlock starts', function () {
     await run(0);
     assert.equal(runtime.state, 'ready', 'the elected instance runs its interlock');
     assert.equal(runtime.core.counts().faulted, 1);
+  });
+  it('an operation node\'s run that asked for a line before an acquire msg while the state is read is granted first, as they came', async function () {
+    const doc = {
+      ...fakePlant([fakeValve('V101', 1, 'YEL'), fakePump('YEL')]),
+      resources: [{ id: 'YEL' }],
+      operations: [{ id: '10', priority: 20, resources: ['YEL'], steps: [{ command: { valves: { V101: 100 } }, timeoutMs: 3000 }] }],
+    };
+    const readEnds = await loadHeld([
+      TAB,
+      { id: 'pl', type: 'sugarshack-plant', name: 'plant', plant: doc },
+      { id: 'il', type: 'sugarshack-interlock', name: 'lines', plant: 'pl', resources: [], policy: 'greedy', persist: true, store: 'slow' },
+      { id: 'bus', z: 'f1', type: 'sugarshack-actuators', plant: 'pl', devices: '', wires: [['mqtt'], [], []] },
+      { id: 'op10', z: 'f1', type: 'sugarshack-operation', interlock: 'il', operation: '10', wires: [['out']] },
+      acquire('hand', 'by hand', 20, 'YEL', 'out'),
+      sinkNode('out'), sinkNode('mqtt'),
+    ]);
+    try {
+      fakePanel(helper, doc);
+      const out = collect(helper, 'out');
+      helper.getNode('op10').receive({ topic: 'fill' });
+      helper.getNode('hand').receive({ payload: 'by hand' });
+      await run(0);
+      await readEnds();
+      await run(50);
+      // Op 10 runs its one step and releases YEL; only then is the acquire granted (it never releases).
+      assert.deepEqual(out.map((m) => (m.operation ? `op ${m.operation.id} done` : m.payload)), ['op 10 done', 'by hand'], 'granted as they came');
+      assert.equal(runtimeOf().describe().lines.find((l) => l.name === 'YEL').holder.operation, 'by hand');
+    } finally {
+      stopPanels();
+    }
   });
 });

@@ -180,7 +180,8 @@ class RuntimeBase {
         this.perform(node, done, work);
         break;
       case 'park':
-        if (engine && this.parksInEngine) this.perform(node, done, work);
+        // Behind work held here while it starts (a run's), an engine input waits here too, so they replay as they came.
+        if (engine && this.parksInEngine && !(this.state === 'starting' && this.parked.length > 0)) this.perform(node, done, work);
         else this.park({ node, done, work, urgent, passive, engine });
         break;
       case 'refuse':
