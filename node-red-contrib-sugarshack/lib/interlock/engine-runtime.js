@@ -200,10 +200,7 @@ class EngineRuntime extends InterlockHost {
     this.markRan();
     this.step('started');
     this.restoreHeldRuns();
-    // Started again after a failure: the runs from before it take their ports back.
-    const awaiting = this.portsAwaitingRuns;
-    this.portsAwaitingRuns = null;
-    if (awaiting) this.resumeRuns(awaiting.ports, awaiting.error);
+    this.resumeRuns();
     this.watchPlant();
     this.listenChanged();
     this.refreshStatus();
@@ -290,11 +287,12 @@ class EngineRuntime extends InterlockHost {
 
   /** Stood down before it started: the msgs its engine kept are completed unsent, their nodes showing standby (the active instance answers them). */
   becomeStandby() {
-    if (this.core && this.state === 'starting') this.standByParked();
+    this.standByParked();
     super.becomeStandby();
   }
 
   standByParked() {
+    if (!this.core || this.state !== 'starting') return;
     const error = this.standbyError();
     for (const { entry, reply } of this.parkedOut()) {
       if (reply) reply.reject(error);
@@ -381,7 +379,7 @@ class EngineRuntime extends InterlockHost {
     if (this.ended || this.state === 'standby') return;
     this.stopTimers();
     await this.committer.freeze();
-    if (this.state === 'starting' && this.core) this.standByParked();
+    this.standByParked();
     this.carrier.stop();
     for (const [k, entry] of [...this.carrier.held]) {
       this.carrier.take(k);
@@ -441,8 +439,7 @@ class EngineRuntime extends InterlockHost {
     if (this.state === 'failed') {
       this.failure = null;
       // As at a restart: its runs end, one held comes back held from the saved state (its owner's port waits for it).
-      const error = SugarshackError.of('INTERNAL', 'interlockRestarted');
-      this.portsAwaitingRuns = { ports: this.suspendRuns(error), error };
+      this.suspendRuns(SugarshackError.of('INTERNAL', 'interlockRestarted'));
       this.step('restart');
       this.start();
       return;
@@ -522,9 +519,9 @@ class EngineRuntime extends InterlockHost {
 
   /**
    * Its runs, before it opens its saved state again: a held one's operation
-   * node keeps its port for the run that comes back held (a routine's is
-   * taken by the routine as it rebuilds); the others end with `error`.
-   * @returns {any[]} the operation nodes' ports
+   * node keeps its port for the run that comes back held (`resumeRuns`; a
+   * routine's is taken by the routine as it rebuilds); the others end with
+   * `error`. If it fails instead, the ports get the failure (`fail`).
    */
   suspendRuns(error) {
     for (const host of this.routines.values()) host.suspend();
@@ -533,11 +530,15 @@ class EngineRuntime extends InterlockHost {
       if (run.heldBeforeTrap) ports.push(run.suspend());
       else run.abandon(error);
     }
-    return ports.filter((p) => p.owner.kind === 'node');
+    this.portsAwaitingRuns = { ports: ports.filter((p) => p.owner.kind === 'node'), error };
   }
 
-  /** The runs restored held take their nodes' ports back (a port no run came back for ends with `error`); routines rebuild. */
-  resumeRuns(ports, error) {
+  /** After its saved state opened again: the runs restored held take their nodes' ports back (a port no run came back for ends with the suspension's error); routines rebuild. */
+  resumeRuns() {
+    const awaiting = this.portsAwaitingRuns;
+    this.portsAwaitingRuns = null;
+    if (!awaiting) return;
+    const { ports, error } = awaiting;
     for (const port of ports) {
       const run = this.heldRunOf(port.owner);
       if (run) run.takePort(port);
@@ -556,7 +557,7 @@ class EngineRuntime extends InterlockHost {
     this.committer.discard();
     this.carrier.stop();
     const error = SugarshackError.of('INTERNAL', 'interlockRebuilt');
-    const heldPorts = this.suspendRuns(error);
+    this.suspendRuns(error);
     this.refuseHeld(error);
     wasm.forget(this.core);
     this.core = null;
@@ -564,13 +565,11 @@ class EngineRuntime extends InterlockHost {
       this.newEngine();
       this.open(this.readStore());
     } catch (err) {
-      this.fail(err);
-      // No run comes back to take them: the owners' msgs end with the reason, as when none comes back (below).
-      for (const port of heldPorts) port.fail(/** @type {SugarshackError} */ (this.failure));
+      this.fail(err); // no run comes back for the suspended ones' ports: they get the reason
       return;
     }
     this.restoreHeldRuns();
-    this.resumeRuns(heldPorts, error);
+    this.resumeRuns();
     this.listenChanged();
     this.refreshStatus();
     this.resendLockouts('afterRebuild');

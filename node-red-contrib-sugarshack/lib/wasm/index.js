@@ -417,7 +417,6 @@ function primeInterlock({ Interlock, Tracker, AbortedOperations }) {
   t.dropKept('held');
   t.takeEffects();
   t.takeAnswer();
-  t.reportUnserved(t.device('p'));
   t.servingChanged();
   t.counts();
   t.countsOn(Uint32Array.of(t.device('p')));

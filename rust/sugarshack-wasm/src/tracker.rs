@@ -1179,13 +1179,6 @@ impl Tracker {
         self.answer(Answer::default())
     }
 
-    /// A publish for `device` (a handle) found no actuators node serving it:
-    /// true when that is to be reported (once, until `servingChanged`).
-    #[wasm_bindgen(js_name = reportUnserved)]
-    pub fn report_unserved(&mut self, device: u32) -> bool {
-        self.core.unserved(DeviceId::from_index(device))
-    }
-
     /// The actuators nodes serving the devices changed: an unserved device is reported again.
     #[wasm_bindgen(js_name = servingChanged)]
     pub fn serving_changed(&mut self) {

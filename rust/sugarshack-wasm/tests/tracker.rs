@@ -408,10 +408,21 @@ fn an_answer_says_whether_the_status_and_the_devices_health_may_have_moved() {
     t.device_status(ctrl1, false, 400.0).unwrap();
     assert!(flagged(&answer(&mut t)).contains(&"deviceStatus".to_owned()));
 
-    assert!(t.report_unserved(ctrl1), "reported the first time");
-    assert!(!t.report_unserved(ctrl1));
+    let unserved = |t: &mut Tracker| {
+        t.not_sent(
+            "unserved",
+            ctrl1,
+            "ctrl-1/valve/12/command".into(),
+            "60".into(),
+            false,
+            0.0,
+        )
+        .unwrap()
+    };
+    assert_eq!(unserved(&mut t), -1.0, "reported the first time");
+    assert_eq!(unserved(&mut t), 0.0);
     t.serving_changed();
-    assert!(t.report_unserved(ctrl1));
+    assert_eq!(unserved(&mut t), -1.0);
 }
 
 #[wasm_bindgen_test]
