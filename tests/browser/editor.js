@@ -43,4 +43,15 @@ async function openEditor({ flows, tag, readyNode }) {
   }
 }
 
-module.exports = { openEditor };
+/**
+ * Resolves once the newest edit tray has opened: Node-RED focuses the tray's first field a timer
+ * after it opens, so keys typed before that can land in the wrong field.
+ */
+async function trayOpened(page) {
+  await page.waitForFunction(() => {
+    const tray = $('.red-ui-tray').last()[0];
+    return Boolean(tray) && tray.contains(document.activeElement);
+  }, { timeout: 15000 });
+}
+
+module.exports = { openEditor, trayOpened };

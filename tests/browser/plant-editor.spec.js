@@ -8,7 +8,7 @@
 const assert = require('node:assert/strict');
 const fs = require('fs');
 const path = require('path');
-const { openEditor } = require('./editor');
+const { openEditor, trayOpened } = require('./editor');
 
 const PALETTE = path.join(__dirname, '..', '..', 'node-red-contrib-sugarshack');
 const SCHEMA = JSON.parse(fs.readFileSync(path.join(PALETTE, 'schema', 'plant.schema.json'), 'utf8'));
@@ -58,6 +58,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
   /** Opens the plant dialog once its editor checks against the schema (a wrong type is marked). */
   async function openPlant() {
     await page.evaluate(() => RED.editor.editConfig('', 'sugarshack-plant', 'pl'));
+    await trayOpened(page);
     await page.waitForFunction(() => RED.nodes.node('pl').editor && (monaco.languages.json.jsonDefaults.diagnosticsOptions.schemas || [])
       .some((s) => s.uri === 'sugarshack:/plant.schema.json' && s.schema), { timeout: 20000 });
     await page.evaluate((text) => RED.nodes.node('pl').editor.setValue(text), JSON.stringify({ ...PLANT, clockSkewMs: 'soon' }));
@@ -72,6 +73,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
       ed.focus();
       ed.setPosition(ed.getModel().getPositionAt(value.indexOf(at) + offset));
     }, text, marker, n);
+    await page.waitForFunction(() => RED.nodes.node('pl').editor.hasTextFocus(), { timeout: 10000 });
   }
 
   /** The editor's markers, once `wanted(messages)` holds: [{ message, line }]. */
@@ -90,6 +92,8 @@ describe('the plant document in the editor (headless Chromium)', function () {
     const text = JSON.stringify({ ...PLANT, actuators: [...PLANT.actuators, {}] }, null, 2);
     await typeAt(text, '{}', 1);
     await page.keyboard.type('"');
+    const opened = await page.evaluate(() => { const ed = RED.nodes.node('pl').editor; return ed.getModel().getLineContent(ed.getPosition().lineNumber).trim(); });
+    assert.match(opened, /^\{""?\}$/, 'the quote went into the new actuator');
     await page.waitForSelector('.suggest-widget.visible .monaco-list-row', { timeout: 15000 });
     const proposed = await page.$$eval('.suggest-widget.visible .monaco-list-row .label-name', (els) => els.map((e) => e.textContent.trim()));
     assert.deepEqual([...proposed].sort(), Object.keys(SCHEMA.definitions.Actuator.properties).sort());
@@ -188,6 +192,7 @@ describe('the plant document in the editor (headless Chromium)', function () {
     // An id the plant does not have yet: typed.
     await page.evaluate(() => RED.editor.edit(RED.nodes.node('op')));
     await page.waitForSelector('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', { visible: true, timeout: 10000 });
+    await trayOpened(page);
     await page.$eval('#node-input-operation + .red-ui-typedInput-container .red-ui-typedInput-type-select', (el) => el.click());
     // The value menu may still be fading out: wait for the type menu itself.
     await page.waitForFunction(() => $('.red-ui-typedInput-options:visible').length === 1
