@@ -5,7 +5,7 @@
 // palette names, dialogs' placeholders, options and tips, and the plant's validation texts come
 // out in English, read from the catalogs (nodes/locales/en-US/*.json).
 const assert = require('node:assert/strict');
-const { openEditor } = require('./editor');
+const { openEditor, trayOpened } = require('./editor');
 
 const resources = (names) => names.map((name) => ({ name, lockout: { valves: { [`${name}-V1`]: 0 } } }));
 const plantDocument = (actuators) => ({
@@ -291,6 +291,7 @@ describe('the editor\'s labels in headless Chromium', function () {
       await page.evaluate((n) => RED.editor.edit(RED.nodes.node(n)), id);
       const input = `#node-input-${field}`;
       await page.waitForSelector(`${input} + .red-ui-typedInput-container`, { visible: true, timeout: 10000 });
+      await trayOpened(page);
       const opened = await page.evaluate((sel) => [$(sel).typedInput('type'), $(sel).typedInput('value')], input);
       assert.deepEqual(opened, ['str', literal], id);
       if (field === 'resources') {
