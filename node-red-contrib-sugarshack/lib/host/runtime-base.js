@@ -32,7 +32,7 @@ class RuntimeBase {
      * Work held while starting or draining (`ParkedWork` each), within Node-RED's
      * msg buffer bound: a plant's (it has no engine), and an interlock's that is
      * no engine input (an operation or routine node's run, hosted here). An
-     * interlock node's msg waits in the engine instead (see `parksInEngine`).
+     * interlock node's msg waits in the engine instead (see `EngineRuntime.park`).
      */
     this.parked = new UntilReady();
     this.bufferMax = 0; // Node-RED's nodeMessageBufferMaxLength in force (0: no bound)
@@ -180,9 +180,7 @@ class RuntimeBase {
         this.perform(node, done, work);
         break;
       case 'park':
-        // Behind work held here while it starts (a run's), an engine input waits here too, so they replay as they came.
-        if (engine && this.parksInEngine && !(this.state === 'starting' && this.parked.length > 0)) this.perform(node, done, work);
-        else this.park({ node, done, work, urgent, passive, engine });
+        this.park({ node, done, work, urgent, passive, engine });
         break;
       case 'refuse':
         done(this.failure);
@@ -193,11 +191,6 @@ class RuntimeBase {
       default:
         done();
     }
-  }
-
-  /** Its engine takes its inputs while it starts (an interlock's, once made), keeping them for the start. */
-  get parksInEngine() {
-    return false;
   }
 
   /** Held until it starts or the drain ends; past Node-RED's msg buffer bound, refused (QUEUE_FULL). */

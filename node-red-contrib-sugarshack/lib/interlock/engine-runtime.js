@@ -13,7 +13,6 @@ const { countsStatus } = require('../host/status');
 const { clock } = require('../host/clock');
 const { Committer } = require('../host/durable');
 const { InterlockHost } = require('./host');
-const { standbyStatus } = require('../host/runtime-base');
 const { EngineCarrier, CarriedMsg, refusalError, render } = require('./engine-carrier');
 const { Wire } = require('../wasm/wire');
 const { unreadable, fieldsOf } = require('./request');
@@ -296,10 +295,7 @@ class EngineRuntime extends InterlockHost {
     const error = this.standbyError();
     for (const { entry, reply } of this.parkedOut()) {
       if (reply) reply.reject(error);
-      else if (entry) {
-        if (entry.node) this.setStatus(entry.node, standbyStatus());
-        entry.abandon();
-      }
+      else if (entry) this.standbyDone(entry.node, () => entry.abandon());
     }
   }
 
@@ -654,9 +650,15 @@ class EngineRuntime extends InterlockHost {
     }
   }
 
-  /** Its engine takes node msgs while it starts (it keeps them for the start, their timeouts running). */
-  get parksInEngine() {
-    return this.core !== null;
+  /**
+   * An interlock node's msg waits in its engine once made (kept for the start,
+   * its timeout running); behind work held here while it starts (a run's), it
+   * waits here too, so they replay as they came.
+   * @param {import('../host/runtime-base').ParkedWork} task
+   */
+  park(task) {
+    if (task.engine && this.core !== null && !(this.state === 'starting' && this.parked.length > 0)) this.perform(task.node, task.done, task.work);
+    else super.park(task);
   }
 
   /** A msg into one of its nodes: held under a new handle, and handed to the engine. */

@@ -33,12 +33,17 @@ function load() {
   try {
     module.exports.prime(facade);
   } catch (err) {
-    bindings = null;
-    delete require.cache[require.resolve(BINDINGS)];
+    dropInstance();
     process.emitWarning(`sugarshack: the wasm warm-up failed, running without it: ${err && err.message}`);
     return instantiate();
   }
   return facade;
+}
+
+/** Forgets the current instance: the next `load` makes a new one from a fresh module. */
+function dropInstance() {
+  bindings = null;
+  delete require.cache[require.resolve(BINDINGS)];
 }
 
 /** @returns {Facade} a new wasm instance, as `bindings` */
@@ -167,8 +172,7 @@ function isTrap(err) {
  */
 function recover(err, brokenGeneration = generation) {
   if (brokenGeneration !== generation) return;
-  bindings = null;
-  delete require.cache[require.resolve(BINDINGS)];
+  dropInstance();
   generation += 1;
   for (const listener of [...trapListeners]) {
     try {
