@@ -1,7 +1,8 @@
 //! Property tests of the outbox (publishes waiting to go out), against what
 //! was handed to it: in any sequence of publishes, lockouts among them, and
-//! sends, no lockout is lost, the order is kept, the bound holds but for
-//! lockouts, nothing is dropped below it, and a drop is told once per wait.
+//! sends, no lockout is lost, none handed last on its topic goes out
+//! overridden there, the order is kept, the bound holds but for lockouts,
+//! nothing is dropped below it, and a drop is told once per wait.
 
 use proptest::prelude::*;
 use sugarshack_core::actuator::outbox::{Kept, Outbox, Outlet, Waiting};
@@ -36,15 +37,25 @@ fn step() -> impl Strategy<Value = Step> {
 }
 
 fn publish(n: u32, lockout: bool) -> Waiting {
-    // A line's lockout is the same msg each time it is sent.
-    let n = if lockout { n % 4 } else { n };
+    // A line's lockout is the same msg each time it is sent; commands go to the
+    // same topics as the lockouts (and to others), so a later one can override a lockout.
+    let (topic, payload) = if lockout {
+        (format!("line/{}", n % 4), "OFF".to_string())
+    } else {
+        (format!("line/{}", n % 8), n.to_string())
+    };
     Waiting {
         device: DeviceId::from_index(0),
-        topic: format!("{}/{n}", if lockout { "lockout" } else { "command" }),
-        payload: n.to_string(),
+        topic,
+        payload,
         retain: lockout,
         lockout,
     }
+}
+
+/// The last publish on `topic` in `publishes`.
+fn last_on<'a>(publishes: &'a [Waiting], topic: &str) -> Option<&'a Waiting> {
+    publishes.iter().rev().find(|p| p.topic == topic)
 }
 
 /// Checks what went out of one outlet against what was handed to it since it last went out.
@@ -62,6 +73,15 @@ fn check_sent(
     }
     for h in handed.iter().filter(|h| h.lockout) {
         prop_assert!(sent.contains(h), "lockout {h:?} lost");
+        // The last word handed on its topic stays the last word sent there.
+        if last_on(handed, &h.topic) == Some(h) {
+            prop_assert_eq!(
+                last_on(sent, &h.topic),
+                Some(h),
+                "lockout {:?} overridden",
+                h
+            );
+        }
     }
     // Past the bound only lockouts wait, each line's once past it.
     prop_assert!(sent.len() <= bound + 4);

@@ -239,7 +239,6 @@ thread_local! {
     static KEYS: std::cell::RefCell<Vec<(&'static str, JsValue)>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// A property of a plain object handed in by the host (read safely).
 /// The park bound of an engine's options: absent or a whole number of msgs
 /// (0: none); more than a u32 is no bound memory could reach, kept as the most.
 fn park_bound(value: &JsValue) -> Result<usize, JsValue> {
@@ -262,6 +261,7 @@ fn park_bound(value: &JsValue) -> Result<usize, JsValue> {
     }
 }
 
+/// A property of a plain object handed in by the host (read safely).
 fn field(object: &JsValue, key: &'static str) -> JsValue {
     if !object.is_object() {
         return JsValue::UNDEFINED;

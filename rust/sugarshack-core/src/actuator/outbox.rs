@@ -7,10 +7,13 @@
 //! Past it the newest publish is dropped, except a lockout: a lockout is a
 //! standing order, so it takes the place of the oldest publish that is not one
 //! (dropped instead), and is kept past the bound when only lockouts wait; one
-//! already waiting is not kept twice, so lockouts past the bound are at most
-//! one per distinct lockout msg of the plant. When the publishes go out after
-//! a drop, every commanded state and standing lockout is published again
-//! ([`super::Tracker::send_kept`]), so what was dropped still reaches its device.
+//! that is already the last publish waiting on its topic is not kept twice, so
+//! lockouts past the bound are at most one per distinct lockout msg of the
+//! plant, and a lockout is always the last word on its topic when it was the
+//! last handed. When the publishes go out after a drop, every commanded state
+//! and standing lockout is published again ([`super::Tracker::send_kept`]), so
+//! what was dropped still reaches its device, but for a dropped retained clear:
+//! the broker then keeps the old retained lockout (the safe side).
 
 use std::collections::VecDeque;
 
@@ -117,7 +120,7 @@ pub struct Waiting {
 /// What became of a publish handed to [`Outbox::wait`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kept {
-    /// It waits (or the same lockout already did).
+    /// It waits (or the same lockout already waits, last on its topic).
     Kept,
     /// It, or an older one that is no lockout, was dropped.
     Dropped {
@@ -156,7 +159,13 @@ impl Outbox {
             return Kept::Kept;
         }
         if publish.lockout {
-            if queue.publishes.contains(&publish) {
+            // Already the last word on its topic; one that a later publish overrides is sent again.
+            let last = queue
+                .publishes
+                .iter()
+                .rev()
+                .find(|p| p.device == publish.device && p.topic == publish.topic);
+            if last == Some(&publish) {
                 return Kept::Kept;
             }
             let evicted = queue.publishes.iter().position(|p| !p.lockout);
@@ -250,6 +259,37 @@ mod tests {
         assert_eq!(
             topics(&mut outbox, Outlet::Held),
             (vec!["t/1".into(), "t/3".into()], true)
+        );
+    }
+
+    #[test]
+    fn a_lockout_a_later_publish_overrides_is_kept_again_past_the_bound() {
+        let on = |payload: &str, retain: bool| Waiting {
+            device: DeviceId::from_index(0),
+            topic: "p/1".into(),
+            payload: payload.into(),
+            retain,
+            lockout: false,
+        };
+        let lockout = Waiting {
+            lockout: true,
+            ..on("OFF", true)
+        };
+        let mut outbox = Outbox::default();
+        // Locked out, cleared, commanded on: the queue full; then locked out again.
+        outbox.wait(Outlet::Held, lockout.clone(), 3);
+        outbox.wait(Outlet::Held, on("", true), 3);
+        outbox.wait(Outlet::Held, on("ON", false), 3);
+        assert_eq!(
+            outbox.wait(Outlet::Held, lockout.clone(), 3),
+            Kept::Dropped { first: true }
+        );
+        let (sent, dropped) = outbox.take(Outlet::Held);
+        assert!(dropped);
+        assert_eq!(
+            sent.last(),
+            Some(&lockout),
+            "the lockout is the last word: {sent:?}"
         );
     }
 
